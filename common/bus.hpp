@@ -1,0 +1,51 @@
+// The bus of a run: the LCM URL every process uses, the guard that keeps
+// datagrams off the machine's network interfaces, and the heartbeat.
+#pragma once
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "afm/heartbeat_t.hpp"
+#include "afm_channels.h"
+
+namespace afm {
+
+// udpm on loopback only: ttl=0, a 4 MB receive buffer (design.md, "The bus").
+constexpr const char *kBusUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
+constexpr const char *kBusGroup = "239.255.76.67";
+
+// True when datagrams to the bus's multicast group are routed through the
+// loopback interface only (the run's private namespace). `why` says what was
+// found otherwise.
+bool multicast_routed_on_loopback(std::string *why);
+
+// Opens the bus. A udpm URL (from $LCM_DEFAULT_URL or kBusUrl) is refused
+// unless multicast_routed_on_loopback(); memq:// and file:// are always allowed.
+// Throws std::runtime_error with the reason.
+std::unique_ptr<lcm::LCM> open_bus();
+
+int64_t wall_utime();
+
+// Publishes AFM_HEARTBEAT for one process.
+class Heartbeat {
+public:
+    Heartbeat(lcm::LCM &lc, std::string name);
+    void send(const std::string &state, int64_t seq, int64_t sim_utime, const std::string &detail = "");
+    // Sends at most once per `period_us` of wall time unless the state changed.
+    void maybe_send(const std::string &state, int64_t seq, int64_t sim_utime, int64_t period_us = 1000000);
+
+private:
+    lcm::LCM &lc_;
+    std::string name_;
+    std::string last_state_;
+    int64_t last_us_ = 0;
+};
+
+// Waits up to timeout_ms for LCM traffic and dispatches it. Returns false on
+// a bus error.
+bool handle_for(lcm::LCM &lc, int timeout_ms);
+
+}  // namespace afm

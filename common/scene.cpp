@@ -1,0 +1,342 @@
+#include "scene.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace afm {
+
+const std::vector<EffectInfo> &known_effects()
+{
+    static const std::vector<EffectInfo> effects = {
+        {"bending_offset", true, "apex displaced by lever bending and twist"},
+        {"photodiode_noise", true, "white noise on S_n, S_l (default: the lever's thermal level)"},
+        {"adhesion", true, "tip-substrate and particle-substrate adhesion forces"},
+        {"tip_convolution", true, "scans show the surface dilated by the tip"},
+        {"particle_contacts", true, "a pushed particle pushes the particles it touches"},
+        {"thermal_drift", true, "sample drift against the tip: linear plus random walk"},
+        {"wire_flexibility", false, "wires as chains of bending segments"},
+        {"lithography", false, "trenches inscribed above a load threshold"},
+    };
+    return effects;
+}
+
+namespace {
+
+// Walks a YAML tree, remembering the key path, so every error names file and key.
+class Reader {
+public:
+    explicit Reader(std::string file) : file_(std::move(file)) {}
+
+    [[noreturn]] void fail(const std::string &key, const std::string &what) const
+    {
+        throw SceneError(file_ + ": " + key + ": " + what);
+    }
+
+    static std::string show(const YAML::Node &n)
+    {
+        if (!n.IsDefined() || n.IsNull()) return "null";
+        if (n.IsScalar()) return "'" + n.Scalar() + "'";
+        YAML::Emitter e;
+        e << YAML::Flow << n;
+        return e.c_str();
+    }
+
+    void only_keys(const YAML::Node &map, const std::string &path, std::set<std::string> allowed) const
+    {
+        if (!map.IsMap()) fail(path.empty() ? "(top level)" : path, "must be a mapping, got " + show(map));
+        for (auto it = map.begin(); it != map.end(); ++it) {
+            const std::string k = it->first.as<std::string>();
+            if (!allowed.count(k)) {
+                std::string list;
+                for (const auto &a : allowed) list += (list.empty() ? "" : ", ") + a;
+                fail(join(path, k), "unknown key (known here: " + list + ")");
+            }
+        }
+    }
+
+    static std::string join(const std::string &path, const std::string &k)
+    {
+        return path.empty() ? k : path + "." + k;
+    }
+
+    double num(const YAML::Node &map, const std::string &path, const std::string &k,
+               const double *dflt, double lo, double hi, bool lo_open = false) const
+    {
+        const std::string key = join(path, k);
+        YAML::Node n = map[k];
+        if (!n.IsDefined() || n.IsNull()) {
+            if (!dflt) fail(key, "required value is missing");
+            return *dflt;
+        }
+        return check_num(n, key, lo, hi, lo_open);
+    }
+
+    double check_num(const YAML::Node &n, const std::string &key, double lo, double hi, bool lo_open) const
+    {
+        if (!n.IsScalar()) fail(key, "must be a number, got " + show(n));
+        double v;
+        try {
+            v = n.as<double>();
+        } catch (const YAML::Exception &) {
+            fail(key, "must be a number, got " + show(n));
+        }
+        if (!std::isfinite(v)) fail(key, "must be a finite number, got " + show(n));
+        if (lo_open ? !(v > lo) : !(v >= lo)) {
+            std::ostringstream o;
+            o << "must be " << (lo_open ? "> " : ">= ") << lo << ", got " << show(n);
+            fail(key, o.str());
+        }
+        if (v > hi) {
+            std::ostringstream o;
+            o << "must be <= " << hi << ", got " << show(n);
+            fail(key, o.str());
+        }
+        return v;
+    }
+
+    std::string str(const YAML::Node &map, const std::string &path, const std::string &k,
+                    const std::string *dflt, std::set<std::string> choices = {}) const
+    {
+        const std::string key = join(path, k);
+        YAML::Node n = map[k];
+        if (!n.IsDefined() || n.IsNull()) {
+            if (!dflt) fail(key, "required value is missing");
+            return *dflt;
+        }
+        if (!n.IsScalar()) fail(key, "must be a string, got " + show(n));
+        std::string v = n.Scalar();
+        if (!choices.empty() && !choices.count(v)) {
+            std::string list;
+            for (const auto &c : choices) list += (list.empty() ? "" : ", ") + c;
+            fail(key, "must be one of " + list + ", got " + show(n));
+        }
+        return v;
+    }
+
+    Vec2 vec2(const YAML::Node &n, const std::string &key, double lo, double hi) const
+    {
+        if (!n.IsSequence() || n.size() != 2) fail(key, "must be a pair [x, y], got " + show(n));
+        return Vec2{check_num(n[0], key + "[0]", lo, hi, false), check_num(n[1], key + "[1]", lo, hi, false)};
+    }
+
+    bool boolean(const YAML::Node &map, const std::string &path, const std::string &k, bool dflt) const
+    {
+        YAML::Node n = map[k];
+        if (!n.IsDefined() || n.IsNull()) return dflt;
+        try {
+            return n.as<bool>();
+        } catch (const YAML::Exception &) {
+            fail(join(path, k), "must be true or false, got " + show(n));
+        }
+    }
+
+private:
+    std::string file_;
+};
+
+constexpr double kInf = 1e300;
+
+ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string &path, ContactSpec d)
+{
+    if (!n.IsDefined() || n.IsNull()) return d;
+    r.only_keys(n, path, {"mu", "adhesion_nN", "shear_strength_MPa", "contact_area_nm2"});
+    ContactSpec c;
+    c.mu = r.num(n, path, "mu", &d.mu, 0, 10);
+    c.adhesion_nN = r.num(n, path, "adhesion_nN", &d.adhesion_nN, 0, 1e6);
+    c.shear_strength_MPa = r.num(n, path, "shear_strength_MPa", &d.shear_strength_MPa, 0, 1e6);
+    c.contact_area_nm2 = r.num(n, path, "contact_area_nm2", &d.contact_area_nm2, 0, 1e9);
+    return c;
+}
+
+}  // namespace
+
+Scene load_scene(const std::string &path)
+{
+    Reader r(path);
+    {
+        std::ifstream probe(path);
+        if (!probe) throw SceneError(path + ": cannot open scene file (no such file or not readable)");
+    }
+    YAML::Node root;
+    try {
+        root = YAML::LoadFile(path);
+    } catch (const YAML::ParserException &e) {
+        throw SceneError(path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    }
+    if (!root.IsDefined() || root.IsNull()) throw SceneError(path + ": the scene file is empty");
+    r.only_keys(root, "", {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
+                           "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
+                           "outputs"});
+    Scene s;
+    s.file = path;
+    const Scene d;  // defaults
+    s.name = r.str(root, "", "name", nullptr);
+    const double seed = r.num(root, "", "seed", nullptr, 0, 9.007199254740992e15);
+    if (seed != std::floor(seed)) r.fail("seed", "must be a non-negative integer, got " + Reader::show(root["seed"]));
+    s.seed = static_cast<uint64_t>(seed);
+    s.duration_s = r.num(root, "", "duration_s", nullptr, 0, 3600, true);
+    s.sample_rate_hz = r.num(root, "", "sample_rate_hz", &d.sample_rate_hz, 0, 1e7, true);
+    s.block_hz = r.num(root, "", "block_hz", &d.block_hz, 0, 1e5, true);
+    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz, 0, 1000, true);
+    const std::string lockstep = "lockstep";
+    s.time_mode = r.str(root, "", "time_mode", &lockstep, {"lockstep", "realtime"});
+    const double spb = s.sample_rate_hz / s.block_hz;
+    if (std::fabs(spb - std::round(spb)) > 1e-9 || spb < 1 || spb > 4096)
+        r.fail("block_hz", "sample_rate_hz / block_hz must be a whole number of samples per block in 1..4096, got " +
+                               Reader::show(root["block_hz"]));
+    if (s.frame_rate_hz > s.block_hz)
+        r.fail("frame_rate_hz", "must not exceed block_hz, got " + Reader::show(root["frame_rate_hz"]));
+
+    // effects
+    YAML::Node eff = root["effects"];
+    if (eff.IsDefined() && !eff.IsNull()) {
+        if (!eff.IsSequence()) r.fail("effects", "must be a list of effect names, got " + Reader::show(eff));
+        for (std::size_t i = 0; i < eff.size(); ++i) {
+            const std::string key = "effects[" + std::to_string(i) + "]";
+            if (!eff[i].IsScalar()) r.fail(key, "must be an effect name, got " + Reader::show(eff[i]));
+            const std::string e = eff[i].Scalar();
+            const auto &known = known_effects();
+            auto it = std::find_if(known.begin(), known.end(), [&](const EffectInfo &k) { return e == k.name; });
+            if (it == known.end()) {
+                std::string list;
+                for (const auto &k : known) list += (list.empty() ? "" : ", ") + std::string(k.name);
+                r.fail(key, "unknown effect " + Reader::show(eff[i]) + " (known: " + list + ")");
+            }
+            if (!it->implemented) r.fail(key, "effect " + Reader::show(eff[i]) + " is not implemented in this build yet");
+            if (std::find(s.effects.begin(), s.effects.end(), e) != s.effects.end())
+                r.fail(key, "effect " + Reader::show(eff[i]) + " is listed twice");
+            s.effects.push_back(e);
+        }
+    }
+
+    // sample
+    YAML::Node smp = root["sample"];
+    if (!smp.IsDefined()) r.fail("sample", "required value is missing");
+    r.only_keys(smp, "sample", {"substrate", "field_nm", "field_center_nm", "tip_substrate", "particle_substrate",
+                                "contact_stiffness_N_per_m", "photodiode_noise_V", "temperature_K",
+                                "drift_nm_per_min", "drift_walk_nm_per_sqrt_min"});
+    s.substrate = r.str(smp, "sample", "substrate", nullptr, {"glass"});
+    s.field_nm = r.num(smp, "sample", "field_nm", nullptr, 0, 90000, true);
+    if (smp["field_center_nm"].IsDefined()) s.field_center_nm = r.vec2(smp["field_center_nm"], "sample.field_center_nm", -45000, 45000);
+    s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0});
+    s.particle_substrate = read_contact(r, smp["particle_substrate"], "sample.particle_substrate", ContactSpec{0.3, 3.0, 0, 0});
+    s.particle_contact_stiffness_N_per_m = r.num(smp, "sample", "contact_stiffness_N_per_m", &d.particle_contact_stiffness_N_per_m, 0, 1e4, true);
+    s.photodiode_noise_V = r.num(smp, "sample", "photodiode_noise_V", &d.photodiode_noise_V, 0, 10);
+    s.temperature_K = r.num(smp, "sample", "temperature_K", &d.temperature_K, 0, 1000, true);
+    if (smp["drift_nm_per_min"].IsDefined()) s.drift_nm_per_min = r.vec2(smp["drift_nm_per_min"], "sample.drift_nm_per_min", -1e4, 1e4);
+    s.drift_walk_nm_per_sqrt_min = r.num(smp, "sample", "drift_walk_nm_per_sqrt_min", &d.drift_walk_nm_per_sqrt_min, 0, 1e4);
+
+    // probe
+    YAML::Node pr = root["probe"];
+    if (pr.IsDefined() && !pr.IsNull()) {
+        r.only_keys(pr, "probe", {"kn_N_per_m", "Kn_nm_per_V", "lateral_nN_per_V", "lever_length_um", "tip_height_um",
+                                  "tip_radius_nm", "tip_half_angle_deg", "scan_angle_deg"});
+        const ProbeSpec pd;
+        s.probe.kn_N_per_m = r.num(pr, "probe", "kn_N_per_m", &pd.kn_N_per_m, 0, 1000, true);
+        s.probe.Kn_nm_per_V = r.num(pr, "probe", "Kn_nm_per_V", &pd.Kn_nm_per_V, 0, 10000, true);
+        s.probe.lateral_nN_per_V = r.num(pr, "probe", "lateral_nN_per_V", &pd.lateral_nN_per_V, 0, 1e5, true);
+        s.probe.lever_length_um = r.num(pr, "probe", "lever_length_um", &pd.lever_length_um, 0, 1000, true);
+        s.probe.tip_height_um = r.num(pr, "probe", "tip_height_um", &pd.tip_height_um, 0, 100, true);
+        s.probe.tip_radius_nm = r.num(pr, "probe", "tip_radius_nm", &pd.tip_radius_nm, 0, 1000, true);
+        s.probe.tip_half_angle_deg = r.num(pr, "probe", "tip_half_angle_deg", &pd.tip_half_angle_deg, 0, 80, true);
+        s.probe.scan_angle_deg = r.num(pr, "probe", "scan_angle_deg", &pd.scan_angle_deg, 0, 360);
+    }
+
+    // firmware
+    YAML::Node fw = root["firmware"];
+    if (fw.IsDefined() && !fw.IsNull()) {
+        r.only_keys(fw, "firmware", {"adc_bits"});
+        const double bits = r.num(fw, "firmware", "adc_bits", nullptr, 12, 16);
+        if (bits != 12 && bits != 14 && bits != 16)
+            r.fail("firmware.adc_bits", "must be 12, 14 or 16, got " + Reader::show(fw["adc_bits"]));
+        s.adc_bits = static_cast<int>(bits);
+    }
+
+    // objects
+    YAML::Node obj = root["objects"];
+    if (obj.IsDefined() && !obj.IsNull()) {
+        r.only_keys(obj, "objects", {"particles"});
+        YAML::Node ps = obj["particles"];
+        if (ps.IsDefined() && !ps.IsNull()) {
+            if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
+            const double half = s.field_nm / 2;
+            for (std::size_t i = 0; i < ps.size(); ++i) {
+                const std::string p = "objects.particles[" + std::to_string(i) + "]";
+                r.only_keys(ps[i], p, {"id", "x_nm", "y_nm", "radius_nm"});
+                ParticleSpec q;
+                const double id = r.num(ps[i], p, "id", nullptr, 0, 1e6);
+                if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ps[i]["id"]));
+                q.id = static_cast<int>(id);
+                q.x_nm = r.num(ps[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
+                q.y_nm = r.num(ps[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
+                q.radius_nm = r.num(ps[i], p, "radius_nm", nullptr, 0, 5000, true);
+                for (const auto &o : s.particles)
+                    if (o.id == q.id) r.fail(p + ".id", "duplicate particle id " + Reader::show(ps[i]["id"]));
+                s.particles.push_back(q);
+            }
+        }
+    }
+
+    // operator
+    YAML::Node op = root["operator"];
+    if (!op.IsDefined()) r.fail("operator", "required value is missing");
+    r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa"});
+    s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN, 0, 1000);
+    s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
+    s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa, 0, 1, true);
+    YAML::Node path_n = op["path_nm"];
+    if (!path_n.IsDefined() || path_n.IsNull()) r.fail("operator.path_nm", "required value is missing");
+    if (!path_n.IsSequence() || path_n.size() < 1)
+        r.fail("operator.path_nm", "must be a list of [x, y] waypoints, got " + Reader::show(path_n));
+    const double reach = s.op.kappa * s.field_nm / 2;
+    for (std::size_t i = 0; i < path_n.size(); ++i) {
+        const std::string key = "operator.path_nm[" + std::to_string(i) + "]";
+        Vec2 v = r.vec2(path_n[i], key, -1e6, 1e6);
+        if (std::fabs(v.x - s.field_center_nm.x) > reach || std::fabs(v.y - s.field_center_nm.y) > reach)
+            r.fail(key, "waypoint " + Reader::show(path_n[i]) + " is outside the joystick's reach (kappa * field_nm / 2 around the field centre)");
+        s.op.path_nm.push_back(v);
+    }
+
+    // outputs
+    YAML::Node out = root["outputs"];
+    if (out.IsDefined() && !out.IsNull()) {
+        r.only_keys(out, "outputs", {"image_px", "video", "png"});
+        const double px = r.num(out, "outputs", "image_px", nullptr, 16, 4096);
+        if (px != std::floor(px)) r.fail("outputs.image_px", "must be an integer, got " + Reader::show(out["image_px"]));
+        s.out.image_px = static_cast<int>(px);
+        const std::string mp4 = "mp4";
+        s.out.video = r.str(out, "outputs", "video", &mp4, {"mp4", "avi", "none"});
+        s.out.png = r.boolean(out, "outputs", "png", true);
+    }
+    return s;
+}
+
+int Scene::samples_per_block() const { return static_cast<int>(std::lround(sample_rate_hz / block_hz)); }
+
+int64_t Scene::total_blocks() const { return static_cast<int64_t>(std::ceil(duration_s * block_hz - 1e-9)); }
+
+int Scene::total_frames() const { return static_cast<int>(std::lround(duration_s * frame_rate_hz)); }
+
+bool Scene::has_effect(const std::string &e) const
+{
+    return std::find(effects.begin(), effects.end(), e) != effects.end();
+}
+
+int64_t frame_utime(const Scene &s, int k) { return std::llround(k * 1e6 / s.frame_rate_hz); }
+
+int64_t block_end_utime(const Scene &s, int64_t n) { return std::llround((n + 1) * 1e6 / s.block_hz); }
+
+int frames_due(const Scene &s, int64_t t_us)
+{
+    int k = static_cast<int>(std::floor(t_us * 1e-6 * s.frame_rate_hz)) + 1;
+    while (k > 0 && frame_utime(s, k - 1) > t_us) --k;
+    while (frame_utime(s, k) <= t_us) ++k;
+    return std::min(k, s.total_frames());
+}
+
+}  // namespace afm

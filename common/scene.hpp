@@ -1,0 +1,102 @@
+// The scene: what a run simulates, displays and writes. Parsed from YAML by
+// yaml-cpp and validated here, in one place, for every process of a run.
+//
+// Units are in the key names (nm, nN, s, Hz, deg, N_per_m, ...). A bad scene
+// raises SceneError with one line: "<file>: <key>: <what is wrong> (value)".
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace afm {
+
+class SceneError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct Vec2 { double x = 0, y = 0; };
+
+struct ProbeSpec {
+    double kn_N_per_m = 0.12;           // normal spring constant k_n
+    double Kn_nm_per_V = 89.0;          // normal gain K_n
+    double lateral_nN_per_V = 37.9;     // k_theta K_l / h (lateral calibration)
+    double lever_length_um = 100.0;     // l
+    double tip_height_um = 17.3;        // h
+    double tip_radius_nm = 10.0;        // apex radius
+    double tip_half_angle_deg = 20.0;   // cone half angle gamma
+    double scan_angle_deg = 270.0;      // 270: frames C and A coincide
+};
+
+struct ContactSpec {                    // friction and adhesion of a material pair
+    double mu = 0.1;                    // Coulomb friction coefficient
+    double adhesion_nN = 0.0;           // pull-off (adhesion) force
+    double shear_strength_MPa = 0.0;    // interfacial shear strength tau
+    double contact_area_nm2 = 0.0;      // real contact area A_c
+};
+
+struct ParticleSpec { int id = 0; double x_nm = 0, y_nm = 0, radius_nm = 50; };
+
+struct OperatorSpec {
+    double load_nN = 5.0;               // normal load while engaged
+    double speed_nm_per_s = 1000.0;     // apex speed along the path
+    std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start
+    double kappa = 1.0;                 // joystick scale kappa (p = kappa r_scan p_joy)
+};
+
+struct OutputSpec {
+    int image_px = 256;                 // square image size
+    std::string video = "mp4";          // mp4 (mp4v) or avi (MJPG)
+    bool png = true;                    // write frames/*.png
+};
+
+struct Scene {
+    std::string file;                   // path it was read from
+    std::string name;
+    uint64_t seed = 1;
+    double duration_s = 1.0;
+    double sample_rate_hz = 20000.0;    // analog samples per second
+    double block_hz = 1000.0;           // analog blocks per second (the lockstep/haptic rate)
+    double frame_rate_hz = 25.0;        // display frames per simulated second
+    std::string time_mode = "lockstep"; // lockstep or realtime
+    std::vector<std::string> effects;   // effects the simulator builds
+    // sample
+    std::string substrate = "glass";
+    double field_nm = 5000.0;           // square field side, centred on field_center_nm
+    Vec2 field_center_nm;
+    ContactSpec tip_substrate;          // tip on substrate
+    ContactSpec particle_substrate;     // particle on substrate
+    double particle_contact_stiffness_N_per_m = 20.0;   // tip-particle / particle-particle penalty
+    double photodiode_noise_V = 0.0;    // rms; 0 with the effect listed = the lever's thermal level
+    double temperature_K = 300.0;
+    Vec2 drift_nm_per_min;              // linear thermal drift of the sample (thermal_drift)
+    double drift_walk_nm_per_sqrt_min = 0.0;  // random-walk part of the drift (thermal_drift)
+    ProbeSpec probe;
+    int adc_bits = 16;
+    std::vector<ParticleSpec> particles;
+    OperatorSpec op;
+    OutputSpec out;
+
+    int samples_per_block() const;      // sample_rate_hz / block_hz (validated integer)
+    int64_t total_blocks() const;       // blocks in duration_s
+    int total_frames() const;           // round(duration_s * frame_rate_hz)
+    bool has_effect(const std::string &e) const;
+};
+
+// The effects a scene may name, and whether this build implements each.
+struct EffectInfo { const char *name; bool implemented; const char *what; };
+const std::vector<EffectInfo> &known_effects();
+
+// Parse and validate; throws SceneError naming file, key and value.
+Scene load_scene(const std::string &path);
+
+// Simulated time (us) of frame k; the renderer and the simulator both use it.
+int64_t frame_utime(const Scene &s, int k);
+// Simulated time (us) at the end of block n (the state the block leaves).
+int64_t block_end_utime(const Scene &s, int64_t n);
+// Number of frames whose time is <= t_us (capped at total_frames()).
+int frames_due(const Scene &s, int64_t t_us);
+
+}  // namespace afm

@@ -1,0 +1,89 @@
+/*
+ * fw_board.h - one acquisition card's worth of firmware: per sample,
+ * acquisition -> force -> compensation (physics.md sections 1, 3, 4).
+ *
+ * Frames: C (cantilever) and A (scanner), alpha = scan_angle - 270 deg,
+ * R(alpha) rotates C into A (fw_force.h). Force outputs are the force BY THE
+ * SAMPLE ON THE TIP, frame A, pN. Positions are frame A, pm, z up.
+ *
+ * Per sample (fw_board_step):
+ *  1. S_n, S_l quantised (fw_acq.h), filtered, baseline subtracted.
+ *  2. If S_n is saturated and an unsaturated reference exists, the virtual
+ *     S_n' = S_n,ref + (z_ref - z_piezo) / K_n is used (FW_FLAG_VIRTUAL_SN).
+ *  3. Apex estimate p_tip = p_piezo + R(alpha) [-C_n S_n, C_l S_l, 0].
+ *  4. theta from the apex motion over the last FW_THETA_WINDOW (16) samples;
+ *     direction unknown below cfg.theta_min_disp_pm (default 1000 pm = 1 nm)
+ *     of displacement over the window (last direction held; 90 deg before
+ *     any motion, FW_FLAG_THETA_UNKNOWN).
+ *  5. Force in C (eq. 1a-1c, blend near sin theta = 0, fw_force.h), rotated
+ *     into A (eq. 3).
+ * Flags of the sample are returned in out->flags; sticky flags and counters
+ * accumulate in the instance until fw_board_reset.
+ *
+ * Configuration zero values: the fields after kappa_q16 are optional and 0
+ * selects the documented default.
+ */
+#ifndef FW_BOARD_H
+#define FW_BOARD_H
+
+#include "fw_types.h"
+#include "fw_acq.h"
+#include "fw_force.h"
+#include "fw_comp.h"
+
+typedef struct {
+    int32_t adc_bits;            /* 12, 14 or 16 */
+    int32_t kn_Kn_pn_per_v;      /* k_n K_n, pN/V (paper 10680) */
+    int32_t lat_pn_per_v;        /* k_theta K_l / h, pN/V (paper ~37900) */
+    int32_t Kn_pm_per_v;         /* K_n, pm/V (paper 89000) */
+    int32_t tip_height_nm;       /* h */
+    int32_t lever_length_nm;     /* l */
+    int32_t cn_pm_per_v;         /* C_n, pm/V (paper ~23100) */
+    int32_t cl_pm_per_v;         /* C_l, pm/V */
+    int32_t scan_angle_mdeg;     /* scan angle in millidegrees; alpha = angle - 270000 */
+    int32_t mu_ppm;              /* tip-substrate friction coefficient x 1e6 */
+    int32_t adhesion_pn;         /* tip-substrate adhesion F_adh, pN */
+    int32_t scan_center_pm[2];   /* joystick 0 maps here, AFM frame */
+    int32_t scan_half_range_pm;  /* r_scan/2 */
+    int32_t kappa_q16;           /* kappa, 16.16 */
+    /* optional, 0 = default */
+    int32_t filter_log2;         /* ADC moving average 2^n samples, 0..4 (0 = off) */
+    int32_t theta_min_disp_pm;   /* 0 = FW_THETA_MIN_DISP_DEFAULT_PM */
+} fw_board_config_t;
+
+typedef struct { int32_t sn_uv; int32_t sl_uv; int32_t piezo_pm[3]; } fw_sample_in_t;   /* volts at card input in microvolts; piezo xyz in AFM frame, pm */
+typedef struct { int32_t force_pn[3]; int32_t tip_pm[3]; int32_t sn_code; int32_t sl_code; uint32_t flags; } fw_sample_out_t; /* force on the tip, AFM frame, pN; compensated apex, AFM frame, pm */
+
+typedef struct {
+    fw_board_config_t cfg;
+    fw_acq_t acq_sn;
+    fw_acq_t acq_sl;
+    fw_force_t force;
+    fw_comp_t comp;
+    fw_theta_t theta;
+    q30_t cos_a;                 /* cos alpha, 2.30 */
+    q30_t sin_a;                 /* sin alpha, 2.30 */
+    q23_t sn_v;                  /* latest S_n used (virtual if saturated), 9.23 V */
+    q23_t sl_v;                  /* latest S_l, 9.23 V */
+    q23_t sn_ref_v;              /* last unsaturated S_n */
+    int32_t z_ref_pm;            /* piezo z at that sample */
+    bool have_ref;
+    uint32_t sticky_flags;       /* OR of every sample's flags since reset */
+    uint32_t samples;            /* samples since reset (saturating) */
+    uint32_t sat_force_count;    /* samples with a clamped force (saturating) */
+} fw_board_t;
+
+fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* validates cfg */
+void        fw_board_reset(fw_board_t *b);
+fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
+fw_status_t fw_board_piezo_cmd(const fw_board_t *b, const int32_t joy_q15[2], int32_t piezo_cmd_pm[2]);
+
+/* Records the latest filtered S_n, S_l as the zero-force baseline (call while
+ * the tip is free). FW_ERR_STATE before the first sample. */
+fw_status_t fw_board_record_baseline(fw_board_t *b);
+
+/* Sticky flags / saturation counters since the last reset. */
+uint32_t fw_board_sticky_flags(const fw_board_t *b);
+uint32_t fw_board_sat_count(const fw_board_t *b, uint32_t flag);
+
+#endif /* FW_BOARD_H */

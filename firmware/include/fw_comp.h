@@ -1,0 +1,53 @@
+/*
+ * fw_comp.h - position control and bending compensation (physics.md
+ * section 4).
+ *
+ *   offset_C = [-C_n S_n, C_l S_l, 0]              (pm; C in pm/V, S in V)
+ *   p_tip    = p_piezo + R(alpha) offset_C          (apex estimate, frame A)
+ *   p_cmd    = centre + kappa * r_half * p_joy      (joystick -> frame A)
+ *   piezo    = p_cmd - R(alpha) offset_C            (puts the APEX at p_cmd)
+ *
+ * The joystick is 1.15 in [-1, 1); full deflection with kappa = 1 reaches
+ * centre +- r_half (r_half = r_scan / 2), i.e. kappa r_scan p_joy with p_joy
+ * in [-1/2, 1/2).
+ */
+#ifndef FW_COMP_H
+#define FW_COMP_H
+
+#include "fw_types.h"
+
+typedef struct {
+    int32_t cn_pm_per_v;     /* C_n, pm/V */
+    int32_t cl_pm_per_v;     /* C_l, pm/V */
+    q30_t cos_a;             /* cos alpha, 2.30 */
+    q30_t sin_a;             /* sin alpha, 2.30 */
+    int32_t center_pm[2];    /* frame A */
+    int32_t half_range_pm;   /* r_scan / 2 */
+    q16_t kappa;             /* 16.16 */
+} fw_comp_t;
+
+/* Validates C_n, C_l >= 0, half range >= 0, kappa >= 0. */
+fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
+                         fw_bam_t alpha, const int32_t center_pm[2],
+                         int32_t half_range_pm, q16_t kappa);
+
+/* Bending offset in frame A (pm) for S_n, S_l in 9.23 V.
+ * Scaling and overflow: C * S in 64 bits >> 23 rounded, rotated with 64-bit
+ * products, saturated to int32 (*sat). */
+void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v, int32_t off_a_pm[3],
+                       bool *sat);
+
+/* Apex estimate: piezo + offset (xyz, pm), saturated (*sat). */
+void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3], q23_t sn_v, q23_t sl_v,
+                     int32_t apex_pm[3], bool *sat);
+
+/* Joystick (1.15) to the set point in frame A (pm).
+ * Scaling and overflow: half_range * kappa (16.16) * joy (1.15) in 64 bits,
+ * >> 31 rounded, plus centre, saturated (*sat). */
+void fw_comp_target_pm(const fw_comp_t *c, const q15_t joy[2], int32_t target_pm[2], bool *sat);
+
+/* Piezo xy set point that puts the apex at the joystick's target. */
+void fw_comp_piezo_cmd_pm(const fw_comp_t *c, const q15_t joy[2], q23_t sn_v, q23_t sl_v,
+                          int32_t piezo_pm[2], bool *sat);
+
+#endif /* FW_COMP_H */

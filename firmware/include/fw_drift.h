@@ -1,0 +1,40 @@
+/*
+ * fw_drift.h - drift correction from local scans (physics.md section 10).
+ *
+ * Before an operation a quick local scan around an object gives its true
+ * position; the difference to the modelled position is the drift since the
+ * last correction. It is accumulated and applied to every object model
+ * (particles, wires, trenches) so the models stay registered to the sample.
+ * A difference larger than max_step_pm is not drift (wrong object, or a
+ * cantilever change needing a landmark re-registration): it is refused with
+ * FW_ERR_DOMAIN and counted.
+ */
+#ifndef FW_DRIFT_H
+#define FW_DRIFT_H
+
+#include "fw_types.h"
+#include "fw_particles.h"
+#include "fw_wire.h"
+#include "fw_litho.h"
+
+typedef struct {
+    int32_t offset_pm[2];     /* accumulated drift since reset, frame A */
+    int32_t max_step_pm;
+    uint32_t rejected;        /* refused measurements (saturating) */
+} fw_drift_t;
+
+fw_status_t fw_drift_init(fw_drift_t *d, int32_t max_step_pm);
+void fw_drift_reset(fw_drift_t *d);
+
+/* delta = scanned - modelled (pm); accepted if |delta| <= max step (then
+ * added to the offset). Scaling and overflow: 64-bit differences; squared
+ * norm compared in 64 bits after a per-axis bound; offset saturated. */
+fw_status_t fw_drift_measure(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
+                             int32_t delta_pm[2]);
+
+/* Shift every object by delta (any pointer may be NULL; wires is an array
+ * of n_wires). */
+void fw_drift_apply(const int32_t delta_pm[2], fw_particles_t *particles, fw_wire_t *wires,
+                    int32_t n_wires, fw_litho_t *litho);
+
+#endif /* FW_DRIFT_H */

@@ -1,0 +1,116 @@
+/*
+ * fw_wire.h - rigid nanowire pushed by the tip (physics.md section 6) and
+ * the tip-substrate-wire squeeze (section 7).
+ *
+ * Rod of length L from end A (l = 0) to end B (l = L), pushed perpendicular
+ * to its axis at l. Torque and force balance with uniform friction density f
+ * give the static point S at s from A (eq. 20), with Q = (l - L/2)^2 + L^2/4:
+ *   l < L/2: s = l + sqrt(Q)  (S in [L/sqrt2, L], near B)
+ *   l > L/2: s = l - sqrt(Q)  (S in [0, (1 - 1/sqrt2) L], near A)
+ *   l = L/2: pure translation, S undefined (bifurcation).
+ * Minimum push, as the net friction |L - 2s| f:
+ *   k(l) = F_min / (f L) = (2 sqrt(Q) - |L - 2l|) / L
+ *        = 1 / (sqrt(u^2 + 1) + |u|),  u = (2l - L) / L
+ * which is sqrt2 - 1 = 0.414 at the ends and 1 at the middle. NOTE:
+ * physics.md prints F_min = f (2 sqrt(Q) - L); that agrees only at l = 0
+ * (it gives 0 at the middle, where it states f L); |L - 2s| f is what
+ * the balance gives and what is implemented.
+ *
+ * Motion (first order in the push step dn along the wire's normal):
+ *   dpsi = w dn / (l - s),   l - s = sign(u) sqrt(Q), |l - s| >= L/2
+ * so the division is always by at least L/2. Near the middle the quasi-
+ * static solution flips from "rotate about B" to "rotate about A"; the
+ * update blends to pure translation there:
+ *   w = min(1, |u| / FW_WIRE_BLEND_U)   (FW_WIRE_BLEND_U = 1/8: l within L/16
+ *                                        of the middle)
+ *   centre normal step = dn (w (L/2 - s) / (l - s) + (1 - w))
+ * i.e. rotation about an effective pivot that runs to infinity as
+ * w -> 0, continuous in l through L/2 (the paper: avoid pushing the exact
+ * middle; zigzag end pushes instead).
+ *
+ * Units: lengths pm (L in (0, 2^30]), angles fw_bam_t, k in 2.30.
+ */
+#ifndef FW_WIRE_H
+#define FW_WIRE_H
+
+#include "fw_types.h"
+
+#define FW_WIRE_LENGTH_MAX_PM ((int32_t)1 << 30)
+#define FW_WIRE_BLEND_U ((q30_t)(FW_Q30_ONE / 8))
+
+typedef enum {
+    FW_WIRE_TRANSLATE = 0,      /* l = L/2 exactly: S undefined */
+    FW_WIRE_ROTATE_NEAR_B = 1,  /* l < L/2: S in [L/sqrt2, L] */
+    FW_WIRE_ROTATE_NEAR_A = 2   /* l > L/2: S in [0, (1 - 1/sqrt2) L] */
+} fw_wire_regime_t;
+
+typedef struct {
+    fw_wire_regime_t regime;
+    bool s_defined;          /* false at the bifurcation */
+    int32_t s_pm;            /* static point from A (0 when undefined) */
+    q30_t k;                 /* F_min / (f L), 2.30, in [0.414, 1] */
+    q30_t u;                 /* (2l - L) / L, 2.30 */
+    int32_t lever_pm;        /* |l - s| = sqrt(Q) >= L/2 */
+} fw_wire_static_t;
+
+/* Static point and minimum push. FW_ERR_ARG: L <= 0 or > 2^30 pm;
+ * FW_ERR_DOMAIN: l outside [0, L].
+ * Scaling and overflow: u = (2l - L) 2^30 / L (< 2^61); sqrt(u^2 + 1) in
+ * 2.30 (<= sqrt2); k = 2^60 / (sqrt(u^2 + 1) + |u|) in 64 bits; s and sqrt(Q)
+ * = L sqrt(u^2 + 1) / 2 rounded to pm. Errors (test_wire sweep): k within
+ * 2 LSB, s within 1 pm. */
+fw_status_t fw_wire_static_point(int32_t length_pm, int32_t l_pm, fw_wire_static_t *out);
+
+/* Push force needed to move the rod: k(l) f L, pN (f L = friction of the
+ * whole rod, eq. 23-24: mu_os (F_r,os + F_a,os) + tau_os A), saturated. */
+int32_t fw_wire_push_threshold_pn(q30_t k, int32_t friction_fl_pn, bool *sat);
+
+typedef struct {
+    int32_t x_pm;            /* centre, frame A */
+    int32_t y_pm;
+    fw_bam_t psi;            /* axis direction A -> B */
+    int32_t length_pm;
+    int32_t diameter_pm;
+    uint32_t flags;          /* FW_FLAG_SAT_POS if a move was clamped */
+} fw_wire_t;
+
+fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
+                         int32_t length_pm, int32_t diameter_pm);
+
+/* Push at l (from A) by dn pm along the normal n = (-sin psi, cos psi).
+ * |dn| must be <= L/4 (FW_ERR_DOMAIN: split larger moves, the update is
+ * first order); l outside [0, L] is FW_ERR_DOMAIN; dn = 0 leaves the wire
+ * unchanged. *info (may be NULL) receives the static point used.
+ * Scaling and overflow: dpsi = w dn 2^30 / sqrt(Q) in 2.30 (|dn| 2^30 <
+ * 2^60), converted to fw_bam_t; centre step from the ratio
+ * (L - 2s) / (2l - 2s) in 2.30; positions saturated (flag). */
+fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_static_t *info);
+
+/* Shift by (dx, dy) pm (drift), saturated. */
+void fw_wire_shift(fw_wire_t *w, int32_t dx_pm, int32_t dy_pm);
+
+/* ---- tip-substrate-wire squeeze (section 7, eq. 29-30) -------------------
+ *   F_r = k (mu F_a,os + tau A) / (cos psi - k mu sin psi)          (29)
+ *       = k FL / (sqrt(1 + (k mu)^2) sin(psi_max - psi)),
+ *   psi_max = atan(1 / (k mu))
+ *   dF = F_r sin psi - F_a,ts                                       (30)
+ * The second form is exact and keeps the small denominator accurate.
+ * psi >= psi_max: the tip squeezes the wire: FW_ERR_DOMAIN, flag
+ * FW_FLAG_SQUEEZE, F_r = dF = INT32_MAX. Below psi_max F_r saturates to
+ * INT32_MAX (flag FW_FLAG_SAT_FORCE) before it overflows. */
+typedef struct {
+    fw_bam_t psi_max;
+    int32_t f_r_pn;
+    int32_t df_pn;
+    uint32_t flags;
+} fw_squeeze_t;
+
+/* psi in [0, 90 deg), k in (0, 1] (2.30), mu in [0, 2) (2.30), FL >= 0,
+ * F_a,ts >= 0 (pN); FW_ERR_ARG otherwise.
+ * Scaling and overflow: k mu in 2.30 (< 2); sqrt(1 + (k mu)^2) in 2.30
+ * from a 4.60 argument (< 2^63); denominator in 2.30 (64 bits); F_r = k FL / den with a
+ * 2.30 x pN numerator (< 2^62); saturated. */
+fw_status_t fw_wire_squeeze_solve(fw_bam_t psi, q30_t k, q30_t mu, int32_t friction_fl_pn,
+                                  int32_t adhesion_ts_pn, fw_squeeze_t *out);
+
+#endif /* FW_WIRE_H */

@@ -1,0 +1,80 @@
+/*
+ * fw_comp.c - see fw_comp.h.
+ */
+#include "fw_comp.h"
+#include "fw_math.h"
+
+/* kappa (16.16) * joy (1.15): 17.31 product, shifted by 31 to the unit of
+ * half_range. */
+#define COMP_TARGET_SHIFT (FW_Q16_FRAC + FW_Q15_FRAC)
+
+fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
+                         fw_bam_t alpha, const int32_t center_pm[2],
+                         int32_t half_range_pm, q16_t kappa)
+{
+    if (c == NULL || center_pm == NULL || cn_pm_per_v < 0 || cl_pm_per_v < 0
+        || half_range_pm < 0 || kappa < 0) {
+        return FW_ERR_ARG;
+    }
+    c->cn_pm_per_v = cn_pm_per_v;
+    c->cl_pm_per_v = cl_pm_per_v;
+    fw_math_sincos_q30(alpha, &c->sin_a, &c->cos_a);
+    c->center_pm[0] = center_pm[0];
+    c->center_pm[1] = center_pm[1];
+    c->half_range_pm = half_range_pm;
+    c->kappa = kappa;
+    return FW_OK;
+}
+
+void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v, int32_t off_a_pm[3],
+                       bool *sat)
+{
+    int32_t ox = fw_math_sat_i32(
+        -fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC), sat);
+    int32_t oy = fw_math_scale_i32(c->cl_pm_per_v, sl_v, FW_Q23_FRAC, sat);
+    int32_t ax;
+    int32_t ay;
+    fw_math_rotate_i32(ox, oy, c->cos_a, c->sin_a, &ax, &ay, sat);
+    off_a_pm[0] = ax;
+    off_a_pm[1] = ay;
+    off_a_pm[2] = 0;
+}
+
+void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3], q23_t sn_v, q23_t sl_v,
+                     int32_t apex_pm[3], bool *sat)
+{
+    int32_t off[3];
+    int i;
+    fw_comp_offset_pm(c, sn_v, sl_v, off, sat);
+    for (i = 0; i < 3; i++) {
+        apex_pm[i] = fw_math_sat_i32((int64_t)piezo_pm[i] + off[i], sat);
+    }
+}
+
+void fw_comp_target_pm(const fw_comp_t *c, const q15_t joy[2], int32_t target_pm[2], bool *sat)
+{
+    int i;
+    /* hk = half_range * kappa < 2^62 (pm, 16.16); hk * joy / 2^31 is
+     * split as hk = hi 2^31 + lo, lo in [0, 2^31), so both products stay
+     * below 2^46 and the rounding of the whole is exact. */
+    int64_t hk = (int64_t)c->half_range_pm * c->kappa;
+    int64_t hi = fw_math_asr_i64(hk, COMP_TARGET_SHIFT);
+    int64_t lo = hk - hi * ((int64_t)1 << COMP_TARGET_SHIFT);
+    for (i = 0; i < 2; i++) {
+        int64_t off = hi * joy[i] + fw_math_rshift_round_i64(lo * joy[i], COMP_TARGET_SHIFT);
+        target_pm[i] = fw_math_sat_i32((int64_t)c->center_pm[i] + off, sat);
+    }
+}
+
+void fw_comp_piezo_cmd_pm(const fw_comp_t *c, const q15_t joy[2], q23_t sn_v, q23_t sl_v,
+                          int32_t piezo_pm[2], bool *sat)
+{
+    int32_t target[2];
+    int32_t off[3];
+    int i;
+    fw_comp_target_pm(c, joy, target, sat);
+    fw_comp_offset_pm(c, sn_v, sl_v, off, sat);
+    for (i = 0; i < 2; i++) {
+        piezo_pm[i] = fw_math_sat_i32((int64_t)target[i] - off[i], sat);
+    }
+}

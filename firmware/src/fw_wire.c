@@ -1,0 +1,175 @@
+/*
+ * fw_wire.c - see fw_wire.h.
+ */
+#include "fw_wire.h"
+#include "fw_math.h"
+
+#define WIRE_Q60_ONE ((int64_t)1 << (2 * FW_Q30_FRAC))
+
+fw_status_t fw_wire_static_point(int32_t length_pm, int32_t l_pm, fw_wire_static_t *out)
+{
+    int64_t two_l_minus_L;
+    int64_t u;
+    int64_t au;
+    q30_t sq;
+    int64_t half_len;   /* sqrt(Q) = L sqrt(u^2 + 1) / 2 */
+    if (out == NULL || length_pm <= 0 || length_pm > FW_WIRE_LENGTH_MAX_PM) {
+        return FW_ERR_ARG;
+    }
+    if (l_pm < 0 || l_pm > length_pm) {
+        return FW_ERR_DOMAIN;
+    }
+    two_l_minus_L = 2 * (int64_t)l_pm - length_pm;
+    u = fw_math_div_round_i64(two_l_minus_L * FW_Q30_ONE, length_pm);
+    au = u < 0 ? -u : u;
+    /* sqrt(1 + u^2) in 2.30 from the 4.60 argument (<= 2^61) */
+    sq = (q30_t)fw_math_isqrt_round_u64((uint64_t)(WIRE_Q60_ONE + u * u));
+    half_len = fw_math_rshift_round_i64((int64_t)length_pm * sq, FW_Q30_FRAC + 1);
+    out->u = (q30_t)u;
+    out->k = (q30_t)fw_math_div_round_i64(WIRE_Q60_ONE, (int64_t)sq + au);
+    out->lever_pm = (int32_t)half_len;
+    if (two_l_minus_L < 0) {
+        out->regime = FW_WIRE_ROTATE_NEAR_B;
+        out->s_defined = true;
+        out->s_pm = fw_math_sat_i32((int64_t)l_pm + half_len, NULL);
+        if (out->s_pm > length_pm) {
+            out->s_pm = length_pm;
+        }
+    } else if (two_l_minus_L > 0) {
+        out->regime = FW_WIRE_ROTATE_NEAR_A;
+        out->s_defined = true;
+        out->s_pm = fw_math_sat_i32((int64_t)l_pm - half_len, NULL);
+        if (out->s_pm < 0) {
+            out->s_pm = 0;
+        }
+    } else {
+        out->regime = FW_WIRE_TRANSLATE;
+        out->s_defined = false;
+        out->s_pm = 0;
+    }
+    return FW_OK;
+}
+
+int32_t fw_wire_push_threshold_pn(q30_t k, int32_t friction_fl_pn, bool *sat)
+{
+    return fw_math_sat_i32(fw_math_rshift_round_i64((int64_t)k * friction_fl_pn, FW_Q30_FRAC), sat);
+}
+
+fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
+                         int32_t length_pm, int32_t diameter_pm)
+{
+    if (w == NULL || length_pm <= 0 || length_pm > FW_WIRE_LENGTH_MAX_PM || diameter_pm <= 0) {
+        return FW_ERR_ARG;
+    }
+    w->x_pm = x_pm;
+    w->y_pm = y_pm;
+    w->psi = psi;
+    w->length_pm = length_pm;
+    w->diameter_pm = diameter_pm;
+    w->flags = 0;
+    return FW_OK;
+}
+
+fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_static_t *info)
+{
+    fw_wire_static_t st;
+    fw_status_t status;
+    int64_t au;
+    int64_t wt;          /* blend weight, 2.30 */
+    int64_t dpsi = 0;    /* radians, 2.30 */
+    int64_t factor;      /* centre step / dn, 2.30 */
+    int64_t step;
+    q30_t s;
+    q30_t c;
+    bool sat = false;
+    if (w == NULL) {
+        return FW_ERR_ARG;
+    }
+    status = fw_wire_static_point(w->length_pm, l_pm, &st);
+    if (status != FW_OK) {
+        return status;
+    }
+    if (dn_pm > w->length_pm / 4 || dn_pm < -(w->length_pm / 4)) {
+        return FW_ERR_DOMAIN;
+    }
+    if (info != NULL) {
+        *info = st;
+    }
+    au = st.u < 0 ? -(int64_t)st.u : st.u;
+    wt = au * (FW_Q30_ONE / FW_WIRE_BLEND_U);
+    if (wt > FW_Q30_ONE) {
+        wt = FW_Q30_ONE;
+    }
+    factor = FW_Q30_ONE;
+    if (st.s_defined && wt > 0) {
+        /* l - s = sign(u) sqrt(Q), |l - s| >= L/2 > 0 */
+        int64_t l_minus_s = (st.u < 0) ? -(int64_t)st.lever_pm : (int64_t)st.lever_pm;
+        int64_t ratio = fw_math_div_round_i64(((int64_t)w->length_pm - 2 * (int64_t)st.s_pm) * FW_Q30_ONE,
+                                              2 * ((int64_t)l_pm - st.s_pm));
+        dpsi = fw_math_div_round_i64(wt * dn_pm, l_minus_s);
+        factor = fw_math_rshift_round_i64(wt * ratio, FW_Q30_FRAC) + (FW_Q30_ONE - wt);
+    }
+    step = fw_math_rshift_round_i64(factor * dn_pm, FW_Q30_FRAC);
+    fw_math_sincos_q30(w->psi, &s, &c);
+    /* normal n = (-sin psi, cos psi) */
+    w->x_pm = fw_math_sat_i32((int64_t)w->x_pm - fw_math_rshift_round_i64(step * s, FW_Q30_FRAC), &sat);
+    w->y_pm = fw_math_sat_i32((int64_t)w->y_pm + fw_math_rshift_round_i64(step * c, FW_Q30_FRAC), &sat);
+    w->psi += fw_math_bam_from_rad_q30((q30_t)dpsi);
+    if (sat) {
+        w->flags |= FW_FLAG_SAT_POS;
+    }
+    return FW_OK;
+}
+
+void fw_wire_shift(fw_wire_t *w, int32_t dx_pm, int32_t dy_pm)
+{
+    bool sat = false;
+    if (w == NULL) {
+        return;
+    }
+    w->x_pm = fw_math_sat_i32((int64_t)w->x_pm + dx_pm, &sat);
+    w->y_pm = fw_math_sat_i32((int64_t)w->y_pm + dy_pm, &sat);
+    if (sat) {
+        w->flags |= FW_FLAG_SAT_POS;
+    }
+}
+
+fw_status_t fw_wire_squeeze_solve(fw_bam_t psi, q30_t k, q30_t mu, int32_t friction_fl_pn,
+                                  int32_t adhesion_ts_pn, fw_squeeze_t *out)
+{
+    int64_t kmu;
+    uint64_t norm;
+    q30_t sm;
+    int64_t den;
+    int64_t fr;
+    bool sat = false;
+    if (out == NULL || psi >= FW_BAM_QUARTER_TURN || k <= 0 || k > FW_Q30_ONE || mu < 0
+        || friction_fl_pn < 0 || adhesion_ts_pn < 0) {
+        return FW_ERR_ARG;
+    }
+    kmu = fw_math_rshift_round_i64((int64_t)k * mu, FW_Q30_FRAC);      /* < 2^31 */
+    out->psi_max = fw_math_atan2_bam(FW_Q30_ONE, (int32_t)kmu);
+    out->flags = 0;
+    if (psi >= out->psi_max) {
+        out->f_r_pn = INT32_MAX;
+        out->df_pn = INT32_MAX;
+        out->flags = FW_FLAG_SQUEEZE;
+        return FW_ERR_DOMAIN;
+    }
+    sm = fw_math_sin_q30(out->psi_max - psi);
+    norm = fw_math_isqrt_round_u64((uint64_t)(WIRE_Q60_ONE + kmu * kmu));  /* 2.30, < 2^31 */
+    den = fw_math_rshift_round_i64((int64_t)norm * sm, FW_Q30_FRAC);
+    if (den <= 0) {
+        fr = INT64_MAX;
+    } else {
+        fr = fw_math_div_round_i64((int64_t)k * friction_fl_pn, den);
+    }
+    out->f_r_pn = fw_math_sat_i32(fr, &sat);
+    out->df_pn = fw_math_sat_i32(
+        fw_math_rshift_round_i64((int64_t)out->f_r_pn * fw_math_sin_q30(psi), FW_Q30_FRAC)
+        - adhesion_ts_pn, &sat);
+    if (sat) {
+        out->flags |= FW_FLAG_SAT_FORCE;
+    }
+    return FW_OK;
+}

@@ -1,0 +1,592 @@
+/*
+ * afm_calc - the lever calculator. Host code: it converts the command line's
+ * decimal numbers into the firmware's integer units and runs the firmware's
+ * own fixed-point solvers (firmware/), so what it prints is what the board
+ * computes.
+ *
+ *   afm_calc calib tilted --up R --down R --angle-deg PHI --kn N/m --Kn nm/V [--json]
+ *   afm_calc calib lines --depths-nm a,b,.. --offsets-nm a,b,.. --Kn nm/V [--json]
+ *   afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]
+ *   afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]
+ *
+ * Exit status: 0 ok, 2 bad or out-of-domain arguments (one message on
+ * stderr naming the option and value).
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fw_calib.h"
+#include "fw_force.h"
+#include "fw_math.h"
+#include "fw_wire.h"
+
+#define EXIT_USAGE 2
+#define CALC_PI 3.14159265358979323846
+#define LIST_MAX FW_CALIB_LINES_MAX
+
+/* ---- argument handling ------------------------------------------------- */
+
+typedef struct {
+    const char *name;     /* "--up" */
+    const char *value;    /* NULL if absent */
+    int is_flag;          /* no value (--json) */
+    int required;
+} opt_t;
+
+static void die(const char *fmt, ...)
+{
+    va_list ap;
+    fprintf(stderr, "afm_calc: ");
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    exit(EXIT_USAGE);
+}
+
+static int wants_help(int argc, char **argv)
+{
+    int i;
+    for (i = 0; i < argc; i++) {
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static void parse_opts(const char *cmd, int argc, char **argv, opt_t *opts, int n)
+{
+    int i;
+    int k;
+    for (i = 0; i < argc; i++) {
+        int found = 0;
+        for (k = 0; k < n; k++) {
+            if (strcmp(argv[i], opts[k].name) == 0) {
+                found = 1;
+                if (opts[k].is_flag) {
+                    opts[k].value = "1";
+                } else {
+                    if (i + 1 >= argc) {
+                        die("%s: option %s needs a value", cmd, opts[k].name);
+                    }
+                    opts[k].value = argv[++i];
+                }
+            }
+        }
+        if (!found) {
+            die("%s: unknown option '%s' (see %s --help)", cmd, argv[i], cmd);
+        }
+    }
+    for (k = 0; k < n; k++) {
+        if (opts[k].required && opts[k].value == NULL) {
+            die("%s: missing option %s (see %s --help)", cmd, opts[k].name, cmd);
+        }
+    }
+}
+
+static double num_opt(const char *cmd, const opt_t *o)
+{
+    char *end;
+    double v;
+    errno = 0;
+    v = strtod(o->value, &end);
+    if (end == o->value || *end != '\0' || errno != 0 || !isfinite(v)) {
+        die("%s: %s %s: not a number", cmd, o->name, o->value);
+    }
+    return v;
+}
+
+static double num_opt_range(const char *cmd, const opt_t *o, double lo, double hi, const char *why)
+{
+    double v = num_opt(cmd, o);
+    if (v < lo || v > hi) {
+        die("%s: %s %s: out of range, %s", cmd, o->name, o->value, why);
+    }
+    return v;
+}
+
+static int list_opt(const char *cmd, const opt_t *o, double *out, int max)
+{
+    const char *p = o->value;
+    int n = 0;
+    while (*p != '\0') {
+        char *end;
+        double v;
+        if (n >= max) {
+            die("%s: %s %s: at most %d values", cmd, o->name, o->value, max);
+        }
+        errno = 0;
+        v = strtod(p, &end);
+        if (end == p || errno != 0 || !isfinite(v) || (*end != ',' && *end != '\0')) {
+            die("%s: %s %s: not a comma-separated list of numbers", cmd, o->name, o->value);
+        }
+        out[n++] = v;
+        p = (*end == ',') ? end + 1 : end;
+    }
+    return n;
+}
+
+static const char *status_name(fw_status_t st)
+{
+    switch (st) {
+    case FW_OK:
+        return "ok";
+    case FW_ERR_ARG:
+        return "bad argument";
+    case FW_ERR_DOMAIN:
+        return "out of domain";
+    case FW_ERR_CAPACITY:
+        return "capacity";
+    case FW_ERR_STATE:
+        return "state";
+    }
+    return "unknown";
+}
+
+static int32_t to_i32(const char *cmd, const opt_t *o, double v)
+{
+    if (!(v >= -2147483648.0 && v <= 2147483647.0)) {
+        die("%s: %s %s: does not fit the firmware's 32-bit units", cmd, o->name, o->value);
+    }
+    return (int32_t)lround(v);
+}
+
+/* ---- calib tilted ------------------------------------------------------- */
+
+static int cmd_calib_tilted(int argc, char **argv)
+{
+    const char *cmd = "calib tilted";
+    opt_t o[] = {
+        { "--up", NULL, 0, 1 }, { "--down", NULL, 0, 1 }, { "--angle-deg", NULL, 0, 1 },
+        { "--kn", NULL, 0, 1 }, { "--Kn", NULL, 0, 1 }, { "--json", NULL, 1, 0 },
+    };
+    double ru;
+    double rd;
+    double phi;
+    double kn;
+    double kn_big;
+    double knkn_pn;
+    fw_calib_tilted_t t;
+    fw_status_t st;
+    if (wants_help(argc, argv)) {
+        printf("usage: afm_calc calib tilted --up R_U --down R_D --angle-deg PHI --kn N_PER_M --Kn NM_PER_V [--json]\n"
+               "  Lateral calibration on a tilted surface (physics.md section 2): from the\n"
+               "  friction-loop slopes dS_l/dS_n uphill (R_U) and downhill (R_D, may be < 0)\n"
+               "  on a surface of slope PHI degrees, gives mu and k_theta K_l / h (nN/V).\n"
+               "  Refuses |R_U/R_D| <= 1 (+2^-10), PHI < 0.1 or >= 90 deg, R_U <= 0.\n"
+               "  Paper: --up 0.07 --down 0.02 --angle-deg 9 --kn 0.12 --Kn 89 -> mu 0.0865, 37.9 nN/V\n");
+        return 0;
+    }
+    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
+    ru = num_opt_range(cmd, &o[0], -127.0, 127.0, "slopes must lie in (-127, 127)");
+    rd = num_opt_range(cmd, &o[1], -127.0, 127.0, "slopes must lie in (-127, 127)");
+    phi = num_opt_range(cmd, &o[2], -360.0, 360.0, "degrees");
+    kn = num_opt_range(cmd, &o[3], 1e-6, 1e4, "k_n must lie in [1e-6, 1e4] N/m");
+    kn_big = num_opt_range(cmd, &o[4], 1e-3, 1e6, "K_n must lie in [1e-3, 1e6] nm/V");
+    knkn_pn = kn * kn_big * 1000.0;   /* N/m * nm/V = nN/V */
+    if (knkn_pn < 1.0 || knkn_pn > 2147483647.0) {
+        die("%s: --kn %s --Kn %s: k_n K_n = %g nN/V does not fit int32 pN/V", cmd, o[3].value, o[4].value,
+            knkn_pn / 1000.0);
+    }
+    if (ru <= 0.0) {
+        die("%s: --up %s: the uphill slope must be > 0", cmd, o[0].value);
+    }
+    if (phi < 0.1 || phi >= 90.0) {
+        die("%s: --angle-deg %s: the surface slope must lie in [0.1, 90) deg (a flat surface carries no information)",
+            cmd, o[2].value);
+    }
+    st = fw_calib_tilted_solve((q24_t)lround(ru * 16777216.0), (q24_t)lround(rd * 16777216.0),
+                               fw_math_bam_from_mdeg((int32_t)lround(phi * 1000.0)),
+                               (int32_t)lround(knkn_pn), &t);
+    if (st != FW_OK) {
+        if (fabs(ru) <= fabs(rd) * (1.0 + 1.0 / 1024.0)) {
+            die("%s: --up %s --down %s: |rho| = |r_u/r_d| = %.5f must exceed 1 + 2^-10 "
+                "(the uphill slope is the steeper one; nearly equal slopes carry no friction information)",
+                cmd, o[0].value, o[1].value, rd != 0.0 ? fabs(ru / rd) : 0.0);
+        }
+        die("%s: --up %s --down %s --angle-deg %s: no real friction angle (B = 2(rho+1)/((rho-1) sin 2phi) < 2) "
+            "or phi + beta >= 90 deg (%s)", cmd, o[0].value, o[1].value, o[2].value, status_name(st));
+    }
+    {
+        double mu = t.mu / 1073741824.0;
+        double beta = t.beta / 4294967296.0 * 360.0;
+        double lat = t.lat_pn_per_v / 1000.0;
+        if (o[5].value != NULL) {
+            printf("{\"command\": \"calib tilted\", \"status\": \"ok\", \"mu\": %.6f, \"mu_ppm\": %ld, "
+                   "\"lateral_nN_per_V\": %.3f, \"lateral_pN_per_V\": %ld, \"slope_angle_deg\": %.4f, "
+                   "\"friction_angle_deg\": %.4f, \"kn_Kn_nN_per_V\": %.4f}\n",
+                   mu, (long)t.mu_ppm, lat, (long)t.lat_pn_per_v, phi, beta, knkn_pn / 1000.0);
+        } else {
+            printf("tilted-surface calibration (firmware fw_calib_tilted_solve)\n");
+            printf("  slope angle phi        %.4f deg\n", phi);
+            printf("  k_n K_n                %.4f nN/V\n", knkn_pn / 1000.0);
+            printf("  mu                     %.6f\n", mu);
+            printf("  friction angle beta    %.4f deg\n", beta);
+            printf("  k_theta K_l / h        %.3f nN/V\n", lat);
+            printf("  status                 ok\n");
+        }
+    }
+    return 0;
+}
+
+/* ---- calib lines -------------------------------------------------------- */
+
+static int cmd_calib_lines(int argc, char **argv)
+{
+    const char *cmd = "calib lines";
+    opt_t o[] = {
+        { "--depths-nm", NULL, 0, 1 }, { "--offsets-nm", NULL, 0, 1 }, { "--Kn", NULL, 0, 1 },
+        { "--json", NULL, 1, 0 },
+    };
+    double dz[LIST_MAX];
+    double dd[LIST_MAX];
+    int32_t dzp[LIST_MAX];
+    int32_t ddp[LIST_MAX];
+    int n;
+    int m;
+    int i;
+    double kn_big;
+    int32_t cn;
+    int32_t res;
+    fw_status_t st;
+    if (wants_help(argc, argv)) {
+        printf("usage: afm_calc calib lines --depths-nm D1,D2,.. --offsets-nm O1,O2,.. --Kn NM_PER_V [--json]\n"
+               "  C_n from lines inscribed at several push depths (physics.md section 3):\n"
+               "  S_n' = depth / K_n, least-squares fit offset = C_n S_n' + b; prints C_n (nm/V)\n"
+               "  and the RMS residual (nm). 2..%d points, |values| <= 16777 nm.\n"
+               "  Paper: --depths-nm 500,1000,1500,2000 --offsets-nm 0,130,260,390 --Kn 89 -> 23.1 nm/V\n",
+               LIST_MAX);
+        return 0;
+    }
+    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
+    n = list_opt(cmd, &o[0], dz, LIST_MAX);
+    m = list_opt(cmd, &o[1], dd, LIST_MAX);
+    kn_big = num_opt_range(cmd, &o[2], 1e-3, 2e6, "K_n must lie in [1e-3, 2e6] nm/V");
+    if (n != m) {
+        die("%s: --depths-nm %s --offsets-nm %s: %d depths but %d offsets", cmd, o[0].value, o[1].value, n, m);
+    }
+    if (n < 2) {
+        die("%s: --depths-nm %s: at least 2 lines are needed", cmd, o[0].value);
+    }
+    for (i = 0; i < n; i++) {
+        if (fabs(dz[i]) * 1000.0 > FW_CALIB_LINES_RANGE_PM) {
+            die("%s: --depths-nm %s: |%g| nm exceeds %d nm", cmd, o[0].value, dz[i], FW_CALIB_LINES_RANGE_PM / 1000);
+        }
+        if (fabs(dd[i]) * 1000.0 > FW_CALIB_LINES_RANGE_PM) {
+            die("%s: --offsets-nm %s: |%g| nm exceeds %d nm", cmd, o[1].value, dd[i], FW_CALIB_LINES_RANGE_PM / 1000);
+        }
+        dzp[i] = (int32_t)lround(dz[i] * 1000.0);
+        ddp[i] = (int32_t)lround(dd[i] * 1000.0);
+    }
+    st = fw_calib_lines_cn(dzp, ddp, n, (int32_t)lround(kn_big * 1000.0), &cn, &res);
+    if (st != FW_OK) {
+        die("%s: --depths-nm %s: the depths must not all be equal and |offset/depth| must stay below 128 (%s)",
+            cmd, o[0].value, status_name(st));
+    }
+    if (o[3].value != NULL) {
+        printf("{\"command\": \"calib lines\", \"status\": \"ok\", \"cn_nm_per_V\": %.3f, \"residual_nm\": %.3f, "
+               "\"lines\": %d}\n", cn / 1000.0, res / 1000.0, n);
+    } else {
+        printf("C_n from inscribed lines (firmware fw_calib_lines_cn)\n");
+        printf("  lines                  %d\n", n);
+        printf("  C_n                    %.3f nm/V\n", cn / 1000.0);
+        printf("  RMS residual           %.3f nm\n", res / 1000.0);
+        printf("  status                 ok\n");
+    }
+    return 0;
+}
+
+/* ---- model wire --------------------------------------------------------- */
+
+static int cmd_model_wire(int argc, char **argv)
+{
+    const char *cmd = "model wire";
+    opt_t o[] = {
+        { "--length-nm", NULL, 0, 1 }, { "--diameter-nm", NULL, 0, 1 }, { "--push-at-nm", NULL, 0, 1 },
+        { "--f-nN-per-um", NULL, 0, 0 }, { "--json", NULL, 1, 0 },
+    };
+    double len;
+    double dia;
+    double at;
+    double f = 1.0;
+    int32_t len_pm;
+    int32_t at_pm;
+    fw_wire_static_t st;
+    fw_status_t s;
+    const char *regime;
+    double k;
+    double lambda;
+    if (wants_help(argc, argv)) {
+        printf("usage: afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]\n"
+               "  Rigid rod pushed perpendicular to its axis at l from end A (physics.md section 6):\n"
+               "  static point S (distance from A; none at l = L/2), minimum push F_min / (f L)\n"
+               "  (0.414 at an end, 1 at the middle) and F_min for friction density f (default 1 nN/um).\n");
+        return 0;
+    }
+    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
+    len = num_opt_range(cmd, &o[0], 0.001, FW_WIRE_LENGTH_MAX_PM / 1000.0, "0 < L <= 1073741 nm");
+    dia = num_opt_range(cmd, &o[1], 0.001, 1e9, "D must be > 0");
+    at = num_opt(cmd, &o[2]);
+    if (o[3].value != NULL) {
+        f = num_opt_range(cmd, &o[3], 0.0, 1e6, "f must be >= 0");
+    }
+    len_pm = (int32_t)lround(len * 1000.0);
+    if (at < 0.0 || at > len) {
+        die("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[2].value, len);
+    }
+    at_pm = to_i32(cmd, &o[2], at * 1000.0);
+    s = fw_wire_static_point(len_pm, at_pm, &st);
+    if (s != FW_OK) {
+        die("%s: --push-at-nm %s: %s", cmd, o[2].value, status_name(s));
+    }
+    regime = (st.regime == FW_WIRE_TRANSLATE) ? "translate"
+             : (st.regime == FW_WIRE_ROTATE_NEAR_B) ? "rotate_about_far_end_side" : "rotate_about_near_end_side";
+    k = st.k / 1073741824.0;
+    lambda = len / dia;
+    if (o[4].value != NULL) {
+        printf("{\"command\": \"model wire\", \"status\": \"ok\", ");
+        if (st.s_defined) {
+            printf("\"static_point_nm\": %.3f, ", st.s_pm / 1000.0);
+        } else {
+            printf("\"static_point_nm\": null, ");
+        }
+        printf("\"min_force_per_fL\": %.6f, \"min_force_nN\": %.6f, \"regime\": \"%s\", "
+               "\"aspect_ratio\": %.3f, \"rigid_rod_model_valid\": %s}\n",
+               k, k * f * len / 1000.0, regime, lambda, lambda <= 15.0 ? "true" : "false");
+    } else {
+        printf("rigid rod pushed at l = %g nm of L = %g nm (firmware fw_wire_static_point)\n", at, len);
+        if (st.s_defined) {
+            printf("  static point S         %.3f nm from end A\n", st.s_pm / 1000.0);
+        } else {
+            printf("  static point S         none: pure translation (bifurcation at L/2)\n");
+        }
+        printf("  regime                 %s\n", regime);
+        printf("  F_min / (f L)          %.6f\n", k);
+        printf("  F_min                  %.6f nN (f = %g nN/um)\n", k * f * len / 1000.0, f);
+        printf("  aspect ratio L/d       %.2f%s\n", lambda,
+               lambda <= 15.0 ? "" : "  (above 15: the rod bends, rigid model out of scope)");
+        printf("  status                 ok\n");
+    }
+    return 0;
+}
+
+/* ---- calc force --------------------------------------------------------- */
+
+typedef struct {
+    double kn_n_per_m;
+    double kn_nm_per_v;
+    double lat_nn_per_v;
+    double h_um;
+    double l_um;
+    double mu;
+    double adh_nn;
+} probe_t;
+
+static void probe_default(probe_t *p)
+{
+    p->kn_n_per_m = 0.12;
+    p->kn_nm_per_v = 89.0;
+    p->lat_nn_per_v = 37.9;
+    p->h_um = 17.3;
+    p->l_um = 100.0;
+    p->mu = 0.0865;
+    p->adh_nn = 0.0;
+}
+
+static void probe_read(const char *cmd, const char *path, probe_t *p)
+{
+    FILE *fp = fopen(path, "r");
+    char line[256];
+    int lineno = 0;
+    if (fp == NULL) {
+        die("%s: --probe %s: cannot open (%s)", cmd, path, strerror(errno));
+    }
+    while (fgets(line, sizeof line, fp) != NULL) {
+        char key[64];
+        char *eq;
+        char *end;
+        double v;
+        char *s = line;
+        size_t n;
+        lineno++;
+        while (*s == ' ' || *s == '\t') {
+            s++;
+        }
+        if (*s == '#' || *s == '\n' || *s == '\0') {
+            continue;
+        }
+        eq = strchr(s, '=');
+        if (eq == NULL) {
+            fclose(fp);
+            die("%s: --probe %s: line %d: expected 'key = value'", cmd, path, lineno);
+        }
+        n = (size_t)(eq - s);
+        while (n > 0 && (s[n - 1] == ' ' || s[n - 1] == '\t')) {
+            n--;
+        }
+        if (n == 0 || n >= sizeof key) {
+            fclose(fp);
+            die("%s: --probe %s: line %d: bad key", cmd, path, lineno);
+        }
+        memcpy(key, s, n);
+        key[n] = '\0';
+        errno = 0;
+        v = strtod(eq + 1, &end);
+        while (*end == ' ' || *end == '\t' || *end == '\n' || *end == '\r') {
+            end++;
+        }
+        if (end == eq + 1 || errno != 0 || *end != '\0' || !isfinite(v)) {
+            fclose(fp);
+            die("%s: --probe %s: line %d: value of %s is not a number", cmd, path, lineno, key);
+        }
+        if (strcmp(key, "kn_N_per_m") == 0) {
+            p->kn_n_per_m = v;
+        } else if (strcmp(key, "Kn_nm_per_V") == 0) {
+            p->kn_nm_per_v = v;
+        } else if (strcmp(key, "lateral_nN_per_V") == 0) {
+            p->lat_nn_per_v = v;
+        } else if (strcmp(key, "tip_height_um") == 0) {
+            p->h_um = v;
+        } else if (strcmp(key, "lever_length_um") == 0) {
+            p->l_um = v;
+        } else if (strcmp(key, "mu") == 0) {
+            p->mu = v;
+        } else if (strcmp(key, "adhesion_nN") == 0) {
+            p->adh_nn = v;
+        } else {
+            fclose(fp);
+            die("%s: --probe %s: line %d: unknown key '%s' (kn_N_per_m, Kn_nm_per_V, lateral_nN_per_V, "
+                "tip_height_um, lever_length_um, mu, adhesion_nN)", cmd, path, lineno, key);
+        }
+    }
+    fclose(fp);
+}
+
+static int cmd_calc_force(int argc, char **argv)
+{
+    const char *cmd = "calc force";
+    opt_t o[] = {
+        { "--sn", NULL, 0, 1 }, { "--sl", NULL, 0, 1 }, { "--theta-deg", NULL, 0, 1 },
+        { "--scan-angle-deg", NULL, 0, 1 }, { "--probe", NULL, 0, 0 }, { "--json", NULL, 1, 0 },
+    };
+    probe_t p;
+    double sn;
+    double sl;
+    double theta;
+    double scan;
+    fw_force_t f;
+    fw_status_t st;
+    q30_t ts;
+    q30_t tc;
+    q30_t as;
+    q30_t ac;
+    int32_t fc[3];
+    int32_t fa[3];
+    uint32_t flags = 0;
+    bool sat = false;
+    if (wants_help(argc, argv)) {
+        printf("usage: afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]\n"
+               "  Force of the sample on the tip (physics.md section 1, eq. 1a-1c, 3) from the\n"
+               "  photodiode signals S_n, S_l (volts, |S| < 256), the tip's direction of motion T\n"
+               "  in the cantilever frame and the scan angle A (alpha = A - 270 deg); printed in\n"
+               "  the AFM frame, nN. Near T = 0 or 180 deg (|sin T| < 1/4) F_x comes (partly) from\n"
+               "  the friction fallback mu (F_z + F_adh).\n"
+               "  --probe FILE: 'key = value' lines (kn_N_per_m, Kn_nm_per_V, lateral_nN_per_V,\n"
+               "  tip_height_um, lever_length_um, mu, adhesion_nN); default: the paper's probe\n"
+               "  (0.12 N/m, 89 nm/V, 37.9 nN/V, h 17.3 um, l 100 um, mu 0.0865, no adhesion).\n");
+        return 0;
+    }
+    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
+    sn = num_opt_range(cmd, &o[0], -255.0, 255.0, "|S_n| must stay below 256 V");
+    sl = num_opt_range(cmd, &o[1], -255.0, 255.0, "|S_l| must stay below 256 V");
+    theta = num_opt_range(cmd, &o[2], -1e6, 1e6, "degrees");
+    scan = num_opt_range(cmd, &o[3], -1e6, 1e6, "degrees");
+    probe_default(&p);
+    if (o[4].value != NULL) {
+        probe_read(cmd, o[4].value, &p);
+    }
+    st = fw_force_init(&f, (int32_t)lround(p.kn_n_per_m * p.kn_nm_per_v * 1000.0),
+                       (int32_t)lround(p.lat_nn_per_v * 1000.0), (int32_t)lround(p.h_um * 1000.0),
+                       (int32_t)lround(p.l_um * 1000.0), (int32_t)lround(p.mu * 1e6),
+                       (int32_t)lround(p.adh_nn * 1000.0));
+    if (st != FW_OK) {
+        die("%s: --probe %s: probe rejected by fw_force_init (%s): gains > 0, 0 < h < l, 0 <= mu <= 1, "
+            "adhesion >= 0, mu 2h/l <= 1/2", cmd, o[4].value != NULL ? o[4].value : "(default)", status_name(st));
+    }
+    fw_math_sincos_q30(fw_math_bam_from_mdeg((int32_t)lround(fmod(theta, 360.0) * 1000.0)), &ts, &tc);
+    fw_math_sincos_q30(fw_math_bam_from_mdeg((int32_t)lround(fmod(scan, 360.0) * 1000.0) - 270000), &as, &ac);
+    st = fw_force_solve_pn(&f, (q23_t)lround(sn * 8388608.0), (q23_t)lround(sl * 8388608.0),
+                           (q15_t)fw_math_sat_i32(fw_math_rshift_round_i64(tc, 15), NULL),
+                           (q15_t)fw_math_sat_i32(fw_math_rshift_round_i64(ts, 15), NULL), fc, &flags);
+    if (st != FW_OK) {
+        die("%s: fw_force_solve_pn failed (%s)", cmd, status_name(st));
+    }
+    fw_force_rotate_pn(fc, ac, as, fa, &sat);
+    if (sat) {
+        flags |= FW_FLAG_SAT_FORCE;
+    }
+    if (o[5].value != NULL) {
+        printf("{\"command\": \"calc force\", \"status\": \"ok\", \"fx_nN\": %.3f, \"fy_nN\": %.3f, \"fz_nN\": %.3f, "
+               "\"frame\": \"AFM\", \"fx_cantilever_nN\": %.3f, \"fy_cantilever_nN\": %.3f, "
+               "\"fx_unobservable\": %s, \"saturated\": %s}\n",
+               fa[0] / 1000.0, fa[1] / 1000.0, fa[2] / 1000.0, fc[0] / 1000.0, fc[1] / 1000.0,
+               (flags & FW_FLAG_FX_UNOBSERVABLE) ? "true" : "false",
+               (flags & FW_FLAG_SAT_FORCE) ? "true" : "false");
+    } else {
+        printf("force of the sample on the tip (firmware fw_force_solve_pn), AFM frame\n");
+        printf("  F_x                    %.3f nN\n", fa[0] / 1000.0);
+        printf("  F_y                    %.3f nN\n", fa[1] / 1000.0);
+        printf("  F_z                    %.3f nN\n", fa[2] / 1000.0);
+        printf("  cantilever frame       F_x %.3f nN, F_y %.3f nN\n", fc[0] / 1000.0, fc[1] / 1000.0);
+        if (flags & FW_FLAG_FX_UNOBSERVABLE) {
+            printf("  note                   |sin theta| < 1/4: F_x from the friction fallback (blended)\n");
+        }
+        if (flags & FW_FLAG_SAT_FORCE) {
+            printf("  note                   a force was clamped to the firmware's int32 pN range\n");
+        }
+        printf("  status                 ok\n");
+    }
+    return 0;
+}
+
+/* ---- dispatch ----------------------------------------------------------- */
+
+static void usage(FILE *fp)
+{
+    fprintf(fp,
+            "usage: afm_calc <group> <command> [options]   (each command has --help)\n"
+            "  calib tilted   mu and k_theta K_l / h from friction loops on a tilted surface\n"
+            "  calib lines    C_n from lines inscribed at several depths\n"
+            "  model wire     static point and minimum push of a rigid nanowire\n"
+            "  calc force     3-D tip force from S_n, S_l, theta and the scan angle\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
+        usage(argc < 2 ? stderr : stdout);
+        return argc < 2 ? EXIT_USAGE : 0;
+    }
+    if (argc < 3) {
+        die("'%s' needs a command (see afm_calc --help)", argv[1]);
+    }
+    if (strcmp(argv[1], "calib") == 0 && strcmp(argv[2], "tilted") == 0) {
+        return cmd_calib_tilted(argc - 3, argv + 3);
+    }
+    if (strcmp(argv[1], "calib") == 0 && strcmp(argv[2], "lines") == 0) {
+        return cmd_calib_lines(argc - 3, argv + 3);
+    }
+    if (strcmp(argv[1], "model") == 0 && strcmp(argv[2], "wire") == 0) {
+        return cmd_model_wire(argc - 3, argv + 3);
+    }
+    if (strcmp(argv[1], "calc") == 0 && strcmp(argv[2], "force") == 0) {
+        return cmd_calc_force(argc - 3, argv + 3);
+    }
+    die("unknown command '%s %s' (see afm_calc --help)", argv[1], argv[2]);
+    return EXIT_USAGE;
+}

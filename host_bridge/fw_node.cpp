@@ -1,0 +1,227 @@
+// fw_node: the A/D card's firmware on the bus. Receives the analog blocks,
+// runs the firmware/ modules sample by sample (acquisition, force,
+// compensation, particle model), publishes forces, the apex and the objects,
+// closes the haptic loop with the operator, and acknowledges each block with
+// the next tip command (lockstep).
+#include <lcm/lcm-cpp.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "afm/analog_block_t.hpp"
+#include "afm/fw_force_t.hpp"
+#include "afm/fw_tip_t.hpp"
+#include "afm/haptic_force_t.hpp"
+#include "afm/haptic_pose_t.hpp"
+#include "afm/heartbeat_t.hpp"
+#include "afm/objects_t.hpp"
+#include "afm/tip_cmd_t.hpp"
+#include "bus.hpp"
+#include "fw_config.hpp"
+#include "scene.hpp"
+
+static_assert(FW_FLAG_SAT_SN == afm::fw_force_t::FLAG_SAT_SN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_SL == afm::fw_force_t::FLAG_SAT_SL, "flag bits must match the firmware");
+static_assert(FW_FLAG_FX_UNOBSERVABLE == afm::fw_force_t::FLAG_FX_UNOBSERVABLE, "flag bits must match the firmware");
+static_assert(FW_FLAG_VIRTUAL_SN == afm::fw_force_t::FLAG_VIRTUAL_SN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_FORCE == afm::fw_force_t::FLAG_SAT_FORCE, "flag bits must match the firmware");
+static_assert(FW_FLAG_CONTACT == afm::fw_force_t::FLAG_CONTACT, "flag bits must match the firmware");
+static_assert(FW_FLAG_THETA_UNKNOWN == afm::fw_force_t::FLAG_THETA_UNKNOWN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_POS == afm::fw_force_t::FLAG_SAT_POS, "flag bits must match the firmware");
+static_assert(FW_FLAG_SQUEEZE == afm::fw_force_t::FLAG_SQUEEZE, "flag bits must match the firmware");
+
+namespace {
+
+const char *kUsage =
+    "usage: fw_node --scene FILE [--crash-at-block N]\n"
+    "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
+    "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n";
+
+constexpr int kCrashExitCode = 70;
+
+constexpr int kMaxParticles = 4096;
+constexpr double kHapticGain_N_per_nN = 0.1;   // stylus force per tip force
+constexpr double kHapticMax_N = 3.0;           // the device's force limit
+
+struct Node {
+    const afm::Scene &scene;
+    lcm::LCM &lc;
+    afm::Heartbeat hb;
+    fw_board_t board{};
+    fw_particles_t parts{};
+    std::vector<fw_particle_t> storage;
+    int64_t done = -1;            // last block processed
+    int64_t crash_at = -1;        // failure injection
+    int64_t commanded = -1;       // last block acknowledged with a command
+    bool sim_done = false;
+    int64_t sat_count = 0;
+    afm::fw_force_t last_force{};
+    afm::fw_tip_t last_tip{};
+    afm::objects_t last_objects{};
+    afm::haptic_force_t last_haptic{};
+    afm::tip_cmd_t last_cmd{};
+
+    Node(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), hb(l, "fw_node"), storage(kMaxParticles)
+    {
+        const fw_board_config_t cfg = afm::board_config(s);
+        if (fw_board_init(&board, &cfg) != FW_OK) throw std::runtime_error("fw_board_init refused the scene's probe configuration");
+        if (fw_particles_init(&parts, storage.data(), kMaxParticles, afm::to_i32(s.probe.tip_radius_nm * 1e3)) != FW_OK)
+            throw std::runtime_error("fw_particles_init failed");
+        fw_particles_set_friction(&parts, cfg.mu_ppm, cfg.adhesion_pn, 0);
+        const int32_t th = afm::to_i32(afm::particle_threshold_nN(s) * 1e3);
+        for (const auto &p : s.particles) {
+            if (fw_particles_add(&parts, p.id, afm::to_i32(p.x_nm * 1e3), afm::to_i32(p.y_nm * 1e3),
+                                 afm::to_i32(p.radius_nm * 1e3), th) != FW_OK)
+                throw std::runtime_error("the firmware's particle model is full (" + std::to_string(kMaxParticles) + ")");
+        }
+    }
+
+    void publish_outputs()
+    {
+        lc.publish(AFM_CH_FW_FORCE, &last_force);
+        lc.publish(AFM_CH_FW_TIP, &last_tip);
+        lc.publish(AFM_CH_FW_OBJECTS, &last_objects);
+        lc.publish(AFM_CH_HAPTIC_FORCE, &last_haptic);
+    }
+
+    void on_analog(const lcm::ReceiveBuffer *, const std::string &, const afm::analog_block_t *b)
+    {
+        if (b->seq == done) {   // a resend: our answer was lost somewhere
+            publish_outputs();
+            if (commanded == done) lc.publish(AFM_CH_AFM_CMD, &last_cmd);
+            return;
+        }
+        if (b->seq == crash_at) {
+            std::fprintf(stderr, "fw_node: failure injection: crashing at block %lld\n", (long long)b->seq);
+            std::exit(kCrashExitCode);
+        }
+        if (b->seq != done + 1) {
+            std::fprintf(stderr, "fw_node: ignoring block %lld (expected %lld)\n", (long long)b->seq, (long long)(done + 1));
+            return;
+        }
+        uint32_t flags = 0;
+        fw_sample_out_t out{};
+        int64_t force_sum_pn[3] = {0, 0, 0};
+        for (int i = 0; i < b->n; ++i) {
+            fw_sample_in_t in;
+            in.sn_uv = afm::to_i32(b->sn_v[i] * 1e6);
+            in.sl_uv = afm::to_i32(b->sl_v[i] * 1e6);
+            in.piezo_pm[0] = afm::to_i32(b->piezo_x_nm[i] * 1e3);
+            in.piezo_pm[1] = afm::to_i32(b->piezo_y_nm[i] * 1e3);
+            in.piezo_pm[2] = afm::to_i32(b->piezo_z_nm[i] * 1e3);
+            fw_board_step(&board, &in, &out);
+            fw_particles_update(&parts, out.tip_pm, out.force_pn, out.flags);
+            const uint32_t f = out.flags | fw_particles_flags(&parts);
+            if (f & (FW_FLAG_SAT_SN | FW_FLAG_SAT_SL)) ++sat_count;
+            flags |= f;
+            for (int k = 0; k < 3; ++k) force_sum_pn[k] += out.force_pn[k];
+        }
+        const int64_t t_end = afm::block_end_utime(scene, b->seq);
+        last_force.utime = t_end;
+        last_force.seq = b->seq;
+        for (int k = 0; k < 3; ++k) last_force.force_nN[k] = b->n > 0 ? force_sum_pn[k] * 1e-3 / b->n : 0.0;
+        last_force.flags = static_cast<int32_t>(flags);
+        last_force.sn_code = out.sn_code;
+        last_force.sl_code = out.sl_code;
+        last_force.sat_count = sat_count;
+
+        last_tip.utime = t_end;
+        last_tip.seq = b->seq;
+        for (int k = 0; k < 3; ++k) last_tip.tip_nm[k] = out.tip_pm[k] * 1e-3;
+        last_tip.piezo_nm[0] = b->piezo_x_nm[b->n - 1];
+        last_tip.piezo_nm[1] = b->piezo_y_nm[b->n - 1];
+        last_tip.piezo_nm[2] = b->piezo_z_nm[b->n - 1];
+
+        last_objects = afm::objects_t{};
+        last_objects.utime = t_end;
+        last_objects.seq = b->seq;
+        for (int32_t i = 0; i < fw_particles_count(&parts); ++i) {
+            const fw_particle_t *p = fw_particles_get(&parts, i);
+            afm::particle_t q;
+            q.id = p->id;
+            q.x_nm = p->x_pm * 1e-3;
+            q.y_nm = p->y_pm * 1e-3;
+            q.radius_nm = p->radius_pm * 1e-3;
+            q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
+            last_objects.particles.push_back(q);
+        }
+        last_objects.n_particles = static_cast<int32_t>(last_objects.particles.size());
+
+        last_haptic.utime = t_end;
+        last_haptic.seq = b->seq;
+        for (int k = 0; k < 3; ++k) {
+            last_haptic.tip_force_nN[k] = last_force.force_nN[k];
+            last_haptic.force_N[k] = std::clamp(last_force.force_nN[k] * kHapticGain_N_per_nN, -kHapticMax_N, kHapticMax_N);
+        }
+        last_haptic.flags = last_force.flags;
+        done = b->seq;
+        publish_outputs();
+        hb.maybe_send("running", done, t_end);
+    }
+
+    void on_pose(const lcm::ReceiveBuffer *, const std::string &, const afm::haptic_pose_t *p)
+    {
+        if (p->seq != done + 1) return;        // a late duplicate, or not ours yet
+        if (commanded == done) {                // duplicate pose: resend our answer
+            lc.publish(AFM_CH_AFM_CMD, &last_cmd);
+            return;
+        }
+        int32_t joy[2], cmd_pm[2];
+        for (int k = 0; k < 2; ++k) joy[k] = static_cast<int32_t>(std::clamp<long long>(std::llround(p->joy[k] * 32768.0), -32768, 32767));
+        fw_board_piezo_cmd(&board, joy, cmd_pm);
+        last_cmd.utime = p->utime;
+        last_cmd.ack_seq = done;
+        last_cmd.piezo_x_nm = cmd_pm[0] * 1e-3;
+        last_cmd.piezo_y_nm = cmd_pm[1] * 1e-3;
+        last_cmd.load_nN = p->load_nN;
+        last_cmd.engaged = p->engaged;
+        commanded = done;
+        lc.publish(AFM_CH_AFM_CMD, &last_cmd);
+    }
+
+    void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    {
+        if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
+    }
+};
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    std::string scene_path;
+    int64_t crash_at = -1;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
+        else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
+        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
+        else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
+    }
+    if (scene_path.empty()) { std::fputs(kUsage, stderr); return 2; }
+    try {
+        const afm::Scene scene = afm::load_scene(scene_path);
+        auto lc = afm::open_bus();
+        Node node(scene, *lc);
+        node.crash_at = crash_at;
+        lc->subscribe(AFM_CH_AFM_ANALOG, &Node::on_analog, &node);
+        lc->subscribe(AFM_CH_HAPTIC_POSE, &Node::on_pose, &node);
+        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Node::on_heartbeat, &node);
+        while (!node.sim_done) {
+            node.hb.maybe_send(node.done < 0 ? "ready" : "running", node.done,
+                               node.done < 0 ? 0 : afm::block_end_utime(scene, node.done), node.done < 0 ? 200000 : 1000000);
+            lc->handleTimeout(100);
+        }
+        node.hb.send("done", node.done, node.done < 0 ? 0 : afm::block_end_utime(scene, node.done));
+        return 0;
+    } catch (const afm::SceneError &e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return 2;
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "fw_node: %s\n", e.what());
+        return 1;
+    }
+}

@@ -1,0 +1,78 @@
+// The per-sample effects a scene can name, and the registry that builds them.
+#include <cmath>
+#include <functional>
+#include <map>
+
+#include "world.hpp"
+
+namespace afm::sim {
+
+namespace {
+
+constexpr double kBoltzmann_nN_nm_per_K = 1.380649e-5;  // 1.380649e-23 J/K in nN nm / K
+
+// White noise on S_n and S_l. Default level: the lever's thermal noise,
+// <delta^2> = kT / k_n and <twist^2> = kT / k_theta, as volts.
+class PhotodiodeNoise : public SampleEffect {
+public:
+    PhotodiodeNoise(const Scene &s, const Lever &lever) : SampleEffect("photodiode_noise")
+    {
+        const double kT = kBoltzmann_nN_nm_per_K * s.temperature_K;
+        sn_rms_ = s.photodiode_noise_V > 0 ? s.photodiode_noise_V : std::sqrt(kT / lever.kn) / lever.Kn;
+        sl_rms_ = s.photodiode_noise_V > 0 ? s.photodiode_noise_V : std::sqrt(kT / lever.ktheta) / lever.Kl;
+    }
+    void apply(World &w, double &sn, double &sl) override
+    {
+        sn += sn_rms_ * gauss_(w.rng());
+        sl += sl_rms_ * gauss_(w.rng());
+    }
+
+private:
+    double sn_rms_, sl_rms_;
+    std::normal_distribution<double> gauss_{0.0, 1.0};
+};
+
+// Thermal drift of the sample against the scanner (section 10): a linear
+// drift plus a random walk, both per minute.
+class ThermalDrift : public SampleEffect {
+public:
+    ThermalDrift(const Scene &s, double dt) : SampleEffect("thermal_drift")
+    {
+        step_ = Eigen::Vector2d(s.drift_nm_per_min.x, s.drift_nm_per_min.y) * dt / 60.0;
+        walk_ = s.drift_walk_nm_per_sqrt_min * std::sqrt(dt / 60.0);
+    }
+    void apply(World &w, double &, double &) override
+    {
+        w.add_drift(step_ + walk_ * Eigen::Vector2d(gauss_(w.rng()), gauss_(w.rng())));
+    }
+
+private:
+    Eigen::Vector2d step_;
+    double walk_;
+    std::normal_distribution<double> gauss_{0.0, 1.0};
+};
+
+using Factory = std::function<std::unique_ptr<SampleEffect>(const Scene &, const Lever &)>;
+
+const std::map<std::string, Factory> &registry()
+{
+    static const std::map<std::string, Factory> r = {
+        {"photodiode_noise", [](const Scene &s, const Lever &l) { return std::make_unique<PhotodiodeNoise>(s, l); }},
+        {"thermal_drift", [](const Scene &s, const Lever &) { return std::make_unique<ThermalDrift>(s, 1.0 / s.sample_rate_hz); }},
+    };
+    return r;
+}
+
+}  // namespace
+
+std::vector<std::unique_ptr<SampleEffect>> build_sample_effects(const Scene &s, const Lever &lever)
+{
+    std::vector<std::unique_ptr<SampleEffect>> out;
+    for (const auto &name : s.effects) {
+        auto it = registry().find(name);
+        if (it != registry().end()) out.push_back(it->second(s, lever));
+    }
+    return out;
+}
+
+}  // namespace afm::sim

@@ -1,0 +1,65 @@
+// A uniform grid over the sample plane: which particles lie near a point.
+// Per query, the cost depends on the particles near the point, not on all.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+namespace afm::sim {
+
+class Grid {
+public:
+    // cell_nm: cell side; choose at least the largest contact reach so that a
+    // query of radius <= cell_nm visits 3 x 3 cells.
+    explicit Grid(double cell_nm) : cell_(cell_nm > 0 ? cell_nm : 1.0) {}
+
+    void insert(int idx, const Eigen::Vector2d &p)
+    {
+        if (static_cast<std::size_t>(idx) >= key_of_.size()) key_of_.resize(idx + 1, kNone);
+        const int64_t k = key(p);
+        key_of_[idx] = k;
+        cells_[k].push_back(idx);
+    }
+
+    // Call after a point moved; cheap when it stays in its cell.
+    void update(int idx, const Eigen::Vector2d &p)
+    {
+        const int64_t k = key(p);
+        const int64_t old = key_of_[idx];
+        if (k == old) return;
+        auto &v = cells_[old];
+        for (std::size_t i = 0; i < v.size(); ++i)
+            if (v[i] == idx) { v[i] = v.back(); v.pop_back(); break; }
+        key_of_[idx] = k;
+        cells_[k].push_back(idx);
+    }
+
+    // Appends to `out` every index whose cell touches the square of half side
+    // `radius` around p (a superset of those within `radius`).
+    void query(const Eigen::Vector2d &p, double radius, std::vector<int> &out) const
+    {
+        const int64_t x0 = cell_index(p.x() - radius), x1 = cell_index(p.x() + radius);
+        const int64_t y0 = cell_index(p.y() - radius), y1 = cell_index(p.y() + radius);
+        for (int64_t cx = x0; cx <= x1; ++cx)
+            for (int64_t cy = y0; cy <= y1; ++cy) {
+                auto it = cells_.find(pack(cx, cy));
+                if (it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+            }
+    }
+
+private:
+    static constexpr int64_t kNone = INT64_MIN;
+    int64_t cell_index(double v) const { return static_cast<int64_t>(std::floor(v / cell_)); }
+    static int64_t pack(int64_t cx, int64_t cy) { return (cx << 32) ^ (cy & 0xffffffffLL); }
+    int64_t key(const Eigen::Vector2d &p) const { return pack(cell_index(p.x()), cell_index(p.y())); }
+
+    double cell_;
+    std::unordered_map<int64_t, std::vector<int>> cells_;
+    std::vector<int64_t> key_of_;
+};
+
+}  // namespace afm::sim

@@ -1,0 +1,274 @@
+// sim_afm: the simulated AFM controller and sample on the bus.
+//
+// Owns the clock. Lockstep (default): publish analog block n, then wait for the
+// firmware's AFM_CMD acknowledging n and for the renderer's frames due by the
+// end of block n; resend block n on a timeout (udpm may drop). Real time: the
+// same, paced by the wall clock.
+#include <lcm/lcm-cpp.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+
+#include "afm/analog_block_t.hpp"
+#include "afm/heartbeat_t.hpp"
+#include "afm/render_frame_t.hpp"
+#include "afm/scan_line_t.hpp"
+#include "afm/scan_req_t.hpp"
+#include "afm/sim_truth_t.hpp"
+#include "afm/tip_cmd_t.hpp"
+#include "bus.hpp"
+#include "scene.hpp"
+#include "world.hpp"
+
+namespace {
+
+const char *kUsage =
+    "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS]\n"
+    "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
+    "  network namespace. --inject-drop P drops the first transmission of each\n"
+    "  analog block with probability P (failure injection: tests the resend path).\n";
+
+constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line reads these
+
+struct Sim {
+    const afm::Scene &scene;
+    lcm::LCM &lc;
+    afm::sim::World world;
+    afm::Heartbeat hb;
+
+    std::set<std::string> ready;       // peers that said ready
+    bool go = false;                   // launcher said running
+    bool abort = false;
+    int64_t acked = -1;                // last acknowledged block
+    int frames_done = 0;               // frames the renderer has written
+    afm::tip_cmd_t pending_cmd{};
+    bool have_cmd = false;
+    int64_t scan_lines_sent = 0;
+
+    Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
+
+    void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    {
+        if (m->state == "ready" || m->state == "running") ready.insert(m->name);
+        if (m->name == "launcher" && m->state == "running") go = true;
+        if (m->name == "launcher" && m->state == "stop") abort = true;
+    }
+
+    void on_cmd(const lcm::ReceiveBuffer *, const std::string &, const afm::tip_cmd_t *m)
+    {
+        if (m->ack_seq > acked) {
+            acked = m->ack_seq;
+            pending_cmd = *m;
+            have_cmd = true;
+        }
+    }
+
+    void on_frame(const lcm::ReceiveBuffer *, const std::string &, const afm::render_frame_t *m)
+    {
+        frames_done = std::max(frames_done, m->index + 1);
+    }
+
+    void on_scan_req(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_req_t *m)
+    {
+        if (m->nx < 1 || m->ny < 1 || m->nx > 8192 || m->ny > 8192 || m->first_line < 0 || m->n_lines < 0) {
+            std::fprintf(stderr, "sim_afm: ignoring scan request %d with bad size nx=%d ny=%d\n", m->req_id, m->nx, m->ny);
+            return;
+        }
+        const int last = std::min(m->ny, m->first_line + m->n_lines);
+        const double dx = m->width_nm / m->nx, dy = m->height_nm / m->ny;
+        for (int j = m->first_line; j < last; ++j) {
+            afm::scan_line_t line;
+            line.utime = acked >= 0 ? afm::block_end_utime(scene, acked) : 0;
+            line.req_id = m->req_id;
+            line.line = j;
+            line.n_lines = m->ny;
+            line.x0_nm = m->x0_nm + 0.5 * dx;
+            line.y_nm = m->y0_nm + (j + 0.5) * dy;
+            line.dx_nm = dx;
+            line.n = m->nx;
+            line.height_nm.resize(m->nx);
+            line.defl_v.assign(m->nx, world.scan_sn_v());
+            line.lat_v.assign(m->nx, world.scan_sl_v());
+            for (int i = 0; i < m->nx; ++i) line.height_nm[i] = world.image_height(line.x0_nm + i * dx, line.y_nm);
+            lc.publish(AFM_CH_AFM_SCAN_LINE, &line);
+            ++scan_lines_sent;
+            // Pace large scans so the receiver's buffer keeps up.
+            if ((j & 15) == 15) lc.handleTimeout(0);
+        }
+    }
+};
+
+afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int64_t seq)
+{
+    afm::objects_t o{};
+    o.utime = afm::block_end_utime(s, seq);
+    o.seq = seq;
+    for (std::size_t i = 0; i < w.particles().size(); ++i) {
+        const auto &p = w.particles()[i];
+        const Eigen::Vector2d c = w.particle_position(i);
+        afm::particle_t q;
+        q.id = p.id;
+        q.x_nm = c.x();
+        q.y_nm = c.y();
+        q.radius_nm = p.r;
+        q.in_contact = p.in_contact;
+        o.particles.push_back(q);
+    }
+    o.n_particles = static_cast<int32_t>(o.particles.size());
+    o.n_wires = 0;
+    o.n_trenches = 0;
+    o.drift_nm[0] = w.drift().x();
+    o.drift_nm[1] = w.drift().y();
+    return o;
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    std::string scene_path, out_dir;
+    double drop_p = 0;
+    int resend_ms = 100;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto val = [&](const char *name) -> std::string {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "sim_afm: %s needs a value\n%s", name, kUsage);
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (a == "--scene") scene_path = val("--scene");
+        else if (a == "--out") out_dir = val("--out");
+        else if (a == "--inject-drop") drop_p = std::atof(val("--inject-drop").c_str());
+        else if (a == "--resend-ms") resend_ms = std::atoi(val("--resend-ms").c_str());
+        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
+        else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
+    }
+    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return 2; }
+    if (!(drop_p >= 0 && drop_p < 1)) { std::fprintf(stderr, "sim_afm: --inject-drop must be in [0, 1)\n"); return 2; }
+    if (resend_ms < 1) { std::fprintf(stderr, "sim_afm: --resend-ms must be >= 1\n"); return 2; }
+
+    try {
+        const afm::Scene scene = afm::load_scene(scene_path);
+        auto lc = afm::open_bus();
+        Sim sim(scene, *lc);
+        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Sim::on_heartbeat, &sim);
+        lc->subscribe(AFM_CH_AFM_CMD, &Sim::on_cmd, &sim);
+        lc->subscribe(AFM_CH_RENDER_FRAME, &Sim::on_frame, &sim);
+        lc->subscribe(AFM_CH_AFM_SCAN_REQ, &Sim::on_scan_req, &sim);
+
+        // Start: serve scans until every peer is ready and the launcher says go.
+        const std::set<std::string> peers = {"fw_node", "operator", "renderer"};
+        while (!sim.go || !std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())) {
+            sim.hb.maybe_send("ready", -1, 0, 200000);
+            lc->handleTimeout(50);
+            if (sim.abort) return 3;
+        }
+
+        const int spb = scene.samples_per_block();
+        const int64_t blocks = scene.total_blocks();
+        std::mt19937_64 drop_rng(scene.seed ^ 0x5eedULL);
+        std::bernoulli_distribution drop(drop_p);
+        int64_t resends = 0, dropped = 0;
+        const auto wall0 = std::chrono::steady_clock::now();
+        afm::analog_block_t blk;
+        blk.fs_hz = scene.sample_rate_hz;
+        blk.n = spb;
+        blk.sn_v.resize(spb);
+        blk.sl_v.resize(spb);
+        blk.piezo_x_nm.resize(spb);
+        blk.piezo_y_nm.resize(spb);
+        blk.piezo_z_nm.resize(spb);
+        {
+            const afm::Vec2 s0 = scene.op.path_nm.front();
+            sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, true);
+        }
+        for (int64_t n = 0; n < blocks; ++n) {
+            blk.seq = n;
+            blk.utime = std::llround(n * 1e6 / scene.block_hz);
+            for (int i = 0; i < spb; ++i) {
+                const afm::sim::Sample s = sim.world.step();
+                blk.sn_v[i] = s.sn_v;
+                blk.sl_v[i] = s.sl_v;
+                blk.piezo_x_nm[i] = s.piezo_nm.x();
+                blk.piezo_y_nm[i] = s.piezo_nm.y();
+                blk.piezo_z_nm[i] = s.piezo_nm.z();
+            }
+            afm::sim_truth_t truth;
+            truth.utime = afm::block_end_utime(scene, n);
+            truth.seq = n;
+            for (int k = 0; k < 2; ++k) {
+                truth.tip_nm[k] = sim.world.apex()[k];
+                truth.piezo_nm[k] = sim.world.piezo()[k];
+            }
+            truth.tip_nm[2] = truth.piezo_nm[2] = sim.world.piezo_z();
+            const Eigen::Vector3d f = sim.world.tip_force();
+            for (int k = 0; k < 3; ++k) truth.force_nN[k] = f[k];
+            truth.objects = truth_objects(scene, sim.world, n);
+            lc->publish(AFM_CH_SIM_TRUTH, &truth);
+            if (drop(drop_rng)) ++dropped;
+            else lc->publish(AFM_CH_AFM_ANALOG, &blk);
+
+            if (scene.time_mode == "realtime") {
+                std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
+            }
+            const int frames_due = afm::frames_due(scene, afm::block_end_utime(scene, n));
+            auto last_send = std::chrono::steady_clock::now();
+            while (sim.acked < n || sim.frames_done < frames_due) {
+                lc->handleTimeout(resend_ms);
+                if (sim.abort) return 3;
+                if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(resend_ms)) {
+                    lc->publish(AFM_CH_AFM_ANALOG, &blk);
+                    ++resends;
+                    last_send = std::chrono::steady_clock::now();
+                }
+                sim.hb.maybe_send("running", n, blk.utime, kHeartbeatPeriodUs);
+            }
+            if (sim.have_cmd) {
+                sim.world.command(Eigen::Vector2d(sim.pending_cmd.piezo_x_nm, sim.pending_cmd.piezo_y_nm),
+                                  sim.pending_cmd.load_nN, sim.pending_cmd.engaged);
+                sim.have_cmd = false;
+            }
+            sim.hb.maybe_send("running", n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
+        }
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+
+        // Report: effects built and the time each took; lockstep statistics.
+        std::ofstream rep(out_dir + "/sim_report.json");
+        rep << "{\n  \"effects\": [";
+        const auto clocks = sim.world.clocks();
+        for (std::size_t i = 0; i < clocks.size(); ++i)
+            rep << (i ? ", " : "") << "{\"name\": \"" << clocks[i].name << "\", \"seconds\": " << clocks[i].seconds << "}";
+        rep << "],\n  \"effects_listed\": [";
+        for (std::size_t i = 0; i < scene.effects.size(); ++i) rep << (i ? ", " : "") << "\"" << scene.effects[i] << "\"";
+        rep << "],\n  \"models_built\": [";
+        const auto built = sim.world.models_built();
+        for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
+        rep << "],\n  \"blocks\": " << blocks << ",\n  \"samples\": " << blocks * spb
+            << ",\n  \"resends\": " << resends << ",\n  \"injected_drops\": " << dropped
+            << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent << "\n}\n";
+        rep.close();
+        if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");
+        for (int i = 0; i < 3; ++i) {
+            sim.hb.send("done", blocks - 1, afm::block_end_utime(scene, blocks - 1));
+            lc->handleTimeout(20);
+        }
+        return 0;
+    } catch (const afm::SceneError &e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return 2;
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "sim_afm: %s\n", e.what());
+        return 1;
+    }
+}

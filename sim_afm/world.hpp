@@ -1,0 +1,146 @@
+// The simulated microscope and sample: scanner, lever, tip-sample mechanics,
+// particles, drift and imaging. Double precision, own numerics (quasi-static
+// relaxation), built only from the effects the scene names.
+//
+// Mechanics, per analog sample (quasi-static, physics.md sections 1, 4, 5):
+// the piezo moves towards its set point at the scanner's speed limit; then
+// `relax_iterations` Gauss-Seidel sweeps bring the apex and the particles near
+// it to Coulomb equilibrium: a body whose driving force exceeds its friction
+// capacity moves along that force until it no longer does. Contacts (tip-
+// particle, particle-particle) are stiff penalty springs. A uniform grid finds
+// the particles near the apex, so the cost per sample does not grow with the
+// number of particles far away.
+//
+// Frames: positions in frame A (the scanner's), nm. The sample may drift
+// against the scanner (thermal_drift): particles are stored in the sample's
+// own frame and shown in frame A shifted by drift().
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <chrono>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "grid.hpp"
+#include "lever.hpp"
+#include "scene.hpp"
+
+namespace afm::sim {
+
+struct Particle {
+    int id;
+    Eigen::Vector2d c;     // centre, sample frame, nm
+    double r;              // radius, nm
+    double threshold_nN;   // static friction capacity against a lateral push
+    bool in_contact = false;
+};
+
+struct Sample {
+    double sn_v, sl_v;            // photodiode outputs, V (saturated at +-10 V)
+    Eigen::Vector3d piezo_nm;     // frame A
+};
+
+// Wall time spent in one named effect (or core stage) of the simulator.
+struct EffectClock {
+    std::string name;
+    double seconds = 0;
+};
+
+class World;
+
+// An effect that acts on every sample. Built only when the scene names it;
+// an effect not named is not in the list and costs nothing per sample.
+class SampleEffect {
+public:
+    explicit SampleEffect(std::string name) : name_(std::move(name)) {}
+    virtual ~SampleEffect() = default;
+    // Called after the mechanics and the lever; may change the photodiode volts.
+    virtual void apply(World &w, double &sn_v, double &sl_v) = 0;
+    const std::string &name() const { return name_; }
+    double seconds = 0;
+
+private:
+    std::string name_;
+};
+
+class World {
+public:
+    explicit World(const Scene &s);
+
+    // Set point from the firmware (AFM_CMD).
+    void command(const Eigen::Vector2d &piezo_nm, double load_nN, bool engaged);
+    Sample step();                                 // one analog sample
+
+    const Eigen::Vector2d &apex() const { return apex_; }       // frame A
+    const Eigen::Vector2d &piezo() const { return piezo_; }     // frame A
+    double piezo_z() const { return piezo_z_; }
+    Eigen::Vector3d tip_force() const;             // sample on tip, frame A, nN
+    const std::vector<Particle> &particles() const { return particles_; }
+    Eigen::Vector2d particle_position(std::size_t i) const { return particles_[i].c + drift_; }  // frame A
+    const Eigen::Vector2d &drift() const { return drift_; }
+    void add_drift(const Eigen::Vector2d &d) { drift_ += d; }
+    double dt() const { return dt_; }
+    std::mt19937_64 &rng() { return rng_; }
+    const Lever &lever() const { return lever_; }
+
+    // Imaged height at (x, y) in frame A, nm: the surface, dilated by the tip
+    // when the scene lists tip_convolution.
+    double image_height(double x, double y) const;
+    // The deflection and lateral signals a contact-mode scan line in +x reads.
+    double scan_sn_v() const;
+    double scan_sl_v() const;
+
+    std::vector<EffectClock> clocks() const;       // per effect, seconds of wall time
+    std::vector<std::string> models_built() const; // every model and effect constructed
+
+    // Accuracy knob: Gauss-Seidel sweeps per sample (default 4).
+    void set_relax_iterations(int n) { relax_iterations_ = n < 1 ? 1 : n; }
+
+private:
+    using Clock = std::chrono::steady_clock;
+    void relax();
+    void relax_rigid();
+    double height_true(double x, double y) const;
+    double height_convolved(double x, double y) const;
+    double tip_profile(double u) const;            // tip surface above its apex at radius u
+    void near(const Eigen::Vector2d &p, double radius, std::vector<int> &out) const;
+
+    const Scene &scene_;
+    Lever lever_;
+    Eigen::Matrix2d K_;            // lever lateral stiffness at the apex, frame A, nN/nm
+    double k_lever_max_;           // its largest eigenvalue
+    double k_contact_;             // penalty stiffness, nN/nm
+    double dt_;                    // sample period, s
+    double scanner_speed_nm_per_s_ = 20000.0;
+    int relax_iterations_ = 4;
+    double max_radius_ = 0;        // largest particle radius, nm
+
+    Eigen::Vector2d piezo_, target_, apex_;
+    Eigen::Vector2d drift_{0.0, 0.0};   // sample against scanner, nm
+    double piezo_z_ = 0;
+    double load_nN_ = 0;
+    bool engaged_ = false;
+    double tip_adhesion_nN_ = 0;
+    double tip_mu_ = 0;
+    Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
+    Eigen::Vector2d lateral_force_{0.0, 0.0};  // sample on tip, frame A, nN
+    std::vector<Particle> particles_;
+    Grid grid_;
+    mutable std::vector<int> scratch_, scratch2_;
+
+    // Chosen once at construction (no per-sample flag tests).
+    void (World::*mechanics_)();
+    double (World::*imaging_)(double, double) const;
+    std::vector<std::unique_ptr<SampleEffect>> per_sample_;
+    std::mt19937_64 rng_;
+    double t_mech_ = 0;
+    mutable double t_scan_ = 0;
+};
+
+// The registry: builds the per-sample effects a scene names.
+std::vector<std::unique_ptr<SampleEffect>> build_sample_effects(const Scene &s, const Lever &lever);
+
+}  // namespace afm::sim

@@ -1,0 +1,52 @@
+"""Shared helpers of the bench's end-to-end tests: where things are, and how
+to run a scene the way ./afm run does (in a fresh network namespace)."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+SRC = os.environ["AFM_SOURCE"]
+BUILD = os.environ["AFM_BUILD"]
+LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
+IN_NETNS = os.path.join(SRC, "tools", "in_netns.sh")
+os.environ.setdefault("AFM_LCMTYPES_PY", os.path.join(BUILD, "lcmtypes"))
+sys.path.insert(0, os.path.join(SRC, "tools"))
+import afmlog  # noqa: E402,F401
+
+
+def scene(name):
+    return os.path.join(SRC, "scenes", name)
+
+
+def tmpdir(tag):
+    d = tempfile.mkdtemp(prefix=f"afm-{tag}-", dir=os.environ.get("AFM_TEST_TMP"))
+    return d
+
+
+def run(scene_path, out, *extra, timeout=300):
+    """Runs a scene like ./afm run; returns (exit code, stdout, stderr, run.json or None)."""
+    cmd = [IN_NETNS, LAUNCH, "--scene", scene_path, "--out", out, "--quiet", *extra]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    rj = None
+    path = os.path.join(out, "run.json")
+    if os.path.exists(path):
+        with open(path) as f:
+            rj = json.load(f)
+    return p.returncode, p.stdout, p.stderr, rj
+
+
+def write_scene(text, tag="scene"):
+    d = tmpdir(tag)
+    path = os.path.join(d, "scene.yaml")
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def cleanup(*dirs):
+    if os.environ.get("AFM_KEEP_TEST_RUNS"):
+        return
+    for d in dirs:
+        shutil.rmtree(d, ignore_errors=True)

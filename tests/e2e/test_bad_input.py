@@ -1,0 +1,114 @@
+"""Bad input (issue 2): a scene with an unknown key, a missing required value,
+a negative radius, a NaN, or a file that is not there makes the launcher exit
+non-zero before starting anything, with one line naming the file, the key and
+the value. A process that dies mid-run: the launcher stops the others, says
+which one died and its exit code, keeps the log and run.json, exits non-zero.
+And the bus never opens in a namespace whose multicast would leave the machine."""
+import os
+import subprocess
+import unittest
+
+import benchtest
+
+GOOD = open(benchtest.scene("short.yaml")).read()
+
+
+class BadScenes(unittest.TestCase):
+    def check_refused(self, text, key, value_text):
+        path = benchtest.write_scene(text, "bad")
+        out = os.path.join(os.path.dirname(path), "out")
+        code, stdout, stderr, _ = benchtest.run(path, out)
+        lines = [l for l in stderr.splitlines() if l.strip()]
+        self.assertNotEqual(code, 0)
+        self.assertEqual(len(lines), 1, stderr)
+        self.assertIn(path, lines[0])
+        self.assertIn(key, lines[0])
+        self.assertIn(value_text, lines[0])
+        self.assertFalse(os.path.exists(out), "nothing may start for a bad scene")
+        benchtest.cleanup(os.path.dirname(path))
+        return lines[0]
+
+    def test_unknown_key_named(self):
+        msg = self.check_refused(GOOD.replace("duration_s: 0.6", "duration_s: 0.6\ndurration_s: 0.6"), "durration_s", "unknown key")
+        self.assertIn("duration_s", msg)   # the known keys are listed
+
+    def test_missing_required_value_named(self):
+        self.check_refused(GOOD.replace("duration_s: 0.6\n", ""), "duration_s", "required value is missing")
+
+    def test_negative_radius_named_with_value(self):
+        self.check_refused(GOOD.replace("x_nm: 0, y_nm: -300, radius_nm: 50", "x_nm: 0, y_nm: -300, radius_nm: -5"),
+                           "objects.particles[0].radius_nm", "'-5'")
+
+    def test_nan_named_with_value(self):
+        self.check_refused(GOOD.replace("mu: 0.0865", "mu: .nan"), "sample.tip_substrate.mu", "'.nan'")
+
+    def test_infinity_named_with_value(self):
+        self.check_refused(GOOD.replace("duration_s: 0.6", "duration_s: .inf"), "duration_s", "'.inf'")
+
+    def test_wrong_type_named_with_value(self):
+        self.check_refused(GOOD.replace("load_nN: 5", "load_nN: five"), "operator.load_nN", "'five'")
+
+    def test_unknown_effect_named(self):
+        self.check_refused(GOOD.replace("effects: [bending_offset,", "effects: [bending_ofset,"), "effects[0]", "'bending_ofset'")
+
+    def test_waypoint_out_of_reach_named(self):
+        self.check_refused(GOOD.replace("- [300, -90]", "- [3000, -90]"), "operator.path_nm[2]", "[3000, -90]")
+
+    def test_block_rate_not_dividing_sample_rate_named(self):
+        self.check_refused(GOOD.replace("block_hz: 1000", "block_hz: 3000"), "block_hz", "'3000'")
+
+    def test_empty_file_refused(self):
+        path = benchtest.write_scene("", "empty")
+        code, _, stderr, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"))
+        self.assertEqual(code, 2)
+        self.assertIn(path, stderr)
+        self.assertIn("empty", stderr)
+
+    def test_missing_file_named(self):
+        path = "/nonexistent/afm/scene.yaml"
+        code, _, stderr, _ = benchtest.run(path, benchtest.tmpdir("missing"))
+        lines = [l for l in stderr.splitlines() if l.strip()]
+        self.assertEqual(code, 2)
+        self.assertEqual(len(lines), 1, stderr)
+        self.assertIn(path, lines[0])
+        self.assertIn("cannot open", lines[0])
+
+    def test_yaml_syntax_error_names_line(self):
+        path = benchtest.write_scene(GOOD.replace("seed: 7", "seed: [7"), "syntax")
+        code, _, stderr, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"))
+        self.assertEqual(code, 2)
+        self.assertIn(path, stderr)
+        self.assertIn("line", stderr)
+
+
+class ProcessDies(unittest.TestCase):
+    def test_dead_firmware_node_stops_the_run_and_keeps_the_log(self):
+        out = benchtest.tmpdir("crash")
+        code, _, stderr, rj = benchtest.run(benchtest.scene("short.yaml"), out, "--inject-crash", "fw_node:100")
+        self.assertNotEqual(code, 0)
+        self.assertIn("fw_node died with exit code 70", stderr)
+        self.assertIsNotNone(rj, "run.json must be written on failure")
+        self.assertEqual(rj["status"], "failed")
+        codes = {p["name"]: p["exit_code"] for p in rj["processes"]}
+        self.assertEqual(codes["fw_node"], 70)
+        self.assertGreater(os.path.getsize(os.path.join(out, "bus.lcmlog")), 0)
+        self.assertGreater(rj["channels"]["AFM_ANALOG"], 0)
+        benchtest.cleanup(out)
+
+
+class BusGuard(unittest.TestCase):
+    def test_launcher_refuses_the_hosts_namespace(self):
+        route = subprocess.run(["ip", "route", "get", "239.255.76.67"], capture_output=True, text=True).stdout
+        if " dev lo " in route:
+            self.skipTest("this namespace routes multicast on loopback: the guard would allow it")
+        out = benchtest.tmpdir("guard")
+        p = subprocess.run([benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out],
+                           capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 2)
+        self.assertTrue("would leave through" in p.stderr or "no route" in p.stderr, p.stderr)
+        self.assertEqual(os.listdir(out), [], "nothing may start outside the run's namespace")
+        benchtest.cleanup(out)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

@@ -1,0 +1,63 @@
+"""The bus contract is kept in one place and documented (issue 2, style.md):
+one message per .lcm file, lower_snake_t, utime first, a comment with the unit
+on every field, an explicit count on every variable array; README's channel
+table equals lcmtypes/channels.yaml; .ci/run runs ./afm test."""
+import glob
+import os
+import re
+import unittest
+
+import yaml
+
+import benchtest
+
+LCM_DIR = os.path.join(benchtest.SRC, "lcmtypes")
+
+
+class Messages(unittest.TestCase):
+    def test_each_file_one_struct_named_like_the_file_with_utime_first(self):
+        files = glob.glob(os.path.join(LCM_DIR, "*.lcm"))
+        self.assertGreater(len(files), 10)
+        for path in files:
+            text = open(path).read()
+            structs = re.findall(r"^struct\s+(\w+)", text, re.M)
+            self.assertEqual(structs, [os.path.basename(path)[:-4]], path)
+            self.assertTrue(structs[0].endswith("_t") and structs[0] == structs[0].lower(), path)
+            body = text[text.index("{") + 1:text.rindex("}")]
+            fields = [l.strip() for l in body.splitlines()
+                      if l.strip() and not l.strip().startswith("//") and not l.strip().startswith("const ")]
+            first = fields[0]
+            if structs[0] not in ("particle_t", "wire_t", "trench_t"):   # nested element types
+                self.assertTrue(first.startswith("int64_t utime;"), f"{path}: first field {first!r}")
+            for f in fields:
+                self.assertIn("//", f, f"{path}: field without a comment: {f!r}")
+                m = re.match(r"\w+\s+\w+\[(\w+)\]", f)
+                if m and not m.group(1).isdigit():
+                    self.assertRegex(body, r"int32_t\s+%s;" % m.group(1), f"{path}: array count {m.group(1)} undeclared")
+
+
+class ChannelTable(unittest.TestCase):
+    def test_readme_table_equals_channels_yaml(self):
+        rows = yaml.safe_load(open(os.path.join(LCM_DIR, "channels.yaml")))
+        readme = open(os.path.join(benchtest.SRC, "README.md")).read()
+        table = {}
+        for line in readme.splitlines():
+            m = re.match(r"\|\s*`([A-Z_]+)`\s*\|\s*`(\w+)`\s*\|\s*([^|]+?)\s*\|\s*([^|]+?)\s*\|", line)
+            if m:
+                table[m.group(1)] = (m.group(2), m.group(3), m.group(4))
+        self.assertEqual(set(table), {r["channel"] for r in rows})
+        for r in rows:
+            self.assertEqual(table[r["channel"]][0], r["type"], r["channel"])
+            self.assertEqual(table[r["channel"]][1], r["publisher"], r["channel"])
+            self.assertEqual(table[r["channel"]][2], r["rate"], r["channel"])
+
+    def test_ci_runs_the_readme_test_command(self):
+        ci = open(os.path.join(benchtest.SRC, ".ci", "run")).read()
+        self.assertIn("./afm test", ci)
+        readme = open(os.path.join(benchtest.SRC, "README.md")).read()
+        self.assertIn("./afm demo", readme)
+        self.assertIn("./afm test", readme)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

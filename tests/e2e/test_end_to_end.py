@@ -1,0 +1,111 @@
+"""End to end: a short scene through all four processes on the bus, checked
+from the recorded log (issue 2): every channel present; each particle's final
+modelled position within 5 nm of the simulator's truth; frame count equal to
+duration x frame rate; same seed -> same object trajectories, even when the
+simulator drops analog blocks on purpose (the resend path)."""
+import glob
+import math
+import os
+import unittest
+
+import yaml
+
+import benchtest
+import afmlog
+
+TOL_NM = 5.0
+
+
+def trajectories(log):
+    fw = {m.seq: tuple((p.id, p.x_nm, p.y_nm) for p in m.particles) for m in log["FW_OBJECTS"]}
+    truth = {m.seq: tuple((p.id, p.x_nm, p.y_nm) for p in m.objects.particles) for m in log["SIM_TRUTH"]}
+    return fw, truth
+
+
+class EndToEnd(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.scene = benchtest.scene("short.yaml")
+        with open(cls.scene) as f:
+            cls.spec = yaml.safe_load(f)
+        cls.out1 = benchtest.tmpdir("e2e1")
+        cls.out2 = benchtest.tmpdir("e2e2")
+        cls.out3 = benchtest.tmpdir("e2e3")
+        cls.r1 = benchtest.run(cls.scene, cls.out1)
+        cls.r2 = benchtest.run(cls.scene, cls.out2)
+        cls.r3 = benchtest.run(cls.scene, cls.out3, "--inject-drop", "0.05")
+        cls.log1 = afmlog.load(os.path.join(cls.out1, "bus.lcmlog"))
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.out1, cls.out2, cls.out3)
+
+    def test_run_exits_zero_with_every_process_clean(self):
+        code, _, err, rj = self.r1
+        self.assertEqual(code, 0, err)
+        self.assertEqual(rj["status"], "ok")
+        for p in rj["processes"]:
+            self.assertEqual(p["exit_code"], 0, p)
+        for key in ("scene", "seed", "sim_seconds", "wall_seconds", "frames", "processes", "channels"):
+            self.assertIn(key, rj)
+        self.assertAlmostEqual(rj["sim_seconds"], self.spec["duration_s"], places=6)
+
+    def test_every_channel_is_in_the_log(self):
+        for ch in afmlog.CHANNELS:
+            self.assertGreater(len(self.log1.get(ch, [])), 0, f"no {ch} in the log")
+        blocks = round(self.spec["duration_s"] * self.spec["block_hz"])
+        self.assertEqual(len(afmlog.by_seq(self.log1["AFM_ANALOG"])), blocks)
+        self.assertEqual(len(afmlog.by_seq(self.log1["FW_OBJECTS"])), blocks)
+
+    def test_run_json_counts_match_the_log(self):
+        rj = self.r1[3]
+        for ch in afmlog.CHANNELS:
+            self.assertEqual(rj["channels"][ch], len(self.log1[ch]), ch)
+
+    def test_final_model_within_5nm_of_truth(self):
+        fw, truth = trajectories(self.log1)
+        last = max(fw)
+        self.assertEqual(last, max(truth))
+        truth_by_id = {i: (x, y) for i, x, y in truth[last]}
+        moved = 0
+        for i, x, y in fw[last]:
+            tx, ty = truth_by_id[i]
+            err = math.hypot(x - tx, y - ty)
+            print(f"particle {i}: model ({x:.2f}, {y:.2f}) truth ({tx:.2f}, {ty:.2f}) error {err:.3f} nm")
+            self.assertLess(err, TOL_NM, f"particle {i}")
+        first_truth = {i: (x, y) for i, x, y in truth[min(truth)]}
+        for i, (x, y) in truth_by_id.items():
+            if math.hypot(x - first_truth[i][0], y - first_truth[i][1]) > 50:
+                moved += 1
+        self.assertGreaterEqual(moved, 1, "the scene must actually push a particle")
+
+    def test_frame_count_is_duration_times_frame_rate(self):
+        expected = round(self.spec["duration_s"] * self.spec["frame_rate_hz"])
+        pngs = glob.glob(os.path.join(self.out1, "frames", "*.png"))
+        self.assertEqual(len(pngs), expected)
+        self.assertEqual(self.r1[3]["frames"], expected)
+        self.assertEqual(len({m.index for m in self.log1["RENDER_FRAME"]}), expected)
+        self.assertTrue(os.path.getsize(os.path.join(self.out1, "video.mp4")) > 0)
+
+    def test_same_seed_same_trajectories(self):
+        self.assertEqual(self.r2[0], 0, self.r2[2])
+        log2 = afmlog.load(os.path.join(self.out2, "bus.lcmlog"))
+        fw1, t1 = trajectories(self.log1)
+        fw2, t2 = trajectories(log2)
+        self.assertEqual(fw1, fw2)
+        self.assertEqual(t1, t2)
+
+    def test_lost_blocks_are_resent_and_change_nothing(self):
+        code, _, err, rj = self.r3
+        self.assertEqual(code, 0, err)
+        self.assertGreater(rj["sim"]["injected_drops"], 0)
+        self.assertGreaterEqual(rj["sim"]["resends"], rj["sim"]["injected_drops"])
+        log3 = afmlog.load(os.path.join(self.out3, "bus.lcmlog"))
+        fw1, t1 = trajectories(self.log1)
+        fw3, t3 = trajectories(log3)
+        self.assertEqual(fw1, fw3)
+        self.assertEqual(t1, t3)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

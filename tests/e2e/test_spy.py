@@ -1,0 +1,56 @@
+"""lcm-spy, headless under Xvfb, inside a run's namespace: it must find every
+type of the project (one per lcmtypes/*.lcm) on the types jar, and a recorded
+log must replay into it with lcm-logplayer (./afm spy)."""
+import glob
+import os
+import re
+import shutil
+import subprocess
+import time
+import unittest
+
+import benchtest
+
+
+def free_display():
+    for n in range(90, 140):
+        if not os.path.exists(f"/tmp/.X11-unix/X{n}") and not os.path.exists(f"/tmp/.X{n}-lock"):
+            return n
+    raise RuntimeError("no free X display number")
+
+
+class Spy(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        if not shutil.which("Xvfb"):
+            raise unittest.SkipTest("Xvfb missing (./afm setup installs it)")
+        cls.display = free_display()
+        cls.xvfb = subprocess.Popen(["Xvfb", f":{cls.display}", "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(1.0)
+        cls.n_types = len(glob.glob(os.path.join(benchtest.SRC, "lcmtypes", "*.lcm")))
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.xvfb.terminate()
+        cls.xvfb.wait()
+
+    def test_spy_finds_every_type_and_replays_a_log(self):
+        out = benchtest.tmpdir("spy")
+        code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        self.assertEqual(code, 0, err)
+        env = dict(os.environ, DISPLAY=f":{self.display}", AFM_SPY_EXIT_AFTER_REPLAY="1",
+                   AFM_TYPES_JAR=os.path.join(benchtest.BUILD, "lcmtypes", "afm_types.jar"))
+        p = subprocess.run([benchtest.IN_NETNS, os.path.join(benchtest.SRC, "tools", "spy_replay.sh"),
+                            os.path.join(out, "bus.lcmlog"), "5"], env=env, capture_output=True, text=True, timeout=180)
+        text = p.stdout + p.stderr
+        self.assertEqual(p.returncode, 0, text[-2000:])
+        m = re.search(r"Found (\d+) LCM types", text)
+        self.assertIsNotNone(m, text[-2000:])
+        self.assertEqual(int(m.group(1)), self.n_types)
+        self.assertIn("replay of", text)
+        benchtest.cleanup(out)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

@@ -1,0 +1,175 @@
+/* test_acq.c - fw_acq: ADC quantisation, saturation, filter, baseline, S_n'. */
+#include "unity.h"
+#include "fw_acq.h"
+#include "test_util.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+static int32_t ref_code(int32_t bits, int32_t uv)
+{
+    double c = (double)uv * TU_TWO_POW(bits - 1) / 1e7;
+    double top = TU_TWO_POW(bits - 1);
+    c = (c < 0) ? -floor(-c + 0.5) : floor(c + 0.5);
+    if (c > top - 1.0) {
+        c = top - 1.0;
+    }
+    if (c < -top) {
+        c = -top;
+    }
+    return (int32_t)c;
+}
+
+typedef struct { int line; int32_t bits; int32_t uv; int32_t code; bool sat; } q_row_t;
+
+static void test_acq_rails_at_just_past_and_far_past_10v(void)
+{
+    static const q_row_t rows[] = {
+        { __LINE__, 16, 10000000, 32767, true },       /* at +10 V */
+        { __LINE__, 16, 10000001, 32767, true },       /* just past */
+        { __LINE__, 16, INT32_MAX, 32767, true },      /* far past */
+        { __LINE__, 16, 9999999, 32767, false },       /* just inside: top code, not saturated */
+        { __LINE__, 16, -10000000, -32768, true },
+        { __LINE__, 16, -10000001, -32768, true },
+        { __LINE__, 16, INT32_MIN, -32768, true },
+        { __LINE__, 16, -9999999, -32768, false },
+        { __LINE__, 14, 10000000, 8191, true },
+        { __LINE__, 14, -10000000, -8192, true },
+        { __LINE__, 14, INT32_MIN, -8192, true },
+        { __LINE__, 12, 10000001, 2047, true },
+        { __LINE__, 12, -10000001, -2048, true },
+        { __LINE__, 12, 0, 0, false },
+        { __LINE__, 12, 2441, 0, false },              /* 0.49995 LSB of 4882.8 uV */
+        { __LINE__, 12, 2442, 1, false },
+        { __LINE__, 12, -2442, -1, false },
+        { __LINE__, 16, 152, 0, false },               /* LSB 305.18 uV */
+        { __LINE__, 16, 153, 1, false },
+        { __LINE__, 15, 1000, 0, false },              /* unsupported width: 0 */
+    };
+    size_t i;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        bool sat = !rows[i].sat;
+        int32_t c = fw_acq_quantize_code(rows[i].bits, rows[i].uv, &sat);
+        UNITY_TEST_ASSERT_EQUAL_INT32(rows[i].code, c, rows[i].line, "code");
+        UNITY_TEST_ASSERT(rows[i].sat == sat, rows[i].line, "saturation flag");
+    }
+}
+
+static void test_acq_quantize_sweep_matches_double_exactly(void)
+{
+    static const int32_t widths[] = { 12, 14, 16 };
+    tu_rng_t rng;
+    long i;
+    tu_rng_seed(&rng, 21);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        int32_t bits = widths[i % 3];
+        int32_t uv = tu_rng_range(&rng, -12000000, 12000000);
+        TEST_ASSERT_EQUAL_INT32(ref_code(bits, uv), fw_acq_quantize_code(bits, uv, NULL));
+    }
+    printf("SWEEP acq_quantize n=%ld worst=0 LSB (exact)\n", (long)AFM_SWEEP_N);
+}
+
+static void test_acq_code_to_volts_exact(void)
+{
+    /* 16 bit: one code = 20 V / 65536 = 305.17578125 uV = 2560 LSB of 9.23 */
+    TEST_ASSERT_EQUAL_INT32(2560, fw_acq_code_to_q23(16, 1));
+    TEST_ASSERT_EQUAL_INT32(-32768 * 2560, fw_acq_code_to_q23(16, -32768));
+    TEST_ASSERT_EQUAL_INT32(-10 * FW_Q23_ONE, fw_acq_code_to_q23(12, -2048));
+    TEST_ASSERT_EQUAL_INT32(-10 * FW_Q23_ONE, fw_acq_code_to_q23(14, -8192));
+}
+
+static void test_acq_init_rejects_bad_bits_and_filter(void)
+{
+    fw_acq_t a;
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 13, 0));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 16, 5));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 16, -1));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(NULL, 16, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, 14, 4));
+}
+
+static void test_acq_step_sticky_flag_and_counter(void)
+{
+    fw_acq_t a;
+    int32_t code;
+    q23_t v;
+    bool sat;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, 16, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&a, 11000000, &code, &v, &sat));
+    TEST_ASSERT_TRUE(sat);
+    TEST_ASSERT_EQUAL_INT32(32767, code);
+    TEST_ASSERT_EQUAL_INT32(32767 * 2560, v);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&a, 1000000, &code, &v, &sat));
+    TEST_ASSERT_FALSE(sat);
+    TEST_ASSERT_TRUE(a.sat_sticky);
+    TEST_ASSERT_EQUAL_UINT32(1u, a.sat_count);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&a, -10000000, &code, &v, &sat));
+    TEST_ASSERT_TRUE(sat);
+    TEST_ASSERT_EQUAL_UINT32(2u, a.sat_count);
+    fw_acq_reset(&a);
+    TEST_ASSERT_FALSE(a.sat_sticky);
+    TEST_ASSERT_EQUAL_UINT32(0u, a.sat_count);
+    a.sat_count = UINT32_MAX;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&a, -20000000, &code, &v, &sat));
+    TEST_ASSERT_EQUAL_UINT32(UINT32_MAX, a.sat_count);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_step_q23(&a, 0, NULL, &v, &sat));
+}
+
+static void test_acq_filter_averages_and_baseline_subtracts(void)
+{
+    fw_acq_t a;
+    int32_t code;
+    q23_t v;
+    bool sat;
+    int i;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, 16, 2));
+    /* codes 100, 200 -> mean 150 codes while filling */
+    (void)fw_acq_step_q23(&a, 30518, &code, &v, &sat);
+    TEST_ASSERT_EQUAL_INT32(100, code);
+    (void)fw_acq_step_q23(&a, 61035, &code, &v, &sat);
+    TEST_ASSERT_EQUAL_INT32(200, code);
+    TEST_ASSERT_EQUAL_INT32(150 * 2560, v);
+    for (i = 0; i < 4; i++) {
+        (void)fw_acq_step_q23(&a, 61035, &code, &v, &sat);
+    }
+    TEST_ASSERT_EQUAL_INT32(200 * 2560, v);
+    fw_acq_record_baseline(&a);
+    (void)fw_acq_step_q23(&a, 61035, &code, &v, &sat);
+    TEST_ASSERT_EQUAL_INT32(0, v);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_set_baseline_q23(&a, 11 * FW_Q23_ONE));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&a, -10 * FW_Q23_ONE));
+    (void)fw_acq_step_q23(&a, 61035, &code, &v, &sat);
+    TEST_ASSERT_EQUAL_INT32(200 * 2560 + 10 * FW_Q23_ONE, v);
+}
+
+static void test_acq_virtual_sn_paper_depth_2000nm(void)
+{
+    /* 2000 nm down from the last unsaturated sample at 0 V, K_n = 89 nm/V:
+     * S_n' = 22.472 V */
+    q23_t v;
+    bool sat = false;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_virtual_sn_q23(0, 0, -2000000, 89000, &v, &sat));
+    TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(2000.0 / 89.0 * TU_TWO_POW(23)), v);
+    TEST_ASSERT_FALSE(sat);
+    /* continuity with the reference */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_virtual_sn_q23(9 * FW_Q23_ONE, 5000, 5000, 89000, &v, &sat));
+    TEST_ASSERT_EQUAL_INT32(9 * FW_Q23_ONE, v);
+    /* 9.23 saturates at 256 V: 2^31 pm / 1 pm/V */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_virtual_sn_q23(0, INT32_MAX, INT32_MIN, 1, &v, &sat));
+    TEST_ASSERT_EQUAL_INT32(FW_Q23_MAX, v);
+    TEST_ASSERT_TRUE(sat);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_virtual_sn_q23(0, 0, 0, 0, &v, &sat));
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_acq_rails_at_just_past_and_far_past_10v);
+    RUN_TEST(test_acq_quantize_sweep_matches_double_exactly);
+    RUN_TEST(test_acq_code_to_volts_exact);
+    RUN_TEST(test_acq_init_rejects_bad_bits_and_filter);
+    RUN_TEST(test_acq_step_sticky_flag_and_counter);
+    RUN_TEST(test_acq_filter_averages_and_baseline_subtracts);
+    RUN_TEST(test_acq_virtual_sn_paper_depth_2000nm);
+    return UNITY_END();
+}

@@ -1,0 +1,142 @@
+/* test_comp.c - fw_comp: bending offset, apex estimate, joystick set point. */
+#include "unity.h"
+#include "fw_comp.h"
+#include "fw_math.h"
+#include "test_util.h"
+
+static fw_comp_t c;
+static const int32_t centre[2] = { 45000000, -2000000 };
+
+void setUp(void)
+{
+    /* paper C_n 23.1 nm/V, C_l 23.1 nm/V, scan angle 270 (alpha 0),
+     * 5 um scan (half range 2.5 um), kappa 1 */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_comp_init(&c, 23100, 23100, 0u, centre, 2500000, FW_Q16_ONE));
+}
+void tearDown(void) {}
+
+static void test_comp_init_rejects_negative_constants(void)
+{
+    fw_comp_t d;
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_comp_init(&d, -1, 0, 0u, centre, 0, 0));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_comp_init(&d, 0, 0, 0u, centre, -1, 0));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_comp_init(&d, 0, 0, 0u, centre, 0, -1));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_comp_init(&d, 0, 0, 0u, NULL, 0, 0));
+}
+
+static void test_comp_offset_alpha_0_is_minus_cn_sn_plus_cl_sl(void)
+{
+    int32_t off[3];
+    bool sat = false;
+    fw_comp_offset_pm(&c, FW_Q23_ONE, 2 * FW_Q23_ONE, off, &sat);
+    TEST_ASSERT_EQUAL_INT32(-23100, off[0]);
+    TEST_ASSERT_EQUAL_INT32(46200, off[1]);
+    TEST_ASSERT_EQUAL_INT32(0, off[2]);
+    TEST_ASSERT_FALSE(sat);
+}
+
+static void test_comp_offset_alpha_90_rotates_into_frame_a(void)
+{
+    fw_comp_t d;
+    int32_t off[3];
+    bool sat = false;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_comp_init(&d, 23100, 10000, FW_BAM_QUARTER_TURN, centre, 0, 0));
+    /* C offset (-23100, 10000) -> A (-10000, -23100) */
+    fw_comp_offset_pm(&d, FW_Q23_ONE, FW_Q23_ONE, off, &sat);
+    TEST_ASSERT_EQUAL_INT32(-10000, off[0]);
+    TEST_ASSERT_EQUAL_INT32(-23100, off[1]);
+}
+
+static void test_comp_target_full_deflection_reaches_half_range(void)
+{
+    q15_t joy[2] = { FW_Q15_MIN, FW_Q15_MAX };
+    int32_t t[2];
+    bool sat = false;
+    fw_comp_target_pm(&c, joy, t, &sat);
+    TEST_ASSERT_EQUAL_INT32(centre[0] - 2500000, t[0]);
+    /* 32767/32768 of the half range */
+    TEST_ASSERT_INT32_WITHIN(1, centre[1] + (int32_t)lround(2500000.0 * 32767.0 / 32768.0), t[1]);
+    TEST_ASSERT_FALSE(sat);
+}
+
+static void test_comp_target_saturates_exactly_at_extremes(void)
+{
+    fw_comp_t d;
+    const int32_t far_centre[2] = { INT32_MAX, INT32_MIN };
+    q15_t joy[2] = { FW_Q15_MAX, FW_Q15_MIN };
+    int32_t t[2];
+    bool sat = false;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_comp_init(&d, INT32_MAX, INT32_MAX, 0u, far_centre, INT32_MAX, FW_Q16_MAX));
+    fw_comp_target_pm(&d, joy, t, &sat);
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, t[0]);
+    TEST_ASSERT_EQUAL_INT32(INT32_MIN, t[1]);
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    {
+        int32_t off[3];
+        fw_comp_offset_pm(&d, FW_Q23_MAX, FW_Q23_MIN, off, &sat);
+        TEST_ASSERT_EQUAL_INT32(INT32_MIN, off[0]);
+        TEST_ASSERT_EQUAL_INT32(INT32_MIN, off[1]);
+        TEST_ASSERT_TRUE(sat);
+    }
+}
+
+static void test_comp_target_sweep_matches_double(void)
+{
+    tu_rng_t rng;
+    tu_err_t e;
+    long i;
+    tu_rng_seed(&rng, 41);
+    tu_err_init(&e, "comp_target_pm", "pm", 1.0);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        fw_comp_t d;
+        int32_t ctr[2] = { tu_rng_range(&rng, -1000000000, 1000000000), 0 };
+        int32_t hr = tu_rng_range(&rng, 0, 100000000);
+        q16_t kappa = tu_rng_range(&rng, 0, 4 * FW_Q16_ONE);
+        q15_t joy[2] = { (q15_t)tu_rng_range(&rng, -32768, 32767), 0 };
+        int32_t t[2];
+        bool sat = false;
+        (void)fw_comp_init(&d, 0, 0, 0u, ctr, hr, kappa);
+        fw_comp_target_pm(&d, joy, t, &sat);
+        tu_err_add(&e, t[0] - (ctr[0] + (double)hr * tu_q(kappa, 16) * tu_q(joy[0], 15)));
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(e.worst <= 0.5);
+}
+
+static void test_comp_piezo_cmd_puts_apex_on_target(void)
+{
+    fw_comp_t d;
+    q15_t joy[2] = { 12345, -20000 };
+    int32_t target[2];
+    int32_t piezo[2];
+    int32_t p3[3];
+    int32_t apex[3];
+    bool sat = false;
+    q23_t sn = 3 * FW_Q23_ONE + 12345;
+    q23_t sl = -FW_Q23_ONE / 3;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_comp_init(&d, 23100, 19250, fw_math_bam_from_mdeg(-37000), centre,
+                                              2500000, 3 * FW_Q16_ONE / 2));
+    fw_comp_target_pm(&d, joy, target, &sat);
+    fw_comp_piezo_cmd_pm(&d, joy, sn, sl, piezo, &sat);
+    p3[0] = piezo[0];
+    p3[1] = piezo[1];
+    p3[2] = 0;
+    fw_comp_apex_pm(&d, p3, sn, sl, apex, &sat);
+    TEST_ASSERT_EQUAL_INT32(target[0], apex[0]);
+    TEST_ASSERT_EQUAL_INT32(target[1], apex[1]);
+    TEST_ASSERT_FALSE(sat);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_comp_init_rejects_negative_constants);
+    RUN_TEST(test_comp_offset_alpha_0_is_minus_cn_sn_plus_cl_sl);
+    RUN_TEST(test_comp_offset_alpha_90_rotates_into_frame_a);
+    RUN_TEST(test_comp_target_full_deflection_reaches_half_range);
+    RUN_TEST(test_comp_target_saturates_exactly_at_extremes);
+    RUN_TEST(test_comp_target_sweep_matches_double);
+    RUN_TEST(test_comp_piezo_cmd_puts_apex_on_target);
+    return UNITY_END();
+}

@@ -1,0 +1,311 @@
+/* test_force.c - fw_force: eq. 1a-1c, the friction fallback near
+ * sin theta = 0, rotation (eq. 3), and the theta estimator. */
+#include "unity.h"
+#include "fw_force.h"
+#include "fw_math.h"
+#include "test_util.h"
+
+/* paper probe: k_n K_n 10.68 nN/V, lateral 37.9 nN/V, h 17.3 um, l 100 um,
+ * mu 0.0865, adhesion 5 nN */
+#define KN 10680
+#define LAT 37900
+#define H_NM 17300
+#define L_NM 100000
+#define MU_PPM 86500
+#define ADH 5000
+
+static fw_force_t f;
+
+void setUp(void)
+{
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_init(&f, KN, LAT, H_NM, L_NM, MU_PPM, ADH));
+}
+void tearDown(void) {}
+
+/* double reference of the documented model, including the blend */
+static void ref_force(double sn, double sl, double c, double s, double out[3], int *unobs)
+{
+    double g = 2.0 * H_NM / L_NM;
+    double mu = MU_PPM / 1e6;
+    double fy = LAT * sl;
+    double n = KN * sn;
+    double as = fabs(s);
+    double fx = 0.0;
+    double lo = 4096.0 / 32768.0;
+    double hi = 8192.0 / 32768.0;
+    if (c == 0.0 && s == 0.0) {
+        s = 32767.0 / 32768.0;
+        as = s;
+    }
+    if (as >= lo) {
+        fx = fy * c / s;
+    }
+    *unobs = as < hi;
+    if (as < hi) {
+        double fb = -mu * c * (n + ADH) / (1.0 - mu * c * g);
+        double w = (as - lo) / (hi - lo);
+        fx = (as < lo) ? fb : w * fx + (1.0 - w) * fb;
+    }
+    out[0] = fx;
+    out[1] = fy;
+    out[2] = n - g * fx;
+}
+
+static void solve_deg(double theta_deg, q23_t sn, q23_t sl, int32_t fc[3], uint32_t *flags)
+{
+    double t = theta_deg * TU_PI / 180.0;
+    q15_t c = (q15_t)lround(cos(t) * 32767.0);
+    q15_t s = (q15_t)lround(sin(t) * 32767.0);
+    *flags = 0;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_pn(&f, sn, sl, c, s, fc, flags));
+}
+
+static void test_force_init_rejects_bad_probe(void)
+{
+    fw_force_t g;
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_init(&g, 0, LAT, H_NM, L_NM, MU_PPM, ADH));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_init(&g, KN, LAT, 0, L_NM, MU_PPM, ADH));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_init(&g, KN, LAT, H_NM, L_NM, 1000001, ADH));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_init(&g, KN, LAT, H_NM, L_NM, MU_PPM, -1));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_force_init(&g, KN, LAT, L_NM, L_NM, MU_PPM, ADH));
+    /* mu 2h/l = 1 * 1.8 > 1/2 */
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_force_init(&g, KN, LAT, 90000, L_NM, 1000000, ADH));
+}
+
+static void test_force_cot_theta_45_deg_gives_fx_equal_fy(void)
+{
+    int32_t fc[3];
+    uint32_t flags;
+    solve_deg(45.0, FW_Q23_ONE, FW_Q23_ONE, fc, &flags);
+    TEST_ASSERT_EQUAL_INT32(LAT, fc[1]);
+    TEST_ASSERT_INT32_WITHIN(2, LAT, fc[0]);
+    /* F_z = 10680 - 0.346 * 37900 */
+    TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(KN - 2.0 * H_NM / L_NM * LAT), fc[2]);
+    TEST_ASSERT_EQUAL_UINT32(0u, flags);
+}
+
+static void test_force_cot_theta_90_deg_gives_zero_fx(void)
+{
+    int32_t fc[3];
+    uint32_t flags;
+    solve_deg(90.0, 2 * FW_Q23_ONE, -FW_Q23_ONE, fc, &flags);
+    TEST_ASSERT_EQUAL_INT32(0, fc[0]);
+    TEST_ASSERT_EQUAL_INT32(-LAT, fc[1]);
+    TEST_ASSERT_EQUAL_INT32(2 * KN, fc[2]);
+}
+
+static void test_force_cot_theta_at_0_and_pi_uses_friction_fallback(void)
+{
+    /* theta = 0 and pi exactly, and one LSB of sin (1/32767) either side */
+    static const struct { int line; q15_t c; q15_t s; } rows[] = {
+        { __LINE__, 32767, 0 }, { __LINE__, 32767, 1 }, { __LINE__, 32767, -1 },
+        { __LINE__, -32767, 0 }, { __LINE__, -32767, 1 }, { __LINE__, -32767, -1 },
+        { __LINE__, 0, 0 },
+    };
+    size_t i;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        int32_t fc[3];
+        uint32_t flags = 0;
+        double ref[3];
+        int unobs;
+        q23_t sn = 3 * FW_Q23_ONE;
+        q23_t sl = FW_Q23_ONE / 100;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_pn(&f, sn, sl, rows[i].c, rows[i].s, fc, &flags));
+        ref_force(3.0, 0.01, rows[i].c / 32768.0, rows[i].s / 32768.0, ref, &unobs);
+        UNITY_TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(ref[0]), fc[0], rows[i].line, "F_x");
+        UNITY_TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(ref[2]), fc[2], rows[i].line, "F_z");
+        UNITY_TEST_ASSERT((flags & FW_FLAG_FX_UNOBSERVABLE) != 0u || (rows[i].c == 0 && rows[i].s == 0),
+                          rows[i].line, "unobservable flag");
+        UNITY_TEST_ASSERT((flags & FW_FLAG_SAT_FORCE) == 0u, rows[i].line, "no saturation");
+    }
+}
+
+static void test_force_friction_fallback_opposes_motion_along_lever(void)
+{
+    int32_t fc[3];
+    uint32_t flags;
+    /* moving +x (theta = 0) under load: friction on the tip points -x */
+    solve_deg(0.0, 2 * FW_Q23_ONE, 0, fc, &flags);
+    TEST_ASSERT_TRUE(fc[0] < 0);
+    solve_deg(180.0, 2 * FW_Q23_ONE, 0, fc, &flags);
+    TEST_ASSERT_TRUE(fc[0] > 0);
+}
+
+static double max_jump(double from_deg, double to_deg, double step_deg)
+{
+    double worst = 0.0;
+    int32_t prev[3];
+    double t;
+    bool first = true;
+    for (t = from_deg; t <= to_deg; t += step_deg) {
+        int32_t fc[3];
+        uint32_t flags;
+        int k;
+        solve_deg(t, 3 * FW_Q23_ONE, FW_Q23_ONE / 4, fc, &flags);
+        for (k = 0; k < 3 && !first; k++) {
+            TEST_ASSERT_TRUE(fc[k] != INT32_MAX && fc[k] != INT32_MIN);
+            if (fabs((double)fc[k] - prev[k]) > worst) {
+                worst = fabs((double)fc[k] - prev[k]);
+            }
+        }
+        prev[0] = fc[0];
+        prev[1] = fc[1];
+        prev[2] = fc[2];
+        first = false;
+    }
+    return worst;
+}
+
+static void test_force_sweep_through_0_and_pi_is_continuous(void)
+{
+    /* A jump would not shrink with the step; a continuous F_x does. */
+    double coarse0 = max_jump(-30.0, 30.0, 0.05);
+    double fine0 = max_jump(-30.0, 30.0, 0.005);
+    double coarse1 = max_jump(150.0, 210.0, 0.05);
+    double fine1 = max_jump(150.0, 210.0, 0.005);
+    printf("continuity: max step jump %.1f pN at 0.05 deg, %.1f pN at 0.005 deg (theta ~ 0); "
+           "%.1f / %.1f pN (theta ~ pi)\n", coarse0, fine0, coarse1, fine1);
+    TEST_ASSERT_TRUE(fine0 < 0.2 * coarse0 + 4.0);
+    TEST_ASSERT_TRUE(fine1 < 0.2 * coarse1 + 4.0);
+}
+
+static void test_force_sweep_matches_double_model(void)
+{
+    tu_rng_t rng;
+    tu_err_t e;
+    long i;
+    tu_rng_seed(&rng, 31);
+    tu_err_init(&e, "force_solve_pn", "pN", 1.0);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        q23_t sn = tu_rng_range(&rng, -25 * FW_Q23_ONE, 25 * FW_Q23_ONE);
+        q23_t sl = tu_rng_range(&rng, -10 * FW_Q23_ONE, 10 * FW_Q23_ONE);
+        q15_t c = (q15_t)tu_rng_range(&rng, -32767, 32767);
+        q15_t s = (q15_t)tu_rng_range(&rng, -32767, 32767);
+        int32_t fc[3];
+        uint32_t flags = 0;
+        double ref[3];
+        int unobs;
+        int k;
+        (void)fw_force_solve_pn(&f, sn, sl, c, s, fc, &flags);
+        ref_force(tu_q(sn, 23), tu_q(sl, 23), c / 32768.0, s / 32768.0, ref, &unobs);
+        for (k = 0; k < 3; k++) {
+            tu_err_add(&e, fc[k] - ref[k]);
+        }
+        TEST_ASSERT_EQUAL_INT(unobs, (flags & FW_FLAG_FX_UNOBSERVABLE) != 0u);
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(e.worst <= 1.0);
+}
+
+static void test_force_saturates_exactly_with_flag(void)
+{
+    fw_force_t g;
+    int32_t fc[3];
+    uint32_t flags = 0;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_init(&g, INT32_MAX, INT32_MAX, H_NM, L_NM, 0, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_pn(&g, FW_Q23_MAX, FW_Q23_MIN, 0, 32767, fc, &flags));
+    TEST_ASSERT_EQUAL_INT32(INT32_MIN, fc[1]);
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fc[2]);
+    TEST_ASSERT_TRUE((flags & FW_FLAG_SAT_FORCE) != 0u);
+    flags = 0;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_pn(&g, FW_Q23_MIN, FW_Q23_MAX, 23170, 23170, fc, &flags));
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fc[0]);
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fc[1]);
+    TEST_ASSERT_EQUAL_INT32(INT32_MIN, fc[2]);
+    TEST_ASSERT_TRUE((flags & FW_FLAG_SAT_FORCE) != 0u);
+    flags = 0;
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_solve_pn(&g, 0, 0, 0, 0, NULL, &flags));
+}
+
+static void test_force_rotate_scan_angle_0_maps_c_to_a_by_minus_270(void)
+{
+    int32_t vc[3] = { 1000, 0, 5 };
+    int32_t va[3];
+    bool sat = false;
+    /* scan angle 0 deg: alpha = -270 deg = +90 deg, x_C -> y_A */
+    fw_bam_t alpha = fw_math_bam_from_mdeg(-270000);
+    fw_force_rotate_pn(vc, fw_math_cos_q30(alpha), fw_math_sin_q30(alpha), va, &sat);
+    TEST_ASSERT_EQUAL_INT32(0, va[0]);
+    TEST_ASSERT_EQUAL_INT32(1000, va[1]);
+    TEST_ASSERT_EQUAL_INT32(5, va[2]);
+}
+
+/* ---- theta estimator ------------------------------------------------------ */
+
+static void test_theta_unknown_until_min_displacement_then_held(void)
+{
+    fw_theta_t t;
+    uint32_t flags = 0;
+    int32_t p[2] = { 0, 0 };
+    int i;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 0));
+    TEST_ASSERT_EQUAL_INT32(FW_THETA_MIN_DISP_DEFAULT_PM, t.min_disp_pm);
+    /* zero-length moves: unknown, default 90 deg */
+    for (i = 0; i < 20; i++) {
+        flags = 0;
+        fw_theta_step(&t, p, FW_Q30_ONE, 0, &flags);
+    }
+    TEST_ASSERT_TRUE((flags & FW_FLAG_THETA_UNKNOWN) != 0u);
+    TEST_ASSERT_EQUAL_INT16(0, t.cos_theta);
+    TEST_ASSERT_EQUAL_INT16(FW_Q15_MAX, t.sin_theta);
+    /* move along -x in 100 pm steps: after 10 steps 1000 pm over the window */
+    for (i = 1; i <= 10; i++) {
+        p[0] = -100 * i;
+        flags = 0;
+        fw_theta_step(&t, p, FW_Q30_ONE, 0, &flags);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, flags);
+    TEST_ASSERT_EQUAL_INT16(-FW_Q15_MAX, t.cos_theta);
+    TEST_ASSERT_EQUAL_INT16(0, t.sin_theta);
+    /* stop: direction held after the window empties of motion */
+    for (i = 0; i < 40; i++) {
+        flags = 0;
+        fw_theta_step(&t, p, FW_Q30_ONE, 0, &flags);
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, flags);
+    TEST_ASSERT_EQUAL_INT16(-FW_Q15_MAX, t.cos_theta);
+    fw_theta_reset(&t);
+    TEST_ASSERT_FALSE(t.known);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_theta_init(&t, -1));
+}
+
+static void test_theta_rotates_frame_a_motion_into_frame_c(void)
+{
+    fw_theta_t t;
+    uint32_t flags = 0;
+    int32_t p[2] = { 0, 0 };
+    fw_bam_t alpha = fw_math_bam_from_mdeg(90000);  /* scan angle 360 deg */
+    q30_t ca = fw_math_cos_q30(alpha);
+    q30_t sa = fw_math_sin_q30(alpha);
+    int i;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 500));
+    /* moving +y in A is moving +x in C when alpha = 90 deg */
+    for (i = 0; i < FW_THETA_WINDOW; i++) {
+        p[1] = 1000 * i;
+        fw_theta_step(&t, p, ca, sa, &flags);
+    }
+    TEST_ASSERT_EQUAL_INT16(FW_Q15_MAX, t.cos_theta);
+    TEST_ASSERT_EQUAL_INT16(0, t.sin_theta);
+    /* extreme coordinates: clamped displacement, still finite */
+    p[0] = INT32_MIN;
+    p[1] = INT32_MAX;
+    fw_theta_step(&t, p, ca, sa, &flags);
+    TEST_ASSERT_TRUE(t.known);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_force_init_rejects_bad_probe);
+    RUN_TEST(test_force_cot_theta_45_deg_gives_fx_equal_fy);
+    RUN_TEST(test_force_cot_theta_90_deg_gives_zero_fx);
+    RUN_TEST(test_force_cot_theta_at_0_and_pi_uses_friction_fallback);
+    RUN_TEST(test_force_friction_fallback_opposes_motion_along_lever);
+    RUN_TEST(test_force_sweep_through_0_and_pi_is_continuous);
+    RUN_TEST(test_force_sweep_matches_double_model);
+    RUN_TEST(test_force_saturates_exactly_with_flag);
+    RUN_TEST(test_force_rotate_scan_angle_0_maps_c_to_a_by_minus_270);
+    RUN_TEST(test_theta_unknown_until_min_displacement_then_held);
+    RUN_TEST(test_theta_rotates_frame_a_motion_into_frame_c);
+    return UNITY_END();
+}

@@ -1,0 +1,336 @@
+/* test_math.c - fw_math: saturation, roots, angles, CORDIC trig. */
+#include "unity.h"
+#include "fw_math.h"
+#include "test_util.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+/* ---- saturation at every format's MAXPOS / MAXNEG ---------------------- */
+
+typedef struct { int line; int32_t a; int32_t b; int32_t expect; bool sat; } sat_row_t;
+
+static void test_math_add_q31_saturates_exactly_at_maxpos_maxneg(void)
+{
+    static const sat_row_t rows[] = {
+        { __LINE__, FW_Q31_MAX, 1, FW_Q31_MAX, true },
+        { __LINE__, FW_Q31_MAX, FW_Q31_MAX, FW_Q31_MAX, true },
+        { __LINE__, FW_Q31_MIN, -1, FW_Q31_MIN, true },
+        { __LINE__, FW_Q31_MIN, FW_Q31_MIN, FW_Q31_MIN, true },
+        { __LINE__, FW_Q31_MAX, 0, FW_Q31_MAX, false },
+        { __LINE__, FW_Q31_MAX, FW_Q31_MIN, -1, false },
+        { __LINE__, FW_Q31_MAX - 1, 1, FW_Q31_MAX, false },
+    };
+    size_t i;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        bool sat = false;
+        int32_t r = fw_math_add_q31(rows[i].a, rows[i].b, &sat);
+        UNITY_TEST_ASSERT_EQUAL_INT32(rows[i].expect, r, rows[i].line, "add_q31");
+        UNITY_TEST_ASSERT(rows[i].sat == sat, rows[i].line, "add_q31 flag");
+    }
+}
+
+static void test_math_sub_q31_saturates_exactly(void)
+{
+    bool sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q31_MIN, fw_math_sub_q31(FW_Q31_MIN, 1, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q31_MAX, fw_math_sub_q31(0, FW_Q31_MIN, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(-FW_Q31_MAX, fw_math_sub_q31(0, FW_Q31_MAX, &sat));
+    TEST_ASSERT_FALSE(sat);
+}
+
+static void test_math_mul_minus_one_squared_saturates_to_maxpos(void)
+{
+    bool sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q31_MAX, fw_math_mul_q31(FW_Q31_MIN, FW_Q31_MIN, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT16(FW_Q15_MAX, fw_math_mul_q15(FW_Q15_MIN, FW_Q15_MIN, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    /* 2.30: (-2) * (-2) = 4 does not fit, nor (-2) * 2 = -4 */
+    TEST_ASSERT_EQUAL_INT32(FW_Q30_MAX, fw_math_mul_q30(FW_Q30_MIN, FW_Q30_MIN, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q30_MIN, fw_math_mul_q30(FW_Q30_MIN, FW_Q30_MAX, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    /* in-range products do not touch the flag */
+    TEST_ASSERT_EQUAL_INT32(FW_Q31_MIN + 1, fw_math_mul_q31(FW_Q31_MIN, FW_Q31_MAX, &sat));
+    TEST_ASSERT_EQUAL_INT16(-FW_Q15_MAX, fw_math_mul_q15(FW_Q15_MIN, FW_Q15_MAX, &sat));
+    TEST_ASSERT_EQUAL_INT32(FW_Q30_ONE, fw_math_mul_q30(FW_Q30_ONE, FW_Q30_ONE, &sat));
+    TEST_ASSERT_FALSE(sat);
+}
+
+static void test_math_scale_and_shift_saturate_q24_q23_q16(void)
+{
+    bool sat = false;
+    /* q24 max times 2.0 (q24 gain) */
+    TEST_ASSERT_EQUAL_INT32(FW_Q24_MAX, fw_math_scale_i32(FW_Q24_MAX, 2 * FW_Q24_ONE, FW_Q24_FRAC, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q23_MIN, fw_math_scale_i32(FW_Q23_MIN, 2 * FW_Q23_ONE, FW_Q23_FRAC, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q16_MAX, fw_math_shift_i32(FW_Q16_MAX, 1, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q16_MIN, fw_math_shift_i32(FW_Q16_MIN, 40, &sat));
+    TEST_ASSERT_TRUE(sat);
+    sat = false;
+    TEST_ASSERT_EQUAL_INT32(FW_Q16_MIN, fw_math_shift_i32(FW_Q16_MIN, 0, &sat));
+    TEST_ASSERT_EQUAL_INT32(-(1 << 15), fw_math_shift_i32(FW_Q16_MIN, -16, &sat));
+    TEST_ASSERT_EQUAL_INT32(0, fw_math_shift_i32(FW_Q16_MIN, -63, &sat));
+    /* symmetric rounding: -1.5 -> -2, 1.5 -> 2, -0.5 -> -1 */
+    TEST_ASSERT_EQUAL_INT32(-2, fw_math_scale_i32(-3, 1, 1, &sat));
+    TEST_ASSERT_EQUAL_INT32(2, fw_math_scale_i32(3, 1, 1, &sat));
+    TEST_ASSERT_EQUAL_INT32(-1, fw_math_scale_i32(-1, 1, 1, &sat));
+    TEST_ASSERT_FALSE(sat);
+}
+
+static void test_math_div_round_half_away_and_zero_den(void)
+{
+    TEST_ASSERT_EQUAL_INT64(2, fw_math_div_round_i64(3, 2));
+    TEST_ASSERT_EQUAL_INT64(-2, fw_math_div_round_i64(-3, 2));
+    TEST_ASSERT_EQUAL_INT64(-2, fw_math_div_round_i64(3, -2));
+    TEST_ASSERT_EQUAL_INT64(1, fw_math_div_round_i64(4, 3));
+    TEST_ASSERT_EQUAL_INT64(0, fw_math_div_round_i64(5, 0));
+    TEST_ASSERT_EQUAL_INT64(INT64_MAX, fw_math_div_round_i64(INT64_MIN, -1));
+}
+
+static void test_math_asr_floors_negative_values(void)
+{
+    TEST_ASSERT_EQUAL_INT64(-1, fw_math_asr_i64(-1, 5));
+    TEST_ASSERT_EQUAL_INT64(-2, fw_math_asr_i64(-3, 1));
+    TEST_ASSERT_EQUAL_INT64(INT64_MIN / 4, fw_math_asr_i64(INT64_MIN, 2));
+    TEST_ASSERT_EQUAL_INT64(-1, fw_math_rshift_round_i64(-3, 1));
+    TEST_ASSERT_EQUAL_INT64(2, fw_math_rshift_round_i64(3, 1));
+}
+
+/* ---- isqrt ------------------------------------------------------------- */
+
+static void check_isqrt(uint64_t v)
+{
+    uint32_t r = fw_math_isqrt_u64(v);
+    uint64_t r2 = (uint64_t)r * r;
+    TEST_ASSERT_TRUE(r2 <= v);
+    if (r != UINT32_MAX) {
+        TEST_ASSERT_TRUE((uint64_t)(r + 1u) * (r + 1u) > v);
+    }
+}
+
+static void test_math_isqrt_exact_at_edges_and_random(void)
+{
+    tu_rng_t rng;
+    long i;
+    check_isqrt(0);
+    check_isqrt(1);
+    check_isqrt(UINT64_MAX);
+    check_isqrt((uint64_t)UINT32_MAX * UINT32_MAX);
+    check_isqrt((uint64_t)UINT32_MAX * UINT32_MAX - 1u);
+    TEST_ASSERT_EQUAL_UINT32(UINT32_MAX, fw_math_isqrt_u64(UINT64_MAX));
+    TEST_ASSERT_EQUAL_UINT32(UINT32_MAX, fw_math_isqrt_round_u64(UINT64_MAX));
+    TEST_ASSERT_EQUAL_UINT32(2, fw_math_isqrt_round_u64(5));  /* 2.236 */
+    TEST_ASSERT_EQUAL_UINT32(3, fw_math_isqrt_round_u64(7));  /* 2.646 */
+    TEST_ASSERT_EQUAL_UINT32(2, fw_math_isqrt_round_u64(6));  /* 2.449 */
+    TEST_ASSERT_EQUAL_INT32(FW_Q30_ONE, fw_math_sqrt_q30(FW_Q30_ONE));
+    TEST_ASSERT_EQUAL_INT32(0, fw_math_sqrt_q30(-5));
+    tu_rng_seed(&rng, 11);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        uint64_t v = tu_rng_u64(&rng) >> (tu_rng_u32(&rng) % 64u);
+        check_isqrt(v);
+    }
+}
+
+/* ---- angles and trig --------------------------------------------------- */
+
+static void test_math_bam_mdeg_round_trip(void)
+{
+    TEST_ASSERT_EQUAL_UINT32(0u, fw_math_bam_from_mdeg(0));
+    TEST_ASSERT_EQUAL_UINT32(FW_BAM_QUARTER_TURN, fw_math_bam_from_mdeg(90000));
+    TEST_ASSERT_EQUAL_UINT32(FW_BAM_HALF_TURN, fw_math_bam_from_mdeg(-180000));
+    TEST_ASSERT_EQUAL_UINT32(0u - FW_BAM_QUARTER_TURN, fw_math_bam_from_mdeg(-90000));
+    TEST_ASSERT_EQUAL_UINT32(FW_BAM_QUARTER_TURN, fw_math_bam_from_mdeg(90000 + 5 * FW_MDEG_PER_TURN));
+    TEST_ASSERT_EQUAL_INT32(-180000, fw_math_mdeg_from_bam(FW_BAM_HALF_TURN));
+    TEST_ASSERT_EQUAL_INT32(45000, fw_math_mdeg_from_bam(fw_math_bam_from_mdeg(45000)));
+    TEST_ASSERT_EQUAL_INT32(-1, fw_math_mdeg_from_bam(fw_math_bam_from_mdeg(-1)));
+    /* INT32 extremes do not overflow */
+    (void)fw_math_bam_from_mdeg(INT32_MIN);
+    (void)fw_math_bam_from_mdeg(INT32_MAX);
+}
+
+static void test_math_sincos_exact_at_right_angles(void)
+{
+    static const struct { int line; fw_bam_t a; q30_t s; q30_t c; } rows[] = {
+        { __LINE__, 0u, 0, FW_Q30_ONE },
+        { __LINE__, FW_BAM_QUARTER_TURN, FW_Q30_ONE, 0 },
+        { __LINE__, FW_BAM_HALF_TURN, 0, -FW_Q30_ONE },
+        { __LINE__, 3u * FW_BAM_QUARTER_TURN, -FW_Q30_ONE, 0 },
+    };
+    size_t i;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        q30_t s;
+        q30_t c;
+        fw_math_sincos_q30(rows[i].a, &s, &c);
+        UNITY_TEST_ASSERT_EQUAL_INT32(rows[i].s, s, rows[i].line, "sin");
+        UNITY_TEST_ASSERT_EQUAL_INT32(rows[i].c, c, rows[i].line, "cos");
+    }
+}
+
+static void test_math_sincos_one_lsb_off_right_angles(void)
+{
+    /* one LSB of angle (1.46e-9 rad) either side of 0 and pi */
+    static const fw_bam_t angles[] = { 1u, 0xFFFFFFFFu, FW_BAM_HALF_TURN - 1u, FW_BAM_HALF_TURN + 1u,
+                                       FW_BAM_QUARTER_TURN - 1u, FW_BAM_QUARTER_TURN + 1u };
+    size_t i;
+    for (i = 0; i < sizeof angles / sizeof angles[0]; i++) {
+        double a = tu_bam_rad(angles[i]);
+        q30_t s;
+        q30_t c;
+        fw_math_sincos_q30(angles[i], &s, &c);
+        TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(sin(a) * TU_TWO_POW(30)), s);
+        TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(cos(a) * TU_TWO_POW(30)), c);
+    }
+}
+
+static void test_math_sincos_sweep_within_1_lsb(void)
+{
+    tu_rng_t rng;
+    tu_err_t es;
+    tu_err_t ec;
+    long i;
+    tu_rng_seed(&rng, 1);
+    tu_err_init(&es, "sin_q30", "(unit)", 1.0 / TU_TWO_POW(30));
+    tu_err_init(&ec, "cos_q30", "(unit)", 1.0 / TU_TWO_POW(30));
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        fw_bam_t a = tu_rng_u32(&rng);
+        q30_t s;
+        q30_t c;
+        double ar = tu_bam_rad(a);
+        fw_math_sincos_q30(a, &s, &c);
+        tu_err_add(&es, tu_q(s, 30) - sin(ar));
+        tu_err_add(&ec, tu_q(c, 30) - cos(ar));
+    }
+    tu_err_print(&es);
+    tu_err_print(&ec);
+    TEST_ASSERT_TRUE(tu_err_worst_lsb(&es) <= 1.0);
+    TEST_ASSERT_TRUE(tu_err_worst_lsb(&ec) <= 1.0);
+}
+
+static void test_math_atan2_axes_exact(void)
+{
+    TEST_ASSERT_EQUAL_UINT32(0u, fw_math_atan2_bam(0, 0));
+    TEST_ASSERT_EQUAL_UINT32(0u, fw_math_atan2_bam(0, 5));
+    TEST_ASSERT_EQUAL_UINT32(FW_BAM_HALF_TURN, fw_math_atan2_bam(0, -5));
+    TEST_ASSERT_EQUAL_UINT32(FW_BAM_QUARTER_TURN, fw_math_atan2_bam(7, 0));
+    TEST_ASSERT_EQUAL_UINT32(0u - FW_BAM_QUARTER_TURN, fw_math_atan2_bam(-7, 0));
+    TEST_ASSERT_EQUAL_UINT32(FW_BAM_HALF_TURN, fw_math_atan2_bam(0, INT32_MIN));
+    TEST_ASSERT_UINT32_WITHIN(2u, FW_BAM_HALF_TURN + FW_BAM_QUARTER_TURN / 2u,
+                              fw_math_atan2_bam(INT32_MIN, INT32_MIN));
+}
+
+static void test_math_atan2_sweep_within_1_lsb(void)
+{
+    tu_rng_t rng;
+    tu_err_t e;
+    long i;
+    tu_rng_seed(&rng, 2);
+    tu_err_init(&e, "atan2_bam", "rad", 2.0 * TU_PI / 4294967296.0);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        /* mix of magnitudes: full int32 and small vectors */
+        int sh = (int)(tu_rng_u32(&rng) % 31u);
+        int32_t y = (int32_t)tu_rng_u32(&rng) >> sh;
+        int32_t x = (int32_t)tu_rng_u32(&rng) >> sh;
+        fw_bam_t a = fw_math_atan2_bam(y, x);
+        double ref = atan2((double)y, (double)x);
+        tu_err_add(&e, tu_wrap_pi(tu_bam_rad(a) - ref));
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(tu_err_worst_lsb(&e) <= 1.0);
+}
+
+static void test_math_rad_bam_conversions(void)
+{
+    /* 1 rad */
+    fw_bam_t a = fw_math_bam_from_rad_q30(FW_Q30_ONE);
+    TEST_ASSERT_UINT32_WITHIN(1u, (uint32_t)llround(4294967296.0 / (2.0 * TU_PI)), a);
+    TEST_ASSERT_INT32_WITHIN(2, FW_Q30_ONE, fw_math_rad_q30_from_bam(a));
+    /* -1 rad wraps */
+    TEST_ASSERT_UINT32_WITHIN(1u, 0u - (uint32_t)llround(4294967296.0 / (2.0 * TU_PI)),
+                              fw_math_bam_from_rad_q30(-FW_Q30_ONE));
+    /* pi does not fit 2.30: saturates */
+    TEST_ASSERT_EQUAL_INT32(FW_Q30_MIN, fw_math_rad_q30_from_bam(FW_BAM_HALF_TURN));
+}
+
+static void test_math_unit_q15_sweep_and_zero_vector(void)
+{
+    tu_rng_t rng;
+    tu_err_t e;
+    q15_t c;
+    q15_t s;
+    long i;
+    TEST_ASSERT_FALSE(fw_math_unit_q15(0, 0, &c, &s));
+    TEST_ASSERT_EQUAL_INT16(0, c);
+    TEST_ASSERT_TRUE(fw_math_unit_q15(INT32_MIN, 0, &c, &s));
+    TEST_ASSERT_EQUAL_INT16(-FW_Q15_MAX, c);
+    TEST_ASSERT_EQUAL_INT16(0, s);
+    TEST_ASSERT_TRUE(fw_math_unit_q15(0, 1, &c, &s));
+    TEST_ASSERT_EQUAL_INT16(FW_Q15_MAX, s);
+    tu_rng_seed(&rng, 3);
+    tu_err_init(&e, "unit_q15", "(unit)", 1.0 / 32768.0);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        int sh = (int)(tu_rng_u32(&rng) % 31u);
+        int32_t y = (int32_t)tu_rng_u32(&rng) >> sh;
+        int32_t x = (int32_t)tu_rng_u32(&rng) >> sh;
+        double len = sqrt((double)x * x + (double)y * y);
+        if (!fw_math_unit_q15(x, y, &c, &s)) {
+            continue;
+        }
+        tu_err_add(&e, tu_q(c, 15) - x / len);
+        tu_err_add(&e, tu_q(s, 15) - y / len);
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(tu_err_worst_lsb(&e) <= 2.0);
+}
+
+static void test_math_rotate_quarter_turn_exact_and_saturates(void)
+{
+    int32_t x;
+    int32_t y;
+    bool sat = false;
+    fw_math_rotate_i32(1000, -7, 0, FW_Q30_ONE, &x, &y, &sat);
+    TEST_ASSERT_EQUAL_INT32(7, x);
+    TEST_ASSERT_EQUAL_INT32(1000, y);
+    TEST_ASSERT_FALSE(sat);
+    /* 45 deg of (MAX, MAX) has length sqrt2 MAX: saturates */
+    fw_math_rotate_i32(INT32_MAX, INT32_MAX, fw_math_cos_q30(FW_BAM_QUARTER_TURN / 2u),
+                       fw_math_sin_q30(FW_BAM_QUARTER_TURN / 2u), &x, &y, &sat);
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, y);
+    TEST_ASSERT_TRUE(sat);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_math_add_q31_saturates_exactly_at_maxpos_maxneg);
+    RUN_TEST(test_math_sub_q31_saturates_exactly);
+    RUN_TEST(test_math_mul_minus_one_squared_saturates_to_maxpos);
+    RUN_TEST(test_math_scale_and_shift_saturate_q24_q23_q16);
+    RUN_TEST(test_math_div_round_half_away_and_zero_den);
+    RUN_TEST(test_math_asr_floors_negative_values);
+    RUN_TEST(test_math_isqrt_exact_at_edges_and_random);
+    RUN_TEST(test_math_bam_mdeg_round_trip);
+    RUN_TEST(test_math_sincos_exact_at_right_angles);
+    RUN_TEST(test_math_sincos_one_lsb_off_right_angles);
+    RUN_TEST(test_math_sincos_sweep_within_1_lsb);
+    RUN_TEST(test_math_atan2_axes_exact);
+    RUN_TEST(test_math_atan2_sweep_within_1_lsb);
+    RUN_TEST(test_math_rad_bam_conversions);
+    RUN_TEST(test_math_unit_q15_sweep_and_zero_vector);
+    RUN_TEST(test_math_rotate_quarter_turn_exact_and_saturates);
+    return UNITY_END();
+}

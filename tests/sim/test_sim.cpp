@@ -1,0 +1,225 @@
+// Unity tests of the simulated AFM (sim_afm/) against closed forms and the
+// effect registry. Tolerances are stated per test, with their reason.
+#include <unity.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+#include "scene.hpp"
+#include "world.hpp"
+
+using afm::sim::World;
+
+namespace {
+
+const char *kBase = R"(name: unit
+seed: 3
+duration_s: 1
+sample_rate_hz: 20000
+block_hz: 1000
+frame_rate_hz: 25
+effects: [EFFECTS]
+sample:
+  substrate: glass
+  field_nm: 2000
+  tip_substrate: {mu: 0.1, adhesion_nN: 1.0}
+  particle_substrate: {mu: 0.3, adhesion_nN: 3.0}
+  drift_nm_per_min: [60, 0]
+objects:
+  particles:
+    - {id: 1, x_nm: 0, y_nm: 0, radius_nm: 50}
+operator:
+  load_nN: 5
+  path_nm: [[0, -300]]
+)";
+
+afm::Scene scene_with(const std::string &effects)
+{
+    std::string text = kBase;
+    text.replace(text.find("EFFECTS"), 7, effects);
+    char path[] = "/tmp/afm-test-sim-XXXXXX";
+    const int fd = mkstemp(path);
+    TEST_ASSERT_TRUE(fd >= 0);
+    close(fd);
+    std::ofstream(path) << text;
+    afm::Scene s = afm::load_scene(path);
+    unlink(path);
+    return s;
+}
+
+bool has(const std::vector<std::string> &v, const std::string &x)
+{
+    for (const auto &e : v)
+        if (e == x) return true;
+    return false;
+}
+
+}  // namespace
+
+void setUp() {}
+void tearDown() {}
+
+void test_particle_scene_builds_no_wire_drift_or_lithography_model()
+{
+    const afm::Scene s = scene_with("bending_offset");
+    World w(s);
+    const auto m = w.models_built();
+    TEST_ASSERT_TRUE(has(m, "particles"));
+    TEST_ASSERT_TRUE(has(m, "mechanics:compliant_lever"));
+    for (const auto &name : m) {
+        TEST_ASSERT_TRUE_MESSAGE(name.find("wire") == std::string::npos, name.c_str());
+        TEST_ASSERT_TRUE_MESSAGE(name.find("drift") == std::string::npos, name.c_str());
+        TEST_ASSERT_TRUE_MESSAGE(name.find("litho") == std::string::npos, name.c_str());
+        TEST_ASSERT_TRUE_MESSAGE(name.find("noise") == std::string::npos, name.c_str());
+    }
+    for (int i = 0; i < 1000; ++i) w.step();
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, w.drift().norm());   // no drift model, no drift
+}
+
+void test_drift_listed_runs_and_moves_the_sample()
+{
+    const afm::Scene s = scene_with("thermal_drift");
+    World w(s);
+    TEST_ASSERT_TRUE(has(w.models_built(), "thermal_drift"));
+    for (int i = 0; i < 20000; ++i) w.step();   // 1 s at 60 nm/min
+    // Pure linear drift (no random walk in this scene): 1 nm, to rounding.
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 1.0, w.drift().x());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 1.0, w.particle_position(0).x());
+    bool timed = false;
+    for (const auto &c : w.clocks())
+        if (c.name == "thermal_drift") timed = c.seconds > 0;
+    TEST_ASSERT_TRUE_MESSAGE(timed, "run.json must list thermal_drift with its time");
+}
+
+void test_force_along_the_lever_reads_as_normal_load()
+{
+    // Section 1: k_n K_n S_n = F_z + (2h/l) F_x for the beam (rel. 1e-12: same
+    // beam algebra, different route).
+    const afm::Scene s = scene_with("bending_offset");
+    const afm::sim::Lever lv(s.probe);
+    const double h = lv.h, l = lv.l, knKn = lv.kn * lv.Kn;
+    const double cases[][2] = {{0, 5}, {1, 5}, {-2, 0}, {3.5, -1}, {10, 10}};
+    for (const auto &c : cases) {
+        const double fx = c[0], fz = c[1];
+        const double expected = (fz + 2 * h / l * fx) / knKn;
+        TEST_ASSERT_DOUBLE_WITHIN(1e-12 * (1 + std::fabs(expected)), expected, lv.sn_volts(fx, fz));
+    }
+    // Lateral: S_l = F_y / (k_theta K_l / h).
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 1.0 / s.probe.lateral_nN_per_V, lv.sl_volts(1.0));
+}
+
+void test_apex_moves_forward_with_upward_bending()
+{
+    // The tip hangs h below the lever's end and turns with it: an upward bend
+    // (S_n > 0) swings the apex towards the free end (+x in frame C), by
+    // C_n S_n with C_n = 3 h K_n / (2 l) (sections 3, 4).
+    const afm::Scene s = scene_with("bending_offset");
+    const afm::sim::Lever lv(s.probe);
+    const double fz = 5.0;
+    const Eigen::Vector2d off = lv.apex_offset(Eigen::Vector2d::Zero(), fz);
+    const double cn = 3 * lv.h * lv.Kn / (2 * lv.l);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, cn * lv.sn_volts(0, fz), off.x());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 0.0, off.y());
+}
+
+void test_imaged_sphere_width_matches_tip_dilation_closed_form()
+{
+    // A sphere R under a tip (apex r_t, cone gamma) images as a bump whose
+    // foot is at rho_0 = (R + r_t + (R - r_t) sin g) / cos g and whose top is
+    // 2R. Bisection to 1e-6 nm; tolerance 1e-3 nm (golden-section search).
+    const afm::Scene s = scene_with("tip_convolution");
+    World w(s);
+    const double R = 50, rt = s.probe.tip_radius_nm, g = s.probe.tip_half_angle_deg * M_PI / 180.0;
+    const double rho0 = (R + rt + (R - rt) * std::sin(g)) / std::cos(g);
+    double lo = R, hi = 4 * R;
+    while (hi - lo > 1e-6) {
+        const double mid = 0.5 * (lo + hi);
+        (w.image_height(mid, 0) > 1e-9 ? lo : hi) = mid;
+    }
+    std::printf("imaged foot radius %.6f nm, closed form %.6f nm\n", lo, rho0);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-3, rho0, lo);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 2 * R, w.image_height(0, 0));
+    // Without tip convolution the image is the true topography: foot at R.
+    World bare(scene_with("bending_offset"));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, bare.image_height(R + 1e-6, 0));
+    TEST_ASSERT_TRUE(bare.image_height(R - 1e-3, 0) > 0);
+}
+
+void test_thermal_noise_level_is_kT_over_k()
+{
+    // <delta^2> = kT / k_n: the rms of K_n S_n over 2e5 samples of a lever
+    // under constant load; the standard error of an rms from N samples is
+    // 1/sqrt(2N) = 0.16%, so 1% tolerance.
+    const afm::Scene s = scene_with("photodiode_noise");
+    World w(s);
+    const int n = 200000;
+    double sum = 0, sum2 = 0;
+    for (int i = 0; i < n; ++i) {
+        const double v = w.step().sn_v;
+        sum += v;
+        sum2 += v * v;
+    }
+    const double mean = sum / n;
+    const double rms_nm = std::sqrt(sum2 / n - mean * mean) * s.probe.Kn_nm_per_V;
+    const double kT = 1.380649e-5 * s.temperature_K;   // nN nm
+    const double expected = std::sqrt(kT / s.probe.kn_N_per_m);
+    std::printf("deflection noise %.5f nm rms, sqrt(kT/k) %.5f nm\n", rms_nm, expected);
+    TEST_ASSERT_DOUBLE_WITHIN(0.01 * expected, expected, rms_nm);
+}
+
+void test_pushed_particle_slides_at_its_threshold_in_contact_ahead()
+{
+    // Push across the lever (+y) through the particle's centre: once it
+    // slides, the lateral force on the tip is tip friction + F_th (section 5)
+    // and the particle sits r_t + r_p ahead, less the contact's give F_th / k_c.
+    const afm::Scene s = scene_with("bending_offset, adhesion");
+    World w(s);
+    // Start with the apex (not the piezo) on the line x = 0.
+    const double cn_off = w.lever().normal_offset(s.op.load_nN).x();
+    w.command(Eigen::Vector2d(-cn_off, -300), s.op.load_nN, true);
+    for (int i = 0; i < 2000; ++i) w.step();
+    w.command(Eigen::Vector2d(-cn_off, 100), s.op.load_nN, true);
+    for (int i = 0; i < 20000; ++i) w.step();     // 20 um/s scanner limit: 20 ms per 400 nm, then rest
+    const double fth = s.particle_substrate.mu * s.particle_substrate.adhesion_nN;
+    const double friction = s.tip_substrate.mu * (s.op.load_nN + s.tip_substrate.adhesion_nN);
+    const double reach = s.probe.tip_radius_nm + 50 - fth / s.particle_contact_stiffness_N_per_m;
+    const Eigen::Vector2d p = w.particle_position(0);
+    std::printf("particle at (%.4f, %.4f), apex at (%.4f, %.4f), force (%.4f, %.4f) nN\n", p.x(), p.y(),
+                w.apex().x(), w.apex().y(), w.tip_force().x(), w.tip_force().y());
+    TEST_ASSERT_DOUBLE_WITHIN(0.05, reach, p.y() - w.apex().y());
+    TEST_ASSERT_DOUBLE_WITHIN(0.05, 0.0, p.x());
+    // At rest after the push the tip stays loaded by the particle (static):
+    // |F| <= friction + F_th.
+    TEST_ASSERT_TRUE(w.tip_force().head<2>().norm() <= friction + fth + 1e-6);
+}
+
+void test_same_seed_same_trajectory()
+{
+    const afm::Scene s = scene_with("bending_offset, photodiode_noise, thermal_drift");
+    World a(s), b(s);
+    a.command(Eigen::Vector2d(0, 100), 5, true);
+    b.command(Eigen::Vector2d(0, 100), 5, true);
+    for (int i = 0; i < 5000; ++i) {
+        const auto x = a.step(), y = b.step();
+        TEST_ASSERT_EQUAL_DOUBLE(x.sn_v, y.sn_v);
+        TEST_ASSERT_EQUAL_DOUBLE(x.sl_v, y.sl_v);
+    }
+    TEST_ASSERT_EQUAL_DOUBLE(a.particle_position(0).y(), b.particle_position(0).y());
+}
+
+int main()
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_particle_scene_builds_no_wire_drift_or_lithography_model);
+    RUN_TEST(test_drift_listed_runs_and_moves_the_sample);
+    RUN_TEST(test_force_along_the_lever_reads_as_normal_load);
+    RUN_TEST(test_apex_moves_forward_with_upward_bending);
+    RUN_TEST(test_imaged_sphere_width_matches_tip_dilation_closed_form);
+    RUN_TEST(test_thermal_noise_level_is_kT_over_k);
+    RUN_TEST(test_pushed_particle_slides_at_its_threshold_in_contact_ahead);
+    RUN_TEST(test_same_seed_same_trajectory);
+    return UNITY_END();
+}

@@ -1,0 +1,28 @@
+#!/usr/bin/env python3
+"""Generate afm_channels.h from lcmtypes/channels.yaml (the one definition of the bus's channels)."""
+import sys
+import yaml
+
+
+def main(src: str, dst: str) -> int:
+    with open(src) as f:
+        rows = yaml.safe_load(f)
+    lines = ["/* Generated from lcmtypes/channels.yaml by tools/gen_channels.py. Do not edit. */",
+             "#ifndef AFM_CHANNELS_H", "#define AFM_CHANNELS_H", ""]
+    for r in rows:
+        ch = r["channel"]
+        lines.append(f"/* {r['type']}, published by {r['publisher']}, {r['rate']} */")
+        lines.append(f'#define AFM_CH_{ch} "{ch}"')
+    lines.append("")
+    lines.append("#define AFM_CHANNEL_COUNT %d" % len(rows))
+    lines.append("#define AFM_CHANNEL_LIST { %s }" % ", ".join(f'"{r["channel"]}"' for r in rows))
+    lines += ["", "#endif", ""]
+    with open(dst, "w") as f:
+        f.write("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3:
+        sys.exit("usage: gen_channels.py channels.yaml afm_channels.h")
+    sys.exit(main(sys.argv[1], sys.argv[2]))

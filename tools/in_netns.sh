@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Runs a command in a fresh, private network namespace whose loopback is up
+# and carries the multicast route (design.md, "The bus"), so no LCM datagram
+# of the run can leave through the machine's network interface.
+#   tools/in_netns.sh CMD [ARGS...]
+# Tries a user namespace first (unshare -rn, no root needed); as root where
+# user namespaces are refused (a chroot), falls back to unshare -n. Exports
+# AFM_NETNS_MODE=rootless|root so the run can say which it used.
+set -euo pipefail
+[ $# -ge 1 ] || { echo "usage: tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
+command -v unshare >/dev/null || { echo "in_netns: unshare not found (util-linux)" >&2; exit 2; }
+command -v ip >/dev/null || { echo "in_netns: ip not found (iproute2; run ./afm setup)" >&2; exit 2; }
+inner='ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$@"'
+if unshare -rn true 2>/dev/null; then
+  AFM_NETNS_MODE=rootless exec unshare -rn sh -c "$inner" sh "$@"
+elif [ "$(id -u)" = 0 ] && unshare -n true 2>/dev/null; then
+  AFM_NETNS_MODE=root exec unshare -n sh -c "$inner" sh "$@"
+else
+  echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
+       "the bus must not run in the host's namespace" >&2
+  exit 2
+fi

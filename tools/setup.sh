@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# Installs what the bench needs and is missing, and nothing else:
+#   Debian packages (apt), the project's Python venv (.venv: LCM 1.5 from PyPI,
+#   numpy, matplotlib, PyYAML) and Unity (from Debian's cjson source package,
+#   hash checked, unpacked into build/_deps/unity).
+# Idempotent: a second run checks and returns in well under a second.
+# Usage: tools/setup.sh [--quiet]
+set -euo pipefail
+top=$(cd "$(dirname "$0")/.." && pwd)
+quiet=0; [ "${1:-}" = "--quiet" ] && quiet=1
+say() { [ $quiet = 1 ] || echo "setup: $*"; }
+die() { echo "setup: error: $*" >&2; exit 1; }
+
+# ---- Debian packages --------------------------------------------------------
+apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
+          python3 python3-venv libeigen3-dev libopencv-dev libglib2.0-dev
+          libyaml-cpp-dev xvfb valgrind gcc-arm-none-eabi libnewlib-arm-none-eabi
+          qemu-system-arm nlohmann-json3-dev)
+missing=()
+for p in "${apt_pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+# A JDK (javac + jar) for the lcm-spy types jar; any JDK 17+ already present will do.
+if ! command -v javac >/dev/null || ! command -v jar >/dev/null; then missing+=(default-jdk-headless); fi
+apt_updated=0
+apt_update_once() {
+  [ $apt_updated = 1 ] && return 0
+  say "apt-get update"
+  apt-get update -qq || die "apt-get update failed"
+  apt_updated=1
+}
+if [ ${#missing[@]} -gt 0 ]; then
+  [ "$(id -u)" = 0 ] || die "missing Debian packages (${missing[*]}); run as root or install them with apt-get"
+  apt_update_once
+  say "installing ${#missing[@]} Debian packages: ${missing[*]}"
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null \
+    || die "apt-get install failed for: ${missing[*]}"
+fi
+
+# ---- Python venv with LCM 1.5 ------------------------------------------------
+venv="$top/.venv"
+py_reqs="lcm==1.5.3 numpy matplotlib PyYAML"
+stamp="$venv/.afm-reqs"
+if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
+  say "creating Python venv in .venv ($py_reqs)"
+  /usr/bin/python3 -m venv "$venv" || die "python3 -m venv failed (is python3-venv installed?)"
+  "$venv/bin/pip" install -q --disable-pip-version-check $py_reqs || die "pip install failed: $py_reqs"
+  echo "$py_reqs" > "$stamp"
+fi
+
+# ---- Unity 2.4.3 from Debian's cjson source package ---------------------------
+unity_dir="$top/build/_deps/unity"
+cjson_sha=5308fd4bd90cef7aa060558514de6a1a4a0819974a26e6ed13973c5f624c24b2
+if [ ! -f "$unity_dir/.afm-ok" ]; then
+  dl="$top/build/_deps/cjson-src"
+  mkdir -p "$dl"
+  tarball=$(ls "$dl"/cjson_1.7.15.orig.tar.gz 2>/dev/null || true)
+  if [ -z "$tarball" ]; then
+    # apt-get source needs a deb-src entry mirroring the machine's deb entries.
+    if ! grep -rqsE '^(Types:.*deb-src|deb-src )' /etc/apt/sources.list /etc/apt/sources.list.d/; then
+      [ "$(id -u)" = 0 ] || die "no deb-src entry in /etc/apt and not root to add one"
+      src=/etc/apt/sources.list.d/afm-deb-src.sources
+      if [ -f /etc/apt/sources.list.d/debian.sources ]; then
+        sed -n 's/^Types: *deb *$/Types: deb-src/;p' /etc/apt/sources.list.d/debian.sources > "$src"
+      elif grep -qs '^deb ' /etc/apt/sources.list; then
+        src=/etc/apt/sources.list.d/afm-deb-src.list
+        sed -n 's/^deb /deb-src /p' /etc/apt/sources.list > "$src"
+      else
+        die "cannot find the machine's apt sources to mirror as deb-src"
+      fi
+      say "added deb-src entry $src"
+      apt_updated=0
+    fi
+    apt_update_once
+    say "downloading Debian's cjson source package (for Unity)"
+    (cd "$dl" && apt-get source --download-only -qq cjson=1.7.15-1+deb12u4 >/dev/null 2>&1 \
+       || apt-get source --download-only -qq cjson >/dev/null) || die "apt-get source cjson failed"
+    tarball="$dl/cjson_1.7.15.orig.tar.gz"
+    [ -f "$tarball" ] || die "expected $tarball after apt-get source"
+  fi
+  echo "$cjson_sha  $tarball" | sha256sum -c --quiet - || die "sha256 of $tarball does not match $cjson_sha"
+  rm -rf "$unity_dir"; mkdir -p "$unity_dir"
+  tar -xzf "$tarball" -C "$dl" cJSON-1.7.15/tests/unity
+  u="$dl/cJSON-1.7.15/tests/unity"
+  mkdir -p "$unity_dir/src" "$unity_dir/examples"
+  cp "$u/src/unity.c" "$u/src/unity.h" "$u/src/unity_internals.h" "$unity_dir/src/"
+  cp "$u/examples/unity_config.h" "$unity_dir/examples/"
+  cp "$u/docs/license.txt" "$unity_dir/LICENSE.txt" 2>/dev/null || true
+  touch "$unity_dir/.afm-ok"
+  say "Unity 2.4.3 unpacked into build/_deps/unity"
+fi
+say "ok"
