@@ -10,7 +10,7 @@
  *  1. S_n, S_l quantised (fw_acq.h), filtered, baseline subtracted.
  *  2. If S_n is saturated and an unsaturated reference exists, the virtual
  *     S_n' = S_n,ref + (z_ref - z_piezo) / K_n is used (FW_FLAG_VIRTUAL_SN).
- *  3. Apex estimate p_tip = p_piezo + R(alpha) [-C_n S_n, C_l S_l, 0].
+ *  3. Apex estimate p_tip = p_piezo + R(alpha) [+C_n S_n, C_l S_l, 0] (sign: fw_comp.h).
  *  4. theta from the apex motion over the last FW_THETA_WINDOW (16) samples;
  *     direction unknown below cfg.theta_min_disp_pm (default 1000 pm = 1 nm)
  *     of displacement over the window (last direction held; 90 deg before

@@ -2,10 +2,19 @@
  * fw_comp.h - position control and bending compensation (physics.md
  * section 4).
  *
- *   offset_C = [-C_n S_n, C_l S_l, 0]              (pm; C in pm/V, S in V)
+ *   offset_C = [+C_n S_n, C_l S_l, 0]              (pm; C in pm/V, S in V)
  *   p_tip    = p_piezo + R(alpha) offset_C          (apex estimate, frame A)
  *   p_cmd    = centre + kappa * r_half * p_joy      (joystick -> frame A)
  *   piezo    = p_cmd - R(alpha) offset_C            (puts the APEX at p_cmd)
+ *
+ * Sign of the bending term: the tip hangs h below the lever's free end and
+ * turns with it. S_n > 0 is the lever bent up (F_z = +k_n K_n S_n, eq. 1c);
+ * its end then tilts nose-up and swings the apex towards the free end, +x_C,
+ * by h times the slope, i.e. +C_n S_n (C_n = 3 h K_n / (2 l)). The same
+ * holds for the moment of F_x (eq. 1c: it adds to S_n and displaces the apex
+ * along +F_x, as a spring must). physics.md section 4 prints -C_n S_n, which
+ * contradicts its section 1 with x from base to tip; the paper (II-E) also
+ * finds the lines shifting along +x_C with deeper pushes.
  *
  * The joystick is 1.15 in [-1, 1); full deflection with kappa = 1 reaches
  * centre +- r_half (r_half = r_scan / 2), i.e. kappa r_scan p_joy with p_joy

@@ -30,7 +30,7 @@ void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v, int32_t off_a
                        bool *sat)
 {
     int32_t ox = fw_math_sat_i32(
-        -fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC), sat);
+        fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC), sat);
     int32_t oy = fw_math_scale_i32(c->cl_pm_per_v, sl_v, FW_Q23_FRAC, sat);
     int32_t ax;
     int32_t ay;

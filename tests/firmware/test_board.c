@@ -136,17 +136,17 @@ static void test_board_sn_past_10v_flags_and_uses_virtual_sn(void)
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&b, &in, &out));
     TEST_ASSERT_TRUE((out.flags & (FW_FLAG_SAT_SN | FW_FLAG_VIRTUAL_SN)) == (FW_FLAG_SAT_SN | FW_FLAG_VIRTUAL_SN));
     /* S_n' = 5 V + 1000/89 V. The bending offset moved the apex by
-     * -C_n dS_n along x_C: theta = 180 deg, friction fallback
-     * F_x = mu (N + F_adh) / (1 + mu 2h/l), F_z = N - (2h/l) F_x */
+     * +C_n dS_n along x_C: theta = 0, friction fallback against the motion
+     * F_x = -mu (N + F_adh) / (1 - mu 2h/l), F_z = N - (2h/l) F_x */
     {
         double n = 10680.0 * (5.0 + 1000.0 / 89.0);
         double g = 2.0 * 17300.0 / 100000.0;
-        double fx = 0.0865 * (n + 5000.0) / (1.0 + 0.0865 * g);
+        double fx = -0.0865 * (n + 5000.0) / (1.0 - 0.0865 * g);
         TEST_ASSERT_INT32_WITHIN(4, (int32_t)lround(fx), out.force_pn[0]);
         TEST_ASSERT_INT32_WITHIN(4, (int32_t)lround(n - g * fx), out.force_pn[2]);
     }
-    /* the apex uses S_n' too: x offset -C_n S_n' */
-    TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(-23100.0 * (5.0 + 1000.0 / 89.0)), out.tip_pm[0]);
+    /* the apex uses S_n' too: x offset +C_n S_n' */
+    TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(23100.0 * (5.0 + 1000.0 / 89.0)), out.tip_pm[0]);
     TEST_ASSERT_EQUAL_UINT32(2u, fw_board_sat_count(&b, FW_FLAG_SAT_SN));
     TEST_ASSERT_TRUE((fw_board_sticky_flags(&b) & FW_FLAG_VIRTUAL_SN) != 0u);
     fw_board_reset(&b);

@@ -24,12 +24,12 @@ static void test_comp_init_rejects_negative_constants(void)
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_comp_init(&d, 0, 0, 0u, NULL, 0, 0));
 }
 
-static void test_comp_offset_alpha_0_is_minus_cn_sn_plus_cl_sl(void)
+static void test_comp_offset_alpha_0_is_plus_cn_sn_plus_cl_sl(void)
 {
     int32_t off[3];
     bool sat = false;
     fw_comp_offset_pm(&c, FW_Q23_ONE, 2 * FW_Q23_ONE, off, &sat);
-    TEST_ASSERT_EQUAL_INT32(-23100, off[0]);
+    TEST_ASSERT_EQUAL_INT32(23100, off[0]);
     TEST_ASSERT_EQUAL_INT32(46200, off[1]);
     TEST_ASSERT_EQUAL_INT32(0, off[2]);
     TEST_ASSERT_FALSE(sat);
@@ -41,10 +41,10 @@ static void test_comp_offset_alpha_90_rotates_into_frame_a(void)
     int32_t off[3];
     bool sat = false;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_comp_init(&d, 23100, 10000, FW_BAM_QUARTER_TURN, centre, 0, 0));
-    /* C offset (-23100, 10000) -> A (-10000, -23100) */
+    /* C offset (23100, 10000) -> A (-10000, 23100) */
     fw_comp_offset_pm(&d, FW_Q23_ONE, FW_Q23_ONE, off, &sat);
     TEST_ASSERT_EQUAL_INT32(-10000, off[0]);
-    TEST_ASSERT_EQUAL_INT32(-23100, off[1]);
+    TEST_ASSERT_EQUAL_INT32(23100, off[1]);
 }
 
 static void test_comp_target_full_deflection_reaches_half_range(void)
@@ -75,7 +75,7 @@ static void test_comp_target_saturates_exactly_at_extremes(void)
     {
         int32_t off[3];
         fw_comp_offset_pm(&d, FW_Q23_MAX, FW_Q23_MIN, off, &sat);
-        TEST_ASSERT_EQUAL_INT32(INT32_MIN, off[0]);
+        TEST_ASSERT_EQUAL_INT32(INT32_MAX, off[0]);
         TEST_ASSERT_EQUAL_INT32(INT32_MIN, off[1]);
         TEST_ASSERT_TRUE(sat);
     }
@@ -132,7 +132,7 @@ int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_comp_init_rejects_negative_constants);
-    RUN_TEST(test_comp_offset_alpha_0_is_minus_cn_sn_plus_cl_sl);
+    RUN_TEST(test_comp_offset_alpha_0_is_plus_cn_sn_plus_cl_sl);
     RUN_TEST(test_comp_offset_alpha_90_rotates_into_frame_a);
     RUN_TEST(test_comp_target_full_deflection_reaches_half_range);
     RUN_TEST(test_comp_target_saturates_exactly_at_extremes);

@@ -1,0 +1,15 @@
+# Fails if any firmware source or header names a floating-point type.
+# cmake -DFW_DIR=firmware -P check_no_float.cmake
+file(GLOB_RECURSE files "${FW_DIR}/src/*.c" "${FW_DIR}/include/*.h")
+set(bad "")
+foreach(f ${files})
+  file(STRINGS "${f}" hits REGEX "(^|[^A-Za-z_])(float|double|long double|_Complex)([^A-Za-z_]|$)")
+  if(hits)
+    list(APPEND bad "${f}: ${hits}")
+  endif()
+endforeach()
+if(bad)
+  message(FATAL_ERROR "floating point in firmware/:\n${bad}")
+endif()
+list(LENGTH files n)
+message(STATUS "no float/double in ${n} firmware files")
