@@ -16,6 +16,9 @@ namespace afm {
 // udpm on loopback only: ttl=0, a 4 MB receive buffer (design.md, "The bus").
 constexpr const char *kBusUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
 constexpr const char *kBusGroup = "239.255.76.67";
+// Messages a subscription may hold before LCM drops (its default is 30, which
+// a process starved of CPU for a few ms exceeds).
+constexpr int kQueueCapacity = 10000;
 
 // True when datagrams to the bus's multicast group are routed through the
 // loopback interface only (the run's private namespace). `why` says what was

@@ -207,9 +207,9 @@ int main(int argc, char **argv)
         auto lc = afm::open_bus();
         Node node(scene, *lc);
         node.crash_at = crash_at;
-        lc->subscribe(AFM_CH_AFM_ANALOG, &Node::on_analog, &node);
-        lc->subscribe(AFM_CH_HAPTIC_POSE, &Node::on_pose, &node);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Node::on_heartbeat, &node);
+        lc->subscribe(AFM_CH_AFM_ANALOG, &Node::on_analog, &node)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_HAPTIC_POSE, &Node::on_pose, &node)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Node::on_heartbeat, &node)->setQueueCapacity(afm::kQueueCapacity);
         while (!node.sim_done) {
             node.hb.maybe_send(node.done < 0 ? "ready" : "running", node.done,
                                node.done < 0 ? 0 : afm::block_end_utime(scene, node.done), node.done < 0 ? 200000 : 1000000);

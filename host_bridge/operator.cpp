@@ -94,8 +94,8 @@ int main(int argc, char **argv)
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
         Operator op(scene, *lc);
-        lc->subscribe(AFM_CH_HAPTIC_FORCE, &Operator::on_force, &op);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Operator::on_heartbeat, &op);
+        lc->subscribe(AFM_CH_HAPTIC_FORCE, &Operator::on_force, &op)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Operator::on_heartbeat, &op)->setQueueCapacity(afm::kQueueCapacity);
         while (!op.sim_done) {
             op.hb.maybe_send(op.answered < 0 ? "ready" : "running", op.answered, 0, op.answered < 0 ? 200000 : 1000000);
             lc->handleTimeout(100);

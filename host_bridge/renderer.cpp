@@ -316,11 +316,11 @@ int main(int argc, char **argv)
         std::filesystem::create_directories(out_dir + "/frames");
         auto lc = afm::open_bus();
         Renderer r(scene, *lc, out_dir);
-        lc->subscribe(AFM_CH_AFM_SCAN_LINE, &Renderer::on_line, &r);
-        lc->subscribe(AFM_CH_FW_TIP, &Renderer::on_tip, &r);
-        lc->subscribe(AFM_CH_FW_FORCE, &Renderer::on_force, &r);
-        lc->subscribe(AFM_CH_FW_OBJECTS, &Renderer::on_objects, &r);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Renderer::on_heartbeat, &r);
+        lc->subscribe(AFM_CH_AFM_SCAN_LINE, &Renderer::on_line, &r)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_FW_TIP, &Renderer::on_tip, &r)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_FW_FORCE, &Renderer::on_force, &r)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_FW_OBJECTS, &Renderer::on_objects, &r)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Renderer::on_heartbeat, &r)->setQueueCapacity(afm::kQueueCapacity);
 
         // The full scan first (re-requesting lines lost on the way).
         r.hb.send("starting", -1, 0, "scanning");

@@ -26,18 +26,25 @@
 #include "afm/sim_truth_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "bus.hpp"
+#include "log_tail.hpp"
 #include "scene.hpp"
 #include "world.hpp"
 
 namespace {
 
 const char *kUsage =
-    "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS]\n"
+    "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS] [--follow-log LOG]\n"
     "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
     "  network namespace. --inject-drop P drops the first transmission of each\n"
-    "  analog block with probability P (failure injection: tests the resend path).\n";
+    "  analog block with probability P (failure injection: tests the resend path).\n"
+    "  --follow-log LOG: stay within a few messages of what lcm-logger has written to LOG.\n";
 
 constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line reads these
+// With --follow-log, the simulator stays at most this many analog blocks (about
+// 8 messages each) and scan lines ahead of what lcm-logger has written, so
+// the logger's 30-message queue never overflows (log_tail.hpp).
+constexpr int64_t kLogWindowBlocks = 3;
+constexpr int64_t kLogWindowLines = 16;
 
 struct Sim {
     const afm::Scene &scene;
@@ -47,6 +54,8 @@ struct Sim {
 
     std::set<std::string> ready;       // peers that said ready
     bool go = false;                   // launcher said running
+    std::unique_ptr<afm::LogTail> log;  // --follow-log
+    int64_t log_waits = 0;             // times the run waited for the logger
     bool abort = false;
     int64_t acked = -1;                // last acknowledged block
     int frames_done = 0;               // frames the renderer has written
@@ -55,6 +64,19 @@ struct Sim {
     int64_t scan_lines_sent = 0;
 
     Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
+
+    // Waits (briefly sleeping) until the log holds analog block `seq` and
+    // `lines` scan lines.
+    void wait_for_log(int64_t seq, int64_t lines)
+    {
+        if (!log) return;
+        for (;;) {
+            log->poll();
+            if (log->last_analog_seq() >= seq && log->scan_lines() >= lines) return;
+            ++log_waits;
+            std::this_thread::sleep_for(std::chrono::microseconds(200));
+        }
+    }
 
     void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
     {
@@ -99,10 +121,9 @@ struct Sim {
             line.defl_v.assign(m->nx, world.scan_sn_v());
             line.lat_v.assign(m->nx, world.scan_sl_v());
             for (int i = 0; i < m->nx; ++i) line.height_nm[i] = world.image_height(line.x0_nm + i * dx, line.y_nm);
+            wait_for_log(-1, scan_lines_sent - kLogWindowLines);
             lc.publish(AFM_CH_AFM_SCAN_LINE, &line);
             ++scan_lines_sent;
-            // Pace large scans so the receiver's buffer keeps up.
-            if ((j & 15) == 15) lc.handleTimeout(0);
         }
     }
 };
@@ -135,7 +156,7 @@ afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int6
 
 int main(int argc, char **argv)
 {
-    std::string scene_path, out_dir;
+    std::string scene_path, out_dir, follow_log;
     double drop_p = 0;
     int resend_ms = 100;
     for (int i = 1; i < argc; ++i) {
@@ -151,6 +172,7 @@ int main(int argc, char **argv)
         else if (a == "--out") out_dir = val("--out");
         else if (a == "--inject-drop") drop_p = std::atof(val("--inject-drop").c_str());
         else if (a == "--resend-ms") resend_ms = std::atoi(val("--resend-ms").c_str());
+        else if (a == "--follow-log") follow_log = val("--follow-log");
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
@@ -162,10 +184,11 @@ int main(int argc, char **argv)
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
         Sim sim(scene, *lc);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Sim::on_heartbeat, &sim);
-        lc->subscribe(AFM_CH_AFM_CMD, &Sim::on_cmd, &sim);
-        lc->subscribe(AFM_CH_RENDER_FRAME, &Sim::on_frame, &sim);
-        lc->subscribe(AFM_CH_AFM_SCAN_REQ, &Sim::on_scan_req, &sim);
+        if (!follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(follow_log);
+        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Sim::on_heartbeat, &sim)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_AFM_CMD, &Sim::on_cmd, &sim)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_RENDER_FRAME, &Sim::on_frame, &sim)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_AFM_SCAN_REQ, &Sim::on_scan_req, &sim)->setQueueCapacity(afm::kQueueCapacity);
 
         // Start: serve scans until every peer is ready and the launcher says go.
         const std::set<std::string> peers = {"fw_node", "operator", "renderer"};
@@ -194,6 +217,7 @@ int main(int argc, char **argv)
             sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, true);
         }
         for (int64_t n = 0; n < blocks; ++n) {
+            sim.wait_for_log(n - kLogWindowBlocks, 0);
             blk.seq = n;
             blk.utime = std::llround(n * 1e6 / scene.block_hz);
             for (int i = 0; i < spb; ++i) {
@@ -255,7 +279,7 @@ int main(int argc, char **argv)
         const auto built = sim.world.models_built();
         for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
         rep << "],\n  \"blocks\": " << blocks << ",\n  \"samples\": " << blocks * spb
-            << ",\n  \"resends\": " << resends << ",\n  \"injected_drops\": " << dropped
+            << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits << ",\n  \"injected_drops\": " << dropped
             << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent << "\n}\n";
         rep.close();
         if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");
