@@ -305,13 +305,18 @@ Scene load_scene(const std::string &path)
     // outputs
     YAML::Node out = root["outputs"];
     if (out.IsDefined() && !out.IsNull()) {
-        r.only_keys(out, "outputs", {"image_px", "video", "png"});
+        r.only_keys(out, "outputs", {"image_px", "video", "png", "trails", "contact_sheet_frames"});
         const double px = r.num(out, "outputs", "image_px", nullptr, 16, 4096);
         if (px != std::floor(px)) r.fail("outputs.image_px", "must be an integer, got " + Reader::show(out["image_px"]));
         s.out.image_px = static_cast<int>(px);
         const std::string mp4 = "mp4";
         s.out.video = r.str(out, "outputs", "video", &mp4, {"mp4", "avi", "none"});
         s.out.png = r.boolean(out, "outputs", "png", true);
+        s.out.trails = r.boolean(out, "outputs", "trails", false);
+        const double csf = 16;
+        const double sheet = r.num(out, "outputs", "contact_sheet_frames", &csf, 0, 100);
+        if (sheet != std::floor(sheet)) r.fail("outputs.contact_sheet_frames", "must be an integer, got " + Reader::show(out["contact_sheet_frames"]));
+        s.out.contact_sheet_frames = static_cast<int>(sheet);
     }
     return s;
 }

@@ -50,6 +50,8 @@ struct OutputSpec {
     int image_px = 256;                 // square image size
     std::string video = "mp4";          // mp4 (mp4v) or avi (MJPG)
     bool png = true;                    // write frames/*.png
+    bool trails = false;                // draw past object positions (the paper's fig. 18d)
+    int contact_sheet_frames = 16;      // frames in contact_sheet.png (0: none)
 };
 
 struct Scene {
