@@ -19,8 +19,8 @@ const std::vector<EffectInfo> &known_effects()
         {"tip_convolution", true, "scans show the surface dilated by the tip"},
         {"particle_contacts", true, "a pushed particle pushes the particles it touches"},
         {"thermal_drift", true, "sample drift against the tip: linear plus random walk"},
-        {"wire_flexibility", false, "wires as chains of bending segments"},
-        {"lithography", false, "trenches inscribed above a load threshold"},
+        {"wire_flexibility", true, "wires as chains of N bending segments (sample.wire.segments)"},
+        {"lithography", true, "trenches inscribed above a load threshold (sample.lithography)"},
     };
     return effects;
 }
@@ -219,8 +219,39 @@ Scene load_scene(const std::string &path)
     if (!smp.IsDefined()) r.fail("sample", "required value is missing");
     r.only_keys(smp, "sample", {"substrate", "field_nm", "field_center_nm", "tip_substrate", "particle_substrate",
                                 "contact_stiffness_N_per_m", "photodiode_noise_V", "temperature_K",
-                                "drift_nm_per_min", "drift_walk_nm_per_sqrt_min"});
-    s.substrate = r.str(smp, "sample", "substrate", nullptr, {"glass"});
+                                "drift_nm_per_min", "drift_walk_nm_per_sqrt_min", "slope_deg", "wire",
+                                "lithography"});
+    s.substrate = r.str(smp, "sample", "substrate", nullptr, {"glass", "tilted_glass", "polycarbonate"});
+    if (s.substrate == "tilted_glass") {
+        s.slope_deg = r.num(smp, "sample", "slope_deg", nullptr, 0, 45, true);
+    } else if (smp["slope_deg"].IsDefined()) {
+        r.fail("sample.slope_deg", "only a tilted_glass substrate has a slope, got " + Reader::show(smp["slope_deg"]));
+    }
+    YAML::Node wm = smp["wire"];
+    if (wm.IsDefined() && !wm.IsNull()) {
+        r.only_keys(wm, "sample.wire", {"friction_nN_per_um", "youngs_modulus_GPa", "segments", "friction_points", "relax_sweeps"});
+        const WireModelSpec wd;
+        s.wire_model.friction_nN_per_um = r.num(wm, "sample.wire", "friction_nN_per_um", &wd.friction_nN_per_um, 0, 1e4, true);
+        s.wire_model.youngs_modulus_GPa = r.num(wm, "sample.wire", "youngs_modulus_GPa", &wd.youngs_modulus_GPa, 0, 2000, true);
+        auto whole = [&](const char *k, int dflt, double lo, double hi) {
+            const double dv = dflt;
+            const double v = r.num(wm, "sample.wire", k, &dv, lo, hi);
+            if (v != std::floor(v)) r.fail(std::string("sample.wire.") + k, "must be an integer, got " + Reader::show(wm[k]));
+            return static_cast<int>(v);
+        };
+        s.wire_model.segments = whole("segments", wd.segments, 2, 1024);
+        s.wire_model.friction_points = whole("friction_points", wd.friction_points, 4, 100000);
+        s.wire_model.relax_sweeps = whole("relax_sweeps", wd.relax_sweeps, 1, 10000);
+    }
+    YAML::Node li = smp["lithography"];
+    if (li.IsDefined() && !li.IsNull()) {
+        r.only_keys(li, "sample.lithography", {"threshold_nN", "depth_nm_per_nN"});
+        const LithoSpec ld;
+        s.litho.threshold_nN = r.num(li, "sample.lithography", "threshold_nN", &ld.threshold_nN, 0, 1e4);
+        s.litho.depth_nm_per_nN = r.num(li, "sample.lithography", "depth_nm_per_nN", &ld.depth_nm_per_nN, 0, 1e4, true);
+    }
+    if (std::find(s.effects.begin(), s.effects.end(), "lithography") != s.effects.end() && s.substrate != "polycarbonate")
+        r.fail("sample.substrate", "the lithography effect needs a polycarbonate substrate, got " + Reader::show(smp["substrate"]));
     s.field_nm = r.num(smp, "sample", "field_nm", nullptr, 0, 90000, true);
     if (smp["field_center_nm"].IsDefined()) s.field_center_nm = r.vec2(smp["field_center_nm"], "sample.field_center_nm", -45000, 45000);
     s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0});
@@ -260,7 +291,7 @@ Scene load_scene(const std::string &path)
     // objects
     YAML::Node obj = root["objects"];
     if (obj.IsDefined() && !obj.IsNull()) {
-        r.only_keys(obj, "objects", {"particles"});
+        r.only_keys(obj, "objects", {"particles", "wires"});
         YAML::Node ps = obj["particles"];
         if (ps.IsDefined() && !ps.IsNull()) {
             if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
@@ -278,6 +309,31 @@ Scene load_scene(const std::string &path)
                 for (const auto &o : s.particles)
                     if (o.id == q.id) r.fail(p + ".id", "duplicate particle id " + Reader::show(ps[i]["id"]));
                 s.particles.push_back(q);
+            }
+        }
+        YAML::Node ws = obj["wires"];
+        if (ws.IsDefined() && !ws.IsNull()) {
+            if (!ws.IsSequence()) r.fail("objects.wires", "must be a list, got " + Reader::show(ws));
+            const double half = s.field_nm / 2;
+            const double cx = s.field_center_nm.x, cy = s.field_center_nm.y;
+            for (std::size_t i = 0; i < ws.size(); ++i) {
+                const std::string p = "objects.wires[" + std::to_string(i) + "]";
+                r.only_keys(ws[i], p, {"id", "x0_nm", "y0_nm", "x1_nm", "y1_nm", "diameter_nm"});
+                WireSpec w;
+                const double id = r.num(ws[i], p, "id", nullptr, 0, 1e6);
+                if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ws[i]["id"]));
+                w.id = static_cast<int>(id);
+                w.x0_nm = r.num(ws[i], p, "x0_nm", nullptr, cx - half, cx + half);
+                w.y0_nm = r.num(ws[i], p, "y0_nm", nullptr, cy - half, cy + half);
+                w.x1_nm = r.num(ws[i], p, "x1_nm", nullptr, cx - half, cx + half);
+                w.y1_nm = r.num(ws[i], p, "y1_nm", nullptr, cy - half, cy + half);
+                w.diameter_nm = r.num(ws[i], p, "diameter_nm", nullptr, 0, 5000, true);
+                if (std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm) < w.diameter_nm)
+                    r.fail(p, "a wire must be longer than its diameter, got length " +
+                                  std::to_string(std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm)) + " nm");
+                for (const auto &o : s.wires)
+                    if (o.id == w.id) r.fail(p + ".id", "duplicate wire id " + Reader::show(ws[i]["id"]));
+                s.wires.push_back(w);
             }
         }
     }

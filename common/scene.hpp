@@ -39,6 +39,24 @@ struct ContactSpec {                    // friction and adhesion of a material p
 
 struct ParticleSpec { int id = 0; double x_nm = 0, y_nm = 0, radius_nm = 50; };
 
+// A nanowire lying on the substrate, from end A (x0, y0) to end B (x1, y1).
+struct WireSpec { int id = 0; double x0_nm = 0, y0_nm = 0, x1_nm = 0, y1_nm = 0, diameter_nm = 100; };
+
+// How wires sit on the substrate and how finely the simulator resolves them.
+struct WireModelSpec {
+    double friction_nN_per_um = 20.0;   // f: wire-substrate Coulomb friction per length (f L = physics.md eq. 23)
+    double youngs_modulus_GPa = 83.0;   // E (silver); EI = E pi d^4 / 64 (wire_flexibility)
+    int segments = 32;                  // N: segments of a flexible wire (wire_flexibility)
+    int friction_points = 64;           // K: points integrating the distributed friction of a rigid rod
+    int relax_sweeps = 8;               // Gauss-Seidel sweeps over a flexible wire per sample
+};
+
+// Nanolithography on polycarbonate (physics.md section 9).
+struct LithoSpec {
+    double threshold_nN = 20.0;         // load below which the tip removes nothing
+    double depth_nm_per_nN = 2.0;       // depth = depth_nm_per_nN * (load - threshold)
+};
+
 struct OperatorSpec {
     double load_nN = 5.0;               // normal load while engaged
     double speed_nm_per_s = 1000.0;     // apex speed along the path
@@ -65,7 +83,8 @@ struct Scene {
     std::string time_mode = "lockstep"; // lockstep or realtime
     std::vector<std::string> effects;   // effects the simulator builds
     // sample
-    std::string substrate = "glass";
+    std::string substrate = "glass";   // glass, tilted_glass or polycarbonate
+    double slope_deg = 0.0;             // tilted_glass: surface height = -y tan(slope) (rises towards -y, frame A)
     double field_nm = 5000.0;           // square field side, centred on field_center_nm
     Vec2 field_center_nm;
     ContactSpec tip_substrate;          // tip on substrate
@@ -78,6 +97,9 @@ struct Scene {
     ProbeSpec probe;
     int adc_bits = 16;
     std::vector<ParticleSpec> particles;
+    std::vector<WireSpec> wires;
+    WireModelSpec wire_model;
+    LithoSpec litho;
     OperatorSpec op;
     OutputSpec out;
 

@@ -221,7 +221,8 @@ int main(int argc, char **argv)
             return 2;
         }
         for (const char *old : {"frames", "logs", "bus.lcmlog", "run.json", "video.mp4", "video.avi", "sim_report.json",
-                                "renderer_report.json", "operator_report.json", "scan_initial.png"})
+                                "renderer_report.json", "operator_report.json", "scan_initial.png", "contact_sheet.png",
+                                "scan_initial.gsf", "scan_final.gsf", "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
             fs::remove_all(fs::path(out_dir) / old);
         fs::create_directories(fs::path(out_dir) / "logs");
         fs::create_directories(fs::path(out_dir) / "frames");
@@ -419,12 +420,12 @@ int main(int argc, char **argv)
     run["channels"] = json::object();
     for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
     if (!log_err.empty()) run["log_error"] = log_err;
-    for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json"}) {
+    for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fidelity.json"}) {
         std::ifstream f(out + "/" + rep);
         if (!f) continue;
         json j = json::parse(f, nullptr, false);
         if (j.is_discarded()) { run["report_errors"].push_back(rep + ": not valid JSON"); continue; }
-        const std::string key = rep.substr(0, rep.find('_'));
+        const std::string key = rep.substr(0, rep.find_first_of("_."));
         if (key == "sim" && j.contains("effects")) run["effects"] = j["effects"];
         run[key] = j;
     }
@@ -438,7 +439,9 @@ int main(int argc, char **argv)
                          static_cast<long long>(analog_seqs), static_cast<long long>(sent));
     }
     json outs = {"bus.lcmlog", "run.json", "frames/"};
-    for (const char *v : {"video.mp4", "video.avi"}) if (fs::exists(out + "/" + v)) outs.push_back(v);
+    for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",
+                          "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
+        if (fs::exists(out + "/" + v)) outs.push_back(v);
     run["outputs"] = outs;
     {
         std::ofstream f(out + "/run.json");
@@ -461,6 +464,12 @@ int main(int argc, char **argv)
     std::printf("run: ok: %.2f simulated s in %.2f wall s (%.2f sim s per wall s), %d frames, %lld bus messages\n", sim_s, wall,
                 wall > 0 ? sim_s / wall : 0.0, frames,
                 static_cast<long long>(messages));
+    if (run.contains("fidelity")) {
+        const json &fj = run["fidelity"];
+        std::printf("run: fidelity (display vs a fresh scan at frame %d): max object position error %.2f nm, RMS height difference %.2f nm (%s)\n",
+                    fj.value("frame", 0), fj.value("max_position_error_nm", -1.0), fj.value("rms_height_error_nm", -1.0),
+                    fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
+    }
     std::printf("run: output in %s\n", out.c_str());
     return 0;
 }

@@ -1,13 +1,18 @@
-// renderer: the videolized display, off-screen. Starts from a full scan, then
-// updates the image locally from the firmware's object states (erase each
-// moved object's old footprint, draw the new one with the profile a scan
-// would show), draws the tip and the measured force, and writes a PNG per
-// frame and a video at the scene's frame rate. Lockstep: it announces each
-// frame on RENDER_FRAME and the simulator waits for it.
+// renderer: the videolized display, off-screen. Starts from a full scan,
+// updates the image locally from the firmware's object states (display.hpp),
+// writes a PNG per frame and a video at the scene's frame rate, and announces
+// each frame on RENDER_FRAME (the simulator waits for it: lockstep).
+//
+// At the last frame it asks the simulator for a fresh full scan and compares
+// it with what it displays (fidelity.hpp), the paper's check, before
+// announcing that frame; the simulator serves the scan while it waits.
+// Writes: frames/*.png, video.mp4|avi, contact_sheet.png, scan_initial.png,
+// *.gsf (Gwyddion Simple Field) of the scans and the final display,
+// fidelity_diff.png, fidelity.json, renderer_report.json.
 #include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include <chrono>
@@ -15,7 +20,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -27,7 +31,8 @@
 #include "afm/scan_line_t.hpp"
 #include "afm/scan_req_t.hpp"
 #include "bus.hpp"
-#include "profile.hpp"
+#include "display.hpp"
+#include "fidelity.hpp"
 #include "scene.hpp"
 
 namespace {
@@ -36,215 +41,149 @@ const char *kUsage =
     "usage: renderer --scene FILE --out DIR\n"
     "  The videolized display; normally started by ./afm run inside the run's namespace.\n";
 
-constexpr int kScanReqId = 1;
+constexpr int kInitialScan = 1, kFinalScan = 2;
 constexpr int kScanRetryMs = 500;
+constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
+constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 
-// matplotlib's afmhot: the usual AFM height colour map.
-cv::Mat afmhot_lut()
-{
-    cv::Mat lut(1, 256, CV_8UC3);
-    for (int i = 0; i < 256; ++i) {
-        const double x = i / 255.0;
-        auto c = [](double v) { return static_cast<uchar>(std::lround(255 * std::clamp(v, 0.0, 1.0))); };
-        lut.at<cv::Vec3b>(0, i) = cv::Vec3b(c(2 * x - 1), c(2 * x - 0.5), c(2 * x));  // BGR
+// A raster scan being received line by line (lines may be lost and re-requested).
+struct ScanBuffer {
+    int id = 0;
+    cv::Mat h;                   // nm, row 0 at the top
+    std::vector<bool> got;
+    int left = 0;
+    std::chrono::steady_clock::time_point asked;
+    void reset(int req, int n)
+    {
+        id = req;
+        h = cv::Mat::zeros(n, n, CV_32F);
+        got.assign(n, false);
+        left = n;
     }
-    return lut;
-}
+};
 
 struct Renderer {
     const afm::Scene &scene;
     lcm::LCM &lc;
     std::string out;
     afm::Heartbeat hb;
+    afm::Field field;
     afm::TipShape tip;
-    int N;                       // pixels per side
-    double px_nm;                // pixel pitch
-    double x0, y0;               // field's lower-left corner, nm
-
-    cv::Mat scan;                // the full scan, nm (CV_32F), row 0 = top
-    std::vector<bool> got_line;
-    int lines_left;
-    cv::Mat base;                // scan with the modelled objects erased, nm
-    cv::Mat height;              // displayed heights, nm
-    cv::Mat color;               // colourised height, BGR, kept up to date locally
-    cv::Mat lut = afmhot_lut();
-    double z_top = 1;            // colour scale top, nm
-    std::map<int, afm::particle_t> drawn;   // what the image shows now, by id
-    bool initialised = false;
+    afm::Display display;
+    ScanBuffer scan;
+    bool started = false;        // the initial scan is in and the display set up
 
     afm::fw_tip_t tip_msg{};
     afm::fw_force_t force_msg{};
+    std::vector<afm::DisplayObject> model;
     int frames_written = 0;
     int64_t last_seq = -1;
     bool sim_done = false;
+    bool final_pending = false;  // waiting for the final scan before the last frame
     cv::VideoWriter video;
-    double local_update_s = 0, encode_s = 0;
-    int local_updates = 0;
+    std::vector<int> sheet_at;   // frame indices for the contact sheet
+    std::vector<cv::Mat> sheet;
+    double update_s = 0, compose_s = 0, write_s = 0;
+    long touched_px = 0;
+    nlohmann::json fidelity;
 
     Renderer(const afm::Scene &s, lcm::LCM &l, std::string o)
-        : scene(s), lc(l), out(std::move(o)), hb(l, "renderer")
+        : scene(s), lc(l), out(std::move(o)), hb(l, "renderer"),
+          field{s.field_center_nm.x - s.field_nm / 2, s.field_center_nm.y - s.field_nm / 2, s.field_nm, s.out.image_px},
+          tip(s.has_effect("tip_convolution") ? afm::TipShape{s.probe.tip_radius_nm, s.probe.tip_half_angle_deg} : afm::TipShape{}),
+          display(field, tip)
     {
-        if (s.has_effect("tip_convolution")) tip = afm::TipShape{s.probe.tip_radius_nm, s.probe.tip_half_angle_deg};
-        N = s.out.image_px;
-        px_nm = s.field_nm / N;
-        x0 = s.field_center_nm.x - s.field_nm / 2;
-        y0 = s.field_center_nm.y - s.field_nm / 2;
-        scan = cv::Mat::zeros(N, N, CV_32F);
-        got_line.assign(N, false);
-        lines_left = N;
+        display.set_trails(s.out.trails);
+        const int K = s.total_frames(), M = std::min(s.out.contact_sheet_frames, K);
+        for (int i = 0; i < M; ++i) sheet_at.push_back(M == 1 ? 0 : static_cast<int>(std::lround(i * (K - 1.0) / (M - 1))));
+        for (const auto &p : s.particles) model.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
     }
 
-    void request_scan(int first, int n)
+    void request(int req, int first, int n)
     {
         afm::scan_req_t r{};
         r.utime = afm::wall_utime();
-        r.req_id = kScanReqId;
-        r.x0_nm = x0;
-        r.y0_nm = y0;
-        r.width_nm = r.height_nm = scene.field_nm;
-        r.nx = r.ny = N;
+        r.req_id = req;
+        r.x0_nm = field.x0_nm;
+        r.y0_nm = field.y0_nm;
+        r.width_nm = r.height_nm = field.size_nm;
+        r.nx = r.ny = field.px;
         r.first_line = first;
         r.n_lines = n;
         lc.publish(AFM_CH_AFM_SCAN_REQ, &r);
+        scan.asked = std::chrono::steady_clock::now();
     }
 
-    void request_missing()
+    void start_scan(int req)
     {
-        int j = 0;
-        while (j < N) {
-            if (got_line[j]) { ++j; continue; }
+        scan.reset(req, field.px);
+        request(req, 0, field.px);
+    }
+
+    // Re-requests the lines still missing, if the last request is old.
+    void retry_scan()
+    {
+        if (scan.left == 0 || std::chrono::steady_clock::now() - scan.asked < std::chrono::milliseconds(kScanRetryMs)) return;
+        for (int j = 0; j < field.px;) {
+            if (scan.got[j]) { ++j; continue; }
             int k = j;
-            while (k < N && !got_line[k]) ++k;
-            request_scan(j, k - j);
+            while (k < field.px && !scan.got[k]) ++k;
+            request(scan.id, j, k - j);
             j = k;
         }
     }
 
     void on_line(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_line_t *m)
     {
-        if (m->req_id != kScanReqId || m->n != N || m->line < 0 || m->line >= N || got_line[m->line]) return;
-        float *row = scan.ptr<float>(N - 1 - m->line);
-        for (int i = 0; i < N; ++i) row[i] = static_cast<float>(m->height_nm[i]);
-        got_line[m->line] = true;
-        --lines_left;
+        if (m->req_id != scan.id || m->n != field.px || m->line < 0 || m->line >= field.px || scan.got[m->line]) return;
+        float *row = scan.h.ptr<float>(field.px - 1 - m->line);
+        for (int i = 0; i < field.px; ++i) row[i] = static_cast<float>(m->height_nm[i]);
+        scan.got[m->line] = true;
+        if (--scan.left == 0 && scan.id == kFinalScan && final_pending) finish_last_frame();
     }
 
-    cv::Rect footprint_rect(const afm::particle_t &p) const
+    void write_outputs_for_scan(const std::string &name, const cv::Mat &h)
     {
-        const double r = afm::sphere_footprint_nm(p.radius_nm, tip) + px_nm;
-        const int c0 = static_cast<int>(std::floor((p.x_nm - r - x0) / px_nm));
-        const int c1 = static_cast<int>(std::ceil((p.x_nm + r - x0) / px_nm));
-        const int r0 = N - 1 - static_cast<int>(std::ceil((p.y_nm + r - y0) / px_nm));
-        const int r1 = N - 1 - static_cast<int>(std::floor((p.y_nm - r - y0) / px_nm));
-        return cv::Rect(c0, r0, c1 - c0 + 1, r1 - r0 + 1) & cv::Rect(0, 0, N, N);
+        std::string err;
+        if (!afm::write_gsf(out + "/" + name + ".gsf", h, field, name, &err)) throw std::runtime_error(err);
     }
 
-    // Draw a particle's profile into `img` within `clip` (max with what is there).
-    void draw_particle(cv::Mat &img, const afm::particle_t &p, const cv::Rect &clip) const
+    void begin()
     {
-        const cv::Rect r = footprint_rect(p) & clip;
-        for (int row = r.y; row < r.y + r.height; ++row) {
-            float *dst = img.ptr<float>(row);
-            const double y = y0 + (N - 1 - row + 0.5) * px_nm;
-            for (int col = r.x; col < r.x + r.width; ++col) {
-                const double x = x0 + (col + 0.5) * px_nm;
-                const double z = afm::sphere_profile_nm(p.radius_nm, std::hypot(x - p.x_nm, y - p.y_nm), tip);
-                if (z > dst[col]) dst[col] = static_cast<float>(z);
-            }
+        display.start(scan.h, model);
+        cv::imwrite(out + "/scan_initial.png", display.colourise(scan.h));
+        write_outputs_for_scan("scan_initial", scan.h);
+        if (scene.out.video != "none") {
+            const bool mp4 = scene.out.video == "mp4";
+            const std::string path = out + (mp4 ? "/video.mp4" : "/video.avi");
+            video.open(path, mp4 ? cv::VideoWriter::fourcc('m', 'p', '4', 'v') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                       scene.frame_rate_hz, cv::Size(field.px, field.px));
+            if (!video.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
         }
-    }
-
-    void colourise(const cv::Rect &r)
-    {
-        cv::Mat u8;
-        height(r).convertTo(u8, CV_8U, 255.0 / z_top);
-        cv::Mat bgr;
-        cv::cvtColor(u8, bgr, cv::COLOR_GRAY2BGR);
-        cv::LUT(bgr, lut, bgr);
-        bgr.copyTo(color(r));
-    }
-
-    void init_image(const afm::objects_t &objs)
-    {
-        double zmax;
-        cv::minMaxLoc(scan, nullptr, &zmax);
-        z_top = std::max(1.0, zmax * 1.1);
-        // Erase the objects the model knows from the scan: the substrate (flat
-        // glass) is what lies under them.
-        base = scan.clone();
-        for (const auto &p : objs.particles) {
-            const cv::Rect r = footprint_rect(p);
-            base(r).setTo(0.0f);
-        }
-        height = base.clone();
-        for (const auto &p : objs.particles) {
-            draw_particle(height, p, cv::Rect(0, 0, N, N));
-            drawn[p.id] = p;
-        }
-        color = cv::Mat(N, N, CV_8UC3);
-        colourise(cv::Rect(0, 0, N, N));
-        initialised = true;
-    }
-
-    void local_update(const afm::objects_t &objs)
-    {
-        const auto t0 = std::chrono::steady_clock::now();
-        std::vector<cv::Rect> dirty;
-        for (const auto &p : objs.particles) {
-            auto it = drawn.find(p.id);
-            if (it != drawn.end() && it->second.x_nm == p.x_nm && it->second.y_nm == p.y_nm) continue;
-            cv::Rect r = footprint_rect(p);
-            if (it != drawn.end()) r |= footprint_rect(it->second);
-            dirty.push_back(r);
-        }
-        for (const auto &p : objs.particles) drawn[p.id] = p;
-        for (const cv::Rect &r : dirty) {
-            base(r).copyTo(height(r));
-            for (const auto &kv : drawn)
-                if ((footprint_rect(kv.second) & r).area() > 0) draw_particle(height, kv.second, r);
-            colourise(r);
-        }
-        local_update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        ++local_updates;
-    }
-
-    cv::Point to_px(double x, double y) const
-    {
-        return cv::Point(static_cast<int>(std::lround((x - x0) / px_nm - 0.5)),
-                         static_cast<int>(std::lround(N - 1 - ((y - y0) / px_nm - 0.5))));
+        started = true;
     }
 
     void write_frame(int k)
     {
-        const auto t0 = std::chrono::steady_clock::now();
-        cv::Mat frame = color.clone();
-        // Tip and the measured lateral force (arrow: force on the tip, 1 px per 0.05 nN).
-        const cv::Point tp = to_px(tip_msg.tip_nm[0], tip_msg.tip_nm[1]);
-        cv::circle(frame, tp, 3, cv::Scalar(255, 200, 0), 1, cv::LINE_AA);
-        const cv::Point f(static_cast<int>(std::lround(force_msg.force_nN[0] * 20)),
-                          static_cast<int>(std::lround(-force_msg.force_nN[1] * 20)));
-        if (f.x || f.y) cv::arrowedLine(frame, tp, tp + f, cv::Scalar(255, 255, 0), 1, cv::LINE_AA, 0, 0.2);
-        char text[160];
-        std::snprintf(text, sizeof text, "t %.2f s  F %.2f nN", frame_time_s(k),
-                      std::hypot(force_msg.force_nN[0], force_msg.force_nN[1]));
-        cv::putText(frame, text, cv::Point(4, 14), cv::FONT_HERSHEY_PLAIN, 0.9, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-        std::string flags;
-        if (force_msg.flags & afm::fw_force_t::FLAG_CONTACT) flags += "PUSH ";
-        if (force_msg.flags & (afm::fw_force_t::FLAG_SAT_SN | afm::fw_force_t::FLAG_SAT_SL)) flags += "SAT ";
-        if (force_msg.flags & afm::fw_force_t::FLAG_FX_UNOBSERVABLE) flags += "FX? ";
-        if (force_msg.flags & afm::fw_force_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
-        if (!flags.empty())
-            cv::putText(frame, flags, cv::Point(4, N - 6), cv::FONT_HERSHEY_PLAIN, 0.9, cv::Scalar(0, 255, 255), 1, cv::LINE_AA);
+        auto t0 = std::chrono::steady_clock::now();
+        afm::Overlay o;
+        o.t_s = afm::frame_utime(scene, k) * 1e-6;
+        o.tip_nm[0] = tip_msg.tip_nm[0];
+        o.tip_nm[1] = tip_msg.tip_nm[1];
+        for (int i = 0; i < 3; ++i) o.force_nN[i] = force_msg.force_nN[i];
+        o.flags = force_msg.flags;
+        const cv::Mat frame = display.frame(o);
+        auto t1 = std::chrono::steady_clock::now();
         if (scene.out.png) {
             char name[64];
             std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
             if (!cv::imwrite(out + name, frame)) throw std::runtime_error("cannot write " + out + name);
         }
         if (video.isOpened()) video.write(frame);
-        encode_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (std::find(sheet_at.begin(), sheet_at.end(), k) != sheet_at.end()) sheet.push_back(frame);
+        compose_s += std::chrono::duration<double>(t1 - t0).count();
+        write_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     }
-
-    double frame_time_s(int k) const { return afm::frame_utime(scene, k) * 1e-6; }
 
     void announce(int k, int64_t seq)
     {
@@ -260,7 +199,7 @@ struct Renderer {
 
     void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *m)
     {
-        if (!initialised) return;
+        if (!started || final_pending) return;
         if (m->seq <= last_seq) {       // a resend: our announcement may be lost
             if (frames_written > 0) announce(frames_written - 1, last_seq);
             return;
@@ -268,33 +207,50 @@ struct Renderer {
         last_seq = m->seq;
         const int due = afm::frames_due(scene, m->utime);
         if (due <= frames_written) return;
-        local_update(*m);
-        while (frames_written < due) write_frame(frames_written++);
+        model.clear();
+        for (const auto &p : m->particles) model.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        const auto t0 = std::chrono::steady_clock::now();
+        touched_px += display.update(model);
+        update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const int total = scene.total_frames();
+        while (frames_written < due) {
+            if (frames_written == total - 1) {
+                // The last frame: first the paper's check against a fresh scan.
+                final_pending = true;
+                start_scan(kFinalScan);
+                return;
+            }
+            write_frame(frames_written++);
+        }
         announce(frames_written - 1, m->seq);
         hb.maybe_send("running", m->seq, m->utime);
+    }
+
+    void finish_last_frame()
+    {
+        const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.h, field, model, tip, kFidelitySearch_nm);
+        write_outputs_for_scan("scan_final", scan.h);
+        write_outputs_for_scan("display_final", display.height());
+        cv::imwrite(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, display.z_top() / 4)));
+        using nlohmann::json;
+        fidelity = json{{"max_position_error_nm", f.max_position_error_nm},
+                        {"rms_height_error_nm", f.rms_height_error_nm},
+                        {"target_nm", kFidelityTarget_nm},
+                        {"pass", f.max_position_error_nm <= kFidelityTarget_nm},
+                        {"frame", frames_written},
+                        {"objects", json::array()}};
+        for (const auto &o : f.objects)
+            fidelity["objects"].push_back({{"id", o.id}, {"found", o.found}, {"error_nm", o.found ? json(o.error_nm) : json(nullptr)},
+                                           {"display_nm", {o.display_x_nm, o.display_y_nm}}, {"scan_nm", {o.scan_x_nm, o.scan_y_nm}}});
+        std::ofstream(out + "/fidelity.json") << fidelity.dump(2) << "\n";
+        final_pending = false;
+        write_frame(frames_written++);
+        announce(frames_written - 1, last_seq);
     }
 
     void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
     {
         if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
-    }
-
-    // The firmware's initial model comes with its first FW_OBJECTS; before the
-    // run starts the model is the scene's object list (as the operator marked
-    // it on the first scan), which is what the firmware is initialised with.
-    afm::objects_t scene_objects() const
-    {
-        afm::objects_t o{};
-        for (const auto &p : scene.particles) {
-            afm::particle_t q{};
-            q.id = p.id;
-            q.x_nm = p.x_nm;
-            q.y_nm = p.y_nm;
-            q.radius_nm = p.radius_nm;
-            o.particles.push_back(q);
-        }
-        o.n_particles = static_cast<int32_t>(o.particles.size());
-        return o;
     }
 };
 
@@ -322,46 +278,32 @@ int main(int argc, char **argv)
         lc->subscribe(AFM_CH_FW_OBJECTS, &Renderer::on_objects, &r)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Renderer::on_heartbeat, &r)->setQueueCapacity(afm::kQueueCapacity);
 
-        // The full scan first (re-requesting lines lost on the way).
+        // The full scan first.
         r.hb.send("starting", -1, 0, "scanning");
-        r.request_scan(0, r.N);
-        auto last_req = std::chrono::steady_clock::now();
-        while (r.lines_left > 0) {
+        r.start_scan(kInitialScan);
+        while (r.scan.left > 0) {
             lc->handleTimeout(50);
             if (r.sim_done) return 3;
-            if (std::chrono::steady_clock::now() - last_req > std::chrono::milliseconds(kScanRetryMs)) {
-                r.request_missing();
-                last_req = std::chrono::steady_clock::now();
-                r.hb.send("starting", -1, 0, "scan lines left: " + std::to_string(r.lines_left));
-            }
+            r.retry_scan();
         }
-        cv::imwrite(out_dir + "/scan_initial.png", [&] {
-            cv::Mat u8;
-            double zmax;
-            cv::minMaxLoc(r.scan, nullptr, &zmax);
-            r.scan.convertTo(u8, CV_8U, 255.0 / std::max(1.0, zmax * 1.1));
-            cv::Mat bgr;
-            cv::cvtColor(u8, bgr, cv::COLOR_GRAY2BGR);
-            cv::LUT(bgr, r.lut, bgr);
-            return bgr;
-        }());
-        r.init_image(r.scene_objects());
-        if (scene.out.video != "none") {
-            const bool mp4 = scene.out.video == "mp4";
-            const std::string path = out_dir + (mp4 ? "/video.mp4" : "/video.avi");
-            r.video.open(path, mp4 ? cv::VideoWriter::fourcc('m', 'p', '4', 'v') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
-                         scene.frame_rate_hz, cv::Size(r.N, r.N));
-            if (!r.video.isOpened()) throw std::runtime_error("cannot open video writer for " + path);
-        }
+        r.begin();
         while (!r.sim_done) {
             r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? 200000 : 1000000);
-            lc->handleTimeout(100);
+            lc->handleTimeout(50);
+            if (r.final_pending) r.retry_scan();
         }
         r.video.release();
-        std::ofstream rep(out_dir + "/renderer_report.json");
-        rep << "{\"frames\": " << r.frames_written << ", \"local_updates\": " << r.local_updates
-            << ", \"local_update_ms_mean\": " << (r.local_updates ? 1e3 * r.local_update_s / r.local_updates : 0)
-            << ", \"frame_write_ms_mean\": " << (r.frames_written ? 1e3 * r.encode_s / r.frames_written : 0) << "}\n";
+        if (!r.sheet.empty()) {
+            const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(r.sheet.size()))));
+            cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(r.sheet, cols));
+        }
+        nlohmann::json rep = {{"frames", r.frames_written},
+                              {"image_px", scene.out.image_px},
+                              {"local_update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
+                              {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
+                              {"write_ms_per_frame", r.frames_written ? 1e3 * r.write_s / r.frames_written : 0.0},
+                              {"pixels_updated", r.touched_px}};
+        std::ofstream(out_dir + "/renderer_report.json") << rep.dump(2) << "\n";
         r.hb.send("done", r.last_seq, 0);
         return 0;
     } catch (const afm::SceneError &e) {

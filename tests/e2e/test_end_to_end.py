@@ -6,12 +6,14 @@ simulator drops analog blocks on purpose (the resend path)."""
 import glob
 import math
 import os
+import subprocess
 import unittest
 
 import yaml
 
 import benchtest
 import afmlog
+import gsf
 
 TOL_NM = 5.0
 
@@ -86,6 +88,46 @@ class EndToEnd(unittest.TestCase):
         self.assertEqual(self.r1[3]["frames"], expected)
         self.assertEqual(len({m.index for m in self.log1["RENDER_FRAME"]}), expected)
         self.assertTrue(os.path.getsize(os.path.join(self.out1, "video.mp4")) > 0)
+
+    def test_video_decodes_to_the_frame_count(self):
+        expected = round(self.spec["duration_s"] * self.spec["frame_rate_hz"])
+        out = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "afm_media"), "frames",
+                              os.path.join(self.out1, "video.mp4")], capture_output=True, text=True, check=True).stdout.split()
+        self.assertEqual(int(out[0]), expected)
+        self.assertEqual(int(out[1]), self.spec["outputs"]["image_px"])
+        self.assertTrue(os.path.getsize(os.path.join(self.out1, "contact_sheet.png")) > 0)
+
+    def test_fidelity_against_a_fresh_scan(self):
+        fid = self.r1[3]["fidelity"]
+        print(f"fidelity: max {fid['max_position_error_nm']:.3f} nm, rms {fid['rms_height_error_nm']:.3f} nm")
+        self.assertLess(fid["max_position_error_nm"], TOL_NM)
+        self.assertTrue(fid["pass"])
+        self.assertEqual(sorted(o["id"] for o in fid["objects"]), sorted(p["id"] for p in self.spec["objects"]["particles"]))
+        for o in fid["objects"]:
+            self.assertTrue(o["found"], o)
+
+    def test_gsf_files_round_trip_with_physical_size(self):
+        px = self.spec["outputs"]["image_px"]
+        side_m = self.spec["sample"]["field_nm"] * 1e-9
+        grids = {}
+        for name in ("scan_initial", "scan_final", "display_final"):
+            header, rows = gsf.read(os.path.join(self.out1, name + ".gsf"))
+            self.assertEqual((int(header["XRes"]), int(header["YRes"])), (px, px), name)
+            self.assertAlmostEqual(float(header["XReal"]), side_m, delta=side_m * 1e-6)
+            self.assertAlmostEqual(float(header["YReal"]), side_m, delta=side_m * 1e-6)
+            self.assertEqual(header["XYUnits"], "m")
+            self.assertEqual(header["ZUnits"], "m")
+            grids[name] = rows
+        top = max(max(r) for r in grids["scan_initial"])
+        self.assertAlmostEqual(top, 100e-9, delta=2e-9)   # 100 nm latex: tip-dilated, same top
+        # The RMS difference recomputed from the files equals the renderer's.
+        n = px * px
+        rms = math.sqrt(sum((a - b) ** 2 for ra, rb in zip(grids["display_final"], grids["scan_final"])
+                            for a, b in zip(ra, rb)) / n) * 1e9
+        self.assertAlmostEqual(rms, self.r1[3]["fidelity"]["rms_height_error_nm"], delta=1e-3)
+
+    def test_log_is_complete(self):
+        self.assertTrue(self.r1[3]["log"]["complete"], self.r1[3]["log"])
 
     def test_same_seed_same_trajectories(self):
         self.assertEqual(self.r2[0], 0, self.r2[2])

@@ -1,0 +1,98 @@
+// ./afm bench render: ms per frame of the display's local update against a
+// full redraw, at 256, 512 and 1024 pixels square. A benchmark: it prints a
+// table and asserts nothing.
+//
+// Scene: the default 5 um field with 20 latex particles (100 nm); per frame
+// one particle moves by 2 nm (a push) and the frame is composed (colour bar,
+// scale bar, tip, force). Encoding (PNG, video) is timed separately.
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "display.hpp"
+
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0)
+{
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct Row { int px; double local_ms, full_ms, compose_ms, png_ms, video_ms; };
+
+Row measure(int px, int frames)
+{
+    const afm::Field f{-2500, -2500, 5000, px};
+    const afm::TipShape tip{10, 20};
+    std::vector<afm::DisplayObject> objs;
+    for (int i = 0; i < 20; ++i) objs.push_back({i, -2000.0 + 200 * i, -1800.0 + 180 * (i % 7), 50});
+    // The "scan": the same objects drawn once, as the simulator's scan would show them.
+    afm::Display scanner(f, tip);
+    scanner.start(cv::Mat::zeros(px, px, CV_32F), {});
+    scanner.redraw(objs);
+    const cv::Mat scan = scanner.height().clone();
+
+    afm::Display local(f, tip), full(f, tip);
+    local.start(scan, objs);
+    full.start(scan, objs);
+    afm::Overlay o;
+    Row r{px, 0, 0, 0, 0, 0};
+    auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < frames; ++k) {
+        objs[k % objs.size()].y_nm += 2;
+        local.update(objs);
+    }
+    r.local_ms = ms_since(t0) / frames;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < frames; ++k) {
+        objs[k % objs.size()].y_nm += 2;
+        full.redraw(objs);
+    }
+    r.full_ms = ms_since(t0) / frames;
+    t0 = std::chrono::steady_clock::now();
+    cv::Mat frame;
+    for (int k = 0; k < frames; ++k) frame = local.frame(o);
+    r.compose_ms = ms_since(t0) / frames;
+    const std::string tmp = "/tmp/afm-bench-render";
+    const int enc = std::max(5, frames / 10);
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < enc; ++k) cv::imwrite(tmp + ".png", frame);
+    r.png_ms = ms_since(t0) / enc;
+    cv::VideoWriter vw(tmp + ".mp4", cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 25, cv::Size(px, px));
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < enc; ++k) vw.write(frame);
+    vw.release();
+    r.video_ms = ms_since(t0) / enc;
+    std::remove((tmp + ".png").c_str());
+    std::remove((tmp + ".mp4").c_str());
+    return r;
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    int frames = 200;
+    if (argc == 2 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help")) {
+        std::printf("usage: bench_render [FRAMES]   (default 200 frames per size)\n");
+        return 0;
+    }
+    if (argc == 2) frames = std::max(10, std::atoi(argv[1]));
+    std::printf("display cost per frame, 20 particles in 5 um, one moved per frame (%d frames per size)\n\n", frames);
+    std::printf("| px   | local update ms | full redraw ms | full/local | compose ms | frames/s (local+compose) | PNG ms | mp4v ms |\n");
+    std::printf("|------|-----------------|----------------|------------|------------|--------------------------|--------|---------|\n");
+    for (int px : {256, 512, 1024}) {
+        const Row r = measure(px, frames);
+        std::printf("| %4d | %15.4f | %14.3f | %10.1f | %10.3f | %24.0f | %6.2f | %7.2f |\n", r.px, r.local_ms, r.full_ms,
+                    r.full_ms / r.local_ms, r.compose_ms, 1e3 / (r.local_ms + r.compose_ms), r.png_ms, r.video_ms);
+    }
+    std::printf("\ntargets: local update >= 10x cheaper than full redraw; >= 300 frames/s at 512 px\n");
+    return 0;
+}

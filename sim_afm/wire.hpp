@@ -1,0 +1,106 @@
+// Nanowires on the substrate, pushed by the tip (physics.md sections 6, 8).
+//
+// Both models integrate the wire-substrate Coulomb friction numerically; none
+// of them uses the closed forms of section 6 (those are what the tests check
+// them against).
+//
+// - RigidWire (no wire_flexibility): a rod of length L with friction density
+//   f (nN/nm) lumped on K points along its axis. A push of the tip at a point
+//   of the axis moves it by the rigid motion (twist) that the principle of
+//   maximum dissipation selects: among the twists that move the contact point
+//   by a unit step along the push, the one with the least friction power
+//   D = sum_k f dL |v_k|. Its stationarity is force AND torque balance of the
+//   push against the integrated friction (the Lagrange multiplier is the push
+//   force, D itself, since D is 1-homogeneous). Solved by iteratively
+//   reweighted least squares (a 3 x 3 system per iteration), warm-started.
+//   Near the middle the rotation centre goes to the rod's end, and at the
+//   middle to pure translation, without any division by (l - s).
+// - FlexibleWire (wire_flexibility): N segments (N + 1 nodes), stretch springs
+//   (EA / segment length), discrete bending EI / (2 ds^3) |x_{i-1} - 2 x_i +
+//   x_{i+1}|^2 (= EI / (2 ds) theta^2 for small joint angles theta), and Coulomb
+//   friction f ds on each node (half at the ends). Each sample the wire takes
+//   the incremental quasi-static step: minimise elastic energy + tip contact
+//   energy + sum_i c_i |x_i - x_i(start)| (rate-independent friction
+//   dissipation) by Newton steps with reweighted friction (IRLS) on a banded
+//   system.
+//
+// Geometry: frame A (sample frame: the World adds drift), nm; forces nN.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <vector>
+
+namespace afm::sim {
+
+// A twist of a rod in its own frame: velocity (vt along the axis, vn normal to
+// it) of the rod's centre and angular rate omega, per unit of push travel.
+struct RodTwist {
+    double vt = 0, vn = 1, omega = 0;
+    double force_nN = 0;     // the push that keeps it moving: the least friction power D
+    int iterations = 0;
+};
+
+// Least-dissipation twist of a rod whose friction is lumped at axial positions
+// u_k (from the centre, nm) with weight w_nN each, pushed at axial position u_p
+// along the unit direction p = (p_t, p_n) of the rod frame. `warm` seeds the
+// iteration. Force and torque balance hold at the result to `tol` (relative).
+RodTwist rod_push_twist(const std::vector<double> &u_nm, double w_nN, double u_p_nm, const Eigen::Vector2d &p,
+                        const RodTwist &warm, double tol = 1e-12, int max_iter = 500);
+
+// Closest point of the segment a-b to q: the parameter t in [0, 1].
+double segment_param(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &q);
+
+class Wire {
+public:
+    virtual ~Wire() = default;
+    int id = 0;
+    double d_nm = 100;            // diameter
+    double L_nm = 0;              // length
+    bool in_contact = false;
+    // Nodes along the axis, frame A of the sample (2 for a rigid rod).
+    virtual std::vector<Eigen::Vector2d> nodes() const = 0;
+    // Contact with the apex circle (centre q, radius r_tip): penetration into
+    // the footprint (half width d/2) and the unit normal from the wire to the
+    // apex. Returns false when not touching.
+    bool contact(const Eigen::Vector2d &q, double r_tip, double &pen, Eigen::Vector2d &n_out, double &u_out) const;
+    // The tip at q pushes the wire with contact stiffness k (nN/nm): the wire
+    // moves to quasi-static equilibrium. Returns true when it moved.
+    virtual bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) = 0;
+    // Distance from q to the wire's axis, nm.
+    double axis_distance(const Eigen::Vector2d &q) const;
+};
+
+class RigidWire : public Wire {
+public:
+    // Ends a, b; friction density f (nN/nm); K friction points.
+    RigidWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm, int K);
+    std::vector<Eigen::Vector2d> nodes() const override;
+    bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
+
+    Eigen::Vector2d centre;       // nm
+    double psi = 0;               // axis angle from +x, rad
+    RodTwist last;                // the last twist (for tests: rotation centre)
+    double f = 0;                 // friction density, nN/nm
+    std::vector<double> u;        // friction points, from the centre, nm
+};
+
+class FlexibleWire : public Wire {
+public:
+    FlexibleWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm,
+                 double E_GPa, int segments, int iterations);
+    std::vector<Eigen::Vector2d> nodes() const override { return x; }
+    bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
+
+    std::vector<Eigen::Vector2d> x;   // nodes, nm
+    double ds = 0;                    // rest segment length, nm
+    double EI = 0;                    // nN nm^2
+    double ks = 0;                    // stretch stiffness EA / ds, nN/nm
+    double f = 0;                     // friction density, nN/nm
+    int iterations = 8;
+
+private:
+    void solve_banded(std::vector<double> &A, std::vector<double> &rhs) const;
+};
+
+}  // namespace afm::sim
