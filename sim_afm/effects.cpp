@@ -52,12 +52,21 @@ private:
     std::normal_distribution<double> gauss_{0.0, 1.0};
 };
 
+// Nanolithography (section 9): the tip cuts a trench while the load exceeds
+// the threshold; the World keeps the trenches and images them.
+class Lithography : public SampleEffect {
+public:
+    Lithography() : SampleEffect("lithography") {}
+    void apply(World &w, double &, double &) override { w.engrave(); }
+};
+
 using Factory = std::function<std::unique_ptr<SampleEffect>(const Scene &, const Lever &)>;
 
 const std::map<std::string, Factory> &registry()
 {
     static const std::map<std::string, Factory> r = {
         {"photodiode_noise", [](const Scene &s, const Lever &l) { return std::make_unique<PhotodiodeNoise>(s, l); }},
+        {"lithography", [](const Scene &, const Lever &) { return std::make_unique<Lithography>(); }},
         {"thermal_drift", [](const Scene &s, const Lever &) { return std::make_unique<ThermalDrift>(s, 1.0 / s.sample_rate_hz); }},
     };
     return r;

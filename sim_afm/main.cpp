@@ -145,8 +145,34 @@ afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int6
         o.particles.push_back(q);
     }
     o.n_particles = static_cast<int32_t>(o.particles.size());
-    o.n_wires = 0;
-    o.n_trenches = 0;
+    for (const auto &wire : w.wires()) {
+        afm::wire_t q;
+        q.id = wire->id;
+        q.diameter_nm = wire->d_nm;
+        for (const auto &x : wire->nodes()) {
+            const Eigen::Vector2d a = w.to_frame_A(x);
+            q.x_nm.push_back(a.x());
+            q.y_nm.push_back(a.y());
+        }
+        q.n = static_cast<int32_t>(q.x_nm.size());
+        q.in_contact = wire->in_contact;
+        o.wires.push_back(q);
+    }
+    o.n_wires = static_cast<int32_t>(o.wires.size());
+    for (const auto &t : w.trenches()) {
+        afm::trench_t q;
+        q.id = t.id;
+        for (std::size_t i = 0; i < t.p.size(); ++i) {
+            const Eigen::Vector2d a = w.to_frame_A(t.p[i]);
+            q.x_nm.push_back(a.x());
+            q.y_nm.push_back(a.y());
+        }
+        q.depth_nm = t.depth_nm;
+        q.width_nm = t.width_nm;
+        q.n = static_cast<int32_t>(q.x_nm.size());
+        o.trenches.push_back(q);
+    }
+    o.n_trenches = static_cast<int32_t>(o.trenches.size());
     o.drift_nm[0] = w.drift().x();
     o.drift_nm[1] = w.drift().y();
     return o;

@@ -59,7 +59,15 @@ public:
     double L_nm = 0;              // length
     bool in_contact = false;
     // Nodes along the axis, frame A of the sample (2 for a rigid rod).
-    virtual std::vector<Eigen::Vector2d> nodes() const = 0;
+    const std::vector<Eigen::Vector2d> &nodes() const { return x; }
+    // Bounding box of the axis, nm (for cheap rejection).
+    Eigen::Vector2d lo, hi;
+    // Whether the apex circle (centre q, radius r) may touch the footprint.
+    bool near(const Eigen::Vector2d &q, double r) const
+    {
+        const double m = r + 0.5 * d_nm;
+        return q.x() > lo.x() - m && q.x() < hi.x() + m && q.y() > lo.y() - m && q.y() < hi.y() + m;
+    }
     // Contact with the apex circle (centre q, radius r_tip): penetration into
     // the footprint (half width d/2) and the unit normal from the wire to the
     // apex. Returns false when not touching.
@@ -69,14 +77,18 @@ public:
     virtual bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) = 0;
     // Distance from q to the wire's axis, nm.
     double axis_distance(const Eigen::Vector2d &q) const;
+
+protected:
+    std::vector<Eigen::Vector2d> x;   // nodes, nm
+    void update_box();
 };
 
 class RigidWire : public Wire {
 public:
     // Ends a, b; friction density f (nN/nm); K friction points.
     RigidWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm, int K);
-    std::vector<Eigen::Vector2d> nodes() const override;
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
+    void place(const Eigen::Vector2d &centre, double psi);   // sets the pose and the nodes
 
     Eigen::Vector2d centre;       // nm
     double psi = 0;               // axis angle from +x, rad
@@ -89,10 +101,8 @@ class FlexibleWire : public Wire {
 public:
     FlexibleWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm,
                  double E_GPa, int segments, int iterations);
-    std::vector<Eigen::Vector2d> nodes() const override { return x; }
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
 
-    std::vector<Eigen::Vector2d> x;   // nodes, nm
     double ds = 0;                    // rest segment length, nm
     double EI = 0;                    // nN nm^2
     double ks = 0;                    // stretch stiffness EA / ds, nN/nm

@@ -45,6 +45,23 @@ World::World(const Scene &s)
     grid_ = Grid(2 * max_radius_ + s.probe.tip_radius_nm);
     for (std::size_t i = 0; i < particles_.size(); ++i) grid_.insert(static_cast<int>(i), particles_[i].c);
 
+    // Wires: built only when the scene has some; rigid rods unless
+    // wire_flexibility is listed. f in nN/um -> nN/nm.
+    const double f_wire = s.wire_model.friction_nN_per_um * 1e-3;
+    for (const auto &w : s.wires) {
+        const Eigen::Vector2d a(w.x0_nm, w.y0_nm), b(w.x1_nm, w.y1_nm);
+        if (s.has_effect("wire_flexibility"))
+            wires_.push_back(std::make_unique<FlexibleWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.youngs_modulus_GPa,
+                                                            s.wire_model.segments, s.wire_model.relax_sweeps));
+        else
+            wires_.push_back(std::make_unique<RigidWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.friction_points));
+    }
+    if (s.substrate == "tilted_glass") {
+        tan_slope_ = std::tan(s.slope_deg * M_PI / 180.0);
+        normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y
+    }
+    trench_grid_ = Grid(50.0);
+
     const Vec2 start = s.op.path_nm.front();
     piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
     apex_ = piezo_;
@@ -77,9 +94,9 @@ void World::relax()
         apex_ = rest;
         lateral_force_.setZero();
         for (auto &p : particles_) p.in_contact = false;
+        for (auto &w : wires_) w->in_contact = false;
         return;
     }
-    const double tip_capacity = tip_mu_ * (load_nN_ + tip_adhesion_nN_);
     const double rt = scene_.probe.tip_radius_nm;
     const bool chains = scene_.has_effect("particle_contacts");
     const Eigen::Vector2d apex0 = apex_;
@@ -100,8 +117,27 @@ void World::relax()
             g += k_contact_ * (reach - dn) * unit_or(d, -last_motion_);
             kt += k_contact_;
         }
-        const double gn = g.norm();
-        if (gn > tip_capacity) apex_ += (gn - tip_capacity) / kt * (g / gn);
+        for (const auto &w : wires_) {
+            double pen, u;
+            Eigen::Vector2d n;
+            if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
+            g += k_contact_ * pen * n;
+            kt += k_contact_;
+        }
+        // Substrate: the tip stays while the force it must supply, S = (-g,
+        // F_z) (lever and contacts horizontal, the set point vertical), lies in
+        // its friction cone about the surface normal n: |S_t| <= mu (S . n +
+        // F_adh). Otherwise it slides along the surface, against S_t.
+        const Eigen::Vector3d S(-g.x(), -g.y(), load_nN_);
+        const double sn = S.dot(normal_);
+        const Eigen::Vector3d St = S - sn * normal_;
+        const double capacity = tip_mu_ * std::max(0.0, sn + tip_adhesion_nN_);
+        const double stn = St.norm();
+        if (stn > capacity) {
+            const Eigen::Vector2d mh = -St.head<2>();
+            const double mhn = mh.norm();
+            if (mhn > 1e-12) apex_ += (stn - capacity) / kt * (mh / mhn);
+        }
         // Particles touching the apex, then (particle_contacts) those they touch.
         const Eigen::Vector2d as2 = apex_ - drift_;
         for (std::size_t q = 0; q < scratch_.size(); ++q) {
@@ -136,6 +172,12 @@ void World::relax()
                 grid_.update(i, p.c);
             }
         }
+        for (auto &w : wires_) {
+            if (!w->near(as2, rt)) { w->in_contact = false; continue; }
+            const auto t0 = Clock::now();
+            w->push(as2, rt, k_contact_);
+            t_wires_ += seconds_since(t0);
+        }
     }
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     lateral_force_ = -(K_ * (rest - apex_));
@@ -149,13 +191,23 @@ void World::relax_rigid()
     apex_ = piezo_;
     if (!engaged_) {
         lateral_force_.setZero();
+        for (auto &w : wires_) w->in_contact = false;
         return;
     }
     const double rt = scene_.probe.tip_radius_nm;
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     Eigen::Vector2d f = Eigen::Vector2d::Zero();
-    if ((apex_ - apex0).norm() > 1e-12) f = -tip_mu_ * (load_nN_ + tip_adhesion_nN_) * last_motion_;
+    if ((apex_ - apex0).norm() > 1e-12) f = sliding_friction(last_motion_);
     const Eigen::Vector2d as = apex_ - drift_;
+    for (auto &w : wires_) {
+        double pen, u;
+        Eigen::Vector2d n;
+        if (!w->near(as, rt)) { w->in_contact = false; continue; }
+        const auto t0 = Clock::now();
+        w->push(as, rt, k_contact_);
+        t_wires_ += seconds_since(t0);
+        if (w->contact(as, rt, pen, n, u)) f += k_contact_ * pen * n;
+    }
     near(as, rt + max_radius_ + 1.0, scratch_);
     for (int idx : scratch_) {
         Particle &p = particles_[idx];
@@ -174,6 +226,20 @@ void World::relax_rigid()
         }
     }
     lateral_force_ = f;
+}
+
+Eigen::Vector2d World::sliding_friction(const Eigen::Vector2d &m) const
+{
+    // Slip along the surface in the direction whose horizontal part is m:
+    // tangent t; contact normal force N from the vertical set point,
+    // (N - F_adh) n_z - mu N t_z = F_z; the substrate's force is
+    // (N - F_adh) n - mu N t.
+    const Eigen::Vector3d up = normal_;
+    Eigen::Vector3d t(m.x(), m.y(), -(up.x() * m.x() + up.y() * m.y()) / up.z());
+    t.normalize();
+    const double N = (load_nN_ + tip_adhesion_nN_ * up.z()) / (up.z() - tip_mu_ * t.z());
+    const Eigen::Vector3d S = (N - tip_adhesion_nN_) * up - tip_mu_ * N * t;
+    return S.head<2>();
 }
 
 Sample World::step()
@@ -211,17 +277,42 @@ Eigen::Vector3d World::tip_force() const
     return Eigen::Vector3d(lateral_force_.x(), lateral_force_.y(), engaged_ ? load_nN_ : 0.0);
 }
 
+double World::groove_depth(const Eigen::Vector2d &q) const
+{
+    // The cone (half angle gamma) cut each point to its depth: at distance w
+    // the cut is depth - w / tan(gamma) deep, so the trench is 2 depth tan(gamma)
+    // wide at the surface. Points are much closer than the width: their union
+    // is the V-groove.
+    if (trench_points_.empty()) return 0.0;
+    const double cot = 1.0 / std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    double z = 0.0;
+    scratch3_.clear();
+    trench_grid_.query(q, trench_reach_nm_, scratch3_);
+    for (int k : scratch3_) {
+        const auto &[ti, pi] = trench_points_[k];
+        const Trench &t = trenches_[ti];
+        z = std::max(z, t.depth_nm[pi] - (q - t.p[pi]).norm() * cot);
+    }
+    return z;
+}
+
 double World::height_true(double x, double y) const
 {
-    double z = 0.0;  // flat glass
     const Eigen::Vector2d q = Eigen::Vector2d(x, y) - drift_;
+    const double base = base_height(q);
+    double z = -groove_depth(q);
     near(q, max_radius_, scratch2_);
     for (int idx : scratch2_) {
         const Particle &p = particles_[idx];
         const double w2 = (q - p.c).squaredNorm();
         if (w2 < p.r * p.r) z = std::max(z, p.r + std::sqrt(p.r * p.r - w2));
     }
-    return z;
+    for (const auto &w : wires_) {
+        if (!w->near(q, 0.0)) continue;
+        const double r = 0.5 * w->d_nm, d = w->axis_distance(q);
+        if (d < r) z = std::max(z, r + std::sqrt(r * r - d * d));
+    }
+    return base + z;
 }
 
 double World::tip_profile(double u) const
@@ -234,34 +325,77 @@ double World::tip_profile(double u) const
     return rt - rt * std::sin(g) + (u - u0) / std::tan(g);
 }
 
+double World::bump_convolved(double rho, double r) const
+{
+    // Dilation by the tip of a sphere (or a cylinder, seen across its axis)
+    // of radius r resting on the surface, at horizontal distance rho: the apex
+    // height at which the tip first touches. The touching point lies in the
+    // vertical plane through the tip axis and the centre; along it the gap
+    // s(w) - t(|rho - w|) is concave, so a golden-section search finds it.
+    if (tip_profile(std::max(0.0, rho - r)) >= 2 * r) return 0.0;   // tip flank clears the top
+    auto gap = [&](double w) { return r + std::sqrt(std::max(0.0, r * r - w * w)) - tip_profile(std::fabs(rho - w)); };
+    double a = -r, b = r;
+    const double phi = (std::sqrt(5.0) - 1) / 2;
+    double c = b - phi * (b - a), d = a + phi * (b - a);
+    double fc = gap(c), fd = gap(d);
+    for (int i = 0; i < 60 && b - a > 1e-6; ++i) {
+        if (fc > fd) { b = d; d = c; fd = fc; c = b - phi * (b - a); fc = gap(c); }
+        else { a = c; c = d; fc = fd; d = a + phi * (b - a); fd = gap(d); }
+    }
+    return std::max(0.0, gap(0.5 * (a + b)));
+}
+
 double World::height_convolved(double x, double y) const
 {
-    // Dilation of the surface by the tip: the apex height at which the tip
-    // first touches. For a sphere, the touching point lies in the vertical
-    // plane through the tip axis and the sphere centre; along it the gap
-    // s(w) - t(|rho - w|) is concave, so a golden-section search finds it.
-    double z = 0.0;
+    // Objects are dilated by the tip; the substrate plane and the trenches
+    // are shown undilated (a V-groove cut by this very tip fits it).
     const Eigen::Vector2d q = Eigen::Vector2d(x, y) - drift_;
+    double z = -groove_depth(q);
     // The tip's flank reaches sideways by at most its profile at the height
-    // of the tallest particle.
+    // of the tallest object.
     const double g = scene_.probe.tip_half_angle_deg * M_PI / 180.0;
     near(q, max_radius_ + 2 * max_radius_ * std::tan(g) + scene_.probe.tip_radius_nm, scratch2_);
     for (int idx : scratch2_) {
         const Particle &p = particles_[idx];
-        const double rho = (q - p.c).norm();
-        if (tip_profile(std::max(0.0, rho - p.r)) >= 2 * p.r) continue;  // tip flank clears the top
-        auto gap = [&](double w) { return p.r + std::sqrt(std::max(0.0, p.r * p.r - w * w)) - tip_profile(std::fabs(rho - w)); };
-        double a = -p.r, b = p.r;
-        const double phi = (std::sqrt(5.0) - 1) / 2;
-        double c = b - phi * (b - a), d = a + phi * (b - a);
-        double fc = gap(c), fd = gap(d);
-        for (int i = 0; i < 60 && b - a > 1e-6; ++i) {
-            if (fc > fd) { b = d; d = c; fd = fc; c = b - phi * (b - a); fc = gap(c); }
-            else { a = c; c = d; fc = fd; d = a + phi * (b - a); fd = gap(d); }
-        }
-        z = std::max(z, gap(0.5 * (a + b)));
+        z = std::max(z, bump_convolved((q - p.c).norm(), p.r));
     }
-    return z;
+    for (const auto &w : wires_) {
+        const double r = 0.5 * w->d_nm;
+        if (!w->near(q, r + 2 * r * std::tan(g) + scene_.probe.tip_radius_nm)) continue;
+        z = std::max(z, bump_convolved(w->axis_distance(q), r));
+    }
+    return base_height(q) + z;
+}
+
+void World::engrave()
+{
+    // Depth law (documented in the scene: sample.lithography): linear in the
+    // load above the threshold, depth = depth_nm_per_nN (F - F_th); the cone
+    // leaves a V of width 2 depth tan(gamma).
+    const double excess = engaged_ ? load_nN_ - scene_.litho.threshold_nN : 0.0;
+    if (excess <= 0) {
+        cutting_ = false;
+        return;
+    }
+    const double depth = scene_.litho.depth_nm_per_nN * excess;
+    const double width = 2 * depth * std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    const Eigen::Vector2d q = apex_ - drift_;
+    if (!cutting_) {
+        trenches_.push_back(Trench{static_cast<int>(trenches_.size()) + 1, {}, {}, {}});
+        cutting_ = true;
+    }
+    Trench &t = trenches_.back();
+    // A new point every fraction of the width (the union of cones is then a
+    // groove whose floor ripples by less than 1% of the depth), or when the
+    // depth changes.
+    const double spacing = std::max(0.05, 0.1 * width);
+    if (!t.p.empty() && (q - t.p.back()).norm() < spacing && std::fabs(depth - t.depth_nm.back()) < 0.01 * depth) return;
+    t.p.push_back(q);
+    t.depth_nm.push_back(depth);
+    t.width_nm.push_back(width);
+    trench_points_.emplace_back(static_cast<int>(trenches_.size()) - 1, static_cast<int>(t.p.size()) - 1);
+    trench_grid_.insert(static_cast<int>(trench_points_.size()) - 1, q);
+    trench_reach_nm_ = std::max(trench_reach_nm_, 0.5 * width);
 }
 
 double World::image_height(double x, double y) const
@@ -285,6 +419,8 @@ std::vector<EffectClock> World::clocks() const
 {
     std::vector<EffectClock> c;
     c.push_back({scene_.has_effect("bending_offset") ? "mechanics+bending_offset" : "mechanics", t_mech_});
+    if (!wires_.empty())
+        c.push_back({scene_.has_effect("wire_flexibility") ? "wires+wire_flexibility" : "wires", t_wires_});
     for (const auto &e : per_sample_) c.push_back({e->name(), e->seconds});
     c.push_back({scene_.has_effect("tip_convolution") ? "imaging+tip_convolution" : "imaging", t_scan_});
     return c;
@@ -294,6 +430,7 @@ std::vector<std::string> World::models_built() const
 {
     std::vector<std::string> m = {"scanner", "lever", "substrate:" + scene_.substrate};
     if (!particles_.empty()) m.push_back("particles");
+    if (!wires_.empty()) m.push_back(scene_.has_effect("wire_flexibility") ? "wires:flexible_chain" : "wires:rigid_rod");
     m.push_back(scene_.has_effect("bending_offset") ? "mechanics:compliant_lever" : "mechanics:rigid_lever");
     m.push_back(scene_.has_effect("tip_convolution") ? "imaging:tip_convolution" : "imaging:true_topography");
     for (const auto &e : per_sample_) m.push_back(e->name());

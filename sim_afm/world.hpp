@@ -27,8 +27,18 @@
 #include "grid.hpp"
 #include "lever.hpp"
 #include "scene.hpp"
+#include "wire.hpp"
 
 namespace afm::sim {
+
+// A lithography trench (physics.md section 9): points along the tip path, in
+// the sample's frame, each with the depth cut there and the width of the V
+// the cone leaves (2 depth tan gamma).
+struct Trench {
+    int id = 0;
+    std::vector<Eigen::Vector2d> p;   // nm, sample frame
+    std::vector<double> depth_nm, width_nm;
+};
 
 struct Particle {
     int id;
@@ -80,6 +90,12 @@ public:
     Eigen::Vector3d tip_force() const;             // sample on tip, frame A, nN
     const std::vector<Particle> &particles() const { return particles_; }
     Eigen::Vector2d particle_position(std::size_t i) const { return particles_[i].c + drift_; }  // frame A
+    const std::vector<std::unique_ptr<Wire>> &wires() const { return wires_; }
+    Eigen::Vector2d to_frame_A(const Eigen::Vector2d &sample_nm) const { return sample_nm + drift_; }
+    const std::vector<Trench> &trenches() const { return trenches_; }
+    // Lithography (the effect calls it once per sample): cuts at the apex when
+    // the load exceeds the threshold.
+    void engrave();
     const Eigen::Vector2d &drift() const { return drift_; }
     void add_drift(const Eigen::Vector2d &d) { drift_ += d; }
     double dt() const { return dt_; }
@@ -105,10 +121,16 @@ private:
     void relax_rigid();
     double height_true(double x, double y) const;
     double height_convolved(double x, double y) const;
+    double base_height(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_; }   // sample frame
+    double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
+    double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
+    // Horizontal force of the substrate on the tip, frame A, when it slides
+    // along the horizontal direction m under the normal set point.
+    Eigen::Vector2d sliding_friction(const Eigen::Vector2d &m) const;
     double tip_profile(double u) const;            // tip surface above its apex at radius u
     void near(const Eigen::Vector2d &p, double radius, std::vector<int> &out) const;
 
-    const Scene &scene_;
+    const Scene scene_;            // a copy: a World outlives the Scene it was built from
     Lever lever_;
     Eigen::Matrix2d K_;            // lever lateral stiffness at the apex, frame A, nN/nm
     double k_lever_max_;           // its largest eigenvalue
@@ -128,8 +150,16 @@ private:
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
     Eigen::Vector2d lateral_force_{0.0, 0.0};  // sample on tip, frame A, nN
     std::vector<Particle> particles_;
+    std::vector<std::unique_ptr<Wire>> wires_;   // empty unless the scene has wires
+    double tan_slope_ = 0;                       // tilted_glass: height = -y tan(slope)
+    Eigen::Vector3d normal_{0.0, 0.0, 1.0};      // substrate unit normal
+    std::vector<Trench> trenches_;
+    Grid trench_grid_{1.0};                      // indexes trench_points_
+    std::vector<std::pair<int, int>> trench_points_;   // (trench, point) of every cut point
+    double trench_reach_nm_ = 0;                 // largest half width cut so far
+    bool cutting_ = false;
     Grid grid_;
-    mutable std::vector<int> scratch_, scratch2_;
+    mutable std::vector<int> scratch_, scratch2_, scratch3_;
 
     // Chosen once at construction (no per-sample flag tests).
     void (World::*mechanics_)();
@@ -137,6 +167,7 @@ private:
     std::vector<std::unique_ptr<SampleEffect>> per_sample_;
     std::mt19937_64 rng_;
     double t_mech_ = 0;
+    double t_wires_ = 0;           // inside t_mech_: wire pushes
     mutable double t_scan_ = 0;
 };
 

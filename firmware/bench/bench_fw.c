@@ -1,0 +1,524 @@
+/*
+ * bench_fw.c - per-sample cost and accuracy of the firmware's chain
+ * (acquisition + compensation + theta + force + rotation) on three word
+ * sizes: a 16-bit path (bench_q15.c), the firmware's 32-bit fw_board_step,
+ * and a double-precision reference (bench_ref.c). Host only; a benchmark,
+ * not a test: it prints numbers and asserts nothing.
+ *
+ * Output is line based for tools/bench_firmware.sh, which adds callgrind's
+ * instruction counts and prints the table:
+ *   input  key=value ...            the sweep
+ *   row    path=NAME ns=... worst_pn=... rms_pn=... worst_pct=...
+ *   note   free text
+ *
+ * Error: |F_path - F_ref| (3-vector, frame A, pN) per sample against the
+ * double reference fed with the same 16-bit ADC codes, so it measures the
+ * arithmetic; the row "ref_analog" (double, unquantised input) shows what
+ * the ADC itself contributes. Full scale: k_n K_n 10 V.
+ *
+ * The sweep (deterministic, seeded per scan angle): the piezo moves in
+ * segments of 2000..8000 samples at 200..800 pm per sample - curving on a
+ * radius of 0.3..3 um, straight in a random direction, or straight along
+ * the lever (theta = 0 or 180 deg, exactly or within 3 deg); the tip
+ * carries a load F_z = 43 + 47 sin(2 pi i / 50000) nN and friction
+ * mu (F_z + F_adh) plus a push max(0, 30 sin(2 pi i / 37000)) nN, both
+ * opposing the apex's motion (found self-consistently, since the apex moves
+ * with the signals); S_n, S_l follow from eq. 1a-1c plus +-2 mV of uniform
+ * noise, clamped inside +-9.99 V.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include "fw_board.h"
+#include "bench_q15.h"
+#include "bench_ref.h"
+
+#ifdef BENCH_HAVE_CALLGRIND
+#include <valgrind/callgrind.h>
+#define BENCH_CG_BEGIN() do { CALLGRIND_START_INSTRUMENTATION; CALLGRIND_ZERO_STATS; } while (0)
+#define BENCH_CG_END(name) do { CALLGRIND_DUMP_STATS_AT(name); CALLGRIND_STOP_INSTRUMENTATION; } while (0)
+#else
+#define BENCH_CG_BEGIN() do { } while (0)
+#define BENCH_CG_END(name) do { (void)(name); } while (0)
+#endif
+
+#define BENCH_PI 3.14159265358979323846
+#define BENCH_MAX_ANGLES 8
+#define BENCH_N_DEFAULT 200000
+#define BENCH_REPEATS_DEFAULT 7
+#define BENCH_SEG_MIN 2000
+#define BENCH_SEG_SPAN 6000
+#define BENCH_NOISE_UV 2000
+#define BENCH_LOAD_MEAN_PN 43000.0
+#define BENCH_LOAD_AMP_PN 47000.0
+#define BENCH_LOAD_PERIOD 50000.0  /* samples: slow, so the apex moves with the piezo */
+#define BENCH_PUSH_AMP_PN 30000.0
+#define BENCH_PUSH_PERIOD 37000.0
+#define BENCH_SPEED_MIN_PM 200.0   /* per sample */
+#define BENCH_SPEED_MAX_PM 800.0
+#define BENCH_RADIUS_MIN_PM 300000.0
+#define BENCH_RADIUS_MAX_PM 3000000.0
+#define BENCH_APEX_ITER 4
+#define BENCH_SIGNAL_MAX_UV 9990000
+#define BENCH_TARGET_FRAC 0.001   /* the error target, of full scale */
+#define BENCH_FS_PN(cfg) (10.0 * (cfg)->kn_Kn_pn_per_v)
+
+enum { PATH_Q15, PATH_FW32, PATH_REF, PATH_REF_ANALOG, PATH_COUNT };
+static const char *const path_name[PATH_COUNT] = { "q15", "fw32", "ref", "ref_analog" };
+
+typedef struct {
+    fw_board_config_t cfg;
+    fw_sample_in_t *in;
+    int32_t (*out_i)[3];
+    double (*out_d)[3];
+    double (*ref)[3];
+    double *theta_c;      /* true direction of motion, frame C, rad (for notes) */
+    unsigned char *corner; /* 1 where a segment starts (the heading jumps) */
+    fw_board_t board;
+    bench_q15_t q15;
+    bench_ref_t refp;
+    bench_ref_t ref_analog;
+} bench_angle_t;
+
+/* ---- the sweep ---------------------------------------------------------- */
+
+static uint64_t rng_state;
+
+static uint64_t rng_next(void)   /* splitmix64 */
+{
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static double rng_unit(void)     /* [0, 1) */
+{
+    return (double)(rng_next() >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static double rng_range(double lo, double hi)
+{
+    return lo + (hi - lo) * rng_unit();
+}
+
+static double clampd(double v, double lo, double hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+static void paper_config(fw_board_config_t *c, int32_t scan_mdeg)
+{
+    memset(c, 0, sizeof *c);
+    c->adc_bits = 16;
+    c->kn_Kn_pn_per_v = 10680;
+    c->lat_pn_per_v = 37900;
+    c->Kn_pm_per_v = 89000;
+    c->tip_height_nm = 17300;
+    c->lever_length_nm = 100000;
+    c->cn_pm_per_v = 23100;
+    c->cl_pm_per_v = 23100;
+    c->scan_angle_mdeg = scan_mdeg;
+    c->mu_ppm = 86500;
+    c->adhesion_pn = 5000;
+    c->scan_center_pm[0] = 45000000;
+    c->scan_center_pm[1] = 45000000;
+    c->scan_half_range_pm = 2500000;
+    c->kappa_q16 = 1 << 16;
+}
+
+/* S_n, S_l (V) for friction plus push opposing a motion at theta (frame C). */
+static void sweep_signals(const fw_board_config_t *c, double fpar, double fz, double th,
+                          double *sn_v, double *sl_v)
+{
+    double g = 2.0 * c->tip_height_nm / c->lever_length_nm;
+    double fx = -fpar * cos(th);
+    double fy = -fpar * sin(th);
+    *sl_v = fy / c->lat_pn_per_v;
+    *sn_v = (fz + g * fx) / c->kn_Kn_pn_per_v;
+}
+
+static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
+{
+    const fw_board_config_t *c = &a->cfg;
+    double alpha = (c->scan_angle_mdeg - 270000) * 1e-3 * BENCH_PI / 180.0;
+    double mu = c->mu_ppm * 1e-6;
+    double x = c->scan_center_pm[0];
+    double y = c->scan_center_pm[1];
+    double heading = 0.0;     /* piezo, frame A */
+    double turn = 0.0;        /* rad per sample */
+    double speed = 300.0;     /* pm per sample */
+    double step_c[2];
+    double fpar_prev = 0.0;
+    double fz_prev = 0.0;
+    size_t seg_left = 0;
+    size_t i;
+    rng_state = seed;
+    for (i = 0; i < n; i++) {
+        double th;
+        double fz;
+        double push;
+        double fpar;
+        double sn_v = 0.0;
+        double sl_v = 0.0;
+        int it;
+        if (seg_left == 0) {
+            int kind = (int)(rng_next() % 3u);
+            seg_left = BENCH_SEG_MIN + (size_t)(rng_next() % BENCH_SEG_SPAN);
+            speed = rng_range(BENCH_SPEED_MIN_PM, BENCH_SPEED_MAX_PM);
+            a->corner[i] = 1;
+            if (kind == 0) {           /* curving, radius 0.3..3 um */
+                turn = speed / rng_range(BENCH_RADIUS_MIN_PM, BENCH_RADIUS_MAX_PM);
+                if (rng_next() & 1u) {
+                    turn = -turn;
+                }
+                heading = rng_range(-BENCH_PI, BENCH_PI);
+            } else if (kind == 1) {    /* straight, any direction */
+                turn = 0.0;
+                heading = rng_range(-BENCH_PI, BENCH_PI);
+            } else {                   /* along the lever: theta 0 or pi, exactly or within 3 deg */
+                double off = (rng_next() & 1u) ? 0.0 : rng_range(-3.0, 3.0) * BENCH_PI / 180.0;
+                turn = 0.0;
+                heading = alpha + ((rng_next() & 1u) ? 0.0 : BENCH_PI) + off;
+            }
+        }
+        seg_left--;
+        heading += turn;
+        x += speed * cos(heading);
+        y += speed * sin(heading);
+        step_c[0] = speed * cos(heading - alpha);   /* piezo step in frame C */
+        step_c[1] = speed * sin(heading - alpha);
+        fz = BENCH_LOAD_MEAN_PN + BENCH_LOAD_AMP_PN * sin(2.0 * BENCH_PI * i / BENCH_LOAD_PERIOD);
+        push = BENCH_PUSH_AMP_PN * sin(2.0 * BENCH_PI * i / BENCH_PUSH_PERIOD);
+        push = push < 0.0 ? 0.0 : push;
+        fpar = mu * (fz + c->adhesion_pn) + push;
+        /* friction opposes the APEX's motion, and the apex moves with the
+         * signals (fw_comp.h): theta = direction of the apex's velocity,
+         * piezo step + R(alpha) C (S(i, theta) - S(i - 1, theta - turn)),
+         * found by fixed-point iteration from the piezo's heading (the
+         * apex turns with the piezo on a smooth path). At a corner the
+         * piezo's heading is used. */
+        th = heading - alpha;
+        for (it = 0; it < BENCH_APEX_ITER && !a->corner[i]; it++) {
+            double sn0;
+            double sl0;
+            double dx;
+            double dy;
+            sweep_signals(c, fpar, fz, th, &sn_v, &sl_v);
+            sweep_signals(c, fpar_prev, fz_prev, th - turn, &sn0, &sl0);
+            dx = c->cn_pm_per_v * (sn_v - sn0);
+            dy = c->cl_pm_per_v * (sl_v - sl0);
+            th = atan2(step_c[1] + dy, step_c[0] + dx);
+        }
+        sweep_signals(c, fpar, fz, th, &sn_v, &sl_v);
+        fpar_prev = fpar;
+        fz_prev = fz;
+        a->in[i].sn_uv = (int32_t)clampd(lround(sn_v * 1e6) + rng_range(-BENCH_NOISE_UV, BENCH_NOISE_UV),
+                                         -BENCH_SIGNAL_MAX_UV, BENCH_SIGNAL_MAX_UV);
+        a->in[i].sl_uv = (int32_t)clampd(lround(sl_v * 1e6) + rng_range(-BENCH_NOISE_UV, BENCH_NOISE_UV),
+                                         -BENCH_SIGNAL_MAX_UV, BENCH_SIGNAL_MAX_UV);
+        a->in[i].piezo_pm[0] = (int32_t)lround(x);
+        a->in[i].piezo_pm[1] = (int32_t)lround(y);
+        a->in[i].piezo_pm[2] = 0;
+        a->theta_c[i] = th;
+    }
+}
+
+/* ---- the measured loops (not inlined, so callgrind can name them) ------- */
+
+__attribute__((noinline)) void bench_loop_q15(bench_q15_t *p, const fw_sample_in_t *in,
+                                              int32_t (*f)[3], size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        bench_q15_step(p, &in[i], f[i]);
+    }
+}
+
+__attribute__((noinline)) void bench_loop_fw32(fw_board_t *b, const fw_sample_in_t *in,
+                                               int32_t (*f)[3], size_t n)
+{
+    fw_sample_out_t o;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        (void)fw_board_step(b, &in[i], &o);
+        f[i][0] = o.force_pn[0];
+        f[i][1] = o.force_pn[1];
+        f[i][2] = o.force_pn[2];
+    }
+}
+
+__attribute__((noinline)) void bench_loop_ref(bench_ref_t *r, const fw_sample_in_t *in,
+                                              double (*f)[3], size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        bench_ref_step(r, &in[i], f[i]);
+    }
+}
+
+static void run_path(int path, bench_angle_t *a, size_t n)
+{
+    switch (path) {
+    case PATH_Q15:
+        bench_q15_reset(&a->q15);
+        bench_loop_q15(&a->q15, a->in, a->out_i, n);
+        break;
+    case PATH_FW32:
+        fw_board_reset(&a->board);
+        bench_loop_fw32(&a->board, a->in, a->out_i, n);
+        break;
+    case PATH_REF:
+        bench_ref_reset(&a->refp);
+        bench_loop_ref(&a->refp, a->in, a->out_d, n);
+        break;
+    default:
+        bench_ref_reset(&a->ref_analog);
+        bench_loop_ref(&a->ref_analog, a->in, a->out_d, n);
+        break;
+    }
+}
+
+static double now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec;
+}
+
+static int cmp_double(const void *x, const void *y)
+{
+    double a = *(const double *)x;
+    double b = *(const double *)y;
+    return (a > b) - (a < b);
+}
+
+/* ---- main ---------------------------------------------------------------- */
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: bench_fw [-n SAMPLES] [-r REPEATS] [-a DEG[,DEG...]] [--callgrind | --path NAME]\n"
+            "  -n SAMPLES   samples per scan angle (default %d)\n"
+            "  -r REPEATS   timing repeats, the median is reported (default %d)\n"
+            "  -a DEGREES   scan angles in degrees (default 270,300)\n"
+            "  --callgrind  run each path's loop once between callgrind client requests\n"
+            "               (dump per path, named bench_PATH); no timing, no errors\n"
+            "  --path NAME  run only NAME's loop once (q15, fw32, ref, ref_analog), for\n"
+            "               valgrind --toggle-collect=bench_loop_*\n"
+            "  --features   print whether callgrind client requests are compiled in\n"
+            "Prints 'input', 'row' and 'note' lines; tools/bench_firmware.sh makes the table.\n",
+            BENCH_N_DEFAULT, BENCH_REPEATS_DEFAULT);
+}
+
+int main(int argc, char **argv)
+{
+    size_t n = BENCH_N_DEFAULT;
+    int repeats = BENCH_REPEATS_DEFAULT;
+    int n_angles = 0;
+    double angles_deg[BENCH_MAX_ANGLES];
+    bench_angle_t ang[BENCH_MAX_ANGLES];
+    int only_path = -1;
+    int callgrind = 0;
+    int i;
+    int k;
+    int p;
+
+    for (i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "-n") == 0 && i + 1 < argc) {
+            n = (size_t)strtoul(argv[++i], NULL, 10);
+        } else if (strcmp(argv[i], "-r") == 0 && i + 1 < argc) {
+            repeats = atoi(argv[++i]);
+        } else if (strcmp(argv[i], "-a") == 0 && i + 1 < argc) {
+            char *s = argv[++i];
+            n_angles = 0;
+            while (*s != '\0' && n_angles < BENCH_MAX_ANGLES) {
+                char *end;
+                angles_deg[n_angles++] = strtod(s, &end);
+                s = (*end == ',') ? end + 1 : end;
+                if (end == s && *s != '\0') {
+                    break;
+                }
+            }
+        } else if (strcmp(argv[i], "--callgrind") == 0) {
+            callgrind = 1;
+        } else if (strcmp(argv[i], "--path") == 0 && i + 1 < argc) {
+            const char *name = argv[++i];
+            for (p = 0; p < PATH_COUNT; p++) {
+                if (strcmp(name, path_name[p]) == 0) {
+                    only_path = p;
+                }
+            }
+            if (only_path < 0) {
+                fprintf(stderr, "bench_fw: unknown path '%s'\n", name);
+                return 2;
+            }
+        } else if (strcmp(argv[i], "--features") == 0) {
+#ifdef BENCH_HAVE_CALLGRIND
+            printf("callgrind_requests=1\n");
+#else
+            printf("callgrind_requests=0\n");
+#endif
+            return 0;
+        } else if (strcmp(argv[i], "-h") == 0 || strcmp(argv[i], "--help") == 0) {
+            usage(stdout);
+            return 0;
+        } else {
+            usage(stderr);
+            return 2;
+        }
+    }
+    if (n_angles == 0) {
+        angles_deg[0] = 270.0;
+        angles_deg[1] = 300.0;
+        n_angles = 2;
+    }
+    if (n < 100 || repeats < 1) {
+        fprintf(stderr, "bench_fw: need at least 100 samples and 1 repeat\n");
+        return 2;
+    }
+
+    for (k = 0; k < n_angles; k++) {
+        bench_angle_t *a = &ang[k];
+        paper_config(&a->cfg, (int32_t)lround(angles_deg[k] * 1000.0));
+        a->in = malloc(n * sizeof *a->in);
+        a->out_i = malloc(n * sizeof *a->out_i);
+        a->out_d = malloc(n * sizeof *a->out_d);
+        a->ref = malloc(n * sizeof *a->ref);
+        a->theta_c = malloc(n * sizeof *a->theta_c);
+        a->corner = calloc(n, 1);
+        if (a->in == NULL || a->out_i == NULL || a->out_d == NULL || a->ref == NULL
+            || a->theta_c == NULL || a->corner == NULL) {
+            fprintf(stderr, "bench_fw: out of memory\n");
+            return 1;
+        }
+        if (fw_board_init(&a->board, &a->cfg) != FW_OK) {
+            fprintf(stderr, "bench_fw: fw_board_init refused the paper's lever\n");
+            return 1;
+        }
+        bench_q15_init(&a->q15, &a->cfg);
+        bench_ref_init(&a->refp, &a->cfg, a->cfg.adc_bits);
+        bench_ref_init(&a->ref_analog, &a->cfg, 0);
+        make_sweep(a, n, 0x5EEDull + (uint64_t)k * 0x10001ull);
+    }
+
+    if (callgrind || only_path >= 0) {
+        for (p = 0; p < PATH_COUNT; p++) {
+            char dump[32];
+            if (only_path >= 0 && p != only_path) {
+                continue;
+            }
+            snprintf(dump, sizeof dump, "bench_%s", path_name[p]);
+            BENCH_CG_BEGIN();
+            for (k = 0; k < n_angles; k++) {
+                run_path(p, &ang[k], n);
+            }
+            BENCH_CG_END(dump);
+        }
+        printf("input samples=%zu\n", n * (size_t)n_angles);
+        return 0;
+    }
+
+    /* the reference outputs */
+    for (k = 0; k < n_angles; k++) {
+        run_path(PATH_REF, &ang[k], n);
+        memcpy(ang[k].ref, ang[k].out_d, n * sizeof *ang[k].ref);
+    }
+
+    {
+        double sn_min = 1e9, sn_max = -1e9, sl_min = 1e9, sl_max = -1e9;
+        size_t near_axis = 0;
+        for (k = 0; k < n_angles; k++) {
+            size_t j;
+            for (j = 0; j < n; j++) {
+                double sn = ang[k].in[j].sn_uv * 1e-6;
+                double sl = ang[k].in[j].sl_uv * 1e-6;
+                sn_min = sn < sn_min ? sn : sn_min;
+                sn_max = sn > sn_max ? sn : sn_max;
+                sl_min = sl < sl_min ? sl : sl_min;
+                sl_max = sl > sl_max ? sl : sl_max;
+                near_axis += fabs(sin(ang[k].theta_c[j])) < 0.25;
+            }
+        }
+        printf("input samples=%zu per_angle=%zu angles=", n * (size_t)n_angles, n);
+        for (k = 0; k < n_angles; k++) {
+            printf("%s%g", k ? "," : "", angles_deg[k]);
+        }
+        printf(" sn_v=%.2f..%.2f sl_v=%.2f..%.2f near_axis_pct=%.1f repeats=%d fs_pn=%.0f\n",
+               sn_min, sn_max, sl_min, sl_max, 100.0 * near_axis / (n * (double)n_angles),
+               repeats, BENCH_FS_PN(&ang[0].cfg));
+    }
+
+    for (p = 0; p < PATH_COUNT; p++) {
+        double *t = malloc((size_t)repeats * sizeof *t);
+        double worst = 0.0;
+        double sum2 = 0.0;
+        double worst_theta = 0.0;
+        double worst_angle = 0.0;
+        size_t worst_at = 0;
+        size_t worst_since = 0;
+        size_t over = 0;
+        double worst_steady = 0.0;
+        int r;
+        if (t == NULL) {
+            return 1;
+        }
+        for (r = 0; r < repeats; r++) {
+            double t0 = now_ns();
+            for (k = 0; k < n_angles; k++) {
+                run_path(p, &ang[k], n);
+            }
+            t[r] = (now_ns() - t0) / (n * (double)n_angles);
+        }
+        qsort(t, (size_t)repeats, sizeof *t, cmp_double);
+        for (k = 0; k < n_angles; k++) {
+            size_t j;
+            size_t since_corner = FW_THETA_WINDOW;
+            for (j = 0; j < n; j++) {
+                double d2 = 0.0;
+                double d;
+                int c;
+                since_corner = ang[k].corner[j] ? 0 : since_corner + 1;
+                for (c = 0; c < 3; c++) {
+                    double v = (p == PATH_Q15 || p == PATH_FW32) ? ang[k].out_i[j][c] : ang[k].out_d[j][c];
+                    double e = v - ang[k].ref[j][c];
+                    d2 += e * e;
+                }
+                d = sqrt(d2);
+                sum2 += d2;
+                over += d > BENCH_TARGET_FRAC * BENCH_FS_PN(&ang[k].cfg);
+                if (since_corner >= FW_THETA_WINDOW && d > worst_steady) {
+                    worst_steady = d;
+                }
+                if (d > worst) {
+                    worst = d;
+                    worst_at = j;
+                    worst_theta = ang[k].theta_c[j] * 180.0 / BENCH_PI;
+                    worst_angle = angles_deg[k];
+                    worst_since = since_corner;
+                }
+            }
+        }
+        printf("row path=%s ns=%.1f worst_pn=%.1f rms_pn=%.2f worst_pct=%.4f\n", path_name[p],
+               t[repeats / 2], worst, sqrt(sum2 / (n * (double)n_angles)),
+               100.0 * worst / BENCH_FS_PN(&ang[0].cfg));
+        if (worst > 0.0) {
+            printf("note %s: worst at scan %g deg, sample %zu (%zu after a corner), true theta %.1f deg;"
+                   " %zu samples over 0.1%% FS; worst outside the %d samples after a corner %.1f pN\n",
+                   path_name[p], worst_angle, worst_at, worst_since, worst_theta, over,
+                   FW_THETA_WINDOW, worst_steady);
+        }
+        free(t);
+    }
+    for (k = 0; k < n_angles; k++) {
+        free(ang[k].in);
+        free(ang[k].out_i);
+        free(ang[k].out_d);
+        free(ang[k].ref);
+        free(ang[k].theta_c);
+        free(ang[k].corner);
+    }
+    return 0;
+}

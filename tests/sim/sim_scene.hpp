@@ -1,0 +1,30 @@
+// Test helper: a Scene from YAML text (through the real parser and validator).
+#pragma once
+
+#include <unity.h>
+
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+#include "scene.hpp"
+
+inline afm::Scene scene_from_text(const std::string &text)
+{
+    char path[] = "/tmp/afm-test-sim-XXXXXX";
+    const int fd = mkstemp(path);
+    TEST_ASSERT_TRUE(fd >= 0);
+    close(fd);
+    std::ofstream(path) << text;
+    afm::Scene s = afm::load_scene(path);
+    unlink(path);
+    return s;
+}
+
+// Replaces the first occurrence of `key` in `text` by `value`.
+inline std::string with(std::string text, const std::string &key, const std::string &value)
+{
+    const auto at = text.find(key);
+    if (at != std::string::npos) text.replace(at, key.size(), value);
+    return text;
+}
