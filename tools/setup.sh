@@ -7,8 +7,8 @@
 # Usage: tools/setup.sh [--quiet]
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
-quiet=0; [ "${1:-}" = "--quiet" ] && quiet=1
-say() { [ $quiet = 1 ] || echo "setup: $*"; }
+quiet=0; [ "${1:-}" = "--quiet" ] && quiet=1   # --quiet: say nothing when nothing is missing
+say() { echo "setup: $*" >&2; }
 die() { echo "setup: error: $*" >&2; exit 1; }
 
 # ---- Debian packages --------------------------------------------------------
@@ -89,4 +89,4 @@ if [ ! -f "$unity_dir/.afm-ok" ]; then
   touch "$unity_dir/.afm-ok"
   say "Unity 2.4.3 unpacked into build/_deps/unity"
 fi
-say "ok"
+[ $quiet = 1 ] || say "ok: everything the bench needs is installed"
