@@ -32,10 +32,26 @@
 #define FW_ACQ_FILTER_LOG2_MAX 4
 #define FW_ACQ_FILTER_LEN_MAX (1 << FW_ACQ_FILTER_LOG2_MAX)
 
+/* The quantiser divides by 78125 = 10^7 / 2^7 with a reciprocal multiply:
+ * floor(n / 78125) = (n * M) >> 47 with M = ceil(2^47 / 78125) =
+ * 1801439851, exact for 0 <= n < 2^47 / e = 3.48e10, where
+ * e = M 78125 - 2^47 = 4047: n M / 2^47 = n / 78125 + n e / (78125 2^47)
+ * and n e < 2^47 keeps the excess below 1 / 78125, too small to reach the
+ * next integer. The largest n is 2 FS 2^8 + 39062 = 5.12e9 (16 bits), and
+ * n M < 1.0000077 2^63 < 2^64 then, so the product never wraps in uint64.
+ * tests/firmware/test_acq.c checks every input from -FS to FS. */
+#define FW_ACQ_RCP_MUL 1801439851u
+#define FW_ACQ_RCP_SHIFT 47
+#define FW_ACQ_RCP_ODD_UV 78125u          /* 10^7 / 2^7 */
+#define FW_ACQ_RCP_POW2 7
+
 typedef struct {
     int32_t bits;                 /* 12, 14 or 16 */
     int32_t filter_log2;          /* 0..FW_ACQ_FILTER_LOG2_MAX */
     q23_t lsb_v;                  /* one code in 9.23 volts (exact) */
+    uint64_t rcp_gain;            /* FW_ACQ_RCP_MUL 2^(bits-8), set by init */
+    uint64_t rcp_bias;            /* FW_ACQ_RCP_MUL (78125 - 1) / 2, set by init */
+    int32_t half_codes;           /* 2^(bits-1) */
     q23_t baseline_v;             /* subtracted zero-force offset, 9.23 V */
     int32_t hist[FW_ACQ_FILTER_LEN_MAX]; /* last codes, ring */
     int32_t hist_pos;
@@ -55,22 +71,67 @@ fw_status_t fw_acq_init(fw_acq_t *a, int32_t bits, int32_t filter_log2);
 void fw_acq_reset(fw_acq_t *a);
 
 /* Pure quantiser. Returns the code; *sat (may be NULL) = |uv| >= 10 V.
- * Scaling and overflow: uv is clamped to +-10 V first, then
- * |uv| * 2^(bits-8) < 2^32 is divided by 78125 (= 10^7 / 2^7) in unsigned
- * 32-bit arithmetic, exactly; the top code clamps to 2^(bits-1) - 1.
+ * Scaling and overflow: uv is clamped to +-10 V first and offset to
+ * t = uv + 10 V in [0, 2 10^7]; then
+ *   code = floor((t 2^(bits-8) + 39062) / 78125) - 2^(bits-1)
+ * which is round(uv 2^(bits-1) / 10^7) exactly: 78125 is odd, so no exact
+ * half occurs and adding the integer 2^(bits-1) commutes with rounding. The
+ * division is the reciprocal multiply above, (t G + B) >> 47 with
+ * G = M 2^(bits-8), B = M 39062, in uint64 (< 2^64); exact over the whole
+ * clamped range. The top code clamps to 2^(bits-1) - 1.
  * bits outside {12, 14, 16} is a caller bug: the result is 0. */
 int32_t fw_acq_quantize_code(int32_t bits, int32_t uv, bool *sat);
 
+/* The reciprocal quantiser's kernel for |uv| <= FW_ACQ_FS_UV (the caller
+ * clamps; see fw_acq_quantize_code): gain, bias and half_codes as in
+ * fw_acq_t. */
+static inline int32_t fw_acq_code_rcp(int32_t uv, uint64_t gain, uint64_t bias,
+                                      int32_t half_codes)
+{
+    uint64_t t = (uint64_t)(uint32_t)(uv + FW_ACQ_FS_UV);
+    int32_t c = (int32_t)((t * gain + bias) >> FW_ACQ_RCP_SHIFT) - half_codes;
+    return (c < half_codes) ? c : half_codes - 1;
+}
+
 /* Code to 9.23 volts, exact (see above). */
 q23_t fw_acq_code_to_q23(int32_t bits, int32_t code);
+
+/* The moving average of fw_acq_step_q23 (filter_log2 > 0): pushes code,
+ * returns the mean of the codes in the window in 9.23 V, rounded. */
+q23_t fw_acq_filter_q23(fw_acq_t *a, int32_t code);
 
 /* One sample: quantise, filter, subtract the baseline.
  * *code_out: the raw code of this sample; *v_out: filtered, baseline
  * corrected signal, 9.23 V; *sat_out: this sample saturated.
  * Scaling and overflow: the filter sums at most 16 codes of at most 16 bits
- * in int32; the baseline difference (at most 20 V) fits 9.23. */
-fw_status_t fw_acq_step_q23(fw_acq_t *a, int32_t uv, int32_t *code_out,
-                            q23_t *v_out, bool *sat_out);
+ * in int32; the baseline difference (at most 20 V) fits 9.23.
+ * Inline (per-sample path). The saturation test is one unsigned compare:
+ * |uv| >= FS <=> (uint32)(uv + FS - 1) >= 2 FS - 1. */
+static inline fw_status_t fw_acq_step_q23(fw_acq_t *a, int32_t uv, int32_t *code_out,
+                                          q23_t *v_out, bool *sat_out)
+{
+    bool sat;
+    int32_t code;
+    q23_t v;
+    if (a == NULL || code_out == NULL || v_out == NULL || sat_out == NULL) {
+        return FW_ERR_ARG;
+    }
+    sat = (uint32_t)uv + (uint32_t)(FW_ACQ_FS_UV - 1) >= (uint32_t)(2 * FW_ACQ_FS_UV - 1);
+    if (sat) {
+        uv = (uv < 0) ? -FW_ACQ_FS_UV : FW_ACQ_FS_UV;
+        a->sat_sticky = true;
+        if (a->sat_count != UINT32_MAX) {
+            a->sat_count++;
+        }
+    }
+    code = fw_acq_code_rcp(uv, a->rcp_gain, a->rcp_bias, a->half_codes);
+    v = (a->filter_log2 == 0) ? code * a->lsb_v : fw_acq_filter_q23(a, code);
+    a->last_v = v;
+    *code_out = code;
+    *v_out = v - a->baseline_v;
+    *sat_out = sat;
+    return FW_OK;
+}
 
 /* Records the latest filtered signal as the zero-force baseline. */
 void fw_acq_record_baseline(fw_acq_t *a);

@@ -14,9 +14,14 @@
  *  4. theta from the apex motion over the last FW_THETA_WINDOW (16) samples;
  *     direction unknown below cfg.theta_min_disp_pm (default 1000 pm = 1 nm)
  *     of displacement over the window (last direction held; 90 deg before
- *     any motion, FW_FLAG_THETA_UNKNOWN).
- *  5. Force in C (eq. 1a-1c, blend near sin theta = 0, fw_force.h), rotated
- *     into A (eq. 3).
+ *     any motion, FW_FLAG_THETA_UNKNOWN). Kept as the frame-C vector
+ *     theta.dir_x, theta.dir_y (fw_theta_push_pm); the unit vector
+ *     theta.cos_theta, sin_theta is not formed per sample.
+ *  5. Force in C (eq. 1a-1c, blend near sin theta = 0) from that vector
+ *     (fw_force_solve_dir_fit_pn, fw_force.h), rotated into A (eq. 3).
+ * The per-sample functions of the modules are inline, so one sample costs
+ * no calls except near theta = 0, pi (fw_force_below_hi_pn) and on the
+ * rare paths (ADC filter, saturation).
  * Flags of the sample are returned in out->flags; sticky flags and counters
  * accumulate in the instance until fw_board_reset.
  *

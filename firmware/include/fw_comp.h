@@ -24,6 +24,7 @@
 #define FW_COMP_H
 
 #include "fw_types.h"
+#include "fw_math.h"
 
 typedef struct {
     int32_t cn_pm_per_v;     /* C_n, pm/V */
@@ -40,15 +41,34 @@ fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
                          fw_bam_t alpha, const int32_t center_pm[2],
                          int32_t half_range_pm, q16_t kappa);
 
-/* Bending offset in frame A (pm) for S_n, S_l in 9.23 V.
- * Scaling and overflow: C * S in 64 bits >> 23 rounded, rotated with 64-bit
- * products, saturated to int32 (*sat). */
-void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v, int32_t off_a_pm[3],
-                       bool *sat);
+/* Bending offset in frame A (pm) for S_n, S_l in 9.23 V. Inline (per
+ * sample).
+ * Scaling and overflow: C * S in 64 bits (< 2^62) >> 23 rounded (half up)
+ * and saturated to int32 (*sat); rotated by R(alpha) with 64-bit products
+ * (fw_math_rotate_unit_i32: cos_a, sin_a come from fw_math_sincos_q30, so
+ * they lie in [-1, 1]), rounded, saturated (*sat). */
+static inline void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v,
+                                     int32_t off_a_pm[3], bool *sat)
+{
+    int32_t ox = fw_math_sat_i32(
+        fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC), sat);
+    int32_t oy = fw_math_sat_i32(
+        fw_math_rshift_round_i64((int64_t)c->cl_pm_per_v * sl_v, FW_Q23_FRAC), sat);
+    fw_math_rotate_unit_i32(ox, oy, c->cos_a, c->sin_a, &off_a_pm[0], &off_a_pm[1], sat);
+    off_a_pm[2] = 0;
+}
 
-/* Apex estimate: piezo + offset (xyz, pm), saturated (*sat). */
-void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3], q23_t sn_v, q23_t sl_v,
-                     int32_t apex_pm[3], bool *sat);
+/* Apex estimate: piezo + offset (xyz, pm), saturated (*sat); z is the
+ * piezo's (the offset has no z). Inline (per sample). */
+static inline void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3], q23_t sn_v,
+                                   q23_t sl_v, int32_t apex_pm[3], bool *sat)
+{
+    int32_t off[3];
+    fw_comp_offset_pm(c, sn_v, sl_v, off, sat);
+    apex_pm[0] = fw_math_sat_i32((int64_t)piezo_pm[0] + off[0], sat);
+    apex_pm[1] = fw_math_sat_i32((int64_t)piezo_pm[1] + off[1], sat);
+    apex_pm[2] = piezo_pm[2];
+}
 
 /* Joystick (1.15) to the set point in frame A (pm).
  * Scaling and overflow: half_range * kappa (16.16) * joy (1.15) in 64 bits,

@@ -22,14 +22,25 @@
  * |sin theta| < S_HI the flag FW_FLAG_FX_UNOBSERVABLE is set. F_x,cot is
  * only evaluated for |sin theta| >= S_LO, where |cot theta| <= 8, so no
  * division by a vanishing sin theta ever happens.
+ *
+ * Two entry points: fw_force_solve_pn takes (cos theta, sin theta) in 1.15;
+ * fw_force_solve_dir_pn (the per-sample path of fw_board_step) takes the
+ * direction of motion as a vector of any length, as fw_theta_push_pm leaves
+ * it, and never forms the unit vector where it is not needed: F_x,cot =
+ * F_y x / y, the zones are tested on squares, and cos theta (and
+ * |sin theta| for the blend) are formed only below S_HI.
  */
 #ifndef FW_FORCE_H
 #define FW_FORCE_H
 
 #include "fw_types.h"
+#include "fw_math.h"
 
 #define FW_FORCE_SIN_LO_Q15 ((q15_t)4096)   /* 1/8 in 1.15 */
 #define FW_FORCE_SIN_HI_Q15 ((q15_t)8192)   /* 1/4 in 1.15 */
+#define FW_FORCE_XFRAC 8                    /* extra fraction bits of F_y, N, F_z */
+#define FW_FORCE_BLEND_LOG2 12              /* S_HI - S_LO = 2^12 in 1.15 */
+#define FW_FORCE_DIR_MAX ((int32_t)1 << 15) /* |x|, |y| bound of a direction vector */
 
 typedef struct {
     int32_t kn_pn_per_v;     /* k_n K_n, pN/V */
@@ -59,6 +70,101 @@ fw_status_t fw_force_solve_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
                               q15_t cos_theta, q15_t sin_theta,
                               int32_t force_c_pn[3], uint32_t *flags);
 
+/* The friction fallback F_x,fb = -mc (N + F_adh) / (1 - mc 2h/l) in pN,
+ * from n_pn = k_n K_n S_n (pN) and mc = mu cos theta (2.30, |mc| <= 2^30).
+ * Scaling and overflow: den = 2^30 - (mc 2h/l >> 30) lies in
+ * [2^29, 3 2^29] (init keeps mu 2h/l <= 1/2); |mc (N + F_adh)| <=
+ * 2^30 2^32 = 2^62; one 64-bit division, rounded half away from zero;
+ * |result| < 2^34. */
+static inline int64_t fw_force_fallback_pn(const fw_force_t *f, int32_t n_pn, int64_t mc)
+{
+    int64_t den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
+    int64_t num = -mc * ((int64_t)n_pn + f->adhesion_pn);
+    int64_t q = num / den;
+    int64_t r2 = 2 * (num - q * den);
+    /* den > 0: |r2| >= den rounds away from zero (C99 truncates) */
+    return q + (r2 >= den) - (r2 <= -den);
+}
+
+/* Force in frame C, pN, as fw_force_solve_pn, from the direction of motion
+ * given as a vector (dir_x, dir_y) of any length in frame C: theta =
+ * atan2(dir_y, dir_x). (0, 0) is theta = 90 deg (F_x = 0, no flag).
+ * Zones on squares, exact: |sin theta| >= 1/4 <=> 15 y^2 >= x^2 (F_x,cot
+ * only, no flag); |sin theta| >= 1/8 <=> 63 y^2 >= x^2 (blend); below,
+ * the fallback alone.
+ *   F_x,cot = F_y x / y: one 64-bit division (F_y with 8 fraction bits,
+ *     truncated: < 2^-8 pN), then rounded to pN.
+ *   below 1/4 (fw_force_below_hi_pn): t = y / x in 2.30 (|t| < 0.26, one
+ *     64-bit division, truncated), cos theta = sign(x) (1 + t^2)^(-1/2) by
+ *     the quartic 1 + u (a1 + u (a2 + u (a3 + u a4))), u = t^2 in [0, 1/15)
+ *     (Chebyshev fit, |error| < 2.2e-9, exact at t = 0), |sin theta| =
+ *     |t| cos theta in 2.30; F_x,fb = fw_force_fallback_pn (rounded) below
+ *     1/8; in the blend F_x,fb keeps 8 fraction bits (a second division of
+ *     the remainder) and F_x = F_x,fb + w (F_x,cot - F_x,fb) with
+ *     w = clamp(|sin| - 1/8, 0, 1/8) / (1/8) in 2.30 / 2^27, the product
+ *     split so it never exceeds 64 bits; rounded to pN once.
+ * Scaling and overflow: |dir_x|, |dir_y| <= 2^15 (FW_FORCE_DIR_MAX) on the
+ * fast path; larger vectors are first shifted right (rounded) until they
+ * fit (fw_force_dir_fit), which keeps their direction to 2^-13. Squares
+ * <= 2^30, 63 y^2 < 2^36 in 64 bits; gain * S < 2^62 >> 15 leaves F_y,
+ * N < 2^47 (8 fraction bits); |F_y x| <= 2^62; |F_x,cot| < 2^50
+ * (|x / y| < 8); blend terms < 2^54;
+ * F_x clamped to int32 before F_z = N - (2h/l) F_x; every output saturated
+ * to int32 with FW_FLAG_SAT_FORCE.
+ * Error against the reference model of the same equations, given the same
+ * vector (test_force sweep, |x|, |y| <= 2^15): <= 1 pN (measured 0.68 pN). */
+fw_status_t fw_force_solve_dir_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                  int32_t dir_x, int32_t dir_y,
+                                  int32_t force_c_pn[3], uint32_t *flags);
+
+/* Shift (dir_x, dir_y) right together, rounded half up, until both lie in
+ * [-2^15, 2^15] (FW_FORCE_DIR_MAX): the larger ends in [2^13, 2^15].
+ * Vectors that fit already are left as they are. */
+void fw_force_dir_fit(int32_t *dir_x, int32_t *dir_y);
+
+/* F_x below S_HI (pN): F_x,fb, blended with F_x,cot = fx8 / 2^8 when
+ * blend (|sin theta| >= S_LO). Part of fw_force_solve_dir_pn, out of line
+ * (it runs only near theta = 0, pi). */
+int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int32_t dir_x,
+                             int32_t dir_y, bool blend);
+
+/* fw_force_solve_dir_pn for a direction that already satisfies
+ * |dir_x|, |dir_y| <= 2^15 (fw_theta_push_pm leaves it so) and valid
+ * pointers: no argument checks. Inline, the per-sample path. */
+static inline void fw_force_solve_dir_fit_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                             int32_t dir_x, int32_t dir_y,
+                                             int32_t force_c_pn[3], uint32_t *flags)
+{
+    bool sat = false;
+    int64_t fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v,
+                                           FW_Q23_FRAC - FW_FORCE_XFRAC);
+    int64_t n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v,
+                                          FW_Q23_FRAC - FW_FORCE_XFRAC);
+    int64_t x2 = (int64_t)dir_x * dir_x;
+    int64_t y2 = (int64_t)dir_y * dir_y;
+    int64_t fx8 = 0;
+    int32_t fx32;
+    int64_t fz8;
+    if (63 * y2 >= x2 && dir_y != 0) {
+        fx8 = fy8 * dir_x / dir_y;
+    }
+    if (15 * y2 >= x2) {
+        fx32 = fw_math_sat_i32(fw_math_rshift_round_i64(fx8, FW_FORCE_XFRAC), &sat);
+    } else {
+        int32_t n = fw_math_sat_i32(fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC), &sat);
+        fx32 = fw_math_sat_i32(fw_force_below_hi_pn(f, n, fx8, dir_x, dir_y, 63 * y2 >= x2), &sat);
+        *flags |= FW_FLAG_FX_UNOBSERVABLE;
+    }
+    /* F_z from the clamped F_x: |2h/l * fx32| < 2^62 */
+    fz8 = n8 - fw_math_rshift_round_i64((int64_t)f->two_h_over_l * fx32, FW_Q30_FRAC - FW_FORCE_XFRAC);
+    force_c_pn[0] = fx32;
+    force_c_pn[1] = fw_math_sat_i32(fw_math_rshift_round_i64(fy8, FW_FORCE_XFRAC), &sat);
+    force_c_pn[2] = fw_math_sat_i32(fw_math_rshift_round_i64(fz8, FW_FORCE_XFRAC), &sat);
+    if (sat) {
+        *flags |= FW_FLAG_SAT_FORCE;
+    }
+}
+
 /* Rotate a frame-C vector into frame A by R(alpha) (eq. 3); z unchanged.
  * cos/sin alpha in 2.30. Saturates (*sat). */
 void fw_force_rotate_pn(const int32_t v_c[3], q30_t cos_a, q30_t sin_a,
@@ -69,7 +175,9 @@ void fw_force_rotate_pn(const int32_t v_c[3], q30_t cos_a, q30_t sin_a,
  * FW_THETA_WINDOW samples: d = p_now - p_(now - WINDOW + 1), rotated into
  * frame C by R(-alpha). If |d| < min_disp_pm the direction is unknown and the
  * last known direction is held; before any is known, theta = 90 deg
- * (motion across the lever, F_x = 0) and FW_FLAG_THETA_UNKNOWN is set. */
+ * (motion across the lever, F_x = 0) and FW_FLAG_THETA_UNKNOWN is set.
+ * The length test is exact, on d in frame A (a rotation keeps lengths):
+ * dx^2 + dy^2 >= min_disp_pm^2 in 64 bits (min_disp_pm^2 kept by init). */
 #define FW_THETA_WINDOW 16
 #define FW_THETA_MIN_DISP_DEFAULT_PM 1000
 
@@ -79,7 +187,10 @@ typedef struct {
     int32_t pos;
     int32_t fill;
     int32_t min_disp_pm;
-    q15_t cos_theta;        /* latest direction, frame C, 1.15 */
+    uint64_t min_disp2_pm2; /* min_disp_pm^2 */
+    int32_t dir_x;          /* latest direction, frame C, pm (|x|, |y| <= 2^15, */
+    int32_t dir_y;          /*   scaled down above); (0, 1) before any */
+    q15_t cos_theta;        /* latest direction, frame C, 1.15 (fw_theta_step only) */
     q15_t sin_theta;
     bool known;
 } fw_theta_t;
@@ -87,10 +198,77 @@ typedef struct {
 fw_status_t fw_theta_init(fw_theta_t *t, int32_t min_disp_pm);
 void fw_theta_reset(fw_theta_t *t);
 
-/* Push the apex (frame A) and update the direction. Sets
- * FW_FLAG_THETA_UNKNOWN in *flags while no direction is known.
- * Scaling and overflow: displacement in 64 bits, clamped to int32 before
- * the rotation (a move of 2 mm per window is already out of range). */
+/* Push the apex (frame A) and update the direction vector (dir_x, dir_y)
+ * only: the per-sample path (fw_board_step), inline. Returns true when the
+ * direction was updated this sample. Sets FW_FLAG_THETA_UNKNOWN in *flags
+ * while no direction is known. cos_a, sin_a: alpha in 2.30, as
+ * fw_math_sincos_q30 returns them (|cos_a|, |sin_a| <= 2^30, not checked).
+ * Scaling and overflow: d in 64 bits, |dx|, |dy| < 2^32; the length test
+ * squares components in [-2^31, 2^31) (sum <= 2^63 in uint64); a d with a larger
+ * component has moved anyway (min_disp_pm < 2^31) and is halved (floor),
+ * which keeps its direction; the rotation c dx + s dy is formed in 64
+ * bits (|c dx| + |s dy| <= 2^62) and rounded (half up) to pm. If a
+ * component then exceeds 2^15 pm, the unrounded vector is instead shifted
+ * right so that the larger component lies in [2^13, 2^15] (one rounding,
+ * the direction kept to 2^-13). So |dir_x|, |dir_y| <= 2^15 always, and
+ * max(|dir_x|, |dir_y|) >= 1 (|d| >= 1 pm).
+ * cos/sin theta are not formed (fw_theta_step does). */
+static inline bool fw_theta_push_pm(fw_theta_t *t, const int32_t apex_pm[2], q30_t cos_a,
+                                    q30_t sin_a, uint32_t *flags)
+{
+    int32_t oldest;
+    int64_t dx;
+    int64_t dy;
+    int64_t px;
+    int64_t py;
+    int64_t cx;
+    int64_t cy;
+    t->x_pm[t->pos] = apex_pm[0];
+    t->y_pm[t->pos] = apex_pm[1];
+    if (t->fill < FW_THETA_WINDOW) {
+        t->fill++;
+        oldest = 0;
+    } else {
+        oldest = (t->pos + 1) & (FW_THETA_WINDOW - 1);
+    }
+    t->pos = (t->pos + 1) & (FW_THETA_WINDOW - 1);
+    dx = (int64_t)apex_pm[0] - t->x_pm[oldest];
+    dy = (int64_t)apex_pm[1] - t->y_pm[oldest];
+    if ((((uint64_t)dx + ((uint64_t)1 << 31)) | ((uint64_t)dy + ((uint64_t)1 << 31))) <= UINT32_MAX) {
+        if ((uint64_t)(dx * dx) + (uint64_t)(dy * dy) < t->min_disp2_pm2) {
+            if (!t->known) {
+                *flags |= FW_FLAG_THETA_UNKNOWN;
+            }
+            return false;
+        }
+    } else {
+        /* |d| >= 2^31 pm > min_disp_pm: halved, direction kept */
+        dx = fw_math_asr_i64(dx, 1);
+        dy = fw_math_asr_i64(dy, 1);
+    }
+    /* into frame C: R(-alpha), 2^-30 pm, then rounded to pm */
+    px = (int64_t)cos_a * dx + (int64_t)sin_a * dy;
+    py = (int64_t)cos_a * dy - (int64_t)sin_a * dx;
+    cx = fw_math_rshift_round_i64(px, FW_Q30_FRAC);
+    cy = fw_math_rshift_round_i64(py, FW_Q30_FRAC);
+    if ((uint64_t)(cx + FW_FORCE_DIR_MAX) > (uint64_t)(2 * FW_FORCE_DIR_MAX)
+        || (uint64_t)(cy + FW_FORCE_DIR_MAX) > (uint64_t)(2 * FW_FORCE_DIR_MAX)) {
+        /* over 2^15 pm: shift the unrounded vector, one rounding */
+        uint64_t m = (uint64_t)(px < 0 ? -px : px) | (uint64_t)(py < 0 ? -py : py);
+        int sh = 49 - fw_math_clz_u64(m);   /* m >> sh in [2^14, 2^15), sh > 30 */
+        cx = fw_math_rshift_round_i64(px, sh);
+        cy = fw_math_rshift_round_i64(py, sh);
+    }
+    t->dir_x = (int32_t)cx;
+    t->dir_y = (int32_t)cy;
+    t->known = true;
+    return true;
+}
+
+/* Push the apex (frame A) and update the direction: fw_theta_push_pm, then
+ * (cos_theta, sin_theta) = fw_math_unit_q15(dir_x, dir_y) when it moved.
+ * Sets FW_FLAG_THETA_UNKNOWN in *flags while no direction is known.
+ * Any cos_a, sin_a (clamped to [-1, 1]). */
 void fw_theta_step(fw_theta_t *t, const int32_t apex_pm[2], q30_t cos_a, q30_t sin_a,
                    uint32_t *flags);
 

@@ -19,9 +19,29 @@
 
 /* ---- saturation ------------------------------------------------------ */
 
+/* Tiny helpers are static inline: the per-sample chain (fw_board_step)
+ * calls them a dozen times a sample, and an out-of-line call costs more
+ * than the operation. */
+
+/* Where converting an out-of-range integer to int32 keeps the low 32 bits
+ * (C99 leaves it implementation-defined; GCC and Clang document modulo
+ * 2^32 on every target), v fits int32 <=> (int32_t)v == v: a sign
+ * extension and a compare. Tested by a constant expression, folded at
+ * compile time; elsewhere the explicit range test is used. */
+#define FW_MATH_WRAP_NATIVE ((int32_t)(uint32_t)0x80000001u == -INT32_MAX)
+
 /* Clamp a 64-bit value to int32. *sat (may be NULL) is set true when it
  * clamped and left untouched otherwise (sticky across calls). */
-int32_t fw_math_sat_i32(int64_t v, bool *sat);
+static inline int32_t fw_math_sat_i32(int64_t v, bool *sat)
+{
+    if (FW_MATH_WRAP_NATIVE ? ((int64_t)(int32_t)v == v) : (v >= INT32_MIN && v <= INT32_MAX)) {
+        return (int32_t)v;
+    }
+    if (sat != NULL) {
+        *sat = true;
+    }
+    return (v < 0) ? INT32_MIN : INT32_MAX;
+}
 
 /* a + b, 1.31 (or any int32 format). Scaling and overflow: exact sum in
  * 64 bits, saturated to [Q31_MIN, Q31_MAX]. */
@@ -56,13 +76,53 @@ int32_t fw_math_shift_i32(int32_t x, int32_t n, bool *sat);
 /* Arithmetic shift right of a 64-bit value, defined for negative values
  * (C99 leaves >> of a negative value implementation-defined):
  * fw_math_asr_i64 = floor(v / 2^n), fw_math_rshift_round_i64 =
- * floor(v / 2^n + 1/2). n in 0..62; |v| < 2^62 for the rounded form. */
-int64_t fw_math_asr_i64(int64_t v, int n);
-int64_t fw_math_rshift_round_i64(int64_t v, int n);
+ * floor(v / 2^n + 1/2). n in 0..62; v + 2^(n-1) must fit int64 for the
+ * rounded form (|v| <= 2^62 always does; n <= 0 returns v).
+ * Where the compiler's >> of a negative int64 is the arithmetic shift
+ * (tested by a constant expression, folded at compile time: GCC and Clang
+ * on every target) it is one instruction; elsewhere the floor is formed
+ * from a shift of the non-negative -(v + 1). */
+#define FW_MATH_ASR_NATIVE (((int64_t)-5 >> 1) == (int64_t)-3)
+
+static inline int64_t fw_math_asr_i64(int64_t v, int n)
+{
+    if (FW_MATH_ASR_NATIVE) {
+        return v >> n;
+    }
+    return (v >= 0) ? (v >> n) : -(int64_t)(((uint64_t)(-(v + 1)) >> n) + 1u);
+}
+
+static inline int64_t fw_math_rshift_round_i64(int64_t v, int n)
+{
+    if (n <= 0) {
+        return v;
+    }
+    return fw_math_asr_i64(v + ((int64_t)1 << (n - 1)), n);
+}
 
 /* round(num / den) for 64-bit operands, half away from zero. den == 0
  * returns 0 (callers check den first; this keeps the function total). */
 int64_t fw_math_div_round_i64(int64_t num, int64_t den);
+
+/* Number of leading zero bits of a nonzero uint64 (v = 0 is a caller bug:
+ * the result is 64). One instruction where the compiler has the builtin
+ * (GCC, Clang: x86 BSR/LZCNT, Cortex-M CLZ twice); a loop elsewhere. */
+static inline int fw_math_clz_u64(uint64_t v)
+{
+#if defined(__GNUC__)
+    return (v == 0u) ? 64 : __builtin_clzll(v);
+#else
+    int n = 0;
+    if (v == 0u) {
+        return 64;
+    }
+    while ((v & ((uint64_t)1 << 63)) == 0u) {
+        v <<= 1;
+        n++;
+    }
+    return n;
+#endif
+}
 
 /* ---- roots -------------------------------------------------------------- */
 
@@ -115,5 +175,20 @@ bool fw_math_unit_q15(int32_t x, int32_t y, q15_t *c, q15_t *s);
  * Scaling and overflow: 64-bit products, sum rounded >> 30, saturated. */
 void fw_math_rotate_i32(int32_t x, int32_t y, q30_t c, q30_t s,
                         int32_t *xr, int32_t *yr, bool *sat);
+
+/* fw_math_rotate_i32 without the clamp, for coefficients already in
+ * [-1, 1] (2.30), as fw_math_sincos_q30 returns them; the per-sample paths
+ * clamp once at init. Precondition |c|, |s| <= 2^30 (not checked).
+ * Scaling and overflow: |c x|, |s y| <= 2^61, so each 4.60 sum is
+ * < 2^62 and cannot wrap; rounded (half up) >> 30, saturated to int32
+ * (*sat, sticky; may be NULL). Same results as fw_math_rotate_i32. */
+static inline void fw_math_rotate_unit_i32(int32_t x, int32_t y, q30_t c, q30_t s,
+                                           int32_t *xr, int32_t *yr, bool *sat)
+{
+    int64_t px = (int64_t)c * x - (int64_t)s * y;
+    int64_t py = (int64_t)s * x + (int64_t)c * y;
+    *xr = fw_math_sat_i32(fw_math_rshift_round_i64(px, FW_Q30_FRAC), sat);
+    *yr = fw_math_sat_i32(fw_math_rshift_round_i64(py, FW_Q30_FRAC), sat);
+}
 
 #endif /* FW_MATH_H */

@@ -4,22 +4,22 @@
 #include "fw_acq.h"
 #include "fw_math.h"
 
-/* Full scale 10^7 uV = 2^7 * 78125. code = uv * 2^(bits-1) / 10^7
- * = uv * 2^(bits-1-7) / 78125; |uv| * 2^(bits-8) <= 2.56e9 fits uint32. */
-#define ACQ_FS_POW2 7
-#define ACQ_FS_ODD_UV ((uint32_t)(FW_ACQ_FS_UV >> ACQ_FS_POW2))
 #define ACQ_SPAN_V (2 * (FW_ACQ_FS_UV / FW_UV_PER_V))   /* 20 V from -10 V to +10 V */
+#define ACQ_RCP_BIAS ((uint64_t)FW_ACQ_RCP_MUL * ((FW_ACQ_RCP_ODD_UV - 1u) / 2u))
 
 static bool acq_bits_valid(int32_t bits)
 {
     return bits == 12 || bits == 14 || bits == 16;
 }
 
+/* G = M 2^(bits-8) of fw_acq_quantize_code, bits valid. */
+static uint64_t acq_rcp_gain(int32_t bits)
+{
+    return (uint64_t)FW_ACQ_RCP_MUL << (bits - 1 - FW_ACQ_RCP_POW2);
+}
+
 int32_t fw_acq_quantize_code(int32_t bits, int32_t uv, bool *sat)
 {
-    uint32_t mag;
-    uint32_t code_mag;
-    uint32_t top;
     bool s = (uv >= FW_ACQ_FS_UV) || (uv <= -FW_ACQ_FS_UV);
     if (sat != NULL) {
         *sat = s;
@@ -33,14 +33,7 @@ int32_t fw_acq_quantize_code(int32_t bits, int32_t uv, bool *sat)
     if (uv < -FW_ACQ_FS_UV) {
         uv = -FW_ACQ_FS_UV;
     }
-    mag = (uint32_t)(uv < 0 ? -uv : uv);
-    /* the divisor is odd, so an exact half never occurs: this is round() */
-    code_mag = ((mag << (bits - 1 - ACQ_FS_POW2)) + ACQ_FS_ODD_UV / 2u) / ACQ_FS_ODD_UV;
-    top = (uint32_t)1 << (bits - 1);
-    if (uv >= 0) {
-        return (int32_t)((code_mag >= top) ? top - 1u : code_mag);
-    }
-    return -(int32_t)((code_mag > top) ? top : code_mag);
+    return fw_acq_code_rcp(uv, acq_rcp_gain(bits), ACQ_RCP_BIAS, (int32_t)1 << (bits - 1));
 }
 
 q23_t fw_acq_code_to_q23(int32_t bits, int32_t code)
@@ -60,6 +53,9 @@ fw_status_t fw_acq_init(fw_acq_t *a, int32_t bits, int32_t filter_log2)
     a->bits = bits;
     a->filter_log2 = filter_log2;
     a->lsb_v = fw_acq_code_to_q23(bits, 1);
+    a->rcp_gain = acq_rcp_gain(bits);
+    a->rcp_bias = ACQ_RCP_BIAS;
+    a->half_codes = (int32_t)1 << (bits - 1);
     a->baseline_v = 0;
     fw_acq_reset(a);
     return FW_OK;
@@ -79,39 +75,16 @@ void fw_acq_reset(fw_acq_t *a)
     a->sat_count = 0;
 }
 
-fw_status_t fw_acq_step_q23(fw_acq_t *a, int32_t uv, int32_t *code_out,
-                            q23_t *v_out, bool *sat_out)
+q23_t fw_acq_filter_q23(fw_acq_t *a, int32_t code)
 {
-    bool sat = false;
-    int32_t code;
-    q23_t v;
-    if (a == NULL || code_out == NULL || v_out == NULL || sat_out == NULL) {
-        return FW_ERR_ARG;
+    int32_t len = (int32_t)1 << a->filter_log2;
+    a->hist_sum += code - a->hist[a->hist_pos];
+    a->hist[a->hist_pos] = code;
+    a->hist_pos = (a->hist_pos + 1) & (len - 1);
+    if (a->hist_fill < len) {
+        a->hist_fill++;
     }
-    code = fw_acq_quantize_code(a->bits, uv, &sat);
-    if (sat) {
-        a->sat_sticky = true;
-        if (a->sat_count != UINT32_MAX) {
-            a->sat_count++;
-        }
-    }
-    if (a->filter_log2 == 0) {
-        v = code * a->lsb_v;
-    } else {
-        int32_t len = (int32_t)1 << a->filter_log2;
-        a->hist_sum += code - a->hist[a->hist_pos];
-        a->hist[a->hist_pos] = code;
-        a->hist_pos = (a->hist_pos + 1) & (len - 1);
-        if (a->hist_fill < len) {
-            a->hist_fill++;
-        }
-        v = (q23_t)fw_math_div_round_i64((int64_t)a->hist_sum * a->lsb_v, a->hist_fill);
-    }
-    a->last_v = v;
-    *code_out = code;
-    *v_out = v - a->baseline_v;
-    *sat_out = sat;
-    return FW_OK;
+    return (q23_t)fw_math_div_round_i64((int64_t)a->hist_sum * a->lsb_v, a->hist_fill);
 }
 
 void fw_acq_record_baseline(fw_acq_t *a)

@@ -94,10 +94,13 @@ fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out
     b->sl_v = vl;
 
     fw_comp_apex_pm(&b->comp, in->piezo_pm, vn, vl, out->tip_pm, &sat_pos);
-    fw_theta_step(&b->theta, out->tip_pm, b->cos_a, b->sin_a, &flags);
-    (void)fw_force_solve_pn(&b->force, vn, vl, b->theta.cos_theta, b->theta.sin_theta,
-                            force_c, &flags);
-    fw_force_rotate_pn(force_c, b->cos_a, b->sin_a, out->force_pn, &sat_f);
+    (void)fw_theta_push_pm(&b->theta, out->tip_pm, b->cos_a, b->sin_a, &flags);
+    fw_force_solve_dir_fit_pn(&b->force, vn, vl, b->theta.dir_x, b->theta.dir_y,
+                              force_c, &flags);
+    /* eq. 3; cos_a, sin_a from fw_math_sincos_q30 lie in [-1, 1] */
+    fw_math_rotate_unit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a,
+                            &out->force_pn[0], &out->force_pn[1], &sat_f);
+    out->force_pn[2] = force_c[2];
     if (sat_f) {
         flags |= FW_FLAG_SAT_FORCE;
     }

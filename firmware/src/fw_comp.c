@@ -26,31 +26,6 @@ fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
     return FW_OK;
 }
 
-void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v, int32_t off_a_pm[3],
-                       bool *sat)
-{
-    int32_t ox = fw_math_sat_i32(
-        fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC), sat);
-    int32_t oy = fw_math_scale_i32(c->cl_pm_per_v, sl_v, FW_Q23_FRAC, sat);
-    int32_t ax;
-    int32_t ay;
-    fw_math_rotate_i32(ox, oy, c->cos_a, c->sin_a, &ax, &ay, sat);
-    off_a_pm[0] = ax;
-    off_a_pm[1] = ay;
-    off_a_pm[2] = 0;
-}
-
-void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3], q23_t sn_v, q23_t sl_v,
-                     int32_t apex_pm[3], bool *sat)
-{
-    int32_t off[3];
-    int i;
-    fw_comp_offset_pm(c, sn_v, sl_v, off, sat);
-    for (i = 0; i < 3; i++) {
-        apex_pm[i] = fw_math_sat_i32((int64_t)piezo_pm[i] + off[i], sat);
-    }
-}
-
 void fw_comp_target_pm(const fw_comp_t *c, const q15_t joy[2], int32_t target_pm[2], bool *sat)
 {
     int i;

@@ -5,8 +5,21 @@
 #include "fw_math.h"
 
 #define FORCE_BLEND_SPAN (FW_FORCE_SIN_HI_Q15 - FW_FORCE_SIN_LO_Q15)
-#define FORCE_XFRAC 8                      /* extra fraction bits of F_y, N, F_z */
 #define FORCE_MU_G_MAX (FW_Q30_ONE / 2)   /* mu * 2h/l must stay <= 1/2 */
+
+/* t = y / x in 2.30 below S_HI (|t| < 0.2582 < 2^-1.95). */
+#define FORCE_T_FRAC 30
+/* (1 + u)^(-1/2) ~ 1 + u (a1 + u (a2 + u (a3 + u a4))) on u in [0, 1/15],
+ * 2.30: the cubic (f(u) - 1) / u interpolated at the four Chebyshev nodes
+ * of [0, 1/15]; |error| < 2.2e-9, exact at u = 0. */
+#define FORCE_COS_A1 (-536870876)
+#define FORCE_COS_A2 402635780
+#define FORCE_COS_A3 (-334225590)
+#define FORCE_COS_A4 261126907
+/* S_LO = 1/8 and the blend span S_HI - S_LO = 1/8 in 2.30 */
+#define FORCE_SIN_LO_Q30 ((int64_t)1 << 27)
+#define FORCE_BLEND_SPAN_LOG2_Q30 27
+#define FORCE_BLEND_SPLIT 24
 
 fw_status_t fw_force_init(fw_force_t *f, int32_t kn_pn_per_v, int32_t lat_pn_per_v,
                           int32_t tip_height_nm, int32_t lever_length_nm,
@@ -54,23 +67,21 @@ fw_status_t fw_force_solve_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
     }
     /* F_y and k_n K_n S_n with 8 extra fraction bits: |gain * S| < 2^62,
      * >> 15 leaves < 2^47 */
-    fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v, FW_Q23_FRAC - FORCE_XFRAC);
-    n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v, FW_Q23_FRAC - FORCE_XFRAC);
-    n = fw_math_sat_i32(fw_math_rshift_round_i64(n8, FORCE_XFRAC), &sat);
+    fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
+    n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
+    n = fw_math_sat_i32(fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC), &sat);
     abs_s = sin_theta < 0 ? -(int32_t)sin_theta : (int32_t)sin_theta;
 
     if (abs_s >= FW_FORCE_SIN_LO_Q15) {
         /* |cot| <= 8 here: |fy8 * c| < 2^62, quotient < 2^50 */
-        fx = fw_math_div_round_i64(fy8 * cos_theta, (int64_t)sin_theta * ((int64_t)1 << FORCE_XFRAC));
+        fx = fw_math_div_round_i64(fy8 * cos_theta, (int64_t)sin_theta * ((int64_t)1 << FW_FORCE_XFRAC));
     }
     if (abs_s < FW_FORCE_SIN_HI_Q15) {
         /* F_x,fb = -mu c (N + F_adh) / (1 - mu c 2h/l):
          * mc in 2.30 (|mc| <= 1), den in [1/2, 3/2] in 2.30,
          * |mc * load| < 2^30 * 2^32 */
         int64_t mc = fw_math_asr_i64((int64_t)f->mu * cos_theta, FW_Q15_FRAC);
-        int64_t den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
-        int64_t load = (int64_t)n + f->adhesion_pn;
-        int64_t fb = fw_math_div_round_i64(-mc * load, den);
+        int64_t fb = fw_force_fallback_pn(f, n, mc);
         if (abs_s < FW_FORCE_SIN_LO_Q15) {
             fx = fb;
         } else {
@@ -82,14 +93,105 @@ fw_status_t fw_force_solve_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
     }
     /* F_z from the clamped F_x: |2h/l * fx32| < 2^62 */
     fx32 = fw_math_sat_i32(fx, &sat);
-    fz8 = n8 - fw_math_rshift_round_i64((int64_t)f->two_h_over_l * fx32, FW_Q30_FRAC - FORCE_XFRAC);
+    fz8 = n8 - fw_math_rshift_round_i64((int64_t)f->two_h_over_l * fx32, FW_Q30_FRAC - FW_FORCE_XFRAC);
     force_c_pn[0] = fx32;
-    force_c_pn[1] = fw_math_sat_i32(fw_math_rshift_round_i64(fy8, FORCE_XFRAC), &sat);
-    force_c_pn[2] = fw_math_sat_i32(fw_math_rshift_round_i64(fz8, FORCE_XFRAC), &sat);
+    force_c_pn[1] = fw_math_sat_i32(fw_math_rshift_round_i64(fy8, FW_FORCE_XFRAC), &sat);
+    force_c_pn[2] = fw_math_sat_i32(fw_math_rshift_round_i64(fz8, FW_FORCE_XFRAC), &sat);
     if (sat) {
         *flags |= FW_FLAG_SAT_FORCE;
     }
     return FW_OK;
+}
+
+void fw_force_dir_fit(int32_t *dir_x, int32_t *dir_y)
+{
+    int64_t x = *dir_x;
+    int64_t y = *dir_y;
+    uint64_t ax = (uint64_t)(x < 0 ? -x : x);
+    uint64_t ay = (uint64_t)(y < 0 ? -y : y);
+    if (ax > (uint64_t)FW_FORCE_DIR_MAX || ay > (uint64_t)FW_FORCE_DIR_MAX) {
+        int sh = 49 - fw_math_clz_u64(ax | ay);   /* (ax | ay) >> sh in [2^14, 2^15) */
+        *dir_x = (int32_t)fw_math_rshift_round_i64(x, sh);
+        *dir_y = (int32_t)fw_math_rshift_round_i64(y, sh);
+    }
+}
+
+fw_status_t fw_force_solve_dir_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                  int32_t dir_x, int32_t dir_y,
+                                  int32_t force_c_pn[3], uint32_t *flags)
+{
+    if (f == NULL || force_c_pn == NULL || flags == NULL) {
+        return FW_ERR_ARG;
+    }
+    fw_force_dir_fit(&dir_x, &dir_y);
+    fw_force_solve_dir_fit_pn(f, sn_v, sl_v, dir_x, dir_y, force_c_pn, flags);
+    return FW_OK;
+}
+
+/* cos theta and |sin theta| (2.30) below S_HI from t = y / x (2.30).
+ * Scaling and overflow: |t| < 2^28.05, t^2 < 2^56.1 >> 30 = u; Horner
+ * products |p u| < 2^30 2^26.1; |t| cos < 2^58.05. */
+static void force_cos_from_t(int64_t t, int32_t x, int64_t *cos_q30, int64_t *abs_sin_q30)
+{
+    int64_t at = t < 0 ? -t : t;
+    int64_t u = fw_math_asr_i64(at * at, FORCE_T_FRAC);
+    int64_t p = FORCE_COS_A4;
+    int64_t c;
+    p = FORCE_COS_A3 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    p = FORCE_COS_A2 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    p = FORCE_COS_A1 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    c = FW_Q30_ONE + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    *abs_sin_q30 = fw_math_asr_i64(at * c, FORCE_T_FRAC);
+    *cos_q30 = (x < 0) ? -c : c;
+}
+
+int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int32_t dir_x,
+                             int32_t dir_y, bool blend)
+{
+    /* 15 y^2 < x^2: x != 0 and |t| < 15^(-1/2) */
+    int64_t t = (int64_t)dir_y * ((int64_t)1 << FORCE_T_FRAC) / dir_x;
+    int64_t c;
+    int64_t as;
+    int64_t fb;
+    int64_t w;
+    int64_t diff8;
+    int64_t dh;
+    int64_t hi;
+    int64_t lo;
+    int64_t hq;
+    int64_t mc;
+    int64_t den;
+    int64_t num;
+    force_cos_from_t(t, dir_x, &c, &as);
+    mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
+    if (!blend) {
+        return fw_force_fallback_pn(f, n_pn, mc);
+    }
+    /* F_x,fb with 8 fraction bits for the blend (as fw_force_fallback_pn,
+     * truncated): q 2^8 + (r 2^8) / den, |r| < den < 2^31 */
+    den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
+    num = -mc * ((int64_t)n_pn + f->adhesion_pn);
+    fb = num / den;
+    fb = fb * ((int64_t)1 << FW_FORCE_XFRAC) + (num - fb * den) * ((int64_t)1 << FW_FORCE_XFRAC) / den;
+    /* F_x = F_x,fb + w (F_x,cot - F_x,fb), w = (|s| - 1/8) / (1/8) in
+     * 2.30 / 2^27; the product w diff (|w| <= 2^27, |diff| < 2^51, 8
+     * fraction bits, like F_x,fb here) is formed from diff = dh 2^24 + dl,
+     * dl in [0, 2^24): |w dh| < 2^54, w dl < 2^51, and
+     * floor((w dh 2^24 + w dl) / 2^27) =
+     * floor(w dh / 8) + floor(((w dh mod 8) 2^24 + w dl) / 2^27), exact. */
+    w = as - FORCE_SIN_LO_Q30;
+    w = (w < 0) ? 0 : ((w > FORCE_SIN_LO_Q30) ? FORCE_SIN_LO_Q30 : w);
+    diff8 = fx8 - fb;
+    dh = fw_math_asr_i64(diff8, FORCE_BLEND_SPLIT);
+    hi = w * dh;
+    lo = w * (diff8 - dh * ((int64_t)1 << FORCE_BLEND_SPLIT));
+    hq = fw_math_asr_i64(hi, FORCE_BLEND_SPAN_LOG2_Q30 - FORCE_BLEND_SPLIT);
+    return fw_math_rshift_round_i64(
+        fb + hq
+            + fw_math_asr_i64((hi - hq * ((int64_t)1 << (FORCE_BLEND_SPAN_LOG2_Q30 - FORCE_BLEND_SPLIT)))
+                                  * ((int64_t)1 << FORCE_BLEND_SPLIT) + lo,
+                              FORCE_BLEND_SPAN_LOG2_Q30),
+        FW_FORCE_XFRAC);
 }
 
 void fw_force_rotate_pn(const int32_t v_c[3], q30_t cos_a, q30_t sin_a,
@@ -109,6 +211,7 @@ fw_status_t fw_theta_init(fw_theta_t *t, int32_t min_disp_pm)
         return FW_ERR_ARG;
     }
     t->min_disp_pm = (min_disp_pm == 0) ? FW_THETA_MIN_DISP_DEFAULT_PM : min_disp_pm;
+    t->min_disp2_pm2 = (uint64_t)t->min_disp_pm * (uint64_t)t->min_disp_pm;
     fw_theta_reset(t);
     return FW_OK;
 }
@@ -122,6 +225,8 @@ void fw_theta_reset(fw_theta_t *t)
     }
     t->pos = 0;
     t->fill = 0;
+    t->dir_x = 0;
+    t->dir_y = 1;
     t->cos_theta = 0;
     t->sin_theta = FW_Q15_MAX;
     t->known = false;
@@ -130,36 +235,14 @@ void fw_theta_reset(fw_theta_t *t)
 void fw_theta_step(fw_theta_t *t, const int32_t apex_pm[2], q30_t cos_a, q30_t sin_a,
                    uint32_t *flags)
 {
-    int32_t oldest;
-    int32_t dx;
-    int32_t dy;
-    int32_t cx;
-    int32_t cy;
-    int64_t min2;
-    bool sat = false;
-    t->x_pm[t->pos] = apex_pm[0];
-    t->y_pm[t->pos] = apex_pm[1];
-    if (t->fill < FW_THETA_WINDOW) {
-        t->fill++;
-        oldest = 0;
-    } else {
-        oldest = (t->pos + 1) % FW_THETA_WINDOW;
-    }
-    dx = fw_math_sat_i32((int64_t)apex_pm[0] - t->x_pm[oldest], &sat);
-    dy = fw_math_sat_i32((int64_t)apex_pm[1] - t->y_pm[oldest], &sat);
-    t->pos = (t->pos + 1) % FW_THETA_WINDOW;
-    /* into frame C: R(-alpha) */
-    fw_math_rotate_i32(dx, dy, cos_a, (sin_a == FW_Q30_MIN) ? FW_Q30_MAX : -sin_a, &cx, &cy, &sat);
-    min2 = (int64_t)t->min_disp_pm * t->min_disp_pm;
-    if ((int64_t)cx * cx + (int64_t)cy * cy >= min2 && (cx != 0 || cy != 0)) {
+    cos_a = (cos_a > FW_Q30_ONE) ? FW_Q30_ONE : ((cos_a < -FW_Q30_ONE) ? -FW_Q30_ONE : cos_a);
+    sin_a = (sin_a > FW_Q30_ONE) ? FW_Q30_ONE : ((sin_a < -FW_Q30_ONE) ? -FW_Q30_ONE : sin_a);
+    if (fw_theta_push_pm(t, apex_pm, cos_a, sin_a, flags)) {
         q15_t c;
         q15_t s;
-        (void)fw_math_unit_q15(cx, cy, &c, &s);
-        t->cos_theta = c;
-        t->sin_theta = s;
-        t->known = true;
-    }
-    if (!t->known) {
-        *flags |= FW_FLAG_THETA_UNKNOWN;
+        if (fw_math_unit_q15(t->dir_x, t->dir_y, &c, &s)) {
+            t->cos_theta = c;
+            t->sin_theta = s;
+        }
     }
 }

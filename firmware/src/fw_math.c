@@ -28,31 +28,6 @@ static const int64_t fw_cordic_gain_q60 = 700114967507363328LL;
 static const int64_t fw_two_over_pi_u32 = 2734261102LL;
 static const int64_t fw_pi_over_2_q30 = 1686629713LL;
 
-/* Floor shift right of a signed 64-bit value, defined for negatives. */
-static int64_t asr64(int64_t v, int n)
-{
-    return (v >= 0) ? (v >> n) : -(int64_t)(((uint64_t)(-(v + 1)) >> n) + 1u);
-}
-
-/* Round-half-up shift right. */
-static int64_t rshift_round64(int64_t v, int n)
-{
-    if (n <= 0) {
-        return v;
-    }
-    return asr64(v + ((int64_t)1 << (n - 1)), n);
-}
-
-int64_t fw_math_asr_i64(int64_t v, int n)
-{
-    return asr64(v, n);
-}
-
-int64_t fw_math_rshift_round_i64(int64_t v, int n)
-{
-    return rshift_round64(v, n);
-}
-
 /* uint32 angle as signed int64 in [-2^31, 2^31). */
 static int64_t bam_signed(fw_bam_t a)
 {
@@ -62,23 +37,6 @@ static int64_t bam_signed(fw_bam_t a)
 static fw_bam_t bam_wrap(int64_t v)
 {
     return (fw_bam_t)((uint64_t)v & 0xFFFFFFFFu);
-}
-
-int32_t fw_math_sat_i32(int64_t v, bool *sat)
-{
-    if (v > INT32_MAX) {
-        if (sat != NULL) {
-            *sat = true;
-        }
-        return INT32_MAX;
-    }
-    if (v < INT32_MIN) {
-        if (sat != NULL) {
-            *sat = true;
-        }
-        return INT32_MIN;
-    }
-    return (int32_t)v;
 }
 
 q31_t fw_math_add_q31(q31_t a, q31_t b, bool *sat)
@@ -93,17 +51,17 @@ q31_t fw_math_sub_q31(q31_t a, q31_t b, bool *sat)
 
 q31_t fw_math_mul_q31(q31_t a, q31_t b, bool *sat)
 {
-    return fw_math_sat_i32(rshift_round64((int64_t)a * b, FW_Q31_FRAC), sat);
+    return fw_math_sat_i32(fw_math_rshift_round_i64((int64_t)a * b, FW_Q31_FRAC), sat);
 }
 
 q30_t fw_math_mul_q30(q30_t a, q30_t b, bool *sat)
 {
-    return fw_math_sat_i32(rshift_round64((int64_t)a * b, FW_Q30_FRAC), sat);
+    return fw_math_sat_i32(fw_math_rshift_round_i64((int64_t)a * b, FW_Q30_FRAC), sat);
 }
 
 q15_t fw_math_mul_q15(q15_t a, q15_t b, bool *sat)
 {
-    int32_t p = (int32_t)rshift_round64((int64_t)a * b, FW_Q15_FRAC);
+    int32_t p = (int32_t)fw_math_rshift_round_i64((int64_t)a * b, FW_Q15_FRAC);
     if (p > INT16_MAX) {
         if (sat != NULL) {
             *sat = true;
@@ -167,7 +125,7 @@ int32_t fw_math_shift_i32(int32_t x, int32_t n, bool *sat)
         }
         return fw_math_sat_i32((int64_t)x * ((int64_t)1 << n), sat);
     }
-    return (int32_t)rshift_round64(x, -n);
+    return (int32_t)fw_math_rshift_round_i64(x, -n);
 }
 
 uint32_t fw_math_isqrt_u64(uint64_t v)
@@ -262,8 +220,8 @@ void fw_math_sincos_q30(fw_bam_t a, q30_t *s, q30_t *c)
     x = fw_cordic_gain_q60;
     y = 0;
     for (i = 0; i < FW_CORDIC_ITERS; i++) {
-        int64_t xs = asr64(x, i);
-        int64_t ys = asr64(y, i);
+        int64_t xs = fw_math_asr_i64(x, i);
+        int64_t ys = fw_math_asr_i64(y, i);
         if (z >= 0) {
             x -= ys;
             y += xs;
@@ -274,8 +232,8 @@ void fw_math_sincos_q30(fw_bam_t a, q30_t *s, q30_t *c)
             z += fw_cordic_atan_t48[i];
         }
     }
-    co = fw_math_sat_i32(rshift_round64(x, FW_CORDIC_XY_FRAC - FW_Q30_FRAC), NULL);
-    so = fw_math_sat_i32(rshift_round64(y, FW_CORDIC_XY_FRAC - FW_Q30_FRAC), NULL);
+    co = fw_math_sat_i32(fw_math_rshift_round_i64(x, FW_CORDIC_XY_FRAC - FW_Q30_FRAC), NULL);
+    so = fw_math_sat_i32(fw_math_rshift_round_i64(y, FW_CORDIC_XY_FRAC - FW_Q30_FRAC), NULL);
     if (co > FW_Q30_ONE) {
         co = FW_Q30_ONE;
     }
@@ -311,17 +269,6 @@ q30_t fw_math_cos_q30(fw_bam_t a)
     return c;
 }
 
-/* Number of leading zero bits of a nonzero uint64. */
-static int clz64(uint64_t v)
-{
-    int n = 0;
-    while ((v & ((uint64_t)1 << 63)) == 0u) {
-        v <<= 1;
-        n++;
-    }
-    return n;
-}
-
 fw_bam_t fw_math_atan2_bam(int32_t y, int32_t x)
 {
     int64_t xx = x;
@@ -348,12 +295,12 @@ fw_bam_t fw_math_atan2_bam(int32_t y, int32_t x)
     if ((uint64_t)xx > m) {
         m = (uint64_t)xx;
     }
-    sh = clz64(m) - 5;
+    sh = fw_math_clz_u64(m) - 5;
     xx *= ((int64_t)1 << sh);
     yy *= ((int64_t)1 << sh);
     for (i = 0; i < FW_CORDIC_ITERS; i++) {
-        int64_t xs = asr64(xx, i);
-        int64_t ys = asr64(yy, i);
+        int64_t xs = fw_math_asr_i64(xx, i);
+        int64_t ys = fw_math_asr_i64(yy, i);
         if (yy > 0) {
             xx += ys;
             yy -= xs;
@@ -364,17 +311,17 @@ fw_bam_t fw_math_atan2_bam(int32_t y, int32_t x)
             z -= fw_cordic_atan_t48[i];
         }
     }
-    return base + bam_wrap(rshift_round64(z, FW_CORDIC_BAM_SHIFT));
+    return base + bam_wrap(fw_math_rshift_round_i64(z, FW_CORDIC_BAM_SHIFT));
 }
 
 fw_bam_t fw_math_bam_from_rad_q30(q30_t rad)
 {
-    return bam_wrap(rshift_round64((int64_t)rad * fw_two_over_pi_u32, 32));
+    return bam_wrap(fw_math_rshift_round_i64((int64_t)rad * fw_two_over_pi_u32, 32));
 }
 
 q30_t fw_math_rad_q30_from_bam(fw_bam_t a)
 {
-    return fw_math_sat_i32(rshift_round64(bam_signed(a) * fw_pi_over_2_q30, FW_Q30_FRAC), NULL);
+    return fw_math_sat_i32(fw_math_rshift_round_i64(bam_signed(a) * fw_pi_over_2_q30, FW_Q30_FRAC), NULL);
 }
 
 bool fw_math_unit_q15(int32_t x, int32_t y, q15_t *c, q15_t *s)
@@ -405,8 +352,8 @@ bool fw_math_unit_q15(int32_t x, int32_t y, q15_t *c, q15_t *s)
         sh++;
     }
     if (sh < 0) {
-        xx = rshift_round64(xx, -sh);
-        yy = rshift_round64(yy, -sh);
+        xx = fw_math_rshift_round_i64(xx, -sh);
+        yy = fw_math_rshift_round_i64(yy, -sh);
     } else {
         xx *= ((int64_t)1 << sh);
         yy *= ((int64_t)1 << sh);
@@ -434,12 +381,7 @@ bool fw_math_unit_q15(int32_t x, int32_t y, q15_t *c, q15_t *s)
 void fw_math_rotate_i32(int32_t x, int32_t y, q30_t c, q30_t s,
                         int32_t *xr, int32_t *yr, bool *sat)
 {
-    int64_t px;
-    int64_t py;
     c = (c > FW_Q30_ONE) ? FW_Q30_ONE : ((c < -FW_Q30_ONE) ? -FW_Q30_ONE : c);
     s = (s > FW_Q30_ONE) ? FW_Q30_ONE : ((s < -FW_Q30_ONE) ? -FW_Q30_ONE : s);
-    px = (int64_t)c * x - (int64_t)s * y;
-    py = (int64_t)s * x + (int64_t)c * y;
-    *xr = fw_math_sat_i32(rshift_round64(px, FW_Q30_FRAC), sat);
-    *yr = fw_math_sat_i32(rshift_round64(py, FW_Q30_FRAC), sat);
+    fw_math_rotate_unit_i32(x, y, c, s, xr, yr, sat);
 }

@@ -69,6 +69,50 @@ static void test_acq_quantize_sweep_matches_double_exactly(void)
     printf("SWEEP acq_quantize n=%ld worst=0 LSB (exact)\n", (long)AFM_SWEEP_N);
 }
 
+/* The reciprocal quantiser (fw_acq.h): exact at every code boundary, one
+ * microvolt either side, for every width; on the host (10^6 sweeps) also at
+ * every input from -10 V to +10 V. The step path uses the same kernel
+ * behind its own fast range test: checked at the boundaries too. */
+static void test_acq_quantize_reciprocal_exact_at_every_code_boundary(void)
+{
+    static const int32_t widths[] = { 12, 14, 16 };
+    size_t w;
+    for (w = 0; w < sizeof widths / sizeof widths[0]; w++) {
+        int32_t bits = widths[w];
+        int32_t half = (int32_t)1 << (bits - 1);
+        int32_t k;
+        fw_acq_t a;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, bits, 0));
+        for (k = -half; k <= half; k++) {
+            /* first uv with round(uv 2^(bits-1) / 1e7) >= k (k > 0) */
+            int32_t b = (int32_t)ceil((k - 0.5) * 1e7 / TU_TWO_POW(bits - 1));
+            int32_t d;
+            for (d = -1; d <= 1; d++) {
+                int32_t uv = b + d;
+                int32_t code;
+                q23_t v;
+                bool sat;
+                TEST_ASSERT_EQUAL_INT32(ref_code(bits, uv), fw_acq_quantize_code(bits, uv, NULL));
+                TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&a, uv, &code, &v, &sat));
+                TEST_ASSERT_EQUAL_INT32(ref_code(bits, uv), code);
+                TEST_ASSERT_EQUAL_INT32(code * a.lsb_v, v);
+                TEST_ASSERT_TRUE(sat == (uv >= 10000000 || uv <= -10000000));
+            }
+        }
+    }
+#if AFM_SWEEP_N >= 1000000
+    for (w = 0; w < sizeof widths / sizeof widths[0]; w++) {
+        int32_t uv;
+        for (uv = -10000000; uv <= 10000000; uv++) {
+            if (fw_acq_quantize_code(widths[w], uv, NULL) != ref_code(widths[w], uv)) {
+                TEST_ASSERT_EQUAL_INT32(ref_code(widths[w], uv), fw_acq_quantize_code(widths[w], uv, NULL));
+            }
+        }
+    }
+    printf("EXHAUSTIVE acq_quantize 3 x 20000001 inputs: exact\n");
+#endif
+}
+
 static void test_acq_code_to_volts_exact(void)
 {
     /* 16 bit: one code = 20 V / 65536 = 305.17578125 uV = 2560 LSB of 9.23 */
@@ -166,6 +210,7 @@ int main(void)
     UNITY_BEGIN();
     RUN_TEST(test_acq_rails_at_just_past_and_far_past_10v);
     RUN_TEST(test_acq_quantize_sweep_matches_double_exactly);
+    RUN_TEST(test_acq_quantize_reciprocal_exact_at_every_code_boundary);
     RUN_TEST(test_acq_code_to_volts_exact);
     RUN_TEST(test_acq_init_rejects_bad_bits_and_filter);
     RUN_TEST(test_acq_step_sticky_flag_and_counter);

@@ -1,5 +1,6 @@
 /* test_force.c - fw_force: eq. 1a-1c, the friction fallback near
  * sin theta = 0, rotation (eq. 3), and the theta estimator. */
+#include <stdlib.h>
 #include "unity.h"
 #include "fw_force.h"
 #include "fw_math.h"
@@ -230,6 +231,140 @@ static void test_force_rotate_scan_angle_0_maps_c_to_a_by_minus_270(void)
     TEST_ASSERT_EQUAL_INT32(5, va[2]);
 }
 
+/* ---- direction-vector solver (fw_force_solve_dir_pn) ---------------------- */
+
+static void solve_dir(int32_t x, int32_t y, q23_t sn, q23_t sl, int32_t fc[3], uint32_t *flags,
+                      double ref[3], int *unobs)
+{
+    double len = sqrt((double)x * x + (double)y * y);
+    *flags = 0;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_dir_pn(&f, sn, sl, x, y, fc, flags));
+    if (len == 0.0) {
+        ref_force(tu_q(sn, 23), tu_q(sl, 23), 0.0, 1.0, ref, unobs);
+    } else {
+        ref_force(tu_q(sn, 23), tu_q(sl, 23), x / len, y / len, ref, unobs);
+    }
+}
+
+static int32_t isqrt_i64(int64_t v)
+{
+    return (int32_t)fw_math_isqrt_u64((uint64_t)v);
+}
+
+static void test_force_dir_zones_at_one_eighth_and_one_quarter_and_one_lsb_either_side(void)
+{
+    /* |sin| >= 1/4 <=> 15 y^2 >= x^2 and |sin| >= 1/8 <=> 63 y^2 >= x^2:
+     * x = isqrt(k y^2) lies on or inside the boundary, x + 1 one LSB outside;
+     * F_x matches the model on both sides and changes only by the
+     * model's own step (continuity) */
+    static const struct { int line; int32_t y; } rows[] = {
+        { __LINE__, 1 }, { __LINE__, 3 }, { __LINE__, 1000 }, { __LINE__, 4096 },
+        { __LINE__, -1 }, { __LINE__, -777 }, { __LINE__, -4096 },
+    };
+    static const int32_t ks[] = { 15, 63 };
+    size_t i;
+    size_t k;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        for (k = 0; k < 2; k++) {
+            int32_t y = rows[i].y;
+            int32_t x0 = isqrt_i64((int64_t)ks[k] * y * y);
+            int sgn;
+            for (sgn = -1; sgn <= 1; sgn += 2) {
+                int32_t fc_in[3];
+                int32_t fc_out[3];
+                uint32_t fl_in;
+                uint32_t fl_out;
+                double ref[3];
+                int unobs;
+                solve_dir(sgn * x0, y, 3 * FW_Q23_ONE, FW_Q23_ONE / 4, fc_in, &fl_in, ref, &unobs);
+                UNITY_TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(ref[0]), fc_in[0], rows[i].line, "F_x inside");
+                UNITY_TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(ref[2]), fc_in[2], rows[i].line, "F_z inside");
+                UNITY_TEST_ASSERT(((fl_in & FW_FLAG_FX_UNOBSERVABLE) != 0u) == (ks[k] == 63), rows[i].line,
+                                  "flag on or inside the boundary");
+                solve_dir(sgn * (x0 + 1), y, 3 * FW_Q23_ONE, FW_Q23_ONE / 4, fc_out, &fl_out, ref, &unobs);
+                UNITY_TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(ref[0]), fc_out[0], rows[i].line, "F_x outside");
+                UNITY_TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(ref[2]), fc_out[2], rows[i].line, "F_z outside");
+                UNITY_TEST_ASSERT((fl_out & FW_FLAG_FX_UNOBSERVABLE) != 0u, rows[i].line, "flag outside");
+                if (y * sgn >= 1000 || y * sgn <= -1000) {
+                    /* one LSB of direction at |y| >= 1000: F_x continuous */
+                    UNITY_TEST_ASSERT(abs(fc_in[0] - fc_out[0]) <= 40, rows[i].line, "continuity");
+                }
+            }
+        }
+    }
+}
+
+static void test_force_dir_zero_vector_is_90_deg_without_flag(void)
+{
+    int32_t fc[3];
+    uint32_t flags;
+    double ref[3];
+    int unobs;
+    solve_dir(0, 0, 2 * FW_Q23_ONE, -FW_Q23_ONE, fc, &flags, ref, &unobs);
+    TEST_ASSERT_EQUAL_INT32(0, fc[0]);
+    TEST_ASSERT_EQUAL_INT32(-LAT, fc[1]);
+    TEST_ASSERT_EQUAL_INT32(2 * KN, fc[2]);
+    TEST_ASSERT_EQUAL_UINT32(0u, flags);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_solve_dir_pn(&f, 0, 0, 1, 0, NULL, &flags));
+}
+
+static void test_force_dir_sweep_matches_double_model(void)
+{
+    tu_rng_t rng;
+    tu_err_t e;
+    long i;
+    tu_rng_seed(&rng, 32);
+    tu_err_init(&e, "force_solve_dir_pn", "pN", 1.0);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        q23_t sn = tu_rng_range(&rng, -25 * FW_Q23_ONE, 25 * FW_Q23_ONE);
+        q23_t sl = tu_rng_range(&rng, -10 * FW_Q23_ONE, 10 * FW_Q23_ONE);
+        /* any magnitude up to 2^15, and a third near the lever's axis */
+        int sh = (int)(tu_rng_u32(&rng) % 16u);
+        int32_t x = tu_rng_range(&rng, -FW_FORCE_DIR_MAX, FW_FORCE_DIR_MAX) >> sh;
+        int32_t y = tu_rng_range(&rng, -FW_FORCE_DIR_MAX, FW_FORCE_DIR_MAX) >> sh;
+        int32_t fc[3];
+        uint32_t flags;
+        double ref[3];
+        int unobs;
+        int k;
+        if (i % 3 == 0) {
+            y /= 4;
+        }
+        solve_dir(x, y, sn, sl, fc, &flags, ref, &unobs);
+        for (k = 0; k < 3; k++) {
+            tu_err_add(&e, fc[k] - ref[k]);
+        }
+        TEST_ASSERT_EQUAL_INT(unobs, (flags & FW_FLAG_FX_UNOBSERVABLE) != 0u);
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(e.worst <= 1.0);
+}
+
+static void test_force_dir_fit_keeps_direction_to_2_pow_minus_13(void)
+{
+    tu_rng_t rng;
+    tu_err_t e;
+    long i;
+    tu_rng_seed(&rng, 33);
+    tu_err_init(&e, "force_dir_fit", "rad", 1.0 / 8192.0);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        int sh = (int)(tu_rng_u32(&rng) % 17u);
+        int32_t x0 = (int32_t)tu_rng_u32(&rng) >> sh;
+        int32_t y0 = (int32_t)tu_rng_u32(&rng) >> sh;
+        int32_t x = x0;
+        int32_t y = y0;
+        if (x0 == 0 && y0 == 0) {
+            continue;
+        }
+        fw_force_dir_fit(&x, &y);
+        TEST_ASSERT_TRUE(x >= -FW_FORCE_DIR_MAX && x <= FW_FORCE_DIR_MAX);
+        TEST_ASSERT_TRUE(y >= -FW_FORCE_DIR_MAX && y <= FW_FORCE_DIR_MAX);
+        tu_err_add(&e, tu_wrap_pi(atan2((double)y, (double)x) - atan2((double)y0, (double)x0)));
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(tu_err_worst_lsb(&e) <= 1.0);
+}
+
 /* ---- theta estimator ------------------------------------------------------ */
 
 static void test_theta_unknown_until_min_displacement_then_held(void)
@@ -293,6 +428,87 @@ static void test_theta_rotates_frame_a_motion_into_frame_c(void)
     TEST_ASSERT_TRUE(t.known);
 }
 
+static void test_theta_push_direction_matches_rotated_displacement(void)
+{
+    /* dir = R(-alpha) d rounded to pm, or scaled down above 2^15 pm: the
+     * angle error is at most 0.71 pm over min(|d|, 2^13) */
+    tu_rng_t rng;
+    tu_err_t e;
+    long i;
+    tu_rng_seed(&rng, 34);
+    tu_err_init(&e, "theta_push_pm", "(rel. bound)", 1.0);
+    for (i = 0; i < AFM_SWEEP_N / 10; i++) {
+        fw_theta_t t;
+        uint32_t flags = 0;
+        fw_bam_t alpha = tu_rng_u32(&rng);
+        q30_t ca;
+        q30_t sa;
+        int sh = (int)(tu_rng_u32(&rng) % 24u);
+        int32_t p0[2] = { (int32_t)tu_rng_u32(&rng), (int32_t)tu_rng_u32(&rng) };
+        int32_t p1[2] = { (int32_t)tu_rng_u32(&rng) >> sh, (int32_t)tu_rng_u32(&rng) >> sh };
+        double dx;
+        double dy;
+        double a;
+        double len;
+        double err;
+        p1[0] = (int32_t)((uint32_t)p0[0] + (uint32_t)p1[0]);
+        p1[1] = (int32_t)((uint32_t)p0[1] + (uint32_t)p1[1]);
+        fw_math_sincos_q30(alpha, &sa, &ca);
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 1));
+        TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p0, ca, sa, &flags));
+        TEST_ASSERT_TRUE((flags & FW_FLAG_THETA_UNKNOWN) != 0u);
+        dx = (double)p1[0] - p0[0];
+        dy = (double)p1[1] - p0[1];
+        len = sqrt(dx * dx + dy * dy);
+        flags = 0;
+        TEST_ASSERT_EQUAL(len >= 1.0, fw_theta_push_pm(&t, p1, ca, sa, &flags));
+        if (len < 1.0) {
+            continue;
+        }
+        TEST_ASSERT_EQUAL_UINT32(0u, flags);
+        TEST_ASSERT_TRUE(t.dir_x >= -FW_FORCE_DIR_MAX && t.dir_x <= FW_FORCE_DIR_MAX);
+        TEST_ASSERT_TRUE(t.dir_y >= -FW_FORCE_DIR_MAX && t.dir_y <= FW_FORCE_DIR_MAX);
+        a = tu_bam_rad(alpha);
+        err = tu_wrap_pi(atan2((double)t.dir_y, (double)t.dir_x)
+                         - atan2(-sin(a) * dx + cos(a) * dy, cos(a) * dx + sin(a) * dy));
+        /* in units of the bound (plus 2 LSB of the 2.30 cos/sin) */
+        tu_err_add(&e, err / (0.7072 / (len < 8192.0 ? len : 8192.0) + 4.0 / TU_TWO_POW(30)));
+    }
+    tu_err_print(&e);
+    TEST_ASSERT_TRUE(e.worst <= 1.0);
+}
+
+static void test_theta_min_displacement_exact_and_zero_length_unknown(void)
+{
+    fw_theta_t t;
+    uint32_t flags = 0;
+    int32_t p[2] = { 5000, -7000 };
+    int i;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 1000));
+    /* zero-length displacement: unknown, default direction (0, 1) */
+    for (i = 0; i < 20; i++) {
+        flags = 0;
+        TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
+    }
+    TEST_ASSERT_EQUAL_UINT32(FW_FLAG_THETA_UNKNOWN, flags);
+    TEST_ASSERT_EQUAL_INT32(0, t.dir_x);
+    TEST_ASSERT_EQUAL_INT32(1, t.dir_y);
+    /* |d| = (600, 799): 999.6 pm < 1000, then (600, 800): exactly 1000 pm */
+    fw_theta_reset(&t);
+    TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
+    p[0] += 600;
+    p[1] += 799;
+    flags = 0;
+    TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
+    TEST_ASSERT_EQUAL_UINT32(FW_FLAG_THETA_UNKNOWN, flags);
+    p[1] += 1;
+    flags = 0;
+    TEST_ASSERT_TRUE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
+    TEST_ASSERT_EQUAL_UINT32(0u, flags);
+    TEST_ASSERT_EQUAL_INT32(600, t.dir_x);
+    TEST_ASSERT_EQUAL_INT32(800, t.dir_y);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -305,7 +521,13 @@ int main(void)
     RUN_TEST(test_force_sweep_matches_double_model);
     RUN_TEST(test_force_saturates_exactly_with_flag);
     RUN_TEST(test_force_rotate_scan_angle_0_maps_c_to_a_by_minus_270);
+    RUN_TEST(test_force_dir_zones_at_one_eighth_and_one_quarter_and_one_lsb_either_side);
+    RUN_TEST(test_force_dir_zero_vector_is_90_deg_without_flag);
+    RUN_TEST(test_force_dir_sweep_matches_double_model);
+    RUN_TEST(test_force_dir_fit_keeps_direction_to_2_pow_minus_13);
     RUN_TEST(test_theta_unknown_until_min_displacement_then_held);
     RUN_TEST(test_theta_rotates_frame_a_motion_into_frame_c);
+    RUN_TEST(test_theta_push_direction_matches_rotated_displacement);
+    RUN_TEST(test_theta_min_displacement_exact_and_zero_length_unknown);
     return UNITY_END();
 }

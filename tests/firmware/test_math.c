@@ -313,6 +313,33 @@ static void test_math_rotate_quarter_turn_exact_and_saturates(void)
     TEST_ASSERT_TRUE(sat);
 }
 
+static void test_math_rotate_unit_matches_rotate_and_clz(void)
+{
+    tu_rng_t rng;
+    long i;
+    tu_rng_seed(&rng, 4);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        fw_bam_t a = tu_rng_u32(&rng);
+        int32_t x = (int32_t)tu_rng_u32(&rng);
+        int32_t y = (int32_t)tu_rng_u32(&rng) >> (tu_rng_u32(&rng) % 32u);
+        q30_t s;
+        q30_t c;
+        int32_t xr[2];
+        int32_t yr[2];
+        bool sat[2] = { false, false };
+        fw_math_sincos_q30(a, &s, &c);
+        fw_math_rotate_i32(x, y, c, s, &xr[0], &yr[0], &sat[0]);
+        fw_math_rotate_unit_i32(x, y, c, s, &xr[1], &yr[1], &sat[1]);
+        TEST_ASSERT_EQUAL_INT32(xr[0], xr[1]);
+        TEST_ASSERT_EQUAL_INT32(yr[0], yr[1]);
+        TEST_ASSERT_TRUE(sat[0] == sat[1]);
+    }
+    TEST_ASSERT_EQUAL_INT(63, fw_math_clz_u64(1u));
+    TEST_ASSERT_EQUAL_INT(0, fw_math_clz_u64(UINT64_MAX));
+    TEST_ASSERT_EQUAL_INT(31, fw_math_clz_u64((uint64_t)1 << 32));
+    TEST_ASSERT_EQUAL_INT(64, fw_math_clz_u64(0u));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -332,5 +359,6 @@ int main(void)
     RUN_TEST(test_math_rad_bam_conversions);
     RUN_TEST(test_math_unit_q15_sweep_and_zero_vector);
     RUN_TEST(test_math_rotate_quarter_turn_exact_and_saturates);
+    RUN_TEST(test_math_rotate_unit_matches_rotate_and_clz);
     return UNITY_END();
 }
