@@ -48,7 +48,8 @@ struct WireModelSpec {
     double youngs_modulus_GPa = 83.0;   // E (silver); EI = E pi d^4 / 64 (wire_flexibility)
     int segments = 32;                  // N: segments of a flexible wire (wire_flexibility)
     int friction_points = 64;           // K: points integrating the distributed friction of a rigid rod
-    int relax_sweeps = 8;               // Gauss-Seidel sweeps over a flexible wire per sample
+    int relax_sweeps = 8;               // Newton-IRLS iterations of a flexible wire's step per sample (>= 8)
+    double mu = 0.3;                    // wire-substrate friction coefficient: how firmly a trench holds a rigid wire
 };
 
 // Nanolithography on polycarbonate (physics.md section 9).
@@ -57,11 +58,21 @@ struct LithoSpec {
     double depth_nm_per_nN = 2.0;       // depth = depth_nm_per_nN * (load - threshold)
 };
 
+// A quick local scan around an object before an operation (section 10): the
+// display replaces that region of the image and the firmware re-registers
+// its models to where the scan finds the object (drift correction).
+struct LocalScanSpec {
+    double at_s = 0;                    // simulated time it is taken (at the first frame from then)
+    int around_id = 0;                  // the particle it is centred on (its modelled position)
+    double size_nm = 400;               // side of the scanned square
+};
+
 struct OperatorSpec {
     double load_nN = 5.0;               // normal load while engaged
     double speed_nm_per_s = 1000.0;     // apex speed along the path
     std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start
     double kappa = 1.0;                 // joystick scale kappa (p = kappa r_scan p_joy)
+    std::vector<LocalScanSpec> local_scans;   // in time order
 };
 
 struct OutputSpec {

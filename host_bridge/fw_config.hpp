@@ -4,6 +4,7 @@
 
 extern "C" {
 #include "fw_board.h"
+#include "fw_drift.h"
 #include "fw_particles.h"
 }
 

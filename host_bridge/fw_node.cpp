@@ -17,6 +17,7 @@
 #include "afm/haptic_force_t.hpp"
 #include "afm/haptic_pose_t.hpp"
 #include "afm/heartbeat_t.hpp"
+#include "afm/object_fix_t.hpp"
 #include "afm/objects_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "bus.hpp"
@@ -43,6 +44,7 @@ const char *kUsage =
 constexpr int kCrashExitCode = 70;
 
 constexpr int kMaxParticles = 4096;
+constexpr double kMaxDriftStep_nm = 200.0;     // a local scan further off than this is not drift (fw_drift.h)
 constexpr double kHapticGain_N_per_nN = 0.1;   // stylus force per tip force
 constexpr double kHapticMax_N = 3.0;           // the device's force limit
 
@@ -52,6 +54,8 @@ struct Node {
     afm::Heartbeat hb;
     fw_board_t board{};
     fw_particles_t parts{};
+    fw_drift_t drift{};
+    int32_t fix_id = 0;           // last object fix applied
     std::vector<fw_particle_t> storage;
     int64_t done = -1;            // last block processed
     int64_t crash_at = -1;        // failure injection
@@ -71,12 +75,61 @@ struct Node {
         if (fw_particles_init(&parts, storage.data(), kMaxParticles, afm::to_i32(s.probe.tip_radius_nm * 1e3)) != FW_OK)
             throw std::runtime_error("fw_particles_init failed");
         fw_particles_set_friction(&parts, cfg.mu_ppm, cfg.adhesion_pn, 0);
+        fw_drift_init(&drift, afm::to_i32(kMaxDriftStep_nm * 1e3));
         const int32_t th = afm::to_i32(afm::particle_threshold_nN(s) * 1e3);
         for (const auto &p : s.particles) {
             if (fw_particles_add(&parts, p.id, afm::to_i32(p.x_nm * 1e3), afm::to_i32(p.y_nm * 1e3),
                                  afm::to_i32(p.radius_nm * 1e3), th) != FW_OK)
                 throw std::runtime_error("the firmware's particle model is full (" + std::to_string(kMaxParticles) + ")");
         }
+    }
+
+    void fill_objects(int64_t utime, int64_t seq)
+    {
+        last_objects = afm::objects_t{};
+        last_objects.utime = utime;
+        last_objects.seq = seq;
+        for (int32_t i = 0; i < fw_particles_count(&parts); ++i) {
+            const fw_particle_t *p = fw_particles_get(&parts, i);
+            afm::particle_t q;
+            q.id = p->id;
+            q.x_nm = p->x_pm * 1e-3;
+            q.y_nm = p->y_pm * 1e-3;
+            q.radius_nm = p->radius_pm * 1e-3;
+            q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
+            last_objects.particles.push_back(q);
+        }
+        last_objects.n_particles = static_cast<int32_t>(last_objects.particles.size());
+        last_objects.drift_nm[0] = drift.offset_pm[0] * 1e-3;
+        last_objects.drift_nm[1] = drift.offset_pm[1] * 1e-3;
+        last_objects.fix_id = fix_id;
+    }
+
+    // A local scan located an object: the difference to the model is drift
+    // (fw_drift), applied to every object. Answered by republishing the
+    // objects with fix_id, so the display knows the model is re-registered.
+    void on_fix(const lcm::ReceiveBuffer *, const std::string &, const afm::object_fix_t *m)
+    {
+        if (m->fix_id == fix_id + 1) {
+            const fw_particle_t *hit = nullptr;
+            for (int32_t i = 0; i < fw_particles_count(&parts); ++i)
+                if (fw_particles_get(&parts, i)->id == m->object_id) hit = fw_particles_get(&parts, i);
+            if (!hit) {
+                std::fprintf(stderr, "fw_node: local scan fix %d names unknown object %d; ignored\n", m->fix_id, m->object_id);
+            } else {
+                const int32_t model[2] = {hit->x_pm, hit->y_pm};
+                const int32_t scan[2] = {afm::to_i32(m->scan_x_nm * 1e3), afm::to_i32(m->scan_y_nm * 1e3)};
+                int32_t delta[2];
+                if (fw_drift_measure(&drift, model, scan, delta) == FW_OK)
+                    fw_drift_apply(delta, &parts, nullptr, 0, nullptr);
+                else
+                    std::fprintf(stderr, "fw_node: local scan fix %d: object %d is %.1f nm from its model, more than drift; not applied\n",
+                                 m->fix_id, m->object_id, std::hypot(scan[0] - model[0], scan[1] - model[1]) * 1e-3);
+            }
+            fix_id = m->fix_id;
+            fill_objects(last_objects.utime, last_objects.seq);
+        }
+        if (m->fix_id <= fix_id) lc.publish(AFM_CH_FW_OBJECTS, &last_objects);
     }
 
     void publish_outputs()
@@ -135,20 +188,7 @@ struct Node {
         last_tip.piezo_nm[1] = b->piezo_y_nm[b->n - 1];
         last_tip.piezo_nm[2] = b->piezo_z_nm[b->n - 1];
 
-        last_objects = afm::objects_t{};
-        last_objects.utime = t_end;
-        last_objects.seq = b->seq;
-        for (int32_t i = 0; i < fw_particles_count(&parts); ++i) {
-            const fw_particle_t *p = fw_particles_get(&parts, i);
-            afm::particle_t q;
-            q.id = p->id;
-            q.x_nm = p->x_pm * 1e-3;
-            q.y_nm = p->y_pm * 1e-3;
-            q.radius_nm = p->radius_pm * 1e-3;
-            q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
-            last_objects.particles.push_back(q);
-        }
-        last_objects.n_particles = static_cast<int32_t>(last_objects.particles.size());
+        fill_objects(t_end, b->seq);
 
         last_haptic.utime = t_end;
         last_haptic.seq = b->seq;
@@ -172,6 +212,10 @@ struct Node {
         int32_t joy[2], cmd_pm[2];
         for (int k = 0; k < 2; ++k) joy[k] = static_cast<int32_t>(std::clamp<long long>(std::llround(p->joy[k] * 32768.0), -32768, 32767));
         fw_board_piezo_cmd(&board, joy, cmd_pm);
+        // The joystick's workspace follows the sample as the display does: the
+        // drift the local scans measured shifts the command with the models.
+        for (int k = 0; k < 2; ++k)
+            cmd_pm[k] = afm::to_i32(static_cast<double>(cmd_pm[k]) + drift.offset_pm[k]);
         last_cmd.utime = p->utime;
         last_cmd.ack_seq = done;
         last_cmd.piezo_x_nm = cmd_pm[0] * 1e-3;
@@ -208,6 +252,7 @@ int main(int argc, char **argv)
         Node node(scene, *lc);
         node.crash_at = crash_at;
         lc->subscribe(AFM_CH_AFM_ANALOG, &Node::on_analog, &node)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_HOST_OBJECT_FIX, &Node::on_fix, &node)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_HAPTIC_POSE, &Node::on_pose, &node)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Node::on_heartbeat, &node)->setQueueCapacity(afm::kQueueCapacity);
         while (!node.sim_done) {

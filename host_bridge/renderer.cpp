@@ -26,6 +26,7 @@
 #include "afm/fw_force_t.hpp"
 #include "afm/fw_tip_t.hpp"
 #include "afm/heartbeat_t.hpp"
+#include "afm/object_fix_t.hpp"
 #include "afm/objects_t.hpp"
 #include "afm/render_frame_t.hpp"
 #include "afm/scan_line_t.hpp"
@@ -41,7 +42,8 @@ const char *kUsage =
     "usage: renderer --scene FILE --out DIR\n"
     "  The videolized display; normally started by ./afm run inside the run's namespace.\n";
 
-constexpr int kInitialScan = 1, kFinalScan = 2;
+constexpr int kInitialScan = 1, kFinalScan = 2, kLocalScanBase = 100;
+constexpr int kFixRetryMs = 200;
 constexpr int kScanRetryMs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
@@ -49,16 +51,18 @@ constexpr double kFidelityTarget_nm = 5.0;     // the issue's target: every obje
 // A raster scan being received line by line (lines may be lost and re-requested).
 struct ScanBuffer {
     int id = 0;
+    cv::Rect px;                 // the region, in display pixels (same pitch)
     cv::Mat h;                   // nm, row 0 at the top
     std::vector<bool> got;
     int left = 0;
     std::chrono::steady_clock::time_point asked;
-    void reset(int req, int n)
+    void reset(int req, const cv::Rect &region)
     {
         id = req;
-        h = cv::Mat::zeros(n, n, CV_32F);
-        got.assign(n, false);
-        left = n;
+        px = region;
+        h = cv::Mat::zeros(region.height, region.width, CV_32F);
+        got.assign(region.height, false);
+        left = region.height;
     }
 };
 
@@ -80,6 +84,14 @@ struct Renderer {
     int64_t last_seq = -1;
     bool sim_done = false;
     bool final_pending = false;  // waiting for the final scan before the last frame
+    int local_next = 0;          // next scene local scan to take
+    int local_pending = -1;      // local scan being taken (index), or -1
+    int fix_awaited = 0;         // object fix sent, waiting for the firmware's acknowledgement
+    int fixes_sent = 0;
+    afm::object_fix_t fix_msg{};
+    std::chrono::steady_clock::time_point fix_sent;
+    int due_pending = 0;         // frames due when a scan paused the frames
+    nlohmann::json local_scans = nlohmann::json::array();
     cv::VideoWriter video;
     std::vector<int> sheet_at;   // frame indices for the contact sheet
     std::vector<cv::Mat> sheet;
@@ -101,33 +113,38 @@ struct Renderer {
 
     void request(int req, int first, int n)
     {
+        // Region in display pixels -> frame A: row 0 is the top of the field.
+        const cv::Rect &g = scan.px;
         afm::scan_req_t r{};
         r.utime = afm::wall_utime();
         r.req_id = req;
-        r.x0_nm = field.x0_nm;
-        r.y0_nm = field.y0_nm;
-        r.width_nm = r.height_nm = field.size_nm;
-        r.nx = r.ny = field.px;
+        r.x0_nm = field.x0_nm + g.x * field.pitch();
+        r.y0_nm = field.y0_nm + (field.px - g.y - g.height) * field.pitch();
+        r.width_nm = g.width * field.pitch();
+        r.height_nm = g.height * field.pitch();
+        r.nx = g.width;
+        r.ny = g.height;
         r.first_line = first;
         r.n_lines = n;
         lc.publish(AFM_CH_AFM_SCAN_REQ, &r);
         scan.asked = std::chrono::steady_clock::now();
     }
 
-    void start_scan(int req)
+    void start_scan(int req, const cv::Rect &region)
     {
-        scan.reset(req, field.px);
-        request(req, 0, field.px);
+        scan.reset(req, region);
+        request(req, 0, region.height);
     }
 
     // Re-requests the lines still missing, if the last request is old.
     void retry_scan()
     {
         if (scan.left == 0 || std::chrono::steady_clock::now() - scan.asked < std::chrono::milliseconds(kScanRetryMs)) return;
-        for (int j = 0; j < field.px;) {
+        const int rows = scan.px.height;
+        for (int j = 0; j < rows;) {
             if (scan.got[j]) { ++j; continue; }
             int k = j;
-            while (k < field.px && !scan.got[k]) ++k;
+            while (k < rows && !scan.got[k]) ++k;
             request(scan.id, j, k - j);
             j = k;
         }
@@ -135,11 +152,14 @@ struct Renderer {
 
     void on_line(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_line_t *m)
     {
-        if (m->req_id != scan.id || m->n != field.px || m->line < 0 || m->line >= field.px || scan.got[m->line]) return;
-        float *row = scan.h.ptr<float>(field.px - 1 - m->line);
-        for (int i = 0; i < field.px; ++i) row[i] = static_cast<float>(m->height_nm[i]);
+        const int rows = scan.px.height, cols = scan.px.width;
+        if (m->req_id != scan.id || m->n != cols || m->line < 0 || m->line >= rows || scan.got[m->line]) return;
+        float *row = scan.h.ptr<float>(rows - 1 - m->line);
+        for (int i = 0; i < cols; ++i) row[i] = static_cast<float>(m->height_nm[i]);
         scan.got[m->line] = true;
-        if (--scan.left == 0 && scan.id == kFinalScan && final_pending) finish_last_frame();
+        if (--scan.left > 0) return;
+        if (scan.id == kFinalScan && final_pending) finish_last_frame();
+        else if (local_pending >= 0 && scan.id == kLocalScanBase + local_pending) local_scan_done();
     }
 
     void write_outputs_for_scan(const std::string &name, const cv::Mat &h)
@@ -197,33 +217,124 @@ struct Renderer {
     void on_tip(const lcm::ReceiveBuffer *, const std::string &, const afm::fw_tip_t *m) { tip_msg = *m; }
     void on_force(const lcm::ReceiveBuffer *, const std::string &, const afm::fw_force_t *m) { force_msg = *m; }
 
+    void set_model(const afm::objects_t &m)
+    {
+        model.clear();
+        for (const auto &p : m.particles) model.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        const auto t0 = std::chrono::steady_clock::now();
+        touched_px += display.update(model);
+        update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+
     void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *m)
     {
         if (!started || final_pending) return;
+        if (local_pending >= 0) {
+            // Waiting for the firmware to apply the local scan's fix.
+            if (fix_awaited > 0 && m->fix_id >= fix_awaited) {
+                // The model is re-registered: move the objects, then let the
+                // local scan replace its region (the substrate under the
+                // objects' corrected footprints is what the scan shows).
+                set_model(*m);
+                display.paste_scan(scan.h, scan.px);
+                local_scans.back()["model_drift_nm"] = {m->drift_nm[0], m->drift_nm[1]};
+                local_pending = -1;
+                fix_awaited = 0;
+                continue_frames();
+            }
+            return;
+        }
         if (m->seq <= last_seq) {       // a resend: our announcement may be lost
             if (frames_written > 0) announce(frames_written - 1, last_seq);
             return;
         }
         last_seq = m->seq;
-        const int due = afm::frames_due(scene, m->utime);
-        if (due <= frames_written) return;
-        model.clear();
-        for (const auto &p : m->particles) model.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
-        const auto t0 = std::chrono::steady_clock::now();
-        touched_px += display.update(model);
-        update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        due_pending = afm::frames_due(scene, m->utime);
+        if (due_pending <= frames_written) return;
+        set_model(*m);
+        continue_frames();
+    }
+
+    // Writes the frames due, pausing for a scheduled local scan or, before
+    // the last frame, for the final scan (the simulator waits meanwhile).
+    void continue_frames()
+    {
         const int total = scene.total_frames();
-        while (frames_written < due) {
+        while (frames_written < due_pending) {
+            if (local_next < static_cast<int>(scene.op.local_scans.size()) &&
+                afm::frame_utime(scene, frames_written) >= std::llround(scene.op.local_scans[local_next].at_s * 1e6)) {
+                start_local_scan(local_next++);
+                return;
+            }
             if (frames_written == total - 1) {
-                // The last frame: first the paper's check against a fresh scan.
                 final_pending = true;
-                start_scan(kFinalScan);
+                start_scan(kFinalScan, cv::Rect(0, 0, field.px, field.px));
                 return;
             }
             write_frame(frames_written++);
         }
-        announce(frames_written - 1, m->seq);
-        hb.maybe_send("running", m->seq, m->utime);
+        announce(frames_written - 1, last_seq);
+        hb.maybe_send("running", last_seq, afm::frame_utime(scene, frames_written - 1));
+    }
+
+    void start_local_scan(int i)
+    {
+        const afm::LocalScanSpec &ls = scene.op.local_scans[i];
+        local_pending = i;
+        double x = field.x0_nm + field.size_nm / 2, y = field.y0_nm + field.size_nm / 2;
+        for (const auto &p : model)
+            if (p.id == ls.around_id) { x = p.x_nm; y = p.y_nm; }
+        const int half = std::max(2, static_cast<int>(std::lround(ls.size_nm / 2 / field.pitch())));
+        const cv::Point2d c = field.to_px(x, y);
+        const cv::Rect region = cv::Rect(cvRound(c.x) - half, cvRound(c.y) - half, 2 * half, 2 * half) & cv::Rect(0, 0, field.px, field.px);
+        start_scan(kLocalScanBase + i, region);
+    }
+
+    void local_scan_done()
+    {
+        const afm::LocalScanSpec &ls = scene.op.local_scans[local_pending];
+        // Locate the object in the scan (placed in a full-size image so the
+        // display's geometry applies).
+        cv::Mat located = cv::Mat::zeros(field.px, field.px, CV_32F);
+        scan.h.copyTo(located(scan.px));
+        const afm::DisplayObject *obj = nullptr;
+        for (const auto &p : model)
+            if (p.id == ls.around_id) obj = &p;
+        double sx = 0, sy = 0;
+        nlohmann::json rec = {{"at_s", ls.at_s}, {"around_id", ls.around_id}, {"frame", frames_written}};
+        const bool found = obj && afm::locate_bump(located, field, obj->x_nm, obj->y_nm,
+                                                    afm::sphere_footprint_nm(obj->radius_nm, tip) * 0.5 + kFidelitySearch_nm, &sx, &sy);
+        if (!found) {
+            // Nothing to register: the scan still replaces its region of the image.
+            rec["found"] = false;
+            local_scans.push_back(rec);
+            display.paste_scan(scan.h, scan.px);
+            local_pending = -1;
+            continue_frames();
+            return;
+        }
+        rec["found"] = true;
+        rec["model_nm"] = {obj->x_nm, obj->y_nm};
+        rec["scan_nm"] = {sx, sy};
+        local_scans.push_back(rec);
+        fix_msg.utime = afm::frame_utime(scene, frames_written);
+        fix_msg.fix_id = ++fixes_sent;
+        fix_msg.object_id = ls.around_id;
+        fix_msg.scan_x_nm = sx;
+        fix_msg.scan_y_nm = sy;
+        fix_awaited = fix_msg.fix_id;
+        send_fix();
+    }
+
+    void send_fix()
+    {
+        lc.publish(AFM_CH_HOST_OBJECT_FIX, &fix_msg);
+        fix_sent = std::chrono::steady_clock::now();
+    }
+
+    void retry_fix()
+    {
+        if (fix_awaited > 0 && std::chrono::steady_clock::now() - fix_sent > std::chrono::milliseconds(kFixRetryMs)) send_fix();
     }
 
     void finish_last_frame()
@@ -280,7 +391,7 @@ int main(int argc, char **argv)
 
         // The full scan first.
         r.hb.send("starting", -1, 0, "scanning");
-        r.start_scan(kInitialScan);
+        r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
         while (r.scan.left > 0) {
             lc->handleTimeout(50);
             if (r.sim_done) return 3;
@@ -290,7 +401,8 @@ int main(int argc, char **argv)
         while (!r.sim_done) {
             r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? 200000 : 1000000);
             lc->handleTimeout(50);
-            if (r.final_pending) r.retry_scan();
+            if (r.final_pending || r.local_pending >= 0) r.retry_scan();
+            r.retry_fix();
         }
         r.video.release();
         if (!r.sheet.empty()) {
@@ -302,7 +414,8 @@ int main(int argc, char **argv)
                               {"local_update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
                               {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
                               {"write_ms_per_frame", r.frames_written ? 1e3 * r.write_s / r.frames_written : 0.0},
-                              {"pixels_updated", r.touched_px}};
+                              {"pixels_updated", r.touched_px},
+                              {"local_scans", r.local_scans}};
         std::ofstream(out_dir + "/renderer_report.json") << rep.dump(2) << "\n";
         r.hb.send("done", r.last_seq, 0);
         return 0;

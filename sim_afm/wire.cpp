@@ -13,14 +13,17 @@ constexpr double kVelocityFloor = 1e-9;
 // Newton step (nm) below which its incremental solve has converged.
 constexpr double kStepFloor_nm = 1e-8;
 constexpr double kConverged_nm = 1e-7;
+constexpr double kRelativeFloor = 1e-3;
 }  // namespace
 
 RodTwist rod_push_twist(const std::vector<double> &u, double w, double up, const Eigen::Vector2d &p,
-                        const RodTwist &warm, double tol, int max_iter)
+                        const RodTwist &warm, double tol, int max_iter, const std::vector<Eigen::Matrix2d> *metric)
 {
     // Unknowns x = (vt, vn, omega); the contact point's velocity is
     // (vt, vn + omega up) and the constraint c . x = 1 makes it advance by one
-    // unit along p. Friction power D(x) = sum_k w |(vt, vn + omega u_k)|.
+    // unit along p. Friction power D(x) = sum_k w |G_k (vt, vn + omega u_k)|
+    // (G_k = I on a plain substrate; anisotropic where a trench holds the
+    // wire).
     const Eigen::Vector3d c(p.x(), p.y(), p.y() * up);
     Eigen::Vector3d x(warm.vt, warm.vn, warm.omega);
     double cx = c.dot(x);
@@ -29,26 +32,40 @@ RodTwist rod_push_twist(const std::vector<double> &u, double w, double up, const
         cx = 1.0;
     }
     x /= cx;
+    auto vel = [&](const Eigen::Vector3d &v, std::size_t k) {
+        const Eigen::Vector2d vk(v[0], v[1] + v[2] * u[k]);
+        return metric ? Eigen::Vector2d((*metric)[k] * vk) : vk;
+    };
     auto power = [&](const Eigen::Vector3d &v) {
         double d = 0;
-        for (double uk : u) d += w * std::hypot(v[0], v[1] + v[2] * uk);
+        for (std::size_t k = 0; k < u.size(); ++k) d += w * vel(v, k).norm();
         return d;
     };
     double D = power(x);
     RodTwist out;
     int it = 0;
     for (; it < max_iter; ++it) {
-        // Minimise sum_k a_k |A_k x|^2 subject to c . x = 1, a_k = w / |A_k x|:
+        // Minimise sum_k a_k |G_k A_k x|^2 subject to c . x = 1, a_k = w / |G_k A_k x|:
         // x = M^-1 c / (c . M^-1 c).
-        double sa = 0, sau = 0, sau2 = 0;
-        for (double uk : u) {
-            const double a = w / std::max(std::hypot(x[0], x[1] + x[2] * uk), kVelocityFloor);
-            sa += a;
-            sau += a * uk;
-            sau2 += a * uk * uk;
+        Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+        if (!metric) {
+            double sa = 0, sau = 0, sau2 = 0;
+            for (double uk : u) {
+                const double a = w / std::max(std::hypot(x[0], x[1] + x[2] * uk), kVelocityFloor);
+                sa += a;
+                sau += a * uk;
+                sau2 += a * uk * uk;
+            }
+            M << sa, 0, 0, 0, sa, sau, 0, sau, sau2;
+        } else {
+            for (std::size_t k = 0; k < u.size(); ++k) {
+                const double a = w / std::max(vel(x, k).norm(), kVelocityFloor);
+                Eigen::Matrix<double, 2, 3> A;
+                A << 1, 0, 0, 0, 1, u[k];
+                const Eigen::Matrix<double, 2, 3> GA = (*metric)[k] * A;
+                M += a * GA.transpose() * GA;
+            }
         }
-        Eigen::Matrix3d M;
-        M << sa, 0, 0, 0, sa, sau, 0, sau, sau2;
         const Eigen::Vector3d y = M.ldlt().solve(c);
         const Eigen::Vector3d xn = y / c.dot(y);
         const double Dn = power(xn);
@@ -144,8 +161,22 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
     if (!in_contact) return false;
     const Eigen::Vector2d t(std::cos(psi), std::sin(psi)), nr(-std::sin(psi), std::cos(psi));
     const Eigen::Vector2d p = -n;   // the tip pushes the wire away from itself
+    // Where a trench holds the wire, its friction is anisotropic: f along the
+    // trench, hold x f across it (G = a a^T + hold b b^T in the rod frame).
+    bool held = false;
+    if (trap) {
+        metric_.assign(u.size(), Eigen::Matrix2d::Identity());
+        for (std::size_t k = 0; k < u.size(); ++k) {
+            Eigen::Vector2d along;
+            double hold;
+            if (!trap(centre + u[k] * t, d_nm, along, hold)) continue;
+            const Eigen::Vector2d a(along.dot(t), along.dot(nr)), b(-a.y(), a.x());
+            metric_[k] = a * a.transpose() + hold * b * b.transpose();
+            held = true;
+        }
+    }
     last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_from_a - 0.5 * L_nm,
-                          Eigen::Vector2d(p.dot(t), p.dot(nr)), last, 1e-10, 60);
+                          Eigen::Vector2d(p.dot(t), p.dot(nr)), last, 1e-7, 60, held ? &metric_ : nullptr);
     const double F = k * pen;
     if (F <= last.force_nN) return false;   // inside the limit surface: static
     // Advance the contact point along p until the contact force is back on the
@@ -223,6 +254,7 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
     constexpr int b = 5;
     const std::vector<Eigen::Vector2d> start = x;
     const double kb = EI / (ds * ds * ds);
+    stuck_.assign(nn, 1);
     std::vector<double> A(static_cast<std::size_t>(n) * (b + 1)), g(n);
     // Lower-band accumulation of a 2 x 2 block for nodes (i, j), i >= j.
     auto add_block = [&](int i, int j, const Eigen::Matrix2d &B) {
@@ -277,15 +309,40 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
             add_block(i + 1, i + 1, t * t * B);
             add_block(i + 1, i, t * (1 - t) * B);
         }
-        // Friction, reweighted: c_i |dx_i| ~ c_i |dx_i|^2 / (2 rho_i). The first
-        // pass weighs every node as if it moved by the penetration, so that
-        // no node starts pinned by an infinite weight.
+        // Friction by stick and slip (an active set), updated from the
+        // elastic and contact forces at the current iterate: a stuck node
+        // stays put (held by a stiff spring to its start) while the force on
+        // it stays within c_i; past it, it slides. A sliding node's friction
+        // is reweighted: c_i |dx_i| ~ c_i |dx_i|^2 / (2 rho_i); it sticks
+        // again when it barely moves and its force is within c_i. The first
+        // pass takes the sliding set and weights from the last push (a steady
+        // push moves the nodes alike from sample to sample).
+        double biggest_dx = 0;
+        for (int i = 0; i < nn; ++i) biggest_dx = std::max(biggest_dx, (x[i] - start[i]).norm());
+        const double floor_nm = std::max(kRelativeFloor * biggest_dx, kStepFloor_nm);
+        const double k_node = 2 * ks + 16 * kb + kc;   // a node's own stiffness, about
+        const double k_hold = 1e3 * k_node;
+        bool changed = false;
         for (int i = 0; i < nn; ++i) {
             const double ci = f * ds * ((i == 0 || i == nn - 1) ? 0.5 : 1.0);
             const Eigen::Vector2d dx = x[i] - start[i];
-            const double rho = it == 0 ? std::max(pen0, kStepFloor_nm) : std::max(dx.norm(), kStepFloor_nm);
-            grad(i) += ci / rho * dx;
-            add_block(i, i, ci / rho * Eigen::Matrix2d::Identity());
+            const double r = grad(i).norm();   // elastic + contact force on the node
+            double rho = std::max(dx.norm(), floor_nm);
+            if (it == 0) {
+                stuck_[i] = !(have_last_ && last_step_[i] > kRelativeFloor * last_max_);
+                if (!stuck_[i]) rho = std::max(last_step_[i] * pen0 / last_scale_, kStepFloor_nm);
+            }
+            if (stuck_[i] && r > ci) {
+                stuck_[i] = false;
+                changed = true;
+                rho = std::max((r - ci) / k_node, floor_nm);
+            } else if (!stuck_[i] && it > 0 && dx.norm() <= floor_nm && r <= ci) {
+                stuck_[i] = true;
+                changed = true;
+            }
+            const double w = stuck_[i] ? k_hold : ci / rho;
+            grad(i) += w * dx;
+            add_block(i, i, w * Eigen::Matrix2d::Identity());
         }
         for (double &v : g) v = -v;
         solve_banded(A, g);
@@ -296,8 +353,15 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
             step = std::max(step, dxi.norm());
         }
         moved = true;
-        if (step < kConverged_nm) break;
+        if (step < kConverged_nm && !changed) break;
     }
+    // Remember the pattern of this push (relative to its penetration).
+    last_step_.resize(nn);
+    double biggest = 0;
+    for (int i = 0; i < nn; ++i) biggest = std::max(biggest, last_step_[i] = (x[i] - start[i]).norm());
+    have_last_ = biggest > kStepFloor_nm;
+    last_max_ = biggest;
+    last_scale_ = pen0;
     update_box();
     return moved;
 }

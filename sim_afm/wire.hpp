@@ -29,9 +29,15 @@
 
 #include <Eigen/Dense>
 
+#include <functional>
 #include <vector>
 
 namespace afm::sim {
+
+// Whether a trench holds a wire of diameter d at point p (sample frame): if
+// so, the trench's direction there and how many times the friction across it
+// exceeds the friction along it. Set only when the scene cuts trenches.
+using TrenchTrap = std::function<bool(const Eigen::Vector2d &p, double d_nm, Eigen::Vector2d &along, double &hold)>;
 
 // A twist of a rod in its own frame: velocity (vt along the axis, vn normal to
 // it) of the rod's centre and angular rate omega, per unit of push travel.
@@ -45,8 +51,11 @@ struct RodTwist {
 // u_k (from the centre, nm) with weight w_nN each, pushed at axial position u_p
 // along the unit direction p = (p_t, p_n) of the rod frame. `warm` seeds the
 // iteration. Force and torque balance hold at the result to `tol` (relative).
+// `metric` (optional, one per point): the point's friction power is
+// w |G_k v_k| instead of w |v_k| (anisotropic friction, e.g. in a trench).
 RodTwist rod_push_twist(const std::vector<double> &u_nm, double w_nN, double u_p_nm, const Eigen::Vector2d &p,
-                        const RodTwist &warm, double tol = 1e-12, int max_iter = 500);
+                        const RodTwist &warm, double tol = 1e-12, int max_iter = 500,
+                        const std::vector<Eigen::Matrix2d> *metric = nullptr);
 
 // Closest point of the segment a-b to q: the parameter t in [0, 1].
 double segment_param(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &q);
@@ -77,6 +86,7 @@ public:
     virtual bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) = 0;
     // Distance from q to the wire's axis, nm.
     double axis_distance(const Eigen::Vector2d &q) const;
+    TrenchTrap trap;              // empty unless lithography cuts trenches
 
 protected:
     std::vector<Eigen::Vector2d> x;   // nodes, nm
@@ -95,6 +105,9 @@ public:
     RodTwist last;                // the last twist (for tests: rotation centre)
     double f = 0;                 // friction density, nN/nm
     std::vector<double> u;        // friction points, from the centre, nm
+
+private:
+    std::vector<Eigen::Matrix2d> metric_;
 };
 
 class FlexibleWire : public Wire {
@@ -110,6 +123,11 @@ public:
     int iterations = 8;
 
 private:
+    std::vector<double> last_step_;   // |displacement| of each node in the last push, nm
+    double last_scale_ = 1;           // that push's initial penetration, nm
+    double last_max_ = 0;             // that push's largest node motion, nm
+    std::vector<char> stuck_;         // stick (1) or slip (0) per node, within a push
+    bool have_last_ = false;
     void solve_banded(std::vector<double> &A, std::vector<double> &rhs) const;
 };
 

@@ -56,6 +56,12 @@ World::World(const Scene &s)
         else
             wires_.push_back(std::make_unique<RigidWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.friction_points));
     }
+    if (s.has_effect("lithography")) {
+        for (auto &w : wires_)
+            w->trap = [this](const Eigen::Vector2d &p, double d, Eigen::Vector2d &along, double &hold) {
+                return trench_hold(p, d, along, hold);
+            };
+    }
     if (s.substrate == "tilted_glass") {
         tan_slope_ = std::tan(s.slope_deg * M_PI / 180.0);
         normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y
@@ -279,19 +285,24 @@ Eigen::Vector3d World::tip_force() const
 
 double World::groove_depth(const Eigen::Vector2d &q) const
 {
-    // The cone (half angle gamma) cut each point to its depth: at distance w
-    // the cut is depth - w / tan(gamma) deep, so the trench is 2 depth tan(gamma)
-    // wide at the surface. Points are much closer than the width: their union
-    // is the V-groove.
+    // The cone (half angle gamma) swept along the path: at distance w from
+    // the path the cut is depth - w / tan(gamma) deep, so the trench is
+    // 2 depth tan(gamma) wide at the surface (a V-groove), the depth linear
+    // between path points.
     if (trench_points_.empty()) return 0.0;
     const double cot = 1.0 / std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
     double z = 0.0;
     scratch3_.clear();
-    trench_grid_.query(q, trench_reach_nm_, scratch3_);
+    trench_grid_.query(q, trench_reach_nm_ + trench_step_nm_, scratch3_);
     for (int k : scratch3_) {
         const auto &[ti, pi] = trench_points_[k];
         const Trench &t = trenches_[ti];
         z = std::max(z, t.depth_nm[pi] - (q - t.p[pi]).norm() * cot);
+        if (pi == 0) continue;
+        // The piece of path from the previous point, its depth linear along it.
+        const double a = segment_param(t.p[pi - 1], t.p[pi], q);
+        const Eigen::Vector2d c = t.p[pi - 1] + a * (t.p[pi] - t.p[pi - 1]);
+        z = std::max(z, (1 - a) * t.depth_nm[pi - 1] + a * t.depth_nm[pi] - (q - c).norm() * cot);
     }
     return z;
 }
@@ -367,6 +378,35 @@ double World::height_convolved(double x, double y) const
     return base_height(q) + z;
 }
 
+bool World::trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const
+{
+    // A wire point sits in a trench when the V is at least as wide as the
+    // wire there and the wire's axis lies within the part that wide. To leave
+    // sideways it must climb a wall inclined at theta = 90 deg - gamma
+    // against its friction angle beta = atan(mu_wire): per unit of the load
+    // that makes its friction f, that costs tan(theta + beta) instead of
+    // tan(beta) (capped at 1000 when theta + beta reaches 90 deg).
+    if (trench_points_.empty()) return false;
+    const double tg = std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    scratch3_.clear();
+    trench_grid_.query(q, trench_reach_nm_ + trench_step_nm_, scratch3_);
+    for (int k : scratch3_) {
+        const auto &[ti, pi] = trench_points_[k];
+        if (pi == 0) continue;
+        const Trench &t = trenches_[ti];
+        const double a = segment_param(t.p[pi - 1], t.p[pi], q);
+        const Eigen::Vector2d c = t.p[pi - 1] + a * (t.p[pi] - t.p[pi - 1]);
+        const double width = 2 * tg * ((1 - a) * t.depth_nm[pi - 1] + a * t.depth_nm[pi]);
+        if (width < d_nm || (q - c).norm() > 0.5 * (width - d_nm)) continue;
+        along = (t.p[pi] - t.p[pi - 1]).normalized();
+        const double theta = M_PI / 2 - std::atan(tg), beta = std::atan(scene_.wire_model.mu);
+        hold = theta + beta < M_PI / 2 - 1e-3 ? std::tan(theta + beta) / std::tan(beta) : 1000.0;
+        hold = std::min(hold, 1000.0);
+        return true;
+    }
+    return false;
+}
+
 void World::engrave()
 {
     // Depth law (documented in the scene: sample.lithography): linear in the
@@ -385,11 +425,11 @@ void World::engrave()
         cutting_ = true;
     }
     Trench &t = trenches_.back();
-    // A new point every fraction of the width (the union of cones is then a
-    // groove whose floor ripples by less than 1% of the depth), or when the
-    // depth changes.
-    const double spacing = std::max(0.05, 0.1 * width);
+    // A new path point every quarter width (or 0.5 nm), or when the depth
+    // changes by 1%.
+    const double spacing = std::max(0.5, 0.25 * width);
     if (!t.p.empty() && (q - t.p.back()).norm() < spacing && std::fabs(depth - t.depth_nm.back()) < 0.01 * depth) return;
+    if (!t.p.empty()) trench_step_nm_ = std::max(trench_step_nm_, (q - t.p.back()).norm());
     t.p.push_back(q);
     t.depth_nm.push_back(depth);
     t.width_nm.push_back(width);
@@ -410,8 +450,8 @@ double World::scan_sn_v() const { return lever_.sn_volts(0.0, load_nN_); }
 
 double World::scan_sl_v() const
 {
-    // Scanning towards +x (frame A): friction on the tip along -x.
-    const Eigen::Vector2d f = -tip_mu_ * (load_nN_ + tip_adhesion_nN_) * Eigen::Vector2d::UnitX();
+    // Scanning towards +x (frame A): friction on the tip against the motion.
+    const Eigen::Vector2d f = sliding_friction(Eigen::Vector2d::UnitX());
     return lever_.sl_volts((lever_.R.transpose() * f).y());
 }
 

@@ -123,6 +123,7 @@ private:
     double height_convolved(double x, double y) const;
     double base_height(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_; }   // sample frame
     double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
+    bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     // Horizontal force of the substrate on the tip, frame A, when it slides
     // along the horizontal direction m under the normal set point.
@@ -157,6 +158,7 @@ private:
     Grid trench_grid_{1.0};                      // indexes trench_points_
     std::vector<std::pair<int, int>> trench_points_;   // (trench, point) of every cut point
     double trench_reach_nm_ = 0;                 // largest half width cut so far
+    double trench_step_nm_ = 0;                  // longest piece of path between trench points
     bool cutting_ = false;
     Grid grid_;
     mutable std::vector<int> scratch_, scratch2_, scratch3_;

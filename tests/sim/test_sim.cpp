@@ -75,8 +75,10 @@ void test_particle_scene_builds_no_wire_drift_or_lithography_model()
         TEST_ASSERT_TRUE_MESSAGE(name.find("litho") == std::string::npos, name.c_str());
         TEST_ASSERT_TRUE_MESSAGE(name.find("noise") == std::string::npos, name.c_str());
     }
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(w.wires().size()));   // no wire in the scene: no wire model
     for (int i = 0; i < 1000; ++i) w.step();
     TEST_ASSERT_EQUAL_DOUBLE(0.0, w.drift().norm());   // no drift model, no drift
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(w.trenches().size()));
 }
 
 void test_drift_listed_runs_and_moves_the_sample()

@@ -93,7 +93,10 @@ void tearDown() {}
 void test_rod_static_point_and_least_push_match_section_6()
 {
     // K = 4096 friction points: the midpoint rule's error in F is O(1/K^2),
-    // about 1e-7 f L here; tolerance 1e-5 f L on F and 1e-4 L on s.
+    // about 1e-7 f L here; tolerance 1e-5 f L on F. The lumped friction puts
+    // the rotation centre on a friction point (D is piecewise linear in the
+    // centre's position, with its kinks there), so s is good to half a
+    // spacing: tolerance 1/K of L.
     const double L = 1000, f = 0.02;
     const double ls[] = {0.0, L / 8, L / 4, 0.4 * L, 0.6 * L, 3 * L / 4, L};
     for (double l : ls) {
@@ -102,7 +105,7 @@ void test_rod_static_point_and_least_push_match_section_6()
         std::printf("l = %6.1f nm: F = %.7f f L (closed %.7f), s = %.4f L (closed %.4f), %d iterations\n", l,
                     t.force_nN / (f * L), k_closed(l, L), s / L, s_closed(l, L) / L, t.iterations);
         TEST_ASSERT_DOUBLE_WITHIN(1e-5, k_closed(l, L), t.force_nN / (f * L));
-        TEST_ASSERT_DOUBLE_WITHIN(1e-4, s_closed(l, L) / L, s / L);
+        TEST_ASSERT_DOUBLE_WITHIN(1.0 / 4096, s_closed(l, L) / L, s / L);
         TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.0, t.vt);   // no sliding along the axis
     }
 }
@@ -128,13 +131,13 @@ void test_rod_middle_push_translates_at_f_L()
 
 void test_rod_default_64_points_within_half_a_percent()
 {
-    // The simulator's default K = 64: F within 0.5% of f L and s within 0.5%
-    // of L at l = 0, L/4, L/2 (measured: about 1e-4).
+    // The simulator's default K = 64: F within 0.5% of f L (measured about
+    // 1e-4) and s within 1/K of L (the quantisation above) at l = 0 and L/4.
     const double L = 1000, f = 0.02;
     for (double l : {0.0, L / 4}) {
         const RodTwist t = solve(l, L, f, 64);
         TEST_ASSERT_DOUBLE_WITHIN(5e-3, k_closed(l, L), t.force_nN / (f * L));
-        TEST_ASSERT_DOUBLE_WITHIN(5e-3, s_closed(l, L) / L, (-t.vn / t.omega + L / 2) / L);
+        TEST_ASSERT_DOUBLE_WITHIN(1.0 / 64, s_closed(l, L) / L, (-t.vn / t.omega + L / 2) / L);
     }
 }
 
@@ -219,8 +222,10 @@ PushResult push_world(double l, double L, const std::string &extra = "", int seg
 void test_pushed_rod_in_the_world_moves_as_section_6_says()
 {
     // The whole chain (scanner, compliant lever, penalty contact, K = 64
-    // friction points, quasi-static relaxation): force within 2% of f L and
-    // rotation centre within 2% of L, at l = 0, L/4 and L/2.
+    // friction points, quasi-static relaxation): force within 2% of f L
+    // (measured 0.5%) and rotation centre within 2% of L (measured 0.8%; 1/K
+    // quantisation plus the finite rotation over the 30 nm window), at l = 0,
+    // L/4 and L/2.
     const double L = 1000, fL = 20.0 * L / 1000;
     for (double l : {0.0, L / 4}) {
         const PushResult r = push_world(l, L);
@@ -238,40 +243,48 @@ void test_pushed_rod_in_the_world_moves_as_section_6_says()
 void test_stiff_flexible_wire_moves_like_the_rigid_rod()
 {
     // lambda = 10 silver wire as a 32-segment chain: it hardly bends, so an end
-    // push needs the rigid rod's 0.414 f L and turns it about 0.707 L (5%:
-    // the chain's own compliance and the Newton-IRLS tolerance).
+    // push needs the rigid rod's 0.414 f L (2%) and turns it about 0.707 L
+    // (within 1/N = 3% plus 1%: the friction sits on the nodes, so the
+    // rotation centre falls on one; measured 0.4163 and 0.7205).
     const double L = 1000, fL = 20.0 * L / 1000;
-    for (int sw : {8, 32, 128, 512}) {
-    const PushResult r = push_world(0.0, L, ", wire_flexibility", 32, sw);
-    std::printf("flexible (N = 32, %d) end push: F = %.4f f L, s = %.4f L\n", sw, r.force_nN / fL, r.s_nm / L);
-    }
     const PushResult r = push_world(0.0, L, ", wire_flexibility", 32);
     std::printf("flexible (N = 32) end push: F = %.4f f L, s = %.4f L\n", r.force_nN / fL, r.s_nm / L);
-    TEST_ASSERT_DOUBLE_WITHIN(0.05, std::sqrt(2.0) - 1, r.force_nN / fL);
-    TEST_ASSERT_DOUBLE_WITHIN(0.05, 1 / std::sqrt(2.0), r.s_nm / L);
+    TEST_ASSERT_DOUBLE_WITHIN(0.02, std::sqrt(2.0) - 1, r.force_nN / fL);
+    TEST_ASSERT_DOUBLE_WITHIN(1.0 / 32 + 0.01, 1 / std::sqrt(2.0), r.s_nm / L);
 }
 
 void test_long_flexible_wire_bends_and_keeps_its_length()
 {
-    // lambda = 60 (6 um x 100 nm): pushed in the middle, it bends into a bow
-    // (the ends lag the middle by > 1 nm), and every segment keeps its rest
-    // length to 1e-3 (the stretch springs are EA / ds).
+    // lambda = 60 (6 um x 100 nm, friction 200 nN/um) pushed in its middle by
+    // a tip that goes 160 nm past contact: the lever (1.6 nN/nm) cannot drag
+    // much of it, so it bends locally: the middle moves a few nm (a beam on a
+    // rigid-plastic bed: P = 2 f a + 24 EI delta / a^3 at its best a gives
+    // delta of a few nm for the 250 nN the lever reaches), the ends not at
+    // all, and every segment keeps its rest length to 1e-3 (stretch springs
+    // EA / ds). The step solver (stick/slip active set, reweighted slip) gives
+    // the same shape with 8 and 128 iterations per step (5%).
     const double L = 6000;
-    const afm::Scene s = wire_scene(L, ", wire_flexibility", 200, 32);
-    World w(s);
-    const double cn_off = w.lever().normal_offset(s.op.load_nN).x();
-    w.command(Eigen::Vector2d(-cn_off, -100), 40, true);
-    for (int i = 0; i < 2000; ++i) w.step();
-    w.command(Eigen::Vector2d(-cn_off, 100), 40, true);
-    for (int i = 0; i < 8000; ++i) w.step();
-    const auto &n = w.wires()[0]->nodes();
-    const double mid = n[n.size() / 2].y(), ends = 0.5 * (n.front().y() + n.back().y());
-    double worst = 0;
-    for (std::size_t i = 0; i + 1 < n.size(); ++i) worst = std::max(worst, std::fabs((n[i + 1] - n[i]).norm() / (L / 32) - 1));
-    std::printf("long wire: middle moved %.3f nm, ends %.3f nm, worst strain %.2e\n", mid, ends, worst);
-    TEST_ASSERT_TRUE(mid > 1.0);
-    TEST_ASSERT_TRUE(mid - ends > 1.0);
-    TEST_ASSERT_TRUE(worst < 1e-3);
+    double mids[2];
+    int k = 0;
+    for (int sweeps : {8, 128}) {
+        const afm::Scene s = wire_scene(L, ", wire_flexibility", 200, 32, sweeps);
+        World w(s);
+        const double cn_off = w.lever().normal_offset(40).x();
+        w.command(Eigen::Vector2d(-cn_off, -100), 40, true);
+        for (int i = 0; i < 2000; ++i) w.step();
+        w.command(Eigen::Vector2d(-cn_off, 100), 40, true);
+        for (int i = 0; i < 8000; ++i) w.step();
+        const auto &n = w.wires()[0]->nodes();
+        const double mid = n[n.size() / 2].y(), ends = 0.5 * (n.front().y() + n.back().y());
+        double worst = 0;
+        for (std::size_t i = 0; i + 1 < n.size(); ++i) worst = std::max(worst, std::fabs((n[i + 1] - n[i]).norm() / (L / 32) - 1));
+        std::printf("long wire (%d iterations): middle moved %.3f nm, ends %.3f nm, worst strain %.2e\n", sweeps, mid, ends, worst);
+        TEST_ASSERT_TRUE(mid > 1.0 && mid < 40.0);   // moved, never ahead of the tip
+        TEST_ASSERT_TRUE(mid - ends > 1.0);
+        TEST_ASSERT_TRUE(worst < 1e-3);
+        mids[k++] = mid;
+    }
+    TEST_ASSERT_DOUBLE_WITHIN(0.05 * mids[1], mids[1], mids[0]);
 }
 
 void test_scenes_build_only_the_wire_model_they_need()

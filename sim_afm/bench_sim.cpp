@@ -1,0 +1,202 @@
+// bench_sim: what the simulator's accuracy knobs and effects cost.
+//
+// Prints tables (asserts nothing):
+//   1. cost per simulated second and per sample against the number of
+//      particles (1, 100, 10000 on a fixed-pitch lattice: the grid keeps the
+//      per-sample cost flat);
+//   2. cost with each effect turned on, over a base of bending_offset and
+//      100 particles;
+//   3. flexible wires: error of the final shape against an N = 256 reference,
+//      and the cost, for N = 4 .. 128.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "world.hpp"
+
+using afm::Scene;
+using afm::sim::World;
+
+namespace {
+
+constexpr double kPitch_nm = 400;        // particle lattice pitch
+constexpr double kPushSpeed_nm_per_sample = 0.1;   // 2 um/s at 20 kHz: an operator's pace
+
+Scene base_scene(int n_particles)
+{
+    Scene s;
+    s.name = "bench";
+    s.file = "(bench_sim)";
+    s.seed = 1;
+    s.sample_rate_hz = 20000;
+    s.duration_s = 1;
+    s.effects = {"bending_offset"};
+    s.tip_substrate = afm::ContactSpec{0.0865, 1.0, 0, 0};
+    s.particle_substrate = afm::ContactSpec{0.3, 3.0, 0, 0};
+    const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n_particles))));
+    s.field_nm = std::max(5000.0, (side + 1) * kPitch_nm);
+    // A lattice with a particle at the origin, which the tip pushes.
+    int id = 0;
+    for (int i = 0; i < side && id < n_particles; ++i)
+        for (int j = 0; j < side && id < n_particles; ++j) {
+            const double x = (i - side / 2) * kPitch_nm, y = (j - side / 2) * kPitch_nm;
+            s.particles.push_back(afm::ParticleSpec{id++, x, y, 50});
+        }
+    s.op.path_nm = {afm::Vec2{0, -200}};
+    return s;
+}
+
+// Runs `samples` samples pushing along +y from y0 at the operator's pace;
+// wall seconds. `in_contact`: the fraction of samples with a wire in contact.
+double run_push(World &w, double x, double y0, int samples, double load = 5, double *in_contact = nullptr)
+{
+    double y = y0;
+    w.command(Eigen::Vector2d(x, y), load, true);
+    for (int i = 0; i < 200; ++i) w.step();
+    int touching = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < samples; ++i) {
+        y += kPushSpeed_nm_per_sample;
+        w.command(Eigen::Vector2d(x, y), load, true);
+        w.step();
+        if (in_contact)
+            for (const auto &wire : w.wires()) touching += wire->in_contact;
+    }
+    if (in_contact) *in_contact = static_cast<double>(touching) / samples;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void table_particles()
+{
+    std::printf("\n1. Cost against the number of particles (bending_offset; pushing one; lattice pitch %.0f nm)\n", kPitch_nm);
+    std::printf("| particles | us per sample | wall s per simulated s | vs 1 particle |\n|---|---|---|---|\n");
+    const int samples = 40000;
+    double ref = 0;
+    for (int n : {1, 100, 10000}) {
+        const Scene s = base_scene(n);
+        World w(s);
+        const double wall = run_push(w, 0, -200, samples);
+        const double per = wall / samples;
+        if (n == 1) ref = per;
+        std::printf("| %d | %.3f | %.4f | %.2fx |\n", n, per * 1e6, per * s.sample_rate_hz, per / ref);
+    }
+}
+
+void table_effects()
+{
+    std::printf("\n2. Cost of each effect (base: bending_offset, 100 particles, pushing one; imaging: a 128 x 128 scan)\n");
+    std::printf("| scene | us per sample | wall s per simulated s | vs base | ms per 128^2 scan | samples with a wire in contact |\n|---|---|---|---|---|---|\n");
+    const int samples = 40000;
+    {   // warm-up (caches, allocator), not shown
+        World w(base_scene(100));
+        run_push(w, 0, -200, samples);
+    }
+    struct Case { const char *name; std::vector<std::string> add; bool wire; std::string substrate; double load; };
+    const std::vector<Case> cases = {
+        {"base", {}, false, "glass", 5},
+        {"+ adhesion", {"adhesion"}, false, "glass", 5},
+        {"+ photodiode_noise", {"photodiode_noise"}, false, "glass", 5},
+        {"+ tip_convolution", {"tip_convolution"}, false, "glass", 5},
+        {"+ particle_contacts", {"particle_contacts"}, false, "glass", 5},
+        {"+ thermal_drift", {"thermal_drift"}, false, "glass", 5},
+        {"+ lithography (cutting)", {"lithography"}, false, "polycarbonate", 30},
+        {"+ a rigid wire (pushed)", {}, true, "glass", 5},
+        {"+ a flexible wire, N = 32 (pushed)", {"wire_flexibility"}, true, "glass", 5},
+        {"tilted_glass substrate", {}, false, "tilted_glass", 5},
+    };
+    double ref = 0;
+    for (const auto &c : cases) {
+        Scene s = base_scene(100);
+        for (const auto &e : c.add) s.effects.push_back(e);
+        s.substrate = c.substrate;
+        if (c.substrate == "tilted_glass") s.slope_deg = 9;
+        s.drift_nm_per_min = afm::Vec2{10, 0};
+        double x = 0;
+        if (c.wire) {   // a 1.3 um wire between two lattice rows, pushed at its end
+            s.wires.push_back(afm::WireSpec{1, -650, 200, 650, 200, 100});
+            x = -650;
+        }
+        World w(s);
+        double touching = 0;
+        // Wires: 4000 samples (400 nm of push), all in contact.
+        const int n = c.wire ? 4000 : samples;
+        const double wall = run_push(w, x, c.wire ? 80 : -200, n, c.load, &touching);
+        const double per = wall / n;
+        if (ref == 0) ref = per;
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int j = 0; j < 128; ++j)
+            for (int i = 0; i < 128; ++i) w.image_height(-2500 + i * 5000.0 / 128, -2500 + j * 5000.0 / 128);
+        const double scan = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::printf("| %s | %.3f | %.4f | %.2fx | %.2f | %.0f%% |\n", c.name, per * 1e6, per * s.sample_rate_hz, per / ref, scan * 1e3,
+                    100 * touching);
+    }
+}
+
+// Shape of a wire resampled at m equal arc positions.
+std::vector<Eigen::Vector2d> resample(const std::vector<Eigen::Vector2d> &x, int m)
+{
+    std::vector<double> arc(x.size(), 0.0);
+    for (std::size_t i = 1; i < x.size(); ++i) arc[i] = arc[i - 1] + (x[i] - x[i - 1]).norm();
+    std::vector<Eigen::Vector2d> out;
+    std::size_t k = 0;
+    for (int j = 0; j < m; ++j) {
+        const double a = arc.back() * j / (m - 1);
+        while (k + 2 < x.size() && arc[k + 1] < a) ++k;
+        const double t = std::clamp((a - arc[k]) / (arc[k + 1] - arc[k]), 0.0, 1.0);
+        out.push_back(x[k] + t * (x[k + 1] - x[k]));
+    }
+    return out;
+}
+
+void table_flexible()
+{
+    const double L = 5000, d = 100;
+    const int samples = 4000;   // 400 nm of push at 2 um/s
+    std::printf("\n3. Flexible wire (silver, %.0f nm x %.0f nm, lambda %.0f; friction 20 nN/um; pushed %.0f nm at l = L/4):"
+                " shape error against N = 256\n", L, d, L / d, samples * kPushSpeed_nm_per_sample);
+    std::printf("| N | max shape error, nm | rms shape error, nm | us per sample in contact | wall s per simulated s |\n|---|---|---|---|---|\n");
+    auto run = [&](int N, double &per) {
+        Scene s = base_scene(0);
+        s.particles.clear();
+        s.effects.push_back("wire_flexibility");
+        s.wire_model.segments = N;
+        s.wires.push_back(afm::WireSpec{1, -L / 2, 0, L / 2, 0, d});
+        World w(s);
+        double touching = 0;
+        per = run_push(w, -L / 4, -120, samples, 5, &touching) / (samples * std::max(touching, 1e-9));
+        return resample(w.wires()[0]->nodes(), 257);
+    };
+    double per_ref;
+    const auto ref = run(256, per_ref);
+    for (int N : {4, 8, 16, 32, 64, 128}) {
+        double per;
+        const auto shape = run(N, per);
+        double worst = 0, sum2 = 0;
+        for (std::size_t i = 0; i < ref.size(); ++i) {
+            const double e = (shape[i] - ref[i]).norm();
+            worst = std::max(worst, e);
+            sum2 += e * e;
+        }
+        std::printf("| %d | %.3f | %.3f | %.1f | %.3f |\n", N, worst, std::sqrt(sum2 / ref.size()), per * 1e6, per * 20000);
+    }
+    std::printf("| 256 (reference) | 0 | 0 | %.1f | %.3f |\n", per_ref * 1e6, per_ref * 20000);
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    const std::string only = argc > 1 ? argv[1] : "";
+    if (only == "-h" || only == "--help") {
+        std::printf("usage: bench_sim [particles|effects|wires]\n  Prints the simulator's cost and accuracy tables (all by default).\n");
+        return 0;
+    }
+    std::printf("bench_sim: 20 kHz samples; wall s per simulated s = the simulator's cost alone (no bus)\n");
+    if (only.empty() || only == "particles") table_particles();
+    if (only.empty() || only == "effects") table_effects();
+    if (only.empty() || only == "wires") table_flexible();
+    return 0;
+}

@@ -1,0 +1,71 @@
+"""Thermal drift and local scans (physics.md section 10) across the bench:
+the simulator drifts the sample; before each push the renderer takes a quick
+local scan around the particle, the firmware re-registers its models by the
+difference (object_fix_t -> fw_drift), and the display replaces the region.
+Checked from the log: every fix acknowledged, the fixed object's model on
+the truth within 1 nm right after each fix, the firmware's drift within
+0.5 nm of the true drift for objects not yet pushed, and the final display
+within 5 nm of a fresh scan."""
+import json
+import math
+import os
+import unittest
+
+import benchtest
+import afmlog
+
+
+class DriftAndLocalScans(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.scene = benchtest.scene("drift.yaml")
+        cls.out = benchtest.tmpdir("drift")
+        cls.code, _, cls.err, cls.rj = benchtest.run(cls.scene, cls.out)
+        cls.log = afmlog.load(os.path.join(cls.out, "bus.lcmlog"))
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.out)
+
+    def test_run_ok_and_every_local_scan_found_its_particle(self):
+        self.assertEqual(self.code, 0, self.err)
+        scans = self.rj["renderer"]["local_scans"]
+        self.assertEqual(len(scans), 3)
+        for s in scans:
+            self.assertTrue(s["found"], s)
+
+    def test_each_fix_re_registers_the_model_to_the_truth(self):
+        # A fix measures the scanned object against its model: drift, plus
+        # whatever error the model of that object had (after a push). Right
+        # after the fix that object's model must sit on the truth; and for
+        # objects not yet pushed the difference is the drift alone.
+        fixes = {f.fix_id: f for f in self.log["HOST_OBJECT_FIX"]}
+        self.assertEqual(sorted(fixes), [1, 2, 3])
+        truth = afmlog.by_seq(self.log["SIM_TRUTH"])
+        acked = {}
+        for m in self.log["FW_OBJECTS"]:
+            if m.fix_id and m.fix_id not in acked:
+                acked[m.fix_id] = m
+        self.assertEqual(sorted(acked), [1, 2, 3])
+        for fid, m in sorted(acked.items()):
+            oid = fixes[fid].object_id
+            model = next(p for p in m.particles if p.id == oid)
+            true = next(p for p in truth[m.seq].objects.particles if p.id == oid)
+            reg = math.hypot(model.x_nm - true.x_nm, model.y_nm - true.y_nm)
+            d_fw, d_true = m.drift_nm, truth[m.seq].objects.drift_nm
+            drift_err = math.hypot(d_fw[0] - d_true[0], d_fw[1] - d_true[1])
+            print(f"fix {fid} (object {oid}) at block {m.seq}: model-truth {reg:.2f} nm; firmware drift "
+                  f"({d_fw[0]:.2f}, {d_fw[1]:.2f}) nm, true ({d_true[0]:.2f}, {d_true[1]:.2f}) nm")
+            self.assertLess(reg, 1.0)
+            if fid <= 2:   # before any push of the object: pure drift
+                self.assertLess(drift_err, 0.5)
+        self.assertGreater(math.hypot(*truth[max(truth)].objects.drift_nm), 2.0, "the scene must drift measurably")
+
+    def test_final_display_matches_a_fresh_scan(self):
+        fid = self.rj["fidelity"]
+        print(f"fidelity: max {fid['max_position_error_nm']:.2f} nm")
+        self.assertLess(fid["max_position_error_nm"], 5.0)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
