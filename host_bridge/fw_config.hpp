@@ -5,7 +5,9 @@
 extern "C" {
 #include "fw_board.h"
 #include "fw_drift.h"
+#include "fw_litho.h"
 #include "fw_particles.h"
+#include "fw_wire.h"
 }
 
 #include <cstdint>

@@ -5,6 +5,7 @@
 // the next tip command (lockstep).
 #include <lcm/lcm-cpp.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -44,6 +45,9 @@ const char *kUsage =
 constexpr int kCrashExitCode = 70;
 
 constexpr int kMaxParticles = 4096;
+constexpr int kMaxWires = 64;
+constexpr int kMaxTrenchPoints = 8192;
+constexpr double kTrenchStep_nm = 5.0;        // a trench point per 5 nm of tip path
 constexpr double kMaxDriftStep_nm = 200.0;     // a local scan further off than this is not drift (fw_drift.h)
 constexpr double kHapticGain_N_per_nN = 0.1;   // stylus force per tip force
 constexpr double kHapticMax_N = 3.0;           // the device's force limit
@@ -55,6 +59,12 @@ struct Node {
     fw_board_t board{};
     fw_particles_t parts{};
     fw_drift_t drift{};
+    std::vector<fw_wire_t> wires;             // rigid-rod models (fw_wire), ids alongside
+    std::vector<int32_t> wire_ids;
+    int32_t wire_friction_fl_pn_per_um = 0;   // f, pN per um of wire length
+    fw_litho_t litho{};
+    std::vector<fw_trench_point_t> trench_pts;
+    bool have_litho = false;
     int32_t fix_id = 0;           // last object fix applied
     std::vector<fw_particle_t> storage;
     int64_t done = -1;            // last block processed
@@ -76,12 +86,69 @@ struct Node {
             throw std::runtime_error("fw_particles_init failed");
         fw_particles_set_friction(&parts, cfg.mu_ppm, cfg.adhesion_pn, 0);
         fw_drift_init(&drift, afm::to_i32(kMaxDriftStep_nm * 1e3));
+        if (s.wires.size() > static_cast<std::size_t>(kMaxWires))
+            throw std::runtime_error("the firmware's wire model holds at most " + std::to_string(kMaxWires) + " wires");
+        for (const auto &w : s.wires) {
+            fw_wire_t m{};
+            const double dx = w.x1_nm - w.x0_nm, dy = w.y1_nm - w.y0_nm;
+            const int32_t psi_mdeg = afm::to_i32(std::atan2(dy, dx) * 180e3 / M_PI);
+            if (fw_wire_init(&m, afm::to_i32((w.x0_nm + w.x1_nm) * 500.0), afm::to_i32((w.y0_nm + w.y1_nm) * 500.0),
+                             fw_math_bam_from_mdeg(psi_mdeg), afm::to_i32(std::hypot(dx, dy) * 1e3), afm::to_i32(w.diameter_nm * 1e3)) != FW_OK)
+                throw std::runtime_error("fw_wire_init refused wire " + std::to_string(w.id));
+            wires.push_back(m);
+            wire_ids.push_back(w.id);
+        }
+        wire_friction_fl_pn_per_um = afm::to_i32(s.wire_model.friction_nN_per_um * 1e3);
+        if (s.has_effect("lithography")) {
+            trench_pts.resize(kMaxTrenchPoints);
+            const fw_status_t st = fw_litho_init(&litho, trench_pts.data(), kMaxTrenchPoints, afm::to_i32(s.litho.threshold_nN * 1e3),
+                                                 afm::to_i32(s.litho.depth_nm_per_nN * 65536.0),   // nm/nN = pm/pN, 16.16
+                                                 afm::to_i32(s.probe.tip_half_angle_deg * 1e3), afm::to_i32(kTrenchStep_nm * 1e3));
+            if (st != FW_OK) throw std::runtime_error("fw_litho_init refused the scene's lithography settings");
+            have_litho = true;
+        }
         const int32_t th = afm::to_i32(afm::particle_threshold_nN(s) * 1e3);
         for (const auto &p : s.particles) {
             if (fw_particles_add(&parts, p.id, afm::to_i32(p.x_nm * 1e3), afm::to_i32(p.y_nm * 1e3),
                                  afm::to_i32(p.radius_nm * 1e3), th) != FW_OK)
                 throw std::runtime_error("the firmware's particle model is full (" + std::to_string(kMaxParticles) + ")");
         }
+    }
+
+    // Rigid-rod models (fw_wire): a rod the apex overlaps, while the lateral
+    // force exceeds the tip's friction baseline by half the rod's minimum
+    // push k(l) f L (section 6), is pushed along its normal until the apex
+    // sits on its surface, in steps of at most L/4 (fw_wire_push's limit).
+    static constexpr uint32_t kWirePushed = 1u << 16;   // fw_wire_t.flags bit the node sets: pushed this sample
+
+    uint32_t update_wires(const fw_sample_out_t &out)
+    {
+        uint32_t flags = 0;
+        if (wires.empty()) return 0;
+        const double lateral = std::hypot(static_cast<double>(out.force_pn[0]), static_cast<double>(out.force_pn[1]));
+        const double baseline = board.cfg.mu_ppm * 1e-6 * (out.force_pn[2] + board.cfg.adhesion_pn);
+        const int32_t reach0 = afm::to_i32(scene.probe.tip_radius_nm * 1e3);
+        for (auto &w : wires) {
+            w.flags &= ~kWirePushed;
+            bool touch;
+            int32_t l, dn;
+            if (fw_wire_contact(&w, out.tip_pm, reach0 + w.diameter_pm / 2, &touch, &l, &dn) != FW_OK || !touch) continue;
+            fw_wire_static_t st;
+            if (fw_wire_static_point(w.length_pm, l, &st) != FW_OK) continue;
+            bool sat = false;
+            const int32_t fl = afm::to_i32(static_cast<double>(wire_friction_fl_pn_per_um) * w.length_pm * 1e-6);
+            const int32_t threshold = fw_wire_push_threshold_pn(st.k, fl, &sat);
+            if (lateral - baseline <= 0.5 * threshold) continue;
+            const int32_t max_step = w.length_pm / 4;
+            while (dn != 0) {
+                const int32_t step = std::clamp(dn, -max_step, max_step);
+                if (fw_wire_push(&w, l, step, nullptr) != FW_OK) break;
+                dn -= step;
+            }
+            w.flags |= kWirePushed;
+            flags |= FW_FLAG_CONTACT;
+        }
+        return flags;
     }
 
     void fill_objects(int64_t utime, int64_t seq)
@@ -100,6 +167,42 @@ struct Node {
             last_objects.particles.push_back(q);
         }
         last_objects.n_particles = static_cast<int32_t>(last_objects.particles.size());
+        for (std::size_t i = 0; i < wires.size(); ++i) {
+            const fw_wire_t &w = wires[i];
+            q30_t sn, cs;
+            fw_math_sincos_q30(w.psi, &sn, &cs);
+            const double h = w.length_pm * 0.5e-3, c = cs / 1073741824.0, si = sn / 1073741824.0;
+            afm::wire_t q;
+            q.id = wire_ids[i];
+            q.diameter_nm = w.diameter_pm * 1e-3;
+            q.n = 2;
+            q.x_nm = {w.x_pm * 1e-3 - h * c, w.x_pm * 1e-3 + h * c};
+            q.y_nm = {w.y_pm * 1e-3 - h * si, w.y_pm * 1e-3 + h * si};
+            q.in_contact = (w.flags & kWirePushed) != 0;
+            last_objects.wires.push_back(q);
+        }
+        last_objects.n_wires = static_cast<int32_t>(last_objects.wires.size());
+        if (have_litho) {
+            afm::trench_t t{};
+            auto flush = [&] {
+                if (t.n > 0) {
+                    t.id = static_cast<int32_t>(last_objects.trenches.size()) + 1;
+                    last_objects.trenches.push_back(t);
+                }
+                t = afm::trench_t{};
+            };
+            for (int32_t i = 0; i < litho.count; ++i) {
+                const fw_trench_point_t &p = trench_pts[i];
+                if (p.flags & FW_LITHO_STROKE_START) flush();
+                t.x_nm.push_back(p.x_pm * 1e-3);
+                t.y_nm.push_back(p.y_pm * 1e-3);
+                t.depth_nm.push_back(p.depth_pm * 1e-3);
+                t.width_nm.push_back(p.width_pm * 1e-3);
+                ++t.n;
+            }
+            flush();
+        }
+        last_objects.n_trenches = static_cast<int32_t>(last_objects.trenches.size());
         last_objects.drift_nm[0] = drift.offset_pm[0] * 1e-3;
         last_objects.drift_nm[1] = drift.offset_pm[1] * 1e-3;
         last_objects.fix_id = fix_id;
@@ -121,7 +224,7 @@ struct Node {
                 const int32_t scan[2] = {afm::to_i32(m->scan_x_nm * 1e3), afm::to_i32(m->scan_y_nm * 1e3)};
                 int32_t delta[2];
                 if (fw_drift_measure(&drift, model, scan, delta) == FW_OK)
-                    fw_drift_apply(delta, &parts, nullptr, 0, nullptr);
+                    fw_drift_apply(delta, &parts, wires.data(), static_cast<int32_t>(wires.size()), have_litho ? &litho : nullptr);
                 else
                     std::fprintf(stderr, "fw_node: local scan fix %d: object %d is %.1f nm from its model, more than drift; not applied\n",
                                  m->fix_id, m->object_id, std::hypot(scan[0] - model[0], scan[1] - model[1]) * 1e-3);
@@ -167,6 +270,8 @@ struct Node {
             in.piezo_pm[2] = afm::to_i32(b->piezo_z_nm[i] * 1e3);
             fw_board_step(&board, &in, &out);
             fw_particles_update(&parts, out.tip_pm, out.force_pn, out.flags);
+            out.flags |= update_wires(out);
+            if (have_litho && fw_litho_step(&litho, out.tip_pm, out.force_pn[2]) == FW_ERR_CAPACITY) out.flags |= FW_FLAG_SAT_POS;
             const uint32_t f = out.flags | fw_particles_flags(&parts);
             if (f & (FW_FLAG_SAT_SN | FW_FLAG_SAT_SL)) ++sat_count;
             flags |= f;

@@ -89,6 +89,22 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
 /* Shift by (dx, dy) pm (drift), saturated. */
 void fw_wire_shift(fw_wire_t *w, int32_t dx_pm, int32_t dy_pm);
 
+/* Where the apex stands against the rod. With the rod's axis through its
+ * centre along psi and the normal n = (-sin psi, cos psi):
+ *   l  = projection of the apex on the axis, from end A (pm)
+ *   dn = the normal move of the rod that brings the apex (a circle of radius
+ *        reach = r_tip + d/2 around the axis) to the rod's surface:
+ *        normal + reach when the apex is on the -n side (dn > 0: the rod is
+ *        pushed along +n), normal - reach on the +n side.
+ * *touch: 0 <= l <= L and |normal| < reach (ends are flat: the rod's
+ * footprint is a rectangle). When *touch is false, *l_pm and *dn_pm are
+ * still set. FW_ERR_ARG on NULL or reach < 0.
+ * Scaling and overflow: offsets in 64 bits (|d| < 2^33 pm); projections
+ * d x (2.30) < 2^64 would overflow for |d| >= 2^33: never, as both
+ * positions are int32; >> 30 rounded; l and dn saturated to int32. */
+fw_status_t fw_wire_contact(const fw_wire_t *w, const int32_t tip_pm[2], int32_t reach_pm, bool *touch,
+                            int32_t *l_pm, int32_t *dn_pm);
+
 /* ---- tip-substrate-wire squeeze (section 7, eq. 29-30) -------------------
  *   F_r = k (mu F_a,os + tau A) / (cos psi - k mu sin psi)          (29)
  *       = k FL / (sqrt(1 + (k mu)^2) sin(psi_max - psi)),

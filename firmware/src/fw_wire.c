@@ -121,6 +121,33 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
     return FW_OK;
 }
 
+fw_status_t fw_wire_contact(const fw_wire_t *w, const int32_t tip_pm[2], int32_t reach_pm, bool *touch,
+                            int32_t *l_pm, int32_t *dn_pm)
+{
+    q30_t s;
+    q30_t c;
+    int64_t dx;
+    int64_t dy;
+    int64_t along;
+    int64_t normal;
+    int64_t l;
+    bool sat = false;
+    if (w == NULL || tip_pm == NULL || touch == NULL || l_pm == NULL || dn_pm == NULL || reach_pm < 0) {
+        return FW_ERR_ARG;
+    }
+    fw_math_sincos_q30(w->psi, &s, &c);
+    dx = (int64_t)tip_pm[0] - w->x_pm;
+    dy = (int64_t)tip_pm[1] - w->y_pm;
+    /* |dx|, |dy| < 2^32 and |s|, |c| <= 2^30: each product < 2^62, sum < 2^63 */
+    along = fw_math_rshift_round_i64(dx * c + dy * s, FW_Q30_FRAC);
+    normal = fw_math_rshift_round_i64(dy * c - dx * s, FW_Q30_FRAC);
+    l = along + w->length_pm / 2;
+    *l_pm = fw_math_sat_i32(l, &sat);
+    *dn_pm = fw_math_sat_i32(normal <= 0 ? normal + reach_pm : normal - reach_pm, &sat);
+    *touch = l >= 0 && l <= w->length_pm && normal > -(int64_t)reach_pm && normal < reach_pm;
+    return FW_OK;
+}
+
 void fw_wire_shift(fw_wire_t *w, int32_t dx_pm, int32_t dy_pm)
 {
     bool sat = false;

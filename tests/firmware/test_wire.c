@@ -233,6 +233,70 @@ static void test_wire_squeeze_sweep_matches_eq_29_30(void)
     tu_err_print(&e);
 }
 
+static void test_wire_contact_geometry_table(void)
+{
+    /* Rod 1000 nm long along x (psi = 0) centred at the origin, reach 60 nm.
+     * Rows: apex, expected l, dn, touch. */
+    static const struct { int line; int32_t x, y, l, dn; bool touch; } rows[] = {
+        { __LINE__, 0, -30000, 500000, 30000, true },     /* below the axis: push along +y */
+        { __LINE__, 0, 30000, 500000, -30000, true },     /* above: push along -y */
+        { __LINE__, -500000, -59999, 0, 1, true },        /* at end A, one pm inside the reach */
+        { __LINE__, -500000, -60000, 0, 0, false },       /* exactly at the reach: no contact */
+        { __LINE__, -500001, -10000, -1, 50000, false },  /* one pm beyond end A */
+        { __LINE__, 500000, 0, 1000000, 60000, true },    /* on the axis at end B: zero normal, +n side rule */
+        { __LINE__, 500001, 0, 1000001, 60000, false },
+    };
+    fw_wire_t w;
+    size_t i;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_init(&w, 0, 0, 0u, 1000000, 100000));
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        int32_t tip[2] = { rows[i].x, rows[i].y };
+        int32_t l = 0, dn = 0;
+        bool touch = !rows[i].touch;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_contact(&w, tip, 60000, &touch, &l, &dn));
+        UNITY_TEST_ASSERT_EQUAL_INT32(rows[i].l, l, rows[i].line, "l");
+        UNITY_TEST_ASSERT_EQUAL_INT32(rows[i].dn, dn, rows[i].line, "dn");
+        UNITY_TEST_ASSERT(rows[i].touch == touch, rows[i].line, "touch");
+    }
+}
+
+static void test_wire_contact_rotated_matches_double_within_two_pm(void)
+{
+    tu_rng_t rng;
+    long i;
+    tu_rng_seed(&rng, 77);
+    for (i = 0; i < AFM_SWEEP_N / 10; i++) {
+        fw_wire_t w;
+        int32_t mdeg = tu_rng_range(&rng, -180000, 180000);
+        int32_t len = tu_rng_range(&rng, 1000, 100000000);
+        int32_t cx = tu_rng_range(&rng, -50000000, 50000000), cy = tu_rng_range(&rng, -50000000, 50000000);
+        int32_t tip[2] = { cx + tu_rng_range(&rng, -60000000, 60000000), cy + tu_rng_range(&rng, -60000000, 60000000) };
+        int32_t reach = tu_rng_range(&rng, 0, 1000000);
+        int32_t l, dn;
+        bool touch;
+        double a = mdeg * 3.14159265358979323846 / 180000.0;
+        double dx = (double)tip[0] - cx, dy = (double)tip[1] - cy;
+        double l_ref = dx * cos(a) + dy * sin(a) + len / 2;   /* len/2 as the firmware rounds it */
+        double n_ref = dy * cos(a) - dx * sin(a);
+        double dn_ref = n_ref <= 0 ? n_ref + reach : n_ref - reach;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_init(&w, cx, cy, fw_math_bam_from_mdeg(mdeg), len, 1000));
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_contact(&w, tip, reach, &touch, &l, &dn));
+        TEST_ASSERT_DOUBLE_WITHIN(2.0, l_ref - (len % 2) * 0.5, (double)l);
+        if (fabs(n_ref) > 2.0) TEST_ASSERT_DOUBLE_WITHIN(2.0, dn_ref, (double)dn);
+    }
+}
+
+static void test_wire_contact_rejects_null_and_negative_reach(void)
+{
+    fw_wire_t w;
+    int32_t tip[2] = { 0, 0 }, l, dn;
+    bool touch;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_init(&w, 0, 0, 0u, 1000, 100));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_wire_contact(NULL, tip, 10, &touch, &l, &dn));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_wire_contact(&w, tip, -1, &touch, &l, &dn));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_wire_contact(&w, NULL, 10, &touch, &l, &dn));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -246,5 +310,8 @@ int main(void)
     RUN_TEST(test_wire_zero_length_and_too_large_moves);
     RUN_TEST(test_wire_squeeze_at_psi_max_and_one_lsb_either_side);
     RUN_TEST(test_wire_squeeze_sweep_matches_eq_29_30);
+    RUN_TEST(test_wire_contact_geometry_table);
+    RUN_TEST(test_wire_contact_rotated_matches_double_within_two_pm);
+    RUN_TEST(test_wire_contact_rejects_null_and_negative_reach);
     return UNITY_END();
 }
