@@ -35,7 +35,7 @@ Row measure(int px, int frames)
     for (int i = 0; i < 20; ++i) objs.push_back({i, -2000.0 + 200 * i, -1800.0 + 180 * (i % 7), 50});
     // The "scan": the same objects drawn once, as the simulator's scan would show them.
     afm::Display scanner(f, tip);
-    scanner.start(cv::Mat::zeros(px, px, CV_32F), {});
+    scanner.start(cv::Mat::zeros(px, px, CV_32F), afm::DisplayModel{});
     scanner.redraw(objs);
     const cv::Mat scan = scanner.height().clone();
 

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <utility>
 
 #include "afm/fw_force_t.hpp"
 
@@ -27,20 +28,119 @@ cv::Mat afmhot_lut()
 }
 
 constexpr double kForceArrowPxPerNn = 20.0;   // overlay scale of the force arrow
+constexpr double kRangeMargin = 1.1;           // colour scale at start: 10 % beyond the highest and deepest heights
+constexpr double kRangeGrowth = 1.25;          // widened by 25 % beyond an object that leaves it
+
+// Text legible on any colour of the map: a dark outline under it.
+void put_label(cv::Mat &img, const std::string &text, cv::Point org, double scale, const cv::Scalar &colour)
+{
+    cv::putText(img, text, org, cv::FONT_HERSHEY_PLAIN, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(img, text, org, cv::FONT_HERSHEY_PLAIN, scale, colour, 1, cv::LINE_AA);
+}
+
+// Union of two pixel rectangles, either possibly empty.
+cv::Rect unite(const cv::Rect &a, const cv::Rect &b)
+{
+    if (a.area() == 0) return b;
+    if (b.area() == 0) return a;
+    return a | b;
+}
+
+// Distance from q to the segment a-b; *t_out (optional): the closest point's
+// parameter in [0, 1].
+double segment_distance(const cv::Point2d &a, const cv::Point2d &b, const cv::Point2d &q, double *t_out)
+{
+    const cv::Point2d ab = b - a;
+    const double l2 = ab.dot(ab);
+    const double t = l2 > 0 ? std::clamp((q - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+    if (t_out) *t_out = t;
+    return std::hypot(q.x - a.x - t * ab.x, q.y - a.y - t * ab.y);
+}
+
+cv::Point2d centroid(const std::vector<cv::Point2d> &pts)
+{
+    cv::Point2d c(0, 0);
+    for (const auto &p : pts) c += p;
+    return c * (1.0 / static_cast<double>(pts.size()));
+}
+
+bool same_wire(const DisplayWire &a, const DisplayWire &b)
+{
+    return a.diameter_nm == b.diameter_nm && a.nodes_nm == b.nodes_nm;
+}
+
+// Index of the first point where two versions of a trench differ (the
+// shorter one's length if one extends the other).
+std::size_t first_difference(const DisplayTrench &a, const DisplayTrench &b)
+{
+    const std::size_t n = std::min(a.points.size(), b.points.size());
+    for (std::size_t i = 0; i < n; ++i) {
+        const TrenchPoint &p = a.points[i], &q = b.points[i];
+        if (p.x_nm != q.x_nm || p.y_nm != q.y_nm || p.depth_nm != q.depth_nm || p.width_nm != q.width_nm) return i;
+    }
+    return n;
+}
+
+// The model's highest object top and deepest trench, nm (both >= 0).
+std::pair<double, double> model_extent(const DisplayModel &m)
+{
+    double top = 0, deep = 0;
+    for (const auto &p : m.particles) top = std::max(top, 2 * p.radius_nm);
+    for (const auto &w : m.wires) top = std::max(top, w.diameter_nm);
+    for (const auto &t : m.trenches)
+        for (const auto &p : t.points) deep = std::max(deep, p.depth_nm);
+    return {top, deep};
+}
 const cv::Scalar kWhite(255, 255, 255), kCyan(255, 255, 0), kTip(255, 200, 0), kYellow(0, 255, 255);
 
 }  // namespace
 
 Display::Display(const Field &f, const TipShape &tip) : f_(f), tip_(tip), lut_(afmhot_lut()) {}
 
-cv::Rect Display::footprint(const DisplayObject &p) const
+cv::Rect Display::box_px(double xlo, double ylo, double xhi, double yhi) const
 {
-    const double r = sphere_footprint_nm(p.radius_nm, tip_) + f_.pitch();
-    const cv::Point2d lo = f_.to_px(p.x_nm - r, p.y_nm + r), hi = f_.to_px(p.x_nm + r, p.y_nm - r);
+    const cv::Point2d lo = f_.to_px(xlo, yhi), hi = f_.to_px(xhi, ylo);
     const int c0 = static_cast<int>(std::floor(lo.x)), r0 = static_cast<int>(std::floor(lo.y));
     const int c1 = static_cast<int>(std::ceil(hi.x)), r1 = static_cast<int>(std::ceil(hi.y));
     return cv::Rect(c0, r0, c1 - c0 + 1, r1 - r0 + 1) & cv::Rect(0, 0, f_.px, f_.px);
 }
+
+cv::Rect Display::footprint(const DisplayObject &p) const
+{
+    const double r = sphere_footprint_nm(p.radius_nm, tip_) + f_.pitch();
+    return box_px(p.x_nm - r, p.y_nm - r, p.x_nm + r, p.y_nm + r);
+}
+
+cv::Rect Display::segment_box(const cv::Point2d &a, const cv::Point2d &b, double reach_nm) const
+{
+    const double r = reach_nm + f_.pitch();
+    return box_px(std::min(a.x, b.x) - r, std::min(a.y, b.y) - r, std::max(a.x, b.x) + r, std::max(a.y, b.y) + r);
+}
+
+cv::Rect Display::footprint(const DisplayWire &w) const
+{
+    cv::Rect r;
+    const double reach = wire_footprint_nm(0.5 * w.diameter_nm, tip_);
+    for (std::size_t i = 0; i < w.nodes_nm.size(); ++i) r = unite(r, segment_box(w.nodes_nm[i], w.nodes_nm[i], reach));
+    return r;
+}
+
+// Piece i of a trench: the groove around point i and along the segment from
+// point i - 1 to it.
+cv::Rect Display::trench_piece_box(const DisplayTrench &t, std::size_t i) const
+{
+    const TrenchPoint &b = t.points[i], &a = t.points[i > 0 ? i - 1 : i];
+    return segment_box({a.x_nm, a.y_nm}, {b.x_nm, b.y_nm}, 0.5 * std::max(a.width_nm, b.width_nm));
+}
+
+cv::Rect Display::trench_changed_box(const DisplayTrench &t, std::size_t from) const
+{
+    cv::Rect r;
+    for (std::size_t i = from; i < t.points.size(); ++i) r = unite(r, trench_piece_box(t, i));
+    return r;
+}
+
+cv::Rect Display::footprint(const DisplayTrench &t) const { return trench_changed_box(t, 0); }
 
 void Display::draw(cv::Mat &img, const DisplayObject &p, const cv::Rect &clip) const
 {
@@ -50,9 +150,71 @@ void Display::draw(cv::Mat &img, const DisplayObject &p, const cv::Rect &clip) c
         const double y = f_.y_of(row);
         for (int col = r.x; col < r.x + r.width; ++col) {
             const double z = sphere_profile_nm(p.radius_nm, std::hypot(f_.x_of(col) - p.x_nm, y - p.y_nm), tip_);
-            if (z > dst[col]) dst[col] = static_cast<float>(z);
+            if (z > 0 && z > dst[col]) dst[col] = static_cast<float>(z);
         }
     }
+}
+
+void Display::draw(cv::Mat &img, const DisplayWire &w, const cv::Rect &clip) const
+{
+    // Segment by segment: the profile falls with the distance from the axis,
+    // so the largest over the segments is the profile at the polyline's
+    // distance, whatever the order.
+    const double R = 0.5 * w.diameter_nm, reach = wire_footprint_nm(R, tip_);
+    const std::size_t n = w.nodes_nm.size(), segments = n > 1 ? n - 1 : n;   // one node: a sphere-capped point
+    for (std::size_t i = 0; i < segments; ++i) {
+        const cv::Point2d a = w.nodes_nm[i], b = w.nodes_nm[std::min(i + 1, n - 1)];
+        const cv::Rect r = segment_box(a, b, reach) & clip;
+        for (int row = r.y; row < r.y + r.height; ++row) {
+            float *dst = img.ptr<float>(row);
+            const double y = f_.y_of(row);
+            for (int col = r.x; col < r.x + r.width; ++col) {
+                const double z = wire_profile_nm(R, segment_distance(a, b, {f_.x_of(col), y}, nullptr), tip_);
+                if (z > 0 && z > dst[col]) dst[col] = static_cast<float>(z);
+            }
+        }
+    }
+}
+
+void Display::carve(cv::Mat &img, const DisplayTrench &t, const cv::Rect &clip) const
+{
+    // The groove around each point and along each segment (depth and width
+    // linear along it); the deepest wins, whatever the order.
+    for (std::size_t i = 0; i < t.points.size(); ++i) {
+        const cv::Rect r = trench_piece_box(t, i) & clip;
+        if (r.area() == 0) continue;
+        const TrenchPoint &b = t.points[i], &a = t.points[i > 0 ? i - 1 : i];
+        const cv::Point2d pa(a.x_nm, a.y_nm), pb(b.x_nm, b.y_nm);
+        for (int row = r.y; row < r.y + r.height; ++row) {
+            float *dst = img.ptr<float>(row);
+            const double y = f_.y_of(row);
+            for (int col = r.x; col < r.x + r.width; ++col) {
+                const cv::Point2d q(f_.x_of(col), y);
+                double z = groove_profile_nm(b.depth_nm, 0.5 * b.width_nm, std::hypot(q.x - pb.x, q.y - pb.y), tip_);
+                if (i > 0) {
+                    double s;
+                    const double u = segment_distance(pa, pb, q, &s);
+                    z = std::max(z, groove_profile_nm((1 - s) * a.depth_nm + s * b.depth_nm,
+                                                      0.5 * ((1 - s) * a.width_nm + s * b.width_nm), u, tip_));
+                }
+                if (z > 0) dst[col] = std::min(dst[col], static_cast<float>(-z));
+            }
+        }
+    }
+}
+
+void Display::erase_footprints(cv::Mat &img, const cv::Rect &clip) const
+{
+    // The substrate, flat at 0, under every object the model draws.
+    for (const auto &kv : drawn_) img(footprint(kv.second) & clip).setTo(0.0f);
+    for (const auto &kv : wires_) {
+        const auto &w = kv.second;
+        const double reach = wire_footprint_nm(0.5 * w.diameter_nm, tip_);
+        const std::size_t n = w.nodes_nm.size(), segments = n > 1 ? n - 1 : n;
+        for (std::size_t i = 0; i < segments; ++i) img(segment_box(w.nodes_nm[i], w.nodes_nm[std::min(i + 1, n - 1)], reach) & clip).setTo(0.0f);
+    }
+    for (const auto &kv : trenches_)
+        for (std::size_t i = 0; i < kv.second.points.size(); ++i) img(trench_piece_box(kv.second, i) & clip).setTo(0.0f);
 }
 
 void Display::colourise_into(const cv::Rect &r)
@@ -63,60 +225,135 @@ void Display::colourise_into(const cv::Rect &r)
 cv::Mat Display::colourise(const cv::Mat &h_nm) const
 {
     cv::Mat u8, bgr;
-    h_nm.convertTo(u8, CV_8U, 255.0 / z_top_);
+    const double scale = 255.0 / (z_top_ - z_bot_);
+    h_nm.convertTo(u8, CV_8U, scale, -z_bot_ * scale);
     cv::cvtColor(u8, bgr, cv::COLOR_GRAY2BGR);
     cv::LUT(bgr, lut_, bgr);
     return bgr;
 }
 
-void Display::start(const cv::Mat &scan_nm, const std::vector<DisplayObject> &objects)
+void Display::set_drawn(const DisplayModel &m)
 {
-    double zmax;
-    cv::minMaxLoc(scan_nm, nullptr, &zmax);
-    z_top_ = std::max(1.0, zmax * 1.1);
-    base_ = scan_nm.clone();
-    for (const auto &p : objects) base_(footprint(p)).setTo(0.0f);
     drawn_.clear();
-    for (const auto &p : objects) drawn_[p.id] = p;
-    colour_ = cv::Mat(f_.px, f_.px, CV_8UC3);
-    redraw(objects);
+    wires_.clear();
+    trenches_.clear();
+    for (const auto &p : m.particles) drawn_[p.id] = p;
+    for (const auto &w : m.wires) wires_[w.id] = w;
+    for (const auto &t : m.trenches) trenches_[t.id] = t;
 }
 
-long Display::redraw(const std::vector<DisplayObject> &objects)
+bool Display::fit_range(const DisplayModel &m)
 {
-    height_ = base_.clone();
-    const cv::Rect all(0, 0, f_.px, f_.px);
-    for (const auto &p : objects) {
-        draw(height_, p, all);
-        drawn_[p.id] = p;
+    // Widens the colour scale (never narrows it: the colours of the pixels
+    // not redrawn stay valid) when an object leaves it.
+    const auto [top, deep] = model_extent(m);
+    bool changed = false;
+    if (top > z_top_) {
+        z_top_ = kRangeGrowth * top;
+        changed = true;
     }
-    colourise_into(all);
+    if (-deep < z_bot_) {
+        z_bot_ = -kRangeGrowth * deep;
+        changed = true;
+    }
+    return changed;
+}
+
+void Display::render(const cv::Rect &r)
+{
+    if (r.area() == 0) return;
+    base_(r).copyTo(height_(r));
+    for (const auto &kv : trenches_) carve(height_, kv.second, r);
+    for (const auto &kv : wires_) draw(height_, kv.second, r);
+    for (const auto &kv : drawn_) draw(height_, kv.second, r);
+    colourise_into(r);
+}
+
+void Display::start(const cv::Mat &scan_nm, const DisplayModel &model)
+{
+    double zmin, zmax;
+    cv::minMaxLoc(scan_nm, &zmin, &zmax);
+    const auto [top, deep] = model_extent(model);
+    z_top_ = std::max(1.0, kRangeMargin * std::max(zmax, top));
+    z_bot_ = std::min(0.0, kRangeMargin * std::min(zmin, -deep));
+    base_ = scan_nm.clone();
+    set_drawn(model);
+    erase_footprints(base_, cv::Rect(0, 0, f_.px, f_.px));
+    height_ = cv::Mat(f_.px, f_.px, CV_32F);
+    colour_ = cv::Mat(f_.px, f_.px, CV_8UC3);
+    render(cv::Rect(0, 0, f_.px, f_.px));
+}
+
+long Display::redraw(const DisplayModel &model)
+{
+    set_drawn(model);
+    fit_range(model);
+    const cv::Rect all(0, 0, f_.px, f_.px);
+    render(all);
     return static_cast<long>(all.area());
 }
 
-long Display::update(const std::vector<DisplayObject> &objects)
+long Display::update(const DisplayModel &model)
 {
     std::vector<cv::Rect> dirty;
-    for (const auto &p : objects) {
+    // Particles and wires: the old and the new footprint of each that moved.
+    std::map<int, bool> seen;
+    for (const auto &p : model.particles) {
+        seen[p.id] = true;
         auto it = drawn_.find(p.id);
         if (it != drawn_.end() && it->second.x_nm == p.x_nm && it->second.y_nm == p.y_nm && it->second.radius_nm == p.radius_nm)
             continue;
         cv::Rect r = footprint(p);
         if (it != drawn_.end()) {
-            r |= footprint(it->second);
+            r = unite(r, footprint(it->second));
             if (trails_) trail_pts_.push_back(f_.to_px(it->second.x_nm, it->second.y_nm));
         }
         dirty.push_back(r);
-        drawn_[p.id] = p;
     }
+    for (const auto &kv : drawn_)
+        if (!seen.count(kv.first)) dirty.push_back(footprint(kv.second));
+    seen.clear();
+    for (const auto &w : model.wires) {
+        seen[w.id] = true;
+        auto it = wires_.find(w.id);
+        if (it != wires_.end() && same_wire(it->second, w)) continue;
+        cv::Rect r = footprint(w);
+        if (it != wires_.end()) {
+            r = unite(r, footprint(it->second));
+            if (trails_ && !it->second.nodes_nm.empty()) {
+                const cv::Point2d c = centroid(it->second.nodes_nm);
+                trail_pts_.push_back(f_.to_px(c.x, c.y));
+            }
+        }
+        dirty.push_back(r);
+    }
+    for (const auto &kv : wires_)
+        if (!seen.count(kv.first)) dirty.push_back(footprint(kv.second));
+    // Trenches: the pieces from the first point that changed (a trench being
+    // cut grows at its end).
+    seen.clear();
+    for (const auto &t : model.trenches) {
+        seen[t.id] = true;
+        auto it = trenches_.find(t.id);
+        if (it == trenches_.end()) {
+            dirty.push_back(footprint(t));
+            continue;
+        }
+        const std::size_t k = first_difference(it->second, t);
+        if (k == t.points.size() && k == it->second.points.size()) continue;
+        dirty.push_back(unite(trench_changed_box(t, k), trench_changed_box(it->second, k)));
+    }
+    for (const auto &kv : trenches_)
+        if (!seen.count(kv.first)) dirty.push_back(footprint(kv.second));
+
+    set_drawn(model);
+    const bool rescaled = fit_range(model);
     long touched = 0;
     for (const cv::Rect &r : dirty) {
-        base_(r).copyTo(height_(r));
-        for (const auto &kv : drawn_)
-            if ((footprint(kv.second) & r).area() > 0) draw(height_, kv.second, r);
-        colourise_into(r);
+        render(r);
         touched += r.area();
     }
+    if (rescaled) colourise_into(cv::Rect(0, 0, f_.px, f_.px));
     return touched;
 }
 
@@ -127,10 +364,7 @@ void Display::paste_scan(const cv::Mat &scan_nm, const cv::Rect &where)
     // The background under the objects there is what the local scan shows
     // with the modelled objects erased.
     height_(r).copyTo(base_(r));
-    for (const auto &kv : drawn_) {
-        const cv::Rect fp = footprint(kv.second) & r;
-        if (fp.area() > 0) base_(fp).setTo(0.0f);
-    }
+    erase_footprints(base_, r);
     colourise_into(r);
 }
 
@@ -148,13 +382,13 @@ cv::Mat Display::frame(const Overlay &o) const
     // Text: time, force magnitude, flags.
     char text[128];
     std::snprintf(text, sizeof text, "t %.2f s  |F| %.2f nN", o.t_s, std::hypot(o.force_nN[0], o.force_nN[1]));
-    cv::putText(img, text, cv::Point(4, 12), cv::FONT_HERSHEY_PLAIN, 0.8, kWhite, 1, cv::LINE_AA);
+    put_label(img, text, cv::Point(4, 12), 0.8, kWhite);
     std::string flags;
     if (o.flags & fw_force_t::FLAG_CONTACT) flags += "PUSH ";
     if (o.flags & (fw_force_t::FLAG_SAT_SN | fw_force_t::FLAG_SAT_SL)) flags += "SATURATED ";
     if (o.flags & fw_force_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
     if (o.flags & fw_force_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
-    if (!flags.empty()) cv::putText(img, flags, cv::Point(4, 24), cv::FONT_HERSHEY_PLAIN, 0.8, kYellow, 1, cv::LINE_AA);
+    if (!flags.empty()) put_label(img, flags, cv::Point(4, 24), 0.8, kYellow);
     // Colour bar (height, nm) at the right edge.
     const int bw = std::max(4, N / 40), bx = N - bw - 30, by0 = 30, by1 = N - 30;
     if (by1 - by0 > 20) {
@@ -165,9 +399,16 @@ cv::Mat Display::frame(const Overlay &o) const
         }
         cv::rectangle(img, cv::Point(bx - 1, by0 - 1), cv::Point(bx + bw + 1, by1 + 1), kWhite);
         std::snprintf(text, sizeof text, "%.0f", z_top_);
-        cv::putText(img, text, cv::Point(bx + bw + 3, by0 + 4), cv::FONT_HERSHEY_PLAIN, 0.7, kWhite, 1, cv::LINE_AA);
-        cv::putText(img, "0", cv::Point(bx + bw + 3, by1 + 4), cv::FONT_HERSHEY_PLAIN, 0.7, kWhite, 1, cv::LINE_AA);
-        cv::putText(img, "nm", cv::Point(bx - 2, by0 - 6), cv::FONT_HERSHEY_PLAIN, 0.7, kWhite, 1, cv::LINE_AA);
+        put_label(img, text, cv::Point(bx + bw + 3, by0 + 4), 0.7, kWhite);
+        std::snprintf(text, sizeof text, "%.0f", std::round(z_bot_) + 0.0);   // + 0.0: no "-0"
+        put_label(img, text, cv::Point(bx + bw + 3, by1 + 4), 0.7, kWhite);
+        // The substrate level, when the scale reaches below it (trenches).
+        const int y0 = by1 - cvRound((0 - z_bot_) / (z_top_ - z_bot_) * (by1 - by0));
+        if (z_bot_ < 0 && y0 - by0 > 10 && by1 - y0 > 10) {
+            cv::line(img, cv::Point(bx - 3, y0), cv::Point(bx - 1, y0), kWhite);
+            put_label(img, "0", cv::Point(bx + bw + 3, y0 + 4), 0.7, kWhite);
+        }
+        put_label(img, "nm", cv::Point(bx - 2, by0 - 6), 0.7, kWhite);
     }
     // Scale bar: the largest round length up to a quarter of the field.
     const double nice[] = {10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000};
@@ -175,10 +416,11 @@ cv::Mat Display::frame(const Overlay &o) const
     for (double v : nice)
         if (v <= f_.size_nm / 4) len = v;
     const int lpx = cvRound(len / f_.pitch());
+    cv::line(img, cv::Point(8, N - 10), cv::Point(8 + lpx, N - 10), cv::Scalar(0, 0, 0), 4);
     cv::line(img, cv::Point(8, N - 10), cv::Point(8 + lpx, N - 10), kWhite, 2);
     if (len >= 1000) std::snprintf(text, sizeof text, "%g um", len / 1000);
     else std::snprintf(text, sizeof text, "%g nm", len);
-    cv::putText(img, text, cv::Point(8, N - 15), cv::FONT_HERSHEY_PLAIN, 0.7, kWhite, 1, cv::LINE_AA);
+    put_label(img, text, cv::Point(8, N - 15), 0.7, kWhite);
     return img;
 }
 

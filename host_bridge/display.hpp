@@ -1,8 +1,8 @@
 // The videolized display, without the bus: the last scan as background, the
-// modelled objects drawn on it with the profile a scan would show, updated
-// locally (only the footprints that moved), colourised with a colour bar and
-// a scale bar, and the tip and force overlaid. The renderer process and
-// ./afm bench render both use it.
+// modelled objects (particles, wires, lithography trenches) drawn on it with
+// the profile a scan would show, updated locally (only the footprints that
+// moved), colourised with a colour bar and a scale bar, and the tip and force
+// overlaid. The renderer process and ./afm bench render both use it.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -18,6 +18,29 @@ namespace afm {
 struct DisplayObject {        // a particle as the display knows it (model frame A, nm)
     int id;
     double x_nm, y_nm, radius_nm;
+};
+
+struct DisplayWire {          // a wire: a cylinder of diameter d lying along a polyline (2 nodes: a rigid rod)
+    int id;
+    double diameter_nm;
+    std::vector<cv::Point2d> nodes_nm;   // frame A, nm
+};
+
+struct TrenchPoint {          // a point of a trench's path (frame A, nm)
+    double x_nm, y_nm;
+    double depth_nm;          // below the substrate, positive
+    double width_nm;          // at the surface
+};
+
+struct DisplayTrench {        // a lithography V-groove along a polyline, depth and width linear between points
+    int id;
+    std::vector<TrenchPoint> points;
+};
+
+struct DisplayModel {         // every object the model knows; ids are per kind
+    std::vector<DisplayObject> particles;
+    std::vector<DisplayWire> wires;
+    std::vector<DisplayTrench> trenches;
 };
 
 struct Field {                // the imaged square
@@ -47,13 +70,20 @@ public:
 
     // Background: a scan (heights, nm, CV_32F, row 0 at the top). The objects
     // the model knows are erased from it (the substrate, flat, lies under them)
-    // and drawn again from the model.
-    void start(const cv::Mat &scan_nm, const std::vector<DisplayObject> &objects);
-    // Local update: restores and redraws only the footprints that moved.
-    // Returns the number of pixels touched.
-    long update(const std::vector<DisplayObject> &objects);
+    // and drawn again from the model. The colour scale spans the scan, the
+    // model's objects and the substrate level 0.
+    void start(const cv::Mat &scan_nm, const DisplayModel &model);
+    // Local update: restores and redraws only the footprints that moved (for a
+    // trench, the part of its path that changed); objects no longer in the
+    // model are erased. Pixel-identical to redraw() of the same model. Returns
+    // the number of pixels touched.
+    long update(const DisplayModel &model);
     // Full redraw of every object (the reference for ./afm bench render).
-    long redraw(const std::vector<DisplayObject> &objects);
+    long redraw(const DisplayModel &model);
+    // The same with particles only.
+    void start(const cv::Mat &scan_nm, const std::vector<DisplayObject> &particles) { start(scan_nm, DisplayModel{particles, {}, {}}); }
+    long update(const std::vector<DisplayObject> &particles) { return update(DisplayModel{particles, {}, {}}); }
+    long redraw(const std::vector<DisplayObject> &particles) { return redraw(DisplayModel{particles, {}, {}}); }
     // Replaces a region of the background and of the image by a local scan.
     void paste_scan(const cv::Mat &scan_nm, const cv::Rect &where);
 
@@ -61,25 +91,41 @@ public:
     void set_trails(bool on) { trails_ = on; }
 
     const cv::Mat &height() const { return height_; }     // nm, CV_32F
-    double z_top() const { return z_top_; }
+    double z_top() const { return z_top_; }               // colour scale: heights at the top and
+    double z_bottom() const { return z_bot_; }            // the bottom of the colour bar, nm
     // The frame: colourised heights, colour bar, scale bar, tip, force, flags.
     cv::Mat frame(const Overlay &o) const;
     // Colourise heights with the display's colour map and scale.
     cv::Mat colourise(const cv::Mat &h_nm) const;
     const Field &field() const { return f_; }
 
+    // Pixels an object's image can touch (bounding box, clipped to the field).
     cv::Rect footprint(const DisplayObject &p) const;
+    cv::Rect footprint(const DisplayWire &w) const;
+    cv::Rect footprint(const DisplayTrench &t) const;
 
 private:
+    cv::Rect box_px(double xlo, double ylo, double xhi, double yhi) const;
+    cv::Rect segment_box(const cv::Point2d &a, const cv::Point2d &b, double reach_nm) const;
+    cv::Rect trench_piece_box(const DisplayTrench &t, std::size_t i) const;
+    cv::Rect trench_changed_box(const DisplayTrench &t, std::size_t from) const;
     void draw(cv::Mat &img, const DisplayObject &p, const cv::Rect &clip) const;
+    void draw(cv::Mat &img, const DisplayWire &w, const cv::Rect &clip) const;
+    void carve(cv::Mat &img, const DisplayTrench &t, const cv::Rect &clip) const;
+    void erase_footprints(cv::Mat &img, const cv::Rect &clip) const;
+    void render(const cv::Rect &r);
+    void set_drawn(const DisplayModel &m);
+    bool fit_range(const DisplayModel &m);
     void colourise_into(const cv::Rect &r);
 
     Field f_;
     TipShape tip_;
-    double z_top_ = 1;
+    double z_top_ = 1, z_bot_ = 0;
     cv::Mat base_, height_, colour_;
     cv::Mat lut_;
     std::map<int, DisplayObject> drawn_;
+    std::map<int, DisplayWire> wires_;
+    std::map<int, DisplayTrench> trenches_;
     std::vector<cv::Point2d> trail_pts_;
     bool trails_ = false;
 };

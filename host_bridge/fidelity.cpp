@@ -36,14 +36,87 @@ bool locate_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, 
     return true;
 }
 
-Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, const Field &f,
-                           const std::vector<DisplayObject> &model, const TipShape &tip, double search_nm)
+namespace {
+
+double polyline_distance(const std::vector<cv::Point2d> &nodes, const cv::Point2d &q)
+{
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+        const cv::Point2d a = nodes[i], ab = nodes[std::min(i + 1, nodes.size() - 1)] - a;
+        const double l2 = ab.dot(ab);
+        const double t = l2 > 0 ? std::clamp((q - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+        best = std::min(best, std::hypot(q.x - a.x - t * ab.x, q.y - a.y - t * ab.y));
+    }
+    return best;
+}
+
+double polyline_length(const std::vector<cv::Point2d> &nodes)
+{
+    double L = 0;
+    for (std::size_t i = 0; i + 1 < nodes.size(); ++i) L += std::hypot(nodes[i + 1].x - nodes[i].x, nodes[i + 1].y - nodes[i].y);
+    return L;
+}
+
+}  // namespace
+
+bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Point2d> &nodes_nm, double band_nm,
+                  double *cx, double *cy, double *angle_rad)
+{
+    if (nodes_nm.empty()) return false;
+    double xlo = nodes_nm[0].x, xhi = xlo, ylo = nodes_nm[0].y, yhi = ylo;
+    for (const auto &p : nodes_nm) {
+        xlo = std::min(xlo, p.x);
+        xhi = std::max(xhi, p.x);
+        ylo = std::min(ylo, p.y);
+        yhi = std::max(yhi, p.y);
+    }
+    const cv::Point2d lo = f.to_px(xlo - band_nm, yhi + band_nm), hi = f.to_px(xhi + band_nm, ylo - band_nm);
+    const cv::Rect r = cv::Rect(cv::Point(static_cast<int>(std::floor(lo.x)), static_cast<int>(std::floor(lo.y))),
+                                cv::Point(static_cast<int>(std::ceil(hi.x)) + 1, static_cast<int>(std::ceil(hi.y)) + 1)) &
+                       cv::Rect(0, 0, h_nm.cols, h_nm.rows);
+    if (r.area() == 0) return false;
+    // The band: pixels within band_nm of the polyline.
+    cv::Mat in_band(r.size(), CV_8U, cv::Scalar(0));
+    double peak = 0;
+    for (int row = r.y; row < r.y + r.height; ++row)
+        for (int col = r.x; col < r.x + r.width; ++col)
+            if (polyline_distance(nodes_nm, {f.x_of(col), f.y_of(row)}) <= band_nm) {
+                in_band.at<uchar>(row - r.y, col - r.x) = 1;
+                peak = std::max(peak, static_cast<double>(h_nm.at<float>(row, col)));
+            }
+    if (peak <= 1e-6) return false;
+    const double floor_nm = 0.5 * peak;
+    double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    for (int row = r.y; row < r.y + r.height; ++row)
+        for (int col = r.x; col < r.x + r.width; ++col) {
+            const double w = h_nm.at<float>(row, col) - floor_nm;
+            if (w <= 0 || !in_band.at<uchar>(row - r.y, col - r.x)) continue;
+            const double x = f.x_of(col), y = f.y_of(row);
+            sw += w;
+            sx += w * x;
+            sy += w * y;
+            sxx += w * x * x;
+            syy += w * y * y;
+            sxy += w * x * y;
+        }
+    if (sw <= 0) return false;
+    *cx = sx / sw;
+    *cy = sy / sw;
+    const double vxx = sxx / sw - *cx * *cx, vyy = syy / sw - *cy * *cy, vxy = sxy / sw - *cx * *cy;
+    double a = 0.5 * std::atan2(2 * vxy, vxx - vyy);
+    if (a < 0) a += M_PI;
+    *angle_rad = a;
+    return true;
+}
+
+Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, const Field &f, const DisplayModel &model,
+                           const TipShape &tip, double search_nm)
 {
     Fidelity out;
     cv::subtract(displayed_nm, scan_nm, out.diff_nm);
     out.rms_height_error_nm = std::sqrt(cv::mean(out.diff_nm.mul(out.diff_nm))[0]);
-    for (const auto &p : model) {
-        ObjectFidelity o{p.id, 0, 0, 0, 0, 0, false};
+    for (const auto &p : model.particles) {
+        ObjectFidelity o{"particle", p.id, 0, 0, 0, 0, 0, false};
         // Look around the model position in both images with the same window.
         const double radius = sphere_footprint_nm(p.radius_nm, tip) * 0.5 + search_nm;
         const bool in_display = locate_bump(displayed_nm, f, p.x_nm, p.y_nm, radius, &o.display_x_nm, &o.display_y_nm);
@@ -53,7 +126,37 @@ Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, 
         out.max_position_error_nm = std::max(out.max_position_error_nm, o.error_nm);
         out.objects.push_back(o);
     }
+    for (const auto &w : model.wires) {
+        ObjectFidelity o{"wire", w.id, 0, 0, 0, 0, 0, false};
+        // The band around the model's axis holds the whole imaged wire even
+        // when the scan shows it search_nm away.
+        const double band = wire_footprint_nm(0.5 * w.diameter_nm, tip) + search_nm;
+        double a_display = 0, a_scan = 0;
+        const bool in_display = locate_ridge(displayed_nm, f, w.nodes_nm, band, &o.display_x_nm, &o.display_y_nm, &a_display);
+        o.found = in_display && locate_ridge(scan_nm, f, w.nodes_nm, band, &o.scan_x_nm, &o.scan_y_nm, &a_scan);
+        if (o.found) {
+            double da = a_scan - a_display;
+            if (da >= M_PI / 2) da -= M_PI;
+            if (da < -M_PI / 2) da += M_PI;
+            o.display_angle_deg = a_display * 180 / M_PI;
+            o.scan_angle_deg = a_scan * 180 / M_PI;
+            o.angle_error_deg = da * 180 / M_PI;
+            o.centroid_error_nm = std::hypot(o.display_x_nm - o.scan_x_nm, o.display_y_nm - o.scan_y_nm);
+            o.error_nm = o.centroid_error_nm + 0.5 * polyline_length(w.nodes_nm) * std::fabs(std::sin(da));
+            out.max_angle_error_deg = std::max(out.max_angle_error_deg, std::fabs(o.angle_error_deg));
+        } else {
+            o.error_nm = std::numeric_limits<double>::infinity();
+        }
+        out.max_position_error_nm = std::max(out.max_position_error_nm, o.error_nm);
+        out.objects.push_back(o);
+    }
     return out;
+}
+
+Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, const Field &f,
+                           const std::vector<DisplayObject> &model, const TipShape &tip, double search_nm)
+{
+    return compare_with_scan(displayed_nm, scan_nm, f, DisplayModel{model, {}, {}}, tip, search_nm);
 }
 
 cv::Mat diff_image(const cv::Mat &diff_nm, double range_nm)

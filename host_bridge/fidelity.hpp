@@ -2,11 +2,13 @@
 // the locally updated image. Compares the displayed heights with a fresh
 // scan: per object, the position error between where the display shows it
 // and where the scan shows it (same estimator on both images, so its bias
-// cancels); the RMS height difference; a difference image.
+// cancels); the RMS height difference (trenches count there); a difference
+// image.
 #pragma once
 
 #include <opencv2/core.hpp>
 
+#include <string>
 #include <vector>
 
 #include "display.hpp"
@@ -14,27 +16,46 @@
 namespace afm {
 
 struct ObjectFidelity {
+    std::string kind;                    // "particle" or "wire"
     int id;
-    double display_x_nm, display_y_nm;   // located in the displayed image
+    double display_x_nm, display_y_nm;   // located in the displayed image (a wire: its centroid)
     double scan_x_nm, scan_y_nm;         // located in the fresh scan
-    double error_nm;                     // distance between the two
-    bool found;                          // the scan shows a bump there at all
+    // A particle: the distance between the two. A wire: the centroid distance
+    // plus half its length times |sin(axis angle error)|, a bound on how far
+    // the ends of the rigid motion between the two images move.
+    double error_nm;
+    bool found;                          // the scan shows the object there at all
+    // Wires only: the centroid distance and the axis angles (principal axis
+    // of the imaged ridge, degrees from +x, in [0, 180)).
+    double centroid_error_nm = 0;
+    double display_angle_deg = 0, scan_angle_deg = 0;
+    double angle_error_deg = 0;          // scan - display, in [-90, 90)
 };
 
 struct Fidelity {
     double max_position_error_nm = 0;
+    double max_angle_error_deg = 0;      // over the wires, absolute
     double rms_height_error_nm = 0;
     std::vector<ObjectFidelity> objects;
     cv::Mat diff_nm;                     // displayed - scan, nm (CV_32F)
 };
 
 // `search_nm`: how far from the model position an object is looked for.
+Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, const Field &f, const DisplayModel &model,
+                           const TipShape &tip, double search_nm);
+// The same with particles only.
 Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, const Field &f,
                            const std::vector<DisplayObject> &model, const TipShape &tip, double search_nm);
 
 // Locates a bump near (x, y): height-weighted centroid of the pixels above
 // half the window's peak. Returns false if the window holds no bump.
 bool locate_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, double radius_nm, double *cx, double *cy);
+
+// Locates a ridge (a wire) within band_nm of a polyline: the height-weighted
+// centroid and principal axis (radians from +x, in [0, pi)) of the pixels of
+// that band above half its peak. Returns false if the band holds no ridge.
+bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Point2d> &nodes_nm, double band_nm,
+                  double *cx, double *cy, double *angle_rad);
 
 // Diverging colour image of a difference (blue negative, red positive, white 0).
 cv::Mat diff_image(const cv::Mat &diff_nm, double range_nm);

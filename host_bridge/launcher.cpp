@@ -195,7 +195,7 @@ int main(int argc, char **argv)
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "afm_launch: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
-    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return 2; }
+    if (scene_path.empty() || (out_dir.empty() && !check_only)) { std::fputs(kUsage, stderr); return 2; }
     if (!(drop_p >= 0 && drop_p < 1)) { std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", drop_p); return 2; }
 
     // 1. The scene, before anything starts.

@@ -36,4 +36,17 @@ double sphere_footprint_nm(double R, const TipShape &tip)
     return (tip.radius_nm > R && sph <= Rt * std::cos(g)) ? sph : flank;
 }
 
+double wire_profile_nm(double R, double rho, const TipShape &tip) { return sphere_profile_nm(R, rho, tip); }
+
+double wire_footprint_nm(double R, const TipShape &tip) { return sphere_footprint_nm(R, tip); }
+
+double groove_profile_nm(double depth_nm, double half_width_nm, double u_nm, const TipShape &tip)
+{
+    u_nm = std::fabs(u_nm);
+    if (depth_nm <= 0 || half_width_nm <= 0 || u_nm >= half_width_nm) return 0.0;
+    double z = depth_nm * (1 - u_nm / half_width_nm);
+    if (tip.half_angle_deg > 0) z = std::min(z, (half_width_nm - u_nm) / std::tan(tip.half_angle_deg * M_PI / 180.0));
+    return z;
+}
+
 }  // namespace afm

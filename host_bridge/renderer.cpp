@@ -1,5 +1,7 @@
 // renderer: the videolized display, off-screen. Starts from a full scan,
-// updates the image locally from the firmware's object states (display.hpp),
+// updates the image locally from the firmware's object states (display.hpp:
+// particles, wires and lithography trenches from FW_OBJECTS; the scene's
+// wires as laid until the firmware publishes wires),
 // writes a PNG per frame and a video at the scene's frame rate, and announces
 // each frame on RENDER_FRAME (the simulator waits for it: lockstep).
 //
@@ -48,6 +50,21 @@ constexpr int kScanRetryMs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 
+// The firmware's wires and trenches as the display draws them.
+afm::DisplayWire display_wire(const afm::wire_t &w)
+{
+    afm::DisplayWire d{w.id, w.diameter_nm, {}};
+    for (int i = 0; i < w.n; ++i) d.nodes_nm.emplace_back(w.x_nm[i], w.y_nm[i]);
+    return d;
+}
+
+afm::DisplayTrench display_trench(const afm::trench_t &t)
+{
+    afm::DisplayTrench d{t.id, {}};
+    for (int i = 0; i < t.n; ++i) d.points.push_back({t.x_nm[i], t.y_nm[i], t.depth_nm[i], t.width_nm[i]});
+    return d;
+}
+
 // A raster scan being received line by line (lines may be lost and re-requested).
 struct ScanBuffer {
     int id = 0;
@@ -79,7 +96,7 @@ struct Renderer {
 
     afm::fw_tip_t tip_msg{};
     afm::fw_force_t force_msg{};
-    std::vector<afm::DisplayObject> model;
+    afm::DisplayModel model;
     int frames_written = 0;
     int64_t last_seq = -1;
     bool sim_done = false;
@@ -108,7 +125,8 @@ struct Renderer {
         display.set_trails(s.out.trails);
         const int K = s.total_frames(), M = std::min(s.out.contact_sheet_frames, K);
         for (int i = 0; i < M; ++i) sheet_at.push_back(M == 1 ? 0 : static_cast<int>(std::lround(i * (K - 1.0) / (M - 1))));
-        for (const auto &p : s.particles) model.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
 
     void request(int req, int first, int n)
@@ -219,8 +237,16 @@ struct Renderer {
 
     void set_model(const afm::objects_t &m)
     {
-        model.clear();
-        for (const auto &p : m.particles) model.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        model.particles.clear();
+        for (const auto &p : m.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        // Wires: the firmware's once it models them; until then the scene's,
+        // where they were laid.
+        if (m.n_wires > 0) {
+            model.wires.clear();
+            for (const auto &w : m.wires) model.wires.push_back(display_wire(w));
+        }
+        model.trenches.clear();
+        for (const auto &t : m.trenches) model.trenches.push_back(display_trench(t));
         const auto t0 = std::chrono::steady_clock::now();
         touched_px += display.update(model);
         update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -282,7 +308,7 @@ struct Renderer {
         const afm::LocalScanSpec &ls = scene.op.local_scans[i];
         local_pending = i;
         double x = field.x0_nm + field.size_nm / 2, y = field.y0_nm + field.size_nm / 2;
-        for (const auto &p : model)
+        for (const auto &p : model.particles)
             if (p.id == ls.around_id) { x = p.x_nm; y = p.y_nm; }
         const int half = std::max(2, static_cast<int>(std::lround(ls.size_nm / 2 / field.pitch())));
         const cv::Point2d c = field.to_px(x, y);
@@ -298,7 +324,7 @@ struct Renderer {
         cv::Mat located = cv::Mat::zeros(field.px, field.px, CV_32F);
         scan.h.copyTo(located(scan.px));
         const afm::DisplayObject *obj = nullptr;
-        for (const auto &p : model)
+        for (const auto &p : model.particles)
             if (p.id == ls.around_id) obj = &p;
         double sx = 0, sy = 0;
         nlohmann::json rec = {{"at_s", ls.at_s}, {"around_id", ls.around_id}, {"frame", frames_written}};
@@ -342,17 +368,27 @@ struct Renderer {
         const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.h, field, model, tip, kFidelitySearch_nm);
         write_outputs_for_scan("scan_final", scan.h);
         write_outputs_for_scan("display_final", display.height());
-        cv::imwrite(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, display.z_top() / 4)));
+        cv::imwrite(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, (display.z_top() - display.z_bottom()) / 4)));
         using nlohmann::json;
         fidelity = json{{"max_position_error_nm", f.max_position_error_nm},
+                        {"max_angle_error_deg", f.max_angle_error_deg},
                         {"rms_height_error_nm", f.rms_height_error_nm},
+                        {"trenches", model.trenches.size()},
                         {"target_nm", kFidelityTarget_nm},
                         {"pass", f.max_position_error_nm <= kFidelityTarget_nm},
                         {"frame", frames_written},
                         {"objects", json::array()}};
-        for (const auto &o : f.objects)
-            fidelity["objects"].push_back({{"id", o.id}, {"found", o.found}, {"error_nm", o.found ? json(o.error_nm) : json(nullptr)},
-                                           {"display_nm", {o.display_x_nm, o.display_y_nm}}, {"scan_nm", {o.scan_x_nm, o.scan_y_nm}}});
+        for (const auto &o : f.objects) {
+            json rec = {{"kind", o.kind}, {"id", o.id}, {"found", o.found}, {"error_nm", o.found ? json(o.error_nm) : json(nullptr)},
+                        {"display_nm", {o.display_x_nm, o.display_y_nm}}, {"scan_nm", {o.scan_x_nm, o.scan_y_nm}}};
+            if (o.kind == "wire" && o.found) {
+                rec["centroid_error_nm"] = o.centroid_error_nm;
+                rec["display_angle_deg"] = o.display_angle_deg;
+                rec["scan_angle_deg"] = o.scan_angle_deg;
+                rec["angle_error_deg"] = o.angle_error_deg;
+            }
+            fidelity["objects"].push_back(rec);
+        }
         std::ofstream(out + "/fidelity.json") << fidelity.dump(2) << "\n";
         final_pending = false;
         write_frame(frames_written++);

@@ -13,7 +13,7 @@ LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(SRC, "tools", "in_netns.sh")
 os.environ.setdefault("AFM_LCMTYPES_PY", os.path.join(BUILD, "lcmtypes"))
 sys.path.insert(0, os.path.join(SRC, "tools"))
-import afmlog  # noqa: E402,F401
+import afmlog  # noqa: E402
 
 
 def scene(name):
@@ -35,6 +35,15 @@ def run(scene_path, out, *extra, timeout=300):
         with open(path) as f:
             rj = json.load(f)
     return p.returncode, p.stdout, p.stderr, rj
+
+
+def run_and_load(scene_name, tag, channels=None, *extra):
+    """Runs scenes/<scene_name> into a fresh folder; returns (folder, exit
+    code, stderr, run.json, decoded log)."""
+    out = tmpdir(tag)
+    code, _, err, rj = run(scene(scene_name), out, *extra)
+    log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=channels)
+    return out, code, err, rj, log
 
 
 def write_scene(text, tag="scene"):

@@ -81,6 +81,31 @@ class BadScenes(unittest.TestCase):
         self.assertIn("line", stderr)
 
 
+class ThroughTheAfmScript(unittest.TestCase):
+    """The same contract through the README's entry point, ./afm."""
+
+    def test_afm_run_refuses_a_bad_scene_naming_file_key_value(self):
+        path = benchtest.write_scene(GOOD.replace("radius_nm: 50", "radius_nm: -5", 1), "afm-bad")
+        p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "run", path, "--out", os.path.join(os.path.dirname(path), "out")],
+                           capture_output=True, text=True, timeout=300)
+        self.assertNotEqual(p.returncode, 0)
+        named = [l for l in p.stderr.splitlines() if path in l]
+        self.assertEqual(len(named), 1, p.stderr)
+        self.assertIn("objects.particles[0].radius_nm", named[0])
+        self.assertIn("'-5'", named[0])
+        self.assertFalse(os.path.exists(os.path.join(os.path.dirname(path), "out")))
+        benchtest.cleanup(os.path.dirname(path))
+
+    def test_check_mode_needs_no_output_folder(self):
+        p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", benchtest.scene("default.yaml")],
+                           capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "check", benchtest.scene("default.yaml")],
+                           capture_output=True, text=True, timeout=300)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertIn("is a valid scene", p.stdout)
+
+
 class ProcessDies(unittest.TestCase):
     def test_dead_firmware_node_stops_the_run_and_keeps_the_log(self):
         out = benchtest.tmpdir("crash")

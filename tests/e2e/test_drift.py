@@ -6,9 +6,7 @@ Checked from the log: every fix acknowledged, the fixed object's model on
 the truth within 1 nm right after each fix, the firmware's drift within
 0.5 nm of the true drift for objects not yet pushed, and the final display
 within 5 nm of a fresh scan."""
-import json
 import math
-import os
 import unittest
 
 import benchtest
@@ -18,10 +16,7 @@ import afmlog
 class DriftAndLocalScans(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.scene = benchtest.scene("drift.yaml")
-        cls.out = benchtest.tmpdir("drift")
-        cls.code, _, cls.err, cls.rj = benchtest.run(cls.scene, cls.out)
-        cls.log = afmlog.load(os.path.join(cls.out, "bus.lcmlog"))
+        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("drift.yaml", "drift")
 
     @classmethod
     def tearDownClass(cls):

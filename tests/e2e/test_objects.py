@@ -5,11 +5,13 @@ zigzag, and a trench inscribed on polycarbonate. The firmware's closed forms
 are checked against the simulator's own physics (least friction power over
 K friction points; material removal), from the recorded log."""
 import math
-import os
 import unittest
 
 import benchtest
 import afmlog
+
+
+CHANNELS = {"FW_OBJECTS", "SIM_TRUTH"}
 
 
 def ends(w):
@@ -19,9 +21,7 @@ def ends(w):
 class WireZigzag(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("wire")
-        cls.code, _, cls.err, cls.rj = benchtest.run(benchtest.scene("wire_push.yaml"), cls.out)
-        cls.log = afmlog.load(os.path.join(cls.out, "bus.lcmlog"), channels={"FW_OBJECTS", "SIM_TRUTH"})
+        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("wire_push.yaml", "wire", CHANNELS)
 
     @classmethod
     def tearDownClass(cls):
@@ -58,9 +58,7 @@ class WireZigzag(unittest.TestCase):
 class Trench(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("litho")
-        cls.code, _, cls.err, cls.rj = benchtest.run(benchtest.scene("lithography.yaml"), cls.out)
-        cls.log = afmlog.load(os.path.join(cls.out, "bus.lcmlog"), channels={"FW_OBJECTS", "SIM_TRUTH"})
+        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("lithography.yaml", "litho", CHANNELS)
 
     @classmethod
     def tearDownClass(cls):

@@ -99,7 +99,7 @@ void test_fidelity_passes_honest_and_catches_20nm_misplacement()
 {
     const std::vector<afm::DisplayObject> truth = {{1, -200, 0, 50}, {2, 250, 100, 50}};
     afm::Display scanner(kField, kTip);
-    scanner.start(cv::Mat::zeros(kField.px, kField.px, CV_32F), {});
+    scanner.start(cv::Mat::zeros(kField.px, kField.px, CV_32F), afm::DisplayModel{});
     scanner.redraw(truth);
     const cv::Mat scan = scanner.height().clone();
 

@@ -4,11 +4,10 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <string>
-#include <unistd.h>
 
 #include "scene.hpp"
+#include "sim_scene.hpp"
 #include "world.hpp"
 
 using afm::sim::World;
@@ -36,19 +35,7 @@ operator:
   path_nm: [[0, -300]]
 )";
 
-afm::Scene scene_with(const std::string &effects)
-{
-    std::string text = kBase;
-    text.replace(text.find("EFFECTS"), 7, effects);
-    char path[] = "/tmp/afm-test-sim-XXXXXX";
-    const int fd = mkstemp(path);
-    TEST_ASSERT_TRUE(fd >= 0);
-    close(fd);
-    std::ofstream(path) << text;
-    afm::Scene s = afm::load_scene(path);
-    unlink(path);
-    return s;
-}
+afm::Scene scene_with(const std::string &effects) { return scene_from_text(with(kBase, "EFFECTS", effects)); }
 
 bool has(const std::vector<std::string> &v, const std::string &x)
 {
