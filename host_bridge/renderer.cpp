@@ -46,6 +46,7 @@ const char *kUsage =
 
 constexpr int kInitialScan = 1, kFinalScan = 2, kLocalScanBase = 100;
 constexpr int kFixRetryMs = 200;
+constexpr int64_t kProgressPeriodUs = 250000;   // heartbeats the launcher's progress line reads
 constexpr int kScanRetryMs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
@@ -300,7 +301,7 @@ struct Renderer {
             write_frame(frames_written++);
         }
         announce(frames_written - 1, last_seq);
-        hb.maybe_send("running", last_seq, afm::frame_utime(scene, frames_written - 1));
+        hb.maybe_send("running", last_seq, afm::frame_utime(scene, frames_written - 1), kProgressPeriodUs);
     }
 
     void start_local_scan(int i)
