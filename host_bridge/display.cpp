@@ -426,6 +426,12 @@ cv::Mat Display::frame(const Overlay &o) const
 
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const std::string &title, std::string *err)
 {
+    return write_gsf(path, h_nm, f, cv::Rect(0, 0, h_nm.cols, h_nm.rows), title, err);
+}
+
+bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const cv::Rect &region, const std::string &title,
+               std::string *err)
+{
     // Gwyddion Simple Field 1.0: a text header of "Key = value" lines, NUL
     // padding to a multiple of 4 bytes (at least one NUL), then XRes * YRes
     // little-endian float32 values, row by row from the top.
@@ -433,7 +439,9 @@ bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, con
     std::snprintf(hdr, sizeof hdr,
                   "Gwyddion Simple Field 1.0\nXRes = %d\nYRes = %d\nXReal = %.9g\nYReal = %.9g\nXOffset = %.9g\n"
                   "YOffset = %.9g\nXYUnits = m\nZUnits = m\nTitle = %s\n",
-                  h_nm.cols, h_nm.rows, f.size_nm * 1e-9, f.size_nm * 1e-9, f.x0_nm * 1e-9, f.y0_nm * 1e-9, title.c_str());
+                  h_nm.cols, h_nm.rows, region.width * f.pitch() * 1e-9, region.height * f.pitch() * 1e-9,
+                  (f.x0_nm + region.x * f.pitch()) * 1e-9, (f.y0_nm + (f.px - region.y - region.height) * f.pitch()) * 1e-9,
+                  title.c_str());
     std::string header(hdr);
     const std::size_t pad = 4 - header.size() % 4;
     header.append(pad, '\0');

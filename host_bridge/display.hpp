@@ -133,6 +133,10 @@ private:
 // Writes a Gwyddion Simple Field (.gsf) file: heights in nm -> metres, the
 // field's physical size, units m. Returns false (and sets *err) on failure.
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const std::string &title, std::string *err);
+// The same for a part of the field: `region` in the field's pixels (row 0 at
+// the top), h_nm its heights.
+bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const cv::Rect &region, const std::string &title,
+               std::string *err);
 
 // A grid of frames in one image (at most `cols` per row).
 cv::Mat contact_sheet(const std::vector<cv::Mat> &frames, int cols);

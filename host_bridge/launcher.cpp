@@ -226,6 +226,8 @@ int main(int argc, char **argv)
             fs::remove_all(fs::path(out_dir) / old);
         fs::create_directories(fs::path(out_dir) / "logs");
         fs::create_directories(fs::path(out_dir) / "frames");
+        for (const auto &e : fs::directory_iterator(out_dir))
+            if (e.path().filename().string().rfind("scan_local_", 0) == 0) fs::remove(e.path());
     } catch (const fs::filesystem_error &e) {
         std::fprintf(stderr, "afm_launch: cannot prepare output folder %s: %s\n", out_dir.c_str(), e.what());
         return 2;
@@ -442,6 +444,8 @@ int main(int argc, char **argv)
     for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",
                           "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
         if (fs::exists(out + "/" + v)) outs.push_back(v);
+    for (const auto &e : fs::directory_iterator(out))
+        if (e.path().filename().string().rfind("scan_local_", 0) == 0) outs.push_back(e.path().filename().string());
     run["outputs"] = outs;
     {
         std::ofstream f(out + "/run.json");

@@ -319,6 +319,11 @@ struct Renderer {
 
     void local_scan_done()
     {
+        {
+            std::string err;
+            const std::string name = "scan_local_" + std::to_string(local_pending + 1);
+            if (!afm::write_gsf(out + "/" + name + ".gsf", scan.h, field, scan.px, name, &err)) throw std::runtime_error(err);
+        }
         const afm::LocalScanSpec &ls = scene.op.local_scans[local_pending];
         // Locate the object in the scan (placed in a full-size image so the
         // display's geometry applies).

@@ -6,6 +6,7 @@ simulator drops analog blocks on purpose (the resend path)."""
 import glob
 import math
 import os
+import re
 import subprocess
 import unittest
 
@@ -125,6 +126,27 @@ class EndToEnd(unittest.TestCase):
         rms = math.sqrt(sum((a - b) ** 2 for ra, rb in zip(grids["display_final"], grids["scan_final"])
                             for a, b in zip(ra, rb)) / n) * 1e9
         self.assertAlmostEqual(rms, self.r1[3]["fidelity"]["rms_height_error_nm"], delta=1e-3)
+
+    def test_gwyddion_opens_the_gsf_with_the_physical_size(self):
+        # Gwyddion's own loader (its thumbnailer) reads the file and records
+        # the size it understood in the thumbnail's metadata.
+        from PIL import Image
+        thumb = os.path.join(self.out1, "thumb.png")
+        p = subprocess.run(["gwyddion-thumbnailer", "gnome2", "128", os.path.join(self.out1, "scan_final.gsf"), thumb],
+                           capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        info = Image.open(thumb).info
+        px = self.spec["outputs"]["image_px"]
+        side_um = self.spec["sample"]["field_nm"] / 1000
+        self.assertEqual(info["Thumb::Image::Width"], str(px))
+        self.assertEqual(info["Thumb::Image::Height"], str(px))
+        real = info["Thumb::X-Gwyddion::RealSize"]
+        print("Gwyddion reads:", real)
+        m = re.fullmatch(r"([0-9.]+)\u00d7([0-9.]+) (nm|\u00b5m|mm)", real)
+        self.assertIsNotNone(m, real)
+        scale = {"nm": 1e-3, "\u00b5m": 1.0, "mm": 1e3}[m.group(3)]
+        self.assertAlmostEqual(float(m.group(1)) * scale, side_um, delta=side_um * 1e-3)
+        self.assertAlmostEqual(float(m.group(2)) * scale, side_um, delta=side_um * 1e-3)
 
     def test_log_is_complete(self):
         self.assertTrue(self.r1[3]["log"]["complete"], self.r1[3]["log"])
