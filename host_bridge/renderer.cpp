@@ -459,7 +459,7 @@ int main(int argc, char **argv)
                               {"pixels_updated", r.touched_px},
                               {"local_scans", r.local_scans}};
         std::ofstream(out_dir + "/renderer_report.json") << rep.dump(2) << "\n";
-        r.hb.send("done", r.last_seq, 0);
+        r.hb.send("done", r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
         return 0;
     } catch (const afm::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
