@@ -171,5 +171,21 @@ class EndToEnd(unittest.TestCase):
         self.assertEqual(t1, t3)
 
 
+class RealTime(unittest.TestCase):
+    """time_mode: realtime paces the same lockstep loop by the wall clock."""
+
+    def test_realtime_takes_at_least_the_simulated_time(self):
+        text = open(benchtest.scene("short.yaml")).read().replace("seed: 7", "seed: 7\ntime_mode: realtime")
+        path = benchtest.write_scene(text, "realtime")
+        out = os.path.join(os.path.dirname(path), "out")
+        code, _, err, rj = benchtest.run(path, out)
+        self.assertEqual(code, 0, err)
+        loop = rj["sim"]["loop_wall_seconds"]
+        print(f"realtime: {rj['sim_seconds']:.2f} simulated s in a {loop:.2f} s loop")
+        self.assertGreaterEqual(loop, rj["sim_seconds"] * 0.99)
+        self.assertLess(loop, rj["sim_seconds"] + 2.0)
+        benchtest.cleanup(os.path.dirname(path))
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)
