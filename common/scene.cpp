@@ -294,7 +294,7 @@ Scene load_scene(const std::string &path)
     // objects
     YAML::Node obj = root["objects"];
     if (obj.IsDefined() && !obj.IsNull()) {
-        r.only_keys(obj, "objects", {"particles", "wires"});
+        r.only_keys(obj, "objects", {"particles", "wires", "landmarks"});
         YAML::Node ps = obj["particles"];
         if (ps.IsDefined() && !ps.IsNull()) {
             if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
@@ -339,12 +339,35 @@ Scene load_scene(const std::string &path)
                 s.wires.push_back(w);
             }
         }
+        YAML::Node ls = obj["landmarks"];
+        if (ls.IsDefined() && !ls.IsNull()) {
+            if (!ls.IsSequence()) r.fail("objects.landmarks", "must be a list, got " + Reader::show(ls));
+            const double half = s.field_nm / 2;
+            for (std::size_t i = 0; i < ls.size(); ++i) {
+                const std::string p = "objects.landmarks[" + std::to_string(i) + "]";
+                r.only_keys(ls[i], p, {"id", "x_nm", "y_nm", "side_nm", "height_nm"});
+                LandmarkSpec m;
+                const double id = r.num(ls[i], p, "id", nullptr, 0, 1e6);
+                if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ls[i]["id"]));
+                m.id = static_cast<int>(id);
+                m.x_nm = r.num(ls[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
+                m.y_nm = r.num(ls[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
+                const LandmarkSpec dl;
+                m.side_nm = r.num(ls[i], p, "side_nm", &dl.side_nm, 0, 20000, true);
+                m.height_nm = r.num(ls[i], p, "height_nm", &dl.height_nm, 0, 5000, true);
+                for (const auto &o : s.particles)
+                    if (o.id == m.id) r.fail(p + ".id", "landmark id " + Reader::show(ls[i]["id"]) + " is also a particle's id");
+                for (const auto &o : s.landmarks)
+                    if (o.id == m.id) r.fail(p + ".id", "duplicate landmark id " + Reader::show(ls[i]["id"]));
+                s.landmarks.push_back(m);
+            }
+        }
     }
 
     // operator
     YAML::Node op = root["operator"];
     if (!op.IsDefined()) r.fail("operator", "required value is missing");
-    r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans"});
+    r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes"});
     s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN, 0, 1000);
     s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
     s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa, 0, 1, true);
@@ -372,12 +395,28 @@ Scene load_scene(const std::string &path)
             ls.around_id = static_cast<int>(id);
             bool known = false;
             for (const auto &p : s.particles) known = known || (p.id == ls.around_id && id == std::floor(id));
-            if (!known) r.fail(key + ".around_id", "names no particle of objects.particles, got " + Reader::show(ls_n[i]["around_id"]));
+            for (const auto &m : s.landmarks) known = known || (m.id == ls.around_id && id == std::floor(id));
+            if (!known) r.fail(key + ".around_id", "names no particle or landmark of objects, got " + Reader::show(ls_n[i]["around_id"]));
             const double size_d = 400;
             ls.size_nm = r.num(ls_n[i], key, "size_nm", &size_d, 0, s.field_nm, true);
             if (!s.op.local_scans.empty() && ls.at_s < s.op.local_scans.back().at_s)
                 r.fail(key + ".at_s", "local scans must be in time order, got " + Reader::show(ls_n[i]["at_s"]));
             s.op.local_scans.push_back(ls);
+        }
+    }
+    YAML::Node cc_n = op["cantilever_changes"];
+    if (cc_n.IsDefined() && !cc_n.IsNull()) {
+        if (!cc_n.IsSequence()) r.fail("operator.cantilever_changes", "must be a list, got " + Reader::show(cc_n));
+        for (std::size_t i = 0; i < cc_n.size(); ++i) {
+            const std::string key = "operator.cantilever_changes[" + std::to_string(i) + "]";
+            r.only_keys(cc_n[i], key, {"at_s", "offset_nm"});
+            CantileverChangeSpec cc;
+            cc.at_s = r.num(cc_n[i], key, "at_s", nullptr, 0, s.duration_s);
+            if (!cc_n[i]["offset_nm"].IsDefined()) r.fail(key + ".offset_nm", "required value is missing");
+            cc.offset_nm = r.vec2(cc_n[i]["offset_nm"], key + ".offset_nm", -s.field_nm / 2, s.field_nm / 2);
+            if (!s.op.cantilever_changes.empty() && cc.at_s < s.op.cantilever_changes.back().at_s)
+                r.fail(key + ".at_s", "cantilever changes must be in time order, got " + Reader::show(cc_n[i]["at_s"]));
+            s.op.cantilever_changes.push_back(cc);
         }
     }
 

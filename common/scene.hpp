@@ -42,6 +42,16 @@ struct ParticleSpec { int id = 0; double x_nm = 0, y_nm = 0, radius_nm = 50; };
 // A nanowire lying on the substrate, from end A (x0, y0) to end B (x1, y1).
 struct WireSpec { int id = 0; double x0_nm = 0, y0_nm = 0, x1_nm = 0, y1_nm = 0, diameter_nm = 100; };
 
+// A landmark (section 10): a large fixed feature (a square pillar) that no
+// push moves; a scan around it re-registers the work space, e.g. after a
+// cantilever change. Its id shares the particles' id space.
+struct LandmarkSpec { int id = 0; double x_nm = 0, y_nm = 0, side_nm = 500, height_nm = 200; };
+
+// A cantilever change (section 10): the new lever sits somewhere else over
+// the sample, so the whole work space jumps by offset_nm (only the simulator
+// knows by how much; a landmark scan finds out).
+struct CantileverChangeSpec { double at_s = 0; Vec2 offset_nm; };
+
 // How wires sit on the substrate and how finely the simulator resolves them.
 struct WireModelSpec {
     double friction_nN_per_um = 20.0;   // f: wire-substrate Coulomb friction per length (f L = physics.md eq. 23)
@@ -63,7 +73,7 @@ struct LithoSpec {
 // its models to where the scan finds the object (drift correction).
 struct LocalScanSpec {
     double at_s = 0;                    // simulated time it is taken (at the first frame from then)
-    int around_id = 0;                  // the particle it is centred on (its modelled position)
+    int around_id = 0;                  // the particle or landmark it is centred on (its modelled position)
     double size_nm = 400;               // side of the scanned square
 };
 
@@ -73,6 +83,7 @@ struct OperatorSpec {
     std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start
     double kappa = 1.0;                 // joystick scale kappa (p = kappa r_scan p_joy)
     std::vector<LocalScanSpec> local_scans;   // in time order
+    std::vector<CantileverChangeSpec> cantilever_changes;   // in time order
 };
 
 struct OutputSpec {
@@ -109,6 +120,7 @@ struct Scene {
     int adc_bits = 16;
     std::vector<ParticleSpec> particles;
     std::vector<WireSpec> wires;
+    std::vector<LandmarkSpec> landmarks;
     WireModelSpec wire_model;
     LithoSpec litho;
     OperatorSpec op;

@@ -357,6 +357,16 @@ long Display::update(const DisplayModel &model)
     return touched;
 }
 
+void Display::shift_background(double dx_nm, double dy_nm)
+{
+    // Image rows run downwards: +y in frame A is -row.
+    const cv::Mat t = (cv::Mat_<double>(2, 3) << 1, 0, dx_nm / f_.pitch(), 0, 1, -dy_nm / f_.pitch());
+    cv::Mat moved;
+    cv::warpAffine(base_, moved, t, base_.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+    base_ = moved;
+    render(cv::Rect(0, 0, f_.px, f_.px));
+}
+
 void Display::paste_scan(const cv::Mat &scan_nm, const cv::Rect &where)
 {
     const cv::Rect r = where & cv::Rect(0, 0, f_.px, f_.px);

@@ -84,6 +84,10 @@ public:
     void start(const cv::Mat &scan_nm, const std::vector<DisplayObject> &particles) { start(scan_nm, DisplayModel{particles, {}, {}}); }
     long update(const std::vector<DisplayObject> &particles) { return update(DisplayModel{particles, {}, {}}); }
     long redraw(const std::vector<DisplayObject> &particles) { return redraw(DisplayModel{particles, {}, {}}); }
+    // The whole sample moved by (dx, dy) nm (a re-registration after a
+    // cantilever change): the background moves with it; what enters at the
+    // edges is substrate (0). Redraws everything.
+    void shift_background(double dx_nm, double dy_nm);
     // Replaces a region of the background and of the image by a local scan.
     void paste_scan(const cv::Mat &scan_nm, const cv::Rect &where);
 

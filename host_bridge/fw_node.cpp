@@ -214,16 +214,37 @@ struct Node {
     void on_fix(const lcm::ReceiveBuffer *, const std::string &, const afm::object_fix_t *m)
     {
         if (m->fix_id == fix_id + 1) {
-            const fw_particle_t *hit = nullptr;
-            for (int32_t i = 0; i < fw_particles_count(&parts); ++i)
-                if (fw_particles_get(&parts, i)->id == m->object_id) hit = fw_particles_get(&parts, i);
-            if (!hit) {
+            // The object's modelled position: a particle's model, or a
+            // landmark's scene position carried along by the drift so far.
+            // A landmark may have jumped far (a cantilever change): its fix
+            // accepts up to half the field instead of the drift step.
+            bool found = false, landmark = false;
+            int32_t model[2] = {0, 0};
+            for (int32_t i = 0; i < fw_particles_count(&parts); ++i) {
+                const fw_particle_t *p = fw_particles_get(&parts, i);
+                if (p->id == m->object_id) {
+                    model[0] = p->x_pm;
+                    model[1] = p->y_pm;
+                    found = true;
+                }
+            }
+            for (const auto &lm : scene.landmarks) {
+                if (found || lm.id != m->object_id) continue;
+                model[0] = afm::to_i32(lm.x_nm * 1e3 + drift.offset_pm[0]);
+                model[1] = afm::to_i32(lm.y_nm * 1e3 + drift.offset_pm[1]);
+                found = landmark = true;
+            }
+            if (!found) {
                 std::fprintf(stderr, "fw_node: local scan fix %d names unknown object %d; ignored\n", m->fix_id, m->object_id);
             } else {
-                const int32_t model[2] = {hit->x_pm, hit->y_pm};
+                const int32_t drift_step = drift.max_step_pm;
+                if (landmark) drift.max_step_pm = afm::to_i32(scene.field_nm * 500.0);
+
                 const int32_t scan[2] = {afm::to_i32(m->scan_x_nm * 1e3), afm::to_i32(m->scan_y_nm * 1e3)};
                 int32_t delta[2];
-                if (fw_drift_measure(&drift, model, scan, delta) == FW_OK)
+                const fw_status_t st = fw_drift_measure(&drift, model, scan, delta);
+                drift.max_step_pm = drift_step;
+                if (st == FW_OK)
                     fw_drift_apply(delta, &parts, wires.data(), static_cast<int32_t>(wires.size()), have_litho ? &litho : nullptr);
                 else
                     std::fprintf(stderr, "fw_node: local scan fix %d: object %d is %.1f nm from its model, more than drift; not applied\n",

@@ -106,6 +106,8 @@ struct Renderer {
     int local_pending = -1;      // local scan being taken (index), or -1
     int fix_awaited = 0;         // object fix sent, waiting for the firmware's acknowledgement
     int fixes_sent = 0;
+    double fw_drift_nm[2] = {0, 0};   // the firmware's drift estimate, from FW_OBJECTS
+    bool fix_on_landmark = false;
     afm::object_fix_t fix_msg{};
     std::chrono::steady_clock::time_point fix_sent;
     int due_pending = 0;         // frames due when a scan paused the frames
@@ -238,6 +240,8 @@ struct Renderer {
 
     void set_model(const afm::objects_t &m)
     {
+        fw_drift_nm[0] = m.drift_nm[0];
+        fw_drift_nm[1] = m.drift_nm[1];
         model.particles.clear();
         for (const auto &p : m.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
         // Wires: the firmware's once it models them; until then the scene's,
@@ -262,7 +266,11 @@ struct Renderer {
                 // The model is re-registered: move the objects, then let the
                 // local scan replace its region (the substrate under the
                 // objects' corrected footprints is what the scan shows).
+                const double ddx = m->drift_nm[0] - fw_drift_nm[0], ddy = m->drift_nm[1] - fw_drift_nm[1];
                 set_model(*m);
+                // A landmark fix re-registers the whole work space: the
+                // background (the last scan) moves with the sample too.
+                if (fix_on_landmark) display.shift_background(ddx, ddy);
                 display.paste_scan(scan.h, scan.px);
                 local_scans.back()["model_drift_nm"] = {m->drift_nm[0], m->drift_nm[1]};
                 local_pending = -1;
@@ -304,13 +312,31 @@ struct Renderer {
         hb.maybe_send("running", last_seq, afm::frame_utime(scene, frames_written - 1), kProgressPeriodUs);
     }
 
+    // The modelled position of a particle, or of a landmark (its scene
+    // position carried along by the firmware's drift). True for a landmark.
+    bool landmark_or_particle_at(int id, double *x, double *y) const
+    {
+        for (const auto &p : model.particles)
+            if (p.id == id) {
+                *x = p.x_nm;
+                *y = p.y_nm;
+                return false;
+            }
+        for (const auto &m : scene.landmarks)
+            if (m.id == id) {
+                *x = m.x_nm + fw_drift_nm[0];
+                *y = m.y_nm + fw_drift_nm[1];
+                return true;
+            }
+        return false;
+    }
+
     void start_local_scan(int i)
     {
         const afm::LocalScanSpec &ls = scene.op.local_scans[i];
         local_pending = i;
-        double x = field.x0_nm + field.size_nm / 2, y = field.y0_nm + field.size_nm / 2;
-        for (const auto &p : model.particles)
-            if (p.id == ls.around_id) { x = p.x_nm; y = p.y_nm; }
+        double x = 0, y = 0;
+        landmark_or_particle_at(ls.around_id, &x, &y);
         const int half = std::max(2, static_cast<int>(std::lround(ls.size_nm / 2 / field.pitch())));
         const cv::Point2d c = field.to_px(x, y);
         const cv::Rect region = cv::Rect(cvRound(c.x) - half, cvRound(c.y) - half, 2 * half, 2 * half) & cv::Rect(0, 0, field.px, field.px);
@@ -329,13 +355,21 @@ struct Renderer {
         // display's geometry applies).
         cv::Mat located = cv::Mat::zeros(field.px, field.px, CV_32F);
         scan.h.copyTo(located(scan.px));
-        const afm::DisplayObject *obj = nullptr;
+        double mx = 0, my = 0, search = 0;
+        fix_on_landmark = landmark_or_particle_at(ls.around_id, &mx, &my);
+        bool known = fix_on_landmark;
         for (const auto &p : model.particles)
-            if (p.id == ls.around_id) obj = &p;
+            if (p.id == ls.around_id) {
+                search = afm::sphere_footprint_nm(p.radius_nm, tip) * 0.5 + kFidelitySearch_nm;
+                known = true;
+            }
+        // A landmark may have jumped far (a cantilever change): look over the
+        // whole local scan for it.
+        if (fix_on_landmark) search = ls.size_nm / 2;
         double sx = 0, sy = 0;
-        nlohmann::json rec = {{"at_s", ls.at_s}, {"around_id", ls.around_id}, {"frame", frames_written}};
-        const bool found = obj && afm::locate_bump(located, field, obj->x_nm, obj->y_nm,
-                                                    afm::sphere_footprint_nm(obj->radius_nm, tip) * 0.5 + kFidelitySearch_nm, &sx, &sy);
+        nlohmann::json rec = {{"at_s", ls.at_s}, {"around_id", ls.around_id}, {"frame", frames_written},
+                              {"kind", fix_on_landmark ? "landmark" : "particle"}};
+        const bool found = known && afm::locate_bump(located, field, mx, my, search, &sx, &sy);
         if (!found) {
             // Nothing to register: the scan still replaces its region of the image.
             rec["found"] = false;
@@ -346,7 +380,7 @@ struct Renderer {
             return;
         }
         rec["found"] = true;
-        rec["model_nm"] = {obj->x_nm, obj->y_nm};
+        rec["model_nm"] = {mx, my};
         rec["scan_nm"] = {sx, sy};
         local_scans.push_back(rec);
         fix_msg.utime = afm::frame_utime(scene, frames_written);

@@ -242,8 +242,15 @@ int main(int argc, char **argv)
             const afm::Vec2 s0 = scene.op.path_nm.front();
             sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, true);
         }
+        std::size_t next_change = 0;   // operator.cantilever_changes applied so far
         for (int64_t n = 0; n < blocks; ++n) {
             sim.wait_for_log(n - kLogWindowBlocks, 0);
+            // A cantilever change: the work space jumps against the scanner.
+            while (next_change < scene.op.cantilever_changes.size() &&
+                   std::llround(scene.op.cantilever_changes[next_change].at_s * 1e6) <= std::llround(n * 1e6 / scene.block_hz)) {
+                const afm::Vec2 o = scene.op.cantilever_changes[next_change++].offset_nm;
+                sim.world.add_drift(Eigen::Vector2d(o.x, o.y));
+            }
             blk.seq = n;
             blk.utime = std::llround(n * 1e6 / scene.block_hz);
             for (int i = 0; i < spb; ++i) {

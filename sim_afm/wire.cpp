@@ -9,11 +9,17 @@ namespace {
 // Velocity floor of the reweighting (per unit push travel): keeps a friction
 // point that sits on the rotation centre from getting an infinite weight.
 constexpr double kVelocityFloor = 1e-9;
-// Displacement floor (nm) of the flexible wire's reweighted friction, and the
-// Newton step (nm) below which its incremental solve has converged.
-constexpr double kStepFloor_nm = 1e-8;
-constexpr double kConverged_nm = 1e-7;
-constexpr double kRelativeFloor = 1e-3;
+// The flexible wire's step: regularisation length of the nodes' Coulomb
+// friction (nm); a node that ends within stuck_nm of its start sticks (nm);
+// the solve stops when every node's force residual is
+// below kResidual of its friction c_i (plus kResidualFloor_nN).
+constexpr double kSlipRegularisation_nm = 1e-6;
+// Stuck: the regularised friction c_i |dx| / sqrt(|dx|^2 + eps^2) is below
+// 0.999 c_i, |dx| < 22.3 eps.
+constexpr double stuck_nm = 22.3 * kSlipRegularisation_nm;
+constexpr double kResidual = 1e-5;
+constexpr double kResidualFloor_nN = 1e-7;
+constexpr int kMaxHalvings = 30;
 }  // namespace
 
 RodTwist rod_push_twist(const std::vector<double> &u, double w, double up, const Eigen::Vector2d &p,
@@ -200,7 +206,7 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
 
 FlexibleWire::FlexibleWire(int id_, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d, double f_, double E_GPa,
                            int N, int iters)
-    : f(f_), iterations(iters)
+    : f(f_), max_iterations(iters)
 {
     id = id_;
     d_nm = d;
@@ -243,6 +249,45 @@ void FlexibleWire::solve_banded(std::vector<double> &A, std::vector<double> &r) 
     }
 }
 
+double FlexibleWire::closest(const Eigen::Vector2d &q, int &seg, double &t) const
+{
+    const int nn = static_cast<int>(x.size());
+    double best = 1e300;
+    seg = 0;
+    t = 0;
+    for (int i = 0; i + 1 < nn; ++i) {
+        const double ti = segment_param(x[i], x[i + 1], q);
+        const double dn = (q - (x[i] + ti * (x[i + 1] - x[i]))).norm();
+        if (dn < best) {
+            best = dn;
+            seg = i;
+            t = ti;
+        }
+    }
+    return best;
+}
+
+double FlexibleWire::energy(const std::vector<Eigen::Vector2d> &start, const Eigen::Vector2d &q, int seg, double reach,
+                            double kc) const
+{
+    const int nn = static_cast<int>(x.size());
+    const double kb = EI / (ds * ds * ds);
+    double e = 0;
+    for (int i = 0; i + 1 < nn; ++i) {
+        const double dl = (x[i + 1] - x[i]).norm() - ds;
+        e += 0.5 * ks * dl * dl;
+    }
+    for (int i = 1; i + 1 < nn; ++i) e += 0.5 * kb * (x[i - 1] - 2 * x[i] + x[i + 1]).squaredNorm();
+    const double t = segment_param(x[seg], x[seg + 1], q);
+    const double pen = reach - (q - (x[seg] + t * (x[seg + 1] - x[seg]))).norm();
+    if (pen > 0) e += 0.5 * kc * pen * pen;
+    for (int i = 0; i < nn; ++i) {
+        const double ci = f * ds * ((i == 0 || i == nn - 1) ? 0.5 : 1.0);
+        e += ci * (std::hypot((x[i] - start[i]).norm(), kSlipRegularisation_nm) - kSlipRegularisation_nm);
+    }
+    return e;
+}
+
 bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
 {
     double pen0, u0;
@@ -252,10 +297,18 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
     const int nn = static_cast<int>(x.size());
     const int n = 2 * nn;
     constexpr int b = 5;
+    const double reach = r_tip + 0.5 * d_nm;
     const std::vector<Eigen::Vector2d> start = x;
     const double kb = EI / (ds * ds * ds);
-    stuck_.assign(nn, 1);
-    std::vector<double> A(static_cast<std::size_t>(n) * (b + 1)), g(n);
+    const double eps = kSlipRegularisation_nm;
+    std::vector<double> A(static_cast<std::size_t>(n) * (b + 1)), g(n), d(n);
+    // The tip touches the segment closest to it at the start of the step,
+    // and only it, for the whole step: the distance to one segment is
+    // continuously differentiable in the nodes, the minimum over segments is
+    // not (a kink wherever the apex faces a node), which would stall Newton.
+    int seg;
+    double t_seg;
+    closest(q, seg, t_seg);
     // Lower-band accumulation of a 2 x 2 block for nodes (i, j), i >= j.
     auto add_block = [&](int i, int j, const Eigen::Matrix2d &B) {
         for (int r = 0; r < 2; ++r)
@@ -264,8 +317,19 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
                 if (I >= J) A[I * (b + 1) + (I - J)] += B(r, c);
             }
     };
-    bool moved = false;
-    for (int it = 0; it < iterations; ++it) {
+    // Warm start: a steady push moves the wire alike from step to step, so
+    // the last step's increment is tried first; kept only if it lowers the
+    // step's energy.
+    double phi = energy(start, q, seg, reach, kc);
+    if (last_dx_.size() == start.size()) {
+        for (int i = 0; i < nn; ++i) x[i] = start[i] + last_dx_[i];
+        const double phi_w = energy(start, q, seg, reach, kc);
+        if (phi_w < phi) phi = phi_w;
+        else x = start;
+    }
+    last_iterations = 0;
+    last_converged = false;
+    for (int it = 0; it < max_iterations; ++it) {
         std::fill(A.begin(), A.end(), 0.0);
         std::fill(g.begin(), g.end(), 0.0);
         auto grad = [&](int i) { return Eigen::Map<Eigen::Vector2d>(&g[2 * i]); };
@@ -292,78 +356,78 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
             for (int r = 0; r < 3; ++r)
                 for (int c = 0; c <= r; ++c) add_block(i - 1 + r, i - 1 + c, kb * w[r] * w[c] * Eigen::Matrix2d::Identity());
         }
-        // Tip contact: kc / 2 pen^2 on every segment the apex overlaps.
-        for (int i = 0; i + 1 < nn; ++i) {
+        // Tip contact: kc / 2 pen^2 at the point of that segment closest to
+        // the apex, shared by its two nodes as (1 - t, t): one contact
+        // whatever the mesh (Gauss-Newton Hessian kc n n^T).
+        {
+            const int i = seg;
             const double t = segment_param(x[i], x[i + 1], q);
-            const Eigen::Vector2d pt = x[i] + t * (x[i + 1] - x[i]);
-            const Eigen::Vector2d d = q - pt;
-            const double dn = d.norm();
-            const double pen = r_tip + 0.5 * d_nm - dn;
-            if (pen <= 0) continue;
-            const Eigen::Vector2d nh = dn > 1e-12 ? Eigen::Vector2d(d / dn) : n0;
-            // d pen / d x_i = (1 - t) nh, d pen / d x_{i+1} = t nh.
-            grad(i) += kc * pen * (1 - t) * nh;
-            grad(i + 1) += kc * pen * t * nh;
-            const Eigen::Matrix2d B = kc * nh * nh.transpose();
-            add_block(i, i, (1 - t) * (1 - t) * B);
-            add_block(i + 1, i + 1, t * t * B);
-            add_block(i + 1, i, t * (1 - t) * B);
+            const Eigen::Vector2d dv = q - (x[i] + t * (x[i + 1] - x[i]));
+            const double dn = dv.norm();
+            const double pen = reach - dn;
+            if (pen > 0) {
+                const Eigen::Vector2d nh = dn > 1e-12 ? Eigen::Vector2d(dv / dn) : n0;
+                grad(i) += kc * pen * (1 - t) * nh;
+                grad(i + 1) += kc * pen * t * nh;
+                const Eigen::Matrix2d B = kc * nh * nh.transpose();
+                add_block(i, i, (1 - t) * (1 - t) * B);
+                add_block(i + 1, i + 1, t * t * B);
+                add_block(i + 1, i, t * (1 - t) * B);
+            }
         }
-        // Friction by stick and slip (an active set), updated from the
-        // elastic and contact forces at the current iterate: a stuck node
-        // stays put (held by a stiff spring to its start) while the force on
-        // it stays within c_i; past it, it slides. A sliding node's friction
-        // is reweighted: c_i |dx_i| ~ c_i |dx_i|^2 / (2 rho_i); it sticks
-        // again when it barely moves and its force is within c_i. The first
-        // pass takes the sliding set and weights from the last push (a steady
-        // push moves the nodes alike from sample to sample).
-        double biggest_dx = 0;
-        for (int i = 0; i < nn; ++i) biggest_dx = std::max(biggest_dx, (x[i] - start[i]).norm());
-        const double floor_nm = std::max(kRelativeFloor * biggest_dx, kStepFloor_nm);
-        const double k_node = 2 * ks + 16 * kb + kc;   // a node's own stiffness, about
-        const double k_hold = 1e3 * k_node;
-        bool changed = false;
+        // Coulomb friction c_i |dx_i| (c_i = f ds, half at the ends),
+        // regularised as c_i (sqrt(|dx_i|^2 + eps^2) - eps): exact gradient
+        // and Hessian. A node whose force is below c_i stays within about
+        // eps of its start (a stiffness c_i / eps pins it); past c_i it slides
+        // against its own motion. Converged when every node is in balance:
+        // a stuck node (within stuck_nm of its start) when its elastic and
+        // contact force is at most c_i (the Coulomb law itself), a sliding
+        // one when that force and its (regularised) friction cancel, both to
+        // kResidual c_i.
+        double residual = 0;
         for (int i = 0; i < nn; ++i) {
             const double ci = f * ds * ((i == 0 || i == nn - 1) ? 0.5 : 1.0);
             const Eigen::Vector2d dx = x[i] - start[i];
-            const double r = grad(i).norm();   // elastic + contact force on the node
-            double rho = std::max(dx.norm(), floor_nm);
-            if (it == 0) {
-                stuck_[i] = !(have_last_ && last_step_[i] > kRelativeFloor * last_max_);
-                if (!stuck_[i]) rho = std::max(last_step_[i] * pen0 / last_scale_, kStepFloor_nm);
-            }
-            if (stuck_[i] && r > ci) {
-                stuck_[i] = false;
-                changed = true;
-                rho = std::max((r - ci) / k_node, floor_nm);
-            } else if (!stuck_[i] && it > 0 && dx.norm() <= floor_nm && r <= ci) {
-                stuck_[i] = true;
-                changed = true;
-            }
-            const double w = stuck_[i] ? k_hold : ci / rho;
-            grad(i) += w * dx;
-            add_block(i, i, w * Eigen::Matrix2d::Identity());
+            const double sr = std::hypot(dx.norm(), eps);
+            const double tol = kResidual * ci + kResidualFloor_nN;
+            if (dx.norm() < stuck_nm) residual = std::max(residual, (grad(i).norm() - ci) / tol);
+            grad(i) += ci / sr * dx;
+            add_block(i, i, ci / sr * (Eigen::Matrix2d::Identity() - dx * dx.transpose() / (sr * sr)));
+            if (dx.norm() >= stuck_nm) residual = std::max(residual, grad(i).norm() / tol);
         }
-        for (double &v : g) v = -v;
-        solve_banded(A, g);
-        double step = 0;
-        for (int i = 0; i < nn; ++i) {
-            const Eigen::Vector2d dxi(g[2 * i], g[2 * i + 1]);
-            x[i] += dxi;
-            step = std::max(step, dxi.norm());
+        last_iterations = it + 1;
+        if (residual < 1) {
+            last_converged = true;
+            break;
         }
-        moved = true;
-        if (step < kConverged_nm && !changed) break;
+        for (int k = 0; k < n; ++k) d[k] = -g[k];
+        solve_banded(A, d);
+        double slope = 0;
+        for (int k = 0; k < n; ++k) slope += g[k] * d[k];
+        // Backtracking (Armijo) on the step's energy; when rounding hides
+        // the decrease (at the solution's doorstep), the whole step.
+        const std::vector<Eigen::Vector2d> base = x;
+        double alpha = 1;
+        bool accepted = false;
+        for (int ls = 0; ls < kMaxHalvings && !accepted; ++ls) {
+            for (int i = 0; i < nn; ++i) x[i] = base[i] + alpha * Eigen::Vector2d(d[2 * i], d[2 * i + 1]);
+            accepted = energy(start, q, seg, reach, kc) <= phi + 1e-4 * alpha * slope;
+            if (!accepted) alpha *= 0.5;
+        }
+        if (!accepted)
+            for (int i = 0; i < nn; ++i) x[i] = base[i] + Eigen::Vector2d(d[2 * i], d[2 * i + 1]);
+        phi = energy(start, q, seg, reach, kc);
     }
-    // Remember the pattern of this push (relative to its penetration).
-    last_step_.resize(nn);
-    double biggest = 0;
-    for (int i = 0; i < nn; ++i) biggest = std::max(biggest, last_step_[i] = (x[i] - start[i]).norm());
-    have_last_ = biggest > kStepFloor_nm;
-    last_max_ = biggest;
-    last_scale_ = pen0;
+    if (!last_converged) ++unconverged;
+    // Stuck nodes go back to their start: no creep under a load below c_i,
+    // however many steps.
+    last_dx_.resize(nn);
+    for (int i = 0; i < nn; ++i) {
+        if ((x[i] - start[i]).norm() < stuck_nm) x[i] = start[i];
+        last_dx_[i] = x[i] - start[i];
+    }
     update_box();
-    return moved;
+    return true;
 }
 
 }  // namespace afm::sim

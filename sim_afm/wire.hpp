@@ -18,11 +18,14 @@
 // - FlexibleWire (wire_flexibility): N segments (N + 1 nodes), stretch springs
 //   (EA / segment length), discrete bending EI / (2 ds^3) |x_{i-1} - 2 x_i +
 //   x_{i+1}|^2 (= EI / (2 ds) theta^2 for small joint angles theta), and Coulomb
-//   friction f ds on each node (half at the ends). Each sample the wire takes
+//   friction f ds on each node (half at the ends). Each push the wire takes
 //   the incremental quasi-static step: minimise elastic energy + tip contact
 //   energy + sum_i c_i |x_i - x_i(start)| (rate-independent friction
-//   dissipation) by Newton steps with reweighted friction (IRLS) on a banded
-//   system.
+//   dissipation, regularised below 1e-6 nm) by Newton steps with an Armijo
+//   line search on a banded system, until every node's force balance holds to
+//   1e-5 c_i (at most max_iterations; the next push resumes). The tip's
+//   contact is one point: the closest point of the axis, shared by that
+//   segment's two nodes, so the load does not depend on the mesh.
 //
 // Geometry: frame A (sample frame: the World adds drift), nm; forces nN.
 #pragma once
@@ -120,14 +123,19 @@ public:
     double EI = 0;                    // nN nm^2
     double ks = 0;                    // stretch stiffness EA / ds, nN/nm
     double f = 0;                     // friction density, nN/nm
-    int iterations = 8;
+    int max_iterations = 8;           // Newton iterations per push, at most
+    int last_iterations = 0;          // the last push's Newton iterations
+    bool last_converged = false;      // whether it met the step tolerance
+    long unconverged = 0;             // pushes that hit max_iterations
 
 private:
-    std::vector<double> last_step_;   // |displacement| of each node in the last push, nm
-    double last_scale_ = 1;           // that push's initial penetration, nm
-    double last_max_ = 0;             // that push's largest node motion, nm
-    std::vector<char> stuck_;         // stick (1) or slip (0) per node, within a push
-    bool have_last_ = false;
+    std::vector<Eigen::Vector2d> last_dx_;   // the last push's increment (warm start)
+    // Distance from q to the axis; the closest segment and its parameter.
+    double closest(const Eigen::Vector2d &q, int &seg, double &t) const;
+    // The step's energy: elastic + tip contact (on segment seg) +
+    // regularised friction work from `start`.
+    double energy(const std::vector<Eigen::Vector2d> &start, const Eigen::Vector2d &q, int seg, double reach,
+                  double kc) const;
     void solve_banded(std::vector<double> &A, std::vector<double> &rhs) const;
 };
 

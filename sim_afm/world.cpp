@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace afm::sim {
 
@@ -43,6 +44,7 @@ World::World(const Scene &s)
     // Cells as large as the widest contact (particle-particle), so a contact
     // query visits at most 3 x 3 cells.
     grid_ = Grid(2 * max_radius_ + s.probe.tip_radius_nm);
+    landmarks_ = s.landmarks;
     for (std::size_t i = 0; i < particles_.size(); ++i) grid_.insert(static_cast<int>(i), particles_[i].c);
 
     // Wires: built only when the scene has some; rigid rods unless
@@ -323,7 +325,26 @@ double World::height_true(double x, double y) const
         const double r = 0.5 * w->d_nm, d = w->axis_distance(q);
         if (d < r) z = std::max(z, r + std::sqrt(r * r - d * d));
     }
-    return base + z;
+    return base + std::max(z, landmark_height(q, false));
+}
+
+double World::landmark_height(const Eigen::Vector2d &q, bool dilated) const
+{
+    // A square pillar of side a and height H: flat top; under the tip, its
+    // top edge is met by the tip's profile at horizontal distance d from
+    // the pillar, so the apex stands at H - t(d).
+    double z = -std::numeric_limits<double>::infinity();
+    for (const auto &m : landmarks_) {
+        const double dx = std::max(0.0, std::fabs(q.x() - m.x_nm) - m.side_nm / 2);
+        const double dy = std::max(0.0, std::fabs(q.y() - m.y_nm) - m.side_nm / 2);
+        const double d = std::hypot(dx, dy);
+        if (d == 0) z = std::max(z, m.height_nm);
+        else if (dilated) {
+            const double h = m.height_nm - tip_profile(d);
+            if (h > 0) z = std::max(z, h);
+        }
+    }
+    return z;
 }
 
 double World::tip_profile(double u) const
@@ -366,15 +387,20 @@ double World::height_convolved(double x, double y) const
     // of the tallest object.
     const double g = scene_.probe.tip_half_angle_deg * M_PI / 180.0;
     near(q, max_radius_ + 2 * max_radius_ * std::tan(g) + scene_.probe.tip_radius_nm, scratch2_);
+    // An object the tip does not touch here (dilation 0) must not fill a
+    // groove beside it: only a positive dilation competes with the groove.
     for (int idx : scratch2_) {
         const Particle &p = particles_[idx];
-        z = std::max(z, bump_convolved((q - p.c).norm(), p.r));
+        const double b = bump_convolved((q - p.c).norm(), p.r);
+        if (b > 0) z = std::max(z, b);
     }
     for (const auto &w : wires_) {
         const double r = 0.5 * w->d_nm;
         if (!w->near(q, r + 2 * r * std::tan(g) + scene_.probe.tip_radius_nm)) continue;
-        z = std::max(z, bump_convolved(w->axis_distance(q), r));
+        const double b = bump_convolved(w->axis_distance(q), r);
+        if (b > 0) z = std::max(z, b);
     }
+    z = std::max(z, landmark_height(q, true));
     return base_height(q) + z;
 }
 

@@ -151,6 +151,8 @@ private:
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
     Eigen::Vector2d lateral_force_{0.0, 0.0};  // sample on tip, frame A, nN
     std::vector<Particle> particles_;
+    std::vector<LandmarkSpec> landmarks_;   // fixed pillars, sample frame (section 10)
+    double landmark_height(const Eigen::Vector2d &q, bool dilated) const;
     std::vector<std::unique_ptr<Wire>> wires_;   // empty unless the scene has wires
     double tan_slope_ = 0;                       // tilted_glass: height = -y tan(slope)
     Eigen::Vector3d normal_{0.0, 0.0, 1.0};      // substrate unit normal

@@ -62,5 +62,40 @@ class DriftAndLocalScans(unittest.TestCase):
         self.assertLess(fid["max_position_error_nm"], 5.0)
 
 
+class CantileverChangeAndLandmark(unittest.TestCase):
+    """scenes/landmark.yaml: the lever is changed (the work space jumps by
+    (250, -180) nm, known only to the simulator); a scan around a landmark
+    re-registers the firmware's models, the joystick and the display's
+    background; the next push lands on the particle where it really is."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("landmark.yaml", "landmark",
+                                                                            {"FW_OBJECTS", "SIM_TRUTH"})
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.out)
+
+    def test_landmark_scan_finds_the_jump_and_the_run_stays_registered(self):
+        self.assertEqual(self.code, 0, self.err)
+        scans = self.rj["renderer"]["local_scans"]
+        self.assertEqual([s["kind"] for s in scans], ["landmark"])
+        self.assertTrue(scans[0]["found"])
+        truth = afmlog.by_seq(self.log["SIM_TRUTH"])
+        acked = next(m for m in self.log["FW_OBJECTS"] if m.fix_id == 1)
+        true = truth[acked.seq].objects.drift_nm
+        err = math.hypot(acked.drift_nm[0] - true[0], acked.drift_nm[1] - true[1])
+        print(f"landmark fix: firmware offset ({acked.drift_nm[0]:.2f}, {acked.drift_nm[1]:.2f}) nm, "
+              f"true ({true[0]:.2f}, {true[1]:.2f}) nm")
+        self.assertGreater(math.hypot(*true), 300.0)
+        self.assertLess(err, 2.0)
+        first = {p.id: p for p in truth[min(truth)].objects.particles}
+        last = {p.id: p for p in truth[max(truth)].objects.particles}
+        pushed = math.hypot(last[2].x_nm - first[2].x_nm - true[0], last[2].y_nm - first[2].y_nm - true[1])
+        self.assertGreater(pushed, 50.0, "particle 2 must be pushed after the re-registration")
+        self.assertLess(self.rj["fidelity"]["max_position_error_nm"], 5.0)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -199,6 +199,22 @@ void test_same_seed_same_trajectory()
     TEST_ASSERT_EQUAL_DOUBLE(a.particle_position(0).y(), b.particle_position(0).y());
 }
 
+void test_landmark_pillar_images_flat_top_and_tip_limited_edge()
+{
+    // A 500 nm pillar, 200 nm high: its top images at 200 nm; beside it the
+    // tip's flank meets the top edge, so at distance d the apex stands at
+    // 200 - t(d) with t the tip's profile (spherical apex r_t, cone gamma).
+    const std::string text = with(with(kBase, "EFFECTS", "tip_convolution"), "objects:\n  particles:\n    - {id: 1, x_nm: 0, y_nm: 0, radius_nm: 50}",
+                                  "objects:\n  landmarks:\n    - {id: 9, x_nm: 400, y_nm: 400, side_nm: 500, height_nm: 200}");
+    World w(scene_from_text(text));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 200.0, w.image_height(400, 400));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 200.0, w.image_height(649, 400));
+    const double rt = 10, g = 20 * M_PI / 180, d = 30;   // on the cone part: d > r_t cos g
+    const double t = rt - rt * std::sin(g) + (d - rt * std::cos(g)) / std::tan(g);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 200.0 - t, w.image_height(650 + d, 400));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, w.image_height(650 + 200 * std::tan(g) + 20, 400));
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -210,5 +226,6 @@ int main()
     RUN_TEST(test_thermal_noise_level_is_kT_over_k);
     RUN_TEST(test_pushed_particle_slides_at_its_threshold_in_contact_ahead);
     RUN_TEST(test_same_seed_same_trajectory);
+    RUN_TEST(test_landmark_pillar_images_flat_top_and_tip_limited_edge);
     return UNITY_END();
 }
