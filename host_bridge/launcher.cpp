@@ -46,7 +46,8 @@ const char *kUsage =
     "  multicast route.\n"
     "options:\n"
     "  --check            validate the scene and exit (0: valid, 2: not)\n"
-    "  --spy              also start lcm-spy on the run's bus (needs a display)\n"
+    "  --spy              also start lcm-spy on the run's bus (needs a display); the run\n"
+    "                     ends when lcm-spy is closed (time_mode: realtime to watch at pace)\n"
     "  --inject-drop P    sim_afm drops each analog block's first send with probability P\n"
     "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
@@ -385,7 +386,14 @@ int main(int argc, char **argv)
     std::this_thread::sleep_for(std::chrono::milliseconds(150));   // let the logger drain
     stop(logger, SIGINT);
     if (!logger.exited) { int st; waitpid(logger.pid, &st, 0); logger.exited = true; logger.exit_code = decode_status(st); }
-    if (spy) { stop(spy_child, SIGTERM); if (!spy_child.exited) { int st; waitpid(spy_child.pid, &st, 0); } }
+    // lcm-spy stays open for the person watching (the bus is quiet now); the
+    // run ends when they close it. On failure it is closed with the rest.
+    if (spy && !spy_child.exited) {
+        if (failure.empty()) std::fprintf(stderr, "run: the run is over; close lcm-spy to finish\n");
+        else stop(spy_child, SIGTERM);
+        int st;
+        waitpid(spy_child.pid, &st, 0);
+    }
     const double wall = wall_s();
 
     // 7. run.json
