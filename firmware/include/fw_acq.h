@@ -27,6 +27,7 @@
 #define FW_ACQ_H
 
 #include "fw_types.h"
+#include "fw_math.h"
 
 #define FW_ACQ_FS_UV 10000000          /* +-10 V card input range, microvolts */
 #define FW_ACQ_FILTER_LOG2_MAX 4
@@ -52,6 +53,9 @@ typedef struct {
     uint64_t rcp_gain;            /* FW_ACQ_RCP_MUL 2^(bits-8), set by init */
     uint64_t rcp_bias;            /* FW_ACQ_RCP_MUL (78125 - 1) / 2, set by init */
     int32_t half_codes;           /* 2^(bits-1) */
+    int64_t rcp_bias_uv;          /* K = FS G + B - half_codes 2^47: the kernel on uv itself */
+    int32_t fast_lo_uv;           /* fast range [fast_lo_uv, fast_lo_uv + fast_span_uv): */
+    uint32_t fast_span_uv;        /*   unsaturated and below the top code's clamp */
     q23_t baseline_v;             /* subtracted zero-force offset, 9.23 V */
     int32_t hist[FW_ACQ_FILTER_LEN_MAX]; /* last codes, ring */
     int32_t hist_pos;
@@ -93,6 +97,35 @@ static inline int32_t fw_acq_code_rcp(int32_t uv, uint64_t gain, uint64_t bias,
     return (c < half_codes) ? c : half_codes - 1;
 }
 
+/* The fast range of an instance: the inputs that are not saturated
+ * (|uv| < FS) and whose code needs no clamp at the top, i.e.
+ * uv in [-(FS - 1), uv_top - 1] with uv_top the smallest input that
+ * rounds to 2^(bits-1): t = uv_top + FS is the smallest t with
+ * t 2^(bits-8) + 39062 >= 2^bits 78125 (uv_top = 9999848 at 16 bits,
+ * 9999390 at 14, 9997559 at 12). One unsigned compare, as the saturation
+ * test. Inline (per sample). */
+static inline bool fw_acq_in_fast_range(const fw_acq_t *a, int32_t uv)
+{
+    return (uint32_t)uv - (uint32_t)a->fast_lo_uv < a->fast_span_uv;
+}
+
+/* The code of an input in the fast range (fw_acq_in_fast_range): the
+ * kernel of fw_acq_code_rcp with the offset t = uv + FS and the
+ * subtraction of 2^(bits-1) folded into one constant,
+ *   code = floor((uv G + K) / 2^47),  K = FS G + B - 2^(bits-1) 2^47,
+ * which equals floor((t G + B) / 2^47) - 2^(bits-1) exactly (subtracting
+ * an integer multiple of 2^47 commutes with the floor).
+ * Scaling and overflow: FS G = 2^(bits-1) (2^47 + e) (e = 4047, above),
+ * so K = 2^(bits-1) e + B < 2^47; |uv G| <= 10^7 M 2^8 < 2^62.1 (16 bits),
+ * the sum < 2^63 in int64, no wrap; no clamp needed in the fast range.
+ * Same code as fw_acq_code_rcp there (tests/firmware/test_acq.c checks
+ * every input of the range). Inline (per sample). */
+static inline int32_t fw_acq_code_fast(const fw_acq_t *a, int32_t uv)
+{
+    return (int32_t)fw_math_asr_i64((int64_t)uv * (int64_t)a->rcp_gain + a->rcp_bias_uv,
+                                    FW_ACQ_RCP_SHIFT);
+}
+
 /* Code to 9.23 volts, exact (see above). */
 q23_t fw_acq_code_to_q23(int32_t bits, int32_t code);
 
@@ -131,6 +164,22 @@ static inline fw_status_t fw_acq_step_q23(fw_acq_t *a, int32_t uv, int32_t *code
     *v_out = v - a->baseline_v;
     *sat_out = sat;
     return FW_OK;
+}
+
+/* fw_acq_step_q23 for an instance without filter (filter_log2 == 0) and an
+ * input in its fast range (fw_acq_in_fast_range): no saturation, so no
+ * flag, counter or clamp; same code, signal and state as fw_acq_step_q23.
+ * Returns the baseline-corrected signal (9.23 V), *code_out the code.
+ * Scaling and overflow: |code lsb_v| <= 10 V (exact in 9.23), the baseline
+ * is within +-10 V (fw_acq_set_baseline_q23, fw_acq_record_baseline), so
+ * the result lies within +-20 V (< 2^27.33 in 9.23). Inline (per sample). */
+static inline q23_t fw_acq_step_fast_q23(fw_acq_t *a, int32_t uv, int32_t *code_out)
+{
+    int32_t code = fw_acq_code_fast(a, uv);
+    q23_t v = code * a->lsb_v;
+    a->last_v = v;
+    *code_out = code;
+    return v - a->baseline_v;
 }
 
 /* Records the latest filtered signal as the zero-force baseline. */

@@ -20,10 +20,27 @@
  *  5. Force in C (eq. 1a-1c, blend near sin theta = 0) from that vector
  *     (fw_force_solve_dir_fit_pn, fw_force.h), rotated into A (eq. 3).
  * The per-sample functions of the modules are inline, so one sample costs
- * no calls except near theta = 0, pi (fw_force_below_hi_pn) and on the
- * rare paths (ADC filter, saturation).
+ * no calls except in the blend zone near theta = 0, pi (fw_force_blend_pn)
+ * and on the rare paths (ADC filter, saturation).
  * Flags of the sample are returned in out->flags; sticky flags and counters
  * accumulate in the instance until fw_board_reset.
+ *
+ * Two paths, one result. fw_board_step_checked saturates every step and
+ * serves every configuration. fw_board_init also selects a fast path when
+ * the configuration proves that no force or offset term can overflow:
+ * no ADC filter, k_n K_n and k_theta K_l / h <= 2^18 pN/V
+ * (FW_FORCE_FAST_GAIN_MAX_PN_PER_V), F_adh <= 2^26 pN
+ * (FW_FORCE_FAST_ADHESION_MAX_PN), C_n, C_l <= 2^21 pm/V
+ * (FW_COMP_FAST_C_MAX_PM_PER_V); with alpha = 0 exactly (scan angle 270 deg,
+ * the default) it skips the three rotations (FW_BOARD_PATH_FAST_ALIGNED).
+ * fw_board_step takes the fast path for a sample when both inputs lie in
+ * the ADC's fast range (fw_acq_in_fast_range: no saturation, no top-code
+ * clamp; then |S| <= 20 V after the baseline) and a sample has been stepped
+ * since the reset; otherwise the checked one. The fast path omits only the
+ * clamps that the bounds make impossible and keeps the rare cases (apex past
+ * int32, theta window over 16 nm, friction fallback and blend) exact, so
+ * both paths give bit-identical outputs, flags, counters and state
+ * (tests/firmware/test_board.c compares them over 10^6 samples).
  *
  * Configuration zero values: the fields after kappa_q16 are optional and 0
  * selects the documented default.
@@ -59,6 +76,13 @@ typedef struct {
 typedef struct { int32_t sn_uv; int32_t sl_uv; int32_t piezo_pm[3]; } fw_sample_in_t;   /* volts at card input in microvolts; piezo xyz in AFM frame, pm */
 typedef struct { int32_t force_pn[3]; int32_t tip_pm[3]; int32_t sn_code; int32_t sl_code; uint32_t flags; } fw_sample_out_t; /* force on the tip, AFM frame, pN; compensated apex, AFM frame, pm */
 
+/* Which per-sample path fw_board_step takes (fw_board_init selects). */
+typedef enum {
+    FW_BOARD_PATH_CHECKED = 0,      /* every step saturated (any configuration) */
+    FW_BOARD_PATH_FAST = 1,         /* bounds proven at init, no clamps */
+    FW_BOARD_PATH_FAST_ALIGNED = 2  /* as FAST, alpha = 0: no rotations */
+} fw_board_path_t;
+
 typedef struct {
     fw_board_config_t cfg;
     fw_acq_t acq_sn;
@@ -70,17 +94,26 @@ typedef struct {
     q30_t sin_a;                 /* sin alpha, 2.30 */
     q23_t sn_v;                  /* latest S_n used (virtual if saturated), 9.23 V */
     q23_t sl_v;                  /* latest S_l, 9.23 V */
-    q23_t sn_ref_v;              /* last unsaturated S_n */
+    int32_t z_pm;                /* latest piezo z, pm */
+    q23_t sn_ref_v;              /* last unsaturated S_n, kept at the first saturated sample */
     int32_t z_ref_pm;            /* piezo z at that sample */
-    bool have_ref;
+    bool have_ref;               /* an unsaturated sample since reset */
+    bool ref_live;               /* the latest sample was unsaturated: it is the reference
+                                    (sn_v, z_pm), copied to sn_ref_v, z_ref_pm when S_n saturates */
+    bool stepped;                /* a sample has been stepped since reset */
+    fw_board_path_t path_cfg;    /* the path the configuration allows (init) */
+    int32_t fast_lo_uv;          /* fw_board_step's fast test, both channels: */
+    uint32_t fast_span_uv;       /*   the ADC's fast range, span 0 while the checked path is due */
     uint32_t sticky_flags;       /* OR of every sample's flags since reset */
-    uint32_t samples;            /* samples since reset (saturating) */
     uint32_t sat_force_count;    /* samples with a clamped force (saturating) */
 } fw_board_t;
 
 fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* validates cfg */
 void        fw_board_reset(fw_board_t *b);
 fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
+/* The checked path of fw_board_step for any sample and configuration (the
+ * reference the fast path is tested against). */
+fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
 fw_status_t fw_board_piezo_cmd(const fw_board_t *b, const int32_t joy_q15[2], int32_t piezo_cmd_pm[2]);
 
 /* Records the latest filtered S_n, S_l as the zero-force baseline (call while

@@ -41,6 +41,10 @@
 #define FW_FORCE_XFRAC 8                    /* extra fraction bits of F_y, N, F_z */
 #define FW_FORCE_BLEND_LOG2 12              /* S_HI - S_LO = 2^12 in 1.15 */
 #define FW_FORCE_DIR_MAX ((int32_t)1 << 15) /* |x|, |y| bound of a direction vector */
+/* The fast path's bounds (fw_force_solve_dir_fast_pn): with |S| <= 20 V no
+ * force term can leave int32. */
+#define FW_FORCE_FAST_GAIN_MAX_PN_PER_V ((int32_t)1 << 18)  /* k_n K_n and k_theta K_l / h */
+#define FW_FORCE_FAST_ADHESION_MAX_PN ((int32_t)1 << 26)
 
 typedef struct {
     int32_t kn_pn_per_v;     /* k_n K_n, pN/V */
@@ -48,6 +52,8 @@ typedef struct {
     q30_t two_h_over_l;      /* 2h/l, 2.30 */
     q30_t mu;                /* tip-substrate friction coefficient, 2.30 */
     int32_t adhesion_pn;     /* F_adh, pN */
+    bool fast;               /* gains <= FW_FORCE_FAST_GAIN_MAX_PN_PER_V, adhesion <=
+                                FW_FORCE_FAST_ADHESION_MAX_PN: fw_force_solve_dir_fast_pn valid */
 } fw_force_t;
 
 /* Validates: gains > 0; h > 0, l > 0, 2h/l < 2; mu in [0, 1e6 ppm];
@@ -122,11 +128,73 @@ fw_status_t fw_force_solve_dir_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
  * Vectors that fit already are left as they are. */
 void fw_force_dir_fit(int32_t *dir_x, int32_t *dir_y);
 
+/* t = y / x in 2.30 below S_HI (|t| < 0.2582 < 2^-1.95). */
+#define FW_FORCE_T_FRAC 30
+/* (1 + u)^(-1/2) ~ 1 + u (a1 + u (a2 + u (a3 + u a4))) on u in [0, 1/15],
+ * 2.30: the cubic (f(u) - 1) / u interpolated at the four Chebyshev nodes
+ * of [0, 1/15]; |error| < 2.2e-9, exact at u = 0. */
+#define FW_FORCE_COS_A1 (-536870876)
+#define FW_FORCE_COS_A2 402635780
+#define FW_FORCE_COS_A3 (-334225590)
+#define FW_FORCE_COS_A4 261126907
+/* S_LO = 1/8 and the blend span S_HI - S_LO = 1/8 in 2.30 */
+#define FW_FORCE_SIN_LO_Q30 ((int64_t)1 << 27)
+#define FW_FORCE_BLEND_SPAN_LOG2_Q30 27
+#define FW_FORCE_BLEND_SPLIT 24
+
+/* cos theta (2.30) below S_HI from t = y / x (2.30) and the sign of x;
+ * *abs_sin_q30 = |t| cos theta (2.30), the blend's weight.
+ * Scaling and overflow: |t| < 2^28.05, t^2 < 2^56.1 >> 30 = u; Horner
+ * products |p u| < 2^30 2^26.1; |t| cos < 2^58.05. Inline (the fallback's
+ * per-sample path; a caller that does not use *abs_sin_q30 lets the
+ * compiler drop it). */
+static inline int64_t fw_force_cos_from_t_q30(int64_t t, int32_t x, int64_t *abs_sin_q30)
+{
+    int64_t at = t < 0 ? -t : t;
+    int64_t u = fw_math_asr_i64(at * at, FW_FORCE_T_FRAC);
+    int64_t p = FW_FORCE_COS_A4;
+    int64_t c;
+    p = FW_FORCE_COS_A3 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    p = FW_FORCE_COS_A2 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    p = FW_FORCE_COS_A1 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    c = FW_Q30_ONE + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+    *abs_sin_q30 = fw_math_asr_i64(at * c, FW_FORCE_T_FRAC);
+    return (x < 0) ? -c : c;
+}
+
+/* The blend of F_x,fb and F_x,cot for S_LO <= |sin theta| < S_HI (pN):
+ * n_pn = k_n K_n S_n, fx8 = F_x,cot with 8 fraction bits, mc = mu cos
+ * theta and as = |sin theta| (2.30). Out of line: the blend zone is a
+ * 7 deg band either side of the lever's axis.
+ * Scaling and overflow: F_x,fb with 8 fraction bits (as
+ * fw_force_fallback_pn, truncated): q 2^8 + (r 2^8) / den, |r| < den <
+ * 2^31; F_x = F_x,fb + w (F_x,cot - F_x,fb), w = (|s| - 1/8) / (1/8) in
+ * 2.30 / 2^27; the product w diff (|w| <= 2^27, |diff| < 2^51, 8 fraction
+ * bits) is formed from diff = dh 2^24 + dl, dl in [0, 2^24):
+ * |w dh| < 2^54, w dl < 2^51, and floor((w dh 2^24 + w dl) / 2^27) =
+ * floor(w dh / 8) + floor(((w dh mod 8) 2^24 + w dl) / 2^27), exact;
+ * rounded to pN once. */
+int64_t fw_force_blend_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int64_t mc, int64_t as);
+
 /* F_x below S_HI (pN): F_x,fb, blended with F_x,cot = fx8 / 2^8 when
- * blend (|sin theta| >= S_LO). Part of fw_force_solve_dir_pn, out of line
- * (it runs only near theta = 0, pi). */
-int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int32_t dir_x,
-                             int32_t dir_y, bool blend);
+ * blend (|sin theta| >= S_LO). Part of fw_force_solve_dir_pn; requires
+ * 15 y^2 < x^2 (so x != 0 and |t| < 15^(-1/2)). Inline; the blend itself
+ * is out of line (fw_force_blend_pn).
+ * Scaling and overflow: t = y 2^30 / x, |y| 2^30 < 2^62, one 64-bit
+ * division (truncated); mc = mu cos theta >> 30 (|mc| <= 2^30); then
+ * fw_force_fallback_pn or fw_force_blend_pn. */
+static FW_ALWAYS_INLINE int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8,
+                                                     int32_t dir_x, int32_t dir_y, bool blend)
+{
+    int64_t t = (int64_t)dir_y * ((int64_t)1 << FW_FORCE_T_FRAC) / dir_x;
+    int64_t as;
+    int64_t c = fw_force_cos_from_t_q30(t, dir_x, &as);
+    int64_t mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
+    if (!blend) {
+        return fw_force_fallback_pn(f, n_pn, mc);
+    }
+    return fw_force_blend_pn(f, n_pn, fx8, mc, as);
+}
 
 /* fw_force_solve_dir_pn for a direction that already satisfies
  * |dir_x|, |dir_y| <= 2^15 (fw_theta_push_pm leaves it so) and valid
@@ -165,6 +233,50 @@ static inline void fw_force_solve_dir_fit_pn(const fw_force_t *f, q23_t sn_v, q2
     }
 }
 
+/* fw_force_solve_dir_fit_pn for an instance with fast set (init: k_n K_n,
+ * k_theta K_l / h <= 2^18 pN/V, F_adh <= 2^26 pN) and signals within
+ * +-20 V (|S| <= 20 2^23, as fw_acq_step_fast_q23 returns them): the same
+ * force and flags, without the int32 clamps, which cannot act there.
+ * Direction as fw_force_solve_dir_fit_pn (|dir_x|, |dir_y| <= 2^15).
+ * Zones: 15 y^2 > x^2 is the cot zone less the zero vector (x^2 = 15 y^2
+ * has no integer solution but (0, 0)); the zero vector gives F_x = 0 with
+ * no flag, as in fw_force_solve_dir_fit_pn.
+ * Scaling and overflow: |gain S| <= 2^18 20 2^23 < 2^45.4, >> 15 rounded:
+ * |F_y|, |N| < 2^30.4 with 8 fraction bits (< 2^22.4 pN); cot zone
+ * |x / y| < 15^(1/2): |F_x,cot| < 2^32.4 (8 fraction bits, 2^24.4 pN);
+ * blend zone |x / y| < 63^(1/2): |F_x,cot| < 2^33.4; fallback
+ * |F_x,fb| <= |N + F_adh| / (1/2) < 2^27.2 pN; every blend lies between
+ * the two. |(2h/l) F_x| < 2^31 2^27.2 in 64 bits, so |F_z| < 2^28.3 pN.
+ * All outputs < 2^29 pN: no clamp, no FW_FLAG_SAT_FORCE. Inline (per
+ * sample). */
+static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                                        int32_t dir_x, int32_t dir_y,
+                                                        int32_t force_c_pn[3], uint32_t *flags)
+{
+    int64_t fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v,
+                                           FW_Q23_FRAC - FW_FORCE_XFRAC);
+    int64_t n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v,
+                                          FW_Q23_FRAC - FW_FORCE_XFRAC);
+    int64_t x2 = (int64_t)dir_x * dir_x;
+    int64_t y2 = (int64_t)dir_y * dir_y;
+    int32_t fx32 = 0;
+    if (15 * y2 > x2) {
+        fx32 = (int32_t)fw_math_rshift_round_i64(fy8 * dir_x / dir_y, FW_FORCE_XFRAC);
+    } else if (x2 != 0) {
+        /* below S_HI; in the blend zone y != 0 (63 y^2 >= x^2 > 0) */
+        bool blend = 63 * y2 >= x2;
+        int32_t n = (int32_t)fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC);
+        fx32 = (int32_t)fw_force_below_hi_pn(f, n, blend ? fy8 * dir_x / dir_y : 0, dir_x, dir_y,
+                                             blend);
+        *flags |= FW_FLAG_FX_UNOBSERVABLE;
+    }
+    force_c_pn[0] = fx32;
+    force_c_pn[1] = (int32_t)fw_math_rshift_round_i64(fy8, FW_FORCE_XFRAC);
+    force_c_pn[2] = (int32_t)fw_math_rshift_round_i64(
+        n8 - fw_math_rshift_round_i64((int64_t)f->two_h_over_l * fx32, FW_Q30_FRAC - FW_FORCE_XFRAC),
+        FW_FORCE_XFRAC);
+}
+
 /* Rotate a frame-C vector into frame A by R(alpha) (eq. 3); z unchanged.
  * cos/sin alpha in 2.30. Saturates (*sat). */
 void fw_force_rotate_pn(const int32_t v_c[3], q30_t cos_a, q30_t sin_a,
@@ -184,8 +296,8 @@ void fw_force_rotate_pn(const int32_t v_c[3], q30_t cos_a, q30_t sin_a,
 typedef struct {
     int32_t x_pm[FW_THETA_WINDOW];
     int32_t y_pm[FW_THETA_WINDOW];
-    int32_t pos;
-    int32_t fill;
+    int32_t pos;            /* where the next apex goes */
+    int32_t fill;           /* 0 after reset, FW_THETA_WINDOW once primed */
     int32_t min_disp_pm;
     uint64_t min_disp2_pm2; /* min_disp_pm^2 */
     int32_t dir_x;          /* latest direction, frame C, pm (|x|, |y| <= 2^15, */
@@ -197,6 +309,13 @@ typedef struct {
 
 fw_status_t fw_theta_init(fw_theta_t *t, int32_t min_disp_pm);
 void fw_theta_reset(fw_theta_t *t);
+
+/* Fill the whole window with the first apex after a reset (fill = WINDOW).
+ * Then the oldest entry is always the one after pos, and until
+ * FW_THETA_WINDOW samples have been pushed it still holds the first apex:
+ * d = p_now - p_first, as the window's definition asks, with no count kept
+ * per sample. Called by the pushes when fill is 0. */
+void fw_theta_prime(fw_theta_t *t, const int32_t apex_pm[2]);
 
 /* Push the apex (frame A) and update the direction vector (dir_x, dir_y)
  * only: the per-sample path (fw_board_step), inline. Returns true when the
@@ -223,15 +342,13 @@ static inline bool fw_theta_push_pm(fw_theta_t *t, const int32_t apex_pm[2], q30
     int64_t py;
     int64_t cx;
     int64_t cy;
+    if (t->fill == 0) {
+        fw_theta_prime(t, apex_pm);
+    }
     t->x_pm[t->pos] = apex_pm[0];
     t->y_pm[t->pos] = apex_pm[1];
-    if (t->fill < FW_THETA_WINDOW) {
-        t->fill++;
-        oldest = 0;
-    } else {
-        oldest = (t->pos + 1) & (FW_THETA_WINDOW - 1);
-    }
-    t->pos = (t->pos + 1) & (FW_THETA_WINDOW - 1);
+    oldest = (t->pos + 1) & (FW_THETA_WINDOW - 1);
+    t->pos = oldest;
     dx = (int64_t)apex_pm[0] - t->x_pm[oldest];
     dy = (int64_t)apex_pm[1] - t->y_pm[oldest];
     if ((((uint64_t)dx + ((uint64_t)1 << 31)) | ((uint64_t)dy + ((uint64_t)1 << 31))) <= UINT32_MAX) {
@@ -261,6 +378,52 @@ static inline bool fw_theta_push_pm(fw_theta_t *t, const int32_t apex_pm[2], q30
     }
     t->dir_x = (int32_t)cx;
     t->dir_y = (int32_t)cy;
+    t->known = true;
+    return true;
+}
+
+/* fw_theta_push_pm's fast window: |dx|, |dy| <= 2^14 pm over the window
+ * (16 nm; the paper's 200 nm/s at 10 kHz moves 0.3 nm). */
+#define FW_THETA_FAST_WINDOW_PM ((int64_t)1 << 14)
+
+/* fw_theta_push_pm for a primed window (fill = FW_THETA_WINDOW: any push
+ * since the reset) and |cos_a|, |sin_a| <= 2^30: the same state, direction,
+ * flags and result. aligned: the caller knows alpha = 0 exactly (cos_a =
+ * 2^30, sin_a = 0); the rotation into frame C is then the identity and is
+ * skipped (same result: 2^30 d rounded >> 30 is d). Outside the fast window
+ * (|dx| or |dy| > FW_THETA_FAST_WINDOW_PM, one compare on both) the push is
+ * fw_theta_push_pm's.
+ * Scaling and overflow: d in 64 bits; in the fast window the squares sum
+ * to <= 2^29 and the rotation's |c dx + s dy| <= 2^30 (|dx| + |dy|) <=
+ * 2^45, so |dir_x|, |dir_y| <= 2^15 after rounding: fw_theta_push_pm's
+ * range test and scaling cannot act. Inline (per sample). */
+static FW_ALWAYS_INLINE bool fw_theta_push_fast_pm(fw_theta_t *t, const int32_t apex_pm[2], q30_t cos_a,
+                                                   q30_t sin_a, bool aligned, uint32_t *flags)
+{
+    int32_t pos = t->pos;
+    int32_t next = (pos + 1) & (FW_THETA_WINDOW - 1);
+    int64_t dx = (int64_t)apex_pm[0] - t->x_pm[next];
+    int64_t dy = (int64_t)apex_pm[1] - t->y_pm[next];
+    if ((((uint64_t)dx + (uint64_t)FW_THETA_FAST_WINDOW_PM)
+         | ((uint64_t)dy + (uint64_t)FW_THETA_FAST_WINDOW_PM)) > (uint64_t)(2 * FW_THETA_FAST_WINDOW_PM)) {
+        return fw_theta_push_pm(t, apex_pm, cos_a, sin_a, flags);
+    }
+    t->x_pm[pos] = apex_pm[0];
+    t->y_pm[pos] = apex_pm[1];
+    t->pos = next;
+    if ((uint64_t)(dx * dx + dy * dy) < t->min_disp2_pm2) {
+        if (!t->known) {
+            *flags |= FW_FLAG_THETA_UNKNOWN;
+        }
+        return false;
+    }
+    if (aligned) {
+        t->dir_x = (int32_t)dx;
+        t->dir_y = (int32_t)dy;
+    } else {
+        t->dir_x = (int32_t)fw_math_rshift_round_i64((int64_t)cos_a * dx + (int64_t)sin_a * dy, FW_Q30_FRAC);
+        t->dir_y = (int32_t)fw_math_rshift_round_i64((int64_t)cos_a * dy - (int64_t)sin_a * dx, FW_Q30_FRAC);
+    }
     t->known = true;
     return true;
 }

@@ -191,4 +191,19 @@ static inline void fw_math_rotate_unit_i32(int32_t x, int32_t y, q30_t c, q30_t 
     *yr = fw_math_sat_i32(fw_math_rshift_round_i64(py, FW_Q30_FRAC), sat);
 }
 
+/* fw_math_rotate_unit_i32 for inputs whose result is known to fit: the
+ * per-sample fast paths, where init has bounded the inputs.
+ * Precondition |c|, |s| <= 2^30 and |x|, |y| < 2^30 (not checked).
+ * Scaling and overflow: 4.60 sums as in fw_math_rotate_unit_i32, rounded
+ * (half up) >> 30; |x'|, |y'| <= sqrt(2) 2^30 + 1 < 2^31, so no clamp is
+ * needed and none is done. Same results as fw_math_rotate_unit_i32 there. */
+static inline void fw_math_rotate_unit_fit_i32(int32_t x, int32_t y, q30_t c, q30_t s,
+                                               int32_t *xr, int32_t *yr)
+{
+    int64_t px = (int64_t)c * x - (int64_t)s * y;
+    int64_t py = (int64_t)s * x + (int64_t)c * y;
+    *xr = (int32_t)fw_math_rshift_round_i64(px, FW_Q30_FRAC);
+    *yr = (int32_t)fw_math_rshift_round_i64(py, FW_Q30_FRAC);
+}
+
 #endif /* FW_MATH_H */

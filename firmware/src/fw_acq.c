@@ -44,6 +44,15 @@ q23_t fw_acq_code_to_q23(int32_t bits, int32_t code)
     return code * (ACQ_SPAN_V << (FW_Q23_FRAC - bits));
 }
 
+/* uv_top - 1 of fw_acq_in_fast_range: t_top = ceil((2^bits 78125 - 39062)
+ * / 2^(bits-8)), all in int64 (< 2^33). */
+static int32_t acq_fast_hi_uv(int32_t bits)
+{
+    int64_t num = ((int64_t)FW_ACQ_RCP_ODD_UV << bits) - (int64_t)((FW_ACQ_RCP_ODD_UV - 1u) / 2u);
+    int64_t den = (int64_t)1 << (bits - 1 - FW_ACQ_RCP_POW2);
+    return (int32_t)((num + den - 1) / den) - FW_ACQ_FS_UV - 1;
+}
+
 fw_status_t fw_acq_init(fw_acq_t *a, int32_t bits, int32_t filter_log2)
 {
     if (a == NULL || !acq_bits_valid(bits) || filter_log2 < 0
@@ -56,6 +65,12 @@ fw_status_t fw_acq_init(fw_acq_t *a, int32_t bits, int32_t filter_log2)
     a->rcp_gain = acq_rcp_gain(bits);
     a->rcp_bias = ACQ_RCP_BIAS;
     a->half_codes = (int32_t)1 << (bits - 1);
+    /* K = FS G + B - 2^(bits-1) 2^47 (fw_acq_code_fast), formed in uint64:
+     * FS G < 2^64, and the difference is positive and < 2^47 */
+    a->rcp_bias_uv = (int64_t)((uint64_t)FW_ACQ_FS_UV * a->rcp_gain + a->rcp_bias
+                               - ((uint64_t)a->half_codes << FW_ACQ_RCP_SHIFT));
+    a->fast_lo_uv = -(FW_ACQ_FS_UV - 1);
+    a->fast_span_uv = (uint32_t)(acq_fast_hi_uv(bits) - a->fast_lo_uv) + 1u;
     a->baseline_v = 0;
     fw_acq_reset(a);
     return FW_OK;

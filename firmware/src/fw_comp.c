@@ -23,6 +23,7 @@ fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
     c->center_pm[1] = center_pm[1];
     c->half_range_pm = half_range_pm;
     c->kappa = kappa;
+    c->fast = cn_pm_per_v <= FW_COMP_FAST_C_MAX_PM_PER_V && cl_pm_per_v <= FW_COMP_FAST_C_MAX_PM_PER_V;
     return FW_OK;
 }
 

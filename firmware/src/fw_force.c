@@ -7,20 +7,6 @@
 #define FORCE_BLEND_SPAN (FW_FORCE_SIN_HI_Q15 - FW_FORCE_SIN_LO_Q15)
 #define FORCE_MU_G_MAX (FW_Q30_ONE / 2)   /* mu * 2h/l must stay <= 1/2 */
 
-/* t = y / x in 2.30 below S_HI (|t| < 0.2582 < 2^-1.95). */
-#define FORCE_T_FRAC 30
-/* (1 + u)^(-1/2) ~ 1 + u (a1 + u (a2 + u (a3 + u a4))) on u in [0, 1/15],
- * 2.30: the cubic (f(u) - 1) / u interpolated at the four Chebyshev nodes
- * of [0, 1/15]; |error| < 2.2e-9, exact at u = 0. */
-#define FORCE_COS_A1 (-536870876)
-#define FORCE_COS_A2 402635780
-#define FORCE_COS_A3 (-334225590)
-#define FORCE_COS_A4 261126907
-/* S_LO = 1/8 and the blend span S_HI - S_LO = 1/8 in 2.30 */
-#define FORCE_SIN_LO_Q30 ((int64_t)1 << 27)
-#define FORCE_BLEND_SPAN_LOG2_Q30 27
-#define FORCE_BLEND_SPLIT 24
-
 fw_status_t fw_force_init(fw_force_t *f, int32_t kn_pn_per_v, int32_t lat_pn_per_v,
                           int32_t tip_height_nm, int32_t lever_length_nm,
                           int32_t mu_ppm, int32_t adhesion_pn)
@@ -44,6 +30,9 @@ fw_status_t fw_force_init(fw_force_t *f, int32_t kn_pn_per_v, int32_t lat_pn_per
     f->two_h_over_l = (q30_t)g;
     f->mu = (q30_t)mu;
     f->adhesion_pn = adhesion_pn;
+    f->fast = kn_pn_per_v <= FW_FORCE_FAST_GAIN_MAX_PN_PER_V
+              && lat_pn_per_v <= FW_FORCE_FAST_GAIN_MAX_PN_PER_V
+              && adhesion_pn <= FW_FORCE_FAST_ADHESION_MAX_PN;
     return FW_OK;
 }
 
@@ -128,69 +117,30 @@ fw_status_t fw_force_solve_dir_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
     return FW_OK;
 }
 
-/* cos theta and |sin theta| (2.30) below S_HI from t = y / x (2.30).
- * Scaling and overflow: |t| < 2^28.05, t^2 < 2^56.1 >> 30 = u; Horner
- * products |p u| < 2^30 2^26.1; |t| cos < 2^58.05. */
-static void force_cos_from_t(int64_t t, int32_t x, int64_t *cos_q30, int64_t *abs_sin_q30)
+int64_t fw_force_blend_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int64_t mc, int64_t as)
 {
-    int64_t at = t < 0 ? -t : t;
-    int64_t u = fw_math_asr_i64(at * at, FORCE_T_FRAC);
-    int64_t p = FORCE_COS_A4;
-    int64_t c;
-    p = FORCE_COS_A3 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    p = FORCE_COS_A2 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    p = FORCE_COS_A1 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    c = FW_Q30_ONE + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    *abs_sin_q30 = fw_math_asr_i64(at * c, FORCE_T_FRAC);
-    *cos_q30 = (x < 0) ? -c : c;
-}
-
-int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int32_t dir_x,
-                             int32_t dir_y, bool blend)
-{
-    /* 15 y^2 < x^2: x != 0 and |t| < 15^(-1/2) */
-    int64_t t = (int64_t)dir_y * ((int64_t)1 << FORCE_T_FRAC) / dir_x;
-    int64_t c;
-    int64_t as;
-    int64_t fb;
+    int64_t den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
+    int64_t num = -mc * ((int64_t)n_pn + f->adhesion_pn);
+    int64_t fb = num / den;
     int64_t w;
     int64_t diff8;
     int64_t dh;
     int64_t hi;
     int64_t lo;
     int64_t hq;
-    int64_t mc;
-    int64_t den;
-    int64_t num;
-    force_cos_from_t(t, dir_x, &c, &as);
-    mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
-    if (!blend) {
-        return fw_force_fallback_pn(f, n_pn, mc);
-    }
-    /* F_x,fb with 8 fraction bits for the blend (as fw_force_fallback_pn,
-     * truncated): q 2^8 + (r 2^8) / den, |r| < den < 2^31 */
-    den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
-    num = -mc * ((int64_t)n_pn + f->adhesion_pn);
-    fb = num / den;
     fb = fb * ((int64_t)1 << FW_FORCE_XFRAC) + (num - fb * den) * ((int64_t)1 << FW_FORCE_XFRAC) / den;
-    /* F_x = F_x,fb + w (F_x,cot - F_x,fb), w = (|s| - 1/8) / (1/8) in
-     * 2.30 / 2^27; the product w diff (|w| <= 2^27, |diff| < 2^51, 8
-     * fraction bits, like F_x,fb here) is formed from diff = dh 2^24 + dl,
-     * dl in [0, 2^24): |w dh| < 2^54, w dl < 2^51, and
-     * floor((w dh 2^24 + w dl) / 2^27) =
-     * floor(w dh / 8) + floor(((w dh mod 8) 2^24 + w dl) / 2^27), exact. */
-    w = as - FORCE_SIN_LO_Q30;
-    w = (w < 0) ? 0 : ((w > FORCE_SIN_LO_Q30) ? FORCE_SIN_LO_Q30 : w);
+    w = as - FW_FORCE_SIN_LO_Q30;
+    w = (w < 0) ? 0 : ((w > FW_FORCE_SIN_LO_Q30) ? FW_FORCE_SIN_LO_Q30 : w);
     diff8 = fx8 - fb;
-    dh = fw_math_asr_i64(diff8, FORCE_BLEND_SPLIT);
+    dh = fw_math_asr_i64(diff8, FW_FORCE_BLEND_SPLIT);
     hi = w * dh;
-    lo = w * (diff8 - dh * ((int64_t)1 << FORCE_BLEND_SPLIT));
-    hq = fw_math_asr_i64(hi, FORCE_BLEND_SPAN_LOG2_Q30 - FORCE_BLEND_SPLIT);
+    lo = w * (diff8 - dh * ((int64_t)1 << FW_FORCE_BLEND_SPLIT));
+    hq = fw_math_asr_i64(hi, FW_FORCE_BLEND_SPAN_LOG2_Q30 - FW_FORCE_BLEND_SPLIT);
     return fw_math_rshift_round_i64(
         fb + hq
-            + fw_math_asr_i64((hi - hq * ((int64_t)1 << (FORCE_BLEND_SPAN_LOG2_Q30 - FORCE_BLEND_SPLIT)))
-                                  * ((int64_t)1 << FORCE_BLEND_SPLIT) + lo,
-                              FORCE_BLEND_SPAN_LOG2_Q30),
+            + fw_math_asr_i64((hi - hq * ((int64_t)1 << (FW_FORCE_BLEND_SPAN_LOG2_Q30 - FW_FORCE_BLEND_SPLIT)))
+                                  * ((int64_t)1 << FW_FORCE_BLEND_SPLIT) + lo,
+                              FW_FORCE_BLEND_SPAN_LOG2_Q30),
         FW_FORCE_XFRAC);
 }
 
@@ -230,6 +180,16 @@ void fw_theta_reset(fw_theta_t *t)
     t->cos_theta = 0;
     t->sin_theta = FW_Q15_MAX;
     t->known = false;
+}
+
+void fw_theta_prime(fw_theta_t *t, const int32_t apex_pm[2])
+{
+    int32_t i;
+    for (i = 0; i < FW_THETA_WINDOW; i++) {
+        t->x_pm[i] = apex_pm[0];
+        t->y_pm[i] = apex_pm[1];
+    }
+    t->fill = FW_THETA_WINDOW;
 }
 
 void fw_theta_step(fw_theta_t *t, const int32_t apex_pm[2], q30_t cos_a, q30_t sin_a,

@@ -113,6 +113,64 @@ static void test_acq_quantize_reciprocal_exact_at_every_code_boundary(void)
 #endif
 }
 
+/* The fast range (fw_acq_in_fast_range) ends one microvolt either side of
+ * its documented edges, and the fast kernel and step give the checked
+ * ones' code, signal and state for every input inside it (host: all
+ * 2 10^7 inputs per width; cross: a stride). */
+static void test_acq_fast_range_edges_and_fast_step_exact(void)
+{
+    static const struct { int line; int32_t bits; int32_t hi_uv; } rows[] = {
+        { __LINE__, 16, 9999847 },   /* 9999848 rounds to 2^15: clamped */
+        { __LINE__, 14, 9999389 },
+        { __LINE__, 12, 9997558 },
+    };
+    size_t w;
+    for (w = 0; w < sizeof rows / sizeof rows[0]; w++) {
+        int32_t bits = rows[w].bits;
+        int32_t half = (int32_t)1 << (bits - 1);
+        int32_t hi = rows[w].hi_uv;
+        int32_t stride = (AFM_SWEEP_N >= 1000000) ? 1 : 997;
+        fw_acq_t a;
+        fw_acq_t c;
+        int32_t uv;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, bits, 0));
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&c, bits, 0));
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&a, -7 * FW_Q23_ONE));
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&c, -7 * FW_Q23_ONE));
+        UNITY_TEST_ASSERT(fw_acq_in_fast_range(&a, -9999999), rows[w].line, "-(FS - 1) inside");
+        UNITY_TEST_ASSERT(!fw_acq_in_fast_range(&a, -10000000), rows[w].line, "-FS outside");
+        UNITY_TEST_ASSERT(fw_acq_in_fast_range(&a, hi), rows[w].line, "top edge inside");
+        UNITY_TEST_ASSERT(!fw_acq_in_fast_range(&a, hi + 1), rows[w].line, "top edge + 1 outside");
+        UNITY_TEST_ASSERT(!fw_acq_in_fast_range(&a, INT32_MIN), rows[w].line, "INT32_MIN outside");
+        UNITY_TEST_ASSERT(!fw_acq_in_fast_range(&a, INT32_MAX), rows[w].line, "INT32_MAX outside");
+        /* the edge is where the clamp starts: hi + 1 rounds to 2^(bits-1) */
+        UNITY_TEST_ASSERT_EQUAL_INT32(half - 1, fw_acq_code_fast(&a, hi), rows[w].line, "top code");
+        UNITY_TEST_ASSERT_EQUAL_INT32(half, fw_acq_code_fast(&a, hi + 1), rows[w].line, "clamp due");
+        UNITY_TEST_ASSERT_EQUAL_INT32(-half, fw_acq_code_fast(&a, -9999999), rows[w].line, "bottom code");
+        for (uv = -9999999;; uv = (hi - uv > stride) ? uv + stride : hi) {
+            int32_t code_c;
+            int32_t code_f;
+            q23_t v_c;
+            q23_t v_f;
+            bool sat;
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&c, uv, &code_c, &v_c, &sat));
+            v_f = fw_acq_step_fast_q23(&a, uv, &code_f);
+            if (code_c != code_f || v_c != v_f || a.last_v != c.last_v || sat) {
+                UNITY_TEST_ASSERT_EQUAL_INT32(code_c, code_f, rows[w].line, "code");
+                UNITY_TEST_ASSERT_EQUAL_INT32(v_c, v_f, rows[w].line, "signal");
+                UNITY_TEST_ASSERT_EQUAL_INT32(c.last_v, a.last_v, rows[w].line, "last_v");
+                UNITY_TEST_ASSERT(!sat, rows[w].line, "saturated inside the fast range");
+            }
+            if (uv == hi) {
+                break;
+            }
+        }
+        TEST_ASSERT_EQUAL_UINT32(0u, c.sat_count);
+    }
+    printf("EXHAUSTIVE acq fast range: step and fast step identical (stride %d)\n",
+           (AFM_SWEEP_N >= 1000000) ? 1 : 997);
+}
+
 static void test_acq_code_to_volts_exact(void)
 {
     /* 16 bit: one code = 20 V / 65536 = 305.17578125 uV = 2560 LSB of 9.23 */
@@ -211,6 +269,7 @@ int main(void)
     RUN_TEST(test_acq_rails_at_just_past_and_far_past_10v);
     RUN_TEST(test_acq_quantize_sweep_matches_double_exactly);
     RUN_TEST(test_acq_quantize_reciprocal_exact_at_every_code_boundary);
+    RUN_TEST(test_acq_fast_range_edges_and_fast_step_exact);
     RUN_TEST(test_acq_code_to_volts_exact);
     RUN_TEST(test_acq_init_rejects_bad_bits_and_filter);
     RUN_TEST(test_acq_step_sticky_flag_and_counter);

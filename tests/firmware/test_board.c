@@ -235,6 +235,258 @@ static void test_board_force_saturates_with_flag_and_counter(void)
     TEST_ASSERT_EQUAL_UINT32(1u, fw_board_sat_count(&b, FW_FLAG_SAT_FORCE));
 }
 
+/* ---- fast path ------------------------------------------------------------ */
+
+/* The fast path's domain at its edges (fw_board.h): the path init selects. */
+static void test_board_fast_path_selected_at_the_domain_edges(void)
+{
+    static const struct {
+        int line;
+        int32_t kn, lat, adh, cn, cl, filter, scan_mdeg;
+        fw_board_path_t path;
+    } rows[] = {
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 0, 270000, FW_BOARD_PATH_FAST_ALIGNED },
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 0, 630000, FW_BOARD_PATH_FAST_ALIGNED },
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 0, -90000, FW_BOARD_PATH_FAST_ALIGNED },
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 0, 270001, FW_BOARD_PATH_FAST },
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 0, 300000, FW_BOARD_PATH_FAST },
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 0, 90000, FW_BOARD_PATH_FAST },
+        { __LINE__, 1 << 18, 1 << 18, 1 << 26, 1 << 21, 1 << 21, 0, 270000, FW_BOARD_PATH_FAST_ALIGNED },
+        { __LINE__, (1 << 18) + 1, 37900, 5000, 23100, 23100, 0, 270000, FW_BOARD_PATH_CHECKED },
+        { __LINE__, 10680, (1 << 18) + 1, 5000, 23100, 23100, 0, 270000, FW_BOARD_PATH_CHECKED },
+        { __LINE__, 10680, 37900, (1 << 26) + 1, 23100, 23100, 0, 270000, FW_BOARD_PATH_CHECKED },
+        { __LINE__, 10680, 37900, 5000, (1 << 21) + 1, 23100, 0, 270000, FW_BOARD_PATH_CHECKED },
+        { __LINE__, 10680, 37900, 5000, 23100, (1 << 21) + 1, 0, 300000, FW_BOARD_PATH_CHECKED },
+        { __LINE__, 10680, 37900, 5000, 23100, 23100, 1, 270000, FW_BOARD_PATH_CHECKED },
+        { __LINE__, 10680, 37900, 0, 0, 0, 0, 270000, FW_BOARD_PATH_FAST_ALIGNED },
+    };
+    size_t i;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        fw_board_config_t c;
+        fw_board_t x;
+        paper_config(&c);
+        c.kn_Kn_pn_per_v = rows[i].kn;
+        c.lat_pn_per_v = rows[i].lat;
+        c.adhesion_pn = rows[i].adh;
+        c.cn_pm_per_v = rows[i].cn;
+        c.cl_pm_per_v = rows[i].cl;
+        c.filter_log2 = rows[i].filter;
+        c.scan_angle_mdeg = rows[i].scan_mdeg;
+        UNITY_TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&x, &c), rows[i].line, "init");
+        UNITY_TEST_ASSERT_EQUAL_INT(rows[i].path, x.path_cfg, rows[i].line, "path");
+        /* the checked path until a sample has been stepped */
+        UNITY_TEST_ASSERT_EQUAL_UINT32(0u, x.fast_span_uv, rows[i].line, "span after init");
+    }
+}
+
+/* A configuration for the sweep, kind 0..5: the paper's lever (0..2), or
+ * the fast domain's corner (3..5: every bound at its limit, mu as large as
+ * init allows); a scan angle of 270 deg (aligned), a random one, or a
+ * quadrant. */
+static void sweep_config(tu_rng_t *r, uint32_t kind, fw_board_config_t *c)
+{
+    paper_config(c);
+    if (kind >= 3u) {
+        c->kn_Kn_pn_per_v = 1 << 18;
+        c->lat_pn_per_v = 1 << 18;
+        c->adhesion_pn = 1 << 26;
+        c->cn_pm_per_v = 1 << 21;
+        c->cl_pm_per_v = 1 << 21;
+        c->mu_ppm = 1000000;
+        c->tip_height_nm = 25000;   /* 2h/l = 1/2: mu 2h/l = 1/2 */
+    }
+    switch (kind % 3u) {
+    case 0u:
+        c->scan_angle_mdeg = 270000;
+        break;
+    case 1u:
+        c->scan_angle_mdeg = tu_rng_range(r, -720000, 720000);
+        break;
+    default:
+        c->scan_angle_mdeg = 90000 * tu_rng_range(r, 0, 3);
+        break;
+    }
+    c->adc_bits = (tu_rng_u32(r) % 4u == 0u) ? 12 + 2 * tu_rng_range(r, 0, 1) : 16;
+    c->theta_min_disp_pm = tu_rng_range(r, 0, 3000);
+}
+
+/* An input near a boundary the fast path must leave to the checked one. */
+static int32_t sweep_edge_uv(tu_rng_t *r, const fw_board_t *x)
+{
+    int32_t top = x->acq_sn.fast_lo_uv + (int32_t)x->acq_sn.fast_span_uv;   /* first clamped */
+    switch (tu_rng_u32(r) % 8u) {
+    case 0u: return 10000000;
+    case 1u: return -10000000;
+    case 2u: return 9999999;
+    case 3u: return -9999999;
+    case 4u: return top - 1;
+    case 5u: return top;
+    case 6u: return (tu_rng_u32(r) & 1u) ? INT32_MAX : INT32_MIN;
+    default: return tu_rng_range(r, -30000000, 30000000);
+    }
+}
+
+static void assert_boards_identical(const fw_board_t *f, const fw_board_t *c, const fw_sample_out_t *of,
+                                    const fw_sample_out_t *oc, long i)
+{
+    int k;
+    bool same = memcmp(of, oc, sizeof *of) == 0
+                && f->sn_v == c->sn_v && f->sl_v == c->sl_v && f->z_pm == c->z_pm
+                && f->sn_ref_v == c->sn_ref_v && f->z_ref_pm == c->z_ref_pm
+                && f->have_ref == c->have_ref && f->ref_live == c->ref_live
+                && f->stepped == c->stepped && f->fast_span_uv == c->fast_span_uv
+                && f->sticky_flags == c->sticky_flags && f->sat_force_count == c->sat_force_count
+                && f->acq_sn.last_v == c->acq_sn.last_v && f->acq_sl.last_v == c->acq_sl.last_v
+                && f->acq_sn.sat_count == c->acq_sn.sat_count && f->acq_sl.sat_count == c->acq_sl.sat_count
+                && f->acq_sn.sat_sticky == c->acq_sn.sat_sticky && f->acq_sl.sat_sticky == c->acq_sl.sat_sticky
+                && f->theta.pos == c->theta.pos && f->theta.fill == c->theta.fill
+                && f->theta.dir_x == c->theta.dir_x && f->theta.dir_y == c->theta.dir_y
+                && f->theta.known == c->theta.known;
+    for (k = 0; k < FW_THETA_WINDOW; k++) {
+        same = same && f->theta.x_pm[k] == c->theta.x_pm[k] && f->theta.y_pm[k] == c->theta.y_pm[k];
+    }
+    if (!same) {
+        printf("sample %ld: fast F = (%ld, %ld, %ld) flags 0x%lx, checked F = (%ld, %ld, %ld) flags 0x%lx\n", i,
+               (long)of->force_pn[0], (long)of->force_pn[1], (long)of->force_pn[2], (unsigned long)of->flags,
+               (long)oc->force_pn[0], (long)oc->force_pn[1], (long)oc->force_pn[2], (unsigned long)oc->flags);
+        TEST_FAIL_MESSAGE("fast and checked paths differ");
+    }
+}
+
+/* fw_board_step (fast path wherever it is open) against
+ * fw_board_step_checked on the same inputs: bit-identical outputs and
+ * state over AFM_SWEEP_N samples (10^6 on the host), in segments with their
+ * own configuration (inside the fast domain, at its corner), baseline,
+ * speed and heading; signals mostly inside the fast range with excursions
+ * to the rails and the top code, theta moves past the fast window, piezo
+ * jumps that push the apex past int32, baseline records and resets. Each
+ * of the fast path's branches is counted and must have run. */
+static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
+{
+    /* at least two segments of each configuration kind */
+    const long seg = (AFM_SWEEP_N / 12 < 5000) ? AFM_SWEEP_N / 12 : 5000;
+    static fw_board_t f;
+    static fw_board_t c;
+    tu_rng_t r;
+    long i;
+    long n_fast = 0;
+    long n_fast_aligned = 0;
+    long n_fast_unobs = 0;
+    long n_fast_pos = 0;
+    long n_fast_unknown = 0;
+    long n_fast_far = 0;
+    double x = 0.0;
+    double y = 0.0;
+    double heading = 0.0;
+    double turn = 0.0;
+    double speed = 300.0;
+    int32_t z = 0;
+    int32_t sn_uv = 0;
+    int32_t sl_uv = 0;
+    int32_t noise_uv = 1000;
+    int32_t oldest[2];
+    tu_rng_seed(&r, 0xFA57ull);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        fw_sample_in_t in;
+        fw_sample_out_t of;
+        fw_sample_out_t oc;
+        bool fast;
+        if (i % seg == 0) {
+            fw_board_config_t cfg_i;
+            q23_t base_n = tu_rng_range(&r, -10 * FW_Q23_ONE, 10 * FW_Q23_ONE);
+            q23_t base_l = tu_rng_range(&r, -10 * FW_Q23_ONE, 10 * FW_Q23_ONE);
+            sweep_config(&r, (uint32_t)((i / seg) % 6), &cfg_i);
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&f, &cfg_i));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&c, &cfg_i));
+            TEST_ASSERT_TRUE(f.path_cfg != FW_BOARD_PATH_CHECKED);
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&f.acq_sn, base_n));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&c.acq_sn, base_n));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&f.acq_sl, base_l));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&c.acq_sl, base_l));
+            x = tu_rng_range(&r, -2000000000, 2000000000);
+            y = tu_rng_range(&r, -2000000000, 2000000000);
+            /* mostly a few mV (the apex then moves by the piezo's step),
+             * sometimes volts (it jumps by microns with C at 2^21 pm/V) */
+            noise_uv = (tu_rng_u32(&r) % 4u == 0u) ? tu_rng_range(&r, 0, 3000000) : tu_rng_range(&r, 0, 3000);
+        }
+        if (i % 400 == 0) {   /* a new leg: straight, curving, or along the lever */
+            uint32_t kind = tu_rng_u32(&r) % 3u;
+            double alpha = (f.cfg.scan_angle_mdeg - 270000) * 1e-3 * TU_PI / 180.0;
+            speed = 20.0 + 1500.0 * tu_rng_unit(&r);
+            heading = 2.0 * TU_PI * tu_rng_unit(&r);
+            turn = (kind == 1u) ? (tu_rng_unit(&r) - 0.5) * 0.02 : 0.0;
+            if (kind == 2u) {
+                heading = alpha + ((tu_rng_u32(&r) & 1u) ? 0.0 : TU_PI) + (tu_rng_unit(&r) - 0.5) * 0.6;
+            }
+        }
+        heading += turn;
+        x += speed * cos(heading);
+        y += speed * sin(heading);
+        if (tu_rng_u32(&r) % 1000u == 0u) {   /* a jump of the piezo */
+            x = tu_rng_range(&r, INT32_MIN, INT32_MAX);
+            y = tu_rng_range(&r, INT32_MIN, INT32_MAX);
+        }
+        x = (x > INT32_MAX) ? INT32_MAX : ((x < INT32_MIN) ? INT32_MIN : x);
+        y = (y > INT32_MAX) ? INT32_MAX : ((y < INT32_MIN) ? INT32_MIN : y);
+        z += tu_rng_range(&r, -300, 300);
+        sn_uv += tu_rng_range(&r, -noise_uv / 64 - 1, noise_uv / 64 + 1);
+        sl_uv += tu_rng_range(&r, -noise_uv / 64 - 1, noise_uv / 64 + 1);
+        sn_uv = (sn_uv > 9999999) ? 9999999 : ((sn_uv < -9999999) ? -9999999 : sn_uv);
+        sl_uv = (sl_uv > 9999999) ? 9999999 : ((sl_uv < -9999999) ? -9999999 : sl_uv);
+        in.sn_uv = sn_uv + tu_rng_range(&r, -noise_uv, noise_uv);
+        in.sl_uv = sl_uv + tu_rng_range(&r, -noise_uv, noise_uv);
+        if (tu_rng_u32(&r) % 100u == 0u) {
+            in.sn_uv = sweep_edge_uv(&r, &f);
+        }
+        if (tu_rng_u32(&r) % 100u == 0u) {
+            in.sl_uv = sweep_edge_uv(&r, &f);
+        }
+        in.piezo_pm[0] = (int32_t)lround(x);
+        in.piezo_pm[1] = (int32_t)lround(y);
+        in.piezo_pm[2] = z;
+        if (tu_rng_u32(&r) % 500u == 0u) {   /* one sample at a corner of the piezo's range */
+            in.piezo_pm[0] = (tu_rng_u32(&r) & 1u) ? INT32_MAX : INT32_MIN;
+            in.piezo_pm[1] = (tu_rng_u32(&r) & 1u) ? INT32_MAX : INT32_MIN;
+        }
+        fast = (uint32_t)in.sn_uv - (uint32_t)f.fast_lo_uv < f.fast_span_uv
+               && (uint32_t)in.sl_uv - (uint32_t)f.fast_lo_uv < f.fast_span_uv;
+        oldest[0] = f.theta.x_pm[(f.theta.pos + 1) & (FW_THETA_WINDOW - 1)];
+        oldest[1] = f.theta.y_pm[(f.theta.pos + 1) & (FW_THETA_WINDOW - 1)];
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&f, &in, &of));
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_checked(&c, &in, &oc));
+        assert_boards_identical(&f, &c, &of, &oc, i);
+        {
+            int64_t dx = (int64_t)of.tip_pm[0] - oldest[0];
+            int64_t dy = (int64_t)of.tip_pm[1] - oldest[1];
+            bool far = dx > FW_THETA_FAST_WINDOW_PM || dx < -FW_THETA_FAST_WINDOW_PM
+                       || dy > FW_THETA_FAST_WINDOW_PM || dy < -FW_THETA_FAST_WINDOW_PM;
+            n_fast_far += fast && far;
+        }
+        n_fast += fast;
+        n_fast_aligned += fast && f.path_cfg == FW_BOARD_PATH_FAST_ALIGNED;
+        n_fast_unobs += fast && (of.flags & FW_FLAG_FX_UNOBSERVABLE) != 0u;
+        n_fast_pos += fast && (of.flags & FW_FLAG_SAT_POS) != 0u;
+        n_fast_unknown += fast && (of.flags & FW_FLAG_THETA_UNKNOWN) != 0u;
+        if (tu_rng_u32(&r) % 10000u == 0u) {
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&f));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&c));
+        }
+        if (tu_rng_u32(&r) % 20000u == 0u) {
+            fw_board_reset(&f);
+            fw_board_reset(&c);
+        }
+    }
+    printf("SWEEP board fast vs checked n=%ld identical; fast %ld (aligned %ld): fallback/blend %ld,"
+           " apex past int32 %ld, theta unknown %ld, beyond the fast window %ld\n",
+           (long)AFM_SWEEP_N, n_fast, n_fast_aligned, n_fast_unobs, n_fast_pos, n_fast_unknown, n_fast_far);
+    TEST_ASSERT_TRUE(n_fast > AFM_SWEEP_N / 2);
+    TEST_ASSERT_TRUE(n_fast_aligned > 0 && n_fast_aligned < n_fast);
+    TEST_ASSERT_TRUE(n_fast_unobs > 0);
+    TEST_ASSERT_TRUE(n_fast_pos > 0);
+    TEST_ASSERT_TRUE(n_fast_unknown > 0);
+    TEST_ASSERT_TRUE(n_fast_far > 0 && n_fast_far < n_fast / 2);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -246,5 +498,7 @@ int main(void)
     RUN_TEST(test_board_piezo_cmd_puts_apex_at_joystick_target);
     RUN_TEST(test_board_baseline_removes_offset);
     RUN_TEST(test_board_force_saturates_with_flag_and_counter);
+    RUN_TEST(test_board_fast_path_selected_at_the_domain_edges);
+    RUN_TEST(test_board_fast_path_bit_identical_to_checked_over_sweep);
     return UNITY_END();
 }

@@ -365,6 +365,121 @@ static void test_force_dir_fit_keeps_direction_to_2_pow_minus_13(void)
     TEST_ASSERT_TRUE(tu_err_worst_lsb(&e) <= 1.0);
 }
 
+/* The fast solver against fw_force_solve_dir_fit_pn at the fast domain's
+ * corner (gains 2^18 pN/V, adhesion 2^26 pN, mu 2h/l = 1/2) and for the
+ * paper's probe: signals anywhere in +-20 V (with the ends), directions of
+ * every length up to 2^15 including the axes, the zero vector and the zone
+ * boundaries 15 y^2 = x^2 +- 1, 63 y^2 = x^2 +- 1: identical forces and
+ * flags, never FW_FLAG_SAT_FORCE. */
+static void test_force_fast_solver_identical_to_checked_at_domain_corner(void)
+{
+    tu_rng_t rng;
+    fw_force_t g[2];
+    long i;
+    const q23_t s_max = 20 * FW_Q23_ONE;
+    tu_rng_seed(&rng, 0xF0F0ull);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_init(&g[0], 1 << 18, 1 << 18, 25000, 100000, 1000000, 1 << 26));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_init(&g[1], KN, LAT, H_NM, L_NM, MU_PPM, ADH));
+    TEST_ASSERT_TRUE(g[0].fast && g[1].fast);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        const fw_force_t *ff = &g[i & 1];
+        uint32_t pick = tu_rng_u32(&rng) % 8u;
+        q23_t sn = (pick == 0u) ? s_max : ((pick == 1u) ? -s_max : tu_rng_range(&rng, -s_max, s_max));
+        q23_t sl = (pick == 2u) ? s_max : ((pick == 3u) ? -s_max : tu_rng_range(&rng, -s_max, s_max));
+        int sh = (int)(tu_rng_u32(&rng) % 16u);
+        int32_t x = tu_rng_range(&rng, -FW_FORCE_DIR_MAX, FW_FORCE_DIR_MAX) >> sh;
+        int32_t y = tu_rng_range(&rng, -FW_FORCE_DIR_MAX, FW_FORCE_DIR_MAX) >> sh;
+        int32_t fc_c[3];
+        int32_t fc_f[3];
+        uint32_t fl_c = 0;
+        uint32_t fl_f = 0;
+        switch (tu_rng_u32(&rng) % 8u) {
+        case 0u:   /* on a zone boundary, one LSB either side */
+            y = tu_rng_range(&rng, -8000, 8000);
+            x = (int32_t)lround(sqrt((tu_rng_u32(&rng) & 1u) ? 15.0 : 63.0) * y) + tu_rng_range(&rng, -1, 1);
+            break;
+        case 1u:
+            x = (tu_rng_u32(&rng) & 1u) ? 0 : x;
+            y = (tu_rng_u32(&rng) & 1u) ? 0 : y;
+            break;
+        default:
+            break;
+        }
+        fw_force_solve_dir_fit_pn(ff, sn, sl, x, y, fc_c, &fl_c);
+        fw_force_solve_dir_fast_pn(ff, sn, sl, x, y, fc_f, &fl_f);
+        if (fc_c[0] != fc_f[0] || fc_c[1] != fc_f[1] || fc_c[2] != fc_f[2] || fl_c != fl_f
+            || (fl_c & FW_FLAG_SAT_FORCE) != 0u) {
+            printf("S_n %ld S_l %ld dir (%ld, %ld)\n", (long)sn, (long)sl, (long)x, (long)y);
+            TEST_ASSERT_EQUAL_INT32_ARRAY(fc_c, fc_f, 3);
+            TEST_ASSERT_EQUAL_UINT32(fl_c, fl_f);
+            TEST_ASSERT_EQUAL_UINT32(0u, fl_c & FW_FLAG_SAT_FORCE);
+        }
+    }
+    printf("SWEEP force fast vs checked n=%ld identical\n", (long)AFM_SWEEP_N);
+}
+
+/* The fast push against fw_theta_push_pm on random walks (steps inside
+ * and past the fast window, jumps, stops), random alpha and alpha = 0 with
+ * the aligned specialisation: identical state, flags and result. */
+static void test_theta_fast_push_identical_to_checked(void)
+{
+    tu_rng_t rng;
+    long i;
+    fw_theta_t tc;
+    fw_theta_t tf;
+    q30_t ca = FW_Q30_ONE;
+    q30_t sa = 0;
+    bool aligned = true;
+    int32_t p[2] = { 0, 0 };
+    int32_t step = 100;
+    tu_rng_seed(&rng, 0x7E7Aull);
+    for (i = 0; i < AFM_SWEEP_N; i++) {
+        uint32_t fl_c = 0;
+        uint32_t fl_f = 0;
+        bool mc;
+        bool mf;
+        int k;
+        if (i % 1000 == 0) {
+            int32_t md = tu_rng_range(&rng, 0, 3000);
+            aligned = (tu_rng_u32(&rng) % 3u) == 0u;
+            if (aligned) {
+                ca = FW_Q30_ONE;
+                sa = 0;
+            } else {
+                fw_math_sincos_q30(tu_rng_u32(&rng), &sa, &ca);
+            }
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&tc, md));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&tf, md));
+            step = tu_rng_range(&rng, 0, 2000);
+            p[0] = (int32_t)tu_rng_u32(&rng);
+            p[1] = (int32_t)tu_rng_u32(&rng);
+            /* the fast push needs a primed window */
+            (void)fw_theta_push_pm(&tc, p, ca, sa, &fl_c);
+            (void)fw_theta_push_pm(&tf, p, ca, sa, &fl_f);
+        }
+        if (tu_rng_u32(&rng) % 500u == 0u) {
+            p[0] = (int32_t)tu_rng_u32(&rng);
+            p[1] = (int32_t)tu_rng_u32(&rng);
+        } else {
+            p[0] = (int32_t)((uint32_t)p[0] + (uint32_t)tu_rng_range(&rng, -step, step));
+            p[1] = (int32_t)((uint32_t)p[1] + (uint32_t)tu_rng_range(&rng, -step, step));
+        }
+        mc = fw_theta_push_pm(&tc, p, ca, sa, &fl_c);
+        mf = fw_theta_push_fast_pm(&tf, p, ca, sa, aligned, &fl_f);
+        TEST_ASSERT_EQUAL(mc, mf);
+        TEST_ASSERT_EQUAL_UINT32(fl_c, fl_f);
+        TEST_ASSERT_EQUAL_INT32(tc.dir_x, tf.dir_x);
+        TEST_ASSERT_EQUAL_INT32(tc.dir_y, tf.dir_y);
+        TEST_ASSERT_EQUAL_INT32(tc.pos, tf.pos);
+        TEST_ASSERT_EQUAL(tc.known, tf.known);
+        for (k = 0; k < FW_THETA_WINDOW; k++) {
+            TEST_ASSERT_EQUAL_INT32(tc.x_pm[k], tf.x_pm[k]);
+            TEST_ASSERT_EQUAL_INT32(tc.y_pm[k], tf.y_pm[k]);
+        }
+    }
+    printf("SWEEP theta fast push vs checked n=%ld identical\n", (long)AFM_SWEEP_N);
+}
+
 /* ---- theta estimator ------------------------------------------------------ */
 
 static void test_theta_unknown_until_min_displacement_then_held(void)
@@ -525,6 +640,8 @@ int main(void)
     RUN_TEST(test_force_dir_zero_vector_is_90_deg_without_flag);
     RUN_TEST(test_force_dir_sweep_matches_double_model);
     RUN_TEST(test_force_dir_fit_keeps_direction_to_2_pow_minus_13);
+    RUN_TEST(test_force_fast_solver_identical_to_checked_at_domain_corner);
+    RUN_TEST(test_theta_fast_push_identical_to_checked);
     RUN_TEST(test_theta_unknown_until_min_displacement_then_held);
     RUN_TEST(test_theta_rotates_frame_a_motion_into_frame_c);
     RUN_TEST(test_theta_push_direction_matches_rotated_displacement);
