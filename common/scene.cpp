@@ -21,6 +21,7 @@ const std::vector<EffectInfo> &known_effects()
         {"thermal_drift", true, "sample drift against the tip: linear plus random walk"},
         {"wire_flexibility", true, "wires as chains of N bending segments (sample.wire.segments)"},
         {"lithography", true, "trenches inscribed above a load threshold (sample.lithography)"},
+        {"roughness", true, "random rough substrate (sample.roughness_rms_nm, sample.roughness_corr_nm)"},
     };
     return effects;
 }
@@ -220,7 +221,7 @@ Scene load_scene(const std::string &path)
     r.only_keys(smp, "sample", {"substrate", "field_nm", "field_center_nm", "tip_substrate", "particle_substrate",
                                 "contact_stiffness_N_per_m", "photodiode_noise_V", "temperature_K",
                                 "drift_nm_per_min", "drift_walk_nm_per_sqrt_min", "slope_deg", "wire",
-                                "lithography"});
+                                "lithography", "roughness_rms_nm", "roughness_corr_nm"});
     s.substrate = r.str(smp, "sample", "substrate", nullptr, {"glass", "tilted_glass", "polycarbonate"});
     if (s.substrate == "tilted_glass") {
         s.slope_deg = r.num(smp, "sample", "slope_deg", nullptr, 0, 45, true);
@@ -255,8 +256,15 @@ Scene load_scene(const std::string &path)
     }
     if (std::find(s.effects.begin(), s.effects.end(), "lithography") != s.effects.end() && s.substrate != "polycarbonate")
         r.fail("sample.substrate", "the lithography effect needs a polycarbonate substrate, got " + Reader::show(smp["substrate"]));
-    s.field_nm = r.num(smp, "sample", "field_nm", nullptr, 0, 90000, true);
-    if (smp["field_center_nm"].IsDefined()) s.field_center_nm = r.vec2(smp["field_center_nm"], "sample.field_center_nm", -45000, 45000);
+    // The field must lie inside the scanner's range.
+    const double range_half = kScannerRangeXY_nm / 2;
+    s.field_nm = r.num(smp, "sample", "field_nm", nullptr, 0, kScannerRangeXY_nm, true);
+    if (smp["field_center_nm"].IsDefined()) {
+        s.field_center_nm = r.vec2(smp["field_center_nm"], "sample.field_center_nm", -range_half, range_half);
+        if (std::fabs(s.field_center_nm.x) + s.field_nm / 2 > range_half || std::fabs(s.field_center_nm.y) + s.field_nm / 2 > range_half)
+            r.fail("sample.field_center_nm", "the field (field_nm " + Reader::show(smp["field_nm"]) + " around " +
+                                                 Reader::show(smp["field_center_nm"]) + ") must lie inside the scanner's range, +-45000 nm");
+    }
     s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0});
     s.particle_substrate = read_contact(r, smp["particle_substrate"], "sample.particle_substrate", ContactSpec{0.3, 3.0, 0, 0});
     s.particle_contact_stiffness_N_per_m = r.num(smp, "sample", "contact_stiffness_N_per_m", &d.particle_contact_stiffness_N_per_m, 0, 1e4, true);
@@ -264,6 +272,8 @@ Scene load_scene(const std::string &path)
     s.temperature_K = r.num(smp, "sample", "temperature_K", &d.temperature_K, 0, 1000, true);
     if (smp["drift_nm_per_min"].IsDefined()) s.drift_nm_per_min = r.vec2(smp["drift_nm_per_min"], "sample.drift_nm_per_min", -1e4, 1e4);
     s.drift_walk_nm_per_sqrt_min = r.num(smp, "sample", "drift_walk_nm_per_sqrt_min", &d.drift_walk_nm_per_sqrt_min, 0, 1e4);
+    s.roughness_rms_nm = r.num(smp, "sample", "roughness_rms_nm", &d.roughness_rms_nm, 0, 1000);
+    s.roughness_corr_nm = r.num(smp, "sample", "roughness_corr_nm", &d.roughness_corr_nm, 0, 1e5, true);
 
     // probe
     YAML::Node pr = root["probe"];

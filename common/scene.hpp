@@ -19,6 +19,12 @@ public:
 
 struct Vec2 { double x = 0, y = 0; };
 
+// The scanner's range (physics.md section 12: 90 um x 90 um, 5 um in z),
+// about its centre, the origin of frame A. The validator keeps the field
+// inside it; the simulator clamps set points to it.
+constexpr double kScannerRangeXY_nm = 90000.0;
+constexpr double kScannerRangeZ_nm = 5000.0;
+
 struct ProbeSpec {
     double kn_N_per_m = 0.12;           // normal spring constant k_n
     double Kn_nm_per_V = 89.0;          // normal gain K_n
@@ -116,6 +122,8 @@ struct Scene {
     double temperature_K = 300.0;
     Vec2 drift_nm_per_min;              // linear thermal drift of the sample (thermal_drift)
     double drift_walk_nm_per_sqrt_min = 0.0;  // random-walk part of the drift (thermal_drift)
+    double roughness_rms_nm = 1.0;      // rms height of the substrate's roughness (roughness)
+    double roughness_corr_nm = 50.0;    // its correlation length: autocorrelation rms^2 exp(-r^2 / corr^2)
     ProbeSpec probe;
     int adc_bits = 16;
     std::vector<ParticleSpec> particles;

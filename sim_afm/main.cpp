@@ -118,9 +118,14 @@ struct Sim {
             line.dx_nm = dx;
             line.n = m->nx;
             line.height_nm.resize(m->nx);
-            line.defl_v.assign(m->nx, world.scan_sn_v());
-            line.lat_v.assign(m->nx, world.scan_sl_v());
-            for (int i = 0; i < m->nx; ++i) line.height_nm[i] = world.image_height(line.x0_nm + i * dx, line.y_nm);
+            line.defl_v.resize(m->nx);
+            line.lat_v.resize(m->nx);
+            for (int i = 0; i < m->nx; ++i) {
+                const afm::sim::ScanPoint p = world.scan_point(line.x0_nm + i * dx, line.y_nm);
+                line.height_nm[i] = p.height_nm;
+                line.defl_v[i] = p.sn_v;
+                line.lat_v[i] = p.sl_v;
+            }
             wait_for_log(-1, scan_lines_sent - kLogWindowLines);
             lc.publish(AFM_CH_AFM_SCAN_LINE, &line);
             ++scan_lines_sent;
@@ -313,7 +318,9 @@ int main(int argc, char **argv)
         for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
         rep << "],\n  \"blocks\": " << blocks << ",\n  \"samples\": " << blocks * spb
             << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits << ",\n  \"injected_drops\": " << dropped
-            << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent << "\n}\n";
+            << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
+            << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()
+            << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped() << "\n}\n";
         rep.close();
         if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");
         for (int i = 0; i < 3; ++i) {

@@ -69,6 +69,14 @@ World::World(const Scene &s)
         normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y
     }
     trench_grid_ = Grid(50.0);
+    if (s.has_effect("roughness")) {
+        rough_ = std::make_unique<RoughSurface>(s.roughness_rms_nm, s.roughness_corr_nm, s.seed);
+        base_ = &World::base_rough;
+        normal_at_ = &World::normal_rough;
+    } else {
+        base_ = &World::base_plane;
+        normal_at_ = &World::normal_plane;
+    }
 
     const Vec2 start = s.op.path_nm.front();
     piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
@@ -87,7 +95,11 @@ void World::near(const Eigen::Vector2d &p, double radius, std::vector<int> &out)
 
 void World::command(const Eigen::Vector2d &piezo_nm, double load_nN, bool engaged)
 {
-    target_ = piezo_nm;
+    // Beyond the scanner's range the set point is clamped to it (counted per
+    // sample in step()).
+    const double half = kScannerRangeXY_nm / 2;
+    target_ = piezo_nm.cwiseMax(-half).cwiseMin(half);
+    target_clamped_ = target_ != piezo_nm;
     load_nN_ = load_nN;
     engaged_ = engaged;
 }
@@ -97,8 +109,8 @@ void World::relax()
     // Apex held by the lever (stiffness K_ about its loaded rest position) and
     // by contacts; particles by contacts and their friction threshold. Contact
     // geometry in the sample's frame (apex - drift).
-    const Eigen::Vector2d rest = piezo_ + lever_.normal_offset(engaged_ ? load_nN_ : 0.0);
-    if (!engaged_) {
+    const Eigen::Vector2d rest = piezo_ + lever_.normal_offset(contact_load());
+    if (!touching()) {
         apex_ = rest;
         lateral_force_.setZero();
         for (auto &p : particles_) p.in_contact = false;
@@ -108,6 +120,8 @@ void World::relax()
     const double rt = scene_.probe.tip_radius_nm;
     const bool chains = scene_.has_effect("particle_contacts");
     const Eigen::Vector2d apex0 = apex_;
+    const double fz = contact_load();
+    const Eigen::Vector3d normal = (this->*normal_at_)(apex_ - drift_);   // the substrate's, at the apex
     // Candidates: particles that can touch the apex during this sample.
     near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
     for (int idx : scratch_) particles_[idx].in_contact = false;
@@ -136,9 +150,9 @@ void World::relax()
         // F_z) (lever and contacts horizontal, the set point vertical), lies in
         // its friction cone about the surface normal n: |S_t| <= mu (S . n +
         // F_adh). Otherwise it slides along the surface, against S_t.
-        const Eigen::Vector3d S(-g.x(), -g.y(), load_nN_);
-        const double sn = S.dot(normal_);
-        const Eigen::Vector3d St = S - sn * normal_;
+        const Eigen::Vector3d S(-g.x(), -g.y(), fz);
+        const double sn = S.dot(normal);
+        const Eigen::Vector3d St = S - sn * normal;
         const double capacity = tip_mu_ * std::max(0.0, sn + tip_adhesion_nN_);
         const double stn = St.norm();
         if (stn > capacity) {
@@ -197,7 +211,8 @@ void World::relax_rigid()
     // piezo; particles in reach are pushed out to contact distance.
     const Eigen::Vector2d apex0 = apex_;
     apex_ = piezo_;
-    if (!engaged_) {
+    jammed_ = false;
+    if (!touching()) {
         lateral_force_.setZero();
         for (auto &w : wires_) w->in_contact = false;
         return;
@@ -205,8 +220,14 @@ void World::relax_rigid()
     const double rt = scene_.probe.tip_radius_nm;
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     Eigen::Vector2d f = Eigen::Vector2d::Zero();
-    if ((apex_ - apex0).norm() > 1e-12) f = sliding_friction(last_motion_);
     const Eigen::Vector2d as = apex_ - drift_;
+    if ((apex_ - apex0).norm() > 1e-12) {
+        // A rigid lever forces the tip on even up a slope it cannot climb:
+        // then the force is unbounded and step() saturates the outputs.
+        const auto fr = sliding_friction(last_motion_, (this->*normal_at_)(as), contact_load());
+        jammed_ = !fr;
+        if (fr) f = *fr;
+    }
     for (auto &w : wires_) {
         double pen, u;
         Eigen::Vector2d n;
@@ -236,18 +257,45 @@ void World::relax_rigid()
     lateral_force_ = f;
 }
 
-Eigen::Vector2d World::sliding_friction(const Eigen::Vector2d &m) const
+std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const
 {
     // Slip along the surface in the direction whose horizontal part is m:
-    // tangent t; contact normal force N from the vertical set point,
+    // tangent t; contact normal force N from the vertical force F_z,
     // (N - F_adh) n_z - mu N t_z = F_z; the substrate's force is
-    // (N - F_adh) n - mu N t.
-    const Eigen::Vector3d up = normal_;
+    // (N - F_adh) n - mu N t. Uphill steeper than 90 deg - atan(mu)
+    // (n_z <= mu t_z) no N solves it: the tip jams.
+    const Eigen::Vector3d &up = n;
     Eigen::Vector3d t(m.x(), m.y(), -(up.x() * m.x() + up.y() * m.y()) / up.z());
     t.normalize();
-    const double N = (load_nN_ + tip_adhesion_nN_ * up.z()) / (up.z() - tip_mu_ * t.z());
+    const double den = up.z() - tip_mu_ * t.z();
+    if (!(den > 0)) return std::nullopt;
+    const double N = (fz + tip_adhesion_nN_ * up.z()) / den;
     const Eigen::Vector3d S = (N - tip_adhesion_nN_) * up - tip_mu_ * N * t;
-    return S.head<2>();
+    return Eigen::Vector2d(S.head<2>());
+}
+
+void World::saturate_against(const Eigen::Vector2d &m, double &sn, double &sl) const
+{
+    // Components of the lever frame below this are rounding of the rotation.
+    constexpr double kRotationRounding = 1e-9;
+    const Eigen::Vector2d dC = lever_.R.transpose() * (-m);
+    if (std::fabs(dC.y()) > kRotationRounding) sl = std::copysign(kSignalLimitV, dC.y());
+    if (std::fabs(dC.x()) > kRotationRounding) sn = std::copysign(kSignalLimitV, dC.x());   // eq. 1c: F_x bends like a load
+}
+
+World::ZHold World::hold_z(double surface_nm, double fx_C, double fz) const
+{
+    // z = surface - deflection at the set point; a clamped z changes the
+    // deflection by the shortfall, and the normal force by k_n times it.
+    const double half = kScannerRangeZ_nm / 2;
+    const double z_need = surface_nm - lever_.bend_slope(fx_C, fz) * 2.0 * lever_.l / 3.0;
+    ZHold h{std::clamp(z_need, -half, half), fz, false, true};
+    if (h.z_nm == z_need) return h;
+    h.clamped = true;
+    h.fz_nN = fz + lever_.kn * (z_need - h.z_nm);
+    h.touching = h.fz_nN > -tip_adhesion_nN_;
+    if (!h.touching) h.fz_nN = 0.0;
+    return h;
 }
 
 Sample World::step()
@@ -261,11 +309,24 @@ Sample World::step()
     (this->*mechanics_)();
     t_mech_ += seconds_since(t0);
 
-    // Lever -> photodiode. z feedback holds the normal force at the set point.
-    const double fz = engaged_ ? load_nN_ : 0.0;
-    const Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
+    // z feedback (ideal) holds the normal force at the set point while the
+    // extension it needs lies in the scanner's range. Beyond it z stays at
+    // the limit: the normal force departs from the set point by k_n times
+    // the shortfall (from the next sample on in the mechanics), and the tip
+    // leaves the surface when that pulls harder than the adhesion.
+    Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
+    const ZHold zh = hold_z(height_true(apex_.x(), apex_.y()), fC.x(), engaged_ ? load_nN_ : 0.0);
+    piezo_z_ = zh.z_nm;
+    z_excess_nN_ = engaged_ && zh.touching ? zh.fz_nN - load_nN_ : 0.0;
+    lifted_ = engaged_ && !zh.touching;
+    if (target_clamped_ || zh.clamped) ++clamped_samples_;
+
+    // Lever -> photodiode.
+    if (lifted_) fC.setZero();
+    const double fz = contact_load();
     double sn = lever_.sn_volts(fC.x(), fz);
     double sl = lever_.sl_volts(fC.y());
+    if (jammed_ && touching()) saturate_against(last_motion_, sn, sl);
     for (auto &e : per_sample_) {
         t0 = Clock::now();
         e->apply(*this, sn, sl);
@@ -274,15 +335,14 @@ Sample World::step()
     Sample out;
     out.sn_v = std::clamp(sn, -kSignalLimitV, kSignalLimitV);
     out.sl_v = std::clamp(sl, -kSignalLimitV, kSignalLimitV);
-    // Piezo z: the surface under the apex, less the lever's deflection.
-    piezo_z_ = height_true(apex_.x(), apex_.y()) - lever_.bend_slope(fC.x(), fz) * 2.0 * lever_.l / 3.0;
     out.piezo_nm = Eigen::Vector3d(piezo_.x(), piezo_.y(), piezo_z_);
     return out;
 }
 
 Eigen::Vector3d World::tip_force() const
 {
-    return Eigen::Vector3d(lateral_force_.x(), lateral_force_.y(), engaged_ ? load_nN_ : 0.0);
+    if (!touching()) return Eigen::Vector3d::Zero();
+    return Eigen::Vector3d(lateral_force_.x(), lateral_force_.y(), contact_load());
 }
 
 double World::groove_depth(const Eigen::Vector2d &q) const
@@ -438,7 +498,7 @@ void World::engrave()
     // Depth law (documented in the scene: sample.lithography): linear in the
     // load above the threshold, depth = depth_nm_per_nN (F - F_th); the cone
     // leaves a V of width 2 depth tan(gamma).
-    const double excess = engaged_ ? load_nN_ - scene_.litho.threshold_nN : 0.0;
+    const double excess = touching() ? contact_load() - scene_.litho.threshold_nN : 0.0;
     if (excess <= 0) {
         cutting_ = false;
         return;
@@ -472,13 +532,88 @@ double World::image_height(double x, double y) const
     return z;
 }
 
-double World::scan_sn_v() const { return lever_.sn_volts(0.0, load_nN_); }
-
-double World::scan_sl_v() const
+ScanPoint World::scan_point(double x, double y) const
 {
-    // Scanning towards +x (frame A): friction on the tip against the motion.
-    const Eigen::Vector2d f = sliding_friction(Eigen::Vector2d::UnitX());
-    return lever_.sl_volts((lever_.R.transpose() * f).y());
+    const auto t0 = Clock::now();
+    // The scanner cannot reach beyond its range: the point is taken at the limit.
+    const double half = kScannerRangeXY_nm / 2;
+    const double xc = std::clamp(x, -half, half), yc = std::clamp(y, -half, half);
+    bool clamped = xc != x || yc != y;
+    // The contact normal is the imaged surface's (the locus of the apex):
+    // central differences over a step far below the tip radius and every
+    // feature's size, far above rounding.
+    constexpr double kSlopeStep_nm = 0.01;
+    const double h = (this->*imaging_)(xc, yc);
+    const double hx = ((this->*imaging_)(xc + kSlopeStep_nm, yc) - (this->*imaging_)(xc - kSlopeStep_nm, yc)) / (2 * kSlopeStep_nm);
+    const double hy = ((this->*imaging_)(xc, yc + kSlopeStep_nm) - (this->*imaging_)(xc, yc - kSlopeStep_nm)) / (2 * kSlopeStep_nm);
+    const Eigen::Vector3d n = Eigen::Vector3d(-hx, -hy, 1.0).normalized();
+
+    // Sliding in +x at the scene's load (the mechanics' contact physics).
+    const Eigen::Vector2d m = Eigen::Vector2d::UnitX();
+    const double load = scene_.op.load_nN;
+    auto f = sliding_friction(m, n, load);
+    Eigen::Vector2d fC = f ? Eigen::Vector2d(lever_.R.transpose() * *f) : Eigen::Vector2d::Zero();
+    const ZHold zh = hold_z(h, fC.x(), load);
+    ScanPoint p;
+    // The height image is the z extension plus the set point's deflection:
+    // the surface while z follows it, the range's limit when it cannot.
+    p.height_nm = zh.clamped ? zh.z_nm + lever_.bend_slope(fC.x(), load) * 2.0 * lever_.l / 3.0 : h;
+    clamped = clamped || zh.clamped;
+    if (zh.clamped && zh.touching) {
+        f = sliding_friction(m, n, zh.fz_nN);   // at the normal force the clamped z leaves
+        fC = f ? Eigen::Vector2d(lever_.R.transpose() * *f) : Eigen::Vector2d::Zero();
+    }
+    if (!zh.touching) {
+        p.sn_v = p.sl_v = 0.0;   // off the surface: the lever hangs free
+    } else {
+        p.sn_v = lever_.sn_volts(fC.x(), zh.fz_nN);
+        p.sl_v = lever_.sl_volts(fC.y());
+        if (!f) saturate_against(m, p.sn_v, p.sl_v);
+    }
+    p.sn_v = std::clamp(p.sn_v, -kSignalLimitV, kSignalLimitV);
+    p.sl_v = std::clamp(p.sl_v, -kSignalLimitV, kSignalLimitV);
+    if (clamped) ++scan_clamped_;
+    t_scan_ += seconds_since(t0);
+    return p;
+}
+
+Eigen::Vector3d World::normal_rough(const Eigen::Vector2d &q) const
+{
+    const Eigen::Vector2d g = rough_->gradient(q);
+    return Eigen::Vector3d(-g.x(), tan_slope_ - g.y(), 1.0).normalized();   // height -y tan + r(q)
+}
+
+RoughSurface::RoughSurface(double rms_nm, double corr_nm, uint64_t seed)
+{
+    // Its own stream, derived from the scene seed ("rough" in ASCII).
+    std::mt19937_64 rng(seed ^ 0x726f756768ULL);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    const double sigma_k = std::sqrt(2.0) / corr_nm;           // per component
+    const double golden = M_PI * (3.0 - std::sqrt(5.0));        // rad
+    const double theta0 = 2 * M_PI * u01(rng);
+    for (int i = 0; i < kWaves; ++i) {
+        // |k| is Rayleigh(sigma_k): inverse CDF at a jittered quantile.
+        const double u = (i + u01(rng)) / kWaves;
+        const double kr = sigma_k * std::sqrt(-2.0 * std::log1p(-u));
+        const double th = theta0 + i * golden;
+        k_.emplace_back(kr * std::cos(th), kr * std::sin(th));
+        phase_.push_back(2 * M_PI * u01(rng));
+    }
+    amp_ = rms_nm * std::sqrt(2.0 / kWaves);
+}
+
+double RoughSurface::height(const Eigen::Vector2d &q) const
+{
+    double z = 0;
+    for (int i = 0; i < kWaves; ++i) z += std::cos(k_[i].dot(q) + phase_[i]);
+    return amp_ * z;
+}
+
+Eigen::Vector2d RoughSurface::gradient(const Eigen::Vector2d &q) const
+{
+    Eigen::Vector2d g = Eigen::Vector2d::Zero();
+    for (int i = 0; i < kWaves; ++i) g -= std::sin(k_[i].dot(q) + phase_[i]) * k_[i];
+    return amp_ * g;
 }
 
 std::vector<EffectClock> World::clocks() const
@@ -495,6 +630,7 @@ std::vector<EffectClock> World::clocks() const
 std::vector<std::string> World::models_built() const
 {
     std::vector<std::string> m = {"scanner", "lever", "substrate:" + scene_.substrate};
+    if (rough_) m.push_back("roughness");
     if (!particles_.empty()) m.push_back("particles");
     if (!wires_.empty()) m.push_back(scene_.has_effect("wire_flexibility") ? "wires:flexible_chain" : "wires:rigid_rod");
     m.push_back(scene_.has_effect("bending_offset") ? "mechanics:compliant_lever" : "mechanics:rigid_lever");

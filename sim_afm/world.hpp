@@ -19,7 +19,9 @@
 #include <Eigen/Dense>
 
 #include <chrono>
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -51,6 +53,39 @@ struct Particle {
 struct Sample {
     double sn_v, sl_v;            // photodiode outputs, V (saturated at +-10 V)
     Eigen::Vector3d piezo_nm;     // frame A
+};
+
+// One point of a contact-mode scan line (World::scan_point).
+struct ScanPoint {
+    double height_nm;             // the height image: z extension + set-point deflection (saturates with z)
+    double sn_v, sl_v;            // photodiode outputs, V (saturated at +-10 V)
+};
+
+// The scanner's range (physics.md section 12): xy within kScannerRangeXY_nm / 2
+// of its centre, the origin of frame A (scene.hpp: the validator keeps the
+// field inside it); the z extension within kScannerRangeZ_nm, engaged at mid
+// range on the substrate's reference plane (height 0), so z in [-2.5, +2.5] um.
+// Beyond it the set point is clamped (World::command, World::step).
+
+// Substrate roughness (effect roughness): a sum of kWaves cosines with random
+// phases whose wave vectors sample the Gaussian spectrum of the
+// autocorrelation rms^2 exp(-r^2 / corr^2) (per component k ~ N(0, 2 / corr^2)):
+// radii stratified (one per quantile bin of the Rayleigh law, jittered),
+// angles on a golden-angle sequence with a random start, so one realization's
+// rms and autocorrelation sit close to the ensemble's. Deterministic from the
+// scene seed; drawn from its own generator (the sample effects' stream is
+// untouched).
+class RoughSurface {
+public:
+    static constexpr int kWaves = 256;
+    RoughSurface(double rms_nm, double corr_nm, uint64_t seed);
+    double height(const Eigen::Vector2d &q) const;          // nm, sample frame
+    Eigen::Vector2d gradient(const Eigen::Vector2d &q) const;
+
+private:
+    std::vector<Eigen::Vector2d> k_;   // rad/nm
+    std::vector<double> phase_;        // rad
+    double amp_ = 0;                   // rms sqrt(2 / kWaves), nm
 };
 
 // Wall time spent in one named effect (or core stage) of the simulator.
@@ -101,13 +136,21 @@ public:
     double dt() const { return dt_; }
     std::mt19937_64 &rng() { return rng_; }
     const Lever &lever() const { return lever_; }
+    // Samples in which the piezo's set point lay beyond the scanner's range
+    // (xy or z) and was clamped to it.
+    int64_t piezo_clamped_samples() const { return clamped_samples_; }
+    // Scan points whose position or z extension was clamped likewise.
+    int64_t scan_points_clamped() const { return scan_clamped_; }
 
     // Imaged height at (x, y) in frame A, nm: the surface, dilated by the tip
     // when the scene lists tip_convolution.
     double image_height(double x, double y) const;
-    // The deflection and lateral signals a contact-mode scan line in +x reads.
-    double scan_sn_v() const;
-    double scan_sl_v() const;
+    // A contact-mode scan line in +x (frame A) at the scene's load, at (x, y):
+    // height, and the photodiode outputs of the tip sliding there, from the
+    // same contact physics as the mechanics (sliding_friction) with the
+    // imaged surface's local normal; ideal z feedback holds F_z at the set
+    // point, so S_n is the set point plus the moment of F_x (eq. 1c).
+    ScanPoint scan_point(double x, double y) const;
 
     std::vector<EffectClock> clocks() const;       // per effect, seconds of wall time
     std::vector<std::string> models_built() const; // every model and effect constructed
@@ -121,13 +164,33 @@ private:
     void relax_rigid();
     double height_true(double x, double y) const;
     double height_convolved(double x, double y) const;
-    double base_height(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_; }   // sample frame
+    double base_height(const Eigen::Vector2d &q) const { return (this->*base_)(q); }   // sample frame
+    double base_plane(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_; }
+    double base_rough(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_ + rough_->height(q); }
+    // Unit normal of the substrate (without objects) at q, sample frame.
+    Eigen::Vector3d normal_plane(const Eigen::Vector2d &) const { return normal_; }
+    Eigen::Vector3d normal_rough(const Eigen::Vector2d &q) const;
     double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     // Horizontal force of the substrate on the tip, frame A, when it slides
-    // along the horizontal direction m under the normal set point.
-    Eigen::Vector2d sliding_friction(const Eigen::Vector2d &m) const;
+    // along the horizontal direction m on a surface of unit normal n under the
+    // vertical force fz; none when the slope is too steep to climb (the tip
+    // jams: no finite force slides it up).
+    std::optional<Eigen::Vector2d> sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const;
+    // Photodiode outputs of a jammed tip: the force against the motion m is
+    // unbounded, so each output sits at its limit on that force's side.
+    void saturate_against(const Eigen::Vector2d &m, double &sn, double &sl) const;
+    // Ideal z feedback over a surface at height surface_nm with F_x (frame
+    // C) on the tip: the extension holding the set point fz, clamped to the
+    // range; the normal force then acting (fz plus k_n times the shortfall)
+    // and whether the tip still touches (that force above -F_adh).
+    struct ZHold { double z_nm, fz_nN; bool clamped, touching; };
+    ZHold hold_z(double surface_nm, double fx_C, double fz) const;
+    // Normal force the mechanics acts with this sample: the set point plus
+    // the z shortfall of the last sample; 0 when lifted off or not engaged.
+    bool touching() const { return engaged_ && !lifted_; }
+    double contact_load() const { return touching() ? load_nN_ + z_excess_nN_ : 0.0; }
     double tip_profile(double u) const;            // tip surface above its apex at radius u
     void near(const Eigen::Vector2d &p, double radius, std::vector<int> &out) const;
 
@@ -146,6 +209,12 @@ private:
     double piezo_z_ = 0;
     double load_nN_ = 0;
     bool engaged_ = false;
+    bool target_clamped_ = false;       // the xy set point lay beyond the range
+    double z_excess_nN_ = 0;            // k_n times the z shortfall at the last sample
+    bool lifted_ = false;               // the z range let the tip leave the surface
+    bool jammed_ = false;               // rigid lever against a slope it cannot climb
+    int64_t clamped_samples_ = 0;
+    mutable int64_t scan_clamped_ = 0;
     double tip_adhesion_nN_ = 0;
     double tip_mu_ = 0;
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
@@ -168,6 +237,9 @@ private:
     // Chosen once at construction (no per-sample flag tests).
     void (World::*mechanics_)();
     double (World::*imaging_)(double, double) const;
+    double (World::*base_)(const Eigen::Vector2d &) const;
+    Eigen::Vector3d (World::*normal_at_)(const Eigen::Vector2d &) const;
+    std::unique_ptr<RoughSurface> rough_;   // only when the scene lists roughness
     std::vector<std::unique_ptr<SampleEffect>> per_sample_;
     std::mt19937_64 rng_;
     double t_mech_ = 0;

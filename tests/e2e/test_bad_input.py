@@ -42,6 +42,9 @@ class BadScenes(unittest.TestCase):
     def test_nan_named_with_value(self):
         self.check_refused(GOOD.replace("mu: 0.0865", "mu: .nan"), "sample.tip_substrate.mu", "'.nan'")
 
+    def test_negative_roughness_named_with_value(self):
+        self.check_refused(GOOD.replace("field_nm: 2000", "field_nm: 2000\n  roughness_rms_nm: -1"), "sample.roughness_rms_nm", "'-1'")
+
     def test_infinity_named_with_value(self):
         self.check_refused(GOOD.replace("duration_s: 0.6", "duration_s: .inf"), "duration_s", "'.inf'")
 

@@ -61,6 +61,7 @@ void test_particle_scene_builds_no_wire_drift_or_lithography_model()
         TEST_ASSERT_TRUE_MESSAGE(name.find("drift") == std::string::npos, name.c_str());
         TEST_ASSERT_TRUE_MESSAGE(name.find("litho") == std::string::npos, name.c_str());
         TEST_ASSERT_TRUE_MESSAGE(name.find("noise") == std::string::npos, name.c_str());
+        TEST_ASSERT_TRUE_MESSAGE(name.find("rough") == std::string::npos, name.c_str());
     }
     TEST_ASSERT_EQUAL_INT(0, static_cast<int>(w.wires().size()));   // no wire in the scene: no wire model
     for (int i = 0; i < 1000; ++i) w.step();
@@ -215,6 +216,77 @@ void test_landmark_pillar_images_flat_top_and_tip_limited_edge()
     TEST_ASSERT_EQUAL_DOUBLE(0.0, w.image_height(650 + 200 * std::tan(g) + 20, 400));
 }
 
+void test_piezo_set_point_beyond_the_xy_range_is_clamped_and_counted()
+{
+    // Section 12: 90 um x 90 um about the scanner's centre (frame A's origin).
+    // A set point at (60, -50) um stops at (45, -45) um; every sample spent
+    // with it is counted; back in range, the count stops.
+    World w(scene_with("bending_offset"));
+    w.command(Eigen::Vector2d(60000, -50000), 5, true);
+    const int samples = 80000;   // 4 s at 20 kHz: at 20 um/s the piezo covers the 64 um
+    for (int i = 0; i < samples; ++i) w.step();
+    TEST_ASSERT_EQUAL_DOUBLE(45000.0, w.piezo().x());
+    TEST_ASSERT_EQUAL_DOUBLE(-45000.0, w.piezo().y());
+    TEST_ASSERT_EQUAL_INT64(samples, w.piezo_clamped_samples());
+    w.command(Eigen::Vector2d(44000, -44000), 5, true);
+    for (int i = 0; i < 100; ++i) w.step();
+    TEST_ASSERT_EQUAL_INT64(samples, w.piezo_clamped_samples());
+    // A scan point beyond the range is taken at the limit, and counted.
+    const auto far = w.scan_point(50000, 0), edge = w.scan_point(45000, 0);
+    TEST_ASSERT_EQUAL_DOUBLE(edge.height_nm, far.height_nm);
+    TEST_ASSERT_EQUAL_INT64(1, w.scan_points_clamped());
+}
+
+void test_piezo_z_beyond_its_range_is_clamped_and_the_load_departs()
+{
+    // 5 um of z about the substrate's reference plane: on glass tilted by 20
+    // deg the surface at y = -8 um stands 2912 nm high, beyond +2500 nm: z
+    // stops at 2500 nm, the lever bends by the shortfall, and the normal force
+    // is the set point plus k_n times it (rounding only: 1e-9). At y = +8 um the surface falls away: the tip
+    // leaves it (the pull k_n x shortfall beats the adhesion), S_n = S_l = 0.
+    const std::string text = with(with(with(kBase, "EFFECTS", "bending_offset"), "substrate: glass", "substrate: tilted_glass\n  slope_deg: 20"),
+                                  "field_nm: 2000", "field_nm: 20000");
+    const afm::Scene s = scene_from_text(text);
+    World w(s);
+    const double load = 5, kn = s.probe.kn_N_per_m, knKn = kn * s.probe.Kn_nm_per_V;
+    w.command(Eigen::Vector2d(0, -8000), load, true);
+    afm::sim::Sample smp{};
+    for (int i = 0; i < 12000; ++i) smp = w.step();   // 8 um at 20 um/s, then rest
+    const int64_t clamped = w.piezo_clamped_samples();
+    // The deflection the set point needs includes the moment of F_x (eq. 1c;
+    // scan angle 270: frames C and A coincide), held statically here.
+    const double surface = -w.apex().y() * std::tan(20 * M_PI / 180);
+    const double fx = w.tip_force().x(), h = w.lever().h, l = w.lever().l;
+    const double fz = load + kn * (surface - (load + 2 * h / l * fx) / kn - 2500);
+    std::printf("z %.3f nm over a surface at %.3f nm: F_z %.4f nN, S_n %.6f V; %lld samples clamped\n", smp.piezo_nm.z(), surface,
+                w.tip_force().z(), smp.sn_v, static_cast<long long>(clamped));
+    TEST_ASSERT_EQUAL_DOUBLE(2500.0, smp.piezo_nm.z());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, fz, w.tip_force().z());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, (fz + 2 * h / l * fx) / knKn, smp.sn_v);
+    TEST_ASSERT_TRUE(clamped > 0 && clamped < 12000);
+    w.command(Eigen::Vector2d(0, 8000), load, true);
+    for (int i = 0; i < 20000; ++i) smp = w.step();
+    TEST_ASSERT_EQUAL_DOUBLE(-2500.0, smp.piezo_nm.z());
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, smp.sn_v);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, smp.sl_v);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, w.tip_force().norm());
+    TEST_ASSERT_TRUE(w.piezo_clamped_samples() > clamped);
+}
+
+void test_field_outside_the_scanner_range_is_refused_with_the_key_named()
+{
+    std::string msg;
+    try {
+        scene_from_text(with(with(kBase, "EFFECTS", ""), "field_nm: 2000", "field_nm: 2000\n  field_center_nm: [44500, 0]"));
+    } catch (const afm::SceneError &e) {
+        msg = e.what();
+    }
+    TEST_ASSERT_TRUE_MESSAGE(msg.find("sample.field_center_nm") != std::string::npos, msg.c_str());
+    TEST_ASSERT_TRUE_MESSAGE(msg.find("44500") != std::string::npos, msg.c_str());
+    // The whole range as the field: accepted.
+    TEST_ASSERT_EQUAL_DOUBLE(90000.0, scene_from_text(with(with(kBase, "EFFECTS", ""), "field_nm: 2000", "field_nm: 90000")).field_nm);
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -227,5 +299,8 @@ int main()
     RUN_TEST(test_pushed_particle_slides_at_its_threshold_in_contact_ahead);
     RUN_TEST(test_same_seed_same_trajectory);
     RUN_TEST(test_landmark_pillar_images_flat_top_and_tip_limited_edge);
+    RUN_TEST(test_piezo_set_point_beyond_the_xy_range_is_clamped_and_counted);
+    RUN_TEST(test_piezo_z_beyond_its_range_is_clamped_and_the_load_departs);
+    RUN_TEST(test_field_outside_the_scanner_range_is_refused_with_the_key_named);
     return UNITY_END();
 }

@@ -1,5 +1,6 @@
 // Unity tests of the simulated substrates: friction loops on a tilted plane
-// (physics.md section 2) and lithography on polycarbonate (section 9). The
+// (physics.md section 2), the scan lines' signals (the same contact physics),
+// lithography on polycarbonate (section 9) and substrate roughness. The
 // closed forms live here only; the simulator resolves the normal and friction
 // forces of the inclined contact in the lever frame.
 #include <unity.h>
@@ -47,6 +48,46 @@ sample:
 operator:
   load_nN: 5
   path_nm: [[0, -200]]
+)";
+
+// Flat glass, one particle, for scan lines (SCAN: scan angle, EFFECTS).
+const char *kScan = R"(name: scan-unit
+seed: 5
+duration_s: 1
+sample_rate_hz: 20000
+block_hz: 1000
+frame_rate_hz: 25
+effects: [EFFECTS]
+sample:
+  substrate: glass
+  field_nm: 2000
+  tip_substrate: {mu: 0.1, adhesion_nN: 1.0}
+probe:
+  scan_angle_deg: SCAN
+objects:
+  particles:
+    - {id: 1, x_nm: 0, y_nm: 0, radius_nm: 50}
+operator:
+  load_nN: 5
+  path_nm: [[0, -500]]
+)";
+
+// Rough glass (RMS, CORR), no objects.
+const char *kRough = R"(name: rough-unit
+seed: SEED
+duration_s: 1
+sample_rate_hz: 20000
+block_hz: 1000
+frame_rate_hz: 25
+effects: [roughness]
+sample:
+  substrate: glass
+  field_nm: 2000
+  roughness_rms_nm: RMS
+  roughness_corr_nm: CORR
+operator:
+  load_nN: 5
+  path_nm: [[0, 0]]
 )";
 
 // Least-squares slope of y against x.
@@ -192,6 +233,196 @@ void test_lithography_is_refused_off_polycarbonate()
     TEST_ASSERT_TRUE(refused);
 }
 
+void test_scan_line_on_tilted_glass_reads_what_the_tip_sliding_there_reads()
+{
+    // A scan line in +x reads, at every point, what World::step() reads while
+    // the tip slides there in +x at the scene's load (the friction loop's
+    // physics: normal and friction force of the inclined contact, resolved in
+    // the lever frame, F_x bending the lever as eq. 1c says). At scan angle
+    // 270 the line runs along the lever (S_l from the tilt of the normal
+    // force), at 180 across it (S_l from friction), 225 between. Where the
+    // lever's stiffness is diagonal in frame A (270, 180) the sliding trace is
+    // exact: 1e-5 relative, as the loop test. At 225 the per-sample
+    // projection onto the friction cone, with a lever stiffer across than
+    // along, biases the slip direction by O(step): measured S_l error
+    // 2.5e-4, 2.6e-5, 2.6e-6 V at 0.1, 0.01, 0.001 nm per sample, so at
+    // 0.001 nm the tolerance is 2e-3 relative (the scan line is the limit).
+    const struct { int line; const char *angle; double step_nm, rel; } rows[] = {
+        {__LINE__, "270", 0.1, 1e-5},
+        {__LINE__, "180", 0.1, 1e-5},
+        {__LINE__, "225", 0.001, 2e-3},
+    };
+    for (const auto &r : rows) {
+        const std::string text = with(with(kTilted, "SLOPE", "9"), "MU", "0.0865") + "probe:\n  scan_angle_deg: " + r.angle + "\n";
+        const afm::Scene s = scene_from_text(text);
+        World w(s);
+        w.set_relax_iterations(8);
+        const double y = 100, load = s.op.load_nN;
+        double x = -150;
+        w.command(Eigen::Vector2d(x, y), load, true);
+        for (int i = 0; i < 500; ++i) w.step();
+        double sn = 0, sl = 0, ax = 0, ay = 0;
+        int n = 0;
+        const int samples = static_cast<int>(std::lround(200.0 / r.step_nm));   // 200 nm of sliding: past the transient
+        for (int i = 0; i < samples; ++i) {
+            x += r.step_nm;
+            w.command(Eigen::Vector2d(x, y), load, true);
+            const afm::sim::Sample smp = w.step();
+            if (i >= samples - 1000) sn += smp.sn_v, sl += smp.sl_v, ax += w.apex().x(), ay += w.apex().y(), ++n;
+        }
+        sn /= n, sl /= n, ax /= n, ay /= n;
+        const afm::sim::ScanPoint p = w.scan_point(ax, ay);
+        char where[160];
+        std::snprintf(where, sizeof where, "row at line %d: sliding S_n %.9f S_l %.9f V; scan line S_n %.9f S_l %.9f V", r.line, sn,
+                      sl, p.sn_v, p.sl_v);
+        std::printf("scan angle %s: %s\n", r.angle, where);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(r.rel * std::fabs(sn) + 1e-12, sn, p.sn_v, where);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(r.rel * std::fabs(sl) + 1e-12, sl, p.sl_v, where);
+        TEST_ASSERT_DOUBLE_WITHIN_MESSAGE(1e-9, w.image_height(ax, ay), p.height_nm, where);
+    }
+    // Closed form at scan angle 180 (frame C's y is frame A's x), sliding
+    // across the lever and across the slope: N = (F_z + F_adh cos phi) / cos phi,
+    // S_l = -mu N / (k_theta K_l / h); the normal force's horizontal part
+    // F_z tan phi points to +y of A = -x of C and bends the lever (eq. 1c).
+    // Rounding only (1e-9 V).
+    const afm::Scene s = scene_from_text(with(with(kTilted, "SLOPE", "9"), "MU", "0.0865") + "probe:\n  scan_angle_deg: 180\n");
+    const World w(s);
+    const double phi = 9 * M_PI / 180, fz = s.op.load_nN, adh = s.tip_substrate.adhesion_nN, mu = s.tip_substrate.mu;
+    const double N = (fz + adh * std::cos(phi)) / std::cos(phi);
+    const afm::sim::ScanPoint p = w.scan_point(0, 0);
+    const double h = s.probe.tip_height_um * 1e3, l = s.probe.lever_length_um * 1e3, knKn = s.probe.kn_N_per_m * s.probe.Kn_nm_per_V;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, -mu * N / s.probe.lateral_nN_per_V, p.sl_v);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, (fz - 2 * h / l * fz * std::tan(phi)) / knKn, p.sn_v);
+}
+
+void test_scan_line_on_flat_glass_reads_friction_and_the_set_point()
+{
+    // Across the lever (scan angle 180): S_l = -mu (F_z + F_adh) / (k_theta
+    // K_l / h), S_n = F_z / (k_n K_n); along it (270): S_l = 0 and F_x =
+    // -mu (F_z + F_adh) bends the lever (eq. 1c). Rounding only (1e-12 V).
+    for (const char *angle : {"180", "270"}) {
+        const afm::Scene s = scene_from_text(with(with(kScan, "SCAN", angle), "EFFECTS", "adhesion"));
+        const World w(s);
+        const double f = s.tip_substrate.mu * (s.op.load_nN + s.tip_substrate.adhesion_nN);
+        const double knKn = s.probe.kn_N_per_m * s.probe.Kn_nm_per_V;
+        const double h = s.probe.tip_height_um * 1e3, l = s.probe.lever_length_um * 1e3;
+        const bool across = std::string(angle) == "180";
+        for (double x : {-900.0, 500.0, 800.0}) {
+            const afm::sim::ScanPoint p = w.scan_point(x, 300);
+            TEST_ASSERT_DOUBLE_WITHIN(1e-12, across ? -f / s.probe.lateral_nN_per_V : 0.0, p.sl_v);
+            TEST_ASSERT_DOUBLE_WITHIN(1e-12, (s.op.load_nN - (across ? 0.0 : 2 * h / l * f)) / knKn, p.sn_v);
+            TEST_ASSERT_EQUAL_DOUBLE(0.0, p.height_nm);
+        }
+    }
+}
+
+void test_scan_line_lateral_signal_changes_sign_across_a_particle()
+{
+    // Across the lever, over a 50 nm particle dilated by the tip: climbing its
+    // near side the substrate's force opposes the motion more (S_l below the
+    // flat friction value); going down the far side, steeper (up to 70 deg)
+    // than the friction angle (5.7 deg), it pushes the tip on: S_l > 0. The
+    // line is deterministic (same scene, same values) and antisymmetric about
+    // the flat friction offset only where friction is symmetric, so only signs
+    // are asserted.
+    const afm::Scene s = scene_from_text(with(with(kScan, "SCAN", "180"), "EFFECTS", "adhesion, tip_convolution"));
+    const World a(s), b(s);
+    const double flat = a.scan_point(-500, 0).sl_v;
+    TEST_ASSERT_TRUE(flat < 0);
+    double lo = 0, hi = 0, x_lo = 0, x_hi = 0;
+    for (int i = 0; i <= 400; ++i) {
+        const double x = -100 + 0.5 * i;
+        const afm::sim::ScanPoint p = a.scan_point(x, 0), q = b.scan_point(x, 0);
+        TEST_ASSERT_EQUAL_DOUBLE(p.sl_v, q.sl_v);
+        TEST_ASSERT_EQUAL_DOUBLE(p.sn_v, q.sn_v);
+        TEST_ASSERT_EQUAL_DOUBLE(a.image_height(x, 0), p.height_nm);
+        if (p.sl_v < lo) lo = p.sl_v, x_lo = x;
+        if (p.sl_v > hi) hi = p.sl_v, x_hi = x;
+    }
+    std::printf("flat S_l %.6f V; uphill min %.6f V at x = %.1f nm, downhill max %.6f V at x = %.1f nm\n", flat, lo, x_lo, hi, x_hi);
+    TEST_ASSERT_TRUE(lo < flat && x_lo < 0);   // uphill: more against the motion
+    TEST_ASSERT_TRUE(hi > 0 && x_hi > 0);      // downhill: the sign flips
+    // On top the imaged surface is level again (its height is exact to about
+    // 1e-12 nm, the slope from differences over 0.01 nm to about 1e-10).
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, flat, a.scan_point(0, 0).sl_v);
+}
+
+void test_rough_surface_has_its_rms_and_correlation_length()
+{
+    // One realization of K = 256 cosines, sampled on a 400 x 400 grid at
+    // corr / 4 (100 corr on a side). Its rms is within 10% of
+    // roughness_rms_nm, and its autocorrelation at lag corr (along x and y,
+    // averaged) within 0.05 of 1/e = 0.368 (measured over seeds 1..8: within
+    // 0.02; stratified radii keep one realization near the ensemble).
+    for (const char *seed : {"1", "7", "12345"}) {
+        const double rms = 2.0, corr = 40.0;
+        const afm::Scene s = scene_from_text(with(with(with(kRough, "SEED", seed), "RMS", "2.0"), "CORR", "40.0"));
+        const World w(s);
+        const int n = 400, lag = 4;
+        const double d = corr / lag;
+        std::vector<double> z((n + lag) * (n + lag));
+        for (int j = 0; j < n + lag; ++j)
+            for (int i = 0; i < n + lag; ++i) z[j * (n + lag) + i] = w.image_height(-2000 + i * d, -2000 + j * d);
+        double mean = 0, var = 0, cx = 0, cy = 0;
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) mean += z[j * (n + lag) + i];
+        mean /= n * n;
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                const double v = z[j * (n + lag) + i] - mean;
+                var += v * v;
+                cx += v * (z[j * (n + lag) + i + lag] - mean);
+                cy += v * (z[(j + lag) * (n + lag) + i] - mean);
+            }
+        const double rho = 0.5 * (cx + cy) / var;
+        std::printf("seed %s: rms %.4f nm (%.1f), autocorrelation at %.0f nm %.4f (1/e %.4f)\n", seed, std::sqrt(var / (n * n)), rms,
+                    corr, rho, std::exp(-1.0));
+        TEST_ASSERT_DOUBLE_WITHIN(0.1 * rms, rms, std::sqrt(var / (n * n)));
+        TEST_ASSERT_DOUBLE_WITHIN(0.05, std::exp(-1.0), rho);
+    }
+}
+
+void test_roughness_is_seeded_and_felt_by_the_mechanics()
+{
+    // Same seed, same surface; another seed, another. The piezo's z follows
+    // it (the surface under the apex less the set point's deflection, 1e-9 nm).
+    const std::string t = with(with(kRough, "RMS", "2.0"), "CORR", "40.0");
+    const World a(scene_from_text(with(t, "SEED", "3"))), b(scene_from_text(with(t, "SEED", "3")));
+    const World c(scene_from_text(with(t, "SEED", "4")));
+    TEST_ASSERT_EQUAL_DOUBLE(a.image_height(123.4, -56.7), b.image_height(123.4, -56.7));
+    TEST_ASSERT_TRUE(a.image_height(123.4, -56.7) != c.image_height(123.4, -56.7));
+    World w(scene_from_text(with(t, "SEED", "3")));
+    w.command(Eigen::Vector2d(200, 100), 5, true);
+    afm::sim::Sample smp{};
+    for (int i = 0; i < 1000; ++i) smp = w.step();
+    const double defl = 5 / w.lever().kn;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, w.image_height(w.apex().x(), w.apex().y()) - defl, smp.piezo_nm.z());
+    TEST_ASSERT_TRUE(std::fabs(w.image_height(200, 100)) > 1e-6);   // rough, not flat
+}
+
+void test_roughness_keys_refused_negative_or_nan_with_the_key_named()
+{
+    const struct { int line; const char *rms, *corr, *key, *value; } rows[] = {
+        {__LINE__, "-1", "40", "sample.roughness_rms_nm", "'-1'"},
+        {__LINE__, ".nan", "40", "sample.roughness_rms_nm", "'.nan'"},
+        {__LINE__, "1", "0", "sample.roughness_corr_nm", "'0'"},
+        {__LINE__, "1", "-5", "sample.roughness_corr_nm", "'-5'"},
+        {__LINE__, "1", ".nan", "sample.roughness_corr_nm", "'.nan'"},
+    };
+    for (const auto &r : rows) {
+        std::string msg;
+        try {
+            scene_from_text(with(with(with(kRough, "SEED", "1"), "RMS", r.rms), "CORR", r.corr));
+        } catch (const afm::SceneError &e) {
+            msg = e.what();
+        }
+        char where[64];
+        std::snprintf(where, sizeof where, "row at line %d: %s", r.line, msg.c_str());
+        TEST_ASSERT_TRUE_MESSAGE(msg.find(r.key) != std::string::npos, where);
+        TEST_ASSERT_TRUE_MESSAGE(msg.find(r.value) != std::string::npos, where);
+    }
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -199,5 +430,11 @@ int main()
     RUN_TEST(test_lithography_cuts_a_v_trench_seen_by_later_scans);
     RUN_TEST(test_wire_pushed_into_a_trench_is_held_by_it);
     RUN_TEST(test_lithography_is_refused_off_polycarbonate);
+    RUN_TEST(test_scan_line_on_tilted_glass_reads_what_the_tip_sliding_there_reads);
+    RUN_TEST(test_scan_line_on_flat_glass_reads_friction_and_the_set_point);
+    RUN_TEST(test_scan_line_lateral_signal_changes_sign_across_a_particle);
+    RUN_TEST(test_rough_surface_has_its_rms_and_correlation_length);
+    RUN_TEST(test_roughness_is_seeded_and_felt_by_the_mechanics);
+    RUN_TEST(test_roughness_keys_refused_negative_or_nan_with_the_key_named);
     return UNITY_END();
 }
