@@ -5,6 +5,7 @@
 
 #include <fstream>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
 #include "scene.hpp"
@@ -27,4 +28,12 @@ inline std::string with(std::string text, const std::string &key, const std::str
     const auto at = text.find(key);
     if (at != std::string::npos) text.replace(at, key.size(), value);
     return text;
+}
+
+// Whether `x` is among `v` (e.g. a model in World::models_built()).
+inline bool has(const std::vector<std::string> &v, const std::string &x)
+{
+    for (const auto &e : v)
+        if (e == x) return true;
+    return false;
 }

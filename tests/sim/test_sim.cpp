@@ -37,13 +37,6 @@ operator:
 
 afm::Scene scene_with(const std::string &effects) { return scene_from_text(with(kBase, "EFFECTS", effects)); }
 
-bool has(const std::vector<std::string> &v, const std::string &x)
-{
-    for (const auto &e : v)
-        if (e == x) return true;
-    return false;
-}
-
 }  // namespace
 
 void setUp() {}

@@ -80,13 +80,6 @@ RodTwist solve(double l, double L, double f, int K)
     return afm::sim::rod_push_twist(u, f * L / K, l - L / 2, Eigen::Vector2d(0, 1), RodTwist{}, 1e-14, 5000);
 }
 
-bool has(const std::vector<std::string> &v, const std::string &x)
-{
-    for (const auto &e : v)
-        if (e == x) return true;
-    return false;
-}
-
 }  // namespace
 
 void setUp() {}
