@@ -13,15 +13,15 @@ namespace afm {
 const std::vector<EffectInfo> &known_effects()
 {
     static const std::vector<EffectInfo> effects = {
-        {"bending_offset", true, "apex displaced by lever bending and twist"},
-        {"photodiode_noise", true, "white noise on S_n, S_l (default: the lever's thermal level)"},
-        {"adhesion", true, "tip-substrate and particle-substrate adhesion forces"},
-        {"tip_convolution", true, "scans show the surface dilated by the tip"},
-        {"particle_contacts", true, "a pushed particle pushes the particles it touches"},
-        {"thermal_drift", true, "sample drift against the tip: linear plus random walk"},
-        {"wire_flexibility", true, "wires as chains of N bending segments (sample.wire.segments)"},
-        {"lithography", true, "trenches inscribed above a load threshold (sample.lithography)"},
-        {"roughness", true, "random rough substrate (sample.roughness_rms_nm, sample.roughness_corr_nm)"},
+        {"bending_offset", "apex displaced by lever bending and twist"},
+        {"photodiode_noise", "white noise on S_n, S_l (default: the lever's thermal level)"},
+        {"adhesion", "tip-substrate and particle-substrate adhesion forces"},
+        {"tip_convolution", "scans show the surface dilated by the tip"},
+        {"particle_contacts", "a pushed particle pushes the particles it touches"},
+        {"thermal_drift", "sample drift against the tip: linear plus random walk"},
+        {"wire_flexibility", "wires as chains of N bending segments (sample.wire.segments)"},
+        {"lithography", "trenches inscribed above a load threshold (sample.lithography)"},
+        {"roughness", "random rough substrate (sample.roughness_rms_nm, sample.roughness_corr_nm)"},
     };
     return effects;
 }
@@ -208,7 +208,6 @@ Scene load_scene(const std::string &path)
                 for (const auto &k : known) list += (list.empty() ? "" : ", ") + std::string(k.name);
                 r.fail(key, "unknown effect " + Reader::show(eff[i]) + " (known: " + list + ")");
             }
-            if (!it->implemented) r.fail(key, "effect " + Reader::show(eff[i]) + " is not implemented in this build yet");
             if (std::find(s.effects.begin(), s.effects.end(), e) != s.effects.end())
                 r.fail(key, "effect " + Reader::show(eff[i]) + " is listed twice");
             s.effects.push_back(e);

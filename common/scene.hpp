@@ -140,8 +140,8 @@ struct Scene {
     bool has_effect(const std::string &e) const;
 };
 
-// The effects a scene may name, and whether this build implements each.
-struct EffectInfo { const char *name; bool implemented; const char *what; };
+// The effects a scene may name.
+struct EffectInfo { const char *name; const char *what; };
 const std::vector<EffectInfo> &known_effects();
 
 // Parse and validate; throws SceneError naming file, key and value.
