@@ -11,7 +11,7 @@ set(AFM_ARM_CPU_FLAGS "-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d1
 set(CMAKE_C_FLAGS_INIT "${AFM_ARM_CPU_FLAGS} -ffunction-sections -fdata-sections")
 set(CMAKE_CXX_FLAGS_INIT "${AFM_ARM_CPU_FLAGS} -ffunction-sections -fdata-sections")
 set(CMAKE_EXE_LINKER_FLAGS_INIT
-    "${AFM_ARM_CPU_FLAGS} --specs=rdimon.specs -T${CMAKE_CURRENT_LIST_DIR}/../firmware/arm/mps2_an386.ld -Wl,--gc-sections")
+    "${AFM_ARM_CPU_FLAGS} --specs=rdimon.specs -T${CMAKE_CURRENT_LIST_DIR}/../tests/firmware/arm/mps2_an386.ld -Wl,--gc-sections")
 
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
 set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY ONLY)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # ./afm bench firmware: cost and accuracy of the firmware's per-sample chain
 # (acquisition + compensation + theta + force + rotation) on three word
-# sizes. Runs build/main/firmware/bench/bench_fw twice: once for wall-clock
+# sizes. Runs build/main/bench/firmware/bench_fw twice: once for wall-clock
 # time and force error, once under valgrind's callgrind for instructions per
 # sample (only the measured loop counts). Prints one table. A benchmark: it
 # never fails on the numbers.
@@ -20,11 +20,11 @@ usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-a DEG,DEG]
   -h, --help  this text
 
 Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
-at $AFM_BUILD/firmware/bench/bench_fw.
+at $AFM_BUILD/bench/firmware/bench_fw.
 
-Rows: (a) a 16-bit path written in the bench (firmware/bench/bench_q15.c),
+Rows: (a) a 16-bit path written in the bench (bench/firmware/bench_q15.c),
 (b) the firmware's 32-bit fw_board_step, (c) the double reference of the
-same chain (firmware/bench/bench_ref.c) fed the same 16-bit ADC codes, and
+same chain (bench/firmware/bench_ref.c) fed the same 16-bit ADC codes, and
 (c0) that reference on the unquantised input. Errors are |F - F_ref| of the
 frame-A force vector against (c); % FS of k_n K_n x 10 V. Instructions are
 x86-64 instructions counted by callgrind, loop overhead included.
@@ -33,7 +33,7 @@ TXT
 
 top=$(cd "$(dirname "$0")/.." && pwd)
 build=${AFM_BUILD:-"$top/build/main"}
-bin="$build/firmware/bench/bench_fw"
+bin="$build/bench/firmware/bench_fw"
 n=200000
 repeats=7
 cg_n=50000
@@ -55,7 +55,7 @@ done
 if [ ! -x "$bin" ]; then
   echo "bench_firmware: no bench binary at $bin" >&2
   echo "  build it first (./afm build), or point AFM_BUILD at a build tree that has" >&2
-  echo "  firmware/bench (top-level CMakeLists.txt: add_subdirectory(firmware/bench))" >&2
+  echo "  bench/firmware (top-level CMakeLists.txt: add_subdirectory(bench/firmware))" >&2
   exit 2
 fi
 
