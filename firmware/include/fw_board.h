@@ -37,10 +37,18 @@
  * the ADC's fast range (fw_acq_in_fast_range: no saturation, no top-code
  * clamp; then |S| <= 20 V after the baseline) and a sample has been stepped
  * since the reset; otherwise the checked one. The fast path omits only the
- * clamps that the bounds make impossible and keeps the rare cases (apex past
- * int32, theta window over 16 nm, friction fallback and blend) exact, so
- * both paths give bit-identical outputs, flags, counters and state
- * (tests/firmware/test_board.c compares them over 10^6 samples).
+ * clamps that the bounds make impossible; its hot case (apex inside int32,
+ * theta window inside 16 nm, |sin theta| above 1/4) makes no call and
+ * hands the rare cases on by a tail call: apex past int32 and a theta
+ * window over 16 nm to fw_board_step_checked, friction fallback and blend
+ * to an out-of-line finish. Both paths give bit-identical outputs, flags,
+ * counters and state (tests/firmware/test_board.c compares them over 10^6
+ * samples).
+ *
+ * Pointers: fw_board_step is the per-sample entry and, like CMSIS's
+ * per-sample functions, does not test its pointers: b (initialised by
+ * fw_board_init), in and out must be valid, else the behaviour is undefined;
+ * it returns FW_OK. fw_board_step_checked tests them (FW_ERR_ARG).
  *
  * Configuration zero values: the fields after kappa_q16 are optional and 0
  * selects the documented default.
@@ -110,9 +118,11 @@ typedef struct {
 
 fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* validates cfg */
 void        fw_board_reset(fw_board_t *b);
+/* One sample. Valid pointers required, not tested (see above); FW_OK. */
 fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
 /* The checked path of fw_board_step for any sample and configuration (the
- * reference the fast path is tested against). */
+ * reference the fast path is tested against); FW_ERR_ARG for a NULL
+ * pointer. */
 fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
 fw_status_t fw_board_piezo_cmd(const fw_board_t *b, const int32_t joy_q15[2], int32_t piezo_cmd_pm[2]);
 

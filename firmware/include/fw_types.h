@@ -72,6 +72,26 @@ typedef uint32_t fw_bam_t; /* 0.32 turn: 2^32 per full turn, wraps */
 #define FW_ALWAYS_INLINE inline
 #endif
 
+/* A function kept out of line: the rare branches of a per-sample fast path
+ * (fw_board.c), so that the hot function stays a leaf that needs no
+ * callee-saved registers and reaches them by a tail call. A hint only
+ * where the compiler has no attribute. */
+#if defined(__GNUC__)
+#define FW_NOINLINE __attribute__((noinline))
+#else
+#define FW_NOINLINE
+#endif
+
+/* Branch hints for the per-sample fast paths: the common case stays on the
+ * straight line. Plain expressions where the compiler has no builtin. */
+#if defined(__GNUC__)
+#define FW_LIKELY(x) __builtin_expect(!!(x), 1)
+#define FW_UNLIKELY(x) __builtin_expect(!!(x), 0)
+#else
+#define FW_LIKELY(x) (x)
+#define FW_UNLIKELY(x) (x)
+#endif
+
 /* Angles. */
 #define FW_BAM_HALF_TURN ((fw_bam_t)0x80000000u)
 #define FW_BAM_QUARTER_TURN ((fw_bam_t)0x40000000u)

@@ -144,62 +144,167 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
     return FW_OK;
 }
 
+/* The rest of a fast-path sample (board_step_fast) whose direction lies
+ * below S_HI or is the zero vector: the force by fw_force_solve_dir_fast_pn
+ * (fallback or blend), rotated into frame A, the flags. The window and the
+ * apex are already pushed and stored. Out of line and reached by a tail
+ * call, so that no value of the hot function lives across a call.
+ * Scaling and overflow: as board_step_fast; the rotation with alpha = 0
+ * exactly (cos_a = 2^30, sin_a = 0) is the identity (2^30 F rounded >> 30
+ * is F), so one function serves both fast paths. */
+static FW_NOINLINE fw_status_t board_fast_below_hi(fw_board_t *restrict b, fw_sample_out_t *restrict out,
+                                                   q23_t vn, q23_t vl, int32_t dir_x, int32_t dir_y)
+{
+    uint32_t flags = b->theta.known ? 0u : FW_FLAG_THETA_UNKNOWN;
+    int32_t force_c[3];
+    fw_force_solve_dir_fast_pn(&b->force, vn, vl, dir_x, dir_y, force_c, &flags);
+    fw_math_rotate_unit_fit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a,
+                                &out->force_pn[0], &out->force_pn[1]);
+    out->force_pn[2] = force_c[2];
+    b->sticky_flags |= flags;
+    out->flags = flags;
+    return FW_OK;
+}
+
 /* One sample on the fast path (fw_board.h): both inputs in the ADC's fast
  * range, a configuration with path_cfg fast, the theta window primed.
  * aligned: path FW_BOARD_PATH_FAST_ALIGNED (a constant at each call, so the
  * compiler emits one specialisation per path).
+ * The hot case (apex inside int32, theta window inside
+ * FW_THETA_FAST_WINDOW_PM, direction in the cot zone |sin theta| > S_HI)
+ * is computed here with no call; every other case leaves by a tail call:
+ * the apex past int32 or a window beyond the fast one to
+ * fw_board_step_checked (before the window's position moves: the stores
+ * made until then, signals, codes, apex and the apex in its window slot,
+ * are the values the checked path stores again), a direction below S_HI
+ * to board_fast_below_hi.
  * Scaling and overflow: the signals are within +-20 V
  * (fw_acq_step_fast_q23); within that, the offsets (fw_comp_apex_fast_pm)
  * stay below 2^26 pm and the forces (fw_force_solve_dir_fast_pn) below
  * 2^29 pN, so the rotation into frame A (fw_math_rotate_unit_fit_i32,
- * inputs < 2^30) cannot clamp and FW_FLAG_SAT_FORCE cannot occur. The
- * apex keeps its saturation (FW_FLAG_SAT_POS): the piezo input is not
- * bounded. Same state changes as fw_board_step_checked for such a sample:
+ * inputs < 2^30) cannot clamp and FW_FLAG_SAT_FORCE cannot occur. Window
+ * as fw_theta_push_fast_pm (|dx|, |dy| <= 2^14 pm, squares summed < 2^29,
+ * direction |dir_x|, |dir_y| <= 2^15). Cot zone as
+ * fw_force_solve_dir_fast_pn: |F_y x| < 2^30.4 2^15 in 64 bits, one
+ * division, rounded >> 8 (|F_x| < 2^24.4 pN); (2h/l) F_x < 2^31 2^24.4 in
+ * 64 bits. Same state changes as fw_board_step_checked for such a sample:
  * no saturation counters move; stepped, have_ref and ref_live are already
  * set (fw_board_step_checked opens the fast path only while ref_live), so
- * the virtual S_n's reference is this sample through sn_v and z_pm. */
-static FW_ALWAYS_INLINE void board_step_fast(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
-                                             fw_sample_out_t *restrict out, bool aligned)
+ * the virtual S_n's reference is this sample through sn_v and z_pm. The
+ * only flag the hot case can raise is FW_FLAG_THETA_UNKNOWN (no direction
+ * known yet; the direction is then (0, 1), in the cot zone). */
+static FW_ALWAYS_INLINE fw_status_t board_step_fast(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
+                                                    fw_sample_out_t *restrict out, bool aligned)
 {
-    uint32_t flags = 0;
-    int32_t force_c[3];
+    fw_theta_t *t = &b->theta;
     q23_t vn = fw_acq_step_fast_q23(&b->acq_sn, in->sn_uv, &out->sn_code);
     q23_t vl = fw_acq_step_fast_q23(&b->acq_sl, in->sl_uv, &out->sl_code);
+    int64_t ox = fw_math_rshift_round_i64((int64_t)b->comp.cn_pm_per_v * vn, FW_Q23_FRAC);
+    int64_t oy = fw_math_rshift_round_i64((int64_t)b->comp.cl_pm_per_v * vl, FW_Q23_FRAC);
+    int64_t ax;
+    int64_t ay;
+    int32_t pos;
+    int32_t next;
+    int64_t dx;
+    int64_t dy;
+    int64_t x2;
+    int64_t y2;
+    int64_t dir_x;
+    int64_t dir_y;
+    uint32_t flags = 0;
+    int64_t fy8;
+    int64_t n8;
+    int64_t fx;
+    int64_t fy;
     b->sn_v = vn;
     b->sl_v = vl;
     b->z_pm = in->piezo_pm[2];
-    if (fw_comp_apex_fast_pm(&b->comp, in->piezo_pm, vn, vl, aligned, out->tip_pm)) {
-        flags |= FW_FLAG_SAT_POS;
+    out->tip_pm[2] = in->piezo_pm[2];
+    if (!aligned) {
+        int64_t rx = fw_math_rshift_round_i64((int64_t)b->cos_a * ox - (int64_t)b->sin_a * oy, FW_Q30_FRAC);
+        oy = fw_math_rshift_round_i64((int64_t)b->sin_a * ox + (int64_t)b->cos_a * oy, FW_Q30_FRAC);
+        ox = rx;
     }
-    (void)fw_theta_push_fast_pm(&b->theta, out->tip_pm, b->cos_a, b->sin_a, aligned, &flags);
-    fw_force_solve_dir_fast_pn(&b->force, vn, vl, b->theta.dir_x, b->theta.dir_y, force_c, &flags);
-    if (aligned) {
-        out->force_pn[0] = force_c[0];
-        out->force_pn[1] = force_c[1];
+    ax = in->piezo_pm[0] + ox;
+    ay = in->piezo_pm[1] + oy;
+    if (FW_UNLIKELY((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) > UINT32_MAX)) {
+        return fw_board_step_checked(b, in, out);
+    }
+    out->tip_pm[0] = (int32_t)ax;
+    out->tip_pm[1] = (int32_t)ay;
+    /* the slot of this apex held the one before the window's oldest: the
+     * checked path, if it takes over, stores the same apex there again */
+    pos = t->pos;
+    t->x_pm[pos] = (int32_t)ax;
+    t->y_pm[pos] = (int32_t)ay;
+    next = (pos + 1) & (FW_THETA_WINDOW - 1);
+    dx = ax - t->x_pm[next];
+    dy = ay - t->y_pm[next];
+    if (FW_UNLIKELY((((uint64_t)dx + (uint64_t)FW_THETA_FAST_WINDOW_PM)
+                     | ((uint64_t)dy + (uint64_t)FW_THETA_FAST_WINDOW_PM)) > (uint64_t)(2 * FW_THETA_FAST_WINDOW_PM))) {
+        return fw_board_step_checked(b, in, out);
+    }
+    t->pos = next;
+    x2 = dx * dx;
+    y2 = dy * dy;
+    if (FW_LIKELY((uint64_t)(x2 + y2) >= t->min_disp2_pm2)) {
+        if (aligned) {
+            dir_x = dx;
+            dir_y = dy;
+        } else {
+            dir_x = fw_math_rshift_round_i64((int64_t)b->cos_a * dx + (int64_t)b->sin_a * dy, FW_Q30_FRAC);
+            dir_y = fw_math_rshift_round_i64((int64_t)b->cos_a * dy - (int64_t)b->sin_a * dx, FW_Q30_FRAC);
+            x2 = dir_x * dir_x;
+            y2 = dir_y * dir_y;
+        }
+        t->dir_x = (int32_t)dir_x;
+        t->dir_y = (int32_t)dir_y;
+        t->known = true;
     } else {
-        fw_math_rotate_unit_fit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a,
-                                    &out->force_pn[0], &out->force_pn[1]);
+        dir_x = t->dir_x;
+        dir_y = t->dir_y;
+        x2 = dir_x * dir_x;
+        y2 = dir_y * dir_y;
+        if (!t->known) {
+            flags = FW_FLAG_THETA_UNKNOWN;
+        }
     }
-    out->force_pn[2] = force_c[2];
+    /* the cot zone less the zero vector (fw_force_solve_dir_fast_pn) */
+    if (15 * y2 <= x2) {
+        return board_fast_below_hi(b, out, vn, vl, (int32_t)dir_x, (int32_t)dir_y);
+    }
+    fy8 = fw_math_rshift_round_i64((int64_t)b->force.lat_pn_per_v * vl, FW_Q23_FRAC - FW_FORCE_XFRAC);
+    n8 = fw_math_rshift_round_i64((int64_t)b->force.kn_pn_per_v * vn, FW_Q23_FRAC - FW_FORCE_XFRAC);
+    fx = fw_math_rshift_round_i64(fy8 * dir_x / dir_y, FW_FORCE_XFRAC);
+    fy = fw_math_rshift_round_i64(fy8, FW_FORCE_XFRAC);
+    out->force_pn[2] = (int32_t)fw_math_rshift_round_i64(
+        n8 - fw_math_rshift_round_i64((int64_t)b->force.two_h_over_l * fx, FW_Q30_FRAC - FW_FORCE_XFRAC),
+        FW_FORCE_XFRAC);
+    if (aligned) {
+        out->force_pn[0] = (int32_t)fx;
+        out->force_pn[1] = (int32_t)fy;
+    } else {
+        out->force_pn[0] = (int32_t)fw_math_rshift_round_i64((int64_t)b->cos_a * fx - (int64_t)b->sin_a * fy,
+                                                             FW_Q30_FRAC);
+        out->force_pn[1] = (int32_t)fw_math_rshift_round_i64((int64_t)b->sin_a * fx + (int64_t)b->cos_a * fy,
+                                                             FW_Q30_FRAC);
+    }
     b->sticky_flags |= flags;
     out->flags = flags;
+    return FW_OK;
 }
 
 fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out)
 {
-    if (b == NULL || in == NULL || out == NULL) {
-        return FW_ERR_ARG;
-    }
+    /* valid pointers are the caller's contract (fw_board.h): no checks */
     /* both inputs in the fast range (span 0 while the checked path is due;
      * both channels have the same ADC, so the same range) */
     if ((uint32_t)in->sn_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv
         && (uint32_t)in->sl_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv) {
         if (b->path_cfg == FW_BOARD_PATH_FAST_ALIGNED) {
-            board_step_fast(b, in, out, true);
-        } else {
-            board_step_fast(b, in, out, false);
+            return board_step_fast(b, in, out, true);
         }
-        return FW_OK;
+        return board_step_fast(b, in, out, false);
     }
     return fw_board_step_checked(b, in, out);
 }

@@ -487,6 +487,24 @@ static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
     TEST_ASSERT_TRUE(n_fast_far > 0 && n_fast_far < n_fast / 2);
 }
 
+/* fw_board_step does not test its pointers (fw_board.h); the checked
+ * entry does, and leaves the instance untouched. */
+static void test_board_step_checked_null_pointers_return_arg_error(void)
+{
+    fw_board_config_t c;
+    fw_board_t b;
+    fw_sample_in_t in = { 0, 0, { 0, 0, 0 } };
+    fw_sample_out_t out;
+    paper_config(&c);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&b, &c));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_checked(NULL, &in, &out));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_checked(&b, NULL, &out));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_checked(&b, &in, NULL));
+    TEST_ASSERT_FALSE(b.stepped);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&b, &in, &out));
+    TEST_ASSERT_TRUE(b.stepped);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -500,5 +518,6 @@ int main(void)
     RUN_TEST(test_board_force_saturates_with_flag_and_counter);
     RUN_TEST(test_board_fast_path_selected_at_the_domain_edges);
     RUN_TEST(test_board_fast_path_bit_identical_to_checked_over_sweep);
+    RUN_TEST(test_board_step_checked_null_pointers_return_arg_error);
     return UNITY_END();
 }
