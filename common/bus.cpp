@@ -96,9 +96,4 @@ void Heartbeat::maybe_send(const std::string &state, int64_t seq, int64_t sim_ut
     if (state != last_state_ || wall_utime() - last_us_ >= period_us) send(state, seq, sim_utime);
 }
 
-bool handle_for(lcm::LCM &lc, int timeout_ms)
-{
-    return lc.handleTimeout(timeout_ms) >= 0;
-}
-
 }  // namespace afm

@@ -47,8 +47,4 @@ private:
     int64_t last_us_ = 0;
 };
 
-// Waits up to timeout_ms for LCM traffic and dispatches it. Returns false on
-// a bus error.
-bool handle_for(lcm::LCM &lc, int timeout_ms);
-
 }  // namespace afm
