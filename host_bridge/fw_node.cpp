@@ -57,6 +57,8 @@ struct Node {
     lcm::LCM &lc;
     afm::Heartbeat hb;
     fw_board_t board{};
+    std::vector<fw_sample_in_t> block_in;     // one analog block, as the card's DMA buffer holds it
+    std::vector<fw_sample_out_t> block_out;
     fw_particles_t parts{};
     fw_drift_t drift{};
     std::vector<fw_wire_t> wires;             // rigid-rod models (fw_wire), ids alongside
@@ -282,14 +284,21 @@ struct Node {
         uint32_t flags = 0;
         fw_sample_out_t out{};
         int64_t force_sum_pn[3] = {0, 0, 0};
+        // the card's DMA block: acquisition, compensation and force for the
+        // whole block in one call, then the object models sample by sample
+        block_in.resize(static_cast<size_t>(b->n));
+        block_out.resize(static_cast<size_t>(b->n));
         for (int i = 0; i < b->n; ++i) {
-            fw_sample_in_t in;
+            fw_sample_in_t &in = block_in[static_cast<size_t>(i)];
             in.sn_uv = afm::to_i32(b->sn_v[i] * 1e6);
             in.sl_uv = afm::to_i32(b->sl_v[i] * 1e6);
             in.piezo_pm[0] = afm::to_i32(b->piezo_x_nm[i] * 1e3);
             in.piezo_pm[1] = afm::to_i32(b->piezo_y_nm[i] * 1e3);
             in.piezo_pm[2] = afm::to_i32(b->piezo_z_nm[i] * 1e3);
-            fw_board_step(&board, &in, &out);
+        }
+        fw_board_step_block(&board, block_in.data(), block_out.data(), block_in.size());
+        for (int i = 0; i < b->n; ++i) {
+            out = block_out[static_cast<size_t>(i)];
             fw_particles_update(&parts, out.tip_pm, out.force_pn, out.flags);
             out.flags |= update_wires(out);
             if (have_litho && fw_litho_step(&litho, out.tip_pm, out.force_pn[2]) == FW_ERR_CAPACITY) out.flags |= FW_FLAG_SAT_POS;

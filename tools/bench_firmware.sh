@@ -9,12 +9,14 @@ set -euo pipefail
 
 usage() {
   cat <<'TXT'
-usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-a DEG,DEG]
+usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-b SAMPLES] [-a DEG,DEG]
        tools/bench_firmware.sh [same options]
 
   -n SAMPLES  timing and error run: samples per scan angle (default 200000)
   -r REPEATS  timing repeats; the median ns/sample is shown (default 7)
   -c SAMPLES  callgrind run: samples per scan angle (default 50000)
+  -b SAMPLES  samples per fw_board_step_block call in (b) (default 20, the default
+              scene's analog block)
   -a DEGREES  scan angles in degrees (default 270,300)
   --no-callgrind  skip the instruction counts
   -h, --help  this text
@@ -39,12 +41,14 @@ repeats=7
 cg_n=50000
 angles=270,300
 do_cg=1
+block=20
 
 while [ $# -gt 0 ]; do
   case "$1" in
     -n) [ $# -ge 2 ] || { echo "bench_firmware: -n needs a number" >&2; exit 2; }; n=$2; shift 2 ;;
     -r) [ $# -ge 2 ] || { echo "bench_firmware: -r needs a number" >&2; exit 2; }; repeats=$2; shift 2 ;;
     -c) [ $# -ge 2 ] || { echo "bench_firmware: -c needs a number" >&2; exit 2; }; cg_n=$2; shift 2 ;;
+    -b) [ $# -ge 2 ] || { echo "bench_firmware: -b needs a number" >&2; exit 2; }; block=$2; shift 2 ;;
     -a) [ $# -ge 2 ] || { echo "bench_firmware: -a needs angles" >&2; exit 2; }; angles=$2; shift 2 ;;
     --no-callgrind) do_cg=0; shift ;;
     -h|--help) usage; exit 0 ;;
@@ -63,10 +67,11 @@ tmp=$(mktemp -d "${TMPDIR:-/tmp}/bench_fw.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 
 echo "bench_firmware: timing and errors ($n samples per angle, $repeats repeats)" >&2
-"$bin" -n "$n" -r "$repeats" -a "$angles" >"$tmp/time.txt"
+"$bin" -n "$n" -r "$repeats" -b "$block" -a "$angles" >"$tmp/time.txt"
 
 # instructions per sample: callgrind, counting only each path's loop
 declare -A ir=()
+declare -A ir_angle=()   # "path@deg" -> instructions of that angle's loop
 cg_note=""
 paths=(q15 fw32 ref ref_analog)
 if [ "$do_cg" -eq 1 ]; then
@@ -78,19 +83,22 @@ if [ "$do_cg" -eq 1 ]; then
     if "$bin" --features | grep -q 'callgrind_requests=1'; then
       # one run; the bench dumps each path's loop (client requests)
       valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$tmp/cg.out" \
-        "$bin" --callgrind -n "$cg_n" -a "$angles" >"$tmp/cg.txt" 2>"$tmp/cg.log" \
+        "$bin" --callgrind -n "$cg_n" -b "$block" -a "$angles" >"$tmp/cg.txt" 2>"$tmp/cg.log" \
         || { tail -5 "$tmp/cg.log" >&2; echo "bench_firmware: callgrind run failed" >&2; exit 1; }
       for f in "$tmp"/cg.out.*; do
         name=$(sed -n 's/^desc: Trigger: Client Request: bench_//p' "$f")
         tot=$(sed -n 's/^totals: //p' "$f")
-        [ -n "$name" ] && [ -n "$tot" ] && ir[$name]=$tot
+        if [ -n "$name" ] && [ -n "$tot" ]; then
+          ir_angle[$name]=$tot
+          ir[${name%@*}]=$(( ${ir[${name%@*}]:-0} + tot ))
+        fi
       done
-      cg_note="callgrind: client requests around each path's loop"
+      cg_note="callgrind: client requests around each path's loop, one dump per scan angle"
     else
       # no callgrind.h at build time: one run per path, collecting inside its loop
       for p in "${paths[@]}"; do
         valgrind --tool=callgrind --toggle-collect="bench_loop_*" \
-          --callgrind-out-file="$tmp/cg.$p" "$bin" --path "$p" -n "$cg_n" -a "$angles" \
+          --callgrind-out-file="$tmp/cg.$p" "$bin" --path "$p" -n "$cg_n" -b "$block" -a "$angles" \
           >"$tmp/cg.txt" 2>"$tmp/cg.log" \
           || { tail -5 "$tmp/cg.log" >&2; echo "bench_firmware: callgrind run failed" >&2; exit 1; }
         ir[$p]=$(sed -n 's/^totals: //p' "$tmp/cg.$p")
@@ -130,12 +138,34 @@ for p in "${paths[@]}"; do
   printf '%-26s | %9s | %12s | %15s | %13s | %10s\n' "$(label "$p")" "$(field ns "$row")" "$instr" \
     "$(field worst_pn "$row")" "$(field rms_pn "$row")" "$(field worst_pct "$row")"
 done
+if [ "${#ir_angle[@]}" -gt 0 ] && [ -n "$cg_samples" ]; then
+  # the bench names its dumps with %g of each angle
+  angle_keys=$(tr ',' '\n' <<<"$angles" | awk 'NF { printf "%g ", $1 }')
+  n_ang=$(wc -w <<<"$angle_keys")
+  per_angle=$(( cg_samples / n_ang ))
+  echo
+  echo "instructions per sample by scan angle (alpha = angle - 270 deg; at 270 frames A and C"
+  echo "coincide and (b) skips its three rotations):"
+  printf '%-26s' "path"
+  for a in $angle_keys; do printf ' | %8s' "$a deg"; done
+  echo
+  for p in "${paths[@]}"; do
+    printf '%-26s' "$(label "$p")"
+    for a in $angle_keys; do
+      v=${ir_angle[$p@$a]:-}
+      if [ -n "$v" ]; then v=$(awk -v t="$v" -v s="$per_angle" 'BEGIN { printf "%.0f", t / s }'); else v="-"; fi
+      printf ' | %8s' "$v"
+    done
+    echo
+  done
+fi
 echo
 echo "notes:"
 echo "  - errors: |F - F_ref| of the frame-A force vector against (c), the double model of the"
 echo "    same chain fed the same 16-bit ADC codes (so (a) and (b) show arithmetic error);"
 echo "    (c0) is (c) on the unquantised input, i.e. what the 16-bit ADC itself costs."
 echo "  - target (issue): (b) under 150 instructions and under 0.1 % FS (106.8 pN)."
+echo "  - (b) runs as fw_node drives it: fw_board_step_block on blocks of $(sed -n 's/.* fw_block=\([0-9]*\).*/\1/p' <<<"$input") samples (-b)."
 echo "  - instructions are x86-64 (host build flags), loop overhead included (a few per sample);"
 echo "    on a Cortex-M4 the 64-bit divisions of (b) are library calls, not one instruction."
 echo "  - (a) forms sin/cos theta only where the fallback needs them (|sin| < 1/4, series in"

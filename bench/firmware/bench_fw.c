@@ -48,6 +48,8 @@
 #define BENCH_MAX_ANGLES 8
 #define BENCH_N_DEFAULT 200000
 #define BENCH_REPEATS_DEFAULT 7
+#define BENCH_BLOCK_DEFAULT 20     /* samples per fw_board_step_block: the default scene's
+                                      analog block (20 kHz sampling, 1 kHz blocks) */
 #define BENCH_SEG_MIN 2000
 #define BENCH_SEG_SPAN 6000
 #define BENCH_NOISE_UV 2000
@@ -72,6 +74,7 @@ typedef struct {
     fw_board_config_t cfg;
     fw_sample_in_t *in;
     int32_t (*out_i)[3];
+    fw_sample_out_t *out_fw;
     double (*out_d)[3];
     double (*ref)[3];
     double *theta_c;      /* true direction of motion, frame C, rad (for notes) */
@@ -85,6 +88,7 @@ typedef struct {
 /* ---- the sweep ---------------------------------------------------------- */
 
 static uint64_t rng_state;
+static size_t bench_block = BENCH_BLOCK_DEFAULT;
 
 static uint64_t rng_next(void)   /* splitmix64 */
 {
@@ -237,16 +241,15 @@ __attribute__((noinline)) void bench_loop_q15(bench_q15_t *p, const fw_sample_in
     }
 }
 
+/* The firmware as fw_node drives it: one fw_board_step_block per analog
+ * block of `block` samples, outputs left in the block's buffer (the
+ * errors are read from it after the measured loop). */
 __attribute__((noinline)) void bench_loop_fw32(fw_board_t *b, const fw_sample_in_t *in,
-                                               int32_t (*f)[3], size_t n)
+                                               fw_sample_out_t *out, size_t n, size_t block)
 {
-    fw_sample_out_t o;
     size_t i;
-    for (i = 0; i < n; i++) {
-        (void)fw_board_step(b, &in[i], &o);
-        f[i][0] = o.force_pn[0];
-        f[i][1] = o.force_pn[1];
-        f[i][2] = o.force_pn[2];
+    for (i = 0; i < n; i += block) {
+        (void)fw_board_step_block(b, &in[i], &out[i], (n - i < block) ? n - i : block);
     }
 }
 
@@ -268,7 +271,7 @@ static void run_path(int path, bench_angle_t *a, size_t n)
         break;
     case PATH_FW32:
         fw_board_reset(&a->board);
-        bench_loop_fw32(&a->board, a->in, a->out_i, n);
+        bench_loop_fw32(&a->board, a->in, a->out_fw, n, bench_block);
         break;
     case PATH_REF:
         bench_ref_reset(&a->refp);
@@ -300,17 +303,19 @@ static int cmp_double(const void *x, const void *y)
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: bench_fw [-n SAMPLES] [-r REPEATS] [-a DEG[,DEG...]] [--callgrind | --path NAME]\n"
+            "usage: bench_fw [-n SAMPLES] [-r REPEATS] [-b SAMPLES] [-a DEG[,DEG...]] [--callgrind | --path NAME]\n"
             "  -n SAMPLES   samples per scan angle (default %d)\n"
             "  -r REPEATS   timing repeats, the median is reported (default %d)\n"
+            "  -b SAMPLES   samples per fw_board_step_block call (default %d, the default\n"
+            "               scene's analog block)\n"
             "  -a DEGREES   scan angles in degrees (default 270,300)\n"
-            "  --callgrind  run each path's loop once between callgrind client requests\n"
-            "               (dump per path, named bench_PATH); no timing, no errors\n"
+            "  --callgrind  run each path's loop once per scan angle between callgrind\n"
+            "               client requests (dumps named bench_PATH@DEG); no timing, no errors\n"
             "  --path NAME  run only NAME's loop once (q15, fw32, ref, ref_analog), for\n"
             "               valgrind --toggle-collect=bench_loop_*\n"
             "  --features   print whether callgrind client requests are compiled in\n"
             "Prints 'input', 'row' and 'note' lines; tools/bench_firmware.sh makes the table.\n",
-            BENCH_N_DEFAULT, BENCH_REPEATS_DEFAULT);
+            BENCH_N_DEFAULT, BENCH_REPEATS_DEFAULT, BENCH_BLOCK_DEFAULT);
 }
 
 int main(int argc, char **argv)
@@ -331,6 +336,13 @@ int main(int argc, char **argv)
             n = (size_t)strtoul(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "-r") == 0 && i + 1 < argc) {
             repeats = atoi(argv[++i]);
+        } else if (strcmp(argv[i], "-b") == 0 && i + 1 < argc) {
+            long v = strtol(argv[++i], NULL, 10);
+            if (v < 1 || v > 1000000) {
+                fprintf(stderr, "bench_fw: -b %s: samples per block must be 1..1000000\n", argv[i]);
+                return 2;
+            }
+            bench_block = (size_t)v;
         } else if (strcmp(argv[i], "-a") == 0 && i + 1 < argc) {
             char *s = argv[++i];
             n_angles = 0;
@@ -385,11 +397,12 @@ int main(int argc, char **argv)
         paper_config(&a->cfg, (int32_t)lround(angles_deg[k] * 1000.0));
         a->in = malloc(n * sizeof *a->in);
         a->out_i = malloc(n * sizeof *a->out_i);
+        a->out_fw = malloc(n * sizeof *a->out_fw);
         a->out_d = malloc(n * sizeof *a->out_d);
         a->ref = malloc(n * sizeof *a->ref);
         a->theta_c = malloc(n * sizeof *a->theta_c);
         a->corner = calloc(n, 1);
-        if (a->in == NULL || a->out_i == NULL || a->out_d == NULL || a->ref == NULL
+        if (a->in == NULL || a->out_i == NULL || a->out_fw == NULL || a->out_d == NULL || a->ref == NULL
             || a->theta_c == NULL || a->corner == NULL) {
             fprintf(stderr, "bench_fw: out of memory\n");
             return 1;
@@ -410,12 +423,12 @@ int main(int argc, char **argv)
             if (only_path >= 0 && p != only_path) {
                 continue;
             }
-            snprintf(dump, sizeof dump, "bench_%s", path_name[p]);
-            BENCH_CG_BEGIN();
             for (k = 0; k < n_angles; k++) {
+                snprintf(dump, sizeof dump, "bench_%s@%g", path_name[p], angles_deg[k]);
+                BENCH_CG_BEGIN();
                 run_path(p, &ang[k], n);
+                BENCH_CG_END(dump);
             }
-            BENCH_CG_END(dump);
         }
         printf("input samples=%zu\n", n * (size_t)n_angles);
         return 0;
@@ -446,9 +459,9 @@ int main(int argc, char **argv)
         for (k = 0; k < n_angles; k++) {
             printf("%s%g", k ? "," : "", angles_deg[k]);
         }
-        printf(" sn_v=%.2f..%.2f sl_v=%.2f..%.2f near_axis_pct=%.1f repeats=%d fs_pn=%.0f\n",
+        printf(" sn_v=%.2f..%.2f sl_v=%.2f..%.2f near_axis_pct=%.1f repeats=%d fs_pn=%.0f fw_block=%zu\n",
                sn_min, sn_max, sl_min, sl_max, 100.0 * near_axis / (n * (double)n_angles),
-               repeats, BENCH_FS_PN(&ang[0].cfg));
+               repeats, BENCH_FS_PN(&ang[0].cfg), bench_block);
     }
 
     for (p = 0; p < PATH_COUNT; p++) {
@@ -482,7 +495,8 @@ int main(int argc, char **argv)
                 int c;
                 since_corner = ang[k].corner[j] ? 0 : since_corner + 1;
                 for (c = 0; c < 3; c++) {
-                    double v = (p == PATH_Q15 || p == PATH_FW32) ? ang[k].out_i[j][c] : ang[k].out_d[j][c];
+                    double v = (p == PATH_FW32) ? ang[k].out_fw[j].force_pn[c]
+                               : (p == PATH_Q15) ? ang[k].out_i[j][c] : ang[k].out_d[j][c];
                     double e = v - ang[k].ref[j][c];
                     d2 += e * e;
                 }
@@ -515,6 +529,7 @@ int main(int argc, char **argv)
     for (k = 0; k < n_angles; k++) {
         free(ang[k].in);
         free(ang[k].out_i);
+        free(ang[k].out_fw);
         free(ang[k].out_d);
         free(ang[k].ref);
         free(ang[k].theta_c);

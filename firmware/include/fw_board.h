@@ -19,9 +19,11 @@
  *     theta.cos_theta, sin_theta is not formed per sample.
  *  5. Force in C (eq. 1a-1c, blend near sin theta = 0) from that vector
  *     (fw_force_solve_dir_fit_pn, fw_force.h), rotated into A (eq. 3).
- * The per-sample functions of the modules are inline, so one sample costs
- * no calls except in the blend zone near theta = 0, pi (fw_force_blend_pn)
- * and on the rare paths (ADC filter, saturation).
+ * The per-sample functions of the modules are inline: on the fast path a
+ * sample makes no call at all (fallback and blend included); the checked
+ * path calls fw_force_blend_pn in the blend zone near theta = 0, pi.
+ * fw_board_step_block runs a whole buffer (the ADC's DMA block) with the
+ * path chosen once; fw_node uses it.
  * Flags of the sample are returned in out->flags; sticky flags and counters
  * accumulate in the instance until fw_board_reset.
  *
@@ -37,13 +39,12 @@
  * the ADC's fast range (fw_acq_in_fast_range: no saturation, no top-code
  * clamp; then |S| <= 20 V after the baseline) and a sample has been stepped
  * since the reset; otherwise the checked one. The fast path omits only the
- * clamps that the bounds make impossible; its hot case (apex inside int32,
- * theta window inside 16 nm, |sin theta| above 1/4) makes no call and
- * hands the rare cases on by a tail call: apex past int32 and a theta
- * window over 16 nm to fw_board_step_checked, friction fallback and blend
- * to an out-of-line finish. Both paths give bit-identical outputs, flags,
- * counters and state (tests/firmware/test_board.c compares them over 10^6
- * samples).
+ * clamps that the bounds make impossible and finishes every direction
+ * (cot zone, friction fallback, blend) with no call; an apex past int32 or
+ * a theta window over 16 nm hands the sample to fw_board_step_checked.
+ * Both paths, one sample at a time or in blocks, give bit-identical
+ * outputs, flags, counters and state (tests/firmware/test_board.c compares
+ * them over 10^6 samples, in blocks of 1 to 64).
  *
  * Pointers: fw_board_step is the per-sample entry and, like CMSIS's
  * per-sample functions, does not test its pointers: b (initialised by
@@ -120,6 +121,13 @@ fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* vali
 void        fw_board_reset(fw_board_t *b);
 /* One sample. Valid pointers required, not tested (see above); FW_OK. */
 fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
+/* n samples from a buffer (the ADC's DMA block): the same outputs, flags,
+ * counters and state as n calls of fw_board_step, with the path chosen
+ * once per block and no call per sample on the fast path. out[i] belongs
+ * to in[i]; the buffers must not overlap. FW_ERR_ARG (nothing done) for a
+ * NULL b, or a NULL in or out with n > 0; n = 0 is FW_OK and changes
+ * nothing. */
+fw_status_t fw_board_step_block(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out, size_t n);
 /* The checked path of fw_board_step for any sample and configuration (the
  * reference the fast path is tested against); FW_ERR_ARG for a NULL
  * pointer. */

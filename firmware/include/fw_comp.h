@@ -27,7 +27,11 @@
 #include "fw_math.h"
 
 /* The fast path's bound on C_n, C_l (pm/V): with |S| <= 20 V (the fast
- * path's signals, fw_acq_step_fast_q23) every offset stays below 2^26 pm. */
+ * path's signals, fw_acq_step_fast_q23) every offset stays below 2^26 pm:
+ * |C S| <= 2^21 20 2^23 < 2^48.4 in 64 bits, >> 23 rounded, |o| < 2^25.4
+ * pm, rotated |R o| < 2^26, so fw_comp_apex_pm's clamps on the offset
+ * cannot act and only the apex itself can leave int32 (fw_board.c's fast
+ * path forms it so and hands such a sample to the checked path). */
 #define FW_COMP_FAST_C_MAX_PM_PER_V ((int32_t)1 << 21)
 
 typedef struct {
@@ -38,7 +42,8 @@ typedef struct {
     int32_t center_pm[2];    /* frame A */
     int32_t half_range_pm;   /* r_scan / 2 */
     q16_t kappa;             /* 16.16 */
-    bool fast;               /* C_n, C_l <= FW_COMP_FAST_C_MAX_PM_PER_V: fw_comp_apex_fast_pm valid */
+    bool fast;               /* C_n, C_l <= FW_COMP_FAST_C_MAX_PM_PER_V: fw_board_step's fast
+                                path may form the apex without clamps (fw_board.c) */
 } fw_comp_t;
 
 /* Validates C_n, C_l >= 0, half range >= 0, kappa >= 0. */
@@ -73,43 +78,6 @@ static inline void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3]
     apex_pm[0] = fw_math_sat_i32((int64_t)piezo_pm[0] + off[0], sat);
     apex_pm[1] = fw_math_sat_i32((int64_t)piezo_pm[1] + off[1], sat);
     apex_pm[2] = piezo_pm[2];
-}
-
-/* fw_comp_apex_pm for an instance with fast set (C_n, C_l <=
- * FW_COMP_FAST_C_MAX_PM_PER_V) and signals within +-20 V (|S| <= 20 2^23,
- * as fw_acq_step_fast_q23 returns them): same apex; returns true where
- * fw_comp_apex_pm sets *sat (the apex clamped to int32).
- * aligned: the caller knows alpha = 0 exactly (cos_a = 2^30, sin_a = 0);
- * the rotation is then the identity and is skipped (same result: 2^30 o
- * rounded >> 30 is o). With aligned false any alpha is valid.
- * Scaling and overflow: |C S| <= 2^21 20 2^23 < 2^48.4 in 64 bits, >> 23
- * rounded (half up): |o| < 2^25.4 pm, so the offset's clamp cannot act;
- * rotated by fw_math_rotate_unit_fit_i32 (|o| < 2^30): |R o| < 2^26, no
- * clamp either. The apex p + R o is summed in 64 bits and the two
- * components tested against int32 in one compare; only if one is out of
- * range are both saturated. Inline (per sample). */
-static FW_ALWAYS_INLINE bool fw_comp_apex_fast_pm(const fw_comp_t *c, const int32_t piezo_pm[3],
-                                                  q23_t sn_v, q23_t sl_v, bool aligned,
-                                                  int32_t apex_pm[3])
-{
-    int32_t ox = (int32_t)fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC);
-    int32_t oy = (int32_t)fw_math_rshift_round_i64((int64_t)c->cl_pm_per_v * sl_v, FW_Q23_FRAC);
-    int64_t ax;
-    int64_t ay;
-    bool sat = false;
-    if (!aligned) {
-        fw_math_rotate_unit_fit_i32(ox, oy, c->cos_a, c->sin_a, &ox, &oy);
-    }
-    ax = (int64_t)piezo_pm[0] + ox;
-    ay = (int64_t)piezo_pm[1] + oy;
-    if ((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) > UINT32_MAX) {
-        ax = fw_math_sat_i32(ax, &sat);
-        ay = fw_math_sat_i32(ay, &sat);
-    }
-    apex_pm[0] = (int32_t)ax;
-    apex_pm[1] = (int32_t)ay;
-    apex_pm[2] = piezo_pm[2];
-    return sat;
 }
 
 /* Joystick (1.15) to the set point in frame A (pm).

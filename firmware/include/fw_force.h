@@ -86,10 +86,12 @@ static inline int64_t fw_force_fallback_pn(const fw_force_t *f, int32_t n_pn, in
 {
     int64_t den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
     int64_t num = -mc * ((int64_t)n_pn + f->adhesion_pn);
-    int64_t q = num / den;
-    int64_t r2 = 2 * (num - q * den);
-    /* den > 0: |r2| >= den rounds away from zero (C99 truncates) */
-    return q + (r2 >= den) - (r2 <= -den);
+    /* den > 0, C99 truncates: with num = q den + r (0 <= r < den) for
+     * num >= 0, (num + floor(den / 2)) / den = q + (r >= den / 2), i.e.
+     * rounded half up; for num < 0 the same on -num, negated (|num| +
+     * den / 2 < 2^63) */
+    int64_t half = den >> 1;
+    return (num + (num < 0 ? -half : half)) / den;
 }
 
 /* Force in frame C, pN, as fw_force_solve_pn, from the direction of motion
@@ -100,12 +102,13 @@ static inline int64_t fw_force_fallback_pn(const fw_force_t *f, int32_t n_pn, in
  * the fallback alone.
  *   F_x,cot = F_y x / y: one 64-bit division (F_y with 8 fraction bits,
  *     truncated: < 2^-8 pN), then rounded to pN.
- *   below 1/4 (fw_force_below_hi_pn): t = y / x in 2.30 (|t| < 0.26, one
- *     64-bit division, truncated), cos theta = sign(x) (1 + t^2)^(-1/2) by
- *     the quartic 1 + u (a1 + u (a2 + u (a3 + u a4))), u = t^2 in [0, 1/15)
- *     (Chebyshev fit, |error| < 2.2e-9, exact at t = 0), |sin theta| =
- *     |t| cos theta in 2.30; F_x,fb = fw_force_fallback_pn (rounded) below
- *     1/8; in the blend F_x,fb keeps 8 fraction bits (a second division of
+ *   below 1/4 (fw_force_below_hi_pn): u = tan^2 theta = y^2 / x^2 in
+ *     2.30 (u < 1/15, one 64-bit division of the squares, truncated),
+ *     cos theta = sign(x) (1 + u)^(-1/2) by the quartic
+ *     1 + u (a1 + u (a2 + u (a3 + u a4))) (Chebyshev fit, |error| <
+ *     2.2e-9, exact at u = 0); F_x,fb = fw_force_fallback_pn (rounded)
+ *     below 1/8; in the blend |sin theta| = |y| |cos theta| / |x| in 2.30
+ *     (one division), F_x,fb keeps 8 fraction bits (a second division of
  *     the remainder) and F_x = F_x,fb + w (F_x,cot - F_x,fb) with
  *     w = clamp(|sin| - 1/8, 0, 1/8) / (1/8) in 2.30 / 2^27, the product
  *     split so it never exceeds 64 bits; rounded to pN once.
@@ -128,8 +131,8 @@ fw_status_t fw_force_solve_dir_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
  * Vectors that fit already are left as they are. */
 void fw_force_dir_fit(int32_t *dir_x, int32_t *dir_y);
 
-/* t = y / x in 2.30 below S_HI (|t| < 0.2582 < 2^-1.95). */
-#define FW_FORCE_T_FRAC 30
+/* u = tan^2 theta = y^2 / x^2 in 2.30 below S_HI (u < 1/15 < 2^-3.9). */
+#define FW_FORCE_U_FRAC 30
 /* (1 + u)^(-1/2) ~ 1 + u (a1 + u (a2 + u (a3 + u a4))) on u in [0, 1/15],
  * 2.30: the cubic (f(u) - 1) / u interpolated at the four Chebyshev nodes
  * of [0, 1/15]; |error| < 2.2e-9, exact at u = 0. */
@@ -142,24 +145,37 @@ void fw_force_dir_fit(int32_t *dir_x, int32_t *dir_y);
 #define FW_FORCE_BLEND_SPAN_LOG2_Q30 27
 #define FW_FORCE_BLEND_SPLIT 24
 
-/* cos theta (2.30) below S_HI from t = y / x (2.30) and the sign of x;
- * *abs_sin_q30 = |t| cos theta (2.30), the blend's weight.
- * Scaling and overflow: |t| < 2^28.05, t^2 < 2^56.1 >> 30 = u; Horner
- * products |p u| < 2^30 2^26.1; |t| cos < 2^58.05. Inline (the fallback's
- * per-sample path; a caller that does not use *abs_sin_q30 lets the
- * compiler drop it). */
-static inline int64_t fw_force_cos_from_t_q30(int64_t t, int32_t x, int64_t *abs_sin_q30)
+/* u = y^2 / x^2 in 2.30, truncated, from the squares x2 = x^2 > 0 and
+ * y2 = y^2 <= 2^30 (|y| <= 2^15) with 15 y2 < x2 (below S_HI).
+ * Scaling and overflow: y2 2^30 <= 2^60; one 64-bit division; u < 2^30 / 15. */
+static inline int64_t fw_force_tan2_q30(int64_t x2, int64_t y2)
 {
-    int64_t at = t < 0 ? -t : t;
-    int64_t u = fw_math_asr_i64(at * at, FW_FORCE_T_FRAC);
+    return y2 * ((int64_t)1 << FW_FORCE_U_FRAC) / x2;
+}
+
+/* cos theta (2.30) below S_HI from u = tan^2 theta (2.30, [0, 2^30 / 15))
+ * and the sign of x.
+ * Scaling and overflow: Horner products |p u| < 2^30 2^26.1 in 64 bits;
+ * |cos| <= 2^30. */
+static inline int64_t fw_force_cos_from_u_q30(int64_t u, int32_t x)
+{
     int64_t p = FW_FORCE_COS_A4;
     int64_t c;
     p = FW_FORCE_COS_A3 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
     p = FW_FORCE_COS_A2 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
     p = FW_FORCE_COS_A1 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
     c = FW_Q30_ONE + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    *abs_sin_q30 = fw_math_asr_i64(at * c, FW_FORCE_T_FRAC);
     return (x < 0) ? -c : c;
+}
+
+/* |sin theta| (2.30) = |y| |cos theta| / |x|, truncated, for the blend's
+ * weight; x != 0, |x|, |y| <= 2^15, |c| <= 2^30.
+ * Scaling and overflow: |y| |c| <= 2^45; one 64-bit division. */
+static inline int64_t fw_force_abs_sin_q30(int32_t x, int32_t y, int64_t c)
+{
+    int64_t ax = (x < 0) ? -(int64_t)x : x;
+    int64_t ay = (y < 0) ? -(int64_t)y : y;
+    return ay * (c < 0 ? -c : c) / ax;
 }
 
 /* The blend of F_x,fb and F_x,cot for S_LO <= |sin theta| < S_HI (pN):
@@ -169,7 +185,7 @@ static inline int64_t fw_force_cos_from_t_q30(int64_t t, int32_t x, int64_t *abs
  * Scaling and overflow: F_x,fb with 8 fraction bits (as
  * fw_force_fallback_pn, truncated): q 2^8 + (r 2^8) / den, |r| < den <
  * 2^31; F_x = F_x,fb + w (F_x,cot - F_x,fb), w = (|s| - 1/8) / (1/8) in
- * 2.30 / 2^27; the product w diff (|w| <= 2^27, |diff| < 2^51, 8 fraction
+ * 2.30 / 2^27, the product w diff (|w| <= 2^27, |diff| < 2^51, 8 fraction
  * bits) is formed from diff = dh 2^24 + dl, dl in [0, 2^24):
  * |w dh| < 2^54, w dl < 2^51, and floor((w dh 2^24 + w dl) / 2^27) =
  * floor(w dh / 8) + floor(((w dh mod 8) 2^24 + w dl) / 2^27), exact;
@@ -178,22 +194,22 @@ int64_t fw_force_blend_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int64_
 
 /* F_x below S_HI (pN): F_x,fb, blended with F_x,cot = fx8 / 2^8 when
  * blend (|sin theta| >= S_LO). Part of fw_force_solve_dir_pn; requires
- * 15 y^2 < x^2 (so x != 0 and |t| < 15^(-1/2)). Inline; the blend itself
- * is out of line (fw_force_blend_pn).
- * Scaling and overflow: t = y 2^30 / x, |y| 2^30 < 2^62, one 64-bit
- * division (truncated); mc = mu cos theta >> 30 (|mc| <= 2^30); then
- * fw_force_fallback_pn or fw_force_blend_pn. */
+ * |x|, |y| <= 2^15, x2 = x^2, y2 = y^2 and 15 y2 < x2 (so x != 0). Inline;
+ * the blend itself is out of line (fw_force_blend_pn).
+ * Scaling and overflow: u, cos theta and |sin theta| as
+ * fw_force_tan2_q30, fw_force_cos_from_u_q30, fw_force_abs_sin_q30; mc =
+ * mu cos theta >> 30 (|mc| <= 2^30); then fw_force_fallback_pn or
+ * fw_force_blend_pn. */
 static FW_ALWAYS_INLINE int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8,
-                                                     int32_t dir_x, int32_t dir_y, bool blend)
+                                                     int32_t dir_x, int32_t dir_y, int64_t x2, int64_t y2,
+                                                     bool blend)
 {
-    int64_t t = (int64_t)dir_y * ((int64_t)1 << FW_FORCE_T_FRAC) / dir_x;
-    int64_t as;
-    int64_t c = fw_force_cos_from_t_q30(t, dir_x, &as);
+    int64_t c = fw_force_cos_from_u_q30(fw_force_tan2_q30(x2, y2), dir_x);
     int64_t mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
     if (!blend) {
         return fw_force_fallback_pn(f, n_pn, mc);
     }
-    return fw_force_blend_pn(f, n_pn, fx8, mc, as);
+    return fw_force_blend_pn(f, n_pn, fx8, mc, fw_force_abs_sin_q30(dir_x, dir_y, c));
 }
 
 /* fw_force_solve_dir_pn for a direction that already satisfies
@@ -220,7 +236,7 @@ static inline void fw_force_solve_dir_fit_pn(const fw_force_t *f, q23_t sn_v, q2
         fx32 = fw_math_sat_i32(fw_math_rshift_round_i64(fx8, FW_FORCE_XFRAC), &sat);
     } else {
         int32_t n = fw_math_sat_i32(fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC), &sat);
-        fx32 = fw_math_sat_i32(fw_force_below_hi_pn(f, n, fx8, dir_x, dir_y, 63 * y2 >= x2), &sat);
+        fx32 = fw_math_sat_i32(fw_force_below_hi_pn(f, n, fx8, dir_x, dir_y, x2, y2, 63 * y2 >= x2), &sat);
         *flags |= FW_FLAG_FX_UNOBSERVABLE;
     }
     /* F_z from the clamped F_x: |2h/l * fx32| < 2^62 */
@@ -231,6 +247,45 @@ static inline void fw_force_solve_dir_fit_pn(const fw_force_t *f, q23_t sn_v, q2
     if (sat) {
         *flags |= FW_FLAG_SAT_FORCE;
     }
+}
+
+/* F_x below S_HI (pN) for an instance with fast set and signals within
+ * +-20 V (fw_force_solve_dir_fast_pn's bounds): the value of
+ * fw_force_below_hi_pn (fallback below S_LO, blend above; the caller
+ * raises FW_FLAG_FX_UNOBSERVABLE), inline with the blend included, for the
+ * per-sample path. n8 = k_n K_n S_n and fy8 = F_y with 8 fraction bits;
+ * x2 = x^2, y2 = y^2 with 15 y2 < x2 (so x != 0); blend = 63 y2 >= x2
+ * (then y != 0).
+ * Scaling and overflow: u, cos theta, |sin theta|, mc and the fallback as
+ * fw_force_below_hi_pn; in the blend |F_x,fb| < 2^27.2 pN (|N| < 2^22.4,
+ * F_adh <= 2^26, den >= 1/2), kept with 8 fraction bits (q 2^8 + (r 2^8) /
+ * den, as fw_force_blend_pn, < 2^35.2), F_x,cot = F_y x / y with 8
+ * fraction bits (|x / y| <= 63^(1/2): < 2^33.4), so |w (F_x,cot - F_x,fb)|
+ * < 2^27 2^35.5 < 2^63: the product is formed in one piece, and
+ * floor(w diff / 2^27) is the value fw_force_blend_pn forms from its split
+ * product (same floor, exact); rounded to pN once, |F_x| < 2^27.2. */
+static FW_ALWAYS_INLINE int32_t fw_force_below_hi_fast_pn(const fw_force_t *f, int64_t n8, int64_t fy8,
+                                                          int32_t dir_x, int32_t dir_y, int64_t x2,
+                                                          int64_t y2, bool blend)
+{
+    int32_t n = (int32_t)fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC);
+    int64_t c = fw_force_cos_from_u_q30(fw_force_tan2_q30(x2, y2), dir_x);
+    int64_t mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
+    int64_t den;
+    int64_t num;
+    int64_t fb;
+    int64_t w;
+    if (!blend) {
+        return (int32_t)fw_force_fallback_pn(f, n, mc);
+    }
+    den = FW_Q30_ONE - fw_math_asr_i64(mc * f->two_h_over_l, FW_Q30_FRAC);
+    num = -mc * ((int64_t)n + f->adhesion_pn);
+    fb = num / den;
+    fb = fb * ((int64_t)1 << FW_FORCE_XFRAC) + (num - fb * den) * ((int64_t)1 << FW_FORCE_XFRAC) / den;
+    w = fw_force_abs_sin_q30(dir_x, dir_y, c) - FW_FORCE_SIN_LO_Q30;
+    w = (w < 0) ? 0 : ((w > FW_FORCE_SIN_LO_Q30) ? FW_FORCE_SIN_LO_Q30 : w);
+    return (int32_t)fw_math_rshift_round_i64(
+        fb + fw_math_asr_i64(w * (fy8 * dir_x / dir_y - fb), FW_FORCE_BLEND_SPAN_LOG2_Q30), FW_FORCE_XFRAC);
 }
 
 /* fw_force_solve_dir_fit_pn for an instance with fast set (init: k_n K_n,
@@ -248,26 +303,24 @@ static inline void fw_force_solve_dir_fit_pn(const fw_force_t *f, q23_t sn_v, q2
  * |F_x,fb| <= |N + F_adh| / (1/2) < 2^27.2 pN; every blend lies between
  * the two. |(2h/l) F_x| < 2^31 2^27.2 in 64 bits, so |F_z| < 2^28.3 pN.
  * All outputs < 2^29 pN: no clamp, no FW_FLAG_SAT_FORCE. Inline (per
- * sample). */
-static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
-                                                        int32_t dir_x, int32_t dir_y,
-                                                        int32_t force_c_pn[3], uint32_t *flags)
+ * sample). fw_force_solve_dir_fast_sq_pn takes the squares x2 = dir_x^2,
+ * y2 = dir_y^2 from a caller that has them (fw_board_step's fast path,
+ * where this is the force it runs). */
+static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_sq_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                                           int32_t dir_x, int32_t dir_y, int64_t x2,
+                                                           int64_t y2, int32_t force_c_pn[3],
+                                                           uint32_t *flags)
 {
     int64_t fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v,
                                            FW_Q23_FRAC - FW_FORCE_XFRAC);
     int64_t n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v,
                                           FW_Q23_FRAC - FW_FORCE_XFRAC);
-    int64_t x2 = (int64_t)dir_x * dir_x;
-    int64_t y2 = (int64_t)dir_y * dir_y;
     int32_t fx32 = 0;
-    if (15 * y2 > x2) {
+    if (FW_LIKELY(15 * y2 > x2)) {
         fx32 = (int32_t)fw_math_rshift_round_i64(fy8 * dir_x / dir_y, FW_FORCE_XFRAC);
     } else if (x2 != 0) {
         /* below S_HI; in the blend zone y != 0 (63 y^2 >= x^2 > 0) */
-        bool blend = 63 * y2 >= x2;
-        int32_t n = (int32_t)fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC);
-        fx32 = (int32_t)fw_force_below_hi_pn(f, n, blend ? fy8 * dir_x / dir_y : 0, dir_x, dir_y,
-                                             blend);
+        fx32 = fw_force_below_hi_fast_pn(f, n8, fy8, dir_x, dir_y, x2, y2, 63 * y2 >= x2);
         *flags |= FW_FLAG_FX_UNOBSERVABLE;
     }
     force_c_pn[0] = fx32;
@@ -275,6 +328,15 @@ static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23
     force_c_pn[2] = (int32_t)fw_math_rshift_round_i64(
         n8 - fw_math_rshift_round_i64((int64_t)f->two_h_over_l * fx32, FW_Q30_FRAC - FW_FORCE_XFRAC),
         FW_FORCE_XFRAC);
+}
+
+/* fw_force_solve_dir_fast_sq_pn with the squares formed here. Inline. */
+static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                                        int32_t dir_x, int32_t dir_y,
+                                                        int32_t force_c_pn[3], uint32_t *flags)
+{
+    fw_force_solve_dir_fast_sq_pn(f, sn_v, sl_v, dir_x, dir_y, (int64_t)dir_x * dir_x,
+                                  (int64_t)dir_y * dir_y, force_c_pn, flags);
 }
 
 /* Rotate a frame-C vector into frame A by R(alpha) (eq. 3); z unchanged.
@@ -382,51 +444,12 @@ static inline bool fw_theta_push_pm(fw_theta_t *t, const int32_t apex_pm[2], q30
     return true;
 }
 
-/* fw_theta_push_pm's fast window: |dx|, |dy| <= 2^14 pm over the window
- * (16 nm; the paper's 200 nm/s at 10 kHz moves 0.3 nm). */
+/* fw_board_step's fast window: |dx|, |dy| <= 2^14 pm over the window
+ * (16 nm; the paper's 200 nm/s at 10 kHz moves 0.3 nm). Inside it the
+ * squares sum to <= 2^29 and the rotation's |c dx + s dy| <= 2^30 (|dx| +
+ * |dy|) <= 2^45, so |dir_x|, |dir_y| <= 2^15 after rounding and
+ * fw_theta_push_pm's range test and scaling cannot act (fw_board.c). */
 #define FW_THETA_FAST_WINDOW_PM ((int64_t)1 << 14)
-
-/* fw_theta_push_pm for a primed window (fill = FW_THETA_WINDOW: any push
- * since the reset) and |cos_a|, |sin_a| <= 2^30: the same state, direction,
- * flags and result. aligned: the caller knows alpha = 0 exactly (cos_a =
- * 2^30, sin_a = 0); the rotation into frame C is then the identity and is
- * skipped (same result: 2^30 d rounded >> 30 is d). Outside the fast window
- * (|dx| or |dy| > FW_THETA_FAST_WINDOW_PM, one compare on both) the push is
- * fw_theta_push_pm's.
- * Scaling and overflow: d in 64 bits; in the fast window the squares sum
- * to <= 2^29 and the rotation's |c dx + s dy| <= 2^30 (|dx| + |dy|) <=
- * 2^45, so |dir_x|, |dir_y| <= 2^15 after rounding: fw_theta_push_pm's
- * range test and scaling cannot act. Inline (per sample). */
-static FW_ALWAYS_INLINE bool fw_theta_push_fast_pm(fw_theta_t *t, const int32_t apex_pm[2], q30_t cos_a,
-                                                   q30_t sin_a, bool aligned, uint32_t *flags)
-{
-    int32_t pos = t->pos;
-    int32_t next = (pos + 1) & (FW_THETA_WINDOW - 1);
-    int64_t dx = (int64_t)apex_pm[0] - t->x_pm[next];
-    int64_t dy = (int64_t)apex_pm[1] - t->y_pm[next];
-    if ((((uint64_t)dx + (uint64_t)FW_THETA_FAST_WINDOW_PM)
-         | ((uint64_t)dy + (uint64_t)FW_THETA_FAST_WINDOW_PM)) > (uint64_t)(2 * FW_THETA_FAST_WINDOW_PM)) {
-        return fw_theta_push_pm(t, apex_pm, cos_a, sin_a, flags);
-    }
-    t->x_pm[pos] = apex_pm[0];
-    t->y_pm[pos] = apex_pm[1];
-    t->pos = next;
-    if ((uint64_t)(dx * dx + dy * dy) < t->min_disp2_pm2) {
-        if (!t->known) {
-            *flags |= FW_FLAG_THETA_UNKNOWN;
-        }
-        return false;
-    }
-    if (aligned) {
-        t->dir_x = (int32_t)dx;
-        t->dir_y = (int32_t)dy;
-    } else {
-        t->dir_x = (int32_t)fw_math_rshift_round_i64((int64_t)cos_a * dx + (int64_t)sin_a * dy, FW_Q30_FRAC);
-        t->dir_y = (int32_t)fw_math_rshift_round_i64((int64_t)cos_a * dy - (int64_t)sin_a * dx, FW_Q30_FRAC);
-    }
-    t->known = true;
-    return true;
-}
 
 /* Push the apex (frame A) and update the direction: fw_theta_push_pm, then
  * (cos_theta, sin_theta) = fw_math_unit_q15(dir_x, dir_y) when it moved.

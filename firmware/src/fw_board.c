@@ -144,57 +144,44 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
     return FW_OK;
 }
 
-/* The rest of a fast-path sample (board_step_fast) whose direction lies
- * below S_HI or is the zero vector: the force by fw_force_solve_dir_fast_pn
- * (fallback or blend), rotated into frame A, the flags. The window and the
- * apex are already pushed and stored. Out of line and reached by a tail
- * call, so that no value of the hot function lives across a call.
- * Scaling and overflow: as board_step_fast; the rotation with alpha = 0
- * exactly (cos_a = 2^30, sin_a = 0) is the identity (2^30 F rounded >> 30
- * is F), so one function serves both fast paths. */
-static FW_NOINLINE fw_status_t board_fast_below_hi(fw_board_t *restrict b, fw_sample_out_t *restrict out,
-                                                   q23_t vn, q23_t vl, int32_t dir_x, int32_t dir_y)
+/* Whether both inputs lie in the ADC's fast range (span 0 while the
+ * checked path is due; both channels have the same ADC, so the same
+ * range). */
+static FW_ALWAYS_INLINE bool board_in_fast_range(const fw_board_t *b, const fw_sample_in_t *in)
 {
-    uint32_t flags = b->theta.known ? 0u : FW_FLAG_THETA_UNKNOWN;
-    int32_t force_c[3];
-    fw_force_solve_dir_fast_pn(&b->force, vn, vl, dir_x, dir_y, force_c, &flags);
-    fw_math_rotate_unit_fit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a,
-                                &out->force_pn[0], &out->force_pn[1]);
-    out->force_pn[2] = force_c[2];
-    b->sticky_flags |= flags;
-    out->flags = flags;
-    return FW_OK;
+    return (uint32_t)in->sn_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv
+           && (uint32_t)in->sl_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv;
 }
 
 /* One sample on the fast path (fw_board.h): both inputs in the ADC's fast
  * range, a configuration with path_cfg fast, the theta window primed.
  * aligned: path FW_BOARD_PATH_FAST_ALIGNED (a constant at each call, so the
- * compiler emits one specialisation per path).
- * The hot case (apex inside int32, theta window inside
- * FW_THETA_FAST_WINDOW_PM, direction in the cot zone |sin theta| > S_HI)
- * is computed here with no call; every other case leaves by a tail call:
- * the apex past int32 or a window beyond the fast one to
- * fw_board_step_checked (before the window's position moves: the stores
- * made until then, signals, codes, apex and the apex in its window slot,
- * are the values the checked path stores again), a direction below S_HI
- * to board_fast_below_hi.
+ * compiler emits one specialisation per path). Returns true when the
+ * sample is done; false when it belongs to fw_board_step_checked, which the
+ * caller then calls: the apex past int32 or a theta window beyond the fast
+ * one. That is decided before the window's position moves: the stores made
+ * until then (signals, codes, apex, the apex in its window slot) are the
+ * values the checked path stores again. Every direction is finished here,
+ * with no call: the force is fw_force_solve_dir_fast_sq_pn's (cot zone
+ * |sin theta| > S_HI, friction fallback and blend below it, the zero
+ * vector), inline, given the squares the window test already formed.
  * Scaling and overflow: the signals are within +-20 V
- * (fw_acq_step_fast_q23); within that, the offsets (fw_comp_apex_fast_pm)
+ * (fw_acq_step_fast_q23); within that, the offsets (FW_COMP_FAST_C_MAX_PM_PER_V)
  * stay below 2^26 pm and the forces (fw_force_solve_dir_fast_pn) below
- * 2^29 pN, so the rotation into frame A (fw_math_rotate_unit_fit_i32,
- * inputs < 2^30) cannot clamp and FW_FLAG_SAT_FORCE cannot occur. Window
- * as fw_theta_push_fast_pm (|dx|, |dy| <= 2^14 pm, squares summed < 2^29,
- * direction |dir_x|, |dir_y| <= 2^15). Cot zone as
- * fw_force_solve_dir_fast_pn: |F_y x| < 2^30.4 2^15 in 64 bits, one
- * division, rounded >> 8 (|F_x| < 2^24.4 pN); (2h/l) F_x < 2^31 2^24.4 in
- * 64 bits. Same state changes as fw_board_step_checked for such a sample:
- * no saturation counters move; stepped, have_ref and ref_live are already
- * set (fw_board_step_checked opens the fast path only while ref_live), so
- * the virtual S_n's reference is this sample through sn_v and z_pm. The
- * only flag the hot case can raise is FW_FLAG_THETA_UNKNOWN (no direction
- * known yet; the direction is then (0, 1), in the cot zone). */
-static FW_ALWAYS_INLINE fw_status_t board_step_fast(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
-                                                    fw_sample_out_t *restrict out, bool aligned)
+ * 2^29 pN, so the rotation into frame A (inputs < 2^30) cannot clamp and
+ * FW_FLAG_SAT_FORCE cannot occur. Window as FW_THETA_FAST_WINDOW_PM (|dx|,
+ * |dy| <= 2^14 pm, squares summed < 2^29, direction |dir_x|, |dir_y| <=
+ * 2^15). Force as fw_force_solve_dir_fast_pn: |F_y x| < 2^30.4 2^15 in 64
+ * bits, one division, rounded >> 8 (|F_x| < 2^27.2 pN in every zone);
+ * (2h/l) F_x < 2^31 2^27.2 in 64 bits. Same state changes as
+ * fw_board_step_checked for such a sample: no saturation counters move;
+ * stepped, have_ref and ref_live are already set (fw_board_step_checked
+ * opens the fast path only while ref_live), so the virtual S_n's reference
+ * is this sample through sn_v and z_pm. The flags it can raise are
+ * FW_FLAG_THETA_UNKNOWN (no direction known yet; the direction is then
+ * (0, 1), in the cot zone) and FW_FLAG_FX_UNOBSERVABLE (below S_HI). */
+static FW_ALWAYS_INLINE bool board_step_fast(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
+                                             fw_sample_out_t *restrict out, bool aligned)
 {
     fw_theta_t *t = &b->theta;
     q23_t vn = fw_acq_step_fast_q23(&b->acq_sn, in->sn_uv, &out->sn_code);
@@ -212,14 +199,13 @@ static FW_ALWAYS_INLINE fw_status_t board_step_fast(fw_board_t *restrict b, cons
     int64_t dir_x;
     int64_t dir_y;
     uint32_t flags = 0;
-    int64_t fy8;
-    int64_t n8;
-    int64_t fx;
-    int64_t fy;
+    int32_t force_c[3];
     b->sn_v = vn;
     b->sl_v = vl;
     b->z_pm = in->piezo_pm[2];
     out->tip_pm[2] = in->piezo_pm[2];
+    /* the apex (fw_comp_apex_pm's value, no clamp: the offsets stay below
+     * 2^26 pm), past int32 to the checked path */
     if (!aligned) {
         int64_t rx = fw_math_rshift_round_i64((int64_t)b->cos_a * ox - (int64_t)b->sin_a * oy, FW_Q30_FRAC);
         oy = fw_math_rshift_round_i64((int64_t)b->sin_a * ox + (int64_t)b->cos_a * oy, FW_Q30_FRAC);
@@ -228,12 +214,14 @@ static FW_ALWAYS_INLINE fw_status_t board_step_fast(fw_board_t *restrict b, cons
     ax = in->piezo_pm[0] + ox;
     ay = in->piezo_pm[1] + oy;
     if (FW_UNLIKELY((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) > UINT32_MAX)) {
-        return fw_board_step_checked(b, in, out);
+        return false;
     }
     out->tip_pm[0] = (int32_t)ax;
     out->tip_pm[1] = (int32_t)ay;
-    /* the slot of this apex held the one before the window's oldest: the
-     * checked path, if it takes over, stores the same apex there again */
+    /* the window (fw_theta_push_pm's state and direction); beyond the fast
+     * window to the checked path. The slot of this apex held the one before
+     * the window's oldest: the checked path, if it takes over, stores the
+     * same apex there again */
     pos = t->pos;
     t->x_pm[pos] = (int32_t)ax;
     t->y_pm[pos] = (int32_t)ay;
@@ -242,7 +230,7 @@ static FW_ALWAYS_INLINE fw_status_t board_step_fast(fw_board_t *restrict b, cons
     dy = ay - t->y_pm[next];
     if (FW_UNLIKELY((((uint64_t)dx + (uint64_t)FW_THETA_FAST_WINDOW_PM)
                      | ((uint64_t)dy + (uint64_t)FW_THETA_FAST_WINDOW_PM)) > (uint64_t)(2 * FW_THETA_FAST_WINDOW_PM))) {
-        return fw_board_step_checked(b, in, out);
+        return false;
     }
     t->pos = next;
     x2 = dx * dx;
@@ -269,44 +257,75 @@ static FW_ALWAYS_INLINE fw_status_t board_step_fast(fw_board_t *restrict b, cons
             flags = FW_FLAG_THETA_UNKNOWN;
         }
     }
-    /* the cot zone less the zero vector (fw_force_solve_dir_fast_pn) */
-    if (15 * y2 <= x2) {
-        return board_fast_below_hi(b, out, vn, vl, (int32_t)dir_x, (int32_t)dir_y);
-    }
-    fy8 = fw_math_rshift_round_i64((int64_t)b->force.lat_pn_per_v * vl, FW_Q23_FRAC - FW_FORCE_XFRAC);
-    n8 = fw_math_rshift_round_i64((int64_t)b->force.kn_pn_per_v * vn, FW_Q23_FRAC - FW_FORCE_XFRAC);
-    fx = fw_math_rshift_round_i64(fy8 * dir_x / dir_y, FW_FORCE_XFRAC);
-    fy = fw_math_rshift_round_i64(fy8, FW_FORCE_XFRAC);
-    out->force_pn[2] = (int32_t)fw_math_rshift_round_i64(
-        n8 - fw_math_rshift_round_i64((int64_t)b->force.two_h_over_l * fx, FW_Q30_FRAC - FW_FORCE_XFRAC),
-        FW_FORCE_XFRAC);
+    /* the force in frame C, then eq. 3 (the identity when aligned) */
+    fw_force_solve_dir_fast_sq_pn(&b->force, vn, vl, (int32_t)dir_x, (int32_t)dir_y, x2, y2, force_c, &flags);
+    out->force_pn[2] = force_c[2];
     if (aligned) {
-        out->force_pn[0] = (int32_t)fx;
-        out->force_pn[1] = (int32_t)fy;
+        out->force_pn[0] = force_c[0];
+        out->force_pn[1] = force_c[1];
     } else {
-        out->force_pn[0] = (int32_t)fw_math_rshift_round_i64((int64_t)b->cos_a * fx - (int64_t)b->sin_a * fy,
-                                                             FW_Q30_FRAC);
-        out->force_pn[1] = (int32_t)fw_math_rshift_round_i64((int64_t)b->sin_a * fx + (int64_t)b->cos_a * fy,
-                                                             FW_Q30_FRAC);
+        fw_math_rotate_unit_fit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a, &out->force_pn[0],
+                                    &out->force_pn[1]);
     }
     b->sticky_flags |= flags;
     out->flags = flags;
-    return FW_OK;
+    return true;
 }
 
 fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out)
 {
     /* valid pointers are the caller's contract (fw_board.h): no checks */
-    /* both inputs in the fast range (span 0 while the checked path is due;
-     * both channels have the same ADC, so the same range) */
-    if ((uint32_t)in->sn_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv
-        && (uint32_t)in->sl_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv) {
+    if (board_in_fast_range(b, in)) {
         if (b->path_cfg == FW_BOARD_PATH_FAST_ALIGNED) {
-            return board_step_fast(b, in, out, true);
+            if (board_step_fast(b, in, out, true)) {
+                return FW_OK;
+            }
+        } else if (board_step_fast(b, in, out, false)) {
+            return FW_OK;
         }
-        return board_step_fast(b, in, out, false);
     }
     return fw_board_step_checked(b, in, out);
+}
+
+/* n samples on one path; the path test is hoisted out of the loop, and
+ * the fast range is kept in locals (only the checked path changes it:
+ * fast_span_uv is read again after each checked sample; fast_lo_uv only
+ * changes at a reset). */
+static FW_ALWAYS_INLINE void board_block(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
+                                         fw_sample_out_t *restrict out, size_t n, bool aligned)
+{
+    const fw_sample_in_t *end = in + n;
+    uint32_t lo = (uint32_t)b->fast_lo_uv;
+    uint32_t span = b->fast_span_uv;
+    for (; in != end; in++, out++) {
+        if (FW_UNLIKELY((uint32_t)in->sn_uv - lo >= span || (uint32_t)in->sl_uv - lo >= span
+                        || !board_step_fast(b, in, out, aligned))) {
+            (void)fw_board_step_checked(b, in, out);
+            span = b->fast_span_uv;
+        }
+    }
+}
+
+fw_status_t fw_board_step_block(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out, size_t n)
+{
+    size_t i;
+    if (b == NULL || ((in == NULL || out == NULL) && n != 0)) {
+        return FW_ERR_ARG;
+    }
+    switch (b->path_cfg) {
+    case FW_BOARD_PATH_FAST_ALIGNED:
+        board_block(b, in, out, n, true);
+        break;
+    case FW_BOARD_PATH_FAST:
+        board_block(b, in, out, n, false);
+        break;
+    default:
+        for (i = 0; i < n; i++) {
+            (void)fw_board_step_checked(b, &in[i], &out[i]);
+        }
+        break;
+    }
+    return FW_OK;
 }
 
 fw_status_t fw_board_piezo_cmd(const fw_board_t *b, const int32_t joy_q15[2], int32_t piezo_cmd_pm[2])

@@ -353,9 +353,44 @@ static void assert_boards_identical(const fw_board_t *f, const fw_board_t *c, co
     }
 }
 
-/* fw_board_step (fast path wherever it is open) against
- * fw_board_step_checked on the same inputs: bit-identical outputs and
- * state over AFM_SWEEP_N samples (10^6 on the host), in segments with their
+/* The samples waiting for fw_board_step_block in the sweep below, with
+ * the checked path's outputs for them. */
+#define SWEEP_BLOCK_MAX 64
+typedef struct {
+    fw_sample_in_t in[SWEEP_BLOCK_MAX];
+    fw_sample_out_t oc[SWEEP_BLOCK_MAX];
+    fw_sample_out_t og[SWEEP_BLOCK_MAX];
+    size_t n;
+    size_t target;
+    long blocks;
+} sweep_block_t;
+
+/* Step g over the waiting samples in one fw_board_step_block and compare
+ * every output with the checked path's, and g's state with c's (c has
+ * stepped the same samples). The next block's length is drawn from rb
+ * (1..SWEEP_BLOCK_MAX). */
+static void sweep_block_flush(sweep_block_t *q, fw_board_t *g, const fw_board_t *c, tu_rng_t *rb, long i)
+{
+    size_t k;
+    if (q->n > 0) {
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_block(g, q->in, q->og, q->n));
+        for (k = 0; k + 1 < q->n; k++) {
+            if (memcmp(&q->og[k], &q->oc[k], sizeof q->og[k]) != 0) {
+                printf("block ending at sample %ld: output %lu of %lu differs\n", i, (unsigned long)k,
+                       (unsigned long)q->n);
+                TEST_FAIL_MESSAGE("fw_board_step_block and the checked path differ");
+            }
+        }
+        assert_boards_identical(g, c, &q->og[q->n - 1], &q->oc[q->n - 1], i);
+        q->blocks++;
+    }
+    q->n = 0;
+    q->target = 1u + tu_rng_u32(rb) % SWEEP_BLOCK_MAX;
+}
+
+/* fw_board_step (fast path wherever it is open) and fw_board_step_block
+ * (blocks of 1..64 samples) against fw_board_step_checked on the same
+ * inputs: bit-identical outputs and state over AFM_SWEEP_N samples (10^6 on the host), in segments with their
  * own configuration (inside the fast domain, at its corner), baseline,
  * speed and heading; signals mostly inside the fast range with excursions
  * to the rails and the top code, theta moves past the fast window, piezo
@@ -367,7 +402,10 @@ static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
     const long seg = (AFM_SWEEP_N / 12 < 5000) ? AFM_SWEEP_N / 12 : 5000;
     static fw_board_t f;
     static fw_board_t c;
+    static fw_board_t g;
+    static sweep_block_t q;
     tu_rng_t r;
+    tu_rng_t rb;
     long i;
     long n_fast = 0;
     long n_fast_aligned = 0;
@@ -386,6 +424,10 @@ static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
     int32_t noise_uv = 1000;
     int32_t oldest[2];
     tu_rng_seed(&r, 0xFA57ull);
+    tu_rng_seed(&rb, 0xB10Cull);
+    q.n = 0;
+    q.blocks = 0;
+    q.target = 1;
     for (i = 0; i < AFM_SWEEP_N; i++) {
         fw_sample_in_t in;
         fw_sample_out_t of;
@@ -398,11 +440,14 @@ static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
             sweep_config(&r, (uint32_t)((i / seg) % 6), &cfg_i);
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&f, &cfg_i));
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&c, &cfg_i));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&g, &cfg_i));
             TEST_ASSERT_TRUE(f.path_cfg != FW_BOARD_PATH_CHECKED);
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&f.acq_sn, base_n));
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&c.acq_sn, base_n));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&g.acq_sn, base_n));
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&f.acq_sl, base_l));
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&c.acq_sl, base_l));
+            TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_set_baseline_q23(&g.acq_sl, base_l));
             x = tu_rng_range(&r, -2000000000, 2000000000);
             y = tu_rng_range(&r, -2000000000, 2000000000);
             /* mostly a few mV (the apex then moves by the piezo's step),
@@ -455,6 +500,9 @@ static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
         TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&f, &in, &of));
         TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_checked(&c, &in, &oc));
         assert_boards_identical(&f, &c, &of, &oc, i);
+        q.in[q.n] = in;
+        q.oc[q.n] = oc;
+        q.n++;
         {
             int64_t dx = (int64_t)of.tip_pm[0] - oldest[0];
             int64_t dy = (int64_t)of.tip_pm[1] - oldest[1];
@@ -467,24 +515,90 @@ static void test_board_fast_path_bit_identical_to_checked_over_sweep(void)
         n_fast_unobs += fast && (of.flags & FW_FLAG_FX_UNOBSERVABLE) != 0u;
         n_fast_pos += fast && (of.flags & FW_FLAG_SAT_POS) != 0u;
         n_fast_unknown += fast && (of.flags & FW_FLAG_THETA_UNKNOWN) != 0u;
-        if (tu_rng_u32(&r) % 10000u == 0u) {
-            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&f));
-            TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&c));
-        }
-        if (tu_rng_u32(&r) % 20000u == 0u) {
-            fw_board_reset(&f);
-            fw_board_reset(&c);
+        {
+            bool do_baseline = tu_rng_u32(&r) % 10000u == 0u;
+            bool do_reset = tu_rng_u32(&r) % 20000u == 0u;
+            /* the block ends before anything but a sample changes the boards */
+            if (q.n == q.target || do_baseline || do_reset || (i + 1) % seg == 0 || i + 1 == AFM_SWEEP_N) {
+                sweep_block_flush(&q, &g, &c, &rb, i);
+            }
+            if (do_baseline) {
+                TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&f));
+                TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&c));
+                TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_record_baseline(&g));
+            }
+            if (do_reset) {
+                fw_board_reset(&f);
+                fw_board_reset(&c);
+                fw_board_reset(&g);
+            }
         }
     }
-    printf("SWEEP board fast vs checked n=%ld identical; fast %ld (aligned %ld): fallback/blend %ld,"
-           " apex past int32 %ld, theta unknown %ld, beyond the fast window %ld\n",
-           (long)AFM_SWEEP_N, n_fast, n_fast_aligned, n_fast_unobs, n_fast_pos, n_fast_unknown, n_fast_far);
+    printf("SWEEP board fast vs checked n=%ld identical (and in %ld blocks); fast %ld (aligned %ld):"
+           " fallback/blend %ld, apex past int32 %ld, theta unknown %ld, beyond the fast window %ld\n",
+           (long)AFM_SWEEP_N, q.blocks, n_fast, n_fast_aligned, n_fast_unobs, n_fast_pos, n_fast_unknown,
+           n_fast_far);
     TEST_ASSERT_TRUE(n_fast > AFM_SWEEP_N / 2);
     TEST_ASSERT_TRUE(n_fast_aligned > 0 && n_fast_aligned < n_fast);
     TEST_ASSERT_TRUE(n_fast_unobs > 0);
     TEST_ASSERT_TRUE(n_fast_pos > 0);
     TEST_ASSERT_TRUE(n_fast_unknown > 0);
     TEST_ASSERT_TRUE(n_fast_far > 0 && n_fast_far < n_fast / 2);
+    TEST_ASSERT_TRUE(q.blocks > AFM_SWEEP_N / SWEEP_BLOCK_MAX);
+}
+
+/* fw_board_step_block on a configuration with only the checked path (ADC
+ * filter on), in uneven blocks, against fw_board_step one sample at a
+ * time: the same outputs and state. */
+static void test_board_step_block_checked_config_matches_single_steps(void)
+{
+    static fw_board_t s1;
+    static fw_board_t s2;
+    fw_sample_in_t in[300];
+    fw_sample_out_t o1[300];
+    fw_sample_out_t o2[300];
+    size_t i;
+    size_t at = 0;
+    size_t len = 1;
+    cfg.filter_log2 = 2;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&s1, &cfg));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&s2, &cfg));
+    TEST_ASSERT_EQUAL_INT(FW_BOARD_PATH_CHECKED, s2.path_cfg);
+    for (i = 0; i < 300; i++) {
+        in[i].sn_uv = (int32_t)(3000000 + 40000 * (long)(i % 17)) * ((i % 50 == 7) ? 4 : 1);
+        in[i].sl_uv = -200000 + 3000 * (int32_t)i;
+        in[i].piezo_pm[0] = 45000000 + 400 * (int32_t)i;
+        in[i].piezo_pm[1] = 45000000 + 90 * (int32_t)i;
+        in[i].piezo_pm[2] = -100 * (int32_t)i;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&s1, &in[i], &o1[i]));
+    }
+    while (at < 300) {
+        size_t n = (300 - at < len) ? 300 - at : len;
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_block(&s2, &in[at], &o2[at], n));
+        at += n;
+        len = len * 2 + 1;
+    }
+    TEST_ASSERT_EQUAL_MEMORY(o1, o2, sizeof o1);
+    assert_boards_identical(&s2, &s1, &o2[299], &o1[299], 299);
+    TEST_ASSERT_TRUE((fw_board_sticky_flags(&s2) & FW_FLAG_SAT_SN) != 0u);
+}
+
+/* fw_board_step_block's arguments: NULL board or buffers refused with
+ * nothing changed; an empty block is FW_OK and changes nothing. */
+static void test_board_step_block_null_and_empty(void)
+{
+    fw_sample_in_t in = { 1000, 2000, { 0, 0, 0 } };
+    fw_sample_out_t out;
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_block(NULL, &in, &out, 1));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_block(&b, NULL, &out, 1));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_block(&b, &in, NULL, 1));
+    TEST_ASSERT_FALSE(b.stepped);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_block(&b, NULL, NULL, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_block(&b, &in, &out, 0));
+    TEST_ASSERT_FALSE(b.stepped);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_block(NULL, NULL, NULL, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step_block(&b, &in, &out, 1));
+    TEST_ASSERT_TRUE(b.stepped);
 }
 
 /* fw_board_step does not test its pointers (fw_board.h); the checked
@@ -519,5 +633,7 @@ int main(void)
     RUN_TEST(test_board_fast_path_selected_at_the_domain_edges);
     RUN_TEST(test_board_fast_path_bit_identical_to_checked_over_sweep);
     RUN_TEST(test_board_step_checked_null_pointers_return_arg_error);
+    RUN_TEST(test_board_step_block_checked_config_matches_single_steps);
+    RUN_TEST(test_board_step_block_null_and_empty);
     return UNITY_END();
 }

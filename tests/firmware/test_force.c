@@ -418,68 +418,6 @@ static void test_force_fast_solver_identical_to_checked_at_domain_corner(void)
     printf("SWEEP force fast vs checked n=%ld identical\n", (long)AFM_SWEEP_N);
 }
 
-/* The fast push against fw_theta_push_pm on random walks (steps inside
- * and past the fast window, jumps, stops), random alpha and alpha = 0 with
- * the aligned specialisation: identical state, flags and result. */
-static void test_theta_fast_push_identical_to_checked(void)
-{
-    tu_rng_t rng;
-    long i;
-    fw_theta_t tc;
-    fw_theta_t tf;
-    q30_t ca = FW_Q30_ONE;
-    q30_t sa = 0;
-    bool aligned = true;
-    int32_t p[2] = { 0, 0 };
-    int32_t step = 100;
-    tu_rng_seed(&rng, 0x7E7Aull);
-    for (i = 0; i < AFM_SWEEP_N; i++) {
-        uint32_t fl_c = 0;
-        uint32_t fl_f = 0;
-        bool mc;
-        bool mf;
-        int k;
-        if (i % 1000 == 0) {
-            int32_t md = tu_rng_range(&rng, 0, 3000);
-            aligned = (tu_rng_u32(&rng) % 3u) == 0u;
-            if (aligned) {
-                ca = FW_Q30_ONE;
-                sa = 0;
-            } else {
-                fw_math_sincos_q30(tu_rng_u32(&rng), &sa, &ca);
-            }
-            TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&tc, md));
-            TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&tf, md));
-            step = tu_rng_range(&rng, 0, 2000);
-            p[0] = (int32_t)tu_rng_u32(&rng);
-            p[1] = (int32_t)tu_rng_u32(&rng);
-            /* the fast push needs a primed window */
-            (void)fw_theta_push_pm(&tc, p, ca, sa, &fl_c);
-            (void)fw_theta_push_pm(&tf, p, ca, sa, &fl_f);
-        }
-        if (tu_rng_u32(&rng) % 500u == 0u) {
-            p[0] = (int32_t)tu_rng_u32(&rng);
-            p[1] = (int32_t)tu_rng_u32(&rng);
-        } else {
-            p[0] = (int32_t)((uint32_t)p[0] + (uint32_t)tu_rng_range(&rng, -step, step));
-            p[1] = (int32_t)((uint32_t)p[1] + (uint32_t)tu_rng_range(&rng, -step, step));
-        }
-        mc = fw_theta_push_pm(&tc, p, ca, sa, &fl_c);
-        mf = fw_theta_push_fast_pm(&tf, p, ca, sa, aligned, &fl_f);
-        TEST_ASSERT_EQUAL(mc, mf);
-        TEST_ASSERT_EQUAL_UINT32(fl_c, fl_f);
-        TEST_ASSERT_EQUAL_INT32(tc.dir_x, tf.dir_x);
-        TEST_ASSERT_EQUAL_INT32(tc.dir_y, tf.dir_y);
-        TEST_ASSERT_EQUAL_INT32(tc.pos, tf.pos);
-        TEST_ASSERT_EQUAL(tc.known, tf.known);
-        for (k = 0; k < FW_THETA_WINDOW; k++) {
-            TEST_ASSERT_EQUAL_INT32(tc.x_pm[k], tf.x_pm[k]);
-            TEST_ASSERT_EQUAL_INT32(tc.y_pm[k], tf.y_pm[k]);
-        }
-    }
-    printf("SWEEP theta fast push vs checked n=%ld identical\n", (long)AFM_SWEEP_N);
-}
-
 /* ---- theta estimator ------------------------------------------------------ */
 
 static void test_theta_unknown_until_min_displacement_then_held(void)
@@ -641,7 +579,6 @@ int main(void)
     RUN_TEST(test_force_dir_sweep_matches_double_model);
     RUN_TEST(test_force_dir_fit_keeps_direction_to_2_pow_minus_13);
     RUN_TEST(test_force_fast_solver_identical_to_checked_at_domain_corner);
-    RUN_TEST(test_theta_fast_push_identical_to_checked);
     RUN_TEST(test_theta_unknown_until_min_displacement_then_held);
     RUN_TEST(test_theta_rotates_frame_a_motion_into_frame_c);
     RUN_TEST(test_theta_push_direction_matches_rotated_displacement);
