@@ -115,7 +115,7 @@ field() { sed -n "s/.* $1=\\([^ ]*\\).*/\\1/p" <<<"$2"; }
 label() {
   case "$1" in
     q15) echo "(a) 16-bit (bench_q15)" ;;
-    fw32) echo "(b) 32-bit fw_board_step" ;;
+    fw32) echo "(b) 32-bit firmware" ;;
     ref) echo "(c) double reference" ;;
     ref_analog) echo "(c0) double, no ADC" ;;
   esac

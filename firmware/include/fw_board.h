@@ -46,10 +46,9 @@
  * outputs, flags, counters and state (tests/firmware/test_board.c compares
  * them over 10^6 samples, in blocks of 1 to 64).
  *
- * Pointers: fw_board_step is the per-sample entry and, like CMSIS's
- * per-sample functions, does not test its pointers: b (initialised by
- * fw_board_init), in and out must be valid, else the behaviour is undefined;
- * it returns FW_OK. fw_board_step_checked tests them (FW_ERR_ARG).
+ * Pointers: fw_board_step and fw_board_step_block test their pointers
+ * once per call (FW_ERR_ARG, nothing changed); fw_board_step is a block of
+ * one sample (one copy of the fast path in the image).
  *
  * Configuration zero values: the fields after kappa_q16 are optional and 0
  * selects the documented default.
@@ -119,7 +118,8 @@ typedef struct {
 
 fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* validates cfg */
 void        fw_board_reset(fw_board_t *b);
-/* One sample. Valid pointers required, not tested (see above); FW_OK. */
+/* One sample: fw_board_step_block with n = 1. FW_OK, FW_ERR_ARG for a
+ * NULL pointer. */
 fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out);
 /* n samples from a buffer (the ADC's DMA block): the same outputs, flags,
  * counters and state as n calls of fw_board_step, with the path chosen

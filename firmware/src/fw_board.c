@@ -272,21 +272,6 @@ static FW_ALWAYS_INLINE bool board_step_fast(fw_board_t *restrict b, const fw_sa
     return true;
 }
 
-fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out)
-{
-    /* valid pointers are the caller's contract (fw_board.h): no checks */
-    if (board_in_fast_range(b, in)) {
-        if (b->path_cfg == FW_BOARD_PATH_FAST_ALIGNED) {
-            if (board_step_fast(b, in, out, true)) {
-                return FW_OK;
-            }
-        } else if (board_step_fast(b, in, out, false)) {
-            return FW_OK;
-        }
-    }
-    return fw_board_step_checked(b, in, out);
-}
-
 /* n samples on one path; the path test is hoisted out of the loop, and
  * the fast range is kept in locals (only the checked path changes it:
  * fast_span_uv is read again after each checked sample; fast_lo_uv only
@@ -326,6 +311,13 @@ fw_status_t fw_board_step_block(fw_board_t *b, const fw_sample_in_t *in, fw_samp
         break;
     }
     return FW_OK;
+}
+
+/* One copy of the fast path per specialisation (the block's): a single
+ * sample is a block of one. */
+fw_status_t fw_board_step(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out)
+{
+    return fw_board_step_block(b, in, out, 1u);
 }
 
 fw_status_t fw_board_piezo_cmd(const fw_board_t *b, const int32_t joy_q15[2], int32_t piezo_cmd_pm[2])

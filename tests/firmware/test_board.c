@@ -601,8 +601,8 @@ static void test_board_step_block_null_and_empty(void)
     TEST_ASSERT_TRUE(b.stepped);
 }
 
-/* fw_board_step does not test its pointers (fw_board.h); the checked
- * entry does, and leaves the instance untouched. */
+/* Every entry tests its pointers (fw_board.h) and leaves the instance
+ * untouched on FW_ERR_ARG. */
 static void test_board_step_checked_null_pointers_return_arg_error(void)
 {
     fw_board_config_t c;
@@ -614,6 +614,9 @@ static void test_board_step_checked_null_pointers_return_arg_error(void)
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_checked(NULL, &in, &out));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_checked(&b, NULL, &out));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step_checked(&b, &in, NULL));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step(NULL, &in, &out));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step(&b, NULL, &out));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_step(&b, &in, NULL));
     TEST_ASSERT_FALSE(b.stepped);
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&b, &in, &out));
     TEST_ASSERT_TRUE(b.stepped);
