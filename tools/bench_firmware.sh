@@ -25,7 +25,7 @@ Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
 at $AFM_BUILD/bench/firmware/bench_fw.
 
 Rows: (a) a 16-bit path written in the bench (bench/firmware/bench_q15.c),
-(b) the firmware's 32-bit fw_board_step, (c) the double reference of the
+(b) the firmware's 32-bit fw_board_step_block, (c) the double reference of the
 same chain (bench/firmware/bench_ref.c) fed the same 16-bit ADC codes, and
 (c0) that reference on the unquantised input. Errors are |F - F_ref| of the
 frame-A force vector against (c); % FS of k_n K_n x 10 V. Instructions are

@@ -1,7 +1,7 @@
 /*
  * bench_fw.c - per-sample cost and accuracy of the firmware's chain
  * (acquisition + compensation + theta + force + rotation) on three word
- * sizes: a 16-bit path (bench_q15.c), the firmware's 32-bit fw_board_step,
+ * sizes: a 16-bit path (bench_q15.c), the firmware's 32-bit fw_board_step_block,
  * and a double-precision reference (bench_ref.c). Host only; a benchmark,
  * not a test: it prints numbers and asserts nothing.
  *
