@@ -303,13 +303,12 @@ static FW_ALWAYS_INLINE int32_t fw_force_below_hi_fast_pn(const fw_force_t *f, i
  * |F_x,fb| <= |N + F_adh| / (1/2) < 2^27.2 pN; every blend lies between
  * the two. |(2h/l) F_x| < 2^31 2^27.2 in 64 bits, so |F_z| < 2^28.3 pN.
  * All outputs < 2^29 pN: no clamp, no FW_FLAG_SAT_FORCE. Inline (per
- * sample). fw_force_solve_dir_fast_sq_pn takes the squares x2 = dir_x^2,
- * y2 = dir_y^2 from a caller that has them (fw_board_step's fast path,
- * where this is the force it runs). */
-static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_sq_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
-                                                           int32_t dir_x, int32_t dir_y, int64_t x2,
-                                                           int64_t y2, int32_t force_c_pn[3],
-                                                           uint32_t *flags)
+ * sample). The caller passes the squares x2 = dir_x^2, y2 = dir_y^2, which
+ * it has already formed (fw_board_step's fast path, where this is the
+ * force it runs). */
+static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+                                                        int32_t dir_x, int32_t dir_y, int64_t x2, int64_t y2,
+                                                        int32_t force_c_pn[3], uint32_t *flags)
 {
     int64_t fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v,
                                            FW_Q23_FRAC - FW_FORCE_XFRAC);
@@ -328,15 +327,6 @@ static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_sq_pn(const fw_force_t *f, 
     force_c_pn[2] = (int32_t)fw_math_rshift_round_i64(
         n8 - fw_math_rshift_round_i64((int64_t)f->two_h_over_l * fx32, FW_Q30_FRAC - FW_FORCE_XFRAC),
         FW_FORCE_XFRAC);
-}
-
-/* fw_force_solve_dir_fast_sq_pn with the squares formed here. Inline. */
-static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
-                                                        int32_t dir_x, int32_t dir_y,
-                                                        int32_t force_c_pn[3], uint32_t *flags)
-{
-    fw_force_solve_dir_fast_sq_pn(f, sn_v, sl_v, dir_x, dir_y, (int64_t)dir_x * dir_x,
-                                  (int64_t)dir_y * dir_y, force_c_pn, flags);
 }
 
 /* Rotate a frame-C vector into frame A by R(alpha) (eq. 3); z unchanged.

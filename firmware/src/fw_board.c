@@ -144,15 +144,6 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
     return FW_OK;
 }
 
-/* Whether both inputs lie in the ADC's fast range (span 0 while the
- * checked path is due; both channels have the same ADC, so the same
- * range). */
-static FW_ALWAYS_INLINE bool board_in_fast_range(const fw_board_t *b, const fw_sample_in_t *in)
-{
-    return (uint32_t)in->sn_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv
-           && (uint32_t)in->sl_uv - (uint32_t)b->fast_lo_uv < b->fast_span_uv;
-}
-
 /* One sample on the fast path (fw_board.h): both inputs in the ADC's fast
  * range, a configuration with path_cfg fast, the theta window primed.
  * aligned: path FW_BOARD_PATH_FAST_ALIGNED (a constant at each call, so the
@@ -162,7 +153,7 @@ static FW_ALWAYS_INLINE bool board_in_fast_range(const fw_board_t *b, const fw_s
  * one. That is decided before the window's position moves: the stores made
  * until then (signals, codes, apex, the apex in its window slot) are the
  * values the checked path stores again. Every direction is finished here,
- * with no call: the force is fw_force_solve_dir_fast_sq_pn's (cot zone
+ * with no call: the force is fw_force_solve_dir_fast_pn's (cot zone
  * |sin theta| > S_HI, friction fallback and blend below it, the zero
  * vector), inline, given the squares the window test already formed.
  * Scaling and overflow: the signals are within +-20 V
@@ -258,7 +249,7 @@ static FW_ALWAYS_INLINE bool board_step_fast(fw_board_t *restrict b, const fw_sa
         }
     }
     /* the force in frame C, then eq. 3 (the identity when aligned) */
-    fw_force_solve_dir_fast_sq_pn(&b->force, vn, vl, (int32_t)dir_x, (int32_t)dir_y, x2, y2, force_c, &flags);
+    fw_force_solve_dir_fast_pn(&b->force, vn, vl, (int32_t)dir_x, (int32_t)dir_y, x2, y2, force_c, &flags);
     out->force_pn[2] = force_c[2];
     if (aligned) {
         out->force_pn[0] = force_c[0];
@@ -272,10 +263,12 @@ static FW_ALWAYS_INLINE bool board_step_fast(fw_board_t *restrict b, const fw_sa
     return true;
 }
 
-/* n samples on one path; the path test is hoisted out of the loop, and
- * the fast range is kept in locals (only the checked path changes it:
- * fast_span_uv is read again after each checked sample; fast_lo_uv only
- * changes at a reset). */
+/* n samples on one path; the path test is hoisted out of the loop. A
+ * sample takes the fast path when both inputs lie in the ADC's fast range
+ * [lo, lo + span) (span 0 while the checked path is due; both channels have
+ * the same ADC, so the same range), kept in locals: only the checked path
+ * changes it (fast_span_uv is read again after each checked sample;
+ * fast_lo_uv only changes at a reset). */
 static FW_ALWAYS_INLINE void board_block(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
                                          fw_sample_out_t *restrict out, size_t n, bool aligned)
 {
