@@ -145,7 +145,7 @@ if [ "${#ir_angle[@]}" -gt 0 ] && [ -n "$cg_samples" ]; then
   per_angle=$(( cg_samples / n_ang ))
   echo
   echo "instructions per sample by scan angle (alpha = angle - 270 deg; at 270 frames A and C"
-  echo "coincide and (b) skips its three rotations):"
+  echo "coincide and (b) skips its rotations):"
   printf '%-26s' "path"
   for a in $angle_keys; do printf ' | %8s' "$a deg"; done
   echo

@@ -166,20 +166,50 @@ static inline fw_status_t fw_acq_step_q23(fw_acq_t *a, int32_t uv, int32_t *code
     return FW_OK;
 }
 
-/* fw_acq_step_q23 for an instance without filter (filter_log2 == 0) and an
- * input in its fast range (fw_acq_in_fast_range): no saturation, so no
- * flag, counter or clamp; same code, signal and state as fw_acq_step_q23.
- * Returns the baseline-corrected signal (9.23 V), *code_out the code.
- * Scaling and overflow: |code lsb_v| <= 10 V (exact in 9.23), the baseline
- * is within +-10 V (fw_acq_set_baseline_q23, fw_acq_record_baseline), so
- * the result lies within +-20 V (< 2^27.33 in 9.23). Inline (per sample). */
-static inline q23_t fw_acq_step_fast_q23(fw_acq_t *a, int32_t uv, int32_t *code_out)
+/* Takes a code of an instance without filter (filter_log2 == 0) as its
+ * latest signal: last_v = code lsb_v, returns the baseline-corrected
+ * signal (9.23 V). With fw_acq_code_fast, for an input in the fast range
+ * (fw_acq_in_fast_range), it is fw_acq_step_q23 without saturation: no
+ * flag, counter or clamp, the same code, signal and state (test_acq checks
+ * every input of the range). Scaling and overflow: |code lsb_v| <= 10 V (exact in
+ * 9.23), the baseline is within +-10 V (fw_acq_set_baseline_q23,
+ * fw_acq_record_baseline), so the result lies within +-20 V (< 2^27.33 in
+ * 9.23). Inline. */
+static inline q23_t fw_acq_take_code_q23(fw_acq_t *a, int32_t code)
 {
-    int32_t code = fw_acq_code_fast(a, uv);
     q23_t v = code * a->lsb_v;
     a->last_v = v;
-    *code_out = code;
     return v - a->baseline_v;
+}
+
+/* A gain G applied to the baseline-corrected signal of an instance without
+ * filter, straight from the code:
+ *   round(G (code lsb_v - baseline_v) / 2^shift)
+ *     = floor((code mul + add) / 2^shift),
+ *   mul = G lsb_v,  add = 2^(shift-1) - G baseline_v,
+ * exact (integer algebra: the same value as fw_math_rshift_round_i64(G v,
+ * shift) on the signal v that fw_acq_take_code_q23 returns), one multiply
+ * and one add per code instead of two of each. Formed once per block by
+ * fw_board_step_block's fast path; valid until the baseline changes.
+ * Scaling and overflow: any int32 G, shift in 1..62; |code lsb_v| and
+ * |baseline_v| <= 10 V < 2^26.33 in 9.23, so |mul|, |G baseline_v| <
+ * 2^57.33 and |code mul + add| < 2^58.4 in int64. */
+typedef struct {
+    int64_t mul;
+    int64_t add;
+} fw_acq_gain_t;
+
+static inline fw_acq_gain_t fw_acq_gain(const fw_acq_t *a, int32_t gain, int shift)
+{
+    fw_acq_gain_t g;
+    g.mul = (int64_t)gain * a->lsb_v;
+    g.add = ((int64_t)1 << (shift - 1)) - (int64_t)gain * a->baseline_v;
+    return g;
+}
+
+static inline int64_t fw_acq_gain_apply(fw_acq_gain_t g, int32_t code, int shift)
+{
+    return fw_math_asr_i64(code * g.mul + g.add, shift);
 }
 
 /* Records the latest filtered signal as the zero-force baseline. */

@@ -10,7 +10,8 @@
  *  1. S_n, S_l quantised (fw_acq.h), filtered, baseline subtracted.
  *  2. If S_n is saturated and an unsaturated reference exists, the virtual
  *     S_n' = S_n,ref + (z_ref - z_piezo) / K_n is used (FW_FLAG_VIRTUAL_SN).
- *  3. Apex estimate p_tip = p_piezo + R(alpha) [+C_n S_n, C_l S_l, 0] (sign: fw_comp.h).
+ *  3. Apex estimate p_tip = p_piezo + R(alpha) [+C_n S_n, C_l S_l, 0] (sign: fw_comp.h),
+ *     formed as one matrix M = R(alpha) diag(C_n, C_l) on (S_n, S_l).
  *  4. theta from the apex motion over the last FW_THETA_WINDOW (16) samples;
  *     direction unknown below cfg.theta_min_disp_pm (default 1000 pm = 1 nm)
  *     of displacement over the window (last direction held; 90 deg before
@@ -34,7 +35,10 @@
  * (FW_FORCE_FAST_GAIN_MAX_PN_PER_V), F_adh <= 2^26 pN
  * (FW_FORCE_FAST_ADHESION_MAX_PN), C_n, C_l <= 2^21 pm/V
  * (FW_COMP_FAST_C_MAX_PM_PER_V); with alpha = 0 exactly (scan angle 270 deg,
- * the default) it skips the three rotations (FW_BOARD_PATH_FAST_ALIGNED).
+ * the default) it skips the rotations: M's cross terms, the direction into
+ * frame C and the force into frame A (FW_BOARD_PATH_FAST_ALIGNED).
+ * On the fast path the offsets and force terms are formed straight from
+ * the ADC codes (fw_acq_gain, exact), with gains formed once per run.
  * fw_board_step takes the fast path for a sample when both inputs lie in
  * the ADC's fast range (fw_acq_in_fast_range: no saturation, no top-code
  * clamp; then |S| <= 20 V after the baseline) and a sample has been stepped
@@ -91,6 +95,19 @@ typedef enum {
     FW_BOARD_PATH_FAST_ALIGNED = 2  /* as FAST, alpha = 0: no rotations */
 } fw_board_path_t;
 
+/* The fast path's gains on the ADC codes (fw_acq_gain), formed at the
+ * start of each fast run from the configuration and the baselines: the
+ * bending offset in frame A, row i: floor((code_n off_mul[i][0] + code_l
+ * off_mul[i][1] + off_add[i]) / 2^31) (fw_comp_offset_row_pm's value), and
+ * the force terms N, F_y (pN, 8 fraction bits). Scratch: no value
+ * outlives the run. */
+typedef struct {
+    int64_t off_mul[2][2];
+    int64_t off_add[2];
+    fw_acq_gain_t n8;
+    fw_acq_gain_t fy8;
+} fw_board_gains_t;
+
 typedef struct {
     fw_board_config_t cfg;
     fw_acq_t acq_sn;
@@ -114,6 +131,7 @@ typedef struct {
     uint32_t fast_span_uv;       /*   the ADC's fast range, span 0 while the checked path is due */
     uint32_t sticky_flags;       /* OR of every sample's flags since reset */
     uint32_t sat_force_count;    /* samples with a clamped force (saturating) */
+    fw_board_gains_t run_gains;  /* the fast run's gains (scratch) */
 } fw_board_t;
 
 fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* validates cfg */

@@ -26,12 +26,24 @@
 #include "fw_types.h"
 #include "fw_math.h"
 
+/* The domain of C_n, C_l (pm/V): [0, 2^22] (4.2 um/V; the paper's lever
+ * has 23.1 nm/V, and C_n = 3 h K_n / (2 l) stays below 2^21 for any lever
+ * with h <= l and K_n <= 1 um/V). Larger values are refused by
+ * fw_comp_init (FW_ERR_DOMAIN): they would let the offset leave int32. */
+#define FW_COMP_C_MAX_PM_PER_V ((int32_t)1 << 22)
+
+/* The bending offset in frame A is one linear map of the signals,
+ *   offset_A = M [S_n, S_l],  M = R(alpha) diag(C_n, C_l),
+ * kept in pm/V with FW_COMP_M_FRAC fraction bits (each entry rounded once
+ * at init: 2^-9 pm/V, so 0.04 pm at 20 V and 0.7 pm at the virtual S_n's
+ * 256 V), |m| <= 2^22 2^8 = 2^30. */
+#define FW_COMP_M_FRAC 8
+
 /* The fast path's bound on C_n, C_l (pm/V): with |S| <= 20 V (the fast
- * path's signals, fw_acq_step_fast_q23) every offset stays below 2^26 pm:
- * |C S| <= 2^21 20 2^23 < 2^48.4 in 64 bits, >> 23 rounded, |o| < 2^25.4
- * pm, rotated |R o| < 2^26, so fw_comp_apex_pm's clamps on the offset
- * cannot act and only the apex itself can leave int32 (fw_board.c's fast
- * path forms it so and hands such a sample to the checked path). */
+ * path's signals, fw_acq_take_code_q23) every offset stays below 2^26 pm:
+ * |M S| <= 2^21.5 2^8 20 2^23 < 2^57 in 64 bits, >> 31 rounded, so only
+ * the apex itself can leave int32 (fw_board.c's fast path forms it so and
+ * hands such a sample to the checked path). */
 #define FW_COMP_FAST_C_MAX_PM_PER_V ((int32_t)1 << 21)
 
 typedef struct {
@@ -39,6 +51,7 @@ typedef struct {
     int32_t cl_pm_per_v;     /* C_l, pm/V */
     q30_t cos_a;             /* cos alpha, 2.30 */
     q30_t sin_a;             /* sin alpha, 2.30 */
+    int32_t m[2][2];         /* M = R(alpha) diag(C_n, C_l), pm/V, FW_COMP_M_FRAC fraction bits */
     int32_t center_pm[2];    /* frame A */
     int32_t half_range_pm;   /* r_scan / 2 */
     q16_t kappa;             /* 16.16 */
@@ -46,35 +59,45 @@ typedef struct {
                                 path may form the apex without clamps (fw_board.c) */
 } fw_comp_t;
 
-/* Validates C_n, C_l >= 0, half range >= 0, kappa >= 0. */
+/* Validates C_n, C_l >= 0, half range >= 0, kappa >= 0 (FW_ERR_ARG);
+ * C_n, C_l <= FW_COMP_C_MAX_PM_PER_V (FW_ERR_DOMAIN). Forms M:
+ * m = round(C cos alpha / 2^22), +-round(C sin alpha / 2^22)
+ * (cos, sin alpha in 2.30; half up). */
 fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
                          fw_bam_t alpha, const int32_t center_pm[2],
                          int32_t half_range_pm, q16_t kappa);
 
-/* Bending offset in frame A (pm) for S_n, S_l in 9.23 V. Inline (per
- * sample).
- * Scaling and overflow: C * S in 64 bits (< 2^62) >> 23 rounded (half up)
- * and saturated to int32 (*sat); rotated by R(alpha) with 64-bit products
- * (fw_math_rotate_unit_i32: cos_a, sin_a come from fw_math_sincos_q30, so
- * they lie in [-1, 1]), rounded, saturated (*sat). */
-static inline void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v,
-                                     int32_t off_a_pm[3], bool *sat)
+/* One component of the bending offset in frame A (pm): round((m_0 S_n +
+ * m_1 S_l) / 2^(23 + FW_COMP_M_FRAC)), half up, for a row (m_0, m_1) of M
+ * and S_n, S_l in 9.23 V. Inline (per sample).
+ * Scaling and overflow: |m| <= 2^30 and |S| <= 2^31 (any 9.23 value), so
+ * each product < 2^61 and the sum < 2^62 in 64 bits; the row of
+ * R(alpha) diag(C_n, C_l) has |m_0| + |m_1| <= 2^(30.5), so the result
+ * lies within +-2^30.5 pm: it cannot leave int32, and no clamp exists. */
+static inline int32_t fw_comp_offset_row_pm(const int32_t m_row[2], q23_t sn_v, q23_t sl_v)
 {
-    int32_t ox = fw_math_sat_i32(
-        fw_math_rshift_round_i64((int64_t)c->cn_pm_per_v * sn_v, FW_Q23_FRAC), sat);
-    int32_t oy = fw_math_sat_i32(
-        fw_math_rshift_round_i64((int64_t)c->cl_pm_per_v * sl_v, FW_Q23_FRAC), sat);
-    fw_math_rotate_unit_i32(ox, oy, c->cos_a, c->sin_a, &off_a_pm[0], &off_a_pm[1], sat);
+    return (int32_t)fw_math_rshift_round_i64((int64_t)m_row[0] * sn_v + (int64_t)m_row[1] * sl_v,
+                                             FW_Q23_FRAC + FW_COMP_M_FRAC);
+}
+
+/* Bending offset in frame A (pm) for S_n, S_l in 9.23 V, z = 0:
+ * fw_comp_offset_row_pm for both rows of M (never saturates: see there).
+ * Inline (per sample). */
+static inline void fw_comp_offset_pm(const fw_comp_t *c, q23_t sn_v, q23_t sl_v, int32_t off_a_pm[3])
+{
+    off_a_pm[0] = fw_comp_offset_row_pm(c->m[0], sn_v, sl_v);
+    off_a_pm[1] = fw_comp_offset_row_pm(c->m[1], sn_v, sl_v);
     off_a_pm[2] = 0;
 }
 
-/* Apex estimate: piezo + offset (xyz, pm), saturated (*sat); z is the
- * piezo's (the offset has no z). Inline (per sample). */
+/* Apex estimate: piezo + offset (xyz, pm); x, y saturated to int32 (*sat:
+ * only a piezo position within 2^30.5 pm of the int32 ends can get there);
+ * z is the piezo's (the offset has no z). Inline (per sample). */
 static inline void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3], q23_t sn_v,
                                    q23_t sl_v, int32_t apex_pm[3], bool *sat)
 {
     int32_t off[3];
-    fw_comp_offset_pm(c, sn_v, sl_v, off, sat);
+    fw_comp_offset_pm(c, sn_v, sl_v, off);
     apex_pm[0] = fw_math_sat_i32((int64_t)piezo_pm[0] + off[0], sat);
     apex_pm[1] = fw_math_sat_i32((int64_t)piezo_pm[1] + off[1], sat);
     apex_pm[2] = piezo_pm[2];

@@ -212,6 +212,14 @@ static FW_ALWAYS_INLINE int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_
     return fw_force_blend_pn(f, n_pn, fx8, mc, fw_force_abs_sin_q30(dir_x, dir_y, c));
 }
 
+/* A force term with 8 extra fraction bits from a gain (pN/V) and a signal
+ * (9.23 V): round(gain S / 2^15), F_y (gain k_theta K_l / h, S_l) or
+ * N = k_n K_n S_n. Scaling and overflow: |gain S| < 2^62 in 64 bits. */
+static inline int64_t fw_force_term8(int32_t gain_pn_per_v, q23_t s_v)
+{
+    return fw_math_rshift_round_i64((int64_t)gain_pn_per_v * s_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
+}
+
 /* fw_force_solve_dir_pn for a direction that already satisfies
  * |dir_x|, |dir_y| <= 2^15 (fw_theta_push_pm leaves it so) and valid
  * pointers: no argument checks. Inline, the per-sample path. */
@@ -220,10 +228,8 @@ static inline void fw_force_solve_dir_fit_pn(const fw_force_t *f, q23_t sn_v, q2
                                              int32_t force_c_pn[3], uint32_t *flags)
 {
     bool sat = false;
-    int64_t fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v,
-                                           FW_Q23_FRAC - FW_FORCE_XFRAC);
-    int64_t n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v,
-                                          FW_Q23_FRAC - FW_FORCE_XFRAC);
+    int64_t fy8 = fw_force_term8(f->lat_pn_per_v, sl_v);
+    int64_t n8 = fw_force_term8(f->kn_pn_per_v, sn_v);
     int64_t x2 = (int64_t)dir_x * dir_x;
     int64_t y2 = (int64_t)dir_y * dir_y;
     int64_t fx8 = 0;
@@ -290,8 +296,11 @@ static FW_ALWAYS_INLINE int32_t fw_force_below_hi_fast_pn(const fw_force_t *f, i
 
 /* fw_force_solve_dir_fit_pn for an instance with fast set (init: k_n K_n,
  * k_theta K_l / h <= 2^18 pN/V, F_adh <= 2^26 pN) and signals within
- * +-20 V (|S| <= 20 2^23, as fw_acq_step_fast_q23 returns them): the same
- * force and flags, without the int32 clamps, which cannot act there.
+ * +-20 V (|S| <= 20 2^23, as fw_acq_take_code_q23 returns them): the same
+ * force and flags, without the int32 clamps, which cannot act there. It
+ * takes the two force terms with 8 fraction bits, n8 = N = k_n K_n S_n and
+ * fy8 = F_y, as fw_force_term8 forms them (the board forms the same values
+ * straight from the ADC codes, fw_acq_gain).
  * Direction as fw_force_solve_dir_fit_pn (|dir_x|, |dir_y| <= 2^15).
  * Zones: 15 y^2 > x^2 is the cot zone less the zero vector (x^2 = 15 y^2
  * has no integer solution but (0, 0)); the zero vector gives F_x = 0 with
@@ -306,14 +315,10 @@ static FW_ALWAYS_INLINE int32_t fw_force_below_hi_fast_pn(const fw_force_t *f, i
  * sample). The caller passes the squares x2 = dir_x^2, y2 = dir_y^2, which
  * it has already formed (fw_board_step's fast path, where this is the
  * force it runs). */
-static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
+static FW_ALWAYS_INLINE void fw_force_solve_dir_fast_pn(const fw_force_t *f, int64_t n8, int64_t fy8,
                                                         int32_t dir_x, int32_t dir_y, int64_t x2, int64_t y2,
                                                         int32_t force_c_pn[3], uint32_t *flags)
 {
-    int64_t fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v,
-                                           FW_Q23_FRAC - FW_FORCE_XFRAC);
-    int64_t n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v,
-                                          FW_Q23_FRAC - FW_FORCE_XFRAC);
     int32_t fx32 = 0;
     if (FW_LIKELY(15 * y2 > x2)) {
         fx32 = (int32_t)fw_math_rshift_round_i64(fy8 * dir_x / dir_y, FW_FORCE_XFRAC);

@@ -144,22 +144,58 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
     return FW_OK;
 }
 
-/* One sample on the fast path (fw_board.h): both inputs in the ADC's fast
- * range, a configuration with path_cfg fast, the theta window primed.
- * aligned: path FW_BOARD_PATH_FAST_ALIGNED (a constant at each call, so the
- * compiler emits one specialisation per path). Returns true when the
- * sample is done; false when it belongs to fw_board_step_checked, which the
- * caller then calls: the apex past int32 or a theta window beyond the fast
- * one. That is decided before the window's position moves: the stores made
- * until then (signals, codes, apex, the apex in its window slot) are the
- * values the checked path stores again. Every direction is finished here,
- * with no call: the force is fw_force_solve_dir_fast_pn's (cot zone
+/* The fast run's gains on the ADC codes (fw_board_gains_t), from M, the
+ * force gains and the baselines. Out of line: once per run. The offset's
+ * row i: floor((code_n P_i0 + code_l P_i1 + K_i) / 2^31) with P_ij =
+ * m_ij lsb_j and K_i = 2^30 - m_i0 baseline_n - m_i1 baseline_l, i.e.
+ * fw_comp_offset_row_pm of the signals code lsb - baseline, exactly
+ * (fw_acq_gain: |m| <= 2^30, so |code P|, |m baseline| < 2^56.4, the sum
+ * < 2^58.5). */
+static FW_NOINLINE void board_gains_form(fw_board_t *b)
+{
+    fw_board_gains_t *g = &b->run_gains;
+    const int shift = FW_Q23_FRAC + FW_COMP_M_FRAC;
+    int i;
+    for (i = 0; i < 2; i++) {
+        fw_acq_gain_t gn = fw_acq_gain(&b->acq_sn, b->comp.m[i][0], shift);
+        fw_acq_gain_t gl = fw_acq_gain(&b->acq_sl, b->comp.m[i][1], shift);
+        g->off_mul[i][0] = gn.mul;
+        g->off_mul[i][1] = gl.mul;
+        g->off_add[i] = gn.add + gl.add - ((int64_t)1 << (shift - 1));
+    }
+    g->n8 = fw_acq_gain(&b->acq_sn, b->force.kn_pn_per_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
+    g->fy8 = fw_acq_gain(&b->acq_sl, b->force.lat_pn_per_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
+}
+
+/* The fast path (fw_board.h) over a run of samples: from in[0] on, while
+ * both inputs lie in the ADC's fast range [lo, lo + span) (span 0 while the
+ * checked path is due; both channels have the same ADC, so the same range)
+ * and the sample needs nothing of the checked path. Returns the number of
+ * samples done, k <= n; when k < n, in[k] belongs to fw_board_step_checked,
+ * which the caller then calls. aligned: path FW_BOARD_PATH_FAST_ALIGNED (a
+ * constant at each call, so the compiler emits one specialisation per
+ * path); the configuration's path_cfg is fast and the theta window primed.
+ *
+ * State in locals: the state a sample leaves for the next (the theta
+ * window's position and direction, the sticky flags) is kept in locals for
+ * the run and stored once at its end; the latest signals (the ADC's
+ * last_v, sn_v, sl_v: the baseline's and the virtual S_n's reference) and
+ * piezo z are stored from the run's last sample, out of its code. So the
+ * state at the end of a run, and at every return, is the one k calls of
+ * fw_board_step_checked leave.
+ *
+ * A sample goes to the checked path, before the window's position moves,
+ * when its apex leaves int32 or its theta window exceeds the fast one: the
+ * stores made until then (codes, apex, the apex in its window slot) are
+ * the values the checked path stores again. Every direction is finished
+ * here, with no call: the force is fw_force_solve_dir_fast_pn's (cot zone
  * |sin theta| > S_HI, friction fallback and blend below it, the zero
  * vector), inline, given the squares the window test already formed.
  * Scaling and overflow: the signals are within +-20 V
- * (fw_acq_step_fast_q23); within that, the offsets (FW_COMP_FAST_C_MAX_PM_PER_V)
- * stay below 2^26 pm and the forces (fw_force_solve_dir_fast_pn) below
- * 2^29 pN, so the rotation into frame A (inputs < 2^30) cannot clamp and
+ * (fw_acq_take_code_q23); within that, the offsets M S (fw_comp.h; formed
+ * from the codes, board_gains_form; FW_COMP_FAST_C_MAX_PM_PER_V) stay
+ * below 2^26 pm and the forces (fw_force_solve_dir_fast_pn) below 2^29 pN,
+ * so the rotation into frame A (inputs < 2^30) cannot clamp and
  * FW_FLAG_SAT_FORCE cannot occur. Window as FW_THETA_FAST_WINDOW_PM (|dx|,
  * |dy| <= 2^14 pm, squares summed < 2^29, direction |dir_x|, |dir_y| <=
  * 2^15). Force as fw_force_solve_dir_fast_pn: |F_y x| < 2^30.4 2^15 in 64
@@ -168,119 +204,151 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
  * fw_board_step_checked for such a sample: no saturation counters move;
  * stepped, have_ref and ref_live are already set (fw_board_step_checked
  * opens the fast path only while ref_live), so the virtual S_n's reference
- * is this sample through sn_v and z_pm. The flags it can raise are
+ * is the latest sample through sn_v and z_pm. The flags it can raise are
  * FW_FLAG_THETA_UNKNOWN (no direction known yet; the direction is then
  * (0, 1), in the cot zone) and FW_FLAG_FX_UNOBSERVABLE (below S_HI). */
-static FW_ALWAYS_INLINE bool board_step_fast(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
-                                             fw_sample_out_t *restrict out, bool aligned)
+static FW_ALWAYS_INLINE size_t board_run_fast(fw_board_t *b, const fw_sample_in_t *in,
+                                              fw_sample_out_t *out, size_t n, bool aligned)
 {
     fw_theta_t *t = &b->theta;
-    q23_t vn = fw_acq_step_fast_q23(&b->acq_sn, in->sn_uv, &out->sn_code);
-    q23_t vl = fw_acq_step_fast_q23(&b->acq_sl, in->sl_uv, &out->sl_code);
-    int64_t ox = fw_math_rshift_round_i64((int64_t)b->comp.cn_pm_per_v * vn, FW_Q23_FRAC);
-    int64_t oy = fw_math_rshift_round_i64((int64_t)b->comp.cl_pm_per_v * vl, FW_Q23_FRAC);
-    int64_t ax;
-    int64_t ay;
-    int32_t pos;
-    int32_t next;
-    int64_t dx;
-    int64_t dy;
-    int64_t x2;
-    int64_t y2;
-    int64_t dir_x;
-    int64_t dir_y;
-    uint32_t flags = 0;
-    int32_t force_c[3];
-    b->sn_v = vn;
-    b->sl_v = vl;
-    b->z_pm = in->piezo_pm[2];
-    out->tip_pm[2] = in->piezo_pm[2];
-    /* the apex (fw_comp_apex_pm's value, no clamp: the offsets stay below
-     * 2^26 pm), past int32 to the checked path */
-    if (!aligned) {
-        int64_t rx = fw_math_rshift_round_i64((int64_t)b->cos_a * ox - (int64_t)b->sin_a * oy, FW_Q30_FRAC);
-        oy = fw_math_rshift_round_i64((int64_t)b->sin_a * ox + (int64_t)b->cos_a * oy, FW_Q30_FRAC);
-        ox = rx;
-    }
-    ax = in->piezo_pm[0] + ox;
-    ay = in->piezo_pm[1] + oy;
-    if (FW_UNLIKELY((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) > UINT32_MAX)) {
-        return false;
-    }
-    out->tip_pm[0] = (int32_t)ax;
-    out->tip_pm[1] = (int32_t)ay;
-    /* the window (fw_theta_push_pm's state and direction); beyond the fast
-     * window to the checked path. The slot of this apex held the one before
-     * the window's oldest: the checked path, if it takes over, stores the
-     * same apex there again */
-    pos = t->pos;
-    t->x_pm[pos] = (int32_t)ax;
-    t->y_pm[pos] = (int32_t)ay;
-    next = (pos + 1) & (FW_THETA_WINDOW - 1);
-    dx = ax - t->x_pm[next];
-    dy = ay - t->y_pm[next];
-    if (FW_UNLIKELY((((uint64_t)dx + (uint64_t)FW_THETA_FAST_WINDOW_PM)
-                     | ((uint64_t)dy + (uint64_t)FW_THETA_FAST_WINDOW_PM)) > (uint64_t)(2 * FW_THETA_FAST_WINDOW_PM))) {
-        return false;
-    }
-    t->pos = next;
-    x2 = dx * dx;
-    y2 = dy * dy;
-    if (FW_LIKELY((uint64_t)(x2 + y2) >= t->min_disp2_pm2)) {
+    const uint32_t lo = (uint32_t)b->fast_lo_uv;
+    const uint32_t span = b->fast_span_uv;
+    uint32_t pos = (uint32_t)t->pos;
+    int32_t dir_x = t->dir_x;
+    int32_t dir_y = t->dir_y;
+    bool known = t->known;
+    uint32_t sticky = 0;
+    /* the offsets' and the forces' terms straight from the codes (exact:
+     * fw_acq_gain), formed once per run: the baseline cannot change in it */
+    const fw_board_gains_t *g = &b->run_gains;
+    board_gains_form(b);
+    const fw_sample_in_t *const end = in + n;
+    const fw_sample_in_t *i = in;
+    fw_sample_out_t *o = out;
+    size_t k;
+    for (; i != end; i++, o++) {
+        int32_t cn;
+        int32_t cl;
+        int64_t ox;
+        int64_t oy;
+        int64_t ax;
+        int64_t ay;
+        uint32_t next;
+        int64_t dx;
+        int64_t dy;
+        int64_t x2;
+        int64_t y2;
+        uint32_t flags = 0;
+        int32_t force_c[3];
+        uint32_t un = (uint32_t)i->sn_uv - lo;
+        uint32_t ul = (uint32_t)i->sl_uv - lo;
+        if (FW_UNLIKELY((un > ul ? un : ul) >= span)) {
+            break;
+        }
+        cn = fw_acq_code_fast(&b->acq_sn, i->sn_uv);
+        cl = fw_acq_code_fast(&b->acq_sl, i->sl_uv);
+        o->sn_code = cn;
+        o->sl_code = cl;
+        /* the apex (fw_comp_apex_pm's value: the offset M S from the codes,
+         * below 2^26 pm; M is diagonal when aligned), past int32 to the
+         * checked path */
         if (aligned) {
-            dir_x = dx;
-            dir_y = dy;
+            ox = fw_math_asr_i64(cn * g->off_mul[0][0] + g->off_add[0], FW_Q23_FRAC + FW_COMP_M_FRAC);
+            oy = fw_math_asr_i64(cl * g->off_mul[1][1] + g->off_add[1], FW_Q23_FRAC + FW_COMP_M_FRAC);
         } else {
-            dir_x = fw_math_rshift_round_i64((int64_t)b->cos_a * dx + (int64_t)b->sin_a * dy, FW_Q30_FRAC);
-            dir_y = fw_math_rshift_round_i64((int64_t)b->cos_a * dy - (int64_t)b->sin_a * dx, FW_Q30_FRAC);
-            x2 = dir_x * dir_x;
-            y2 = dir_y * dir_y;
+            ox = fw_math_asr_i64(cn * g->off_mul[0][0] + cl * g->off_mul[0][1] + g->off_add[0],
+                                 FW_Q23_FRAC + FW_COMP_M_FRAC);
+            oy = fw_math_asr_i64(cn * g->off_mul[1][0] + cl * g->off_mul[1][1] + g->off_add[1],
+                                 FW_Q23_FRAC + FW_COMP_M_FRAC);
         }
-        t->dir_x = (int32_t)dir_x;
-        t->dir_y = (int32_t)dir_y;
-        t->known = true;
-    } else {
-        dir_x = t->dir_x;
-        dir_y = t->dir_y;
-        x2 = dir_x * dir_x;
-        y2 = dir_y * dir_y;
-        if (!t->known) {
-            flags = FW_FLAG_THETA_UNKNOWN;
+        ax = i->piezo_pm[0] + ox;
+        ay = i->piezo_pm[1] + oy;
+        if (FW_UNLIKELY((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) > UINT32_MAX)) {
+            break;
         }
+        o->tip_pm[0] = (int32_t)ax;
+        o->tip_pm[1] = (int32_t)ay;
+        o->tip_pm[2] = i->piezo_pm[2];
+        /* the window (fw_theta_push_pm's state and direction); beyond the
+         * fast window to the checked path. The slot of this apex held the
+         * one before the window's oldest: the checked path, if it takes
+         * over, stores the same apex there again */
+        t->x_pm[pos] = (int32_t)ax;
+        t->y_pm[pos] = (int32_t)ay;
+        next = (pos + 1u) & (FW_THETA_WINDOW - 1u);
+        dx = ax - t->x_pm[next];
+        dy = ay - t->y_pm[next];
+        if (FW_UNLIKELY((((uint64_t)dx + (uint64_t)FW_THETA_FAST_WINDOW_PM)
+                         | ((uint64_t)dy + (uint64_t)FW_THETA_FAST_WINDOW_PM)) > (uint64_t)(2 * FW_THETA_FAST_WINDOW_PM))) {
+            break;
+        }
+        pos = next;
+        x2 = dx * dx;
+        y2 = dy * dy;
+        if (FW_LIKELY((uint64_t)(x2 + y2) >= t->min_disp2_pm2)) {
+            if (!aligned) {
+                int64_t rx = fw_math_rshift_round_i64((int64_t)b->cos_a * dx + (int64_t)b->sin_a * dy, FW_Q30_FRAC);
+                dy = fw_math_rshift_round_i64((int64_t)b->cos_a * dy - (int64_t)b->sin_a * dx, FW_Q30_FRAC);
+                dx = rx;
+                x2 = dx * dx;
+                y2 = dy * dy;
+            }
+            dir_x = (int32_t)dx;
+            dir_y = (int32_t)dy;
+            known = true;
+        } else {
+            x2 = (int64_t)dir_x * dir_x;
+            y2 = (int64_t)dir_y * dir_y;
+            if (!known) {
+                flags = FW_FLAG_THETA_UNKNOWN;
+            }
+        }
+        /* the force in frame C, then eq. 3 (the identity when aligned) */
+        fw_force_solve_dir_fast_pn(&b->force, fw_acq_gain_apply(g->n8, cn, FW_Q23_FRAC - FW_FORCE_XFRAC),
+                                   fw_acq_gain_apply(g->fy8, cl, FW_Q23_FRAC - FW_FORCE_XFRAC), dir_x, dir_y,
+                                   x2, y2, force_c, &flags);
+        o->force_pn[2] = force_c[2];
+        if (aligned) {
+            o->force_pn[0] = force_c[0];
+            o->force_pn[1] = force_c[1];
+        } else {
+            fw_math_rotate_unit_fit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a, &o->force_pn[0],
+                                        &o->force_pn[1]);
+        }
+        sticky |= flags;
+        o->flags = flags;
     }
-    /* the force in frame C, then eq. 3 (the identity when aligned) */
-    fw_force_solve_dir_fast_pn(&b->force, vn, vl, (int32_t)dir_x, (int32_t)dir_y, x2, y2, force_c, &flags);
-    out->force_pn[2] = force_c[2];
-    if (aligned) {
-        out->force_pn[0] = force_c[0];
-        out->force_pn[1] = force_c[1];
-    } else {
-        fw_math_rotate_unit_fit_i32(force_c[0], force_c[1], b->cos_a, b->sin_a, &out->force_pn[0],
-                                    &out->force_pn[1]);
+    k = (size_t)(i - in);
+    t->pos = (int32_t)pos;
+    t->dir_x = dir_x;
+    t->dir_y = dir_y;
+    t->known = known;
+    b->sticky_flags |= sticky;
+    if (k > 0) {
+        /* the latest signals, as fw_acq_take_code_q23 leaves them */
+        b->sn_v = fw_acq_take_code_q23(&b->acq_sn, out[k - 1].sn_code);
+        b->sl_v = fw_acq_take_code_q23(&b->acq_sl, out[k - 1].sl_code);
+        b->z_pm = in[k - 1].piezo_pm[2];
     }
-    b->sticky_flags |= flags;
-    out->flags = flags;
-    return true;
+    return k;
 }
 
-/* n samples on one path; the path test is hoisted out of the loop. A
- * sample takes the fast path when both inputs lie in the ADC's fast range
- * [lo, lo + span) (span 0 while the checked path is due; both channels have
- * the same ADC, so the same range), kept in locals: only the checked path
- * changes it (fast_span_uv is read again after each checked sample;
- * fast_lo_uv only changes at a reset). */
-static FW_ALWAYS_INLINE void board_block(fw_board_t *restrict b, const fw_sample_in_t *restrict in,
-                                         fw_sample_out_t *restrict out, size_t n, bool aligned)
+/* n samples on one path; the path test is hoisted out of the loop. Fast
+ * runs (board_run_fast) and single checked samples alternate; the fast
+ * range is read again after each checked sample (only the checked path
+ * changes it: fast_span_uv; fast_lo_uv only changes at a reset). */
+static FW_ALWAYS_INLINE void board_block(fw_board_t *b, const fw_sample_in_t *in,
+                                         fw_sample_out_t *out, size_t n, bool aligned)
 {
-    const fw_sample_in_t *end = in + n;
-    uint32_t lo = (uint32_t)b->fast_lo_uv;
-    uint32_t span = b->fast_span_uv;
-    for (; in != end; in++, out++) {
-        if (FW_UNLIKELY((uint32_t)in->sn_uv - lo >= span || (uint32_t)in->sl_uv - lo >= span
-                        || !board_step_fast(b, in, out, aligned))) {
-            (void)fw_board_step_checked(b, in, out);
-            span = b->fast_span_uv;
+    for (;;) {
+        size_t k = board_run_fast(b, in, out, n, aligned);
+        if (k == n) {
+            return;
         }
+        (void)fw_board_step_checked(b, &in[k], &out[k]);
+        in += k + 1;
+        out += k + 1;
+        n -= k + 1;
     }
 }
 

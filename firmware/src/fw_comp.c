@@ -7,6 +7,8 @@
 /* kappa (16.16) * joy (1.15): 17.31 product, shifted by 31 to the unit of
  * half_range. */
 #define COMP_TARGET_SHIFT (FW_Q16_FRAC + FW_Q15_FRAC)
+/* cos, sin alpha (2.30) times C (pm/V) to FW_COMP_M_FRAC fraction bits */
+#define COMP_M_SHIFT (FW_Q30_FRAC - FW_COMP_M_FRAC)
 
 fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
                          fw_bam_t alpha, const int32_t center_pm[2],
@@ -16,9 +18,18 @@ fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
         || half_range_pm < 0 || kappa < 0) {
         return FW_ERR_ARG;
     }
+    if (cn_pm_per_v > FW_COMP_C_MAX_PM_PER_V || cl_pm_per_v > FW_COMP_C_MAX_PM_PER_V) {
+        return FW_ERR_DOMAIN;
+    }
     c->cn_pm_per_v = cn_pm_per_v;
     c->cl_pm_per_v = cl_pm_per_v;
     fw_math_sincos_q30(alpha, &c->sin_a, &c->cos_a);
+    /* M = R(alpha) diag(C_n, C_l): |C cos| <= 2^52, rounded to 2^-8 pm/V,
+     * |m| <= 2^30 */
+    c->m[0][0] = (int32_t)fw_math_rshift_round_i64((int64_t)c->cos_a * cn_pm_per_v, COMP_M_SHIFT);
+    c->m[0][1] = (int32_t)fw_math_rshift_round_i64(-(int64_t)c->sin_a * cl_pm_per_v, COMP_M_SHIFT);
+    c->m[1][0] = (int32_t)fw_math_rshift_round_i64((int64_t)c->sin_a * cn_pm_per_v, COMP_M_SHIFT);
+    c->m[1][1] = (int32_t)fw_math_rshift_round_i64((int64_t)c->cos_a * cl_pm_per_v, COMP_M_SHIFT);
     c->center_pm[0] = center_pm[0];
     c->center_pm[1] = center_pm[1];
     c->half_range_pm = half_range_pm;
@@ -49,7 +60,7 @@ void fw_comp_piezo_cmd_pm(const fw_comp_t *c, const q15_t joy[2], q23_t sn_v, q2
     int32_t off[3];
     int i;
     fw_comp_target_pm(c, joy, target, sat);
-    fw_comp_offset_pm(c, sn_v, sl_v, off, sat);
+    fw_comp_offset_pm(c, sn_v, sl_v, off);
     for (i = 0; i < 2; i++) {
         piezo_pm[i] = fw_math_sat_i32((int64_t)target[i] - off[i], sat);
     }

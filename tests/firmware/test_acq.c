@@ -154,7 +154,8 @@ static void test_acq_fast_range_edges_and_fast_step_exact(void)
             q23_t v_f;
             bool sat;
             TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_step_q23(&c, uv, &code_c, &v_c, &sat));
-            v_f = fw_acq_step_fast_q23(&a, uv, &code_f);
+            code_f = fw_acq_code_fast(&a, uv);
+            v_f = fw_acq_take_code_q23(&a, code_f);
             if (code_c != code_f || v_c != v_f || a.last_v != c.last_v || sat) {
                 UNITY_TEST_ASSERT_EQUAL_INT32(code_c, code_f, rows[w].line, "code");
                 UNITY_TEST_ASSERT_EQUAL_INT32(v_c, v_f, rows[w].line, "signal");

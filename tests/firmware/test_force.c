@@ -406,7 +406,8 @@ static void test_force_fast_solver_identical_to_checked_at_domain_corner(void)
             break;
         }
         fw_force_solve_dir_fit_pn(ff, sn, sl, x, y, fc_c, &fl_c);
-        fw_force_solve_dir_fast_pn(ff, sn, sl, x, y, (int64_t)x * x, (int64_t)y * y, fc_f, &fl_f);
+        fw_force_solve_dir_fast_pn(ff, fw_force_term8(ff->kn_pn_per_v, sn), fw_force_term8(ff->lat_pn_per_v, sl),
+                                   x, y, (int64_t)x * x, (int64_t)y * y, fc_f, &fl_f);
         if (fc_c[0] != fc_f[0] || fc_c[1] != fc_f[1] || fc_c[2] != fc_f[2] || fl_c != fl_f
             || (fl_c & FW_FLAG_SAT_FORCE) != 0u) {
             printf("S_n %ld S_l %ld dir (%ld, %ld)\n", (long)sn, (long)sl, (long)x, (long)y);
