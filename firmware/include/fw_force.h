@@ -104,9 +104,9 @@ static inline int64_t fw_force_fallback_pn(const fw_force_t *f, int32_t n_pn, in
  *     truncated: < 2^-8 pN), then rounded to pN.
  *   below 1/4 (fw_force_below_hi_pn): u = tan^2 theta = y^2 / x^2 in
  *     2.30 (u < 1/15, one 64-bit division of the squares, truncated),
- *     cos theta = sign(x) (1 + u)^(-1/2) by the quartic
+ *     |cos theta| = (1 + u)^(-1/2) by the quartic
  *     1 + u (a1 + u (a2 + u (a3 + u a4))) (Chebyshev fit, |error| <
- *     2.2e-9, exact at u = 0); F_x,fb = fw_force_fallback_pn (rounded)
+ *     2.2e-9, exact at u = 0), mu cos theta with the sign of x; F_x,fb = fw_force_fallback_pn (rounded)
  *     below 1/8; in the blend |sin theta| = |y| |cos theta| / |x| in 2.30
  *     (one division), F_x,fb keeps 8 fraction bits (a second division of
  *     the remainder) and F_x = F_x,fb + w (F_x,cot - F_x,fb) with
@@ -153,29 +153,35 @@ static inline int64_t fw_force_tan2_q30(int64_t x2, int64_t y2)
     return y2 * ((int64_t)1 << FW_FORCE_U_FRAC) / x2;
 }
 
-/* cos theta (2.30) below S_HI from u = tan^2 theta (2.30, [0, 2^30 / 15))
- * and the sign of x.
+/* |cos theta| (2.30) below S_HI from u = tan^2 theta (2.30, [0, 2^30 / 15)).
  * Scaling and overflow: Horner products |p u| < 2^30 2^26.1 in 64 bits;
- * |cos| <= 2^30. */
-static inline int64_t fw_force_cos_from_u_q30(int64_t u, int32_t x)
+ * result in (2^29.9, 2^30]. */
+static inline int64_t fw_force_abs_cos_from_u_q30(int64_t u)
 {
     int64_t p = FW_FORCE_COS_A4;
-    int64_t c;
     p = FW_FORCE_COS_A3 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
     p = FW_FORCE_COS_A2 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
     p = FW_FORCE_COS_A1 + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    c = FW_Q30_ONE + fw_math_asr_i64(p * u, FW_Q30_FRAC);
-    return (x < 0) ? -c : c;
+    return FW_Q30_ONE + fw_math_asr_i64(p * u, FW_Q30_FRAC);
+}
+
+/* mc = mu cos theta (2.30) from |cos theta| (2.30) and the sign of x,
+ * floor((+-mu) |c| / 2^30): the sign goes on mu, the same product as
+ * mu (+-|c|). |mu| <= 2^30 (init), so |mc| <= 2^30. */
+static inline int64_t fw_force_mu_cos_q30(const fw_force_t *f, int64_t abs_c, int32_t x)
+{
+    int64_t mu = (x < 0) ? -(int64_t)f->mu : f->mu;
+    return fw_math_asr_i64(mu * abs_c, FW_Q30_FRAC);
 }
 
 /* |sin theta| (2.30) = |y| |cos theta| / |x|, truncated, for the blend's
- * weight; x != 0, |x|, |y| <= 2^15, |c| <= 2^30.
+ * weight; x != 0, |x|, |y| <= 2^15, 0 <= abs_c <= 2^30.
  * Scaling and overflow: |y| |c| <= 2^45; one 64-bit division. */
-static inline int64_t fw_force_abs_sin_q30(int32_t x, int32_t y, int64_t c)
+static inline int64_t fw_force_abs_sin_q30(int32_t x, int32_t y, int64_t abs_c)
 {
     int64_t ax = (x < 0) ? -(int64_t)x : x;
     int64_t ay = (y < 0) ? -(int64_t)y : y;
-    return ay * (c < 0 ? -c : c) / ax;
+    return ay * abs_c / ax;
 }
 
 /* The blend of F_x,fb and F_x,cot for S_LO <= |sin theta| < S_HI (pN):
@@ -196,16 +202,16 @@ int64_t fw_force_blend_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8, int64_
  * blend (|sin theta| >= S_LO). Part of fw_force_solve_dir_pn; requires
  * |x|, |y| <= 2^15, x2 = x^2, y2 = y^2 and 15 y2 < x2 (so x != 0). Inline;
  * the blend itself is out of line (fw_force_blend_pn).
- * Scaling and overflow: u, cos theta and |sin theta| as
- * fw_force_tan2_q30, fw_force_cos_from_u_q30, fw_force_abs_sin_q30; mc =
- * mu cos theta >> 30 (|mc| <= 2^30); then fw_force_fallback_pn or
+ * Scaling and overflow: u, |cos theta|, mc = mu cos theta and |sin theta|
+ * as fw_force_tan2_q30, fw_force_abs_cos_from_u_q30, fw_force_mu_cos_q30,
+ * fw_force_abs_sin_q30 (|mc| <= 2^30); then fw_force_fallback_pn or
  * fw_force_blend_pn. */
 static FW_ALWAYS_INLINE int64_t fw_force_below_hi_pn(const fw_force_t *f, int32_t n_pn, int64_t fx8,
                                                      int32_t dir_x, int32_t dir_y, int64_t x2, int64_t y2,
                                                      bool blend)
 {
-    int64_t c = fw_force_cos_from_u_q30(fw_force_tan2_q30(x2, y2), dir_x);
-    int64_t mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
+    int64_t c = fw_force_abs_cos_from_u_q30(fw_force_tan2_q30(x2, y2));
+    int64_t mc = fw_force_mu_cos_q30(f, c, dir_x);
     if (!blend) {
         return fw_force_fallback_pn(f, n_pn, mc);
     }
@@ -275,8 +281,8 @@ static FW_ALWAYS_INLINE int32_t fw_force_below_hi_fast_pn(const fw_force_t *f, i
                                                           int64_t y2, bool blend)
 {
     int32_t n = (int32_t)fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC);
-    int64_t c = fw_force_cos_from_u_q30(fw_force_tan2_q30(x2, y2), dir_x);
-    int64_t mc = fw_math_asr_i64((int64_t)f->mu * c, FW_Q30_FRAC);
+    int64_t c = fw_force_abs_cos_from_u_q30(fw_force_tan2_q30(x2, y2));
+    int64_t mc = fw_force_mu_cos_q30(f, c, dir_x);
     int64_t den;
     int64_t num;
     int64_t fb;

@@ -263,7 +263,7 @@ static FW_ALWAYS_INLINE size_t board_run_fast(fw_board_t *b, const fw_sample_in_
         }
         ax = i->piezo_pm[0] + ox;
         ay = i->piezo_pm[1] + oy;
-        if (FW_UNLIKELY((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) > UINT32_MAX)) {
+        if (FW_UNLIKELY(((((uint64_t)ax - (uint64_t)INT32_MIN) | ((uint64_t)ay - (uint64_t)INT32_MIN)) >> 32) != 0u)) {
             break;
         }
         o->tip_pm[0] = (int32_t)ax;
