@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 namespace afm {
 
@@ -43,6 +44,33 @@ fw_board_config_t board_config(const Scene &s)
     c.scan_half_range_pm = to_i32(s.field_nm / 2 * 1e3);
     c.kappa_q16 = to_i32(s.op.kappa * 65536.0);
     return c;
+}
+
+std::string board_config_refusal(const Scene &s)
+{
+    const fw_board_config_t c = board_config(s);
+    fw_board_t b;
+    const fw_status_t st = fw_board_init(&b, &c);
+    if (st == FW_OK) return "";
+    const ProbeSpec &p = s.probe;
+    const double two_h_over_l = 2.0 * p.tip_height_um / p.lever_length_um;
+    std::ostringstream m;
+    m.precision(6);
+    if (c.cn_pm_per_v > FW_COMP_C_MAX_PM_PER_V) {
+        m << "probe: the firmware's bending compensation holds C_n = 3 h K_n / (2 l) up to "
+          << FW_COMP_C_MAX_PM_PER_V / 1e3 << " nm/V, got " << cn_estimate_nm_per_V(p) << " nm/V (tip_height_um "
+          << p.tip_height_um << ", Kn_nm_per_V " << p.Kn_nm_per_V << ", lever_length_um " << p.lever_length_um << ")";
+    } else if (!(two_h_over_l < 2.0)) {
+        m << "probe: the firmware's force model (eq. 1c) needs 2 h / l < 2, got 2 tip_height_um / lever_length_um = "
+          << two_h_over_l << " (tip_height_um " << p.tip_height_um << ", lever_length_um " << p.lever_length_um << ")";
+    } else if (s.tip_substrate.mu * two_h_over_l > 0.5) {
+        m << "sample.tip_substrate.mu: the firmware's friction fallback needs mu 2h/l <= 1/2, got mu "
+          << s.tip_substrate.mu << " with 2h/l = " << two_h_over_l << " (probe.tip_height_um " << p.tip_height_um
+          << ", probe.lever_length_um " << p.lever_length_um << ")";
+    } else {
+        m << "probe: the firmware refuses the scene's probe configuration (fw_board_init status " << st << ")";
+    }
+    return m.str();
 }
 
 }  // namespace afm

@@ -83,7 +83,7 @@ struct Node {
     Node(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), hb(l, "fw_node"), storage(kMaxParticles)
     {
         const fw_board_config_t cfg = afm::board_config(s);
-        if (fw_board_init(&board, &cfg) != FW_OK) throw std::runtime_error("fw_board_init refused the scene's probe configuration");
+        if (fw_board_init(&board, &cfg) != FW_OK) throw std::runtime_error("fw_board_init: " + afm::board_config_refusal(s));
         if (fw_particles_init(&parts, storage.data(), kMaxParticles, afm::to_i32(s.probe.tip_radius_nm * 1e3)) != FW_OK)
             throw std::runtime_error("fw_particles_init failed");
         fw_particles_set_friction(&parts, cfg.mu_ppm, cfg.adhesion_pn, 0);

@@ -32,6 +32,7 @@
 #include "afm/heartbeat_t.hpp"
 #include "bus.hpp"
 #include <nlohmann/json.hpp>
+#include "fw_config.hpp"
 #include "scene.hpp"
 
 namespace fs = std::filesystem;
@@ -205,6 +206,10 @@ int main(int argc, char **argv)
         scene = afm::load_scene(scene_path);
     } catch (const afm::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
+        return 2;
+    }
+    if (const std::string why_fw = afm::board_config_refusal(scene); !why_fw.empty()) {
+        std::fprintf(stderr, "%s: %s\n", scene_path.c_str(), why_fw.c_str());
         return 2;
     }
     if (check_only) return 0;
