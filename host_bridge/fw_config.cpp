@@ -55,7 +55,7 @@ std::string board_config_refusal(const Scene &s)
     const ProbeSpec &p = s.probe;
     const double two_h_over_l = 2.0 * p.tip_height_um / p.lever_length_um;
     std::ostringstream m;
-    m.precision(6);
+    m.precision(7);
     if (c.cn_pm_per_v > FW_COMP_C_MAX_PM_PER_V) {
         m << "probe: the firmware's bending compensation holds C_n = 3 h K_n / (2 l) up to "
           << FW_COMP_C_MAX_PM_PER_V / 1e3 << " nm/V, got " << cn_estimate_nm_per_V(p) << " nm/V (tip_height_um "
