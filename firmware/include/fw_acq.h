@@ -189,7 +189,7 @@ static inline q23_t fw_acq_take_code_q23(fw_acq_t *a, int32_t code)
  *   mul = G lsb_v,  add = 2^(shift-1) - G baseline_v,
  * exact (integer algebra: the same value as fw_math_rshift_round_i64(G v,
  * shift) on the signal v that fw_acq_take_code_q23 returns), one multiply
- * and one add per code instead of two of each. Formed once per block by
+ * and one add per code instead of two of each. Formed once per baseline by
  * fw_board_step_block's fast path; valid until the baseline changes.
  * Scaling and overflow: any int32 G, shift in 1..62; |code lsb_v| and
  * |baseline_v| <= 10 V < 2^26.33 in 9.23, so |mul|, |G baseline_v| <

@@ -76,6 +76,7 @@ void fw_board_reset(fw_board_t *b)
     b->fast_span_uv = 0;
     b->sticky_flags = 0;
     b->sat_force_count = 0;
+    b->gains.valid = false;
 }
 
 fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sample_out_t *out)
@@ -144,8 +145,10 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
     return FW_OK;
 }
 
-/* The fast run's gains on the ADC codes (fw_board_gains_t), from M, the
- * force gains and the baselines. Out of line: once per run. The offset's
+/* The fast path's gains on the ADC codes (fw_board_gains_t), from M, the
+ * force gains and the baselines, with the baselines they were formed
+ * from. Out of line: formed again only when a baseline has changed
+ * (board_run_fast compares them at the start of each run). The offset's
  * row i: floor((code_n P_i0 + code_l P_i1 + K_i) / 2^31) with P_ij =
  * m_ij lsb_j and K_i = 2^30 - m_i0 baseline_n - m_i1 baseline_l, i.e.
  * fw_comp_offset_row_pm of the signals code lsb - baseline, exactly
@@ -153,7 +156,10 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
  * < 2^58.5). */
 static FW_NOINLINE void board_gains_form(fw_board_t *b)
 {
-    fw_board_gains_t *g = &b->run_gains;
+    fw_board_gains_t *g = &b->gains;
+    g->baseline_n_v = b->acq_sn.baseline_v;
+    g->baseline_l_v = b->acq_sl.baseline_v;
+    g->valid = true;
     const int shift = FW_Q23_FRAC + FW_COMP_M_FRAC;
     int i;
     for (i = 0; i < 2; i++) {
@@ -219,9 +225,13 @@ static FW_ALWAYS_INLINE size_t board_run_fast(fw_board_t *b, const fw_sample_in_
     bool known = t->known;
     uint32_t sticky = 0;
     /* the offsets' and the forces' terms straight from the codes (exact:
-     * fw_acq_gain), formed once per run: the baseline cannot change in it */
-    const fw_board_gains_t *g = &b->run_gains;
-    board_gains_form(b);
+     * fw_acq_gain); the gains are a cache, formed again when a baseline
+     * has changed since (the baselines cannot change within a run) */
+    const fw_board_gains_t *g = &b->gains;
+    if (FW_UNLIKELY(!g->valid || g->baseline_n_v != b->acq_sn.baseline_v
+                    || g->baseline_l_v != b->acq_sl.baseline_v)) {
+        board_gains_form(b);
+    }
     const fw_sample_in_t *const end = in + n;
     const fw_sample_in_t *i = in;
     fw_sample_out_t *o = out;
