@@ -47,8 +47,6 @@
 #define FW_COMP_FAST_C_MAX_PM_PER_V ((int32_t)1 << 21)
 
 typedef struct {
-    int32_t cn_pm_per_v;     /* C_n, pm/V */
-    int32_t cl_pm_per_v;     /* C_l, pm/V */
     q30_t cos_a;             /* cos alpha, 2.30 */
     q30_t sin_a;             /* sin alpha, 2.30 */
     int32_t m[2][2];         /* M = R(alpha) diag(C_n, C_l), pm/V, FW_COMP_M_FRAC fraction bits */

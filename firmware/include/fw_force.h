@@ -106,10 +106,11 @@ static inline int64_t fw_force_fallback_pn(const fw_force_t *f, int32_t n_pn, in
  *     2.30 (u < 1/15, one 64-bit division of the squares, truncated),
  *     |cos theta| = (1 + u)^(-1/2) by the quartic
  *     1 + u (a1 + u (a2 + u (a3 + u a4))) (Chebyshev fit, |error| <
- *     2.2e-9, exact at u = 0), mu cos theta with the sign of x; F_x,fb = fw_force_fallback_pn (rounded)
- *     below 1/8; in the blend |sin theta| = |y| |cos theta| / |x| in 2.30
- *     (one division), F_x,fb keeps 8 fraction bits (a second division of
- *     the remainder) and F_x = F_x,fb + w (F_x,cot - F_x,fb) with
+ *     2.2e-9, exact at u = 0), mu cos theta with the sign of x;
+ *     F_x,fb = fw_force_fallback_pn (rounded) below 1/8; in the blend
+ *     |sin theta| = |y| |cos theta| / |x| in 2.30 (one division),
+ *     F_x,fb keeps 8 fraction bits (a second division of the remainder)
+ *     and F_x = F_x,fb + w (F_x,cot - F_x,fb) with
  *     w = clamp(|sin| - 1/8, 0, 1/8) / (1/8) in 2.30 / 2^27, the product
  *     split so it never exceeds 64 bits; rounded to pN once.
  * Scaling and overflow: |dir_x|, |dir_y| <= 2^15 (FW_FORCE_DIR_MAX) on the

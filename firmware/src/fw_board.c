@@ -157,11 +157,11 @@ fw_status_t fw_board_step_checked(fw_board_t *b, const fw_sample_in_t *in, fw_sa
 static FW_NOINLINE void board_gains_form(fw_board_t *b)
 {
     fw_board_gains_t *g = &b->gains;
+    const int shift = FW_Q23_FRAC + FW_COMP_M_FRAC;
+    int i;
     g->baseline_n_v = b->acq_sn.baseline_v;
     g->baseline_l_v = b->acq_sl.baseline_v;
     g->valid = true;
-    const int shift = FW_Q23_FRAC + FW_COMP_M_FRAC;
-    int i;
     for (i = 0; i < 2; i++) {
         fw_acq_gain_t gn = fw_acq_gain(&b->acq_sn, b->comp.m[i][0], shift);
         fw_acq_gain_t gl = fw_acq_gain(&b->acq_sl, b->comp.m[i][1], shift);
@@ -224,18 +224,18 @@ static FW_ALWAYS_INLINE size_t board_run_fast(fw_board_t *b, const fw_sample_in_
     int32_t dir_y = t->dir_y;
     bool known = t->known;
     uint32_t sticky = 0;
-    /* the offsets' and the forces' terms straight from the codes (exact:
-     * fw_acq_gain); the gains are a cache, formed again when a baseline
-     * has changed since (the baselines cannot change within a run) */
     const fw_board_gains_t *g = &b->gains;
-    if (FW_UNLIKELY(!g->valid || g->baseline_n_v != b->acq_sn.baseline_v
-                    || g->baseline_l_v != b->acq_sl.baseline_v)) {
-        board_gains_form(b);
-    }
     const fw_sample_in_t *const end = in + n;
     const fw_sample_in_t *i = in;
     fw_sample_out_t *o = out;
     size_t k;
+    /* the offsets' and the forces' terms straight from the codes (exact:
+     * fw_acq_gain); the gains are a cache, formed again when a baseline
+     * has changed since (the baselines cannot change within a run) */
+    if (FW_UNLIKELY(!g->valid || g->baseline_n_v != b->acq_sn.baseline_v
+                    || g->baseline_l_v != b->acq_sl.baseline_v)) {
+        board_gains_form(b);
+    }
     for (; i != end; i++, o++) {
         int32_t cn;
         int32_t cl;

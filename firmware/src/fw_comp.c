@@ -21,8 +21,6 @@ fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
     if (cn_pm_per_v > FW_COMP_C_MAX_PM_PER_V || cl_pm_per_v > FW_COMP_C_MAX_PM_PER_V) {
         return FW_ERR_DOMAIN;
     }
-    c->cn_pm_per_v = cn_pm_per_v;
-    c->cl_pm_per_v = cl_pm_per_v;
     fw_math_sincos_q30(alpha, &c->sin_a, &c->cos_a);
     /* M = R(alpha) diag(C_n, C_l): |C cos| <= 2^52, rounded to 2^-8 pm/V,
      * |m| <= 2^30 */

@@ -56,8 +56,8 @@ fw_status_t fw_force_solve_pn(const fw_force_t *f, q23_t sn_v, q23_t sl_v,
     }
     /* F_y and k_n K_n S_n with 8 extra fraction bits: |gain * S| < 2^62,
      * >> 15 leaves < 2^47 */
-    fy8 = fw_math_rshift_round_i64((int64_t)f->lat_pn_per_v * sl_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
-    n8 = fw_math_rshift_round_i64((int64_t)f->kn_pn_per_v * sn_v, FW_Q23_FRAC - FW_FORCE_XFRAC);
+    fy8 = fw_force_term8(f->lat_pn_per_v, sl_v);
+    n8 = fw_force_term8(f->kn_pn_per_v, sn_v);
     n = fw_math_sat_i32(fw_math_rshift_round_i64(n8, FW_FORCE_XFRAC), &sat);
     abs_s = sin_theta < 0 ? -(int32_t)sin_theta : (int32_t)sin_theta;
 

@@ -82,7 +82,7 @@ static void test_comp_init_refuses_c_beyond_the_domain(void)
     TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_comp_init(&d, FW_COMP_C_MAX_PM_PER_V + 1, 0, 0u, centre, 0, 0));
     TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_comp_init(&d, 0, FW_COMP_C_MAX_PM_PER_V + 1, 0u, centre, 0, 0));
     TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_comp_init(&d, INT32_MAX, INT32_MAX, 0u, centre, 0, 0));
-    TEST_ASSERT_EQUAL_INT32(FW_COMP_C_MAX_PM_PER_V, d.cn_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(FW_COMP_C_MAX_PM_PER_V << FW_COMP_M_FRAC, d.m[0][0]);
 }
 
 /* The offset's extremes: C = 2^22 pm/V, alpha = 45 deg and 225 deg (the
