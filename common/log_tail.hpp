@@ -4,29 +4,30 @@
 // messages once 30 wait in its subscription queue (a CPU-starved logger):
 // with the window, a busy machine slows the run down instead.
 //
-// LCM log format, per event: sync word 0xEDA1DA01, int64 event number, int64
-// timestamp, int32 channel length, int32 data length (big-endian), channel,
-// data. analog_block_t data: 8-byte fingerprint, int64 utime, int64 seq.
+// The log is read with LogReader (lcmlog.hpp), the analog blocks decoded
+// with their generated type.
 #pragma once
 
 #include <cstdint>
-#include <fstream>
+#include <memory>
 #include <string>
+
+#include "lcmlog.hpp"
 
 namespace afm {
 
 class LogTail {
 public:
     explicit LogTail(std::string path) : path_(std::move(path)) {}
-    // Reads the events appended since the last call.
+    // Reads the events appended since the last call (a file not yet there
+    // is no event yet; a corrupt one throws LogError).
     void poll();
     int64_t last_analog_seq() const { return last_seq_; }
     int64_t scan_lines() const { return scan_lines_; }
 
 private:
     std::string path_;
-    std::ifstream f_;
-    std::streamoff off_ = 0;
+    std::unique_ptr<LogReader> reader_;
     int64_t last_seq_ = -1;
     int64_t scan_lines_ = 0;
 };

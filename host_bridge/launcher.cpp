@@ -5,7 +5,6 @@
 // at the end (or when one dies), and writes DIR/run.json.
 #include <lcm/lcm-cpp.hpp>
 #include <lcm/lcm.h>
-#include <lcm/eventlog.h>
 
 #include <fcntl.h>
 #include <signal.h>
@@ -29,10 +28,12 @@
 #include <thread>
 #include <vector>
 
+#include "afm/analog_block_t.hpp"
 #include "afm/heartbeat_t.hpp"
+#include "lcmlog.hpp"
 #include "bus.hpp"
 #include <nlohmann/json.hpp>
-#include "fw_config.hpp"
+#include "card_setup.hpp"
 #include "scene.hpp"
 
 namespace fs = std::filesystem;
@@ -101,29 +102,24 @@ std::string exe_dir()
     return fs::canonical("/proc/self/exe").parent_path().string();
 }
 
-// Message counts per channel in an LCM log, and the number of distinct analog
-// block sequence numbers (seq: big-endian int64 after the fingerprint and utime).
+// Message counts per channel in an LCM log, and the number of distinct
+// analog blocks in it (their seq, decoded with the generated type).
 std::map<std::string, int64_t> count_channels(const std::string &path, std::string *err, int64_t *analog_seqs)
 {
     std::map<std::string, int64_t> counts;
     std::set<int64_t> seqs;
-    lcm_eventlog_t *log = lcm_eventlog_create(path.c_str(), "r");
-    if (!log) {
-        *err = "cannot open " + path;
-        return counts;
-    }
-    while (lcm_eventlog_event_t *ev = lcm_eventlog_read_next_event(log)) {
-        const std::string ch(ev->channel, ev->channellen);
-        ++counts[ch];
-        if (ch == AFM_CH_AFM_ANALOG && ev->datalen >= 24) {
-            const auto *d = static_cast<const unsigned char *>(ev->data) + 16;
-            uint64_t seq = 0;
-            for (int i = 0; i < 8; ++i) seq = (seq << 8) | d[i];
-            seqs.insert(static_cast<int64_t>(seq));
+    try {
+        afm::LogReader log(path);
+        afm::LogEvent ev;
+        while (log.read(&ev)) {
+            ++counts[ev.channel];
+            afm::analog_block_t b;
+            if (ev.channel == AFM_CH_AFM_ANALOG && b.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) >= 0)
+                seqs.insert(b.seq);
         }
-        lcm_eventlog_free_event(ev);
+    } catch (const afm::LogError &e) {
+        *err = e.what();
     }
-    lcm_eventlog_destroy(log);
     *analog_seqs = static_cast<int64_t>(seqs.size());
     return counts;
 }
@@ -208,7 +204,7 @@ int main(int argc, char **argv)
         std::fprintf(stderr, "%s\n", e.what());
         return 2;
     }
-    if (const std::string why_fw = afm::board_config_refusal(scene); !why_fw.empty()) {
+    if (const std::string why_fw = afm::card_refusal(scene); !why_fw.empty()) {
         std::fprintf(stderr, "%s: %s\n", scene_path.c_str(), why_fw.c_str());
         return 2;
     }

@@ -1,6 +1,8 @@
 // operator: the scripted stand-in for the haptic joystick. Walks the scene's
 // waypoint path at a constant apex speed; for every haptic force it receives
-// (block n) it answers with the stylus pose for block n + 1 (lockstep).
+// (block n) it answers with the stylus pose for block n + 1, where the hand
+// is at the end of block n (lockstep; the card asks for the first pose with
+// a force of block -1).
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
@@ -39,7 +41,7 @@ struct Operator {
     const afm::Scene &scene;
     lcm::LCM &lc;
     afm::Heartbeat hb;
-    int64_t answered = -1;
+    int64_t answered = -2;   // last haptic force answered (-1: the card's request for pose 0)
     afm::haptic_pose_t last{};
     bool sim_done = false;
     double peak_force_N = 0;
@@ -97,7 +99,7 @@ int main(int argc, char **argv)
         lc->subscribe(AFM_CH_HAPTIC_FORCE, &Operator::on_force, &op)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Operator::on_heartbeat, &op)->setQueueCapacity(afm::kQueueCapacity);
         while (!op.sim_done) {
-            op.hb.maybe_send(op.answered < 0 ? "ready" : "running", op.answered, 0, op.answered < 0 ? 200000 : 1000000);
+            op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0, op.answered < -1 ? 200000 : 1000000);
             lc->handleTimeout(100);
         }
         if (!out_dir.empty()) {

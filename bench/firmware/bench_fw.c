@@ -32,6 +32,7 @@
 #include <string.h>
 #include <time.h>
 #include "fw_board.h"
+#include "fw_paper_probe.h"
 #include "bench_q15.h"
 #include "bench_ref.h"
 
@@ -65,7 +66,7 @@
 #define BENCH_APEX_ITER 4
 #define BENCH_SIGNAL_MAX_UV 9990000
 #define BENCH_TARGET_FRAC 0.001   /* the error target, of full scale */
-#define BENCH_FS_PN(cfg) (10.0 * (cfg)->kn_Kn_pn_per_v)
+#define BENCH_FS_PN(cfg) (10.0 * (cfg)->normal_gain_pn_per_v)
 
 enum { PATH_Q15, PATH_FW32, PATH_REF, PATH_REF_ANALOG, PATH_COUNT };
 static const char *const path_name[PATH_COUNT] = { "q15", "fw32", "ref", "ref_analog" };
@@ -113,24 +114,14 @@ static double clampd(double v, double lo, double hi)
     return v < lo ? lo : (v > hi ? hi : v);
 }
 
+/* The paper's lever (fw_paper_probe.h) as the tests use it: adhesion 5 nN,
+ * the joystick's centre at (45, 45) um. */
 static void paper_config(fw_board_config_t *c, int32_t scan_mdeg)
 {
-    memset(c, 0, sizeof *c);
-    c->adc_bits = 16;
-    c->kn_Kn_pn_per_v = 10680;
-    c->lat_pn_per_v = 37900;
-    c->Kn_pm_per_v = 89000;
-    c->tip_height_nm = 17300;
-    c->lever_length_nm = 100000;
-    c->cn_pm_per_v = 23100;
-    c->cl_pm_per_v = 23100;
-    c->scan_angle_mdeg = scan_mdeg;
-    c->mu_ppm = 86500;
+    fw_paper_board_config(c, scan_mdeg);
     c->adhesion_pn = 5000;
     c->scan_center_pm[0] = 45000000;
     c->scan_center_pm[1] = 45000000;
-    c->scan_half_range_pm = 2500000;
-    c->kappa_q16 = 1 << 16;
 }
 
 /* S_n, S_l (V) for friction plus push opposing a motion at theta (frame C). */
@@ -140,8 +131,8 @@ static void sweep_signals(const fw_board_config_t *c, double fpar, double fz, do
     double g = 2.0 * c->tip_height_nm / c->lever_length_nm;
     double fx = -fpar * cos(th);
     double fy = -fpar * sin(th);
-    *sl_v = fy / c->lat_pn_per_v;
-    *sn_v = (fz + g * fx) / c->kn_Kn_pn_per_v;
+    *sl_v = fy / c->lateral_gain_pn_per_v;
+    *sn_v = (fz + g * fx) / c->normal_gain_pn_per_v;
 }
 
 static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
@@ -212,8 +203,8 @@ static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
             double dy;
             sweep_signals(c, fpar, fz, th, &sn_v, &sl_v);
             sweep_signals(c, fpar_prev, fz_prev, th - turn, &sn0, &sl0);
-            dx = c->cn_pm_per_v * (sn_v - sn0);
-            dy = c->cl_pm_per_v * (sl_v - sl0);
+            dx = c->disp_n_pm_per_v * (sn_v - sn0);
+            dy = c->disp_l_pm_per_v * (sl_v - sl0);
             th = atan2(step_c[1] + dy, step_c[0] + dx);
         }
         sweep_signals(c, fpar, fz, th, &sn_v, &sl_v);

@@ -55,14 +55,14 @@ void bench_q15_init(bench_q15_t *p, const fw_board_config_t *cfg)
 {
     q30_t s;
     q30_t c;
-    int32_t cmax = cfg->cn_pm_per_v > cfg->cl_pm_per_v ? cfg->cn_pm_per_v : cfg->cl_pm_per_v;
+    int32_t cmax = cfg->disp_n_pm_per_v > cfg->disp_l_pm_per_v ? cfg->disp_n_pm_per_v : cfg->disp_l_pm_per_v;
     int16_t unused;
     int32_t md = cfg->theta_min_disp_pm == 0 ? FW_THETA_MIN_DISP_DEFAULT_PM : cfg->theta_min_disp_pm;
-    q15_split_gain(cfg->kn_Kn_pn_per_v * 10, &p->n_mant, &p->n_k);
-    q15_split_gain(cfg->lat_pn_per_v * 10, &p->lat_mant, &p->lat_k);
+    q15_split_gain(cfg->normal_gain_pn_per_v * 10, &p->n_mant, &p->n_k);
+    q15_split_gain(cfg->lateral_gain_pn_per_v * 10, &p->lat_mant, &p->lat_k);
     q15_split_gain(cmax * 10, &unused, &p->off_k);
-    p->cn_mant = (int16_t)((cfg->cn_pm_per_v * 10 + ((1 << p->off_k) >> 1)) >> p->off_k);
-    p->cl_mant = (int16_t)((cfg->cl_pm_per_v * 10 + ((1 << p->off_k) >> 1)) >> p->off_k);
+    p->cn_mant = (int16_t)((cfg->disp_n_pm_per_v * 10 + ((1 << p->off_k) >> 1)) >> p->off_k);
+    p->cl_mant = (int16_t)((cfg->disp_l_pm_per_v * 10 + ((1 << p->off_k) >> 1)) >> p->off_k);
     fw_math_sincos_q30(fw_math_bam_from_mdeg(cfg->scan_angle_mdeg % FW_MDEG_PER_TURN - 270000), &s, &c);
     p->cos_a = q15_from_q30(c);
     p->sin_a = q15_from_q30(s);

@@ -13,13 +13,13 @@ void bench_ref_init(bench_ref_t *r, const fw_board_config_t *cfg, int adc_bits)
 {
     double alpha = (cfg->scan_angle_mdeg - 270000) * 1e-3 * REF_PI / 180.0;
     r->adc_bits = adc_bits;
-    r->kn_pn_per_v = cfg->kn_Kn_pn_per_v;
-    r->lat_pn_per_v = cfg->lat_pn_per_v;
+    r->normal_gain_pn_per_v = cfg->normal_gain_pn_per_v;
+    r->lateral_gain_pn_per_v = cfg->lateral_gain_pn_per_v;
     r->two_h_over_l = 2.0 * cfg->tip_height_nm / cfg->lever_length_nm;
     r->mu = cfg->mu_ppm * 1e-6;
     r->adhesion_pn = cfg->adhesion_pn;
-    r->cn_pm_per_v = cfg->cn_pm_per_v;
-    r->cl_pm_per_v = cfg->cl_pm_per_v;
+    r->disp_n_pm_per_v = cfg->disp_n_pm_per_v;
+    r->disp_l_pm_per_v = cfg->disp_l_pm_per_v;
     r->cos_a = cos(alpha);
     r->sin_a = sin(alpha);
     r->min_disp_pm = (cfg->theta_min_disp_pm == 0) ? FW_THETA_MIN_DISP_DEFAULT_PM
@@ -63,8 +63,8 @@ void bench_ref_step(bench_ref_t *r, const fw_sample_in_t *in, double force_a_pn[
 {
     double sn = ref_volts(r, in->sn_uv);
     double sl = ref_volts(r, in->sl_uv);
-    double ox = r->cn_pm_per_v * sn;
-    double oy = r->cl_pm_per_v * sl;
+    double ox = r->disp_n_pm_per_v * sn;
+    double oy = r->disp_l_pm_per_v * sl;
     double ax = in->piezo_pm[0] + r->cos_a * ox - r->sin_a * oy;
     double ay = in->piezo_pm[1] + r->sin_a * ox + r->cos_a * oy;
     int oldest;
@@ -104,8 +104,8 @@ void bench_ref_step(bench_ref_t *r, const fw_sample_in_t *in, double force_a_pn[
     s = r->sin_theta;
 
     /* eq. 1a-1c with the fallback and blend of fw_force.h */
-    fy = r->lat_pn_per_v * sl;
-    n = r->kn_pn_per_v * sn;
+    fy = r->lateral_gain_pn_per_v * sl;
+    n = r->normal_gain_pn_per_v * sn;
     as = fabs(s);
     if (as >= REF_SIN_LO) {
         fx = fy * c / s;

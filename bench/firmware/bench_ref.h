@@ -24,13 +24,13 @@
 
 typedef struct {
     int adc_bits;           /* 0: analog input, else 12/14/16 */
-    double kn_pn_per_v;     /* k_n K_n */
-    double lat_pn_per_v;    /* k_theta K_l / h */
+    double normal_gain_pn_per_v;     /* k_n K_n */
+    double lateral_gain_pn_per_v;    /* k_theta K_l / h */
     double two_h_over_l;
     double mu;
     double adhesion_pn;
-    double cn_pm_per_v;
-    double cl_pm_per_v;
+    double disp_n_pm_per_v;
+    double disp_l_pm_per_v;
     double cos_a;
     double sin_a;
     double min_disp_pm;

@@ -28,6 +28,7 @@
 
 #include "fw_types.h"
 #include "fw_math.h"
+#include "fw_rules.h"
 
 #define FW_ACQ_FS_UV 10000000          /* +-10 V card input range, microvolts */
 #define FW_ACQ_FILTER_LOG2_MAX 4
@@ -66,8 +67,12 @@ typedef struct {
     uint32_t sat_count;           /* saturated samples since reset */
 } fw_acq_t;
 
-/* Validates bits (12, 14, 16) and filter_log2 (0..4); zeroes the state and
- * the baseline. FW_ERR_ARG otherwise (instance untouched). */
+/* The first rule broken: bits not 12, 14 or 16 (FW_RULE_ADC_BITS),
+ * filter_log2 outside 0..4 (FW_RULE_ADC_FILTER). */
+fw_rule_t fw_acq_check(int32_t bits, int32_t filter_log2);
+
+/* Validates with fw_acq_check (FW_ERR_ARG, instance untouched); zeroes the
+ * state and the baseline. */
 fw_status_t fw_acq_init(fw_acq_t *a, int32_t bits, int32_t filter_log2);
 
 /* Clears the filter, the sticky flag and the counter; keeps bits, filter
@@ -182,6 +187,14 @@ static inline q23_t fw_acq_take_code_q23(fw_acq_t *a, int32_t code)
     return v - a->baseline_v;
 }
 
+/* The baseline-corrected signal of a code (9.23 V), without touching the
+ * instance: code lsb_v - baseline_v (the unfiltered signal of that code).
+ * Scaling and overflow: as fw_acq_take_code_q23, within +-20 V. */
+static inline q23_t fw_acq_signal_of_code_q23(const fw_acq_t *a, int32_t code)
+{
+    return code * a->lsb_v - a->baseline_v;
+}
+
 /* A gain G applied to the baseline-corrected signal of an instance without
  * filter, straight from the code:
  *   round(G (code lsb_v - baseline_v) / 2^shift)
@@ -227,6 +240,6 @@ fw_status_t fw_acq_set_baseline_q23(fw_acq_t *a, q23_t v);
  * dz * 2^23 / K_n rounded, the sum saturated to 9.23 (+-256 V).
  * K_n <= 0 returns FW_ERR_ARG. *sat set if clamped. */
 fw_status_t fw_acq_virtual_sn_q23(q23_t sn_ref_v, int32_t z_ref_pm, int32_t z_pm,
-                                  int32_t kn_pm_per_v, q23_t *sn_virtual_v, bool *sat);
+                                  int32_t deflection_pm_per_v, q23_t *sn_virtual_v, bool *sat);
 
 #endif /* FW_ACQ_H */

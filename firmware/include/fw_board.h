@@ -12,19 +12,18 @@
  *     S_n' = S_n,ref + (z_ref - z_piezo) / K_n is used (FW_FLAG_VIRTUAL_SN).
  *  3. Apex estimate p_tip = p_piezo + R(alpha) [+C_n S_n, C_l S_l, 0] (sign: fw_comp.h),
  *     formed as one matrix M = R(alpha) diag(C_n, C_l) on (S_n, S_l).
- *  4. theta from the apex motion over the last FW_THETA_WINDOW (16) samples;
- *     direction unknown below cfg.theta_min_disp_pm (default 1000 pm = 1 nm)
- *     of displacement over the window (last direction held; 90 deg before
- *     any motion, FW_FLAG_THETA_UNKNOWN). Kept as the frame-C vector
- *     theta.dir_x, theta.dir_y (fw_theta_push_pm); the unit vector
- *     theta.cos_theta, sin_theta is not formed per sample.
+ *  4. theta from the apex motion over the last FW_THETA_WINDOW (16) samples
+ *     (fw_theta.h); direction unknown below cfg.theta_min_disp_pm (default
+ *     1000 pm = 1 nm) of displacement over the window (last direction held;
+ *     90 deg before any motion, FW_FLAG_THETA_UNKNOWN). Kept as the frame-C
+ *     vector theta.dir_x, theta.dir_y; the unit vector is not formed per
+ *     sample.
  *  5. Force in C (eq. 1a-1c, blend near sin theta = 0) from that vector
- *     (fw_force_solve_dir_fit_pn, fw_force.h), rotated into A (eq. 3).
+ *     (fw_force.h, the one solver), rotated into A (eq. 3).
  * The per-sample functions of the modules are inline: on the fast path a
- * sample makes no call at all (fallback and blend included); the checked
- * path calls fw_force_blend_pn in the blend zone near theta = 0, pi.
+ * sample makes no call at all (fallback and blend included).
  * fw_board_step_block runs a whole buffer (the ADC's DMA block) with the
- * path chosen once; fw_node uses it.
+ * path chosen once; the card (fw_card.h) uses it.
  * Flags of the sample are returned in out->flags; sticky flags and counters
  * accumulate in the instance until fw_board_reset.
  *
@@ -67,16 +66,18 @@
 #include "fw_acq.h"
 #include "fw_force.h"
 #include "fw_comp.h"
+#include "fw_theta.h"
+#include "fw_rules.h"
 
 typedef struct {
-    int32_t adc_bits;            /* 12, 14 or 16 */
-    int32_t kn_Kn_pn_per_v;      /* k_n K_n, pN/V (paper 10680) */
-    int32_t lat_pn_per_v;        /* k_theta K_l / h, pN/V (paper ~37900) */
-    int32_t Kn_pm_per_v;         /* K_n, pm/V (paper 89000) */
-    int32_t tip_height_nm;       /* h */
-    int32_t lever_length_nm;     /* l */
-    int32_t cn_pm_per_v;         /* C_n, pm/V (paper ~23100) */
-    int32_t cl_pm_per_v;         /* C_l, pm/V */
+    int32_t adc_bits;               /* 12, 14 or 16 */
+    int32_t normal_gain_pn_per_v;   /* k_n K_n: normal force per volt of S_n, pN/V */
+    int32_t lateral_gain_pn_per_v;  /* k_theta K_l / h: lateral force per volt of S_l, pN/V */
+    int32_t deflection_pm_per_v;    /* K_n: lever deflection per volt of S_n, pm/V */
+    int32_t tip_height_nm;          /* h */
+    int32_t lever_length_nm;        /* l */
+    int32_t disp_n_pm_per_v;        /* C_n: apex displacement per volt of S_n, pm/V (0: none) */
+    int32_t disp_l_pm_per_v;        /* C_l: apex displacement per volt of S_l, pm/V (0: none) */
     int32_t scan_angle_mdeg;     /* scan angle in millidegrees; alpha = angle - 270000 */
     int32_t mu_ppm;              /* tip-substrate friction coefficient x 1e6 */
     int32_t adhesion_pn;         /* tip-substrate adhesion F_adh, pN */
@@ -99,15 +100,13 @@ typedef enum {
 } fw_board_path_t;
 
 /* The fast path's gains on the ADC codes (fw_acq_gain): the bending
- * offset in frame A, row i: floor((code_n off_mul[i][0] + code_l
- * off_mul[i][1] + off_add[i]) / 2^31) (fw_comp_offset_row_pm's value), and
- * the force terms N, F_y (pN, 8 fraction bits). A cache: formed from the
+ * offset in frame A (fw_comp_code_gains_t), and the force terms N, F_y
+ * (pN, 8 fraction bits). A cache: formed from the
  * configuration and the baselines baseline_n_v, baseline_l_v; the fast
  * path forms it again when either baseline differs (however it was set)
  * or valid is false (init, reset). */
 typedef struct {
-    int64_t off_mul[2][2];
-    int64_t off_add[2];
+    fw_comp_code_gains_t offset;
     fw_acq_gain_t n8;
     fw_acq_gain_t fy8;
     q23_t baseline_n_v;
@@ -141,7 +140,14 @@ typedef struct {
     fw_board_gains_t gains;      /* the fast path's gains on the codes (a cache) */
 } fw_board_t;
 
-fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);  /* validates cfg */
+/* The first rule cfg breaks, in the order acquisition (fw_acq_check),
+ * force (fw_force_check), K_n > 0 (FW_RULE_DEFLECTION_GAIN), compensation
+ * (fw_comp_check), direction (fw_theta_check); FW_RULE_NULL_POINTER for a
+ * NULL cfg. */
+fw_rule_t fw_board_check(const fw_board_config_t *cfg);
+/* Validates with fw_board_check (its rule's status; FW_ERR_ARG for a NULL
+ * b). */
+fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);
 void        fw_board_reset(fw_board_t *b);
 /* One sample: fw_board_step_block with n = 1. FW_OK, FW_ERR_ARG for a
  * NULL pointer. */

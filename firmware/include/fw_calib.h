@@ -29,7 +29,7 @@
  * least squares d = C_n S_n' + b; the residual is the RMS of the fit
  * residuals (pm).
  *
- * C_l estimate (section 3): C_l = 3 h K_n / (2 l).
+ * Displacement estimate (section 3): C_n = C_l = 3 h K_n / (2 l).
  */
 #ifndef FW_CALIB_H
 #define FW_CALIB_H
@@ -44,7 +44,7 @@ typedef struct {
     q30_t mu;                /* tip-substrate friction coefficient, 2.30 */
     int32_t mu_ppm;          /* same, parts per million */
     fw_bam_t beta;           /* atan mu */
-    int32_t lat_pn_per_v;    /* k_theta K_l / h, pN/V */
+    int32_t lateral_gain_pn_per_v;    /* k_theta K_l / h, pN/V */
 } fw_calib_tilted_t;
 
 /* Scaling and overflow: r in 8.24, sin 2phi in 2.30; x = (r_u - r_d) sin 2phi
@@ -53,7 +53,7 @@ typedef struct {
  * numerator (< 2^61); a gain beyond int32 is FW_ERR_DOMAIN.
  * Accuracy (test_calib sweep against the reference formulas): mu within
  * 6e-8 (64 LSB of 2.30), gain within 1 pN/V (rounding to integer pN/V). */
-fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t kn_pn_per_v,
+fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v,
                                   fw_calib_tilted_t *out);
 
 /* F_adh (pN) from the loop lines' slopes (8.24) and offsets (9.23 V).
@@ -61,7 +61,7 @@ fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_
  * 64 bits (< 2^63), divided by (r_u - r_d), then multiplied by 2 for the
  * 2^(24-23) format ratio (rounding error <= 1 pN); saturated to int32 (*sat). */
 fw_status_t fw_calib_adhesion_pn(q24_t r_up, q23_t b_up_v, q24_t r_down, q23_t b_down_v,
-                                 int32_t kn_pn_per_v, int32_t *adhesion_pn, bool *sat);
+                                 int32_t normal_gain_pn_per_v, int32_t *adhesion_pn, bool *sat);
 
 /* C_n (pm/V) and the RMS residual (pm) from n points (2..64), |values| <=
  * FW_CALIB_LINES_RANGE_PM, K_n > 0 (pm/V). FW_ERR_DOMAIN if all depths
@@ -70,11 +70,22 @@ fw_status_t fw_calib_adhesion_pn(q24_t r_up, q23_t b_up_v, q24_t r_down, q23_t b
  * halved together until the denominator is < 2^31, then the slope is a
  * 64-bit quotient in 8.24; C_n = K_n slope >> 24 (< 2^62), saturated. */
 fw_status_t fw_calib_lines_cn(const int32_t *depth_pm, const int32_t *offset_pm, int32_t n,
-                              int32_t kn_pm_per_v, int32_t *cn_pm_per_v, int32_t *residual_pm);
+                              int32_t deflection_pm_per_v, int32_t *disp_n_pm_per_v, int32_t *residual_pm);
 
-/* C_l = 3 h K_n / (2 l), pm/V, rounded; h, l > 0 (nm), K_n > 0 (pm/V),
- * h < l. Scaling and overflow: 3 h K_n < 3 * 2^62 in uint64. */
-fw_status_t fw_calib_cl_estimate(int32_t tip_height_nm, int32_t lever_length_nm,
-                                 int32_t kn_pm_per_v, int32_t *cl_pm_per_v);
+/* The displacement constants' estimate (section 3: equal photodiode
+ * sensitivity in both directions) C_n = C_l = 3 h K_n / (2 l), pm/V,
+ * rounded; h, l > 0 (nm), K_n > 0 (pm/V) (FW_ERR_ARG), h < l
+ * (FW_ERR_DOMAIN). The card uses it wherever no calibrated value is
+ * configured (fw_card.h). Scaling and overflow: 3 h K_n < 3 * 2^62 in
+ * uint64; the result < 1.5 K_n fits int32. */
+fw_status_t fw_calib_disp_estimate(int32_t tip_height_nm, int32_t lever_length_nm,
+                                   int32_t deflection_pm_per_v, int32_t *disp_pm_per_v);
+
+/* The lever's twist per volt of S_l, K_l = 3 K_n / (2 l) rad/V (section
+ * 3, the same estimate as C_l = h K_l), in 2.30, rounded, saturated at
+ * INT32_MAX (2 rad/V: no lever). K_n > 0 (pm/V), l > 0 (nm), else
+ * FW_ERR_ARG. Scaling and overflow: 3 K_n 2^30 < 1.5 2^62 in uint64. */
+fw_status_t fw_calib_twist_estimate_q30(int32_t deflection_pm_per_v, int32_t lever_length_nm,
+                                        q30_t *twist_rad_per_v);
 
 #endif /* FW_CALIB_H */

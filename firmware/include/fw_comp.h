@@ -25,6 +25,8 @@
 
 #include "fw_types.h"
 #include "fw_math.h"
+#include "fw_rules.h"
+#include "fw_acq.h"
 
 /* The domain of C_n, C_l (pm/V): [0, 2^22] (4.2 um/V; the paper's lever
  * has 23.1 nm/V, and C_n = 3 h K_n / (2 l) stays below 2^21 for any lever
@@ -57,11 +59,16 @@ typedef struct {
                                 path may form the apex without clamps (fw_board.c) */
 } fw_comp_t;
 
-/* Validates C_n, C_l >= 0, half range >= 0, kappa >= 0 (FW_ERR_ARG);
- * C_n, C_l <= FW_COMP_C_MAX_PM_PER_V (FW_ERR_DOMAIN). Forms M:
- * m = round(C cos alpha / 2^22), +-round(C sin alpha / 2^22)
- * (cos, sin alpha in 2.30; half up). */
-fw_status_t fw_comp_init(fw_comp_t *c, int32_t cn_pm_per_v, int32_t cl_pm_per_v,
+/* The first rule broken: C_n, C_l < 0 (FW_RULE_DISP_NEGATIVE); above
+ * FW_COMP_C_MAX_PM_PER_V (FW_RULE_DISP_RANGE: they would let the offset
+ * leave int32); half range or kappa < 0 (FW_RULE_JOYSTICK_RANGE). C = 0
+ * turns the compensation off on that axis. */
+fw_rule_t fw_comp_check(int32_t disp_n_pm_per_v, int32_t disp_l_pm_per_v, int32_t half_range_pm, q16_t kappa);
+
+/* Validates with fw_comp_check (its rule's status; FW_ERR_ARG for a NULL
+ * pointer). Forms M: m = round(C cos alpha / 2^22), +-round(C sin alpha /
+ * 2^22) (cos, sin alpha in 2.30; half up). */
+fw_status_t fw_comp_init(fw_comp_t *c, int32_t disp_n_pm_per_v, int32_t disp_l_pm_per_v,
                          fw_bam_t alpha, const int32_t center_pm[2],
                          int32_t half_range_pm, q16_t kappa);
 
@@ -99,6 +106,43 @@ static inline void fw_comp_apex_pm(const fw_comp_t *c, const int32_t piezo_pm[3]
     apex_pm[0] = fw_math_sat_i32((int64_t)piezo_pm[0] + off[0], sat);
     apex_pm[1] = fw_math_sat_i32((int64_t)piezo_pm[1] + off[1], sat);
     apex_pm[2] = piezo_pm[2];
+}
+
+/* The bending offset straight from the ADC codes, for the card's fast path
+ * (acquisition without filter): row i of M S with S = code lsb - baseline,
+ *   off_i = floor((code_n mul[i][0] + code_l mul[i][1] + add[i]) / 2^31),
+ * mul[i][j] = m_ij lsb_j, add[i] = 2^30 - m_i0 baseline_n - m_i1 baseline_l:
+ * fw_comp_offset_row_pm's value on the baseline-corrected signals, exactly
+ * (fw_acq_gain's algebra). Formed by fw_comp_code_gains for the baselines
+ * of the moment; the caller forms it again when a baseline changes. */
+typedef struct {
+    int64_t mul[2][2];
+    int64_t add[2];
+} fw_comp_code_gains_t;
+
+/* Scaling and overflow: |m| <= 2^30 and |lsb|, |baseline| <= 10 V in 9.23,
+ * so |mul|, |m baseline| < 2^56.4 (fw_acq_gain). */
+void fw_comp_code_gains(const fw_comp_t *c, const fw_acq_t *acq_n, const fw_acq_t *acq_l,
+                        fw_comp_code_gains_t *g);
+
+/* The offset in frame A (pm) from two codes, as fw_comp_code_gains
+ * documents; aligned: M is diagonal (alpha = 0 exactly), the cross terms
+ * are skipped. Scaling and overflow: a code within the ADC's range has
+ * |code mul| = |code lsb| |m| <= 10 V 2^23 2^30 < 2^56.4, so the sum stays
+ * < 2^58.5 in 64 bits; the offset itself is M S (fw_comp_offset_row_pm's
+ * bound). Inline (per sample). */
+static FW_ALWAYS_INLINE void fw_comp_offset_codes_pm(const fw_comp_code_gains_t *g, int32_t code_n,
+                                                     int32_t code_l, bool aligned, int64_t off_pm[2])
+{
+    if (aligned) {
+        off_pm[0] = fw_math_asr_i64(code_n * g->mul[0][0] + g->add[0], FW_Q23_FRAC + FW_COMP_M_FRAC);
+        off_pm[1] = fw_math_asr_i64(code_l * g->mul[1][1] + g->add[1], FW_Q23_FRAC + FW_COMP_M_FRAC);
+    } else {
+        off_pm[0] = fw_math_asr_i64(code_n * g->mul[0][0] + code_l * g->mul[0][1] + g->add[0],
+                                    FW_Q23_FRAC + FW_COMP_M_FRAC);
+        off_pm[1] = fw_math_asr_i64(code_n * g->mul[1][0] + code_l * g->mul[1][1] + g->add[1],
+                                    FW_Q23_FRAC + FW_COMP_M_FRAC);
+    }
 }
 
 /* Joystick (1.15) to the set point in frame A (pm).

@@ -13,6 +13,7 @@
 #define FW_DRIFT_H
 
 #include "fw_types.h"
+#include "fw_rules.h"
 #include "fw_particles.h"
 #include "fw_wire.h"
 #include "fw_litho.h"
@@ -23,14 +24,24 @@ typedef struct {
     uint32_t rejected;        /* refused measurements (saturating) */
 } fw_drift_t;
 
+/* The correction limit of the card (physics.md section 10): a local scan
+ * finds an object at most this far from its model, or it is not drift. */
+#define FW_DRIFT_MAX_STEP_DEFAULT_PM 200000
+
+/* FW_RULE_DRIFT_STEP for max_step_pm <= 0. */
+fw_rule_t fw_drift_check(int32_t max_step_pm);
+/* Validates with fw_drift_check (FW_ERR_ARG also for a NULL d). */
 fw_status_t fw_drift_init(fw_drift_t *d, int32_t max_step_pm);
 void fw_drift_reset(fw_drift_t *d);
 
 /* delta = scanned - modelled (pm); accepted if |delta| <= max step (then
- * added to the offset). Scaling and overflow: 64-bit differences; squared
+ * added to the offset). fw_drift_measure_within takes another limit for
+ * one measurement (a landmark after a lever change may be far off). Scaling and overflow: 64-bit differences; squared
  * norm compared in 64 bits after a per-axis bound; offset saturated. */
 fw_status_t fw_drift_measure(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
                              int32_t delta_pm[2]);
+fw_status_t fw_drift_measure_within(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
+                                    int32_t max_step_pm, int32_t delta_pm[2]);
 
 /* Shift every object by delta (any pointer may be NULL; wires is an array
  * of n_wires). */

@@ -17,6 +17,7 @@
 #define FW_LITHO_H
 
 #include "fw_types.h"
+#include "fw_rules.h"
 
 #define FW_LITHO_STROKE_START (1u << 0)   /* fw_trench_point_t.flags: first point of a stroke */
 
@@ -41,8 +42,12 @@ typedef struct {
     uint32_t dropped;         /* points dropped for lack of capacity */
 } fw_litho_t;
 
-/* capacity > 0, threshold >= 0, gain >= 0, gamma in (0, 60 deg) (mdeg),
- * min step > 0. Zeroes the storage. */
+/* The first rule broken: threshold < 0, gain < 0 or min step <= 0
+ * (FW_RULE_LITHO); gamma outside (0, 60 deg) (mdeg, FW_RULE_TIP_HALF_ANGLE). */
+fw_rule_t fw_litho_check(int32_t threshold_pn, q16_t depth_pm_per_pn, int32_t gamma_mdeg, int32_t min_step_pm);
+
+/* Validates with fw_litho_check (FW_ERR_ARG also for a NULL pointer or
+ * capacity <= 0). Zeroes the storage. */
 fw_status_t fw_litho_init(fw_litho_t *l, fw_trench_point_t *storage, int32_t capacity,
                           int32_t threshold_pn, q16_t depth_pm_per_pn, int32_t gamma_mdeg,
                           int32_t min_step_pm);

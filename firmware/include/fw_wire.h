@@ -28,15 +28,32 @@
  * w -> 0, continuous in l through L/2 (the paper: avoid pushing the exact
  * middle; zigzag end pushes instead).
  *
+ * The push rule (fw_wire_update, per sample): a rod the apex touches (its
+ * footprint is the rectangle of its axis widened by r_tip + d/2) is pushed
+ * when the contact force, the lateral force in excess of the tip's own
+ * friction (fw_force_lateral_excess_pn), exceeds half of its minimum push
+ * k(l) f L (the decision midpoint, as for particles: the excess is 0 with
+ * no rod and k(l) f L while it slides), unless the tip squeezes it (section
+ * 7: psi = gamma + theta_t at or past psi_max; the rod stays and
+ * FW_WIRE_SQUEEZED is raised); a pushed rod moves along its normal until
+ * the apex sits on its surface, in steps of at most L/4 (fw_wire_push).
+ *
  * Units: lengths pm (L in (0, 2^30]), angles fw_bam_t, k in 2.30.
  */
 #ifndef FW_WIRE_H
 #define FW_WIRE_H
 
 #include "fw_types.h"
+#include "fw_rules.h"
 
 #define FW_WIRE_LENGTH_MAX_PM ((int32_t)1 << 30)
 #define FW_WIRE_BLEND_U ((q30_t)(FW_Q30_ONE / 8))
+#define FW_WIRE_MU_MAX_PPM 1999999               /* the squeeze's mu lies in [0, 2) */
+
+/* fw_wire_t.flags */
+#define FW_WIRE_PUSHED   (1u << 0)   /* moved by the tip in the last update */
+#define FW_WIRE_SQUEEZED (1u << 1)   /* the tip squeezed it in the last update (section 7): it stayed */
+#define FW_WIRE_SAT_POS  (1u << 2)   /* a move was clamped to int32 (sticky) */
 
 typedef enum {
     FW_WIRE_TRANSLATE = 0,      /* l = L/2 exactly: S undefined */
@@ -71,11 +88,28 @@ typedef struct {
     fw_bam_t psi;            /* axis direction A -> B */
     int32_t length_pm;
     int32_t diameter_pm;
-    uint32_t flags;          /* FW_FLAG_SAT_POS if a move was clamped */
+    uint32_t flags;          /* FW_WIRE_* */
 } fw_wire_t;
 
+/* The first rule a rod breaks: length outside (0, 2^30] pm or diameter
+ * <= 0 (FW_RULE_WIRE). */
+fw_rule_t fw_wire_check(int32_t length_pm, int32_t diameter_pm);
+
+/* Validates with fw_wire_check (FW_ERR_ARG also for a NULL w). */
 fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
                          int32_t length_pm, int32_t diameter_pm);
+
+/* The rod from end A to end B (frame A, pm): centre (A + B) / 2 (floor),
+ * psi = atan2(B - A), L = round(|B - A|). FW_RULE_WIRE (and its status)
+ * when L is 0 or above 2^30 pm or d <= 0. Scaling and overflow: B - A in
+ * 64 bits (< 2^33), halved (floor) together for the angle until both fit
+ * int32; |B - A|^2 < 2^65 would overflow: the length is taken of the
+ * halved difference when it was halved (one LSB lost, doubled back). */
+fw_status_t fw_wire_init_ends(fw_wire_t *w, const int32_t a_pm[2], const int32_t b_pm[2], int32_t diameter_pm);
+
+/* The rod's ends A and B (frame A, pm) from its centre and psi, rounded,
+ * saturated to int32. */
+void fw_wire_ends_pm(const fw_wire_t *w, int32_t a_pm[2], int32_t b_pm[2]);
 
 /* Push at l (from A) by dn pm along the normal n = (-sin psi, cos psi).
  * |dn| must be <= L/4 (FW_ERR_DOMAIN: split larger moves, the update is
@@ -86,7 +120,7 @@ fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
  * (L - 2s) / (2l - 2s) in 2.30; positions saturated (flag). */
 fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_static_t *info);
 
-/* Shift by (dx, dy) pm (drift), saturated. */
+/* Shift by (dx, dy) pm (drift), saturated (FW_WIRE_SAT_POS). */
 void fw_wire_shift(fw_wire_t *w, int32_t dx_pm, int32_t dy_pm);
 
 /* Where the apex stands against the rod. With the rod's axis through its
@@ -128,5 +162,42 @@ typedef struct {
  * 2.30 x pN numerator (< 2^62); saturated. */
 fw_status_t fw_wire_squeeze_solve(fw_bam_t psi, q30_t k, q30_t mu, int32_t friction_fl_pn,
                                   int32_t adhesion_ts_pn, fw_squeeze_t *out);
+
+/* ---- the push rule (per sample) ------------------------------------------ */
+
+/* What a push of every rod shares: the tip and the substrate. */
+typedef struct {
+    int32_t tip_radius_pm;           /* r_tip */
+    fw_bam_t tip_half_angle;         /* gamma, the cone's half angle */
+    int32_t friction_pn_per_um;      /* f: wire-substrate friction per length */
+    q30_t mu;                        /* wire-substrate mu (eq. 29), [0, 2) */
+    int32_t adhesion_ts_pn;          /* F_a,ts: tip-substrate adhesion (eq. 30) */
+} fw_wire_tip_t;
+
+/* The first rule broken: f < 0 or mu outside [0, 2) (FW_RULE_WIRE_FRICTION);
+ * r_tip outside [0, 2^30] (FW_RULE_TIP_RADIUS); gamma outside (0, 60 deg)
+ * (FW_RULE_TIP_HALF_ANGLE); F_a,ts < 0 (FW_RULE_ADHESION). */
+fw_rule_t fw_wire_check_tip(int32_t tip_radius_pm, int32_t tip_half_angle_mdeg, int32_t friction_pn_per_um,
+                            int32_t mu_ppm, int32_t adhesion_ts_pn);
+
+/* Fills tip after fw_wire_check_tip (its rule's status). */
+fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t tip_half_angle_mdeg,
+                             int32_t friction_pn_per_um, int32_t mu_ppm, int32_t adhesion_ts_pn);
+
+/* The rod's friction f L (pN): f (pN/um) L (pm) / 10^6, rounded.
+ * Scaling and overflow: f < 2^31, L <= 2^30: the product < 2^61. */
+int32_t fw_wire_friction_pn(const fw_wire_tip_t *tip, const fw_wire_t *w);
+
+/* One sample of the push rule (above): apex (frame A, pm), the contact
+ * force excess_pn (fw_force_lateral_excess_pn) and the lever's twist
+ * theta_t (radians in 2.30, sign ignored: it tilts the cone away from the
+ * rod). Clears FW_WIRE_PUSHED and FW_WIRE_SQUEEZED, then raises the one
+ * that happens. FW_ERR_ARG for a NULL pointer.
+ * Scaling and overflow: fw_wire_contact, fw_wire_static_point,
+ * fw_wire_push_threshold_pn (saturated), psi = gamma + |theta_t| as a
+ * binary angle (|theta_t| clamped to 90 deg), fw_wire_squeeze_solve,
+ * fw_wire_push steps of at most L/4. */
+fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[2], int64_t excess_pn,
+                           q30_t twist_rad);
 
 #endif /* FW_WIRE_H */

@@ -53,11 +53,25 @@ static int32_t acq_fast_hi_uv(int32_t bits)
     return (int32_t)((num + den - 1) / den) - FW_ACQ_FS_UV - 1;
 }
 
+fw_rule_t fw_acq_check(int32_t bits, int32_t filter_log2)
+{
+    if (!acq_bits_valid(bits)) {
+        return FW_RULE_ADC_BITS;
+    }
+    if (filter_log2 < 0 || filter_log2 > FW_ACQ_FILTER_LOG2_MAX) {
+        return FW_RULE_ADC_FILTER;
+    }
+    return FW_RULE_OK;
+}
+
 fw_status_t fw_acq_init(fw_acq_t *a, int32_t bits, int32_t filter_log2)
 {
-    if (a == NULL || !acq_bits_valid(bits) || filter_log2 < 0
-        || filter_log2 > FW_ACQ_FILTER_LOG2_MAX) {
+    fw_rule_t rule = fw_acq_check(bits, filter_log2);
+    if (a == NULL) {
         return FW_ERR_ARG;
+    }
+    if (rule != FW_RULE_OK) {
+        return fw_rule_status(rule);
     }
     a->bits = bits;
     a->filter_log2 = filter_log2;
@@ -118,15 +132,15 @@ fw_status_t fw_acq_set_baseline_q23(fw_acq_t *a, q23_t v)
 }
 
 fw_status_t fw_acq_virtual_sn_q23(q23_t sn_ref_v, int32_t z_ref_pm, int32_t z_pm,
-                                  int32_t kn_pm_per_v, q23_t *sn_virtual_v, bool *sat)
+                                  int32_t deflection_pm_per_v, q23_t *sn_virtual_v, bool *sat)
 {
     int64_t dz;
     int64_t dv;
-    if (sn_virtual_v == NULL || kn_pm_per_v <= 0) {
+    if (sn_virtual_v == NULL || deflection_pm_per_v <= 0) {
         return FW_ERR_ARG;
     }
     dz = (int64_t)z_ref_pm - z_pm;
-    dv = fw_math_div_round_i64(dz * FW_Q23_ONE, kn_pm_per_v);
+    dv = fw_math_div_round_i64(dz * FW_Q23_ONE, deflection_pm_per_v);
     *sn_virtual_v = fw_math_sat_i32((int64_t)sn_ref_v + dv, sat);
     return FW_OK;
 }

@@ -16,7 +16,7 @@ static int64_t abs64(int64_t v)
     return v < 0 ? -v : v;
 }
 
-fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t kn_pn_per_v,
+fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v,
                                   fw_calib_tilted_t *out)
 {
     q30_t s2phi;
@@ -34,7 +34,7 @@ fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_
     int64_t lat;
     int64_t au = abs64(r_up);
     int64_t ad = abs64(r_down);
-    if (out == NULL || kn_pn_per_v <= 0) {
+    if (out == NULL || normal_gain_pn_per_v <= 0) {
         return FW_ERR_ARG;
     }
     if (phi < fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG) || phi >= FW_BAM_QUARTER_TURN || r_up <= 0) {
@@ -64,23 +64,23 @@ fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_
     if (lat_den <= 0) {
         return FW_ERR_DOMAIN;
     }
-    lat = fw_math_div_round_i64((int64_t)kn_pn_per_v * spb, lat_den);
+    lat = fw_math_div_round_i64((int64_t)normal_gain_pn_per_v * spb, lat_den);
     if (lat <= 0 || lat > INT32_MAX) {
         return FW_ERR_DOMAIN;
     }
     out->mu = (q30_t)mu;
     out->mu_ppm = (int32_t)fw_math_div_round_i64(mu * FW_PPM_PER_ONE, FW_Q30_ONE);
     out->beta = beta;
-    out->lat_pn_per_v = (int32_t)lat;
+    out->lateral_gain_pn_per_v = (int32_t)lat;
     return FW_OK;
 }
 
 fw_status_t fw_calib_adhesion_pn(q24_t r_up, q23_t b_up_v, q24_t r_down, q23_t b_down_v,
-                                 int32_t kn_pn_per_v, int32_t *adhesion_pn, bool *sat)
+                                 int32_t normal_gain_pn_per_v, int32_t *adhesion_pn, bool *sat)
 {
     int64_t dr = (int64_t)r_up - r_down;                 /* 8.24 */
     int64_t db = (int64_t)b_up_v - b_down_v;             /* 9.23, < 2^32 */
-    if (adhesion_pn == NULL || kn_pn_per_v <= 0) {
+    if (adhesion_pn == NULL || normal_gain_pn_per_v <= 0) {
         return FW_ERR_ARG;
     }
     if (dr == 0) {
@@ -89,12 +89,12 @@ fw_status_t fw_calib_adhesion_pn(q24_t r_up, q23_t b_up_v, q24_t r_down, q23_t b
     /* F = kn (db / 2^23) / (dr / 2^24) = 2 kn db / dr. |kn db| < 2^63, but
      * 2 kn db may not fit: divide first, then multiply by 2 (error <= 1 pN). */
     *adhesion_pn = fw_math_sat_i32(
-        2 * (int64_t)fw_math_sat_i32(fw_math_div_round_i64((int64_t)kn_pn_per_v * db, dr), sat), sat);
+        2 * (int64_t)fw_math_sat_i32(fw_math_div_round_i64((int64_t)normal_gain_pn_per_v * db, dr), sat), sat);
     return FW_OK;
 }
 
 fw_status_t fw_calib_lines_cn(const int32_t *depth_pm, const int32_t *offset_pm, int32_t n,
-                              int32_t kn_pm_per_v, int32_t *cn_pm_per_v, int32_t *residual_pm)
+                              int32_t deflection_pm_per_v, int32_t *disp_n_pm_per_v, int32_t *residual_pm)
 {
     int64_t sx = 0;
     int64_t sy = 0;
@@ -105,8 +105,8 @@ fw_status_t fw_calib_lines_cn(const int32_t *depth_pm, const int32_t *offset_pm,
     int64_t slope;
     uint64_t se2 = 0;
     int32_t i;
-    if (depth_pm == NULL || offset_pm == NULL || cn_pm_per_v == NULL || residual_pm == NULL
-        || n < 2 || n > FW_CALIB_LINES_MAX || kn_pm_per_v <= 0) {
+    if (depth_pm == NULL || offset_pm == NULL || disp_n_pm_per_v == NULL || residual_pm == NULL
+        || n < 2 || n > FW_CALIB_LINES_MAX || deflection_pm_per_v <= 0) {
         return FW_ERR_ARG;
     }
     for (i = 0; i < n; i++) {
@@ -141,25 +141,41 @@ fw_status_t fw_calib_lines_cn(const int32_t *depth_pm, const int32_t *offset_pm,
         int64_t e = fw_math_div_round_i64(en, n);
         se2 += (uint64_t)(e * e);
     }
-    *cn_pm_per_v = fw_math_sat_i32(
-        fw_math_rshift_round_i64(slope * kn_pm_per_v, FW_Q24_FRAC), NULL);
+    *disp_n_pm_per_v = fw_math_sat_i32(
+        fw_math_rshift_round_i64(slope * deflection_pm_per_v, FW_Q24_FRAC), NULL);
     *residual_pm = (int32_t)fw_math_isqrt_round_u64(se2 / (uint64_t)n);
     return FW_OK;
 }
 
-fw_status_t fw_calib_cl_estimate(int32_t tip_height_nm, int32_t lever_length_nm,
-                                 int32_t kn_pm_per_v, int32_t *cl_pm_per_v)
+fw_status_t fw_calib_disp_estimate(int32_t tip_height_nm, int32_t lever_length_nm,
+                                   int32_t deflection_pm_per_v, int32_t *disp_pm_per_v)
 {
     uint64_t num;
     uint64_t den;
-    if (cl_pm_per_v == NULL || tip_height_nm <= 0 || lever_length_nm <= 0 || kn_pm_per_v <= 0) {
+    if (disp_pm_per_v == NULL || tip_height_nm <= 0 || lever_length_nm <= 0 || deflection_pm_per_v <= 0) {
         return FW_ERR_ARG;
     }
     if (tip_height_nm >= lever_length_nm) {
         return FW_ERR_DOMAIN;
     }
-    num = 3u * (uint64_t)tip_height_nm * (uint64_t)kn_pm_per_v;
+    num = 3u * (uint64_t)tip_height_nm * (uint64_t)deflection_pm_per_v;
     den = 2u * (uint64_t)lever_length_nm;
-    *cl_pm_per_v = (int32_t)((num + den / 2u) / den);  /* < 1.5 K_n: fits */
+    *disp_pm_per_v = (int32_t)((num + den / 2u) / den);  /* < 1.5 K_n: fits */
+    return FW_OK;
+}
+
+fw_status_t fw_calib_twist_estimate_q30(int32_t deflection_pm_per_v, int32_t lever_length_nm,
+                                        q30_t *twist_rad_per_v)
+{
+    uint64_t num;
+    uint64_t den;
+    uint64_t k;
+    if (twist_rad_per_v == NULL || deflection_pm_per_v <= 0 || lever_length_nm <= 0) {
+        return FW_ERR_ARG;
+    }
+    num = 3u * (uint64_t)deflection_pm_per_v * ((uint64_t)1 << FW_Q30_FRAC);
+    den = 2u * (uint64_t)FW_PM_PER_NM * (uint64_t)lever_length_nm;
+    k = (num + den / 2u) / den;
+    *twist_rad_per_v = (k > (uint64_t)INT32_MAX) ? INT32_MAX : (q30_t)k;
     return FW_OK;
 }

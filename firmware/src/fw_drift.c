@@ -4,9 +4,14 @@
 #include "fw_drift.h"
 #include "fw_math.h"
 
+fw_rule_t fw_drift_check(int32_t max_step_pm)
+{
+    return (max_step_pm <= 0) ? FW_RULE_DRIFT_STEP : FW_RULE_OK;
+}
+
 fw_status_t fw_drift_init(fw_drift_t *d, int32_t max_step_pm)
 {
-    if (d == NULL || max_step_pm <= 0) {
+    if (d == NULL || fw_drift_check(max_step_pm) != FW_RULE_OK) {
         return FW_ERR_ARG;
     }
     d->max_step_pm = max_step_pm;
@@ -24,15 +29,24 @@ void fw_drift_reset(fw_drift_t *d)
 fw_status_t fw_drift_measure(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
                              int32_t delta_pm[2])
 {
+    if (d == NULL) {
+        return FW_ERR_ARG;
+    }
+    return fw_drift_measure_within(d, model_pm, scan_pm, d->max_step_pm, delta_pm);
+}
+
+fw_status_t fw_drift_measure_within(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
+                                    int32_t max_step_pm, int32_t delta_pm[2])
+{
     int64_t dx;
     int64_t dy;
     int64_t m;
-    if (d == NULL || model_pm == NULL || scan_pm == NULL || delta_pm == NULL) {
+    if (d == NULL || model_pm == NULL || scan_pm == NULL || delta_pm == NULL || max_step_pm <= 0) {
         return FW_ERR_ARG;
     }
     dx = (int64_t)scan_pm[0] - model_pm[0];
     dy = (int64_t)scan_pm[1] - model_pm[1];
-    m = d->max_step_pm;
+    m = max_step_pm;
     if (dx > m || -dx > m || dy > m || -dy > m || dx * dx + dy * dy > m * m) {
         if (d->rejected != UINT32_MAX) {
             d->rejected++;

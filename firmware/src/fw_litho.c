@@ -6,15 +6,29 @@
 
 #define LITHO_GAMMA_MAX_MDEG 60000   /* tan 60 deg = 1.73 fits 2.30 */
 
+fw_rule_t fw_litho_check(int32_t threshold_pn, q16_t depth_pm_per_pn, int32_t gamma_mdeg, int32_t min_step_pm)
+{
+    if (threshold_pn < 0 || depth_pm_per_pn < 0 || min_step_pm <= 0) {
+        return FW_RULE_LITHO;
+    }
+    if (gamma_mdeg <= 0 || gamma_mdeg >= LITHO_GAMMA_MAX_MDEG) {
+        return FW_RULE_TIP_HALF_ANGLE;
+    }
+    return FW_RULE_OK;
+}
+
 fw_status_t fw_litho_init(fw_litho_t *l, fw_trench_point_t *storage, int32_t capacity,
                           int32_t threshold_pn, q16_t depth_pm_per_pn, int32_t gamma_mdeg,
                           int32_t min_step_pm)
 {
     q30_t s;
     q30_t c;
-    if (l == NULL || storage == NULL || capacity <= 0 || threshold_pn < 0 || depth_pm_per_pn < 0
-        || gamma_mdeg <= 0 || gamma_mdeg >= LITHO_GAMMA_MAX_MDEG || min_step_pm <= 0) {
+    fw_rule_t rule = fw_litho_check(threshold_pn, depth_pm_per_pn, gamma_mdeg, min_step_pm);
+    if (l == NULL || storage == NULL || capacity <= 0) {
         return FW_ERR_ARG;
+    }
+    if (rule != FW_RULE_OK) {
+        return fw_rule_status(rule);
     }
     fw_math_sincos_q30(fw_math_bam_from_mdeg(gamma_mdeg), &s, &c);
     l->pts = storage;

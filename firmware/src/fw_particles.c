@@ -12,12 +12,25 @@
 #define PARTICLES_NORM_BIT 30
 #define PARTICLES_MOVED (FW_PARTICLE_PUSHED | FW_PARTICLE_CHAINED)
 
+fw_rule_t fw_particles_check(int32_t tip_radius_pm)
+{
+    return (tip_radius_pm < 0 || tip_radius_pm > PARTICLES_RADIUS_MAX_PM) ? FW_RULE_TIP_RADIUS : FW_RULE_OK;
+}
+
+fw_rule_t fw_particles_check_particle(int32_t radius_pm, int32_t threshold_pn)
+{
+    return (radius_pm <= 0 || radius_pm > PARTICLES_RADIUS_MAX_PM || threshold_pn < 0) ? FW_RULE_PARTICLE
+                                                                                       : FW_RULE_OK;
+}
+
 fw_status_t fw_particles_init(fw_particles_t *m, fw_particle_t *storage, int32_t capacity, int32_t tip_radius_pm)
 {
     int32_t i;
-    if (m == NULL || storage == NULL || capacity <= 0 || tip_radius_pm < 0
-        || tip_radius_pm > PARTICLES_RADIUS_MAX_PM) {
+    if (m == NULL || storage == NULL || capacity <= 0) {
         return FW_ERR_ARG;
+    }
+    if (fw_particles_check(tip_radius_pm) != FW_RULE_OK) {
+        return fw_rule_status(fw_particles_check(tip_radius_pm));
     }
     for (i = 0; i < capacity; i++) {
         storage[i].id = 0;
@@ -31,21 +44,17 @@ fw_status_t fw_particles_init(fw_particles_t *m, fw_particle_t *storage, int32_t
     m->capacity = capacity;
     m->count = 0;
     m->tip_radius_pm = tip_radius_pm;
-    m->mu_ppm = 0;
-    m->adhesion_pn = 0;
     m->margin_pn = 0;
     m->flags = 0;
     m->push_count = 0;
     return FW_OK;
 }
 
-fw_status_t fw_particles_set_friction(fw_particles_t *m, int32_t mu_ppm, int32_t adhesion_pn, int32_t margin_pn)
+fw_status_t fw_particles_set_margin(fw_particles_t *m, int32_t margin_pn)
 {
-    if (m == NULL || mu_ppm < 0 || mu_ppm > FW_PPM_PER_ONE || adhesion_pn < 0 || margin_pn < 0) {
+    if (m == NULL || margin_pn < 0) {
         return FW_ERR_ARG;
     }
-    m->mu_ppm = mu_ppm;
-    m->adhesion_pn = adhesion_pn;
     m->margin_pn = margin_pn;
     return FW_OK;
 }
@@ -53,8 +62,12 @@ fw_status_t fw_particles_set_friction(fw_particles_t *m, int32_t mu_ppm, int32_t
 fw_status_t fw_particles_add(fw_particles_t *m, int32_t id, int32_t x_pm, int32_t y_pm, int32_t radius_pm, int32_t threshold_pn)
 {
     fw_particle_t *p;
-    if (m == NULL || radius_pm <= 0 || radius_pm > PARTICLES_RADIUS_MAX_PM || threshold_pn < 0) {
+    fw_rule_t rule = fw_particles_check_particle(radius_pm, threshold_pn);
+    if (m == NULL) {
         return FW_ERR_ARG;
+    }
+    if (rule != FW_RULE_OK) {
+        return fw_rule_status(rule);
     }
     if (m->count >= m->capacity) {
         return FW_ERR_CAPACITY;
@@ -109,38 +122,25 @@ static bool particles_within(int64_t dx, int64_t dy, int64_t dist)
     return (uint64_t)(dx * dx) + (uint64_t)(dy * dy) < (uint64_t)(dist * dist);
 }
 
-fw_status_t fw_particles_update(fw_particles_t *m, const int32_t tip_pm[3], const int32_t force_pn[3], uint32_t board_flags)
+fw_status_t fw_particles_update(fw_particles_t *m, const int32_t tip_pm[2], const int32_t force_xy_pn[2],
+                                int64_t excess_pn)
 {
-    uint64_t fxy2;
-    int64_t fxy;
-    int64_t base;
-    int64_t excess;
     int64_t pdx;
     int64_t pdy;
     int32_t i;
     int32_t j;
     int32_t pass;
     bool moved = false;
-    (void)board_flags;
-    if (m == NULL || tip_pm == NULL || force_pn == NULL) {
+    if (m == NULL || tip_pm == NULL || force_xy_pn == NULL) {
         return FW_ERR_ARG;
     }
     m->flags = 0;
     for (i = 0; i < m->count; i++) {
         m->p[i].flags &= ~(PARTICLES_MOVED | FW_PARTICLE_OVERLAP);
     }
-    /* lateral force in excess of the tip-substrate friction */
-    fxy2 = (uint64_t)((int64_t)force_pn[0] * force_pn[0]) + (uint64_t)((int64_t)force_pn[1] * force_pn[1]);
-    fxy = (int64_t)fw_math_isqrt_u64(fxy2);
-    base = fw_math_div_round_i64((int64_t)m->mu_ppm * ((int64_t)force_pn[2] + m->adhesion_pn),
-                                 FW_PPM_PER_ONE);
-    if (base < 0) {
-        base = 0;
-    }
-    excess = fxy - base;
     /* push direction: opposite to the force on the tip */
-    pdx = -(int64_t)force_pn[0];
-    pdy = -(int64_t)force_pn[1];
+    pdx = -(int64_t)force_xy_pn[0];
+    pdy = -(int64_t)force_xy_pn[1];
     if (pdx == 0 && pdy == 0) {
         pdx = 1;
     }
@@ -152,7 +152,7 @@ fw_status_t fw_particles_update(fw_particles_t *m, const int32_t tip_pm[3], cons
         if (!particles_within(vx, vy, dist)) {
             continue;
         }
-        if (excess <= (int64_t)m->margin_pn + p->threshold_pn / 2) {
+        if (excess_pn <= (int64_t)m->margin_pn + (p->threshold_pn >> FW_PARTICLES_CONTACT_SHIFT)) {
             p->flags |= FW_PARTICLE_OVERLAP;
             continue;
         }
@@ -233,4 +233,12 @@ void fw_particles_shift(fw_particles_t *m, int32_t dx_pm, int32_t dy_pm)
             m->p[i].flags |= FW_PARTICLE_SAT_POS;
         }
     }
+}
+
+int32_t fw_particles_threshold_pn(int32_t mu_ppm, int32_t adhesion_pn, int32_t down_pn, int32_t shear_kpa,
+                                  int32_t contact_area_nm2)
+{
+    int64_t f = fw_math_div_round_i64((int64_t)mu_ppm * ((int64_t)adhesion_pn + down_pn), FW_PPM_PER_ONE)
+                + fw_math_div_round_i64((int64_t)shear_kpa * contact_area_nm2, 1000);
+    return fw_math_sat_i32(f < 0 ? 0 : f, NULL);
 }

@@ -23,6 +23,8 @@
 #include "fw_force.h"
 #include "fw_math.h"
 #include "fw_wire.h"
+#include "fw_paper_probe.h"
+#include "fw_units.h"
 
 #define EXIT_USAGE 2
 #define CALC_PI 3.14159265358979323846
@@ -153,7 +155,7 @@ static int32_t to_i32(const char *cmd, const opt_t *o, double v)
     if (!(v >= -2147483648.0 && v <= 2147483647.0)) {
         die("%s: %s %s: does not fit the firmware's 32-bit units", cmd, o->name, o->value);
     }
-    return (int32_t)lround(v);
+    return fwu_i32(v);
 }
 
 /* ---- calib tilted ------------------------------------------------------- */
@@ -200,9 +202,8 @@ static int cmd_calib_tilted(int argc, char **argv)
         die("%s: --angle-deg %s: the surface slope must lie in [0.1, 90) deg (a flat surface carries no information)",
             cmd, o[2].value);
     }
-    st = fw_calib_tilted_solve((q24_t)lround(ru * 16777216.0), (q24_t)lround(rd * 16777216.0),
-                               fw_math_bam_from_mdeg((int32_t)lround(phi * 1000.0)),
-                               (int32_t)lround(knkn_pn), &t);
+    st = fw_calib_tilted_solve(fwu_q24(ru), fwu_q24(rd), fw_math_bam_from_mdeg(fwu_mdeg_from_deg(phi)),
+                               fwu_i32(knkn_pn), &t);
     if (st != FW_OK) {
         if (fabs(ru) <= fabs(rd) * (1.0 + 1.0 / 1024.0)) {
             die("%s: --up %s --down %s: |rho| = |r_u/r_d| = %.5f must exceed 1 + 2^-10 "
@@ -213,14 +214,14 @@ static int cmd_calib_tilted(int argc, char **argv)
             "or phi + beta >= 90 deg (%s)", cmd, o[0].value, o[1].value, o[2].value, status_name(st));
     }
     {
-        double mu = t.mu / 1073741824.0;
+        double mu = fwu_from_q30(t.mu);
         double beta = t.beta / 4294967296.0 * 360.0;
-        double lat = t.lat_pn_per_v / 1000.0;
+        double lat = t.lateral_gain_pn_per_v / 1000.0;
         if (o[5].value != NULL) {
             printf("{\"command\": \"calib tilted\", \"status\": \"ok\", \"mu\": %.6f, \"mu_ppm\": %ld, "
                    "\"lateral_nN_per_V\": %.3f, \"lateral_pN_per_V\": %ld, \"slope_angle_deg\": %.4f, "
                    "\"friction_angle_deg\": %.4f, \"kn_Kn_nN_per_V\": %.4f}\n",
-                   mu, (long)t.mu_ppm, lat, (long)t.lat_pn_per_v, phi, beta, knkn_pn / 1000.0);
+                   mu, (long)t.mu_ppm, lat, (long)t.lateral_gain_pn_per_v, phi, beta, knkn_pn / 1000.0);
         } else {
             printf("tilted-surface calibration (firmware fw_calib_tilted_solve)\n");
             printf("  slope angle phi        %.4f deg\n", phi);
@@ -280,10 +281,10 @@ static int cmd_calib_lines(int argc, char **argv)
         if (fabs(dd[i]) * 1000.0 > FW_CALIB_LINES_RANGE_PM) {
             die("%s: --offsets-nm %s: |%g| nm exceeds %d nm", cmd, o[1].value, dd[i], FW_CALIB_LINES_RANGE_PM / 1000);
         }
-        dzp[i] = (int32_t)lround(dz[i] * 1000.0);
-        ddp[i] = (int32_t)lround(dd[i] * 1000.0);
+        dzp[i] = fwu_pm_from_nm(dz[i]);
+        ddp[i] = fwu_pm_from_nm(dd[i]);
     }
-    st = fw_calib_lines_cn(dzp, ddp, n, (int32_t)lround(kn_big * 1000.0), &cn, &res);
+    st = fw_calib_lines_cn(dzp, ddp, n, fwu_pm_per_v_from_nm_per_v(kn_big), &cn, &res);
     if (st != FW_OK) {
         die("%s: --depths-nm %s: the depths must not all be equal and |offset/depth| must stay below 128 (%s)",
             cmd, o[0].value, status_name(st));
@@ -335,7 +336,7 @@ static int cmd_model_wire(int argc, char **argv)
     if (o[3].value != NULL) {
         f = num_opt_range(cmd, &o[3], 0.0, 1e6, "f must be >= 0");
     }
-    len_pm = (int32_t)lround(len * 1000.0);
+    len_pm = fwu_pm_from_nm(len);
     if (at < 0.0 || at > len) {
         die("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[2].value, len);
     }
@@ -346,7 +347,7 @@ static int cmd_model_wire(int argc, char **argv)
     }
     regime = (st.regime == FW_WIRE_TRANSLATE) ? "translate"
              : (st.regime == FW_WIRE_ROTATE_NEAR_B) ? "rotate_about_far_end_side" : "rotate_about_near_end_side";
-    k = st.k / 1073741824.0;
+    k = fwu_from_q30(st.k);
     lambda = len / dia;
     if (o[4].value != NULL) {
         printf("{\"command\": \"model wire\", \"status\": \"ok\", ");
@@ -389,12 +390,13 @@ typedef struct {
 
 static void probe_default(probe_t *p)
 {
-    p->kn_n_per_m = 0.12;
-    p->kn_nm_per_v = 89.0;
-    p->lat_nn_per_v = 37.9;
-    p->h_um = 17.3;
-    p->l_um = 100.0;
-    p->mu = 0.0865;
+    /* the paper's probe (fw_paper_probe.h), in the calculator's units */
+    p->kn_n_per_m = FW_PAPER_KN_MN_PER_M * 1e-3;
+    p->kn_nm_per_v = FW_PAPER_DEFLECTION_PM_PER_V * 1e-3;
+    p->lat_nn_per_v = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;
+    p->h_um = FW_PAPER_TIP_HEIGHT_NM * 1e-3;
+    p->l_um = FW_PAPER_LEVER_LENGTH_NM * 1e-3;
+    p->mu = FW_PAPER_MU_PPM * 1e-6;
     p->adh_nn = 0.0;
 }
 
@@ -510,19 +512,17 @@ static int cmd_calc_force(int argc, char **argv)
     if (o[4].value != NULL) {
         probe_read(cmd, o[4].value, &p);
     }
-    st = fw_force_init(&f, (int32_t)lround(p.kn_n_per_m * p.kn_nm_per_v * 1000.0),
-                       (int32_t)lround(p.lat_nn_per_v * 1000.0), (int32_t)lround(p.h_um * 1000.0),
-                       (int32_t)lround(p.l_um * 1000.0), (int32_t)lround(p.mu * 1e6),
-                       (int32_t)lround(p.adh_nn * 1000.0));
+    st = fw_force_init(&f, fwu_pn_per_v_from_nn_per_v(p.kn_n_per_m * p.kn_nm_per_v),
+                       fwu_pn_per_v_from_nn_per_v(p.lat_nn_per_v), fwu_nm_from_um(p.h_um), fwu_nm_from_um(p.l_um),
+                       fwu_ppm(p.mu), fwu_pn_from_nn(p.adh_nn));
     if (st != FW_OK) {
         die("%s: --probe %s: probe rejected by fw_force_init (%s): gains > 0, 0 < h < l, 0 <= mu <= 1, "
             "adhesion >= 0, mu 2h/l <= 1/2", cmd, o[4].value != NULL ? o[4].value : "(default)", status_name(st));
     }
-    fw_math_sincos_q30(fw_math_bam_from_mdeg((int32_t)lround(fmod(theta, 360.0) * 1000.0)), &ts, &tc);
-    fw_math_sincos_q30(fw_math_bam_from_mdeg((int32_t)lround(fmod(scan, 360.0) * 1000.0) - 270000), &as, &ac);
-    st = fw_force_solve_pn(&f, (q23_t)lround(sn * 8388608.0), (q23_t)lround(sl * 8388608.0),
-                           (q15_t)fw_math_sat_i32(fw_math_rshift_round_i64(tc, 15), NULL),
-                           (q15_t)fw_math_sat_i32(fw_math_rshift_round_i64(ts, 15), NULL), fc, &flags);
+    fw_math_sincos_q30(fw_math_bam_from_mdeg(fwu_mdeg_from_deg(fmod(theta, 360.0))), &ts, &tc);
+    fw_math_sincos_q30(fw_math_bam_from_mdeg(fwu_mdeg_from_deg(fmod(scan, 360.0)) - 270000), &as, &ac);
+    /* the direction as the vector (cos T, sin T) in 2.30: the solver takes any length */
+    st = fw_force_solve_pn(&f, fwu_q23_from_v(sn), fwu_q23_from_v(sl), tc, ts, fc, &flags);
     if (st != FW_OK) {
         die("%s: fw_force_solve_pn failed (%s)", cmd, status_name(st));
     }

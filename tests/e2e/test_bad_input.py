@@ -61,19 +61,26 @@ class BadScenes(unittest.TestCase):
         self.check_refused(GOOD.replace("block_hz: 1000", "block_hz: 3000"), "block_hz", "'3000'")
 
     def test_lever_the_firmware_refuses_named_with_values(self):
-        # C_n = 3 h K_n / (2 l) = 1.5e6 nm/V: beyond the firmware's bending
-        # compensation (4194.304 nm/V; fw_comp_init says FW_ERR_DOMAIN)
-        lever = "probe: {tip_height_um: 100, Kn_nm_per_V: 10000, lever_length_um: 1}\nobjects:"
-        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "probe", "4194.3")
-        self.assertIn("tip_height_um 100", msg)
-        self.assertIn("lever_length_um 1", msg)
-        # 2h/l = 2 is no lever for eq. 1c
+        # The card's own init (fw_card_init) decides; the launcher names the
+        # rule in the firmware's words with the scene keys that feed it.
+        # C_n = 3 h K_n / (2 l) = 11250 nm/V: beyond the bending
+        # compensation's 4194.304 nm/V (FW_RULE_DISP_RANGE)
+        lever = "probe: {tip_height_um: 50, Kn_nm_per_V: 9000, lever_length_um: 60}\nobjects:"
+        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "probe.tip_height_um", "4194304 pm/V")
+        self.assertIn("tip_height_um 50", msg)
+        self.assertIn("lever_length_um 60", msg)
+        self.assertIn("Kn_nm_per_V 9000", msg)
+        self.assertIn("= 11250 nm/V", msg)
+        # h = l: 2h/l = 2 is no lever for eq. 1c
         lever = "probe: {tip_height_um: 50, Kn_nm_per_V: 10, lever_length_um: 50}\nobjects:"
-        self.check_refused(GOOD.replace("objects:", lever, 1), "probe", "2 h / l < 2")
+        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "probe.tip_height_um", "2h/l < 2")
+        self.assertIn("2h/l = 2", msg)
         # mu 2h/l = 0.9 * 1.2 > 1/2: the friction fallback's denominator
         lever = "probe: {tip_height_um: 60, lever_length_um: 100}\nobjects:"
-        self.check_refused(GOOD.replace("objects:", lever, 1).replace("mu: 0.0865", "mu: 0.9"),
-                           "sample.tip_substrate.mu", "mu 0.9")
+        msg = self.check_refused(GOOD.replace("objects:", lever, 1).replace("mu: 0.0865", "mu: 0.9"),
+                                 "sample.tip_substrate.mu", "mu 2h/l <= 1/2")
+        self.assertIn("sample.tip_substrate.mu 0.9", msg)
+        self.assertIn("mu 2h/l = 1.08", msg)
 
     def test_empty_file_refused(self):
         path = benchtest.write_scene("", "empty")

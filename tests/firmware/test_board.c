@@ -3,30 +3,21 @@
 #include <string.h>
 #include "unity.h"
 #include "fw_board.h"
+#include "fw_paper_probe.h"
 #include "fw_math.h"
 #include "test_util.h"
 
 static fw_board_config_t cfg;
 static fw_board_t b;
 
+/* The paper's lever (fw_paper_probe.h) at 270 deg, adhesion 5 nN, the
+ * joystick's centre at (45, 45) um. */
 static void paper_config(fw_board_config_t *c)
 {
-    memset(c, 0, sizeof *c);
-    c->adc_bits = 16;
-    c->kn_Kn_pn_per_v = 10680;
-    c->lat_pn_per_v = 37900;
-    c->Kn_pm_per_v = 89000;
-    c->tip_height_nm = 17300;
-    c->lever_length_nm = 100000;
-    c->cn_pm_per_v = 23100;
-    c->cl_pm_per_v = 23100;
-    c->scan_angle_mdeg = 270000;
-    c->mu_ppm = 86500;
+    fw_paper_board_config(c, 270000);
     c->adhesion_pn = 5000;
     c->scan_center_pm[0] = 45000000;
     c->scan_center_pm[1] = 45000000;
-    c->scan_half_range_pm = 2500000;
-    c->kappa_q16 = FW_Q16_ONE;
 }
 
 void setUp(void)
@@ -44,13 +35,13 @@ static void test_board_init_validates_config(void)
     c.adc_bits = 10;
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_init(&x, &c));
     paper_config(&c);
-    c.Kn_pm_per_v = 0;
+    c.deflection_pm_per_v = 0;
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_init(&x, &c));
     paper_config(&c);
-    c.lat_pn_per_v = -5;
+    c.lateral_gain_pn_per_v = -5;
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_init(&x, &c));
     paper_config(&c);
-    c.cn_pm_per_v = -5;
+    c.disp_n_pm_per_v = -5;
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_init(&x, &c));
     paper_config(&c);
     c.filter_log2 = 9;
@@ -74,8 +65,8 @@ static void signals_for(double scan_deg, double fa_x, double fa_y, double fz,
     double fcx = cos(a) * fa_x + sin(a) * fa_y;
     double fcy = -sin(a) * fa_x + cos(a) * fa_y;
     double g = 2.0 * cfg.tip_height_nm / cfg.lever_length_nm;
-    *sl_uv = (int32_t)lround(fcy / cfg.lat_pn_per_v * 1e6);
-    *sn_uv = (int32_t)lround((fz + g * fcx) / cfg.kn_Kn_pn_per_v * 1e6);
+    *sl_uv = (int32_t)lround(fcy / cfg.lateral_gain_pn_per_v * 1e6);
+    *sn_uv = (int32_t)lround((fz + g * fcx) / cfg.normal_gain_pn_per_v * 1e6);
 }
 
 static void test_board_same_push_same_frame_a_force_at_every_scan_angle(void)
@@ -226,8 +217,8 @@ static void test_board_force_saturates_with_flag_and_counter(void)
     fw_sample_in_t in = { 9000000, 9000000, { 0, 0, 0 } };
     fw_sample_out_t out;
     paper_config(&c);
-    c.kn_Kn_pn_per_v = INT32_MAX;
-    c.lat_pn_per_v = INT32_MAX;
+    c.normal_gain_pn_per_v = INT32_MAX;
+    c.lateral_gain_pn_per_v = INT32_MAX;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&b, &c));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_step(&b, &in, &out));
     TEST_ASSERT_TRUE((out.flags & FW_FLAG_SAT_FORCE) != 0u);
@@ -265,11 +256,11 @@ static void test_board_fast_path_selected_at_the_domain_edges(void)
         fw_board_config_t c;
         fw_board_t x;
         paper_config(&c);
-        c.kn_Kn_pn_per_v = rows[i].kn;
-        c.lat_pn_per_v = rows[i].lat;
+        c.normal_gain_pn_per_v = rows[i].kn;
+        c.lateral_gain_pn_per_v = rows[i].lat;
         c.adhesion_pn = rows[i].adh;
-        c.cn_pm_per_v = rows[i].cn;
-        c.cl_pm_per_v = rows[i].cl;
+        c.disp_n_pm_per_v = rows[i].cn;
+        c.disp_l_pm_per_v = rows[i].cl;
         c.filter_log2 = rows[i].filter;
         c.scan_angle_mdeg = rows[i].scan_mdeg;
         UNITY_TEST_ASSERT_EQUAL_INT(FW_OK, fw_board_init(&x, &c), rows[i].line, "init");
@@ -287,11 +278,11 @@ static void sweep_config(tu_rng_t *r, uint32_t kind, fw_board_config_t *c)
 {
     paper_config(c);
     if (kind >= 3u) {
-        c->kn_Kn_pn_per_v = 1 << 18;
-        c->lat_pn_per_v = 1 << 18;
+        c->normal_gain_pn_per_v = 1 << 18;
+        c->lateral_gain_pn_per_v = 1 << 18;
         c->adhesion_pn = 1 << 26;
-        c->cn_pm_per_v = 1 << 21;
-        c->cl_pm_per_v = 1 << 21;
+        c->disp_n_pm_per_v = 1 << 21;
+        c->disp_l_pm_per_v = 1 << 21;
         c->mu_ppm = 1000000;
         c->tip_height_nm = 25000;   /* 2h/l = 1/2: mu 2h/l = 1/2 */
     }

@@ -2,6 +2,7 @@
  * C_l estimate. */
 #include "unity.h"
 #include "fw_calib.h"
+#include "fw_paper_probe.h"
 #include "fw_math.h"
 #include "test_util.h"
 
@@ -34,15 +35,15 @@ static int ref_tilted(double ru, double rd, double phi, double knkn, double *mu,
 static void test_calib_tilted_paper_numbers(void)
 {
     fw_calib_tilted_t t;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(9.0), 10680, &t));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(9.0), FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     printf("paper: mu %.5f (ppm %ld), k_theta K_l/h %ld pN/V, beta %.4f deg\n",
-           tu_q(t.mu, 30), (long)t.mu_ppm, (long)t.lat_pn_per_v, tu_bam_rad(t.beta) * 180.0 / TU_PI);
+           tu_q(t.mu, 30), (long)t.mu_ppm, (long)t.lateral_gain_pn_per_v, tu_bam_rad(t.beta) * 180.0 / TU_PI);
     TEST_ASSERT_INT32_WITHIN(50, 86500, t.mu_ppm);          /* 0.0865 */
-    TEST_ASSERT_INT32_WITHIN(50, 37900, t.lat_pn_per_v);    /* 37.9 nN/V */
+    TEST_ASSERT_INT32_WITHIN(50, FW_PAPER_LATERAL_GAIN_PN_PER_V, t.lateral_gain_pn_per_v);    /* 37.9 nN/V */
     /* phi = 8.98 deg matches the paper's 0.086 and 37.8 */
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(8.98), 10680, &t));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(8.98), FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     TEST_ASSERT_INT32_WITHIN(500, 86000, t.mu_ppm);
-    TEST_ASSERT_INT32_WITHIN(60, 37800, t.lat_pn_per_v);
+    TEST_ASSERT_INT32_WITHIN(60, 37800, t.lateral_gain_pn_per_v);
 }
 
 static void test_calib_tilted_refuses_rho_near_1_and_inside(void)
@@ -64,11 +65,11 @@ static void test_calib_tilted_refuses_rho_near_1_and_inside(void)
     size_t i;
     for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
         fw_calib_tilted_t t;
-        fw_status_t st = fw_calib_tilted_solve(q24(rows[i].ru), q24(rows[i].rd), bam_deg(rows[i].phi), 10680, &t);
+        fw_status_t st = fw_calib_tilted_solve(q24(rows[i].ru), q24(rows[i].rd), bam_deg(rows[i].phi), FW_PAPER_NORMAL_GAIN_PN_PER_V, &t);
         double mu;
         double lat;
         if (st == FW_OK && ref_tilted(tu_q(q24(rows[i].ru), 24), tu_q(q24(rows[i].rd), 24),
-                                      tu_bam_rad(bam_deg(rows[i].phi)), 10680.0, &mu, &lat)) {
+                                      tu_bam_rad(bam_deg(rows[i].phi)), (double)FW_PAPER_NORMAL_GAIN_PN_PER_V, &mu, &lat)) {
             UNITY_TEST_ASSERT(fabs(tu_q(t.mu, 30) - mu) < 1e-6, rows[i].line, "mu");
         }
         UNITY_TEST_ASSERT_EQUAL_INT(rows[i].st, st, rows[i].line, "status");
@@ -85,26 +86,26 @@ static void test_calib_tilted_rho_below_minus_1_accepted_when_phi_lt_beta(void)
     double rd = a * tan(phi - beta);
     fw_calib_tilted_t t;
     TEST_ASSERT_TRUE(ru / rd < -1.0);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(ru), q24(rd), bam_deg(3.0), 10680, &t));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(ru), q24(rd), bam_deg(3.0), FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     TEST_ASSERT_INT32_WITHIN(20, 200000, t.mu_ppm);
-    TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround(10680.0 / a), t.lat_pn_per_v);
+    TEST_ASSERT_INT32_WITHIN(2, (int32_t)lround((double)FW_PAPER_NORMAL_GAIN_PN_PER_V / a), t.lateral_gain_pn_per_v);
 }
 
 static void test_calib_tilted_refuses_phi_zero_and_tiny(void)
 {
     fw_calib_tilted_t t;
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), 0u, 10680, &t));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), FW_BAM_QUARTER_TURN, 10680, &t));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), 0u - 1000u, 10680, &t));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), 0u, FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), FW_BAM_QUARTER_TURN, FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), 0u - 1000u, FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     /* phi -> 0: one LSB of angle and just below 0.1 deg are refused, 0.1 deg is accepted */
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), 1u, 10680, &t));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02), 1u, FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.07), q24(0.02),
-                                                               fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG) - 1u, 10680, &t));
+                                                               fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG) - 1u, FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_tilted_solve(q24(0.07), q24(0.02),
-                                                       fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG), 10680, &t));
+                                                       fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG), FW_PAPER_NORMAL_GAIN_PN_PER_V, &t));
     TEST_ASSERT_TRUE(t.mu > 0);
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(9.0), 0, &t));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(9.0), 10680, NULL));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(9.0), FW_PAPER_NORMAL_GAIN_PN_PER_V, NULL));
 }
 
 static void test_calib_tilted_sweep_matches_double(void)
@@ -116,7 +117,7 @@ static void test_calib_tilted_sweep_matches_double(void)
     long n_ok = 0;
     tu_rng_seed(&rng, 61);
     tu_err_init(&emu, "calib_tilted_mu", "(unit)", 1.0 / TU_TWO_POW(30));
-    tu_err_init(&elat, "calib_tilted_lat_pn_per_v", "pN/V", 1.0);
+    tu_err_init(&elat, "calib_tilted_lateral_gain", "pN/V", 1.0);
     for (i = 0; i < AFM_SWEEP_N; i++) {
         double phi_deg = 0.5 + tu_rng_unit(&rng) * 40.0;
         double mu_true = 0.01 + tu_rng_unit(&rng) * 0.6;
@@ -134,15 +135,15 @@ static void test_calib_tilted_sweep_matches_double(void)
         /* the reference uses the quantised inputs */
         ru = tu_q(q24(ru), 24);
         rd = tu_q(q24(rd), 24);
-        if (fw_calib_tilted_solve(q24(ru), q24(rd), pb, 10680, &t) != FW_OK) {
+        if (fw_calib_tilted_solve(q24(ru), q24(rd), pb, FW_PAPER_NORMAL_GAIN_PN_PER_V, &t) != FW_OK) {
             continue;
         }
-        if (!ref_tilted(ru, rd, phi, 10680.0, &mu, &lat)) {
+        if (!ref_tilted(ru, rd, phi, (double)FW_PAPER_NORMAL_GAIN_PN_PER_V, &mu, &lat)) {
             continue;
         }
         n_ok++;
         tu_err_add(&emu, tu_q(t.mu, 30) - mu);
-        tu_err_add(&elat, t.lat_pn_per_v - lat);
+        tu_err_add(&elat, t.lateral_gain_pn_per_v - lat);
     }
     tu_err_print(&emu);
     tu_err_print(&elat);
@@ -159,9 +160,9 @@ static void test_calib_adhesion_from_loop_offsets(void)
     bool sat = false;
     q23_t bu = (q23_t)lround(0.07 * 0.5 * TU_TWO_POW(23));
     q23_t bd = (q23_t)lround(0.02 * 0.5 * TU_TWO_POW(23));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_adhesion_pn(q24(0.07), bu, q24(0.02), bd, 10680, &adh, &sat));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_adhesion_pn(q24(0.07), bu, q24(0.02), bd, FW_PAPER_NORMAL_GAIN_PN_PER_V, &adh, &sat));
     TEST_ASSERT_INT32_WITHIN(2, 5340, adh);
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_adhesion_pn(q24(0.07), bu, q24(0.07), bd, 10680, &adh, &sat));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_adhesion_pn(q24(0.07), bu, q24(0.07), bd, FW_PAPER_NORMAL_GAIN_PN_PER_V, &adh, &sat));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_adhesion_pn(1, FW_Q23_MAX, 0, FW_Q23_MIN, INT32_MAX, &adh, &sat));
     TEST_ASSERT_EQUAL_INT32(INT32_MAX, adh);
     TEST_ASSERT_TRUE(sat);
@@ -173,7 +174,7 @@ static void test_calib_lines_paper_gives_23_1_nm_per_v(void)
     const int32_t off[4] = { 0, 130000, 260000, 390000 };
     int32_t cn;
     int32_t res;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_lines_cn(depth, off, 4, 89000, &cn, &res));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_lines_cn(depth, off, 4, FW_PAPER_DEFLECTION_PM_PER_V, &cn, &res));
     TEST_ASSERT_INT32_WITHIN(1, 23140, cn);    /* 130 / (500 / 89) nm/V */
     TEST_ASSERT_EQUAL_INT32(0, res);
 }
@@ -186,15 +187,15 @@ static void test_calib_lines_residual_and_refusals(void)
     int32_t cn;
     int32_t res;
     /* reference: slope 0.256, residuals -3, 9, -9, 3 nm, rms 6.708 nm */
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_lines_cn(depth, off, 4, 89000, &cn, &res));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_lines_cn(depth, off, 4, FW_PAPER_DEFLECTION_PM_PER_V, &cn, &res));
     TEST_ASSERT_INT32_WITHIN(1, 22784, cn);
     TEST_ASSERT_INT32_WITHIN(1, 6708, res);
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_lines_cn(same, off, 4, 89000, &cn, &res));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_lines_cn(depth, off, 1, 89000, &cn, &res));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_lines_cn(same, off, 4, FW_PAPER_DEFLECTION_PM_PER_V, &cn, &res));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_lines_cn(depth, off, 1, FW_PAPER_DEFLECTION_PM_PER_V, &cn, &res));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_lines_cn(depth, off, 4, 0, &cn, &res));
     {
         const int32_t big[2] = { 0, FW_CALIB_LINES_RANGE_PM + 1 };
-        TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_lines_cn(big, off, 2, 89000, &cn, &res));
+        TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_lines_cn(big, off, 2, FW_PAPER_DEFLECTION_PM_PER_V, &cn, &res));
     }
     {
         /* extremes of the allowed range: no overflow */
@@ -205,14 +206,14 @@ static void test_calib_lines_residual_and_refusals(void)
     }
 }
 
-static void test_calib_cl_estimate_paper_probe(void)
+static void test_calib_disp_estimate_paper_probe(void)
 {
     int32_t cl;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_cl_estimate(17300, 100000, 89000, &cl));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_disp_estimate(FW_PAPER_TIP_HEIGHT_NM, FW_PAPER_LEVER_LENGTH_NM, FW_PAPER_DEFLECTION_PM_PER_V, &cl));
     TEST_ASSERT_EQUAL_INT32(23096, cl);   /* 3 * 17.3 * 89 / 200 = 23.0955 nm/V */
-    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_cl_estimate(100000, 100000, 89000, &cl));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_cl_estimate(0, 100000, 89000, &cl));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_cl_estimate(INT32_MAX - 1, INT32_MAX, INT32_MAX, &cl));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_disp_estimate(100000, FW_PAPER_LEVER_LENGTH_NM, FW_PAPER_DEFLECTION_PM_PER_V, &cl));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_disp_estimate(0, FW_PAPER_LEVER_LENGTH_NM, FW_PAPER_DEFLECTION_PM_PER_V, &cl));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_calib_disp_estimate(INT32_MAX - 1, INT32_MAX, INT32_MAX, &cl));
     TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(1.5 * (INT32_MAX - 1.0)), cl);
 }
 
@@ -227,6 +228,6 @@ int main(void)
     RUN_TEST(test_calib_adhesion_from_loop_offsets);
     RUN_TEST(test_calib_lines_paper_gives_23_1_nm_per_v);
     RUN_TEST(test_calib_lines_residual_and_refusals);
-    RUN_TEST(test_calib_cl_estimate_paper_probe);
+    RUN_TEST(test_calib_disp_estimate_paper_probe);
     return UNITY_END();
 }

@@ -1,18 +1,18 @@
 /* test_force.c - fw_force: eq. 1a-1c, the friction fallback near
- * sin theta = 0, rotation (eq. 3), and the theta estimator. */
+ * sin theta = 0, rotation (eq. 3), the lateral excess. */
 #include <stdlib.h>
 #include "unity.h"
 #include "fw_force.h"
+#include "fw_paper_probe.h"
 #include "fw_math.h"
 #include "test_util.h"
 
-/* paper probe: k_n K_n 10.68 nN/V, lateral 37.9 nN/V, h 17.3 um, l 100 um,
- * mu 0.0865, adhesion 5 nN */
-#define KN 10680
-#define LAT 37900
-#define H_NM 17300
-#define L_NM 100000
-#define MU_PPM 86500
+/* the paper's probe (fw_paper_probe.h), adhesion 5 nN */
+#define KN FW_PAPER_NORMAL_GAIN_PN_PER_V
+#define LAT FW_PAPER_LATERAL_GAIN_PN_PER_V
+#define H_NM FW_PAPER_TIP_HEIGHT_NM
+#define L_NM FW_PAPER_LEVER_LENGTH_NM
+#define MU_PPM FW_PAPER_MU_PPM
 #define ADH 5000
 
 static fw_force_t f;
@@ -170,34 +170,6 @@ static void test_force_sweep_through_0_and_pi_is_continuous(void)
     TEST_ASSERT_TRUE(fine1 < 0.2 * coarse1 + 4.0);
 }
 
-static void test_force_sweep_matches_double_model(void)
-{
-    tu_rng_t rng;
-    tu_err_t e;
-    long i;
-    tu_rng_seed(&rng, 31);
-    tu_err_init(&e, "force_solve_pn", "pN", 1.0);
-    for (i = 0; i < AFM_SWEEP_N; i++) {
-        q23_t sn = tu_rng_range(&rng, -25 * FW_Q23_ONE, 25 * FW_Q23_ONE);
-        q23_t sl = tu_rng_range(&rng, -10 * FW_Q23_ONE, 10 * FW_Q23_ONE);
-        q15_t c = (q15_t)tu_rng_range(&rng, -32767, 32767);
-        q15_t s = (q15_t)tu_rng_range(&rng, -32767, 32767);
-        int32_t fc[3];
-        uint32_t flags = 0;
-        double ref[3];
-        int unobs;
-        int k;
-        (void)fw_force_solve_pn(&f, sn, sl, c, s, fc, &flags);
-        ref_force(tu_q(sn, 23), tu_q(sl, 23), c / 32768.0, s / 32768.0, ref, &unobs);
-        for (k = 0; k < 3; k++) {
-            tu_err_add(&e, fc[k] - ref[k]);
-        }
-        TEST_ASSERT_EQUAL_INT(unobs, (flags & FW_FLAG_FX_UNOBSERVABLE) != 0u);
-    }
-    tu_err_print(&e);
-    TEST_ASSERT_TRUE(e.worst <= 1.0);
-}
-
 static void test_force_saturates_exactly_with_flag(void)
 {
     fw_force_t g;
@@ -231,14 +203,14 @@ static void test_force_rotate_scan_angle_0_maps_c_to_a_by_minus_270(void)
     TEST_ASSERT_EQUAL_INT32(5, va[2]);
 }
 
-/* ---- direction-vector solver (fw_force_solve_dir_pn) ---------------------- */
+/* ---- direction-vector solver (fw_force_solve_pn) ---------------------- */
 
 static void solve_dir(int32_t x, int32_t y, q23_t sn, q23_t sl, int32_t fc[3], uint32_t *flags,
                       double ref[3], int *unobs)
 {
     double len = sqrt((double)x * x + (double)y * y);
     *flags = 0;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_dir_pn(&f, sn, sl, x, y, fc, flags));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_solve_pn(&f, sn, sl, x, y, fc, flags));
     if (len == 0.0) {
         ref_force(tu_q(sn, 23), tu_q(sl, 23), 0.0, 1.0, ref, unobs);
     } else {
@@ -305,7 +277,7 @@ static void test_force_dir_zero_vector_is_90_deg_without_flag(void)
     TEST_ASSERT_EQUAL_INT32(-LAT, fc[1]);
     TEST_ASSERT_EQUAL_INT32(2 * KN, fc[2]);
     TEST_ASSERT_EQUAL_UINT32(0u, flags);
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_solve_dir_pn(&f, 0, 0, 1, 0, NULL, &flags));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_force_solve_pn(&f, 0, 0, 1, 0, NULL, &flags));
 }
 
 static void test_force_dir_sweep_matches_double_model(void)
@@ -314,7 +286,7 @@ static void test_force_dir_sweep_matches_double_model(void)
     tu_err_t e;
     long i;
     tu_rng_seed(&rng, 32);
-    tu_err_init(&e, "force_solve_dir_pn", "pN", 1.0);
+    tu_err_init(&e, "force_solve_pn", "pN", 1.0);
     for (i = 0; i < AFM_SWEEP_N; i++) {
         q23_t sn = tu_rng_range(&rng, -25 * FW_Q23_ONE, 25 * FW_Q23_ONE);
         q23_t sl = tu_rng_range(&rng, -10 * FW_Q23_ONE, 10 * FW_Q23_ONE);
@@ -365,7 +337,7 @@ static void test_force_dir_fit_keeps_direction_to_2_pow_minus_13(void)
     TEST_ASSERT_TRUE(tu_err_worst_lsb(&e) <= 1.0);
 }
 
-/* The fast solver against fw_force_solve_dir_fit_pn at the fast domain's
+/* The fast solver against fw_force_solve_fit_pn at the fast domain's
  * corner (gains 2^18 pN/V, adhesion 2^26 pN, mu 2h/l = 1/2) and for the
  * paper's probe: signals anywhere in +-20 V (with the ends), directions of
  * every length up to 2^15 including the axes, the zero vector and the zone
@@ -405,8 +377,8 @@ static void test_force_fast_solver_identical_to_checked_at_domain_corner(void)
         default:
             break;
         }
-        fw_force_solve_dir_fit_pn(ff, sn, sl, x, y, fc_c, &fl_c);
-        fw_force_solve_dir_fast_pn(ff, fw_force_term8(ff->kn_pn_per_v, sn), fw_force_term8(ff->lat_pn_per_v, sl),
+        fw_force_solve_fit_pn(ff, sn, sl, x, y, fc_c, &fl_c);
+        fw_force_solve_fast_pn(ff, fw_force_term8(ff->normal_gain_pn_per_v, sn), fw_force_term8(ff->lateral_gain_pn_per_v, sl),
                                    x, y, (int64_t)x * x, (int64_t)y * y, fc_f, &fl_f);
         if (fc_c[0] != fc_f[0] || fc_c[1] != fc_f[1] || fc_c[2] != fc_f[2] || fl_c != fl_f
             || (fl_c & FW_FLAG_SAT_FORCE) != 0u) {
@@ -421,146 +393,19 @@ static void test_force_fast_solver_identical_to_checked_at_domain_corner(void)
 
 /* ---- theta estimator ------------------------------------------------------ */
 
-static void test_theta_unknown_until_min_displacement_then_held(void)
+static void test_force_lateral_excess_is_friction_free_part_and_never_overflows(void)
 {
-    fw_theta_t t;
-    uint32_t flags = 0;
-    int32_t p[2] = { 0, 0 };
-    int i;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 0));
-    TEST_ASSERT_EQUAL_INT32(FW_THETA_MIN_DISP_DEFAULT_PM, t.min_disp_pm);
-    /* zero-length moves: unknown, default 90 deg */
-    for (i = 0; i < 20; i++) {
-        flags = 0;
-        fw_theta_step(&t, p, FW_Q30_ONE, 0, &flags);
-    }
-    TEST_ASSERT_TRUE((flags & FW_FLAG_THETA_UNKNOWN) != 0u);
-    TEST_ASSERT_EQUAL_INT16(0, t.cos_theta);
-    TEST_ASSERT_EQUAL_INT16(FW_Q15_MAX, t.sin_theta);
-    /* move along -x in 100 pm steps: after 10 steps 1000 pm over the window */
-    for (i = 1; i <= 10; i++) {
-        p[0] = -100 * i;
-        flags = 0;
-        fw_theta_step(&t, p, FW_Q30_ONE, 0, &flags);
-    }
-    TEST_ASSERT_EQUAL_UINT32(0u, flags);
-    TEST_ASSERT_EQUAL_INT16(-FW_Q15_MAX, t.cos_theta);
-    TEST_ASSERT_EQUAL_INT16(0, t.sin_theta);
-    /* stop: direction held after the window empties of motion */
-    for (i = 0; i < 40; i++) {
-        flags = 0;
-        fw_theta_step(&t, p, FW_Q30_ONE, 0, &flags);
-    }
-    TEST_ASSERT_EQUAL_UINT32(0u, flags);
-    TEST_ASSERT_EQUAL_INT16(-FW_Q15_MAX, t.cos_theta);
-    fw_theta_reset(&t);
-    TEST_ASSERT_FALSE(t.known);
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_theta_init(&t, -1));
-}
-
-static void test_theta_rotates_frame_a_motion_into_frame_c(void)
-{
-    fw_theta_t t;
-    uint32_t flags = 0;
-    int32_t p[2] = { 0, 0 };
-    fw_bam_t alpha = fw_math_bam_from_mdeg(90000);  /* scan angle 360 deg */
-    q30_t ca = fw_math_cos_q30(alpha);
-    q30_t sa = fw_math_sin_q30(alpha);
-    int i;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 500));
-    /* moving +y in A is moving +x in C when alpha = 90 deg */
-    for (i = 0; i < FW_THETA_WINDOW; i++) {
-        p[1] = 1000 * i;
-        fw_theta_step(&t, p, ca, sa, &flags);
-    }
-    TEST_ASSERT_EQUAL_INT16(FW_Q15_MAX, t.cos_theta);
-    TEST_ASSERT_EQUAL_INT16(0, t.sin_theta);
-    /* extreme coordinates: clamped displacement, still finite */
-    p[0] = INT32_MIN;
-    p[1] = INT32_MAX;
-    fw_theta_step(&t, p, ca, sa, &flags);
-    TEST_ASSERT_TRUE(t.known);
-}
-
-static void test_theta_push_direction_matches_rotated_displacement(void)
-{
-    /* dir = R(-alpha) d rounded to pm, or scaled down above 2^15 pm: the
-     * angle error is at most 0.71 pm over min(|d|, 2^13) */
-    tu_rng_t rng;
-    tu_err_t e;
-    long i;
-    tu_rng_seed(&rng, 34);
-    tu_err_init(&e, "theta_push_pm", "(rel. bound)", 1.0);
-    for (i = 0; i < AFM_SWEEP_N / 10; i++) {
-        fw_theta_t t;
-        uint32_t flags = 0;
-        fw_bam_t alpha = tu_rng_u32(&rng);
-        q30_t ca;
-        q30_t sa;
-        int sh = (int)(tu_rng_u32(&rng) % 24u);
-        int32_t p0[2] = { (int32_t)tu_rng_u32(&rng), (int32_t)tu_rng_u32(&rng) };
-        int32_t p1[2] = { (int32_t)tu_rng_u32(&rng) >> sh, (int32_t)tu_rng_u32(&rng) >> sh };
-        double dx;
-        double dy;
-        double a;
-        double len;
-        double err;
-        p1[0] = (int32_t)((uint32_t)p0[0] + (uint32_t)p1[0]);
-        p1[1] = (int32_t)((uint32_t)p0[1] + (uint32_t)p1[1]);
-        fw_math_sincos_q30(alpha, &sa, &ca);
-        TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 1));
-        TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p0, ca, sa, &flags));
-        TEST_ASSERT_TRUE((flags & FW_FLAG_THETA_UNKNOWN) != 0u);
-        dx = (double)p1[0] - p0[0];
-        dy = (double)p1[1] - p0[1];
-        len = sqrt(dx * dx + dy * dy);
-        flags = 0;
-        TEST_ASSERT_EQUAL(len >= 1.0, fw_theta_push_pm(&t, p1, ca, sa, &flags));
-        if (len < 1.0) {
-            continue;
-        }
-        TEST_ASSERT_EQUAL_UINT32(0u, flags);
-        TEST_ASSERT_TRUE(t.dir_x >= -FW_FORCE_DIR_MAX && t.dir_x <= FW_FORCE_DIR_MAX);
-        TEST_ASSERT_TRUE(t.dir_y >= -FW_FORCE_DIR_MAX && t.dir_y <= FW_FORCE_DIR_MAX);
-        a = tu_bam_rad(alpha);
-        err = tu_wrap_pi(atan2((double)t.dir_y, (double)t.dir_x)
-                         - atan2(-sin(a) * dx + cos(a) * dy, cos(a) * dx + sin(a) * dy));
-        /* in units of the bound (plus 2 LSB of the 2.30 cos/sin) */
-        tu_err_add(&e, err / (0.7072 / (len < 8192.0 ? len : 8192.0) + 4.0 / TU_TWO_POW(30)));
-    }
-    tu_err_print(&e);
-    TEST_ASSERT_TRUE(e.worst <= 1.0);
-}
-
-static void test_theta_min_displacement_exact_and_zero_length_unknown(void)
-{
-    fw_theta_t t;
-    uint32_t flags = 0;
-    int32_t p[2] = { 5000, -7000 };
-    int i;
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_theta_init(&t, 1000));
-    /* zero-length displacement: unknown, default direction (0, 1) */
-    for (i = 0; i < 20; i++) {
-        flags = 0;
-        TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
-    }
-    TEST_ASSERT_EQUAL_UINT32(FW_FLAG_THETA_UNKNOWN, flags);
-    TEST_ASSERT_EQUAL_INT32(0, t.dir_x);
-    TEST_ASSERT_EQUAL_INT32(1, t.dir_y);
-    /* |d| = (600, 799): 999.6 pm < 1000, then (600, 800): exactly 1000 pm */
-    fw_theta_reset(&t);
-    TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
-    p[0] += 600;
-    p[1] += 799;
-    flags = 0;
-    TEST_ASSERT_FALSE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
-    TEST_ASSERT_EQUAL_UINT32(FW_FLAG_THETA_UNKNOWN, flags);
-    p[1] += 1;
-    flags = 0;
-    TEST_ASSERT_TRUE(fw_theta_push_pm(&t, p, FW_Q30_ONE, 0, &flags));
-    TEST_ASSERT_EQUAL_UINT32(0u, flags);
-    TEST_ASSERT_EQUAL_INT32(600, t.dir_x);
-    TEST_ASSERT_EQUAL_INT32(800, t.dir_y);
+    fw_force_t g;
+    const int32_t slide[3] = { -2500, 0, 20000 };   /* |F_xy| = 0.1 (20 + 5) nN: no excess */
+    const int32_t push[3] = { -3600, 0, 20000 };    /* 1.1 nN above the friction */
+    const int32_t pull[3] = { 3000, 4000, -9000 };  /* F_z + F_adh < 0: no friction, all of |F_xy| */
+    const int32_t huge[3] = { INT32_MIN, INT32_MIN, INT32_MIN };
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_force_init(&g, KN, LAT, H_NM, L_NM, 100000, 5000));
+    TEST_ASSERT_INT64_WITHIN(1, 0, fw_force_lateral_excess_pn(&g, slide));
+    TEST_ASSERT_INT64_WITHIN(1, 1100, fw_force_lateral_excess_pn(&g, push));
+    TEST_ASSERT_EQUAL_INT64(5000, fw_force_lateral_excess_pn(&g, pull));
+    /* |F_xy| = 2^31 sqrt2, no friction (F_z + F_adh < 0) */
+    TEST_ASSERT_EQUAL_INT64(3037000499LL, fw_force_lateral_excess_pn(&g, huge));
 }
 
 int main(void)
@@ -572,7 +417,6 @@ int main(void)
     RUN_TEST(test_force_cot_theta_at_0_and_pi_uses_friction_fallback);
     RUN_TEST(test_force_friction_fallback_opposes_motion_along_lever);
     RUN_TEST(test_force_sweep_through_0_and_pi_is_continuous);
-    RUN_TEST(test_force_sweep_matches_double_model);
     RUN_TEST(test_force_saturates_exactly_with_flag);
     RUN_TEST(test_force_rotate_scan_angle_0_maps_c_to_a_by_minus_270);
     RUN_TEST(test_force_dir_zones_at_one_eighth_and_one_quarter_and_one_lsb_either_side);
@@ -580,9 +424,6 @@ int main(void)
     RUN_TEST(test_force_dir_sweep_matches_double_model);
     RUN_TEST(test_force_dir_fit_keeps_direction_to_2_pow_minus_13);
     RUN_TEST(test_force_fast_solver_identical_to_checked_at_domain_corner);
-    RUN_TEST(test_theta_unknown_until_min_displacement_then_held);
-    RUN_TEST(test_theta_rotates_frame_a_motion_into_frame_c);
-    RUN_TEST(test_theta_push_direction_matches_rotated_displacement);
-    RUN_TEST(test_theta_min_displacement_exact_and_zero_length_unknown);
+    RUN_TEST(test_force_lateral_excess_is_friction_free_part_and_never_overflows);
     return UNITY_END();
 }

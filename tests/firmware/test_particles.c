@@ -1,5 +1,6 @@
 /* test_particles.c - fw_particles: contact test, projection along the line
  * of centres, zero-length vectors, chains, capacity. */
+#include <math.h>
 #include "unity.h"
 #include "fw_particles.h"
 #include "test_util.h"
@@ -17,6 +18,18 @@ void setUp(void)
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_init(&m, store, CAP, R_TIP));
 }
 void tearDown(void) {}
+
+/* The contact force the card passes with no tip-substrate friction:
+ * |F_xy| (fw_force_lateral_excess_pn with mu = 0). */
+static int64_t excess_of(const int32_t force[3])
+{
+    return (int64_t)llround(sqrt((double)force[0] * force[0] + (double)force[1] * force[1]));
+}
+
+static fw_status_t update(const int32_t tip[3], const int32_t force[3])
+{
+    return fw_particles_update(&m, tip, force, excess_of(force));
+}
 
 static double dist_to(const fw_particle_t *p, double x, double y)
 {
@@ -40,7 +53,8 @@ static void test_particles_init_and_add_validate_and_fill_capacity(void)
     TEST_ASSERT_EQUAL_INT32(3, fw_particles_get(&m, 3)->id);
     TEST_ASSERT_NULL(fw_particles_get(&m, CAP));
     TEST_ASSERT_NULL(fw_particles_get(&m, -1));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_set_friction(&m, 2000000, 0, 0));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_set_margin(&m, -1));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_init(&x, store, 4, (1 << 30) + 1));
 }
 
 static void test_particles_overlap_without_contact_force_does_not_move(void)
@@ -48,7 +62,7 @@ static void test_particles_overlap_without_contact_force_does_not_move(void)
     const int32_t tip[3] = { 0, 0, 0 };
     const int32_t force[3] = { -900, 0, 1000 };   /* below THR / 2 */
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 7, 60000, 0, R_P, THR));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, update(tip, force));
     TEST_ASSERT_EQUAL_INT32(60000, fw_particles_get(&m, 0)->x_pm);
     TEST_ASSERT_TRUE((fw_particles_get(&m, 0)->flags & FW_PARTICLE_OVERLAP) != 0u);
     TEST_ASSERT_EQUAL_UINT32(0u, fw_particles_flags(&m));
@@ -61,7 +75,7 @@ static void test_particles_push_projects_along_line_of_centres(void)
     const int32_t force[3] = { -1500, 0, 0 };
     const fw_particle_t *p;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 7, 48000, 36000, R_P, THR));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, update(tip, force));
     p = fw_particles_get(&m, 0);
     /* new centre = 70 nm * (0.8, 0.6) */
     TEST_ASSERT_EQUAL_INT32(56000, p->x_pm);
@@ -76,7 +90,7 @@ static void test_particles_apex_on_centre_uses_push_direction(void)
     const int32_t force[3] = { 0, -1500, 0 };    /* tip pushed along +y */
     const fw_particle_t *p;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 1, 1000, 2000, R_P, THR));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, update(tip, force));
     p = fw_particles_get(&m, 0);
     TEST_ASSERT_EQUAL_INT32(1000, p->x_pm);
     TEST_ASSERT_EQUAL_INT32(2000 + R_TIP + R_P, p->y_pm);
@@ -87,25 +101,36 @@ static void test_particles_zero_force_and_zero_threshold_never_moves(void)
     const int32_t tip[3] = { 0, 0, 0 };
     const int32_t force[3] = { 0, 0, 0 };
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 1, 0, 0, R_P, 0));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, update(tip, force));
     TEST_ASSERT_EQUAL_INT32(0, fw_particles_get(&m, 0)->x_pm);
     TEST_ASSERT_EQUAL_INT32(0, fw_particles_get(&m, 0)->y_pm);
 }
 
-static void test_particles_substrate_friction_alone_is_not_contact(void)
+static void test_particles_contact_exactly_at_half_threshold_and_one_pn_over(void)
 {
-    /* |F_xy| = mu (F_z + F_adh) = 0.1 * (20 + 5) nN = 2.5 nN: no excess */
-    const int32_t tip[3] = { 0, 0, 0 };
-    const int32_t force[3] = { -2500, 0, 20000 };
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_set_friction(&m, 100000, 5000, 0));
+    /* excess = THR / 2 exactly: no contact; one pN over: pushed */
+    const int32_t tip[2] = { 0, 0 };
+    const int32_t force[2] = { -2500, 0 };
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 1, 60000, 0, R_P, THR));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, THR / 2));
     TEST_ASSERT_EQUAL_INT32(60000, fw_particles_get(&m, 0)->x_pm);
-    {
-        const int32_t more[3] = { -3600, 0, 20000 };  /* excess 1.1 nN > 1 nN */
-        TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, more, 0u));
-        TEST_ASSERT_EQUAL_INT32(R_TIP + R_P, fw_particles_get(&m, 0)->x_pm);
-    }
+    TEST_ASSERT_TRUE((fw_particles_get(&m, 0)->flags & FW_PARTICLE_OVERLAP) != 0u);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, THR / 2 + 1));
+    TEST_ASSERT_EQUAL_INT32(R_TIP + R_P, fw_particles_get(&m, 0)->x_pm);
+    /* a margin moves the decision by its size */
+    setUp();
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_set_margin(&m, 300));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 1, 60000, 0, R_P, THR));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, THR / 2 + 300));
+    TEST_ASSERT_EQUAL_INT32(60000, fw_particles_get(&m, 0)->x_pm);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, THR / 2 + 301));
+    TEST_ASSERT_EQUAL_INT32(R_TIP + R_P, fw_particles_get(&m, 0)->x_pm);
+    /* a negative excess (the tip's friction above |F_xy|) is no contact */
+    setUp();
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 1, 60000, 0, R_P, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, -5));
+    TEST_ASSERT_EQUAL_INT32(60000, fw_particles_get(&m, 0)->x_pm);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_update(&m, NULL, force, 0));
 }
 
 static void test_particles_chain_pushes_overlapping_neighbours(void)
@@ -117,7 +142,7 @@ static void test_particles_chain_pushes_overlapping_neighbours(void)
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 2, 165000, 0, R_P, THR));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 3, 268000, 0, R_P, THR));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, 4, 900000, 0, R_P, THR));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, update(tip, force));
     TEST_ASSERT_EQUAL_INT32(70000, fw_particles_get(&m, 0)->x_pm);
     TEST_ASSERT_EQUAL_INT32(170000, fw_particles_get(&m, 1)->x_pm);
     TEST_ASSERT_EQUAL_INT32(270000, fw_particles_get(&m, 2)->x_pm);
@@ -129,7 +154,7 @@ static void test_particles_chain_pushes_overlapping_neighbours(void)
     for (i = 0; i < 3; i++) {
         TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_add(&m, i, 60000, 0, R_P, THR));
     }
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_update(&m, tip, force, 0u));
+    TEST_ASSERT_EQUAL_INT(FW_OK, update(tip, force));
     TEST_ASSERT_EQUAL_INT32(70000, fw_particles_get(&m, 0)->x_pm);
     TEST_ASSERT_TRUE(fw_particles_get(&m, 1)->x_pm >= 170000);
 }
@@ -157,7 +182,7 @@ static void test_particles_projection_sweep_distance_exact(void)
         double len = sqrt(vx * vx + vy * vy);
         (void)fw_particles_init(&m, store, 1, R_TIP);
         (void)fw_particles_add(&m, 0, cx, cy, r, THR);
-        (void)fw_particles_update(&m, tip, force, 0u);
+        (void)update(tip, force);
         p = fw_particles_get(&m, 0);
         TEST_ASSERT_TRUE((p->flags & FW_PARTICLE_PUSHED) != 0u);
         tu_err_add(&ed, dist_to(p, tip[0], tip[1]) - (R_TIP + r));
@@ -189,7 +214,7 @@ int main(void)
     RUN_TEST(test_particles_push_projects_along_line_of_centres);
     RUN_TEST(test_particles_apex_on_centre_uses_push_direction);
     RUN_TEST(test_particles_zero_force_and_zero_threshold_never_moves);
-    RUN_TEST(test_particles_substrate_friction_alone_is_not_contact);
+    RUN_TEST(test_particles_contact_exactly_at_half_threshold_and_one_pn_over);
     RUN_TEST(test_particles_chain_pushes_overlapping_neighbours);
     RUN_TEST(test_particles_projection_sweep_distance_exact);
     RUN_TEST(test_particles_shift_saturates_with_flag);

@@ -170,7 +170,7 @@ static void test_wire_zero_length_and_too_large_moves(void)
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_wire_init(&w, 0, 0, 0u, 0, 100000));
     fw_wire_shift(&w, INT32_MAX, 0);
     TEST_ASSERT_EQUAL_INT32(INT32_MAX, w.x_pm);
-    TEST_ASSERT_TRUE((w.flags & FW_FLAG_SAT_POS) != 0u);
+    TEST_ASSERT_TRUE((w.flags & FW_WIRE_SAT_POS) != 0u);
 }
 
 /* ---- squeeze ---------------------------------------------------------------- */

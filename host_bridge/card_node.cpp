@@ -1,0 +1,216 @@
+#include "card_node.hpp"
+
+extern "C" {
+#include "fw_units.h"
+}
+
+#include <stdexcept>
+
+#include "afm_channels.h"
+
+namespace afm {
+
+CardNode::CardNode(const Scene &s) : scene_(s), setup_(s)
+{
+    fw_rule_t rule = FW_RULE_OK;
+    if (fw_card_init(&card_, &setup_.config(), &setup_.storage(), &rule) != FW_OK)
+        throw std::runtime_error("fw_card_init: " + card_refusal(s));
+    haptic_.seq = -1;   // the zero force that asks for the first pose
+    fill_objects();
+    objects_.seq = -1;
+}
+
+int64_t CardNode::sim_utime_done() const { return done_ < 0 ? 0 : block_end_utime(scene_, done_); }
+
+Outbox CardNode::on_analog(const analog_block_t &b)
+{
+    Outbox box;
+    if (b.seq == done_ && done_ >= 0) {   // a resend: our answer was lost somewhere
+        post_block(box);
+        return box;
+    }
+    if (b.seq != done_ + 1 || b.n < 0 || static_cast<std::size_t>(b.n) > b.sn_v.size()) return box;
+    const bool again = pending_ != nullptr;
+    if (!again) pending_ = std::make_unique<analog_block_t>(b);
+    if (poses_.count(b.seq)) {
+        step(box);
+    } else if (again || done_ < 0) {
+        // no pose for this block yet, and a resend (or the first block):
+        // ask the operator for it with the force it answers
+        post(box, AFM_CH_HAPTIC_FORCE, haptic_);
+    }
+    return box;
+}
+
+Outbox CardNode::on_pose(const haptic_pose_t &p)
+{
+    Outbox box;
+    if (p.seq <= done_) return box;                    // a late duplicate
+    poses_.emplace(p.seq, p);
+    if (pending_ && pending_->seq == p.seq) step(box);
+    return box;
+}
+
+Outbox CardNode::on_fix(const object_fix_t &f, std::string *note)
+{
+    Outbox box;
+    note->clear();
+    if (f.fix_id == fix_id_ + 1) {
+        const int32_t scan_pm[2] = {fwu_pm_from_nm(f.scan_x_nm), fwu_pm_from_nm(f.scan_y_nm)};
+        fw_card_fix_out_t r{};
+        fw_card_fix(&card_, f.object_id, scan_pm, &r);
+        if (r.result == FW_CARD_FIX_UNKNOWN_OBJECT) {
+            *note = "local scan fix " + std::to_string(f.fix_id) + " names unknown object " + std::to_string(f.object_id) + "; ignored";
+        } else if (r.result == FW_CARD_FIX_NOT_DRIFT) {
+            const double dx = fwu_nm_from_pm(scan_pm[0] - static_cast<int64_t>(r.model_pm[0]));
+            const double dy = fwu_nm_from_pm(scan_pm[1] - static_cast<int64_t>(r.model_pm[1]));
+            *note = "local scan fix " + std::to_string(f.fix_id) + ": object " + std::to_string(f.object_id) + " is (" +
+                    std::to_string(dx) + ", " + std::to_string(dy) + ") nm from its model, more than drift; not applied";
+        }
+        fix_id_ = f.fix_id;
+        const int64_t seq = objects_.seq, utime = objects_.utime;
+        fill_objects();
+        objects_.seq = seq;
+        objects_.utime = utime;
+    }
+    if (f.fix_id <= fix_id_) post(box, AFM_CH_FW_OBJECTS, objects_);
+    return box;
+}
+
+void CardNode::step(Outbox &box)
+{
+    const analog_block_t &b = *pending_;
+    const haptic_pose_t &p = poses_.at(b.seq);
+    block_in_.resize(static_cast<std::size_t>(b.n));
+    for (int i = 0; i < b.n; ++i) {
+        fw_sample_in_t &in = block_in_[static_cast<std::size_t>(i)];
+        in.sn_uv = fwu_uv_from_v(b.sn_v[i]);
+        in.sl_uv = fwu_uv_from_v(b.sl_v[i]);
+        in.piezo_pm[0] = fwu_pm_from_nm(b.piezo_x_nm[i]);
+        in.piezo_pm[1] = fwu_pm_from_nm(b.piezo_y_nm[i]);
+        in.piezo_pm[2] = fwu_pm_from_nm(b.piezo_z_nm[i]);
+    }
+    fw_card_in_t in{};
+    in.samples = block_in_.data();
+    in.n = b.n;
+    in.pose.joy_q15[0] = fwu_q15_from_unit(p.joy[0]);
+    in.pose.joy_q15[1] = fwu_q15_from_unit(p.joy[1]);
+    in.pose.load_pn = fwu_pn_from_nn(p.load_nN);
+    in.pose.engaged = p.engaged;
+    fw_card_out_t out{};
+    fw_card_step_block(&card_, &in, &out);
+
+    const int64_t t_end = block_end_utime(scene_, b.seq);
+    force_.utime = t_end;
+    force_.seq = b.seq;
+    for (int k = 0; k < 3; ++k) force_.force_nN[k] = fwu_nn_from_pn(out.force_pn[k]);
+    force_.flags = static_cast<int32_t>(out.flags);
+    force_.sn_code = out.code_n;
+    force_.sl_code = out.code_l;
+    force_.sat_count = out.sat_samples;
+
+    tip_.utime = t_end;
+    tip_.seq = b.seq;
+    for (int k = 0; k < 3; ++k) tip_.tip_nm[k] = fwu_nm_from_pm(out.tip_pm[k]);
+    if (b.n > 0) {
+        tip_.piezo_nm[0] = b.piezo_x_nm[b.n - 1];
+        tip_.piezo_nm[1] = b.piezo_y_nm[b.n - 1];
+        tip_.piezo_nm[2] = b.piezo_z_nm[b.n - 1];
+    }
+    tip_.cmd_nm[0] = fwu_nm_from_pm(out.target_pm[0]);
+    tip_.cmd_nm[1] = fwu_nm_from_pm(out.target_pm[1]);
+
+    haptic_.utime = t_end;
+    haptic_.seq = b.seq;
+    for (int k = 0; k < 3; ++k) {
+        haptic_.tip_force_nN[k] = force_.force_nN[k];
+        haptic_.force_N[k] = fwu_n_from_un(out.haptic_un[k]);
+    }
+    haptic_.flags = force_.flags;
+
+    cmd_.utime = t_end;   // it applies from the next block on
+    cmd_.ack_seq = b.seq;
+    cmd_.piezo_x_nm = fwu_nm_from_pm(out.piezo_cmd_pm[0]);
+    cmd_.piezo_y_nm = fwu_nm_from_pm(out.piezo_cmd_pm[1]);
+    cmd_.load_nN = fwu_nn_from_pn(out.load_pn);
+    cmd_.engaged = out.engaged;
+
+    fill_objects();
+    objects_.utime = t_end;
+    objects_.seq = b.seq;
+
+    done_ = b.seq;
+    pending_.reset();
+    poses_.erase(poses_.begin(), poses_.upper_bound(done_));
+    post_block(box);
+}
+
+void CardNode::post_block(Outbox &box) const
+{
+    // the two the next block waits for first
+    post(box, AFM_CH_AFM_CMD, cmd_);
+    post(box, AFM_CH_HAPTIC_FORCE, haptic_);
+    post(box, AFM_CH_FW_FORCE, force_);
+    post(box, AFM_CH_FW_TIP, tip_);
+    post(box, AFM_CH_FW_OBJECTS, objects_);
+}
+
+void CardNode::fill_objects()
+{
+    objects_ = objects_t{};
+    const fw_particles_t *parts = fw_card_particles(&card_);
+    for (int32_t i = 0; i < fw_particles_count(parts); ++i) {
+        const fw_particle_t *p = fw_particles_get(parts, i);
+        particle_t q;
+        q.id = p->id;
+        q.x_nm = fwu_nm_from_pm(p->x_pm);
+        q.y_nm = fwu_nm_from_pm(p->y_pm);
+        q.radius_nm = fwu_nm_from_pm(p->radius_pm);
+        q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
+        objects_.particles.push_back(q);
+    }
+    objects_.n_particles = static_cast<int32_t>(objects_.particles.size());
+    for (int32_t i = 0; i < fw_card_wire_count(&card_); ++i) {
+        const fw_wire_t *w = fw_card_wire(&card_, i);
+        int32_t a[2], b[2];
+        fw_wire_ends_pm(w, a, b);
+        wire_t q;
+        q.id = fw_card_wire_id(&card_, i);
+        q.diameter_nm = fwu_nm_from_pm(w->diameter_pm);
+        q.n = 2;
+        q.x_nm = {fwu_nm_from_pm(a[0]), fwu_nm_from_pm(b[0])};
+        q.y_nm = {fwu_nm_from_pm(a[1]), fwu_nm_from_pm(b[1])};
+        q.in_contact = (w->flags & FW_WIRE_PUSHED) != 0;
+        objects_.wires.push_back(q);
+    }
+    objects_.n_wires = static_cast<int32_t>(objects_.wires.size());
+    if (const fw_litho_t *litho = fw_card_litho(&card_)) {
+        // one trench per stroke: the points from one STROKE_START to the next
+        trench_t t{};
+        auto flush = [&] {
+            if (t.n > 0) {
+                t.id = static_cast<int32_t>(objects_.trenches.size()) + 1;
+                objects_.trenches.push_back(t);
+            }
+            t = trench_t{};
+        };
+        for (int32_t i = 0; i < litho->count; ++i) {
+            const fw_trench_point_t &p = litho->pts[i];
+            if (p.flags & FW_LITHO_STROKE_START) flush();
+            t.x_nm.push_back(fwu_nm_from_pm(p.x_pm));
+            t.y_nm.push_back(fwu_nm_from_pm(p.y_pm));
+            t.depth_nm.push_back(fwu_nm_from_pm(p.depth_pm));
+            t.width_nm.push_back(fwu_nm_from_pm(p.width_pm));
+            ++t.n;
+        }
+        flush();
+    }
+    objects_.n_trenches = static_cast<int32_t>(objects_.trenches.size());
+    int32_t drift[2];
+    fw_card_drift_pm(&card_, drift);
+    objects_.drift_nm[0] = fwu_nm_from_pm(drift[0]);
+    objects_.drift_nm[1] = fwu_nm_from_pm(drift[1]);
+    objects_.fix_id = fix_id_;
+}
+
+}  // namespace afm

@@ -1,0 +1,95 @@
+// CardNode: the firmware card on the bus, without the bus. It turns the
+// card's input messages into its input structs, steps the card (fw_card.h),
+// and turns its outputs into the messages to publish, in order. fw_node
+// wraps it with LCM; ./afm replay feeds it a recorded log. Only unit
+// conversion happens here (fw_units.h); every decision is the card's.
+//
+// The protocol (lockstep, one block of haptic latency, as a card's
+// double-buffered DMA has it):
+//  - block n is stepped when both AFM_ANALOG n and HAPTIC_POSE n are here
+//    (the operator answers HAPTIC_FORCE n - 1 with pose n); the card's
+//    outputs for n follow at once: AFM_CMD (ack n, the set point for block
+//    n + 1), HAPTIC_FORCE n, FW_FORCE n, FW_TIP n, FW_OBJECTS n;
+//  - AFM_ANALOG n again (a resend: something was lost) repeats block n's
+//    outputs; AFM_ANALOG n + 1 without pose n + 1 repeats HAPTIC_FORCE n
+//    (for n + 1 = 0: a zero force with seq -1), which asks the operator for
+//    the pose again;
+//  - HOST_OBJECT_FIX k + 1 is applied at once (fw_card_fix) and answered
+//    with FW_OBJECTS carrying fix_id k + 1; an older fix_id is answered
+//    again. A fix arrives between two blocks (the renderer waits for its
+//    answer before the frame the simulator waits for), so its place
+//    among the blocks is the same in a run and in its log.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "afm/analog_block_t.hpp"
+#include "afm/fw_force_t.hpp"
+#include "afm/fw_tip_t.hpp"
+#include "afm/haptic_force_t.hpp"
+#include "afm/haptic_pose_t.hpp"
+#include "afm/object_fix_t.hpp"
+#include "afm/objects_t.hpp"
+#include "afm/tip_cmd_t.hpp"
+#include "card_setup.hpp"
+#include "scene.hpp"
+
+namespace afm {
+
+// One message to publish: channel and encoded bytes.
+struct Outgoing {
+    std::string channel;
+    std::vector<uint8_t> data;
+};
+using Outbox = std::vector<Outgoing>;
+
+template <class M>
+void post(Outbox &box, const char *channel, const M &m)
+{
+    Outgoing o{channel, std::vector<uint8_t>(static_cast<std::size_t>(m.getEncodedSize()))};
+    m.encode(o.data.data(), 0, static_cast<int>(o.data.size()));
+    box.push_back(std::move(o));
+}
+
+class CardNode {
+public:
+    // Throws std::runtime_error naming the rule when the card refuses the scene.
+    explicit CardNode(const Scene &s);
+    CardNode(const CardNode &) = delete;
+    CardNode &operator=(const CardNode &) = delete;
+
+    Outbox on_analog(const analog_block_t &b);
+    Outbox on_pose(const haptic_pose_t &p);
+    // note: a line for the log when the fix names an unknown object or is
+    // refused as more than drift (empty otherwise).
+    Outbox on_fix(const object_fix_t &f, std::string *note);
+
+    int64_t done() const { return done_; }              // last block stepped (-1: none)
+    int64_t sim_utime_done() const;                     // simulated time at its end, us
+    const fw_card_t &card() const { return card_; }
+
+private:
+    const Scene &scene_;
+    CardSetup setup_;
+    fw_card_t card_{};
+    int64_t done_ = -1;
+    int32_t fix_id_ = 0;
+    std::unique_ptr<analog_block_t> pending_;          // AFM_ANALOG done_ + 1, waiting for its pose
+    std::map<int64_t, haptic_pose_t> poses_;           // poses for blocks > done_
+    std::vector<fw_sample_in_t> block_in_;
+    fw_force_t force_{};
+    fw_tip_t tip_{};
+    objects_t objects_{};
+    haptic_force_t haptic_{};
+    tip_cmd_t cmd_{};
+
+    void step(Outbox &box);
+    void fill_objects();
+    void post_block(Outbox &box) const;
+};
+
+}  // namespace afm

@@ -1,0 +1,171 @@
+#include "card_setup.hpp"
+
+extern "C" {
+#include "fw_calib.h"
+#include "fw_units.h"
+}
+
+#include <sstream>
+#include <utility>
+
+namespace afm {
+
+namespace {
+
+fw_board_config_t board_config(const Scene &s)
+{
+    const ProbeSpec &p = s.probe;
+    fw_board_config_t b{};
+    b.adc_bits = s.adc_bits;
+    b.normal_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.kn_N_per_m * p.Kn_nm_per_V);   // N/m nm/V = nN/V
+    b.lateral_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.lateral_nN_per_V);
+    b.deflection_pm_per_v = fwu_pm_per_v_from_nm_per_v(p.Kn_nm_per_V);
+    b.tip_height_nm = fwu_nm_from_um(p.tip_height_um);
+    b.lever_length_nm = fwu_nm_from_um(p.lever_length_um);
+    b.disp_n_pm_per_v = FW_CARD_DISP_ESTIMATE;
+    b.disp_l_pm_per_v = FW_CARD_DISP_ESTIMATE;
+    b.scan_angle_mdeg = fwu_mdeg_from_deg(p.scan_angle_deg);
+    b.mu_ppm = fwu_ppm(s.tip_substrate.mu);
+    b.adhesion_pn = fwu_pn_from_nn(s.has_effect("adhesion") ? s.tip_substrate.adhesion_nN : 0.0);
+    b.scan_center_pm[0] = fwu_pm_from_nm(s.field_center_nm.x);
+    b.scan_center_pm[1] = fwu_pm_from_nm(s.field_center_nm.y);
+    b.scan_half_range_pm = fwu_pm_from_nm(s.field_nm / 2);
+    b.kappa_q16 = fwu_q16(s.op.kappa);
+    return b;
+}
+
+}  // namespace
+
+CardSetup::CardSetup(const Scene &s)
+{
+    cfg_.board = board_config(s);
+    cfg_.tip_radius_pm = fwu_pm_from_nm(s.probe.tip_radius_nm);
+    cfg_.tip_half_angle_mdeg = fwu_mdeg_from_deg(s.probe.tip_half_angle_deg);
+    for (const auto &p : s.particles)
+        particles_.push_back({p.id, fwu_pm_from_nm(p.x_nm), fwu_pm_from_nm(p.y_nm), fwu_pm_from_nm(p.radius_nm)});
+    const ContactSpec &ps = s.particle_substrate;
+    cfg_.particles = particles_.data();
+    cfg_.n_particles = static_cast<int32_t>(particles_.size());
+    cfg_.particle_mu_ppm = fwu_ppm(ps.mu);
+    cfg_.particle_adhesion_pn = fwu_pn_from_nn(s.has_effect("adhesion") ? ps.adhesion_nN : 0.0);
+    cfg_.particle_shear_kpa = fwu_kpa_from_mpa(ps.shear_strength_MPa);
+    cfg_.particle_contact_area_nm2 = fwu_i32(ps.contact_area_nm2);
+    for (const auto &w : s.wires) {
+        fw_card_wire_t c{};
+        c.id = w.id;
+        c.a_pm[0] = fwu_pm_from_nm(w.x0_nm);
+        c.a_pm[1] = fwu_pm_from_nm(w.y0_nm);
+        c.b_pm[0] = fwu_pm_from_nm(w.x1_nm);
+        c.b_pm[1] = fwu_pm_from_nm(w.y1_nm);
+        c.diameter_pm = fwu_pm_from_nm(w.diameter_nm);
+        wires_.push_back(c);
+    }
+    cfg_.wires = wires_.data();
+    cfg_.n_wires = static_cast<int32_t>(wires_.size());
+    cfg_.wire_friction_pn_per_um = fwu_pn_from_nn(s.wire_model.friction_nN_per_um);
+    cfg_.wire_mu_ppm = fwu_ppm(s.wire_model.mu);
+    cfg_.litho = s.has_effect("lithography");
+    cfg_.litho_threshold_pn = fwu_pn_from_nn(s.litho.threshold_nN);
+    cfg_.litho_depth_pm_per_pn = fwu_q16(s.litho.depth_nm_per_nN);   // nm/nN = pm/pN
+    for (const auto &m : s.landmarks) landmarks_.push_back({m.id, fwu_pm_from_nm(m.x_nm), fwu_pm_from_nm(m.y_nm)});
+    cfg_.landmarks = landmarks_.data();
+    cfg_.n_landmarks = static_cast<int32_t>(landmarks_.size());
+    // A landmark after a lever change may be anywhere in the field.
+    cfg_.landmark_max_step_pm = fwu_pm_from_nm(s.field_nm / 2);
+    cfg_.haptic_un_per_pn = FW_CARD_HAPTIC_UN_PER_PN_DEFAULT;
+    cfg_.haptic_max_un = FW_CARD_HAPTIC_MAX_UN_DEFAULT;
+
+    particle_store_.resize(particles_.size());
+    wire_store_.resize(wires_.size());
+    if (cfg_.litho) trench_store_.resize(kCardTrenchCapacity);
+    scratch_.resize(static_cast<std::size_t>(s.samples_per_block()));
+    storage_.particles = particle_store_.empty() ? nullptr : particle_store_.data();
+    storage_.particle_capacity = static_cast<int32_t>(particle_store_.size());
+    storage_.wires = wire_store_.empty() ? nullptr : wire_store_.data();
+    storage_.wire_capacity = static_cast<int32_t>(wire_store_.size());
+    storage_.trench = trench_store_.empty() ? nullptr : trench_store_.data();
+    storage_.trench_capacity = static_cast<int32_t>(trench_store_.size());
+    storage_.scratch = scratch_.data();
+    storage_.scratch_len = static_cast<int32_t>(scratch_.size());
+}
+
+namespace {
+
+// The scene keys whose values feed a rule, with the values as the scene
+// holds them (this names inputs; the rule itself is the firmware's).
+std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t rule)
+{
+    const ProbeSpec &p = s.probe;
+    switch (rule) {
+    case FW_RULE_ADC_BITS: return {{"firmware.adc_bits", s.adc_bits}};
+    case FW_RULE_FORCE_GAINS:
+        return {{"probe.kn_N_per_m", p.kn_N_per_m}, {"probe.Kn_nm_per_V", p.Kn_nm_per_V}, {"probe.lateral_nN_per_V", p.lateral_nN_per_V}};
+    case FW_RULE_LEVER_POSITIVE:
+    case FW_RULE_TIP_SHORTER_THAN_LEVER:
+        return {{"probe.tip_height_um", p.tip_height_um}, {"probe.lever_length_um", p.lever_length_um}};
+    case FW_RULE_MU_RANGE: return {{"sample.tip_substrate.mu", s.tip_substrate.mu}};
+    case FW_RULE_ADHESION: return {{"sample.tip_substrate.adhesion_nN", s.tip_substrate.adhesion_nN}};
+    case FW_RULE_MU_2H_OVER_L:
+        return {{"sample.tip_substrate.mu", s.tip_substrate.mu}, {"probe.tip_height_um", p.tip_height_um},
+                {"probe.lever_length_um", p.lever_length_um}};
+    case FW_RULE_DEFLECTION_GAIN: return {{"probe.Kn_nm_per_V", p.Kn_nm_per_V}};
+    case FW_RULE_DISP_NEGATIVE:
+    case FW_RULE_DISP_RANGE:
+        return {{"probe.tip_height_um", p.tip_height_um}, {"probe.Kn_nm_per_V", p.Kn_nm_per_V}, {"probe.lever_length_um", p.lever_length_um}};
+    case FW_RULE_JOYSTICK_RANGE: return {{"sample.field_nm", s.field_nm}, {"operator.kappa", s.op.kappa}};
+    case FW_RULE_TIP_RADIUS: return {{"probe.tip_radius_nm", p.tip_radius_nm}};
+    case FW_RULE_PARTICLE:
+        return {{"sample.particle_substrate.mu", s.particle_substrate.mu},
+                {"sample.particle_substrate.adhesion_nN", s.particle_substrate.adhesion_nN},
+                {"sample.particle_substrate.shear_strength_MPa", s.particle_substrate.shear_strength_MPa},
+                {"sample.particle_substrate.contact_area_nm2", s.particle_substrate.contact_area_nm2}};
+    case FW_RULE_WIRE_FRICTION:
+        return {{"sample.wire.friction_nN_per_um", s.wire_model.friction_nN_per_um}, {"sample.wire.mu", s.wire_model.mu}};
+    case FW_RULE_LITHO:
+        return {{"sample.lithography.threshold_nN", s.litho.threshold_nN}, {"sample.lithography.depth_nm_per_nN", s.litho.depth_nm_per_nN}};
+    case FW_RULE_TIP_HALF_ANGLE: return {{"probe.tip_half_angle_deg", p.tip_half_angle_deg}};
+    case FW_RULE_DRIFT_STEP: return {{"sample.field_nm", s.field_nm}};
+    default: return {};
+    }
+}
+
+// What the firmware derived from those keys, where the rule is about it.
+std::string rule_derived(const Scene &s, const fw_card_config_t &c, fw_rule_t rule)
+{
+    std::ostringstream m;
+    m.precision(7);
+    const fw_board_config_t &b = c.board;
+    if (rule == FW_RULE_DISP_RANGE || rule == FW_RULE_DISP_NEGATIVE) {
+        int32_t est = 0;
+        if (fw_calib_disp_estimate(b.tip_height_nm, b.lever_length_nm, b.deflection_pm_per_v, &est) == FW_OK)
+            m << "; the lever's C_n = C_l = 3 h K_n / (2 l) = " << fwu_nm_from_pm(est) << " nm/V";
+    } else if (rule == FW_RULE_TIP_SHORTER_THAN_LEVER || rule == FW_RULE_MU_2H_OVER_L) {
+        const double g = 2.0 * s.probe.tip_height_um / s.probe.lever_length_um;
+        m << "; 2h/l = " << g;
+        if (rule == FW_RULE_MU_2H_OVER_L) m << ", mu 2h/l = " << s.tip_substrate.mu * g;
+    }
+    return m.str();
+}
+
+}  // namespace
+
+std::string card_refusal(const Scene &s)
+{
+    const CardSetup setup(s);
+    fw_card_t card;
+    fw_rule_t rule = FW_RULE_OK;
+    if (fw_card_init(&card, &setup.config(), &setup.storage(), &rule) == FW_OK) return "";
+    const auto keys = rule_keys(s, rule);
+    std::ostringstream m;
+    m.precision(7);
+    m << (keys.empty() ? std::string("firmware") : keys.front().first) << ": the firmware's card refuses it: "
+      << fw_rule_text(rule) << " (fw_rule " << static_cast<int>(rule) << ")";
+    if (!keys.empty()) {
+        m << "; got";
+        for (std::size_t i = 0; i < keys.size(); ++i) m << (i ? ", " : " ") << keys[i].first << " " << keys[i].second;
+    }
+    m << rule_derived(s, setup.config(), rule);
+    return m.str();
+}
+
+}  // namespace afm
