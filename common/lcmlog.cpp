@@ -20,15 +20,51 @@ LogReader::LogReader(std::string path) : path_(std::move(path)), f_(path_, std::
 
 std::string LogReader::where(uint64_t at) const { return path_ + ": byte offset " + std::to_string(at); }
 
-LogReader::Next LogReader::next(LogEvent *ev)
+uint64_t LogReader::refresh_size()
 {
     f_.clear();
+    const std::streampos here = f_.tellg();
     f_.seekg(0, std::ios::end);
-    const uint64_t size = static_cast<uint64_t>(f_.tellg());
-    if (size <= off_) return Next::kEnd;
-    if (size - off_ < kHeaderBytes) return Next::kIncomplete;
+    size_ = static_cast<uint64_t>(f_.tellg());
+    f_.seekg(here);
+    return size_;
+}
+
+bool LogReader::have(uint64_t bytes)
+{
+    // the size is read again only when the event seems to end past it (a
+    // growing file); a finished file is measured once
+    return size_ - off_ >= bytes || (refresh_size() > off_ && size_ - off_ >= bytes);
+}
+
+bool LogReader::wanted(const char *ch, uint32_t len) const
+{
+    if (only_.empty()) return true;
+    for (const auto &c : only_)
+        if (c.size() == len && std::memcmp(c.data(), ch, len) == 0) return true;
+    return false;
+}
+
+LogReader::Next LogReader::next(LogEvent *ev)
+{
+    for (;;) {
+        const Next n = next_framed(ev);
+        if (n != Next::kEvent) return n;
+        ++events_;
+        if (!ev->data.empty() || wanted(ev->channel.data(), static_cast<uint32_t>(ev->channel.size()))) return n;
+    }
+}
+
+LogReader::Next LogReader::next_framed(LogEvent *ev)
+{
+    if (off_ >= size_ && refresh_size() <= off_) return Next::kEnd;
+    if (!have(kHeaderBytes)) return Next::kIncomplete;
     unsigned char h[kHeaderBytes];
-    f_.seekg(static_cast<std::streamoff>(off_));
+    if (!at_off_) {
+        f_.clear();
+        f_.seekg(static_cast<std::streamoff>(off_));
+    }
+    at_off_ = false;   // until the whole event is read
     if (!f_.read(reinterpret_cast<char *>(h), kHeaderBytes)) return Next::kIncomplete;
     if (be32(h) != kSync)
         throw LogError(where(off_) + ": corrupt log: no event starts here (sync word 0x" + [&] {
@@ -43,15 +79,21 @@ LogReader::Next LogReader::next(LogEvent *ev)
     if (dlen > kMaxDataBytes)
         throw LogError(where(off_) + ": corrupt log: data length " + std::to_string(dlen) + " beyond the limit of " +
                        std::to_string(kMaxDataBytes) + " bytes");
-    if (size - off_ < uint64_t(kHeaderBytes) + clen + dlen) return Next::kIncomplete;
+    if (!have(uint64_t(kHeaderBytes) + clen + dlen)) return Next::kIncomplete;
     ev->offset = off_;
     ev->number = static_cast<int64_t>(be64(h + 4));
     ev->utime = static_cast<int64_t>(be64(h + 12));
     ev->channel.assign(clen, '\0');
-    ev->data.resize(dlen);
-    if (!f_.read(ev->channel.data(), clen) || !f_.read(reinterpret_cast<char *>(ev->data.data()), dlen))
-        return Next::kIncomplete;
+    if (!f_.read(ev->channel.data(), clen)) return Next::kIncomplete;
+    if (wanted(ev->channel.data(), clen)) {
+        ev->data.resize(dlen);
+        if (!f_.read(reinterpret_cast<char *>(ev->data.data()), dlen)) return Next::kIncomplete;
+    } else {
+        ev->data.clear();   // passed over: framed and checked, not read
+        f_.seekg(dlen, std::ios::cur);
+    }
     off_ += uint64_t(kHeaderBytes) + clen + dlen;
+    at_off_ = true;
     return Next::kEvent;
 }
 
@@ -63,9 +105,7 @@ bool LogReader::read(LogEvent *ev)
     case Next::kEnd: return false;
     case Next::kIncomplete: break;
     }
-    f_.clear();
-    f_.seekg(0, std::ios::end);
-    throw LogError(where(at) + ": truncated log: the file ends at byte " + std::to_string(static_cast<uint64_t>(f_.tellg())) +
+    throw LogError(where(at) + ": truncated log: the file ends at byte " + std::to_string(refresh_size()) +
                    ", inside the event that starts here");
 }
 

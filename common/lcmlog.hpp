@@ -56,6 +56,11 @@ public:
     // next() for a finished file: an event, or false at the end; a file
     // that ends inside an event is truncated: LogError with the offset.
     bool read(LogEvent *ev);
+    // Only these channels are returned; the others' events are framed and
+    // checked but their data is not read (empty: every channel).
+    void only(std::vector<std::string> channels) { only_ = std::move(channels); }
+    // Events passed over, framed, since opening (returned or skipped).
+    int64_t events() const { return events_; }
     uint64_t offset() const { return off_; }
     const std::string &path() const { return path_; }
 
@@ -63,7 +68,15 @@ private:
     std::string path_;
     std::ifstream f_;
     uint64_t off_ = 0;
+    uint64_t size_ = 0;       // the file's size when last measured
+    bool at_off_ = false;     // the stream stands at off_ (no seek needed)
+    std::vector<std::string> only_;
+    int64_t events_ = 0;
+    bool wanted(const char *ch, uint32_t len) const;
     std::string where(uint64_t at) const;
+    uint64_t refresh_size();
+    Next next_framed(LogEvent *ev);
+    bool have(uint64_t bytes);
 };
 
 }  // namespace afm

@@ -37,7 +37,7 @@ Outbox CardNode::on_analog(const analog_block_t &b)
     } else if (again || done_ < 0) {
         // no pose for this block yet, and a resend (or the first block):
         // ask the operator for it with the force it answers
-        post(box, AFM_CH_HAPTIC_FORCE, haptic_);
+        post(box, AFM_CH_HAPTIC_FORCE, haptic_, haptic_.seq);
     }
     return box;
 }
@@ -73,7 +73,7 @@ Outbox CardNode::on_fix(const object_fix_t &f, std::string *note)
         objects_.seq = seq;
         objects_.utime = utime;
     }
-    if (f.fix_id <= fix_id_) post(box, AFM_CH_FW_OBJECTS, objects_);
+    if (f.fix_id <= fix_id_) post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
     return box;
 }
 
@@ -148,69 +148,77 @@ void CardNode::step(Outbox &box)
 void CardNode::post_block(Outbox &box) const
 {
     // the two the next block waits for first
-    post(box, AFM_CH_AFM_CMD, cmd_);
-    post(box, AFM_CH_HAPTIC_FORCE, haptic_);
-    post(box, AFM_CH_FW_FORCE, force_);
-    post(box, AFM_CH_FW_TIP, tip_);
-    post(box, AFM_CH_FW_OBJECTS, objects_);
+    post(box, AFM_CH_AFM_CMD, cmd_, cmd_.ack_seq);
+    post(box, AFM_CH_HAPTIC_FORCE, haptic_, haptic_.seq);
+    post(box, AFM_CH_FW_FORCE, force_, force_.seq);
+    post(box, AFM_CH_FW_TIP, tip_, tip_.seq);
+    post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
 }
 
 void CardNode::fill_objects()
 {
-    objects_ = objects_t{};
     const fw_particles_t *parts = fw_card_particles(&card_);
+    objects_.particles.resize(static_cast<std::size_t>(fw_particles_count(parts)));
     for (int32_t i = 0; i < fw_particles_count(parts); ++i) {
         const fw_particle_t *p = fw_particles_get(parts, i);
-        particle_t q;
+        particle_t &q = objects_.particles[static_cast<std::size_t>(i)];
         q.id = p->id;
         q.x_nm = fwu_nm_from_pm(p->x_pm);
         q.y_nm = fwu_nm_from_pm(p->y_pm);
         q.radius_nm = fwu_nm_from_pm(p->radius_pm);
         q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
-        objects_.particles.push_back(q);
     }
     objects_.n_particles = static_cast<int32_t>(objects_.particles.size());
+    objects_.wires.resize(static_cast<std::size_t>(fw_card_wire_count(&card_)));
     for (int32_t i = 0; i < fw_card_wire_count(&card_); ++i) {
         const fw_wire_t *w = fw_card_wire(&card_, i);
         int32_t a[2], b[2];
         fw_wire_ends_pm(w, a, b);
-        wire_t q;
+        wire_t &q = objects_.wires[static_cast<std::size_t>(i)];
         q.id = fw_card_wire_id(&card_, i);
         q.diameter_nm = fwu_nm_from_pm(w->diameter_pm);
         q.n = 2;
         q.x_nm = {fwu_nm_from_pm(a[0]), fwu_nm_from_pm(b[0])};
         q.y_nm = {fwu_nm_from_pm(a[1]), fwu_nm_from_pm(b[1])};
         q.in_contact = (w->flags & FW_WIRE_PUSHED) != 0;
-        objects_.wires.push_back(q);
     }
     objects_.n_wires = static_cast<int32_t>(objects_.wires.size());
-    if (const fw_litho_t *litho = fw_card_litho(&card_)) {
-        // one trench per stroke: the points from one STROKE_START to the next
-        trench_t t{};
-        auto flush = [&] {
-            if (t.n > 0) {
-                t.id = static_cast<int32_t>(objects_.trenches.size()) + 1;
-                objects_.trenches.push_back(t);
-            }
-            t = trench_t{};
-        };
-        for (int32_t i = 0; i < litho->count; ++i) {
-            const fw_trench_point_t &p = litho->pts[i];
-            if (p.flags & FW_LITHO_STROKE_START) flush();
-            t.x_nm.push_back(fwu_nm_from_pm(p.x_pm));
-            t.y_nm.push_back(fwu_nm_from_pm(p.y_pm));
-            t.depth_nm.push_back(fwu_nm_from_pm(p.depth_pm));
-            t.width_nm.push_back(fwu_nm_from_pm(p.width_pm));
-            ++t.n;
-        }
-        flush();
-    }
-    objects_.n_trenches = static_cast<int32_t>(objects_.trenches.size());
     int32_t drift[2];
     fw_card_drift_pm(&card_, drift);
+    fill_trenches(drift);
+    objects_.n_trenches = static_cast<int32_t>(objects_.trenches.size());
     objects_.drift_nm[0] = fwu_nm_from_pm(drift[0]);
     objects_.drift_nm[1] = fwu_nm_from_pm(drift[1]);
     objects_.fix_id = fix_id_;
+}
+
+void CardNode::fill_trenches(const int32_t drift_pm[2])
+{
+    // One trench per stroke: the points from one STROKE_START to the next.
+    // The card's points only grow, unless a drift fix moves them all: then
+    // the trenches are formed anew.
+    const fw_litho_t *litho = fw_card_litho(&card_);
+    if (!litho) return;
+    if (drift_pm[0] != trench_drift_pm_[0] || drift_pm[1] != trench_drift_pm_[1] || litho->count < trench_points_) {
+        objects_.trenches.clear();
+        trench_points_ = 0;
+        trench_drift_pm_[0] = drift_pm[0];
+        trench_drift_pm_[1] = drift_pm[1];
+    }
+    for (int32_t i = trench_points_; i < litho->count; ++i) {
+        const fw_trench_point_t &p = litho->pts[i];
+        if ((p.flags & FW_LITHO_STROKE_START) || objects_.trenches.empty()) {
+            objects_.trenches.emplace_back();
+            objects_.trenches.back().id = static_cast<int32_t>(objects_.trenches.size());
+        }
+        trench_t &t = objects_.trenches.back();
+        t.x_nm.push_back(fwu_nm_from_pm(p.x_pm));
+        t.y_nm.push_back(fwu_nm_from_pm(p.y_pm));
+        t.depth_nm.push_back(fwu_nm_from_pm(p.depth_pm));
+        t.width_nm.push_back(fwu_nm_from_pm(p.width_pm));
+        ++t.n;
+    }
+    trench_points_ = litho->count;
 }
 
 }  // namespace afm

@@ -40,17 +40,20 @@
 
 namespace afm {
 
-// One message to publish: channel and encoded bytes.
+// One message to publish: channel and encoded bytes, and the block it
+// answers (and the fix, for FW_OBJECTS), which replay keys it by.
 struct Outgoing {
     std::string channel;
     std::vector<uint8_t> data;
+    int64_t seq = 0;
+    int32_t fix_id = 0;
 };
 using Outbox = std::vector<Outgoing>;
 
 template <class M>
-void post(Outbox &box, const char *channel, const M &m)
+void post(Outbox &box, const char *channel, const M &m, int64_t seq, int32_t fix_id = 0)
 {
-    Outgoing o{channel, std::vector<uint8_t>(static_cast<std::size_t>(m.getEncodedSize()))};
+    Outgoing o{channel, std::vector<uint8_t>(static_cast<std::size_t>(m.getEncodedSize())), seq, fix_id};
     m.encode(o.data.data(), 0, static_cast<int>(o.data.size()));
     box.push_back(std::move(o));
 }
@@ -88,7 +91,10 @@ private:
     tip_cmd_t cmd_{};
 
     void step(Outbox &box);
+    int32_t trench_points_ = 0;            // the card's trench points already in objects_
+    int32_t trench_drift_pm_[2] = {0, 0};  // the drift they were converted at
     void fill_objects();
+    void fill_trenches(const int32_t drift_pm[2]);
     void post_block(Outbox &box) const;
 };
 

@@ -222,7 +222,7 @@ int main(int argc, char **argv)
             std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n", out_dir.c_str());
             return 2;
         }
-        for (const char *old : {"frames", "logs", "bus.lcmlog", "run.json", "video.mp4", "video.avi", "sim_report.json",
+        for (const char *old : {"frames", "logs", "bus.lcmlog", "run.json", "scene.yaml", "video.mp4", "video.avi", "sim_report.json",
                                 "renderer_report.json", "operator_report.json", "scan_initial.png", "contact_sheet.png",
                                 "scan_initial.gsf", "scan_final.gsf", "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
             fs::remove_all(fs::path(out_dir) / old);
@@ -236,6 +236,13 @@ int main(int argc, char **argv)
     }
     const std::string out = fs::canonical(out_dir).string();
     const std::string scene_abs = fs::canonical(scene_path).string();
+    // The run keeps the scene it ran (replay reads it; the original may change).
+    try {
+        fs::copy_file(scene_abs, fs::path(out) / "scene.yaml", fs::copy_options::overwrite_existing);
+    } catch (const fs::filesystem_error &e) {
+        std::fprintf(stderr, "afm_launch: cannot copy the scene into %s: %s\n", out.c_str(), e.what());
+        return 2;
+    }
     const std::string bin = exe_dir();
     const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
     signal(SIGPIPE, SIG_IGN);
@@ -449,7 +456,7 @@ int main(int argc, char **argv)
             std::fprintf(stderr, "run: warning: the bus log holds %lld of %lld analog blocks (lcm-logger was starved of CPU)\n",
                          static_cast<long long>(analog_seqs), static_cast<long long>(sent));
     }
-    json outs = {"bus.lcmlog", "run.json", "frames/"};
+    json outs = {"bus.lcmlog", "run.json", "scene.yaml", "frames/"};
     for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",
                           "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
         if (fs::exists(out + "/" + v)) outs.push_back(v);

@@ -19,6 +19,7 @@ usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-b SAMPLES] 
               scene's analog block)
   -a DEGREES  scan angles in degrees (default 270,300)
   --no-callgrind  skip the instruction counts
+  --no-size   skip the Cortex-M4 build and its flash size per module
   -h, --help  this text
 
 Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
@@ -41,6 +42,7 @@ repeats=7
 cg_n=50000
 angles=270,300
 do_cg=1
+do_size=1
 block=20
 
 while [ $# -gt 0 ]; do
@@ -51,6 +53,7 @@ while [ $# -gt 0 ]; do
     -b) [ $# -ge 2 ] || { echo "bench_firmware: -b needs a number" >&2; exit 2; }; block=$2; shift 2 ;;
     -a) [ $# -ge 2 ] || { echo "bench_firmware: -a needs angles" >&2; exit 2; }; angles=$2; shift 2 ;;
     --no-callgrind) do_cg=0; shift ;;
+    --no-size) do_size=0; shift ;;
     -h|--help) usage; exit 0 ;;
     *) echo "bench_firmware: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -164,11 +167,34 @@ echo "notes:"
 echo "  - errors: |F - F_ref| of the frame-A force vector against (c), the double model of the"
 echo "    same chain fed the same 16-bit ADC codes (so (a) and (b) show arithmetic error);"
 echo "    (c0) is (c) on the unquantised input, i.e. what the 16-bit ADC itself costs."
-echo "  - target (issue): (b) under 150 instructions and under 0.1 % FS (106.8 pN)."
-echo "  - (b) runs as fw_node drives it: fw_board_step_block on blocks of $(sed -n 's/.* fw_block=\([0-9]*\).*/\1/p' <<<"$input") samples (-b)."
+echo "  - (b) runs as the card drives it (fw_card_step_block's signal chain): fw_board_step_block"
+echo "    on blocks of $(sed -n 's/.* fw_block=\([0-9]*\).*/\1/p' <<<"$input") samples (-b)."
 echo "  - instructions are x86-64 (host build flags), loop overhead included (a few per sample);"
 echo "    on a Cortex-M4 the 64-bit divisions of (b) are library calls, not one instruction."
 echo "  - (a) forms sin/cos theta only where the fallback needs them (|sin| < 1/4, series in"
 echo "    tan theta), tests the zones with squares, clamps the fallback at 131 nN; blend kept."
 echo "  - ADC filter off, inputs inside +-10 V (no virtual S_n); ${cg_note:-no callgrind run}."
 grep '^note ' "$tmp/time.txt" | sed 's/^note /  - /'
+
+# The firmware's size on the card: the Cortex-M4 build (firmware only,
+# -O3, as tools/fw_targets.sh builds it), text = code + read-only data.
+if [ "$do_size" -eq 1 ]; then
+  echo
+  if ! command -v arm-none-eabi-size >/dev/null 2>&1; then
+    echo "Cortex-M4 size: arm-none-eabi-gcc not installed (./afm setup installs it)"
+  else
+    arm="$top/build/arm"
+    echo "bench_firmware: Cortex-M4 build of the firmware (build/arm)" >&2
+    if [ ! -f "$arm/build.ninja" ]; then
+      cmake -S "$top" -B "$arm" -G Ninja -DAFM_FIRMWARE_ONLY=ON \
+            -DCMAKE_TOOLCHAIN_FILE="$top/cmake/arm-none-eabi.cmake" -DCMAKE_BUILD_TYPE=Release >"$tmp/arm.log" 2>&1 \
+        || { tail -5 "$tmp/arm.log" >&2; echo "bench_firmware: Cortex-M4 configure failed" >&2; exit 1; }
+    fi
+    cmake --build "$arm" --target afm_firmware >"$tmp/arm.log" 2>&1 \
+      || { tail -5 "$tmp/arm.log" >&2; echo "bench_firmware: Cortex-M4 build failed" >&2; exit 1; }
+    echo "Cortex-M4 flash per module (arm-none-eabi-gcc -mcpu=cortex-m4 -O3; text = code + read-only data):"
+    arm-none-eabi-size "$arm/firmware/libafm_firmware.a" | awk '
+      NR > 1 { n = $6; sub(/\.c\.obj$/, "", n); printf "  %-14s %7d B text  %5d B data  %5d B bss\n", n, $1, $2, $3; t += $1; d += $2; b += $3 }
+      END { printf "  %-14s %7d B text  %5d B data  %5d B bss\n", "total", t, d, b }'
+  fi
+fi

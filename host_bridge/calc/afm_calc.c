@@ -4,8 +4,8 @@
  * own fixed-point solvers (firmware/), so what it prints is what the board
  * computes.
  *
- *   afm_calc calib tilted --up R --down R --angle-deg PHI --kn N/m --Kn nm/V [--json]
- *   afm_calc calib lines --depths-nm a,b,.. --offsets-nm a,b,.. --Kn nm/V [--json]
+ *   afm_calc calib tilted --up R --down R --angle-deg PHI --spring-N-per-m K --deflection-nm-per-V K [--json]
+ *   afm_calc calib lines --depths-nm a,b,.. --offsets-nm a,b,.. --deflection-nm-per-V K [--json]
  *   afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]
  *   afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]
  *
@@ -165,35 +165,35 @@ static int cmd_calib_tilted(int argc, char **argv)
     const char *cmd = "calib tilted";
     opt_t o[] = {
         { "--up", NULL, 0, 1 }, { "--down", NULL, 0, 1 }, { "--angle-deg", NULL, 0, 1 },
-        { "--kn", NULL, 0, 1 }, { "--Kn", NULL, 0, 1 }, { "--json", NULL, 1, 0 },
+        { "--spring-N-per-m", NULL, 0, 1 }, { "--deflection-nm-per-V", NULL, 0, 1 }, { "--json", NULL, 1, 0 },
     };
     double ru;
     double rd;
     double phi;
-    double kn;
-    double kn_big;
-    double knkn_pn;
+    double spring_n_per_m;
+    double deflection_nm_per_v;
+    double normal_gain_pn_per_v;
     fw_calib_tilted_t t;
     fw_status_t st;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc calib tilted --up R_U --down R_D --angle-deg PHI --kn N_PER_M --Kn NM_PER_V [--json]\n"
+        printf("usage: afm_calc calib tilted --up R_U --down R_D --angle-deg PHI --spring-N-per-m N_PER_M --deflection-nm-per-V NM_PER_V [--json]\n"
                "  Lateral calibration on a tilted surface (physics.md section 2): from the\n"
                "  friction-loop slopes dS_l/dS_n uphill (R_U) and downhill (R_D, may be < 0)\n"
                "  on a surface of slope PHI degrees, gives mu and k_theta K_l / h (nN/V).\n"
                "  Refuses |R_U/R_D| <= 1 (+2^-10), PHI < 0.1 or >= 90 deg, R_U <= 0.\n"
-               "  Paper: --up 0.07 --down 0.02 --angle-deg 9 --kn 0.12 --Kn 89 -> mu 0.0865, 37.9 nN/V\n");
+               "  Paper: --up 0.07 --down 0.02 --angle-deg 9 --spring-N-per-m 0.12 --deflection-nm-per-V 89 -> mu 0.0865, 37.9 nN/V\n");
         return 0;
     }
     parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
     ru = num_opt_range(cmd, &o[0], -127.0, 127.0, "slopes must lie in (-127, 127)");
     rd = num_opt_range(cmd, &o[1], -127.0, 127.0, "slopes must lie in (-127, 127)");
     phi = num_opt_range(cmd, &o[2], -360.0, 360.0, "degrees");
-    kn = num_opt_range(cmd, &o[3], 1e-6, 1e4, "k_n must lie in [1e-6, 1e4] N/m");
-    kn_big = num_opt_range(cmd, &o[4], 1e-3, 1e6, "K_n must lie in [1e-3, 1e6] nm/V");
-    knkn_pn = kn * kn_big * 1000.0;   /* N/m * nm/V = nN/V */
-    if (knkn_pn < 1.0 || knkn_pn > 2147483647.0) {
-        die("%s: --kn %s --Kn %s: k_n K_n = %g nN/V does not fit int32 pN/V", cmd, o[3].value, o[4].value,
-            knkn_pn / 1000.0);
+    spring_n_per_m = num_opt_range(cmd, &o[3], 1e-6, 1e4, "k_n must lie in [1e-6, 1e4] N/m");
+    deflection_nm_per_v = num_opt_range(cmd, &o[4], 1e-3, 1e6, "K_n must lie in [1e-3, 1e6] nm/V");
+    normal_gain_pn_per_v = spring_n_per_m * deflection_nm_per_v * 1000.0;   /* N/m * nm/V = nN/V */
+    if (normal_gain_pn_per_v < 1.0 || normal_gain_pn_per_v > 2147483647.0) {
+        die("%s: --spring-N-per-m %s --deflection-nm-per-V %s: k_n K_n = %g nN/V does not fit int32 pN/V", cmd, o[3].value, o[4].value,
+            normal_gain_pn_per_v / 1000.0);
     }
     if (ru <= 0.0) {
         die("%s: --up %s: the uphill slope must be > 0", cmd, o[0].value);
@@ -203,7 +203,7 @@ static int cmd_calib_tilted(int argc, char **argv)
             cmd, o[2].value);
     }
     st = fw_calib_tilted_solve(fwu_q24(ru), fwu_q24(rd), fw_math_bam_from_mdeg(fwu_mdeg_from_deg(phi)),
-                               fwu_i32(knkn_pn), &t);
+                               fwu_i32(normal_gain_pn_per_v), &t);
     if (st != FW_OK) {
         if (fabs(ru) <= fabs(rd) * (1.0 + 1.0 / 1024.0)) {
             die("%s: --up %s --down %s: |rho| = |r_u/r_d| = %.5f must exceed 1 + 2^-10 "
@@ -220,12 +220,12 @@ static int cmd_calib_tilted(int argc, char **argv)
         if (o[5].value != NULL) {
             printf("{\"command\": \"calib tilted\", \"status\": \"ok\", \"mu\": %.6f, \"mu_ppm\": %ld, "
                    "\"lateral_nN_per_V\": %.3f, \"lateral_pN_per_V\": %ld, \"slope_angle_deg\": %.4f, "
-                   "\"friction_angle_deg\": %.4f, \"kn_Kn_nN_per_V\": %.4f}\n",
-                   mu, (long)t.mu_ppm, lat, (long)t.lateral_gain_pn_per_v, phi, beta, knkn_pn / 1000.0);
+                   "\"friction_angle_deg\": %.4f, \"normal_gain_nN_per_V\": %.4f}\n",
+                   mu, (long)t.mu_ppm, lat, (long)t.lateral_gain_pn_per_v, phi, beta, normal_gain_pn_per_v / 1000.0);
         } else {
             printf("tilted-surface calibration (firmware fw_calib_tilted_solve)\n");
             printf("  slope angle phi        %.4f deg\n", phi);
-            printf("  k_n K_n                %.4f nN/V\n", knkn_pn / 1000.0);
+            printf("  k_n K_n                %.4f nN/V\n", normal_gain_pn_per_v / 1000.0);
             printf("  mu                     %.6f\n", mu);
             printf("  friction angle beta    %.4f deg\n", beta);
             printf("  k_theta K_l / h        %.3f nN/V\n", lat);
@@ -241,7 +241,7 @@ static int cmd_calib_lines(int argc, char **argv)
 {
     const char *cmd = "calib lines";
     opt_t o[] = {
-        { "--depths-nm", NULL, 0, 1 }, { "--offsets-nm", NULL, 0, 1 }, { "--Kn", NULL, 0, 1 },
+        { "--depths-nm", NULL, 0, 1 }, { "--offsets-nm", NULL, 0, 1 }, { "--deflection-nm-per-V", NULL, 0, 1 },
         { "--json", NULL, 1, 0 },
     };
     double dz[LIST_MAX];
@@ -251,23 +251,23 @@ static int cmd_calib_lines(int argc, char **argv)
     int n;
     int m;
     int i;
-    double kn_big;
-    int32_t cn;
+    double deflection_nm_per_v;
+    int32_t disp_n_pm_per_v;
     int32_t res;
     fw_status_t st;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc calib lines --depths-nm D1,D2,.. --offsets-nm O1,O2,.. --Kn NM_PER_V [--json]\n"
+        printf("usage: afm_calc calib lines --depths-nm D1,D2,.. --offsets-nm O1,O2,.. --deflection-nm-per-V NM_PER_V [--json]\n"
                "  C_n from lines inscribed at several push depths (physics.md section 3):\n"
                "  S_n' = depth / K_n, least-squares fit offset = C_n S_n' + b; prints C_n (nm/V)\n"
                "  and the RMS residual (nm). 2..%d points, |values| <= 16777 nm.\n"
-               "  Paper: --depths-nm 500,1000,1500,2000 --offsets-nm 0,130,260,390 --Kn 89 -> 23.1 nm/V\n",
+               "  Paper: --depths-nm 500,1000,1500,2000 --offsets-nm 0,130,260,390 --deflection-nm-per-V 89 -> 23.1 nm/V\n",
                LIST_MAX);
         return 0;
     }
     parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
     n = list_opt(cmd, &o[0], dz, LIST_MAX);
     m = list_opt(cmd, &o[1], dd, LIST_MAX);
-    kn_big = num_opt_range(cmd, &o[2], 1e-3, 2e6, "K_n must lie in [1e-3, 2e6] nm/V");
+    deflection_nm_per_v = num_opt_range(cmd, &o[2], 1e-3, 2e6, "K_n must lie in [1e-3, 2e6] nm/V");
     if (n != m) {
         die("%s: --depths-nm %s --offsets-nm %s: %d depths but %d offsets", cmd, o[0].value, o[1].value, n, m);
     }
@@ -284,18 +284,18 @@ static int cmd_calib_lines(int argc, char **argv)
         dzp[i] = fwu_pm_from_nm(dz[i]);
         ddp[i] = fwu_pm_from_nm(dd[i]);
     }
-    st = fw_calib_lines_cn(dzp, ddp, n, fwu_pm_per_v_from_nm_per_v(kn_big), &cn, &res);
+    st = fw_calib_lines_cn(dzp, ddp, n, fwu_pm_per_v_from_nm_per_v(deflection_nm_per_v), &disp_n_pm_per_v, &res);
     if (st != FW_OK) {
         die("%s: --depths-nm %s: the depths must not all be equal and |offset/depth| must stay below 128 (%s)",
             cmd, o[0].value, status_name(st));
     }
     if (o[3].value != NULL) {
         printf("{\"command\": \"calib lines\", \"status\": \"ok\", \"cn_nm_per_V\": %.3f, \"residual_nm\": %.3f, "
-               "\"lines\": %d}\n", cn / 1000.0, res / 1000.0, n);
+               "\"lines\": %d}\n", disp_n_pm_per_v / 1000.0, res / 1000.0, n);
     } else {
         printf("C_n from inscribed lines (firmware fw_calib_lines_cn)\n");
         printf("  lines                  %d\n", n);
-        printf("  C_n                    %.3f nm/V\n", cn / 1000.0);
+        printf("  C_n                    %.3f nm/V\n", disp_n_pm_per_v / 1000.0);
         printf("  RMS residual           %.3f nm\n", res / 1000.0);
         printf("  status                 ok\n");
     }
@@ -379,9 +379,9 @@ static int cmd_model_wire(int argc, char **argv)
 /* ---- calc force --------------------------------------------------------- */
 
 typedef struct {
-    double kn_n_per_m;
-    double kn_nm_per_v;
-    double lat_nn_per_v;
+    double spring_n_per_m;
+    double deflection_nm_per_v;
+    double lateral_nn_per_v;
     double h_um;
     double l_um;
     double mu;
@@ -391,9 +391,9 @@ typedef struct {
 static void probe_default(probe_t *p)
 {
     /* the paper's probe (fw_paper_probe.h), in the calculator's units */
-    p->kn_n_per_m = FW_PAPER_KN_MN_PER_M * 1e-3;
-    p->kn_nm_per_v = FW_PAPER_DEFLECTION_PM_PER_V * 1e-3;
-    p->lat_nn_per_v = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;
+    p->spring_n_per_m = FW_PAPER_KN_MN_PER_M * 1e-3;
+    p->deflection_nm_per_v = FW_PAPER_DEFLECTION_PM_PER_V * 1e-3;
+    p->lateral_nn_per_v = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;
     p->h_um = FW_PAPER_TIP_HEIGHT_NM * 1e-3;
     p->l_um = FW_PAPER_LEVER_LENGTH_NM * 1e-3;
     p->mu = FW_PAPER_MU_PPM * 1e-6;
@@ -447,11 +447,11 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
             die("%s: --probe %s: line %d: value of %s is not a number", cmd, path, lineno, key);
         }
         if (strcmp(key, "kn_N_per_m") == 0) {
-            p->kn_n_per_m = v;
+            p->spring_n_per_m = v;
         } else if (strcmp(key, "Kn_nm_per_V") == 0) {
-            p->kn_nm_per_v = v;
+            p->deflection_nm_per_v = v;
         } else if (strcmp(key, "lateral_nN_per_V") == 0) {
-            p->lat_nn_per_v = v;
+            p->lateral_nn_per_v = v;
         } else if (strcmp(key, "tip_height_um") == 0) {
             p->h_um = v;
         } else if (strcmp(key, "lever_length_um") == 0) {
@@ -512,8 +512,8 @@ static int cmd_calc_force(int argc, char **argv)
     if (o[4].value != NULL) {
         probe_read(cmd, o[4].value, &p);
     }
-    st = fw_force_init(&f, fwu_pn_per_v_from_nn_per_v(p.kn_n_per_m * p.kn_nm_per_v),
-                       fwu_pn_per_v_from_nn_per_v(p.lat_nn_per_v), fwu_nm_from_um(p.h_um), fwu_nm_from_um(p.l_um),
+    st = fw_force_init(&f, fwu_pn_per_v_from_nn_per_v(p.spring_n_per_m * p.deflection_nm_per_v),
+                       fwu_pn_per_v_from_nn_per_v(p.lateral_nn_per_v), fwu_nm_from_um(p.h_um), fwu_nm_from_um(p.l_um),
                        fwu_ppm(p.mu), fwu_pn_from_nn(p.adh_nn));
     if (st != FW_OK) {
         die("%s: --probe %s: probe rejected by fw_force_init (%s): gains > 0, 0 < h < l, 0 <= mu <= 1, "

@@ -61,12 +61,12 @@ function(expect_fail needle)
   message(STATUS "ok: refused (${err})")
 endfunction()
 
-run_json(j calib tilted --up 0.07 --down 0.02 --angle-deg 9 --kn 0.12 --Kn 89)
+run_json(j calib tilted --up 0.07 --down 0.02 --angle-deg 9 --spring-N-per-m 0.12 --deflection-nm-per-V 89)
 expect_near("${j}" mu 0.0865 0.0005)
 expect_near("${j}" lateral_nN_per_V 37.9 0.05)
 expect_near("${j}" slope_angle_deg 9.0 0.0001)
 
-run_json(j calib lines --depths-nm 500,1000,1500,2000 --offsets-nm 0,130,260,390 --Kn 89)
+run_json(j calib lines --depths-nm 500,1000,1500,2000 --offsets-nm 0,130,260,390 --deflection-nm-per-V 89)
 expect_near("${j}" cn_nm_per_V 23.14 0.01)
 expect_near("${j}" residual_nm 0.0 0.001)
 
@@ -93,8 +93,8 @@ run_json(j calc force --sn 1.2 --sl 0.3 --theta-deg 45 --scan-angle-deg 0 --prob
 expect_near("${j}" fx_nN -11.37 0.002)
 expect_near("${j}" fy_nN 11.37 0.002)
 
-expect_fail("--up" calib tilted --up 0.02 --down 0.07 --angle-deg 9 --kn 0.12 --Kn 89)
-expect_fail("--angle-deg" calib tilted --up 0.07 --down 0.02 --angle-deg 0 --kn 0.12 --Kn 89)
+expect_fail("--up" calib tilted --up 0.02 --down 0.07 --angle-deg 9 --spring-N-per-m 0.12 --deflection-nm-per-V 89)
+expect_fail("--angle-deg" calib tilted --up 0.07 --down 0.02 --angle-deg 0 --spring-N-per-m 0.12 --deflection-nm-per-V 89)
 expect_fail("--push-at-nm" model wire --length-nm 1300 --diameter-nm 100 --push-at-nm 1301)
 expect_fail("--sn" calc force --sn abc --sl 0.3 --theta-deg 45 --scan-angle-deg 270)
-expect_fail("--Kn" calib lines --depths-nm 500,1000 --offsets-nm 0,130)
+expect_fail("--deflection-nm-per-V" calib lines --depths-nm 500,1000 --offsets-nm 0,130)

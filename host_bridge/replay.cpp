@@ -1,0 +1,553 @@
+// afm_replay: replays a recorded run through the card as built now and
+// compares its answers with the recording (./afm replay RUN_DIR).
+//
+// The card is a pure function of its inputs (fw_card.h). Replay reads the
+// run's bus.lcmlog and feeds what the card consumed, AFM_ANALOG,
+// HAPTIC_POSE and HOST_OBJECT_FIX, in the order they were recorded, to a
+// CardNode (the adapter fw_node runs, card_node.hpp): no simulator, no
+// bus. Every output, AFM_CMD, HAPTIC_FORCE, FW_FORCE, FW_TIP and
+// FW_OBJECTS, is compared with the recorded one of the same block (and
+// fix): identical bit for bit, or the first divergence is named (block,
+// channel, field, recorded and new value) with a count and the worst
+// difference per channel. Replay is open loop: the recorded signals are fed
+// as recorded, so past a divergence the outputs show what the new firmware
+// computes from the old run's signals, not what a new run would do.
+#include <lcm/eventlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string_view>
+#include <unordered_map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "afm_channels.h"
+#include "card_node.hpp"
+#include "lcmlog.hpp"
+#include "scene.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const char *kUsage =
+    "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--quiet]\n"
+    "  Feeds the card inputs recorded in RUN_DIR/bus.lcmlog (AFM_ANALOG, HAPTIC_POSE,\n"
+    "  HOST_OBJECT_FIX) into the firmware card as built now and compares every output\n"
+    "  (AFM_CMD, HAPTIC_FORCE, FW_FORCE, FW_TIP, FW_OBJECTS) with the recording.\n"
+    "  RUN_DIR may also be the log file itself. The scene is RUN_DIR/scene.yaml (the\n"
+    "  copy the run kept), or --scene FILE.\n"
+    "  --write NEW_LOG  write the recorded inputs and the new outputs as an LCM log\n"
+    "                   (lcm-logplayer, ./afm spy NEW_LOG)\n"
+    "  --quiet          only the verdict line\n"
+    "exit: 0 identical, bit for bit; 1 the outputs differ (the first divergence is named);\n"
+    "      2 a bad argument, or a log that is missing, truncated or corrupt (file and byte offset)\n";
+
+// The outputs in the order a block publishes them.
+const std::vector<std::string> kOutputs = {AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_FORCE, AFM_CH_FW_TIP,
+                                           AFM_CH_FW_OBJECTS};
+
+int output_rank(const std::string &ch)
+{
+    for (std::size_t i = 0; i < kOutputs.size(); ++i)
+        if (kOutputs[i] == ch) return static_cast<int>(i);
+    return -1;
+}
+
+// One field of a message, flattened: its name, its value, and whether it is
+// a force (compared in pN) or a position (in nm).
+enum class Unit { kOther, kForce_pN, kPosition_nm };
+struct Field {
+    std::string name;
+    double value;
+    Unit unit;
+};
+
+class Flat {
+public:
+    std::vector<Field> f;
+    void add(const std::string &n, double v, Unit u = Unit::kOther) { f.push_back({n, v, u}); }
+    void force_nN(const std::string &n, double v) { add(n, v * 1e3, Unit::kForce_pN); }
+    void pos_nm(const std::string &n, double v) { add(n, v, Unit::kPosition_nm); }
+};
+
+struct DecodeError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+template <class M>
+M decode(const std::vector<uint8_t> &d, const char *type)
+{
+    M m;
+    if (m.decode(d.data(), 0, static_cast<int>(d.size())) < 0) throw DecodeError(std::string("does not decode as ") + type);
+    return m;
+}
+
+// Key of an output: (block, rank of its channel, fix id).
+using Key = std::tuple<int64_t, int, int32_t>;
+
+Key output_key(const std::string &ch, const std::vector<uint8_t> &d)
+{
+    const int r = output_rank(ch);
+    if (ch == AFM_CH_AFM_CMD) return {decode<afm::tip_cmd_t>(d, "tip_cmd_t").ack_seq, r, 0};
+    if (ch == AFM_CH_HAPTIC_FORCE) return {decode<afm::haptic_force_t>(d, "haptic_force_t").seq, r, 0};
+    if (ch == AFM_CH_FW_FORCE) return {decode<afm::fw_force_t>(d, "fw_force_t").seq, r, 0};
+    if (ch == AFM_CH_FW_TIP) return {decode<afm::fw_tip_t>(d, "fw_tip_t").seq, r, 0};
+    const auto o = decode<afm::objects_t>(d, "objects_t");
+    return {o.seq, r, o.fix_id};
+}
+
+Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
+{
+    Flat x;
+    const char *xyz[3] = {"[0]", "[1]", "[2]"};
+    if (ch == AFM_CH_AFM_CMD) {
+        const auto m = decode<afm::tip_cmd_t>(d, "tip_cmd_t");
+        x.add("utime", m.utime);
+        x.add("ack_seq", m.ack_seq);
+        x.pos_nm("piezo_x_nm", m.piezo_x_nm);
+        x.pos_nm("piezo_y_nm", m.piezo_y_nm);
+        x.force_nN("load_nN", m.load_nN);
+        x.add("engaged", m.engaged);
+    } else if (ch == AFM_CH_HAPTIC_FORCE) {
+        const auto m = decode<afm::haptic_force_t>(d, "haptic_force_t");
+        x.add("utime", m.utime);
+        x.add("seq", m.seq);
+        for (int k = 0; k < 3; ++k) x.add(std::string("force_N") + xyz[k], m.force_N[k]);
+        for (int k = 0; k < 3; ++k) x.force_nN(std::string("tip_force_nN") + xyz[k], m.tip_force_nN[k]);
+        x.add("flags", m.flags);
+    } else if (ch == AFM_CH_FW_FORCE) {
+        const auto m = decode<afm::fw_force_t>(d, "fw_force_t");
+        x.add("utime", m.utime);
+        x.add("seq", m.seq);
+        for (int k = 0; k < 3; ++k) x.force_nN(std::string("force_nN") + xyz[k], m.force_nN[k]);
+        x.add("flags", m.flags);
+        x.add("sn_code", m.sn_code);
+        x.add("sl_code", m.sl_code);
+        x.add("sat_count", static_cast<double>(m.sat_count));
+    } else if (ch == AFM_CH_FW_TIP) {
+        const auto m = decode<afm::fw_tip_t>(d, "fw_tip_t");
+        x.add("utime", m.utime);
+        x.add("seq", m.seq);
+        for (int k = 0; k < 3; ++k) x.pos_nm(std::string("tip_nm") + xyz[k], m.tip_nm[k]);
+        for (int k = 0; k < 3; ++k) x.pos_nm(std::string("piezo_nm") + xyz[k], m.piezo_nm[k]);
+        for (int k = 0; k < 2; ++k) x.pos_nm(std::string("cmd_nm") + xyz[k], m.cmd_nm[k]);
+    } else {
+        const auto m = decode<afm::objects_t>(d, "objects_t");
+        x.add("utime", m.utime);
+        x.add("seq", m.seq);
+        x.add("n_particles", m.n_particles);
+        for (std::size_t i = 0; i < m.particles.size(); ++i) {
+            const auto &p = m.particles[i];
+            const std::string n = "particles[" + std::to_string(i) + "].";
+            x.add(n + "id", p.id);
+            x.pos_nm(n + "x_nm", p.x_nm);
+            x.pos_nm(n + "y_nm", p.y_nm);
+            x.pos_nm(n + "radius_nm", p.radius_nm);
+            x.add(n + "in_contact", p.in_contact);
+        }
+        x.add("n_wires", m.n_wires);
+        for (std::size_t i = 0; i < m.wires.size(); ++i) {
+            const auto &w = m.wires[i];
+            const std::string n = "wires[" + std::to_string(i) + "].";
+            x.add(n + "id", w.id);
+            x.pos_nm(n + "diameter_nm", w.diameter_nm);
+            x.add(n + "n", w.n);
+            for (std::size_t j = 0; j < w.x_nm.size(); ++j) {
+                x.pos_nm(n + "x_nm[" + std::to_string(j) + "]", w.x_nm[j]);
+                x.pos_nm(n + "y_nm[" + std::to_string(j) + "]", w.y_nm[j]);
+            }
+            x.add(n + "in_contact", w.in_contact);
+        }
+        x.add("n_trenches", m.n_trenches);
+        for (std::size_t i = 0; i < m.trenches.size(); ++i) {
+            const auto &t = m.trenches[i];
+            const std::string n = "trenches[" + std::to_string(i) + "].";
+            x.add(n + "n", t.n);
+            for (std::size_t j = 0; j < t.x_nm.size(); ++j) {
+                const std::string nj = "[" + std::to_string(j) + "]";
+                x.pos_nm(n + "x_nm" + nj, t.x_nm[j]);
+                x.pos_nm(n + "y_nm" + nj, t.y_nm[j]);
+                x.pos_nm(n + "depth_nm" + nj, t.depth_nm[j]);
+                x.pos_nm(n + "width_nm" + nj, t.width_nm[j]);
+            }
+        }
+        for (int k = 0; k < 2; ++k) x.pos_nm(std::string("drift_nm") + xyz[k], m.drift_nm[k]);
+        x.add("fix_id", m.fix_id);
+    }
+    return x;
+}
+
+struct ChannelStats {
+    int64_t compared = 0;
+    int64_t differing = 0;
+    int64_t missing_new = 0;       // recorded, not produced by the replay
+    int64_t missing_recorded = 0;  // produced by the replay, not in the recording
+    double worst_pN = 0;
+    double worst_nm = 0;
+};
+
+struct Divergence {
+    bool found = false;
+    Key key;
+    std::string text;
+};
+
+std::string fmt(double v)
+{
+    std::ostringstream o;
+    o.precision(10);
+    o << v;
+    return o.str();
+}
+
+// Compares one recorded output with the replay's; fills the per-channel
+// figures, and the divergence's text if it is the first.
+bool compare(const std::string &ch, const std::vector<uint8_t> &rec, const std::vector<uint8_t> &now, ChannelStats *st,
+             std::string *first)
+{
+    ++st->compared;
+    if (rec == now) return true;
+    ++st->differing;
+    const Flat a = flatten(ch, rec), b = flatten(ch, now);
+    bool named = false;
+    for (std::size_t i = 0; i < std::min(a.f.size(), b.f.size()); ++i) {
+        const Field &x = a.f[i], &y = b.f[i];
+        if (x.name != y.name) {   // a count differs: the layouts part here
+            if (!named) *first = "field " + x.name + " (recorded) against " + y.name + " (replayed): the number of objects differs";
+            return false;
+        }
+        if (x.value == y.value) continue;
+        const double d = std::fabs(x.value - y.value);
+        if (x.unit == Unit::kForce_pN) st->worst_pN = std::max(st->worst_pN, d);
+        if (x.unit == Unit::kPosition_nm) st->worst_nm = std::max(st->worst_nm, d);
+        if (!named) {
+            const char *u = x.unit == Unit::kForce_pN ? " pN" : x.unit == Unit::kPosition_nm ? " nm" : "";
+            *first = "field " + x.name + ": recorded " + fmt(x.value) + u + ", replayed " + fmt(y.value) + u;
+            named = true;
+        }
+    }
+    if (!named) *first = "the messages differ in length (" + std::to_string(rec.size()) + " against " + std::to_string(now.size()) + " bytes)";
+    return false;
+}
+
+struct Options {
+    std::string log, scene, write;
+    bool quiet = false;
+    double run_wall_s = 0;
+    bool log_complete = true;
+};
+
+
+// RUN_DIR (or its log) -> the log, the scene, and what run.json says.
+bool locate(const std::string &arg, Options *o, std::string *err)
+{
+    fs::path dir = arg;
+    if (fs::is_regular_file(arg)) {
+        o->log = arg;
+        dir = fs::path(arg).parent_path();
+    } else if (fs::is_directory(arg)) {
+        o->log = (dir / "bus.lcmlog").string();
+        if (!fs::exists(o->log)) {
+            *err = arg + ": no bus.lcmlog in this folder (is it a run folder?)";
+            return false;
+        }
+    } else {
+        *err = arg + ": no such run folder or log file";
+        return false;
+    }
+    std::ifstream rj(dir / "run.json");
+    if (rj) {
+        const auto j = nlohmann::json::parse(rj, nullptr, false);
+        if (!j.is_discarded()) {
+            o->run_wall_s = j.value("wall_seconds", 0.0);
+            if (j.contains("log") && j["log"].is_object()) o->log_complete = j["log"].value("complete", true);
+            if (o->scene.empty() && !fs::exists(dir / "scene.yaml") && j.contains("scene") && j["scene"].is_string())
+                o->scene = j["scene"].get<std::string>();
+        }
+    }
+    if (o->scene.empty()) o->scene = (dir / "scene.yaml").string();
+    if (!fs::exists(o->scene)) {
+        *err = o->scene + ": the run's scene is not there (give it with --scene FILE)";
+        return false;
+    }
+    return true;
+}
+
+struct EventLogWriter {
+    lcm_eventlog_t *log = nullptr;
+    int64_t n = 0;
+    explicit EventLogWriter(const std::string &path)
+    {
+        if (!path.empty()) {
+            log = lcm_eventlog_create(path.c_str(), "w");
+            if (!log) throw std::runtime_error(path + ": cannot create the log");
+        }
+    }
+    ~EventLogWriter()
+    {
+        if (log) lcm_eventlog_destroy(log);
+    }
+    void write(int64_t utime, const std::string &ch, const std::vector<uint8_t> &d)
+    {
+        if (!log) return;
+        lcm_eventlog_event_t ev{};
+        ev.eventnum = n++;
+        ev.timestamp = utime;
+        ev.channellen = static_cast<int32_t>(ch.size());
+        ev.datalen = static_cast<int32_t>(d.size());
+        ev.channel = const_cast<char *>(ch.c_str());
+        ev.data = const_cast<uint8_t *>(d.data());
+        if (lcm_eventlog_write_event(log, &ev) != 0) throw std::runtime_error("cannot write the new log");
+    }
+};
+
+// The recorded and the replayed outputs, keyed by (block, channel, fix).
+struct Outputs {
+    std::map<Key, std::vector<uint8_t>> recorded, replayed;
+    std::vector<std::string> notes;     // what the card said about fixes
+    int64_t events = 0, inputs = 0;
+    int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
+    std::string self_first;
+};
+
+// Hashes an output on its length and at most 64 bytes at either end: equal
+// hashes are then compared whole.
+struct EndsHash {
+    std::size_t operator()(std::string_view v) const
+    {
+        const std::size_t n = std::min<std::size_t>(v.size(), 64);
+        return std::hash<std::string_view>()(v.substr(0, n)) ^ (std::hash<std::string_view>()(v.substr(v.size() - n)) * 31u) ^
+               v.size();
+    }
+};
+
+std::string_view bytes_of(const std::vector<uint8_t> &d) { return {reinterpret_cast<const char *>(d.data()), d.size()}; }
+
+// Reads the log, feeds the card's inputs to a CardNode as fw_node would,
+// keeps both sides' outputs. Throws LogError (file, offset) or SceneError.
+Outputs run_replay(const Options &o)
+{
+    Outputs r;
+    // the replay's outputs by content, so that a recorded output equal to
+    // one of them needs no decoding to find its key
+    std::unordered_multimap<std::string_view, Key, EndsHash> by_content;
+    struct Raw {
+        std::string channel;
+        std::vector<uint8_t> data;
+        uint64_t offset;
+    };
+    std::vector<Raw> recorded_raw;
+    const afm::Scene scene = afm::load_scene(o.scene);
+    afm::CardNode node(scene);
+    EventLogWriter out(o.write);
+    afm::LogReader log(o.log);
+    log.only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_FORCE,
+              AFM_CH_FW_TIP, AFM_CH_FW_OBJECTS});
+    auto take = [&](const afm::Outbox &box, int64_t utime) {
+        for (const auto &m : box) {
+            const Key k{m.seq, output_rank(m.channel), m.fix_id};
+            auto [it, fresh] = r.replayed.try_emplace(k, m.data);
+            if (fresh) by_content.emplace(bytes_of(it->second), k);
+            out.write(utime, m.channel, m.data);
+        }
+    };
+    auto located = [&](const DecodeError &e, uint64_t offset, const std::string &ch) {
+        return afm::LogError(o.log + ": byte offset " + std::to_string(offset) + ": " + ch + " message " + e.what());
+    };
+    afm::LogEvent ev;
+    while (log.read(&ev)) {
+        try {
+            if (ev.channel == AFM_CH_AFM_ANALOG) {
+                out.write(ev.utime, ev.channel, ev.data);
+                take(node.on_analog(decode<afm::analog_block_t>(ev.data, "analog_block_t")), ev.utime);
+                ++r.inputs;
+            } else if (ev.channel == AFM_CH_HAPTIC_POSE) {
+                out.write(ev.utime, ev.channel, ev.data);
+                take(node.on_pose(decode<afm::haptic_pose_t>(ev.data, "haptic_pose_t")), ev.utime);
+                ++r.inputs;
+            } else if (ev.channel == AFM_CH_HOST_OBJECT_FIX) {
+                std::string note;
+                out.write(ev.utime, ev.channel, ev.data);
+                take(node.on_fix(decode<afm::object_fix_t>(ev.data, "object_fix_t"), &note), ev.utime);
+                if (!note.empty()) r.notes.push_back(note);
+                ++r.inputs;
+            } else {
+                recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
+            }
+        } catch (const DecodeError &e) {
+            throw located(e, ev.offset, ev.channel);
+        }
+    }
+    r.events = log.events();
+    // The recorded outputs' keys: by content where the replay gave the same
+    // bytes on that channel, else from the message itself.
+    for (auto &raw : recorded_raw) {
+        Key k{};
+        bool known = false;
+        for (auto [it, end] = by_content.equal_range(bytes_of(raw.data)); it != end && !known; ++it)
+            if (std::get<1>(it->second) == output_rank(raw.channel)) {
+                k = it->second;
+                known = true;
+            }
+        try {
+            if (!known) k = output_key(raw.channel, raw.data);
+        } catch (const DecodeError &e) {
+            throw located(e, raw.offset, raw.channel);
+        }
+        auto [it, fresh] = r.recorded.try_emplace(k, std::move(raw.data));
+        if (!fresh && it->second != raw.data && r.self_inconsistent++ == 0)
+            r.self_first = raw.channel + " block " + std::to_string(std::get<0>(k));
+    }
+    return r;
+}
+
+// Every key on either side, in block order: the per-channel figures and
+// the first divergence.
+struct Verdict {
+    std::map<std::string, ChannelStats> stats;
+    Divergence first;
+    int64_t blocks = 0;
+    int64_t messages = 0;
+};
+
+Verdict compare_all(const Outputs &r)
+{
+    Verdict v;
+    std::set<Key> keys;
+    for (const auto &kv : r.recorded) keys.insert(kv.first);
+    for (const auto &kv : r.replayed) keys.insert(kv.first);
+    for (const Key &k : keys) {
+        const std::string &ch = kOutputs[static_cast<std::size_t>(std::get<1>(k))];
+        ChannelStats &st = v.stats[ch];
+        const auto rec = r.recorded.find(k), now = r.replayed.find(k);
+        if (ch == AFM_CH_FW_FORCE && now != r.replayed.end()) ++v.blocks;
+        ++v.messages;
+        std::string what;
+        bool same = true;
+        if (rec == r.recorded.end()) {
+            ++st.missing_recorded;
+            same = false;
+            what = "the replay answers it, the recording has no such message";
+        } else if (now == r.replayed.end()) {
+            ++st.missing_new;
+            same = false;
+            what = "the recording has it, the replay gave no answer";
+        } else {
+            same = compare(ch, rec->second, now->second, &st, &what);
+        }
+        if (!same && !v.first.found) {
+            v.first.found = true;
+            v.first.key = k;
+            v.first.text = what;
+        }
+    }
+    return v;
+}
+
+void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
+{
+    if (o.quiet) return;
+    std::printf("replay: %s: %lld events, %lld card inputs, %lld blocks through the card as built now in %.3f s", o.log.c_str(),
+                static_cast<long long>(r.events), static_cast<long long>(r.inputs), static_cast<long long>(v.blocks), secs);
+    if (o.run_wall_s > 0) std::printf(" (the run took %.2f s: %.0fx faster)", o.run_wall_s, o.run_wall_s / secs);
+    std::printf("\n");
+    if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (lcm-logger was starved)\n");
+    for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
+    if (r.self_inconsistent)
+        std::printf("replay: warning: the recording holds %lld repeated outputs that differ from their first copy (first: %s)\n",
+                    static_cast<long long>(r.self_inconsistent), r.self_first.c_str());
+    if (!o.write.empty()) std::printf("replay: wrote the recorded inputs and the new outputs to %s\n", o.write.c_str());
+}
+
+int verdict_line(const Options &o, const Verdict &v)
+{
+    if (!v.first.found) {
+        std::printf("replay: identical: every output of the card as built now equals the recording, bit for bit "
+                    "(%lld messages on AFM_CMD, HAPTIC_FORCE, FW_FORCE, FW_TIP, FW_OBJECTS)\n",
+                    static_cast<long long>(v.messages));
+        return 0;
+    }
+    const std::string ch = kOutputs[static_cast<std::size_t>(std::get<1>(v.first.key))];
+    const int32_t fix = std::get<2>(v.first.key);
+    std::printf("replay: DIVERGES: first at block %lld, channel %s%s: %s\n", static_cast<long long>(std::get<0>(v.first.key)),
+                ch.c_str(), fix ? (" (fix " + std::to_string(fix) + ")").c_str() : "", v.first.text.c_str());
+    if (!o.quiet) {
+        std::printf("replay: per channel: messages differing of those compared; missing on either side; worst difference\n");
+        for (const auto &c : kOutputs) {
+            const auto it = v.stats.find(c);
+            const ChannelStats s = it == v.stats.end() ? ChannelStats{} : it->second;
+            std::printf("  %-13s %7lld of %-7lld  missing: %lld replayed, %lld recorded   worst %.3f pN, %.3f nm\n", c.c_str(),
+                        static_cast<long long>(s.differing), static_cast<long long>(s.compared),
+                        static_cast<long long>(s.missing_new), static_cast<long long>(s.missing_recorded), s.worst_pN, s.worst_nm);
+        }
+    }
+    return 1;
+}
+
+// The command line into o; a message in *err and false when it is wrong.
+bool parse_args(int argc, char **argv, Options *o, bool *help, std::string *err)
+{
+    std::string run;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "-h" || a == "--help") {
+            *help = true;
+            return true;
+        } else if (a == "--write" || a == "--scene") {
+            if (i + 1 >= argc) return *err = a + " needs a file", false;
+            (a == "--write" ? o->write : o->scene) = argv[++i];
+        } else if (a == "--quiet") {
+            o->quiet = true;
+        } else if (!a.empty() && a[0] == '-') {
+            return *err = "unknown option '" + a + "'", false;
+        } else if (run.empty()) {
+            run = a;
+        } else {
+            return *err = "one run at a time, got '" + run + "' and '" + a + "'", false;
+        }
+    }
+    if (run.empty()) return *err = "which run?", false;
+    return locate(run, o, err);
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    Options o;
+    bool help = false;
+    std::string err;
+    if (!parse_args(argc, argv, &o, &help, &err)) {
+        std::fprintf(stderr, "afm_replay: %s\n", err.c_str());
+        if (err.find("no such") == std::string::npos && err.find("not there") == std::string::npos &&
+            err.find("no bus.lcmlog") == std::string::npos)
+            std::fputs(kUsage, stderr);
+        return 2;
+    }
+    if (help) {
+        std::fputs(kUsage, stdout);
+        return 0;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    Outputs r;
+    try {
+        r = run_replay(o);
+    } catch (const std::exception &e) {   // a scene, log or writer error: named there
+        std::fprintf(stderr, "afm_replay: %s\n", e.what());
+        return 2;
+    }
+    const Verdict v = compare_all(r);
+    report(o, r, v, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    return verdict_line(o, v);
+}

@@ -1,0 +1,190 @@
+"""Replay (issue 10): a run's recorded card inputs fed through the firmware as
+built now reproduce every recorded output bit for bit, for every scene in
+scenes/; a firmware with one constant changed (the test-only perturbed build)
+diverges, and the block it names is the first one whose outputs differ in
+the new log it writes (compared here independently, from the two logs); a
+truncated or corrupt log is refused with the file and the byte offset."""
+import glob
+import os
+import shutil
+import struct
+import subprocess
+import unittest
+
+import benchtest
+import afmlog
+
+REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
+REPLAY_PERTURBED = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay_perturbed")
+OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_FORCE", "FW_TIP", "FW_OBJECTS"]
+SYNC = 0xEDA1DA01
+
+
+def replay(exe, *args):
+    p = subprocess.run([exe, *args], capture_output=True, text=True, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def events(path):
+    """(offset, channel, data) of every event, parsed from the LCM framing here."""
+    out = []
+    with open(path, "rb") as f:
+        blob = f.read()
+    off = 0
+    while off + 28 <= len(blob):
+        sync, _, _, clen, dlen = struct.unpack(">IqqII", blob[off:off + 28])
+        assert sync == SYNC, off
+        ch = blob[off + 28:off + 28 + clen].decode()
+        out.append((off, ch, blob[off + 28 + clen:off + 28 + clen + dlen]))
+        off += 28 + clen + dlen
+    return out, blob
+
+
+def output_key(ch, data):
+    m = getattr(afmlog.afm, afmlog.CHANNELS[ch]).decode(data)
+    seq = m.ack_seq if ch == "AFM_CMD" else m.seq
+    return (seq, OUTPUTS.index(ch), m.fix_id if ch == "FW_OBJECTS" else 0)
+
+
+def outputs(path):
+    """{key: first data} of the card's outputs in a log."""
+    got = {}
+    for _, ch, data in events(path)[0]:
+        if ch in OUTPUTS:
+            got.setdefault(output_key(ch, data), data)
+    return got
+
+
+class ReplayEveryScene(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.runs = {}
+        for path in sorted(glob.glob(benchtest.scene("*.yaml"))):
+            out = benchtest.tmpdir("replay-" + os.path.basename(path)[:-5])
+            code, _, err, _ = benchtest.run(path, out)
+            cls.runs[os.path.basename(path)] = (out, code, err)
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(*[r[0] for r in cls.runs.values()])
+
+    def test_a_fresh_run_of_every_scene_replays_identical(self):
+        self.assertGreaterEqual(len(self.runs), 8)
+        for name, (out, code, err) in self.runs.items():
+            with self.subTest(scene=name):
+                self.assertEqual(code, 0, err)
+                self.assertTrue(os.path.exists(os.path.join(out, "scene.yaml")), "the run keeps its scene")
+                rc, so, se = replay(REPLAY, out)
+                self.assertEqual(rc, 0, so + se)
+                self.assertIn("replay: identical", so)
+                self.assertNotIn("DIVERGES", so)
+
+    def test_a_run_with_lost_datagrams_and_resends_replays_identical(self):
+        out = benchtest.tmpdir("replay-drops")
+        self.addCleanup(benchtest.cleanup, out)
+        code, _, err, rj = benchtest.run(benchtest.scene("short.yaml"), out, "--inject-drop", "0.1")
+        self.assertEqual(code, 0, err)
+        self.assertGreater(rj["sim"]["resends"], 0, "the injected drops caused no resend")
+        rc, so, se = replay(REPLAY, out)
+        self.assertEqual(rc, 0, so + se)
+        self.assertIn("replay: identical", so)
+        self.assertNotIn("differ from their first copy", so)
+
+    def test_one_changed_constant_diverges_at_the_first_block_that_differs(self):
+        out = self.runs["default.yaml"][0]
+        new_log = os.path.join(out, "perturbed.lcmlog")
+        rc, so, se = replay(REPLAY_PERTURBED, out, "--write", new_log)
+        self.assertEqual(rc, 1, so + se)
+        line = [l for l in so.splitlines() if "DIVERGES" in l]
+        self.assertEqual(len(line), 1, so)
+        named = int(line[0].split("first at block ")[1].split(",")[0])
+        # independently: the first (block, channel) whose outputs differ
+        recorded = outputs(os.path.join(out, "bus.lcmlog"))
+        replayed = outputs(new_log)
+        self.assertEqual(set(recorded), set(replayed))
+        differing = sorted(k for k in recorded if recorded[k] != replayed[k])
+        self.assertTrue(differing, "the perturbed firmware changed nothing")
+        self.assertEqual(named, differing[0][0])
+        self.assertIn(f"channel {OUTPUTS[differing[0][1]]}", line[0])
+        self.assertGreater(named, 0, "a constant of the contact decision cannot change block 0")
+        # the unperturbed replay writes a log equal, output by output, to the recording
+        same_log = os.path.join(out, "same.lcmlog")
+        rc, so, se = replay(REPLAY, out, "--write", same_log)
+        self.assertEqual(rc, 0, so + se)
+        self.assertEqual(outputs(same_log), recorded)
+
+    def _broken_copy(self, tag, edit):
+        src = self.runs["short.yaml"][0]
+        dst = benchtest.tmpdir("replay-broken-" + tag)
+        for f in ("bus.lcmlog", "scene.yaml", "run.json"):
+            shutil.copy(os.path.join(src, f), dst)
+        log = os.path.join(dst, "bus.lcmlog")
+        evs, blob = events(log)
+        with open(log, "wb") as f:
+            f.write(edit(evs, blob))
+        self.addCleanup(benchtest.cleanup, dst)
+        return dst, log, evs
+
+    def test_a_truncated_log_names_the_file_and_the_offset(self):
+        cut = {}
+
+        def truncate(evs, blob):
+            off, ch, data = evs[len(evs) // 2]
+            cut["at"] = off
+            return blob[:off + 28 + len(ch) + len(data) // 2]
+        run, log, _ = self._broken_copy("truncated", truncate)
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 2, so + se)
+        self.assertIn(log, se)
+        self.assertIn(f"byte offset {cut['at']}", se)
+        self.assertIn("truncated", se)
+
+    def test_a_corrupt_event_names_the_file_and_the_offset(self):
+        hit = {}
+
+        def bad_sync(evs, blob):
+            off = evs[len(evs) // 3][0]
+            hit["at"] = off
+            return blob[:off] + b"\x00\x00\x00\x00" + blob[off + 4:]
+        run, log, _ = self._broken_copy("sync", bad_sync)
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 2, so + se)
+        self.assertIn(f"{log}: byte offset {hit['at']}: corrupt log", se)
+
+        def garbage_analog(evs, blob):
+            off, ch, data = next(e for e in evs[len(evs) // 2:] if e[1] == "AFM_ANALOG")
+            hit["at"] = off
+            start = off + 28 + len(ch)
+            return blob[:start] + b"\xff" * len(data) + blob[start + len(data):]
+        run, log, _ = self._broken_copy("data", garbage_analog)
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 2, so + se)
+        self.assertIn(f"byte offset {hit['at']}: AFM_ANALOG message does not decode", se)
+
+        def absurd_length(evs, blob):
+            off = evs[len(evs) // 4][0]
+            hit["at"] = off
+            return blob[:off + 24] + struct.pack(">I", 2 ** 31) + blob[off + 28:]
+        run, log, _ = self._broken_copy("length", absurd_length)
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 2, so + se)
+        self.assertIn(f"byte offset {hit['at']}: corrupt log: data length 2147483648", se)
+
+    def test_no_run_folder_and_no_scene_are_named(self):
+        rc, _, se = replay(REPLAY, "/nonexistent/run")
+        self.assertEqual(rc, 2)
+        self.assertIn("/nonexistent/run: no such run folder or log file", se)
+        empty = benchtest.tmpdir("replay-empty")
+        self.addCleanup(benchtest.cleanup, empty)
+        rc, _, se = replay(REPLAY, empty)
+        self.assertEqual(rc, 2)
+        self.assertIn("no bus.lcmlog", se)
+        src = self.runs["short.yaml"][0]
+        shutil.copy(os.path.join(src, "bus.lcmlog"), empty)
+        rc, _, se = replay(REPLAY, empty)
+        self.assertEqual(rc, 2)
+        self.assertIn("the run's scene is not there", se)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
