@@ -99,13 +99,14 @@ LogReader::Next LogReader::next_framed(LogEvent *ev)
 
 bool LogReader::read(LogEvent *ev)
 {
-    const uint64_t at = off_;
     switch (next(ev)) {
     case Next::kEvent: return true;
     case Next::kEnd: return false;
     case Next::kIncomplete: break;
     }
-    throw LogError(where(at) + ": truncated log: the file ends at byte " + std::to_string(refresh_size()) +
+    // off_ stands at the start of the event the file cuts (skipped events
+    // before it were read whole)
+    throw LogError(where(off_) + ": truncated log: the file ends at byte " + std::to_string(refresh_size()) +
                    ", inside the event that starts here");
 }
 

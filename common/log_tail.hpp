@@ -1,5 +1,6 @@
 // Follows an LCM log file as lcm-logger writes it, to know what is safely
-// recorded: the last analog block and the number of scan lines. The
+// recorded: the last block of the card's inputs and answer (AFM_ANALOG,
+// HAPTIC_POSE, AFM_CMD) and the number of scan lines. The
 // simulator stays within a few messages of it, because lcm-logger drops
 // messages once 30 wait in its subscription queue (a CPU-starved logger):
 // with the window, a busy machine slows the run down instead.
@@ -8,6 +9,7 @@
 // with their generated type.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -23,12 +25,16 @@ public:
     // is no event yet; a corrupt one throws LogError).
     void poll();
     int64_t last_analog_seq() const { return last_seq_; }
+    // The last block whose analog block, pose and command are all recorded.
+    int64_t last_block_recorded() const { return std::min(last_seq_, std::min(last_pose_seq_, last_cmd_seq_)); }
     int64_t scan_lines() const { return scan_lines_; }
 
 private:
     std::string path_;
     std::unique_ptr<LogReader> reader_;
     int64_t last_seq_ = -1;
+    int64_t last_pose_seq_ = -1;
+    int64_t last_cmd_seq_ = -1;
     int64_t scan_lines_ = 0;
 };
 

@@ -156,44 +156,11 @@ ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string
 
 }  // namespace
 
-Scene load_scene(const std::string &path)
-{
-    Reader r(path);
-    {
-        std::ifstream probe(path);
-        if (!probe) throw SceneError(path + ": cannot open scene file (no such file or not readable)");
-    }
-    YAML::Node root;
-    try {
-        root = YAML::LoadFile(path);
-    } catch (const YAML::ParserException &e) {
-        throw SceneError(path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
-    }
-    if (!root.IsDefined() || root.IsNull()) throw SceneError(path + ": the scene file is empty");
-    r.only_keys(root, "", {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
-                           "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
-                           "outputs"});
-    Scene s;
-    s.file = path;
-    const Scene d;  // defaults
-    s.name = r.str(root, "", "name", nullptr);
-    const double seed = r.num(root, "", "seed", nullptr, 0, 9.007199254740992e15);
-    if (seed != std::floor(seed)) r.fail("seed", "must be a non-negative integer, got " + Reader::show(root["seed"]));
-    s.seed = static_cast<uint64_t>(seed);
-    s.duration_s = r.num(root, "", "duration_s", nullptr, 0, 3600, true);
-    s.sample_rate_hz = r.num(root, "", "sample_rate_hz", &d.sample_rate_hz, 0, 1e7, true);
-    s.block_hz = r.num(root, "", "block_hz", &d.block_hz, 0, 1e5, true);
-    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz, 0, 1000, true);
-    const std::string lockstep = "lockstep";
-    s.time_mode = r.str(root, "", "time_mode", &lockstep, {"lockstep", "realtime"});
-    const double spb = s.sample_rate_hz / s.block_hz;
-    if (std::fabs(spb - std::round(spb)) > 1e-9 || spb < 1 || spb > 4096)
-        r.fail("block_hz", "sample_rate_hz / block_hz must be a whole number of samples per block in 1..4096, got " +
-                               Reader::show(root["block_hz"]));
-    if (s.frame_rate_hz > s.block_hz)
-        r.fail("frame_rate_hz", "must not exceed block_hz, got " + Reader::show(root["frame_rate_hz"]));
+namespace {
 
-    // effects
+// effects: the list of effects the simulator builds (known_effects()).
+void read_effects(const Reader &r, const YAML::Node &root, Scene &s)
+{
     YAML::Node eff = root["effects"];
     if (eff.IsDefined() && !eff.IsNull()) {
         if (!eff.IsSequence()) r.fail("effects", "must be a list of effect names, got " + Reader::show(eff));
@@ -213,8 +180,12 @@ Scene load_scene(const std::string &path)
             s.effects.push_back(e);
         }
     }
+}
 
-    // sample
+// sample: substrate, field, contacts, drift, roughness, wires, lithography.
+void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
+{
+    const Scene d;  // defaults
     YAML::Node smp = root["sample"];
     if (!smp.IsDefined()) r.fail("sample", "required value is missing");
     r.only_keys(smp, "sample", {"substrate", "field_nm", "field_center_nm", "tip_substrate", "particle_substrate",
@@ -273,15 +244,19 @@ Scene load_scene(const std::string &path)
     s.drift_walk_nm_per_sqrt_min = r.num(smp, "sample", "drift_walk_nm_per_sqrt_min", &d.drift_walk_nm_per_sqrt_min, 0, 1e4);
     s.roughness_rms_nm = r.num(smp, "sample", "roughness_rms_nm", &d.roughness_rms_nm, 0, 1000);
     s.roughness_corr_nm = r.num(smp, "sample", "roughness_corr_nm", &d.roughness_corr_nm, 0, 1e5, true);
+}
 
-    // probe
+// probe: the lever and the tip.
+void read_probe(const Reader &r, const YAML::Node &root, Scene &s)
+{
+    const Scene d;  // defaults
     YAML::Node pr = root["probe"];
     if (pr.IsDefined() && !pr.IsNull()) {
-        r.only_keys(pr, "probe", {"kn_N_per_m", "Kn_nm_per_V", "lateral_nN_per_V", "lever_length_um", "tip_height_um",
+        r.only_keys(pr, "probe", {"spring_N_per_m", "deflection_nm_per_V", "lateral_nN_per_V", "lever_length_um", "tip_height_um",
                                   "tip_radius_nm", "tip_half_angle_deg", "scan_angle_deg"});
         const ProbeSpec pd;
-        s.probe.kn_N_per_m = r.num(pr, "probe", "kn_N_per_m", &pd.kn_N_per_m, 0, 1000, true);
-        s.probe.Kn_nm_per_V = r.num(pr, "probe", "Kn_nm_per_V", &pd.Kn_nm_per_V, 0, 10000, true);
+        s.probe.spring_N_per_m = r.num(pr, "probe", "spring_N_per_m", &pd.spring_N_per_m, 0, 1000, true);
+        s.probe.deflection_nm_per_V = r.num(pr, "probe", "deflection_nm_per_V", &pd.deflection_nm_per_V, 0, 10000, true);
         s.probe.lateral_nN_per_V = r.num(pr, "probe", "lateral_nN_per_V", &pd.lateral_nN_per_V, 0, 1e5, true);
         s.probe.lever_length_um = r.num(pr, "probe", "lever_length_um", &pd.lever_length_um, 0, 1000, true);
         s.probe.tip_height_um = r.num(pr, "probe", "tip_height_um", &pd.tip_height_um, 0, 100, true);
@@ -289,18 +264,31 @@ Scene load_scene(const std::string &path)
         s.probe.tip_half_angle_deg = r.num(pr, "probe", "tip_half_angle_deg", &pd.tip_half_angle_deg, 0, 80, true);
         s.probe.scan_angle_deg = r.num(pr, "probe", "scan_angle_deg", &pd.scan_angle_deg, 0, 360);
     }
+}
 
-    // firmware
+// firmware: the card's settings (the sweep's firmware knobs).
+void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
+{
     YAML::Node fw = root["firmware"];
     if (fw.IsDefined() && !fw.IsNull()) {
-        r.only_keys(fw, "firmware", {"adc_bits"});
-        const double bits = r.num(fw, "firmware", "adc_bits", nullptr, 12, 16);
-        if (bits != 12 && bits != 14 && bits != 16)
-            r.fail("firmware.adc_bits", "must be 12, 14 or 16, got " + Reader::show(fw["adc_bits"]));
-        s.adc_bits = static_cast<int>(bits);
+        // The ranges are the card's (fw_card_check): the launcher's --check
+        // names the rule a value breaks; here only the types.
+        r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate"});
+        auto whole = [&](const char *k, int dflt) {
+            const double dv = dflt;
+            const double v = r.num(fw, "firmware", k, &dv, -1e6, 1e6);
+            if (v != std::floor(v)) r.fail(std::string("firmware.") + k, "must be an integer, got " + Reader::show(fw[k]));
+            return static_cast<int>(v);
+        };
+        s.adc_bits = whole("adc_bits", s.adc_bits);
+        s.word_bits = whole("word_bits", s.word_bits);
+        s.compensate = r.boolean(fw, "firmware", "compensate", s.compensate);
     }
+}
 
-    // objects
+// objects: particles, wires and landmarks, inside the field.
+void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
+{
     YAML::Node obj = root["objects"];
     if (obj.IsDefined() && !obj.IsNull()) {
         r.only_keys(obj, "objects", {"particles", "wires", "landmarks"});
@@ -372,8 +360,12 @@ Scene load_scene(const std::string &path)
             }
         }
     }
+}
 
-    // operator
+// operator: the scripted hand (path, load, local scans, lever changes).
+void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
+{
+    const Scene d;  // defaults
     YAML::Node op = root["operator"];
     if (!op.IsDefined()) r.fail("operator", "required value is missing");
     r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes"});
@@ -428,12 +420,16 @@ Scene load_scene(const std::string &path)
             s.op.cantilever_changes.push_back(cc);
         }
     }
+}
 
-    // outputs
+// outputs: the display and the files a run writes.
+void read_outputs(const Reader &r, const YAML::Node &root, Scene &s)
+{
     YAML::Node out = root["outputs"];
     if (out.IsDefined() && !out.IsNull()) {
-        r.only_keys(out, "outputs", {"image_px", "video", "png", "trails", "contact_sheet_frames"});
-        const double px = r.num(out, "outputs", "image_px", nullptr, 16, 4096);
+        r.only_keys(out, "outputs", {"image_px", "video", "png", "trails", "contact_sheet_frames", "update_mode"});
+        const double px_d = s.out.image_px;
+        const double px = r.num(out, "outputs", "image_px", &px_d, 16, 4096);
         if (px != std::floor(px)) r.fail("outputs.image_px", "must be an integer, got " + Reader::show(out["image_px"]));
         s.out.image_px = static_cast<int>(px);
         const std::string mp4 = "mp4";
@@ -444,7 +440,56 @@ Scene load_scene(const std::string &path)
         const double sheet = r.num(out, "outputs", "contact_sheet_frames", &csf, 0, 100);
         if (sheet != std::floor(sheet)) r.fail("outputs.contact_sheet_frames", "must be an integer, got " + Reader::show(out["contact_sheet_frames"]));
         s.out.contact_sheet_frames = static_cast<int>(sheet);
+        const std::string local = "local";
+        s.out.update_mode = r.str(out, "outputs", "update_mode", &local, {"local", "full"});
     }
+}
+
+}  // namespace
+
+Scene load_scene(const std::string &path)
+{
+    Reader r(path);
+    {
+        std::ifstream probe(path);
+        if (!probe) throw SceneError(path + ": cannot open scene file (no such file or not readable)");
+    }
+    YAML::Node root;
+    try {
+        root = YAML::LoadFile(path);
+    } catch (const YAML::ParserException &e) {
+        throw SceneError(path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    }
+    if (!root.IsDefined() || root.IsNull()) throw SceneError(path + ": the scene file is empty");
+    r.only_keys(root, "", {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
+                           "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
+                           "outputs"});
+    Scene s;
+    s.file = path;
+    const Scene d;  // defaults
+    s.name = r.str(root, "", "name", nullptr);
+    const double seed = r.num(root, "", "seed", nullptr, 0, 9.007199254740992e15);
+    if (seed != std::floor(seed)) r.fail("seed", "must be a non-negative integer, got " + Reader::show(root["seed"]));
+    s.seed = static_cast<uint64_t>(seed);
+    s.duration_s = r.num(root, "", "duration_s", nullptr, 0, 3600, true);
+    s.sample_rate_hz = r.num(root, "", "sample_rate_hz", &d.sample_rate_hz, 0, 1e7, true);
+    s.block_hz = r.num(root, "", "block_hz", &d.block_hz, 0, 1e5, true);
+    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz, 0, 1000, true);
+    const std::string lockstep = "lockstep";
+    s.time_mode = r.str(root, "", "time_mode", &lockstep, {"lockstep", "realtime"});
+    const double spb = s.sample_rate_hz / s.block_hz;
+    if (std::fabs(spb - std::round(spb)) > 1e-9 || spb < 1 || spb > 4096)
+        r.fail("block_hz", "sample_rate_hz / block_hz must be a whole number of samples per block in 1..4096, got " +
+                               Reader::show(root["block_hz"]));
+    if (s.frame_rate_hz > s.block_hz)
+        r.fail("frame_rate_hz", "must not exceed block_hz, got " + Reader::show(root["frame_rate_hz"]));
+    read_effects(r, root, s);
+    read_sample(r, root, s);
+    read_probe(r, root, s);
+    read_firmware(r, root, s);
+    read_objects(r, root, s);
+    read_operator(r, root, s);
+    read_outputs(r, root, s);
     return s;
 }
 

@@ -10,6 +10,10 @@
 #include <string>
 #include <vector>
 
+extern "C" {
+#include "fw_paper_probe.h"
+}
+
 namespace afm {
 
 class SceneError : public std::runtime_error {
@@ -25,12 +29,14 @@ struct Vec2 { double x = 0, y = 0; };
 constexpr double kScannerRangeXY_nm = 90000.0;
 constexpr double kScannerRangeZ_nm = 5000.0;
 
+// Defaults: the paper's lever (firmware/include/fw_paper_probe.h, the one
+// definition), in the scene's units.
 struct ProbeSpec {
-    double kn_N_per_m = 0.12;           // normal spring constant k_n
-    double Kn_nm_per_V = 89.0;          // normal gain K_n
-    double lateral_nN_per_V = 37.9;     // k_theta K_l / h (lateral calibration)
-    double lever_length_um = 100.0;     // l
-    double tip_height_um = 17.3;        // h
+    double spring_N_per_m = FW_PAPER_KN_MN_PER_M * 1e-3;                  // normal spring constant k_n
+    double deflection_nm_per_V = FW_PAPER_DEFLECTION_PM_PER_V * 1e-3;     // normal gain K_n: deflection per volt of S_n
+    double lateral_nN_per_V = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;      // k_theta K_l / h (lateral calibration)
+    double lever_length_um = FW_PAPER_LEVER_LENGTH_NM * 1e-3;             // l
+    double tip_height_um = FW_PAPER_TIP_HEIGHT_NM * 1e-3;                 // h
     double tip_radius_nm = 10.0;        // apex radius
     double tip_half_angle_deg = 20.0;   // cone half angle gamma
     double scan_angle_deg = 270.0;      // 270: frames C and A coincide
@@ -98,6 +104,7 @@ struct OutputSpec {
     bool png = true;                    // write frames/*.png
     bool trails = false;                // draw past object positions (the paper's fig. 18d)
     int contact_sheet_frames = 16;      // frames in contact_sheet.png (0: none)
+    std::string update_mode = "local";  // local: redraw only the footprints that moved; full: every object, every frame
 };
 
 struct Scene {
@@ -125,7 +132,9 @@ struct Scene {
     double roughness_rms_nm = 1.0;      // rms height of the substrate's roughness (roughness)
     double roughness_corr_nm = 50.0;    // its correlation length: autocorrelation rms^2 exp(-r^2 / corr^2)
     ProbeSpec probe;
-    int adc_bits = 16;
+    int adc_bits = 16;                  // the card's ADC (fw_acq: 8..16)
+    int word_bits = 32;                 // the card's signal chain: 32 (fw_board) or 16 (fw_board16)
+    bool compensate = true;             // apex compensation (C_n, C_l); false: the piezo is taken as the apex
     std::vector<ParticleSpec> particles;
     std::vector<WireSpec> wires;
     std::vector<LandmarkSpec> landmarks;

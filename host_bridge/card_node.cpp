@@ -14,7 +14,7 @@ CardNode::CardNode(const Scene &s) : scene_(s), setup_(s)
 {
     fw_rule_t rule = FW_RULE_OK;
     if (fw_card_init(&card_, &setup_.config(), &setup_.storage(), &rule) != FW_OK)
-        throw std::runtime_error("fw_card_init: " + card_refusal(s));
+        throw std::runtime_error(card_refusal_text(s, setup_, rule));
     haptic_.seq = -1;   // the zero force that asks for the first pose
     fill_objects();
     objects_.seq = -1;

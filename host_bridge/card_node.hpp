@@ -84,11 +84,11 @@ private:
     std::unique_ptr<analog_block_t> pending_;          // AFM_ANALOG done_ + 1, waiting for its pose
     std::map<int64_t, haptic_pose_t> poses_;           // poses for blocks > done_
     std::vector<fw_sample_in_t> block_in_;
-    fw_force_t force_{};
-    fw_tip_t tip_{};
-    objects_t objects_{};
-    haptic_force_t haptic_{};
-    tip_cmd_t cmd_{};
+    afm::fw_force_t force_{};         // the LCM message (not the firmware's ::fw_force_t)
+    afm::fw_tip_t tip_{};
+    afm::objects_t objects_{};
+    afm::haptic_force_t haptic_{};
+    afm::tip_cmd_t cmd_{};
 
     void step(Outbox &box);
     int32_t trench_points_ = 0;            // the card's trench points already in objects_

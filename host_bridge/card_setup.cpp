@@ -17,13 +17,14 @@ fw_board_config_t board_config(const Scene &s)
     const ProbeSpec &p = s.probe;
     fw_board_config_t b{};
     b.adc_bits = s.adc_bits;
-    b.normal_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.kn_N_per_m * p.Kn_nm_per_V);   // N/m nm/V = nN/V
+    b.normal_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.spring_N_per_m * p.deflection_nm_per_V);   // N/m nm/V = nN/V
     b.lateral_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.lateral_nN_per_V);
-    b.deflection_pm_per_v = fwu_pm_per_v_from_nm_per_v(p.Kn_nm_per_V);
+    b.deflection_pm_per_v = fwu_pm_per_v_from_nm_per_v(p.deflection_nm_per_V);
     b.tip_height_nm = fwu_nm_from_um(p.tip_height_um);
     b.lever_length_nm = fwu_nm_from_um(p.lever_length_um);
-    b.disp_n_pm_per_v = FW_CARD_DISP_ESTIMATE;
-    b.disp_l_pm_per_v = FW_CARD_DISP_ESTIMATE;
+    // firmware.compensate: false sets C = 0 (the piezo is taken as the apex)
+    b.disp_n_pm_per_v = s.compensate ? FW_CARD_DISP_ESTIMATE : 0;
+    b.disp_l_pm_per_v = s.compensate ? FW_CARD_DISP_ESTIMATE : 0;
     b.scan_angle_mdeg = fwu_mdeg_from_deg(p.scan_angle_deg);
     b.mu_ppm = fwu_ppm(s.tip_substrate.mu);
     b.adhesion_pn = fwu_pn_from_nn(s.has_effect("adhesion") ? s.tip_substrate.adhesion_nN : 0.0);
@@ -39,6 +40,7 @@ fw_board_config_t board_config(const Scene &s)
 CardSetup::CardSetup(const Scene &s)
 {
     cfg_.board = board_config(s);
+    cfg_.word_bits = s.word_bits;
     cfg_.tip_radius_pm = fwu_pm_from_nm(s.probe.tip_radius_nm);
     cfg_.tip_half_angle_mdeg = fwu_mdeg_from_deg(s.probe.tip_half_angle_deg);
     for (const auto &p : s.particles)
@@ -98,8 +100,13 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
     const ProbeSpec &p = s.probe;
     switch (rule) {
     case FW_RULE_ADC_BITS: return {{"firmware.adc_bits", s.adc_bits}};
+    case FW_RULE_WORD_BITS: return {{"firmware.word_bits", s.word_bits}};
+    case FW_RULE_WORD16_RANGE:
+        return {{"firmware.word_bits", s.word_bits}, {"probe.spring_N_per_m", p.spring_N_per_m}, {"probe.deflection_nm_per_V", p.deflection_nm_per_V},
+                {"probe.lateral_nN_per_V", p.lateral_nN_per_V}, {"probe.tip_height_um", p.tip_height_um},
+                {"probe.lever_length_um", p.lever_length_um}};
     case FW_RULE_FORCE_GAINS:
-        return {{"probe.kn_N_per_m", p.kn_N_per_m}, {"probe.Kn_nm_per_V", p.Kn_nm_per_V}, {"probe.lateral_nN_per_V", p.lateral_nN_per_V}};
+        return {{"probe.spring_N_per_m", p.spring_N_per_m}, {"probe.deflection_nm_per_V", p.deflection_nm_per_V}, {"probe.lateral_nN_per_V", p.lateral_nN_per_V}};
     case FW_RULE_LEVER_POSITIVE:
     case FW_RULE_TIP_SHORTER_THAN_LEVER:
         return {{"probe.tip_height_um", p.tip_height_um}, {"probe.lever_length_um", p.lever_length_um}};
@@ -108,10 +115,10 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
     case FW_RULE_MU_2H_OVER_L:
         return {{"sample.tip_substrate.mu", s.tip_substrate.mu}, {"probe.tip_height_um", p.tip_height_um},
                 {"probe.lever_length_um", p.lever_length_um}};
-    case FW_RULE_DEFLECTION_GAIN: return {{"probe.Kn_nm_per_V", p.Kn_nm_per_V}};
+    case FW_RULE_DEFLECTION_GAIN: return {{"probe.deflection_nm_per_V", p.deflection_nm_per_V}};
     case FW_RULE_DISP_NEGATIVE:
     case FW_RULE_DISP_RANGE:
-        return {{"probe.tip_height_um", p.tip_height_um}, {"probe.Kn_nm_per_V", p.Kn_nm_per_V}, {"probe.lever_length_um", p.lever_length_um}};
+        return {{"probe.tip_height_um", p.tip_height_um}, {"probe.deflection_nm_per_V", p.deflection_nm_per_V}, {"probe.lever_length_um", p.lever_length_um}};
     case FW_RULE_JOYSTICK_RANGE: return {{"sample.field_nm", s.field_nm}, {"operator.kappa", s.op.kappa}};
     case FW_RULE_TIP_RADIUS: return {{"probe.tip_radius_nm", p.tip_radius_nm}};
     case FW_RULE_PARTICLE:
@@ -129,25 +136,49 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
     }
 }
 
-// What the firmware derived from those keys, where the rule is about it.
-std::string rule_derived(const Scene &s, const fw_card_config_t &c, fw_rule_t rule)
+// What the firmware derived from those keys, where the rule is about it
+// (the firmware's own estimate: nothing is computed here).
+std::string rule_derived(const fw_card_config_t &c, fw_rule_t rule)
 {
     std::ostringstream m;
     m.precision(7);
     const fw_board_config_t &b = c.board;
-    if (rule == FW_RULE_DISP_RANGE || rule == FW_RULE_DISP_NEGATIVE) {
-        int32_t est = 0;
-        if (fw_calib_disp_estimate(b.tip_height_nm, b.lever_length_nm, b.deflection_pm_per_v, &est) == FW_OK)
-            m << "; the lever's C_n = C_l = 3 h K_n / (2 l) = " << fwu_nm_from_pm(est) << " nm/V";
-    } else if (rule == FW_RULE_TIP_SHORTER_THAN_LEVER || rule == FW_RULE_MU_2H_OVER_L) {
-        const double g = 2.0 * s.probe.tip_height_um / s.probe.lever_length_um;
-        m << "; 2h/l = " << g;
-        if (rule == FW_RULE_MU_2H_OVER_L) m << ", mu 2h/l = " << s.tip_substrate.mu * g;
-    }
+    int32_t est = 0;
+    if ((rule == FW_RULE_DISP_RANGE || rule == FW_RULE_DISP_NEGATIVE) &&
+        fw_calib_disp_estimate(b.tip_height_nm, b.lever_length_nm, b.deflection_pm_per_v, &est) == FW_OK)
+        m << "; the firmware's estimate C_n = C_l = 3 h K_n / (2 l) = " << fwu_nm_from_pm(est) << " nm/V";
     return m.str();
 }
 
+const char *status_name(fw_status_t st)
+{
+    switch (st) {
+    case FW_OK: return "FW_OK";
+    case FW_ERR_ARG: return "FW_ERR_ARG";
+    case FW_ERR_DOMAIN: return "FW_ERR_DOMAIN";
+    case FW_ERR_CAPACITY: return "FW_ERR_CAPACITY";
+    case FW_ERR_STATE: return "FW_ERR_STATE";
+    }
+    return "unknown status";
+}
+
 }  // namespace
+
+std::string card_refusal_text(const Scene &s, const CardSetup &setup, fw_rule_t rule)
+{
+    const auto keys = rule_keys(s, rule);
+    std::ostringstream m;
+    m.precision(7);
+    m << (keys.empty() ? std::string("firmware") : keys.front().first) << ": the firmware's card refuses it: "
+      << fw_rule_text(rule) << " (fw_card_init: " << status_name(fw_rule_status(rule)) << ", rule " << static_cast<int>(rule)
+      << ")";
+    if (!keys.empty()) {
+        m << "; got";
+        for (std::size_t i = 0; i < keys.size(); ++i) m << (i ? ", " : " ") << keys[i].first << " " << keys[i].second;
+    }
+    m << rule_derived(setup.config(), rule);
+    return m.str();
+}
 
 std::string card_refusal(const Scene &s)
 {
@@ -155,17 +186,7 @@ std::string card_refusal(const Scene &s)
     fw_card_t card;
     fw_rule_t rule = FW_RULE_OK;
     if (fw_card_init(&card, &setup.config(), &setup.storage(), &rule) == FW_OK) return "";
-    const auto keys = rule_keys(s, rule);
-    std::ostringstream m;
-    m.precision(7);
-    m << (keys.empty() ? std::string("firmware") : keys.front().first) << ": the firmware's card refuses it: "
-      << fw_rule_text(rule) << " (fw_rule " << static_cast<int>(rule) << ")";
-    if (!keys.empty()) {
-        m << "; got";
-        for (std::size_t i = 0; i < keys.size(); ++i) m << (i ? ", " : " ") << keys[i].first << " " << keys[i].second;
-    }
-    m << rule_derived(s, setup.config(), rule);
-    return m.str();
+    return card_refusal_text(s, setup, rule);
 }
 
 }  // namespace afm

@@ -47,5 +47,7 @@ private:
 // it, as SceneError does; empty when the card accepts it. The launcher
 // checks it before anything starts; fw_node says it if init fails anyway.
 std::string card_refusal(const Scene &s);
+// The same line for a rule fw_card_init already named.
+std::string card_refusal_text(const Scene &s, const CardSetup &setup, fw_rule_t rule);
 
 }  // namespace afm

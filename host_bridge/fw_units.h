@@ -58,9 +58,13 @@ static inline q23_t fwu_q23_from_v(double v) { return fwu_q(v, FW_Q23_FRAC); }
 static inline double fwu_v_from_q23(q23_t q) { return fwu_from_q(q, FW_Q23_FRAC); }
 static inline int32_t fwu_pm_per_v_from_nm_per_v(double nm_per_v) { return fwu_i32(nm_per_v * 1e3); }
 static inline int32_t fwu_pn_per_v_from_nn_per_v(double nn_per_v) { return fwu_i32(nn_per_v * 1e3); }
+static inline double fwu_nn_per_v_from_pn_per_v(int64_t pn_per_v) { return (double)pn_per_v * 1e-3; }
+static inline double fwu_nm_per_v_from_pm_per_v(int64_t pm_per_v) { return (double)pm_per_v * 1e-3; }
 /* ratios and angles */
 static inline int32_t fwu_ppm(double ratio) { return fwu_i32(ratio * 1e6); }
 static inline int32_t fwu_mdeg_from_deg(double deg) { return fwu_i32(deg * 1e3); }
+/* a binary angle (2^32 per turn) in degrees, [0, 360) */
+static inline double fwu_deg_from_bam(fw_bam_t a) { return (double)a / 4294967296.0 * 360.0; }
 static inline q15_t fwu_q15_from_unit(double v)
 {
     int32_t q = fwu_q(v, FW_Q15_FRAC);
@@ -71,6 +75,8 @@ static inline q16_t fwu_q16(double v) { return fwu_q(v, FW_Q16_FRAC); }
 static inline q24_t fwu_q24(double v) { return fwu_q(v, FW_Q24_FRAC); }
 static inline q30_t fwu_q30(double v) { return fwu_q(v, FW_Q30_FRAC); }
 static inline double fwu_from_q30(int64_t q) { return fwu_from_q(q, FW_Q30_FRAC); }
+/* friction per length: pN/um from nN/um */
+static inline int32_t fwu_pn_per_um_from_nn_per_um(double nn_per_um) { return fwu_i32(nn_per_um * 1e3); }
 /* pressures: kPa from MPa */
 static inline int32_t fwu_kpa_from_mpa(double mpa) { return fwu_i32(mpa * 1e3); }
 

@@ -236,9 +236,12 @@ int main(int argc, char **argv)
     }
     const std::string out = fs::canonical(out_dir).string();
     const std::string scene_abs = fs::canonical(scene_path).string();
-    // The run keeps the scene it ran (replay reads it; the original may change).
+    // The run keeps the scene it runs, and its processes read that copy:
+    // what the run ran stays known (replay reads it) while the original may
+    // change.
+    const std::string scene_run = out + "/scene.yaml";
     try {
-        fs::copy_file(scene_abs, fs::path(out) / "scene.yaml", fs::copy_options::overwrite_existing);
+        fs::copy_file(scene_abs, scene_run, fs::copy_options::overwrite_existing);
     } catch (const fs::filesystem_error &e) {
         std::fprintf(stderr, "afm_launch: cannot copy the scene into %s: %s\n", out.c_str(), e.what());
         return 2;
@@ -286,11 +289,11 @@ int main(int argc, char **argv)
     }
     std::vector<Child> kids = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
     std::vector<std::vector<std::string>> cmds = {
-        {bin + "/../sim_afm/sim_afm", "--scene", scene_abs, "--out", out, "--inject-drop", std::to_string(drop_p),
+        {bin + "/../sim_afm/sim_afm", "--scene", scene_run, "--out", out, "--inject-drop", std::to_string(drop_p),
          "--follow-log", out + "/bus.lcmlog"},
-        {bin + "/fw_node", "--scene", scene_abs, "--crash-at-block", std::to_string(crash_block)},
-        {bin + "/operator", "--scene", scene_abs, "--out", out},
-        {bin + "/renderer", "--scene", scene_abs, "--out", out},
+        {bin + "/fw_node", "--scene", scene_run, "--crash-at-block", std::to_string(crash_block)},
+        {bin + "/operator", "--scene", scene_run, "--out", out},
+        {bin + "/renderer", "--scene", scene_run, "--out", out},
     };
     Child spy_child{"lcm-spy"};
     for (std::size_t i = 0; i < kids.size(); ++i)

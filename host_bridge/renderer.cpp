@@ -253,7 +253,7 @@ struct Renderer {
         model.trenches.clear();
         for (const auto &t : m.trenches) model.trenches.push_back(display_trench(t));
         const auto t0 = std::chrono::steady_clock::now();
-        touched_px += display.update(model);
+        touched_px += scene.out.update_mode == "full" ? display.redraw(model) : display.update(model);
         update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
@@ -487,7 +487,8 @@ int main(int argc, char **argv)
         }
         nlohmann::json rep = {{"frames", r.frames_written},
                               {"image_px", scene.out.image_px},
-                              {"local_update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
+                              {"update_mode", scene.out.update_mode},
+                              {"update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
                               {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
                               {"write_ms_per_frame", r.frames_written ? 1e3 * r.write_s / r.frames_written : 0.0},
                               {"pixels_updated", r.touched_px},

@@ -173,6 +173,7 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
         for (std::size_t i = 0; i < m.trenches.size(); ++i) {
             const auto &t = m.trenches[i];
             const std::string n = "trenches[" + std::to_string(i) + "].";
+            x.add(n + "id", t.id);
             x.add(n + "n", t.n);
             for (std::size_t j = 0; j < t.x_nm.size(); ++j) {
                 const std::string nj = "[" + std::to_string(j) + "]";
@@ -318,7 +319,7 @@ struct Outputs {
     std::vector<std::string> notes;     // what the card said about fixes
     int64_t events = 0, inputs = 0;
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
-    std::string self_first;
+    std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
 };
 
 // Hashes an output on its length and at most 64 bytes at either end: equal
@@ -348,6 +349,7 @@ Outputs run_replay(const Options &o)
         uint64_t offset;
     };
     std::vector<Raw> recorded_raw;
+    int64_t max_analog = -1;
     const afm::Scene scene = afm::load_scene(o.scene);
     afm::CardNode node(scene);
     EventLogWriter out(o.write);
@@ -370,7 +372,9 @@ Outputs run_replay(const Options &o)
         try {
             if (ev.channel == AFM_CH_AFM_ANALOG) {
                 out.write(ev.utime, ev.channel, ev.data);
-                take(node.on_analog(decode<afm::analog_block_t>(ev.data, "analog_block_t")), ev.utime);
+                const auto b = decode<afm::analog_block_t>(ev.data, "analog_block_t");
+                max_analog = std::max(max_analog, b.seq);
+                take(node.on_analog(b), ev.utime);
                 ++r.inputs;
             } else if (ev.channel == AFM_CH_HAPTIC_POSE) {
                 out.write(ev.utime, ev.channel, ev.data);
@@ -406,9 +410,19 @@ Outputs run_replay(const Options &o)
             throw located(e, raw.offset, raw.channel);
         }
         auto [it, fresh] = r.recorded.try_emplace(k, std::move(raw.data));
-        if (!fresh && it->second != raw.data && r.self_inconsistent++ == 0)
-            r.self_first = raw.channel + " block " + std::to_string(std::get<0>(k));
+        if (!fresh && it->second != raw.data) {
+            ++r.self_inconsistent;
+            r.inconsistent.insert(k);
+        }
     }
+    // Every block the log's analog blocks cover must have been stepped: a
+    // block missing its pose (or its analog block) in the log stops the
+    // card there, and nothing after it can be judged.
+    if (max_analog > node.done())
+        throw afm::LogError(o.log + ": the log holds AFM_ANALOG up to block " + std::to_string(max_analog) +
+                            ", but the card could step only to block " + std::to_string(node.done()) +
+                            ": the recording misses an input of block " + std::to_string(node.done() + 1) +
+                            " (its HAPTIC_POSE or AFM_ANALOG; lcm-logger drops messages when starved of CPU)");
     return r;
 }
 
@@ -435,7 +449,12 @@ Verdict compare_all(const Outputs &r)
         ++v.messages;
         std::string what;
         bool same = true;
-        if (rec == r.recorded.end()) {
+        if (r.inconsistent.count(k)) {
+            ++st.differing;
+            same = false;
+            what = "the recording holds two different answers for it (a repeat differs from the first copy): "
+                   "the run itself was not deterministic";
+        } else if (rec == r.recorded.end()) {
             ++st.missing_recorded;
             same = false;
             what = "the replay answers it, the recording has no such message";
@@ -465,8 +484,8 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
     if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (lcm-logger was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
     if (r.self_inconsistent)
-        std::printf("replay: warning: the recording holds %lld repeated outputs that differ from their first copy (first: %s)\n",
-                    static_cast<long long>(r.self_inconsistent), r.self_first.c_str());
+        std::printf("replay: the recording holds %lld repeated outputs that differ from their first copy\n",
+                    static_cast<long long>(r.self_inconsistent));
     if (!o.write.empty()) std::printf("replay: wrote the recorded inputs and the new outputs to %s\n", o.write.c_str());
 }
 
@@ -518,7 +537,11 @@ bool parse_args(int argc, char **argv, Options *o, bool *help, std::string *err)
         }
     }
     if (run.empty()) return *err = "which run?", false;
-    return locate(run, o, err);
+    if (!locate(run, o, err)) return false;
+    std::error_code ec;
+    if (!o->write.empty() && fs::exists(o->write) && fs::equivalent(o->write, o->log, ec))
+        return *err = "--write " + o->write + " is the log being replayed: choose another file", false;
+    return true;
 }
 
 }  // namespace
@@ -548,6 +571,10 @@ int main(int argc, char **argv)
         return 2;
     }
     const Verdict v = compare_all(r);
+    if (v.messages == 0) {
+        std::fprintf(stderr, "afm_replay: %s: the log holds no card inputs or outputs to compare\n", o.log.c_str());
+        return 2;
+    }
     report(o, r, v, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return verdict_line(o, v);
 }

@@ -18,7 +18,7 @@ public:
     PhotodiodeNoise(const Scene &s, const Lever &lever) : SampleEffect("photodiode_noise")
     {
         const double kT = kBoltzmann_nN_nm_per_K * s.temperature_K;
-        sn_rms_ = s.photodiode_noise_V > 0 ? s.photodiode_noise_V : std::sqrt(kT / lever.kn) / lever.Kn;
+        sn_rms_ = s.photodiode_noise_V > 0 ? s.photodiode_noise_V : std::sqrt(kT / lever.spring) / lever.deflection;
         sl_rms_ = s.photodiode_noise_V > 0 ? s.photodiode_noise_V : std::sqrt(kT / lever.ktheta) / lever.Kl;
     }
     void apply(World &w, double &sn, double &sl) override

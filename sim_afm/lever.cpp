@@ -6,11 +6,11 @@ namespace afm::sim {
 
 Lever::Lever(const ProbeSpec &p)
 {
-    kn = p.kn_N_per_m;                 // N/m == nN/nm
-    Kn = p.Kn_nm_per_V;
+    spring = p.spring_N_per_m;                 // N/m == nN/nm
+    deflection = p.deflection_nm_per_V;
     l = p.lever_length_um * 1e3;
     h = p.tip_height_um * 1e3;
-    Kl = 3.0 * Kn / (2.0 * l);
+    Kl = 3.0 * deflection / (2.0 * l);
     ktheta = p.lateral_nN_per_V * h / Kl;
     alpha = (p.scan_angle_deg - 270.0) * M_PI / 180.0;
     R << std::cos(alpha), -std::sin(alpha), std::sin(alpha), std::cos(alpha);
@@ -20,7 +20,7 @@ double Lever::bend_slope(double fx_C, double fz) const
 {
     // Euler-Bernoulli cantilever, EI = k_n l^3 / 3: an end load F gives slope
     // F l^2 / (2 EI) = 3 F / (2 k_n l); an end moment M gives M l / EI.
-    const double EI = kn * l * l * l / 3.0;
+    const double EI = spring * l * l * l / 3.0;
     const double moment = fx_C * h;
     return fz * l * l / (2.0 * EI) + moment * l / EI;
 }
@@ -37,7 +37,7 @@ Eigen::Vector2d Lever::apex_offset(const Eigen::Vector2d &f_A, double fz) const
 
 Eigen::Matrix2d Lever::stiffness_A() const
 {
-    const double EI = kn * l * l * l / 3.0;
+    const double EI = spring * l * l * l / 3.0;
     const double kx = EI / (h * h * l);        // h * (F_x h) l / EI = F_x / kx
     const double ky = ktheta / (h * h);
     Eigen::Matrix2d KC;

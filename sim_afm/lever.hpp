@@ -14,8 +14,8 @@ namespace afm::sim {
 
 struct Lever {
     // From the scene
-    double kn;        // normal spring constant k_n, nN/nm
-    double Kn;        // normal gain K_n, nm/V (deflection per volt)
+    double spring;    // normal spring constant k_n, nN/nm
+    double deflection;   // normal gain K_n, nm/V (deflection per volt)
     double l;         // lever length, nm
     double h;         // tip height, nm
     double Kl;        // lateral photodiode gain, rad/V (3 K_n / (2 l): equal sensitivity)
@@ -31,7 +31,7 @@ struct Lever {
     // Twist angle (rad) from the lateral force F_y acting h below the axis.
     double twist(double fy_C) const;
     // Photodiode outputs before saturation, V.
-    double sn_volts(double fx_C, double fz) const { return bend_slope(fx_C, fz) * (2.0 * l / 3.0) / Kn; }
+    double sn_volts(double fx_C, double fz) const { return bend_slope(fx_C, fz) * (2.0 * l / 3.0) / deflection; }
     double sl_volts(double fy_C) const { return twist(fy_C) / Kl; }
     // Apex displacement from the undeformed tip, frame A, nm: the tip turns
     // with the lever's end, so the apex moves by h times each angle.

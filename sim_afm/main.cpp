@@ -65,14 +65,15 @@ struct Sim {
 
     Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
 
-    // Waits (briefly sleeping) until the log holds analog block `seq` and
-    // `lines` scan lines.
+    // Waits (briefly sleeping) until the log holds block `seq` (its analog
+    // block, pose and command: the card's inputs and answer, so a complete
+    // log replays) and `lines` scan lines.
     void wait_for_log(int64_t seq, int64_t lines)
     {
         if (!log) return;
         for (;;) {
             log->poll();
-            if (log->last_analog_seq() >= seq && log->scan_lines() >= lines) return;
+            if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) return;
             ++log_waits;
             std::this_thread::sleep_for(std::chrono::microseconds(200));
         }

@@ -292,7 +292,7 @@ World::ZHold World::hold_z(double surface_nm, double fx_C, double fz) const
     ZHold h{std::clamp(z_need, -half, half), fz, false, true};
     if (h.z_nm == z_need) return h;
     h.clamped = true;
-    h.fz_nN = fz + lever_.kn * (z_need - h.z_nm);
+    h.fz_nN = fz + lever_.spring * (z_need - h.z_nm);
     h.touching = h.fz_nN > -tip_adhesion_nN_;
     if (!h.touching) h.fz_nN = 0.0;
     return h;

@@ -25,7 +25,7 @@ usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-b SAMPLES] 
 Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
 at $AFM_BUILD/bench/firmware/bench_fw.
 
-Rows: (a) a 16-bit path written in the bench (bench/firmware/bench_q15.c),
+Rows: (a) the firmware's 16-bit chain (fw_board16_step_block),
 (b) the firmware's 32-bit fw_board_step_block, (c) the double reference of the
 same chain (bench/firmware/bench_ref.c) fed the same 16-bit ADC codes, and
 (c0) that reference on the unquantised input. Errors are |F - F_ref| of the
@@ -117,7 +117,7 @@ field() { sed -n "s/.* $1=\\([^ ]*\\).*/\\1/p" <<<"$2"; }
 
 label() {
   case "$1" in
-    q15) echo "(a) 16-bit (bench_q15)" ;;
+    q15) echo "(a) 16-bit firmware" ;;
     fw32) echo "(b) 32-bit firmware" ;;
     ref) echo "(c) double reference" ;;
     ref_analog) echo "(c0) double, no ADC" ;;
@@ -171,8 +171,8 @@ echo "  - (b) runs as the card drives it (fw_card_step_block's signal chain): fw
 echo "    on blocks of $(sed -n 's/.* fw_block=\([0-9]*\).*/\1/p' <<<"$input") samples (-b)."
 echo "  - instructions are x86-64 (host build flags), loop overhead included (a few per sample);"
 echo "    on a Cortex-M4 the 64-bit divisions of (b) are library calls, not one instruction."
-echo "  - (a) forms sin/cos theta only where the fallback needs them (|sin| < 1/4, series in"
-echo "    tan theta), tests the zones with squares, clamps the fallback at 131 nN; blend kept."
+echo "  - (a) fw_board16 (firmware.word_bits: 16): sin/cos theta only where the fallback needs"
+echo "    them (series in tan theta), zones on squares, the fallback clamped at 131 nN (fw_board16.h)."
 echo "  - ADC filter off, inputs inside +-10 V (no virtual S_n); ${cg_note:-no callgrind run}."
 grep '^note ' "$tmp/time.txt" | sed 's/^note /  - /'
 

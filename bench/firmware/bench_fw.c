@@ -1,7 +1,7 @@
 /*
  * bench_fw.c - per-sample cost and accuracy of the firmware's chain
  * (acquisition + compensation + theta + force + rotation) on three word
- * sizes: a 16-bit path (bench_q15.c), the firmware's 32-bit fw_board_step_block,
+ * sizes: the firmware's 16-bit fw_board16_step_block, its 32-bit fw_board_step_block,
  * and a double-precision reference (bench_ref.c). Host only; a benchmark,
  * not a test: it prints numbers and asserts nothing.
  *
@@ -33,7 +33,7 @@
 #include <time.h>
 #include "fw_board.h"
 #include "fw_paper_probe.h"
-#include "bench_q15.h"
+#include "fw_board16.h"
 #include "bench_ref.h"
 
 #ifdef BENCH_HAVE_CALLGRIND
@@ -74,14 +74,14 @@ static const char *const path_name[PATH_COUNT] = { "q15", "fw32", "ref", "ref_an
 typedef struct {
     fw_board_config_t cfg;
     fw_sample_in_t *in;
-    int32_t (*out_i)[3];
+    fw_sample_out_t *out_16;
     fw_sample_out_t *out_fw;
     double (*out_d)[3];
     double (*ref)[3];
     double *theta_c;      /* true direction of motion, frame C, rad (for notes) */
     unsigned char *corner; /* 1 where a segment starts (the heading jumps) */
     fw_board_t board;
-    bench_q15_t q15;
+    fw_board16_t q15;
     bench_ref_t refp;
     bench_ref_t ref_analog;
 } bench_angle_t;
@@ -223,12 +223,13 @@ static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
 
 /* ---- the measured loops (not inlined, so callgrind can name them) ------- */
 
-__attribute__((noinline)) void bench_loop_q15(bench_q15_t *p, const fw_sample_in_t *in,
-                                              int32_t (*f)[3], size_t n)
+/* The firmware's 16-bit chain (fw_board16), driven as the 32-bit one. */
+__attribute__((noinline)) void bench_loop_q15(fw_board16_t *b, const fw_sample_in_t *in,
+                                              fw_sample_out_t *out, size_t n, size_t block)
 {
     size_t i;
-    for (i = 0; i < n; i++) {
-        bench_q15_step(p, &in[i], f[i]);
+    for (i = 0; i < n; i += block) {
+        (void)fw_board16_step_block(b, &in[i], &out[i], (n - i < block) ? n - i : block);
     }
 }
 
@@ -257,8 +258,8 @@ static void run_path(int path, bench_angle_t *a, size_t n)
 {
     switch (path) {
     case PATH_Q15:
-        bench_q15_reset(&a->q15);
-        bench_loop_q15(&a->q15, a->in, a->out_i, n);
+        fw_board16_reset(&a->q15);
+        bench_loop_q15(&a->q15, a->in, a->out_16, n, bench_block);
         break;
     case PATH_FW32:
         fw_board_reset(&a->board);
@@ -387,13 +388,13 @@ int main(int argc, char **argv)
         bench_angle_t *a = &ang[k];
         paper_config(&a->cfg, (int32_t)lround(angles_deg[k] * 1000.0));
         a->in = malloc(n * sizeof *a->in);
-        a->out_i = malloc(n * sizeof *a->out_i);
+        a->out_16 = malloc(n * sizeof *a->out_16);
         a->out_fw = malloc(n * sizeof *a->out_fw);
         a->out_d = malloc(n * sizeof *a->out_d);
         a->ref = malloc(n * sizeof *a->ref);
         a->theta_c = malloc(n * sizeof *a->theta_c);
         a->corner = calloc(n, 1);
-        if (a->in == NULL || a->out_i == NULL || a->out_fw == NULL || a->out_d == NULL || a->ref == NULL
+        if (a->in == NULL || a->out_16 == NULL || a->out_fw == NULL || a->out_d == NULL || a->ref == NULL
             || a->theta_c == NULL || a->corner == NULL) {
             fprintf(stderr, "bench_fw: out of memory\n");
             return 1;
@@ -402,7 +403,10 @@ int main(int argc, char **argv)
             fprintf(stderr, "bench_fw: fw_board_init refused the paper's lever\n");
             return 1;
         }
-        bench_q15_init(&a->q15, &a->cfg);
+        if (fw_board16_init(&a->q15, &a->cfg) != FW_OK) {
+            fprintf(stderr, "bench_fw: fw_board16_init refused the paper's lever\n");
+            return 1;
+        }
         bench_ref_init(&a->refp, &a->cfg, a->cfg.adc_bits);
         bench_ref_init(&a->ref_analog, &a->cfg, 0);
         make_sweep(a, n, 0x5EEDull + (uint64_t)k * 0x10001ull);
@@ -487,7 +491,7 @@ int main(int argc, char **argv)
                 since_corner = ang[k].corner[j] ? 0 : since_corner + 1;
                 for (c = 0; c < 3; c++) {
                     double v = (p == PATH_FW32) ? ang[k].out_fw[j].force_pn[c]
-                               : (p == PATH_Q15) ? ang[k].out_i[j][c] : ang[k].out_d[j][c];
+                               : (p == PATH_Q15) ? ang[k].out_16[j].force_pn[c] : ang[k].out_d[j][c];
                     double e = v - ang[k].ref[j][c];
                     d2 += e * e;
                 }
@@ -519,7 +523,7 @@ int main(int argc, char **argv)
     }
     for (k = 0; k < n_angles; k++) {
         free(ang[k].in);
-        free(ang[k].out_i);
+        free(ang[k].out_16);
         free(ang[k].out_fw);
         free(ang[k].out_d);
         free(ang[k].ref);

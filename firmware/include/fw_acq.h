@@ -9,7 +9,7 @@
  *   code       ADC code, signed, [-2^(bits-1), 2^(bits-1) - 1]
  *   signal     9.23 volts (q23_t), range [-256 V, 256 V)
  *
- * Quantisation (bits = 12, 14 or 16, full scale FW_ACQ_FS_UV = 10 V):
+ * Quantisation (bits = 8 to 16, full scale FW_ACQ_FS_UV = 10 V):
  *   code = round(uv * 2^(bits-1) / 10 V), half away from zero, clamped to the
  *   code range. Code to volts is exact: v = code * 20 V / 2^bits, i.e.
  *   code * (20 << (23 - bits)) in 9.23.
@@ -31,6 +31,10 @@
 #include "fw_rules.h"
 
 #define FW_ACQ_FS_UV 10000000          /* +-10 V card input range, microvolts */
+/* ADC widths: the reciprocal quantiser below needs bits >= 8 (G = M 2^(bits-8))
+ * and stays exact up to 16 (the proof's largest n). */
+#define FW_ACQ_BITS_MIN 8
+#define FW_ACQ_BITS_MAX 16
 #define FW_ACQ_FILTER_LOG2_MAX 4
 #define FW_ACQ_FILTER_LEN_MAX (1 << FW_ACQ_FILTER_LOG2_MAX)
 
@@ -48,7 +52,7 @@
 #define FW_ACQ_RCP_POW2 7
 
 typedef struct {
-    int32_t bits;                 /* 12, 14 or 16 */
+    int32_t bits;                 /* FW_ACQ_BITS_MIN..FW_ACQ_BITS_MAX */
     int32_t filter_log2;          /* 0..FW_ACQ_FILTER_LOG2_MAX */
     q23_t lsb_v;                  /* one code in 9.23 volts (exact) */
     uint64_t rcp_gain;            /* FW_ACQ_RCP_MUL 2^(bits-8), set by init */
@@ -67,7 +71,7 @@ typedef struct {
     uint32_t sat_count;           /* saturated samples since reset */
 } fw_acq_t;
 
-/* The first rule broken: bits not 12, 14 or 16 (FW_RULE_ADC_BITS),
+/* The first rule broken: bits outside 8..16 (FW_RULE_ADC_BITS),
  * filter_log2 outside 0..4 (FW_RULE_ADC_FILTER). */
 fw_rule_t fw_acq_check(int32_t bits, int32_t filter_log2);
 
@@ -88,7 +92,7 @@ void fw_acq_reset(fw_acq_t *a);
  * division is the reciprocal multiply above, (t G + B) >> 47 with
  * G = M 2^(bits-8), B = M 39062, in uint64 (< 2^64); exact over the whole
  * clamped range. The top code clamps to 2^(bits-1) - 1.
- * bits outside {12, 14, 16} is a caller bug: the result is 0. */
+ * bits outside 8..16 is a caller bug: the result is 0. */
 int32_t fw_acq_quantize_code(int32_t bits, int32_t uv, bool *sat);
 
 /* The reciprocal quantiser's kernel for |uv| <= FW_ACQ_FS_UV (the caller

@@ -38,9 +38,9 @@
  * frame C and the force into frame A (FW_BOARD_PATH_FAST_ALIGNED).
  * On the fast path the offsets and force terms are formed straight from
  * the ADC codes (fw_acq_gain, exact), with the gains kept as a cache in
- * the instance (fw_board_gains_t). Each call has a fixed cost (about 110
- * x86-64 instructions: arguments, the run's state in and out): the
- * firmware is meant to be given blocks (fw_node: 20 samples).
+ * the instance (fw_board_gains_t). Each call has a fixed cost (the
+ * arguments, the run's state in and out; ./afm bench firmware -b 1 shows
+ * it): the firmware is meant to be given blocks (the card's DMA block).
  * fw_board_step takes the fast path for a sample when both inputs lie in
  * the ADC's fast range (fw_acq_in_fast_range: no saturation, no top-code
  * clamp; then |S| <= 20 V after the baseline) and a sample has been stepped
@@ -70,7 +70,7 @@
 #include "fw_rules.h"
 
 typedef struct {
-    int32_t adc_bits;               /* 12, 14 or 16 */
+    int32_t adc_bits;               /* 8..16 (fw_acq) */
     int32_t normal_gain_pn_per_v;   /* k_n K_n: normal force per volt of S_n, pN/V */
     int32_t lateral_gain_pn_per_v;  /* k_theta K_l / h: lateral force per volt of S_l, pN/V */
     int32_t deflection_pm_per_v;    /* K_n: lever deflection per volt of S_n, pm/V */

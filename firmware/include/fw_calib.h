@@ -35,6 +35,7 @@
 #define FW_CALIB_H
 
 #include "fw_types.h"
+#include "fw_rules.h"
 
 #define FW_CALIB_PHI_MIN_MDEG 100              /* smallest accepted surface slope */
 #define FW_CALIB_LINES_MAX 64                 /* points of the C_n fit */
@@ -55,6 +56,14 @@ typedef struct {
  * 6e-8 (64 LSB of 2.30), gain within 1 pN/V (rounding to integer pN/V). */
 fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v,
                                   fw_calib_tilted_t *out);
+
+/* The rule fw_calib_tilted_solve refuses the same arguments by:
+ * FW_RULE_FORCE_GAINS (k_n K_n <= 0), FW_RULE_TILTED_SLOPE (phi outside
+ * [0.1 deg, 90 deg)), FW_RULE_TILTED_UPHILL (r_u <= 0),
+ * FW_RULE_TILTED_CONTRAST (|rho| <= 1 + 2^-10), FW_RULE_TILTED_NO_ANGLE (no
+ * real friction angle: B < 2, phi + beta >= 90 deg, or a lateral gain past
+ * int32); FW_RULE_OK where it solves. */
+fw_rule_t fw_calib_tilted_rule(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v);
 
 /* F_adh (pN) from the loop lines' slopes (8.24) and offsets (9.23 V).
  * FW_ERR_DOMAIN if r_u == r_d. Scaling and overflow: k_n K_n (b_u - b_d) in

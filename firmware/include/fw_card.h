@@ -3,8 +3,10 @@
  * does per DMA block (design.md, "The card").
  *
  * Per block (fw_card_step_block), for each sample of the block:
- *   1. the signal chain (fw_board_step_block): acquisition, virtual S_n,
- *      compensation, direction of motion, force (eq. 1-3) in frame A;
+ *   1. the signal chain: acquisition, virtual S_n, compensation, direction
+ *      of motion, force (eq. 1-3) in frame A; on the 32-bit data path
+ *      (fw_board_step_block, the default) or the 16-bit one
+ *      (fw_board16_step_block: word_bits 16, its error contract there);
  *   2. the object models, when the configuration has any: the contact force
  *      (fw_force_lateral_excess_pn, once per sample for every model), the
  *      particles (fw_particles_update), each wire's push rule with the
@@ -42,6 +44,7 @@
 #include "fw_types.h"
 #include "fw_rules.h"
 #include "fw_board.h"
+#include "fw_board16.h"
 #include "fw_particles.h"
 #include "fw_wire.h"
 #include "fw_litho.h"
@@ -64,6 +67,7 @@ typedef struct { int32_t id; int32_t x_pm; int32_t y_pm; } fw_card_landmark_t;
 
 typedef struct {
     fw_board_config_t board;            /* the signal chain; disp_*: FW_CARD_DISP_ESTIMATE allowed */
+    int32_t word_bits;                  /* the chain's data path: 32 (fw_board; 0 means 32) or 16 (fw_board16) */
     int32_t tip_radius_pm;              /* r_tip */
     int32_t tip_half_angle_mdeg;        /* gamma, the cone's half angle, (0, 60) deg */
     /* particles (section 5): F_th = mu_ps (F_adh,ps + F_down) + tau_ps A_c, F_down = 0 */
@@ -153,8 +157,9 @@ typedef struct {
     fw_card_config_t cfg;            /* as given (disp_* as given) */
     fw_card_storage_t st;
     fw_board_t board;                /* its configuration holds the displacement constants used */
+    fw_board16_t board16;            /* the 16-bit chain, when chain16 */
+    bool chain16;
     fw_particles_t parts;
-    fw_particle_t no_particle;       /* the particles' storage when the caller gives none */
     int32_t n_wires;
     fw_wire_tip_t wire_tip;
     q30_t twist_rad_per_v;           /* K_l = 3 K_n / (2 l), rad/V in 2.30 (the squeeze's theta_t) */
@@ -169,7 +174,8 @@ typedef struct {
 } fw_card_t;
 
 /* The first rule the configuration or storage breaks, module by module:
- * the board (fw_board_check, with the displacement estimate where asked),
+ * the chain's word (FW_RULE_WORD_BITS), the board (fw_board_check, or
+ * fw_board16_check for 16 bits, with the displacement estimate where asked),
  * particles (fw_particles_check, each particle's, capacity), wires (each
  * rod's fw_wire_check, fw_wire_check_tip, capacity), lithography
  * (fw_litho_check, storage), drift (fw_drift_check), landmarks (capacity),

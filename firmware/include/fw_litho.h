@@ -11,7 +11,8 @@
  * the last recorded point; consecutive points of a stroke form the trench's
  * polyline. When the storage is full further points are dropped: the step
  * returns FW_ERR_CAPACITY, the sticky overflow flag latches and the drop
- * counter counts them (saturating).
+ * counter counts them (saturating); a dropped point still sets where the
+ * next one is due, so the counter counts points, not samples.
  */
 #ifndef FW_LITHO_H
 #define FW_LITHO_H
@@ -38,6 +39,7 @@ typedef struct {
     q30_t tan_gamma;          /* 2.30, gamma < 60 deg so tan < 2 */
     int32_t min_step_pm;
     bool in_stroke;
+    int32_t last_pm[2];       /* the last point recorded or dropped (the step test's origin) */
     bool overflow;            /* sticky */
     uint32_t dropped;         /* points dropped for lack of capacity */
 } fw_litho_t;

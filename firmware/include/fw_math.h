@@ -92,6 +92,16 @@ static inline int64_t fw_math_asr_i64(int64_t v, int n)
     return (v >= 0) ? (v >> n) : -(int64_t)(((uint64_t)(-(v + 1)) >> n) + 1u);
 }
 
+/* The same for int32 (the 16-bit path's accumulator): floor(v / 2^n),
+ * n in 0..31. */
+static inline int32_t fw_math_asr_i32(int32_t v, int n)
+{
+    if (FW_MATH_ASR_NATIVE) {
+        return v >> n;
+    }
+    return (v >= 0) ? (v >> n) : -(int32_t)(((uint32_t)(-(v + 1)) >> n) + 1u);
+}
+
 static inline int64_t fw_math_rshift_round_i64(int64_t v, int n)
 {
     if (n <= 0) {

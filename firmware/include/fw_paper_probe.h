@@ -23,8 +23,6 @@
  * centre at the origin with a 5 um field (half range 2.5 um), kappa 1. */
 static inline void fw_paper_board_config(fw_board_config_t *c, int32_t scan_angle_mdeg)
 {
-    fw_board_config_t z = { 0 };
-    *c = z;
     c->adc_bits = 16;
     c->normal_gain_pn_per_v = FW_PAPER_NORMAL_GAIN_PN_PER_V;
     c->lateral_gain_pn_per_v = FW_PAPER_LATERAL_GAIN_PN_PER_V;
@@ -35,8 +33,13 @@ static inline void fw_paper_board_config(fw_board_config_t *c, int32_t scan_angl
     c->disp_l_pm_per_v = FW_PAPER_DISP_PM_PER_V;
     c->scan_angle_mdeg = scan_angle_mdeg;
     c->mu_ppm = FW_PAPER_MU_PPM;
+    c->adhesion_pn = 0;
+    c->scan_center_pm[0] = 0;
+    c->scan_center_pm[1] = 0;
     c->scan_half_range_pm = 2500000;
     c->kappa_q16 = FW_Q16_ONE;
+    c->filter_log2 = 0;
+    c->theta_min_disp_pm = 0;
 }
 
 #endif /* FW_PAPER_PROBE_H */

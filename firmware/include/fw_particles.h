@@ -62,8 +62,9 @@ fw_rule_t fw_particles_check(int32_t tip_radius_pm);
  * threshold < 0 pN (FW_RULE_PARTICLE). */
 fw_rule_t fw_particles_check_particle(int32_t radius_pm, int32_t threshold_pn);
 
-/* Validates with fw_particles_check (FW_ERR_ARG also for a NULL pointer or
- * capacity <= 0); zeroes the storage; margin 0. */
+/* Validates with fw_particles_check (FW_ERR_ARG also for a NULL m, a
+ * negative capacity, or NULL storage with a capacity > 0; no storage with
+ * capacity 0 is a model that holds none); zeroes the storage; margin 0. */
 fw_status_t fw_particles_init(fw_particles_t *m, fw_particle_t *storage, int32_t capacity, int32_t tip_radius_pm);
 /* Appends a particle (fw_particles_check_particle; FW_ERR_CAPACITY when
  * the storage is full). */

@@ -22,7 +22,7 @@
 typedef enum {
     FW_RULE_OK = 0,
     FW_RULE_NULL_POINTER,          /* a required pointer is NULL */
-    FW_RULE_ADC_BITS,              /* ADC word: 12, 14 or 16 bits (fw_acq) */
+    FW_RULE_ADC_BITS,              /* ADC word: 8 to 16 bits (fw_acq) */
     FW_RULE_ADC_FILTER,            /* ADC moving average: 2^0 .. 2^4 samples (fw_acq) */
     FW_RULE_FORCE_GAINS,           /* k_n K_n and k_theta K_l / h > 0 pN/V (fw_force) */
     FW_RULE_LEVER_POSITIVE,        /* tip height h and lever length l > 0 nm (fw_force) */
@@ -36,7 +36,7 @@ typedef enum {
     FW_RULE_DISP_RANGE,            /* C_n, C_l <= 2^22 pm/V (fw_comp) */
     FW_RULE_JOYSTICK_RANGE,        /* joystick half range >= 0 pm and kappa >= 0 (fw_comp) */
     FW_RULE_TIP_RADIUS,            /* tip radius in [0, 2^30] pm (fw_particles) */
-    FW_RULE_PARTICLE,              /* particle radius in (0, 2^30] pm, threshold >= 0 pN (fw_particles) */
+    FW_RULE_PARTICLE,              /* particle radius, threshold, contact margin, substrate mu (fw_particles, fw_card) */
     FW_RULE_PARTICLE_CAPACITY,     /* more particles than the card's storage (fw_particles) */
     FW_RULE_WIRE,                  /* wire length in (0, 2^30] pm, diameter > 0 pm (fw_wire) */
     FW_RULE_WIRE_FRICTION,         /* wire friction per length >= 0, wire mu in [0, 2) (fw_wire) */
@@ -45,8 +45,14 @@ typedef enum {
     FW_RULE_TIP_HALF_ANGLE,        /* tip cone half angle in (0, 60) deg (fw_litho, fw_wire) */
     FW_RULE_LITHO_CAPACITY,        /* no trench storage although lithography is on (fw_litho) */
     FW_RULE_DRIFT_STEP,            /* drift and landmark correction limits > 0 pm (fw_drift) */
-    FW_RULE_LANDMARK_CAPACITY,     /* more landmarks than the card's storage (fw_card) */
-    FW_RULE_HAPTIC,                /* haptic gain >= 0, force limit >= 0 mN (fw_card) */
+    FW_RULE_LANDMARKS,             /* the landmark list: a count >= 0, and a list when > 0 (fw_card) */
+    FW_RULE_HAPTIC,                /* haptic gain >= 0 uN/pN, force limit >= 0 uN (fw_card) */
+    FW_RULE_WORD_BITS,             /* the signal chain's word: 16 or 32 bits (fw_card) */
+    FW_RULE_WORD16_RANGE,          /* the 16-bit chain's domain (fw_board16.h) */
+    FW_RULE_TILTED_SLOPE,          /* the calibration surface's slope in [0.1, 90) deg (fw_calib) */
+    FW_RULE_TILTED_UPHILL,         /* the uphill friction-loop slope r_u > 0 (fw_calib) */
+    FW_RULE_TILTED_CONTRAST,       /* |r_u / r_d| > 1 + 2^-10 (fw_calib) */
+    FW_RULE_TILTED_NO_ANGLE,       /* the slopes give a real friction angle (fw_calib) */
     FW_RULE_COUNT
 } fw_rule_t;
 

@@ -36,7 +36,8 @@
  * no rod and k(l) f L while it slides), unless the tip squeezes it (section
  * 7: psi = gamma + theta_t at or past psi_max; the rod stays and
  * FW_WIRE_SQUEEZED is raised); a pushed rod moves along its normal until
- * the apex sits on its surface, in steps of at most L/4 (fw_wire_push).
+ * the apex sits on its surface, in steps of at most L/4 (fw_wire_push),
+ * FW_WIRE_PUSH_STEPS_MAX of them at most.
  *
  * Units: lengths pm (L in (0, 2^30]), angles fw_bam_t, k in 2.30.
  */
@@ -49,6 +50,10 @@
 #define FW_WIRE_LENGTH_MAX_PM ((int32_t)1 << 30)
 #define FW_WIRE_BLEND_U ((q30_t)(FW_Q30_ONE / 8))
 #define FW_WIRE_MU_MAX_PPM 1999999               /* the squeeze's mu lies in [0, 2) */
+/* A push moves the rod in steps of at most L/4 (fw_wire_push's first-order
+ * limit), at most this many per sample: 16 L, far beyond the apex's reach
+ * r_tip + d/2 for any rod the tip can push in one sample. */
+#define FW_WIRE_PUSH_STEPS_MAX 64
 
 /* fw_wire_t.flags */
 #define FW_WIRE_PUSHED   (1u << 0)   /* moved by the tip in the last update */
@@ -91,8 +96,8 @@ typedef struct {
     uint32_t flags;          /* FW_WIRE_* */
 } fw_wire_t;
 
-/* The first rule a rod breaks: length outside (0, 2^30] pm or diameter
- * <= 0 (FW_RULE_WIRE). */
+/* The first rule a rod breaks: length outside (0, 2^30] pm, diameter
+ * <= 0, or a rod shorter than it is thick (FW_RULE_WIRE). */
 fw_rule_t fw_wire_check(int32_t length_pm, int32_t diameter_pm);
 
 /* Validates with fw_wire_check (FW_ERR_ARG also for a NULL w). */

@@ -9,7 +9,7 @@
 
 static bool acq_bits_valid(int32_t bits)
 {
-    return bits == 12 || bits == 14 || bits == 16;
+    return bits >= FW_ACQ_BITS_MIN && bits <= FW_ACQ_BITS_MAX;
 }
 
 /* G = M 2^(bits-8) of fw_acq_quantize_code, bits valid. */

@@ -16,8 +16,9 @@ static int64_t abs64(int64_t v)
     return v < 0 ? -v : v;
 }
 
-fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v,
-                                  fw_calib_tilted_t *out)
+/* The solver, with the rule a refusal breaks (FW_RULE_OK on success). */
+static fw_rule_t calib_tilted(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v,
+                              fw_calib_tilted_t *out)
 {
     q30_t s2phi;
     int64_t num;
@@ -34,22 +35,25 @@ fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_
     int64_t lat;
     int64_t au = abs64(r_up);
     int64_t ad = abs64(r_down);
-    if (out == NULL || normal_gain_pn_per_v <= 0) {
-        return FW_ERR_ARG;
+    if (normal_gain_pn_per_v <= 0) {
+        return FW_RULE_FORCE_GAINS;
     }
-    if (phi < fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG) || phi >= FW_BAM_QUARTER_TURN || r_up <= 0) {
-        return FW_ERR_DOMAIN;
+    if (phi < fw_math_bam_from_mdeg(FW_CALIB_PHI_MIN_MDEG) || phi >= FW_BAM_QUARTER_TURN) {
+        return FW_RULE_TILTED_SLOPE;
+    }
+    if (r_up <= 0) {
+        return FW_RULE_TILTED_UPHILL;
     }
     /* |rho| > 1 + 2^-10 <=> (|r_u| - |r_d|) 2^10 > |r_d| */
     if ((au - ad) * ((int64_t)1 << CALIB_RHO_MARGIN_LOG2) <= ad) {
-        return FW_ERR_DOMAIN;
+        return FW_RULE_TILTED_CONTRAST;
     }
     s2phi = fw_math_sin_q30(phi * 2u);
     num = ((int64_t)r_up - r_down) * s2phi;              /* 8.24 * 2.30 = x.54 */
     den = 2 * ((int64_t)r_up + r_down);                  /* 8.24 */
     x = fw_math_div_round_i64(num, den);                 /* 2.30 */
     if (x <= 0 || x > FW_Q30_ONE / 2) {
-        return FW_ERR_DOMAIN;
+        return FW_RULE_TILTED_NO_ANGLE;
     }
     one_m_4x2 = FW_Q30_ONE - 4 * fw_math_rshift_round_i64(x * x, FW_Q30_FRAC);
     sq = fw_math_sqrt_q30((q30_t)(one_m_4x2 < 0 ? 0 : one_m_4x2));
@@ -57,22 +61,37 @@ fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_
     beta = fw_math_atan2_bam((int32_t)mu, FW_Q30_ONE);
     pb = phi + beta;
     if (pb >= FW_BAM_QUARTER_TURN) {
-        return FW_ERR_DOMAIN;
+        return FW_RULE_TILTED_NO_ANGLE;
     }
     fw_math_sincos_q30(pb, &spb, &cpb);
     lat_den = fw_math_rshift_round_i64((int64_t)cpb * r_up, FW_Q24_FRAC);   /* 2.30 */
     if (lat_den <= 0) {
-        return FW_ERR_DOMAIN;
+        return FW_RULE_TILTED_NO_ANGLE;
     }
     lat = fw_math_div_round_i64((int64_t)normal_gain_pn_per_v * spb, lat_den);
     if (lat <= 0 || lat > INT32_MAX) {
-        return FW_ERR_DOMAIN;
+        return FW_RULE_TILTED_NO_ANGLE;
     }
     out->mu = (q30_t)mu;
     out->mu_ppm = (int32_t)fw_math_div_round_i64(mu * FW_PPM_PER_ONE, FW_Q30_ONE);
     out->beta = beta;
     out->lateral_gain_pn_per_v = (int32_t)lat;
-    return FW_OK;
+    return FW_RULE_OK;
+}
+
+fw_status_t fw_calib_tilted_solve(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v,
+                                  fw_calib_tilted_t *out)
+{
+    if (out == NULL) {
+        return FW_ERR_ARG;
+    }
+    return fw_rule_status(calib_tilted(r_up, r_down, phi, normal_gain_pn_per_v, out));
+}
+
+fw_rule_t fw_calib_tilted_rule(q24_t r_up, q24_t r_down, fw_bam_t phi, int32_t normal_gain_pn_per_v)
+{
+    fw_calib_tilted_t scratch;
+    return calib_tilted(r_up, r_down, phi, normal_gain_pn_per_v, &scratch);
 }
 
 fw_status_t fw_calib_adhesion_pn(q24_t r_up, q23_t b_up_v, q24_t r_down, q23_t b_down_v,

@@ -103,10 +103,13 @@ fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st
     if (cfg == NULL || st == NULL || st->scratch == NULL || st->scratch_len < 1) {
         return FW_RULE_NULL_POINTER;
     }
+    if (cfg->word_bits != 0 && cfg->word_bits != 16 && cfg->word_bits != 32) {
+        return FW_RULE_WORD_BITS;
+    }
     /* an estimate of a lever the force module refuses is 0: the board's
      * check then names the lever's rule */
     (void)card_board_config(cfg, &board);
-    rule = fw_board_check(&board);
+    rule = (cfg->word_bits == 16) ? fw_board16_check(&board) : fw_board_check(&board);
     if (rule == FW_RULE_OK) {
         rule = card_check_particles(cfg, st);
     }
@@ -124,10 +127,8 @@ fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st
         rule = fw_drift_check(card_drift_step_pm(cfg));
     }
     if (rule == FW_RULE_OK && cfg->n_landmarks != 0) {
-        if (cfg->n_landmarks < 0) {
-            rule = FW_RULE_LANDMARK_CAPACITY;
-        } else if (cfg->landmarks == NULL) {
-            rule = FW_RULE_NULL_POINTER;
+        if (cfg->n_landmarks < 0 || cfg->landmarks == NULL) {
+            rule = FW_RULE_LANDMARKS;
         } else {
             rule = fw_drift_check(cfg->landmark_max_step_pm);
         }
@@ -155,13 +156,15 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
     /* every check passed: the inits below succeed */
     c->cfg = *cfg;
     c->st = *st;
-    if (c->st.particles == NULL || c->st.particle_capacity < 1) {
-        /* no particles: the model runs on the card's own empty slot */
-        c->st.particles = &c->no_particle;
-        c->st.particle_capacity = 1;
+    if (c->st.particles == NULL) {
+        c->st.particle_capacity = 0;   /* no particles: a model that holds none */
     }
     (void)card_board_config(cfg, &board);
     (void)fw_board_init(&c->board, &board);
+    c->chain16 = cfg->word_bits == 16;
+    if (c->chain16) {
+        (void)fw_board16_init(&c->board16, &board);
+    }
     c->n_wires = cfg->n_wires;
     if (cfg->n_wires > 0) {
         (void)fw_wire_tip_init(&c->wire_tip, cfg->tip_radius_pm, cfg->tip_half_angle_mdeg,
@@ -185,6 +188,9 @@ void fw_card_reset(fw_card_t *c)
                                            cfg->particle_shear_kpa, cfg->particle_contact_area_nm2);
     int32_t i;
     fw_board_reset(&c->board);
+    if (c->chain16) {
+        fw_board16_reset(&c->board16);
+    }
     (void)fw_particles_init(&c->parts, c->st.particles, c->st.particle_capacity, cfg->tip_radius_pm);
     (void)fw_particles_set_margin(&c->parts, cfg->particle_margin_pn);
     for (i = 0; i < cfg->n_particles; i++) {
@@ -262,11 +268,24 @@ static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t
         joy[i] = (q15_t)((j > FW_Q15_MAX) ? FW_Q15_MAX : ((j < FW_Q15_MIN) ? FW_Q15_MIN : j));
     }
     fw_comp_target_pm(&c->board.comp, joy, out->target_pm, &sat);
-    fw_comp_piezo_cmd_pm(&c->board.comp, joy, c->board.sn_v, c->board.sl_v, out->piezo_cmd_pm, &sat);
+    if (c->chain16) {
+        /* the 16-bit chain's own offset of its latest signals */
+        int32_t off[2];
+        fw_board16_offset_pm(&c->board16, off);
+        for (i = 0; i < 2; i++) {
+            out->piezo_cmd_pm[i] = fw_math_sat_i32((int64_t)out->target_pm[i] - off[i], &sat);
+        }
+    } else {
+        fw_comp_piezo_cmd_pm(&c->board.comp, joy, c->board.sn_v, c->board.sl_v, out->piezo_cmd_pm, &sat);
+    }
     /* the joystick's workspace follows the sample, as the display does */
     for (i = 0; i < 2; i++) {
-        out->target_pm[i] = fw_math_sat_i32((int64_t)out->target_pm[i] + c->drift.offset_pm[i], NULL);
-        out->piezo_cmd_pm[i] = fw_math_sat_i32((int64_t)out->piezo_cmd_pm[i] + c->drift.offset_pm[i], NULL);
+        out->target_pm[i] = fw_math_sat_i32((int64_t)out->target_pm[i] + c->drift.offset_pm[i], &sat);
+        out->piezo_cmd_pm[i] = fw_math_sat_i32((int64_t)out->piezo_cmd_pm[i] + c->drift.offset_pm[i], &sat);
+    }
+    /* a clamped target or command is a position clamped */
+    if (sat) {
+        out->flags |= FW_FLAG_SAT_POS;
     }
     out->load_pn = pose->load_pn;
     out->engaged = pose->engaged;
@@ -292,7 +311,11 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
         if (k > c->st.scratch_len) {
             k = c->st.scratch_len;
         }
-        (void)fw_board_step_block(&c->board, &in->samples[done], c->st.scratch, (size_t)k);
+        if (c->chain16) {
+            (void)fw_board16_step_block(&c->board16, &in->samples[done], c->st.scratch, (size_t)k);
+        } else {
+            (void)fw_board_step_block(&c->board, &in->samples[done], c->st.scratch, (size_t)k);
+        }
         for (j = 0; j < k; j++) {
             fw_sample_out_t *o = &c->st.scratch[j];
             if (c->objects) {

@@ -53,6 +53,8 @@ void fw_litho_reset(fw_litho_t *l)
     }
     l->count = 0;
     l->in_stroke = false;
+    l->last_pm[0] = 0;
+    l->last_pm[1] = 0;
     l->overflow = false;
     l->dropped = 0;
 }
@@ -72,10 +74,9 @@ fw_status_t fw_litho_step(fw_litho_t *l, const int32_t tip_pm[3], int32_t load_p
     }
     if (!l->in_stroke) {
         flags = FW_LITHO_STROKE_START;
-    } else if (l->count > 0) {
-        const fw_trench_point_t *last = &l->pts[l->count - 1];
-        int64_t dx = (int64_t)tip_pm[0] - last->x_pm;
-        int64_t dy = (int64_t)tip_pm[1] - last->y_pm;
+    } else {
+        int64_t dx = (int64_t)tip_pm[0] - l->last_pm[0];
+        int64_t dy = (int64_t)tip_pm[1] - l->last_pm[1];
         int64_t step = l->min_step_pm;
         /* |dx|, |dy| < 2^32: compare per axis first so the squares fit */
         if (dx < step && -dx < step && dy < step && -dy < step
@@ -84,6 +85,8 @@ fw_status_t fw_litho_step(fw_litho_t *l, const int32_t tip_pm[3], int32_t load_p
         }
     }
     l->in_stroke = true;
+    l->last_pm[0] = tip_pm[0];
+    l->last_pm[1] = tip_pm[1];
     if (l->count >= l->capacity) {
         l->overflow = true;
         if (l->dropped != UINT32_MAX) {
@@ -114,4 +117,6 @@ void fw_litho_shift(fw_litho_t *l, int32_t dx_pm, int32_t dy_pm)
         l->pts[i].x_pm = fw_math_sat_i32((int64_t)l->pts[i].x_pm + dx_pm, NULL);
         l->pts[i].y_pm = fw_math_sat_i32((int64_t)l->pts[i].y_pm + dy_pm, NULL);
     }
+    l->last_pm[0] = fw_math_sat_i32((int64_t)l->last_pm[0] + dx_pm, NULL);
+    l->last_pm[1] = fw_math_sat_i32((int64_t)l->last_pm[1] + dy_pm, NULL);
 }

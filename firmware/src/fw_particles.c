@@ -26,7 +26,7 @@ fw_rule_t fw_particles_check_particle(int32_t radius_pm, int32_t threshold_pn)
 fw_status_t fw_particles_init(fw_particles_t *m, fw_particle_t *storage, int32_t capacity, int32_t tip_radius_pm)
 {
     int32_t i;
-    if (m == NULL || storage == NULL || capacity <= 0) {
+    if (m == NULL || capacity < 0 || (storage == NULL && capacity > 0)) {
         return FW_ERR_ARG;
     }
     if (fw_particles_check(tip_radius_pm) != FW_RULE_OK) {

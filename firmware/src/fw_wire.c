@@ -57,7 +57,9 @@ int32_t fw_wire_push_threshold_pn(q30_t k, int32_t friction_fl_pn, bool *sat)
 
 fw_rule_t fw_wire_check(int32_t length_pm, int32_t diameter_pm)
 {
-    return (length_pm <= 0 || length_pm > FW_WIRE_LENGTH_MAX_PM || diameter_pm <= 0) ? FW_RULE_WIRE : FW_RULE_OK;
+    return (length_pm <= 0 || length_pm > FW_WIRE_LENGTH_MAX_PM || diameter_pm <= 0 || length_pm < diameter_pm)
+               ? FW_RULE_WIRE
+               : FW_RULE_OK;
 }
 
 fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
@@ -321,6 +323,7 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     fw_wire_static_t st;
     fw_squeeze_t sq;
     fw_bam_t psi;
+    int steps;
     if (w == NULL || tip == NULL || apex_pm == NULL) {
         return FW_ERR_ARG;
     }
@@ -342,7 +345,10 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
         return FW_OK;
     }
     max_step = w->length_pm / 4;
-    while (dn != 0) {
+    if (max_step < 1) {
+        max_step = 1;   /* rods of under 4 pm (shorter ones are refused: L >= d > 0) */
+    }
+    for (steps = 0; dn != 0 && steps < FW_WIRE_PUSH_STEPS_MAX; steps++) {
         int32_t step = (dn > max_step) ? max_step : ((dn < -max_step) ? -max_step : dn);
         if (fw_wire_push(w, l, step, NULL) != FW_OK) {
             break;

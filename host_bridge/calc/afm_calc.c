@@ -190,42 +190,34 @@ static int cmd_calib_tilted(int argc, char **argv)
     phi = num_opt_range(cmd, &o[2], -360.0, 360.0, "degrees");
     spring_n_per_m = num_opt_range(cmd, &o[3], 1e-6, 1e4, "k_n must lie in [1e-6, 1e4] N/m");
     deflection_nm_per_v = num_opt_range(cmd, &o[4], 1e-3, 1e6, "K_n must lie in [1e-3, 1e6] nm/V");
-    normal_gain_pn_per_v = spring_n_per_m * deflection_nm_per_v * 1000.0;   /* N/m * nm/V = nN/V */
+    normal_gain_pn_per_v = spring_n_per_m * deflection_nm_per_v * 1000.0;   /* N/m * nm/V = nN/V, in pN/V */
     if (normal_gain_pn_per_v < 1.0 || normal_gain_pn_per_v > 2147483647.0) {
         die("%s: --spring-N-per-m %s --deflection-nm-per-V %s: k_n K_n = %g nN/V does not fit int32 pN/V", cmd, o[3].value, o[4].value,
-            normal_gain_pn_per_v / 1000.0);
-    }
-    if (ru <= 0.0) {
-        die("%s: --up %s: the uphill slope must be > 0", cmd, o[0].value);
-    }
-    if (phi < 0.1 || phi >= 90.0) {
-        die("%s: --angle-deg %s: the surface slope must lie in [0.1, 90) deg (a flat surface carries no information)",
-            cmd, o[2].value);
+            fwu_nn_per_v_from_pn_per_v((int64_t)normal_gain_pn_per_v));
     }
     st = fw_calib_tilted_solve(fwu_q24(ru), fwu_q24(rd), fw_math_bam_from_mdeg(fwu_mdeg_from_deg(phi)),
                                fwu_i32(normal_gain_pn_per_v), &t);
     if (st != FW_OK) {
-        if (fabs(ru) <= fabs(rd) * (1.0 + 1.0 / 1024.0)) {
-            die("%s: --up %s --down %s: |rho| = |r_u/r_d| = %.5f must exceed 1 + 2^-10 "
-                "(the uphill slope is the steeper one; nearly equal slopes carry no friction information)",
-                cmd, o[0].value, o[1].value, rd != 0.0 ? fabs(ru / rd) : 0.0);
-        }
-        die("%s: --up %s --down %s --angle-deg %s: no real friction angle (B = 2(rho+1)/((rho-1) sin 2phi) < 2) "
-            "or phi + beta >= 90 deg (%s)", cmd, o[0].value, o[1].value, o[2].value, status_name(st));
+        /* the firmware names the rule; the options that feed it with it */
+        fw_rule_t rule = fw_calib_tilted_rule(fwu_q24(ru), fwu_q24(rd), fw_math_bam_from_mdeg(fwu_mdeg_from_deg(phi)),
+                                              fwu_i32(normal_gain_pn_per_v));
+        const char *opt = (rule == FW_RULE_TILTED_SLOPE) ? "--angle-deg" : (rule == FW_RULE_TILTED_UPHILL) ? "--up" : "--up --down";
+        die("%s: %s (--up %s --down %s --angle-deg %s): the firmware refuses it: %s (fw_calib_tilted_solve: %s, rule %d)",
+            cmd, opt, o[0].value, o[1].value, o[2].value, fw_rule_text(rule), status_name(st), (int)rule);
     }
     {
         double mu = fwu_from_q30(t.mu);
-        double beta = t.beta / 4294967296.0 * 360.0;
-        double lat = t.lateral_gain_pn_per_v / 1000.0;
+        double beta = fwu_deg_from_bam(t.beta);
+        double lat = fwu_nn_per_v_from_pn_per_v(t.lateral_gain_pn_per_v);
         if (o[5].value != NULL) {
             printf("{\"command\": \"calib tilted\", \"status\": \"ok\", \"mu\": %.6f, \"mu_ppm\": %ld, "
                    "\"lateral_nN_per_V\": %.3f, \"lateral_pN_per_V\": %ld, \"slope_angle_deg\": %.4f, "
                    "\"friction_angle_deg\": %.4f, \"normal_gain_nN_per_V\": %.4f}\n",
-                   mu, (long)t.mu_ppm, lat, (long)t.lateral_gain_pn_per_v, phi, beta, normal_gain_pn_per_v / 1000.0);
+                   mu, (long)t.mu_ppm, lat, (long)t.lateral_gain_pn_per_v, phi, beta, normal_gain_pn_per_v * 1e-3);
         } else {
             printf("tilted-surface calibration (firmware fw_calib_tilted_solve)\n");
             printf("  slope angle phi        %.4f deg\n", phi);
-            printf("  k_n K_n                %.4f nN/V\n", normal_gain_pn_per_v / 1000.0);
+            printf("  k_n K_n                %.4f nN/V\n", normal_gain_pn_per_v * 1e-3);
             printf("  mu                     %.6f\n", mu);
             printf("  friction angle beta    %.4f deg\n", beta);
             printf("  k_theta K_l / h        %.3f nN/V\n", lat);
@@ -291,12 +283,12 @@ static int cmd_calib_lines(int argc, char **argv)
     }
     if (o[3].value != NULL) {
         printf("{\"command\": \"calib lines\", \"status\": \"ok\", \"cn_nm_per_V\": %.3f, \"residual_nm\": %.3f, "
-               "\"lines\": %d}\n", disp_n_pm_per_v / 1000.0, res / 1000.0, n);
+               "\"lines\": %d}\n", fwu_nm_per_v_from_pm_per_v(disp_n_pm_per_v), fwu_nm_from_pm(res), n);
     } else {
         printf("C_n from inscribed lines (firmware fw_calib_lines_cn)\n");
         printf("  lines                  %d\n", n);
-        printf("  C_n                    %.3f nm/V\n", disp_n_pm_per_v / 1000.0);
-        printf("  RMS residual           %.3f nm\n", res / 1000.0);
+        printf("  C_n                    %.3f nm/V\n", fwu_nm_per_v_from_pm_per_v(disp_n_pm_per_v));
+        printf("  RMS residual           %.3f nm\n", fwu_nm_from_pm(res));
         printf("  status                 ok\n");
     }
     return 0;
@@ -321,6 +313,7 @@ static int cmd_model_wire(int argc, char **argv)
     fw_status_t s;
     const char *regime;
     double k;
+    double f_min_nn;
     double lambda;
     if (wants_help(argc, argv)) {
         printf("usage: afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]\n"
@@ -340,7 +333,7 @@ static int cmd_model_wire(int argc, char **argv)
     if (at < 0.0 || at > len) {
         die("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[2].value, len);
     }
-    at_pm = to_i32(cmd, &o[2], at * 1000.0);
+    at_pm = to_i32(cmd, &o[2], at * 1e3);
     s = fw_wire_static_point(len_pm, at_pm, &st);
     if (s != FW_OK) {
         die("%s: --push-at-nm %s: %s", cmd, o[2].value, status_name(s));
@@ -349,26 +342,37 @@ static int cmd_model_wire(int argc, char **argv)
              : (st.regime == FW_WIRE_ROTATE_NEAR_B) ? "rotate_about_far_end_side" : "rotate_about_near_end_side";
     k = fwu_from_q30(st.k);
     lambda = len / dia;
+    {
+        /* F_min = k(l) f L by the firmware's own friction and threshold */
+        fw_wire_tip_t tip;
+        fw_wire_t w;
+        bool sat = false;
+        if (fw_wire_tip_init(&tip, 0, 20000, fwu_pn_per_um_from_nn_per_um(f), 0, 0) != FW_OK
+            || fw_wire_init(&w, 0, 0, 0, len_pm, len_pm) != FW_OK) {
+            die("%s: --f-nN-per-um %s: the firmware refuses this friction or length", cmd, o[3].value ? o[3].value : "1");
+        }
+        f_min_nn = fwu_nn_from_pn(fw_wire_push_threshold_pn(st.k, fw_wire_friction_pn(&tip, &w), &sat));
+    }
     if (o[4].value != NULL) {
         printf("{\"command\": \"model wire\", \"status\": \"ok\", ");
         if (st.s_defined) {
-            printf("\"static_point_nm\": %.3f, ", st.s_pm / 1000.0);
+            printf("\"static_point_nm\": %.3f, ", fwu_nm_from_pm(st.s_pm));
         } else {
             printf("\"static_point_nm\": null, ");
         }
         printf("\"min_force_per_fL\": %.6f, \"min_force_nN\": %.6f, \"regime\": \"%s\", "
                "\"aspect_ratio\": %.3f, \"rigid_rod_model_valid\": %s}\n",
-               k, k * f * len / 1000.0, regime, lambda, lambda <= 15.0 ? "true" : "false");
+               k, f_min_nn, regime, lambda, lambda <= 15.0 ? "true" : "false");
     } else {
         printf("rigid rod pushed at l = %g nm of L = %g nm (firmware fw_wire_static_point)\n", at, len);
         if (st.s_defined) {
-            printf("  static point S         %.3f nm from end A\n", st.s_pm / 1000.0);
+            printf("  static point S         %.3f nm from end A\n", fwu_nm_from_pm(st.s_pm));
         } else {
             printf("  static point S         none: pure translation (bifurcation at L/2)\n");
         }
         printf("  regime                 %s\n", regime);
         printf("  F_min / (f L)          %.6f\n", k);
-        printf("  F_min                  %.6f nN (f = %g nN/um)\n", k * f * len / 1000.0, f);
+        printf("  F_min                  %.6f nN (f = %g nN/um)\n", f_min_nn, f);
         printf("  aspect ratio L/d       %.2f%s\n", lambda,
                lambda <= 15.0 ? "" : "  (above 15: the rod bends, rigid model out of scope)");
         printf("  status                 ok\n");
@@ -381,7 +385,7 @@ static int cmd_model_wire(int argc, char **argv)
 typedef struct {
     double spring_n_per_m;
     double deflection_nm_per_v;
-    double lateral_nn_per_v;
+    double lateral_gain_nn_per_v;
     double h_um;
     double l_um;
     double mu;
@@ -393,7 +397,7 @@ static void probe_default(probe_t *p)
     /* the paper's probe (fw_paper_probe.h), in the calculator's units */
     p->spring_n_per_m = FW_PAPER_KN_MN_PER_M * 1e-3;
     p->deflection_nm_per_v = FW_PAPER_DEFLECTION_PM_PER_V * 1e-3;
-    p->lateral_nn_per_v = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;
+    p->lateral_gain_nn_per_v = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;
     p->h_um = FW_PAPER_TIP_HEIGHT_NM * 1e-3;
     p->l_um = FW_PAPER_LEVER_LENGTH_NM * 1e-3;
     p->mu = FW_PAPER_MU_PPM * 1e-6;
@@ -446,12 +450,12 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
             fclose(fp);
             die("%s: --probe %s: line %d: value of %s is not a number", cmd, path, lineno, key);
         }
-        if (strcmp(key, "kn_N_per_m") == 0) {
+        if (strcmp(key, "spring_N_per_m") == 0) {
             p->spring_n_per_m = v;
-        } else if (strcmp(key, "Kn_nm_per_V") == 0) {
+        } else if (strcmp(key, "deflection_nm_per_V") == 0) {
             p->deflection_nm_per_v = v;
         } else if (strcmp(key, "lateral_nN_per_V") == 0) {
-            p->lateral_nn_per_v = v;
+            p->lateral_gain_nn_per_v = v;
         } else if (strcmp(key, "tip_height_um") == 0) {
             p->h_um = v;
         } else if (strcmp(key, "lever_length_um") == 0) {
@@ -462,7 +466,7 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
             p->adh_nn = v;
         } else {
             fclose(fp);
-            die("%s: --probe %s: line %d: unknown key '%s' (kn_N_per_m, Kn_nm_per_V, lateral_nN_per_V, "
+            die("%s: --probe %s: line %d: unknown key '%s' (spring_N_per_m, deflection_nm_per_V, lateral_nN_per_V, "
                 "tip_height_um, lever_length_um, mu, adhesion_nN)", cmd, path, lineno, key);
         }
     }
@@ -498,7 +502,7 @@ static int cmd_calc_force(int argc, char **argv)
                "  in the cantilever frame and the scan angle A (alpha = A - 270 deg); printed in\n"
                "  the AFM frame, nN. Near T = 0 or 180 deg (|sin T| < 1/4) F_x comes (partly) from\n"
                "  the friction fallback mu (F_z + F_adh).\n"
-               "  --probe FILE: 'key = value' lines (kn_N_per_m, Kn_nm_per_V, lateral_nN_per_V,\n"
+               "  --probe FILE: 'key = value' lines (spring_N_per_m, deflection_nm_per_V, lateral_nN_per_V,\n"
                "  tip_height_um, lever_length_um, mu, adhesion_nN); default: the paper's probe\n"
                "  (0.12 N/m, 89 nm/V, 37.9 nN/V, h 17.3 um, l 100 um, mu 0.0865, no adhesion).\n");
         return 0;
@@ -512,13 +516,18 @@ static int cmd_calc_force(int argc, char **argv)
     if (o[4].value != NULL) {
         probe_read(cmd, o[4].value, &p);
     }
-    st = fw_force_init(&f, fwu_pn_per_v_from_nn_per_v(p.spring_n_per_m * p.deflection_nm_per_v),
-                       fwu_pn_per_v_from_nn_per_v(p.lateral_nn_per_v), fwu_nm_from_um(p.h_um), fwu_nm_from_um(p.l_um),
-                       fwu_ppm(p.mu), fwu_pn_from_nn(p.adh_nn));
-    if (st != FW_OK) {
-        die("%s: --probe %s: probe rejected by fw_force_init (%s): gains > 0, 0 < h < l, 0 <= mu <= 1, "
-            "adhesion >= 0, mu 2h/l <= 1/2", cmd, o[4].value != NULL ? o[4].value : "(default)", status_name(st));
+    {
+        fw_rule_t rule = fw_force_check(fwu_pn_per_v_from_nn_per_v(p.spring_n_per_m * p.deflection_nm_per_v),
+                                        fwu_pn_per_v_from_nn_per_v(p.lateral_gain_nn_per_v), fwu_nm_from_um(p.h_um),
+                                        fwu_nm_from_um(p.l_um), fwu_ppm(p.mu), fwu_pn_from_nn(p.adh_nn));
+        if (rule != FW_RULE_OK) {
+            die("%s: --probe %s: the firmware refuses this probe: %s (fw_force_check, rule %d)", cmd,
+                o[4].value != NULL ? o[4].value : "(default)", fw_rule_text(rule), (int)rule);
+        }
     }
+    (void)fw_force_init(&f, fwu_pn_per_v_from_nn_per_v(p.spring_n_per_m * p.deflection_nm_per_v),
+                        fwu_pn_per_v_from_nn_per_v(p.lateral_gain_nn_per_v), fwu_nm_from_um(p.h_um), fwu_nm_from_um(p.l_um),
+                        fwu_ppm(p.mu), fwu_pn_from_nn(p.adh_nn));
     fw_math_sincos_q30(fw_math_bam_from_mdeg(fwu_mdeg_from_deg(fmod(theta, 360.0))), &ts, &tc);
     fw_math_sincos_q30(fw_math_bam_from_mdeg(fwu_mdeg_from_deg(fmod(scan, 360.0)) - 270000), &as, &ac);
     /* the direction as the vector (cos T, sin T) in 2.30: the solver takes any length */
@@ -534,15 +543,15 @@ static int cmd_calc_force(int argc, char **argv)
         printf("{\"command\": \"calc force\", \"status\": \"ok\", \"fx_nN\": %.3f, \"fy_nN\": %.3f, \"fz_nN\": %.3f, "
                "\"frame\": \"AFM\", \"fx_cantilever_nN\": %.3f, \"fy_cantilever_nN\": %.3f, "
                "\"fx_unobservable\": %s, \"saturated\": %s}\n",
-               fa[0] / 1000.0, fa[1] / 1000.0, fa[2] / 1000.0, fc[0] / 1000.0, fc[1] / 1000.0,
+               fwu_nn_from_pn(fa[0]), fwu_nn_from_pn(fa[1]), fwu_nn_from_pn(fa[2]), fwu_nn_from_pn(fc[0]), fwu_nn_from_pn(fc[1]),
                (flags & FW_FLAG_FX_UNOBSERVABLE) ? "true" : "false",
                (flags & FW_FLAG_SAT_FORCE) ? "true" : "false");
     } else {
         printf("force of the sample on the tip (firmware fw_force_solve_pn), AFM frame\n");
-        printf("  F_x                    %.3f nN\n", fa[0] / 1000.0);
-        printf("  F_y                    %.3f nN\n", fa[1] / 1000.0);
-        printf("  F_z                    %.3f nN\n", fa[2] / 1000.0);
-        printf("  cantilever frame       F_x %.3f nN, F_y %.3f nN\n", fc[0] / 1000.0, fc[1] / 1000.0);
+        printf("  F_x                    %.3f nN\n", fwu_nn_from_pn(fa[0]));
+        printf("  F_y                    %.3f nN\n", fwu_nn_from_pn(fa[1]));
+        printf("  F_z                    %.3f nN\n", fwu_nn_from_pn(fa[2]));
+        printf("  cantilever frame       F_x %.3f nN, F_y %.3f nN\n", fwu_nn_from_pn(fc[0]), fwu_nn_from_pn(fc[1]));
         if (flags & FW_FLAG_FX_UNOBSERVABLE) {
             printf("  note                   |sin theta| < 1/4: F_x from the friction fallback (blended)\n");
         }

@@ -78,6 +78,8 @@ class ReplayEveryScene(unittest.TestCase):
                 self.assertEqual(rc, 0, so + se)
                 self.assertIn("replay: identical", so)
                 self.assertNotIn("DIVERGES", so)
+                compared = int(so.split("bit for bit (")[1].split(" messages")[0])
+                self.assertGreaterEqual(compared, 5 * 500, "too few outputs compared")
 
     def test_a_run_with_lost_datagrams_and_resends_replays_identical(self):
         out = benchtest.tmpdir("replay-drops")
@@ -126,18 +128,41 @@ class ReplayEveryScene(unittest.TestCase):
         return dst, log, evs
 
     def test_a_truncated_log_names_the_file_and_the_offset(self):
-        cut = {}
+        # cut inside an event replay reads, and inside one it passes over
+        for channel in ("AFM_ANALOG", "SIM_TRUTH"):
+            cut = {}
 
-        def truncate(evs, blob):
-            off, ch, data = evs[len(evs) // 2]
-            cut["at"] = off
-            return blob[:off + 28 + len(ch) + len(data) // 2]
-        run, log, _ = self._broken_copy("truncated", truncate)
+            def truncate(evs, blob):
+                off, ch, data = next(e for e in evs[len(evs) // 2:] if e[1] == channel)
+                cut["at"] = off
+                return blob[:off + 28 + len(ch) + len(data) // 2]
+            run, log, _ = self._broken_copy("truncated", truncate)
+            rc, so, se = replay(REPLAY, run)
+            self.assertEqual(rc, 2, so + se)
+            self.assertIn(f"{log}: byte offset {cut['at']}: truncated log", se)
+
+    def test_a_log_missing_an_input_is_named_not_judged(self):
+        gone = {}
+
+        def drop_a_pose(evs, blob):
+            poses = [e for e in evs if e[1] == "HAPTIC_POSE"]
+            off, ch, data = poses[len(poses) // 2]
+            gone["block"] = afmlog.afm.haptic_pose_t.decode(data).seq
+            size = 28 + len(ch) + len(data)
+            return blob[:off] + blob[off + size:]
+        run, log, _ = self._broken_copy("nopose", drop_a_pose)
         rc, so, se = replay(REPLAY, run)
         self.assertEqual(rc, 2, so + se)
-        self.assertIn(log, se)
-        self.assertIn(f"byte offset {cut['at']}", se)
-        self.assertIn("truncated", se)
+        self.assertIn(f"the card could step only to block {gone['block'] - 1}", se)
+        self.assertIn(f"misses an input of block {gone['block']}", se)
+
+    def test_write_onto_the_replayed_log_is_refused(self):
+        run, log, _ = self._broken_copy("self", lambda evs, blob: blob)
+        size = os.path.getsize(log)
+        rc, so, se = replay(REPLAY, run, "--write", log)
+        self.assertEqual(rc, 2, so + se)
+        self.assertIn("is the log being replayed", se)
+        self.assertEqual(os.path.getsize(log), size)
 
     def test_a_corrupt_event_names_the_file_and_the_offset(self):
         hit = {}

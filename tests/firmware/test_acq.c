@@ -44,7 +44,12 @@ static void test_acq_rails_at_just_past_and_far_past_10v(void)
         { __LINE__, 12, -2442, -1, false },
         { __LINE__, 16, 152, 0, false },               /* LSB 305.18 uV */
         { __LINE__, 16, 153, 1, false },
-        { __LINE__, 15, 1000, 0, false },              /* unsupported width: 0 */
+        { __LINE__, 15, 1000, 2, false },              /* LSB 610.35 uV: 1.64 LSB */
+        { __LINE__, 8, 39062, 0, false },              /* LSB 78125 uV: 0.49999 LSB */
+        { __LINE__, 8, 39063, 1, false },
+        { __LINE__, 8, 10000000, 127, true },
+        { __LINE__, 7, 1000, 0, false },               /* unsupported width: 0 */
+        { __LINE__, 17, 1000, 0, false },
     };
     size_t i;
     for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
@@ -57,12 +62,11 @@ static void test_acq_rails_at_just_past_and_far_past_10v(void)
 
 static void test_acq_quantize_sweep_matches_double_exactly(void)
 {
-    static const int32_t widths[] = { 12, 14, 16 };
     tu_rng_t rng;
     long i;
     tu_rng_seed(&rng, 21);
     for (i = 0; i < AFM_SWEEP_N; i++) {
-        int32_t bits = widths[i % 3];
+        int32_t bits = FW_ACQ_BITS_MIN + (int32_t)(i % (FW_ACQ_BITS_MAX - FW_ACQ_BITS_MIN + 1));
         int32_t uv = tu_rng_range(&rng, -12000000, 12000000);
         TEST_ASSERT_EQUAL_INT32(ref_code(bits, uv), fw_acq_quantize_code(bits, uv, NULL));
     }
@@ -75,7 +79,7 @@ static void test_acq_quantize_sweep_matches_double_exactly(void)
  * behind its own fast range test: checked at the boundaries too. */
 static void test_acq_quantize_reciprocal_exact_at_every_code_boundary(void)
 {
-    static const int32_t widths[] = { 12, 14, 16 };
+    static const int32_t widths[] = { 8, 9, 10, 11, 12, 13, 14, 15, 16 };
     size_t w;
     for (w = 0; w < sizeof widths / sizeof widths[0]; w++) {
         int32_t bits = widths[w];
@@ -123,6 +127,8 @@ static void test_acq_fast_range_edges_and_fast_step_exact(void)
         { __LINE__, 16, 9999847 },   /* 9999848 rounds to 2^15: clamped */
         { __LINE__, 14, 9999389 },
         { __LINE__, 12, 9997558 },
+        { __LINE__, 10, 9990234 },   /* 10^7 - 5 10^6 / 2^9 = 9990234.4 rounds to 2^9 */
+        { __LINE__, 8, 9960937 },
     };
     size_t w;
     for (w = 0; w < sizeof rows / sizeof rows[0]; w++) {
@@ -184,7 +190,13 @@ static void test_acq_code_to_volts_exact(void)
 static void test_acq_init_rejects_bad_bits_and_filter(void)
 {
     fw_acq_t a;
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 13, 0));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 7, 0));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 17, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, 13, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_acq_init(&a, 8, 0));
+    TEST_ASSERT_EQUAL_INT32(-128, fw_acq_quantize_code(8, -10000000, NULL));
+    TEST_ASSERT_EQUAL_INT32(127, fw_acq_quantize_code(8, 10000000, NULL));
+    TEST_ASSERT_EQUAL_INT32(0, fw_acq_quantize_code(7, 5000000, NULL));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 16, 5));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(&a, 16, -1));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_acq_init(NULL, 16, 0));

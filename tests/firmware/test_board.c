@@ -32,7 +32,7 @@ static void test_board_init_validates_config(void)
     fw_board_t x;
     fw_board_config_t c;
     paper_config(&c);
-    c.adc_bits = 10;
+    c.adc_bits = 7;
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_board_init(&x, &c));
     paper_config(&c);
     c.deflection_pm_per_v = 0;

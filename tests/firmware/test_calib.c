@@ -217,6 +217,25 @@ static void test_calib_disp_estimate_paper_probe(void)
     TEST_ASSERT_INT32_WITHIN(1, (int32_t)lround(1.5 * (INT32_MAX - 1.0)), cl);
 }
 
+static void test_calib_tilted_rule_names_each_refusal(void)
+{
+    int32_t g = FW_PAPER_NORMAL_GAIN_PN_PER_V;
+    TEST_ASSERT_EQUAL_INT(FW_RULE_OK, fw_calib_tilted_rule(q24(0.07), q24(0.02), bam_deg(9.0), g));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_FORCE_GAINS, fw_calib_tilted_rule(q24(0.07), q24(0.02), bam_deg(9.0), 0));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_TILTED_SLOPE, fw_calib_tilted_rule(q24(0.07), q24(0.02), bam_deg(0.09), g));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_TILTED_SLOPE, fw_calib_tilted_rule(q24(0.07), q24(0.02), FW_BAM_QUARTER_TURN, g));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_TILTED_UPHILL, fw_calib_tilted_rule(0, q24(0.02), bam_deg(9.0), g));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_TILTED_CONTRAST, fw_calib_tilted_rule(q24(0.02), q24(0.07), bam_deg(9.0), g));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_TILTED_CONTRAST, fw_calib_tilted_rule(q24(0.07), q24(-0.07), bam_deg(9.0), g));
+    /* B < 2: a contrast too strong for the slope angle */
+    TEST_ASSERT_EQUAL_INT(FW_RULE_TILTED_NO_ANGLE, fw_calib_tilted_rule(q24(1.0), q24(0.0), bam_deg(45.0), g));
+    {
+        fw_calib_tilted_t t;
+        TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_calib_tilted_solve(q24(0.07), q24(0.02), bam_deg(9.0), g, NULL));
+        TEST_ASSERT_EQUAL_INT(FW_ERR_DOMAIN, fw_calib_tilted_solve(q24(0.02), q24(0.07), bam_deg(9.0), g, &t));
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -229,5 +248,6 @@ int main(void)
     RUN_TEST(test_calib_lines_paper_gives_23_1_nm_per_v);
     RUN_TEST(test_calib_lines_residual_and_refusals);
     RUN_TEST(test_calib_disp_estimate_paper_probe);
+    RUN_TEST(test_calib_tilted_rule_names_each_refusal);
     return UNITY_END();
 }

@@ -81,52 +81,109 @@ static fw_rule_t rule_of(void)
     return r;
 }
 
+/* One broken rule per row, each a change to the default configuration. */
+static void brk_adc_bits(void) { cfg.board.adc_bits = 17; }
+static void brk_filter(void) { cfg.board.filter_log2 = 5; }
+static void brk_gain(void) { cfg.board.lateral_gain_pn_per_v = 0; }
+static void brk_lever(void) { cfg.board.lever_length_nm = 0; }
+static void brk_tip_long(void) { cfg.board.tip_height_nm = cfg.board.lever_length_nm; }
+static void brk_mu(void) { cfg.board.mu_ppm = 1000001; }
+static void brk_adhesion(void) { cfg.board.adhesion_pn = -1; }
+static void brk_mu_2h_l(void) { cfg.board.mu_ppm = 900000; cfg.board.tip_height_nm = 60000; }
+static void brk_deflection(void) { cfg.board.deflection_pm_per_v = 0; }
+static void brk_theta(void) { cfg.board.theta_min_disp_pm = -1; }
+/* the lever's estimate 3 h K_n / (2 l) = 11.25 um/V: past 2^22 pm/V */
+static void brk_disp_range(void)
+{
+    cfg.board.tip_height_nm = 50000;
+    cfg.board.lever_length_nm = 60000;
+    cfg.board.deflection_pm_per_v = 9000000;
+}
+static void brk_disp_negative(void) { cfg.board.disp_n_pm_per_v = -5; }
+static void brk_joystick(void) { cfg.board.kappa_q16 = -1; }
+static void brk_tip_radius(void) { cfg.tip_radius_pm = -1; }
+static void brk_particle(void) { particles[1].radius_pm = 0; }
+static void brk_margin(void) { cfg.particle_margin_pn = -1; }
+static void brk_particles_null(void) { cfg.particles = NULL; }
+static void brk_particle_capacity(void) { st.particle_capacity = N_PART - 1; }
+static void wires_on(void) { cfg.wires = wires; cfg.n_wires = 1; }
+static void brk_wire(void) { wires_on(); wires[0].diameter_pm = 2000000; }   /* thicker than long */
+static void brk_wire_capacity(void) { wires_on(); st.wire_capacity = 0; }
+static void brk_wire_mu(void) { wires_on(); cfg.wire_mu_ppm = 2000000; }
+static void brk_gamma(void) { wires_on(); cfg.tip_half_angle_mdeg = 60000; }
+static void litho_on(void)
+{
+    cfg.litho = true;
+    cfg.litho_threshold_pn = 20000;
+    cfg.litho_depth_pm_per_pn = FW_Q16_ONE;
+}
+static void brk_litho(void) { litho_on(); cfg.litho_threshold_pn = -1; }
+static void brk_litho_storage(void) { litho_on(); st.trench = NULL; }
+static void brk_landmark_step(void) { cfg.landmark_max_step_pm = 0; }
+static void brk_landmarks(void) { cfg.landmarks = NULL; }
+static void brk_haptic(void) { cfg.haptic_max_un = -1; }
+static void brk_word(void) { cfg.word_bits = 24; }
+static void brk_word16(void) { cfg.word_bits = 16; cfg.board.normal_gain_pn_per_v = 200000; }
+static void brk_scratch(void) { st.scratch = NULL; }
+
 static void test_card_init_names_each_rule_it_refuses(void)
 {
-    struct { int line; fw_rule_t rule; } rows[16];
-    int n = 0;
-    int i;
-    fw_rule_t r;
-    /* each row breaks one rule, starting from a good configuration */
-    for (i = 0; i < 15; i++) {
+    static const struct {
+        int line;
+        void (*breaks)(void);
+        fw_rule_t rule;
+    } rows[] = {
+        { __LINE__, brk_adc_bits, FW_RULE_ADC_BITS },
+        { __LINE__, brk_filter, FW_RULE_ADC_FILTER },
+        { __LINE__, brk_gain, FW_RULE_FORCE_GAINS },
+        { __LINE__, brk_lever, FW_RULE_LEVER_POSITIVE },
+        { __LINE__, brk_tip_long, FW_RULE_TIP_SHORTER_THAN_LEVER },
+        { __LINE__, brk_mu, FW_RULE_MU_RANGE },
+        { __LINE__, brk_adhesion, FW_RULE_ADHESION },
+        { __LINE__, brk_mu_2h_l, FW_RULE_MU_2H_OVER_L },
+        { __LINE__, brk_deflection, FW_RULE_DEFLECTION_GAIN },
+        { __LINE__, brk_theta, FW_RULE_THETA_MIN_DISP },
+        { __LINE__, brk_disp_range, FW_RULE_DISP_RANGE },
+        { __LINE__, brk_disp_negative, FW_RULE_DISP_NEGATIVE },
+        { __LINE__, brk_joystick, FW_RULE_JOYSTICK_RANGE },
+        { __LINE__, brk_tip_radius, FW_RULE_TIP_RADIUS },
+        { __LINE__, brk_particle, FW_RULE_PARTICLE },
+        { __LINE__, brk_margin, FW_RULE_PARTICLE },
+        { __LINE__, brk_particles_null, FW_RULE_NULL_POINTER },
+        { __LINE__, brk_particle_capacity, FW_RULE_PARTICLE_CAPACITY },
+        { __LINE__, brk_wire, FW_RULE_WIRE },
+        { __LINE__, brk_wire_capacity, FW_RULE_WIRE_CAPACITY },
+        { __LINE__, brk_wire_mu, FW_RULE_WIRE_FRICTION },
+        { __LINE__, brk_gamma, FW_RULE_TIP_HALF_ANGLE },
+        { __LINE__, brk_litho, FW_RULE_LITHO },
+        { __LINE__, brk_litho_storage, FW_RULE_LITHO_CAPACITY },
+        { __LINE__, brk_landmark_step, FW_RULE_DRIFT_STEP },
+        { __LINE__, brk_landmarks, FW_RULE_LANDMARKS },
+        { __LINE__, brk_haptic, FW_RULE_HAPTIC },
+        { __LINE__, brk_word, FW_RULE_WORD_BITS },
+        { __LINE__, brk_word16, FW_RULE_WORD16_RANGE },
+        { __LINE__, brk_scratch, FW_RULE_NULL_POINTER },
+    };
+    size_t i;
+    int r;
+    fw_rule_t got;
+    for (i = 0; i < sizeof rows / sizeof rows[0]; i++) {
         default_config();
-        switch (i) {
-        case 0: cfg.board.adc_bits = 13; rows[n].rule = FW_RULE_ADC_BITS; break;
-        case 1: cfg.board.lateral_gain_pn_per_v = 0; rows[n].rule = FW_RULE_FORCE_GAINS; break;
-        case 2: cfg.board.tip_height_nm = cfg.board.lever_length_nm; rows[n].rule = FW_RULE_TIP_SHORTER_THAN_LEVER; break;
-        case 3: cfg.board.mu_ppm = 900000; cfg.board.tip_height_nm = 60000; rows[n].rule = FW_RULE_MU_2H_OVER_L; break;
-        case 4: cfg.board.deflection_pm_per_v = 0; rows[n].rule = FW_RULE_DEFLECTION_GAIN; break;
-        /* the lever's estimate 3 h K_n / (2 l) = 11.25 um/V: past 2^22 pm/V */
-        case 5: cfg.board.tip_height_nm = 50000; cfg.board.lever_length_nm = 60000;
-                cfg.board.deflection_pm_per_v = 9000000; rows[n].rule = FW_RULE_DISP_RANGE; break;
-        case 6: cfg.board.disp_n_pm_per_v = -5; rows[n].rule = FW_RULE_DISP_NEGATIVE; break;
-        case 7: particles[1].radius_pm = 0; rows[n].rule = FW_RULE_PARTICLE; break;
-        case 8: st.particle_capacity = N_PART - 1; rows[n].rule = FW_RULE_PARTICLE_CAPACITY; break;
-        case 9: cfg.wires = wires; cfg.n_wires = 1; st.wire_capacity = 0; rows[n].rule = FW_RULE_WIRE_CAPACITY; break;
-        case 10: cfg.wires = wires; cfg.n_wires = 1; cfg.wire_mu_ppm = 2000000; rows[n].rule = FW_RULE_WIRE_FRICTION; break;
-        case 11: cfg.wires = wires; cfg.n_wires = 1; cfg.tip_half_angle_mdeg = 60000; rows[n].rule = FW_RULE_TIP_HALF_ANGLE; break;
-        case 12: cfg.litho = true; cfg.litho_threshold_pn = 20000; cfg.litho_depth_pm_per_pn = FW_Q16_ONE;
-                 st.trench = NULL; rows[n].rule = FW_RULE_LITHO_CAPACITY; break;
-        case 13: cfg.landmark_max_step_pm = 0; rows[n].rule = FW_RULE_DRIFT_STEP; break;
-        default: cfg.haptic_max_un = -1; rows[n].rule = FW_RULE_HAPTIC; break;
-        }
-        rows[n].line = __LINE__;
-        r = rule_of();
+        rows[i].breaks();
+        got = rule_of();
         particles[1].radius_pm = 50000;
-        UNITY_TEST_ASSERT_EQUAL_INT(rows[n].rule, r, rows[n].line, fw_rule_text(rows[n].rule));
-        n++;
+        wires[0].diameter_pm = 100000;
+        UNITY_TEST_ASSERT_EQUAL_INT(rows[i].rule, got, rows[i].line, fw_rule_text(rows[i].rule));
     }
-    /* a NULL configuration, storage or scratch */
     default_config();
-    st.scratch = NULL;
-    TEST_ASSERT_EQUAL_INT(FW_RULE_NULL_POINTER, rule_of());
+    TEST_ASSERT_EQUAL_INT(FW_RULE_OK, rule_of());
     TEST_ASSERT_EQUAL_INT(FW_RULE_NULL_POINTER, fw_card_check(NULL, &st));
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_card_init(NULL, &cfg, &st, &r));
-    TEST_ASSERT_EQUAL_INT(FW_RULE_NULL_POINTER, r);
-    /* every rule has words and a status */
-    for (i = 1; i < FW_RULE_COUNT; i++) {
-        TEST_ASSERT_TRUE(strlen(fw_rule_text((fw_rule_t)i)) > 10);
-        TEST_ASSERT_TRUE(fw_rule_status((fw_rule_t)i) < 0);
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_card_init(NULL, &cfg, &st, &got));
+    TEST_ASSERT_EQUAL_INT(FW_RULE_NULL_POINTER, got);
+    /* every rule has words and a status; outside the table, a text still */
+    for (r = 1; r < FW_RULE_COUNT; r++) {
+        TEST_ASSERT_TRUE(strlen(fw_rule_text((fw_rule_t)r)) > 10);
+        TEST_ASSERT_TRUE(fw_rule_status((fw_rule_t)r) < 0);
     }
     TEST_ASSERT_EQUAL_STRING("unknown rule", fw_rule_text(FW_RULE_COUNT));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_rule_status(FW_RULE_OK));
@@ -480,49 +537,60 @@ static void test_card_fix_particle_landmark_unknown_and_the_limits(void)
     TEST_ASSERT_EQUAL_UINT32(0u, fw_card_fixes_applied(&card));
 }
 
-/* Random blocks and fixes through two cards, one with a scratch of 7
- * samples (blocks run in pieces): the same outputs and models, bit for
- * bit. */
+/* Random blocks (pushes into particles and a wire, lithography on) and
+ * fixes through two cards, one with a scratch of 7 samples (blocks run in
+ * pieces): the same outputs and models, bit for bit. Then the first card,
+ * reset, and a fresh third card given the same first blocks agree too. */
+static fw_card_t c2;
+static fw_particle_t parts2[N_PART];
+static fw_wire_t wires2[1];
+static fw_trench_point_t trench2[TRENCH_CAP];
+static fw_sample_out_t scratch2[7];
+
+static void random_block(tu_rng_t *r, int blk, int32_t *y, fw_sample_in_t *in, fw_card_in_t *ci)
+{
+    int n = tu_rng_range(r, 0, 40);
+    int i;
+    for (i = 0; i < n; i++) {
+        in[i].sn_uv = tu_rng_range(r, -11000000, 11000000);
+        in[i].sl_uv = tu_rng_range(r, -400000, 400000);
+        in[i].piezo_pm[0] = tu_rng_range(r, -20000, 20000) - 325000 * (blk % 3 == 0);
+        in[i].piezo_pm[1] = *y;
+        in[i].piezo_pm[2] = tu_rng_range(r, -50000, 50000);
+        *y += 400;
+    }
+    ci->samples = in;
+    ci->n = n;
+    ci->pose.joy_q15[0] = tu_rng_range(r, -40000, 40000);
+    ci->pose.joy_q15[1] = tu_rng_range(r, -40000, 40000);
+    ci->pose.load_pn = tu_rng_range(r, 0, 20000);
+    ci->pose.engaged = (blk & 1) != 0;
+}
+
 static void test_card_is_a_pure_function_of_its_inputs(void)
 {
-    static fw_card_t c2;
-    static fw_particle_t parts2[N_PART];
-    static fw_sample_out_t scratch2[7];
     fw_card_storage_t st2;
     fw_sample_in_t in[40];
     tu_rng_t r;
     int blk;
     int32_t y = -400000;
     default_config();
-    cfg.wires = wires;
-    cfg.n_wires = 0;
+    wires_on();
+    litho_on();
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
     st2 = st;
     st2.particles = parts2;
+    st2.wires = wires2;
+    st2.trench = trench2;
     st2.scratch = scratch2;
     st2.scratch_len = 7;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&c2, &cfg, &st2, NULL));
     tu_rng_seed(&r, 99);
     for (blk = 0; blk < 400; blk++) {
-        int n = tu_rng_range(&r, 0, 40);
-        int i;
         fw_card_in_t ci;
         fw_card_out_t o1;
         fw_card_out_t o2;
-        for (i = 0; i < n; i++) {
-            in[i].sn_uv = tu_rng_range(&r, -11000000, 11000000);
-            in[i].sl_uv = tu_rng_range(&r, -200000, 200000);
-            in[i].piezo_pm[0] = tu_rng_range(&r, -20000, 20000);
-            in[i].piezo_pm[1] = y;
-            in[i].piezo_pm[2] = tu_rng_range(&r, -50000, 50000);
-            y += 400;
-        }
-        ci.samples = in;
-        ci.n = n;
-        ci.pose.joy_q15[0] = tu_rng_range(&r, -40000, 40000);
-        ci.pose.joy_q15[1] = tu_rng_range(&r, -40000, 40000);
-        ci.pose.load_pn = tu_rng_range(&r, 0, 20000);
-        ci.pose.engaged = (blk & 1) != 0;
+        random_block(&r, blk, &y, in, &ci);
         memset(&o1, 0, sizeof o1);
         memset(&o2, 0, sizeof o2);
         TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_step_block(&card, &ci, &o1));
@@ -540,6 +608,48 @@ static void test_card_is_a_pure_function_of_its_inputs(void)
         }
     }
     TEST_ASSERT_EQUAL_MEMORY(part_store, parts2, sizeof parts2);
+    TEST_ASSERT_EQUAL_MEMORY(wire_store, wires2, sizeof wires2);
+    TEST_ASSERT_EQUAL_INT32(fw_card_litho(&card)->count, fw_card_litho(&c2)->count);
+    TEST_ASSERT_TRUE(fw_card_litho(&card)->count > 0);
+    TEST_ASSERT_EQUAL_MEMORY(trench_store, trench2, sizeof trench2);
+    /* reset against fresh: the same first 100 blocks */
+    fw_card_reset(&card);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&c2, &cfg, &st2, NULL));
+    tu_rng_seed(&r, 99);
+    y = -400000;
+    for (blk = 0; blk < 100; blk++) {
+        fw_card_in_t ci;
+        fw_card_out_t o1;
+        fw_card_out_t o2;
+        random_block(&r, blk, &y, in, &ci);
+        memset(&o1, 0, sizeof o1);
+        memset(&o2, 0, sizeof o2);
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_step_block(&card, &ci, &o1));
+        TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_step_block(&c2, &ci, &o2));
+        TEST_ASSERT_EQUAL_MEMORY(&o1, &o2, sizeof o1);
+    }
+}
+
+/* A rod shorter than four pm (the push's step L/4 rounds to 0) is refused
+ * below its diameter; a rod of exactly its diameter pushed hard moves in at
+ * most FW_WIRE_PUSH_STEPS_MAX steps per sample and never hangs. */
+static void test_card_tiny_rod_refused_or_bounded(void)
+{
+    static fw_card_wire_t tiny[1] = { { 7, { 0, 0 }, { 3, 0 }, 3 } };
+    fw_sample_in_t in[4];
+    fw_card_out_t out;
+    default_config();
+    cfg.n_particles = 0;
+    cfg.wires = tiny;
+    cfg.n_wires = 1;
+    tiny[0].diameter_pm = 4;
+    TEST_ASSERT_EQUAL_INT(FW_RULE_WIRE, rule_of());
+    tiny[0].diameter_pm = 3;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
+    samples(in, 4, 0, -2000000, 0, -5000, 0, 1000);   /* 76 nN lateral, across the rod */
+    out = step(in, 4, &pose0);
+    TEST_ASSERT_TRUE((out.flags & FW_FLAG_SAT_FORCE) == 0u);
+    TEST_ASSERT_NOT_NULL(fw_card_wire(&card, 0));
 }
 
 int main(void)
@@ -558,5 +668,6 @@ int main(void)
     RUN_TEST(test_card_lithography_store_full_flags_position);
     RUN_TEST(test_card_fix_particle_landmark_unknown_and_the_limits);
     RUN_TEST(test_card_is_a_pure_function_of_its_inputs);
+    RUN_TEST(test_card_tiny_rod_refused_or_bounded);
     return UNITY_END();
 }

@@ -52,6 +52,12 @@ static void test_litho_spacing_strokes_and_capacity(void)
     TEST_ASSERT_EQUAL_INT(FW_ERR_CAPACITY, fw_litho_step(&l, tip, 30000));
     TEST_ASSERT_TRUE(l.overflow);
     TEST_ASSERT_EQUAL_UINT32(1u, l.dropped);
+    /* a full store counts dropped points, not samples: standing still drops none */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_litho_step(&l, tip, 30000));
+    TEST_ASSERT_EQUAL_UINT32(1u, l.dropped);
+    tip[1] = 50000;
+    TEST_ASSERT_EQUAL_INT(FW_ERR_CAPACITY, fw_litho_step(&l, tip, 30000));
+    TEST_ASSERT_EQUAL_UINT32(2u, l.dropped);
     fw_litho_shift(&l, -10, 10);
     TEST_ASSERT_EQUAL_INT32(-10, pts[0].x_pm);
     fw_litho_reset(&l);

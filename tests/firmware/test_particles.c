@@ -40,7 +40,9 @@ static void test_particles_init_and_add_validate_and_fill_capacity(void)
 {
     fw_particles_t x;
     int i;
-    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_init(&x, store, 0, R_TIP));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_init(&x, store, -1, R_TIP));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_particles_init(&x, NULL, 0, R_TIP));   /* a model that holds none */
+    TEST_ASSERT_EQUAL_INT(FW_ERR_CAPACITY, fw_particles_add(&x, 1, 0, 0, R_P, THR));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_init(&x, NULL, 4, R_TIP));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_init(&x, store, 4, -1));
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_particles_add(&m, 1, 0, 0, 0, THR));

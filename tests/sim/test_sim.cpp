@@ -83,7 +83,7 @@ void test_force_along_the_lever_reads_as_normal_load()
     // beam algebra, different route).
     const afm::Scene s = scene_with("bending_offset");
     const afm::sim::Lever lv(s.probe);
-    const double h = lv.h, l = lv.l, knKn = lv.kn * lv.Kn;
+    const double h = lv.h, l = lv.l, knKn = lv.spring * lv.deflection;
     const double cases[][2] = {{0, 5}, {1, 5}, {-2, 0}, {3.5, -1}, {10, 10}};
     for (const auto &c : cases) {
         const double fx = c[0], fz = c[1];
@@ -103,7 +103,7 @@ void test_apex_moves_forward_with_upward_bending()
     const afm::sim::Lever lv(s.probe);
     const double fz = 5.0;
     const Eigen::Vector2d off = lv.apex_offset(Eigen::Vector2d::Zero(), fz);
-    const double cn = 3 * lv.h * lv.Kn / (2 * lv.l);
+    const double cn = 3 * lv.h * lv.deflection / (2 * lv.l);
     TEST_ASSERT_DOUBLE_WITHIN(1e-9, cn * lv.sn_volts(0, fz), off.x());
     TEST_ASSERT_DOUBLE_WITHIN(1e-12, 0.0, off.y());
 }
@@ -146,9 +146,9 @@ void test_thermal_noise_level_is_kT_over_k()
         sum2 += v * v;
     }
     const double mean = sum / n;
-    const double rms_nm = std::sqrt(sum2 / n - mean * mean) * s.probe.Kn_nm_per_V;
+    const double rms_nm = std::sqrt(sum2 / n - mean * mean) * s.probe.deflection_nm_per_V;
     const double kT = 1.380649e-5 * s.temperature_K;   // nN nm
-    const double expected = std::sqrt(kT / s.probe.kn_N_per_m);
+    const double expected = std::sqrt(kT / s.probe.spring_N_per_m);
     std::printf("deflection noise %.5f nm rms, sqrt(kT/k) %.5f nm\n", rms_nm, expected);
     TEST_ASSERT_DOUBLE_WITHIN(0.01 * expected, expected, rms_nm);
 }
@@ -241,7 +241,7 @@ void test_piezo_z_beyond_its_range_is_clamped_and_the_load_departs()
                                   "field_nm: 2000", "field_nm: 20000");
     const afm::Scene s = scene_from_text(text);
     World w(s);
-    const double load = 5, kn = s.probe.kn_N_per_m, knKn = kn * s.probe.Kn_nm_per_V;
+    const double load = 5, kn = s.probe.spring_N_per_m, knKn = kn * s.probe.deflection_nm_per_V;
     w.command(Eigen::Vector2d(0, -8000), load, true);
     afm::sim::Sample smp{};
     for (int i = 0; i < 12000; ++i) smp = w.step();   // 8 um at 20 um/s, then rest

@@ -120,7 +120,7 @@ void test_friction_loop_slopes_on_a_tilted_plane_match_eq_16_17()
     for (const auto &c : cases) {
         const afm::Scene s = scene_from_text(with(with(kTilted, "SLOPE", std::to_string(c[0])), "MU", std::to_string(c[1])));
         const double phi = c[0] * M_PI / 180, beta = std::atan(c[1]);
-        const double a = s.probe.kn_N_per_m * s.probe.Kn_nm_per_V / s.probe.lateral_nN_per_V;
+        const double a = s.probe.spring_N_per_m * s.probe.deflection_nm_per_V / s.probe.lateral_nN_per_V;
         std::vector<double> sn_u, sl_u, sn_d, sl_d;
         for (double load : {5.0, 10.0, 15.0, 20.0, 30.0}) {
             World w(s);
@@ -290,7 +290,7 @@ void test_scan_line_on_tilted_glass_reads_what_the_tip_sliding_there_reads()
     const double phi = 9 * M_PI / 180, fz = s.op.load_nN, adh = s.tip_substrate.adhesion_nN, mu = s.tip_substrate.mu;
     const double N = (fz + adh * std::cos(phi)) / std::cos(phi);
     const afm::sim::ScanPoint p = w.scan_point(0, 0);
-    const double h = s.probe.tip_height_um * 1e3, l = s.probe.lever_length_um * 1e3, knKn = s.probe.kn_N_per_m * s.probe.Kn_nm_per_V;
+    const double h = s.probe.tip_height_um * 1e3, l = s.probe.lever_length_um * 1e3, knKn = s.probe.spring_N_per_m * s.probe.deflection_nm_per_V;
     TEST_ASSERT_DOUBLE_WITHIN(1e-9, -mu * N / s.probe.lateral_nN_per_V, p.sl_v);
     TEST_ASSERT_DOUBLE_WITHIN(1e-9, (fz - 2 * h / l * fz * std::tan(phi)) / knKn, p.sn_v);
 }
@@ -304,7 +304,7 @@ void test_scan_line_on_flat_glass_reads_friction_and_the_set_point()
         const afm::Scene s = scene_from_text(with(with(kScan, "SCAN", angle), "EFFECTS", "adhesion"));
         const World w(s);
         const double f = s.tip_substrate.mu * (s.op.load_nN + s.tip_substrate.adhesion_nN);
-        const double knKn = s.probe.kn_N_per_m * s.probe.Kn_nm_per_V;
+        const double knKn = s.probe.spring_N_per_m * s.probe.deflection_nm_per_V;
         const double h = s.probe.tip_height_um * 1e3, l = s.probe.lever_length_um * 1e3;
         const bool across = std::string(angle) == "180";
         for (double x : {-900.0, 500.0, 800.0}) {
@@ -395,7 +395,7 @@ void test_roughness_is_seeded_and_felt_by_the_mechanics()
     w.command(Eigen::Vector2d(200, 100), 5, true);
     afm::sim::Sample smp{};
     for (int i = 0; i < 1000; ++i) smp = w.step();
-    const double defl = 5 / w.lever().kn;
+    const double defl = 5 / w.lever().spring;
     TEST_ASSERT_DOUBLE_WITHIN(1e-9, w.image_height(w.apex().x(), w.apex().y()) - defl, smp.piezo_nm.z());
     TEST_ASSERT_TRUE(std::fabs(w.image_height(200, 100)) > 1e-6);   // rough, not flat
 }
