@@ -61,9 +61,25 @@ struct Child {
     pid_t pid = -1;
     int exit_code = -1;       // exit status, or 128 + signal
     bool exited = false;
-};
+    double cpu_user_s = 0;    // the kernel's accounting of the child (wait4), user CPU seconds
+    double cpu_system_s = 0;  // and system CPU seconds
+    long max_rss_kb = 0;      // its peak resident memory, kB
 
-int decode_status(int st) { return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st); }
+    // Reaps the child if it has ended (block: wait for it); records its
+    // exit status and the kernel's accounting of its resources.
+    void reap(bool block = false)
+    {
+        if (exited || pid <= 0) return;
+        int st;
+        struct rusage ru {};
+        if (wait4(pid, &st, block ? 0 : WNOHANG, &ru) != pid) return;
+        exited = true;
+        exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        cpu_user_s = ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6;
+        cpu_system_s = ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6;
+        max_rss_kb = ru.ru_maxrss;
+    }
+};
 
 // The bus processes run at a lower priority than lcm-logger, so that on a
 // busy machine the logger keeps up (it drops messages once 30 wait in its
@@ -152,16 +168,19 @@ std::string slurp_tail(const std::string &path, std::size_t max_lines)
     return out;
 }
 
-}  // namespace
 
-int main(int argc, char **argv)
-{
+// The command line.
+struct Options {
     std::string scene_path, out_dir;
-    bool spy = false, quiet = false;
+    bool spy = false, quiet = false, check_only = false;
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
-    bool check_only = false;
     long long crash_block = -1;
+};
+
+// Parses argv into o; returns -1 to go on, or the exit code.
+int parse_args(int argc, char **argv, Options *o)
+{
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto val = [&]() -> std::string {
@@ -171,328 +190,444 @@ int main(int argc, char **argv)
             }
             return argv[++i];
         };
-        if (a == "--scene") scene_path = val();
-        else if (a == "--out") out_dir = val();
-        else if (a == "--spy") spy = true;
-        else if (a == "--check") check_only = true;
-        else if (a == "--quiet") quiet = true;
-        else if (a == "--inject-drop") drop_p = std::atof(val().c_str());
-        else if (a == "--stall-s") stall_s = std::atof(val().c_str());
+        if (a == "--scene") o->scene_path = val();
+        else if (a == "--out") o->out_dir = val();
+        else if (a == "--spy") o->spy = true;
+        else if (a == "--check") o->check_only = true;
+        else if (a == "--quiet") o->quiet = true;
+        else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
+        else if (a == "--stall-s") o->stall_s = std::atof(val().c_str());
         else if (a == "--kill") {
             const std::string v = val();
             const auto colon = v.find(':');
-            if (colon == std::string::npos) { std::fprintf(stderr, "afm_launch: --kill wants AFTER_S:NAME, got '%s'\n", v.c_str()); return 2; }
-            kill_after = std::atof(v.substr(0, colon).c_str());
-            kill_name = v.substr(colon + 1);
-        }
-        else if (a == "--inject-crash") {
+            if (colon == std::string::npos) {
+                std::fprintf(stderr, "afm_launch: --kill wants AFTER_S:NAME, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->kill_after = std::atof(v.substr(0, colon).c_str());
+            o->kill_name = v.substr(colon + 1);
+        } else if (a == "--inject-crash") {
             const std::string v = val();
-            if (v.rfind("fw_node:", 0) != 0) { std::fprintf(stderr, "afm_launch: --inject-crash supports fw_node:N, got '%s'\n", v.c_str()); return 2; }
-            crash_block = std::atoll(v.substr(8).c_str());
-        }
-        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
-        else { std::fprintf(stderr, "afm_launch: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
-    }
-    if (scene_path.empty() || (out_dir.empty() && !check_only)) { std::fputs(kUsage, stderr); return 2; }
-    if (!(drop_p >= 0 && drop_p < 1)) { std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", drop_p); return 2; }
-
-    // 1. The scene, before anything starts.
-    afm::Scene scene;
-    try {
-        scene = afm::load_scene(scene_path);
-    } catch (const afm::SceneError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 2;
-    }
-    if (const std::string why_fw = afm::card_refusal(scene); !why_fw.empty()) {
-        std::fprintf(stderr, "%s: %s\n", scene_path.c_str(), why_fw.c_str());
-        return 2;
-    }
-    if (check_only) return 0;
-    // 2. The bus must stay on this namespace's loopback.
-    std::string why;
-    if (!afm::multicast_routed_on_loopback(&why)) {
-        std::fprintf(stderr, "afm_launch: %s\n", why.c_str());
-        return 2;
-    }
-    // 3. The run folder: a fresh one, or an earlier run's (its outputs replaced).
-    try {
-        if (fs::exists(out_dir) && !fs::is_empty(out_dir) && !fs::exists(fs::path(out_dir) / "run.json") &&
-            !fs::exists(fs::path(out_dir) / "bus.lcmlog")) {
-            std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n", out_dir.c_str());
+            if (v.rfind("fw_node:", 0) != 0) {
+                std::fprintf(stderr, "afm_launch: --inject-crash supports fw_node:N, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->crash_block = std::atoll(v.substr(8).c_str());
+        } else if (a == "-h" || a == "--help") {
+            std::fputs(kUsage, stdout);
+            return 0;
+        } else {
+            std::fprintf(stderr, "afm_launch: unknown argument '%s'\n%s", a.c_str(), kUsage);
             return 2;
         }
-        for (const char *old : {"frames", "logs", "bus.lcmlog", "run.json", "scene.yaml", "video.mp4", "video.avi", "sim_report.json",
-                                "renderer_report.json", "operator_report.json", "scan_initial.png", "contact_sheet.png",
-                                "scan_initial.gsf", "scan_final.gsf", "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
-            fs::remove_all(fs::path(out_dir) / old);
-        fs::create_directories(fs::path(out_dir) / "logs");
-        fs::create_directories(fs::path(out_dir) / "frames");
-        for (const auto &e : fs::directory_iterator(out_dir))
-            if (e.path().filename().string().rfind("scan_local_", 0) == 0) fs::remove(e.path());
-    } catch (const fs::filesystem_error &e) {
-        std::fprintf(stderr, "afm_launch: cannot prepare output folder %s: %s\n", out_dir.c_str(), e.what());
+    }
+    if (o->scene_path.empty() || (o->out_dir.empty() && !o->check_only)) {
+        std::fputs(kUsage, stderr);
         return 2;
     }
-    const std::string out = fs::canonical(out_dir).string();
-    const std::string scene_abs = fs::canonical(scene_path).string();
-    // The run keeps the scene it runs, and its processes read that copy:
-    // what the run ran stays known (replay reads it) while the original may
-    // change.
-    const std::string scene_run = out + "/scene.yaml";
-    try {
-        fs::copy_file(scene_abs, scene_run, fs::copy_options::overwrite_existing);
-    } catch (const fs::filesystem_error &e) {
-        std::fprintf(stderr, "afm_launch: cannot copy the scene into %s: %s\n", out.c_str(), e.what());
+    if (!(o->drop_p >= 0 && o->drop_p < 1)) {
+        std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
         return 2;
     }
-    const std::string bin = exe_dir();
-    const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
-    signal(SIGPIPE, SIG_IGN);
+    return -1;
+}
 
-    std::unique_ptr<lcm::LCM> lc;
-    try {
-        setenv("LCM_DEFAULT_URL", afm::kBusUrl, 1);
-        lc = afm::open_bus();
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "afm_launch: %s\n", e.what());
-        return 2;
-    }
-    Progress prog;
-    lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Progress::on_hb, &prog)->setQueueCapacity(afm::kQueueCapacity);
-    afm::Heartbeat hb(*lc, "launcher");
+// The files an earlier run left in a folder that this run replaces.
+const char *const kRunOutputs[] = {"frames", "logs", "bus.lcmlog", "run.json", "scene.yaml", "video.mp4", "video.avi",
+                                   "sim_report.json", "renderer_report.json", "operator_report.json", "scan_initial.png",
+                                   "contact_sheet.png", "scan_initial.gsf", "scan_final.gsf", "display_final.gsf",
+                                   "fidelity.json", "fidelity_diff.png"};
 
-    const auto wall0 = std::chrono::steady_clock::now();
-    auto wall_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count(); };
+// One run: the steps of main, in order, sharing the run's state.
+class Launch {
+public:
+    explicit Launch(Options o) : o_(std::move(o)) {}
 
-    // 4. Logger first; the processes start once it records (its file grows
-    //    with our own heartbeats), so the log holds the whole run.
-    Child logger{"lcm-logger"};
-    logger.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-logger", "--quiet", "-f", "--flush-interval=1", "-l", afm::kBusUrl, out + "/bus.lcmlog"},
-                       out + "/logs/lcm-logger.log");
-    for (;;) {
-        hb.send("starting", 0, 0, "waiting for lcm-logger");
-        lc->handleTimeout(50);
-        std::error_code ec;
-        if (fs::exists(out + "/bus.lcmlog", ec) && fs::file_size(out + "/bus.lcmlog", ec) > 0) break;
-        int st;
-        if (waitpid(logger.pid, &st, WNOHANG) == logger.pid) {
-            std::fprintf(stderr, "afm_launch: lcm-logger exited with code %d before recording (log: %s/logs/lcm-logger.log)\n",
-                         decode_status(st), out.c_str());
-            return 1;
+    // 1. The scene and the card's acceptance, before anything starts.
+    int check_scene()
+    {
+        try {
+            scene_ = afm::load_scene(o_.scene_path);
+        } catch (const afm::SceneError &e) {
+            std::fprintf(stderr, "%s\n", e.what());
+            return 2;
         }
-        if (wall_s() > 10) {
-            std::fprintf(stderr, "afm_launch: lcm-logger recorded nothing in 10 s (log: %s/logs/lcm-logger.log)\n", out.c_str());
-            kill(logger.pid, SIGKILL);
-            return 1;
+        if (const std::string why_fw = afm::card_refusal(scene_); !why_fw.empty()) {
+            std::fprintf(stderr, "%s: %s\n", o_.scene_path.c_str(), why_fw.c_str());
+            return 2;
         }
-    }
-    std::vector<Child> kids = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
-    std::vector<std::vector<std::string>> cmds = {
-        {bin + "/../sim_afm/sim_afm", "--scene", scene_run, "--out", out, "--inject-drop", std::to_string(drop_p),
-         "--follow-log", out + "/bus.lcmlog"},
-        {bin + "/fw_node", "--scene", scene_run, "--crash-at-block", std::to_string(crash_block)},
-        {bin + "/operator", "--scene", scene_run, "--out", out},
-        {bin + "/renderer", "--scene", scene_run, "--out", out},
-    };
-    Child spy_child{"lcm-spy"};
-    for (std::size_t i = 0; i < kids.size(); ++i)
-        kids[i].pid = spawn(cmds[i], out + "/logs/" + kids[i].name + ".log", {url_env}, kBusProcessNice);
-    if (spy) {
-        spy_child.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out + "/logs/lcm-spy.log",
-                              {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR});
+        return -1;
     }
 
-    // 5. Supervise.
-    std::string failure;
-    bool started = false, finished = false;
-    auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(10);
-    const int frames_total = scene.total_frames();
-    const double sim_total = scene.duration_s;
-    auto reap = [&](Child &c) {
-        if (c.exited || c.pid <= 0) return;
-        int st;
-        if (waitpid(c.pid, &st, WNOHANG) == c.pid) {
-            c.exited = true;
-            c.exit_code = decode_status(st);
+    // 2. The bus must stay on this namespace's loopback; 3. the run folder:
+    // a fresh one, or an earlier run's (its outputs replaced), with a copy of
+    // the scene that the run's processes read (what the run ran stays known:
+    // replay reads it, while the original may change).
+    int prepare()
+    {
+        std::string why;
+        if (!afm::multicast_routed_on_loopback(&why)) {
+            std::fprintf(stderr, "afm_launch: %s\n", why.c_str());
+            return 2;
         }
-    };
-    while (true) {
-        lc->handleTimeout(20);
-        for (auto &c : kids) reap(c);
-        reap(logger);
-        reap(spy_child);
-        if (logger.exited) { failure = "lcm-logger died with exit code " + std::to_string(logger.exit_code); break; }
-        for (auto &c : kids) {
-            if (c.exited && (c.exit_code != 0 || !prog.is("sim_afm", "done"))) {
-                if (c.name == "sim_afm" && c.exit_code == 0) continue;
-                failure = c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out + "/logs/" + c.name + ".log)";
+        const fs::path dir = o_.out_dir;
+        try {
+            if (fs::exists(dir) && !fs::is_empty(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
+                std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
+                             o_.out_dir.c_str());
+                return 2;
+            }
+            for (const char *old : kRunOutputs) fs::remove_all(dir / old);
+            fs::create_directories(dir / "logs");
+            fs::create_directories(dir / "frames");
+            for (const auto &e : fs::directory_iterator(dir))
+                if (e.path().filename().string().rfind("scan_local_", 0) == 0) fs::remove(e.path());
+            out_ = fs::canonical(dir).string();
+            scene_abs_ = fs::canonical(o_.scene_path).string();
+            scene_run_ = out_ + "/scene.yaml";
+            fs::copy_file(scene_abs_, scene_run_, fs::copy_options::overwrite_existing);
+        } catch (const fs::filesystem_error &e) {
+            std::fprintf(stderr, "afm_launch: cannot prepare output folder %s: %s\n", o_.out_dir.c_str(), e.what());
+            return 2;
+        }
+        signal(SIGPIPE, SIG_IGN);
+        try {
+            setenv("LCM_DEFAULT_URL", afm::kBusUrl, 1);
+            lc_ = afm::open_bus();
+        } catch (const std::exception &e) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.what());
+            return 2;
+        }
+        lc_->subscribe(AFM_CH_AFM_HEARTBEAT, &Progress::on_hb, &prog_)->setQueueCapacity(afm::kQueueCapacity);
+        hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
+        wall0_ = std::chrono::steady_clock::now();
+        return -1;
+    }
+
+    // 4. The logger first; the processes start once it records (its file
+    // grows with our own heartbeats), so the log holds the whole run.
+    int start()
+    {
+        logger_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-logger", "--quiet", "-f", "--flush-interval=1", "-l", afm::kBusUrl,
+                             out_ + "/bus.lcmlog"},
+                            out_ + "/logs/lcm-logger.log");
+        for (;;) {
+            hb_->send("starting", 0, 0, "waiting for lcm-logger");
+            lc_->handleTimeout(50);
+            std::error_code ec;
+            if (fs::exists(out_ + "/bus.lcmlog", ec) && fs::file_size(out_ + "/bus.lcmlog", ec) > 0) break;
+            logger_.reap();
+            if (logger_.exited) {
+                std::fprintf(stderr, "afm_launch: lcm-logger exited with code %d before recording (log: %s/logs/lcm-logger.log)\n",
+                             logger_.exit_code, out_.c_str());
+                return 1;
+            }
+            if (wall_s() > 10) {
+                std::fprintf(stderr, "afm_launch: lcm-logger recorded nothing in 10 s (log: %s/logs/lcm-logger.log)\n", out_.c_str());
+                kill(logger_.pid, SIGKILL);
+                return 1;
+            }
+        }
+        const std::string bin = exe_dir();
+        const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
+        const std::vector<std::vector<std::string>> cmds = {
+            {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop", std::to_string(o_.drop_p),
+             "--follow-log", out_ + "/bus.lcmlog"},
+            {bin + "/fw_node", "--scene", scene_run_, "--crash-at-block", std::to_string(o_.crash_block)},
+            {bin + "/operator", "--scene", scene_run_, "--out", out_},
+            {bin + "/renderer", "--scene", scene_run_, "--out", out_},
+        };
+        for (std::size_t i = 0; i < kids_.size(); ++i)
+            kids_[i].pid = spawn(cmds[i], out_ + "/logs/" + kids_[i].name + ".log", {url_env}, kBusProcessNice);
+        if (o_.spy)
+            spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
+                             {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR});
+        return -1;
+    }
+
+    // 5. Supervise until every process is done, or one fails or stalls.
+    void supervise()
+    {
+        bool started = false;
+        auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+        while (true) {
+            lc_->handleTimeout(20);
+            for (auto &c : kids_) c.reap();
+            logger_.reap();
+            spy_.reap();
+            failure_ = dead_process();
+            if (!failure_.empty()) break;
+            if (std::all_of(kids_.begin(), kids_.end(), [](const Child &c) { return c.exited; })) {
+                finished_ = true;
                 break;
             }
-        }
-        if (!failure.empty()) break;
-        if (std::all_of(kids.begin(), kids.end(), [](const Child &c) { return c.exited; })) { finished = true; break; }
-        if (kill_after >= 0 && wall_s() >= kill_after) {
-            for (auto &c : kids) if (c.name == kill_name && !c.exited) kill(c.pid, SIGKILL);
-            kill_after = -1;
-        }
-        // Start the run once every process is ready and the logger records (its file grows).
-        if (!started) {
-            const bool all_ready = std::all_of(kids.begin(), kids.end(), [&](const Child &c) { return prog.is(c.name, "ready"); });
-            if (all_ready) {
+            if (o_.kill_after >= 0 && wall_s() >= o_.kill_after) {
+                for (auto &c : kids_)
+                    if (c.name == o_.kill_name && !c.exited) kill(c.pid, SIGKILL);
+                o_.kill_after = -1;
+            }
+            // Start the run once every process is ready and the logger records.
+            if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, "ready"); })) {
                 started = true;
-                for (auto &kv : prog.progress_at) kv.second = std::chrono::steady_clock::now();
+                for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
+            }
+            if (started && !prog_.is("sim_afm", "done")) hb_->maybe_send("running", 0, 0, 200000);
+            failure_ = stalled_process();
+            if (!failure_.empty()) break;
+            const auto now = std::chrono::steady_clock::now();
+            if (!o_.quiet && now - last_print >= std::chrono::seconds(1)) {
+                last_print = now;
+                print_progress(started);
             }
         }
-        if (started && !prog.is("sim_afm", "done")) hb.maybe_send("running", 0, 0, 200000);
-        // Stall watchdog.
-        const auto now = std::chrono::steady_clock::now();
-        for (const auto &c : kids) {
-            auto it = prog.progress_at.find(c.name);
-            const auto since = it == prog.progress_at.end() ? wall0 : it->second;
-            if (!c.exited && std::chrono::duration<double>(now - since).count() > stall_s && !prog.is(c.name, "done")) {
-                failure = c.name + " made no progress for " + std::to_string(static_cast<int>(stall_s)) + " s (log: " + out + "/logs/" + c.name + ".log)";
-            }
-        }
-        if (!failure.empty()) break;
-        if (!quiet && now - last_print >= std::chrono::seconds(1)) {
-            last_print = now;
-            double t_sim = 0;
-            if (prog.last.count("sim_afm")) t_sim = prog.last["sim_afm"].sim_utime * 1e-6;
-            int frames = 0;
-            if (prog.last.count("renderer") && prog.last["renderer"].sim_utime > 0)
-                frames = afm::frames_due(scene, prog.last["renderer"].sim_utime);
-            if (started)
-                std::fprintf(stderr, "\rrun: sim %.2f / %.2f s   frames %d / %d   wall %.1f s   ", t_sim, sim_total, frames, frames_total, wall_s());
-            else
-                std::fprintf(stderr, "\rrun: starting (scan, processes)   wall %.1f s   ", wall_s());
-            std::fflush(stderr);
-        }
+        if (!o_.quiet) std::fprintf(stderr, "\n");
     }
-    if (!quiet) std::fprintf(stderr, "\n");
 
-    // 6. Stop: on failure, tell and then make everyone stop; stop the logger last.
-    auto stop = [&](Child &c, int sig) {
-        if (!c.exited && c.pid > 0) kill(c.pid, sig);
-    };
-    if (!failure.empty()) {
-        for (int i = 0; i < 3; ++i) { hb.send("stop", 0, 0, failure); lc->handleTimeout(20); }
-        for (auto &c : kids) stop(c, SIGTERM);
-    }
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    while (std::chrono::steady_clock::now() < deadline &&
-           !std::all_of(kids.begin(), kids.end(), [](const Child &c) { return c.exited; })) {
-        for (auto &c : kids) reap(c);
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    for (auto &c : kids) {
-        if (!c.exited) {
-            stop(c, SIGKILL);
-            int st;
-            waitpid(c.pid, &st, 0);
-            c.exited = true;
-            c.exit_code = decode_status(st);
-        }
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(150));   // let the logger drain
-    stop(logger, SIGINT);
-    if (!logger.exited) { int st; waitpid(logger.pid, &st, 0); logger.exited = true; logger.exit_code = decode_status(st); }
-    // lcm-spy stays open for the person watching (the bus is quiet now); the
-    // run ends when they close it. On failure it is closed with the rest.
-    if (spy && !spy_child.exited) {
-        if (failure.empty()) std::fprintf(stderr, "run: the run is over; close lcm-spy to finish\n");
-        else stop(spy_child, SIGTERM);
-        int st;
-        waitpid(spy_child.pid, &st, 0);
-    }
-    const double wall = wall_s();
-
-    // 7. run.json
-    std::string log_err;
-    int64_t analog_seqs = 0;
-    const auto counts = count_channels(out + "/bus.lcmlog", &log_err, &analog_seqs);
-    int64_t messages = 0;
-    for (const auto &kv : counts) messages += kv.second;
-    using nlohmann::json;
-    json run;
-    run["scene"] = scene_abs;
-    run["scene_name"] = scene.name;
-    run["seed"] = scene.seed;
-    run["status"] = failure.empty() ? "ok" : "failed";
-    if (!failure.empty()) run["error"] = failure;
-    const char *ns_mode = std::getenv("AFM_NETNS_MODE");
-    run["netns"] = ns_mode ? ns_mode : "unknown";
-    run["bus_url"] = afm::kBusUrl;
-    run["time_mode"] = scene.time_mode;
-    double sim_s = 0;
-    if (prog.last.count("sim_afm")) sim_s = prog.last["sim_afm"].sim_utime * 1e-6;
-    run["sim_seconds"] = sim_s;
-    run["wall_seconds"] = wall;
-    run["sim_seconds_per_wall_second"] = wall > 0 ? sim_s / wall : 0.0;
-    run["samples"] = std::llround(sim_s * scene.sample_rate_hz);
-    int frames = 0;
-    for (const auto &e : fs::directory_iterator(out + "/frames")) if (e.path().extension() == ".png") ++frames;
-    run["frames"] = frames;
-    run["frames_expected"] = frames_total;
-    json procs = json::array();
-    for (const auto &c : kids) procs.push_back({{"name", c.name}, {"exit_code", c.exit_code}, {"log", "logs/" + c.name + ".log"}});
-    procs.push_back({{"name", "lcm-logger"}, {"exit_code", logger.exit_code}, {"log", "logs/lcm-logger.log"}});
-    run["processes"] = procs;
-    run["channels"] = json::object();
-    for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
-    if (!log_err.empty()) run["log_error"] = log_err;
-    for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fidelity.json"}) {
-        std::ifstream f(out + "/" + rep);
-        if (!f) continue;
-        json j = json::parse(f, nullptr, false);
-        if (j.is_discarded()) { run["report_errors"].push_back(rep + ": not valid JSON"); continue; }
-        const std::string key = rep.substr(0, rep.find_first_of("_."));
-        if (key == "sim" && j.contains("effects")) run["effects"] = j["effects"];
-        run[key] = j;
-    }
-    // Completeness of the record: distinct analog blocks in the log against
-    // those the simulator simulated (lcm-logger drops when starved of CPU).
-    if (run.contains("sim") && run["sim"].contains("blocks")) {
-        const int64_t sent = run["sim"]["blocks"].get<int64_t>();
-        run["log"] = {{"analog_blocks_recorded", analog_seqs}, {"analog_blocks_simulated", sent}, {"complete", analog_seqs == sent}};
-        if (analog_seqs != sent)
-            std::fprintf(stderr, "run: warning: the bus log holds %lld of %lld analog blocks (lcm-logger was starved of CPU)\n",
-                         static_cast<long long>(analog_seqs), static_cast<long long>(sent));
-    }
-    json outs = {"bus.lcmlog", "run.json", "scene.yaml", "frames/"};
-    for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",
-                          "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
-        if (fs::exists(out + "/" + v)) outs.push_back(v);
-    for (const auto &e : fs::directory_iterator(out))
-        if (e.path().filename().string().rfind("scan_local_", 0) == 0) outs.push_back(e.path().filename().string());
-    run["outputs"] = outs;
+    // 6. Stop: on failure, tell and then make everyone stop; the logger last.
+    void stop()
     {
-        std::ofstream f(out + "/run.json");
-        f << run.dump(2) << "\n";
-        if (!f) { std::fprintf(stderr, "afm_launch: cannot write %s/run.json\n", out.c_str()); return 1; }
+        auto signal_child = [](Child &c, int sig) {
+            if (!c.exited && c.pid > 0) kill(c.pid, sig);
+        };
+        if (!failure_.empty()) {
+            for (int i = 0; i < 3; ++i) {
+                hb_->send("stop", 0, 0, failure_);
+                lc_->handleTimeout(20);
+            }
+            for (auto &c : kids_) signal_child(c, SIGTERM);
+        }
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        while (std::chrono::steady_clock::now() < deadline &&
+               !std::all_of(kids_.begin(), kids_.end(), [](const Child &c) { return c.exited; })) {
+            for (auto &c : kids_) c.reap();
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        for (auto &c : kids_) {
+            signal_child(c, SIGKILL);
+            c.reap(true);
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(150));   // let the logger drain
+        signal_child(logger_, SIGINT);
+        logger_.reap(true);
+        // lcm-spy stays open for the person watching (the bus is quiet now);
+        // the run ends when they close it. On failure it is closed with the rest.
+        if (o_.spy && !spy_.exited) {
+            if (failure_.empty()) std::fprintf(stderr, "run: the run is over; close lcm-spy to finish\n");
+            else signal_child(spy_, SIGTERM);
+            spy_.reap(true);
+        }
+        wall_ = wall_s();
     }
 
-    if (!failure.empty()) {
-        std::fprintf(stderr, "run: FAILED: %s\n", failure.c_str());
-        for (const auto &c : kids) {
-            if (c.exit_code != 0) {
-                std::fprintf(stderr, "  %s exit code %d; last lines of its log:\n%s", c.name.c_str(), c.exit_code,
-                             slurp_tail(out + "/logs/" + c.name + ".log", 5).c_str());
+    // 7. run.json, then the summary; the exit code.
+    int finish()
+    {
+        const nlohmann::json run = run_json();
+        {
+            std::ofstream f(out_ + "/run.json");
+            f << run.dump(2) << "\n";
+            if (!f) {
+                std::fprintf(stderr, "afm_launch: cannot write %s/run.json\n", out_.c_str());
+                return 1;
             }
         }
-        std::fprintf(stderr, "run: the bus log and run.json are kept in %s\n", out.c_str());
-        return 1;
+        if (!failure_.empty()) {
+            std::fprintf(stderr, "run: FAILED: %s\n", failure_.c_str());
+            for (const auto &c : kids_)
+                if (c.exit_code != 0)
+                    std::fprintf(stderr, "  %s exit code %d; last lines of its log:\n%s", c.name.c_str(), c.exit_code,
+                                 slurp_tail(out_ + "/logs/" + c.name + ".log", 5).c_str());
+            std::fprintf(stderr, "run: the bus log and run.json are kept in %s\n", out_.c_str());
+            return 1;
+        }
+        if (!finished_) return 1;
+        const double sim_s = run["sim_seconds"].get<double>();
+        std::printf("run: ok: %.2f simulated s in %.2f wall s (%.2f sim s per wall s), %d frames, %lld bus messages\n", sim_s, wall_,
+                    wall_ > 0 ? sim_s / wall_ : 0.0, run["frames"].get<int>(), static_cast<long long>(messages_));
+        if (run.contains("fidelity")) {
+            const auto &fj = run["fidelity"];
+            std::printf("run: fidelity (display vs a fresh scan at frame %d): max object position error %.2f nm, RMS height "
+                        "difference %.2f nm (%s)\n",
+                        fj.value("frame", 0), fj.value("max_position_error_nm", -1.0), fj.value("rms_height_error_nm", -1.0),
+                        fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
+        }
+        std::printf("run: output in %s\n", out_.c_str());
+        return 0;
     }
-    if (!finished) return 1;
-    std::printf("run: ok: %.2f simulated s in %.2f wall s (%.2f sim s per wall s), %d frames, %lld bus messages\n", sim_s, wall,
-                wall > 0 ? sim_s / wall : 0.0, frames,
-                static_cast<long long>(messages));
-    if (run.contains("fidelity")) {
-        const json &fj = run["fidelity"];
-        std::printf("run: fidelity (display vs a fresh scan at frame %d): max object position error %.2f nm, RMS height difference %.2f nm (%s)\n",
-                    fj.value("frame", 0), fj.value("max_position_error_nm", -1.0), fj.value("rms_height_error_nm", -1.0),
-                    fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
+
+private:
+    Options o_;
+    afm::Scene scene_;
+    std::string out_, scene_abs_, scene_run_;
+    std::unique_ptr<lcm::LCM> lc_;
+    std::unique_ptr<afm::Heartbeat> hb_;
+    Progress prog_;
+    std::chrono::steady_clock::time_point wall0_;
+    Child logger_{"lcm-logger"};
+    Child spy_{"lcm-spy"};
+    std::vector<Child> kids_ = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
+    std::string failure_;
+    bool finished_ = false;
+    double wall_ = 0;
+    int64_t messages_ = 0;
+
+    double wall_s() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count(); }
+
+    // A process that died before the simulator said done (or with an error).
+    std::string dead_process() const
+    {
+        if (logger_.exited) return "lcm-logger died with exit code " + std::to_string(logger_.exit_code);
+        for (const auto &c : kids_) {
+            if (!c.exited || (c.exit_code == 0 && (prog_.is("sim_afm", "done") || c.name == "sim_afm"))) continue;
+            return c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
+        }
+        return "";
     }
-    std::printf("run: output in %s\n", out.c_str());
-    return 0;
+
+    // A live process whose heartbeats show no progress for --stall-s.
+    std::string stalled_process() const
+    {
+        const auto now = std::chrono::steady_clock::now();
+        for (const auto &c : kids_) {
+            auto it = prog_.progress_at.find(c.name);
+            const auto since = it == prog_.progress_at.end() ? wall0_ : it->second;
+            if (!c.exited && std::chrono::duration<double>(now - since).count() > o_.stall_s && !prog_.is(c.name, "done"))
+                return c.name + " made no progress for " + std::to_string(static_cast<int>(o_.stall_s)) + " s (log: " + out_ + "/logs/" +
+                       c.name + ".log)";
+        }
+        return "";
+    }
+
+    void print_progress(bool started)
+    {
+        double t_sim = 0;
+        if (prog_.last.count("sim_afm")) t_sim = prog_.last["sim_afm"].sim_utime * 1e-6;
+        int frames = 0;
+        if (prog_.last.count("renderer") && prog_.last["renderer"].sim_utime > 0)
+            frames = afm::frames_due(scene_, prog_.last["renderer"].sim_utime);
+        if (started)
+            std::fprintf(stderr, "\rrun: sim %.2f / %.2f s   frames %d / %d   wall %.1f s   ", t_sim, scene_.duration_s, frames,
+                         scene_.total_frames(), wall_s());
+        else
+            std::fprintf(stderr, "\rrun: starting (scan, processes)   wall %.1f s   ", wall_s());
+        std::fflush(stderr);
+    }
+
+    static nlohmann::json process_json(const Child &c)
+    {
+        return {{"name", c.name}, {"exit_code", c.exit_code}, {"log", "logs/" + c.name + ".log"},
+                {"cpu_user_s", c.cpu_user_s}, {"cpu_system_s", c.cpu_system_s}, {"max_rss_kb", c.max_rss_kb}};
+    }
+
+    nlohmann::json run_json()
+    {
+        using nlohmann::json;
+        std::string log_err;
+        int64_t analog_seqs = 0;
+        const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &analog_seqs);
+        for (const auto &kv : counts) messages_ += kv.second;
+        json run;
+        run["scene"] = scene_abs_;
+        run["scene_name"] = scene_.name;
+        run["seed"] = scene_.seed;
+        run["status"] = failure_.empty() ? "ok" : "failed";
+        if (!failure_.empty()) run["error"] = failure_;
+        const char *ns_mode = std::getenv("AFM_NETNS_MODE");
+        run["netns"] = ns_mode ? ns_mode : "unknown";
+        run["bus_url"] = afm::kBusUrl;
+        run["time_mode"] = scene_.time_mode;
+        const double sim_s = prog_.last.count("sim_afm") ? prog_.last["sim_afm"].sim_utime * 1e-6 : 0.0;
+        run["sim_seconds"] = sim_s;
+        run["wall_seconds"] = wall_;
+        run["sim_seconds_per_wall_second"] = wall_ > 0 ? sim_s / wall_ : 0.0;
+        run["samples"] = std::llround(sim_s * scene_.sample_rate_hz);
+        int frames = 0;
+        for (const auto &e : fs::directory_iterator(out_ + "/frames"))
+            if (e.path().extension() == ".png") ++frames;
+        run["frames"] = frames;
+        run["frames_expected"] = scene_.total_frames();
+        json procs = json::array();
+        for (const auto &c : kids_) procs.push_back(process_json(c));
+        procs.push_back(process_json(logger_));
+        run["processes"] = procs;
+        run["log_bytes"] = fs::exists(out_ + "/bus.lcmlog") ? static_cast<int64_t>(fs::file_size(out_ + "/bus.lcmlog")) : 0;
+        run["channels"] = json::object();
+        for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
+        if (!log_err.empty()) run["log_error"] = log_err;
+        run["card"] = card_json();
+        merge_reports(&run);
+        // Completeness of the record: distinct analog blocks in the log against
+        // those the simulator simulated (lcm-logger drops when starved of CPU).
+        if (run.contains("sim") && run["sim"].contains("blocks")) {
+            const int64_t sent = run["sim"]["blocks"].get<int64_t>();
+            run["log"] = {{"analog_blocks_recorded", analog_seqs}, {"analog_blocks_simulated", sent}, {"complete", analog_seqs == sent}};
+            if (analog_seqs != sent)
+                std::fprintf(stderr, "run: warning: the bus log holds %lld of %lld analog blocks (lcm-logger was starved of CPU)\n",
+                             static_cast<long long>(analog_seqs), static_cast<long long>(sent));
+        }
+        json outs = {"bus.lcmlog", "run.json", "scene.yaml", "frames/"};
+        for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",
+                              "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
+            if (fs::exists(out_ + "/" + v)) outs.push_back(v);
+        for (const auto &e : fs::directory_iterator(out_))
+            if (e.path().filename().string().rfind("scan_local_", 0) == 0) outs.push_back(e.path().filename().string());
+        run["outputs"] = outs;
+        return run;
+    }
+
+    // What the card ran with, in the firmware's units (fw_card_init on the
+    // scene's configuration, as fw_node has it): the displacement constants
+    // in use, the chain, the ADC.
+    nlohmann::json card_json() const
+    {
+        const afm::CardSetup setup(scene_);
+        fw_card_t card;
+        if (fw_card_init(&card, &setup.config(), &setup.storage(), nullptr) != FW_OK) return nullptr;
+        const fw_board_config_t &b = setup.config().board;
+        return {{"adc_bits", b.adc_bits},
+                {"word_bits", setup.config().word_bits == 0 ? 32 : setup.config().word_bits},
+                {"normal_gain_pn_per_v", b.normal_gain_pn_per_v},
+                {"lateral_gain_pn_per_v", b.lateral_gain_pn_per_v},
+                {"deflection_pm_per_v", b.deflection_pm_per_v},
+                {"disp_n_pm_per_v", fw_card_disp_n_pm_per_v(&card)},
+                {"disp_l_pm_per_v", fw_card_disp_l_pm_per_v(&card)},
+                {"scan_angle_mdeg", b.scan_angle_mdeg},
+                {"mu_ppm", b.mu_ppm},
+                {"adhesion_pn", b.adhesion_pn},
+                {"samples_per_block", scene_.samples_per_block()},
+                {"full_scale_pn", static_cast<int64_t>(b.normal_gain_pn_per_v) * (FW_ACQ_FS_UV / FW_UV_PER_V)}};
+    }
+
+    // Each process's own report, under its name.
+    void merge_reports(nlohmann::json *run) const
+    {
+        for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fidelity.json"}) {
+            std::ifstream f(out_ + "/" + rep);
+            if (!f) continue;
+            nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
+            if (j.is_discarded()) {
+                (*run)["report_errors"].push_back(rep + ": not valid JSON");
+                continue;
+            }
+            const std::string key = rep.substr(0, rep.find_first_of("_."));
+            if (key == "sim" && j.contains("effects")) (*run)["effects"] = j["effects"];
+            (*run)[key] = j;
+        }
+    }
+};
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    Options o;
+    if (const int code = parse_args(argc, argv, &o); code >= 0) return code;
+    Launch run(o);
+    if (const int code = run.check_scene(); code >= 0) return code;
+    if (o.check_only) return 0;
+    if (const int code = run.prepare(); code >= 0) return code;
+    if (const int code = run.start(); code >= 0) return code;
+    run.supervise();
+    run.stop();
+    return run.finish();
 }

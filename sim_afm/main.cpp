@@ -259,8 +259,10 @@ int main(int argc, char **argv)
             }
             blk.seq = n;
             blk.utime = std::llround(n * 1e6 / scene.block_hz);
+            Eigen::Vector3d force_sum = Eigen::Vector3d::Zero();   // the block's mean true force, as FW_FORCE's
             for (int i = 0; i < spb; ++i) {
                 const afm::sim::Sample s = sim.world.step();
+                force_sum += sim.world.tip_force();
                 blk.sn_v[i] = s.sn_v;
                 blk.sl_v[i] = s.sl_v;
                 blk.piezo_x_nm[i] = s.piezo_nm.x();
@@ -275,8 +277,7 @@ int main(int argc, char **argv)
                 truth.piezo_nm[k] = sim.world.piezo()[k];
             }
             truth.tip_nm[2] = truth.piezo_nm[2] = sim.world.piezo_z();
-            const Eigen::Vector3d f = sim.world.tip_force();
-            for (int k = 0; k < 3; ++k) truth.force_nN[k] = f[k];
+            for (int k = 0; k < 3; ++k) truth.force_nN[k] = force_sum[k] / spb;
             truth.objects = truth_objects(scene, sim.world, n);
             lc->publish(AFM_CH_SIM_TRUTH, &truth);
             if (drop(drop_rng)) ++dropped;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what the bench needs and is missing, and nothing else:
 #   Debian packages (apt), the project's Python venv (.venv: LCM 1.5 from PyPI,
-#   numpy, matplotlib, PyYAML) and Unity (from Debian's cjson source package,
+#   numpy, matplotlib, PyYAML; Dask distributed, Jinja2 and SciPy for sweeps,
+#   reports and the planner) and Unity (from Debian's cjson source package,
 #   hash checked, unpacked into build/_deps/unity).
 # Idempotent: a second run checks and returns in well under a second.
 # Usage: tools/setup.sh [--quiet]
@@ -39,7 +40,7 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib PyYAML"
+py_reqs="lcm==1.5.3 numpy matplotlib PyYAML dask==2026.8.0 distributed==2026.8.0 jinja2==3.1.6 scipy==1.17.1"
 stamp="$venv/.afm-reqs"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
   say "creating Python venv in .venv ($py_reqs)"

@@ -1,0 +1,80 @@
+"""Pareto fronts of a sweep: for an error figure and a cost figure, the
+points no other point beats on both (lower is better for each), and their
+plots (matplotlib: PNG and SVG)."""
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+# Figures of a point: error figures, then cost figures; (key, label, unit).
+ERRORS = [
+    ("force_rms_pN", "tip force, RMS error", "pN"),
+    ("force_worst_pN", "tip force, worst error", "pN"),
+    ("apex_rms_nm", "apex, RMS error", "nm"),
+    ("apex_worst_nm", "apex, worst error", "nm"),
+    ("objects_worst_nm", "objects, worst error", "nm"),
+    ("objects_final_nm", "objects, final error", "nm"),
+    ("display_max_nm", "display vs fresh scan, worst object", "nm"),
+]
+COSTS = [
+    ("wall_s_per_sim_s", "wall time per simulated second", "s/s"),
+    ("cpu_s_per_sim_s", "CPU time per simulated second (all processes)", "s/s"),
+    ("fw_instr_per_sample", "firmware instructions per sample", "instr"),
+    ("fw_text_bytes", "firmware flash (Cortex-M4 text)", "bytes"),
+    ("renderer_ms_per_frame", "renderer time per frame", "ms"),
+    ("log_bytes", "bus log size", "bytes"),
+]
+
+
+def front(points, ek, ck):
+    """The non-dominated points for error ek and cost ck (both defined),
+    sorted by cost."""
+    pts = [p for p in points if p["errors"].get(ek) is not None and p["costs"].get(ck) is not None]
+    out = []
+    for p in pts:
+        e, c = p["errors"][ek], p["costs"][ck]
+        dominated = any(q is not p and q["errors"][ek] <= e and q["costs"][ck] <= c and
+                        (q["errors"][ek] < e or q["costs"][ck] < c) for q in pts)
+        if not dominated:
+            out.append(p)
+    return sorted(out, key=lambda p: p["costs"][ck])
+
+
+def varies(points, group, key):
+    vals = {p[group].get(key) for p in points if p[group].get(key) is not None}
+    return len(vals) > 1
+
+
+def plot(points, ek, ck, out_base):
+    """One error against one cost: every point, the front marked and
+    labelled. Writes out_base.png and out_base.svg; returns the front."""
+    el = next(e for e in ERRORS if e[0] == ek)
+    cl = next(c for c in COSTS if c[0] == ck)
+    pts = [p for p in points if p["errors"].get(ek) is not None and p["costs"].get(ck) is not None]
+    fr = front(pts, ek, ck)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    ax.scatter([p["costs"][ck] for p in pts], [p["errors"][ek] for p in pts], s=28, color="#9aa7b5", label="points",
+               zorder=2)
+    if fr:
+        ax.step([p["costs"][ck] for p in fr], [p["errors"][ek] for p in fr], where="post", color="#c0392b", lw=1.2,
+                zorder=3)
+        ax.scatter([p["costs"][ck] for p in fr], [p["errors"][ek] for p in fr], s=46, color="#c0392b",
+                   label="Pareto front", zorder=4)
+        for p in fr:
+            ax.annotate(p["label"], (p["costs"][ck], p["errors"][ek]), textcoords="offset points", xytext=(5, 5),
+                        fontsize=7, color="#5b1a12")
+    ax.set_xlabel(f"{cl[1]} ({cl[2]})")
+    ax.set_ylabel(f"{el[1]} ({el[2]})")
+    if all(p["errors"][ek] > 0 for p in pts) and max(p["errors"][ek] for p in pts) > 20 * min(p["errors"][ek] for p in pts):
+        ax.set_yscale("log")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    ax.set_title(f"{el[1]} against {cl[1]}", fontsize=9)
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(out_base), exist_ok=True)
+    fig.savefig(out_base + ".png", dpi=110)
+    fig.savefig(out_base + ".svg")
+    plt.close(fig)
+    return fr

@@ -1,0 +1,19 @@
+"""Where the checkout, its build and its programs are."""
+import os
+
+ROOT = os.environ.get("AFM_SOURCE") or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BUILD = os.environ.get("AFM_BUILD") or os.path.join(ROOT, "build", "main")
+LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
+REPLAY = os.path.join(BUILD, "host_bridge", "afm_replay")
+IN_NETNS = os.path.join(ROOT, "tools", "in_netns.sh")
+ARM_BUILD = os.path.join(ROOT, "build", "arm")
+# The programs a run is made of: their contents identify the build a sweep
+# point was measured with (resume reruns a point when any of them changed).
+RUN_PROGRAMS = [
+    os.path.join(BUILD, "sim_afm", "sim_afm"),
+    os.path.join(BUILD, "host_bridge", "fw_node"),
+    os.path.join(BUILD, "host_bridge", "operator"),
+    os.path.join(BUILD, "host_bridge", "renderer"),
+    LAUNCH,
+    REPLAY,
+]

@@ -1,0 +1,172 @@
+"""One sweep point, run where a Dask worker runs it: the point's scene as an
+ordinary run in its own network namespace (afm_launch through in_netns.sh,
+as ./afm run does), then its errors from its own log and its costs from the
+kernel's accounting, its renderer and the firmware replayed under callgrind.
+Everything it finds is written to the point's folder (point.json), so an
+interrupted sweep keeps every finished point."""
+import json
+import os
+import re
+import subprocess
+import time
+
+from analysis import paths, runlog
+
+# The firmware modules every card runs, and those a configuration adds.
+CARD_MODULES = ["fw_math", "fw_acq", "fw_rules", "fw_theta", "fw_force", "fw_comp", "fw_board", "fw_particles",
+                "fw_calib", "fw_drift", "fw_card"]
+
+
+def modules_run(scene):
+    """The firmware modules the point's card runs (for its flash size)."""
+    mods = list(CARD_MODULES)
+    if (scene.get("firmware") or {}).get("word_bits") == 16:
+        mods.append("fw_board16")
+    if (scene.get("objects") or {}).get("wires"):
+        mods.append("fw_wire")
+    if "lithography" in (scene.get("effects") or []):
+        mods.append("fw_litho")
+    return mods
+
+
+def _tail(path, n=8):
+    try:
+        with open(path, errors="replace") as f:
+            return "".join(f.readlines()[-n:])
+    except OSError:
+        return ""
+
+
+def _write_json(path, data):
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(data, f, indent=2, sort_keys=True)
+        f.write("\n")
+    os.replace(tmp, path)
+
+
+def _run_once(scene_path, run_dir, timeout_s):
+    """Runs the scene; returns (exit code, stderr, run.json or None, wall s)."""
+    cmd = [paths.IN_NETNS, paths.LAUNCH, "--scene", scene_path, "--out", run_dir, "--quiet"]
+    t0 = time.monotonic()
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
+        code, err = p.returncode, p.stderr
+    except subprocess.TimeoutExpired:
+        code, err = -1, f"the run did not finish in {timeout_s:.0f} s (killed)"
+    wall = time.monotonic() - t0
+    rj = None
+    try:
+        with open(os.path.join(run_dir, "run.json")) as f:
+            rj = json.load(f)
+    except (OSError, ValueError):
+        pass
+    return code, err, rj, wall
+
+
+def _failure(code, err, rj, run_dir):
+    """What failed, named: the process, its exit code and its log's tail."""
+    f = {"exit_code": code, "stderr": err.strip()[-2000:]}
+    if rj:
+        f["error"] = rj.get("error", "")
+        bad = [p for p in rj.get("processes", []) if p.get("exit_code", 0) != 0]
+        if bad:
+            f["process"] = bad[0]["name"]
+            f["process_exit_code"] = bad[0]["exit_code"]
+            f["log_tail"] = _tail(os.path.join(run_dir, bad[0]["log"]))
+    return f
+
+
+def costs_of(rj):
+    """The run's costs (README, "Sweeps"): per simulated second, from run.json."""
+    sim_s = rj.get("sim_seconds") or 0.0
+    c = {"wall_s_per_sim_s": rj["wall_seconds"] / sim_s if sim_s else None, "log_bytes": rj.get("log_bytes")}
+    total = 0.0
+    for p in rj.get("processes", []):
+        cpu = p.get("cpu_user_s", 0.0) + p.get("cpu_system_s", 0.0)
+        total += cpu
+        c[f"cpu_{p['name'].replace('-', '_')}_s_per_sim_s"] = cpu / sim_s if sim_s else None
+    c["cpu_s_per_sim_s"] = total / sim_s if sim_s else None
+    r = rj.get("renderer") or {}
+    if "update_ms_per_frame" in r:
+        c["update_ms_per_frame"] = r["update_ms_per_frame"]
+        c["renderer_ms_per_frame"] = r["update_ms_per_frame"] + r.get("compose_ms_per_frame", 0.0) + r.get(
+            "write_ms_per_frame", 0.0)
+    return c
+
+
+def firmware_instructions(run_dir, out_file, samples):
+    """The card's instructions per sample on this run's own inputs: the run
+    replayed through the card under callgrind, counting inside
+    fw_card_step_block only. Also whether the replay was identical."""
+    cmd = ["valgrind", "--tool=callgrind", "--toggle-collect=fw_card_step_block", f"--callgrind-out-file={out_file}",
+           paths.REPLAY, run_dir, "--quiet"]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
+    total = None
+    try:
+        with open(out_file) as f:
+            for line in f:
+                m = re.match(r"^(totals|summary):\s+(\d+)", line)
+                if m:
+                    total = int(m.group(2))
+    except OSError:
+        pass
+    return {"fw_instr_per_sample": total / samples if total and samples else None, "replay_identical": p.returncode == 0}
+
+
+def run_point(task):
+    """task: id, dir, scene (the dict), settings, label, repeat, timeout_s,
+    build_id, callgrind, arm_sizes ({module: text bytes} or None). Returns the
+    point's record, also written to dir/point.json."""
+    d = task["dir"]
+    os.makedirs(d, exist_ok=True)
+    import yaml
+    scene_path = os.path.join(d, "scene.yaml")
+    with open(scene_path, "w") as f:
+        yaml.safe_dump(task["scene"], f, sort_keys=False)
+    rec = {"id": task["id"], "settings": task["settings"], "label": task["label"], "build_id": task["build_id"],
+           "dir": d, "status": "ok", "runs": []}
+    t0 = time.time()
+    for r in range(task["repeat"]):
+        run_dir = os.path.join(d, "run" if r == 0 else f"run-{r + 1}")
+        code, err, rj, wall = _run_once(scene_path, run_dir, task["timeout_s"])
+        if code != 0 or not rj or rj.get("status") != "ok":
+            rec["status"] = "failed"
+            rec["failure"] = _failure(code, err, rj, run_dir)
+            rec["run_dir"] = run_dir
+            break
+        card = rj.get("card") or {}
+        run = {"run_dir": run_dir, "costs": costs_of(rj),
+               "errors": runlog.errors(run_dir, card.get("full_scale_pn")),
+               "fidelity": {k: (rj.get("fidelity") or {}).get(k) for k in ("max_position_error_nm", "rms_height_error_nm")},
+               "samples": rj.get("samples")}
+        rec["runs"].append(run)
+    if rec["status"] == "ok":
+        first = rec["runs"][0]
+        rec["run_dir"] = first["run_dir"]
+        rec["errors"] = dict(first["errors"], display_max_nm=first["fidelity"]["max_position_error_nm"],
+                             display_rms_height_nm=first["fidelity"]["rms_height_error_nm"])
+        rec["errors_identical_over_repeats"] = all(
+            {k: v for k, v in r["errors"].items()} == first["errors"] for r in rec["runs"][1:])
+        costs = {k: [r["costs"].get(k) for r in rec["runs"]] for k in first["costs"]}
+        rec["costs"] = {k: _median(v) for k, v in costs.items()}
+        if task["repeat"] > 1:
+            rec["cost_spread"] = {k: [min(x for x in v if x is not None), max(x for x in v if x is not None)]
+                                  for k, v in costs.items() if any(x is not None for x in v)}
+        if task["callgrind"]:
+            rec["costs"].update(firmware_instructions(first["run_dir"], os.path.join(d, "callgrind.out"), first["samples"]))
+        if task.get("arm_sizes"):
+            mods = modules_run(task["scene"])
+            rec["costs"]["fw_text_bytes"] = sum(task["arm_sizes"].get(m, 0) for m in mods)
+            rec["fw_modules"] = mods
+    rec["point_wall_s"] = time.time() - t0
+    _write_json(os.path.join(d, "point.json"), rec)
+    return rec
+
+
+def _median(v):
+    v = sorted(x for x in v if x is not None)
+    if not v:
+        return None
+    n = len(v)
+    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])

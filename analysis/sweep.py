@@ -1,0 +1,346 @@
+"""./afm sweep: a scene's fidelity knobs turned, each point an ordinary run
+in its own network namespace, its errors against the simulator's truth and
+its costs measured from the run itself; a CSV, JSON, a table, Pareto plots
+and one report.html. Points run on Dask distributed: a LocalCluster by
+default, an existing cluster with --scheduler ADDRESS.
+
+A point is known by a hash of its scene (the base scene with the point's
+settings) and of the build (the run's programs): running the sweep again
+into the same folder runs only the points it does not have yet."""
+import argparse
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+from analysis import knobs as K
+from analysis import paths, point, report
+
+USAGE = """usage: ./afm sweep SCENE --vary KEY=V1,V2,... [--vary ...] [options]
+       ./afm sweep SWEEP.yaml [options]
+
+  Runs every combination of the knobs' values as its own run of SCENE (each in
+  its own network namespace), measures each point's errors against the
+  simulator's truth and its costs, and writes into --out: sweep.csv,
+  sweep.json, plots/ (Pareto plots, PNG and SVG) and report.html. A table
+  on stdout, a progress line while it runs.
+
+  A knob is a scene key (firmware.adc_bits, firmware.word_bits,
+  firmware.compensate, sample_rate_hz, block_hz, sample.wire.segments,
+  sample.wire.friction_points, outputs.image_px, outputs.update_mode, ...)
+  or effects.NAME=on,off. SWEEP.yaml: {scene: FILE, vary: {KEY: [values]},
+  out: DIR, repeat: N} (paths relative to the file).
+
+options:
+  --vary KEY=V1,V2,...  a knob and its values (repeatable)
+  --out DIR             output folder (default runs/sweep-SCENENAME); an
+                        earlier sweep's folder is resumed: done points are kept
+  --repeat N            runs per point (default 1): costs as the median and
+                        the spread; errors must repeat exactly
+  --workers N           a local Dask cluster of N workers (default: one per core)
+  --scheduler ADDRESS   an existing Dask cluster (tcp://host:8786) whose
+                        workers have this checkout, built, at the same path
+  --no-callgrind        skip the firmware's instructions per sample
+  --timeout-s S         a point's run is killed after S s (default: 60 s + 40 x
+                        the scene's duration)
+  -h, --help            this text
+exit: 0 every point measured; 1 some point failed (reported, the others kept);
+      2 bad input (named before anything starts); 130 interrupted (done points kept)
+"""
+
+
+class SweepError(Exception):
+    """Bad input, named: the sweep exits 2 before anything starts."""
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(prog="./afm sweep", add_help=False, usage=USAGE)
+    p.add_argument("target", nargs="?")
+    p.add_argument("--vary", action="append", default=[])
+    p.add_argument("--out")
+    p.add_argument("--repeat", type=int)
+    p.add_argument("--workers", type=int)
+    p.add_argument("--scheduler")
+    p.add_argument("--no-callgrind", action="store_true")
+    p.add_argument("--timeout-s", type=float)
+    p.add_argument("-h", "--help", action="store_true")
+    a, rest = p.parse_known_args(argv)
+    if a.help:
+        print(USAGE, end="")
+        sys.exit(0)
+    if rest:
+        raise SweepError(f"unknown argument {rest[0]!r} (see ./afm sweep --help)")
+    if not a.target:
+        raise SweepError("which scene or sweep file? (see ./afm sweep --help)")
+    if a.workers is not None and a.workers < 1:
+        raise SweepError(f"--workers {a.workers}: at least 1")
+    if a.workers is not None and a.scheduler:
+        raise SweepError("--workers and --scheduler: one or the other (a cluster has its own workers)")
+    if a.repeat is not None and a.repeat < 1:
+        raise SweepError(f"--repeat {a.repeat}: at least 1")
+    return a
+
+
+def is_sweep_file(path):
+    try:
+        with open(path) as f:
+            d = yaml.safe_load(f)
+    except (OSError, yaml.YAMLError):
+        return False
+    return isinstance(d, dict) and "vary" in d
+
+
+def plan(a):
+    """(base scene path, base scene dict, [(key, values)], out, repeat, sources)"""
+    if not os.path.exists(a.target):
+        raise SweepError(f"{a.target}: no such scene or sweep file")
+    out, repeat = a.out, a.repeat
+    sources = {}
+    if is_sweep_file(a.target):
+        scene_path, knobs, f_out, f_repeat = K.load_sweep_file(a.target)
+        out = out or f_out
+        repeat = repeat or f_repeat
+        for k, _ in knobs:
+            sources[k] = f"{a.target}: vary.{k}"
+    else:
+        scene_path, knobs = a.target, []
+    for v in a.vary:
+        key, values = K.parse_vary(v)
+        knobs = [(k, vs) for k, vs in knobs if k != key] + [(key, values)]
+        sources[key] = f"--vary {v}"
+    if not knobs:
+        raise SweepError(f"{a.target}: nothing to vary (give --vary KEY=V1,V2 or a sweep file with vary:)")
+    with open(scene_path) as f:
+        scene = yaml.safe_load(f)
+    name = (scene or {}).get("name") or os.path.splitext(os.path.basename(scene_path))[0]
+    out = os.path.abspath(out or os.path.join(paths.ROOT, "runs", f"sweep-{name}"))
+    return os.path.abspath(scene_path), scene, knobs, out, repeat or 1, sources
+
+
+def check_scene(path):
+    """afm_launch --check: the scene's validator and the card's rules."""
+    p = subprocess.run([paths.LAUNCH, "--check", "--scene", path], capture_output=True, text=True)
+    return p.returncode, p.stderr.strip()
+
+
+def validate(scene_path, scene, points, sources):
+    """Every point's scene checked before anything starts; a refusal names
+    the point's knobs, where they came from, and the validator's words."""
+    code, msg = check_scene(scene_path)
+    if code != 0:
+        raise SweepError(msg or f"{scene_path}: the scene does not validate")
+    with tempfile.TemporaryDirectory(prefix="afm-sweep-check-") as tmp:
+        for i, settings in enumerate(points):
+            path = os.path.join(tmp, f"point-{i}.yaml")
+            with open(path, "w") as f:
+                yaml.safe_dump(K.apply(scene, settings), f, sort_keys=False)
+            code, msg = check_scene(path)
+            if code != 0:
+                detail = msg.replace(path + ": ", "").replace(path, "the point's scene")
+                named = "; ".join(sources.get(k, k) for k in settings)
+                raise SweepError(f"point {K.label(settings)} ({named}): {detail}")
+
+
+def build_id():
+    """A hash of the run's programs: a point measured with another build is
+    measured again."""
+    h = hashlib.sha256()
+    for p in paths.RUN_PROGRAMS:
+        try:
+            with open(p, "rb") as f:
+                h.update(hashlib.sha256(f.read()).digest())
+        except OSError:
+            raise SweepError(f"{p}: not built (./afm build)") from None
+    return h.hexdigest()[:16]
+
+
+def point_id(scene, build):
+    return hashlib.sha256((json.dumps(scene, sort_keys=True) + build).encode()).hexdigest()[:12]
+
+
+def arm_sizes():
+    """{module: Cortex-M4 text bytes} of the firmware, built for the M4 as
+    ./afm bench firmware builds it; None without the toolchain."""
+    if not shutil.which("arm-none-eabi-size"):
+        return None
+    arm = paths.ARM_BUILD
+    if not os.path.exists(os.path.join(arm, "build.ninja")):
+        subprocess.run(["cmake", "-S", paths.ROOT, "-B", arm, "-G", "Ninja", "-DAFM_FIRMWARE_ONLY=ON",
+                        f"-DCMAKE_TOOLCHAIN_FILE={paths.ROOT}/cmake/arm-none-eabi.cmake", "-DCMAKE_BUILD_TYPE=Release"],
+                       check=True, capture_output=True)
+    subprocess.run(["cmake", "--build", arm, "--target", "afm_firmware"], check=True, capture_output=True)
+    p = subprocess.run(["arm-none-eabi-size", os.path.join(arm, "firmware", "libafm_firmware.a")], capture_output=True,
+                       text=True, check=True)
+    sizes = {}
+    for line in p.stdout.splitlines()[1:]:
+        f = line.split()
+        if len(f) >= 6:
+            sizes[f[5].replace(".c.obj", "")] = int(f[0])
+    return sizes
+
+
+def load_done(path, build):
+    try:
+        with open(path) as f:
+            rec = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return rec if rec.get("status") == "ok" and rec.get("build_id") == build else None
+
+
+class Progress:
+    def __init__(self, total, done_before):
+        self.total, self.done, self.failed, self.t0 = total, done_before, 0, time.monotonic()
+        self.new_done, self.durations = 0, []
+        self.points_wall_s = None   # from the first submission to the last point
+        self.tty = sys.stderr.isatty()
+
+    def show(self, running, final=False):
+        left = self.total - self.done - self.failed
+        eta = ""
+        if self.durations and left:
+            per = sum(self.durations) / len(self.durations)
+            eta = f"   about {per * left / max(1, running):.0f} s left"
+        line = f"sweep: {self.done + self.failed} / {self.total} points ({self.done} done, {running} running, " \
+               f"{self.failed} failed){eta}   {time.monotonic() - self.t0:.0f} s"
+        if self.tty:
+            sys.stderr.write("\r" + line.ljust(100) + ("\n" if final else ""))
+        elif final or int(time.monotonic() - self.t0) % 10 == 0:
+            sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+
+def start_engine(a):
+    from distributed import Client, LocalCluster
+    if a.scheduler:
+        return Client(a.scheduler, timeout=30), None, f"Dask cluster at {a.scheduler}"
+    n = a.workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None, silence_logs=40)
+    return Client(cluster), cluster, f"Dask LocalCluster, {n} worker(s) on 127.0.0.1"
+
+
+def run_points(a, tasks, prog):
+    """Submits the tasks; returns their records (failed ones included)."""
+    client, cluster, engine = start_engine(a)
+    records = []
+    futures = []
+    t0 = time.monotonic()
+    try:
+        futures = [client.submit(point.run_point, t, key=f"afm-point-{t['id']}", pure=False) for t in tasks]
+        by_key = {f.key: t for f, t in zip(futures, tasks)}
+        pending = set(futures)
+        while pending:
+            time.sleep(0.5)
+            for f in [f for f in pending if f.status in ("finished", "error", "cancelled")]:
+                pending.discard(f)
+                t = by_key[f.key]
+                if f.status == "finished":
+                    rec = f.result()
+                else:
+                    rec = {"id": t["id"], "settings": t["settings"], "label": t["label"], "status": "failed",
+                           "dir": t["dir"], "failure": {"exit_code": -1, "error": f"the worker failed: {f.exception()!r}"}}
+                records.append(rec)
+                if rec["status"] == "ok":
+                    prog.done += 1
+                    prog.durations.append(rec.get("point_wall_s", 0.0))
+                else:
+                    prog.failed += 1
+            # tasks assigned to workers, at most one per worker thread at a time
+            nthreads = client.nthreads()
+            running = sum(min(len(v), nthreads.get(w, 1)) for w, v in client.processing().items())
+            prog.show(running)
+        prog.show(0, final=True)
+        prog.points_wall_s = time.monotonic() - t0
+    except KeyboardInterrupt:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return records, engine
+
+
+def main(argv):
+    try:
+        a = parse_args(argv)
+        scene_path, scene, knobs, out, repeat, sources = plan(a)
+        settings_list = K.grid(knobs)
+        validate(scene_path, scene, settings_list, sources)
+        build = build_id()
+    except (SweepError, K.KnobError) as e:
+        print(f"sweep: {e}", file=sys.stderr)
+        return 2
+    duration = float(scene.get("duration_s", 1.0))
+    timeout = a.timeout_s or 60.0 + 40.0 * duration
+    os.makedirs(os.path.join(out, "points"), exist_ok=True)
+    sizes = arm_sizes()
+    tasks, done = [], []
+    for settings in settings_list:
+        s = K.apply(scene, settings)
+        pid = point_id(s, build)
+        d = os.path.join(out, "points", pid)
+        rec = load_done(os.path.join(d, "point.json"), build)
+        if rec is not None and len(rec.get("runs", [])) >= repeat:
+            done.append(rec)
+            continue
+        tasks.append({"id": pid, "dir": d, "scene": s, "settings": settings, "label": K.label(settings), "repeat": repeat,
+                      "timeout_s": timeout, "build_id": build, "callgrind": not a.no_callgrind, "arm_sizes": sizes})
+    print(f"sweep: {len(settings_list)} points of {os.path.basename(scene_path)} into {out}: {len(done)} done before, "
+          f"{len(tasks)} to run", file=sys.stderr)
+    prog = Progress(len(settings_list), len(done))
+    engine = "nothing to run"
+    interrupted = False
+    new = []
+    if tasks:
+        try:
+            new, engine = run_points(a, tasks, prog)
+        except KeyboardInterrupt:
+            interrupted = True
+            new = [r for r in (load_done(os.path.join(t["dir"], "point.json"), build) for t in tasks) if r]
+            print("\nsweep: interrupted; the points done so far are kept", file=sys.stderr)
+    order = {point_id(K.apply(scene, s), build): i for i, s in enumerate(settings_list)}
+    points = sorted(done + new, key=lambda r: order.get(r["id"], 0))
+    finish(out, scene_path, scene, knobs, points, repeat, build, engine, prog.points_wall_s)
+    if interrupted:
+        print(f"sweep: {len(points)} of {len(settings_list)} points kept; run the same command again to finish",
+              file=sys.stderr)
+        return 130
+    return 0 if all(p["status"] == "ok" for p in points) else 1
+
+
+def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_wall_s=None):
+    knob_keys = [k for k, _ in knobs]
+    meta = {"scene": scene_path, "scene_name": scene.get("name", ""), "knobs": knobs, "repeat": repeat,
+            "build_id": build, "engine": engine, "points_wall_s": points_wall_s,
+            "ok": sum(p["status"] == "ok" for p in points),
+            "failed": sum(p["status"] != "ok" for p in points)}
+    report.write_csv_json(out, points, knob_keys, meta)
+    print(report.table(points))
+    plots = report.write_plots(out, points)
+    effects = report.knob_effects(points, knobs)
+    best = report.best_buy(effects)
+    report.write_html(out, meta, points, knobs, plots, effects, best)
+    for p in points:
+        if p["status"] != "ok":
+            f = p.get("failure", {})
+            print(f"sweep: point {p['label']} FAILED: {f.get('process', 'launcher')} exit "
+                  f"{f.get('process_exit_code', f.get('exit_code'))}: {f.get('error') or f.get('stderr', '')} "
+                  f"(folder {p.get('run_dir', p.get('dir'))})", file=sys.stderr)
+    if best:
+        e = best[0]
+        print(f"sweep: most accuracy per unit of cost: {e['knob']} {e['from']} -> {e['to']}: force RMS error "
+              f"x{report.fmt(e['force_rms_pN'])} for x{report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second")
+    print(f"sweep: wrote {out}/sweep.csv, sweep.json, report.html and {len(plots)} Pareto plots in plots/")
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
