@@ -23,13 +23,6 @@ import afmlog
 CHANNELS = ["FW_FORCE", "FW_TIP", "FW_OBJECTS", "SIM_TRUTH"]
 
 
-def _first_by_seq(msgs):
-    out = {}
-    for m in msgs:
-        out.setdefault(m.seq, m)
-    return out
-
-
 def _wire_ends(w):
     return (w.x_nm[0], w.y_nm[0]), (w.x_nm[w.n - 1], w.y_nm[w.n - 1])
 
@@ -56,8 +49,13 @@ def errors(run_dir, full_scale_pn=None):
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels=CHANNELS)
     force = afmlog.by_seq(log.get("FW_FORCE", []))
     tip = afmlog.by_seq(log.get("FW_TIP", []))
-    objects = _first_by_seq(log.get("FW_OBJECTS", []))
+    # Objects as whole sets (a message may list only what changed); the
+    # firmware's: the first of each block, before any fix of that block.
+    objects = {}
+    for msg, whole in afmlog.whole_objects(log.get("FW_OBJECTS", [])):
+        objects.setdefault(msg.seq, whole)
     truth = afmlog.by_seq(log.get("SIM_TRUTH", []))
+    truth_objects = afmlog.whole_by_seq(log.get("SIM_TRUTH", []), lambda m: m.objects)
     seqs = sorted(s for s in truth if s in force and s in tip)
     if not seqs:
         raise ValueError(f"{run_dir}/bus.lcmlog: no block has both the firmware's outputs and the truth")
@@ -66,9 +64,9 @@ def errors(run_dir, full_scale_pn=None):
     per_object = {}
     last = None
     for s in seqs:
-        if s not in objects:
+        if s not in objects or s not in truth_objects:
             continue
-        d = _object_distances(objects[s], truth[s].objects)
+        d = _object_distances(objects[s], truth_objects[s])
         for k, v in d.items():
             per_object.setdefault(k, {"worst_nm": 0.0})
             per_object[k]["worst_nm"] = max(per_object[k]["worst_nm"], v)

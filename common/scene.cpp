@@ -286,12 +286,123 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
     }
 }
 
+// objects.scatter: particles drawn at random, the bench's own generator
+// (xorshift64*), so every process and machine draws the same ones.
+void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
+{
+    if (!n.IsDefined() || n.IsNull()) return;
+    const std::string k = "objects.scatter";
+    r.only_keys(n, k, {"count", "radius_nm", "region_nm", "min_gap_nm", "seed"});
+    ScatterSpec &c = s.scatter;
+    const double count = r.num(n, k, "count", nullptr, 1, 100000);
+    if (count != std::floor(count)) r.fail(k + ".count", "must be an integer, got " + Reader::show(n["count"]));
+    c.count = static_cast<int>(count);
+    const ScatterSpec d;
+    c.radius_nm = r.num(n, k, "radius_nm", &d.radius_nm, 0, 5000, true);
+    c.min_gap_nm = r.num(n, k, "min_gap_nm", &d.min_gap_nm, 0, 1e5);
+    const double seed_d = 1;
+    c.seed = static_cast<uint64_t>(r.num(n, k, "seed", &seed_d, 0, 9.007199254740992e15));
+    const double half = s.field_nm / 2;
+    YAML::Node reg = n["region_nm"];
+    if (!reg.IsDefined()) {
+        c.lo_nm = {s.field_center_nm.x - half, s.field_center_nm.y - half};
+        c.hi_nm = {s.field_center_nm.x + half, s.field_center_nm.y + half};
+    } else {
+        if (!reg.IsSequence() || reg.size() != 4) r.fail(k + ".region_nm", "must be [x0, y0, x1, y1], got " + Reader::show(reg));
+        const double lx = s.field_center_nm.x - half, hx = s.field_center_nm.x + half;
+        const double ly = s.field_center_nm.y - half, hy = s.field_center_nm.y + half;
+        c.lo_nm = {r.check_num(reg[0], k + ".region_nm[0]", lx, hx, false), r.check_num(reg[1], k + ".region_nm[1]", ly, hy, false)};
+        c.hi_nm = {r.check_num(reg[2], k + ".region_nm[2]", lx, hx, false), r.check_num(reg[3], k + ".region_nm[3]", ly, hy, false)};
+        if (!(c.hi_nm.x > c.lo_nm.x && c.hi_nm.y > c.lo_nm.y))
+            r.fail(k + ".region_nm", "must have x1 > x0 and y1 > y0, got " + Reader::show(reg));
+    }
+    uint64_t st = c.seed ? c.seed : 0x9E3779B97F4A7C15ull;
+    auto unit = [&st] {   // xorshift64*: [0, 1)
+        st ^= st >> 12;
+        st ^= st << 25;
+        st ^= st >> 27;
+        return static_cast<double>((st * 0x2545F4914F6CDD1Dull) >> 11) * (1.0 / 9007199254740992.0);
+    };
+    int next_id = 1;
+    for (const auto &p : s.particles) next_id = std::max(next_id, p.id + 1);
+    for (const auto &m : s.landmarks) next_id = std::max(next_id, m.id + 1);
+    for (int i = 0; i < c.count; ++i) {
+        bool placed = false;
+        for (int attempt = 0; attempt < 2000 && !placed; ++attempt) {
+            const double x = c.lo_nm.x + c.radius_nm + unit() * (c.hi_nm.x - c.lo_nm.x - 2 * c.radius_nm);
+            const double y = c.lo_nm.y + c.radius_nm + unit() * (c.hi_nm.y - c.lo_nm.y - 2 * c.radius_nm);
+            placed = std::all_of(s.particles.begin(), s.particles.end(), [&](const ParticleSpec &o) {
+                return std::hypot(o.x_nm - x, o.y_nm - y) >= o.radius_nm + c.radius_nm + c.min_gap_nm;
+            });
+            if (placed) s.particles.push_back({next_id++, x, y, c.radius_nm});
+        }
+        if (!placed)
+            r.fail(k, "cannot place particle " + std::to_string(i + 1) + " of " + std::to_string(c.count) + " with min_gap_nm " +
+                          Reader::show(n["min_gap_nm"]) + " in the region: give a larger region or fewer particles");
+    }
+}
+
+// objects.targets: a list of [x, y] sites, or {text | png, pitch_nm,
+// height_nm, center_nm} (rasterised by host_bridge/pattern.hpp).
+void read_targets(const Reader &r, const YAML::Node &n, Scene &s)
+{
+    if (!n.IsDefined() || n.IsNull()) return;
+    const std::string k = "objects.targets";
+    const double half = s.field_nm / 2;
+    TargetSpec &t = s.targets;
+    if (n.IsSequence()) {
+        for (std::size_t i = 0; i < n.size(); ++i) {
+            const std::string key = k + "[" + std::to_string(i) + "]";
+            const Vec2 v = r.vec2(n[i], key, -1e6, 1e6);
+            if (std::fabs(v.x - s.field_center_nm.x) > half || std::fabs(v.y - s.field_center_nm.y) > half)
+                r.fail(key, "target " + Reader::show(n[i]) + " is outside the field");
+            t.sites_nm.push_back(v);
+        }
+        if (t.sites_nm.empty()) r.fail(k, "the list of targets is empty");
+        return;
+    }
+    r.only_keys(n, k, {"text", "png", "pitch_nm", "height_nm", "center_nm"});
+    const std::string none;
+    t.text = r.str(n, k, "text", &none);
+    t.png = r.str(n, k, "png", &none);
+    if (t.text.empty() == t.png.empty()) r.fail(k, "give one of text or png (or a list of [x, y] sites)");
+    if (!t.png.empty() && t.png[0] != '/') {
+        const auto slash = s.file.find_last_of('/');
+        t.png = (slash == std::string::npos ? std::string(".") : s.file.substr(0, slash)) + "/" + t.png;
+    }
+    const TargetSpec d;
+    t.pitch_nm = r.num(n, k, "pitch_nm", &d.pitch_nm, 10, 1e5);
+    t.height_nm = r.num(n, k, "height_nm", &d.height_nm, 10, s.field_nm);
+    t.center_nm = s.field_center_nm;
+    if (n["center_nm"].IsDefined()) t.center_nm = r.vec2(n["center_nm"], k + ".center_nm", -1e6, 1e6);
+}
+
+void read_wire_targets(const Reader &r, const YAML::Node &n, Scene &s)
+{
+    if (!n.IsDefined() || n.IsNull()) return;
+    const std::string k = "objects.wire_targets";
+    if (!n.IsSequence()) r.fail(k, "must be a list, got " + Reader::show(n));
+    const double half = s.field_nm / 2;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+        const std::string p = k + "[" + std::to_string(i) + "]";
+        r.only_keys(n[i], p, {"id", "x_nm", "y_nm", "angle_deg"});
+        WireTargetSpec w;
+        w.id = static_cast<int>(r.num(n[i], p, "id", nullptr, 0, 1e6));
+        w.x_nm = r.num(n[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
+        w.y_nm = r.num(n[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
+        w.angle_deg = r.num(n[i], p, "angle_deg", nullptr, -360, 360);
+        if (std::none_of(s.wires.begin(), s.wires.end(), [&](const WireSpec &x) { return x.id == w.id; }))
+            r.fail(p + ".id", "names no wire of objects.wires, got " + Reader::show(n[i]["id"]));
+        s.wire_targets.push_back(w);
+    }
+}
+
 // objects: particles, wires and landmarks, inside the field.
 void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
 {
     YAML::Node obj = root["objects"];
     if (obj.IsDefined() && !obj.IsNull()) {
-        r.only_keys(obj, "objects", {"particles", "wires", "landmarks"});
+        r.only_keys(obj, "objects", {"particles", "wires", "landmarks", "scatter", "targets", "wire_targets"});
         YAML::Node ps = obj["particles"];
         if (ps.IsDefined() && !ps.IsNull()) {
             if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
@@ -359,21 +470,118 @@ void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
                 s.landmarks.push_back(m);
             }
         }
+        read_scatter(r, obj["scatter"], s);
+        read_targets(r, obj["targets"], s);
+        read_wire_targets(r, obj["wire_targets"], s);
     }
 }
 
-// operator: the scripted hand (path, load, local scans, lever changes).
+// operator.haptic, operator.hand: the device and the hand holding it.
+void read_haptic(const Reader &r, const YAML::Node &op, Scene &s)
+{
+    const HapticSpec dh;
+    YAML::Node h = op["haptic"];
+    if (h.IsDefined() && !h.IsNull()) {
+        const std::string k = "operator.haptic";
+        r.only_keys(h, k, {"half_range_mm", "max_force_N", "max_stiffness_N_per_m", "force_gain_N_per_nN", "damping_Ns_per_m",
+                           "passivity_check"});
+        s.op.haptic.half_range_mm = r.num(h, k, "half_range_mm", &dh.half_range_mm, 1, 1000);
+        s.op.haptic.max_force_N = r.num(h, k, "max_force_N", &dh.max_force_N, 0, 100);
+        s.op.haptic.max_stiffness_N_per_m = r.num(h, k, "max_stiffness_N_per_m", &dh.max_stiffness_N_per_m, 0, 1e6, true);
+        // The card renders it in whole uN/pN (0.001 N/nN), at most 2^31 / 10^6 N per axis.
+        const YAML::Node g = h["force_gain_N_per_nN"];
+        if (g.IsDefined() && !g.IsNull() && !(g.IsScalar() && g.Scalar() == "auto"))
+            s.op.haptic.force_gain_N_per_nN = r.num(h, k, "force_gain_N_per_nN", nullptr, 0, 100);
+        s.op.haptic.damping_Ns_per_m = r.num(h, k, "damping_Ns_per_m", &dh.damping_Ns_per_m, 0, 1e4);
+        s.op.haptic.passivity_check = r.boolean(h, k, "passivity_check", true);
+    }
+    const HandSpec dd;
+    YAML::Node hand = op["hand"];
+    if (hand.IsDefined() && !hand.IsNull()) {
+        const std::string k = "operator.hand";
+        r.only_keys(hand, k, {"stiffness_N_per_m", "damping_Ns_per_m", "mass_kg"});
+        s.op.hand.stiffness_N_per_m = r.num(hand, k, "stiffness_N_per_m", &dd.stiffness_N_per_m, 0, 1e6);
+        s.op.hand.damping_Ns_per_m = r.num(hand, k, "damping_Ns_per_m", &dd.damping_Ns_per_m, 0, 1e4);
+        s.op.hand.mass_kg = r.num(hand, k, "mass_kg", &dd.mass_kg, 0, 100, true);
+    }
+}
+
+// operator.plan: the automatic planner's settings (its presence turns it on).
+void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
+{
+    YAML::Node n = op["plan"];
+    if (!n.IsDefined()) return;
+    const std::string k = "operator.plan";
+    PlanSpec &p = s.op.plan;
+    const PlanSpec d;
+    p.enabled = true;
+    if (n.IsNull()) return;
+    r.only_keys(n, k, {"tolerance_nm", "speed_nm_per_s", "travel_speed_nm_per_s", "scan_size_nm", "scan_px", "scan_s",
+                       "max_pushes", "clearance_nm", "push_depth_nm", "approach_nm", "wire_tolerance_nm", "wire_step_nm"});
+    p.tolerance_nm = r.num(n, k, "tolerance_nm", &d.tolerance_nm, 0, s.field_nm, true);
+    p.speed_nm_per_s = r.num(n, k, "speed_nm_per_s", &d.speed_nm_per_s, 0, 1e6, true);
+    p.travel_speed_nm_per_s = r.num(n, k, "travel_speed_nm_per_s", &d.travel_speed_nm_per_s, 0, 1e6, true);
+    p.scan_size_nm = r.num(n, k, "scan_size_nm", &d.scan_size_nm, 0, s.field_nm, true);
+    const double px_d = d.scan_px, mp_d = d.max_pushes;
+    const double px = r.num(n, k, "scan_px", &px_d, 4, 1024);
+    if (px != std::floor(px)) r.fail(k + ".scan_px", "must be an integer, got " + Reader::show(n["scan_px"]));
+    p.scan_px = static_cast<int>(px);
+    p.scan_s = r.num(n, k, "scan_s", &d.scan_s, 0, 600);
+    const double mp = r.num(n, k, "max_pushes", &mp_d, 1, 100);
+    if (mp != std::floor(mp)) r.fail(k + ".max_pushes", "must be an integer, got " + Reader::show(n["max_pushes"]));
+    p.max_pushes = static_cast<int>(mp);
+    p.clearance_nm = r.num(n, k, "clearance_nm", &d.clearance_nm, 0, s.field_nm);
+    p.push_depth_nm = r.num(n, k, "push_depth_nm", &d.push_depth_nm, 0, 1000);
+    p.approach_nm = r.num(n, k, "approach_nm", &d.approach_nm, 0, s.field_nm, true);
+    p.wire_tolerance_nm = r.num(n, k, "wire_tolerance_nm", &d.wire_tolerance_nm, 0, s.field_nm, true);
+    p.wire_step_nm = r.num(n, k, "wire_step_nm", &d.wire_step_nm, 0, s.field_nm, true);
+}
+
+// What the planner needs and excludes, checked once the whole scene is read.
+void check_plan(const Reader &r, const Scene &s)
+{
+    if (!s.op.plan.enabled) {
+        if (s.targets.any()) r.fail("objects.targets", "targets are for the planner: give operator.plan as well");
+        if (!s.wire_targets.empty()) r.fail("objects.wire_targets", "targets are for the planner: give operator.plan as well");
+        return;
+    }
+    if (!s.targets.any() && s.wire_targets.empty())
+        r.fail("operator.plan", "the planner needs objects.targets (particles) or objects.wire_targets (rods)");
+    if (!s.op.local_scans.empty())
+        r.fail("operator.local_scans", "the planner takes its own local scans: drop operator.local_scans with operator.plan");
+    if (!s.op.cantilever_changes.empty())
+        r.fail("operator.cantilever_changes", "not supported with operator.plan");
+    if (s.op.mode != "script") r.fail("operator.mode", "the planner drives the hand: drop operator.mode with operator.plan");
+    if (!s.targets.sites_nm.empty() && s.targets.sites_nm.size() > s.particles.size())
+        r.fail("objects.targets", std::to_string(s.targets.sites_nm.size()) + " targets but only " + std::to_string(s.particles.size()) +
+                                      " particles: give at most as many targets as particles");
+}
+
+// operator: the scripted hand (path, load, local scans, lever changes), the
+// haptic device and hand, and the planner.
 void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
 {
     const Scene d;  // defaults
     YAML::Node op = root["operator"];
     if (!op.IsDefined()) r.fail("operator", "required value is missing");
-    r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes"});
+    r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes", "mode",
+                                 "feel_threshold_N", "haptic", "hand", "plan"});
     s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN, 0, 1000);
     s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
     s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa, 0, 1, true);
+    s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel"});
+    s.op.feel_threshold_N = r.num(op, "operator", "feel_threshold_N", &d.op.feel_threshold_N, 0, 100, true);
+    read_haptic(r, op, s);
+    read_plan(r, op, s);
     YAML::Node path_n = op["path_nm"];
-    if (!path_n.IsDefined() || path_n.IsNull()) r.fail("operator.path_nm", "required value is missing");
+    if (!path_n.IsDefined() || path_n.IsNull()) {
+        if (!s.op.plan.enabled) r.fail("operator.path_nm", "required value is missing");
+        path_n = YAML::Node(YAML::NodeType::Sequence);
+        YAML::Node c(YAML::NodeType::Sequence);
+        c.push_back(s.field_center_nm.x);
+        c.push_back(s.field_center_nm.y);
+        path_n.push_back(c);
+    }
     if (!path_n.IsSequence() || path_n.size() < 1)
         r.fail("operator.path_nm", "must be a list of [x, y] waypoints, got " + Reader::show(path_n));
     const double reach = s.op.kappa * s.field_nm / 2;
@@ -489,9 +697,14 @@ Scene load_scene(const std::string &path)
     read_firmware(r, root, s);
     read_objects(r, root, s);
     read_operator(r, root, s);
+    check_plan(r, s);
     read_outputs(r, root, s);
     return s;
 }
+
+Vec2 Scene::start_nm() const { return op.path_nm.front(); }
+
+bool Scene::start_engaged() const { return !op.plan.enabled; }
 
 int Scene::samples_per_block() const { return static_cast<int>(std::lround(sample_rate_hz / block_hz)); }
 

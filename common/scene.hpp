@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -51,6 +52,34 @@ struct ContactSpec {                    // friction and adhesion of a material p
 
 struct ParticleSpec { int id = 0; double x_nm = 0, y_nm = 0, radius_nm = 50; };
 
+// Particles scattered at random (objects.scatter): count of them in a
+// rectangle, no two closer than min_gap_nm surface to surface; the ids
+// follow the listed particles'. Drawn with the bench's own generator
+// (scene.cpp), the same on every machine.
+struct ScatterSpec {
+    int count = 0;
+    double radius_nm = 50;
+    Vec2 lo_nm, hi_nm;                  // the rectangle's corners
+    double min_gap_nm = 100;
+    uint64_t seed = 1;
+};
+
+// Where the planner puts particles (objects.targets): a list of sites, or
+// a text or a PNG mask rasterised into sites at pitch_nm
+// (host_bridge/pattern.hpp).
+struct TargetSpec {
+    std::vector<Vec2> sites_nm;
+    std::string text;                   // rasterised with a Hershey font (OpenCV)
+    std::string png;                    // a mask: dark pixels are the pattern (path relative to the scene)
+    double pitch_nm = 300;              // spacing of the sites
+    double height_nm = 2000;            // text: the letters' height; png: the mask's height
+    Vec2 center_nm;                     // the pattern's centre
+    bool any() const { return !sites_nm.empty() || !text.empty() || !png.empty(); }
+};
+
+// A rod's target pose (objects.wire_targets).
+struct WireTargetSpec { int id = 0; double x_nm = 0, y_nm = 0, angle_deg = 0; };
+
 // A nanowire lying on the substrate, from end A (x0, y0) to end B (x1, y1).
 struct WireSpec { int id = 0; double x0_nm = 0, y0_nm = 0, x1_nm = 0, y1_nm = 0, diameter_nm = 100; };
 
@@ -89,13 +118,60 @@ struct LocalScanSpec {
     double size_nm = 400;               // side of the scanned square
 };
 
+// The haptic device (a Phantom-class joystick) and the force the card
+// renders on it (operator.haptic). It is updated once per block (block_hz:
+// 1 kHz by default, a Phantom's servo rate); its axes are frame A's.
+// The loop's stability bound is in host_bridge/haptic.hpp.
+struct HapticSpec {
+    double half_range_mm = 80.0;        // stylus travel from the centre to the joystick's +-1 (a 160 mm workspace)
+    double max_force_N = 1.4;           // the device's maximum continuous force, per axis (the card clamps to it)
+    double max_stiffness_N_per_m = 3500.0;   // the stiffest spring the device can render (a Phantom Premium: 3.5 N/mm)
+    // Force on the stylus per nN of tip force (the card's scaling, in 0.001
+    // steps); none ("auto", the default): 4/5 of the largest gain inside the
+    // stability bound (host_bridge/haptic.hpp).
+    std::optional<double> force_gain_N_per_nN;
+    double damping_Ns_per_m = 3.0;      // the device's damping (mechanism and servo), N s/m
+    bool passivity_check = true;        // refuse a scene outside the passivity bound (false: run, the controller clamps)
+};
+
+// The hand that holds the stylus (operator.hand): a spring-damper pulling it
+// towards where the operator means it to be; the stylus and hand's mass.
+struct HandSpec {
+    double stiffness_N_per_m = 300.0;
+    double damping_Ns_per_m = 8.0;
+    double mass_kg = 0.15;
+};
+
+// The automatic planner (operator.plan): particles to objects.targets,
+// rods to objects.wire_targets (host_bridge/planner.hpp).
+struct PlanSpec {
+    bool enabled = false;               // operator.plan is given
+    double tolerance_nm = 25.0;         // a particle is placed within this of its target (checked by a scan)
+    double speed_nm_per_s = 2000.0;     // pushing
+    double travel_speed_nm_per_s = 10000.0;   // lifted, between pushes
+    double scan_size_nm = 400.0;        // the local scans before and after each push
+    int scan_px = 40;                   // pixels per line of a local scan
+    double scan_s = 0.3;                // simulated time a local scan keeps the tip busy
+    int max_pushes = 4;                 // attempts per object before it is reported unplaced
+    double clearance_nm = 40.0;         // a push keeps this far from other particles' surfaces
+    double push_depth_nm = 8.0;         // how far the tip aims into the particle it steers
+    double approach_nm = 60.0;          // the tip lands this far behind the particle's surface
+    double wire_tolerance_nm = 50.0;    // a rod's ends are placed within this of their targets
+    double wire_step_nm = 120.0;        // the longest single end push of a rod
+};
+
 struct OperatorSpec {
     double load_nN = 5.0;               // normal load while engaged
     double speed_nm_per_s = 1000.0;     // apex speed along the path
-    std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start
+    std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start (plan: optional, the tip starts there lifted)
     double kappa = 1.0;                 // joystick scale kappa (p = kappa r_scan p_joy)
     std::vector<LocalScanSpec> local_scans;   // in time order
     std::vector<CantileverChangeSpec> cantilever_changes;   // in time order
+    std::string mode = "script";        // script: the hand follows the path; feel: a felt contact ends a segment
+    double feel_threshold_N = 0.02;     // feel: the stylus force against the motion that ends a segment
+    HapticSpec haptic;
+    HandSpec hand;
+    PlanSpec plan;
 };
 
 struct OutputSpec {
@@ -138,6 +214,9 @@ struct Scene {
     std::vector<ParticleSpec> particles;
     std::vector<WireSpec> wires;
     std::vector<LandmarkSpec> landmarks;
+    ScatterSpec scatter;
+    TargetSpec targets;
+    std::vector<WireTargetSpec> wire_targets;
     WireModelSpec wire_model;
     LithoSpec litho;
     OperatorSpec op;
@@ -147,6 +226,8 @@ struct Scene {
     int64_t total_blocks() const;       // blocks in duration_s
     int total_frames() const;           // round(duration_s * frame_rate_hz)
     bool has_effect(const std::string &e) const;
+    Vec2 start_nm() const;              // where the tip is at block 0: the path's first waypoint
+    bool start_engaged() const;         // in contact at block 0 (not when the planner drives: it starts lifted)
 };
 
 // The effects a scene may name.

@@ -17,7 +17,9 @@ CardNode::CardNode(const Scene &s) : scene_(s), setup_(s)
         throw std::runtime_error(card_refusal_text(s, setup_, rule));
     haptic_.seq = -1;   // the zero force that asks for the first pose
     fill_objects();
-    objects_.seq = -1;
+    whole_.seq = -1;
+    objects_ = whole_;   // complete; not sent (the first block's message is complete: the diff has none before)
+    objects_.complete = true;
 }
 
 int64_t CardNode::sim_utime_done() const { return done_ < 0 ? 0 : block_end_utime(scene_, done_); }
@@ -58,20 +60,22 @@ Outbox CardNode::on_fix(const object_fix_t &f, std::string *note)
     if (f.fix_id == fix_id_ + 1) {
         const int32_t scan_pm[2] = {fwu_pm_from_nm(f.scan_x_nm), fwu_pm_from_nm(f.scan_y_nm)};
         fw_card_fix_out_t r{};
-        fw_card_fix(&card_, f.object_id, scan_pm, &r);
+        if (f.kind == object_fix_t::KIND_PLACE) fw_card_place(&card_, f.object_id, scan_pm, &r);
+        else fw_card_fix(&card_, f.object_id, scan_pm, &r);
         if (r.result == FW_CARD_FIX_UNKNOWN_OBJECT) {
             *note = "local scan fix " + std::to_string(f.fix_id) + " names unknown object " + std::to_string(f.object_id) + "; ignored";
         } else if (r.result == FW_CARD_FIX_NOT_DRIFT) {
             const double dx = fwu_nm_from_pm(scan_pm[0] - static_cast<int64_t>(r.model_pm[0]));
             const double dy = fwu_nm_from_pm(scan_pm[1] - static_cast<int64_t>(r.model_pm[1]));
             *note = "local scan fix " + std::to_string(f.fix_id) + ": object " + std::to_string(f.object_id) + " is (" +
-                    std::to_string(dx) + ", " + std::to_string(dy) + ") nm from its model, more than drift; not applied";
+                    std::to_string(dx) + ", " + std::to_string(dy) + ") nm from its model, beyond the firmware's limit; not applied";
         }
         fix_id_ = f.fix_id;
-        const int64_t seq = objects_.seq, utime = objects_.utime;
+        const int64_t seq = whole_.seq, utime = whole_.utime;
         fill_objects();
-        objects_.seq = seq;
-        objects_.utime = utime;
+        whole_.seq = seq;
+        whole_.utime = utime;
+        objects_ = objects_diff_.next(whole_, true);
     }
     if (f.fix_id <= fix_id_) post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
     return box;
@@ -136,8 +140,9 @@ void CardNode::step(Outbox &box)
     cmd_.engaged = out.engaged;
 
     fill_objects();
-    objects_.utime = t_end;
-    objects_.seq = b.seq;
+    whole_.utime = t_end;
+    whole_.seq = b.seq;
+    objects_ = objects_diff_.next(whole_);
 
     done_ = b.seq;
     pending_.reset();
@@ -158,23 +163,23 @@ void CardNode::post_block(Outbox &box) const
 void CardNode::fill_objects()
 {
     const fw_particles_t *parts = fw_card_particles(&card_);
-    objects_.particles.resize(static_cast<std::size_t>(fw_particles_count(parts)));
+    whole_.particles.resize(static_cast<std::size_t>(fw_particles_count(parts)));
     for (int32_t i = 0; i < fw_particles_count(parts); ++i) {
         const fw_particle_t *p = fw_particles_get(parts, i);
-        particle_t &q = objects_.particles[static_cast<std::size_t>(i)];
+        particle_t &q = whole_.particles[static_cast<std::size_t>(i)];
         q.id = p->id;
         q.x_nm = fwu_nm_from_pm(p->x_pm);
         q.y_nm = fwu_nm_from_pm(p->y_pm);
         q.radius_nm = fwu_nm_from_pm(p->radius_pm);
         q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
     }
-    objects_.n_particles = static_cast<int32_t>(objects_.particles.size());
-    objects_.wires.resize(static_cast<std::size_t>(fw_card_wire_count(&card_)));
+    whole_.n_particles = static_cast<int32_t>(whole_.particles.size());
+    whole_.wires.resize(static_cast<std::size_t>(fw_card_wire_count(&card_)));
     for (int32_t i = 0; i < fw_card_wire_count(&card_); ++i) {
         const fw_wire_t *w = fw_card_wire(&card_, i);
         int32_t a[2], b[2];
         fw_wire_ends_pm(w, a, b);
-        wire_t &q = objects_.wires[static_cast<std::size_t>(i)];
+        wire_t &q = whole_.wires[static_cast<std::size_t>(i)];
         q.id = fw_card_wire_id(&card_, i);
         q.diameter_nm = fwu_nm_from_pm(w->diameter_pm);
         q.n = 2;
@@ -182,14 +187,14 @@ void CardNode::fill_objects()
         q.y_nm = {fwu_nm_from_pm(a[1]), fwu_nm_from_pm(b[1])};
         q.in_contact = (w->flags & FW_WIRE_PUSHED) != 0;
     }
-    objects_.n_wires = static_cast<int32_t>(objects_.wires.size());
+    whole_.n_wires = static_cast<int32_t>(whole_.wires.size());
     int32_t drift[2];
     fw_card_drift_pm(&card_, drift);
     fill_trenches(drift);
-    objects_.n_trenches = static_cast<int32_t>(objects_.trenches.size());
-    objects_.drift_nm[0] = fwu_nm_from_pm(drift[0]);
-    objects_.drift_nm[1] = fwu_nm_from_pm(drift[1]);
-    objects_.fix_id = fix_id_;
+    whole_.n_trenches = static_cast<int32_t>(whole_.trenches.size());
+    whole_.drift_nm[0] = fwu_nm_from_pm(drift[0]);
+    whole_.drift_nm[1] = fwu_nm_from_pm(drift[1]);
+    whole_.fix_id = fix_id_;
 }
 
 void CardNode::fill_trenches(const int32_t drift_pm[2])
@@ -200,18 +205,18 @@ void CardNode::fill_trenches(const int32_t drift_pm[2])
     const fw_litho_t *litho = fw_card_litho(&card_);
     if (!litho) return;
     if (drift_pm[0] != trench_drift_pm_[0] || drift_pm[1] != trench_drift_pm_[1] || litho->count < trench_points_) {
-        objects_.trenches.clear();
+        whole_.trenches.clear();
         trench_points_ = 0;
         trench_drift_pm_[0] = drift_pm[0];
         trench_drift_pm_[1] = drift_pm[1];
     }
     for (int32_t i = trench_points_; i < litho->count; ++i) {
         const fw_trench_point_t &p = litho->pts[i];
-        if ((p.flags & FW_LITHO_STROKE_START) || objects_.trenches.empty()) {
-            objects_.trenches.emplace_back();
-            objects_.trenches.back().id = static_cast<int32_t>(objects_.trenches.size());
+        if ((p.flags & FW_LITHO_STROKE_START) || whole_.trenches.empty()) {
+            whole_.trenches.emplace_back();
+            whole_.trenches.back().id = static_cast<int32_t>(whole_.trenches.size());
         }
-        trench_t &t = objects_.trenches.back();
+        trench_t &t = whole_.trenches.back();
         t.x_nm.push_back(fwu_nm_from_pm(p.x_pm));
         t.y_nm.push_back(fwu_nm_from_pm(p.y_pm));
         t.depth_nm.push_back(fwu_nm_from_pm(p.depth_pm));

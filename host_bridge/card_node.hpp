@@ -9,13 +9,15 @@
 //  - block n is stepped when both AFM_ANALOG n and HAPTIC_POSE n are here
 //    (the operator answers HAPTIC_FORCE n - 1 with pose n); the card's
 //    outputs for n follow at once: AFM_CMD (ack n, the set point for block
-//    n + 1), HAPTIC_FORCE n, FW_FORCE n, FW_TIP n, FW_OBJECTS n;
+//    n + 1), HAPTIC_FORCE n, FW_FORCE n, FW_TIP n, FW_OBJECTS n (the
+//    objects that changed, or all of them: objects_t.complete);
 //  - AFM_ANALOG n again (a resend: something was lost) repeats block n's
 //    outputs; AFM_ANALOG n + 1 without pose n + 1 repeats HAPTIC_FORCE n
 //    (for n + 1 = 0: a zero force with seq -1), which asks the operator for
 //    the pose again;
-//  - HOST_OBJECT_FIX k + 1 is applied at once (fw_card_fix) and answered
-//    with FW_OBJECTS carrying fix_id k + 1; an older fix_id is answered
+//  - HOST_OBJECT_FIX k + 1 is applied at once (fw_card_fix, or fw_card_place
+//    for a place fix) and answered with a complete FW_OBJECTS carrying
+//    fix_id k + 1; an older fix_id is answered
 //    again. A fix arrives between two blocks (the renderer waits for its
 //    answer before the frame the simulator waits for), so its place
 //    among the blocks is the same in a run and in its log.
@@ -36,6 +38,7 @@
 #include "afm/objects_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "card_setup.hpp"
+#include "objects_view.hpp"
 #include "scene.hpp"
 
 namespace afm {
@@ -86,7 +89,9 @@ private:
     std::vector<fw_sample_in_t> block_in_;
     afm::fw_force_t force_{};         // the LCM message (not the firmware's ::fw_force_t)
     afm::fw_tip_t tip_{};
-    afm::objects_t objects_{};
+    afm::objects_t whole_{};          // the card's objects, every one
+    afm::objects_t objects_{};        // the FW_OBJECTS message last made from them (objects_view.hpp)
+    ObjectsDiff objects_diff_;
     afm::haptic_force_t haptic_{};
     afm::tip_cmd_t cmd_{};
 

@@ -6,6 +6,8 @@ extern "C" {
 }
 
 #include <sstream>
+
+#include "haptic.hpp"
 #include <utility>
 
 namespace afm {
@@ -74,8 +76,11 @@ CardSetup::CardSetup(const Scene &s)
     cfg_.n_landmarks = static_cast<int32_t>(landmarks_.size());
     // A landmark after a lever change may be anywhere in the field.
     cfg_.landmark_max_step_pm = fwu_pm_from_nm(s.field_nm / 2);
-    cfg_.haptic_un_per_pn = FW_CARD_HAPTIC_UN_PER_PN_DEFAULT;
-    cfg_.haptic_max_un = FW_CARD_HAPTIC_MAX_UN_DEFAULT;
+    // operator.haptic: the gain in whole uN/pN (0.001 N/nN), the device's force per axis.
+    cfg_.haptic_un_per_pn = s.op.haptic.force_gain_N_per_nN ? fwu_un_per_pn_from_n_per_nn(*s.op.haptic.force_gain_N_per_nN)
+                                                             : haptic_auto_gain_un_per_pn(s, cfg_.board);
+    cfg_.haptic_max_un = fwu_un_from_n(s.op.haptic.max_force_N);
+    cfg_.start_lifted = !s.start_engaged();
 
     particle_store_.resize(particles_.size());
     wire_store_.resize(wires_.size());
@@ -132,6 +137,8 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
         return {{"sample.lithography.threshold_nN", s.litho.threshold_nN}, {"sample.lithography.depth_nm_per_nN", s.litho.depth_nm_per_nN}};
     case FW_RULE_TIP_HALF_ANGLE: return {{"probe.tip_half_angle_deg", p.tip_half_angle_deg}};
     case FW_RULE_DRIFT_STEP: return {{"sample.field_nm", s.field_nm}};
+    case FW_RULE_HAPTIC:
+        return {{"operator.haptic.force_gain_N_per_nN", s.op.haptic.force_gain_N_per_nN.value_or(-1)}, {"operator.haptic.max_force_N", s.op.haptic.max_force_N}};
     default: return {};
     }
 }

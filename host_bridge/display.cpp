@@ -399,6 +399,18 @@ cv::Mat Display::frame(const Overlay &o) const
     if (o.flags & fw_force_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
     if (o.flags & fw_force_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
     if (!flags.empty()) put_label(img, flags, cv::Point(4, 24), 0.8, kYellow);
+    // The hand's gauge, bottom middle (right of the scale bar): a circle of
+    // hand_scale_N, an arrow for the force on the stylus (at most twice out).
+    if (o.hand_scale_N > 0) {
+        const int rad = std::max(8, N / 16);
+        const cv::Point c(N / 2 + rad, N - rad - 16);
+        cv::circle(img, c, rad, kWhite, 1, cv::LINE_AA);
+        const double k = rad / o.hand_scale_N;
+        const cv::Point hv(cvRound(std::clamp(o.hand_N[0] * k, -2.0 * rad, 2.0 * rad)), cvRound(std::clamp(-o.hand_N[1] * k, -2.0 * rad, 2.0 * rad)));
+        if (hv.x || hv.y) cv::arrowedLine(img, c, c + hv, kYellow, 1, cv::LINE_AA, 0, 0.25);
+        std::snprintf(text, sizeof text, "hand %.3f N (o %.2g)", std::hypot(o.hand_N[0], o.hand_N[1]), o.hand_scale_N);
+        put_label(img, text, cv::Point(N / 2, N - 4), 0.7, kYellow);
+    }
     // Colour bar (height, nm) at the right edge.
     const int bw = std::max(4, N / 40), bx = N - bw - 30, by0 = 30, by1 = N - 30;
     if (by1 - by0 > 20) {

@@ -36,6 +36,77 @@ bool locate_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, 
     return true;
 }
 
+bool locate_bump_centred(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, double radius_nm, int passes, double *cx,
+                         double *cy)
+{
+    double x = x_nm, y = y_nm;
+    for (int i = 0; i < passes; ++i)
+        if (!locate_bump(h_nm, f, x, y, radius_nm, &x, &y)) return false;
+    *cx = x;
+    *cy = y;
+    return true;
+}
+
+bool nearest_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, double min_height_nm, double radius_nm,
+                  const std::vector<cv::Point2d> &others, double skip_nm, double *cx, double *cy)
+{
+    cv::Mat high, labels, stats, centroids;
+    cv::threshold(h_nm, high, min_height_nm, 255, cv::THRESH_BINARY);
+    high.convertTo(high, CV_8U);
+    const int n = cv::connectedComponentsWithStats(high, labels, stats, centroids, 8, CV_32S);
+    double best = std::numeric_limits<double>::infinity(), bx = 0, by = 0;
+    for (int i = 1; i < n; ++i) {
+        const double x = f.x_of(0) + centroids.at<double>(i, 0) * f.pitch(), y = f.y_of(0) - centroids.at<double>(i, 1) * f.pitch();
+        bool other = false;
+        for (const auto &o : others) other = other || std::hypot(o.x - x, o.y - y) < skip_nm;
+        const double d = std::hypot(x - x_nm, y - y_nm);
+        if (!other && d < best) best = d, bx = x, by = y;
+    }
+    if (!std::isfinite(best)) return false;
+    return locate_bump_centred(h_nm, f, bx, by, radius_nm, 3, cx, cy);
+}
+
+PlacementCheck check_sites(const cv::Mat &scan_nm, const Field &f, const std::vector<cv::Point2d> &sites_nm, double search_nm,
+                           double tolerance_nm)
+{
+    PlacementCheck out;
+    double sum2 = 0;
+    int found = 0;
+    for (const auto &s : sites_nm) {
+        SiteCheck c{s.x, s.y};
+        c.found = locate_bump_centred(scan_nm, f, s.x, s.y, search_nm, 3, &c.scan_x_nm, &c.scan_y_nm);
+        if (c.found) {
+            c.error_nm = std::hypot(c.scan_x_nm - s.x, c.scan_y_nm - s.y);
+            out.placed += c.error_nm <= tolerance_nm;
+            out.worst_nm = std::max(out.worst_nm, c.error_nm);
+            sum2 += c.error_nm * c.error_nm;
+            ++found;
+        } else {
+            ++out.missing;
+        }
+        out.sites.push_back(c);
+    }
+    out.rms_nm = found ? std::sqrt(sum2 / found) : 0;
+    return out;
+}
+
+RodCheck check_rod(const cv::Mat &scan_nm, const Field &f, cv::Point2d centre_nm, double angle_deg, double length_nm, double band_nm)
+{
+    RodCheck out;
+    const double a = angle_deg * M_PI / 180;
+    const cv::Point2d half(0.5 * length_nm * std::cos(a), 0.5 * length_nm * std::sin(a));
+    double cx = 0, cy = 0, ang = 0;
+    out.found = locate_ridge(scan_nm, f, {centre_nm - half, centre_nm + half}, band_nm, &cx, &cy, &ang);
+    if (!out.found) return out;
+    double da = ang - std::fmod(std::fmod(a, M_PI) + M_PI, M_PI);
+    if (da >= M_PI / 2) da -= M_PI;
+    if (da < -M_PI / 2) da += M_PI;
+    out.centroid_error_nm = std::hypot(cx - centre_nm.x, cy - centre_nm.y);
+    out.angle_error_deg = da * 180 / M_PI;
+    out.error_nm = out.centroid_error_nm + 0.5 * length_nm * std::fabs(std::sin(da));
+    return out;
+}
+
 namespace {
 
 double polyline_distance(const std::vector<cv::Point2d> &nodes, const cv::Point2d &q)

@@ -51,6 +51,46 @@ Fidelity compare_with_scan(const cv::Mat &displayed_nm, const cv::Mat &scan_nm, 
 // half the window's peak. Returns false if the window holds no bump.
 bool locate_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, double radius_nm, double *cx, double *cy);
 
+// locate_bump `passes` times, each window centred on what the last found:
+// a window that cut the bump off at one side pulls the centroid towards its
+// own centre; centred again, it does not.
+bool locate_bump_centred(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, double radius_nm, int passes, double *cx,
+                         double *cy);
+
+// The bump (a region higher than min_height_nm) whose centre is nearest
+// (x, y), leaving out any centred within skip_nm of one of `others` (other
+// objects where the model has them); located then as locate_bump_centred
+// with a window of radius_nm. False if the image holds none.
+bool nearest_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm, double min_height_nm, double radius_nm,
+                  const std::vector<cv::Point2d> &others, double skip_nm, double *cx, double *cy);
+
+// The planner's result against a fresh scan: for each target site (where
+// it is in frame A now), the particle the scan shows within search_nm of it
+// (located as locate_bump_centred); placed when within tolerance_nm.
+struct SiteCheck {
+    double x_nm, y_nm;              // the site, frame A
+    bool found = false;
+    double scan_x_nm = 0, scan_y_nm = 0;
+    double error_nm = 0;            // found: the distance
+};
+struct PlacementCheck {
+    std::vector<SiteCheck> sites;
+    int placed = 0;                 // found within the tolerance
+    double worst_nm = 0, rms_nm = 0;   // over the sites found
+    int missing = 0;                // no particle found near the site
+};
+PlacementCheck check_sites(const cv::Mat &scan_nm, const Field &f, const std::vector<cv::Point2d> &sites_nm, double search_nm,
+                           double tolerance_nm);
+
+// A rod against its target pose in a fresh scan: the ridge within band_nm
+// of the target's axis; error as compare_with_scan's for wires (centroid
+// distance plus half the length times |sin(angle error)|).
+struct RodCheck {
+    bool found = false;
+    double centroid_error_nm = 0, angle_error_deg = 0, error_nm = 0;
+};
+RodCheck check_rod(const cv::Mat &scan_nm, const Field &f, cv::Point2d centre_nm, double angle_deg, double length_nm, double band_nm);
+
 // Locates a ridge (a wire) within band_nm of a polyline: the height-weighted
 // centroid and principal axis (radians from +x, in [0, pi)) of the pixels of
 // that band above half its peak. Returns false if the band holds no ridge.

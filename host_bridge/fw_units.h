@@ -52,6 +52,10 @@ static inline double fwu_nm_from_pm(int64_t pm) { return (double)pm * 1e-3; }
 static inline int32_t fwu_pn_from_nn(double nn) { return fwu_i32(nn * 1e3); }
 static inline double fwu_nn_from_pn(int64_t pn) { return (double)pn * 1e-3; }
 static inline double fwu_n_from_un(int64_t un) { return (double)un * 1e-6; }
+static inline int32_t fwu_un_from_n(double n) { return fwu_i32(n * 1e6); }
+/* the haptic gain: N of stylus force per nN of tip force = 10^3 uN/pN */
+static inline int32_t fwu_un_per_pn_from_n_per_nn(double n_per_nn) { return fwu_i32(n_per_nn * 1e3); }
+static inline double fwu_n_per_nn_from_un_per_pn(int64_t un_per_pn) { return (double)un_per_pn * 1e-3; }
 /* voltages and gains per volt */
 static inline int32_t fwu_uv_from_v(double v) { return fwu_i32(v * 1e6); }
 static inline q23_t fwu_q23_from_v(double v) { return fwu_q(v, FW_Q23_FRAC); }

@@ -34,6 +34,8 @@
 #include "bus.hpp"
 #include <nlohmann/json.hpp>
 #include "card_setup.hpp"
+#include "haptic.hpp"
+#include "pattern.hpp"
 #include "scene.hpp"
 
 namespace fs = std::filesystem;
@@ -256,6 +258,17 @@ public:
             std::fprintf(stderr, "%s: %s\n", o_.scene_path.c_str(), why_fw.c_str());
             return 2;
         }
+        // The force loop's stability bound (haptic.hpp) and the planner's targets.
+        if (const std::string why = afm::haptic_refusal(scene_, afm::CardSetup(scene_).config()); !why.empty()) {
+            std::fprintf(stderr, "%s: %s\n", o_.scene_path.c_str(), why.c_str());
+            return 2;
+        }
+        if (scene_.op.plan.enabled) {
+            if (const std::string why = afm::targets_refusal(scene_); !why.empty()) {
+                std::fprintf(stderr, "%s\n", why.c_str());
+                return 2;
+            }
+        }
         return -1;
     }
 
@@ -446,11 +459,17 @@ public:
                     wall_ > 0 ? sim_s / wall_ : 0.0, run["frames"].get<int>(), static_cast<long long>(messages_));
         if (run.contains("fidelity")) {
             const auto &fj = run["fidelity"];
-            std::printf("run: fidelity (display vs a fresh scan at frame %d): max object position error %.2f nm, RMS height "
+            // null: an object the display shows was not found in the scan (an infinite error)
+            auto num = [&](const char *k) { return fj.contains(k) && fj[k].is_number() ? fj[k].get<double>() : -1.0; };
+            const double max_err = num("max_position_error_nm");
+            char err[64];
+            if (max_err >= 0) std::snprintf(err, sizeof err, "%.2f nm", max_err);
+            else std::snprintf(err, sizeof err, "(an object not found in the scan)");
+            std::printf("run: fidelity (display vs a fresh scan at frame %d): max object position error %s, RMS height "
                         "difference %.2f nm (%s)\n",
-                        fj.value("frame", 0), fj.value("max_position_error_nm", -1.0), fj.value("rms_height_error_nm", -1.0),
-                        fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
+                        fj.value("frame", 0), err, num("rms_height_error_nm"), fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
         }
+        print_plan(run);
         std::printf("run: output in %s\n", out_.c_str());
         return 0;
     }
@@ -545,7 +564,7 @@ private:
         for (const auto &e : fs::directory_iterator(out_ + "/frames"))
             if (e.path().extension() == ".png") ++frames;
         run["frames"] = frames;
-        run["frames_expected"] = scene_.total_frames();
+        run["frames_expected"] = scene_.total_frames();   // fewer when the planner finished early (the renderer's report)
         json procs = json::array();
         for (const auto &c : kids_) procs.push_back(process_json(c));
         procs.push_back(process_json(logger_));
@@ -556,6 +575,7 @@ private:
         if (!log_err.empty()) run["log_error"] = log_err;
         run["card"] = card_json();
         merge_reports(&run);
+        if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
         // Completeness of the record: distinct analog blocks in the log against
         // those the simulator simulated (lcm-logger drops when starved of CPU).
         if (run.contains("sim") && run["sim"].contains("blocks")) {
@@ -596,6 +616,33 @@ private:
                 {"adhesion_pn", b.adhesion_pn},
                 {"samples_per_block", scene_.samples_per_block()},
                 {"full_scale_pn", static_cast<int64_t>(b.normal_gain_pn_per_v) * (FW_ACQ_FS_UV / FW_UV_PER_V)}};
+    }
+
+    // The planner's account (operator_report.json) and its result in the
+    // fresh scan (fidelity.json "placement"), as run.json holds them.
+    static void print_plan(const nlohmann::json &run)
+    {
+        if (!run.contains("operator") || !run["operator"].contains("plan")) return;
+        const auto &p = run["operator"]["plan"];
+        const double done_s = p["finished_sim_s"].is_number() ? p["finished_sim_s"].get<double>() : -1;
+        char when[128];
+        if (done_s >= 0) std::snprintf(when, sizeof when, "done at %.1f simulated s (%.1f wall s)", done_s, p.value("planner_wall_s", 0.0));
+        else std::snprintf(when, sizeof when, "NOT done when the run ended (give a longer duration_s)");
+        std::printf("run: plan: %d pushes (%d again after a miss), %d local scans, %d fixes; %s\n", p.value("pushes", 0),
+                    p.value("repushes", 0), p.value("local_scans", 0), p.value("fixes", 0), when);
+        if (!run.contains("fidelity") || !run["fidelity"].contains("placement")) return;
+        const auto &pl = run["fidelity"]["placement"];
+        if (pl.contains("particles")) {
+            const auto &q = pl["particles"];
+            std::printf("run: placement (a fresh scan): %d of %d sites hold a particle within %.0f nm (%d empty); worst %.1f nm, RMS %.1f nm\n",
+                        q.value("placed", 0), q.value("sites", 0), q.value("tolerance_nm", 0.0), q.value("missing", 0),
+                        q.value("worst_nm", 0.0), q.value("rms_nm", 0.0));
+        }
+        if (pl.contains("rods"))
+            for (const auto &r : pl["rods"])
+                std::printf("run: placement (a fresh scan): rod %d %s, ends within %s nm\n", r.value("id", 0),
+                            r.value("placed", false) ? "on its target" : "OFF its target",
+                            r["error_nm"].is_number() ? std::to_string(r["error_nm"].get<double>()).c_str() : "(not found)");
     }
 
     // Each process's own report, under its name.

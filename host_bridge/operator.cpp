@@ -1,41 +1,155 @@
-// operator: the scripted stand-in for the haptic joystick. Walks the scene's
-// waypoint path at a constant apex speed; for every haptic force it receives
-// (block n) it answers with the stylus pose for block n + 1, where the hand
-// is at the end of block n (lockstep; the card asks for the first pose with
-// a force of block -1).
+// operator: the operator's side of the bench. For every haptic force it
+// receives (block n) it answers with the stylus pose for block n + 1: where
+// the stylus is at the end of block n (lockstep; the card asks for the
+// first pose with a force of block -1).
+//
+// With a script (operator.path_nm, mode script or feel) a hand holds the
+// stylus of a haptic device (haptic.hpp): it pulls the stylus towards the
+// script's aim (hand_script.hpp) while the device pushes back with the force
+// the card renders, the force of block n - 1 held over block n (the force of
+// block n arrives at its end). With operator.plan the planner
+// (planner.hpp) drives the pose itself, runs in its own thread in strict
+// turns with this one, and takes its local scans and fixes through it.
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <exception>
 #include <fstream>
+#include <mutex>
 #include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
 
 #include "afm/haptic_force_t.hpp"
 #include "afm/haptic_pose_t.hpp"
 #include "afm/heartbeat_t.hpp"
+#include "afm/object_fix_t.hpp"
+#include "afm/objects_t.hpp"
+#include "afm/scan_line_t.hpp"
 #include "bus.hpp"
+#include "card_setup.hpp"
+#include "hand_script.hpp"
+#include "haptic.hpp"
+#include "pattern.hpp"
+#include "objects_view.hpp"
+#include "planner.hpp"
+#include "scan_client.hpp"
 #include "scene.hpp"
 
 namespace {
 
 const char *kUsage =
     "usage: operator --scene FILE [--out DIR]\n"
-    "  The scripted operator; normally started by ./afm run inside the run's namespace.\n";
+    "  The operator: a scripted hand on a haptic device, or the planner (operator.plan);\n"
+    "  normally started by ./afm run inside the run's namespace.\n";
 
-// Apex target at time t (s) along the path, walking at constant speed.
-afm::Vec2 path_point(const afm::Scene &s, double t)
-{
-    double left = s.op.speed_nm_per_s * t;
-    const auto &p = s.op.path_nm;
-    for (std::size_t i = 1; i < p.size(); ++i) {
-        const double dx = p[i].x - p[i - 1].x, dy = p[i].y - p[i - 1].y;
-        const double len = std::hypot(dx, dy);
-        if (left <= len && len > 0) return afm::Vec2{p[i - 1].x + dx * left / len, p[i - 1].y + dy * left / len};
-        left -= len;
+constexpr int kScanReqBase = 10000;   // the planner's scans (the renderer's are below)
+constexpr int kFixRetryMs = 200;
+constexpr int kScanRetryMs = 300;
+
+// The planner's side of the turns: it blocks in each call until the bus
+// side has served it; the bus side serves one request at a time.
+class TurnBench : public afm::PlanBench {
+public:
+    enum class Req { None, Block, Scan, Fix, Done, Failed };
+
+    // --- the planner's thread
+    const afm::objects_t &block(const afm::PlanPose &p) override
+    {
+        std::unique_lock<std::mutex> lk(m_);
+        pose_ = p;
+        ask(lk, Req::Block);
+        return model_;
     }
-    return p.back();
-}
+    cv::Mat scan(const afm::Field &f) override
+    {
+        std::unique_lock<std::mutex> lk(m_);
+        field_ = f;
+        ask(lk, Req::Scan);
+        return scan_;
+    }
+    const afm::objects_t &fix(int id, afm::Vec2 at, bool place, std::string *note) override
+    {
+        std::unique_lock<std::mutex> lk(m_);
+        fix_id_ = id;
+        fix_at_ = at;
+        fix_place_ = place;
+        ask(lk, Req::Fix);
+        *note = note_;
+        return model_;
+    }
+    double time_s() const override { return t_s_; }
+    void finish(std::exception_ptr e)
+    {
+        std::lock_guard<std::mutex> lk(m_);
+        req_ = e ? Req::Failed : Req::Done;
+        error_ = e;
+        cv_.notify_all();
+    }
+
+    // --- the bus side
+    // Waits (up to wait_ms) for the planner's next request; Req::None if none yet.
+    Req next(int wait_ms)
+    {
+        std::unique_lock<std::mutex> lk(m_);
+        cv_.wait_for(lk, std::chrono::milliseconds(wait_ms), [&] { return req_ != Req::None; });
+        return req_;
+    }
+    // Answers the request being served (the model after it, the scan) and
+    // lets the planner go on.
+    void answer(const afm::objects_t &model, double t_s, const cv::Mat *scan = nullptr, const std::string &note = "")
+    {
+        std::lock_guard<std::mutex> lk(m_);
+        model_ = model;
+        t_s_ = t_s;
+        if (scan) scan_ = scan->clone();
+        note_ = note;
+        req_ = Req::None;
+        cv_.notify_all();
+    }
+    void stop()
+    {
+        std::lock_guard<std::mutex> lk(m_);
+        stop_ = true;
+        cv_.notify_all();
+    }
+    afm::PlanPose pose() const { return pose_; }
+    afm::Field field() const { return field_; }
+    int fix_object() const { return fix_id_; }
+    afm::Vec2 fix_at() const { return fix_at_; }
+    bool fix_place() const { return fix_place_; }
+    std::exception_ptr error() const { return error_; }
+
+private:
+    void ask(std::unique_lock<std::mutex> &lk, Req r)
+    {
+        if (stop_) throw afm::PlanStopped{};
+        req_ = r;
+        cv_.notify_all();
+        cv_.wait(lk, [&] { return req_ == Req::None || stop_; });
+        if (stop_) throw afm::PlanStopped{};
+    }
+
+    std::mutex m_;
+    std::condition_variable cv_;
+    Req req_ = Req::None;
+    bool stop_ = false;
+    afm::PlanPose pose_;
+    afm::Field field_{};
+    int fix_id_ = 0;
+    afm::Vec2 fix_at_;
+    bool fix_place_ = false;
+    afm::objects_t model_;
+    double t_s_ = 0;
+    cv::Mat scan_;
+    std::string note_;
+    std::exception_ptr error_;
+};
 
 struct Operator {
     const afm::Scene &scene;
@@ -44,10 +158,38 @@ struct Operator {
     int64_t answered = -2;   // last haptic force answered (-1: the card's request for pose 0)
     afm::haptic_pose_t last{};
     bool sim_done = false;
+    bool have_force = false;
+    afm::haptic_force_t force{};     // the force to answer (seq answered + 1)
     double peak_force_N = 0;
     int64_t forces = 0;
+    // the script's hand on the device
+    afm::HandScript script;
+    afm::HapticLoop device;
+    afm::Vec2 held_N;                 // the force the device renders over the block being integrated
+    double reach_nm;                  // apex travel for the joystick's +-1
+    double half_range_m;
+    double peak_speed_m_per_s = 0;
+    // the planner
+    afm::ObjectsView view;            // FW_OBJECTS, whole
+    afm::objects_t objects;           // the latest whole set (highest seq, then fix id)
+    bool have_objects = false;
+    afm::ScanClient scan;
+    int scans = 0, fixes_sent = 0;
+    bool plan_done = false;
+    afm::PlanPose hold_pose;
 
-    Operator(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), hb(l, "operator") {}
+    Operator(const afm::Scene &s, lcm::LCM &l)
+        : scene(s), lc(l), hb(l, "operator"), script(s),
+          device(s.op.haptic, s.op.hand, 1.0 / s.block_hz, to_stylus(s, s.start_nm())), reach_nm(s.op.kappa * s.field_nm / 2),
+          half_range_m(s.op.haptic.half_range_mm * 1e-3), scan(l)
+    {
+    }
+
+    static afm::Vec2 to_stylus(const afm::Scene &s, afm::Vec2 p_nm)
+    {
+        const double reach = s.op.kappa * s.field_nm / 2, r = s.op.haptic.half_range_mm * 1e-3;
+        return {(p_nm.x - s.field_center_nm.x) / reach * r, (p_nm.y - s.field_center_nm.y) / reach * r};
+    }
 
     void on_force(const lcm::ReceiveBuffer *, const std::string &, const afm::haptic_force_t *f)
     {
@@ -55,29 +197,214 @@ struct Operator {
             lc.publish(AFM_CH_HAPTIC_POSE, &last);
             return;
         }
-        if (f->seq != answered + 1) return;
-        peak_force_N = std::max(peak_force_N, std::hypot(f->force_N[0], f->force_N[1]));
-        ++forces;
-        const int64_t t_us = afm::block_end_utime(scene, f->seq);
-        const afm::Vec2 p = path_point(scene, t_us * 1e-6);
-        const double reach = scene.op.kappa * scene.field_nm / 2;
-        last.utime = t_us;
-        last.seq = f->seq + 1;
-        last.joy[0] = (p.x - scene.field_center_nm.x) / reach;
-        last.joy[1] = (p.y - scene.field_center_nm.y) / reach;
-        last.joy[2] = 0;
-        last.load_nN = scene.op.load_nN;
-        last.engaged = true;
-        answered = f->seq;
-        lc.publish(AFM_CH_HAPTIC_POSE, &last);
-        hb.maybe_send("running", f->seq, t_us);
+        if (f->seq != answered + 1 || have_force) return;
+        force = *f;
+        have_force = true;
     }
+
+    void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *m)
+    {
+        if (have_objects && (m->seq < objects.seq || (m->seq == objects.seq && m->fix_id <= objects.fix_id))) return;
+        if (!view.apply(*m)) return;
+        objects = view.whole();
+        have_objects = true;
+    }
+
+    void on_line(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_line_t *m) { scan.on_line(*m); }
 
     void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
     {
         if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
     }
+
+    void publish_pose(afm::Vec2 joy, bool engaged)
+    {
+        const int64_t n = force.seq;
+        last.utime = afm::block_end_utime(scene, n);
+        last.seq = n + 1;
+        last.joy[0] = std::clamp(joy.x, -1.0, 1.0);
+        last.joy[1] = std::clamp(joy.y, -1.0, 1.0);
+        last.joy[2] = 0;
+        last.load_nN = scene.op.load_nN;
+        last.engaged = engaged;
+        answered = n;
+        have_force = false;
+        lc.publish(AFM_CH_HAPTIC_POSE, &last);
+        hb.maybe_send("running", n, last.utime);
+    }
+
+    void count_force()
+    {
+        peak_force_N = std::max(peak_force_N, std::hypot(force.force_N[0], force.force_N[1]));
+        ++forces;
+    }
+
+    // The hand on the device: block n integrated with the force of block
+    // n - 1, the pose for n + 1 is where the stylus ends.
+    void answer_by_hand()
+    {
+        count_force();
+        const afm::Vec2 aim_nm = script.advance(1.0 / scene.block_hz, held_N);
+        device.step(to_stylus(scene, aim_nm), held_N);
+        held_N = {force.force_N[0], force.force_N[1]};
+        const afm::Vec2 x = device.position_m(), v = device.velocity_m_per_s();
+        peak_speed_m_per_s = std::max(peak_speed_m_per_s, std::hypot(v.x, v.y));
+        publish_pose({x.x / half_range_m, x.y / half_range_m}, true);
+    }
+
+    // The joystick for an apex target in frame A: the card moves the
+    // joystick's workspace with the drift it knows (fw_card), so the pose
+    // is the target in the sample's coordinates.
+    afm::Vec2 joy_of(afm::Vec2 tip_nm) const
+    {
+        const double dx = have_objects ? objects.drift_nm[0] : 0.0, dy = have_objects ? objects.drift_nm[1] : 0.0;
+        return {(tip_nm.x - dx - scene.field_center_nm.x) / reach_nm, (tip_nm.y - dy - scene.field_center_nm.y) / reach_nm};
+    }
+
+    // Handles the bus until `done` or the run ends.
+    template <class F> bool pump_until(F done, void (Operator::*retry)() = nullptr)
+    {
+        while (!done()) {
+            if (sim_done) return false;
+            lc.handleTimeout(20);
+            if (retry) (this->*retry)();
+        }
+        return true;
+    }
+
+    void retry_scan() { scan.retry(kScanRetryMs); }
+
+    // Serves the planner until it hands over the pose for block n + 1.
+    void answer_by_planner(TurnBench &bench)
+    {
+        count_force();
+        const int64_t n = force.seq;
+        if (n >= 0) {
+            if (!pump_until([&] { return have_objects && objects.seq >= n; })) return;
+            if (!plan_done) bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6);
+        }
+        while (!plan_done) {
+            const TurnBench::Req r = bench.next(50);
+            if (r == TurnBench::Req::None) {
+                lc.handleTimeout(0);
+                if (sim_done) return;
+                continue;
+            }
+            if (r == TurnBench::Req::Block) {
+                hold_pose = bench.pose();
+                publish_pose(joy_of(hold_pose.tip_nm), hold_pose.engaged);
+                return;
+            }
+            if (r == TurnBench::Req::Scan) {
+                const afm::Field f = bench.field();
+                afm::ScanRegion reg{f.x0_nm, f.y0_nm, f.size_nm, f.size_nm, f.px, f.px};
+                scan.start(kScanReqBase + ++scans, reg);
+                if (!pump_until([&] { return !scan.busy(); }, &Operator::retry_scan)) return;
+                bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6, &scan.heights());
+                continue;
+            }
+            if (r == TurnBench::Req::Fix) {
+                if (!send_fix(bench)) return;
+                continue;
+            }
+            plan_done = true;   // Done or Failed
+            hb.send("finished", n, afm::block_end_utime(scene, n));   // the simulator ends the run soon after (before the pose)
+        }
+        publish_pose(joy_of(hold_pose.tip_nm), false);
+    }
+
+    // A fix, until the card acknowledges it; the note says if it refused.
+    bool send_fix(TurnBench &bench)
+    {
+        afm::object_fix_t f{};
+        f.utime = afm::block_end_utime(scene, force.seq);
+        f.fix_id = ++fixes_sent;
+        f.object_id = bench.fix_object();
+        f.scan_x_nm = bench.fix_at().x;
+        f.scan_y_nm = bench.fix_at().y;
+        f.kind = bench.fix_place() ? afm::object_fix_t::KIND_PLACE : afm::object_fix_t::KIND_DRIFT;
+        const afm::objects_t before = objects;
+        auto sent = std::chrono::steady_clock::now();
+        lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
+        const bool ok = pump_until([&] {
+            if (objects.fix_id >= f.fix_id) return true;
+            if (std::chrono::steady_clock::now() - sent > std::chrono::milliseconds(kFixRetryMs)) {
+                lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
+                sent = std::chrono::steady_clock::now();
+            }
+            return false;
+        });
+        if (!ok) return false;
+        // The card's answer is its model: unchanged means it refused.
+        bool moved = objects.drift_nm[0] != before.drift_nm[0] || objects.drift_nm[1] != before.drift_nm[1];
+        for (std::size_t i = 0; i < objects.particles.size() && i < before.particles.size(); ++i)
+            moved = moved || objects.particles[i].x_nm != before.particles[i].x_nm || objects.particles[i].y_nm != before.particles[i].y_nm;
+        bench.answer(objects, afm::block_end_utime(scene, force.seq) * 1e-6, nullptr, moved ? "" : "refused: beyond the firmware's limit");
+        return true;
+    }
 };
+
+nlohmann::json plan_json(const afm::Planner &p)
+{
+    using nlohmann::json;
+    const afm::PlanReport &r = p.report();
+    json items = json::array();
+    int placed = 0, particles = 0;
+    for (const auto &i : r.items) {
+        json j = {{"kind", i.kind}, {"id", i.id}, {"target_nm", {i.target_nm.x, i.target_nm.y}}, {"pushes", i.pushes}, {"scans", i.scans},
+                  {"placed", i.placed}, {"error_nm", i.error_nm < 0 ? json(nullptr) : json(i.error_nm)}};
+        if (i.kind == "wire") j["target_angle_deg"] = i.target_angle_deg;
+        if (!i.why.empty()) j["why"] = i.why;
+        items.push_back(j);
+        if (i.kind == "particle" && i.why != "a spare particle on a site: pushed aside") {
+            ++particles;
+            placed += i.placed;
+        }
+    }
+    return json{{"sites", p.sites().size()},
+                {"particles_assigned", particles},
+                {"placed_by_its_check", placed},
+                {"pushes", r.pushes},
+                {"repushes", r.repushes},
+                {"cleared", r.cleared},
+                {"disturbed", r.disturbed},
+                {"replaced", r.replaced},
+                {"local_scans", r.local_scans},
+                {"fixes", r.fixes},
+                {"fixes_refused", r.fixes_refused},
+                {"finished_sim_s", r.finished_s < 0 ? json(nullptr) : json(r.finished_s)},
+                {"planner_wall_s", r.wall_s},
+                {"items", items}};
+}
+
+// operator_report.json: what the operator did (the hand's device and the
+// contacts it felt, or the planner's account).
+void write_report(const Operator &op, const afm::Planner *planner, const afm::Scene &scene, const std::string &out_dir)
+{
+    nlohmann::json rep = {{"poses", op.forces}, {"peak_haptic_force_N", op.peak_force_N}};
+    if (planner) {
+        rep["plan"] = plan_json(*planner);
+    } else {
+        const afm::CardSetup card(scene);
+        const afm::HapticBound b = afm::haptic_bound(scene, card.config());
+        rep["mode"] = scene.op.mode;
+        rep["haptic"] = {{"gain_N_per_nN", b.gain_N_per_N * 1e-9},
+                         {"rendered_stiffness_N_per_m", b.rendered_N_per_m},
+                         {"passivity_bound_N_per_m", b.max_rendered_N_per_m},
+                         {"passive", b.passive},
+                         {"largest_passive_gain_N_per_nN", b.max_gain_N_per_nN},
+                         {"controller_energy_J", op.device.controller_energy_J()},
+                         {"controller_blocks", op.device.controller_blocks()},
+                         {"observed_energy_J", op.device.observed_energy_J()},
+                         {"workspace_edge_blocks", op.device.edge_blocks()},
+                         {"peak_stylus_speed_m_per_s", op.peak_speed_m_per_s}};
+        nlohmann::json contacts = nlohmann::json::array();
+        for (const auto &c : op.script.contacts())
+            contacts.push_back({{"t_s", c.t_s}, {"aim_nm", {c.aim_nm.x, c.aim_nm.y}}, {"force_N", c.force_N}, {"stroke", c.stroke}});
+        rep["contacts_felt"] = contacts;
+    }
+    std::ofstream(out_dir + "/operator_report.json") << rep.dump(2) << "\n";
+}
 
 }  // namespace
 
@@ -94,22 +421,59 @@ int main(int argc, char **argv)
     if (scene_path.empty()) { std::fputs(kUsage, stderr); return 2; }
     try {
         const afm::Scene scene = afm::load_scene(scene_path);
+        std::unique_ptr<afm::Planner> planner;
+        if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
         auto lc = afm::open_bus();
         Operator op(scene, *lc);
         lc->subscribe(AFM_CH_HAPTIC_FORCE, &Operator::on_force, &op)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Operator::on_heartbeat, &op)->setQueueCapacity(afm::kQueueCapacity);
+        TurnBench bench;
+        std::thread plan_thread;
+        struct Joiner {   // the planner's thread ends with the run, however main leaves
+            TurnBench &b;
+            std::thread &t;
+            ~Joiner()
+            {
+                b.stop();
+                if (t.joinable()) t.join();
+            }
+        } joiner{bench, plan_thread};
+        if (planner) {
+            lc->subscribe(AFM_CH_FW_OBJECTS, &Operator::on_objects, &op)->setQueueCapacity(afm::kQueueCapacity);
+            lc->subscribe(AFM_CH_AFM_SCAN_LINE, &Operator::on_line, &op)->setQueueCapacity(afm::kQueueCapacity);
+            op.hold_pose = {scene.start_nm(), false};
+            plan_thread = std::thread([&] {
+                try {
+                    planner->run(bench);
+                    bench.finish(nullptr);
+                } catch (const afm::PlanStopped &) {
+                } catch (...) {
+                    bench.finish(std::current_exception());
+                }
+            });
+        }
         while (!op.sim_done) {
             op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0, op.answered < -1 ? 200000 : 1000000);
-            lc->handleTimeout(100);
+            lc->handleTimeout(op.have_force ? 0 : 100);
+            if (!op.have_force) continue;
+            if (planner) op.answer_by_planner(bench);
+            else op.answer_by_hand();
+            if (planner && bench.error()) std::rethrow_exception(bench.error());
         }
-        if (!out_dir.empty()) {
-            std::ofstream rep(out_dir + "/operator_report.json");
-            rep << "{\"poses\": " << op.forces << ", \"peak_haptic_force_N\": " << op.peak_force_N << "}\n";
-        }
+        bench.stop();
+        if (plan_thread.joinable()) plan_thread.join();
+        if (planner && bench.error()) std::rethrow_exception(bench.error());
+        if (!out_dir.empty()) write_report(op, planner.get(), scene, out_dir);
         op.hb.send("done", op.answered, 0);
         return 0;
     } catch (const afm::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
+        return 2;
+    } catch (const afm::PatternError &e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return 2;
+    } catch (const afm::PlanError &e) {
+        std::fprintf(stderr, "operator: the planner: %s\n", e.what());
         return 2;
     } catch (const std::exception &e) {
         std::fprintf(stderr, "operator: %s\n", e.what());

@@ -28,14 +28,17 @@
 #include "afm/fw_force_t.hpp"
 #include "afm/fw_tip_t.hpp"
 #include "afm/heartbeat_t.hpp"
+#include "afm/haptic_force_t.hpp"
 #include "afm/object_fix_t.hpp"
 #include "afm/objects_t.hpp"
 #include "afm/render_frame_t.hpp"
 #include "afm/scan_line_t.hpp"
-#include "afm/scan_req_t.hpp"
 #include "bus.hpp"
 #include "display.hpp"
 #include "fidelity.hpp"
+#include "objects_view.hpp"
+#include "pattern.hpp"
+#include "scan_client.hpp"
 #include "scene.hpp"
 
 namespace {
@@ -50,6 +53,7 @@ constexpr int64_t kProgressPeriodUs = 250000;   // heartbeats the launcher's pro
 constexpr int kScanRetryMs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
+constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
 
 // The firmware's wires and trenches as the display draws them.
 afm::DisplayWire display_wire(const afm::wire_t &w)
@@ -66,24 +70,6 @@ afm::DisplayTrench display_trench(const afm::trench_t &t)
     return d;
 }
 
-// A raster scan being received line by line (lines may be lost and re-requested).
-struct ScanBuffer {
-    int id = 0;
-    cv::Rect px;                 // the region, in display pixels (same pitch)
-    cv::Mat h;                   // nm, row 0 at the top
-    std::vector<bool> got;
-    int left = 0;
-    std::chrono::steady_clock::time_point asked;
-    void reset(int req, const cv::Rect &region)
-    {
-        id = req;
-        px = region;
-        h = cv::Mat::zeros(region.height, region.width, CV_32F);
-        got.assign(region.height, false);
-        left = region.height;
-    }
-};
-
 struct Renderer {
     const afm::Scene &scene;
     lcm::LCM &lc;
@@ -92,11 +78,14 @@ struct Renderer {
     afm::Field field;
     afm::TipShape tip;
     afm::Display display;
-    ScanBuffer scan;
+    afm::ScanClient scan;
+    cv::Rect scan_px;            // the scan's region, in display pixels (same pitch)
     bool started = false;        // the initial scan is in and the display set up
 
     afm::fw_tip_t tip_msg{};
     afm::fw_force_t force_msg{};
+    afm::haptic_force_t haptic_msg{};   // the force on the operator's hand
+    afm::ObjectsView objects;           // FW_OBJECTS, whole
     afm::DisplayModel model;
     int frames_written = 0;
     int64_t last_seq = -1;
@@ -113,6 +102,7 @@ struct Renderer {
     int due_pending = 0;         // frames due when a scan paused the frames
     nlohmann::json local_scans = nlohmann::json::array();
     cv::VideoWriter video;
+    int total_frames;            // the run's frames: the scene's, or fewer when the planner finishes early
     std::vector<int> sheet_at;   // frame indices for the contact sheet
     std::vector<cv::Mat> sheet;
     double update_s = 0, compose_s = 0, write_s = 0;
@@ -123,64 +113,43 @@ struct Renderer {
         : scene(s), lc(l), out(std::move(o)), hb(l, "renderer"),
           field{s.field_center_nm.x - s.field_nm / 2, s.field_center_nm.y - s.field_nm / 2, s.field_nm, s.out.image_px},
           tip(s.has_effect("tip_convolution") ? afm::TipShape{s.probe.tip_radius_nm, s.probe.tip_half_angle_deg} : afm::TipShape{}),
-          display(field, tip)
+          display(field, tip), scan(l), total_frames(s.total_frames())
     {
         display.set_trails(s.out.trails);
-        const int K = s.total_frames(), M = std::min(s.out.contact_sheet_frames, K);
-        for (int i = 0; i < M; ++i) sheet_at.push_back(M == 1 ? 0 : static_cast<int>(std::lround(i * (K - 1.0) / (M - 1))));
+        pick_sheet();
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
         for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
 
-    void request(int req, int first, int n)
+    // The contact sheet's frames: evenly over the run's frames.
+    void pick_sheet()
     {
-        // Region in display pixels -> frame A: row 0 is the top of the field.
-        const cv::Rect &g = scan.px;
-        afm::scan_req_t r{};
-        r.utime = afm::wall_utime();
-        r.req_id = req;
-        r.x0_nm = field.x0_nm + g.x * field.pitch();
-        r.y0_nm = field.y0_nm + (field.px - g.y - g.height) * field.pitch();
-        r.width_nm = g.width * field.pitch();
-        r.height_nm = g.height * field.pitch();
-        r.nx = g.width;
-        r.ny = g.height;
-        r.first_line = first;
-        r.n_lines = n;
-        lc.publish(AFM_CH_AFM_SCAN_REQ, &r);
-        scan.asked = std::chrono::steady_clock::now();
+        const int K = total_frames, M = std::min(scene.out.contact_sheet_frames, K);
+        sheet_at.clear();
+        for (int i = 0; i < M; ++i) sheet_at.push_back(M == 1 ? 0 : static_cast<int>(std::lround(i * (K - 1.0) / (M - 1))));
     }
 
     void start_scan(int req, const cv::Rect &region)
     {
-        scan.reset(req, region);
-        request(req, 0, region.height);
+        // Region in display pixels -> frame A: row 0 is the top of the field.
+        scan_px = region;
+        afm::ScanRegion r;
+        r.x0_nm = field.x0_nm + region.x * field.pitch();
+        r.y0_nm = field.y0_nm + (field.px - region.y - region.height) * field.pitch();
+        r.width_nm = region.width * field.pitch();
+        r.height_nm = region.height * field.pitch();
+        r.nx = region.width;
+        r.ny = region.height;
+        scan.start(req, r);
     }
 
-    // Re-requests the lines still missing, if the last request is old.
-    void retry_scan()
-    {
-        if (scan.left == 0 || std::chrono::steady_clock::now() - scan.asked < std::chrono::milliseconds(kScanRetryMs)) return;
-        const int rows = scan.px.height;
-        for (int j = 0; j < rows;) {
-            if (scan.got[j]) { ++j; continue; }
-            int k = j;
-            while (k < rows && !scan.got[k]) ++k;
-            request(scan.id, j, k - j);
-            j = k;
-        }
-    }
+    void retry_scan() { scan.retry(kScanRetryMs); }
 
     void on_line(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_line_t *m)
     {
-        const int rows = scan.px.height, cols = scan.px.width;
-        if (m->req_id != scan.id || m->n != cols || m->line < 0 || m->line >= rows || scan.got[m->line]) return;
-        float *row = scan.h.ptr<float>(rows - 1 - m->line);
-        for (int i = 0; i < cols; ++i) row[i] = static_cast<float>(m->height_nm[i]);
-        scan.got[m->line] = true;
-        if (--scan.left > 0) return;
-        if (scan.id == kFinalScan && final_pending) finish_last_frame();
-        else if (local_pending >= 0 && scan.id == kLocalScanBase + local_pending) local_scan_done();
+        if (!scan.on_line(*m)) return;
+        if (scan.id() == kFinalScan && final_pending) finish_last_frame();
+        else if (local_pending >= 0 && scan.id() == kLocalScanBase + local_pending) local_scan_done();
     }
 
     void write_outputs_for_scan(const std::string &name, const cv::Mat &h)
@@ -191,9 +160,9 @@ struct Renderer {
 
     void begin()
     {
-        display.start(scan.h, model);
-        cv::imwrite(out + "/scan_initial.png", display.colourise(scan.h));
-        write_outputs_for_scan("scan_initial", scan.h);
+        display.start(scan.heights(), model);
+        cv::imwrite(out + "/scan_initial.png", display.colourise(scan.heights()));
+        write_outputs_for_scan("scan_initial", scan.heights());
         if (scene.out.video != "none") {
             const bool mp4 = scene.out.video == "mp4";
             const std::string path = out + (mp4 ? "/video.mp4" : "/video.avi");
@@ -213,6 +182,11 @@ struct Renderer {
         o.tip_nm[1] = tip_msg.tip_nm[1];
         for (int i = 0; i < 3; ++i) o.force_nN[i] = force_msg.force_nN[i];
         o.flags = force_msg.flags;
+        if (!scene.op.plan.enabled) {   // a hand on the device (the planner drives the pose itself)
+            o.hand_N[0] = haptic_msg.force_N[0];
+            o.hand_N[1] = haptic_msg.force_N[1];
+            o.hand_scale_N = std::min(kHandGaugeThresholds * scene.op.feel_threshold_N, scene.op.haptic.max_force_N);
+        }
         const cv::Mat frame = display.frame(o);
         auto t1 = std::chrono::steady_clock::now();
         if (scene.out.png) {
@@ -237,6 +211,10 @@ struct Renderer {
 
     void on_tip(const lcm::ReceiveBuffer *, const std::string &, const afm::fw_tip_t *m) { tip_msg = *m; }
     void on_force(const lcm::ReceiveBuffer *, const std::string &, const afm::fw_force_t *m) { force_msg = *m; }
+    void on_haptic(const lcm::ReceiveBuffer *, const std::string &, const afm::haptic_force_t *m)
+    {
+        if (m->seq >= haptic_msg.seq) haptic_msg = *m;
+    }
 
     void set_model(const afm::objects_t &m)
     {
@@ -257,8 +235,11 @@ struct Renderer {
         update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *m)
+    void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *msg)
     {
+        // Every message keeps the whole set; what follows reads the set.
+        if (!objects.apply(*msg)) return;
+        const afm::objects_t *m = &objects.whole();
         if (!started || final_pending) return;
         if (local_pending >= 0) {
             // Waiting for the firmware to apply the local scan's fix.
@@ -271,7 +252,7 @@ struct Renderer {
                 // A landmark fix re-registers the whole work space: the
                 // background (the last scan) moves with the sample too.
                 if (fix_on_landmark) display.shift_background(ddx, ddy);
-                display.paste_scan(scan.h, scan.px);
+                display.paste_scan(scan.heights(), scan_px);
                 local_scans.back()["model_drift_nm"] = {m->drift_nm[0], m->drift_nm[1]};
                 local_pending = -1;
                 fix_awaited = 0;
@@ -294,7 +275,7 @@ struct Renderer {
     // the last frame, for the final scan (the simulator waits meanwhile).
     void continue_frames()
     {
-        const int total = scene.total_frames();
+        const int total = total_frames;
         while (frames_written < due_pending) {
             if (local_next < static_cast<int>(scene.op.local_scans.size()) &&
                 afm::frame_utime(scene, frames_written) >= std::llround(scene.op.local_scans[local_next].at_s * 1e6)) {
@@ -348,13 +329,13 @@ struct Renderer {
         {
             std::string err;
             const std::string name = "scan_local_" + std::to_string(local_pending + 1);
-            if (!afm::write_gsf(out + "/" + name + ".gsf", scan.h, field, scan.px, name, &err)) throw std::runtime_error(err);
+            if (!afm::write_gsf(out + "/" + name + ".gsf", scan.heights(), field, scan_px, name, &err)) throw std::runtime_error(err);
         }
         const afm::LocalScanSpec &ls = scene.op.local_scans[local_pending];
         // Locate the object in the scan (placed in a full-size image so the
         // display's geometry applies).
         cv::Mat located = cv::Mat::zeros(field.px, field.px, CV_32F);
-        scan.h.copyTo(located(scan.px));
+        scan.heights().copyTo(located(scan_px));
         double mx = 0, my = 0, search = 0;
         fix_on_landmark = landmark_or_particle_at(ls.around_id, &mx, &my);
         bool known = fix_on_landmark;
@@ -374,7 +355,7 @@ struct Renderer {
             // Nothing to register: the scan still replaces its region of the image.
             rec["found"] = false;
             local_scans.push_back(rec);
-            display.paste_scan(scan.h, scan.px);
+            display.paste_scan(scan.heights(), scan_px);
             local_pending = -1;
             continue_frames();
             return;
@@ -405,8 +386,8 @@ struct Renderer {
 
     void finish_last_frame()
     {
-        const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.h, field, model, tip, kFidelitySearch_nm);
-        write_outputs_for_scan("scan_final", scan.h);
+        const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.heights(), field, model, tip, kFidelitySearch_nm);
+        write_outputs_for_scan("scan_final", scan.heights());
         write_outputs_for_scan("display_final", display.height());
         cv::imwrite(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, (display.z_top() - display.z_bottom()) / 4)));
         using nlohmann::json;
@@ -429,15 +410,65 @@ struct Renderer {
             }
             fidelity["objects"].push_back(rec);
         }
+        if (scene.op.plan.enabled) fidelity["placement"] = placement_json();
         std::ofstream(out + "/fidelity.json") << fidelity.dump(2) << "\n";
         final_pending = false;
         write_frame(frames_written++);
         announce(frames_written - 1, last_seq);
     }
 
+    // The planner's result in the fresh scan: each target site (sample
+    // coordinates, moved by the firmware's drift) and the particle the scan
+    // shows near it; each rod against its target pose.
+    nlohmann::json placement_json() const
+    {
+        using nlohmann::json;
+        const afm::PlanSpec &ps = scene.op.plan;
+        json out = json::object();
+        const std::vector<afm::Vec2> sites = afm::target_sites(scene);
+        if (!sites.empty()) {
+            std::vector<cv::Point2d> at;
+            for (const auto &v : sites) at.emplace_back(v.x + fw_drift_nm[0], v.y + fw_drift_nm[1]);
+            double r = 0;
+            for (const auto &p : scene.particles) r = std::max(r, p.radius_nm);
+            const afm::PlacementCheck c = afm::check_sites(scan.heights(), field, at, afm::sphere_footprint_nm(r, tip) * 0.5 + ps.tolerance_nm,
+                                                           ps.tolerance_nm);
+            json per = json::array();
+            for (const auto &x : c.sites)
+                per.push_back({{"site_nm", {x.x_nm, x.y_nm}}, {"found", x.found}, {"scan_nm", {x.scan_x_nm, x.scan_y_nm}},
+                               {"error_nm", x.found ? json(x.error_nm) : json(nullptr)}});
+            out["particles"] = {{"sites", sites.size()}, {"placed", c.placed}, {"missing", c.missing}, {"tolerance_nm", ps.tolerance_nm},
+                                {"worst_nm", c.worst_nm}, {"rms_nm", c.rms_nm}, {"per_site", per}};
+        }
+        json rods = json::array();
+        for (const auto &t : scene.wire_targets) {
+            double length = 0, d = 0;
+            for (const auto &w : scene.wires)
+                if (w.id == t.id) length = std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm), d = w.diameter_nm;
+            const afm::RodCheck c = afm::check_rod(scan.heights(), field, {t.x_nm + fw_drift_nm[0], t.y_nm + fw_drift_nm[1]}, t.angle_deg,
+                                                   length, afm::wire_footprint_nm(d / 2, tip) + ps.wire_tolerance_nm);
+            rods.push_back({{"id", t.id}, {"found", c.found}, {"error_nm", c.found ? json(c.error_nm) : json(nullptr)},
+                            {"centroid_error_nm", c.centroid_error_nm}, {"angle_error_deg", c.angle_error_deg},
+                            {"placed", c.found && c.error_nm <= ps.wire_tolerance_nm}, {"tolerance_nm", ps.wire_tolerance_nm}});
+        }
+        if (!rods.empty()) out["rods"] = rods;
+        return out;
+    }
+
     void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
     {
         if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
+        if (m->name == "sim_afm" && m->state == "ending") {
+            // The run ends at block m->seq (the planner finished): its last
+            // frame is the last one due by then. Frames already on the sheet
+            // stay; the sheet is picked again over the shorter run (read
+            // back from frames/ at the end).
+            const int end = std::max(frames_written + 1, afm::frames_due(scene, afm::block_end_utime(scene, m->seq)));
+            if (end < total_frames) {
+                total_frames = end;
+                pick_sheet();
+            }
+        }
     }
 };
 
@@ -462,13 +493,14 @@ int main(int argc, char **argv)
         lc->subscribe(AFM_CH_AFM_SCAN_LINE, &Renderer::on_line, &r)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_FW_TIP, &Renderer::on_tip, &r)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_FW_FORCE, &Renderer::on_force, &r)->setQueueCapacity(afm::kQueueCapacity);
+        lc->subscribe(AFM_CH_HAPTIC_FORCE, &Renderer::on_haptic, &r)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_FW_OBJECTS, &Renderer::on_objects, &r)->setQueueCapacity(afm::kQueueCapacity);
         lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Renderer::on_heartbeat, &r)->setQueueCapacity(afm::kQueueCapacity);
 
         // The full scan first.
         r.hb.send("starting", -1, 0, "scanning");
         r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
-        while (r.scan.left > 0) {
+        while (r.scan.busy()) {
             lc->handleTimeout(50);
             if (r.sim_done) return 3;
             r.retry_scan();
@@ -481,11 +513,22 @@ int main(int argc, char **argv)
             r.retry_fix();
         }
         r.video.release();
+        if (r.total_frames < scene.total_frames() && scene.out.png) {
+            // Ended early: the sheet's frames as picked over the run's length.
+            r.sheet.clear();
+            char name[64];
+            for (int k : r.sheet_at) {
+                std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
+                const cv::Mat f = cv::imread(out_dir + name);
+                if (!f.empty()) r.sheet.push_back(f);
+            }
+        }
         if (!r.sheet.empty()) {
             const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(r.sheet.size()))));
             cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(r.sheet, cols));
         }
         nlohmann::json rep = {{"frames", r.frames_written},
+                              {"frames_expected", r.total_frames},
                               {"image_px", scene.out.image_px},
                               {"update_mode", scene.out.update_mode},
                               {"update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},

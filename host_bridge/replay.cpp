@@ -146,6 +146,7 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
         const auto m = decode<afm::objects_t>(d, "objects_t");
         x.add("utime", m.utime);
         x.add("seq", m.seq);
+        x.add("complete", m.complete);
         x.add("n_particles", m.n_particles);
         for (std::size_t i = 0; i < m.particles.size(); ++i) {
             const auto &p = m.particles[i];

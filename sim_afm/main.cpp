@@ -26,6 +26,7 @@
 #include "afm/sim_truth_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "bus.hpp"
+#include "objects_view.hpp"
 #include "log_tail.hpp"
 #include "scene.hpp"
 #include "world.hpp"
@@ -62,6 +63,7 @@ struct Sim {
     afm::tip_cmd_t pending_cmd{};
     bool have_cmd = false;
     int64_t scan_lines_sent = 0;
+    int64_t finished_seq = -1;         // the operator's planner finished with the pose answering this block
 
     Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
 
@@ -81,6 +83,7 @@ struct Sim {
 
     void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
     {
+        if (m->name == "operator" && m->state == "finished" && finished_seq < 0) finished_seq = m->seq;
         if (m->state == "ready" || m->state == "running") ready.insert(m->name);
         if (m->name == "launcher" && m->state == "running") go = true;
         if (m->name == "launcher" && m->state == "stop") abort = true;
@@ -231,7 +234,8 @@ int main(int argc, char **argv)
         }
 
         const int spb = scene.samples_per_block();
-        const int64_t blocks = scene.total_blocks();
+        int64_t blocks = scene.total_blocks();
+        int64_t ended_early_at = -1;   // the last block, when the planner finished first
         std::mt19937_64 drop_rng(scene.seed ^ 0x5eedULL);
         std::bernoulli_distribution drop(drop_p);
         int64_t resends = 0, dropped = 0;
@@ -245,10 +249,11 @@ int main(int argc, char **argv)
         blk.piezo_y_nm.resize(spb);
         blk.piezo_z_nm.resize(spb);
         {
-            const afm::Vec2 s0 = scene.op.path_nm.front();
-            sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, true);
+            const afm::Vec2 s0 = scene.start_nm();
+            sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, scene.start_engaged());
         }
         std::size_t next_change = 0;   // operator.cantilever_changes applied so far
+        afm::ObjectsDiff truth_diff;   // SIM_TRUTH lists the objects that changed (objects_t.complete)
         for (int64_t n = 0; n < blocks; ++n) {
             sim.wait_for_log(n - kLogWindowBlocks, 0);
             // A cantilever change: the work space jumps against the scanner.
@@ -278,7 +283,7 @@ int main(int argc, char **argv)
             }
             truth.tip_nm[2] = truth.piezo_nm[2] = sim.world.piezo_z();
             for (int k = 0; k < 3; ++k) truth.force_nN[k] = force_sum[k] / spb;
-            truth.objects = truth_objects(scene, sim.world, n);
+            truth.objects = truth_diff.next(truth_objects(scene, sim.world, n));
             lc->publish(AFM_CH_SIM_TRUTH, &truth);
             if (drop(drop_rng)) ++dropped;
             else lc->publish(AFM_CH_AFM_ANALOG, &blk);
@@ -303,6 +308,17 @@ int main(int argc, char **argv)
                                   sim.pending_cmd.load_nN, sim.pending_cmd.engaged);
                 sim.have_cmd = false;
             }
+            // The planner has finished: the run ends one frame period after
+            // it (a rule of the block it finished in alone, so a run ends
+            // at the same block every time), and says so.
+            if (sim.finished_seq >= 0 && ended_early_at < 0) {
+                const int64_t end = std::max(n, sim.finished_seq + 1 + static_cast<int64_t>(std::ceil(scene.block_hz / scene.frame_rate_hz)));
+                if (end + 1 < blocks) {
+                    blocks = end + 1;
+                    ended_early_at = end;
+                }
+                for (int i = 0; i < 3; ++i) sim.hb.send("ending", end, afm::block_end_utime(scene, end), "the planner finished");
+            }
             sim.hb.maybe_send("running", n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
         }
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
@@ -318,7 +334,7 @@ int main(int argc, char **argv)
         rep << "],\n  \"models_built\": [";
         const auto built = sim.world.models_built();
         for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
-        rep << "],\n  \"blocks\": " << blocks << ",\n  \"samples\": " << blocks * spb
+        rep << "],\n  \"blocks\": " << blocks << ",\n  \"ended_early_at_block\": " << ended_early_at << ",\n  \"samples\": " << blocks * spb
             << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits << ",\n  \"injected_drops\": " << dropped
             << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
             << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()

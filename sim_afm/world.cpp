@@ -78,7 +78,7 @@ World::World(const Scene &s)
         normal_at_ = &World::normal_plane;
     }
 
-    const Vec2 start = s.op.path_nm.front();
+    const Vec2 start = s.start_nm();
     piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
     apex_ = piezo_;
 

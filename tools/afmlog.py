@@ -5,8 +5,9 @@ handy from a Python prompt:
 
     import afmlog
     log = afmlog.load("runs/demo/bus.lcmlog")
-    log["FW_OBJECTS"][-1].particles[0].x_nm
+    afmlog.whole_objects(log["FW_OBJECTS"])[-1][1].particles[0].x_nm
 """
+import copy
 import os
 import sys
 from collections import defaultdict
@@ -50,6 +51,65 @@ def load(path, channels=None):
 def by_seq(msgs):
     """{seq: last message with that seq} (resends carry the same content)."""
     return {m.seq: m for m in msgs}
+
+
+class _Whole:
+    """objects_t made whole: particles, wires (and the rest) of the set."""
+
+    def __init__(self, m):
+        self.utime, self.seq, self.fix_id = m.utime, m.seq, m.fix_id
+        self.drift_nm = list(m.drift_nm)
+        self.particles = [copy.copy(p) for p in m.particles]
+        self.wires = [copy.deepcopy(w) for w in m.wires]
+        self.trenches = list(m.trenches)
+        self.complete = True
+
+
+def whole_objects(msgs, objects=lambda m: m):
+    """The objects after each message, whole: [(msg, whole), ...] in order.
+    A message may list only the objects that changed (objects_t.complete
+    false: lcmtypes/objects_t.lcm); the others are where the previous
+    message had them, moved by the change in drift_nm. `objects` picks the
+    objects_t out of a message (SIM_TRUTH: lambda m: m.objects). Messages
+    before the first complete one are left out."""
+    out, cur = [], None
+    for msg in msgs:
+        m = objects(msg)
+        if m.complete:
+            cur = _Whole(m)
+        elif cur is None:
+            continue
+        else:
+            nxt = copy.copy(cur)
+            dx, dy = m.drift_nm[0] - cur.drift_nm[0], m.drift_nm[1] - cur.drift_nm[1]
+            changed = {p.id: p for p in m.particles}
+            nxt.particles = []
+            for p in cur.particles:
+                q = copy.copy(changed.get(p.id, p))
+                if p.id not in changed:
+                    q.x_nm, q.y_nm = p.x_nm + dx, p.y_nm + dy
+                nxt.particles.append(q)
+            wchanged = {w.id: w for w in m.wires}
+            nxt.wires = []
+            for w in cur.wires:
+                if w.id in wchanged:
+                    nxt.wires.append(copy.deepcopy(wchanged[w.id]))
+                else:
+                    v = copy.deepcopy(w)
+                    v.x_nm = [x + dx for x in w.x_nm]
+                    v.y_nm = [y + dy for y in w.y_nm]
+                    nxt.wires.append(v)
+            nxt.utime, nxt.seq, nxt.fix_id = m.utime, m.seq, m.fix_id
+            nxt.drift_nm = list(m.drift_nm)
+            nxt.trenches = list(m.trenches)
+            cur = nxt
+        out.append((msg, cur))
+    return out
+
+
+def whole_by_seq(msgs, objects=lambda m: m):
+    """{seq: the whole objects after the last message of that block}."""
+    return {w.seq: w for _, w in whole_objects(msgs, objects)}
 
 
 if __name__ == "__main__":

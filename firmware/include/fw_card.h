@@ -7,7 +7,10 @@
  *      of motion, force (eq. 1-3) in frame A; on the 32-bit data path
  *      (fw_board_step_block, the default) or the 16-bit one
  *      (fw_board16_step_block: word_bits 16, its error contract there);
- *   2. the object models, when the configuration has any: the contact force
+ *   2. the object models, when the configuration has any and the tip was
+ *      down for the block (the pose given with the previous block was
+ *      engaged; the first block: not start_lifted; a lifted tip touches
+ *      nothing, whatever the noise on its signals): the contact force
  *      (fw_force_lateral_excess_pn, once per sample for every model), the
  *      particles (fw_particles_update), each wire's push rule with the
  *      squeeze check (fw_wire_update; the lever's twist theta_t = K_l S_l),
@@ -56,8 +59,9 @@
 /* Trench points are recorded every 5 nm of tip path (litho_step_pm 0). */
 #define FW_CARD_LITHO_STEP_DEFAULT_PM 5000
 /* The operator's hand: 0.1 N per nN of tip force (100 uN/pN), at most 3 N
- * per axis (a Phantom-class device's peak force), the values a host passes
- * when its scene says nothing else. */
+ * per axis (a Phantom-class device's peak force): values for a host without
+ * a device model (the unit tests). The bench passes the scene's
+ * operator.haptic (host_bridge/card_setup.cpp). */
 #define FW_CARD_HAPTIC_UN_PER_PN_DEFAULT 100
 #define FW_CARD_HAPTIC_MAX_UN_DEFAULT 3000000
 
@@ -96,6 +100,7 @@ typedef struct {
     /* the operator's hand */
     int32_t haptic_un_per_pn;           /* stylus force per tip force, uN/pN */
     int32_t haptic_max_un;              /* per axis, uN */
+    bool start_lifted;                  /* the first block's samples were taken with the tip lifted */
 } fw_card_config_t;
 
 /* The caller's storage: capacities at least the configuration's counts
@@ -141,7 +146,7 @@ typedef struct {
 } fw_card_out_t;
 
 typedef enum {
-    FW_CARD_FIX_APPLIED = 0,       /* the difference was drift: every model moved */
+    FW_CARD_FIX_APPLIED = 0,       /* the difference was drift: every model moved (fw_card_place: that particle moved) */
     FW_CARD_FIX_UNKNOWN_OBJECT,    /* no particle or landmark has that id: nothing done */
     FW_CARD_FIX_NOT_DRIFT          /* further than the limit: refused, counted (fw_drift) */
 } fw_card_fix_result_t;
@@ -166,6 +171,7 @@ typedef struct {
     fw_litho_t litho;
     fw_drift_t drift;
     bool objects;                    /* particles, wires or lithography: the per-sample models run */
+    bool down;                       /* this block's samples were taken with the tip engaged */
     uint32_t sat_samples;
     uint32_t fixes_applied;
     int32_t last_tip_pm[3];
@@ -201,6 +207,17 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
 /* A local scan found object_id at scan_pm (frame A): above. FW_ERR_ARG
  * for a NULL pointer; otherwise FW_OK with the result in *out. */
 fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out);
+
+/* A local scan found particle object_id at scan_pm (frame A) after a push
+ * the model followed imperfectly: its model alone is put there (the
+ * drift and every other model stay). The same limit as a drift fix
+ * (drift_max_step_pm: a model that far off is not this particle's): beyond
+ * it FW_CARD_FIX_NOT_DRIFT and nothing moves; a landmark or an unknown id
+ * is FW_CARD_FIX_UNKNOWN_OBJECT. Counted with the fixes applied. FW_ERR_ARG
+ * for a NULL pointer; otherwise FW_OK with the result in *out.
+ * Scaling and overflow: the difference in 64 bits, compared as in
+ * fw_drift_measure_within; the position is the scan's, no arithmetic. */
+fw_status_t fw_card_place(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out);
 
 /* The models, read-only, for the host to publish. */
 const fw_particles_t *fw_card_particles(const fw_card_t *c);

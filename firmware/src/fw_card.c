@@ -211,6 +211,7 @@ void fw_card_reset(fw_card_t *c)
     }
     c->last_code_n = 0;
     c->last_code_l = 0;
+    c->down = !cfg->start_lifted;
 }
 
 /* The lever's twist theta_t = K_l S_l (radians, 2.30) from a sample's
@@ -318,7 +319,7 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
         }
         for (j = 0; j < k; j++) {
             fw_sample_out_t *o = &c->st.scratch[j];
-            if (c->objects) {
+            if (c->objects && c->down) {
                 card_objects_sample(c, o);
             }
             if ((o->flags & (FW_FLAG_SAT_SN | FW_FLAG_SAT_SL)) != 0u && c->sat_samples != UINT32_MAX) {
@@ -345,7 +346,19 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
     out->code_l = c->last_code_l;
     out->sat_samples = c->sat_samples;
     card_command(c, &in->pose, out);
+    /* the next block's samples are taken with this pose's command */
+    c->down = in->pose.engaged;
     return FW_OK;
+}
+
+/* A fix's answer before anything is known: not a landmark, nothing moved. */
+static void card_fix_out_clear(fw_card_fix_out_t *out)
+{
+    out->landmark = false;
+    out->model_pm[0] = 0;
+    out->model_pm[1] = 0;
+    out->delta_pm[0] = 0;
+    out->delta_pm[1] = 0;
 }
 
 fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out)
@@ -356,11 +369,7 @@ fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2
     if (c == NULL || scan_pm == NULL || out == NULL) {
         return FW_ERR_ARG;
     }
-    out->landmark = false;
-    out->model_pm[0] = 0;
-    out->model_pm[1] = 0;
-    out->delta_pm[0] = 0;
-    out->delta_pm[1] = 0;
+    card_fix_out_clear(out);
     /* the object's modelled position: a particle's model, or a landmark's
      * configured place carried along by the drift so far */
     for (i = 0; i < c->parts.count && !found; i++) {
@@ -390,6 +399,46 @@ fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2
         return FW_OK;
     }
     fw_drift_apply(out->delta_pm, &c->parts, c->st.wires, c->n_wires, c->cfg.litho ? &c->litho : NULL);
+    if (c->fixes_applied != UINT32_MAX) {
+        c->fixes_applied++;
+    }
+    out->result = FW_CARD_FIX_APPLIED;
+    return FW_OK;
+}
+
+fw_status_t fw_card_place(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out)
+{
+    int32_t i;
+    int64_t dx;
+    int64_t dy;
+    int64_t m;
+    fw_particle_t *p = NULL;
+    if (c == NULL || scan_pm == NULL || out == NULL) {
+        return FW_ERR_ARG;
+    }
+    card_fix_out_clear(out);
+    for (i = 0; i < c->parts.count && p == NULL; i++) {
+        if (c->parts.p[i].id == object_id) {
+            p = &c->parts.p[i];
+        }
+    }
+    if (p == NULL) {
+        out->result = FW_CARD_FIX_UNKNOWN_OBJECT;
+        return FW_OK;
+    }
+    out->model_pm[0] = p->x_pm;
+    out->model_pm[1] = p->y_pm;
+    dx = (int64_t)scan_pm[0] - p->x_pm;
+    dy = (int64_t)scan_pm[1] - p->y_pm;
+    m = c->drift.max_step_pm;
+    if (dx > m || -dx > m || dy > m || -dy > m || dx * dx + dy * dy > m * m) {
+        out->result = FW_CARD_FIX_NOT_DRIFT;
+        return FW_OK;
+    }
+    out->delta_pm[0] = (int32_t)dx;
+    out->delta_pm[1] = (int32_t)dy;
+    p->x_pm = scan_pm[0];
+    p->y_pm = scan_pm[1];
     if (c->fixes_applied != UINT32_MAX) {
         c->fixes_applied++;
     }

@@ -36,25 +36,26 @@ class DriftAndLocalScans(unittest.TestCase):
         # objects not yet pushed the difference is the drift alone.
         fixes = {f.fix_id: f for f in self.log["HOST_OBJECT_FIX"]}
         self.assertEqual(sorted(fixes), [1, 2, 3])
-        truth = afmlog.by_seq(self.log["SIM_TRUTH"])
+        truth = afmlog.whole_by_seq(self.log["SIM_TRUTH"], lambda m: m.objects)
         acked = {}
-        for m in self.log["FW_OBJECTS"]:
+        for m in self.log["FW_OBJECTS"]:   # a fix's answer lists every object (complete)
             if m.fix_id and m.fix_id not in acked:
+                self.assertTrue(m.complete)
                 acked[m.fix_id] = m
         self.assertEqual(sorted(acked), [1, 2, 3])
         for fid, m in sorted(acked.items()):
             oid = fixes[fid].object_id
             model = next(p for p in m.particles if p.id == oid)
-            true = next(p for p in truth[m.seq].objects.particles if p.id == oid)
+            true = next(p for p in truth[m.seq].particles if p.id == oid)
             reg = math.hypot(model.x_nm - true.x_nm, model.y_nm - true.y_nm)
-            d_fw, d_true = m.drift_nm, truth[m.seq].objects.drift_nm
+            d_fw, d_true = m.drift_nm, truth[m.seq].drift_nm
             drift_err = math.hypot(d_fw[0] - d_true[0], d_fw[1] - d_true[1])
             print(f"fix {fid} (object {oid}) at block {m.seq}: model-truth {reg:.2f} nm; firmware drift "
                   f"({d_fw[0]:.2f}, {d_fw[1]:.2f}) nm, true ({d_true[0]:.2f}, {d_true[1]:.2f}) nm")
             self.assertLess(reg, 1.0)
             if fid <= 2:   # before any push of the object: pure drift
                 self.assertLess(drift_err, 0.5)
-        self.assertGreater(math.hypot(*truth[max(truth)].objects.drift_nm), 2.0, "the scene must drift measurably")
+        self.assertGreater(math.hypot(*truth[max(truth)].drift_nm), 2.0, "the scene must drift measurably")
 
     def test_final_display_matches_a_fresh_scan(self):
         fid = self.rj["fidelity"]
@@ -82,16 +83,16 @@ class CantileverChangeAndLandmark(unittest.TestCase):
         scans = self.rj["renderer"]["local_scans"]
         self.assertEqual([s["kind"] for s in scans], ["landmark"])
         self.assertTrue(scans[0]["found"])
-        truth = afmlog.by_seq(self.log["SIM_TRUTH"])
+        truth = afmlog.whole_by_seq(self.log["SIM_TRUTH"], lambda m: m.objects)
         acked = next(m for m in self.log["FW_OBJECTS"] if m.fix_id == 1)
-        true = truth[acked.seq].objects.drift_nm
+        true = truth[acked.seq].drift_nm
         err = math.hypot(acked.drift_nm[0] - true[0], acked.drift_nm[1] - true[1])
         print(f"landmark fix: firmware offset ({acked.drift_nm[0]:.2f}, {acked.drift_nm[1]:.2f}) nm, "
               f"true ({true[0]:.2f}, {true[1]:.2f}) nm")
         self.assertGreater(math.hypot(*true), 300.0)
         self.assertLess(err, 2.0)
-        first = {p.id: p for p in truth[min(truth)].objects.particles}
-        last = {p.id: p for p in truth[max(truth)].objects.particles}
+        first = {p.id: p for p in truth[min(truth)].particles}
+        last = {p.id: p for p in truth[max(truth)].particles}
         pushed = math.hypot(last[2].x_nm - first[2].x_nm - true[0], last[2].y_nm - first[2].y_nm - true[1])
         self.assertGreater(pushed, 50.0, "particle 2 must be pushed after the re-registration")
         self.assertLess(self.rj["fidelity"]["max_position_error_nm"], 5.0)

@@ -20,8 +20,9 @@ TOL_NM = 5.0
 
 
 def trajectories(log):
-    fw = {m.seq: tuple((p.id, p.x_nm, p.y_nm) for p in m.particles) for m in log["FW_OBJECTS"]}
-    truth = {m.seq: tuple((p.id, p.x_nm, p.y_nm) for p in m.objects.particles) for m in log["SIM_TRUTH"]}
+    fw = {s: tuple((p.id, p.x_nm, p.y_nm) for p in w.particles) for s, w in afmlog.whole_by_seq(log["FW_OBJECTS"]).items()}
+    truth = {s: tuple((p.id, p.x_nm, p.y_nm) for p in w.particles)
+             for s, w in afmlog.whole_by_seq(log["SIM_TRUTH"], lambda m: m.objects).items()}
     return fw, truth
 
 

@@ -33,19 +33,19 @@ class WireZigzag(unittest.TestCase):
         # firmware's first-order update may lead or lag the simulator's
         # quasi-static solve; that transient is printed, not bounded.
         self.assertEqual(self.code, 0, self.err)
-        fw = afmlog.by_seq(self.log["FW_OBJECTS"])
-        truth = afmlog.by_seq(self.log["SIM_TRUTH"])
+        fw = afmlog.whole_by_seq(self.log["FW_OBJECTS"])
+        truth = afmlog.whole_by_seq(self.log["SIM_TRUTH"], lambda m: m.objects)
         def err(seq):
             return max(math.hypot(a[0] - b[0], a[1] - b[1])
-                       for a, b in zip(ends(fw[seq].wires[0]), ends(truth[seq].objects.wires[0])))
+                       for a, b in zip(ends(fw[seq].wires[0]), ends(truth[seq].wires[0])))
         quiet, at_rest, worst_any = 0, [], 0.0
         for seq in sorted(fw):
-            busy = fw[seq].wires[0].in_contact or truth[seq].objects.wires[0].in_contact
+            busy = fw[seq].wires[0].in_contact or truth[seq].wires[0].in_contact
             quiet = 0 if busy else quiet + 1
             worst_any = max(worst_any, err(seq))
             if quiet >= 50:
                 at_rest.append(err(seq))
-        first, last = ends(truth[min(truth)].objects.wires[0]), ends(truth[max(truth)].objects.wires[0])
+        first, last = ends(truth[min(truth)].wires[0]), ends(truth[max(truth)].wires[0])
         moved = max(math.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(first, last))
         print(f"wire ends: at rest worst {max(at_rest):.2f} nm over {len(at_rest)} blocks; during pushes worst "
               f"{worst_any:.2f} nm; the ends moved up to {moved:.0f} nm")

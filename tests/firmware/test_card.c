@@ -537,6 +537,74 @@ static void test_card_fix_particle_landmark_unknown_and_the_limits(void)
     TEST_ASSERT_EQUAL_UINT32(0u, fw_card_fixes_applied(&card));
 }
 
+/* A lifted tip touches nothing: the same push as above, with the pose
+ * lifted from the first block on, leaves every model where it was, and
+ * start_lifted covers the first block. Engaging again (its command's
+ * block over) pushes as before. */
+static void test_card_lifted_tip_pushes_nothing(void)
+{
+    static const fw_card_pose_t lifted = { { 0, 0 }, 5000, false };
+    fw_sample_in_t in[20];
+    int32_t blk;
+    int32_t y = -320000;
+    default_config();
+    cfg.start_lifted = true;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
+    for (blk = 0; blk < 10; blk++) {
+        samples(in, 20, 0, -52770, 0, y, 0, 500);
+        (void)step(in, 20, &lifted);
+        y += 20 * 500;
+    }
+    TEST_ASSERT_EQUAL_INT32(particles[1].y_pm, fw_particles_get(fw_card_particles(&card), 1)->y_pm);
+    /* engaged from here: the block after the engaged pose pushes */
+    y = -320000;
+    for (blk = 0; blk < 10; blk++) {
+        samples(in, 20, 0, -52770, 0, y, 0, 500);
+        (void)step(in, 20, &pose0);
+        y += 20 * 500;
+    }
+    TEST_ASSERT_TRUE(fw_particles_get(fw_card_particles(&card), 1)->y_pm > particles[1].y_pm);
+}
+
+/* A place fix moves one particle's model, within the drift limit; the
+ * drift and the others stay; a landmark or an unknown id is not placed. */
+static void test_card_place_moves_one_model_within_the_limit(void)
+{
+    fw_card_fix_out_t fx;
+    int32_t scan[2];
+    int32_t d[2];
+    scan[0] = particles[1].x_pm + 30000;
+    scan[1] = particles[1].y_pm - FW_DRIFT_MAX_STEP_DEFAULT_PM + 30000;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_place(&card, 2, scan, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_CARD_FIX_APPLIED, fx.result);
+    TEST_ASSERT_EQUAL_INT32(scan[0], fw_particles_get(fw_card_particles(&card), 1)->x_pm);
+    TEST_ASSERT_EQUAL_INT32(scan[1], fw_particles_get(fw_card_particles(&card), 1)->y_pm);
+    TEST_ASSERT_EQUAL_INT32(particles[0].x_pm, fw_particles_get(fw_card_particles(&card), 0)->x_pm);
+    fw_card_drift_pm(&card, d);
+    TEST_ASSERT_EQUAL_INT32(0, d[0]);
+    TEST_ASSERT_EQUAL_INT32(0, d[1]);
+    /* one pm past the limit (diagonal, in 64 bits): refused, nothing moves */
+    scan[0] = particles[0].x_pm + 141422;
+    scan[1] = particles[0].y_pm + 141422;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_place(&card, 1, scan, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_CARD_FIX_NOT_DRIFT, fx.result);
+    TEST_ASSERT_EQUAL_INT32(particles[0].x_pm, fw_particles_get(fw_card_particles(&card), 0)->x_pm);
+    /* the far corners of int32: no overflow, refused */
+    scan[0] = INT32_MAX;
+    scan[1] = INT32_MIN;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_place(&card, 1, scan, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_CARD_FIX_NOT_DRIFT, fx.result);
+    /* a landmark (id 9) is registered by drift, not placed; unknown ids */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_place(&card, 9, scan, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_CARD_FIX_UNKNOWN_OBJECT, fx.result);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_place(&card, 77, scan, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_CARD_FIX_UNKNOWN_OBJECT, fx.result);
+    TEST_ASSERT_EQUAL_UINT32(1u, fw_card_fixes_applied(&card));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_card_place(&card, 1, NULL, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_card_place(NULL, 1, scan, &fx));
+    TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_card_place(&card, 1, scan, NULL));
+}
+
 /* Random blocks (pushes into particles and a wire, lithography on) and
  * fixes through two cards, one with a scratch of 7 samples (blocks run in
  * pieces): the same outputs and models, bit for bit. Then the first card,
@@ -667,6 +735,8 @@ int main(void)
     RUN_TEST(test_card_squeeze_flagged_past_psi_max_and_the_wire_stays);
     RUN_TEST(test_card_lithography_store_full_flags_position);
     RUN_TEST(test_card_fix_particle_landmark_unknown_and_the_limits);
+    RUN_TEST(test_card_lifted_tip_pushes_nothing);
+    RUN_TEST(test_card_place_moves_one_model_within_the_limit);
     RUN_TEST(test_card_is_a_pure_function_of_its_inputs);
     RUN_TEST(test_card_tiny_rod_refused_or_bounded);
     return UNITY_END();

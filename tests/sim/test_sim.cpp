@@ -7,7 +7,7 @@
 #include <string>
 
 #include "scene.hpp"
-#include "sim_scene.hpp"
+#include "../scene_text.hpp"
 #include "world.hpp"
 
 using afm::sim::World;

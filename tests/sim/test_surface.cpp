@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "sim_scene.hpp"
+#include "../scene_text.hpp"
 #include "world.hpp"
 
 using afm::sim::World;

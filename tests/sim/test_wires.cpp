@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "sim_scene.hpp"
+#include "../scene_text.hpp"
 #include "wire.hpp"
 #include "world.hpp"
 

@@ -1,4 +1,5 @@
-// Test helper: a Scene from YAML text (through the real parser and validator).
+// Test helper (simulator and host tests): a Scene from YAML text, through the
+// real parser and validator.
 #pragma once
 
 #include <unity.h>
@@ -12,7 +13,7 @@
 
 inline afm::Scene scene_from_text(const std::string &text)
 {
-    char path[] = "/tmp/afm-test-sim-XXXXXX";
+    char path[] = "/tmp/afm-test-scene-XXXXXX";
     const int fd = mkstemp(path);
     TEST_ASSERT_TRUE(fd >= 0);
     close(fd);

@@ -1,0 +1,107 @@
+#include "objects_view.hpp"
+
+#include <cmath>
+
+namespace afm {
+
+namespace {
+
+// Below this an object has not moved (nm): the drift taken off and put back
+// in doubles leaves a few units in the last place.
+constexpr double kSame_nm = 1e-9;
+
+bool same_particle(const particle_t &a, const particle_t &b, double dx, double dy)
+{
+    return a.id == b.id && a.in_contact == b.in_contact && a.radius_nm == b.radius_nm && std::fabs(b.x_nm - a.x_nm - dx) <= kSame_nm &&
+           std::fabs(b.y_nm - a.y_nm - dy) <= kSame_nm;
+}
+
+bool same_wire(const wire_t &a, const wire_t &b, double dx, double dy)
+{
+    if (a.id != b.id || a.n != b.n || a.in_contact != b.in_contact || a.diameter_nm != b.diameter_nm) return false;
+    for (int i = 0; i < a.n; ++i)
+        if (std::fabs(b.x_nm[i] - a.x_nm[i] - dx) > kSame_nm || std::fabs(b.y_nm[i] - a.y_nm[i] - dy) > kSame_nm) return false;
+    return true;
+}
+
+bool same_ids(const objects_t &a, const objects_t &b)
+{
+    if (a.particles.size() != b.particles.size() || a.wires.size() != b.wires.size()) return false;
+    for (std::size_t i = 0; i < a.particles.size(); ++i)
+        if (a.particles[i].id != b.particles[i].id) return false;
+    for (std::size_t i = 0; i < a.wires.size(); ++i)
+        if (a.wires[i].id != b.wires[i].id) return false;
+    return true;
+}
+
+}  // namespace
+
+objects_t ObjectsDiff::next(const objects_t &whole, bool force_complete)
+{
+    objects_t m = whole;
+    m.complete = force_complete || !have_last_ || !same_ids(last_, whole) ||
+                 whole.seq - last_complete_seq_ >= objects_t::KEYFRAME_BLOCKS || whole.seq < last_complete_seq_;
+    if (!m.complete) {
+        const double dx = whole.drift_nm[0] - last_.drift_nm[0], dy = whole.drift_nm[1] - last_.drift_nm[1];
+        m.particles.clear();
+        for (std::size_t i = 0; i < whole.particles.size(); ++i)
+            if (!same_particle(last_.particles[i], whole.particles[i], dx, dy)) m.particles.push_back(whole.particles[i]);
+        m.wires.clear();
+        for (std::size_t i = 0; i < whole.wires.size(); ++i)
+            if (!same_wire(last_.wires[i], whole.wires[i], dx, dy)) m.wires.push_back(whole.wires[i]);
+    } else {
+        last_complete_seq_ = whole.seq;
+    }
+    m.n_particles = static_cast<int32_t>(m.particles.size());
+    m.n_wires = static_cast<int32_t>(m.wires.size());
+    last_ = whole;
+    have_last_ = true;
+    return m;
+}
+
+bool ObjectsView::apply(const objects_t &m)
+{
+    if (m.complete) {
+        whole_ = m;
+        ready_ = true;
+        return true;
+    }
+    if (!ready_) return false;
+    // Every listed object must be one the set holds.
+    for (const auto &p : m.particles) {
+        bool known = false;
+        for (const auto &q : whole_.particles) known = known || q.id == p.id;
+        if (!known) return false;
+    }
+    for (const auto &w : m.wires) {
+        bool known = false;
+        for (const auto &q : whole_.wires) known = known || q.id == w.id;
+        if (!known) return false;
+    }
+    const double dx = m.drift_nm[0] - whole_.drift_nm[0], dy = m.drift_nm[1] - whole_.drift_nm[1];
+    for (auto &q : whole_.particles) {
+        q.x_nm += dx;
+        q.y_nm += dy;
+        for (const auto &p : m.particles)
+            if (p.id == q.id) q = p;
+    }
+    for (auto &q : whole_.wires) {
+        for (int i = 0; i < q.n; ++i) {
+            q.x_nm[i] += dx;
+            q.y_nm[i] += dy;
+        }
+        for (const auto &w : m.wires)
+            if (w.id == q.id) q = w;
+    }
+    whole_.utime = m.utime;
+    whole_.seq = m.seq;
+    whole_.trenches = m.trenches;
+    whole_.n_trenches = m.n_trenches;
+    whole_.drift_nm[0] = m.drift_nm[0];
+    whole_.drift_nm[1] = m.drift_nm[1];
+    whole_.fix_id = m.fix_id;
+    whole_.complete = true;
+    return true;
+}
+
+}  // namespace afm

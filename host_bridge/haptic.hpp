@@ -1,0 +1,111 @@
+// The operator's side of the force loop: the haptic device (a Phantom-class
+// joystick, operator.haptic) and the hand that holds its stylus
+// (operator.hand), integrated once per block in lockstep.
+//
+// The loop. The card renders g F_tip on the stylus (HAPTIC_FORCE: g the
+// card's gain in whole uN/pN, clamped per axis to max_force_N); the device
+// adds its own damping b; the hand pulls the stylus towards where the
+// operator means it to be with a spring-damper (K_h, B_h) and the stylus and
+// hand have mass m. The stylus position is the pose (joy = x / half_range).
+// The pose of block n+1 is the stylus at the end of block n; the card
+// commands the piezo from it in block n+1, so its force is measured in block
+// n+2 and pushes on the stylus over block n+3: the force lags the position
+// it answers by d = 2 blocks, held for one (zero-order hold).
+//
+// The stability bound. Through the lever, the stiffest thing the tip can
+// meet changes the force by at most k_c per nm of apex motion, k_c the
+// lever's in-plane stiffness (lateral gain / C_l and normal gain / C_n,
+// the larger, with the firmware's estimate C = 3 h K_n / (2 l)). Seen at the
+// stylus that is a spring K_r = g k_c s, s = kappa (field / 2) / half_range
+// the apex's motion per stylus motion. A sampled spring behind a delay of d
+// periods T, held for one, is passive (Colgate and Schenkel 1997, with the
+// delay) when the device's damping dissipates what the lag puts in:
+//
+//     b > K_r T (1/2 + d),     i.e.  K_r < K_max = b / (T (1/2 + d))
+//
+// whatever the hand does (the free stylus is the worst case: the hand adds
+// damping). haptic_bound() states it for a scene; the launcher refuses a
+// scene outside it, naming the keys and the largest gain that passes,
+// unless operator.haptic.passivity_check is false. Beyond the bound, and
+// for what it does not cover (a contact that never yields: the card's
+// compensation moves the piezo on every block, an integrator, until the
+// card's limit), the device runs a passivity observer and controller
+// (Hannaford and Ryu 2002): it sums the energy the stylus gives the device
+// and, when the device has given back more than it took, adds exactly the
+// damping that dissipates the excess. The loop cannot grow an oscillation;
+// the report says how much the controller took out.
+//
+// Units: stylus metres, seconds, newtons; tip nm. Axes: frame A's (the
+// joystick's x, y; z, the load, the hand holds and is not integrated).
+#pragma once
+
+extern "C" {
+#include "fw_card.h"
+}
+
+#include <cstdint>
+#include <string>
+
+#include "scene.hpp"
+
+namespace afm {
+
+struct HapticBound {
+    double lever_N_per_m = 0;        // k_c
+    double gain_N_per_N = 0;         // g, as the card renders it (whole uN/pN)
+    double scale = 0;                // s: apex metres per stylus metre
+    double rendered_N_per_m = 0;     // K_r = g k_c s
+    double period_s = 0;             // T: one block
+    double delay_blocks = 2;         // d
+    double max_rendered_N_per_m = 0; // K_max = b / (T (1/2 + d))
+    double max_gain_N_per_nN = 0;    // the largest gain inside both limits
+    bool passive = false;            // K_r < K_max
+    bool within_device = false;      // K_r <= max_stiffness_N_per_m
+};
+
+// k_c: the lever's in-plane stiffness as the card knows it (the larger of
+// its lateral and normal gains over the firmware's displacement estimate),
+// N/m; 0 when the firmware refuses the lever.
+double lever_stiffness_N_per_m(const fw_board_config_t &b);
+// The bound for the scene and the card's configuration (its gain).
+HapticBound haptic_bound(const Scene &s, const fw_card_config_t &card);
+// The gain when the scene leaves it to the bench (force_gain_N_per_nN
+// auto): 4/5 of the largest inside both limits, in the card's whole uN/pN
+// (at least 1).
+int32_t haptic_auto_gain_un_per_pn(const Scene &s, const fw_board_config_t &b);
+// One line naming the keys and values when the scene is outside the bound
+// (or the device's stiffness) and passivity_check is on; empty otherwise.
+std::string haptic_refusal(const Scene &s, const fw_card_config_t &card);
+
+// The stylus in the hand, one block at a time.
+class HapticLoop {
+public:
+    HapticLoop(const HapticSpec &device, const HandSpec &hand, double block_s, Vec2 start_m, Vec2 start_m_per_s = {});
+
+    // One block: the hand's aim moves linearly to `aim_m` over the block
+    // (the stylus position the operator means), the device renders
+    // `force_N` (HAPTIC_FORCE, held over the block).
+    void step(Vec2 aim_m, Vec2 force_N);
+
+    Vec2 position_m() const { return x_; }
+    Vec2 velocity_m_per_s() const { return v_; }
+    // Energy the stylus has given the device (its damping, the rendered
+    // force and the controller), J: never below 0 once the controller acts.
+    double observed_energy_J() const { return observed_J_; }
+    double controller_energy_J() const { return controller_J_; }   // what the controller dissipated
+    long controller_blocks() const { return controller_blocks_; }  // blocks it acted in
+    long edge_blocks() const { return edge_blocks_; }              // blocks the stylus hit the workspace edge
+    // Switch the controller off (tests: to show what it prevents).
+    void set_controller(bool on) { controller_on_ = on; }
+
+private:
+    HapticSpec dev_;
+    HandSpec hand_;
+    double T_;
+    Vec2 x_, v_, aim_;
+    double observed_J_ = 0, controller_J_ = 0;
+    long controller_blocks_ = 0, edge_blocks_ = 0;
+    bool controller_on_ = true;
+};
+
+}  // namespace afm

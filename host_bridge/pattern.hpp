@@ -1,0 +1,35 @@
+// The planner's target sites (objects.targets): a list of positions, or a
+// text or a PNG mask rasterised into sites at a pitch.
+//
+// Text: OpenCV's Hershey simplex font, drawn with strokes one pitch thick
+// at 16 pixels per pitch, the letters height_nm tall (the cap height),
+// centred on center_nm; a site is put at every node of a square grid of
+// the pitch whose cell the strokes cover by at least half. PNG: the mask
+// (dark pixels, below half grey, are the pattern) scaled to height_nm tall,
+// its aspect kept, centred on center_nm, sampled the same way. Sites
+// outside the field are an error, as are no sites at all.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "scene.hpp"
+
+namespace afm {
+
+class PatternError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// The sites, frame A at zero drift (the sample's coordinates), nm, in
+// rows from the top, left to right. Throws PatternError naming the scene
+// key ("<file>: objects.targets...: ...").
+std::vector<Vec2> target_sites(const Scene &s);
+
+// One line naming the problem when the scene's targets cannot be served
+// (sites outside the field, more sites than particles); empty if they can.
+std::string targets_refusal(const Scene &s);
+
+}  // namespace afm

@@ -1,0 +1,711 @@
+#include "planner.hpp"
+
+extern "C" {
+#include "fw_units.h"
+#include "fw_wire.h"
+}
+
+#include <dlib/optimization/max_cost_assignment.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cmath>
+#include <sstream>
+
+#include "fidelity.hpp"
+#include "pattern.hpp"
+#include "profile.hpp"
+
+namespace afm {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kStop_nm = 2.0;          // a stroke ends when the model is this close to its end (onto a site: kStopSite_nm)
+constexpr double kStopSite_nm = 0.5;
+constexpr double kSlowOver_nm = 40.0;     // the push onto a site slows over its last stretch ...
+constexpr double kSlowest_nm_per_s = 200.0;   // ... to no slower than this
+constexpr double kBackOff_nm = 30.0;      // after a push the tip backs off this far before lifting
+constexpr double kLostAngle_deg = 60.0;   // the line of centres this far off the push: contact lost
+constexpr double kDriftDeadband_nm = 4.0; // a pre-push scan closer than this to the model is not drift (the scan's own scatter)
+constexpr int kLandBlocks = 3;            // blocks the tip takes to land or lift
+constexpr double kSearchMargin_nm = 40.0; // how far from where it should be a scan looks for a particle
+constexpr double kWideScan = 3.0;         // a particle not in its local scan: one this many times wider
+constexpr double kEndAt = 0.1;            // a rod's end push is at L/10 from the end
+constexpr double kTurnTol_deg = 20.0;     // a rod is carried while its normal is within this of the way
+constexpr double kCarryUntil = 3.0;       // a rod is carried until its centre is this many tolerances from the target
+constexpr double kMinLeverAngle_deg = 25.0;   // pushes keep this far off the lever's axis (F_x: fw_force.h's S_HI is 14.5 deg)
+// Strokes: a pushed sphere drifts off the line of centres exponentially
+// with the distance pushed (length r_tip + r_p), the real one and the
+// model alike, from different starts: the model is trusted for a stroke,
+// then a scan puts it right. The stroke lengthens while the model stays
+// within kStrayLow_nm of the scan, and halves when it strays past
+// kStrayHigh_nm.
+constexpr double kStrokeStart_nm = 180.0, kStrokeMin_nm = 60.0, kStrokeMax_nm = 600.0;
+constexpr double kStrayLow_nm = 5.0, kStrayHigh_nm = 15.0;
+constexpr int kMaxStrokes = 60;           // per particle
+constexpr double kModelMoved_nm = 0.5;    // a model that moved this much during another's push is checked by a scan
+constexpr int kStallBlocks = 40;          // the tip at its aim and the model still this long: the particle has gone
+
+Vec2 operator+(Vec2 a, Vec2 b) { return {a.x + b.x, a.y + b.y}; }
+Vec2 operator-(Vec2 a, Vec2 b) { return {a.x - b.x, a.y - b.y}; }
+Vec2 operator*(double k, Vec2 a) { return {k * a.x, k * a.y}; }
+double dot(Vec2 a, Vec2 b) { return a.x * b.x + a.y * b.y; }
+double norm(Vec2 a) { return std::hypot(a.x, a.y); }
+Vec2 unit(Vec2 a, Vec2 fallback = {1, 0})
+{
+    const double n = norm(a);
+    return n > 1e-9 ? (1.0 / n) * a : fallback;
+}
+Vec2 perp(Vec2 a) { return {-a.y, a.x}; }
+
+// Distance from q to the segment a-b.
+double seg_dist(Vec2 q, Vec2 a, Vec2 b)
+{
+    const Vec2 ab = b - a;
+    const double l2 = dot(ab, ab);
+    const double t = l2 > 0 ? std::clamp(dot(q - a, ab) / l2, 0.0, 1.0) : 0.0;
+    return norm(q - (a + t * ab));
+}
+
+// A leg a -> b is free when the particle's sweep and the tip's (from its
+// landing point behind a to its place behind b) keep clear of every disc,
+// and it does not run along the lever's axis.
+bool leg_free(Vec2 a, Vec2 b, const PushGeometry &g, const std::vector<Disc> &obs)
+{
+    const Vec2 d = b - a;
+    if (norm(d) < 1e-9) return true;
+    const Vec2 u = unit(d);
+    if (std::fabs(dot(u, unit(g.lever_axis))) > std::cos(g.min_lever_angle_deg * kPi / 180)) return false;
+    const double R = g.r + g.tip_r;
+    const Vec2 land = a - (R + g.approach_nm) * u, tip_end = b - R * u;
+    for (const Disc &c : obs) {
+        if (seg_dist(c.c, a, b) < g.r + c.r + g.clearance_nm) return false;
+        if (seg_dist(c.c, land, tip_end) < g.tip_r + c.r + g.clearance_nm) return false;
+    }
+    return true;
+}
+
+Vec2 rotate(Vec2 v, double deg)
+{
+    const double a = deg * kPi / 180;
+    return {v.x * std::cos(a) - v.y * std::sin(a), v.x * std::sin(a) + v.y * std::cos(a)};
+}
+
+// The 16 directions a site may be approached from (unit vectors pointing
+// from the site outwards), those the lever's axis allows.
+std::vector<Vec2> approach_directions(const PushGeometry &g)
+{
+    std::vector<Vec2> out;
+    for (int k = 0; k < 16; ++k) {
+        const Vec2 d{std::cos(2 * kPi * k / 16), std::sin(2 * kPi * k / 16)};
+        if (std::fabs(dot(d, unit(g.lever_axis))) <= std::cos(g.min_lever_angle_deg * kPi / 180)) out.push_back(d);
+    }
+    return out;
+}
+
+}  // namespace
+
+std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites)
+{
+    if (sites.empty()) throw PlanError("no target sites to fill");
+    if (particles.size() < sites.size())
+        throw PlanError(std::to_string(sites.size()) + " target sites but only " + std::to_string(particles.size()) +
+                        " particles: give at most as many sites as particles");
+    const long n = static_cast<long>(particles.size());
+    // dlib maximises: cost M - d (0.1 nm) for a site, 0 for the padding
+    // columns of the particles left over, so every site is served at the
+    // least total distance.
+    double dmax = 0;
+    for (const Vec2 &p : particles)
+        for (const Vec2 &s : sites) dmax = std::max(dmax, norm(p - s));
+    const long M = static_cast<long>(std::ceil(dmax * 10)) + 1;
+    dlib::matrix<long> cost(n, n);
+    for (long i = 0; i < n; ++i)
+        for (long j = 0; j < n; ++j)
+            cost(i, j) = j < static_cast<long>(sites.size()) ? M - std::lround(norm(particles[i] - sites[j]) * 10) : 0;
+    const std::vector<long> a = dlib::max_cost_assignment(cost);
+    std::vector<int> out(sites.size(), -1);
+    for (long i = 0; i < n; ++i)
+        if (a[i] < static_cast<long>(sites.size())) out[a[i]] = static_cast<int>(i);
+    return out;
+}
+
+PushPath plan_push(Vec2 from, Vec2 to, const PushGeometry &g, const std::vector<Disc> &obstacles)
+{
+    PushPath best;
+    if (norm(to - from) < 1e-6) {
+        best.legs = {from, to};
+        return best;
+    }
+    if (leg_free(from, to, g, obstacles)) {
+        best.legs = {from, to};
+        best.length_nm = norm(to - from);
+        return best;
+    }
+    const double R = g.r + g.tip_r;
+    std::vector<Vec2> vias;
+    for (const Vec2 &d : approach_directions(g))
+        for (double D : {3.0, 6.0, 10.0}) vias.push_back(to + (D * R) * d);
+    const Vec2 mid = 0.5 * (from + to), n = perp(unit(to - from));
+    for (double k : {3.0, 6.0, 10.0, 15.0})
+        for (double sgn : {-1.0, 1.0}) vias.push_back(mid + (sgn * k * R) * n);
+    // The zigzag: to - from as s1 a1 + s2 a2 with a1, a2 the lever's axis
+    // turned by +-(min angle + 5 deg), either sign: the via after s1 a1 (or
+    // after s2 a2).
+    const double turn = g.min_lever_angle_deg + 5;
+    for (double sgn : {-1.0, 1.0}) {
+        const Vec2 a1 = rotate(sgn * unit(g.lever_axis), turn), a2 = rotate(sgn * unit(g.lever_axis), -turn);
+        const Vec2 d = to - from;
+        const double det = a1.x * a2.y - a1.y * a2.x;
+        if (std::fabs(det) < 1e-12) continue;
+        const double s1 = (d.x * a2.y - d.y * a2.x) / det, s2 = (a1.x * d.y - a1.y * d.x) / det;
+        if (s1 < 0 || s2 < 0) continue;
+        vias.push_back(from + s1 * a1);
+        vias.push_back(from + s2 * a2);
+    }
+    for (const Vec2 &v : vias) {
+        const double len = norm(v - from) + norm(to - v);
+        if (best.ok() && len >= best.length_nm) continue;
+        if (leg_free(from, v, g, obstacles) && leg_free(v, to, g, obstacles)) {
+            best.legs = {from, v, to};
+            best.length_nm = len;
+        }
+    }
+    return best;
+}
+
+std::vector<int> assembly_order(const std::vector<Vec2> &sites, const PushGeometry &g)
+{
+    Vec2 centre{0, 0};
+    for (const Vec2 &s : sites) centre = centre + s;
+    if (!sites.empty()) centre = (1.0 / sites.size()) * centre;
+    std::vector<int> left(sites.size());
+    for (std::size_t i = 0; i < left.size(); ++i) left[i] = static_cast<int>(i);
+    // Try the outermost first: the last to place.
+    std::sort(left.begin(), left.end(), [&](int a, int b) { return norm(sites[a] - centre) > norm(sites[b] - centre); });
+    const std::vector<Vec2> dirs = approach_directions(g);
+    const double reach = 4 * (g.r + g.tip_r) + g.approach_nm;
+    std::vector<int> last_first;
+    while (!left.empty()) {
+        std::size_t take = left.size();
+        for (std::size_t k = 0; k < left.size() && take == left.size(); ++k) {
+            std::vector<Disc> obs;
+            for (std::size_t m = 0; m < left.size(); ++m)
+                if (m != k) obs.push_back({sites[left[m]], g.r, left[m]});
+            for (const Vec2 &d : dirs)
+                if (leg_free(sites[left[k]] + reach * d, sites[left[k]], g, obs)) {
+                    take = k;
+                    break;
+                }
+        }
+        if (take == left.size()) break;   // the rest are walled in, whatever the order
+        last_first.push_back(left[take]);
+        left.erase(left.begin() + static_cast<long>(take));
+    }
+    // Walled in even alone: first, innermost first (they may still find a way past what is not yet placed).
+    std::vector<int> out(left.rbegin(), left.rend());
+    out.insert(out.end(), last_first.rbegin(), last_first.rend());
+    return out;
+}
+
+struct Planner::Job {
+    int site = 0;       // index in sites_
+    int particle = 0;   // particle id
+};
+
+Planner::Planner(const Scene &s) : s_(s), sites_(target_sites(s)), stroke_nm_(kStrokeStart_nm)
+{
+    if (!sites_.empty() && sites_.size() > s.particles.size())
+        throw PlanError(s.file + ": objects.targets: " + std::to_string(sites_.size()) + " sites but only " +
+                        std::to_string(s.particles.size()) + " particles");
+}
+
+Vec2 Planner::drift() const { return {model_->drift_nm[0], model_->drift_nm[1]}; }
+
+const particle_t *Planner::particle(int id) const
+{
+    for (const auto &p : model_->particles)
+        if (p.id == id) return &p;
+    return nullptr;
+}
+
+PushGeometry Planner::geometry(double r) const
+{
+    PushGeometry g;
+    g.r = r;
+    g.tip_r = s_.probe.tip_radius_nm;
+    g.approach_nm = s_.op.plan.approach_nm;
+    g.clearance_nm = s_.op.plan.clearance_nm;
+    // The lever's axis x_C in frame A: turned by the scan angle from 270 deg
+    // (there frames C and A coincide).
+    const double a = (s_.probe.scan_angle_deg - 270.0) * kPi / 180;
+    g.lever_axis = {std::cos(a), std::sin(a)};
+    g.min_lever_angle_deg = kMinLeverAngle_deg;
+    return g;
+}
+
+std::vector<Disc> Planner::obstacles(int except_id) const
+{
+    std::vector<Disc> out;
+    const Vec2 d = drift();
+    for (const auto &p : model_->particles)
+        if (p.id != except_id) out.push_back({Vec2{p.x_nm, p.y_nm} - d, p.radius_nm, p.id});
+    return out;
+}
+
+void Planner::hold(int blocks)
+{
+    for (int i = 0; i < blocks; ++i) model_ = &bench_->block({tip_, engaged_});
+}
+
+void Planner::wait_s(double s) { hold(static_cast<int>(std::lround(s * s_.block_hz))); }
+
+void Planner::travel(Vec2 to, bool engaged, double speed)
+{
+    if (engaged != engaged_) {
+        engaged_ = engaged;
+        hold(kLandBlocks);
+    }
+    const double step = speed / s_.block_hz;
+    while (norm(to - tip_) > 1e-9) {
+        const Vec2 d = to - tip_;
+        tip_ = norm(d) <= step ? to : tip_ + step * unit(d);
+        model_ = &bench_->block({tip_, engaged_});
+    }
+}
+
+bool Planner::scan_at(int id, Vec2 around, Vec2 *found)
+{
+    const PlanSpec &ps = s_.op.plan;
+    if (engaged_) travel(tip_, false, ps.travel_speed_nm_per_s);
+    const particle_t *p = particle(id);
+    if (!p) return false;
+    const double r = p->radius_nm;
+    const TipShape tip = s_.has_effect("tip_convolution") ? TipShape{s_.probe.tip_radius_nm, s_.probe.tip_half_angle_deg} : TipShape{};
+    const double window = sphere_footprint_nm(r, tip) * 0.5 + kSearchMargin_nm;
+    std::vector<cv::Point2d> others;
+    for (const auto &q : model_->particles)
+        if (q.id != id) others.emplace_back(q.x_nm, q.y_nm);
+    // The bump nearest where it should be that is not another particle; not
+    // in the scan (it went further than the model knows), a wider scan.
+    for (double size : {ps.scan_size_nm, kWideScan * ps.scan_size_nm}) {
+        const int px = static_cast<int>(std::lround(ps.scan_px * size / ps.scan_size_nm));
+        const Field f{around.x - size / 2, around.y - size / 2, size, px};
+        const cv::Mat h = bench_->scan(f);
+        ++rep_.local_scans;
+        wait_s(ps.scan_s * size / ps.scan_size_nm);
+        double x = 0, y = 0;
+        if (nearest_bump(h, f, around.x, around.y, r, window, others, r, &x, &y)) {
+            if (std::getenv("AFM_PLAN_TRACE"))
+                std::fprintf(stderr, "plan: scan t %.3f particle %d around (%.1f, %.1f) found (%.1f, %.1f)\n", bench_->time_s(), id, around.x,
+                             around.y, x, y);
+            *found = {x, y};
+            return true;
+        }
+    }
+    return false;
+}
+
+void Planner::send_fix(int id, Vec2 at, bool place)
+{
+    std::string note;
+    model_ = &bench_->fix(id, at, place, &note);
+    if (note.empty()) ++rep_.fixes;
+    else ++rep_.fixes_refused;
+}
+
+bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
+{
+    if (!scan_at(id, around, found)) return false;
+    const particle_t *p = particle(id);
+    const Vec2 off = *found - Vec2{p->x_nm, p->y_nm};
+    if (place) {
+        send_fix(id, *found, true);
+        return true;
+    }
+    // Drift, or was it disturbed? Within the scan's own scatter: neither.
+    // Otherwise the nearest other particle is scanned too: found off by the
+    // same it is drift (every model moves); if not, the particles were
+    // disturbed, and each model alone is put right.
+    if (norm(off) < kDriftDeadband_nm) return true;
+    const particle_t *ref = nullptr;
+    double best = 1e300;
+    for (const auto &q : model_->particles)
+        if (q.id != id && std::hypot(q.x_nm - p->x_nm, q.y_nm - p->y_nm) < best) best = std::hypot(q.x_nm - p->x_nm, q.y_nm - p->y_nm), ref = &q;
+    Vec2 ref_at;
+    const int ref_id = ref ? ref->id : 0;
+    const Vec2 ref_model = ref ? Vec2{ref->x_nm, ref->y_nm} : Vec2{};
+    const Vec2 here = *found;
+    if (ref) travel(ref_model, false, s_.op.plan.travel_speed_nm_per_s);
+    if (ref && scan_at(ref_id, ref_model, &ref_at) && norm((ref_at - ref_model) - off) < kDriftDeadband_nm) {
+        send_fix(id, here, false);
+        return true;
+    }
+    ++rep_.disturbed;
+    send_fix(id, here, true);
+    if (ref && norm(ref_at - ref_model) >= kDriftDeadband_nm) send_fix(ref_id, ref_at, true);
+    return true;
+}
+
+bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
+{
+    const PlanSpec &ps = s_.op.plan;
+    const particle_t *p = particle(id);
+    if (!p) return false;
+    const double R = p->radius_nm + s_.probe.tip_radius_nm;
+    Vec2 P{p->x_nm, p->y_nm};
+    Vec2 u = unit(end_A - P);
+    travel(P - (R + ps.approach_nm) * u, false, ps.travel_speed_nm_per_s);
+    travel(tip_, true, ps.speed_nm_per_s);   // land
+    const double T = 1.0 / s_.block_hz;
+    const double far = norm(end_A - P) + ps.approach_nm;
+    const long max_blocks = static_cast<long>(3 * far / ps.speed_nm_per_s * s_.block_hz) + static_cast<long>(s_.block_hz);
+    bool touched = false, ok = false;
+    Vec2 last_P = P;
+    int still = 0;
+    for (long k = 0; k < max_blocks; ++k) {
+        p = particle(id);
+        if (!p) break;
+        P = {p->x_nm, p->y_nm};
+        still = norm(P - last_P) < 0.05 ? still + 1 : 0;
+        last_P = P;
+        const Vec2 rem = end_A - P;
+        const double d = norm(rem);
+        if (d <= (slow_end ? kStopSite_nm : kStop_nm)) {
+            ok = true;
+            break;
+        }
+        if (d > 20) u = unit(rem, u);
+        const Vec2 c = P - tip_;
+        touched = touched || p->in_contact;
+        if (touched) {
+            const double cosang = dot(unit(c, u), u);
+            if (cosang < std::cos(kLostAngle_deg * kPi / 180) || norm(c) > R + ps.approach_nm + 30) break;   // lost
+        }
+        const Vec2 aim = P - (R - ps.push_depth_nm) * u;
+        if (still > kStallBlocks && norm(aim - tip_) < 0.5) break;   // at its aim, nothing moves: it has slipped away
+        const double v = slow_end ? std::clamp(d / kSlowOver_nm * ps.speed_nm_per_s, kSlowest_nm_per_s, ps.speed_nm_per_s) : ps.speed_nm_per_s;
+        const Vec2 to = aim - tip_;
+        tip_ = norm(to) <= v * T ? aim : tip_ + (v * T) * unit(to);
+        model_ = &bench_->block({tip_, true});
+    }
+    travel(tip_ - kBackOff_nm * u, true, ps.speed_nm_per_s);
+    travel(tip_, false, ps.travel_speed_nm_per_s);   // lift
+    return ok;
+}
+
+bool Planner::locate(PlanItem &item, bool place, Vec2 *at)
+{
+    const particle_t *p = particle(item.id);
+    if (!p) return false;
+    const Vec2 P{p->x_nm, p->y_nm};
+    travel(P, false, s_.op.plan.travel_speed_nm_per_s);
+    ++item.scans;
+    return scan_particle(item.id, P, place, at);
+}
+
+void Planner::check_disturbed(const std::vector<particle_t> &before, int pushed_id)
+{
+    // Another particle's model moved during a push (the firmware saw the
+    // tip or the pushed particle touch it): a scan shows where it is.
+    for (const particle_t &b : before) {
+        if (b.id == pushed_id) continue;
+        const particle_t *p = particle(b.id);
+        if (!p || std::hypot(p->x_nm - b.x_nm, p->y_nm - b.y_nm) < kModelMoved_nm) continue;
+        ++rep_.disturbed;
+        PlanItem probe;
+        probe.id = b.id;
+        Vec2 at;
+        locate(probe, true, &at);
+    }
+}
+
+void Planner::place_particle(PlanItem &item, Vec2 site)
+{
+    const PlanSpec &ps = s_.op.plan;
+    Vec2 at;
+    // Where is it? Untouched since the model last saw it: the difference is drift.
+    if (!locate(item, false, &at)) {
+        item.why = "not found in the local scan around its model";
+        return;
+    }
+    int attempts = 0;   // strokes that ended at the site
+    for (int strokes = 0; strokes < kMaxStrokes; ++strokes) {
+        const particle_t *p = particle(item.id);
+        if (!p) {
+            item.why = "not in the firmware's model";
+            return;
+        }
+        const Vec2 from = Vec2{p->x_nm, p->y_nm} - drift();
+        const PushPath path = plan_push(from, site, geometry(p->radius_nm), obstacles(item.id));
+        if (!path.ok()) {
+            item.why = "no free path to its site";
+            return;
+        }
+        // One stroke: along the first leg, no longer than the model is
+        // trusted to follow the particle.
+        Vec2 end = path.legs[1];
+        bool at_site = path.legs.size() == 2;
+        if (norm(end - from) > 1.5 * stroke_nm_) {
+            end = from + stroke_nm_ * unit(end - from);
+            at_site = false;
+        }
+        ++item.pushes;
+        ++rep_.pushes;
+        if (at_site && ++attempts > 1) ++rep_.repushes;
+        const std::vector<particle_t> before = model_->particles;
+        push_leg(item.id, end + drift(), at_site);
+        check_disturbed(before, item.id);
+        // The check: a scan where the model has it; the model goes where it shows.
+        const particle_t *q = particle(item.id);
+        const Vec2 model{q->x_nm, q->y_nm};
+        if (!locate(item, true, &at)) {
+            item.why = "lost: not found near its model after a push";
+            return;
+        }
+        // How far the model strayed over this stroke sets the next one's length.
+        const double strayed = norm(at - model);
+        if (std::getenv("AFM_PLAN_TRACE"))
+            std::fprintf(stderr, "plan: t %.2f particle %d stroke %.0f nm at_site %d model (%.1f, %.1f) at (%.1f, %.1f) strayed %.1f nm\n", bench_->time_s(), item.id, stroke_nm_, at_site, model.x, model.y, at.x, at.y, strayed);
+        if (strayed < kStrayLow_nm) stroke_nm_ = std::min(kStrokeMax_nm, stroke_nm_ * 1.5);
+        else if (strayed > kStrayHigh_nm) stroke_nm_ = std::max(kStrokeMin_nm, stroke_nm_ * 0.5);
+        if (!at_site) continue;
+        // Aim for half the tolerance; take the tolerance on the last attempt.
+        item.error_nm = norm(at - (site + drift()));
+        if (item.error_nm <= ps.tolerance_nm * (attempts >= ps.max_pushes ? 1.0 : 0.5)) {
+            item.placed = true;
+            item.why.clear();
+            return;
+        }
+        if (attempts >= ps.max_pushes) break;
+    }
+    std::ostringstream m;
+    m.precision(3);
+    m << "off its site by " << item.error_nm << " nm after " << attempts << " pushes onto it";
+    item.why = m.str();
+}
+
+void Planner::clear_blockers(const std::vector<int> &assigned)
+{
+    // A spare particle on a site another particle is coming to: push it
+    // outwards, away from the pattern's centre, until it is clear.
+    const PlanSpec &ps = s_.op.plan;
+    Vec2 centre{0, 0};
+    for (const Vec2 &s : sites_) centre = centre + s;
+    centre = (1.0 / sites_.size()) * centre;
+    const double half = s_.field_nm / 2;
+    for (const auto &p : std::vector<particle_t>(model_->particles)) {
+        if (std::find(assigned.begin(), assigned.end(), p.id) != assigned.end()) continue;
+        const Vec2 P = Vec2{p.x_nm, p.y_nm} - drift();
+        double nearest = 1e300;
+        Vec2 near_site;
+        for (const Vec2 &s : sites_)
+            if (norm(s - P) < nearest) nearest = norm(s - P), near_site = s;
+        const double need = 2 * p.radius_nm + ps.clearance_nm;
+        if (nearest >= need) continue;
+        Vec2 out = unit(P - centre, unit(P - near_site));
+        // To the nearest place outside every site's reach along that line.
+        Vec2 to = P;
+        for (int k = 1; k < 200; ++k) {
+            to = P + (k * 0.5 * need) * out;
+            bool clear = true;
+            for (const Vec2 &s : sites_) clear = clear && norm(s - to) >= need + p.radius_nm;
+            if (clear) break;
+        }
+        to.x = std::clamp(to.x, s_.field_center_nm.x - half + need, s_.field_center_nm.x + half - need);
+        to.y = std::clamp(to.y, s_.field_center_nm.y - half + need, s_.field_center_nm.y + half - need);
+        PlanItem item;
+        item.kind = "particle";
+        item.id = p.id;
+        item.target_nm = to;
+        ++rep_.cleared;
+        ++item.pushes;
+        ++rep_.pushes;
+        push_leg(p.id, to + drift(), false);
+        item.why = "a spare particle on a site: pushed aside";
+        rep_.items.push_back(item);
+    }
+}
+
+void Planner::run_particles()
+{
+    std::vector<Vec2> pos;
+    std::vector<int> ids;
+    for (const auto &p : model_->particles) {
+        pos.push_back(Vec2{p.x_nm, p.y_nm} - drift());
+        ids.push_back(p.id);
+    }
+    const std::vector<int> who = assign_sites(pos, sites_);
+    std::vector<int> assigned;
+    for (int i : who) assigned.push_back(ids[static_cast<std::size_t>(i)]);
+    clear_blockers(assigned);
+
+    double r = 0;
+    for (const auto &p : model_->particles) r = std::max(r, p.radius_nm);
+    std::vector<Job> left;
+    for (int j : assembly_order(sites_, geometry(r))) left.push_back({j, assigned[static_cast<std::size_t>(j)]});
+    const PlanSpec &ps = s_.op.plan;
+    while (!left.empty()) {
+        // The innermost job with a free push.
+        std::size_t pick = left.size();
+        for (std::size_t k = 0; k < left.size() && pick == left.size(); ++k) {
+            const particle_t *p = particle(left[k].particle);
+            if (!p) continue;
+            if (plan_push(Vec2{p->x_nm, p->y_nm} - drift(), sites_[left[k].site], geometry(p->radius_nm), obstacles(p->id)).ok())
+                pick = k;
+        }
+        if (pick == left.size()) {
+            for (const Job &j : left) {
+                PlanItem item;
+                item.kind = "particle";
+                item.id = j.particle;
+                item.target_nm = sites_[j.site];
+                item.why = "no free path to its site";
+                rep_.items.push_back(item);
+            }
+            break;
+        }
+        const Job j = left[pick];
+        left.erase(left.begin() + static_cast<long>(pick));
+        PlanItem item;
+        item.kind = "particle";
+        item.id = j.particle;
+        item.target_nm = sites_[j.site];
+        place_particle(item, sites_[static_cast<std::size_t>(j.site)]);
+        rep_.items.push_back(item);
+    }
+    // A placed particle knocked off its site by a later push (its model was
+    // put right by a scan when it moved) is pushed back.
+    for (int pass = 0; pass < 2; ++pass)
+        for (PlanItem &item : rep_.items) {
+            if (item.kind != "particle" || !item.placed) continue;
+            const particle_t *p = particle(item.id);
+            if (!p || norm(Vec2{p->x_nm, p->y_nm} - (item.target_nm + drift())) <= ps.tolerance_nm) continue;
+            item.placed = false;
+            ++rep_.replaced;
+            place_particle(item, item.target_nm);
+        }
+}
+
+bool Planner::push_wire_end(int wire_id, bool end_b, double dn_nm)
+{
+    const PlanSpec &ps = s_.op.plan;
+    const wire_t *w = nullptr;
+    for (const auto &x : model_->wires)
+        if (x.id == wire_id) w = &x;
+    if (!w || w->n < 2) return false;
+    const Vec2 A{w->x_nm[0], w->y_nm[0]}, B{w->x_nm[w->n - 1], w->y_nm[w->n - 1]};
+    const double L = norm(B - A);
+    const Vec2 a = unit(B - A), n = perp(a);
+    const Vec2 Q = end_b ? B - (kEndAt * L) * a : A + (kEndAt * L) * a;
+    const double sgn = dn_nm >= 0 ? 1.0 : -1.0;
+    const double R = w->diameter_nm / 2 + s_.probe.tip_radius_nm;
+    travel(Q - (sgn * (R + ps.approach_nm)) * n, false, ps.travel_speed_nm_per_s);
+    travel(tip_, true, ps.speed_nm_per_s);
+    // The push point ends dn along the normal, the apex on the rod's surface
+    // (the rod moves until the apex sits on it: no pressing in).
+    travel(Q + (dn_nm - sgn * R) * n, true, ps.speed_nm_per_s);
+    travel(tip_ - (sgn * kBackOff_nm) * n, true, ps.speed_nm_per_s);
+    travel(tip_, false, ps.travel_speed_nm_per_s);
+    return true;
+}
+
+void Planner::run_wires()
+{
+    const PlanSpec &ps = s_.op.plan;
+    for (const WireTargetSpec &t : s_.wire_targets) {
+        PlanItem item;
+        item.kind = "wire";
+        item.id = t.id;
+        item.target_nm = {t.x_nm, t.y_nm};
+        item.target_angle_deg = t.angle_deg;
+        const int max_pushes = 10 * ps.max_pushes;
+        bool carrying = true;
+        while (true) {
+            const wire_t *w = nullptr;
+            for (const auto &x : model_->wires)
+                if (x.id == t.id) w = &x;
+            if (!w || w->n < 2) {
+                item.why = "not in the firmware's model";
+                break;
+            }
+            const Vec2 A{w->x_nm[0], w->y_nm[0]}, B{w->x_nm[w->n - 1], w->y_nm[w->n - 1]};
+            const double L = norm(B - A);
+            const Vec2 a = unit(B - A), n = perp(a), C = 0.5 * (A + B);
+            // The target's ends, labelled to need the smaller turn.
+            const double th = t.angle_deg * kPi / 180;
+            Vec2 ta{std::cos(th), std::sin(th)};
+            if (dot(ta, a) < 0) ta = -1.0 * ta;
+            const Vec2 T = item.target_nm + drift();
+            const Vec2 As = T - (L / 2) * ta, Bs = T + (L / 2) * ta;
+            item.error_nm = std::max(norm(As - A), norm(Bs - B));
+            if (item.error_nm <= ps.wire_tolerance_nm) {
+                item.placed = true;
+                break;
+            }
+            if (item.pushes >= max_pushes) {
+                std::ostringstream m;
+                m.precision(3);
+                m << "off its target by " << item.error_nm << " nm after " << item.pushes << " end pushes";
+                item.why = m.str();
+                break;
+            }
+            // Where the ends must go along the normal. A rod moves only
+            // along its normal: while its centre is far from the target
+            // (carrying), it is turned until its normal points the way and
+            // then carried along it; near (from then on), its ends are
+            // pushed to the target's.
+            double eA = dot(As - A, n), eB = dot(Bs - B, n);
+            const Vec2 way = T - C;
+            if (carrying && norm(way) <= kCarryUntil * ps.wire_tolerance_nm) carrying = false;
+            if (carrying) {
+                Vec2 want = perp(unit(way));   // the axis whose normal is the way
+                if (dot(want, a) < 0) want = -1.0 * want;
+                const double turn = std::atan2(a.x * want.y - a.y * want.x, dot(a, want));
+                // Far off the way: turned alone. Else carried and turned
+                // together (the zigzag of end pushes swings it either side).
+                const double carry = std::fabs(turn) > kTurnTol_deg * kPi / 180 ? 0.0 : dot(way, n);
+                eA = carry - (L / 2) * std::sin(turn);
+                eB = carry + (L / 2) * std::sin(turn);
+            }
+            // The end pushes that remove both: from the static point of a
+            // push at L/10 (the firmware's).
+            fw_wire_static_t sp{};
+            const int32_t Lpm = fwu_pm_from_nm(L);
+            if (fw_wire_static_point(Lpm, fwu_pm_from_nm(kEndAt * L), &sp) != FW_OK || !sp.s_defined) {
+                item.why = "the rod's static point is undefined";
+                break;
+            }
+            const double s = fwu_nm_from_pm(sp.s_pm), l = kEndAt * L;
+            const double alpha = s / (s - l), beta = (L - s) / (s - l), det = alpha * alpha - beta * beta;
+            const double x = (alpha * eA + beta * eB) / det, y = (beta * eA + alpha * eB) / det;
+            const bool at_b = std::fabs(y) > std::fabs(x);
+            const double dn = std::clamp(at_b ? y : x, -ps.wire_step_nm, ps.wire_step_nm);
+            if (std::getenv("AFM_PLAN_TRACE"))
+                std::fprintf(stderr, "plan: t %.2f rod %d A (%.1f, %.1f) B (%.1f, %.1f) eA %.1f eB %.1f push %s by %.1f nm\n", bench_->time_s(), t.id,
+                             A.x, A.y, B.x, B.y, eA, eB, at_b ? "B" : "A", dn);
+            ++item.pushes;
+            ++rep_.pushes;
+            push_wire_end(t.id, at_b, dn);
+        }
+        rep_.items.push_back(item);
+    }
+}
+
+void Planner::run(PlanBench &bench)
+{
+    const auto wall0 = std::chrono::steady_clock::now();
+    bench_ = &bench;
+    tip_ = s_.start_nm();
+    engaged_ = false;
+    model_ = &bench.block({tip_, false});
+    if (!sites_.empty()) run_particles();
+    if (!s_.wire_targets.empty()) run_wires();
+    rep_.finished_s = bench.time_s();
+    rep_.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+}
+
+}  // namespace afm

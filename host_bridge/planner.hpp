@@ -1,0 +1,193 @@
+// The automatic planner (operator.plan): pushes particles onto target sites
+// and rods to target poses, closed loop on the firmware's models.
+//
+// 1. Assignment: particles to sites at minimum total travel (dlib's
+//    max_cost_assignment, the Hungarian method; costs in 0.1 nm). More
+//    sites than particles is an error; spare particles stay where they are,
+//    but one that lies on a site another particle is coming to (closer
+//    than a diameter plus the clearance) is pushed out of the way first.
+// 2. Order and paths: the sites in assembly order (assembly_order: the
+//    pattern taken apart from outside in, reversed, so each site can still
+//    be reached when its turn comes); at each step the first particle in
+//    that order with a free push (plan_push: straight or two legs, clear of
+//    every other particle, never along the lever's axis). A particle with
+//    no free push waits for a later round; when none of the rest has one,
+//    they are reported unplaced ("no free path").
+// 3. Each push, closed loop: travel lifted to behind the particle; a local
+//    scan around it (its model moved only with drift since it was last
+//    seen: the difference is sent as a drift fix); land approach_nm behind
+//    its surface; steer: every block the tip aims push_depth_nm into the
+//    particle's modelled surface on the line from the site through its
+//    centre (FW_OBJECTS), at speed_nm_per_s, slowing over the last 100 nm;
+//    stop when the model is within 2 nm of the site, back off, lift. A
+//    local scan around the site checks it (the model is put where the scan
+//    shows it: a place fix); off by more than tolerance_nm, it is pushed
+//    again, at most max_pushes times in all, then reported. Contact lost
+//    (the line of centres more than 60 deg off the push, or the particle
+//    out of reach of the tip) ends the attempt early.
+// 4. Rods (objects.wire_targets): a zigzag of end pushes perpendicular to
+//    the axis, as the paper advises (never the middle: the bifurcation).
+//    An end push at l = L/10 turns the rod about its static point s(l)
+//    (the firmware's fw_wire_static_point): the ends move dn s/(s - l) and
+//    -dn (L - s)/(s - l). From the two ends' normal errors e_A, e_B the two
+//    end pushes that would remove both are solved, and the larger is made,
+//    at most wire_step_nm. A rod moves only along its normal: while its
+//    centre is more than 3 tolerances from the target it is turned until
+//    its normal points there (e_A = -e_B) and carried along it (e_A =
+//    e_B); then its ends are pushed to the target's. Done when both ends
+//    are within wire_tolerance_nm (by the model; the fresh scan at the end
+//    checks it).
+//
+// Time: a local scan is taken at once by the simulator; the planner then
+// holds the tip lifted for scan_s (the time a real one keeps the tip busy).
+// Positions: frame A, nm. Sites are given in the sample's coordinates;
+// the planner aims at site + the firmware's drift estimate. A pre-push
+// scan that finds a particle off its model by more than the scan's
+// scatter (4 nm) scans the nearest other particle too: off by the same, it
+// is drift (a drift fix: every model moves); if not, the particles were
+// disturbed (a push the models did not see), and each model alone is put
+// right (place fixes).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "afm/objects_t.hpp"
+#include "display.hpp"
+#include "scene.hpp"
+
+namespace afm {
+
+class PlanError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Thrown by a PlanBench when the run ends while the planner works.
+struct PlanStopped {};
+
+// Particles to sites at minimum total travel: result[j] is the particle
+// index for site j. Throws PlanError when there are more sites than
+// particles (or none of either).
+std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites);
+
+// A disc in the plane: something a push must keep clear of.
+struct Disc { Vec2 c; double r = 0; int id = 0; };
+
+// What a push sweeps: the particle (radius r), the tip (tip_r) behind it
+// along each leg, landing approach_nm further back at each leg's start;
+// neither may come within clearance_nm of another particle's surface. No
+// leg may run within min_lever_angle_deg of the lever's axis (lever_axis,
+// frame A): pushed along the lever the firmware cannot tell the push's
+// force from friction (F_x unobservable, fw_force.h), so its model would
+// lose the particle.
+struct PushGeometry {
+    double r = 50, tip_r = 10, approach_nm = 60, clearance_nm = 40;
+    Vec2 lever_axis{1, 0};
+    double min_lever_angle_deg = 0;
+};
+
+// A push from `from` to `to`: the particle's centre runs through `legs`
+// (first = from, last = to); empty if none is free. Straight if it can be;
+// else two legs through a via point: the site approached from one of 16
+// directions, the line bent aside around its middle, or a zigzag of the two
+// directions at min_lever_angle_deg either side of the lever's axis; the
+// shortest free one.
+struct PushPath {
+    std::vector<Vec2> legs;
+    double length_nm = 0;
+    bool ok() const { return legs.size() >= 2; }
+};
+PushPath plan_push(Vec2 from, Vec2 to, const PushGeometry &g, const std::vector<Disc> &obstacles);
+
+// Sites in an order that keeps each reachable: assembly as disassembly
+// reversed. From the whole pattern, the site that can be reached last
+// (approached straight from a particle's length away along a direction
+// the geometry allows, clear of every other site's particle) is taken
+// away, again and again; sites never reachable come first, innermost
+// first. Indices into `sites`.
+std::vector<int> assembly_order(const std::vector<Vec2> &sites, const PushGeometry &g);
+
+// What the planner sees of the bench (the operator implements it).
+struct PlanPose { Vec2 tip_nm; bool engaged = false; };
+class PlanBench {
+public:
+    virtual ~PlanBench() = default;
+    // Holds `pose` (the apex target) for the next block; returns the
+    // firmware's model after that block. May throw PlanStopped.
+    virtual const objects_t &block(const PlanPose &pose) = 0;
+    // A local scan of the square `f` now: heights, nm, row 0 at the top.
+    virtual cv::Mat scan(const Field &f) = 0;
+    // Tells the firmware where a scan found a particle (place: its model
+    // alone; else drift); returns the model after it and what the card
+    // said (empty if it applied it).
+    virtual const objects_t &fix(int particle_id, Vec2 at_nm, bool place, std::string *note) = 0;
+    virtual double time_s() const = 0;   // simulated time of the last block
+};
+
+struct PlanItem {               // one particle's or rod's account
+    std::string kind;           // "particle" or "wire"
+    int id = 0;
+    Vec2 target_nm;             // the site (sample coordinates)
+    double target_angle_deg = 0;   // rods
+    int pushes = 0;             // push attempts (a rod: end pushes)
+    int scans = 0;
+    bool placed = false;        // within tolerance at its last check (a scan)
+    double error_nm = -1;       // at its last check (-1: never checked)
+    std::string why;            // when not placed
+};
+
+struct PlanReport {
+    std::vector<PlanItem> items;
+    int pushes = 0, repushes = 0, local_scans = 0, fixes = 0, fixes_refused = 0, cleared = 0;
+    int disturbed = 0;          // other particles' models that moved during a push (each checked by a scan)
+    int replaced = 0;           // placed particles knocked off and pushed back
+    double finished_s = -1;     // simulated time the plan finished (-1: the run ended first)
+    double wall_s = 0;
+};
+
+class Planner {
+public:
+    // Throws PlanError / PatternError when the scene's targets cannot be served.
+    explicit Planner(const Scene &s);
+    // The whole plan, block by block through `bench`; returns when done.
+    // Throws PlanStopped if the bench stops it.
+    void run(PlanBench &bench);
+    const PlanReport &report() const { return rep_; }
+    const std::vector<Vec2> &sites() const { return sites_; }
+
+private:
+    struct Job;
+    const Scene &s_;
+    std::vector<Vec2> sites_;
+    PlanReport rep_;
+    PlanBench *bench_ = nullptr;
+    const objects_t *model_ = nullptr;
+    Vec2 tip_;                  // the apex target last given
+    bool engaged_ = false;
+    double stroke_nm_;          // the next stroke's length (planner.cpp: kStroke*)
+
+    Vec2 drift() const;
+    const particle_t *particle(int id) const;
+    std::vector<Disc> obstacles(int except_id) const;   // every other particle, sample coordinates
+    PushGeometry geometry(double r) const;
+    void hold(int blocks);
+    void travel(Vec2 to, bool engaged, double speed);
+    void wait_s(double s);
+    bool scan_at(int id, Vec2 around, Vec2 *found);
+    void send_fix(int id, Vec2 at, bool place);
+    bool scan_particle(int id, Vec2 around, bool place, Vec2 *found);
+    bool push_leg(int id, Vec2 end_A, bool slow_end);
+    bool locate(PlanItem &item, bool place, Vec2 *at);
+    void place_particle(PlanItem &item, Vec2 site);
+    void check_disturbed(const std::vector<particle_t> &before, int pushed_id);
+    void clear_blockers(const std::vector<int> &assigned);
+    void run_particles();
+    void run_wires();
+    bool push_wire_end(int wire_id, bool end_b, double dn_nm);
+};
+
+}  // namespace afm

@@ -1,0 +1,61 @@
+#include "scan_client.hpp"
+
+#include "afm/scan_req_t.hpp"
+#include "afm_channels.h"
+#include "bus.hpp"
+
+namespace afm {
+
+void ScanClient::start(int req_id, const ScanRegion &r)
+{
+    id_ = req_id;
+    r_ = r;
+    h_ = cv::Mat::zeros(r.ny, r.nx, CV_32F);
+    got_.assign(static_cast<std::size_t>(r.ny), false);
+    left_ = r.ny;
+    request(0, r.ny);
+}
+
+void ScanClient::request(int first, int n)
+{
+    scan_req_t q{};
+    q.utime = wall_utime();
+    q.req_id = id_;
+    q.x0_nm = r_.x0_nm;
+    q.y0_nm = r_.y0_nm;
+    q.width_nm = r_.width_nm;
+    q.height_nm = r_.height_nm;
+    q.nx = r_.nx;
+    q.ny = r_.ny;
+    q.first_line = first;
+    q.n_lines = n;
+    lc_.publish(AFM_CH_AFM_SCAN_REQ, &q);
+    asked_ = std::chrono::steady_clock::now();
+}
+
+bool ScanClient::on_line(const scan_line_t &m)
+{
+    if (left_ == 0 || m.req_id != id_ || m.n != r_.nx || m.line < 0 || m.line >= r_.ny || got_[static_cast<std::size_t>(m.line)])
+        return false;
+    float *row = h_.ptr<float>(r_.ny - 1 - m.line);
+    for (int i = 0; i < r_.nx; ++i) row[i] = static_cast<float>(m.height_nm[static_cast<std::size_t>(i)]);
+    got_[static_cast<std::size_t>(m.line)] = true;
+    return --left_ == 0;
+}
+
+void ScanClient::retry(int retry_ms)
+{
+    if (left_ == 0 || std::chrono::steady_clock::now() - asked_ < std::chrono::milliseconds(retry_ms)) return;
+    for (int j = 0; j < r_.ny;) {
+        if (got_[static_cast<std::size_t>(j)]) {
+            ++j;
+            continue;
+        }
+        int k = j;
+        while (k < r_.ny && !got_[static_cast<std::size_t>(k)]) ++k;
+        request(j, k - j);
+        j = k;
+    }
+}
+
+}  // namespace afm

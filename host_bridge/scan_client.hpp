@@ -1,0 +1,54 @@
+// A raster scan asked of the simulator (AFM_SCAN_REQ) and received line by
+// line (AFM_SCAN_LINE), lines lost on the bus asked again. The renderer
+// (its full and local scans) and the planner's operator (its local scans)
+// use it; each requester keeps to its own req_id range.
+#pragma once
+
+#include <lcm/lcm-cpp.hpp>
+#include <opencv2/core.hpp>
+
+#include <chrono>
+#include <vector>
+
+#include "afm/scan_line_t.hpp"
+
+namespace afm {
+
+// A scan's rectangle: frame A, nm; nx pixels per line, ny lines.
+struct ScanRegion {
+    double x0_nm = 0, y0_nm = 0;        // lower-left corner
+    double width_nm = 0, height_nm = 0;
+    int nx = 0, ny = 0;
+};
+
+class ScanClient {
+public:
+    explicit ScanClient(lcm::LCM &lc) : lc_(lc) {}
+
+    // Asks for the whole scan (a new one: any scan in progress is dropped).
+    void start(int req_id, const ScanRegion &r);
+    // A line from the bus: stored if it is one of ours; true when it was
+    // the last one missing.
+    bool on_line(const scan_line_t &m);
+    // Asks again for the lines still missing, if the last request is older
+    // than retry_ms.
+    void retry(int retry_ms = 500);
+
+    bool busy() const { return left_ > 0; }
+    int id() const { return id_; }
+    const ScanRegion &region() const { return r_; }
+    const cv::Mat &heights() const { return h_; }   // nm, CV_32F, ny x nx, row 0 at the top
+
+private:
+    void request(int first, int n);
+
+    lcm::LCM &lc_;
+    int id_ = 0;
+    ScanRegion r_;
+    cv::Mat h_;
+    std::vector<bool> got_;
+    int left_ = 0;
+    std::chrono::steady_clock::time_point asked_;
+};
+
+}  // namespace afm

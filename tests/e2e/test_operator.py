@@ -1,0 +1,224 @@
+#!/usr/bin/env python3
+"""The operator's side, end to end (issue 12).
+
+Feeling contact: scenes/feel.yaml pushes the tip into a particle; with mode
+feel the stroke ends within the stated distance after contact, with mode
+script (the force not acted on) the same stroke carries the particle on.
+
+Stability: a scene just inside the haptic loop's bound runs with the
+passivity controller idle; one step of gain beyond it is refused before
+anything starts, naming the key and the largest gain that passes; with
+passivity_check false it runs, the controller standing by.
+
+The planner: scenes/pattern_ten.yaml assembles ten particles into a cross;
+a fresh scan at the end finds every site filled within the tolerance; the
+run replays bit for bit; bad targets are named.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import unittest
+
+import benchtest
+import afmlog
+import yaml
+
+FEEL = benchtest.scene("feel.yaml")
+
+
+def scene_text(path):
+    with open(path) as f:
+        return f.read()
+
+
+def particle_travel(out, pid):
+    """How far the particle moved (truth), and the first block it moved in."""
+    log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
+    whole = afmlog.whole_by_seq(log["SIM_TRUTH"], lambda m: m.objects)
+    seqs = sorted(whole)
+    p0 = next(p for p in whole[seqs[0]].particles if p.id == pid)
+    first = None
+    for s in seqs:
+        p = next(q for q in whole[s].particles if q.id == pid)
+        if first is None and math.hypot(p.x_nm - p0.x_nm, p.y_nm - p0.y_nm) > 0.5:
+            first = s
+    p1 = next(p for p in whole[seqs[-1]].particles if p.id == pid)
+    return math.hypot(p1.x_nm - p0.x_nm, p1.y_nm - p0.y_nm), first
+
+
+def check(scene_path):
+    p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", scene_path], capture_output=True, text=True, timeout=60)
+    return p.returncode, p.stderr
+
+
+class FeelContact(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.spec = yaml.safe_load(scene_text(FEEL))
+        cls.feel = benchtest.tmpdir("feel")
+        cls.feel_run = benchtest.run(FEEL, cls.feel)
+        cls.script = benchtest.tmpdir("feel-script")
+        path = benchtest.write_scene(scene_text(FEEL).replace("mode: feel", "mode: script"), "feel-script-scene")
+        cls.script_run = benchtest.run(path, cls.script)
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.feel, cls.script)
+
+    def test_feel_stops_within_the_stated_distance_and_script_overshoots(self):
+        self.assertEqual(self.feel_run[0], 0, self.feel_run[2])
+        self.assertEqual(self.script_run[0], 0, self.script_run[2])
+        # The stated distance (README, "The operator"): contact is felt one
+        # block after the card measures it and the hand's aim stops then; the
+        # stylus runs on for about m / (B_h + b) (the hand and the device's
+        # damping), so the particle moves at most v (2 T + m / (B_h + b)).
+        v = self.spec["operator"]["speed_nm_per_s"]
+        T = 1.0 / self.spec["block_hz"]
+        m, B_h, b = 0.15, 8.0, 3.0   # the defaults (scene.hpp HandSpec, HapticSpec)
+        stated = v * (2 * T + m / (B_h + b))
+        felt, first = particle_travel(self.feel, 1)
+        pushed, _ = particle_travel(self.script, 1)
+        rep = self.feel_run[3]["operator"]
+        print(f"feel: contact at block {first}, felt at {rep['contacts_felt'][0]['t_s']:.3f} s; the particle moved "
+              f"{felt:.1f} nm (stated bound {stated:.1f} nm); script: {pushed:.0f} nm")
+        self.assertEqual(len(rep["contacts_felt"]), 1)
+        self.assertIsNotNone(first)
+        self.assertLess(felt, stated)
+        self.assertGreater(pushed, 10 * stated)
+        # The display draws the force the hand feels (the gauge's label).
+        self.assertEqual(self.feel_run[3]["operator"]["haptic"]["controller_blocks"], 0)
+
+
+class Stability(unittest.TestCase):
+    """The feel scene at the largest gain inside the bound, and one step beyond."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.dirs = []
+        # The bound for this scene as the bench states it (the operator's report).
+        out = benchtest.tmpdir("stab-probe")
+        cls.dirs.append(out)
+        _, _, err, rj = benchtest.run(FEEL, out)
+        cls.largest = rj["operator"]["haptic"]["largest_passive_gain_N_per_nN"]
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(*cls.dirs)
+
+    def scene_with_gain(self, gain, check_on=True):
+        text = scene_text(FEEL).replace("force_gain_N_per_nN: 0.02", f"force_gain_N_per_nN: {gain:.3f}")
+        if not check_on:
+            text = text.replace(f"force_gain_N_per_nN: {gain:.3f}", f"force_gain_N_per_nN: {gain:.3f}, passivity_check: false")
+        return benchtest.write_scene(text, "stab")
+
+    def test_just_inside_runs_with_the_controller_idle(self):
+        out = benchtest.tmpdir("stab-in")
+        self.dirs.append(out)
+        code, _, err, rj = benchtest.run(self.scene_with_gain(self.largest), out)
+        self.assertEqual(code, 0, err)
+        h = rj["operator"]["haptic"]
+        print(f"inside: gain {h['gain_N_per_nN']} N/nN, K_r {h['rendered_stiffness_N_per_m']:.0f} N/m "
+              f"< {h['passivity_bound_N_per_m']:.0f} N/m; controller blocks {h['controller_blocks']}; "
+              f"peak stylus speed {h['peak_stylus_speed_m_per_s']:.3f} m/s")
+        self.assertTrue(h["passive"])
+        self.assertEqual(h["controller_blocks"], 0)
+
+    def test_just_outside_is_refused_with_the_largest_gain_named(self):
+        code, err = check(self.scene_with_gain(self.largest + 0.001))
+        self.assertEqual(code, 2, err)
+        self.assertIn("operator.haptic.force_gain_N_per_nN: the force loop is outside its stability bound", err)
+        self.assertIn(f"the largest gain that passes is {self.largest:g} N/nN", err)
+
+    def test_outside_without_the_check_runs_clamped_never_growing(self):
+        out = benchtest.tmpdir("stab-out")
+        self.dirs.append(out)
+        code, _, err, rj = benchtest.run(self.scene_with_gain(3 * self.largest, check_on=False), out)
+        self.assertEqual(code, 0, err)
+        h = rj["operator"]["haptic"]
+        self.assertFalse(h["passive"])
+        # Never a growing oscillation: once the script's last stroke is over
+        # (the hand holds still from 1.0 s), the stylus comes to rest: over
+        # the last 0.3 s it moves less than 1 nm at the tip.
+        log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"HAPTIC_POSE"})
+        poses = afmlog.by_seq(log["HAPTIC_POSE"])
+        last = [poses[s] for s in sorted(poses)][-300:]
+        reach = self.spec_reach()
+        spread = max(max(p.joy[k] for p in last) - min(p.joy[k] for p in last) for k in (0, 1)) * reach
+        print(f"outside (3x the largest gain, unchecked): K_r {h['rendered_stiffness_N_per_m']:.0f} N/m > "
+              f"{h['passivity_bound_N_per_m']:.0f} N/m; at rest the stylus spans {spread:.3f} nm at the tip; "
+              f"controller blocks {h['controller_blocks']}")
+        self.assertLess(spread, 1.0)
+
+    def spec_reach(self):
+        spec = yaml.safe_load(scene_text(FEEL))
+        return spec["operator"].get("kappa", 1.0) * spec["sample"]["field_nm"] / 2
+
+
+class Pattern(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.out = benchtest.tmpdir("pattern")
+        cls.code, cls.so, cls.err, cls.rj = benchtest.run(benchtest.scene("pattern_ten.yaml"), cls.out)
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.out)
+
+    def test_ten_particles_placed_within_tolerance_by_a_fresh_scan(self):
+        self.assertEqual(self.code, 0, self.err)
+        plan = self.rj["operator"]["plan"]
+        placement = self.rj["fidelity"]["placement"]["particles"]
+        print(f"pattern: {placement['placed']}/{placement['sites']} sites within {placement['tolerance_nm']} nm, worst "
+              f"{placement['worst_nm']:.1f} nm, RMS {placement['rms_nm']:.1f} nm; {plan['pushes']} pushes, "
+              f"{plan['repushes']} re-pushes, {plan['local_scans']} local scans; done at {plan['finished_sim_s']} s")
+        self.assertEqual(placement["sites"], 10)
+        self.assertEqual(placement["placed"], 10)
+        self.assertEqual(placement["missing"], 0)
+        self.assertLessEqual(placement["worst_nm"], placement["tolerance_nm"])
+        self.assertIsNotNone(plan["finished_sim_s"])
+        # The run ended when the planner had finished (one frame later).
+        self.assertLess(self.rj["sim_seconds"], yaml.safe_load(scene_text(benchtest.scene("pattern_ten.yaml")))["duration_s"])
+        self.assertEqual(self.rj["frames"], self.rj["frames_expected"])
+        self.assertIn("run: placement (a fresh scan): 10 of 10 sites", self.so)
+
+    def test_the_plan_run_replays_identical(self):
+        p = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "afm_replay"), self.out, "--quiet"],
+                           capture_output=True, text=True, timeout=300)
+        self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+
+
+class BadTargets(unittest.TestCase):
+    BASE = ("name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 4000}\n"
+            "objects:\n  particles:\n    - {id: 1, x_nm: 0, y_nm: 0, radius_nm: 50}\n")
+
+    def named(self, text, *expect):
+        code, err = check(benchtest.write_scene(text, "badtargets"))
+        self.assertEqual(code, 2, err)
+        for e in expect:
+            self.assertIn(e, err)
+
+    def test_more_sites_than_particles(self):
+        self.named(self.BASE + "  targets: [[0, 0], [300, 0]]\noperator:\n  plan: {}\n",
+                   "objects.targets: 2 targets but only 1 particles")
+
+    def test_targets_without_the_planner(self):
+        self.named(self.BASE + "  targets: [[0, 0]]\noperator:\n  path_nm: [[0, -500]]\n",
+                   "objects.targets: targets are for the planner")
+
+    def test_planner_and_scripted_local_scans(self):
+        self.named(self.BASE + "  targets: [[0, 0]]\noperator:\n  plan: {}\n  local_scans: [{at_s: 0.1, around_id: 1}]\n",
+                   "operator.local_scans: the planner takes its own local scans")
+
+    def test_a_text_larger_than_the_field(self):
+        self.named(self.BASE + "  scatter: {count: 60, min_gap_nm: 20}\n  targets: {text: \"WIDE\", pitch_nm: 300, height_nm: 3000}\n"
+                   "operator:\n  plan: {}\n", "objects.targets.text: a site at")
+
+    def test_a_gain_that_is_not_a_number(self):
+        self.named(self.BASE + "operator:\n  path_nm: [[0, -500]]\n  haptic: {force_gain_N_per_nN: lots}\n",
+                   "operator.haptic.force_gain_N_per_nN: must be a number, got 'lots'")
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

@@ -1,0 +1,140 @@
+// Unity tests of objects as whole sets on the bus (common/objects_view):
+// what a publisher sends (only what changed, complete ones first, after a
+// forced one and every KEYFRAME_BLOCKS) read back whole by a reader, with
+// drift moving everything between messages; resends; bad orders.
+#include <unity.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include "objects_view.hpp"
+
+namespace {
+
+afm::particle_t particle(int id, double x, double y)
+{
+    afm::particle_t p{};
+    p.id = id;
+    p.x_nm = x;
+    p.y_nm = y;
+    p.radius_nm = 50;
+    return p;
+}
+
+afm::objects_t whole(int64_t seq, int n)
+{
+    afm::objects_t o{};
+    o.seq = seq;
+    o.complete = true;
+    for (int i = 0; i < n; ++i) o.particles.push_back(particle(i + 1, 100.0 * i, -50.0 * i));
+    o.n_particles = n;
+    afm::wire_t w{};
+    w.id = 7;
+    w.diameter_nm = 100;
+    w.n = 2;
+    w.x_nm = {0, 1000};
+    w.y_nm = {0, 0};
+    o.wires.push_back(w);
+    o.n_wires = 1;
+    return o;
+}
+
+void assert_same(const afm::objects_t &a, const afm::objects_t &b)
+{
+    TEST_ASSERT_EQUAL(a.particles.size(), b.particles.size());
+    for (std::size_t i = 0; i < a.particles.size(); ++i) {
+        TEST_ASSERT_EQUAL_INT(a.particles[i].id, b.particles[i].id);
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, a.particles[i].x_nm, b.particles[i].x_nm);
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, a.particles[i].y_nm, b.particles[i].y_nm);
+        TEST_ASSERT_EQUAL(a.particles[i].in_contact, b.particles[i].in_contact);
+    }
+    TEST_ASSERT_EQUAL(a.wires.size(), b.wires.size());
+    for (std::size_t i = 0; i < a.wires.size(); ++i)
+        for (int k = 0; k < a.wires[i].n; ++k) TEST_ASSERT_DOUBLE_WITHIN(1e-9, a.wires[i].x_nm[k], b.wires[i].x_nm[k]);
+    TEST_ASSERT_DOUBLE_WITHIN(0, a.drift_nm[0], b.drift_nm[0]);
+}
+
+}  // namespace
+
+void setUp() {}
+void tearDown() {}
+
+void test_round_trip_with_moves_and_drift()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 50);
+    std::mt19937_64 gen(12345);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    auto rnd = [&] { return uni(gen); };
+    int complete = 0;
+    std::size_t listed = 0;
+    for (int64_t n = 0; n < 1000; ++n) {
+        w.seq = n;
+        // drift moves everything a little; one particle is pushed
+        const double dx = 0.01 * rnd(), dy = -0.02 * rnd();
+        w.drift_nm[0] += dx;
+        w.drift_nm[1] += dy;
+        for (auto &p : w.particles) p.x_nm += dx, p.y_nm += dy;
+        for (int k = 0; k < 2; ++k) w.wires[0].x_nm[k] += dx, w.wires[0].y_nm[k] += dy;
+        auto &p = w.particles[static_cast<std::size_t>(n / 20 % 50)];
+        p.x_nm += 1.5;
+        p.in_contact = n % 3 == 0;
+        const afm::objects_t m = diff.next(w);
+        complete += m.complete;
+        if (!m.complete) listed += m.particles.size();
+        TEST_ASSERT_TRUE(view.apply(m));
+        assert_same(w, view.whole());
+        // a resend of the same message changes nothing
+        TEST_ASSERT_TRUE(view.apply(m));
+        assert_same(w, view.whole());
+    }
+    TEST_ASSERT_EQUAL_INT(1000 / afm::objects_t::KEYFRAME_BLOCKS, complete);
+    TEST_ASSERT_TRUE(listed <= 990);   // the one pushed, not the fifty drifting
+}
+
+void test_forced_and_count_changes_are_complete()
+{
+    afm::ObjectsDiff diff;
+    afm::objects_t w = whole(0, 3);
+    TEST_ASSERT_TRUE(diff.next(w).complete);
+    w.seq = 1;
+    const afm::objects_t quiet = diff.next(w);
+    TEST_ASSERT_FALSE(quiet.complete);
+    TEST_ASSERT_EQUAL_INT(0, quiet.n_particles);
+    TEST_ASSERT_EQUAL_INT(0, quiet.n_wires);
+    TEST_ASSERT_TRUE(diff.next(w, true).complete);   // a fix's answer
+    w.seq = 2;
+    w.particles.pop_back();
+    w.n_particles = 2;
+    TEST_ASSERT_TRUE(diff.next(w).complete);          // the set changed
+    w.seq = 1;                                        // back in time (a fresh start)
+    TEST_ASSERT_TRUE(diff.next(w).complete);
+}
+
+void test_reader_refuses_what_it_cannot_place()
+{
+    afm::ObjectsView view;
+    afm::objects_t m = whole(5, 3);
+    m.complete = false;
+    TEST_ASSERT_FALSE(view.apply(m));   // changes before any whole set
+    TEST_ASSERT_FALSE(view.ready());
+    m.complete = true;
+    TEST_ASSERT_TRUE(view.apply(m));
+    afm::objects_t odd = whole(6, 0);
+    odd.complete = false;
+    odd.particles.push_back(particle(99, 0, 0));   // an id the set does not hold
+    odd.n_particles = 1;
+    TEST_ASSERT_FALSE(view.apply(odd));
+    TEST_ASSERT_EQUAL_INT(5, static_cast<int>(view.whole().seq));
+}
+
+int main()
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_round_trip_with_moves_and_drift);
+    RUN_TEST(test_forced_and_count_changes_are_complete);
+    RUN_TEST(test_reader_refuses_what_it_cannot_place);
+    return UNITY_END();
+}

@@ -1,0 +1,247 @@
+// Unity tests of the planner's pure parts (host_bridge/planner, pattern):
+// the assignment against brute force on small cases, more sites than
+// particles and the reverse, free and blocked pushes, a site walled in,
+// text rasterised into sites.
+#include <unity.h>
+
+#include "../scene_text.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "pattern.hpp"
+#include "planner.hpp"
+
+namespace {
+
+double dist(afm::Vec2 a, afm::Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+
+// The default geometry: 100 nm particles, a 10 nm tip, no lever constraint.
+const afm::PushGeometry kG{};
+
+struct Rng {   // uniform in [0, 1)
+    std::mt19937_64 g;
+    explicit Rng(uint64_t seed) : g(seed) {}
+    double operator()() { return std::uniform_real_distribution<double>(0.0, 1.0)(g); }
+};
+
+// The least total distance over every way of giving each site its own
+// particle (particles >= sites), by enumeration.
+double brute_force(const std::vector<afm::Vec2> &parts, const std::vector<afm::Vec2> &sites)
+{
+    std::vector<int> idx(parts.size());
+    std::iota(idx.begin(), idx.end(), 0);
+    double best = 1e300;
+    do {
+        double sum = 0;
+        for (std::size_t j = 0; j < sites.size(); ++j) sum += dist(parts[static_cast<std::size_t>(idx[j])], sites[j]);
+        best = std::min(best, sum);
+    } while (std::next_permutation(idx.begin(), idx.end()));
+    return best;
+}
+
+
+}  // namespace
+
+void setUp() {}
+void tearDown() {}
+
+void test_assignment_matches_brute_force()
+{
+    Rng r(99);
+    for (int trial = 0; trial < 60; ++trial) {
+        const int ns = 1 + trial % 5, np = ns + trial % 3;   // up to 7 particles
+        std::vector<afm::Vec2> parts, sites;
+        for (int i = 0; i < np; ++i) parts.push_back({1000 * r(), 1000 * r()});
+        for (int j = 0; j < ns; ++j) sites.push_back({1000 * r(), 1000 * r()});
+        const std::vector<int> a = afm::assign_sites(parts, sites);
+        TEST_ASSERT_EQUAL(sites.size(), a.size());
+        double sum = 0;
+        std::vector<int> used;
+        for (std::size_t j = 0; j < a.size(); ++j) {
+            TEST_ASSERT_TRUE(a[j] >= 0 && a[j] < np);
+            TEST_ASSERT_TRUE(std::find(used.begin(), used.end(), a[j]) == used.end());   // each particle once
+            used.push_back(a[j]);
+            sum += dist(parts[static_cast<std::size_t>(a[j])], sites[j]);
+        }
+        // costs are whole 0.1 nm: within the rounding of each pair
+        TEST_ASSERT_DOUBLE_WITHIN(0.05 * ns + 1e-9, brute_force(parts, sites), sum);
+    }
+}
+
+void test_assignment_is_not_greedy()
+{
+    // Greedy (each site its nearest free particle, in order) takes particle
+    // 0 for site 0 (distance 1) and leaves site 1 the far one (100 + 1):
+    // 102 in all. The optimum crosses over: 2 + 2 = 4.
+    const std::vector<afm::Vec2> parts = {{1, 0}, {-1, 0}};
+    const std::vector<afm::Vec2> sites = {{0, 0}, {-3, 0}};
+    const std::vector<int> a = afm::assign_sites(parts, sites);
+    TEST_ASSERT_EQUAL_INT(0, a[0]);
+    TEST_ASSERT_EQUAL_INT(1, a[1]);
+    const std::vector<afm::Vec2> sites2 = {{0, 0}, {3, 0}};
+    const std::vector<int> b = afm::assign_sites(parts, sites2);
+    TEST_ASSERT_EQUAL_INT(1, b[0]);   // the left particle to the middle, the right one to +3
+    TEST_ASSERT_EQUAL_INT(0, b[1]);
+}
+
+void test_more_sites_than_particles_is_a_clear_error_the_reverse_is_not()
+{
+    const std::vector<afm::Vec2> two = {{0, 0}, {100, 0}}, three = {{0, 0}, {100, 0}, {200, 0}};
+    try {
+        afm::assign_sites(two, three);
+        TEST_FAIL_MESSAGE("3 sites for 2 particles must be refused");
+    } catch (const afm::PlanError &e) {
+        TEST_ASSERT_EQUAL_STRING("3 target sites but only 2 particles: give at most as many sites as particles", e.what());
+    }
+    try {
+        afm::assign_sites(two, {});
+        TEST_FAIL_MESSAGE("no sites must be refused");
+    } catch (const afm::PlanError &e) {
+        TEST_ASSERT_EQUAL_STRING("no target sites to fill", e.what());
+    }
+    // Three particles, two sites: the two nearest serve, the third stays.
+    const std::vector<int> a = afm::assign_sites(three, {{0, 10}, {100, 10}});
+    TEST_ASSERT_EQUAL_INT(0, a[0]);
+    TEST_ASSERT_EQUAL_INT(1, a[1]);
+}
+
+void test_free_push_is_straight()
+{
+    const afm::PushPath p = afm::plan_push({0, 0}, {1000, 0}, kG, {{{500, 400}, 50, 2}});
+    TEST_ASSERT_TRUE(p.ok());
+    TEST_ASSERT_EQUAL(2u, p.legs.size());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 1000, p.length_nm);
+    // No distance to go: a trivial path.
+    TEST_ASSERT_TRUE(afm::plan_push({5, 5}, {5, 5}, kG, {}).ok());
+}
+
+void test_blocked_push_bends_around_the_obstacle()
+{
+    // A particle on the line: the straight push would sweep it.
+    const std::vector<afm::Disc> obs = {{{500, 0}, 50, 2}};
+    const afm::PushPath p = afm::plan_push({0, 0}, {1000, 0}, kG, obs);
+    TEST_ASSERT_TRUE(p.ok());
+    TEST_ASSERT_EQUAL(3u, p.legs.size());
+    TEST_ASSERT_TRUE(p.length_nm > 1000);
+    // Each leg keeps the particle 50 + 50 + 40 nm from the obstacle's centre.
+    for (std::size_t k = 1; k < p.legs.size(); ++k) {
+        const afm::Vec2 a = p.legs[k - 1], b = p.legs[k];
+        for (int i = 0; i <= 100; ++i) {
+            const afm::Vec2 q{a.x + (b.x - a.x) * i / 100.0, a.y + (b.y - a.y) * i / 100.0};
+            TEST_ASSERT_TRUE(dist(q, obs[0].c) >= 140 - 1e-9);
+        }
+    }
+}
+
+void test_a_walled_in_site_has_no_free_push()
+{
+    // Eight particles in a ring of radius 160 nm around the site: no way in
+    // (the gaps are 25 nm, the particle 100 nm across).
+    std::vector<afm::Disc> ring;
+    for (int k = 0; k < 8; ++k) ring.push_back({{160 * std::cos(k * M_PI / 4), 160 * std::sin(k * M_PI / 4)}, 50, k + 10});
+    const afm::PushPath p = afm::plan_push({2000, 0}, {0, 0}, kG, ring);
+    TEST_ASSERT_FALSE(p.ok());
+    // With the ring's near side open (three removed) it is reachable.
+    std::vector<afm::Disc> open = {ring[2], ring[3], ring[4], ring[5], ring[6]};
+    TEST_ASSERT_TRUE(afm::plan_push({2000, 0}, {0, 0}, kG, open).ok());
+}
+
+void test_no_leg_runs_along_the_lever()
+{
+    // The lever along x, 25 deg kept clear: a push along x becomes a zigzag
+    // of two legs at 30 deg either side; one across the lever stays straight.
+    afm::PushGeometry g;
+    g.min_lever_angle_deg = 25;
+    const afm::PushPath p = afm::plan_push({0, 0}, {1000, 0}, g, {});
+    TEST_ASSERT_TRUE(p.ok());
+    TEST_ASSERT_EQUAL(3u, p.legs.size());
+    for (std::size_t k = 1; k < p.legs.size(); ++k) {
+        const double dx = p.legs[k].x - p.legs[k - 1].x, dy = p.legs[k].y - p.legs[k - 1].y;
+        const double angle = std::atan2(std::fabs(dy), std::fabs(dx)) * 180 / M_PI;
+        TEST_ASSERT_DOUBLE_WITHIN(1e-6, 30.0, angle);
+    }
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 1000 / std::cos(M_PI / 6), p.length_nm);
+    TEST_ASSERT_EQUAL(2u, afm::plan_push({0, 0}, {300, 1000}, g, {}).legs.size());
+    // At scan angle 300 deg the lever's axis is turned by 30 deg.
+    g.lever_axis = {std::cos(M_PI / 6), std::sin(M_PI / 6)};
+    TEST_ASSERT_EQUAL(3u, afm::plan_push({0, 0}, {866, 500}, g, {}).legs.size());
+    TEST_ASSERT_EQUAL(2u, afm::plan_push({0, 0}, {1000, 0}, g, {}).legs.size());
+}
+
+void test_assembly_order_keeps_every_site_reachable()
+{
+    // A filled 5 x 5 block of sites 150 nm apart (particles 100 nm): placed
+    // from the outside in, the middle would be walled in. The order places
+    // each site while it can still be reached, checked by replaying it.
+    std::vector<afm::Vec2> sites;
+    for (int i = 0; i < 5; ++i)
+        for (int j = 0; j < 5; ++j) sites.push_back({150.0 * i, 150.0 * j});
+    afm::PushGeometry g;
+    g.clearance_nm = 20;
+    const std::vector<int> order = afm::assembly_order(sites, g);
+    TEST_ASSERT_EQUAL(sites.size(), order.size());
+    std::vector<afm::Disc> placed;
+    for (int j : order) {
+        bool reachable = false;
+        for (int k = 0; k < 16 && !reachable; ++k) {
+            const afm::Vec2 from{sites[j].x + 800 * std::cos(k * M_PI / 8), sites[j].y + 800 * std::sin(k * M_PI / 8)};
+            const afm::PushPath p = afm::plan_push(from, sites[j], g, placed);
+            reachable = p.ok() && p.legs.size() == 2;
+        }
+        TEST_ASSERT_TRUE_MESSAGE(reachable, "a site walled in when its turn came");
+        placed.push_back({sites[j], 50, j});
+    }
+    // Outside in would fail: the centre last is walled in.
+    std::vector<afm::Disc> ring;
+    for (int j = 0; j < 25; ++j)
+        if (j != 12) ring.push_back({sites[j], 50, j});
+    TEST_ASSERT_FALSE(afm::plan_push({2000, 300}, sites[12], g, ring).ok());
+}
+
+void test_text_is_rasterised_into_rows_of_sites()
+{
+    const std::string base = "name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 10000}\n"
+                              "objects:\n  scatter: {count: 200, radius_nm: 50, min_gap_nm: 100}\n";
+    const afm::Scene s = scene_from_text(base + "  targets: {text: \"I\", pitch_nm: 250, height_nm: 2500}\noperator:\n  plan: {}\n");
+    const std::vector<afm::Vec2> sites = afm::target_sites(s);
+    // An I: one column of sites (about height / pitch of them), all on the pitch grid.
+    TEST_ASSERT_TRUE(sites.size() >= 8 && sites.size() <= 12);
+    for (const auto &v : sites) {
+        TEST_ASSERT_DOUBLE_WITHIN(1e-6, sites[0].x, v.x);
+        const double k = (v.y - sites[0].y) / 250;
+        TEST_ASSERT_DOUBLE_WITHIN(1e-6, std::round(k), k);
+    }
+    // Off the field: named.
+    try {
+        afm::target_sites(scene_from_text(base + "  targets: {text: \"WWWWWW\", pitch_nm: 250, height_nm: 5000}\noperator:\n  plan: {}\n"));
+        TEST_FAIL_MESSAGE("a pattern larger than the field must be refused");
+    } catch (const afm::PatternError &e) {
+        TEST_ASSERT_TRUE(std::string(e.what()).find("objects.targets.text: a site at") != std::string::npos);
+    }
+    // More sites than particles: the launcher's refusal names both counts.
+    const std::string why = afm::targets_refusal(scene_from_text(
+        "name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 10000}\nobjects:\n  scatter: {count: 5}\n"
+        "  targets: {text: \"H\", pitch_nm: 250, height_nm: 2500}\noperator:\n  plan: {}\n"));
+    TEST_ASSERT_TRUE(why.find("sites but the scene has only 5 particles") != std::string::npos);
+}
+
+int main()
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_assignment_matches_brute_force);
+    RUN_TEST(test_assignment_is_not_greedy);
+    RUN_TEST(test_more_sites_than_particles_is_a_clear_error_the_reverse_is_not);
+    RUN_TEST(test_free_push_is_straight);
+    RUN_TEST(test_blocked_push_bends_around_the_obstacle);
+    RUN_TEST(test_a_walled_in_site_has_no_free_push);
+    RUN_TEST(test_no_leg_runs_along_the_lever);
+    RUN_TEST(test_assembly_order_keeps_every_site_reachable);
+    RUN_TEST(test_text_is_rasterised_into_rows_of_sites);
+    return UNITY_END();
+}
