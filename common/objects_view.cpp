@@ -41,6 +41,8 @@ objects_t ObjectsDiff::next(const objects_t &whole, bool force_complete)
     objects_t m = whole;
     m.complete = force_complete || !have_last_ || !same_ids(last_, whole) ||
                  whole.seq - last_complete_seq_ >= objects_t::KEYFRAME_BLOCKS || whole.seq < last_complete_seq_;
+    m.base_seq = last_.seq;
+    m.base_fix_id = last_.fix_id;
     if (!m.complete) {
         const double dx = whole.drift_nm[0] - last_.drift_nm[0], dy = whole.drift_nm[1] - last_.drift_nm[1];
         m.particles.clear();
@@ -61,12 +63,18 @@ objects_t ObjectsDiff::next(const objects_t &whole, bool force_complete)
 
 bool ObjectsView::apply(const objects_t &m)
 {
+    // A resend of the message last applied, or of an older one: nothing new.
+    if (ready_ && (m.seq < whole_.seq || (m.seq == whole_.seq && m.fix_id <= whole_.fix_id))) return true;
     if (m.complete) {
         whole_ = m;
         ready_ = true;
         return true;
     }
     if (!ready_) return false;
+    if (m.base_seq != whole_.seq || m.base_fix_id != whole_.fix_id) {
+        ready_ = false;   // one was missed: not whole until the next complete message
+        return false;
+    }
     // Every listed object must be one the set holds.
     for (const auto &p : m.particles) {
         bool known = false;

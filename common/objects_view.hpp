@@ -28,7 +28,11 @@ private:
 class ObjectsView {
 public:
     // Applies a message. A changes-only message before any complete one,
-    // or naming an object the set does not hold, is not applied: false.
+    // naming an object the set does not hold, or following a message this
+    // reader does not hold (one was missed: base_seq, base_fix_id), is not
+    // applied: false, and after a missed one the reader is not ready until
+    // the next complete message. A resend of the message last applied (or
+    // of an older one) changes nothing and is taken as applied.
     bool apply(const objects_t &m);
     bool ready() const { return ready_; }
     const objects_t &whole() const { return whole_; }   // complete, in the publisher's order

@@ -301,7 +301,9 @@ void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
     c.radius_nm = r.num(n, k, "radius_nm", &d.radius_nm, 0, 5000, true);
     c.min_gap_nm = r.num(n, k, "min_gap_nm", &d.min_gap_nm, 0, 1e5);
     const double seed_d = 1;
-    c.seed = static_cast<uint64_t>(r.num(n, k, "seed", &seed_d, 0, 9.007199254740992e15));
+    const double seed = r.num(n, k, "seed", &seed_d, 0, 9.007199254740992e15);
+    if (seed != std::floor(seed)) r.fail(k + ".seed", "must be a non-negative integer, got " + Reader::show(n["seed"]));
+    c.seed = static_cast<uint64_t>(seed);
     const double half = s.field_nm / 2;
     YAML::Node reg = n["region_nm"];
     if (!reg.IsDefined()) {
@@ -333,6 +335,12 @@ void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
             const double y = c.lo_nm.y + c.radius_nm + unit() * (c.hi_nm.y - c.lo_nm.y - 2 * c.radius_nm);
             placed = std::all_of(s.particles.begin(), s.particles.end(), [&](const ParticleSpec &o) {
                 return std::hypot(o.x_nm - x, o.y_nm - y) >= o.radius_nm + c.radius_nm + c.min_gap_nm;
+            }) && std::all_of(s.wires.begin(), s.wires.end(), [&](const WireSpec &w) {
+                const double ax = w.x1_nm - w.x0_nm, ay = w.y1_nm - w.y0_nm, l2 = ax * ax + ay * ay;
+                const double t = std::clamp(((x - w.x0_nm) * ax + (y - w.y0_nm) * ay) / l2, 0.0, 1.0);
+                return std::hypot(x - w.x0_nm - t * ax, y - w.y0_nm - t * ay) >= w.diameter_nm / 2 + c.radius_nm + c.min_gap_nm;
+            }) && std::all_of(s.landmarks.begin(), s.landmarks.end(), [&](const LandmarkSpec &m) {
+                return std::hypot(m.x_nm - x, m.y_nm - y) >= m.side_nm * M_SQRT1_2 + c.radius_nm + c.min_gap_nm;
             });
             if (placed) s.particles.push_back({next_id++, x, y, c.radius_nm});
         }
@@ -387,7 +395,11 @@ void read_wire_targets(const Reader &r, const YAML::Node &n, Scene &s)
         const std::string p = k + "[" + std::to_string(i) + "]";
         r.only_keys(n[i], p, {"id", "x_nm", "y_nm", "angle_deg"});
         WireTargetSpec w;
-        w.id = static_cast<int>(r.num(n[i], p, "id", nullptr, 0, 1e6));
+        const double id = r.num(n[i], p, "id", nullptr, 0, 1e6);
+        if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(n[i]["id"]));
+        w.id = static_cast<int>(id);
+        for (const auto &o : s.wire_targets)
+            if (o.id == w.id) r.fail(p + ".id", "a second target for wire " + Reader::show(n[i]["id"]));
         w.x_nm = r.num(n[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
         w.y_nm = r.num(n[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
         w.angle_deg = r.num(n[i], p, "angle_deg", nullptr, -360, 360);
@@ -552,9 +564,6 @@ void check_plan(const Reader &r, const Scene &s)
     if (!s.op.cantilever_changes.empty())
         r.fail("operator.cantilever_changes", "not supported with operator.plan");
     if (s.op.mode != "script") r.fail("operator.mode", "the planner drives the hand: drop operator.mode with operator.plan");
-    if (!s.targets.sites_nm.empty() && s.targets.sites_nm.size() > s.particles.size())
-        r.fail("objects.targets", std::to_string(s.targets.sites_nm.size()) + " targets but only " + std::to_string(s.particles.size()) +
-                                      " particles: give at most as many targets as particles");
 }
 
 // operator: the scripted hand (path, load, local scans, lever changes), the

@@ -53,9 +53,10 @@ struct ContactSpec {                    // friction and adhesion of a material p
 struct ParticleSpec { int id = 0; double x_nm = 0, y_nm = 0, radius_nm = 50; };
 
 // Particles scattered at random (objects.scatter): count of them in a
-// rectangle, no two closer than min_gap_nm surface to surface; the ids
-// follow the listed particles'. Drawn with the bench's own generator
-// (scene.cpp), the same on every machine.
+// rectangle, no two closer than min_gap_nm surface to surface (nor that
+// close to a wire or a landmark); the ids follow the listed particles' and
+// landmarks'. Drawn with the bench's own generator (scene.cpp), the same
+// on every machine.
 struct ScatterSpec {
     int count = 0;
     double radius_nm = 50;

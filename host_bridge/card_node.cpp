@@ -38,8 +38,10 @@ Outbox CardNode::on_analog(const analog_block_t &b)
         step(box);
     } else if (again || done_ < 0) {
         // no pose for this block yet, and a resend (or the first block):
-        // ask the operator for it with the force it answers
+        // ask the operator for it with the force it answers, and the
+        // objects of that block (an operator that steers on them waits for them)
         post(box, AFM_CH_HAPTIC_FORCE, haptic_, haptic_.seq);
+        if (done_ >= 0) post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
     }
     return box;
 }

@@ -56,7 +56,7 @@ const char *kUsage =
     "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
-    "  --quiet            no progress line\n";
+    "  --quiet            no progress line (with --check: no warnings, only refusals)\n";
 
 struct Child {
     std::string name;
@@ -259,9 +259,17 @@ public:
             return 2;
         }
         // The force loop's stability bound (haptic.hpp) and the planner's targets.
-        if (const std::string why = afm::haptic_refusal(scene_, afm::CardSetup(scene_).config()); !why.empty()) {
+        const afm::CardSetup card(scene_);
+        if (const std::string why = afm::haptic_refusal(scene_, card.config()); !why.empty()) {
             std::fprintf(stderr, "%s: %s\n", o_.scene_path.c_str(), why.c_str());
             return 2;
+        }
+        if (!scene_.op.plan.enabled && !scene_.op.haptic.passivity_check && !(o_.check_only && o_.quiet)) {
+            const afm::HapticBound b = afm::haptic_bound(scene_, card.config());
+            if (!b.passive || !b.within_device)
+                std::fprintf(stderr, "%s: warning: the force loop is outside its stability bound (K_r %.0f N/m, K_max %.0f N/m, the device's "
+                             "limit %.0f N/m) and operator.haptic.passivity_check is false: the device's passivity controller will clamp it\n",
+                             o_.scene_path.c_str(), b.rendered_N_per_m, b.max_rendered_N_per_m, scene_.op.haptic.max_stiffness_N_per_m);
         }
         if (scene_.op.plan.enabled) {
             if (const std::string why = afm::targets_refusal(scene_); !why.empty()) {
@@ -622,6 +630,14 @@ private:
     // fresh scan (fidelity.json "placement"), as run.json holds them.
     static void print_plan(const nlohmann::json &run)
     {
+        if (run.contains("operator") && run["operator"].contains("haptic")) {
+            const auto &h = run["operator"]["haptic"];
+            std::printf("run: haptic: gain %.3f N/nN, K_r %.0f N/m against the bound %.0f N/m (%s); the passivity controller acted in %ld "
+                        "blocks, %.3g J; %zu contacts felt\n",
+                        h.value("gain_N_per_nN", 0.0), h.value("rendered_stiffness_N_per_m", 0.0), h.value("passivity_bound_N_per_m", 0.0),
+                        h.value("passive", false) ? "inside" : "OUTSIDE", h.value("controller_blocks", 0L), h.value("controller_energy_J", 0.0),
+                        run["operator"].contains("contacts_felt") ? run["operator"]["contacts_felt"].size() : std::size_t{0});
+        }
         if (!run.contains("operator") || !run["operator"].contains("plan")) return;
         const auto &p = run["operator"]["plan"];
         const double done_s = p["finished_sim_s"].is_number() ? p["finished_sim_s"].get<double>() : -1;
@@ -639,10 +655,12 @@ private:
                         q.value("worst_nm", 0.0), q.value("rms_nm", 0.0));
         }
         if (pl.contains("rods"))
-            for (const auto &r : pl["rods"])
-                std::printf("run: placement (a fresh scan): rod %d %s, ends within %s nm\n", r.value("id", 0),
-                            r.value("placed", false) ? "on its target" : "OFF its target",
-                            r["error_nm"].is_number() ? std::to_string(r["error_nm"].get<double>()).c_str() : "(not found)");
+            for (const auto &r : pl["rods"]) {
+                char err[64] = "not found in the scan";
+                if (r["error_nm"].is_number()) std::snprintf(err, sizeof err, "ends within %.1f nm", r["error_nm"].get<double>());
+                std::printf("run: placement (a fresh scan): rod %d %s (tolerance %.0f nm), %s\n", r.value("id", 0),
+                            r.value("placed", false) ? "on its target" : "OFF its target", r.value("tolerance_nm", 0.0), err);
+            }
     }
 
     // Each process's own report, under its name.

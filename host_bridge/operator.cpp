@@ -51,6 +51,8 @@ const char *kUsage =
 constexpr int kScanReqBase = 10000;   // the planner's scans (the renderer's are below)
 constexpr int kFixRetryMs = 200;
 constexpr int kScanRetryMs = 300;
+constexpr int kFinishedRepeatMs = 200;
+constexpr double kPm_nm = 0.0015;       // the card holds positions in whole pm: a position it set is the asked one within this
 
 // The planner's side of the turns: it blocks in each call until the bus
 // side has served it; the bus side serves one request at a time.
@@ -123,7 +125,11 @@ public:
     int fix_object() const { return fix_id_; }
     afm::Vec2 fix_at() const { return fix_at_; }
     bool fix_place() const { return fix_place_; }
-    std::exception_ptr error() const { return error_; }
+    std::exception_ptr error()
+    {
+        std::lock_guard<std::mutex> lk(m_);
+        return error_;
+    }
 
 private:
     void ask(std::unique_lock<std::mutex> &lk, Req r)
@@ -176,6 +182,9 @@ struct Operator {
     afm::ScanClient scan;
     int scans = 0, fixes_sent = 0;
     bool plan_done = false;
+    int64_t finished_seq = -1;       // the block whose force the planner finished on
+    bool ending_seen = false;        // the simulator said the run ends
+    std::chrono::steady_clock::time_point finished_sent;
     afm::PlanPose hold_pose;
 
     Operator(const afm::Scene &s, lcm::LCM &l)
@@ -215,6 +224,16 @@ struct Operator {
     void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
     {
         if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
+        if (m->name == "sim_afm" && m->state == "ending") ending_seen = true;
+    }
+
+    // The planner's "finished", again until the simulator says the run ends.
+    void repeat_finished()
+    {
+        if (!plan_done || ending_seen || finished_seq < 0) return;
+        if (std::chrono::steady_clock::now() - finished_sent < std::chrono::milliseconds(kFinishedRepeatMs)) return;
+        hb.send("finished", finished_seq, afm::block_end_utime(scene, finished_seq));
+        finished_sent = std::chrono::steady_clock::now();
     }
 
     void publish_pose(afm::Vec2 joy, bool engaged)
@@ -279,9 +298,9 @@ struct Operator {
     {
         count_force();
         const int64_t n = force.seq;
-        if (n >= 0) {
+        if (n >= 0 && !plan_done) {
             if (!pump_until([&] { return have_objects && objects.seq >= n; })) return;
-            if (!plan_done) bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6);
+            bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6);
         }
         while (!plan_done) {
             const TurnBench::Req r = bench.next(50);
@@ -298,7 +317,7 @@ struct Operator {
             if (r == TurnBench::Req::Scan) {
                 const afm::Field f = bench.field();
                 afm::ScanRegion reg{f.x0_nm, f.y0_nm, f.size_nm, f.size_nm, f.px, f.px};
-                scan.start(kScanReqBase + ++scans, reg);
+                scan.start(kScanReqBase + ++scans, reg, n + 1);   // the sample as the simulator holds it after block n + 1
                 if (!pump_until([&] { return !scan.busy(); }, &Operator::retry_scan)) return;
                 bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6, &scan.heights());
                 continue;
@@ -308,7 +327,9 @@ struct Operator {
                 continue;
             }
             plan_done = true;   // Done or Failed
+            finished_seq = n;
             hb.send("finished", n, afm::block_end_utime(scene, n));   // the simulator ends the run soon after (before the pose)
+            finished_sent = std::chrono::steady_clock::now();
         }
         publish_pose(joy_of(hold_pose.tip_nm), false);
     }
@@ -323,7 +344,6 @@ struct Operator {
         f.scan_x_nm = bench.fix_at().x;
         f.scan_y_nm = bench.fix_at().y;
         f.kind = bench.fix_place() ? afm::object_fix_t::KIND_PLACE : afm::object_fix_t::KIND_DRIFT;
-        const afm::objects_t before = objects;
         auto sent = std::chrono::steady_clock::now();
         lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
         const bool ok = pump_until([&] {
@@ -335,11 +355,12 @@ struct Operator {
             return false;
         });
         if (!ok) return false;
-        // The card's answer is its model: unchanged means it refused.
-        bool moved = objects.drift_nm[0] != before.drift_nm[0] || objects.drift_nm[1] != before.drift_nm[1];
-        for (std::size_t i = 0; i < objects.particles.size() && i < before.particles.size(); ++i)
-            moved = moved || objects.particles[i].x_nm != before.particles[i].x_nm || objects.particles[i].y_nm != before.particles[i].y_nm;
-        bench.answer(objects, afm::block_end_utime(scene, force.seq) * 1e-6, nullptr, moved ? "" : "refused: beyond the firmware's limit");
+        // The card's answer is its model: a fix it applied (drift or place)
+        // leaves that particle where the scan found it, to the pm.
+        bool applied = false;
+        for (const auto &p : objects.particles)
+            if (p.id == f.object_id) applied = std::fabs(p.x_nm - f.scan_x_nm) <= kPm_nm && std::fabs(p.y_nm - f.scan_y_nm) <= kPm_nm;
+        bench.answer(objects, afm::block_end_utime(scene, force.seq) * 1e-6, nullptr, applied ? "" : "refused: beyond the firmware's limit");
         return true;
     }
 };
@@ -356,7 +377,7 @@ nlohmann::json plan_json(const afm::Planner &p)
         if (i.kind == "wire") j["target_angle_deg"] = i.target_angle_deg;
         if (!i.why.empty()) j["why"] = i.why;
         items.push_back(j);
-        if (i.kind == "particle" && i.why != "a spare particle on a site: pushed aside") {
+        if (i.kind == "particle") {
             ++particles;
             placed += i.placed;
         }
@@ -397,7 +418,11 @@ void write_report(const Operator &op, const afm::Planner *planner, const afm::Sc
                          {"controller_blocks", op.device.controller_blocks()},
                          {"observed_energy_J", op.device.observed_energy_J()},
                          {"workspace_edge_blocks", op.device.edge_blocks()},
-                         {"peak_stylus_speed_m_per_s", op.peak_speed_m_per_s}};
+                         {"peak_stylus_speed_m_per_s", op.peak_speed_m_per_s},
+                         {"device_damping_Ns_per_m", scene.op.haptic.damping_Ns_per_m},
+                         {"hand", {{"stiffness_N_per_m", scene.op.hand.stiffness_N_per_m},
+                                   {"damping_Ns_per_m", scene.op.hand.damping_Ns_per_m},
+                                   {"mass_kg", scene.op.hand.mass_kg}}}};
         nlohmann::json contacts = nlohmann::json::array();
         for (const auto &c : op.script.contacts())
             contacts.push_back({{"t_s", c.t_s}, {"aim_nm", {c.aim_nm.x, c.aim_nm.y}}, {"force_N", c.force_N}, {"stroke", c.stroke}});
@@ -454,6 +479,7 @@ int main(int argc, char **argv)
         }
         while (!op.sim_done) {
             op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0, op.answered < -1 ? 200000 : 1000000);
+            op.repeat_finished();
             lc->handleTimeout(op.have_force ? 0 : 100);
             if (!op.have_force) continue;
             if (planner) op.answer_by_planner(bench);

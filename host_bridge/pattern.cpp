@@ -3,6 +3,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -10,7 +11,7 @@ namespace afm {
 
 namespace {
 
-constexpr int kPxPerPitch = 16;   // rasterisation: pixels per pitch
+constexpr int kPxPerPitch = 16;   // a PNG mask's rasterisation: pixels per pitch
 
 // Sites from a coverage image (1 = pattern) whose pixel is pitch / kPxPerPitch
 // nm: one per grid cell covered at least half; the image's centre at `c`.
@@ -90,10 +91,23 @@ std::string targets_refusal(const Scene &s)
         const std::vector<Vec2> sites = target_sites(s);
         if (sites.size() > s.particles.size()) {
             std::ostringstream m;
-            m << s.file << ": objects.targets: the pattern has " << sites.size() << " sites but the scene has only " << s.particles.size()
-              << " particles: give more particles (objects.scatter.count) or a smaller pattern";
+            m << s.file << ": objects.targets: " << sites.size() << " sites but the scene has only " << s.particles.size()
+              << " particles: give more particles (objects.scatter.count) or fewer sites";
             return m.str();
         }
+        // Two sites closer than a particle's diameter and the clearance cannot both hold one.
+        double r = 0;
+        for (const auto &p : s.particles) r = std::max(r, p.radius_nm);
+        const double need = 2 * r + s.op.plan.clearance_nm;
+        for (std::size_t i = 0; i < sites.size(); ++i)
+            for (std::size_t j = i + 1; j < sites.size(); ++j)
+                if (std::hypot(sites[i].x - sites[j].x, sites[i].y - sites[j].y) < need) {
+                    std::ostringstream m;
+                    m << s.file << ": objects.targets: the sites (" << sites[i].x << ", " << sites[i].y << ") and (" << sites[j].x << ", "
+                      << sites[j].y << ") nm are closer than a particle's diameter and operator.plan.clearance_nm (" << need
+                      << " nm): give a larger pitch_nm";
+                    return m.str();
+                }
     } catch (const PatternError &e) {
         return e.what();
     }

@@ -1,13 +1,14 @@
 // The planner's target sites (objects.targets): a list of positions, or a
 // text or a PNG mask rasterised into sites at a pitch.
 //
-// Text: OpenCV's Hershey simplex font, drawn with strokes one pitch thick
-// at 16 pixels per pitch, the letters height_nm tall (the cap height),
-// centred on center_nm; a site is put at every node of a square grid of
-// the pitch whose cell the strokes cover by at least half. PNG: the mask
-// (dark pixels, below half grey, are the pattern) scaled to height_nm tall,
-// its aspect kept, centred on center_nm, sampled the same way. Sites
-// outside the field are an error, as are no sites at all.
+// Text: OpenCV's Hershey simplex font drawn one pixel per site (a pixel is
+// pitch_nm), one pixel thick, the letters height_nm tall (the cap height),
+// centred on center_nm: the strokes are rows and columns of sites, as a
+// dot-matrix display draws letters. PNG: the mask (dark pixels, below half
+// grey, are the pattern) scaled to height_nm tall, its aspect kept,
+// centred on center_nm, at 16 pixels per pitch; a site at every node of a
+// square grid of the pitch whose cell the mask covers by at least half.
+// Sites outside the field are an error, as are no sites at all.
 #pragma once
 
 #include <stdexcept>

@@ -1,6 +1,7 @@
 #include "planner.hpp"
 
 extern "C" {
+#include "fw_board.h"
 #include "fw_units.h"
 #include "fw_wire.h"
 }
@@ -218,9 +219,7 @@ struct Planner::Job {
 
 Planner::Planner(const Scene &s) : s_(s), sites_(target_sites(s)), stroke_nm_(kStrokeStart_nm)
 {
-    if (!sites_.empty() && sites_.size() > s.particles.size())
-        throw PlanError(s.file + ": objects.targets: " + std::to_string(sites_.size()) + " sites but only " +
-                        std::to_string(s.particles.size()) + " particles");
+    if (const std::string why = targets_refusal(s); !why.empty()) throw PlanError(why);
 }
 
 Vec2 Planner::drift() const { return {model_->drift_nm[0], model_->drift_nm[1]}; }
@@ -239,10 +238,10 @@ PushGeometry Planner::geometry(double r) const
     g.tip_r = s_.probe.tip_radius_nm;
     g.approach_nm = s_.op.plan.approach_nm;
     g.clearance_nm = s_.op.plan.clearance_nm;
-    // The lever's axis x_C in frame A: turned by the scan angle from 270 deg
-    // (there frames C and A coincide).
-    const double a = (s_.probe.scan_angle_deg - 270.0) * kPi / 180;
-    g.lever_axis = {std::cos(a), std::sin(a)};
+    // The lever's axis x_C in frame A, as the firmware turns it.
+    q30_t axis[2];
+    fw_board_lever_axis_q30(fwu_mdeg_from_deg(s_.probe.scan_angle_deg), axis);
+    g.lever_axis = {fwu_from_q30(axis[0]), fwu_from_q30(axis[1])};
     g.min_lever_angle_deg = kMinLeverAngle_deg;
     return g;
 }
@@ -253,6 +252,13 @@ std::vector<Disc> Planner::obstacles(int except_id) const
     const Vec2 d = drift();
     for (const auto &p : model_->particles)
         if (p.id != except_id) out.push_back({Vec2{p.x_nm, p.y_nm} - d, p.radius_nm, p.id});
+    // A rod: discs of its radius along its axis, half a diameter apart.
+    for (const auto &w : model_->wires)
+        for (int i = 0; i + 1 < w.n; ++i) {
+            const Vec2 a = Vec2{w.x_nm[i], w.y_nm[i]} - d, b = Vec2{w.x_nm[i + 1], w.y_nm[i + 1]} - d;
+            const int k = std::max(1, static_cast<int>(std::ceil(norm(b - a) / (w.diameter_nm / 2))));
+            for (int j = 0; j <= k; ++j) out.push_back({a + (static_cast<double>(j) / k) * (b - a), w.diameter_nm / 2, -w.id});
+        }
     return out;
 }
 
@@ -309,12 +315,13 @@ bool Planner::scan_at(int id, Vec2 around, Vec2 *found)
     return false;
 }
 
-void Planner::send_fix(int id, Vec2 at, bool place)
+bool Planner::send_fix(int id, Vec2 at, bool place)
 {
     std::string note;
     model_ = &bench_->fix(id, at, place, &note);
     if (note.empty()) ++rep_.fixes;
     else ++rep_.fixes_refused;
+    return note.empty();
 }
 
 bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
@@ -322,10 +329,7 @@ bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
     if (!scan_at(id, around, found)) return false;
     const particle_t *p = particle(id);
     const Vec2 off = *found - Vec2{p->x_nm, p->y_nm};
-    if (place) {
-        send_fix(id, *found, true);
-        return true;
-    }
+    if (place) return send_fix(id, *found, true);
     // Drift, or was it disturbed? Within the scan's own scatter: neither.
     // Otherwise the nearest other particle is scanned too: found off by the
     // same it is drift (every model moves); if not, the particles were
@@ -340,14 +344,11 @@ bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
     const Vec2 ref_model = ref ? Vec2{ref->x_nm, ref->y_nm} : Vec2{};
     const Vec2 here = *found;
     if (ref) travel(ref_model, false, s_.op.plan.travel_speed_nm_per_s);
-    if (ref && scan_at(ref_id, ref_model, &ref_at) && norm((ref_at - ref_model) - off) < kDriftDeadband_nm) {
-        send_fix(id, here, false);
-        return true;
-    }
+    const bool ref_found = ref && scan_at(ref_id, ref_model, &ref_at);
+    if (ref_found && norm((ref_at - ref_model) - off) < kDriftDeadband_nm) return send_fix(id, here, false);
     ++rep_.disturbed;
-    send_fix(id, here, true);
-    if (ref && norm(ref_at - ref_model) >= kDriftDeadband_nm) send_fix(ref_id, ref_at, true);
-    return true;
+    if (ref_found && norm(ref_at - ref_model) >= kDriftDeadband_nm) send_fix(ref_id, ref_at, true);
+    return send_fix(id, here, true);
 }
 
 bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
@@ -461,9 +462,14 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
         check_disturbed(before, item.id);
         // The check: a scan where the model has it; the model goes where it shows.
         const particle_t *q = particle(item.id);
+        if (!q) {
+            item.why = "not in the firmware's model";
+            return;
+        }
         const Vec2 model{q->x_nm, q->y_nm};
         if (!locate(item, true, &at)) {
-            item.why = "lost: not found near its model after a push";
+            // not found, or found further from its model than the card accepts
+            item.why = "lost: not found near its model after a push (or further off than the firmware accepts)";
             return;
         }
         // How far the model strayed over this stroke sets the next one's length.
@@ -484,7 +490,8 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
     }
     std::ostringstream m;
     m.precision(3);
-    m << "off its site by " << item.error_nm << " nm after " << attempts << " pushes onto it";
+    if (attempts == 0) m << "not at its site after " << kMaxStrokes << " strokes";
+    else m << "off its site by " << item.error_nm << " nm after " << attempts << " pushes onto it";
     item.why = m.str();
 }
 
@@ -517,15 +524,14 @@ void Planner::clear_blockers(const std::vector<int> &assigned)
         }
         to.x = std::clamp(to.x, s_.field_center_nm.x - half + need, s_.field_center_nm.x + half - need);
         to.y = std::clamp(to.y, s_.field_center_nm.y - half + need, s_.field_center_nm.y + half - need);
+        // Pushed there as any particle to its site (free paths, strokes, scans).
         PlanItem item;
-        item.kind = "particle";
+        item.kind = "spare";
         item.id = p.id;
         item.target_nm = to;
         ++rep_.cleared;
-        ++item.pushes;
-        ++rep_.pushes;
-        push_leg(p.id, to + drift(), false);
-        item.why = "a spare particle on a site: pushed aside";
+        place_particle(item, to);
+        if (item.placed) item.why = "a spare particle on a site: pushed aside";
         rep_.items.push_back(item);
     }
 }
@@ -642,8 +648,11 @@ void Planner::run_wires()
             const Vec2 T = item.target_nm + drift();
             const Vec2 As = T - (L / 2) * ta, Bs = T + (L / 2) * ta;
             item.error_nm = std::max(norm(As - A), norm(Bs - B));
-            if (item.error_nm <= ps.wire_tolerance_nm) {
-                item.placed = true;
+            if (item.error_nm <= ps.wire_tolerance_nm) break;
+            // Pushed along its normal: along the lever's axis the firmware
+            // cannot see the push (F_x unobservable) and its model stays.
+            if (std::fabs(dot(n, geometry(w->diameter_nm / 2).lever_axis)) > std::cos(kMinLeverAngle_deg * kPi / 180)) {
+                item.why = "its normal lies along the lever's axis, where the firmware cannot see a push: turn it first or change the scan angle";
                 break;
             }
             if (item.pushes >= max_pushes) {
@@ -691,7 +700,41 @@ void Planner::run_wires()
             ++rep_.pushes;
             push_wire_end(t.id, at_b, dn);
         }
+        if (item.why.empty()) check_rod_by_scan(item, t);
         rep_.items.push_back(item);
+    }
+}
+
+void Planner::check_rod_by_scan(PlanItem &item, const WireTargetSpec &t)
+{
+    // The rod's model is on target: a scan of the target's square says
+    // whether the rod is (its pose as the renderer's final check finds it).
+    const PlanSpec &ps = s_.op.plan;
+    double length = 0, d = 0;
+    for (const auto &w : s_.wires)
+        if (w.id == t.id) length = std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm), d = w.diameter_nm;
+    const Vec2 T = item.target_nm + drift();
+    const double size = length + 2 * ps.scan_size_nm;
+    const int px = static_cast<int>(std::lround(ps.scan_px * size / ps.scan_size_nm));
+    const Field f{T.x - size / 2, T.y - size / 2, size, px};
+    if (engaged_) travel(tip_, false, ps.travel_speed_nm_per_s);
+    const cv::Mat h = bench_->scan(f);
+    ++rep_.local_scans;
+    ++item.scans;
+    wait_s(ps.scan_s * size / ps.scan_size_nm);
+    const TipShape tip = s_.has_effect("tip_convolution") ? TipShape{s_.probe.tip_radius_nm, s_.probe.tip_half_angle_deg} : TipShape{};
+    const RodCheck c = check_rod(h, f, {T.x, T.y}, t.angle_deg, length, wire_footprint_nm(d / 2, tip) + ps.wire_tolerance_nm);
+    if (!c.found) {
+        item.why = "not found in the scan of its target";
+        return;
+    }
+    item.error_nm = c.error_nm;
+    item.placed = c.error_nm <= ps.wire_tolerance_nm;
+    if (!item.placed) {
+        std::ostringstream m;
+        m.precision(3);
+        m << "its model is on target but the scan shows it " << c.error_nm << " nm off";
+        item.why = m.str();
     }
 }
 

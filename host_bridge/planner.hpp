@@ -13,18 +13,21 @@
 //    every other particle, never along the lever's axis). A particle with
 //    no free push waits for a later round; when none of the rest has one,
 //    they are reported unplaced ("no free path").
-// 3. Each push, closed loop: travel lifted to behind the particle; a local
-//    scan around it (its model moved only with drift since it was last
-//    seen: the difference is sent as a drift fix); land approach_nm behind
-//    its surface; steer: every block the tip aims push_depth_nm into the
-//    particle's modelled surface on the line from the site through its
-//    centre (FW_OBJECTS), at speed_nm_per_s, slowing over the last 100 nm;
-//    stop when the model is within 2 nm of the site, back off, lift. A
-//    local scan around the site checks it (the model is put where the scan
-//    shows it: a place fix); off by more than tolerance_nm, it is pushed
-//    again, at most max_pushes times in all, then reported. Contact lost
-//    (the line of centres more than 60 deg off the push, or the particle
-//    out of reach of the tip) ends the attempt early.
+// 3. Each push, closed loop, in strokes: travel lifted to the particle; a
+//    local scan (before its first stroke: drift, when a second particle
+//    shows the same offset, else a place fix); land approach_nm behind its
+//    surface; steer: every block the tip aims push_depth_nm into the
+//    particle's modelled surface (FW_OBJECTS) on the line from the stroke's
+//    end through its centre, at speed_nm_per_s; a stroke ends when the
+//    model is within 2 nm of its end (onto the site: slowing over the last
+//    40 nm, within 0.5 nm); back off, lift. After every stroke a local scan
+//    puts the model where the particle is (a place fix); the next stroke
+//    grows while the model stays within 5 nm of the scan and halves when it
+//    strays past 15. Onto the site, a particle more than half the
+//    tolerance off is pushed again (on the last of max_pushes attempts the
+//    tolerance itself is taken), then reported. Contact lost (the line of
+//    centres more than 60 deg off the push, the particle out of reach, or
+//    the tip at its aim while the model stays still) ends the stroke.
 // 4. Rods (objects.wire_targets): a zigzag of end pushes perpendicular to
 //    the axis, as the paper advises (never the middle: the bifurcation).
 //    An end push at l = L/10 turns the rod about its static point s(l)
@@ -178,7 +181,7 @@ private:
     void travel(Vec2 to, bool engaged, double speed);
     void wait_s(double s);
     bool scan_at(int id, Vec2 around, Vec2 *found);
-    void send_fix(int id, Vec2 at, bool place);
+    bool send_fix(int id, Vec2 at, bool place);   // false: the card refused it
     bool scan_particle(int id, Vec2 around, bool place, Vec2 *found);
     bool push_leg(int id, Vec2 end_A, bool slow_end);
     bool locate(PlanItem &item, bool place, Vec2 *at);
@@ -188,6 +191,7 @@ private:
     void run_particles();
     void run_wires();
     bool push_wire_end(int wire_id, bool end_b, double dn_nm);
+    void check_rod_by_scan(PlanItem &item, const WireTargetSpec &t);
 };
 
 }  // namespace afm

@@ -18,6 +18,7 @@
 #include <opencv2/videoio.hpp>
 
 #include <chrono>
+#include <map>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -104,7 +105,7 @@ struct Renderer {
     cv::VideoWriter video;
     int total_frames;            // the run's frames: the scene's, or fewer when the planner finishes early
     std::vector<int> sheet_at;   // frame indices for the contact sheet
-    std::vector<cv::Mat> sheet;
+    std::map<int, cv::Mat> sheet;   // frames kept for the sheet, by index
     double update_s = 0, compose_s = 0, write_s = 0;
     long touched_px = 0;
     nlohmann::json fidelity;
@@ -195,7 +196,7 @@ struct Renderer {
             if (!cv::imwrite(out + name, frame)) throw std::runtime_error("cannot write " + out + name);
         }
         if (video.isOpened()) video.write(frame);
-        if (std::find(sheet_at.begin(), sheet_at.end(), k) != sheet_at.end()) sheet.push_back(frame);
+        if (std::find(sheet_at.begin(), sheet_at.end(), k) != sheet_at.end()) sheet[k] = frame;
         compose_s += std::chrono::duration<double>(t1 - t0).count();
         write_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     }
@@ -460,9 +461,9 @@ struct Renderer {
         if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
         if (m->name == "sim_afm" && m->state == "ending") {
             // The run ends at block m->seq (the planner finished): its last
-            // frame is the last one due by then. Frames already on the sheet
-            // stay; the sheet is picked again over the shorter run (read
-            // back from frames/ at the end).
+            // frame is the last one due by then. The sheet is picked again
+            // over the shorter run (frames already written that it now
+            // wants are read back from frames/ at the end).
             const int end = std::max(frames_written + 1, afm::frames_due(scene, afm::block_end_utime(scene, m->seq)));
             if (end < total_frames) {
                 total_frames = end;
@@ -513,19 +514,23 @@ int main(int argc, char **argv)
             r.retry_fix();
         }
         r.video.release();
-        if (r.total_frames < scene.total_frames() && scene.out.png) {
-            // Ended early: the sheet's frames as picked over the run's length.
-            r.sheet.clear();
-            char name[64];
-            for (int k : r.sheet_at) {
+        // The sheet: the frames picked over the run, those not kept in
+        // memory (picked again after an early end) read back from frames/.
+        std::vector<cv::Mat> tiles;
+        for (int k : r.sheet_at) {
+            if (k >= r.frames_written) continue;
+            if (r.sheet.count(k)) {
+                tiles.push_back(r.sheet[k]);
+            } else if (scene.out.png) {
+                char name[64];
                 std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
                 const cv::Mat f = cv::imread(out_dir + name);
-                if (!f.empty()) r.sheet.push_back(f);
+                if (!f.empty()) tiles.push_back(f);
             }
         }
-        if (!r.sheet.empty()) {
-            const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(r.sheet.size()))));
-            cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(r.sheet, cols));
+        if (!tiles.empty()) {
+            const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(tiles.size()))));
+            cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
         }
         nlohmann::json rep = {{"frames", r.frames_written},
                               {"frames_expected", r.total_frames},

@@ -6,9 +6,10 @@
 
 namespace afm {
 
-void ScanClient::start(int req_id, const ScanRegion &r)
+void ScanClient::start(int req_id, const ScanRegion &r, int64_t at_seq)
 {
     id_ = req_id;
+    at_seq_ = at_seq;
     r_ = r;
     h_ = cv::Mat::zeros(r.ny, r.nx, CV_32F);
     got_.assign(static_cast<std::size_t>(r.ny), false);
@@ -29,6 +30,7 @@ void ScanClient::request(int first, int n)
     q.ny = r_.ny;
     q.first_line = first;
     q.n_lines = n;
+    q.at_seq = at_seq_;
     lc_.publish(AFM_CH_AFM_SCAN_REQ, &q);
     asked_ = std::chrono::steady_clock::now();
 }

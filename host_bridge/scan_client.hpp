@@ -25,8 +25,9 @@ class ScanClient {
 public:
     explicit ScanClient(lcm::LCM &lc) : lc_(lc) {}
 
-    // Asks for the whole scan (a new one: any scan in progress is dropped).
-    void start(int req_id, const ScanRegion &r);
+    // Asks for the whole scan (a new one: any scan in progress is dropped),
+    // at once or when the simulator waits after block at_seq (scan_req_t).
+    void start(int req_id, const ScanRegion &r, int64_t at_seq = -1);
     // A line from the bus: stored if it is one of ours; true when it was
     // the last one missing.
     bool on_line(const scan_line_t &m);
@@ -44,6 +45,7 @@ private:
 
     lcm::LCM &lc_;
     int id_ = 0;
+    int64_t at_seq_ = -1;
     ScanRegion r_;
     cv::Mat h_;
     std::vector<bool> got_;

@@ -17,6 +17,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "afm/analog_block_t.hpp"
 #include "afm/heartbeat_t.hpp"
@@ -64,6 +65,9 @@ struct Sim {
     bool have_cmd = false;
     int64_t scan_lines_sent = 0;
     int64_t finished_seq = -1;         // the operator's planner finished with the pose answering this block
+    bool ending_announced = false;
+    int64_t waiting_after = -1;        // the analog block the simulator has published and waits after (-1: none yet)
+    std::vector<afm::scan_req_t> later_scans;   // asked for a later block (scan_req_t.at_seq)
 
     Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
 
@@ -109,6 +113,47 @@ struct Sim {
             std::fprintf(stderr, "sim_afm: ignoring scan request %d with bad size nx=%d ny=%d\n", m->req_id, m->nx, m->ny);
             return;
         }
+        // One for a later block waits until the simulator waits after it.
+        if (m->at_seq > waiting_after) {
+            later_scans.push_back(*m);
+            return;
+        }
+        serve_scan(m);
+    }
+
+    // The planner has finished: the run ends one frame period after it (a
+    // rule of the block it finished in, so a run ends at the same block
+    // every time; a frame period after the present block if the news came
+    // late, so the renderer still has a frame to end on), and says so.
+    void end_early(int64_t n, int64_t *blocks, int64_t *ended_at)
+    {
+        if (finished_seq < 0 || ending_announced) return;
+        ending_announced = true;
+        const int64_t frame = static_cast<int64_t>(std::ceil(scene.block_hz / scene.frame_rate_hz));
+        const int64_t end = std::max(n + frame, finished_seq + 1 + frame);
+        if (end + 1 < *blocks) {
+            *blocks = end + 1;
+            *ended_at = end;
+        }
+        for (int i = 0; i < 3; ++i) hb.send("ending", *blocks - 1, afm::block_end_utime(scene, *blocks - 1), "the planner finished");
+    }
+
+    // The scans asked for the block the simulator now waits after.
+    void serve_due_scans()
+    {
+        for (std::size_t i = 0; i < later_scans.size();) {
+            if (later_scans[i].at_seq <= waiting_after) {
+                const afm::scan_req_t r = later_scans[i];
+                later_scans.erase(later_scans.begin() + static_cast<long>(i));
+                serve_scan(&r);
+            } else {
+                ++i;
+            }
+        }
+    }
+
+    void serve_scan(const afm::scan_req_t *m)
+    {
         const int last = std::min(m->ny, m->first_line + m->n_lines);
         const double dx = m->width_nm / m->nx, dy = m->height_nm / m->ny;
         for (int j = m->first_line; j < last; ++j) {
@@ -293,8 +338,11 @@ int main(int argc, char **argv)
             }
             const int frames_due = afm::frames_due(scene, afm::block_end_utime(scene, n));
             auto last_send = std::chrono::steady_clock::now();
+            sim.waiting_after = n;
+            sim.serve_due_scans();
             while (sim.acked < n || sim.frames_done < frames_due) {
                 lc->handleTimeout(resend_ms);
+                sim.serve_due_scans();
                 if (sim.abort) return 3;
                 if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(resend_ms)) {
                     lc->publish(AFM_CH_AFM_ANALOG, &blk);
@@ -308,17 +356,7 @@ int main(int argc, char **argv)
                                   sim.pending_cmd.load_nN, sim.pending_cmd.engaged);
                 sim.have_cmd = false;
             }
-            // The planner has finished: the run ends one frame period after
-            // it (a rule of the block it finished in alone, so a run ends
-            // at the same block every time), and says so.
-            if (sim.finished_seq >= 0 && ended_early_at < 0) {
-                const int64_t end = std::max(n, sim.finished_seq + 1 + static_cast<int64_t>(std::ceil(scene.block_hz / scene.frame_rate_hz)));
-                if (end + 1 < blocks) {
-                    blocks = end + 1;
-                    ended_early_at = end;
-                }
-                for (int i = 0; i < 3; ++i) sim.hb.send("ending", end, afm::block_end_utime(scene, end), "the planner finished");
-            }
+            sim.end_early(n, &blocks, &ended_early_at);
             sim.hb.maybe_send("running", n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
         }
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();

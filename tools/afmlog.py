@@ -71,13 +71,20 @@ def whole_objects(msgs, objects=lambda m: m):
     false: lcmtypes/objects_t.lcm); the others are where the previous
     message had them, moved by the change in drift_nm. `objects` picks the
     objects_t out of a message (SIM_TRUTH: lambda m: m.objects). Messages
-    before the first complete one are left out."""
+    before the first complete one, and after a missed one (its successor's
+    base_seq names a message not in the log) until the next complete one,
+    are left out."""
     out, cur = [], None
     for msg in msgs:
         m = objects(msg)
-        if m.complete:
+        if cur is not None and (m.seq, m.fix_id) <= (cur.seq, cur.fix_id):
+            pass   # a resend of the message last applied (or an older one)
+        elif m.complete:
             cur = _Whole(m)
         elif cur is None:
+            continue
+        elif (m.base_seq, m.base_fix_id) != (cur.seq, cur.fix_id):
+            cur = None   # one was missed (lcm-logger dropped it): unknown until the next complete one
             continue
         else:
             nxt = copy.copy(cur)

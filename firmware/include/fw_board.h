@@ -148,6 +148,12 @@ fw_rule_t fw_board_check(const fw_board_config_t *cfg);
 /* Validates with fw_board_check (its rule's status; FW_ERR_ARG for a NULL
  * b). */
 fw_status_t fw_board_init(fw_board_t *b, const fw_board_config_t *cfg);
+
+/* The lever's axis x_C in frame A for a scan angle: (cos alpha, sin alpha),
+ * alpha = scan angle - 270 deg (physics.md section 0), in 2.30. The host's
+ * planner keeps its pushes off it. Scaling and overflow: fw_math_sincos_q30
+ * of the angle in binary angle units; any scan angle (taken mod 360 deg). */
+void fw_board_lever_axis_q30(int32_t scan_angle_mdeg, q30_t axis[2]);
 void        fw_board_reset(fw_board_t *b);
 /* One sample: fw_board_step_block with n = 1. FW_OK, FW_ERR_ARG for a
  * NULL pointer. */

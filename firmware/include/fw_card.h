@@ -212,11 +212,11 @@ fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2
  * the model followed imperfectly: its model alone is put there (the
  * drift and every other model stay). The same limit as a drift fix
  * (drift_max_step_pm: a model that far off is not this particle's): beyond
- * it FW_CARD_FIX_NOT_DRIFT and nothing moves; a landmark or an unknown id
- * is FW_CARD_FIX_UNKNOWN_OBJECT. Counted with the fixes applied. FW_ERR_ARG
- * for a NULL pointer; otherwise FW_OK with the result in *out.
- * Scaling and overflow: the difference in 64 bits, compared as in
- * fw_drift_measure_within; the position is the scan's, no arithmetic. */
+ * it FW_CARD_FIX_NOT_DRIFT, nothing moves, counted as fw_drift's refusals;
+ * a landmark or an unknown id is FW_CARD_FIX_UNKNOWN_OBJECT. Counted with
+ * the fixes applied. FW_ERR_ARG for a NULL pointer; otherwise FW_OK with
+ * the result in *out. Scaling and overflow: fw_drift_within's; the
+ * position is the scan's, no arithmetic. */
 fw_status_t fw_card_place(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out);
 
 /* The models, read-only, for the host to publish. */

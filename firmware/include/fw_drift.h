@@ -34,6 +34,13 @@ fw_rule_t fw_drift_check(int32_t max_step_pm);
 fw_status_t fw_drift_init(fw_drift_t *d, int32_t max_step_pm);
 void fw_drift_reset(fw_drift_t *d);
 
+/* Whether a scan within max_step_pm of a model: |scan - model| <= max step
+ * (true, delta = scan - model) or not (false, delta 0). Pure: nothing
+ * counted. FW_ERR_ARG-free: NULL pointers or max_step_pm <= 0 give false.
+ * Scaling and overflow: 64-bit differences; squared norm compared in 64
+ * bits after a per-axis bound (|d| <= max step < 2^31: d^2 < 2^62). */
+bool fw_drift_within(const int32_t model_pm[2], const int32_t scan_pm[2], int32_t max_step_pm, int32_t delta_pm[2]);
+
 /* delta = scanned - modelled (pm); accepted if |delta| <= max step (then
  * added to the offset). fw_drift_measure_within takes another limit for
  * one measurement (a landmark after a lever change may be far off). Scaling and overflow: 64-bit differences; squared

@@ -26,6 +26,11 @@ static fw_bam_t board_alpha(int32_t scan_angle_mdeg)
     return fw_math_bam_from_mdeg(scan_angle_mdeg % FW_MDEG_PER_TURN - BOARD_ALIGNED_SCAN_MDEG);
 }
 
+void fw_board_lever_axis_q30(int32_t scan_angle_mdeg, q30_t axis[2])
+{
+    fw_math_sincos_q30(board_alpha(scan_angle_mdeg), &axis[1], &axis[0]);
+}
+
 fw_rule_t fw_board_check(const fw_board_config_t *cfg)
 {
     fw_rule_t rule;

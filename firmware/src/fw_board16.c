@@ -2,6 +2,7 @@
  * fw_board16.c - see fw_board16.h.
  */
 #include "fw_board16.h"
+#include "fw_board.h"
 #include "fw_math.h"
 
 #define B16_ONE 32768
@@ -71,8 +72,7 @@ fw_rule_t fw_board16_check(const fw_board_config_t *cfg)
 
 fw_status_t fw_board16_init(fw_board16_t *b, const fw_board_config_t *cfg)
 {
-    q30_t s;
-    q30_t c;
+    q30_t axis[2];
     int32_t cmax;
     int16_t unused;
     int32_t md;
@@ -94,9 +94,9 @@ fw_status_t fw_board16_init(fw_board16_t *b, const fw_board_config_t *cfg)
     b16_split_gain(cmax * B16_FS_V, &unused, &b->off_k);
     b->cn_mant = (int16_t)((cfg->disp_n_pm_per_v * B16_FS_V + ((1 << b->off_k) >> 1)) >> b->off_k);
     b->cl_mant = (int16_t)((cfg->disp_l_pm_per_v * B16_FS_V + ((1 << b->off_k) >> 1)) >> b->off_k);
-    fw_math_sincos_q30(fw_math_bam_from_mdeg(cfg->scan_angle_mdeg % FW_MDEG_PER_TURN - 270000), &s, &c);
-    b->cos_a = b16_from_q30(c);
-    b->sin_a = b16_from_q30(s);
+    fw_board_lever_axis_q30(cfg->scan_angle_mdeg, axis);   /* R(alpha), as the 32-bit chain has it */
+    b->cos_a = b16_from_q30(axis[0]);
+    b->sin_a = b16_from_q30(axis[1]);
     b->two_h_over_l = (int16_t)(((int64_t)2 * cfg->tip_height_nm * B16_ONE + cfg->lever_length_nm / 2)
                                 / cfg->lever_length_nm);
     b->mu = (int16_t)(((int64_t)cfg->mu_ppm * B16_ONE + FW_PPM_PER_ONE / 2) / FW_PPM_PER_ONE);

@@ -409,9 +409,6 @@ fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2
 fw_status_t fw_card_place(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out)
 {
     int32_t i;
-    int64_t dx;
-    int64_t dy;
-    int64_t m;
     fw_particle_t *p = NULL;
     if (c == NULL || scan_pm == NULL || out == NULL) {
         return FW_ERR_ARG;
@@ -428,15 +425,13 @@ fw_status_t fw_card_place(fw_card_t *c, int32_t object_id, const int32_t scan_pm
     }
     out->model_pm[0] = p->x_pm;
     out->model_pm[1] = p->y_pm;
-    dx = (int64_t)scan_pm[0] - p->x_pm;
-    dy = (int64_t)scan_pm[1] - p->y_pm;
-    m = c->drift.max_step_pm;
-    if (dx > m || -dx > m || dy > m || -dy > m || dx * dx + dy * dy > m * m) {
+    if (!fw_drift_within(out->model_pm, scan_pm, c->drift.max_step_pm, out->delta_pm)) {
+        if (c->drift.rejected != UINT32_MAX) {
+            c->drift.rejected++;
+        }
         out->result = FW_CARD_FIX_NOT_DRIFT;
         return FW_OK;
     }
-    out->delta_pm[0] = (int32_t)dx;
-    out->delta_pm[1] = (int32_t)dy;
     p->x_pm = scan_pm[0];
     p->y_pm = scan_pm[1];
     if (c->fixes_applied != UINT32_MAX) {

@@ -35,30 +35,44 @@ fw_status_t fw_drift_measure(fw_drift_t *d, const int32_t model_pm[2], const int
     return fw_drift_measure_within(d, model_pm, scan_pm, d->max_step_pm, delta_pm);
 }
 
-fw_status_t fw_drift_measure_within(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
-                                    int32_t max_step_pm, int32_t delta_pm[2])
+bool fw_drift_within(const int32_t model_pm[2], const int32_t scan_pm[2], int32_t max_step_pm, int32_t delta_pm[2])
 {
     int64_t dx;
     int64_t dy;
     int64_t m;
-    if (d == NULL || model_pm == NULL || scan_pm == NULL || delta_pm == NULL || max_step_pm <= 0) {
-        return FW_ERR_ARG;
+    if (model_pm == NULL || scan_pm == NULL || delta_pm == NULL) {
+        return false;
+    }
+    delta_pm[0] = 0;
+    delta_pm[1] = 0;
+    if (max_step_pm <= 0) {
+        return false;
     }
     dx = (int64_t)scan_pm[0] - model_pm[0];
     dy = (int64_t)scan_pm[1] - model_pm[1];
     m = max_step_pm;
     if (dx > m || -dx > m || dy > m || -dy > m || dx * dx + dy * dy > m * m) {
-        if (d->rejected != UINT32_MAX) {
-            d->rejected++;
-        }
-        delta_pm[0] = 0;
-        delta_pm[1] = 0;
-        return FW_ERR_DOMAIN;
+        return false;
     }
     delta_pm[0] = (int32_t)dx;
     delta_pm[1] = (int32_t)dy;
-    d->offset_pm[0] = fw_math_sat_i32((int64_t)d->offset_pm[0] + dx, NULL);
-    d->offset_pm[1] = fw_math_sat_i32((int64_t)d->offset_pm[1] + dy, NULL);
+    return true;
+}
+
+fw_status_t fw_drift_measure_within(fw_drift_t *d, const int32_t model_pm[2], const int32_t scan_pm[2],
+                                    int32_t max_step_pm, int32_t delta_pm[2])
+{
+    if (d == NULL || model_pm == NULL || scan_pm == NULL || delta_pm == NULL || max_step_pm <= 0) {
+        return FW_ERR_ARG;
+    }
+    if (!fw_drift_within(model_pm, scan_pm, max_step_pm, delta_pm)) {
+        if (d->rejected != UINT32_MAX) {
+            d->rejected++;
+        }
+        return FW_ERR_DOMAIN;
+    }
+    d->offset_pm[0] = fw_math_sat_i32((int64_t)d->offset_pm[0] + delta_pm[0], NULL);
+    d->offset_pm[1] = fw_math_sat_i32((int64_t)d->offset_pm[1] + delta_pm[1], NULL);
     return FW_OK;
 }
 

@@ -72,7 +72,9 @@ class LocalSweep(unittest.TestCase):
         r = {int(x["firmware.adc_bits"]): x for x in rows(self.out)}
         # the apex estimate and the objects' models carry the ADC's steps
         self.assertGreater(float(r[10]["apex_rms_nm"]), 1.1 * float(r[16]["apex_rms_nm"]))
-        # (measured on short.yaml: 1.23 nm at 10 bits, 0.93 nm at 16)
+        # (measured on short.yaml: 1.23 nm at 10 bits, 0.93 nm at 16; it was
+        # 1.5x before the operator's hand rounded the path's corner, where
+        # the 10-bit model lost the particle most)
         self.assertGreater(float(r[10]["objects_worst_nm"]), 1.2 * float(r[16]["objects_worst_nm"]))
         self.assertGreater(float(r[10]["display_max_nm"]), float(r[16]["display_max_nm"]))
 

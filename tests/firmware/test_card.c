@@ -537,19 +537,26 @@ static void test_card_fix_particle_landmark_unknown_and_the_limits(void)
     TEST_ASSERT_EQUAL_UINT32(0u, fw_card_fixes_applied(&card));
 }
 
-/* A lifted tip touches nothing: the same push as above, with the pose
- * lifted from the first block on, leaves every model where it was, and
- * start_lifted covers the first block. Engaging again (its command's
- * block over) pushes as before. */
+/* A lifted tip touches nothing: the apex walks into particle 2 within the
+ * first block (from y = -262 nm, contact at -260 nm) with a pushing force.
+ * With start_lifted the first block is taken lifted and nothing moves,
+ * while a card started down pushes it in the same block; lifted poses keep
+ * every later block lifted; the block after an engaged pose pushes again. */
 static void test_card_lifted_tip_pushes_nothing(void)
 {
     static const fw_card_pose_t lifted = { { 0, 0 }, 5000, false };
     fw_sample_in_t in[20];
     int32_t blk;
-    int32_t y = -320000;
+    int32_t y;
+    /* started down: block 0 pushes */
+    samples(in, 20, 0, -52770, 0, -262000, 0, 500);
+    (void)step(in, 20, &lifted);
+    TEST_ASSERT_TRUE(fw_particles_get(fw_card_particles(&card), 1)->y_pm > particles[1].y_pm);
+    /* started lifted: block 0 and the lifted blocks after it push nothing */
     default_config();
     cfg.start_lifted = true;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
+    y = -262000;
     for (blk = 0; blk < 10; blk++) {
         samples(in, 20, 0, -52770, 0, y, 0, 500);
         (void)step(in, 20, &lifted);
@@ -557,12 +564,12 @@ static void test_card_lifted_tip_pushes_nothing(void)
     }
     TEST_ASSERT_EQUAL_INT32(particles[1].y_pm, fw_particles_get(fw_card_particles(&card), 1)->y_pm);
     /* engaged from here: the block after the engaged pose pushes */
-    y = -320000;
-    for (blk = 0; blk < 10; blk++) {
-        samples(in, 20, 0, -52770, 0, y, 0, 500);
-        (void)step(in, 20, &pose0);
-        y += 20 * 500;
-    }
+    y = -262000;
+    samples(in, 20, 0, -52770, 0, y, 0, 500);
+    (void)step(in, 20, &pose0);   /* taken lifted (the pose before was lifted) */
+    TEST_ASSERT_EQUAL_INT32(particles[1].y_pm, fw_particles_get(fw_card_particles(&card), 1)->y_pm);
+    samples(in, 20, 0, -52770, 0, y, 0, 500);
+    (void)step(in, 20, &pose0);
     TEST_ASSERT_TRUE(fw_particles_get(fw_card_particles(&card), 1)->y_pm > particles[1].y_pm);
 }
 

@@ -95,6 +95,37 @@ void test_local_update_equals_full_redraw()
     TEST_ASSERT_EQUAL_INT(0, cv::countNonZero(d8.reshape(1)));
 }
 
+void test_the_hands_force_is_drawn_and_points_its_way()
+{
+    // The gauge: nothing without a scale; with one, yellow arrow pixels on
+    // the side the force points (the image's y runs down: +y is up).
+    afm::Display d(kField, kTip);
+    d.start(cv::Mat::zeros(kField.px, kField.px, CV_32F), std::vector<afm::DisplayObject>{});
+    auto yellow_in = [](const cv::Mat &img, const cv::Rect &r) {
+        int n = 0;
+        for (int y = r.y; y < r.y + r.height; ++y)
+            for (int x = r.x; x < r.x + r.width; ++x) {
+                const cv::Vec3b p = img.at<cv::Vec3b>(y, x);
+                n += p[0] < 80 && p[1] > 200 && p[2] > 200;   // BGR yellow
+            }
+        return n;
+    };
+    const int N = kField.px, rad = std::max(8, N / 16);
+    const cv::Point c(N / 2 + rad, N - rad - 16);
+    const cv::Rect above(c.x - 2, c.y - rad, 5, rad - 2), below(c.x - 2, c.y + 3, 5, rad - 3);
+    afm::Overlay o;
+    o.hand_N[1] = 0.05;
+    TEST_ASSERT_EQUAL_INT(0, yellow_in(d.frame(o), above));   // no scale: no gauge
+    o.hand_scale_N = 0.08;
+    const cv::Mat up = d.frame(o);
+    TEST_ASSERT_TRUE(yellow_in(up, above) > 3);
+    TEST_ASSERT_EQUAL_INT(0, yellow_in(up, below));
+    o.hand_N[1] = -0.05;
+    const cv::Mat down = d.frame(o);
+    TEST_ASSERT_TRUE(yellow_in(down, below) > 3);
+    TEST_ASSERT_EQUAL_INT(0, yellow_in(down, above));
+}
+
 void test_fidelity_passes_honest_and_catches_20nm_misplacement()
 {
     const std::vector<afm::DisplayObject> truth = {{1, -200, 0, 50}, {2, 250, 100, 50}};
@@ -201,6 +232,7 @@ int main()
     RUN_TEST(test_profile_closed_form_top_and_foot);
     RUN_TEST(test_known_object_renders_to_its_footprint);
     RUN_TEST(test_local_update_equals_full_redraw);
+    RUN_TEST(test_the_hands_force_is_drawn_and_points_its_way);
     RUN_TEST(test_fidelity_passes_honest_and_catches_20nm_misplacement);
     RUN_TEST(test_fidelity_reports_an_object_missing_from_the_scan);
     RUN_TEST(test_video_reads_back_with_the_frame_count_written);

@@ -1,7 +1,8 @@
 // Unity tests of objects as whole sets on the bus (common/objects_view):
 // what a publisher sends (only what changed, complete ones first, after a
 // forced one and every KEYFRAME_BLOCKS) read back whole by a reader, with
-// drift moving everything between messages; resends; bad orders.
+// drift moving everything between messages; resends; a missed message
+// noticed, and the reader whole again at the next complete one.
 #include <unity.h>
 
 #include <cmath>
@@ -130,11 +131,38 @@ void test_reader_refuses_what_it_cannot_place()
     TEST_ASSERT_EQUAL_INT(5, static_cast<int>(view.whole().seq));
 }
 
+void test_a_missed_message_is_noticed_and_healed_by_the_next_complete()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 5);
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)));
+    w.seq = 1;
+    w.particles[2].x_nm += 7;
+    const afm::objects_t lost = diff.next(w);   // never reaches the reader
+    TEST_ASSERT_FALSE(lost.complete);
+    w.seq = 2;
+    w.particles[3].y_nm += 3;
+    const afm::objects_t after = diff.next(w);
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(after.base_seq));
+    TEST_ASSERT_FALSE(view.apply(after));       // it follows a message the reader does not hold
+    TEST_ASSERT_FALSE(view.ready());
+    // Not ready until a complete message; then whole again.
+    w.seq = 3;
+    TEST_ASSERT_FALSE(view.apply(diff.next(w)));
+    TEST_ASSERT_TRUE(view.apply(diff.next(w, true)));
+    assert_same(w, view.whole());
+    // An older message arriving late changes nothing.
+    TEST_ASSERT_TRUE(view.apply(lost));
+    assert_same(w, view.whole());
+}
+
 int main()
 {
     UNITY_BEGIN();
     RUN_TEST(test_round_trip_with_moves_and_drift);
     RUN_TEST(test_forced_and_count_changes_are_complete);
     RUN_TEST(test_reader_refuses_what_it_cannot_place);
+    RUN_TEST(test_a_missed_message_is_noticed_and_healed_by_the_next_complete);
     return UNITY_END();
 }

@@ -76,18 +76,16 @@ void test_assignment_matches_brute_force()
 
 void test_assignment_is_not_greedy()
 {
-    // Greedy (each site its nearest free particle, in order) takes particle
-    // 0 for site 0 (distance 1) and leaves site 1 the far one (100 + 1):
-    // 102 in all. The optimum crosses over: 2 + 2 = 4.
-    const std::vector<afm::Vec2> parts = {{1, 0}, {-1, 0}};
-    const std::vector<afm::Vec2> sites = {{0, 0}, {-3, 0}};
+    // Greedy, site by site, gives site 0 its nearest particle (particle 0,
+    // 1 nm away) and leaves site 1 particle 1, 6 nm away: 7 nm in all.
+    // The least total crosses over: particle 1 to site 0 (2 nm), particle 0
+    // to site 1 (3 nm): 5 nm.
+    const std::vector<afm::Vec2> parts = {{1, 0}, {-2, 0}};
+    const std::vector<afm::Vec2> sites = {{0, 0}, {4, 0}};
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 7.0, dist(parts[0], sites[0]) + dist(parts[1], sites[1]));
     const std::vector<int> a = afm::assign_sites(parts, sites);
-    TEST_ASSERT_EQUAL_INT(0, a[0]);
-    TEST_ASSERT_EQUAL_INT(1, a[1]);
-    const std::vector<afm::Vec2> sites2 = {{0, 0}, {3, 0}};
-    const std::vector<int> b = afm::assign_sites(parts, sites2);
-    TEST_ASSERT_EQUAL_INT(1, b[0]);   // the left particle to the middle, the right one to +3
-    TEST_ASSERT_EQUAL_INT(0, b[1]);
+    TEST_ASSERT_EQUAL_INT(1, a[0]);
+    TEST_ASSERT_EQUAL_INT(0, a[1]);
 }
 
 void test_more_sites_than_particles_is_a_clear_error_the_reverse_is_not()
@@ -229,6 +227,12 @@ void test_text_is_rasterised_into_rows_of_sites()
         "name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 10000}\nobjects:\n  scatter: {count: 5}\n"
         "  targets: {text: \"H\", pitch_nm: 250, height_nm: 2500}\noperator:\n  plan: {}\n"));
     TEST_ASSERT_TRUE(why.find("sites but the scene has only 5 particles") != std::string::npos);
+    // Sites too close for two particles: named with the pitch to change.
+    const std::string close = afm::targets_refusal(scene_from_text(
+        "name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 10000}\nobjects:\n  scatter: {count: 5}\n"
+        "  targets: [[0, 0], [120, 0]]\noperator:\n  plan: {}\n"));
+    TEST_ASSERT_TRUE(close.find("closer than a particle's diameter and operator.plan.clearance_nm (140 nm): give a larger pitch_nm") !=
+                     std::string::npos);
 }
 
 int main()
