@@ -45,7 +45,7 @@ def _write_json(path, data):
     os.replace(tmp, path)
 
 
-def _run_once(scene_path, run_dir, timeout_s):
+def run_scene(scene_path, run_dir, timeout_s):
     """Runs the scene; returns (exit code, stderr, run.json or None, wall s)."""
     cmd = [paths.IN_NETNS, paths.LAUNCH, "--scene", scene_path, "--out", run_dir, "--quiet"]
     t0 = time.monotonic()
@@ -64,7 +64,7 @@ def _run_once(scene_path, run_dir, timeout_s):
     return code, err, rj, wall
 
 
-def _failure(code, err, rj, run_dir):
+def failure_of(code, err, rj, run_dir):
     """What failed, named: the process, its exit code and its log's tail."""
     f = {"exit_code": code, "stderr": err.strip()[-2000:]}
     if rj:
@@ -129,10 +129,10 @@ def run_point(task):
     t0 = time.time()
     for r in range(task["repeat"]):
         run_dir = os.path.join(d, "run" if r == 0 else f"run-{r + 1}")
-        code, err, rj, wall = _run_once(scene_path, run_dir, task["timeout_s"])
+        code, err, rj, wall = run_scene(scene_path, run_dir, task["timeout_s"])
         if code != 0 or not rj or rj.get("status") != "ok":
             rec["status"] = "failed"
-            rec["failure"] = _failure(code, err, rj, run_dir)
+            rec["failure"] = failure_of(code, err, rj, run_dir)
             rec["run_dir"] = run_dir
             break
         card = rj.get("card") or {}

@@ -253,7 +253,7 @@ void read_probe(const Reader &r, const YAML::Node &root, Scene &s)
     YAML::Node pr = root["probe"];
     if (pr.IsDefined() && !pr.IsNull()) {
         r.only_keys(pr, "probe", {"spring_N_per_m", "deflection_nm_per_V", "lateral_nN_per_V", "lever_length_um", "tip_height_um",
-                                  "tip_radius_nm", "tip_half_angle_deg", "scan_angle_deg"});
+                                  "tip_radius_nm", "tip_half_angle_deg", "scan_angle_deg", "cn_nm_per_V", "cl_nm_per_V"});
         const ProbeSpec pd;
         s.probe.spring_N_per_m = r.num(pr, "probe", "spring_N_per_m", &pd.spring_N_per_m, 0, 1000, true);
         s.probe.deflection_nm_per_V = r.num(pr, "probe", "deflection_nm_per_V", &pd.deflection_nm_per_V, 0, 10000, true);
@@ -263,6 +263,12 @@ void read_probe(const Reader &r, const YAML::Node &root, Scene &s)
         s.probe.tip_radius_nm = r.num(pr, "probe", "tip_radius_nm", &pd.tip_radius_nm, 0, 1000, true);
         s.probe.tip_half_angle_deg = r.num(pr, "probe", "tip_half_angle_deg", &pd.tip_half_angle_deg, 0, 80, true);
         s.probe.scan_angle_deg = r.num(pr, "probe", "scan_angle_deg", &pd.scan_angle_deg, 0, 360);
+        // The real lever's displacement constants (the simulator's truth);
+        // left out, the beam's 3 h K_n / (2 l).
+        if (pr["cn_nm_per_V"].IsDefined() && !pr["cn_nm_per_V"].IsNull())
+            s.probe.cn_nm_per_V = r.num(pr, "probe", "cn_nm_per_V", nullptr, 0, 1e4, true);
+        if (pr["cl_nm_per_V"].IsDefined() && !pr["cl_nm_per_V"].IsNull())
+            s.probe.cl_nm_per_V = r.num(pr, "probe", "cl_nm_per_V", nullptr, 0, 1e4, true);
     }
 }
 
@@ -273,7 +279,7 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
     if (fw.IsDefined() && !fw.IsNull()) {
         // The ranges are the card's (fw_card_check): the launcher's --check
         // names the rule a value breaks; here only the types.
-        r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate"});
+        r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate", "disp_n_nm_per_V", "disp_l_nm_per_V", "lateral_nN_per_V", "mu"});
         auto whole = [&](const char *k, int dflt) {
             const double dv = dflt;
             const double v = r.num(fw, "firmware", k, &dv, -1e6, 1e6);
@@ -283,6 +289,16 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         s.adc_bits = whole("adc_bits", s.adc_bits);
         s.word_bits = whole("word_bits", s.word_bits);
         s.compensate = r.boolean(fw, "firmware", "compensate", s.compensate);
+        // The lever's constants as calibrated (./afm calib ... --write): the
+        // card's configuration; left out, the firmware's estimate (C) or the
+        // probe's values (the lateral gain, the tip-substrate mu).
+        auto optional = [&](const char *k, double hi, std::optional<double> *out) {
+            if (fw[k].IsDefined() && !fw[k].IsNull()) *out = r.num(fw, "firmware", k, nullptr, 0, hi, true);
+        };
+        optional("disp_n_nm_per_V", 1e4, &s.fw_cal.disp_n_nm_per_V);
+        optional("disp_l_nm_per_V", 1e4, &s.fw_cal.disp_l_nm_per_V);
+        optional("lateral_nN_per_V", 1e5, &s.fw_cal.lateral_nN_per_V);
+        if (fw["mu"].IsDefined() && !fw["mu"].IsNull()) s.fw_cal.mu = r.num(fw, "firmware", "mu", nullptr, 0, 10);
     }
 }
 
@@ -664,23 +680,92 @@ void read_outputs(const Reader &r, const YAML::Node &root, Scene &s)
 
 }  // namespace
 
-Scene load_scene(const std::string &path)
+namespace {
+
+YAML::Node load_yaml(const std::string &path, const std::string &what)
 {
-    Reader r(path);
     {
         std::ifstream probe(path);
-        if (!probe) throw SceneError(path + ": cannot open scene file (no such file or not readable)");
+        if (!probe) throw SceneError(path + ": cannot open " + what + " (no such file or not readable)");
     }
-    YAML::Node root;
+    YAML::Node n;
     try {
-        root = YAML::LoadFile(path);
+        n = YAML::LoadFile(path);
     } catch (const YAML::ParserException &e) {
         throw SceneError(path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
     }
-    if (!root.IsDefined() || root.IsNull()) throw SceneError(path + ": the scene file is empty");
+    if (!n.IsDefined() || n.IsNull()) throw SceneError(path + ": the " + what + " is empty");
+    return n;
+}
+
+std::string dir_of(const std::string &path)
+{
+    const auto slash = path.find_last_of('/');
+    return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+}
+
+// Copies what `from` has and `into` lacks, recursively through mappings
+// (the including file's own values win).
+void merge_missing(YAML::Node into, const YAML::Node &from)
+{
+    for (auto it = from.begin(); it != from.end(); ++it) {
+        const std::string k = it->first.as<std::string>();
+        if (!into[k].IsDefined() || into[k].IsNull()) into[k] = YAML::Clone(it->second);
+        else if (into[k].IsMap() && it->second.IsMap()) merge_missing(into[k], it->second);
+    }
+}
+
+// The scene's YAML with its includes merged in (include: FILE or [FILE,
+// ...], relative to the scene; each may hold probe, firmware and sample
+// only: a lever's calibration, ./afm calib ... --write), and a PNG
+// target's path made absolute, so the tree stands alone.
+YAML::Node resolved_yaml(const std::string &path)
+{
+    YAML::Node root = load_yaml(path, "scene file");
+    const Reader r(path);
+    if (!root.IsMap()) r.fail("(top level)", "must be a mapping, got " + Reader::show(root));
+    YAML::Node inc = root["include"];
+    if (inc.IsDefined() && !inc.IsNull()) {
+        std::vector<std::string> files;
+        if (inc.IsScalar()) files.push_back(inc.Scalar());
+        else if (inc.IsSequence())
+            for (const auto &f : inc) {
+                if (!f.IsScalar()) r.fail("include", "must be a file name or a list of them, got " + Reader::show(inc));
+                files.push_back(f.Scalar());
+            }
+        else r.fail("include", "must be a file name or a list of them, got " + Reader::show(inc));
+        for (const std::string &f : files) {
+            const std::string fp = f.empty() || f[0] == '/' ? f : dir_of(path) + "/" + f;
+            const YAML::Node part = load_yaml(fp, "included file (include: of " + path + ")");
+            Reader(fp).only_keys(part, "", {"probe", "firmware", "sample"});
+            merge_missing(root, part);
+        }
+        root.remove("include");
+    }
+    YAML::Node png = root["objects"]["targets"]["png"];
+    if (root["objects"].IsMap() && root["objects"]["targets"].IsMap() && png.IsDefined() && png.IsScalar() && !png.Scalar().empty() &&
+        png.Scalar()[0] != '/')
+        root["objects"]["targets"]["png"] = dir_of(path) + "/" + png.Scalar();
+    return root;
+}
+
+}  // namespace
+
+std::string resolved_scene_text(const std::string &path)
+{
+    const YAML::Node root = resolved_yaml(path);
+    YAML::Emitter e;
+    e << root;
+    return "# The scene this run ran: " + path + ", its includes merged in.\n" + std::string(e.c_str()) + "\n";
+}
+
+Scene load_scene(const std::string &path)
+{
+    Reader r(path);
+    const YAML::Node root = resolved_yaml(path);
     r.only_keys(root, "", {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
                            "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
-                           "outputs"});
+                           "outputs", "include"});
     Scene s;
     s.file = path;
     const Scene d;  // defaults

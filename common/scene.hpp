@@ -41,6 +41,18 @@ struct ProbeSpec {
     double tip_radius_nm = 10.0;        // apex radius
     double tip_half_angle_deg = 20.0;   // cone half angle gamma
     double scan_angle_deg = 270.0;      // 270: frames C and A coincide
+    // The real lever's displacement constants: the apex's move per volt of
+    // S_n (along the lever) and of S_l (across), nm/V. The simulator's
+    // truth; none: the beam's 3 h K_n / (2 l) (the firmware's estimate).
+    std::optional<double> cn_nm_per_V, cl_nm_per_V;
+};
+
+// The card's calibrated constants (firmware.*): what a lab measured and
+// flashed. None: the firmware's estimate (C_n, C_l) or the probe's value.
+struct FirmwareCalibration {
+    std::optional<double> disp_n_nm_per_V, disp_l_nm_per_V;   // C_n, C_l
+    std::optional<double> lateral_nN_per_V;                   // k_theta K_l / h
+    std::optional<double> mu;                                 // tip-substrate mu for the F_x fallback
 };
 
 struct ContactSpec {                    // friction and adhesion of a material pair
@@ -212,6 +224,7 @@ struct Scene {
     int adc_bits = 16;                  // the card's ADC (fw_acq: 8..16)
     int word_bits = 32;                 // the card's signal chain: 32 (fw_board) or 16 (fw_board16)
     bool compensate = true;             // apex compensation (C_n, C_l); false: the piezo is taken as the apex
+    FirmwareCalibration fw_cal;         // the card's calibrated constants (firmware.*)
     std::vector<ParticleSpec> particles;
     std::vector<WireSpec> wires;
     std::vector<LandmarkSpec> landmarks;
@@ -235,8 +248,13 @@ struct Scene {
 struct EffectInfo { const char *name; const char *what; };
 const std::vector<EffectInfo> &known_effects();
 
-// Parse and validate; throws SceneError naming file, key and value.
+// Parse and validate; throws SceneError naming file, key and value. A
+// scene may include files (include: FILE or [FILE, ...], relative to it)
+// holding probe, firmware and sample keys: its own values win.
 Scene load_scene(const std::string &path);
+// The scene's YAML with its includes merged in and file paths absolute: what
+// a run keeps as its scene.yaml, standing alone.
+std::string resolved_scene_text(const std::string &path);
 
 // Simulated time (us) of frame k; the renderer and the simulator both use it.
 int64_t frame_utime(const Scene &s, int k);

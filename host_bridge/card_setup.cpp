@@ -20,15 +20,18 @@ fw_board_config_t board_config(const Scene &s)
     fw_board_config_t b{};
     b.adc_bits = s.adc_bits;
     b.normal_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.spring_N_per_m * p.deflection_nm_per_V);   // N/m nm/V = nN/V
-    b.lateral_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(p.lateral_nN_per_V);
+    // The lever's constants as the card has them: calibrated (firmware.*) or
+    // the probe's; the displacement constants: calibrated or the estimate.
+    const FirmwareCalibration &cal = s.fw_cal;
+    b.lateral_gain_pn_per_v = fwu_pn_per_v_from_nn_per_v(cal.lateral_nN_per_V.value_or(p.lateral_nN_per_V));
     b.deflection_pm_per_v = fwu_pm_per_v_from_nm_per_v(p.deflection_nm_per_V);
     b.tip_height_nm = fwu_nm_from_um(p.tip_height_um);
     b.lever_length_nm = fwu_nm_from_um(p.lever_length_um);
     // firmware.compensate: false sets C = 0 (the piezo is taken as the apex)
-    b.disp_n_pm_per_v = s.compensate ? FW_CARD_DISP_ESTIMATE : 0;
-    b.disp_l_pm_per_v = s.compensate ? FW_CARD_DISP_ESTIMATE : 0;
+    b.disp_n_pm_per_v = !s.compensate ? 0 : cal.disp_n_nm_per_V ? fwu_pm_per_v_from_nm_per_v(*cal.disp_n_nm_per_V) : FW_CARD_DISP_ESTIMATE;
+    b.disp_l_pm_per_v = !s.compensate ? 0 : cal.disp_l_nm_per_V ? fwu_pm_per_v_from_nm_per_v(*cal.disp_l_nm_per_V) : FW_CARD_DISP_ESTIMATE;
     b.scan_angle_mdeg = fwu_mdeg_from_deg(p.scan_angle_deg);
-    b.mu_ppm = fwu_ppm(s.tip_substrate.mu);
+    b.mu_ppm = fwu_ppm(cal.mu.value_or(s.tip_substrate.mu));
     b.adhesion_pn = fwu_pn_from_nn(s.has_effect("adhesion") ? s.tip_substrate.adhesion_nN : 0.0);
     b.scan_center_pm[0] = fwu_pm_from_nm(s.field_center_nm.x);
     b.scan_center_pm[1] = fwu_pm_from_nm(s.field_center_nm.y);
@@ -111,11 +114,13 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
                 {"probe.lateral_nN_per_V", p.lateral_nN_per_V}, {"probe.tip_height_um", p.tip_height_um},
                 {"probe.lever_length_um", p.lever_length_um}};
     case FW_RULE_FORCE_GAINS:
-        return {{"probe.spring_N_per_m", p.spring_N_per_m}, {"probe.deflection_nm_per_V", p.deflection_nm_per_V}, {"probe.lateral_nN_per_V", p.lateral_nN_per_V}};
+        return {{"probe.spring_N_per_m", p.spring_N_per_m}, {"probe.deflection_nm_per_V", p.deflection_nm_per_V},
+                {s.fw_cal.lateral_nN_per_V ? "firmware.lateral_nN_per_V" : "probe.lateral_nN_per_V", s.fw_cal.lateral_nN_per_V.value_or(p.lateral_nN_per_V)}};
     case FW_RULE_LEVER_POSITIVE:
     case FW_RULE_TIP_SHORTER_THAN_LEVER:
         return {{"probe.tip_height_um", p.tip_height_um}, {"probe.lever_length_um", p.lever_length_um}};
-    case FW_RULE_MU_RANGE: return {{"sample.tip_substrate.mu", s.tip_substrate.mu}};
+    case FW_RULE_MU_RANGE:
+        return {{s.fw_cal.mu ? "firmware.mu" : "sample.tip_substrate.mu", s.fw_cal.mu.value_or(s.tip_substrate.mu)}};
     case FW_RULE_ADHESION: return {{"sample.tip_substrate.adhesion_nN", s.tip_substrate.adhesion_nN}};
     case FW_RULE_MU_2H_OVER_L:
         return {{"sample.tip_substrate.mu", s.tip_substrate.mu}, {"probe.tip_height_um", p.tip_height_um},
@@ -123,6 +128,8 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
     case FW_RULE_DEFLECTION_GAIN: return {{"probe.deflection_nm_per_V", p.deflection_nm_per_V}};
     case FW_RULE_DISP_NEGATIVE:
     case FW_RULE_DISP_RANGE:
+        if (s.fw_cal.disp_n_nm_per_V || s.fw_cal.disp_l_nm_per_V)
+            return {{"firmware.disp_n_nm_per_V", s.fw_cal.disp_n_nm_per_V.value_or(-1)}, {"firmware.disp_l_nm_per_V", s.fw_cal.disp_l_nm_per_V.value_or(-1)}};
         return {{"probe.tip_height_um", p.tip_height_um}, {"probe.deflection_nm_per_V", p.deflection_nm_per_V}, {"probe.lever_length_um", p.lever_length_um}};
     case FW_RULE_JOYSTICK_RANGE: return {{"sample.field_nm", s.field_nm}, {"operator.kappa", s.op.kappa}};
     case FW_RULE_TIP_RADIUS: return {{"probe.tip_radius_nm", p.tip_radius_nm}};

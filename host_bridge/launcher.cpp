@@ -306,7 +306,7 @@ public:
             out_ = fs::canonical(dir).string();
             scene_abs_ = fs::canonical(o_.scene_path).string();
             scene_run_ = out_ + "/scene.yaml";
-            fs::copy_file(scene_abs_, scene_run_, fs::copy_options::overwrite_existing);
+            std::ofstream(scene_run_) << afm::resolved_scene_text(scene_abs_);   // includes merged: it stands alone
         } catch (const fs::filesystem_error &e) {
             std::fprintf(stderr, "afm_launch: cannot prepare output folder %s: %s\n", o_.out_dir.c_str(), e.what());
             return 2;

@@ -14,6 +14,9 @@ Lever::Lever(const ProbeSpec &p)
     ktheta = p.lateral_nN_per_V * h / Kl;
     alpha = (p.scan_angle_deg - 270.0) * M_PI / 180.0;
     R << std::cos(alpha), -std::sin(alpha), std::sin(alpha), std::cos(alpha);
+    const double beam_c = 3.0 * h * deflection / (2.0 * l);   // nm/V
+    if (p.cn_nm_per_V) cn_scale = *p.cn_nm_per_V / beam_c;
+    if (p.cl_nm_per_V) cl_scale = *p.cl_nm_per_V / beam_c;
 }
 
 double Lever::bend_slope(double fx_C, double fz) const
@@ -32,19 +35,19 @@ Eigen::Vector2d Lever::apex_offset(const Eigen::Vector2d &f_A, double fz) const
     const Eigen::Vector2d fC = R.transpose() * f_A;
     // Rotating the end by the slope about -y swings the apex (h below) towards +x;
     // twisting about +x swings it towards +y.
-    return R * Eigen::Vector2d(h * bend_slope(fC.x(), fz), h * twist(fC.y()));
+    return R * Eigen::Vector2d(cn_scale * h * bend_slope(fC.x(), fz), cl_scale * h * twist(fC.y()));
 }
 
 Eigen::Matrix2d Lever::stiffness_A() const
 {
     const double EI = spring * l * l * l / 3.0;
-    const double kx = EI / (h * h * l);        // h * (F_x h) l / EI = F_x / kx
-    const double ky = ktheta / (h * h);
+    const double kx = EI / (cn_scale * h * h * l);   // cn h (F_x h) l / EI = F_x / kx
+    const double ky = ktheta / (cl_scale * h * h);
     Eigen::Matrix2d KC;
     KC << kx, 0, 0, ky;
     return R * KC * R.transpose();
 }
 
-Eigen::Vector2d Lever::normal_offset(double fz) const { return R * Eigen::Vector2d(h * bend_slope(0.0, fz), 0.0); }
+Eigen::Vector2d Lever::normal_offset(double fz) const { return R * Eigen::Vector2d(cn_scale * h * bend_slope(0.0, fz), 0.0); }
 
 }  // namespace afm::sim

@@ -21,6 +21,10 @@ struct Lever {
     double Kl;        // lateral photodiode gain, rad/V (3 K_n / (2 l): equal sensitivity)
     double ktheta;    // torsional constant, nN nm / rad (from lateral_nN_per_V = k_theta K_l / h)
     double alpha;     // scan angle - 270 deg, rad
+    // The real lever against the beam: its apex moves cn_scale (cl_scale)
+    // times what 3 h K_n / (2 l) gives per volt of S_n (S_l) (probe.cn_nm_per_V,
+    // probe.cl_nm_per_V; 1: the beam's own).
+    double cn_scale = 1, cl_scale = 1;
     Eigen::Matrix2d R;   // C -> A (lateral)
 
     explicit Lever(const ProbeSpec &p);

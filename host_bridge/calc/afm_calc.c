@@ -4,8 +4,8 @@
  * own fixed-point solvers (firmware/), so what it prints is what the board
  * computes.
  *
- *   afm_calc calib tilted --up R --down R --angle-deg PHI --spring-N-per-m K --deflection-nm-per-V K [--json]
- *   afm_calc calib lines --depths-nm a,b,.. --offsets-nm a,b,.. --deflection-nm-per-V K [--json]
+ *   afm_calc calib tilted --up R --down R --angle-deg PHI --spring-N-per-m K --deflection-nm-per-V K [--json] [--write FILE]
+ *   afm_calc calib lines --depths-nm a,b,.. --offsets-nm a,b,.. --deflection-nm-per-V K [--json] [--write FILE]
  *   afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]
  *   afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]
  *
@@ -150,6 +150,32 @@ static const char *status_name(fw_status_t st)
     return "unknown";
 }
 
+/* --write FILE: a scene include (include: FILE) holding what was measured
+ * as the card's calibrated constants (firmware.*), written whole or not at
+ * all (a temporary file renamed). `keys` is the YAML mapping's body. */
+static void write_include(const char *cmd, const char *path, int argc, char **argv, const char *keys)
+{
+    char tmp[4096];
+    FILE *f;
+    int i;
+    if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
+        die("%s: --write %s: path too long", cmd, path);
+    }
+    f = fopen(tmp, "w");
+    if (f == NULL) {
+        die("%s: --write %s: cannot write: %s", cmd, path, strerror(errno));
+    }
+    fprintf(f, "# The card's calibrated constants, measured by ./afm %s", cmd);
+    for (i = 0; i < argc; i++) {
+        fprintf(f, " %s", argv[i]);
+    }
+    fprintf(f, "\n# A scene takes them with  include: %s\nfirmware:\n%s", path, keys);
+    if (fclose(f) != 0 || rename(tmp, path) != 0) {
+        remove(tmp);
+        die("%s: --write %s: cannot write: %s", cmd, path, strerror(errno));
+    }
+}
+
 static int32_t to_i32(const char *cmd, const opt_t *o, double v)
 {
     if (!(v >= -2147483648.0 && v <= 2147483647.0)) {
@@ -166,6 +192,7 @@ static int cmd_calib_tilted(int argc, char **argv)
     opt_t o[] = {
         { "--up", NULL, 0, 1 }, { "--down", NULL, 0, 1 }, { "--angle-deg", NULL, 0, 1 },
         { "--spring-N-per-m", NULL, 0, 1 }, { "--deflection-nm-per-V", NULL, 0, 1 }, { "--json", NULL, 1, 0 },
+        { "--write", NULL, 0, 0 },
     };
     double ru;
     double rd;
@@ -176,11 +203,12 @@ static int cmd_calib_tilted(int argc, char **argv)
     fw_calib_tilted_t t;
     fw_status_t st;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc calib tilted --up R_U --down R_D --angle-deg PHI --spring-N-per-m N_PER_M --deflection-nm-per-V NM_PER_V [--json]\n"
+        printf("usage: afm_calc calib tilted --up R_U --down R_D --angle-deg PHI --spring-N-per-m N_PER_M --deflection-nm-per-V NM_PER_V [--json] [--write FILE]\n"
                "  Lateral calibration on a tilted surface (physics.md section 2): from the\n"
                "  friction-loop slopes dS_l/dS_n uphill (R_U) and downhill (R_D, may be < 0)\n"
                "  on a surface of slope PHI degrees, gives mu and k_theta K_l / h (nN/V).\n"
                "  Refuses |R_U/R_D| <= 1 (+2^-10), PHI < 0.1 or >= 90 deg, R_U <= 0.\n"
+               "  --write FILE: a scene include with firmware.lateral_nN_per_V and firmware.mu.\n"
                "  Paper: --up 0.07 --down 0.02 --angle-deg 9 --spring-N-per-m 0.12 --deflection-nm-per-V 89 -> mu 0.0865, 37.9 nN/V\n");
         return 0;
     }
@@ -223,6 +251,11 @@ static int cmd_calib_tilted(int argc, char **argv)
             printf("  k_theta K_l / h        %.3f nN/V\n", lat);
             printf("  status                 ok\n");
         }
+        if (o[6].value != NULL) {
+            char keys[256];
+            snprintf(keys, sizeof keys, "  lateral_nN_per_V: %.3f   # k_theta K_l / h\n  mu: %.6f                # tip-substrate\n", lat, mu);
+            write_include(cmd, o[6].value, argc, argv, keys);
+        }
     }
     return 0;
 }
@@ -234,7 +267,7 @@ static int cmd_calib_lines(int argc, char **argv)
     const char *cmd = "calib lines";
     opt_t o[] = {
         { "--depths-nm", NULL, 0, 1 }, { "--offsets-nm", NULL, 0, 1 }, { "--deflection-nm-per-V", NULL, 0, 1 },
-        { "--json", NULL, 1, 0 },
+        { "--json", NULL, 1, 0 }, { "--write", NULL, 0, 0 },
     };
     double dz[LIST_MAX];
     double dd[LIST_MAX];
@@ -248,10 +281,11 @@ static int cmd_calib_lines(int argc, char **argv)
     int32_t res;
     fw_status_t st;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc calib lines --depths-nm D1,D2,.. --offsets-nm O1,O2,.. --deflection-nm-per-V NM_PER_V [--json]\n"
+        printf("usage: afm_calc calib lines --depths-nm D1,D2,.. --offsets-nm O1,O2,.. --deflection-nm-per-V NM_PER_V [--json] [--write FILE]\n"
                "  C_n from lines inscribed at several push depths (physics.md section 3):\n"
                "  S_n' = depth / K_n, least-squares fit offset = C_n S_n' + b; prints C_n (nm/V)\n"
                "  and the RMS residual (nm). 2..%d points, |values| <= 16777 nm.\n"
+               "  --write FILE: a scene include with firmware.disp_n_nm_per_V.\n"
                "  Paper: --depths-nm 500,1000,1500,2000 --offsets-nm 0,130,260,390 --deflection-nm-per-V 89 -> 23.1 nm/V\n",
                LIST_MAX);
         return 0;
@@ -290,6 +324,11 @@ static int cmd_calib_lines(int argc, char **argv)
         printf("  C_n                    %.3f nm/V\n", fwu_nm_per_v_from_pm_per_v(disp_n_pm_per_v));
         printf("  RMS residual           %.3f nm\n", fwu_nm_from_pm(res));
         printf("  status                 ok\n");
+    }
+    if (o[4].value != NULL) {
+        char keys[128];
+        snprintf(keys, sizeof keys, "  disp_n_nm_per_V: %.3f   # C_n\n", fwu_nm_per_v_from_pm_per_v(disp_n_pm_per_v));
+        write_include(cmd, o[4].value, argc, argv, keys);
     }
     return 0;
 }

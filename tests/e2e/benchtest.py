@@ -13,6 +13,7 @@ LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(SRC, "tools", "in_netns.sh")
 os.environ.setdefault("AFM_LCMTYPES_PY", os.path.join(BUILD, "lcmtypes"))
 sys.path.insert(0, os.path.join(SRC, "tools"))
+sys.path.insert(0, SRC)   # the analysis package (gsf, runlog, paper)
 import afmlog  # noqa: E402
 
 

@@ -14,7 +14,7 @@ import yaml
 
 import benchtest
 import afmlog
-import gsf
+from analysis import gsf
 
 TOL_NM = 5.0
 

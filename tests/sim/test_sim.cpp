@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <unistd.h>
 #include <string>
 
 #include "scene.hpp"
@@ -280,6 +282,38 @@ void test_field_outside_the_scanner_range_is_refused_with_the_key_named()
     TEST_ASSERT_EQUAL_DOUBLE(90000.0, scene_from_text(with(with(kBase, "EFFECTS", ""), "field_nm: 2000", "field_nm: 90000")).field_nm);
 }
 
+void test_included_calibration_is_read_and_the_scenes_own_values_win()
+{
+    // A lab's calibration (./afm calib ... --write) is a file a scene
+    // includes: its probe and firmware keys fill what the scene leaves out.
+    char inc[] = "/tmp/afm-test-include-XXXXXX";
+    const int fd = mkstemp(inc);
+    TEST_ASSERT_TRUE(fd >= 0);
+    close(fd);
+    std::ofstream(inc) << "probe: {cn_nm_per_V: 30.5, lever_length_um: 200}\nfirmware: {disp_n_nm_per_V: 29.0, mu: 0.2}\n";
+    const std::string text = with(with(kBase, "EFFECTS", "bending_offset"), "name: unit",
+                                  std::string("name: unit\ninclude: ") + inc + "\nprobe: {lever_length_um: 300}");
+    const afm::Scene s = scene_from_text(text);
+    TEST_ASSERT_TRUE(s.probe.cn_nm_per_V.has_value());
+    TEST_ASSERT_EQUAL_DOUBLE(30.5, *s.probe.cn_nm_per_V);
+    TEST_ASSERT_EQUAL_DOUBLE(300.0, s.probe.lever_length_um);   // the scene's own value wins
+    TEST_ASSERT_EQUAL_DOUBLE(29.0, *s.fw_cal.disp_n_nm_per_V);
+    TEST_ASSERT_EQUAL_DOUBLE(0.2, *s.fw_cal.mu);
+    // The simulated lever's apex moves by the true C_n, not the beam's estimate.
+    const afm::sim::Lever lv(s.probe);
+    const double fz = 5.0;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 30.5 * lv.sn_volts(0, fz), lv.apex_offset(Eigen::Vector2d::Zero(), fz).x());
+    // An include with a key it may not hold, and one that is missing: named.
+    std::ofstream(inc) << "operator: {load_nN: 9}\n";
+    std::string msg;
+    try { scene_from_text(text); } catch (const afm::SceneError &e) { msg = e.what(); }
+    TEST_ASSERT_TRUE_MESSAGE(msg.find(inc) != std::string::npos && msg.find("operator") != std::string::npos, msg.c_str());
+    unlink(inc);
+    msg.clear();
+    try { scene_from_text(text); } catch (const afm::SceneError &e) { msg = e.what(); }
+    TEST_ASSERT_TRUE_MESSAGE(msg.find(inc) != std::string::npos && msg.find("cannot open") != std::string::npos, msg.c_str());
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -295,5 +329,6 @@ int main()
     RUN_TEST(test_piezo_set_point_beyond_the_xy_range_is_clamped_and_counted);
     RUN_TEST(test_piezo_z_beyond_its_range_is_clamped_and_the_load_departs);
     RUN_TEST(test_field_outside_the_scanner_range_is_refused_with_the_key_named);
+    RUN_TEST(test_included_calibration_is_read_and_the_scenes_own_values_win);
     return UNITY_END();
 }
