@@ -590,8 +590,10 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
     YAML::Node op = root["operator"];
     if (!op.IsDefined()) r.fail("operator", "required value is missing");
     r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes", "mode",
-                                 "feel_threshold_N", "haptic", "hand", "plan"});
+                                 "feel_threshold_N", "haptic", "hand", "plan", "scan_load_nN"});
     s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN, 0, 1000);
+    if (op["scan_load_nN"].IsDefined() && !op["scan_load_nN"].IsNull())
+        s.op.scan_load_nN = r.num(op, "operator", "scan_load_nN", nullptr, 0, 1000);
     s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
     s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa, 0, 1, true);
     s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel"});

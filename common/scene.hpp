@@ -175,6 +175,7 @@ struct PlanSpec {
 
 struct OperatorSpec {
     double load_nN = 5.0;               // normal load while engaged
+    std::optional<double> scan_load_nN; // the load scans are taken at (none: load_nN); a lithography run pushes hard and images light
     double speed_nm_per_s = 1000.0;     // apex speed along the path
     std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start (plan: optional, the tip starts there lifted)
     double kappa = 1.0;                 // joystick scale kappa (p = kappa r_scan p_joy)

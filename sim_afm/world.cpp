@@ -548,9 +548,10 @@ ScanPoint World::scan_point(double x, double y) const
     const double hy = ((this->*imaging_)(xc, yc + kSlopeStep_nm) - (this->*imaging_)(xc, yc - kSlopeStep_nm)) / (2 * kSlopeStep_nm);
     const Eigen::Vector3d n = Eigen::Vector3d(-hx, -hy, 1.0).normalized();
 
-    // Sliding in +x at the scene's load (the mechanics' contact physics).
+    // Sliding in +x at the scan's load (operator.scan_load_nN, else the
+    // scene's; the mechanics' contact physics).
     const Eigen::Vector2d m = Eigen::Vector2d::UnitX();
-    const double load = scene_.op.load_nN;
+    const double load = scene_.op.scan_load_nN.value_or(scene_.op.load_nN);
     auto f = sliding_friction(m, n, load);
     Eigen::Vector2d fC = f ? Eigen::Vector2d(lever_.R.transpose() * *f) : Eigen::Vector2d::Zero();
     const ZHold zh = hold_z(h, fC.x(), load);

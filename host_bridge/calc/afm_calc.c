@@ -602,6 +602,36 @@ static int cmd_calc_force(int argc, char **argv)
     return 0;
 }
 
+/* The paper's probe as the firmware's header has it (fw_paper_probe.h),
+ * under the scene's probe key names: the one copy the bench's scripts read. */
+static int cmd_calc_probe(int argc, char **argv)
+{
+    const char *cmd = "calc probe";
+    opt_t o[] = { { "--json", NULL, 1, 0 } };
+    probe_t p;
+    if (wants_help(argc, argv)) {
+        printf("usage: afm_calc calc probe [--json]\n"
+               "  The paper's probe (fw_paper_probe.h): what a scene without probe keys gets.\n");
+        return 0;
+    }
+    parse_opts(cmd, argc, argv, o, 1);
+    probe_default(&p);
+    if (o[0].value != NULL) {
+        printf("{\"command\": \"%s\", \"status\": \"ok\", \"spring_N_per_m\": %.6f, \"deflection_nm_per_V\": %.3f, "
+               "\"lateral_nN_per_V\": %.3f, \"tip_height_um\": %.3f, \"lever_length_um\": %.3f, \"mu\": %.6f, "
+               "\"normal_gain_nN_per_V\": %.3f, \"cn_nm_per_V\": %.3f}\n",
+               cmd, p.spring_n_per_m, p.deflection_nm_per_v, p.lateral_gain_nn_per_v, p.h_um, p.l_um, p.mu,
+               FW_PAPER_NORMAL_GAIN_PN_PER_V * 1e-3, FW_PAPER_DISP_PM_PER_V * 1e-3);
+    } else {
+        printf("The paper's probe (fw_paper_probe.h)\n");
+        printf("  spring_N_per_m         %.4f\n  deflection_nm_per_V    %.1f\n  lateral_nN_per_V       %.1f\n", p.spring_n_per_m,
+               p.deflection_nm_per_v, p.lateral_gain_nn_per_v);
+        printf("  tip_height_um          %.1f\n  lever_length_um        %.1f\n  mu (tip on glass)      %.4f\n", p.h_um, p.l_um, p.mu);
+        printf("  C_n (inscribed lines)  %.1f nm/V\n", FW_PAPER_DISP_PM_PER_V * 1e-3);
+    }
+    return 0;
+}
+
 /* ---- dispatch ----------------------------------------------------------- */
 
 static void usage(FILE *fp)
@@ -611,7 +641,8 @@ static void usage(FILE *fp)
             "  calib tilted   mu and k_theta K_l / h from friction loops on a tilted surface\n"
             "  calib lines    C_n from lines inscribed at several depths\n"
             "  model wire     static point and minimum push of a rigid nanowire\n"
-            "  calc force     3-D tip force from S_n, S_l, theta and the scan angle\n");
+            "  calc force     3-D tip force from S_n, S_l, theta and the scan angle\n"
+            "  calc probe     the paper's probe (fw_paper_probe.h)\n");
 }
 
 int main(int argc, char **argv)
@@ -634,6 +665,9 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "calc") == 0 && strcmp(argv[2], "force") == 0) {
         return cmd_calc_force(argc - 3, argv + 3);
+    }
+    if (strcmp(argv[1], "calc") == 0 && strcmp(argv[2], "probe") == 0) {
+        return cmd_calc_probe(argc - 3, argv + 3);
     }
     die("unknown command '%s %s' (see afm_calc --help)", argv[1], argv[2]);
     return EXIT_USAGE;

@@ -1,0 +1,1 @@
+"""./afm paper: the paper's experiments run on the bench (analysis.paper.cli)."""

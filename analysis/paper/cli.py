@@ -1,0 +1,153 @@
+"""./afm paper: the paper's experiments run on the bench and analysed from
+the runs' own data, side by side with the paper's values and the
+simulator's truth. See README, "The paper, reproduced"."""
+import argparse
+import concurrent.futures
+import json
+import os
+import sys
+import time
+
+from analysis import paths, point
+from analysis.paper import common, report
+from analysis.paper import exp_lines, exp_rod, exp_tilted
+
+EXPERIMENTS = [exp_tilted, exp_lines, exp_rod]
+BY_NAME = {e.NAME: e for e in EXPERIMENTS}
+
+USAGE_EPILOG = "experiments: " + ", ".join(f"{e.NAME} ({e.FIGURES})" for e in EXPERIMENTS)
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(
+        prog="./afm paper",
+        description="Runs each of the paper's experiments as scenes under scenes/paper/, analyses the runs' own "
+                    "signals, scans and firmware outputs with the firmware's own solvers, and writes report.html, "
+                    "report.md and paper.json into --out, one folder per experiment with its runs and figures. "
+                    "A table on stdout; exit 1 if any figure is outside its stated tolerance, 2 on bad arguments "
+                    "or a run that failed.",
+        epilog=USAGE_EPILOG)
+    p.add_argument("--only", nargs="+", metavar="NAME", help="run these experiments only")
+    p.add_argument("--out", default=os.path.join(paths.ROOT, "runs", "paper"), help="output folder (default runs/paper)")
+    p.add_argument("--size", choices=["full", "reduced"], default="full",
+                   help="reduced: the smaller versions ./afm test runs (same figures, looser statistics)")
+    p.add_argument("--workers", type=int, default=2, help="runs at once (default 2)")
+    p.add_argument("--list", action="store_true", help="list the experiments and exit")
+    a = p.parse_args(argv)
+    if a.only:
+        bad = [n for n in a.only if n not in BY_NAME]
+        if bad:
+            p.error(f"--only {' '.join(bad)}: no such experiment ({', '.join(BY_NAME)})")
+    if a.workers < 1:
+        p.error(f"--workers {a.workers}: at least 1")
+    return a
+
+
+class Progress:
+    def __init__(self, total):
+        self.total, self.done, self.t0 = total, 0, time.monotonic()
+
+    def tick(self, what):
+        self.done += 1
+        sys.stderr.write(f"\rpaper: {self.done} / {self.total} runs ({what})   {time.monotonic() - self.t0:5.0f} s   ")
+        sys.stderr.flush()
+
+
+def _one_run(job):
+    exp_dir, run = job
+    run_dir = os.path.join(exp_dir, "runs", run.name)
+    os.makedirs(run_dir, exist_ok=True)
+    import yaml
+    scene_path = os.path.join(exp_dir, "runs", run.name + ".yaml")
+    scene = common.scene_for(run)
+    with open(scene_path, "w") as f:
+        f.write(f"# {run.scene} with {run.settings} (./afm paper)\n")
+        yaml.safe_dump(scene, f, sort_keys=False)
+    code, err, rj, wall = point.run_scene(scene_path, run_dir, run.timeout_s)
+    ok = code == 0 and rj is not None and rj.get("status") == "ok"
+    return run.name, run_dir, ok, (None if ok else point.failure_of(code, err, rj, run_dir)), wall
+
+
+def analyse(exp, exp_dir, size, outcomes):
+    """An experiment's analysis from its runs' outcomes: its Result."""
+    failures = [(name, fail) for name, (_, ok, fail) in outcomes.items() if not ok]
+    if failures:
+        name, fail = failures[0]
+        res = common.Result(notes=[f"run {name} failed: {json.dumps(fail)[:600]}"])
+        res.rows.append(common.Row(quantity=f"run {name}", unit="", bench=None, note="the run failed"))
+    else:
+        try:
+            res = exp.analyse({name: d for name, (d, _, _) in outcomes.items()}, exp_dir, size)
+        except common.PaperError as e:
+            res = common.Result(notes=[str(e)])
+            res.rows.append(common.Row(quantity="analysis", unit="", bench=None, note=str(e)))
+    for r in res.rows:
+        r.judge()
+    return res
+
+
+def run_all(jobs, workers, prog, outcomes, walls):
+    """Every run at once (workers at a time), longest first."""
+    with concurrent.futures.ThreadPoolExecutor(max_workers=workers) as pool:
+        futs = {pool.submit(_one_run, (d, r)): e for e, d, r in sorted(jobs, key=lambda j: -j[2].cost_s)}
+        for f in concurrent.futures.as_completed(futs):
+            e = futs[f]
+            name, run_dir, ok, fail, wall = f.result()
+            prog.tick(f"{e.NAME} {name}")
+            outcomes[e.NAME][name] = (run_dir, ok, fail)
+            walls[e.NAME] += wall
+
+
+def main(argv):
+    a = parse_args(argv)
+    exps = [BY_NAME[n] for n in a.only] if a.only else EXPERIMENTS
+    if a.list:
+        for e in EXPERIMENTS:
+            print(f"{e.NAME:10s} {e.FIGURES:14s} {e.TITLE}")
+        return 0
+    for prog_path in (paths.LAUNCH, common.CALC):
+        if not os.path.exists(prog_path):
+            sys.stderr.write(f"paper: {prog_path} is missing: build first (./afm build)\n")
+            return 2
+    os.makedirs(a.out, exist_ok=True)
+    jobs = []
+    for e in exps:
+        exp_dir = os.path.join(a.out, e.NAME)
+        os.makedirs(exp_dir, exist_ok=True)
+        jobs += [(e, exp_dir, r) for r in e.runs(a.size)]
+    prog = Progress(len(jobs))
+    t0 = time.monotonic()
+    sys.stderr.write(f"paper: {len(exps)} experiments, {len(jobs)} runs, {a.size} size, {a.workers} at once, into {a.out}\n")
+    outcomes = {e.NAME: {} for e in exps}
+    walls = {e.NAME: 0.0 for e in exps}
+    run_all(jobs, a.workers, prog, outcomes, walls)
+    # A second round for experiments whose runs stand on the first's
+    # (the lines' calibration, then pushes with it).
+    later = []
+    for e in exps:
+        if hasattr(e, "more_runs") and all(ok for _, ok, _ in outcomes[e.NAME].values()):
+            exp_dir = os.path.join(a.out, e.NAME)
+            try:
+                later += [(e, exp_dir, r) for r in e.more_runs(a.size, {n: d for n, (d, _, _) in outcomes[e.NAME].items()}, exp_dir)]
+            except common.PaperError as err:
+                outcomes[e.NAME]["(second round)"] = (None, False, str(err))
+    if later:
+        prog.total += len(later)
+        run_all(later, a.workers, prog, outcomes, walls)
+    results = {}
+    for e in exps:
+        results[e.NAME] = (e, analyse(e, os.path.join(a.out, e.NAME), a.size, outcomes[e.NAME]), walls[e.NAME])
+    sys.stderr.write("\n")
+    wall = time.monotonic() - t0
+    report.write(a.out, results, a.size, wall)
+    print(report.table(results))
+    print(f"paper: {wall:.0f} s; report in {os.path.join(a.out, 'report.html')} (and report.md, paper.json)")
+    bad = [n for n, (_, r, _) in results.items() if not r.ok]
+    if bad:
+        print(f"paper: outside the stated tolerance: {', '.join(bad)}")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,190 @@
+"""What every experiment of ./afm paper shares: its runs (a scene under
+scenes/paper/, with some keys set, run as ./afm run runs it), the rows of
+its table (the paper's value, the bench's measured from the run's own data,
+the simulator's truth, the error and the tolerance it is held to), the
+firmware's own solvers (afm_calc --json), the run's signals and scans."""
+import copy
+import json
+import os
+import subprocess
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import yaml
+
+from analysis import gsf, knobs, paths
+
+SCENES = os.path.join(paths.ROOT, "scenes", "paper")
+CALC = os.path.join(paths.BUILD, "host_bridge", "calc", "afm_calc")
+
+
+class PaperError(Exception):
+    """An experiment could not be analysed (named: what and why)."""
+
+
+@dataclass
+class Run:
+    """One run of an experiment: a scene under scenes/paper/ with keys set."""
+    name: str                    # unique within the experiment
+    scene: str                   # file name under scenes/paper/
+    settings: dict = field(default_factory=dict)   # dotted key -> value (analysis.knobs)
+    timeout_s: float = 900.0
+    cost_s: float = 10.0         # about how long it takes (the longest start first)
+
+
+@dataclass
+class Row:
+    """One line of the report. error: bench - truth (absolute) unless
+    relative; ok: |error| within tolerance. Without a truth, a tolerance is
+    a limit: ok when |bench| is within it (an error measured directly)."""
+    quantity: str
+    unit: str
+    paper: object = None         # the paper's value (None: it gives none)
+    bench: object = None         # measured from the run's own data by the firmware's solvers
+    truth: object = None         # the simulator's (the scene's physics, or SIM_TRUTH)
+    tolerance: float = None      # the error allowed (absolute, in unit; or a fraction with relative)
+    relative: bool = False
+    note: str = ""               # where the paper's number is lost or wrong, or how it was measured
+    error: float = None
+    ok: bool = True
+
+    def judge(self):
+        if self.bench is None:
+            self.ok = False
+            return self
+        if self.tolerance is None:
+            self.ok = True
+            return self
+        if self.truth is None:
+            self.ok = abs(float(self.bench)) <= self.tolerance
+            return self
+        e = float(self.bench) - float(self.truth)
+        if self.relative:
+            e = e / float(self.truth) if self.truth else float("inf")
+        self.error = e
+        self.ok = abs(e) <= self.tolerance
+        return self
+
+
+@dataclass
+class Result:
+    rows: list = field(default_factory=list)
+    figures: list = field(default_factory=list)   # (caption, file name in the experiment's folder)
+    notes: list = field(default_factory=list)
+
+    @property
+    def ok(self):
+        return all(r.ok for r in self.rows)
+
+    def as_dict(self):
+        return {"ok": self.ok, "rows": [asdict(r) for r in self.rows], "figures": self.figures, "notes": self.notes}
+
+
+def load_scene(name):
+    path = os.path.join(SCENES, name)
+    try:
+        with open(path) as f:
+            return yaml.safe_load(f)
+    except OSError as e:
+        raise PaperError(f"{path}: cannot read the experiment's scene: {e.strerror}")
+
+
+def scene_for(run):
+    """The run's scene: the file under scenes/paper/ with its settings."""
+    scene = copy.deepcopy(load_scene(run.scene))
+    return knobs.apply(scene, run.settings, where=f"{run.scene}") if run.settings else scene
+
+
+def calc(*args):
+    """The firmware's own solver through afm_calc ... --json: its answer."""
+    p = subprocess.run([CALC, *map(str, args), "--json"], capture_output=True, text=True, timeout=60)
+    if p.returncode != 0:
+        raise PaperError(f"afm_calc {' '.join(map(str, args))}: {p.stderr.strip()}")
+    return json.loads(p.stdout)
+
+
+def run_json(run_dir):
+    with open(os.path.join(run_dir, "run.json")) as f:
+        return json.load(f)
+
+
+def analog(run_dir):
+    """The run's photodiode signals and piezo, sample by sample, from its
+    own bus.lcmlog: dict of numpy arrays sn_v, sl_v, x_nm, y_nm, z_nm, and
+    t_s; and the sample rate."""
+    import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"AFM_ANALOG"})
+    blocks = sorted(afmlog.by_seq(log.get("AFM_ANALOG", [])).values(), key=lambda m: m.seq)
+    if not blocks:
+        raise PaperError(f"{run_dir}/bus.lcmlog: no analog blocks")
+    fs = blocks[0].fs_hz
+    out = {k: np.concatenate([np.asarray(getattr(m, a)[:m.n]) for m in blocks])
+           for k, a in (("sn_v", "sn_v"), ("sl_v", "sl_v"), ("x_nm", "piezo_x_nm"), ("y_nm", "piezo_y_nm"), ("z_nm", "piezo_z_nm"))}
+    out["t_s"] = np.arange(len(out["sn_v"])) / fs
+    return out, fs
+
+
+def scan(run_dir, name):
+    """A scan the run wrote (scan_initial, scan_final, scan_local_N): heights
+    in nm as a numpy array (row 0 at the top), and the x, y of its pixel
+    centres in nm (frame A)."""
+    path = os.path.join(run_dir, name + ".gsf")
+    try:
+        header, rows = gsf.read(path)
+    except OSError as e:
+        raise PaperError(f"{path}: cannot read the scan: {e.strerror}")
+    h = np.asarray(rows, dtype=float) * 1e9
+    nx, ny = int(header["XRes"]), int(header["YRes"])
+    xr, yr = float(header["XReal"]) * 1e9, float(header["YReal"]) * 1e9
+    x0, y0 = float(header.get("XOffset", 0)) * 1e9, float(header.get("YOffset", 0)) * 1e9
+    xs = x0 + (np.arange(nx) + 0.5) * xr / nx
+    ys = y0 + yr - (np.arange(ny) + 0.5) * yr / ny   # row 0 at the top
+    return h, xs, ys
+
+
+def truth(run_dir):
+    """The scene the run ran (its scene.yaml, includes merged): the
+    simulator's truth, for the truth column only."""
+    with open(os.path.join(run_dir, "scene.yaml")) as f:
+        return yaml.safe_load(f)
+
+
+def probe_value(scene, key):
+    """A probe key of the scene, or the paper's probe (afm_calc probe) when
+    the scene leaves it out."""
+    v = (scene.get("probe") or {}).get(key)
+    return float(v) if v is not None else float(paper_probe()[key])
+
+
+_PAPER_PROBE = None
+
+
+def paper_probe():
+    """The paper's probe as the firmware's header has it (afm_calc probe)."""
+    global _PAPER_PROBE
+    if _PAPER_PROBE is None:
+        _PAPER_PROBE = calc("calc", "probe")
+    return _PAPER_PROBE
+
+
+def plt():
+    """matplotlib, off-screen."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as p
+    return p
+
+
+def apex_error(run_dir, min_load_nN=1.0):
+    """The card's apex (FW_TIP) against the simulator's (SIM_TRUTH), block
+    by block where the card reads a load above min_load_nN: arrays of the
+    error (nm, x and y, frame A) and of the simulated time (s)."""
+    import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_TIP", "SIM_TRUTH", "FW_FORCE"})
+    tip, truth, force = (afmlog.by_seq(log.get(c, [])) for c in ("FW_TIP", "SIM_TRUTH", "FW_FORCE"))
+    seqs = sorted(s for s in tip if s in truth and s in force and force[s].force_nN[2] > min_load_nN)
+    if not seqs:
+        raise PaperError(f"{run_dir}/bus.lcmlog: no block with the tip on the surface (FW_TIP, SIM_TRUTH, FW_FORCE)")
+    err = np.array([[tip[s].tip_nm[i] - truth[s].tip_nm[i] for i in (0, 1)] for s in seqs])
+    t = np.array([tip[s].utime * 1e-6 for s in seqs])
+    return err, t

@@ -1,0 +1,98 @@
+"""./afm paper's outputs: paper.json (for scripts), report.md and a
+self-contained report.html (figures inline), and the table on stdout."""
+import base64
+import datetime
+import json
+import os
+from dataclasses import asdict
+
+import jinja2
+
+from analysis import paths
+
+TEMPLATES = os.path.join(paths.ROOT, "analysis", "templates")
+
+
+def fmt(v, digits=4):
+    """A number as a person reads it (None: a dash)."""
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        if v == 0:
+            return "0"
+        a = abs(v)
+        if a >= 1e5 or a < 1e-3:
+            return f"{v:.{digits - 1}e}"
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def _err(r):
+    if r.error is None:
+        return "-"
+    return f"{100 * r.error:+.2g} %" if r.relative else fmt(r.error, 3)
+
+
+def _tol(r):
+    if r.tolerance is None:
+        return "-"
+    return f"{100 * r.tolerance:.3g} %" if r.relative else fmt(r.tolerance, 3)
+
+
+def table(results):
+    """The stdout table: one line per figure."""
+    head = f"{'experiment':10s} {'quantity':44s} {'paper':>10s} {'bench':>11s} {'truth':>11s} {'error':>10s} {'tol':>8s}  ok"
+    lines = [head, "-" * len(head)]
+    for name, (_, res, _) in results.items():
+        for r in res.rows:
+            q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
+            lines.append(f"{name:10s} {q[:44]:44s} {fmt(r.paper):>10s} {fmt(r.bench):>11s} {fmt(r.truth):>11s} {_err(r):>10s} "
+                         f"{_tol(r):>8s}  {'ok' if r.ok else 'NO'}")
+    return "\n".join(lines)
+
+
+def _inline(path):
+    with open(path, "rb") as f:
+        return "data:image/png;base64," + base64.b64encode(f.read()).decode()
+
+
+def write(out, results, size, wall_s):
+    now = datetime.datetime.now().isoformat(timespec="seconds")
+    data = {"size": size, "wall_s": wall_s, "written": now,
+            "experiments": {n: dict(res.as_dict(), title=e.TITLE, figures_of_the_paper=e.FIGURES, wall_s=w, folder=n)
+                            for n, (e, res, w) in results.items()}}
+    tmp = os.path.join(out, "paper.json.tmp")
+    with open(tmp, "w") as f:
+        json.dump(data, f, indent=2)
+        f.write("\n")
+    os.replace(tmp, os.path.join(out, "paper.json"))
+
+    md = [f"# The paper, reproduced on the bench ({size} size)", "",
+          f"Written {now}; {wall_s:.0f} s. Each value under *bench* is measured from the runs' own signals, scans and "
+          "firmware outputs by the firmware's own solvers; *truth* is the simulator's; *error* is bench - truth.", ""]
+    for n, (e, res, w) in results.items():
+        md += [f"## {e.TITLE} ({e.FIGURES}): {'within tolerance' if res.ok else 'OUTSIDE tolerance'}", "",
+               "| quantity | paper | bench | truth | error | tolerance | ok | note |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+        for r in res.rows:
+            q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
+            md.append(f"| {q} | {fmt(r.paper)} | {fmt(r.bench)} | {fmt(r.truth)} | {_err(r)} | {_tol(r)} | "
+                      f"{'ok' if r.ok else 'NO'} | {r.note} |")
+        md += [""] + [f"- {t}" for t in res.notes] + [""]
+        md += [f"![{cap}]({n}/{fn})" for cap, fn in res.figures] + [""]
+    with open(os.path.join(out, "report.md"), "w") as f:
+        f.write("\n".join(md) + "\n")
+
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True)
+    env.filters["fmt"] = fmt
+    exps = []
+    for n, (e, res, w) in results.items():
+        figs = [(cap, _inline(os.path.join(out, n, fn))) for cap, fn in res.figures if os.path.exists(os.path.join(out, n, fn))]
+        rows = [dict(asdict(r), err=_err(r), tol=_tol(r)) for r in res.rows]
+        exps.append({"name": n, "title": e.TITLE, "figs": e.FIGURES, "ok": res.ok, "rows": rows, "notes": res.notes,
+                     "figures": figs, "wall_s": w, "what": e.__doc__ or ""})
+    html = env.get_template("paper.html.j2").render(exps=exps, size=size, now=now, wall_s=wall_s,
+                                                     all_ok=all(x["ok"] for x in exps))
+    with open(os.path.join(out, "report.html"), "w") as f:
+        f.write(html)
