@@ -744,10 +744,14 @@ YAML::Node resolved_yaml(const std::string &path)
         }
         root.remove("include");
     }
-    YAML::Node png = root["objects"]["targets"]["png"];
-    if (root["objects"].IsMap() && root["objects"]["targets"].IsMap() && png.IsDefined() && png.IsScalar() && !png.Scalar().empty() &&
-        png.Scalar()[0] != '/')
-        root["objects"]["targets"]["png"] = dir_of(path) + "/" + png.Scalar();
+    // (Indexing a node by a key turns a sequence into a mapping: look first.)
+    const YAML::Node objects = root["objects"];
+    if (objects.IsDefined() && objects.IsMap() && objects["targets"].IsDefined() && objects["targets"].IsMap()) {
+        YAML::Node targets = root["objects"]["targets"];
+        const YAML::Node png = targets["png"];
+        if (png.IsDefined() && png.IsScalar() && !png.Scalar().empty() && png.Scalar()[0] != '/')
+            targets["png"] = dir_of(path) + "/" + png.Scalar();
+    }
     return root;
 }
 

@@ -309,6 +309,12 @@ void test_included_calibration_is_read_and_the_scenes_own_values_win()
     try { scene_from_text(text); } catch (const afm::SceneError &e) { msg = e.what(); }
     TEST_ASSERT_TRUE_MESSAGE(msg.find(inc) != std::string::npos && msg.find("operator") != std::string::npos, msg.c_str());
     unlink(inc);
+    // Sites as a list survive the include and path resolution (a mapping
+    // key looked up on a list must not turn it into a mapping).
+    const std::string listed = with(with(with(kBase, "EFFECTS", ""), "objects:\n", "objects:\n  targets:\n    - [100, 0]\n    - [400, 0]\n"),
+                                    "  load_nN: 5\n", "  load_nN: 5\n  plan: {}\n");
+    const afm::Scene sites = scene_from_text(listed);
+    TEST_ASSERT_EQUAL_INT(2, (int)sites.targets.sites_nm.size());
     msg.clear();
     try { scene_from_text(text); } catch (const afm::SceneError &e) { msg = e.what(); }
     TEST_ASSERT_TRUE_MESSAGE(msg.find(inc) != std::string::npos && msg.find("cannot open") != std::string::npos, msg.c_str());
