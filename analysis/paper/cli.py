@@ -10,9 +10,9 @@ import time
 
 from analysis import paths, point
 from analysis.paper import common, report
-from analysis.paper import exp_landmark, exp_lines, exp_rod, exp_tilted
+from analysis.paper import exp_drift, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_tilted
 
-EXPERIMENTS = [exp_tilted, exp_lines, exp_rod, exp_landmark]
+EXPERIMENTS = [exp_tilted, exp_lines, exp_rod, exp_drift, exp_landmark, exp_pattern]
 BY_NAME = {e.NAME: e for e in EXPERIMENTS}
 
 USAGE_EPILOG = "experiments: " + ", ".join(f"{e.NAME} ({e.FIGURES})" for e in EXPERIMENTS)
@@ -142,6 +142,10 @@ def main(argv):
     report.write(a.out, results, a.size, wall)
     print(report.table(results))
     print(f"paper: {wall:.0f} s; report in {os.path.join(a.out, 'report.html')} (and report.md, paper.json)")
+    failed = [f"{n} {run}" for n, runs_ in outcomes.items() for run, (_, ok, _) in runs_.items() if not ok]
+    if failed:
+        print(f"paper: runs that failed (see the notes in report.md): {', '.join(failed)}")
+        return 2
     bad = [n for n, (_, r, _) in results.items() if not r.ok]
     if bad:
         print(f"paper: outside the stated tolerance: {', '.join(bad)}")

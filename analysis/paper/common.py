@@ -188,3 +188,21 @@ def apex_error(run_dir, min_load_nN=1.0):
     err = np.array([[tip[s].tip_nm[i] - truth[s].tip_nm[i] for i in (0, 1)] for s in seqs])
     t = np.array([tip[s].utime * 1e-6 for s in seqs])
     return err, t
+
+
+def model_states(run_dir):
+    """[(seq, card's objects, true objects)] for every block both logged."""
+    import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_OBJECTS", "SIM_TRUTH"})
+    fw = afmlog.whole_by_seq(log.get("FW_OBJECTS", []))
+    tr = afmlog.whole_by_seq(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
+    seqs = sorted(set(fw) & set(tr))
+    if not seqs:
+        raise PaperError(f"{run_dir}/bus.lcmlog: no block with both FW_OBJECTS and SIM_TRUTH")
+    return [(s, fw[s], tr[s]) for s in seqs]
+
+
+def model_error(f, t):
+    """Largest distance (nm) between a modelled particle and the true one."""
+    truth = {p.id: p for p in t.particles}
+    return max(float(np.hypot(p.x_nm - truth[p.id].x_nm, p.y_nm - truth[p.id].y_nm)) for p in f.particles if p.id in truth)

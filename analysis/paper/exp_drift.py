@@ -1,0 +1,87 @@
+"""The sample drifts several hundred nm over the run (600 nm/min and a
+random walk); eight particles are pushed one after another, each after a
+400 nm local scan around it that re-registers the firmware's models. The
+registration error is the card's work-space offset (FW_OBJECTS.drift_nm)
+against the simulator's drift (SIM_TRUTH), read at every block where the
+card flags contact (when the models matter); the same run without local
+scans shows it growing with the drift, and its pushes missing. A push met
+its particle when the true particle moved (beyond the drift) by more than
+30 nm."""
+import os
+
+import numpy as np
+
+from analysis.paper import common
+
+NAME = "drift"
+TITLE = "Drift of several hundred nm, with and without local scans"
+FIGURES = "section II"
+
+
+def runs(size):
+    # The same at both sizes: 40 simulated s take about 15 wall s.
+    return [common.Run(name="local_scans", scene="drift.yaml", cost_s=30),
+            common.Run(name="no_local_scans", scene="drift.yaml", settings={"operator.local_scans": []}, cost_s=30)]
+
+
+def registration(run_dir):
+    """Per block: time (s), |card offset - true drift| (nm), true drift (nm),
+    the card's contact flag; and how many particles a push moved."""
+    import afmlog
+    st = common.model_states(run_dir)
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_FORCE"})
+    ff = afmlog.by_seq(log.get("FW_FORCE", []))
+    t = np.array([f.utime * 1e-6 for _, f, _ in st])
+    err = np.array([np.hypot(f.drift_nm[0] - tr.drift_nm[0], f.drift_nm[1] - tr.drift_nm[1]) for _, f, tr in st])
+    drift = np.array([np.hypot(*tr.drift_nm) for _, _, tr in st])
+    contact = np.array([bool(ff[s].flags & 32) if s in ff else False for s, _, _ in st])   # fw_force_t.FLAG_CONTACT
+    first, last = st[0][2], st[-1][2]
+    start = {p.id: (p.x_nm, p.y_nm) for p in first.particles}
+    dd = np.subtract(last.drift_nm[:2], first.drift_nm[:2])
+    moved = sum(1 for p in last.particles if np.hypot(p.x_nm - start[p.id][0] - dd[0], p.y_nm - start[p.id][1] - dd[1]) > 30)
+    return t, err, drift, contact, moved, len(start)
+
+
+def analyse(dirs, exp_dir, size):
+    tw, ew, dw, cw, mw, n = registration(dirs["local_scans"])
+    to, eo, do, co, mo, _ = registration(dirs["no_local_scans"])
+    if not cw.any():
+        raise common.PaperError(f"{dirs['local_scans']}: the card never flagged contact")
+    st = common.model_states(dirs["local_scans"])
+    res = common.Result()
+    off = np.array([np.hypot(*f.drift_nm[:2]) for _, f, _ in st])
+    changed = np.flatnonzero(np.diff(off) != 0)
+    last_fix = int(changed[-1]) + 1 if changed.size else 0
+    res.rows = [
+        common.Row("drift at the last local scan, as re-registered", "nm", paper="several hundred", bench=float(off[-1]),
+                   truth=float(dw[last_fix]), tolerance=0.05, relative=True,
+                   note=f"the card's offset after its last local scan (at {tw[last_fix]:.1f} s) against the simulator's drift "
+                        f"then; {dw[-1]:.0f} nm at the end"),
+        common.Row("registration error while pushing, with local scans (max)", "nm", bench=float(ew[cw].max()),
+                   tolerance=25.0, note="|card offset - true drift| over the blocks the card flags contact: the drift "
+                                        "between a scan and the end of its push (about 16 nm) and the scan's own error"),
+        common.Row("registration error at the end, without local scans", "nm", bench=float(eo[-1]),
+                   note="unmended, the models are off by the whole drift (shown, not judged)"),
+        common.Row(f"pushes that met their particle, with local scans (of {n})", "", bench=mw, truth=n, tolerance=0),
+        common.Row(f"pushes that met their particle, without (of {n})", "", bench=mo, note="the later pushes miss"),
+    ]
+    res.notes.append("between two local scans the sample drifts about 50 nm: well inside the firmware's 200 nm "
+                     "correction limit and the 400 nm scan; a scan that does not find its object is not yet retried wider")
+    res.figures = [("Registration error against time, with and without local scans; the true drift", plot(exp_dir, (tw, ew, cw), (to, eo, co), dw))]
+    return res
+
+
+def plot(exp_dir, w, wo, drift):
+    p = common.plt()
+    fig, ax = p.subplots(figsize=(6.4, 3.8))
+    ax.plot(w[0], drift, lw=0.8, color="grey", label="true drift")
+    ax.plot(wo[0], wo[1], lw=1, label="error without local scans")
+    ax.plot(w[0], w[1], lw=1, label="error with local scans")
+    ax.plot(w[0][w[2]], w[1][w[2]], ".", ms=2, label="(while pushing)")
+    ax.set_xlabel("simulated time (s)")
+    ax.set_ylabel("nm")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(exp_dir, "drift.png"), dpi=110)
+    p.close(fig)
+    return "drift.png"

@@ -1,0 +1,123 @@
+"""./afm paper at its reduced size (issue 13): every experiment runs on the
+bench, is analysed from the runs' own data, and its figures are checked here
+against the truth or the closed form within the tolerance the report states
+(recomputed from paper.json, not taken from its "ok"). The report is written
+whole (report.html with its figures inline, report.md, paper.json); a
+tolerance broken makes the judge say so; bad arguments are named."""
+import json
+import os
+import subprocess
+import sys
+import unittest
+
+import benchtest
+
+PY = sys.executable
+ENV = dict(os.environ, PYTHONPATH=f"{benchtest.SRC}:{os.path.join(benchtest.SRC, 'tools')}")
+sys.path[:0] = [benchtest.SRC, os.path.join(benchtest.SRC, "tools")]
+
+from analysis.paper import cli, common  # noqa: E402
+
+
+def paper(*args, timeout=1200):
+    p = subprocess.run([PY, "-m", "analysis.paper", *args], capture_output=True, text=True, timeout=timeout, env=ENV,
+                       cwd=benchtest.SRC)
+    return p.returncode, p.stdout, p.stderr
+
+
+class Reduced(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.out = benchtest.tmpdir("paper")
+        cls.code, cls.so, cls.se = paper("--size", "reduced", "--out", cls.out)
+        with open(os.path.join(cls.out, "paper.json")) as f:
+            cls.data = json.load(f)
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.out)
+
+    def rows(self, exp):
+        return {r["quantity"]: r for r in self.data["experiments"][exp]["rows"]}
+
+    def row(self, exp, prefix):
+        hits = [r for q, r in self.rows(exp).items() if q.startswith(prefix)]
+        self.assertEqual(len(hits), 1, f"{exp}: one row starting {prefix!r}")
+        return hits[0]
+
+    def test_every_experiment_ran_and_the_command_passed(self):
+        self.assertEqual(self.code, 0, self.so[-3000:] + self.se[-3000:])
+        self.assertEqual(sorted(self.data["experiments"]), sorted(e.NAME for e in cli.EXPERIMENTS))
+        self.assertIn("experiment quantity", self.so)
+
+    def test_every_judged_figure_within_its_tolerance_recomputed(self):
+        for name, exp in self.data["experiments"].items():
+            for r in exp["rows"]:
+                self.assertIsNotNone(r["bench"], f"{name}: {r['quantity']}: nothing measured ({exp['notes']})")
+                if r["tolerance"] is None:
+                    continue
+                if r["truth"] is None:
+                    self.assertLessEqual(abs(r["bench"]), r["tolerance"], f"{name}: {r['quantity']}")
+                    continue
+                e = r["bench"] - r["truth"]
+                if r["relative"]:
+                    e /= r["truth"]
+                self.assertLessEqual(abs(e), r["tolerance"], f"{name}: {r['quantity']}: {r}")
+
+    def test_tilted_glass_gives_mu_and_the_lateral_gain_of_the_closed_form(self):
+        # physics.md 2: the paper's r_u 0.07, r_d 0.02 give mu 0.0865 and 37.9 nN/V.
+        self.assertAlmostEqual(self.row("tilted", "mu")["bench"], 0.0865, delta=0.0865 * 0.05)
+        self.assertAlmostEqual(self.row("tilted", "k_theta")["bench"], 37.9, delta=37.9 * 0.03)
+
+    def test_lines_find_the_levers_true_cn_not_the_estimate_and_the_calibration_mends_the_apex(self):
+        cn = self.row("lines", "C_n")
+        self.assertAlmostEqual(cn["bench"], cn["truth"], delta=0.03 * cn["truth"])
+        self.assertGreater(abs(cn["bench"] - 23.1), 2.0, "the estimate, not a measurement")
+        est = self.row("lines", "apex error on a push, C_n estimated")["bench"]
+        cal = self.row("lines", "apex error on a push, C_n calibrated")["bench"]
+        self.assertGreater(est, 5 * cal)
+        inc = os.path.join(self.out, "lines", "calibrated_lever.yaml")
+        with open(inc) as f:
+            self.assertIn("disp_n_nm_per_V", f.read())
+
+    def test_rod_static_point_and_push_follow_the_closed_form(self):
+        L = 1300.0
+        from analysis.paper import exp_rod
+        s_end, k_end = exp_rod.closed_form(0.03 * L, L)
+        self.assertAlmostEqual(self.row("rod", "static point at an end push")["bench"], s_end, delta=30)
+        self.assertAlmostEqual(self.row("rod", "push that moves the rod at l = 0.03")["bench"], k_end * 26.0, delta=0.1 * 26.0)
+        self.assertLess(self.row("rod", "firmware fw_wire against the closed form: static")["bench"], 2.0)
+
+    def test_landmark_drift_and_pattern_hold_their_models(self):
+        self.assertLess(abs(self.row("landmark", "re-registered offset x")["bench"] - 250), 5)
+        self.assertLess(self.row("drift", "registration error while pushing")["bench"], 25)
+        self.assertGreater(self.row("drift", "registration error at the end, without")["bench"], 200)
+        pat = self.row("pattern", "sites filled")
+        self.assertEqual(pat["bench"], 10)
+
+    def test_report_is_whole_with_figures_inline(self):
+        with open(os.path.join(self.out, "report.html")) as f:
+            html = f.read()
+        n_figs = sum(len(e["figures"]) for e in self.data["experiments"].values())
+        self.assertGreaterEqual(n_figs, 10)
+        self.assertEqual(html.count("data:image/png;base64,"), n_figs)
+        self.assertTrue(os.path.exists(os.path.join(self.out, "report.md")))
+
+
+class Judge(unittest.TestCase):
+    def test_a_figure_outside_its_tolerance_is_judged_so(self):
+        self.assertFalse(common.Row("x", "nm", bench=10.6, truth=10.0, tolerance=0.05, relative=True).judge().ok)
+        self.assertTrue(common.Row("x", "nm", bench=10.4, truth=10.0, tolerance=0.05, relative=True).judge().ok)
+        self.assertFalse(common.Row("x", "nm", bench=3.0, tolerance=2.0).judge().ok)       # a limit
+        self.assertFalse(common.Row("x", "nm", bench=None, truth=1.0, tolerance=2.0).judge().ok)   # nothing measured
+        self.assertFalse(common.Row("x", "", bench=1.0, truth=0.0, tolerance=0.1, relative=True).judge().ok)   # truth 0
+
+    def test_bad_arguments_are_named(self):
+        code, so, se = paper("--only", "nonsense")
+        self.assertEqual(code, 2)
+        self.assertIn("nonsense", se)
+        self.assertIn("tilted", se)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
