@@ -9,24 +9,14 @@ from dataclasses import asdict
 import jinja2
 
 from analysis import paths
+from analysis.report import fmt as sweep_fmt
 
 TEMPLATES = os.path.join(paths.ROOT, "analysis", "templates")
 
 
 def fmt(v, digits=4):
-    """A number as a person reads it (None: a dash)."""
-    if v is None:
-        return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, (int, float)):
-        if v == 0:
-            return "0"
-        a = abs(v)
-        if a >= 1e5 or a < 1e-3:
-            return f"{v:.{digits - 1}e}"
-        return f"{v:.{digits}g}"
-    return str(v)
+    """A number as a person reads it (None: a dash): the sweep report's."""
+    return sweep_fmt(v, digits)
 
 
 def _err(r):
