@@ -167,6 +167,14 @@ def paper_probe():
     return _PAPER_PROBE
 
 
+def save(fig, exp_dir, fname):
+    """Writes a figure into the experiment's folder and closes it; its file name."""
+    fig.tight_layout()
+    fig.savefig(os.path.join(exp_dir, fname), dpi=110)
+    plt().close(fig)
+    return fname
+
+
 def plt():
     """matplotlib, off-screen."""
     import matplotlib

@@ -26,7 +26,8 @@ def runs(size):
 
 def registration(run_dir):
     """Per block: time (s), |card offset - true drift| (nm), true drift (nm),
-    the card's contact flag; and how many particles a push moved."""
+    the card's contact flag; how many particles a push moved, of how many;
+    and the model states they came from."""
     import afmlog
     st = common.model_states(run_dir)
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_FORCE"})
@@ -39,15 +40,14 @@ def registration(run_dir):
     start = {p.id: (p.x_nm, p.y_nm) for p in first.particles}
     dd = np.subtract(last.drift_nm[:2], first.drift_nm[:2])
     moved = sum(1 for p in last.particles if np.hypot(p.x_nm - start[p.id][0] - dd[0], p.y_nm - start[p.id][1] - dd[1]) > 30)
-    return t, err, drift, contact, moved, len(start)
+    return t, err, drift, contact, moved, len(start), st
 
 
 def analyse(dirs, exp_dir, size):
-    tw, ew, dw, cw, mw, n = registration(dirs["local_scans"])
-    to, eo, do, co, mo, _ = registration(dirs["no_local_scans"])
+    tw, ew, dw, cw, mw, n, st = registration(dirs["local_scans"])
+    to, eo, do, co, mo, _, _ = registration(dirs["no_local_scans"])
     if not cw.any():
         raise common.PaperError(f"{dirs['local_scans']}: the card never flagged contact")
-    st = common.model_states(dirs["local_scans"])
     res = common.Result()
     off = np.array([np.hypot(*f.drift_nm[:2]) for _, f, _ in st])
     changed = np.flatnonzero(np.diff(off) != 0)
@@ -81,7 +81,4 @@ def plot(exp_dir, w, wo, drift):
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("nm")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "drift.png"), dpi=110)
-    p.close(fig)
-    return "drift.png"
+    return common.save(fig, exp_dir, "drift.png")

@@ -49,7 +49,4 @@ def plot(exp_dir, w, wo):
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("largest model error (nm)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "model_error.png"), dpi=110)
-    p.close(fig)
-    return "model_error.png"
+    return common.save(fig, exp_dir, "model_error.png")

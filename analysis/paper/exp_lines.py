@@ -58,18 +58,32 @@ def push_depth(run_dir):
     return float(h0.mean() - np.median(a["z_nm"][mid])), float(np.mean(a["sn_v"][mid]))
 
 
+_CALIBRATED = {}   # (exp_dir, the lines' run folders) -> calibrate's answer: the second round and the analysis share it
+
+
 def calibrate(dirs, exp_dir):
+    """The lines found, their dz, C_n fitted and the include file written
+    (once per set of runs)."""
     names = [f"dz_{d:.1f}um" for d in DEPTHS_UM]
-    xs = [line_x(dirs[n])[0] for n in names]
-    dz = [push_depth(dirs[n])[0] for n in names]
-    card = common.run_json(dirs[names[0]])["card"]
+    key = (exp_dir, tuple(dirs[n] for n in names))
+    if key not in _CALIBRATED:
+        _CALIBRATED[key] = _calibrate([dirs[n] for n in names], exp_dir)
+    return _CALIBRATED[key]
+
+
+def _calibrate(run_dirs, exp_dir):
+    found = [line_x(d) for d in run_dirs]
+    xs = [f[0] for f in found]
+    dz = [push_depth(d)[0] for d in run_dirs]
+    card = common.run_json(run_dirs[0])["card"]
     Kn = card["deflection_pm_per_v"] * 1e-3
     offsets = [x - xs[0] for x in xs]
     include = os.path.join(exp_dir, INCLUDE)
     sol = common.calc("calib", "lines", "--depths-nm", ",".join(f"{d:.3f}" for d in dz),
                       "--offsets-nm", ",".join(f"{o:.3f}" for o in offsets), "--deflection-nm-per-V", f"{Kn:.4f}",
                       "--write", include)
-    return {"x": xs, "dz": dz, "offsets": offsets, "Kn": Kn, "sol": sol, "include": include}
+    return {"x": xs, "profiles": [(f[1], f[2]) for f in found], "dz": dz, "offsets": offsets, "Kn": Kn, "sol": sol,
+            "include": include}
 
 
 def analyse(dirs, exp_dir, size):
@@ -88,7 +102,7 @@ def analyse(dirs, exp_dir, size):
                    note=f"fw_calib_lines_cn; the beam's estimate is {estimate:.1f} nm/V. S_n' = dz / K_n counts the "
                         "trench's own depth as bending: the method's bias, about 1 % here"),
     ]
-    figs = [("The four lines in their final scans (mean profile across the cut's middle)", plot_lines(exp_dir, dirs, cal)),
+    figs = [("The four lines in their final scans (mean profile across the cut's middle)", plot_lines(exp_dir, cal)),
             ("Line offset against S_n' with the fitted C_n", plot_fit(exp_dir, cal))]
     if "push_estimate" in dirs and "push_calibrated" in dirs:
         errs = {}
@@ -122,11 +136,10 @@ def push_depth_sn(run_dir):
     return float(np.median(a["sn_v"][on]))
 
 
-def plot_lines(exp_dir, dirs, cal):
+def plot_lines(exp_dir, cal):
     p = common.plt()
     fig, ax = p.subplots(figsize=(6.4, 3.8))
-    for d in DEPTHS_UM:
-        x, xs, prof = line_x(dirs[f"dz_{d:.1f}um"])
+    for d, x, (xs, prof) in zip(DEPTHS_UM, cal["x"], cal["profiles"]):
         ax.plot(xs, prof, lw=0.8, label=f"dz {d} um")
         ax.axvline(x, lw=0.4, ls=":", color="k")
     ax.set_xlabel("x (nm, frame A: along the lever)")
@@ -134,10 +147,7 @@ def plot_lines(exp_dir, dirs, cal):
     ax.set_xlim(min(cal["x"]) - 60, max(cal["x"]) + 60)
     ax.legend(fontsize=8)
     ax.set_title("Lines cut along the same piezo path (fig. 8)")
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "lines.png"), dpi=110)
-    p.close(fig)
-    return "lines.png"
+    return common.save(fig, exp_dir, "lines.png")
 
 
 def plot_fit(exp_dir, cal):
@@ -150,10 +160,7 @@ def plot_fit(exp_dir, cal):
     ax.set_xlabel("S_n' - S_n'(first) (V)")
     ax.set_ylabel("line offset (nm)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "cn_fit.png"), dpi=110)
-    p.close(fig)
-    return "cn_fit.png"
+    return common.save(fig, exp_dir, "cn_fit.png")
 
 
 def plot_push(exp_dir, errs):
@@ -164,7 +171,4 @@ def plot_push(exp_dir, errs):
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("|apex error| (nm)")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "apex_error.png"), dpi=110)
-    p.close(fig)
-    return "apex_error.png"
+    return common.save(fig, exp_dir, "apex_error.png")

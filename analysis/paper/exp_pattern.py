@@ -83,7 +83,4 @@ def plot(exp_dir, run_dir, sites, err, tol):
     ax.set_xlabel("x (nm)")
     ax.set_ylabel("y (nm)")
     ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "pattern.png"), dpi=110)
-    p.close(fig)
-    return "pattern.png"
+    return common.save(fig, exp_dir, "pattern.png")

@@ -160,7 +160,4 @@ def plot(exp_dir, pts, L, key, ylabel, fname, fL=None):
     ax.set_xlabel("push point l from end A (nm)")
     ax.set_ylabel(ylabel)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, fname), dpi=110)
-    p.close(fig)
-    return fname
+    return common.save(fig, exp_dir, fname)

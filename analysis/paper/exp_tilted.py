@@ -104,10 +104,7 @@ def plot_loops(exp_dir, signals, loads):
     ax.set_ylabel("S_l (V)")
     ax.legend(title="set point", fontsize=8)
     ax.set_title("Friction loops on 9-degree glass (fig. 5)")
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "loops.png"), dpi=110)
-    p.close(fig)
-    return "loops.png"
+    return common.save(fig, exp_dir, "loops.png")
 
 
 def plot_fit(exp_dir, snu, slu, snd, sld, up, down):
@@ -122,7 +119,4 @@ def plot_fit(exp_dir, snu, slu, snd, sld, up, down):
     ax.set_ylabel("S_l (V)")
     ax.legend(fontsize=8)
     ax.set_title("dS_l/dS_n up and down the slope (fig. 6)")
-    fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, "slopes.png"), dpi=110)
-    p.close(fig)
-    return "slopes.png"
+    return common.save(fig, exp_dir, "slopes.png")
