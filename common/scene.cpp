@@ -22,6 +22,7 @@ const std::vector<EffectInfo> &known_effects()
         {"wire_flexibility", "wires as chains of N bending segments (sample.wire.segments)"},
         {"lithography", "trenches inscribed above a load threshold (sample.lithography)"},
         {"roughness", "random rough substrate (sample.roughness_rms_nm, sample.roughness_corr_nm)"},
+        {"down_force", "the cone presses what it pushes: friction rises with the push, the tip squeezes past psi_max"},
     };
     return effects;
 }

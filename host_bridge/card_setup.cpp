@@ -51,6 +51,7 @@ CardSetup::CardSetup(const Scene &s)
     for (const auto &p : s.particles)
         particles_.push_back({p.id, fwu_pm_from_nm(p.x_nm), fwu_pm_from_nm(p.y_nm), fwu_pm_from_nm(p.radius_nm)});
     const ContactSpec &ps = s.particle_substrate;
+    cfg_.down_force = s.has_effect("down_force");
     cfg_.particles = particles_.data();
     cfg_.n_particles = static_cast<int32_t>(particles_.size());
     cfg_.particle_mu_ppm = fwu_ppm(ps.mu);

@@ -164,6 +164,7 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
     double pen, u_from_a;
     Eigen::Vector2d n;
     in_contact = contact(q, r_tip, pen, n, u_from_a);
+    squeezed = false;
     if (!in_contact) return false;
     const Eigen::Vector2d t(std::cos(psi), std::sin(psi)), nr(-std::sin(psi), std::cos(psi));
     const Eigen::Vector2d p = -n;   // the tip pushes the wire away from itself
@@ -184,10 +185,18 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
     last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_from_a - 0.5 * L_nm,
                           Eigen::Vector2d(p.dot(t), p.dot(nr)), last, 1e-7, 60, held ? &metric_ : nullptr);
     const double F = k * pen;
-    if (F <= last.force_nN) return false;   // inside the limit surface: static
+    // down_force: the push H presses the rod by H tan psi, spread over it as
+    // its own load (eq. 29): D(H) = D0 (1 + mu H tan psi / (f L)), so H moves
+    // it when H a > D0 with a = 1 - (D0 / f L) mu tan psi; a <= 0: squeezed.
+    const double press = mu * press_tan;
+    const double a = press > 0 && f > 0 ? 1.0 - last.force_nN / (f * L_nm) * press : 1.0;
+    squeezed = !(a > 0);
+    if (squeezed) return false;
+    const double D = last.force_nN / a;
+    if (F <= D) return false;   // inside the limit surface: static
     // Advance the contact point along p until the contact force is back on the
     // limit surface: (F - D) / k of travel.
-    const double travel = (F - last.force_nN) / k;
+    const double travel = (F - D) / k;
     // Rigid motion about the instantaneous centre, integrated exactly for a
     // constant twist over the step (rotation about the centre of rotation,
     // or translation when omega vanishes).

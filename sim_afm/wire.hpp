@@ -90,6 +90,13 @@ public:
     // Distance from q to the wire's axis, nm.
     double axis_distance(const Eigen::Vector2d &q) const;
     TrenchTrap trap;              // empty unless lithography cuts trenches
+    // down_force (physics.md 6-7, rigid rods): the push H presses the wire
+    // by H tan psi, its friction rises by mu H tan psi; when k(l) mu tan psi
+    // >= 1 (eq. 29's denominator) no push moves it: squeezed. Flexible
+    // wires ignore it (their friction is per node, the press at one).
+    double mu = 0;                // wire-substrate mu (0: no down force)
+    double press_tan = 0;         // tan psi of this sample's push
+    bool squeezed = false;        // the last push could not move it
 
 protected:
     std::vector<Eigen::Vector2d> x;   // nodes, nm

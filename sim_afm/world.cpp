@@ -34,9 +34,19 @@ World::World(const Scene &s)
     tip_adhesion_nN_ = adhesion ? s.tip_substrate.adhesion_nN : 0.0;
     const ContactSpec &ps = s.particle_substrate;
     const double ps_adh = adhesion ? ps.adhesion_nN : 0.0;
-    // Section 5: F_th = mu_ps (F_adh,ps + F_down) + tau_ps A_c, pushed sideways (F_down = 0).
-    // tau [MPa] * A [nm^2] = 1e6 N/m^2 * 1e-18 m^2 = 1e-12 N = 1e-3 nN.
-    const double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
+    // Section 5: F_th = mu_ps (F_adh,ps + F_down) + tau_ps A_c. tau [MPa] *
+    // A [nm^2] = 1e6 N/m^2 * 1e-18 m^2 = 1e-12 N = 1e-3 nN. Pushed sideways
+    // F_down = 0; with down_force the cone's flank (at gamma from the
+    // horizontal) presses the particle by H tan gamma, so the push H that
+    // moves it is F_th(0) / (1 - mu_ps tan gamma), and none does past
+    // psi_max = atan(1 / mu_ps) (the cone squeezes it).
+    down_force_ = s.has_effect("down_force");
+    tan_gamma_ = std::tan(s.probe.tip_half_angle_deg * M_PI / 180.0);
+    double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
+    if (down_force_) {
+        const double den = 1.0 - ps.mu * tan_gamma_;
+        threshold = den > 0 ? threshold / den : std::numeric_limits<double>::infinity();
+    }
     for (const auto &p : s.particles) {
         particles_.push_back(Particle{p.id, Eigen::Vector2d(p.x_nm, p.y_nm), p.radius_nm, threshold});
         max_radius_ = std::max(max_radius_, p.radius_nm);
@@ -58,6 +68,8 @@ World::World(const Scene &s)
         else
             wires_.push_back(std::make_unique<RigidWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.friction_points));
     }
+    if (down_force_)
+        for (auto &w : wires_) w->mu = s.wire_model.mu;
     if (s.has_effect("lithography")) {
         for (auto &w : wires_)
             w->trap = [this](const Eigen::Vector2d &p, double d, Eigen::Vector2d &along, double &hold) {
@@ -121,6 +133,7 @@ void World::relax()
     const bool chains = scene_.has_effect("particle_contacts");
     const Eigen::Vector2d apex0 = apex_;
     const double fz = contact_load();
+    press_wires();
     const Eigen::Vector3d normal = (this->*normal_at_)(apex_ - drift_);   // the substrate's, at the apex
     // Candidates: particles that can touch the apex during this sample.
     near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
@@ -143,6 +156,7 @@ void World::relax()
             double pen, u;
             Eigen::Vector2d n;
             if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
+            if (rides_over(*w, k_contact_ * pen)) continue;
             g += k_contact_ * pen * n;
             kt += k_contact_;
         }
@@ -219,6 +233,7 @@ void World::relax_rigid()
     }
     const double rt = scene_.probe.tip_radius_nm;
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
+    press_wires();
     Eigen::Vector2d f = Eigen::Vector2d::Zero();
     const Eigen::Vector2d as = apex_ - drift_;
     if ((apex_ - apex0).norm() > 1e-12) {
@@ -235,7 +250,7 @@ void World::relax_rigid()
         const auto t0 = Clock::now();
         w->push(as, rt, k_contact_);
         t_wires_ += seconds_since(t0);
-        if (w->contact(as, rt, pen, n, u)) f += k_contact_ * pen * n;
+        if (w->contact(as, rt, pen, n, u) && !rides_over(*w, k_contact_ * pen)) f += k_contact_ * pen * n;
     }
     near(as, rt + max_radius_ + 1.0, scratch_);
     for (int idx : scratch_) {
@@ -255,6 +270,26 @@ void World::relax_rigid()
         }
     }
     lateral_force_ = f;
+}
+
+void World::press_wires()
+{
+    // down_force: the contact normal of the cone with a wire is psi = gamma +
+    // theta_t from the horizontal (physics.md 7), theta_t = F_y h / k_theta
+    // the lever's twist under the lateral force of the last sample.
+    if (!down_force_ || wires_.empty()) return;
+    const Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
+    const double psi = std::atan(tan_gamma_) + std::fabs(lever_.twist(fC.y()));
+    const double t = psi < M_PI / 2 ? std::tan(psi) : std::numeric_limits<double>::infinity();
+    for (auto &w : wires_) w->press_tan = t;
+}
+
+bool World::rides_over(const Wire &w, double push_nN) const
+{
+    // A squeezed wire stays; the cone's flank lifts the tip by H tan psi
+    // against the load and the tip's adhesion: past both (dF of eq. 30 above
+    // the set point) the tip rides up over the wire instead of pressing it.
+    return down_force_ && w.squeezed && push_nN * w.press_tan - tip_adhesion_nN_ > contact_load();
 }
 
 std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const

@@ -74,7 +74,13 @@ typedef struct {
     int32_t word_bits;                  /* the chain's data path: 32 (fw_board; 0 means 32) or 16 (fw_board16) */
     int32_t tip_radius_pm;              /* r_tip */
     int32_t tip_half_angle_mdeg;        /* gamma, the cone's half angle, (0, 60) deg */
-    /* particles (section 5): F_th = mu_ps (F_adh,ps + F_down) + tau_ps A_c, F_down = 0 */
+    /* the cone's down force (sections 5-7): with it a push H presses what it
+     * pushes by H tan psi, psi = gamma (+ the lever's twist for wires):
+     * particles' thresholds (fw_particles_down_threshold_pn) and wires'
+     * pushes (eq. 29) rise, and past psi_max the tip squeezes (flag
+     * FW_FLAG_SQUEEZE). Without it F_down = 0 and nothing squeezes. */
+    bool down_force;
+    /* particles (section 5): F_th = mu_ps (F_adh,ps + F_down) + tau_ps A_c */
     const fw_card_particle_t *particles;
     int32_t n_particles;
     int32_t particle_mu_ppm;            /* mu_ps */

@@ -88,6 +88,19 @@ const fw_particle_t *fw_particles_get(const fw_particles_t *m, int32_t i);
 int32_t fw_particles_threshold_pn(int32_t mu_ppm, int32_t adhesion_pn, int32_t down_pn, int32_t shear_kpa,
                                   int32_t contact_area_nm2);
 
+/* The threshold with the cone's down force (physics.md section 5 with
+ * F_down = H tan psi, the vertical part of a push H through the cone's
+ * flank at psi = gamma from the horizontal: the flank touches any particle
+ * of r_p >= r_tip (1 - sin gamma) / (1 + sin gamma)). The particle moves
+ * when H >= mu_ps (F_adh,ps + H tan psi) + tau_ps A_c, i.e.
+ *   H_th = base / (1 - mu_ps tan psi) = base cos psi / (cos psi - mu_ps sin psi)
+ * with base = fw_particles_threshold_pn(.., F_down = 0, ..). At or past
+ * psi_max = atan(1 / mu_ps) no push moves it (the cone squeezes it):
+ * INT32_MAX. psi in [0, 90 deg) (INT32_MAX beyond), base >= 0 (0 below).
+ * Scaling and overflow: cos, sin in 2.30; mu sin = mu_ppm sin / 10^6 in
+ * 64 bits (< 2^52); base cos < 2^61; the quotient saturated to int32. */
+int32_t fw_particles_down_threshold_pn(int32_t base_pn, int32_t mu_ppm, fw_bam_t psi);
+
 /* Contact margin above half the threshold, >= 0 pN (FW_ERR_ARG otherwise). */
 fw_status_t fw_particles_set_margin(fw_particles_t *m, int32_t margin_pn);
 

@@ -31,12 +31,22 @@
  * The push rule (fw_wire_update, per sample): a rod the apex touches (its
  * footprint is the rectangle of its axis widened by r_tip + d/2) is pushed
  * when the contact force, the lateral force in excess of the tip's own
- * friction (fw_force_lateral_excess_pn), exceeds half of its minimum push
- * k(l) f L (the decision midpoint, as for particles: the excess is 0 with
- * no rod and k(l) f L while it slides), unless the tip squeezes it (section
- * 7: psi = gamma + theta_t at or past psi_max; the rod stays and
- * FW_WIRE_SQUEEZED is raised); a pushed rod moves along its normal until
- * the apex sits on its surface, in steps of at most L/4 (fw_wire_push),
+ * friction (fw_force_lateral_excess_pn), exceeds half of the push that
+ * moves it. That push is the model's: k(l) f L without the cone's down
+ * force; with it (tip.down_force, eq. 23-24 and 29: the cone presses the
+ * rod by F_r sin psi, so its friction is mu (F_a,os + F_r sin psi) + tau A)
+ * the horizontal part of eq. 29, F_r cos psi = k f L / (1 - k mu tan psi).
+ * Why half and not the whole: it is the decision midpoint between "no rod"
+ * (the excess is 0) and "a rod that slides" (the excess is the model's push,
+ * plus the photodiode's noise). A trigger at the whole value misses about
+ * half of the sliding samples, and each miss leaves the model rod behind
+ * the apex; a trigger at half moves the model early only while the contact
+ * force builds, by the contact's compliance (the apex does not pass the
+ * rod's surface, fw_wire_contact). test_wire pins both edges. With the down
+ * force, psi = gamma + theta_t at or past psi_max is the squeeze (section
+ * 7): the rod stays and FW_WIRE_SQUEEZED is raised once the excess passes
+ * half of k f L. A pushed rod moves along its normal until the apex sits on
+ * its surface, in steps of at most L/4 (fw_wire_push),
  * FW_WIRE_PUSH_STEPS_MAX of them at most.
  *
  * Units: lengths pm (L in (0, 2^30]), angles fw_bam_t, k in 2.30.
@@ -152,11 +162,13 @@ fw_status_t fw_wire_contact(const fw_wire_t *w, const int32_t tip_pm[2], int32_t
  * The second form is exact and keeps the small denominator accurate.
  * psi >= psi_max: the tip squeezes the wire: FW_ERR_DOMAIN, flag
  * FW_FLAG_SQUEEZE, F_r = dF = INT32_MAX. Below psi_max F_r saturates to
- * INT32_MAX (flag FW_FLAG_SAT_FORCE) before it overflows. */
+ * INT32_MAX (flag FW_FLAG_SAT_FORCE) before it overflows; push_pn =
+ * F_r cos psi (with the same saturation; INT32_MAX past psi_max). */
 typedef struct {
     fw_bam_t psi_max;
-    int32_t f_r_pn;
-    int32_t df_pn;
+    int32_t f_r_pn;          /* F_r (29) */
+    int32_t push_pn;         /* its horizontal part F_r cos psi: the lateral force that moves the rod */
+    int32_t df_pn;           /* (30) */
     uint32_t flags;
 } fw_squeeze_t;
 
@@ -177,6 +189,7 @@ typedef struct {
     int32_t friction_pn_per_um;      /* f: wire-substrate friction per length */
     q30_t mu;                        /* wire-substrate mu (eq. 29), [0, 2) */
     int32_t adhesion_ts_pn;          /* F_a,ts: tip-substrate adhesion (eq. 30) */
+    bool down_force;                 /* the cone presses the rod (eq. 29): false after fw_wire_tip_init */
 } fw_wire_tip_t;
 
 /* The first rule broken: f < 0 or mu outside [0, 2) (FW_RULE_WIRE_FRICTION);
@@ -185,7 +198,8 @@ typedef struct {
 fw_rule_t fw_wire_check_tip(int32_t tip_radius_pm, int32_t tip_half_angle_mdeg, int32_t friction_pn_per_um,
                             int32_t mu_ppm, int32_t adhesion_ts_pn);
 
-/* Fills tip after fw_wire_check_tip (its rule's status). */
+/* Fills tip after fw_wire_check_tip (its rule's status); down_force is
+ * false (set it after init to model the cone's down force). */
 fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t tip_half_angle_mdeg,
                              int32_t friction_pn_per_um, int32_t mu_ppm, int32_t adhesion_ts_pn);
 
@@ -199,7 +213,8 @@ int32_t fw_wire_friction_pn(const fw_wire_tip_t *tip, const fw_wire_t *w);
  * rod). Clears FW_WIRE_PUSHED and FW_WIRE_SQUEEZED, then raises the one
  * that happens. FW_ERR_ARG for a NULL pointer.
  * Scaling and overflow: fw_wire_contact, fw_wire_static_point,
- * fw_wire_push_threshold_pn (saturated), psi = gamma + |theta_t| as a
+ * fw_wire_push_threshold_pn (saturated; with the down force, push_pn of
+ * fw_wire_squeeze_solve, saturated), psi = gamma + |theta_t| as a
  * binary angle (|theta_t| clamped to 90 deg), fw_wire_squeeze_solve,
  * fw_wire_push steps of at most L/4. */
 fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[2], int64_t excess_pn,

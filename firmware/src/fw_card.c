@@ -25,12 +25,24 @@ static fw_status_t card_board_config(const fw_card_config_t *cfg, fw_board_confi
     return st;
 }
 
+/* Every particle's push threshold (section 5): F_down = 0, or with the
+ * cone's down force at psi = gamma (the lever's twist, mrad, neglected:
+ * the threshold is fixed at init). Scaling: fw_particles_threshold_pn,
+ * fw_particles_down_threshold_pn (saturated). */
+static int32_t card_particle_threshold_pn(const fw_card_config_t *cfg)
+{
+    int32_t th = fw_particles_threshold_pn(cfg->particle_mu_ppm, cfg->particle_adhesion_pn, 0,
+                                           cfg->particle_shear_kpa, cfg->particle_contact_area_nm2);
+    return cfg->down_force ? fw_particles_down_threshold_pn(th, cfg->particle_mu_ppm,
+                                                            fw_math_bam_from_mdeg(cfg->tip_half_angle_mdeg))
+                           : th;
+}
+
 static fw_rule_t card_check_particles(const fw_card_config_t *cfg, const fw_card_storage_t *st)
 {
     int32_t i;
     fw_rule_t rule = fw_particles_check(cfg->tip_radius_pm);
-    int32_t th = fw_particles_threshold_pn(cfg->particle_mu_ppm, cfg->particle_adhesion_pn, 0,
-                                           cfg->particle_shear_kpa, cfg->particle_contact_area_nm2);
+    int32_t th = card_particle_threshold_pn(cfg);
     if (rule != FW_RULE_OK) {
         return rule;
     }
@@ -169,6 +181,7 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
     if (cfg->n_wires > 0) {
         (void)fw_wire_tip_init(&c->wire_tip, cfg->tip_radius_pm, cfg->tip_half_angle_mdeg,
                                cfg->wire_friction_pn_per_um, cfg->wire_mu_ppm, cfg->board.adhesion_pn);
+        c->wire_tip.down_force = cfg->down_force;
     }
     (void)fw_calib_twist_estimate_q30(board.deflection_pm_per_v, board.lever_length_nm, &c->twist_rad_per_v);
     if (cfg->litho) {
@@ -184,8 +197,7 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
 void fw_card_reset(fw_card_t *c)
 {
     const fw_card_config_t *cfg = &c->cfg;
-    int32_t th = fw_particles_threshold_pn(cfg->particle_mu_ppm, cfg->particle_adhesion_pn, 0,
-                                           cfg->particle_shear_kpa, cfg->particle_contact_area_nm2);
+    int32_t th = card_particle_threshold_pn(cfg);
     int32_t i;
     fw_board_reset(&c->board);
     if (c->chain16) {

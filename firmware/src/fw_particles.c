@@ -242,3 +242,22 @@ int32_t fw_particles_threshold_pn(int32_t mu_ppm, int32_t adhesion_pn, int32_t d
                 + fw_math_div_round_i64((int64_t)shear_kpa * contact_area_nm2, 1000);
     return fw_math_sat_i32(f < 0 ? 0 : f, NULL);
 }
+
+int32_t fw_particles_down_threshold_pn(int32_t base_pn, int32_t mu_ppm, fw_bam_t psi)
+{
+    q30_t sn;
+    q30_t cs;
+    int64_t den;
+    if (base_pn <= 0) {
+        return 0;
+    }
+    if (psi >= FW_BAM_QUARTER_TURN) {
+        return INT32_MAX;
+    }
+    fw_math_sincos_q30(psi, &sn, &cs);
+    den = (int64_t)cs - fw_math_div_round_i64((int64_t)(mu_ppm < 0 ? 0 : mu_ppm) * sn, FW_PPM_PER_ONE);
+    if (den <= 0) {
+        return INT32_MAX;
+    }
+    return fw_math_sat_i32(fw_math_div_round_i64((int64_t)base_pn * cs, den), NULL);
+}

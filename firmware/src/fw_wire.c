@@ -231,6 +231,7 @@ fw_status_t fw_wire_squeeze_solve(fw_bam_t psi, q30_t k, q30_t mu, int32_t frict
     out->flags = 0;
     if (psi >= out->psi_max) {
         out->f_r_pn = INT32_MAX;
+        out->push_pn = INT32_MAX;
         out->df_pn = INT32_MAX;
         out->flags = FW_FLAG_SQUEEZE;
         return FW_ERR_DOMAIN;
@@ -244,6 +245,8 @@ fw_status_t fw_wire_squeeze_solve(fw_bam_t psi, q30_t k, q30_t mu, int32_t frict
         fr = fw_math_div_round_i64((int64_t)k * friction_fl_pn, den);
     }
     out->f_r_pn = fw_math_sat_i32(fr, &sat);
+    out->push_pn = fw_math_sat_i32(
+        fw_math_rshift_round_i64((int64_t)out->f_r_pn * fw_math_cos_q30(psi), FW_Q30_FRAC), &sat);
     out->df_pn = fw_math_sat_i32(
         fw_math_rshift_round_i64((int64_t)out->f_r_pn * fw_math_sin_q30(psi), FW_Q30_FRAC)
         - adhesion_ts_pn, &sat);
@@ -289,6 +292,7 @@ fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t 
     tip->friction_pn_per_um = friction_pn_per_um;
     tip->mu = (q30_t)fw_math_div_round_i64((int64_t)mu_ppm * FW_Q30_ONE, FW_PPM_PER_ONE);
     tip->adhesion_ts_pn = adhesion_ts_pn;
+    tip->down_force = false;
     return FW_OK;
 }
 
@@ -338,11 +342,20 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     if (excess_pn <= (int64_t)(fw_wire_push_threshold_pn(st.k, fl, &sat) >> 1)) {
         return FW_OK;
     }
-    psi = wire_contact_angle(tip, twist_rad);
-    if (psi >= FW_BAM_QUARTER_TURN
-        || fw_wire_squeeze_solve(psi, st.k, tip->mu, fl, tip->adhesion_ts_pn, &sq) == FW_ERR_DOMAIN) {
-        w->flags |= FW_WIRE_SQUEEZED;
-        return FW_OK;
+    if (tip->down_force) {
+        fw_status_t sqs = FW_ERR_DOMAIN;
+        psi = wire_contact_angle(tip, twist_rad);
+        if (psi < FW_BAM_QUARTER_TURN) {
+            sqs = fw_wire_squeeze_solve(psi, st.k, tip->mu, fl, tip->adhesion_ts_pn, &sq);
+        }
+        if (sqs == FW_ERR_DOMAIN) {
+            w->flags |= FW_WIRE_SQUEEZED;
+            return FW_OK;
+        }
+        /* FW_ERR_ARG cannot happen (tip and k validated): then k f L stands */
+        if (sqs == FW_OK && excess_pn <= (int64_t)(sq.push_pn >> 1)) {
+            return FW_OK;
+        }
     }
     max_step = w->length_pm / 4;
     if (max_step < 1) {

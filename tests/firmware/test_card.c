@@ -451,6 +451,8 @@ static void test_card_squeeze_flagged_past_psi_max_and_the_wire_stays(void)
     /* gamma 59 deg, wire mu 1.9: psi_max = atan(1 / (0.618 1.9)) = 40 deg */
     uint32_t flags;
     wire_config(59000, 1900000);
+    cfg.down_force = true;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
     flags = push_wire(-(int32_t)lround(10.0e6 / 37.9));
     TEST_ASSERT_TRUE((flags & FW_FLAG_SQUEEZE) != 0u);
     TEST_ASSERT_EQUAL_UINT32(0u, flags & FW_FLAG_CONTACT);

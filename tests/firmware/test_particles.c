@@ -3,6 +3,7 @@
 #include <math.h>
 #include "unity.h"
 #include "fw_particles.h"
+#include "fw_math.h"
 #include "test_util.h"
 
 #define CAP 8
@@ -208,6 +209,26 @@ static void test_particles_shift_saturates_with_flag(void)
     TEST_ASSERT_TRUE((fw_particles_get(&m, 0)->flags & FW_PARTICLE_SAT_POS) != 0u);
 }
 
+static void test_particles_down_threshold_edges(void)
+{
+    /* H_th = base / (1 - mu tan psi); at psi_max = atan(1 / mu) none moves it */
+    const fw_bam_t deg20 = fw_math_bam_from_mdeg(20000);
+    const fw_bam_t deg45 = FW_BAM_QUARTER_TURN / 2u;
+    double ref = 10000.0 / (1.0 - 0.3 * tan(20.0 * TU_PI / 180.0));
+    TEST_ASSERT_DOUBLE_WITHIN(1.0, ref, (double)fw_particles_down_threshold_pn(10000, 300000, deg20));
+    TEST_ASSERT_EQUAL_INT32(10000, fw_particles_down_threshold_pn(10000, 300000, 0u));     /* flat: F_down = 0 */
+    TEST_ASSERT_EQUAL_INT32(10000, fw_particles_down_threshold_pn(10000, 0, deg20));       /* no friction to raise */
+    TEST_ASSERT_EQUAL_INT32(0, fw_particles_down_threshold_pn(0, 300000, deg20));
+    TEST_ASSERT_EQUAL_INT32(0, fw_particles_down_threshold_pn(-5, 300000, deg20));         /* a caller bug: clamped */
+    /* mu 1: psi_max = 45 deg exactly; one LSB below is finite, and saturates */
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fw_particles_down_threshold_pn(10000, 1000000, deg45));
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fw_particles_down_threshold_pn(10000, 1000000, deg45 + 1u));
+    TEST_ASSERT_TRUE(fw_particles_down_threshold_pn(10, 1000000, deg45 - 100000u) < INT32_MAX);
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fw_particles_down_threshold_pn(INT32_MAX, 300000, deg20));   /* saturated */
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fw_particles_down_threshold_pn(10000, 300000, FW_BAM_QUARTER_TURN));
+    TEST_ASSERT_EQUAL_INT32(10000, fw_particles_down_threshold_pn(10000, -1, deg20));     /* negative mu as 0 */
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -220,5 +241,6 @@ int main(void)
     RUN_TEST(test_particles_chain_pushes_overlapping_neighbours);
     RUN_TEST(test_particles_projection_sweep_distance_exact);
     RUN_TEST(test_particles_shift_saturates_with_flag);
+    RUN_TEST(test_particles_down_threshold_edges);
     return UNITY_END();
 }

@@ -297,6 +297,81 @@ static void test_wire_contact_rejects_null_and_negative_reach(void)
     TEST_ASSERT_EQUAL_INT(FW_ERR_ARG, fw_wire_contact(&w, NULL, 10, &touch, &l, &dn));
 }
 
+/* ---- the push rule (fw_wire_update) ---------------------------------------- */
+
+/* The paper's rod (1.3 um x 100 nm) along x at the origin; the apex under
+ * its middle (k = 1), inside the reach r_tip + d/2 = 60 nm. */
+static void rule_rod(fw_wire_t *w, fw_wire_tip_t *tip, int32_t gamma_mdeg, int32_t mu_ppm, bool down)
+{
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_init(w, 0, 0, 0u, L_PM, 100000));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_tip_init(tip, 10000, gamma_mdeg, 20000, mu_ppm, 0));
+    tip->down_force = down;
+}
+
+static void test_wire_rule_triggers_one_pn_past_half_of_k_f_l(void)
+{
+    /* without the down force the push is k f L = 1 x 26000 pN: half is 13000 */
+    const int32_t apex[2] = { 0, -50000 };
+    fw_wire_t w;
+    fw_wire_tip_t tip;
+    rule_rod(&w, &tip, 20000, 300000, false);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13000, 0));
+    TEST_ASSERT_EQUAL_UINT32(0u, w.flags & FW_WIRE_PUSHED);
+    TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13001, 0));
+    TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
+    TEST_ASSERT_EQUAL_INT32(10000, w.y_pm);   /* moved until the apex sits on its surface */
+}
+
+static void test_wire_rule_with_down_force_uses_eq_29_push(void)
+{
+    /* gamma 20 deg, mu 0.3: the push that moves the rod is k f L / (1 - k mu
+     * tan psi) = 26000 / (1 - 0.3 tan 20) = 29188 pN; half of it decides */
+    const int32_t apex[2] = { 0, -50000 };
+    fw_wire_t w;
+    fw_wire_tip_t tip;
+    fw_squeeze_t sq;
+    double ref = 26000.0 / (1.0 - 0.3 * tan(20.0 * TU_PI / 180.0));
+    rule_rod(&w, &tip, 20000, 300000, true);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_squeeze_solve(tip.tip_half_angle, FW_Q30_ONE, tip.mu, 26000, 0, &sq));
+    TEST_ASSERT_DOUBLE_WITHIN(2.0, ref, (double)sq.push_pn);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn >> 1, 0));
+    TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, (sq.push_pn >> 1) + 1, 0));
+    TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
+    /* a sliding rod's excess is the push plus noise: a third below still
+     * moves the model (the reason for the midpoint) */
+    rule_rod(&w, &tip, 20000, 300000, true);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn - sq.push_pn / 3, 0));
+    TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
+}
+
+static void test_wire_rule_squeezes_past_psi_max_and_the_twist_counts(void)
+{
+    /* mu 1.0, k 1 at the middle: psi_max = 45 deg. gamma 44 deg pushes;
+     * the same with a twist of 2 deg (either sign) squeezes: the rod stays */
+    const int32_t apex[2] = { 0, -50000 };
+    const q30_t two_deg = (q30_t)lround(2.0 * TU_PI / 180.0 * TU_TWO_POW(30));
+    fw_wire_t w;
+    fw_wire_tip_t tip;
+    rule_rod(&w, &tip, 44000, 1000000, true);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0));
+    TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
+    rule_rod(&w, &tip, 44000, 1000000, true);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, two_deg));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_SQUEEZED, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
+    TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, -two_deg));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_SQUEEZED, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
+    /* below half of k f L the tip merely touches: neither flag */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13000, two_deg));
+    TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
+    /* without the down force nothing squeezes */
+    rule_rod(&w, &tip, 44000, 1000000, false);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, two_deg));
+    TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -313,5 +388,8 @@ int main(void)
     RUN_TEST(test_wire_contact_geometry_table);
     RUN_TEST(test_wire_contact_rotated_matches_double_within_two_pm);
     RUN_TEST(test_wire_contact_rejects_null_and_negative_reach);
+    RUN_TEST(test_wire_rule_triggers_one_pn_past_half_of_k_f_l);
+    RUN_TEST(test_wire_rule_with_down_force_uses_eq_29_push);
+    RUN_TEST(test_wire_rule_squeezes_past_psi_max_and_the_twist_counts);
     return UNITY_END();
 }

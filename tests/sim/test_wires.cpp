@@ -363,6 +363,42 @@ void test_scenes_build_only_the_wire_model_they_need()
     TEST_ASSERT_EQUAL_INT(33, static_cast<int>(c.wires()[0]->nodes().size()));
 }
 
+void test_down_force_raises_the_push_as_eq_29_and_squeezes_past_psi_max()
+{
+    // down_force: the cone (gamma 20 deg, the default; wire mu 0.3) presses
+    // the rod by H tan psi. At the middle (k = 1) the push that moves it is
+    // f L / (1 - mu tan psi), psi = gamma + theta_t (eq. 29's horizontal part).
+    const double L = 1000, fL = 20.0 * L / 1000;
+    const afm::Scene sc = wire_scene(L, ", down_force");
+    const PushResult m = push_world(L / 2, L, ", down_force");
+    World w(sc);
+    const double psi = 20.0 * M_PI / 180.0 + std::fabs(w.lever().twist(m.force_nN));
+    const double expect = 1.0 / (1.0 - sc.wire_model.mu * std::tan(psi));
+    std::printf("down_force push at l = L/2: F = %.4f f L (eq. 29: %.4f, without the down force 1)\n", m.force_nN / fL, expect);
+    TEST_ASSERT_DOUBLE_WITHIN(0.02 * expect, expect, m.force_nN / fL);
+    // A rod alone: k mu tan psi at 1 - 1e-3 moves under a push past D0 / a;
+    // at 1 + 1e-3 no push moves it (squeezed), however deep the contact.
+    RigidWire r(1, Eigen::Vector2d(-L / 2, 0), Eigen::Vector2d(L / 2, 0), 100, 0.02, 64);
+    r.mu = 1.0;
+    const Eigen::Vector2d q(0, -59);   // 1 nm into the reach 10 + 50 at the middle
+    r.press_tan = 1.0 + 1e-3;
+    TEST_ASSERT_FALSE(r.push(q, 10, 1e6));   // 10^6 nN against f L = 20 nN
+    TEST_ASSERT_TRUE(r.squeezed);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 0.0, r.centre.y());
+    r.press_tan = 1.0 - 1e-3;                  // the push needed: 20 / 1e-3 = 20000 nN
+    TEST_ASSERT_FALSE(r.push(q, 10, 1e3));     // 1000 nN: static
+    TEST_ASSERT_FALSE(r.squeezed);
+    r.press_tan = 1.0 - 0.5;                   // 40 nN: 1000 nN moves it
+    TEST_ASSERT_TRUE(r.push(q, 10, 1e3));
+    TEST_ASSERT_TRUE(r.centre.y() > 0);
+    // Zero friction: nothing to raise, nothing divides by zero.
+    RigidWire z(2, Eigen::Vector2d(-L / 2, 0), Eigen::Vector2d(L / 2, 0), 100, 0.0, 64);
+    z.mu = 1.0;
+    z.press_tan = 10.0;
+    TEST_ASSERT_TRUE(z.push(q, 10, 1e6));
+    TEST_ASSERT_FALSE(z.squeezed);
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -377,5 +413,6 @@ int main()
     RUN_TEST(test_long_flexible_wire_shape_converges_with_N);
     RUN_TEST(test_long_flexible_wire_shape_does_not_depend_on_the_node_under_the_tip);
     RUN_TEST(test_scenes_build_only_the_wire_model_they_need);
+    RUN_TEST(test_down_force_raises_the_push_as_eq_29_and_squeezes_past_psi_max);
     return UNITY_END();
 }
