@@ -7,6 +7,7 @@
  *   afm_calc calib tilted --up R --down R --angle-deg PHI --spring-N-per-m K --deflection-nm-per-V K [--json] [--write FILE]
  *   afm_calc calib lines --depths-nm a,b,.. --offsets-nm a,b,.. --deflection-nm-per-V K [--json] [--write FILE]
  *   afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]
+ *   afm_calc model squeeze --length-nm L --push-at-nm l --gamma-deg G --mu MU --fl-nN FL --fa-ts-nN F [--twist-deg T] [--json]
  *   afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]
  *
  * Exit status: 0 ok, 2 bad or out-of-domain arguments (one message on
@@ -632,6 +633,97 @@ static int cmd_calc_probe(int argc, char **argv)
     return 0;
 }
 
+/* ---- model squeeze ------------------------------------------------------ */
+
+static int cmd_model_squeeze(int argc, char **argv)
+{
+    const char *cmd = "model squeeze";
+    opt_t o[] = {
+        { "--length-nm", NULL, 0, 1 }, { "--push-at-nm", NULL, 0, 1 }, { "--gamma-deg", NULL, 0, 1 },
+        { "--mu", NULL, 0, 1 }, { "--fl-nN", NULL, 0, 1 }, { "--fa-ts-nN", NULL, 0, 1 },
+        { "--twist-deg", NULL, 0, 0 }, { "--json", NULL, 1, 0 },
+    };
+    double len;
+    double at;
+    double gamma;
+    double mu;
+    double fl;
+    double fats;
+    double twist = 0.0;
+    fw_wire_static_t st;
+    fw_squeeze_t sq;
+    fw_status_t s;
+    fw_bam_t psi;
+    bool squeezed;
+    if (wants_help(argc, argv)) {
+        printf("usage: afm_calc model squeeze --length-nm L --push-at-nm l --gamma-deg G --mu MU --fl-nN FL\n"
+               "                              --fa-ts-nN F [--twist-deg T] [--json]\n"
+               "  Tip-substrate-wire squeeze (physics.md section 7, eq. 29-30) by the firmware's\n"
+               "  fw_wire_squeeze_solve: a rod of length L pushed at l (k(l) of section 6) by a cone\n"
+               "  of half angle G twisted by T (psi = G + |T|), wire-substrate mu, the rod's own\n"
+               "  friction FL = mu F_a,os + tau A (nN) and tip-substrate adhesion F_a,ts (nN).\n"
+               "  Prints psi_max = atan(1 / (k mu)), F_r (29), its horizontal part (the push that\n"
+               "  moves the rod), dF = F_r sin psi - F_a,ts (30), or that the tip squeezes the rod.\n");
+        return 0;
+    }
+    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
+    len = num_opt_range(cmd, &o[0], 0.001, FW_WIRE_LENGTH_MAX_PM / 1000.0, "0 < L <= 1073741 nm");
+    at = num_opt(cmd, &o[1]);
+    if (at < 0.0 || at > len) {
+        die("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[1].value, len);
+    }
+    gamma = num_opt_range(cmd, &o[2], 0.0, 89.999, "0 <= gamma < 90 deg");
+    mu = num_opt_range(cmd, &o[3], 0.0, FW_WIRE_MU_MAX_PPM / 1e6, "0 <= mu < 2");
+    fl = num_opt_range(cmd, &o[4], 0.0, 2.0e6, "0 <= FL <= 2e6 nN");
+    fats = num_opt_range(cmd, &o[5], 0.0, 2.0e6, "0 <= F_a,ts <= 2e6 nN");
+    if (o[6].value != NULL) {
+        twist = num_opt_range(cmd, &o[6], -89.999, 89.999, "|twist| < 90 deg");
+    }
+    s = fw_wire_static_point(fwu_pm_from_nm(len), to_i32(cmd, &o[1], at * 1e3), &st);
+    if (s != FW_OK) {
+        die("%s: --push-at-nm %s: %s", cmd, o[1].value, status_name(s));
+    }
+    if (gamma + fabs(twist) >= 90.0) {
+        die("%s: --gamma-deg %s with --twist-deg %s: psi = gamma + |twist| must stay below 90 deg", cmd, o[2].value,
+            o[6].value);
+    }
+    psi = fw_math_bam_from_mdeg(fwu_mdeg_from_deg(gamma + fabs(twist)));
+    s = fw_wire_squeeze_solve(psi, st.k, fwu_q30(mu), fwu_pn_from_nn(fl), fwu_pn_from_nn(fats), &sq);
+    if (s == FW_ERR_ARG) {
+        die("%s: the firmware refuses these values (%s)", cmd, status_name(s));
+    }
+    squeezed = s == FW_ERR_DOMAIN;
+    if (o[7].value != NULL) {
+        printf("{\"command\": \"model squeeze\", \"status\": \"ok\", \"k\": %.6f, \"psi_deg\": %.6f, "
+               "\"psi_max_deg\": %.6f, \"squeezed\": %s, ",
+               fwu_from_q30(st.k), gamma + fabs(twist), fw_math_mdeg_from_bam(sq.psi_max) * 1e-3,
+               squeezed ? "true" : "false");
+        if (squeezed) {
+            printf("\"f_r_nN\": null, \"push_nN\": null, \"df_nN\": null, \"saturated\": false}\n");
+        } else {
+            printf("\"f_r_nN\": %.6f, \"push_nN\": %.6f, \"df_nN\": %.6f, \"saturated\": %s}\n",
+                   fwu_nn_from_pn(sq.f_r_pn), fwu_nn_from_pn(sq.push_pn), fwu_nn_from_pn(sq.df_pn),
+                   (sq.flags & FW_FLAG_SAT_FORCE) != 0u ? "true" : "false");
+        }
+    } else {
+        printf("tip-substrate-wire squeeze at l = %g nm of L = %g nm (firmware fw_wire_squeeze_solve)\n", at, len);
+        printf("  k(l)                   %.6f\n", fwu_from_q30(st.k));
+        printf("  psi = gamma + |twist|  %.4f deg\n", gamma + fabs(twist));
+        printf("  psi_max                %.4f deg\n", fw_math_mdeg_from_bam(sq.psi_max) * 1e-3);
+        if (squeezed) {
+            printf("  regime                 squeeze: psi >= psi_max, no push moves the rod\n");
+        } else {
+            printf("  F_r (29)               %.4f nN%s\n", fwu_nn_from_pn(sq.f_r_pn),
+                   (sq.flags & FW_FLAG_SAT_FORCE) != 0u ? "  (saturated)" : "");
+            printf("  push F_r cos psi       %.4f nN\n", fwu_nn_from_pn(sq.push_pn));
+            printf("  dF (30)                %.4f nN%s\n", fwu_nn_from_pn(sq.df_pn),
+                   sq.df_pn <= 0 ? "  (adhesion alone holds the tip)" : "");
+        }
+        printf("  status                 ok\n");
+    }
+    return 0;
+}
+
 /* ---- dispatch ----------------------------------------------------------- */
 
 static void usage(FILE *fp)
@@ -641,6 +733,7 @@ static void usage(FILE *fp)
             "  calib tilted   mu and k_theta K_l / h from friction loops on a tilted surface\n"
             "  calib lines    C_n from lines inscribed at several depths\n"
             "  model wire     static point and minimum push of a rigid nanowire\n"
+            "  model squeeze  tip-substrate-wire squeeze: psi_max, F_r, the push and dF (eq. 29-30)\n"
             "  calc force     3-D tip force from S_n, S_l, theta and the scan angle\n"
             "  calc probe     the paper's probe (fw_paper_probe.h)\n");
 }
@@ -662,6 +755,9 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "model") == 0 && strcmp(argv[2], "wire") == 0) {
         return cmd_model_wire(argc - 3, argv + 3);
+    }
+    if (strcmp(argv[1], "model") == 0 && strcmp(argv[2], "squeeze") == 0) {
+        return cmd_model_squeeze(argc - 3, argv + 3);
     }
     if (strcmp(argv[1], "calc") == 0 && strcmp(argv[2], "force") == 0) {
         return cmd_calc_force(argc - 3, argv + 3);

@@ -80,6 +80,20 @@ if(NOT sp STREQUAL "NULL")
 endif()
 expect_near("${j}" min_force_per_fL 1.0 0.000002)
 
+# eq. 29-30 at an end push: k = 0.414, psi 20 deg, mu 0.2, F L 20 nN, F_a,ts 1 nN:
+# F_r = k F L / (cos psi - k mu sin psi) = 9.0900, push F_r cos psi = 8.5418, dF = 2.1090
+run_json(j model squeeze --length-nm 1300 --push-at-nm 0 --gamma-deg 20 --mu 0.2 --fl-nN 20 --fa-ts-nN 1)
+expect_near("${j}" f_r_nN 9.0900 0.002)
+expect_near("${j}" push_nN 8.5418 0.002)
+expect_near("${j}" df_nN 2.1090 0.002)
+expect_near("${j}" psi_max_deg 85.264 0.01)
+# at the middle (k = 1) with mu 1, psi_max = 45 deg: 46 deg squeezes
+run_json(j model squeeze --length-nm 1300 --push-at-nm 650 --gamma-deg 44 --twist-deg -2 --mu 1 --fl-nN 20 --fa-ts-nN 1)
+string(JSON sq GET "${j}" squeezed)
+if(NOT sq STREQUAL "ON" AND NOT sq STREQUAL "true")
+  message(FATAL_ERROR "psi 46 deg past psi_max 45 deg must squeeze: ${j}")
+endif()
+
 run_json(j calc force --sn 1.2 --sl 0.3 --theta-deg 45 --scan-angle-deg 270)
 expect_near("${j}" fx_nN 11.37 0.002)
 expect_near("${j}" fy_nN 11.37 0.002)
@@ -96,5 +110,7 @@ expect_near("${j}" fy_nN 11.37 0.002)
 expect_fail("--up" calib tilted --up 0.02 --down 0.07 --angle-deg 9 --spring-N-per-m 0.12 --deflection-nm-per-V 89)
 expect_fail("--angle-deg" calib tilted --up 0.07 --down 0.02 --angle-deg 0 --spring-N-per-m 0.12 --deflection-nm-per-V 89)
 expect_fail("--push-at-nm" model wire --length-nm 1300 --diameter-nm 100 --push-at-nm 1301)
+expect_fail("--gamma-deg" model squeeze --length-nm 1300 --push-at-nm 0 --gamma-deg 95 --mu 0.2 --fl-nN 20 --fa-ts-nN 1)
+expect_fail("--mu" model squeeze --length-nm 1300 --push-at-nm 0 --gamma-deg 20 --mu 2.5 --fl-nN 20 --fa-ts-nN 1)
 expect_fail("--sn" calc force --sn abc --sl 0.3 --theta-deg 45 --scan-angle-deg 270)
 expect_fail("--deflection-nm-per-V" calib lines --depths-nm 500,1000 --offsets-nm 0,130)

@@ -88,6 +88,26 @@ class Reduced(unittest.TestCase):
         self.assertAlmostEqual(self.row("rod", "push that moves the rod at l = 0.03")["bench"], k_end * 26.0, delta=0.1 * 26.0)
         self.assertLess(self.row("rod", "firmware fw_wire against the closed form: static")["bench"], 2.0)
 
+    def test_squeeze_push_follows_eq_29_and_the_rod_stays_past_psi_max(self):
+        # eq. 29's horizontal part at an end push, written out here: k f L /
+        # (1 - k mu tan gamma), f L = 26 nN, wire mu 0.5, the last cone.
+        import math
+        from analysis.paper import exp_rod, exp_squeeze
+        g = exp_squeeze.GAMMAS["reduced"][-1]
+        _, k = exp_rod.closed_form(exp_squeeze.END_Q * 1300.0, 1300.0)
+        want = k * 26.0 / (1 - k * 0.5 * math.tan(math.radians(g)))
+        self.assertAlmostEqual(self.row("squeeze", "push at an end")["bench"], want, delta=0.1 * want)
+        self.assertGreater(self.row("squeeze", "push at an end")["bench"], 1.15 * k * 26.0, "the down force must show")
+        for name in ("squeeze_pressed", "squeeze_light"):
+            self.assertLess(self.row("squeeze", f"{name}: the rod's move")["bench"], 5.0)
+            self.assertEqual(self.row("squeeze", f"{name}: the tip rode over")["bench"], 1.0)
+        self.assertEqual(self.row("squeeze", "squeeze_pressed: the card flagged SQUEEZE")["bench"], 1.0)
+        self.assertEqual(self.row("squeeze", "squeeze_light: the card flagged SQUEEZE")["bench"], 0.0)
+        # the particle: F_th(0) mu_ps tan(gamma) / (1 - mu_ps tan gamma) added, F_th(0) = 0.5 x 5 nN
+        t = 0.5 * math.tan(math.radians(exp_squeeze.PARTICLE_GAMMA))
+        self.assertAlmostEqual(self.row("squeeze", "particle: what the down force adds")["bench"], 2.5 * t / (1 - t),
+                               delta=0.1 * 2.5 * t / (1 - t))
+
     def test_landmark_drift_and_pattern_hold_their_models(self):
         self.assertLess(abs(self.row("landmark", "re-registered offset x")["bench"] - 250), 5)
         self.assertLess(self.row("drift", "registration error while pushing")["bench"], 25)

@@ -1,0 +1,233 @@
+"""The cone's down force (figs. 16-17; eq. 23-24 and 29-30; physics.md
+sections 5-7), in the live loop: the simulator's effect down_force presses
+what the tip pushes by H tan psi, the card models the same (fw_wire_update,
+fw_particles_down_threshold_pn) and flags SQUEEZE past psi_max.
+
+- A rod (1.3 um x 100 nm, f L = 26 nN, wire mu 0.5) pushed at an end by cones
+  of several half angles: the push measured from the card's force (FW_FORCE,
+  less the tip's own friction measured in the same run before contact)
+  against the firmware's eq. 29 (afm_calc model squeeze) and the simulator;
+  dF = H tan psi - F_a,ts from the measured push against eq. 30.
+- The same rod pushed near its middle with mu 1 and gamma 50 deg, past
+  psi_max: it stays (scans and SIM_TRUTH). Pressed at 40 nN the card flags
+  SQUEEZE; at 5 nN the tip rides up over it before the push gets that far.
+- A particle (mu_ps 0.5, F_adh 5 nN) pushed with and without the down force:
+  its threshold F_th(0) / (1 - mu_ps tan gamma) against F_th(0).
+- Figs. 16-17 from the firmware's solver: dF / F_a,ts against gamma, mu and
+  l for F_a,os = 20 and 50 F_a,ts, mu 0.2."""
+import math
+import os
+
+import numpy as np
+
+from analysis.paper import common
+from analysis.paper.exp_rod import rod_pose
+
+NAME = "squeeze"
+TITLE = "Tip-substrate-wire squeeze and load-dependent friction"
+FIGURES = "figs. 16-17, eq. 23-24, 29-30"
+
+GAMMAS = {"full": [10, 20, 30, 40, 50], "reduced": [20, 45]}
+END_Q = 0.03            # the end push, as in the rod experiment
+MID_Q = 0.45            # near the middle: k = 0.909
+SQUEEZE_GAMMA, SQUEEZE_MU = 50, 1.0
+PARTICLE = {"particles": [{"id": 1, "x_nm": 0, "y_nm": -200, "radius_nm": 50}]}
+PARTICLE_GAMMA = 40
+
+
+def _path(q, sc):
+    w = sc["objects"]["wires"][0]
+    x = w["x0_nm"] + q * (w["x1_nm"] - w["x0_nm"])
+    return [[x, p[1]] for p in sc["operator"]["path_nm"]]
+
+
+def runs(size):
+    sc = common.load_scene("squeeze.yaml")
+    out = [common.Run(name=f"gamma_{g}", scene="squeeze.yaml", cost_s=4,
+                      settings={"probe.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc)}) for g in GAMMAS[size]]
+    for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
+        out.append(common.Run(name=name, scene="squeeze.yaml", cost_s=4,
+                              settings={"probe.tip_half_angle_deg": SQUEEZE_GAMMA, "sample.wire.mu": SQUEEZE_MU,
+                                        "operator.load_nN": load, "operator.path_nm": _path(MID_Q, sc)}))
+    for name, on in (("particle_down", True), ("particle_flat", False)):
+        out.append(common.Run(name=name, scene="squeeze.yaml", cost_s=3,
+                              settings={"objects": PARTICLE, "effects.down_force": on,
+                                        "probe.tip_half_angle_deg": PARTICLE_GAMMA,
+                                        "operator.path_nm": [[0, -700], [0, 100]]}))
+    return out
+
+
+def push_excess(run_dir):
+    """The push the object takes (nN): the median lateral force across the
+    push while the card flags contact, less the tip's own sliding friction,
+    the median over the blocks of free sliding before the first contact
+    (their second half: the scanner at speed). From the card (FW_FORCE) and
+    from the simulator (SIM_TRUTH); and the blocks the card flagged SQUEEZE."""
+    import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_FORCE", "SIM_TRUTH"})
+    ff, tr = afmlog.by_seq(log.get("FW_FORCE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
+    seqs = sorted(s for s in ff if s in tr)
+    contact = [s for s in seqs if ff[s].flags & 32]   # fw_force_t.FLAG_CONTACT
+    squeeze = sum(1 for s in seqs if ff[s].flags & 256)   # fw_force_t.FLAG_SQUEEZE
+    if len(contact) < 5:
+        return None, None, squeeze
+    free = [s for s in seqs if s < contact[0]]
+    free = free[len(free) // 2:]
+    if len(free) < 10:
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: only {len(free)} blocks of free sliding before contact")
+    med = lambda src, ss: float(np.median([abs(src[s].force_nN[1]) for s in ss]))
+    return med(ff, contact) - med(ff, free), med(tr, contact) - med(tr, free), squeeze
+
+
+def _rod_moved(run_dir):
+    """How far the rod's centre moved (nm): between the run's scans, and in SIM_TRUTH."""
+    import afmlog
+    c0, _, _ = rod_pose(run_dir, "scan_initial")
+    c1, _, _ = rod_pose(run_dir, "scan_final")
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
+    whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
+    ends = [np.array([w.wires[0].x_nm[0] + w.wires[0].x_nm[-1], w.wires[0].y_nm[0] + w.wires[0].y_nm[-1]]) / 2
+            for _, w in (whole[0], whole[-1])]
+    return float(np.linalg.norm(c1 - c0)), float(np.linalg.norm(ends[1] - ends[0]))
+
+
+def _apex_final_y(run_dir):
+    """The apex's last y (nm) from the card (FW_TIP): past the rod when the tip rode over it."""
+    import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_TIP"})
+    tips = sorted(afmlog.by_seq(log.get("FW_TIP", [])).values(), key=lambda m: m.seq)
+    if not tips:
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: no FW_TIP")
+    return float(tips[-1].tip_nm[1])
+
+
+def _solver(L, l, gamma, mu, fl, fats):
+    return common.calc("model", "squeeze", "--length-nm", f"{L:.1f}", "--push-at-nm", f"{l:.1f}", "--gamma-deg", gamma,
+                       "--mu", mu, "--fl-nN", f"{fl:.4f}", "--fa-ts-nN", f"{fats:.4f}")
+
+
+def analyse(dirs, exp_dir, size):
+    sc = common.truth(dirs[f"gamma_{GAMMAS[size][0]}"])
+    w = sc["objects"]["wires"][0]
+    L = float(w["x1_nm"] - w["x0_nm"])
+    fl = float(sc["sample"]["wire"]["friction_nN_per_um"]) * L * 1e-3
+    mu = float(sc["sample"]["wire"]["mu"])
+    fats = float(sc["sample"]["tip_substrate"]["adhesion_nN"])
+    k_end = common.calc("model", "wire", "--length-nm", f"{L:.1f}", "--diameter-nm", w["diameter_nm"],
+                        "--push-at-nm", f"{END_Q * L:.1f}", "--f-nN-per-um", f"{fl / L * 1e3:.4f}")["min_force_nN"]
+    pts = []
+    for g in GAMMAS[size]:
+        d = dirs[f"gamma_{g}"]
+        hb, ht, _ = push_excess(d)
+        if hb is None:
+            raise common.PaperError(f"{d}: the card never flagged contact with the rod")
+        m = _solver(L, END_Q * L, g, mu, fl, fats)
+        pts.append(dict(g=g, H_card=hb, H_truth=ht, H_fw=m["push_nN"], dF_fw=m["df_nN"],
+                        dF_card=hb * math.tan(math.radians(g)) - fats))
+    res = common.Result()
+    last = pts[-1]
+    rms = float(np.sqrt(np.mean([(p["H_card"] - p["H_fw"]) ** 2 for p in pts])))
+    res.rows = [
+        common.Row(f"push at an end, gamma {last['g']} deg (eq. 29: k f L / (1 - k mu tan psi))", "nN", bench=last["H_card"],
+                   truth=last["H_fw"], tolerance=0.1, relative=True,
+                   note=f"without the down force k f L = {k_end:.2f} nN; truth column: the firmware's solver"),
+        common.Row(f"push, card against eq. 29 (RMS over {len(pts)} cones)", "nN", bench=rms, tolerance=0.1 * k_end,
+                   note="simulator: " + ", ".join(f"{p['H_truth']:.2f}" for p in pts) + " nN"),
+        common.Row(f"dF at gamma {last['g']} deg from the measured push (eq. 30)", "nN", bench=last["dF_card"],
+                   truth=last["dF_fw"], tolerance=max(0.15 * abs(last["dF_fw"]), 0.5),
+                   note="dF = H tan psi - F_a,ts; > 0: the load must exceed it to keep the apex down"),
+    ]
+    _squeeze_rows(res, dirs, L, fl, fats)
+    _particle_rows(res, dirs, sc)
+    res.notes.append("per cone: " + "; ".join(f"gamma={p['g']} H_card={p['H_card']:.2f} H_sim={p['H_truth']:.2f} "
+                                              f"H_eq29={p['H_fw']:.2f} dF={p['dF_card']:.2f} (eq. 30: {p['dF_fw']:.2f})"
+                                              for p in pts))
+    res.figures = [("Push at an end against the cone's half angle: card, simulator, eq. 29 (firmware), and no down force",
+                    _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats)),
+                   ("dF / F_a,ts against gamma, mu and l for F_a,os = 20 and 50 F_a,ts, mu 0.2 (figs. 16-17, firmware's solver)",
+                    _plot_figs_16_17(exp_dir, L))]
+    return res
+
+
+def _squeeze_rows(res, dirs, L, fl, fats):
+    k = common.calc("model", "wire", "--length-nm", f"{L:.1f}", "--diameter-nm", 100, "--push-at-nm",
+                    f"{MID_Q * L:.1f}")["min_force_per_fL"]
+    psi_max = math.degrees(math.atan(1 / (k * SQUEEZE_MU)))
+    for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
+        d = dirs[name]
+        moved_scan, moved_truth = _rod_moved(d)
+        _, _, flagged = push_excess(d)
+        y_end = _apex_final_y(d)
+        ride = (load + fats) / math.tan(math.radians(SQUEEZE_GAMMA))
+        res.rows.append(common.Row(f"{name}: the rod's move past psi_max ({SQUEEZE_GAMMA} > {psi_max:.1f} deg), load {load} nN",
+                                   "nm", bench=moved_scan, truth=moved_truth, tolerance=5.0,
+                                   note="between the run's scans; truth: SIM_TRUTH (the rod stays)"))
+        # The model: past psi_max no push moves the rod; the card flags SQUEEZE
+        # once the push passes half of k f L, which the tip
+        # reaches before it rides up only when (load + F_a,ts) / tan psi does.
+        flag_expected = ride > k * fl / 2
+        res.rows.append(common.Row(f"{name}: the card flagged SQUEEZE (1 yes, 0 no)", "", bench=float(flagged > 0),
+                                   truth=float(flag_expected), tolerance=0,
+                                   note=f"{flagged} blocks; the tip rides up once H tan psi - F_a,ts > load, at H = "
+                                        f"{ride:.1f} nN; the card flags past half of k f L = {k * fl / 2:.1f} nN"))
+        res.rows.append(common.Row(f"{name}: the tip rode over the rod (1 yes, 0 no)", "", bench=float(y_end > 60),
+                                   truth=1.0, tolerance=0,
+                                   note=f"the apex's last y {y_end:.0f} nm (the rod's far side: +60; the path ends at "
+                                        f"+100); the stroke pushes on until the lift exceeds the load"))
+
+
+def _particle_rows(res, dirs, sc):
+    ps = sc["sample"]["particle_substrate"]
+    base = float(ps["mu"]) * float(ps["adhesion_nN"])
+    down = base / (1 - float(ps["mu"]) * math.tan(math.radians(PARTICLE_GAMMA)))
+    got = {}
+    for name, want, what in (("particle_down", down, "F_th(0) / (1 - mu_ps tan gamma)"), ("particle_flat", base, "F_th(0)")):
+        hb, ht, _ = push_excess(dirs[name])
+        if hb is None:
+            raise common.PaperError(f"{dirs[name]}: the card never flagged contact with the particle")
+        got[name] = hb
+        res.rows.append(common.Row(f"particle push, {'with' if name == 'particle_down' else 'without'} the down force "
+                                   f"(gamma {PARTICLE_GAMMA} deg)", "nN", bench=hb, truth=want, tolerance=0.15, relative=True,
+                                   note=f"truth: section 5's {what}; simulator {ht:.3f} nN (both above the threshold by "
+                                        "the contact's relaxation lag while the particle slides)"))
+    res.rows.append(common.Row("particle: what the down force adds to the push", "nN",
+                               bench=got["particle_down"] - got["particle_flat"], truth=down - base, tolerance=0.1,
+                               relative=True, note="the two runs' difference: the lag common to both cancels"))
+
+
+def _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats):
+    p = common.plt()
+    fig, ax = p.subplots(figsize=(6.4, 4.0))
+    gs = np.linspace(1, 60, 60)
+    ax.plot(gs, [_solver(L, END_Q * L, g, mu, fl, fats)["push_nN"] for g in gs], "-", lw=0.8,
+            label="eq. 29 (firmware's solver)")
+    ax.axhline(k_end, ls=":", color="grey", lw=0.8, label="without the down force: k f L")
+    ax.plot([q["g"] for q in pts], [q["H_card"] for q in pts], "o", label="bench (card's force)")
+    ax.plot([q["g"] for q in pts], [q["H_truth"] for q in pts], "x", label="simulator (truth)")
+    ax.set_xlabel("cone half angle gamma (deg)")
+    ax.set_ylabel("push that moves the rod (nN)")
+    ax.legend(fontsize=7)
+    return common.save(fig, exp_dir, "push_vs_gamma.png")
+
+
+def _plot_figs_16_17(exp_dir, L):
+    """dF / F_a,ts with F_a,ts = 1 nN, F L = mu F_a,os (tau A = 0)."""
+    p = common.plt()
+    fig, axs = p.subplots(1, 3, figsize=(11, 3.4))
+    for ratio, style in ((20, "-"), (50, "--")):
+        def df(g=20, mu=0.2, l=0.0):
+            m = _solver(L, l, g, mu, mu * ratio, 1.0)
+            return np.nan if m["squeezed"] else m["df_nN"]
+        gs = np.linspace(2, 58, 29)
+        axs[0].plot(gs, [df(g=g) for g in gs], style, label=f"F_a,os = {ratio} F_a,ts, end push")
+        axs[0].plot(gs, [df(g=g, l=L / 2) for g in gs], style, lw=0.7, label=f"F_a,os = {ratio} F_a,ts, middle")
+        mus = np.linspace(0.02, 1.0, 25)
+        axs[1].plot(mus, [df(mu=m) for m in mus], style, label=f"F_a,os = {ratio} F_a,ts")
+        ls = np.linspace(0, L, 27)
+        axs[2].plot(ls, [df(l=x) for x in ls], style, label=f"F_a,os = {ratio} F_a,ts")
+    for ax, xl in zip(axs, ("gamma (deg), mu 0.2", "mu, gamma 20 deg, end push", "push point l (nm), gamma 20 deg, mu 0.2")):
+        ax.set_xlabel(xl)
+        ax.set_ylabel("dF / F_a,ts")
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    return common.save(fig, exp_dir, "df_figs_16_17.png")
