@@ -280,7 +280,8 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
     if (fw.IsDefined() && !fw.IsNull()) {
         // The ranges are the card's (fw_card_check): the launcher's --check
         // names the rule a value breaks; here only the types.
-        r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate", "disp_n_nm_per_V", "disp_l_nm_per_V", "lateral_nN_per_V", "mu"});
+        r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate", "disp_n_nm_per_V", "disp_l_nm_per_V", "lateral_nN_per_V", "mu",
+                                     "drift_max_step_nm"});
         auto whole = [&](const char *k, int dflt) {
             const double dv = dflt;
             const double v = r.num(fw, "firmware", k, &dv, -1e6, 1e6);
@@ -300,6 +301,7 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         optional("disp_l_nm_per_V", 1e4, &s.fw_cal.disp_l_nm_per_V);
         optional("lateral_nN_per_V", 1e5, &s.fw_cal.lateral_nN_per_V);
         if (fw["mu"].IsDefined() && !fw["mu"].IsNull()) s.fw_cal.mu = r.num(fw, "firmware", "mu", nullptr, 0, 10);
+        optional("drift_max_step_nm", 1e6, &s.fw_cal.drift_max_step_nm);
     }
 }
 

@@ -53,6 +53,11 @@ struct FirmwareCalibration {
     std::optional<double> disp_n_nm_per_V, disp_l_nm_per_V;   // C_n, C_l
     std::optional<double> lateral_nN_per_V;                   // k_theta K_l / h
     std::optional<double> mu;                                 // tip-substrate mu for the F_x fallback
+    // The card's drift correction limit (fw_drift): a local scan's finding
+    // further from its model than this is refused. None: the firmware's
+    // FW_DRIFT_MAX_STEP_DEFAULT_PM (200 nm). Local scans that miss their
+    // object scan again wider, out to this limit.
+    std::optional<double> drift_max_step_nm;
 };
 
 struct ContactSpec {                    // friction and adhesion of a material pair

@@ -78,6 +78,7 @@ CardSetup::CardSetup(const Scene &s)
     for (const auto &m : s.landmarks) landmarks_.push_back({m.id, fwu_pm_from_nm(m.x_nm), fwu_pm_from_nm(m.y_nm)});
     cfg_.landmarks = landmarks_.data();
     cfg_.n_landmarks = static_cast<int32_t>(landmarks_.size());
+    if (s.fw_cal.drift_max_step_nm) cfg_.drift_max_step_pm = fwu_pm_from_nm(*s.fw_cal.drift_max_step_nm);
     // A landmark after a lever change may be anywhere in the field.
     cfg_.landmark_max_step_pm = fwu_pm_from_nm(s.field_nm / 2);
     // operator.haptic: the gain in whole uN/pN (0.001 N/nN), the device's force per axis.

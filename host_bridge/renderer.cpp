@@ -41,6 +41,7 @@
 #include "pattern.hpp"
 #include "scan_client.hpp"
 #include "scene.hpp"
+#include "fw_drift.h"
 
 namespace {
 
@@ -94,6 +95,8 @@ struct Renderer {
     bool final_pending = false;  // waiting for the final scan before the last frame
     int local_next = 0;          // next scene local scan to take
     int local_pending = -1;      // local scan being taken (index), or -1
+    double local_size_nm = 0;    // the side of the local scan being taken
+    bool local_wide = false;     // it is the wider retry of a scan that missed its object
     int fix_awaited = 0;         // object fix sent, waiting for the firmware's acknowledgement
     int fixes_sent = 0;
     double fw_drift_nm[2] = {0, 0};   // the firmware's drift estimate, from FW_OBJECTS
@@ -313,50 +316,76 @@ struct Renderer {
         return false;
     }
 
-    void start_local_scan(int i)
+    void start_local_scan(int i, double size_nm = 0)
     {
         const afm::LocalScanSpec &ls = scene.op.local_scans[i];
         local_pending = i;
+        local_size_nm = size_nm > 0 ? size_nm : ls.size_nm;
+        local_wide = size_nm > 0;
         double x = 0, y = 0;
         landmark_or_particle_at(ls.around_id, &x, &y);
-        const int half = std::max(2, static_cast<int>(std::lround(ls.size_nm / 2 / field.pitch())));
+        const int half = std::max(2, static_cast<int>(std::lround(local_size_nm / 2 / field.pitch())));
         const cv::Point2d c = field.to_px(x, y);
         const cv::Rect region = cv::Rect(cvRound(c.x) - half, cvRound(c.y) - half, 2 * half, 2 * half) & cv::Rect(0, 0, field.px, field.px);
         start_scan(kLocalScanBase + i, region);
     }
 
+    // The card's drift correction limit (nm): the scene's, or the firmware's default.
+    double drift_limit_nm() const
+    {
+        return scene.fw_cal.drift_max_step_nm.value_or(FW_DRIFT_MAX_STEP_DEFAULT_PM * 1e-3);
+    }
+
     void local_scan_done()
     {
+        const afm::LocalScanSpec &ls = scene.op.local_scans[local_pending];
         {
             std::string err;
-            const std::string name = "scan_local_" + std::to_string(local_pending + 1);
+            const std::string name = "scan_local_" + std::to_string(local_pending + 1) + (local_wide ? "_wide" : "");
             if (!afm::write_gsf(out + "/" + name + ".gsf", scan.heights(), field, scan_px, name, &err)) throw std::runtime_error(err);
         }
-        const afm::LocalScanSpec &ls = scene.op.local_scans[local_pending];
         // Locate the object in the scan (placed in a full-size image so the
         // display's geometry applies).
         cv::Mat located = cv::Mat::zeros(field.px, field.px, CV_32F);
         scan.heights().copyTo(located(scan_px));
-        double mx = 0, my = 0, search = 0;
+        double mx = 0, my = 0, search = 0, radius = 0;
         fix_on_landmark = landmark_or_particle_at(ls.around_id, &mx, &my);
         bool known = fix_on_landmark;
-        for (const auto &p : model.particles)
+        std::vector<cv::Point2d> others;
+        for (const auto &p : model.particles) {
             if (p.id == ls.around_id) {
                 search = afm::sphere_footprint_nm(p.radius_nm, tip) * 0.5 + kFidelitySearch_nm;
+                radius = p.radius_nm;
                 known = true;
+            } else {
+                others.emplace_back(p.x_nm, p.y_nm);
             }
+        }
         // A landmark may have jumped far (a cantilever change): look over the
         // whole local scan for it.
         if (fix_on_landmark) search = ls.size_nm / 2;
         double sx = 0, sy = 0;
         nlohmann::json rec = {{"at_s", ls.at_s}, {"around_id", ls.around_id}, {"frame", frames_written},
-                              {"kind", fix_on_landmark ? "landmark" : "particle"}};
-        const bool found = known && afm::locate_bump(located, field, mx, my, search, &sx, &sy);
+                              {"kind", fix_on_landmark ? "landmark" : "particle"}, {"size_nm", local_size_nm},
+                              {"wide", local_wide}};
+        // A particle drifted out of reach of its model: in the wider retry,
+        // the bump nearest its model (physics.md 10: the scan is wide enough
+        // for any drift the card accepts).
+        const bool found = known && (local_wide ? afm::nearest_bump(located, field, mx, my, 0.5 * radius, search, others,
+                                                                    radius, &sx, &sy)
+                                                : afm::locate_bump(located, field, mx, my, search, &sx, &sy));
         if (!found) {
-            // Nothing to register: the scan still replaces its region of the image.
             rec["found"] = false;
             local_scans.push_back(rec);
             display.paste_scan(scan.heights(), scan_px);
+            // Not where its model is: scan again, wide enough to hold any
+            // object within the card's correction limit of its model.
+            const double wide = 2.0 * (drift_limit_nm() + search);
+            if (!fix_on_landmark && known && !local_wide && wide > local_size_nm) {
+                start_local_scan(local_pending, wide);
+                return;
+            }
+            // Nothing to register: the scan still replaces its region of the image.
             local_pending = -1;
             continue_frames();
             return;

@@ -112,6 +112,9 @@ class Reduced(unittest.TestCase):
         self.assertLess(abs(self.row("landmark", "re-registered offset x")["bench"] - 250), 5)
         self.assertLess(self.row("drift", "registration error while pushing")["bench"], 25)
         self.assertGreater(self.row("drift", "registration error at the end, without")["bench"], 200)
+        self.assertEqual(self.row("drift", "far: the 400 nm scan missed")["bench"], 1.0)
+        self.assertLess(self.row("drift", "far: registration error after")["bench"], 25)
+        self.assertGreater(self.row("drift", "far, the card's default 200 nm limit")["bench"], 200)
         pat = self.row("pattern", "sites filled")
         self.assertEqual(pat["bench"], 10)
 
