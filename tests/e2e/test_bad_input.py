@@ -87,6 +87,8 @@ class BadScenes(unittest.TestCase):
         self.assertIn("firmware.adc_bits 20", msg)
         msg = self.check_refused(GOOD.replace("objects:", "firmware: {word_bits: 24}\nobjects:", 1), "firmware.word_bits",
                                  "16 or 32 bits")
+        self.check_refused(GOOD.replace("objects:", "firmware: {drift_max_step_nm: -5}\nobjects:", 1),
+                           "firmware.drift_max_step_nm", "must be > 0, got '-5'")
 
     def test_empty_file_refused(self):
         path = benchtest.write_scene("", "empty")
