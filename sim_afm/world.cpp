@@ -41,10 +41,10 @@ World::World(const Scene &s)
     // moves it is F_th(0) / (1 - mu_ps tan gamma), and none does past
     // psi_max = atan(1 / mu_ps) (the cone squeezes it).
     down_force_ = s.has_effect("down_force");
-    tan_gamma_ = std::tan(s.probe.tip_half_angle_deg * M_PI / 180.0);
+    gamma_rad_ = s.probe.tip_half_angle_deg * M_PI / 180.0;
     double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
     if (down_force_) {
-        const double den = 1.0 - ps.mu * tan_gamma_;
+        const double den = 1.0 - ps.mu * std::tan(gamma_rad_);
         threshold = den > 0 ? threshold / den : std::numeric_limits<double>::infinity();
     }
     for (const auto &p : s.particles) {
@@ -279,7 +279,7 @@ void World::press_wires()
     // the lever's twist under the lateral force of the last sample.
     if (!down_force_ || wires_.empty()) return;
     const Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
-    const double psi = std::atan(tan_gamma_) + std::fabs(lever_.twist(fC.y()));
+    const double psi = gamma_rad_ + std::fabs(lever_.twist(fC.y()));
     const double t = psi < M_PI / 2 ? std::tan(psi) : std::numeric_limits<double>::infinity();
     for (auto &w : wires_) w->press_tan = t;
 }

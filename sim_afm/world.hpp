@@ -173,12 +173,12 @@ private:
     double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
+    void press_wires();                                       // down_force: each wire's tan psi for this sample
+    bool rides_over(const Wire &w, double push_nN) const;     // the tip climbs a squeezed wire
     // Horizontal force of the substrate on the tip, frame A, when it slides
     // along the horizontal direction m on a surface of unit normal n under the
     // vertical force fz; none when the slope is too steep to climb (the tip
     // jams: no finite force slides it up).
-    void press_wires();                                       // down_force: each wire's tan psi for this sample
-    bool rides_over(const Wire &w, double push_nN) const;     // the tip climbs a squeezed wire
     std::optional<Eigen::Vector2d> sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const;
     // Photodiode outputs of a jammed tip: the force against the motion m is
     // unbounded, so each output sits at its limit on that force's side.
@@ -220,7 +220,7 @@ private:
     double tip_adhesion_nN_ = 0;
     double tip_mu_ = 0;
     bool down_force_ = false;      // the cone presses what it pushes (effect down_force)
-    double tan_gamma_ = 0;         // tan of the cone's half angle
+    double gamma_rad_ = 0;         // the cone's half angle
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
     Eigen::Vector2d lateral_force_{0.0, 0.0};  // sample on tip, frame A, nN
     std::vector<Particle> particles_;

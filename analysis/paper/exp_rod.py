@@ -64,8 +64,9 @@ def static_offset(c0, e0, c1, e1):
     return float(-(dc @ de) / (de @ de))
 
 
-def truth_offset(run_dir):
-    """The same from the simulator's poses (SIM_TRUTH), first and last."""
+def truth_poses(run_dir):
+    """The rod's first and last poses in the simulator (SIM_TRUTH): two
+    (centre, unit axis) pairs, nm."""
     import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
     whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
@@ -76,7 +77,13 @@ def truth_offset(run_dir):
         a = np.array([w.wires[0].x_nm[0], w.wires[0].y_nm[0]])
         b = np.array([w.wires[0].x_nm[-1], w.wires[0].y_nm[-1]])
         poses.append(((a + b) / 2, (b - a) / np.linalg.norm(b - a)))
-    return static_offset(*poses[0], *poses[1])
+    return poses
+
+
+def truth_offset(run_dir):
+    """The static offset from the simulator's poses (SIM_TRUTH), first and last."""
+    (c0, e0), (c1, e1) = truth_poses(run_dir)
+    return static_offset(c0, e0, c1, e1)
 
 
 def push_force(run_dir):

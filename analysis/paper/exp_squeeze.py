@@ -21,7 +21,7 @@ import os
 import numpy as np
 
 from analysis.paper import common
-from analysis.paper.exp_rod import rod_pose
+from analysis.paper.exp_rod import rod_pose, truth_poses
 
 NAME = "squeeze"
 TITLE = "Tip-substrate-wire squeeze and load-dependent friction"
@@ -81,14 +81,10 @@ def push_excess(run_dir):
 
 def _rod_moved(run_dir):
     """How far the rod's centre moved (nm): between the run's scans, and in SIM_TRUTH."""
-    import afmlog
     c0, _, _ = rod_pose(run_dir, "scan_initial")
     c1, _, _ = rod_pose(run_dir, "scan_final")
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
-    whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
-    ends = [np.array([w.wires[0].x_nm[0] + w.wires[0].x_nm[-1], w.wires[0].y_nm[0] + w.wires[0].y_nm[-1]]) / 2
-            for _, w in (whole[0], whole[-1])]
-    return float(np.linalg.norm(c1 - c0)), float(np.linalg.norm(ends[1] - ends[0]))
+    (t0, _), (t1, _) = truth_poses(run_dir)
+    return float(np.linalg.norm(c1 - c0)), float(np.linalg.norm(t1 - t0))
 
 
 def _apex_final_y(run_dir):
@@ -150,9 +146,8 @@ def analyse(dirs, exp_dir, size):
 
 
 def _squeeze_rows(res, dirs, L, fl, fats):
-    k = common.calc("model", "wire", "--length-nm", f"{L:.1f}", "--diameter-nm", 100, "--push-at-nm",
-                    f"{MID_Q * L:.1f}")["min_force_per_fL"]
-    psi_max = math.degrees(math.atan(1 / (k * SQUEEZE_MU)))
+    m = _solver(L, MID_Q * L, SQUEEZE_GAMMA, SQUEEZE_MU, fl, fats)   # the firmware's k(l) and psi_max
+    k, psi_max = m["k"], m["psi_max_deg"]
     for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
         d = dirs[name]
         moved_scan, moved_truth = _rod_moved(d)
