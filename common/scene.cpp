@@ -537,6 +537,33 @@ void read_haptic(const Reader &r, const YAML::Node &op, Scene &s)
     }
 }
 
+// operator.plan.cuts: lines cut before the pushes (lithography), inside the
+// joystick's reach, pressed above the threshold (else nothing is cut).
+void read_plan_cuts(const Reader &r, const YAML::Node &n, Scene &s)
+{
+    if (!n.IsDefined() || n.IsNull()) return;
+    const std::string k = "operator.plan.cuts";
+    if (!n.IsSequence()) r.fail(k, "must be a list, got " + Reader::show(n));
+    if (n.size() > 0 && !s.has_effect("lithography"))
+        r.fail(k, "cutting needs the lithography effect (effects: [..., lithography])");
+    const double reach = s.field_nm / 2;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+        const std::string p = k + "[" + std::to_string(i) + "]";
+        r.only_keys(n[i], p, {"from_nm", "to_nm", "load_nN"});
+        CutSpec c;
+        c.from_nm = r.vec2(n[i]["from_nm"], p + ".from_nm", -1e6, 1e6);
+        c.to_nm = r.vec2(n[i]["to_nm"], p + ".to_nm", -1e6, 1e6);
+        for (const auto &[end, v] : {std::pair{"from_nm", c.from_nm}, std::pair{"to_nm", c.to_nm}})
+            if (std::fabs(v.x - s.field_center_nm.x) > reach || std::fabs(v.y - s.field_center_nm.y) > reach)
+                r.fail(p + "." + end, "is outside the field, got " + Reader::show(n[i][end]));
+        c.load_nN = r.num(n[i], p, "load_nN", nullptr, 0, 1e4, true);
+        if (c.load_nN <= s.litho.threshold_nN)
+            r.fail(p + ".load_nN", "must exceed sample.lithography.threshold_nN (" + std::to_string(s.litho.threshold_nN) +
+                                       ") or nothing is cut, got " + Reader::show(n[i]["load_nN"]));
+        s.op.plan.cuts.push_back(c);
+    }
+}
+
 // operator.plan: the automatic planner's settings (its presence turns it on).
 void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
 {
@@ -548,7 +575,8 @@ void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
     p.enabled = true;
     if (n.IsNull()) return;
     r.only_keys(n, k, {"tolerance_nm", "speed_nm_per_s", "travel_speed_nm_per_s", "scan_size_nm", "scan_px", "scan_s",
-                       "max_pushes", "clearance_nm", "push_depth_nm", "approach_nm", "wire_tolerance_nm", "wire_step_nm"});
+                       "max_pushes", "clearance_nm", "push_depth_nm", "approach_nm", "wire_tolerance_nm", "wire_step_nm",
+                       "cuts"});
     p.tolerance_nm = r.num(n, k, "tolerance_nm", &d.tolerance_nm, 0, s.field_nm, true);
     p.speed_nm_per_s = r.num(n, k, "speed_nm_per_s", &d.speed_nm_per_s, 0, 1e6, true);
     p.travel_speed_nm_per_s = r.num(n, k, "travel_speed_nm_per_s", &d.travel_speed_nm_per_s, 0, 1e6, true);
@@ -566,6 +594,7 @@ void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
     p.approach_nm = r.num(n, k, "approach_nm", &d.approach_nm, 0, s.field_nm, true);
     p.wire_tolerance_nm = r.num(n, k, "wire_tolerance_nm", &d.wire_tolerance_nm, 0, s.field_nm, true);
     p.wire_step_nm = r.num(n, k, "wire_step_nm", &d.wire_step_nm, 0, s.field_nm, true);
+    read_plan_cuts(r, n["cuts"], s);
 }
 
 // What the planner needs and excludes, checked once the whole scene is read.
@@ -576,8 +605,8 @@ void check_plan(const Reader &r, const Scene &s)
         if (!s.wire_targets.empty()) r.fail("objects.wire_targets", "targets are for the planner: give operator.plan as well");
         return;
     }
-    if (!s.targets.any() && s.wire_targets.empty())
-        r.fail("operator.plan", "the planner needs objects.targets (particles) or objects.wire_targets (rods)");
+    if (!s.targets.any() && s.wire_targets.empty() && s.op.plan.cuts.empty())
+        r.fail("operator.plan", "the planner needs objects.targets (particles), objects.wire_targets (rods) or operator.plan.cuts");
     if (!s.op.local_scans.empty())
         r.fail("operator.local_scans", "the planner takes its own local scans: drop operator.local_scans with operator.plan");
     if (!s.op.cantilever_changes.empty())

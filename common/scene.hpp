@@ -160,6 +160,14 @@ struct HandSpec {
     double mass_kg = 0.15;
 };
 
+// A line the planner cuts before it pushes (operator.plan.cuts): the tip
+// pressed at load_nN from `from` to `to` (lithography: a trench, e.g. the
+// fixture a rod is pushed into, the paper's fig. 18).
+struct CutSpec {
+    Vec2 from_nm, to_nm;                // AFM frame
+    double load_nN = 0;                 // above sample.lithography.threshold_nN
+};
+
 // The automatic planner (operator.plan): particles to objects.targets,
 // rods to objects.wire_targets (host_bridge/planner.hpp).
 struct PlanSpec {
@@ -176,6 +184,7 @@ struct PlanSpec {
     double approach_nm = 60.0;          // the tip lands this far behind the particle's surface
     double wire_tolerance_nm = 50.0;    // a rod's ends are placed within this of their targets
     double wire_step_nm = 120.0;        // the longest single end push of a rod
+    std::vector<CutSpec> cuts;          // cut first, in order (needs the lithography effect)
 };
 
 struct OperatorSpec {

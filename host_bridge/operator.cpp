@@ -236,7 +236,7 @@ struct Operator {
         finished_sent = std::chrono::steady_clock::now();
     }
 
-    void publish_pose(afm::Vec2 joy, bool engaged)
+    void publish_pose(afm::Vec2 joy, bool engaged, double load_nN = 0)
     {
         const int64_t n = force.seq;
         last.utime = afm::block_end_utime(scene, n);
@@ -244,7 +244,7 @@ struct Operator {
         last.joy[0] = std::clamp(joy.x, -1.0, 1.0);
         last.joy[1] = std::clamp(joy.y, -1.0, 1.0);
         last.joy[2] = 0;
-        last.load_nN = scene.op.load_nN;
+        last.load_nN = load_nN > 0 ? load_nN : scene.op.load_nN;
         last.engaged = engaged;
         answered = n;
         have_force = false;
@@ -311,7 +311,7 @@ struct Operator {
             }
             if (r == TurnBench::Req::Block) {
                 hold_pose = bench.pose();
-                publish_pose(joy_of(hold_pose.tip_nm), hold_pose.engaged);
+                publish_pose(joy_of(hold_pose.tip_nm), hold_pose.engaged, hold_pose.load_nN);
                 return;
             }
             if (r == TurnBench::Req::Scan) {
@@ -376,6 +376,7 @@ nlohmann::json plan_json(const afm::Planner &p)
                   {"placed", i.placed}, {"error_nm", i.error_nm < 0 ? json(nullptr) : json(i.error_nm)}};
         if (i.kind == "wire") j["target_angle_deg"] = i.target_angle_deg;
         if (!i.why.empty()) j["why"] = i.why;
+        if (!i.note.empty()) j["note"] = i.note;
         items.push_back(j);
         if (i.kind == "particle") {
             ++particles;
@@ -393,6 +394,8 @@ nlohmann::json plan_json(const afm::Planner &p)
                 {"local_scans", r.local_scans},
                 {"fixes", r.fixes},
                 {"fixes_refused", r.fixes_refused},
+                {"cuts", r.cuts},
+                {"cuts_done_sim_s", r.cuts_done_s < 0 ? json(nullptr) : json(r.cuts_done_s)},
                 {"finished_sim_s", r.finished_s < 0 ? json(nullptr) : json(r.finished_s)},
                 {"planner_wall_s", r.wall_s},
                 {"items", items}};

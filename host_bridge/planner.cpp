@@ -15,6 +15,7 @@ extern "C" {
 #include <cmath>
 #include <sstream>
 
+#include "card_setup.hpp"
 #include "fidelity.hpp"
 #include "pattern.hpp"
 #include "profile.hpp"
@@ -36,6 +37,7 @@ constexpr double kSearchMargin_nm = 40.0; // how far from where it should be a s
 constexpr double kWideScan = 3.0;         // a particle not in its local scan: one this many times wider
 constexpr double kEndAt = 0.1;            // a rod's end push is at L/10 from the end
 constexpr double kTurnTol_deg = 20.0;     // a rod is carried while its normal is within this of the way
+constexpr double kStuck_nm = 1.0;         // a rod's end push that moved its model's ends less than this did nothing
 constexpr double kCarryUntil = 3.0;       // a rod is carried until its centre is this many tolerances from the target
 constexpr double kMinLeverAngle_deg = 25.0;   // pushes keep this far off the lever's axis (F_x: fw_force.h's S_HI is 14.5 deg)
 // Strokes: a pushed sphere drifts off the line of centres exponentially
@@ -220,6 +222,44 @@ struct Planner::Job {
 Planner::Planner(const Scene &s) : s_(s), sites_(target_sites(s)), stroke_nm_(kStrokeStart_nm)
 {
     if (const std::string why = targets_refusal(s); !why.empty()) throw PlanError(why);
+    if (!s.wires.empty()) {
+        const CardSetup card(s);
+        const fw_card_config_t &c = card.config();
+        if (fw_wire_tip_init(&wire_tip_, c.tip_radius_pm, c.tip_half_angle_mdeg, c.wire_friction_pn_per_um,
+                             c.wire_mu_ppm, 0) != FW_OK)
+            throw PlanError("the card refuses the rods' tip: " + card_refusal(s));
+    }
+}
+
+bool Planner::rod_model(const wire_t &w, fw_wire_t *rod) const
+{
+    // The rod as the card holds it, the trenches the card recorded (the
+    // objects' copy, frame A), which of its pieces they hold.
+    const int32_t a[2] = {fwu_pm_from_nm(w.x_nm[0]), fwu_pm_from_nm(w.y_nm[0])};
+    const int32_t b[2] = {fwu_pm_from_nm(w.x_nm[w.n - 1]), fwu_pm_from_nm(w.y_nm[w.n - 1])};
+    if (fw_wire_init_ends(rod, a, b, fwu_pm_from_nm(w.diameter_nm)) != FW_OK) return false;
+    std::vector<fw_trench_point_t> pts;
+    for (const auto &t : model_->trenches)
+        for (int i = 0; i < t.n; ++i)
+            pts.push_back({fwu_pm_from_nm(t.x_nm[i]), fwu_pm_from_nm(t.y_nm[i]), fwu_pm_from_nm(t.depth_nm[i]),
+                           fwu_pm_from_nm(t.width_nm[i]), i == 0 ? FW_LITHO_STROKE_START : 0u});
+    return fw_wire_hold(rod, &wire_tip_, pts.data(), static_cast<int32_t>(pts.size())) == FW_OK;
+}
+
+Planner::EndGains Planner::end_gains(const wire_t &w, double l_nm) const
+{
+    // The firmware's static point of a push at l, with the trenches' hold.
+    EndGains g;
+    fw_wire_t rod{};
+    if (!rod_model(w, &rod)) return g;
+    fw_wire_static_t sp{};
+    const int32_t l = std::clamp(fwu_pm_from_nm(l_nm), 0, rod.length_pm);
+    if (fw_wire_static_point_held(rod.length_pm, l, rod.held, rod.hold_q16, &sp) != FW_OK || !sp.s_defined) return g;
+    const double L = fwu_nm_from_pm(rod.length_pm), s = fwu_nm_from_pm(sp.s_pm), lm = fwu_nm_from_pm(l);
+    g.a = (0 - s) / (lm - s);
+    g.b = (L - s) / (lm - s);
+    g.ok = true;
+    return g;
 }
 
 Vec2 Planner::drift() const { return {model_->drift_nm[0], model_->drift_nm[1]}; }
@@ -264,10 +304,26 @@ std::vector<Disc> Planner::obstacles(int except_id) const
 
 void Planner::hold(int blocks)
 {
-    for (int i = 0; i < blocks; ++i) model_ = &bench_->block({tip_, engaged_});
+    for (int i = 0; i < blocks; ++i) model_ = &bench_->block({tip_, engaged_, load_nN_});
 }
 
 void Planner::wait_s(double s) { hold(static_cast<int>(std::lround(s * s_.block_hz))); }
+
+void Planner::cut(const CutSpec &c)
+{
+    const PlanSpec &ps = s_.op.plan;
+    if (engaged_) travel(tip_, false, ps.travel_speed_nm_per_s);
+    travel(c.from_nm, false, ps.travel_speed_nm_per_s);
+    travel(tip_, true, ps.speed_nm_per_s);   // land at the operator's load
+    load_nN_ = c.load_nN;
+    hold(kLandBlocks);                       // pressed in before it moves
+    travel(c.to_nm, true, ps.speed_nm_per_s);
+    load_nN_ = 0;
+    hold(kLandBlocks);                       // back to the light load before lifting
+    travel(tip_, false, ps.travel_speed_nm_per_s);
+    ++rep_.cuts;
+    rep_.cuts_done_s = bench_->time_s();
+}
 
 void Planner::travel(Vec2 to, bool engaged, double speed)
 {
@@ -279,7 +335,7 @@ void Planner::travel(Vec2 to, bool engaged, double speed)
     while (norm(to - tip_) > 1e-9) {
         const Vec2 d = to - tip_;
         tip_ = norm(d) <= step ? to : tip_ + step * unit(d);
-        model_ = &bench_->block({tip_, engaged_});
+        model_ = &bench_->block({tip_, engaged_, load_nN_});
     }
 }
 
@@ -630,6 +686,8 @@ void Planner::run_wires()
         item.target_angle_deg = t.angle_deg;
         const int max_pushes = 10 * ps.max_pushes;
         bool carrying = true;
+        Vec2 lastA, lastB;
+        int unmoved = 0;
         while (true) {
             const wire_t *w = nullptr;
             for (const auto &x : model_->wires)
@@ -649,6 +707,21 @@ void Planner::run_wires()
             const Vec2 As = T - (L / 2) * ta, Bs = T + (L / 2) * ta;
             item.error_nm = std::max(norm(As - A), norm(Bs - B));
             if (item.error_nm <= ps.wire_tolerance_nm) break;
+            fw_wire_t rod{};
+            if (rod_model(*w, &rod) && rod.held == 0xffffffffu) {
+                item.note = "held by a trench along its whole length";
+                break;
+            }
+            if (item.pushes > 0 && norm(A - lastA) < kStuck_nm && norm(B - lastB) < kStuck_nm) {
+                if (++unmoved >= 3) {
+                    item.why = "stuck: three end pushes in a row left its model where it was";
+                    break;
+                }
+            } else {
+                unmoved = 0;
+            }
+            lastA = A;
+            lastB = B;
             // Pushed along its normal: along the lever's axis the firmware
             // cannot see the push (F_x unobservable) and its model stays.
             if (std::fabs(dot(n, geometry(w->diameter_nm / 2).lever_axis)) > std::cos(kMinLeverAngle_deg * kPi / 180)) {
@@ -680,17 +753,16 @@ void Planner::run_wires()
                 eA = carry - (L / 2) * std::sin(turn);
                 eB = carry + (L / 2) * std::sin(turn);
             }
-            // The end pushes that remove both: from the static point of a
-            // push at L/10 (the firmware's).
-            fw_wire_static_t sp{};
-            const int32_t Lpm = fwu_pm_from_nm(L);
-            if (fw_wire_static_point(Lpm, fwu_pm_from_nm(kEndAt * L), &sp) != FW_OK || !sp.s_defined) {
+            // The end pushes that remove both: x at L/10 from A, y at L/10
+            // from B, from the firmware's static points of each (with the
+            // trenches that hold the rod): gA x + gB y = e per end.
+            const EndGains gA = end_gains(*w, kEndAt * L), gB = end_gains(*w, (1 - kEndAt) * L);
+            const double det = gA.a * gB.b - gB.a * gA.b;
+            if (!gA.ok || !gB.ok || std::fabs(det) < 1e-9) {
                 item.why = "the rod's static point is undefined";
                 break;
             }
-            const double s = fwu_nm_from_pm(sp.s_pm), l = kEndAt * L;
-            const double alpha = s / (s - l), beta = (L - s) / (s - l), det = alpha * alpha - beta * beta;
-            const double x = (alpha * eA + beta * eB) / det, y = (beta * eA + alpha * eB) / det;
+            const double x = (eA * gB.b - gB.a * eB) / det, y = (gA.a * eB - gA.b * eA) / det;
             const bool at_b = std::fabs(y) > std::fabs(x);
             const double dn = std::clamp(at_b ? y : x, -ps.wire_step_nm, ps.wire_step_nm);
             if (std::getenv("AFM_PLAN_TRACE"))
@@ -745,6 +817,7 @@ void Planner::run(PlanBench &bench)
     tip_ = s_.start_nm();
     engaged_ = false;
     model_ = &bench.block({tip_, false});
+    for (const CutSpec &c : s_.op.plan.cuts) cut(c);
     if (!sites_.empty()) run_particles();
     if (!s_.wire_targets.empty()) run_wires();
     rep_.finished_s = bench.time_s();

@@ -31,15 +31,25 @@
 // 4. Rods (objects.wire_targets): a zigzag of end pushes perpendicular to
 //    the axis, as the paper advises (never the middle: the bifurcation).
 //    An end push at l = L/10 turns the rod about its static point s(l)
-//    (the firmware's fw_wire_static_point): the ends move dn s/(s - l) and
-//    -dn (L - s)/(s - l). From the two ends' normal errors e_A, e_B the two
-//    end pushes that would remove both are solved, and the larger is made,
-//    at most wire_step_nm. A rod moves only along its normal: while its
+//    (the firmware's, with the trenches the card recorded holding it:
+//    fw_wire_hold, fw_wire_static_point_held): the ends move dn (0 - s) /
+//    (l - s) and dn (L - s) / (l - s). From the two ends' normal errors e_A,
+//    e_B the two end pushes that would remove both are solved, and the
+//    larger is made, at most wire_step_nm (an end a trench holds turns the
+//    rod about itself: the solve then leans on the other end). A rod moves only along its normal: while its
 //    centre is more than 3 tolerances from the target it is turned until
 //    its normal points there (e_A = -e_B) and carried along it (e_A =
 //    e_B); then its ends are pushed to the target's. Done when both ends
 //    are within wire_tolerance_nm (by the model; the fresh scan at the end
-//    checks it).
+//    checks it), or when a trench holds the rod's model along its whole
+//    length (it goes no deeper: the target is then the trench, and
+//    wire_tolerance_nm should allow for (width - d) / 2); a rod whose model
+//    three pushes in a row leave where it was is reported stuck.
+//
+// 0. Cuts (operator.plan.cuts), before anything is pushed: the tip travels
+//    lifted to a line's start, lands, is pressed to the cut's load, runs
+//    along the line at speed_nm_per_s and lifts; the card records the
+//    trench (fw_litho), and its wire models feel it (fw_wire_hold).
 //
 // Time: a local scan is taken at once by the simulator; the planner then
 // holds the tip lifted for scan_s (the time a real one keeps the tip busy).
@@ -60,6 +70,9 @@
 
 #include "afm/objects_t.hpp"
 #include "display.hpp"
+extern "C" {
+#include "fw_wire.h"
+}
 #include "scene.hpp"
 
 namespace afm {
@@ -115,7 +128,11 @@ PushPath plan_push(Vec2 from, Vec2 to, const PushGeometry &g, const std::vector<
 std::vector<int> assembly_order(const std::vector<Vec2> &sites, const PushGeometry &g);
 
 // What the planner sees of the bench (the operator implements it).
-struct PlanPose { Vec2 tip_nm; bool engaged = false; };
+struct PlanPose {
+    Vec2 tip_nm;
+    bool engaged = false;
+    double load_nN = 0;         // while engaged; 0: operator.load_nN (a cut presses harder)
+};
 class PlanBench {
 public:
     virtual ~PlanBench() = default;
@@ -141,12 +158,15 @@ struct PlanItem {               // one particle's or rod's account
     bool placed = false;        // within tolerance at its last check (a scan)
     double error_nm = -1;       // at its last check (-1: never checked)
     std::string why;            // when not placed
+    std::string note;           // how the pushes ended, when not by the target (a rod: held by a trench)
 };
 
 struct PlanReport {
     std::vector<PlanItem> items;
     int pushes = 0, repushes = 0, local_scans = 0, fixes = 0, fixes_refused = 0, cleared = 0;
     int disturbed = 0;          // other particles' models that moved during a push (each checked by a scan)
+    int cuts = 0;               // lines cut (operator.plan.cuts)
+    double cuts_done_s = -1;    // simulated time the last cut ended (-1: none)
     int replaced = 0;           // placed particles knocked off and pushed back
     double finished_s = -1;     // simulated time the plan finished (-1: the run ended first)
     double wall_s = 0;
@@ -171,7 +191,9 @@ private:
     const objects_t *model_ = nullptr;
     Vec2 tip_;                  // the apex target last given
     bool engaged_ = false;
+    double load_nN_ = 0;        // the load the tip is held at (0: operator.load_nN)
     double stroke_nm_;          // the next stroke's length (planner.cpp: kStroke*)
+    fw_wire_tip_t wire_tip_{};  // the card's (CardSetup): what a rod's model is pushed with
 
     Vec2 drift() const;
     const particle_t *particle(int id) const;
@@ -179,6 +201,7 @@ private:
     PushGeometry geometry(double r) const;
     void hold(int blocks);
     void travel(Vec2 to, bool engaged, double speed);
+    void cut(const CutSpec &c);
     void wait_s(double s);
     bool scan_at(int id, Vec2 around, Vec2 *found);
     bool send_fix(int id, Vec2 at, bool place);   // false: the card refused it
@@ -191,6 +214,9 @@ private:
     void run_particles();
     void run_wires();
     bool push_wire_end(int wire_id, bool end_b, double dn_nm);
+    struct EndGains { double a = 0, b = 0; bool ok = false; };
+    EndGains end_gains(const wire_t &w, double l_nm) const;
+    bool rod_model(const wire_t &w, fw_wire_t *rod) const;   // the card's rod with the trenches' hold
     void check_rod_by_scan(PlanItem &item, const WireTargetSpec &t);
 };
 

@@ -188,7 +188,9 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
     // down_force: the push H presses the rod by H tan psi, spread over it as
     // its own load (eq. 29): D(H) = D0 (1 + mu H tan psi / (f L)), so H moves
     // it when H a > D0 with a = 1 - (D0 / f L) mu tan psi; a <= 0: squeezed.
-    const double press = mu * press_tan;
+    // A rod a trench holds is not pressed: the walls carry the cone's down
+    // force (the firmware's model, fw_wire.h "Trenches", does the same).
+    const double press = held ? 0.0 : mu * press_tan;
     const double a = press > 0 && f > 0 ? 1.0 - last.force_nN / (f * L_nm) * press : 1.0;
     squeezed = !(a > 0);
     if (squeezed) return false;

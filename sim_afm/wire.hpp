@@ -93,7 +93,8 @@ public:
     // down_force (physics.md 6-7, rigid rods): the push H presses the wire
     // by H tan psi, its friction rises by mu H tan psi; when k(l) mu tan psi
     // >= 1 (eq. 29's denominator) no push moves it: squeezed. Flexible
-    // wires ignore it (their friction is per node, the press at one).
+    // wires ignore it (their friction is per node, the press at one), and
+    // so does a rod a trench holds (the walls carry the press).
     double mu = 0;                // wire-substrate mu (0: no down force)
     double press_tan = 0;         // tan psi of this sample's push
     bool squeezed = false;        // the last push could not move it

@@ -28,8 +28,9 @@
  * (fw_drift), accepted up to the drift limit (a landmark: the landmark
  * limit), applied to every model; the command follows from the next block.
  *
- * Wires are rigid rods (fw_wire); trenches are recorded (fw_litho) but a
- * wire's model does not yet feel them.
+ * Wires are rigid rods (fw_wire); the trenches the card has recorded
+ * (fw_litho) hold them (fw_wire_hold before each sample's push rule: the
+ * pieces of a rod that lie in a trench resist a push across it).
  *
  * A pure function of its inputs: the same configuration and the same
  * sequence of blocks and fixes give the same outputs, bit for bit (replay,

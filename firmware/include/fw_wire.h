@@ -49,6 +49,34 @@
  * its surface, in steps of at most L/4 (fw_wire_push),
  * FW_WIRE_PUSH_STEPS_MAX of them at most.
  *
+ * Trenches (physics.md section 9, the paper's fig. 18): a lithography
+ * trench (fw_litho's record) holds a rod where its V, of the recorded width
+ * 2 depth tan gamma, is at least as wide as the rod and the rod's axis lies
+ * within (width - d) / 2 of the trench's path (the simulator's rule,
+ * World::trench_hold). To leave it sideways the rod climbs a wall inclined
+ * at theta = 90 deg - gamma against its friction angle beta = atan(mu): its
+ * friction across the trench is
+ *   hold = tan(theta + beta) / tan(beta) = 1 / (mu tan(gamma - beta))
+ * times its friction along it, FW_WIRE_HOLD_MAX when gamma - beta is under
+ * 1 mrad (the wall is then too steep to climb; mu = 0 included). The rod is
+ * cut into FW_WIRE_PIECES equal pieces (bit k of fw_wire_t.held: piece k
+ * from A, held when its midpoint is); a push across moves a held piece
+ * against hold f per length, the others against f. The static point then
+ * solves the same torque balance with that density (eq. 20 generalised,
+ * fw_wire_static_point_held): a rod held at one end turns about the held
+ * part, a rod held along its whole length needs hold times the push. A
+ * held rod is pushed only when the excess passes the whole of that push,
+ * not half of it: the midpoint rule assumes a rod that slides as soon as
+ * it is pushed, but a rod stuck in a trench is pressed by the tip with
+ * anything up to the contact's stiffness times the push's overshoot, and
+ * half of a large hold is well inside that (the simulator then keeps the
+ * rod while the model would move it). The cost is the lag the midpoint
+ * avoids on a free rod: a held rod that turns about its held part is
+ * followed on the samples whose excess is above the model's push. The
+ * cone's down force (eq. 29) is not applied to a held rod: the walls carry
+ * it (the simulator does the same). No trench, or no held piece: the
+ * closed forms above, exactly.
+ *
  * Units: lengths pm (L in (0, 2^30]), angles fw_bam_t, k in 2.30.
  */
 #ifndef FW_WIRE_H
@@ -56,6 +84,7 @@
 
 #include "fw_types.h"
 #include "fw_rules.h"
+#include "fw_litho.h"
 
 #define FW_WIRE_LENGTH_MAX_PM ((int32_t)1 << 30)
 #define FW_WIRE_BLEND_U ((q30_t)(FW_Q30_ONE / 8))
@@ -64,6 +93,11 @@
  * limit), at most this many per sample: 16 L, far beyond the apex's reach
  * r_tip + d/2 for any rod the tip can push in one sample. */
 #define FW_WIRE_PUSH_STEPS_MAX 64
+/* Trenches: the rod's pieces (bits of fw_wire_t.held) and the largest
+ * hold, 16.16 (the simulator's cap of 1000). */
+#define FW_WIRE_PIECES 32
+#define FW_WIRE_HOLD_ONE_Q16 ((int32_t)1 << 16)
+#define FW_WIRE_HOLD_MAX_Q16 ((int32_t)1000 << 16)
 
 /* fw_wire_t.flags */
 #define FW_WIRE_PUSHED   (1u << 0)   /* moved by the tip in the last update */
@@ -80,7 +114,8 @@ typedef struct {
     fw_wire_regime_t regime;
     bool s_defined;          /* false at the bifurcation */
     int32_t s_pm;            /* static point from A (0 when undefined) */
-    q30_t k;                 /* F_min / (f L), 2.30, in [0.414, 1] */
+    q30_t k;                 /* F_min / (f L), 2.30, in [0.414, 1] (a held rod: min(k_q16, 1)) */
+    int32_t k_q16;           /* F_min / (f L), 16.16: k, or up to FW_WIRE_HOLD_MAX for a held rod */
     q30_t u;                 /* (2l - L) / L, 2.30 */
     int32_t lever_pm;        /* |l - s| = sqrt(Q) >= L/2 */
 } fw_wire_static_t;
@@ -93,6 +128,29 @@ typedef struct {
  * 2 LSB, s within 1 pm. */
 fw_status_t fw_wire_static_point(int32_t length_pm, int32_t l_pm, fw_wire_static_t *out);
 
+/* The static point with the rod's held pieces (above, "Trenches"): held
+ * = 0 or hold_q16 = 1.0 is fw_wire_static_point exactly. Else the torque
+ * balance G(s) = sum_k w_k int_piece sign(x - s) (x - l) dx = 0 (w_k =
+ * hold or 1) is solved by bisection on the side of l where G changes sign
+ * (G rises to l and falls after it, so the root is unique); G(0) = 0 is the
+ * bifurcation (translate, s undefined). k_q16 = |net friction| / (f L), u
+ * = -G(0) / (W L / 2) with W the total friction (so the blend of
+ * fw_wire_push behaves as for a uniform rod), lever_pm = |l - s| but at
+ * least L/16: a push on a held piece has its pivot close by, and the
+ * clamp bounds the turn (such a push needs about hold times f L anyway).
+ * Errors: as fw_wire_static_point; FW_ERR_ARG for hold_q16 below 1.0 or
+ * above FW_WIRE_HOLD_MAX_Q16.
+ * Scaling and overflow: positions in 16.16 fractions of L (pieces of
+ * 2^11); a piece's doubled moment (b - a)(a + b - 2l) < 2^29 times w <=
+ * 2^26, summed over 32 pieces: < 2^60; s to 1/65536 of L, rounded to pm.
+ * Errors (test_wire_trench, against the balance solved on the host for l
+ * rounded to L / 65536, as here: s moves by net / (2 w(s) |s - l|) per
+ * unit of l, large where S lies outside the held pieces): s within 2 L /
+ * 65536; k within 10^-4 of it plus 4 w(s) / 65536, w(s) the
+ * density at S (k's slope in s is 2 w(s)). */
+fw_status_t fw_wire_static_point_held(int32_t length_pm, int32_t l_pm, uint32_t held, int32_t hold_q16,
+                                      fw_wire_static_t *out);
+
 /* Push force needed to move the rod: k(l) f L, pN (f L = friction of the
  * whole rod, eq. 23-24: mu_os (F_r,os + F_a,os) + tau_os A), saturated. */
 int32_t fw_wire_push_threshold_pn(q30_t k, int32_t friction_fl_pn, bool *sat);
@@ -104,6 +162,12 @@ typedef struct {
     int32_t length_pm;
     int32_t diameter_pm;
     uint32_t flags;          /* FW_WIRE_* */
+    uint32_t held;           /* bit k: piece k from A lies in a trench (fw_wire_hold); 0 after init */
+    int32_t hold_q16;        /* friction across / along where held, 16.16 (fw_wire_tip_t.hold_q16) */
+    /* what held was computed for (fw_wire_hold's cache) */
+    int32_t hold_at_pm[2];
+    fw_bam_t hold_at_psi;
+    int32_t hold_points;     /* trench points seen; -1: never computed */
 } fw_wire_t;
 
 /* The first rule a rod breaks: length outside (0, 2^30] pm, diameter
@@ -190,6 +254,7 @@ typedef struct {
     q30_t mu;                        /* wire-substrate mu (eq. 29), [0, 2) */
     int32_t adhesion_ts_pn;          /* F_a,ts: tip-substrate adhesion (eq. 30) */
     bool down_force;                 /* the cone presses the rod (eq. 29): false after fw_wire_tip_init */
+    int32_t hold_q16;                /* a trench's hold (above, "Trenches"), 16.16, in [1, 1000] */
 } fw_wire_tip_t;
 
 /* The first rule broken: f < 0 or mu outside [0, 2) (FW_RULE_WIRE_FRICTION);
@@ -199,9 +264,24 @@ fw_rule_t fw_wire_check_tip(int32_t tip_radius_pm, int32_t tip_half_angle_mdeg, 
                             int32_t mu_ppm, int32_t adhesion_ts_pn);
 
 /* Fills tip after fw_wire_check_tip (its rule's status); down_force is
- * false (set it after init to model the cone's down force). */
+ * false (set it after init to model the cone's down force). hold_q16 =
+ * cos(gamma - beta) / (mu sin(gamma - beta)), beta = atan(mu), capped
+ * to [1, 1000]; FW_WIRE_HOLD_MAX_Q16 when gamma - beta < 1 mrad.
+ * Scaling and overflow: cos 2^46 / (sin mu >> 30), both 2.30: < 2^47 over
+ * at least 1 (a quotient above the cap is capped before it is narrowed). */
 fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t tip_half_angle_mdeg,
                              int32_t friction_pn_per_um, int32_t mu_ppm, int32_t adhesion_ts_pn);
+
+/* Which of the rod's pieces the trenches hold (above, "Trenches"), into
+ * w->held, with w->hold_q16 = tip->hold_q16. pts: fw_litho's record, n of
+ * them (a point flagged FW_LITHO_STROKE_START begins a new polyline; NULL
+ * or n <= 0: nothing is held). Cached: recomputed only when the rod's
+ * pose or the number of points changed since the last call.
+ * Scaling and overflow: segments with a coordinate difference from the
+ * rod's centre or a length of 2^30 pm or more are skipped (they hold
+ * nothing a rod of at most 2^30 pm reaches: width < 2^31); the rest in 64
+ * bits: dot products < 2^61, the parameter along a segment in 2.30. */
+fw_status_t fw_wire_hold(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n);
 
 /* The rod's friction f L (pN): f (pN/um) L (pm) / 10^6, rounded.
  * Scaling and overflow: f < 2^31, L <= 2^30: the product < 2^61. */

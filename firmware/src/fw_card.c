@@ -249,6 +249,9 @@ static void card_objects_sample(fw_card_t *c, fw_sample_out_t *o)
         q30_t twist = card_twist_rad(c, o->sl_code);
         for (i = 0; i < c->n_wires; i++) {
             fw_wire_t *w = &c->st.wires[i];
+            if (c->cfg.litho) {
+                (void)fw_wire_hold(w, &c->wire_tip, c->litho.pts, c->litho.count);
+            }
             (void)fw_wire_update(w, &c->wire_tip, o->tip_pm, excess, twist);
             if ((w->flags & FW_WIRE_PUSHED) != 0u) {
                 o->flags |= FW_FLAG_CONTACT;

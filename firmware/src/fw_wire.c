@@ -27,6 +27,7 @@ fw_status_t fw_wire_static_point(int32_t length_pm, int32_t l_pm, fw_wire_static
     half_len = fw_math_rshift_round_i64((int64_t)length_pm * sq, FW_Q30_FRAC + 1);
     out->u = (q30_t)u;
     out->k = (q30_t)fw_math_div_round_i64(WIRE_Q60_ONE, (int64_t)sq + au);
+    out->k_q16 = (int32_t)fw_math_rshift_round_i64(out->k, FW_Q30_FRAC - 16);
     out->lever_pm = (int32_t)half_len;
     if (two_l_minus_L < 0) {
         out->regime = FW_WIRE_ROTATE_NEAR_B;
@@ -47,6 +48,132 @@ fw_status_t fw_wire_static_point(int32_t length_pm, int32_t l_pm, fw_wire_static
         out->s_defined = false;
         out->s_pm = 0;
     }
+    return FW_OK;
+}
+
+/* ---- the static point with held pieces ---------------------------------- */
+
+#define HELD_ONE ((int32_t)1 << 16)                 /* L in 16.16 fractions of L */
+#define HELD_PIECE (HELD_ONE / FW_WIRE_PIECES)      /* 2^11 */
+
+/* Twice the moment about l of [a, b] (fractions of L, 16.16):
+ * (b - a)(a + b - 2l), |.| < 2^17 * 2^18. */
+static int64_t held_moment(int32_t a, int32_t b, int32_t l)
+{
+    return (int64_t)(b - a) * ((int64_t)a + b - 2 * (int64_t)l);
+}
+
+static int64_t held_weight(uint32_t held, int32_t hold_q16, int k)
+{
+    return ((held >> k) & 1u) != 0u ? hold_q16 : HELD_ONE;
+}
+
+/* G(s) = sum_k w_k int_piece sign(x - s)(x - l) dx, doubled (16.16 units):
+ * each term < 2^26 * 2^28, the sum < 2^59. */
+static int64_t held_torque(uint32_t held, int32_t hold_q16, int32_t l, int32_t s)
+{
+    int64_t g = 0;
+    int k;
+    for (k = 0; k < FW_WIRE_PIECES; k++) {
+        int32_t a = k * HELD_PIECE;
+        int32_t b = a + HELD_PIECE;
+        int64_t w = held_weight(held, hold_q16, k);
+        if (s <= a) {
+            g += w * held_moment(a, b, l);
+        } else if (s >= b) {
+            g -= w * held_moment(a, b, l);
+        } else {
+            g += w * (held_moment(s, b, l) - held_moment(a, s, l));
+        }
+    }
+    return g;
+}
+
+/* Net friction of a rotation about s: sum_k w_k (length past s - length
+ * before s), 16.16 weight times 16.16 length: |.| < 2^26 * 2^16. */
+static int64_t held_net(uint32_t held, int32_t hold_q16, int32_t s)
+{
+    int64_t f = 0;
+    int k;
+    for (k = 0; k < FW_WIRE_PIECES; k++) {
+        int32_t a = k * HELD_PIECE;
+        int32_t b = a + HELD_PIECE;
+        int32_t lo = s < a ? a : (s > b ? b : s);
+        f += held_weight(held, hold_q16, k) * ((int64_t)(b - lo) - (lo - a));
+    }
+    return f;
+}
+
+fw_status_t fw_wire_static_point_held(int32_t length_pm, int32_t l_pm, uint32_t held, int32_t hold_q16,
+                                      fw_wire_static_t *out)
+{
+    int32_t lq;
+    int32_t lo;
+    int32_t hi;
+    int32_t sq;
+    int64_t g0;
+    int64_t total = 0;
+    int64_t k16;
+    int64_t lever;
+    int k;
+    if (held == 0u || hold_q16 == FW_WIRE_HOLD_ONE_Q16) {
+        return fw_wire_static_point(length_pm, l_pm, out);
+    }
+    if (out == NULL || length_pm <= 0 || length_pm > FW_WIRE_LENGTH_MAX_PM || hold_q16 < FW_WIRE_HOLD_ONE_Q16
+        || hold_q16 > FW_WIRE_HOLD_MAX_Q16) {
+        return FW_ERR_ARG;
+    }
+    if (l_pm < 0 || l_pm > length_pm) {
+        return FW_ERR_DOMAIN;
+    }
+    lq = (int32_t)fw_math_div_round_i64((int64_t)l_pm * HELD_ONE, length_pm);
+    g0 = held_torque(held, hold_q16, lq, 0);
+    for (k = 0; k < FW_WIRE_PIECES; k++) {
+        total += held_weight(held, hold_q16, k) * HELD_PIECE;
+    }
+    /* u = -G(0) / (W L / 2): W = total >= 2^32, so total >> 14 >= 2^18 */
+    out->u = fw_math_sat_i32(fw_math_div_round_i64(-g0, total >> 14), NULL);
+    if (g0 == 0) {
+        out->regime = FW_WIRE_TRANSLATE;
+        out->s_defined = false;
+        out->s_pm = 0;
+        sq = lq;
+    } else {
+        /* G rises up to l and falls after it: the root lies below l when
+         * G(0) < 0, above it when G(L) = -G(0) < 0. Invariant: the sign
+         * of G(lo) is that of G at the side next to l. */
+        bool below = g0 < 0;
+        lo = below ? 0 : lq;
+        hi = below ? lq : HELD_ONE;
+        while (hi - lo > 1) {
+            int32_t mid = lo + (hi - lo) / 2;
+            int64_t g = held_torque(held, hold_q16, lq, mid);
+            if ((g < 0) == below) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        {
+            int64_t glo = held_torque(held, hold_q16, lq, lo);
+            int64_t ghi = held_torque(held, hold_q16, lq, hi);
+            sq = ((glo < 0 ? -glo : glo) <= (ghi < 0 ? -ghi : ghi)) ? lo : hi;
+        }
+        out->regime = below ? FW_WIRE_ROTATE_NEAR_A : FW_WIRE_ROTATE_NEAR_B;
+        out->s_defined = true;
+        out->s_pm = (int32_t)fw_math_div_round_i64((int64_t)sq * length_pm, HELD_ONE);
+    }
+    /* translation: the whole friction W; a rotation: the net about s */
+    k16 = out->s_defined ? held_net(held, hold_q16, sq) : total;
+    k16 = fw_math_rshift_round_i64(k16 < 0 ? -k16 : k16, 16);
+    out->k_q16 = (int32_t)(k16 > FW_WIRE_HOLD_MAX_Q16 ? FW_WIRE_HOLD_MAX_Q16 : k16);
+    out->k = (k16 >= HELD_ONE) ? FW_Q30_ONE : (q30_t)(k16 << (FW_Q30_FRAC - 16));
+    lever = (int64_t)l_pm - out->s_pm;
+    lever = lever < 0 ? -lever : lever;
+    if (!out->s_defined || lever < length_pm / 16) {
+        lever = length_pm / 16;
+    }
+    out->lever_pm = (int32_t)lever;
     return FW_OK;
 }
 
@@ -78,6 +205,12 @@ fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
     w->length_pm = length_pm;
     w->diameter_pm = diameter_pm;
     w->flags = 0;
+    w->held = 0;
+    w->hold_q16 = FW_WIRE_HOLD_ONE_Q16;
+    w->hold_at_pm[0] = 0;
+    w->hold_at_pm[1] = 0;
+    w->hold_at_psi = 0;
+    w->hold_points = -1;
     return FW_OK;
 }
 
@@ -137,7 +270,7 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
     if (w == NULL) {
         return FW_ERR_ARG;
     }
-    status = fw_wire_static_point(w->length_pm, l_pm, &st);
+    status = fw_wire_static_point_held(w->length_pm, l_pm, w->held, w->hold_q16, &st);
     if (status != FW_OK) {
         return status;
     }
@@ -154,10 +287,11 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
     }
     factor = FW_Q30_ONE;
     if (st.s_defined && wt > 0) {
-        /* l - s = sign(u) sqrt(Q), |l - s| >= L/2 > 0 */
-        int64_t l_minus_s = (st.u < 0) ? -(int64_t)st.lever_pm : (int64_t)st.lever_pm;
+        /* l - s: -lever when S lies beyond l towards B; |l - s| >= L/2 on
+         * a uniform rod (sqrt(Q)), >= L/16 on a held one (clamped) */
+        int64_t l_minus_s = (st.regime == FW_WIRE_ROTATE_NEAR_B) ? -(int64_t)st.lever_pm : (int64_t)st.lever_pm;
         int64_t ratio = fw_math_div_round_i64(((int64_t)w->length_pm - 2 * (int64_t)st.s_pm) * FW_Q30_ONE,
-                                              2 * ((int64_t)l_pm - st.s_pm));
+                                              2 * l_minus_s);
         dpsi = fw_math_div_round_i64(wt * dn_pm, l_minus_s);
         factor = fw_math_rshift_round_i64(wt * ratio, FW_Q30_FRAC) + (FW_Q30_ONE - wt);
     }
@@ -197,6 +331,120 @@ fw_status_t fw_wire_contact(const fw_wire_t *w, const int32_t tip_pm[2], int32_t
     *l_pm = fw_math_sat_i32(l, &sat);
     *dn_pm = fw_math_sat_i32(normal <= 0 ? normal + reach_pm : normal - reach_pm, &sat);
     *touch = l >= 0 && l <= w->length_pm && normal > -(int64_t)reach_pm && normal < reach_pm;
+    return FW_OK;
+}
+
+/* dot / len2 clamped to [0, 1], 2.30 (dot < 2^62, 0 <= len2 < 2^61): both
+ * halved until len2 < 2^33, so dot << 30 < 2^63 below len2. */
+static int64_t wire_segment_param(int64_t dot, int64_t len2)
+{
+    if (dot <= 0 || len2 <= 0) {
+        return 0;
+    }
+    if (dot >= len2) {
+        return FW_Q30_ONE;
+    }
+    while (len2 >= ((int64_t)1 << 33)) {
+        len2 >>= 1;
+        dot >>= 1;
+    }
+    return fw_math_div_round_i64(dot << FW_Q30_FRAC, len2);
+}
+
+/* One trench segment p0 -> p1 against the rod's pieces not yet held:
+ * sets their bits in *held. (cx, cy): the rod's centre; (c, s): its axis. */
+static void wire_hold_segment(const fw_wire_t *w, const fw_trench_point_t *p0, const fw_trench_point_t *p1,
+                              q30_t c, q30_t s, uint32_t *held)
+{
+    const int64_t lim = (int64_t)1 << 30;
+    int64_t d0x = (int64_t)p0->x_pm - w->x_pm;
+    int64_t d0y = (int64_t)p0->y_pm - w->y_pm;
+    int64_t sx = (int64_t)p1->x_pm - p0->x_pm;
+    int64_t sy = (int64_t)p1->y_pm - p0->y_pm;
+    int64_t wmax = p0->width_pm > p1->width_pm ? p0->width_pm : p1->width_pm;
+    int64_t reach = wmax / 2;
+    int64_t n0;
+    int64_t n1;
+    int64_t a0;
+    int64_t a1;
+    int64_t len2;
+    int k;
+    if (wmax < w->diameter_pm || d0x >= lim || d0x <= -lim || d0y >= lim || d0y <= -lim || sx >= lim || sx <= -lim
+        || sy >= lim || sy <= -lim) {
+        return;
+    }
+    /* both ends further than half the widest width on one side: no piece */
+    n0 = fw_math_rshift_round_i64(d0y * c - d0x * s, FW_Q30_FRAC);
+    n1 = fw_math_rshift_round_i64((d0y + sy) * c - (d0x + sx) * s, FW_Q30_FRAC);
+    if ((n0 > reach && n1 > reach) || (n0 < -reach && n1 < -reach)) {
+        return;
+    }
+    a0 = fw_math_rshift_round_i64(d0x * c + d0y * s, FW_Q30_FRAC);
+    a1 = fw_math_rshift_round_i64((d0x + sx) * c + (d0y + sy) * s, FW_Q30_FRAC);
+    len2 = sx * sx + sy * sy;
+    for (k = 0; k < FW_WIRE_PIECES; k++) {
+        /* the piece's midpoint, along the axis from the centre */
+        int64_t m = fw_math_div_round_i64((int64_t)w->length_pm * (2 * k + 1 - FW_WIRE_PIECES), 2 * FW_WIRE_PIECES);
+        int64_t mx;
+        int64_t my;
+        int64_t t;        /* parameter along the segment, 2.30 in [0, 1] */
+        int64_t ex;
+        int64_t ey;
+        int64_t width;
+        int64_t slack;
+        if (((*held >> k) & 1u) != 0u || m < (a0 < a1 ? a0 : a1) - reach || m > (a0 > a1 ? a0 : a1) + reach) {
+            continue;
+        }
+        mx = fw_math_rshift_round_i64(m * c, FW_Q30_FRAC) - d0x;   /* midpoint - p0 */
+        my = fw_math_rshift_round_i64(m * s, FW_Q30_FRAC) - d0y;
+        t = wire_segment_param(mx * sx + my * sy, len2);
+        ex = mx - fw_math_rshift_round_i64(t * sx, FW_Q30_FRAC);
+        ey = my - fw_math_rshift_round_i64(t * sy, FW_Q30_FRAC);
+        width = p0->width_pm + fw_math_rshift_round_i64(t * ((int64_t)p1->width_pm - p0->width_pm), FW_Q30_FRAC);
+        slack = width - w->diameter_pm;
+        if (slack < 0) {
+            continue;
+        }
+        /* |e| <= (width - d) / 2 = half < 2^30: each component first, then
+         * the squares (< 2^61 together) */
+        slack /= 2;
+        if (ex > slack || ex < -slack || ey > slack || ey < -slack) {
+            continue;
+        }
+        if (ex * ex + ey * ey <= slack * slack) {
+            *held |= 1u << k;
+        }
+    }
+}
+
+fw_status_t fw_wire_hold(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n)
+{
+    q30_t s;
+    q30_t c;
+    uint32_t held = 0;
+    int32_t i;
+    if (w == NULL || tip == NULL) {
+        return FW_ERR_ARG;
+    }
+    if (pts == NULL || n < 0) {
+        n = 0;
+    }
+    if (w->hold_points == n && w->hold_at_pm[0] == w->x_pm && w->hold_at_pm[1] == w->y_pm
+        && w->hold_at_psi == w->psi && w->hold_q16 == tip->hold_q16) {
+        return FW_OK;
+    }
+    w->hold_points = n;
+    w->hold_at_pm[0] = w->x_pm;
+    w->hold_at_pm[1] = w->y_pm;
+    w->hold_at_psi = w->psi;
+    w->hold_q16 = tip->hold_q16;
+    fw_math_sincos_q30(w->psi, &s, &c);
+    for (i = 1; i < n; i++) {
+        if ((pts[i].flags & FW_LITHO_STROKE_START) == 0u) {
+            wire_hold_segment(w, &pts[i - 1], &pts[i], c, s, &held);
+        }
+    }
+    w->held = held;
     return FW_OK;
 }
 
@@ -276,6 +524,31 @@ fw_rule_t fw_wire_check_tip(int32_t tip_radius_pm, int32_t tip_half_angle_mdeg, 
     return FW_RULE_OK;
 }
 
+/* A trench's hold (fw_wire.h, "Trenches"): 1 / (mu tan(gamma - beta)),
+ * beta = atan(mu), in 16.16 within [1, 1000]; the cap when gamma - beta <
+ * 1 mrad (683565 in fw_bam_t: 2^32 / (2 pi) / 1000) or mu = 0. */
+static int32_t wire_trench_hold(fw_bam_t gamma, q30_t mu)
+{
+    const int32_t mrad_bam = 683565;
+    fw_bam_t beta = fw_math_atan2_bam(mu, FW_Q30_ONE);
+    int32_t diff = (int32_t)(gamma - beta);
+    q30_t sn;
+    q30_t cs;
+    int64_t den;
+    int64_t hold;
+    if (mu <= 0 || diff < mrad_bam) {
+        return FW_WIRE_HOLD_MAX_Q16;
+    }
+    fw_math_sincos_q30((fw_bam_t)diff, &sn, &cs);
+    den = fw_math_rshift_round_i64((int64_t)sn * mu, FW_Q30_FRAC);
+    if (den <= 0) {
+        return FW_WIRE_HOLD_MAX_Q16;
+    }
+    hold = fw_math_div_round_i64((int64_t)cs << 16, den);
+    return (int32_t)(hold > FW_WIRE_HOLD_MAX_Q16 ? FW_WIRE_HOLD_MAX_Q16
+                                                  : (hold < FW_WIRE_HOLD_ONE_Q16 ? FW_WIRE_HOLD_ONE_Q16 : hold));
+}
+
 fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t tip_half_angle_mdeg,
                              int32_t friction_pn_per_um, int32_t mu_ppm, int32_t adhesion_ts_pn)
 {
@@ -293,6 +566,7 @@ fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t 
     tip->mu = (q30_t)fw_math_div_round_i64((int64_t)mu_ppm * FW_Q30_ONE, FW_PPM_PER_ONE);
     tip->adhesion_ts_pn = adhesion_ts_pn;
     tip->down_force = false;
+    tip->hold_q16 = wire_trench_hold(tip->tip_half_angle, tip->mu);
     return FW_OK;
 }
 
@@ -335,14 +609,21 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     if (fw_wire_contact(w, apex_pm, tip->tip_radius_pm + w->diameter_pm / 2, &touch, &l, &dn) != FW_OK || !touch) {
         return FW_OK;
     }
-    if (fw_wire_static_point(w->length_pm, l, &st) != FW_OK) {
+    if (fw_wire_static_point_held(w->length_pm, l, w->held, w->hold_q16, &st) != FW_OK) {
         return FW_OK;
     }
     fl = fw_wire_friction_pn(tip, w);
-    if (excess_pn <= (int64_t)(fw_wire_push_threshold_pn(st.k, fl, &sat) >> 1)) {
+    /* held: the whole push (fw_wire.h, "Trenches"), k_q16 <= 1000 * 2^16
+     * < 2^26 times f L < 2^31: < 2^57; else half of it, k in 2.30 as
+     * fw_wire_push_threshold_pn has it */
+    if (w->held != 0u) {
+        if (excess_pn <= fw_math_rshift_round_i64((int64_t)st.k_q16 * fl, 16)) {
+            return FW_OK;
+        }
+    } else if (excess_pn <= (int64_t)(fw_wire_push_threshold_pn(st.k, fl, &sat) >> 1)) {
         return FW_OK;
     }
-    if (tip->down_force) {
+    if (tip->down_force && w->held == 0u) {
         fw_status_t sqs = FW_ERR_DOMAIN;
         psi = wire_contact_angle(tip, twist_rad);
         if (psi < FW_BAM_QUARTER_TURN) {

@@ -90,6 +90,17 @@ class BadScenes(unittest.TestCase):
         self.check_refused(GOOD.replace("objects:", "firmware: {drift_max_step_nm: -5}\nobjects:", 1),
                            "firmware.drift_max_step_nm", "must be > 0, got '-5'")
 
+    def test_plan_cuts_named(self):
+        with open(benchtest.scene("paper/trench.yaml")) as f:
+            trench = f.read()
+        self.check_refused(trench.replace("load_nN: 55}", "load_nN: 15}"), "operator.plan.cuts[0].load_nN",
+                           "must exceed sample.lithography.threshold_nN")
+        self.check_refused(trench.replace("from_nm: [-1400, 200]", "from_nm: [-2400, 200]"), "operator.plan.cuts[0].from_nm",
+                           "outside the field")
+        self.check_refused(trench.replace(", lithography]", "]"), "operator.plan.cuts", "needs the lithography effect")
+        self.check_refused(trench.replace("load_nN: 55}", "load_nN: 55, depth_nm: 3}"), "operator.plan.cuts[0].depth_nm",
+                           "unknown key")
+
     def test_empty_file_refused(self):
         path = benchtest.write_scene("", "empty")
         code, _, stderr, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"))

@@ -108,6 +108,17 @@ class Reduced(unittest.TestCase):
         self.assertAlmostEqual(self.row("squeeze", "particle: what the down force adds")["bench"], 2.5 * t / (1 - t),
                                delta=0.1 * 2.5 * t / (1 - t))
 
+    def test_trench_holds_the_rod_and_the_cards_model_knows_it(self):
+        # fig. 18: cut, then pushed in by a zigzag; the simulator holds a rod
+        # whose axis is within (w - d) / 2 of the path; the card's rod stays
+        # with the simulator's because it feels the trench it cut.
+        self.assertGreater(self.row("trench", "rod's axis inside the trench's room")["bench"], -6.0)
+        self.assertLess(self.row("trench", "rod's axis from the trench's path")["bench"],
+                        self.row("trench", "room in the trench")["bench"] + 6.0)
+        self.assertGreater(self.row("trench", "end pushes")["bench"], 4, "a zigzag, not one push")
+        self.assertLess(self.row("trench", "the card's rod against the simulator's, at the end")["bench"], 10.0)
+        self.assertAlmostEqual(self.row("trench", "trench width")["bench"], 2 * 350 * math.tan(math.radians(20)), delta=20)
+
     def test_landmark_drift_and_pattern_hold_their_models(self):
         self.assertLess(abs(self.row("landmark", "re-registered offset x")["bench"] - 250), 5)
         self.assertLess(self.row("drift", "registration error while pushing")["bench"], 25)

@@ -1,0 +1,177 @@
+"""A silver rod (1.3 um x 100 nm) pushed by a zigzag of end pushes into a
+2.8 um trench the tip cut first (fig. 18). The planner cuts the trench
+(operator.plan.cuts), then pushes the rod in closed loop on the card's
+model, which knows the trench the card recorded (fw_wire_hold). From the
+run's own data: the trench's width and path and the rod's thickness and
+axis from the final fresh scan, the pushes and the time from the
+operator's report, the card's rod against the simulator's at the end
+(FW_OBJECTS, SIM_TRUTH), the display against the fresh scan. The truth
+column is the simulator's trench and rod (SIM_TRUTH). The simulator holds
+a rod whose axis lies within (width - d) / 2 of the trench's path, at the
+V's edge: it goes no deeper, so "in the trench" is that; one size (the
+run takes about 8 simulated s)."""
+import json
+import os
+
+import numpy as np
+
+from analysis.paper import common
+
+NAME = "trench"
+TITLE = "A rod pushed into a trench"
+FIGURES = "fig. 18"
+
+ROD_X = 700          # nm: the rod spans |x| < 650 (and moves a little along x); the trench alone beyond
+EDGE_BELOW_NM = 2.0  # the trench's edge: where the profile falls this far below the substrate
+
+
+def runs(size):
+    return [common.Run(name="zigzag", scene="trench.yaml", timeout_s=600, cost_s=12)]
+
+
+def _edges(y, prof, level):
+    """The two crossings of level - EDGE_BELOW_NM around the profile's lowest
+    point (linear interpolation), nm."""
+    cut = level - EDGE_BELOW_NM
+    i = int(np.argmin(prof))
+    lo, hi = i, i
+    while lo > 0 and prof[lo] < cut:
+        lo -= 1
+    while hi < len(prof) - 1 and prof[hi] < cut:
+        hi += 1
+    if prof[lo] < cut or prof[hi] < cut:
+        raise common.PaperError("the trench reaches the scan's edge")
+    y0 = y[lo] + (cut - prof[lo]) * (y[lo + 1] - y[lo]) / (prof[lo + 1] - prof[lo])
+    y1 = y[hi - 1] + (cut - prof[hi - 1]) * (y[hi] - y[hi - 1]) / (prof[hi] - prof[hi - 1])
+    return y0, y1
+
+
+def from_scan(run_dir):
+    """The trench's width and path (y, nm) beyond the rod's ends, the rod's
+    thickness and axis (y of its ridge) over its middle, from the final
+    fresh scan (the trench runs along x)."""
+    h, xs, ys = common.scan(run_dir, "scan_final")
+    order = np.argsort(ys)
+    h, ys = h[order, :], ys[order]
+    away = np.abs(xs) > ROD_X + 100
+    trench_cols = away & (np.abs(xs) < 1300)
+    if not trench_cols.any():
+        raise common.PaperError(f"{run_dir}/scan_final.gsf: no columns beyond the rod")
+    prof = np.median(h[:, trench_cols], axis=1)
+    level = float(np.median(prof))
+    y0, y1 = _edges(ys, prof, level)
+    rod_cols = np.abs(xs) < 400
+    ridge = []
+    for c in np.where(rod_cols)[0]:
+        col = h[:, c]
+        k = int(np.argmax(col))
+        if 0 < k < len(col) - 1:   # sub-pixel: the parabola through the top three
+            a, b, cc = col[k - 1], col[k], col[k + 1]
+            den = a - 2 * b + cc
+            ridge.append((ys[k] + (0.5 * (a - cc) / den if den != 0 else 0) * (ys[1] - ys[0]), b - level))
+    if not ridge:
+        raise common.PaperError(f"{run_dir}/scan_final.gsf: no rod over its middle")
+    ridge = np.array(ridge)
+    return {"width": y1 - y0, "path_y": 0.5 * (y0 + y1), "rod_y": float(np.median(ridge[:, 0])),
+            "rod_d": float(np.median(ridge[:, 1])), "profile": (ys, prof, level)}
+
+
+def from_truth(run_dir):
+    """The simulator's trench (median width, path y) and rod (ends) at the end."""
+    import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
+    whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
+    if not whole or not whole[-1][1].trenches or not whole[-1][1].wires:
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: no trench or rod in SIM_TRUTH")
+    w = whole[-1][1]
+    t = max(w.trenches, key=lambda t: t.n)
+    r = w.wires[0]
+    ends = np.array([[r.x_nm[0], r.y_nm[0]], [r.x_nm[-1], r.y_nm[-1]]])
+    return {"width": float(np.median(t.width_nm)), "path_y": float(np.median(t.y_nm)), "ends": ends,
+            "rod_y": float(ends[:, 1].mean()), "rod_d": float(r.diameter_nm),
+            "angle": float(np.degrees(np.arctan2(*(ends[1] - ends[0])[::-1])))}
+
+
+def rod_tracks(run_dir):
+    """Time (s), the card's rod ends and the simulator's, per block: (t, fw
+    [n, 2, 2], truth [n, 2, 2])."""
+    st = common.model_states(run_dir)
+    def ends(o):
+        w = o.wires[0]
+        return [[w.x_nm[0], w.y_nm[0]], [w.x_nm[-1], w.y_nm[-1]]]
+    t = np.array([f.utime * 1e-6 for _, f, _ in st])
+    return t, np.array([ends(f) for _, f, _ in st]), np.array([ends(tr) for _, _, tr in st])
+
+
+def analyse(dirs, exp_dir, size):
+    d = dirs["zigzag"]
+    with open(os.path.join(d, "fidelity.json")) as f:
+        fid = json.load(f)
+    with open(os.path.join(d, "operator_report.json")) as f:
+        plan = json.load(f)["plan"]
+    sc, tr = from_scan(d), from_truth(d)
+    t, fw, truth = rod_tracks(d)
+    model_err = float(np.max(np.hypot(*(fw[-1] - truth[-1]).T)))
+    worst = float(np.max(np.hypot(*(fw - truth).transpose(2, 0, 1))))
+    item = plan["items"][0]
+    rods = fid.get("placement", {}).get("rods", [{}])
+    slack_b, slack_t = (sc["width"] - sc["rod_d"]) / 2, (tr["width"] - tr["rod_d"]) / 2
+    off_b, off_t = abs(sc["rod_y"] - sc["path_y"]), abs(tr["rod_y"] - tr["path_y"])
+    res = common.Result()
+    res.rows = [
+        common.Row("trench width at the surface", "nm", paper=None, bench=sc["width"], truth=tr["width"], tolerance=20.0,
+                   note=f"the scan's profile beyond the rod, {EDGE_BELOW_NM:.0f} nm below the substrate; truth: 2 depth tan gamma"),
+        common.Row("rod thickness d", "nm", bench=sc["rod_d"], truth=tr["rod_d"], tolerance=5.0,
+                   note="the scan's ridge above the substrate"),
+        common.Row("room in the trench (width - d) / 2", "nm", bench=slack_b, truth=slack_t, tolerance=12.0),
+        common.Row("rod's axis from the trench's path", "nm", bench=off_b, truth=off_t, tolerance=6.0,
+                   note="the scan's ridge over the rod's middle against the trench's centre beyond it"),
+        common.Row("rod's axis inside the trench's room (room - offset)", "nm", bench=slack_b - off_b, truth=slack_t - off_t,
+                   tolerance=12.0, note="positive: in the trench (the simulator holds it)"),
+        common.Row("rod's angle to the trench", "deg", bench=rods[0].get("angle_error_deg"), truth=tr["angle"], tolerance=1.0,
+                   note="the renderer's placement check on the fresh scan"),
+        common.Row("end pushes", "", bench=item.get("pushes"), note=f"the planner's zigzag; {item.get('note') or item.get('why') or 'ended on its target'}"),
+        common.Row("simulated time: cut, then pushed in", "s", bench=plan["finished_sim_s"],
+                   note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
+        common.Row("the card's rod against the simulator's, at the end", "nm", bench=model_err, tolerance=10.0,
+                   note="largest end distance (FW_OBJECTS, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
+        common.Row("the same, worst over the run", "nm", bench=worst, tolerance=25.0),
+        common.Row("display against a fresh scan: worst object", "nm", bench=fid["max_position_error_nm"], tolerance=fid["target_nm"],
+                   note="the renderer's check at the last frame"),
+    ]
+    res.notes.append(f"placement by the renderer's scan: {'placed' if rods[0].get('placed') else 'NOT placed'} "
+                     f"within {rods[0].get('tolerance_nm')} nm of the trench's path")
+    res.figures = [("The final fresh scan: the trench and the rod in it, with the rod's ends over time", plot(exp_dir, d, t, fw, truth)),
+                   ("The trench's profile beyond the rod (scan)", plot_profile(exp_dir, sc))]
+    return res
+
+
+def plot(exp_dir, run_dir, t, fw, truth):
+    p = common.plt()
+    h, xs, ys = common.scan(run_dir, "scan_final")
+    fig, (ax, bx) = p.subplots(1, 2, figsize=(11.0, 5.0))
+    ax.imshow(h, extent=[xs[0], xs[-1], ys[-1], ys[0]], cmap="afmhot", origin="upper")
+    ax.plot(truth[-1, :, 0], truth[-1, :, 1], "c-", lw=1, label="rod, simulator (end)")
+    ax.plot(fw[-1, :, 0], fw[-1, :, 1], "b--", lw=1, label="rod, card's model (end)")
+    ax.set_xlabel("x (nm)")
+    ax.set_ylabel("y (nm)")
+    ax.legend(fontsize=7, loc="lower right")
+    for e, name in ((0, "A"), (1, "B")):
+        bx.plot(t, truth[:, e, 1], lw=1, label=f"end {name}, simulator")
+        bx.plot(t, fw[:, e, 1], "--", lw=1, label=f"end {name}, card")
+    bx.set_xlabel("simulated time (s)")
+    bx.set_ylabel("y of the rod's end (nm)")
+    bx.legend(fontsize=7)
+    return common.save(fig, exp_dir, "trench.png")
+
+
+def plot_profile(exp_dir, sc):
+    p = common.plt()
+    ys, prof, level = sc["profile"]
+    fig, ax = p.subplots(figsize=(6.0, 3.5))
+    ax.plot(ys, prof - level, lw=1)
+    ax.axvline(sc["path_y"] - sc["width"] / 2, color="gray", lw=0.6)
+    ax.axvline(sc["path_y"] + sc["width"] / 2, color="gray", lw=0.6)
+    ax.set_xlabel("y (nm)")
+    ax.set_ylabel("height (nm)")
+    return common.save(fig, exp_dir, "trench_profile.png")
