@@ -248,16 +248,24 @@ bool Planner::rod_model(const wire_t &w, fw_wire_t *rod) const
 
 Planner::EndGains Planner::end_gains(const wire_t &w, double l_nm) const
 {
-    // The firmware's static point of a push at l, with the trenches' hold.
+    // How the firmware's model moves its ends per nm of a push at l (with
+    // the trenches' hold, the blend and the clamps): a copy pushed by a
+    // small step, its ends measured along the normal.
     EndGains g;
     fw_wire_t rod{};
     if (!rod_model(w, &rod)) return g;
     fw_wire_static_t sp{};
     const int32_t l = std::clamp(fwu_pm_from_nm(l_nm), 0, rod.length_pm);
     if (fw_wire_static_point_held(rod.length_pm, l, rod.held, rod.hold_q16, &sp) != FW_OK || !sp.s_defined) return g;
-    const double L = fwu_nm_from_pm(rod.length_pm), s = fwu_nm_from_pm(sp.s_pm), lm = fwu_nm_from_pm(l);
-    g.a = (0 - s) / (lm - s);
-    g.b = (L - s) / (lm - s);
+    const int32_t dn = std::max(1, std::min({10000, rod.length_pm / 4, sp.lever_pm}));
+    int32_t a0[2], b0[2], a1[2], b1[2];
+    fw_wire_ends_pm(&rod, a0, b0);
+    const Vec2 n = perp(unit(Vec2{double(b0[0] - a0[0]), double(b0[1] - a0[1])}));
+    fw_wire_t moved = rod;
+    if (fw_wire_push(&moved, l, dn, nullptr) != FW_OK) return g;
+    fw_wire_ends_pm(&moved, a1, b1);
+    g.a = dot(Vec2{double(a1[0] - a0[0]), double(a1[1] - a0[1])}, n) / dn;
+    g.b = dot(Vec2{double(b1[0] - b0[0]), double(b1[1] - b0[1])}, n) / dn;
     g.ok = true;
     return g;
 }
@@ -707,9 +715,15 @@ void Planner::run_wires()
             const Vec2 As = T - (L / 2) * ta, Bs = T + (L / 2) * ta;
             item.error_nm = std::max(norm(As - A), norm(Bs - B));
             if (item.error_nm <= ps.wire_tolerance_nm) break;
-            fw_wire_t rod{};
-            if (rod_model(*w, &rod) && rod.held == 0xffffffffu) {
-                item.note = "held by a trench along its whole length";
+            // Held along its whole length by a trench that also holds the
+            // target pose: in the trench it was meant for, and no deeper.
+            fw_wire_t rod{}, at_target{};
+            wire_t target_rod = *w;
+            target_rod.x_nm = {As.x, Bs.x};
+            target_rod.y_nm = {As.y, Bs.y};
+            target_rod.n = 2;
+            if (rod_model(*w, &rod) && rod.held == 0xffffffffu && rod_model(target_rod, &at_target) && at_target.held == 0xffffffffu) {
+                item.note = "held along its whole length by the trench its target lies in";
                 break;
             }
             if (item.pushes > 0 && norm(A - lastA) < kStuck_nm && norm(B - lastB) < kStuck_nm) {

@@ -114,6 +114,7 @@ def analyse(dirs, exp_dir, size):
     model_err = float(np.max(np.hypot(*(fw[-1] - truth[-1]).T)))
     worst = float(np.max(np.hypot(*(fw - truth).transpose(2, 0, 1))))
     item = plan["items"][0]
+    target_deg = float(item.get("target_angle_deg", 0.0))
     rods = fid.get("placement", {}).get("rods", [{}])
     slack_b, slack_t = (sc["width"] - sc["rod_d"]) / 2, (tr["width"] - tr["rod_d"]) / 2
     off_b, off_t = abs(sc["rod_y"] - sc["path_y"]), abs(tr["rod_y"] - tr["path_y"])
@@ -128,14 +129,17 @@ def analyse(dirs, exp_dir, size):
                    note="the scan's ridge over the rod's middle against the trench's centre beyond it"),
         common.Row("rod's axis inside the trench's room (room - offset)", "nm", bench=slack_b - off_b, truth=slack_t - off_t,
                    tolerance=12.0, note="positive: in the trench (the simulator holds it)"),
-        common.Row("rod's angle to the trench", "deg", bench=rods[0].get("angle_error_deg"), truth=tr["angle"], tolerance=1.0,
-                   note="the renderer's placement check on the fresh scan"),
+        common.Row("rod's angle to its target (the trench's)", "deg", bench=rods[0].get("angle_error_deg"),
+                   truth=(tr["angle"] - target_deg + 90.0) % 180.0 - 90.0, tolerance=1.0,
+                   note="bench: the renderer's placement check on the fresh scan; truth: the simulator's rod"),
         common.Row("end pushes", "", bench=item.get("pushes"), note=f"the planner's zigzag; {item.get('note') or item.get('why') or 'ended on its target'}"),
         common.Row("simulated time: cut, then pushed in", "s", bench=plan["finished_sim_s"],
                    note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
         common.Row("the card's rod against the simulator's, at the end", "nm", bench=model_err, tolerance=10.0,
                    note="largest end distance (FW_OBJECTS, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
-        common.Row("the same, worst over the run", "nm", bench=worst, tolerance=25.0),
+        common.Row("the same, worst over the run", "nm", bench=worst, tolerance=40.0,
+                   note="a lag while an end a trench holds is pushed: the card moves a held rod only past its whole "
+                        "threshold (fw_wire.h), and catches up when the apex reaches it"),
         common.Row("display against a fresh scan: worst object", "nm", bench=fid["max_position_error_nm"], tolerance=fid["target_nm"],
                    note="the renderer's check at the last frame"),
     ]

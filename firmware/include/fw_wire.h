@@ -18,7 +18,8 @@
  *
  * Motion (first order in the push step dn along the wire's normal):
  *   dpsi = w dn / (l - s),   l - s = sign(u) sqrt(Q), |l - s| >= L/2
- * so the division is always by at least L/2. Near the middle the quasi-
+ * so the division is by at least L/2 (L/16 on a rod a trench holds,
+ * below). Near the middle the quasi-
  * static solution flips from "rotate about B" to "rotate about A"; the
  * update blends to pure translation there:
  *   w = min(1, |u| / FW_WIRE_BLEND_U)   (FW_WIRE_BLEND_U = 1/8: l within L/16
@@ -74,7 +75,14 @@
  * avoids on a free rod: a held rod that turns about its held part is
  * followed on the samples whose excess is above the model's push. The
  * cone's down force (eq. 29) is not applied to a held rod: the walls carry
- * it (the simulator does the same). No trench, or no held piece: the
+ * it (the simulator does the same). Known difference: the hold here is
+ * isotropic, charged on a held piece whatever the trench's direction; the
+ * simulator charges it only across the trench (its friction metric). The
+ * card's rods move along their normals, so the two agree for a rod lying
+ * along the trench (fig. 18, the experiment `trench`) and part for a rod
+ * crossing one (the card then needs a larger push than the simulator).
+ * Cost: fw_wire_hold scans every recorded point (at most the card's
+ * storage) on each sample a rod has moved or a point was added. No trench, or no held piece: the
  * closed forms above, exactly.
  *
  * Units: lengths pm (L in (0, 2^30]), angles fw_bam_t, k in 2.30.
@@ -133,16 +141,20 @@ fw_status_t fw_wire_static_point(int32_t length_pm, int32_t l_pm, fw_wire_static
  * balance G(s) = sum_k w_k int_piece sign(x - s) (x - l) dx = 0 (w_k =
  * hold or 1) is solved by bisection on the side of l where G changes sign
  * (G rises to l and falls after it, so the root is unique); G(0) = 0 is the
- * bifurcation (translate, s undefined). k_q16 = |net friction| / (f L), u
- * = -G(0) / (W L / 2) with W the total friction (so the blend of
- * fw_wire_push behaves as for a uniform rod), lever_pm = |l - s| but at
- * least L/16: a push on a held piece has its pivot close by, and the
- * clamp bounds the turn (such a push needs about hold times f L anyway).
+ * bifurcation (translate, s undefined, u = 0). k_q16 = |net friction| /
+ * (f L) (a translation: the whole friction); u is the u a uniform rod
+ * would have with S as far from its nearest end (so fw_wire_push's blend
+ * to translation weighs how close S has come to an end, as on a uniform
+ * rod); lever_pm = |l - s| but at least L/16: a push on a held piece has
+ * its pivot close by, and the clamp bounds the turn (such a push needs
+ * about hold times f L anyway).
  * Errors: as fw_wire_static_point; FW_ERR_ARG for hold_q16 below 1.0 or
  * above FW_WIRE_HOLD_MAX_Q16.
  * Scaling and overflow: positions in 16.16 fractions of L (pieces of
  * 2^11); a piece's doubled moment (b - a)(a + b - 2l) < 2^29 times w <=
- * 2^26, summed over 32 pieces: < 2^60; s to 1/65536 of L, rounded to pm.
+ * 2^26, summed over 32 pieces: < 2^60; s to 1/65536 of L, rounded to pm;
+ * u from S's distance to its nearest end (held_blend_u: 2^60 / m, m in
+ * 2.30).
  * Errors (test_wire_trench, against the balance solved on the host for l
  * rounded to L / 65536, as here: s moves by net / (2 w(s) |s - l|) per
  * unit of l, large where S lies outside the held pieces): s within 2 L /
@@ -191,8 +203,8 @@ fw_status_t fw_wire_init_ends(fw_wire_t *w, const int32_t a_pm[2], const int32_t
 void fw_wire_ends_pm(const fw_wire_t *w, int32_t a_pm[2], int32_t b_pm[2]);
 
 /* Push at l (from A) by dn pm along the normal n = (-sin psi, cos psi).
- * |dn| must be <= L/4 (FW_ERR_DOMAIN: split larger moves, the update is
- * first order); l outside [0, L] is FW_ERR_DOMAIN; dn = 0 leaves the wire
+ * |dn| must be <= L/4 and <= the lever |l - s| (FW_ERR_DOMAIN: split larger
+ * moves, the update is first order; the lever keeps dpsi within 1 rad); l outside [0, L] is FW_ERR_DOMAIN; dn = 0 leaves the wire
  * unchanged. *info (may be NULL) receives the static point used.
  * Scaling and overflow: dpsi = w dn 2^30 / sqrt(Q) in 2.30 (|dn| 2^30 <
  * 2^60), converted to fw_bam_t; centre step from the ratio
@@ -280,7 +292,8 @@ fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t 
  * Scaling and overflow: segments with a coordinate difference from the
  * rod's centre or a length of 2^30 pm or more are skipped (they hold
  * nothing a rod of at most 2^30 pm reaches: width < 2^31); the rest in 64
- * bits: dot products < 2^61, the parameter along a segment in 2.30. */
+ * bits: each product < 2^61 and their sums < 2^62, the parameter along a
+ * segment in 2.30. */
 fw_status_t fw_wire_hold(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n);
 
 /* The rod's friction f L (pN): f (pN/um) L (pm) / 10^6, rounded.

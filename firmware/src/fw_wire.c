@@ -104,6 +104,30 @@ static int64_t held_net(uint32_t held, int32_t hold_q16, int32_t s)
     return f;
 }
 
+/* The u a uniform rod would have with its static point d (16.16 of L)
+ * from its nearest end, signed as its regime: from d = (1 + v - sqrt(1 +
+ * v^2)) / 2, v = |u|: v = (1/m - m) / 2 with m = 1 - 2d, capped at 1 (d >=
+ * 1 - 1/sqrt2, an end push). fw_wire_push's blend then weighs the turn by
+ * how close S has come to the rod's end, as it does on a uniform rod.
+ * Scaling and overflow: m in 2.30 (0 < m <= 2^30); 2^60 / m < 2^61. */
+static q30_t held_blend_u(int32_t d_q16, bool near_a)
+{
+    int64_t m = FW_Q30_ONE - ((int64_t)d_q16 << (FW_Q30_FRAC - 15));
+    int64_t v;
+    if (m <= 0) {
+        v = FW_Q30_ONE;
+    } else {
+        v = (fw_math_div_round_i64((int64_t)1 << 60, m) - m) / 2;
+        if (v > FW_Q30_ONE) {
+            v = FW_Q30_ONE;
+        }
+        if (v < 0) {
+            v = 0;
+        }
+    }
+    return (q30_t)(near_a ? v : -v);
+}
+
 fw_status_t fw_wire_static_point_held(int32_t length_pm, int32_t l_pm, uint32_t held, int32_t hold_q16,
                                       fw_wire_static_t *out)
 {
@@ -131,8 +155,7 @@ fw_status_t fw_wire_static_point_held(int32_t length_pm, int32_t l_pm, uint32_t 
     for (k = 0; k < FW_WIRE_PIECES; k++) {
         total += held_weight(held, hold_q16, k) * HELD_PIECE;
     }
-    /* u = -G(0) / (W L / 2): W = total >= 2^32, so total >> 14 >= 2^18 */
-    out->u = fw_math_sat_i32(fw_math_div_round_i64(-g0, total >> 14), NULL);
+    out->u = 0;
     if (g0 == 0) {
         out->regime = FW_WIRE_TRANSLATE;
         out->s_defined = false;
@@ -140,8 +163,9 @@ fw_status_t fw_wire_static_point_held(int32_t length_pm, int32_t l_pm, uint32_t 
         sq = lq;
     } else {
         /* G rises up to l and falls after it: the root lies below l when
-         * G(0) < 0, above it when G(L) = -G(0) < 0. Invariant: the sign
-         * of G(lo) is that of G at the side next to l. */
+         * G(0) < 0, above it when G(L) = -G(0) < 0. Invariant: G(lo) < 0
+         * exactly when the root lies below l (lo on the rising side below
+         * the root, or the falling side above l before it). */
         bool below = g0 < 0;
         lo = below ? 0 : lq;
         hi = below ? lq : HELD_ONE;
@@ -162,6 +186,7 @@ fw_status_t fw_wire_static_point_held(int32_t length_pm, int32_t l_pm, uint32_t 
         out->regime = below ? FW_WIRE_ROTATE_NEAR_A : FW_WIRE_ROTATE_NEAR_B;
         out->s_defined = true;
         out->s_pm = (int32_t)fw_math_div_round_i64((int64_t)sq * length_pm, HELD_ONE);
+        out->u = held_blend_u(sq < HELD_ONE - sq ? sq : HELD_ONE - sq, below);
     }
     /* translation: the whole friction W; a rotation: the net about s */
     k16 = out->s_defined ? held_net(held, hold_q16, sq) : total;
@@ -274,7 +299,7 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
     if (status != FW_OK) {
         return status;
     }
-    if (dn_pm > w->length_pm / 4 || dn_pm < -(w->length_pm / 4)) {
+    if (dn_pm > w->length_pm / 4 || dn_pm < -(w->length_pm / 4) || dn_pm > st.lever_pm || dn_pm < -st.lever_pm) {
         return FW_ERR_DOMAIN;
     }
     if (info != NULL) {
@@ -530,16 +555,16 @@ fw_rule_t fw_wire_check_tip(int32_t tip_radius_pm, int32_t tip_half_angle_mdeg, 
 static int32_t wire_trench_hold(fw_bam_t gamma, q30_t mu)
 {
     const int32_t mrad_bam = 683565;
-    fw_bam_t beta = fw_math_atan2_bam(mu, FW_Q30_ONE);
-    int32_t diff = (int32_t)(gamma - beta);
+    fw_bam_t beta = fw_math_atan2_bam(mu, FW_Q30_ONE);   /* in [0, 90 deg) */
     q30_t sn;
     q30_t cs;
     int64_t den;
     int64_t hold;
-    if (mu <= 0 || diff < mrad_bam) {
+    /* gamma in (0, 60 deg): both below a half turn, compared unsigned */
+    if (mu <= 0 || gamma <= beta || gamma - beta < (fw_bam_t)mrad_bam) {
         return FW_WIRE_HOLD_MAX_Q16;
     }
-    fw_math_sincos_q30((fw_bam_t)diff, &sn, &cs);
+    fw_math_sincos_q30(gamma - beta, &sn, &cs);
     den = fw_math_rshift_round_i64((int64_t)sn * mu, FW_Q30_FRAC);
     if (den <= 0) {
         return FW_WIRE_HOLD_MAX_Q16;
@@ -638,7 +663,12 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
             return FW_OK;
         }
     }
+    /* first order: at most L/4, and a quarter of the lever (L/16 or more
+     * on a held rod), so each step turns it by under a quarter radian */
     max_step = w->length_pm / 4;
+    if (max_step > st.lever_pm / 4) {
+        max_step = st.lever_pm / 4;
+    }
     if (max_step < 1) {
         max_step = 1;   /* rods of under 4 pm (shorter ones are refused: L >= d > 0) */
     }

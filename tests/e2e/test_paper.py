@@ -5,6 +5,7 @@ against the truth or the closed form within the tolerance the report states
 whole (report.html with its figures inline, report.md, paper.json); a
 tolerance broken makes the judge say so; bad arguments are named."""
 import json
+import math
 import os
 import subprocess
 import sys
