@@ -76,14 +76,11 @@ def from_scan(run_dir):
             "rod_d": float(np.median(ridge[:, 1])), "profile": (ys, prof, level)}
 
 
-def from_truth(run_dir):
-    """The simulator's trench (median width, path y) and rod (ends) at the end."""
-    import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
-    whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
-    if not whole or not whole[-1][1].trenches or not whole[-1][1].wires:
+def from_truth(run_dir, w):
+    """The simulator's trench (median width, path y) and rod (ends) in its
+    objects w (SIM_TRUTH) at the end."""
+    if not w.trenches or not w.wires:
         raise common.PaperError(f"{run_dir}/bus.lcmlog: no trench or rod in SIM_TRUTH")
-    w = whole[-1][1]
     t = max(w.trenches, key=lambda t: t.n)
     r = w.wires[0]
     ends = np.array([[r.x_nm[0], r.y_nm[0]], [r.x_nm[-1], r.y_nm[-1]]])
@@ -92,15 +89,14 @@ def from_truth(run_dir):
             "angle": float(np.degrees(np.arctan2(*(ends[1] - ends[0])[::-1])))}
 
 
-def rod_tracks(run_dir):
-    """Time (s), the card's rod ends and the simulator's, per block: (t, fw
-    [n, 2, 2], truth [n, 2, 2])."""
-    st = common.model_states(run_dir)
+def rod_tracks(states):
+    """Time (s), the card's rod ends and the simulator's, per block of
+    common.model_states: (t, fw [n, 2, 2], truth [n, 2, 2])."""
     def ends(o):
         w = o.wires[0]
         return [[w.x_nm[0], w.y_nm[0]], [w.x_nm[-1], w.y_nm[-1]]]
-    t = np.array([f.utime * 1e-6 for _, f, _ in st])
-    return t, np.array([ends(f) for _, f, _ in st]), np.array([ends(tr) for _, _, tr in st])
+    t = np.array([f.utime * 1e-6 for _, f, _ in states])
+    return t, np.array([ends(f) for _, f, _ in states]), np.array([ends(tr) for _, _, tr in states])
 
 
 def analyse(dirs, exp_dir, size):
@@ -109,8 +105,9 @@ def analyse(dirs, exp_dir, size):
         fid = json.load(f)
     with open(os.path.join(d, "operator_report.json")) as f:
         plan = json.load(f)["plan"]
-    sc, tr = from_scan(d), from_truth(d)
-    t, fw, truth = rod_tracks(d)
+    states = common.model_states(d)   # the log read once: the card's objects and the simulator's per block
+    sc, tr = from_scan(d), from_truth(d, states[-1][2])
+    t, fw, truth = rod_tracks(states)
     model_err = float(np.max(np.hypot(*(fw[-1] - truth[-1]).T)))
     worst = float(np.max(np.hypot(*(fw - truth).transpose(2, 0, 1))))
     item = plan["items"][0]

@@ -280,10 +280,12 @@ void fw_wire_ends_pm(const fw_wire_t *w, int32_t a_pm[2], int32_t b_pm[2])
     b_pm[1] = fw_math_sat_i32((int64_t)w->y_pm + hy, NULL);
 }
 
-fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_static_t *info)
+/* The move of a push by dn at l about the static point st (solved for that
+ * l and the rod's held pieces): fw_wire_push's body, which fw_wire_update's
+ * steps share without solving st again. dn already checked against L/4
+ * and the lever (wire_step_ok). */
+static void wire_move(fw_wire_t *w, int32_t dn_pm, const fw_wire_static_t *st)
 {
-    fw_wire_static_t st;
-    fw_status_t status;
     int64_t au;
     int64_t wt;          /* blend weight, 2.30 */
     int64_t dpsi = 0;    /* radians, 2.30 */
@@ -292,30 +294,17 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
     q30_t s;
     q30_t c;
     bool sat = false;
-    if (w == NULL) {
-        return FW_ERR_ARG;
-    }
-    status = fw_wire_static_point_held(w->length_pm, l_pm, w->held, w->hold_q16, &st);
-    if (status != FW_OK) {
-        return status;
-    }
-    if (dn_pm > w->length_pm / 4 || dn_pm < -(w->length_pm / 4) || dn_pm > st.lever_pm || dn_pm < -st.lever_pm) {
-        return FW_ERR_DOMAIN;
-    }
-    if (info != NULL) {
-        *info = st;
-    }
-    au = st.u < 0 ? -(int64_t)st.u : st.u;
+    au = st->u < 0 ? -(int64_t)st->u : st->u;
     wt = au * (FW_Q30_ONE / FW_WIRE_BLEND_U);
     if (wt > FW_Q30_ONE) {
         wt = FW_Q30_ONE;
     }
     factor = FW_Q30_ONE;
-    if (st.s_defined && wt > 0) {
+    if (st->s_defined && wt > 0) {
         /* l - s: -lever when S lies beyond l towards B; |l - s| >= L/2 on
          * a uniform rod (sqrt(Q)), >= L/16 on a held one (clamped) */
-        int64_t l_minus_s = (st.regime == FW_WIRE_ROTATE_NEAR_B) ? -(int64_t)st.lever_pm : (int64_t)st.lever_pm;
-        int64_t ratio = fw_math_div_round_i64(((int64_t)w->length_pm - 2 * (int64_t)st.s_pm) * FW_Q30_ONE,
+        int64_t l_minus_s = (st->regime == FW_WIRE_ROTATE_NEAR_B) ? -(int64_t)st->lever_pm : (int64_t)st->lever_pm;
+        int64_t ratio = fw_math_div_round_i64(((int64_t)w->length_pm - 2 * (int64_t)st->s_pm) * FW_Q30_ONE,
                                               2 * l_minus_s);
         dpsi = fw_math_div_round_i64(wt * dn_pm, l_minus_s);
         factor = fw_math_rshift_round_i64(wt * ratio, FW_Q30_FRAC) + (FW_Q30_ONE - wt);
@@ -329,6 +318,32 @@ fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_stat
     if (sat) {
         w->flags |= FW_WIRE_SAT_POS;
     }
+}
+
+/* |dn| within L/4 and the lever (fw_wire_push's domain). */
+static bool wire_step_ok(const fw_wire_t *w, int32_t dn_pm, const fw_wire_static_t *st)
+{
+    return !(dn_pm > w->length_pm / 4 || dn_pm < -(w->length_pm / 4) || dn_pm > st->lever_pm || dn_pm < -st->lever_pm);
+}
+
+fw_status_t fw_wire_push(fw_wire_t *w, int32_t l_pm, int32_t dn_pm, fw_wire_static_t *info)
+{
+    fw_wire_static_t st;
+    fw_status_t status;
+    if (w == NULL) {
+        return FW_ERR_ARG;
+    }
+    status = fw_wire_static_point_held(w->length_pm, l_pm, w->held, w->hold_q16, &st);
+    if (status != FW_OK) {
+        return status;
+    }
+    if (!wire_step_ok(w, dn_pm, &st)) {
+        return FW_ERR_DOMAIN;
+    }
+    if (info != NULL) {
+        *info = st;
+    }
+    wire_move(w, dn_pm, &st);
     return FW_OK;
 }
 
@@ -674,9 +689,12 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     }
     for (steps = 0; dn != 0 && steps < FW_WIRE_PUSH_STEPS_MAX; steps++) {
         int32_t step = (dn > max_step) ? max_step : ((dn < -max_step) ? -max_step : dn);
-        if (fw_wire_push(w, l, step, NULL) != FW_OK) {
+        /* the same l and held pieces each step: st stands (fw_wire_push
+         * would solve it again) */
+        if (!wire_step_ok(w, step, &st)) {
             break;
         }
+        wire_move(w, step, &st);
         dn -= step;
     }
     w->flags |= FW_WIRE_PUSHED;
