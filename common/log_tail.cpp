@@ -5,12 +5,14 @@
 
 #include "afm/analog_block_t.hpp"
 #include "afm/haptic_pose_t.hpp"
+#include "afm/scan_line_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "afm_channels.h"
+#include "inbox.hpp"
 
 namespace afm {
 
-void LogTail::poll()
+void LogTail::poll(int64_t published)
 {
     if (!reader_) {
         if (!std::filesystem::exists(path_)) return;
@@ -20,15 +22,19 @@ void LogTail::poll()
     while (reader_->next(&ev) == LogReader::Next::kEvent) {
         if (ev.channel == AFM_CH_AFM_ANALOG) {
             analog_block_t b;
-            if (b.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) >= 0) last_seq_ = std::max(last_seq_, b.seq);
+            if (decode_checked(ev.data.data(), ev.data.size(), &b) == Reject::none && b.seq <= published)
+                last_seq_ = std::max(last_seq_, b.seq);
         } else if (ev.channel == AFM_CH_HAPTIC_POSE) {
-            haptic_pose_t p;
-            if (p.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) >= 0) last_pose_seq_ = std::max(last_pose_seq_, p.seq);
+            haptic_pose_t p;   // the pose for the block after the last published may be recorded already
+            if (decode_checked(ev.data.data(), ev.data.size(), &p) == Reject::none && p.seq <= published + 1)
+                last_pose_seq_ = std::max(last_pose_seq_, p.seq);
         } else if (ev.channel == AFM_CH_AFM_CMD) {
-            tip_cmd_t c;
-            if (c.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) >= 0) last_cmd_seq_ = std::max(last_cmd_seq_, c.ack_seq);
+            tip_cmd_t c{};
+            if (decode_checked(ev.data.data(), ev.data.size(), &c) == Reject::none && c.ack_seq <= published)
+                last_cmd_seq_ = std::max(last_cmd_seq_, c.ack_seq);
         } else if (ev.channel == AFM_CH_AFM_SCAN_LINE) {
-            ++scan_lines_;
+            scan_line_t l;
+            if (decode_checked(ev.data.data(), ev.data.size(), &l) == Reject::none) ++scan_lines_;
         }
     }
 }

@@ -5,8 +5,11 @@
 // messages once 30 wait in its subscription queue (a CPU-starved logger):
 // with the window, a busy machine slows the run down instead.
 //
-// The log is read with LogReader (lcmlog.hpp), the analog blocks decoded
-// with their generated type.
+// The log is read with LogReader (lcmlog.hpp), each message through the
+// bus's decode-and-check (inbox.hpp). The log holds whatever was on the
+// bus, hostile datagrams too: a block number is taken only up to the last
+// block the simulator itself has published (poll's argument), so that a
+// message from the far future cannot open the window.
 #pragma once
 
 #include <algorithm>
@@ -22,8 +25,10 @@ class LogTail {
 public:
     explicit LogTail(std::string path) : path_(std::move(path)) {}
     // Reads the events appended since the last call (a file not yet there
-    // is no event yet; a corrupt one throws LogError).
-    void poll();
+    // is no event yet; a corrupt one throws LogError). published: the last
+    // analog block the simulator has published; an analog block, pose or
+    // command with a later block number is not the run's and is skipped.
+    void poll(int64_t published);
     int64_t last_analog_seq() const { return last_seq_; }
     // The last block whose analog block, pose and command are all recorded.
     int64_t last_block_recorded() const { return std::min(last_seq_, std::min(last_pose_seq_, last_cmd_seq_)); }

@@ -24,14 +24,20 @@ CardNode::CardNode(const Scene &s) : scene_(s), setup_(s)
 
 int64_t CardNode::sim_utime_done() const { return done_ < 0 ? 0 : block_end_utime(scene_, done_); }
 
-Outbox CardNode::on_analog(const analog_block_t &b)
+Outbox CardNode::on_analog(const analog_block_t &b, Reject *why)
 {
+    Reject ignored;
+    Reject &r = why ? *why : ignored;
+    r = Reject::none;
     Outbox box;
     if (b.seq == done_ && done_ >= 0) {   // a resend: our answer was lost somewhere
         post_block(box);
         return box;
     }
-    if (b.seq != done_ + 1 || b.n < 0 || static_cast<std::size_t>(b.n) > b.sn_v.size()) return box;
+    if (b.seq <= done_) r = Reject::seq_past;
+    else if (b.seq > done_ + 1) r = Reject::seq_future;
+    else if (b.n != scene_.samples_per_block() || static_cast<std::size_t>(b.n) > b.sn_v.size()) r = Reject::out_of_range;
+    if (r != Reject::none) return box;
     const bool again = pending_ != nullptr;
     if (!again) pending_ = std::make_unique<analog_block_t>(b);
     if (poses_.count(b.seq)) {
@@ -46,19 +52,26 @@ Outbox CardNode::on_analog(const analog_block_t &b)
     return box;
 }
 
-Outbox CardNode::on_pose(const haptic_pose_t &p)
+Outbox CardNode::on_pose(const haptic_pose_t &p, Reject *why)
 {
+    Reject ignored;
+    Reject &r = why ? *why : ignored;
+    r = Reject::none;
     Outbox box;
-    if (p.seq <= done_) return box;                    // a late duplicate
+    if (p.seq <= done_) r = Reject::seq_past;          // a late duplicate
+    else if (p.seq > done_ + 1) r = Reject::seq_future;  // the operator answers HAPTIC_FORCE done_ with pose done_ + 1
+    if (r != Reject::none) return box;
     poses_.emplace(p.seq, p);
     if (pending_ && pending_->seq == p.seq) step(box);
     return box;
 }
 
-Outbox CardNode::on_fix(const object_fix_t &f, std::string *note)
+Outbox CardNode::on_fix(const object_fix_t &f, std::string *note, Reject *why)
 {
     Outbox box;
     note->clear();
+    if (why) *why = f.fix_id > fix_id_ + 1 ? Reject::seq_future : Reject::none;
+    if (f.fix_id > fix_id_ + 1) return box;
     if (f.fix_id == fix_id_ + 1) {
         const int32_t scan_pm[2] = {fwu_pm_from_nm(f.scan_x_nm), fwu_pm_from_nm(f.scan_y_nm)};
         fw_card_fix_out_t r{};

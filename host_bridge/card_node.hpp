@@ -38,6 +38,7 @@
 #include "afm/objects_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "card_setup.hpp"
+#include "inbox.hpp"
 #include "objects_view.hpp"
 #include "scene.hpp"
 
@@ -68,11 +69,17 @@ public:
     CardNode(const CardNode &) = delete;
     CardNode &operator=(const CardNode &) = delete;
 
-    Outbox on_analog(const analog_block_t &b);
-    Outbox on_pose(const haptic_pose_t &p);
+    // Each returns what to publish, and sets *why (when given) to
+    // Reject::none when the message was the card's to take, or to why not
+    // (inbox.hpp): a block or pose the card has passed (seq_past) or that
+    // the protocol cannot have sent yet (seq_future: a pose for a block
+    // after the next, a fix after the next), a block whose sample count is
+    // not the scene's (out_of_range). A refused message changes nothing.
+    Outbox on_analog(const analog_block_t &b, Reject *why = nullptr);
+    Outbox on_pose(const haptic_pose_t &p, Reject *why = nullptr);
     // note: a line for the log when the fix names an unknown object or is
     // refused as more than drift (empty otherwise).
-    Outbox on_fix(const object_fix_t &f, std::string *note);
+    Outbox on_fix(const object_fix_t &f, std::string *note, Reject *why = nullptr);
 
     int64_t done() const { return done_; }              // last block stepped (-1: none)
     int64_t sim_utime_done() const;                     // simulated time at its end, us

@@ -6,11 +6,13 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <string>
 
 #include "afm/heartbeat_t.hpp"
 #include "bus.hpp"
 #include "card_node.hpp"
+#include "inbox.hpp"
 #include "scene.hpp"
 
 static_assert(FW_FLAG_SAT_SN == afm::fw_force_t::FLAG_SAT_SN, "flag bits must match the firmware");
@@ -26,8 +28,9 @@ static_assert(FW_FLAG_SQUEEZE == afm::fw_force_t::FLAG_SQUEEZE, "flag bits must 
 namespace {
 
 const char *kUsage =
-    "usage: fw_node --scene FILE [--crash-at-block N]\n"
+    "usage: fw_node --scene FILE [--out DIR] [--crash-at-block N]\n"
     "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
+    "  --out DIR           write DIR/fw_report.json at the end (what the node refused, by reason)\n"
     "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n";
 
 constexpr int kCrashExitCode = 70;
@@ -46,31 +49,38 @@ struct Node {
         for (const auto &o : box) lc.publish(o.channel, o.data.data(), static_cast<unsigned>(o.data.size()));
     }
 
-    void on_analog(const lcm::ReceiveBuffer *, const std::string &, const afm::analog_block_t *b)
+    afm::Reject on_analog(const afm::analog_block_t &b)
     {
-        if (b->seq == crash_at) {
-            std::fprintf(stderr, "fw_node: failure injection: crashing at block %lld\n", (long long)b->seq);
+        if (b.seq == crash_at) {
+            std::fprintf(stderr, "fw_node: failure injection: crashing at block %lld\n", (long long)b.seq);
             std::exit(kCrashExitCode);
         }
-        publish(card.on_analog(*b));
+        afm::Reject why;
+        publish(card.on_analog(b, &why));
         hb.maybe_send("running", card.done(), card.sim_utime_done());
+        return why;
     }
 
-    void on_pose(const lcm::ReceiveBuffer *, const std::string &, const afm::haptic_pose_t *p)
+    afm::Reject on_pose(const afm::haptic_pose_t &p)
     {
-        publish(card.on_pose(*p));
+        afm::Reject why;
+        publish(card.on_pose(p, &why));
+        return why;
     }
 
-    void on_fix(const lcm::ReceiveBuffer *, const std::string &, const afm::object_fix_t *m)
+    afm::Reject on_fix(const afm::object_fix_t &m)
     {
         std::string note;
-        publish(card.on_fix(*m, &note));
+        afm::Reject why;
+        publish(card.on_fix(m, &note, &why));
         if (!note.empty()) std::fprintf(stderr, "fw_node: %s\n", note.c_str());
+        return why;
     }
 
-    void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
+        if ((m.name == "sim_afm" && m.state == "done") || (m.name == "launcher" && m.state == "stop")) sim_done = true;
+        return afm::Reject::none;
     }
 };
 
@@ -78,11 +88,12 @@ struct Node {
 
 int main(int argc, char **argv)
 {
-    std::string scene_path;
+    std::string scene_path, out_dir;
     int64_t crash_at = -1;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
+        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
         else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
@@ -93,16 +104,22 @@ int main(int argc, char **argv)
         auto lc = afm::open_bus();
         Node node(scene, *lc);
         node.crash_at = crash_at;
-        lc->subscribe(AFM_CH_AFM_ANALOG, &Node::on_analog, &node)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_HOST_OBJECT_FIX, &Node::on_fix, &node)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_HAPTIC_POSE, &Node::on_pose, &node)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Node::on_heartbeat, &node)->setQueueCapacity(afm::kQueueCapacity);
+        afm::Inbox inbox(lc.get());
+        inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &m) { return node.on_analog(m); });
+        inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &m) { return node.on_fix(m); });
+        inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &m) { return node.on_pose(m); });
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return node.on_heartbeat(m); });
         while (!node.sim_done) {
             const int64_t done = node.card.done();
             node.hb.maybe_send(done < 0 ? "ready" : "running", done, node.card.sim_utime_done(), done < 0 ? 200000 : 1000000);
             lc->handleTimeout(100);
         }
         node.hb.send("done", node.card.done(), node.card.sim_utime_done());
+        if (!out_dir.empty()) {
+            std::ofstream rep(out_dir + "/fw_report.json");
+            rep << nlohmann::json{{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()}}.dump(2) << "\n";
+            if (!rep) throw std::runtime_error("cannot write " + out_dir + "/fw_report.json");
+        }
         return 0;
     } catch (const afm::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());

@@ -32,6 +32,7 @@
 #include "afm/heartbeat_t.hpp"
 #include "lcmlog.hpp"
 #include "bus.hpp"
+#include "inbox.hpp"
 #include <nlohmann/json.hpp>
 #include "card_setup.hpp"
 #include "haptic.hpp"
@@ -83,6 +84,12 @@ struct Child {
     }
 };
 
+// SIGINT or SIGTERM to the launcher: the run stops as on a failure (every
+// child stopped, the logger closed, run.json written) with status
+// "interrupted", and the launcher exits with 128 + the signal.
+volatile sig_atomic_t g_signal = 0;
+extern "C" void on_stop_signal(int sig) { g_signal = sig; }
+
 // The bus processes run at a lower priority than lcm-logger, so that on a
 // busy machine the logger keeps up (it drops messages once 30 wait in its
 // subscription queue) and the run slows down instead.
@@ -120,37 +127,42 @@ std::string exe_dir()
     return fs::canonical("/proc/self/exe").parent_path().string();
 }
 
-// Message counts per channel in an LCM log, and the number of distinct
-// analog blocks in it (their seq, decoded with the generated type).
-std::map<std::string, int64_t> count_channels(const std::string &path, std::string *err, int64_t *analog_seqs)
+// Message counts per channel in an LCM log, and the distinct analog blocks
+// in it (their seq, through the bus's own decode-and-check).
+std::map<std::string, int64_t> count_channels(const std::string &path, std::string *err, std::set<int64_t> *seqs)
 {
     std::map<std::string, int64_t> counts;
-    std::set<int64_t> seqs;
     try {
         afm::LogReader log(path);
         afm::LogEvent ev;
         while (log.read(&ev)) {
             ++counts[ev.channel];
             afm::analog_block_t b;
-            if (ev.channel == AFM_CH_AFM_ANALOG && b.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) >= 0)
-                seqs.insert(b.seq);
+            if (ev.channel == AFM_CH_AFM_ANALOG && afm::decode_checked(ev.data.data(), ev.data.size(), &b) == afm::Reject::none)
+                seqs->insert(b.seq);
         }
     } catch (const afm::LogError &e) {
         *err = e.what();
     }
-    *analog_seqs = static_cast<int64_t>(seqs.size());
     return counts;
 }
+
+// The processes whose heartbeats the launcher follows; another name is
+// refused (out_of_range), so that garbage cannot grow the tables.
+const std::set<std::string> kHeartbeatNames = {"sim_afm", "fw_node", "operator", "renderer", "launcher"};
 
 struct Progress {
     std::map<std::string, afm::heartbeat_t> last;
     std::map<std::string, std::chrono::steady_clock::time_point> progress_at;
-    void on_hb(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    afm::Reject on_hb(const afm::heartbeat_t &hb)
     {
+        if (!kHeartbeatNames.count(hb.name)) return afm::Reject::out_of_range;
+        const afm::heartbeat_t *m = &hb;
         auto it = last.find(m->name);
         if (it == last.end() || it->second.seq != m->seq || it->second.state != m->state)
             progress_at[m->name] = std::chrono::steady_clock::now();
         last[m->name] = *m;
+        return afm::Reject::none;
     }
     bool is(const std::string &name, const std::string &state) const
     {
@@ -236,7 +248,7 @@ int parse_args(int argc, char **argv, Options *o)
 
 // The files an earlier run left in a folder that this run replaces.
 const char *const kRunOutputs[] = {"frames", "logs", "bus.lcmlog", "run.json", "scene.yaml", "video.mp4", "video.avi",
-                                   "sim_report.json", "renderer_report.json", "operator_report.json", "scan_initial.png",
+                                   "sim_report.json", "renderer_report.json", "operator_report.json", "fw_report.json", "scan_initial.png",
                                    "contact_sheet.png", "scan_initial.gsf", "scan_final.gsf", "display_final.gsf",
                                    "fidelity.json", "fidelity_diff.png"};
 
@@ -312,6 +324,11 @@ public:
             return 2;
         }
         signal(SIGPIPE, SIG_IGN);
+        struct sigaction sa {};
+        sa.sa_handler = on_stop_signal;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, nullptr);
+        sigaction(SIGTERM, &sa, nullptr);
         try {
             setenv("LCM_DEFAULT_URL", afm::kBusUrl, 1);
             lc_ = afm::open_bus();
@@ -319,7 +336,8 @@ public:
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
         }
-        lc_->subscribe(AFM_CH_AFM_HEARTBEAT, &Progress::on_hb, &prog_)->setQueueCapacity(afm::kQueueCapacity);
+        inbox_ = std::make_unique<afm::Inbox>(lc_.get());
+        inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
         hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
         wall0_ = std::chrono::steady_clock::now();
         return -1;
@@ -333,6 +351,7 @@ public:
                              out_ + "/bus.lcmlog"},
                             out_ + "/logs/lcm-logger.log");
         for (;;) {
+            if (g_signal) return interrupted_before_start();
             hb_->send("starting", 0, 0, "waiting for lcm-logger");
             lc_->handleTimeout(50);
             std::error_code ec;
@@ -354,7 +373,7 @@ public:
         const std::vector<std::vector<std::string>> cmds = {
             {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop", std::to_string(o_.drop_p),
              "--follow-log", out_ + "/bus.lcmlog"},
-            {bin + "/fw_node", "--scene", scene_run_, "--crash-at-block", std::to_string(o_.crash_block)},
+            {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block", std::to_string(o_.crash_block)},
             {bin + "/operator", "--scene", scene_run_, "--out", out_},
             {bin + "/renderer", "--scene", scene_run_, "--out", out_},
         };
@@ -373,6 +392,11 @@ public:
         auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(10);
         while (true) {
             lc_->handleTimeout(20);
+            if (g_signal) {
+                interrupted_ = g_signal;
+                failure_ = std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM");
+                break;
+            }
             for (auto &c : kids_) c.reap();
             logger_.reap();
             spy_.reap();
@@ -444,13 +468,11 @@ public:
     int finish()
     {
         const nlohmann::json run = run_json();
-        {
-            std::ofstream f(out_ + "/run.json");
-            f << run.dump(2) << "\n";
-            if (!f) {
-                std::fprintf(stderr, "afm_launch: cannot write %s/run.json\n", out_.c_str());
-                return 1;
-            }
+        if (!write_run_json(run)) return 1;
+        if (interrupted_) {
+            std::fprintf(stderr, "run: %s; every process stopped, the bus log and run.json (status: interrupted) are kept in %s\n",
+                         failure_.c_str(), out_.c_str());
+            return 128 + interrupted_;
         }
         if (!failure_.empty()) {
             std::fprintf(stderr, "run: FAILED: %s\n", failure_.c_str());
@@ -483,10 +505,48 @@ public:
     }
 
 private:
+    // run.json whole or not at all: written beside, then renamed over (a
+    // full disk leaves no half-written file that a reader could take for a
+    // finished run).
+    bool write_run_json(const nlohmann::json &run) const
+    {
+        const std::string path = out_ + "/run.json", tmp = path + ".partial";
+        {
+            std::ofstream f(tmp);
+            f << run.dump(2) << "\n";
+            f.flush();
+            if (!f) {
+                std::error_code ec;
+                fs::remove(tmp, ec);
+                std::fprintf(stderr, "afm_launch: cannot write %s: %s (status would have been '%s')\n", path.c_str(),
+                             std::strerror(errno ? errno : EIO), run.value("status", "?").c_str());
+                return false;
+            }
+        }
+        std::error_code ec;
+        fs::rename(tmp, path, ec);
+        if (ec) {
+            fs::remove(tmp, ec);
+            std::fprintf(stderr, "afm_launch: cannot write %s: %s\n", path.c_str(), ec.message().c_str());
+            return false;
+        }
+        return true;
+    }
+
+    // A signal while the logger was starting: stop it; nothing else ran.
+    int interrupted_before_start()
+    {
+        if (!logger_.exited && logger_.pid > 0) kill(logger_.pid, SIGINT);
+        logger_.reap(true);
+        std::fprintf(stderr, "afm_launch: interrupted before the run started\n");
+        return 128 + g_signal;
+    }
+
     Options o_;
     afm::Scene scene_;
     std::string out_, scene_abs_, scene_run_;
     std::unique_ptr<lcm::LCM> lc_;
+    std::unique_ptr<afm::Inbox> inbox_;
     std::unique_ptr<afm::Heartbeat> hb_;
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
@@ -495,6 +555,7 @@ private:
     std::vector<Child> kids_ = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
     std::string failure_;
     bool finished_ = false;
+    int interrupted_ = 0;   // the signal that stopped the run (0: none)
     double wall_ = 0;
     int64_t messages_ = 0;
 
@@ -550,14 +611,14 @@ private:
     {
         using nlohmann::json;
         std::string log_err;
-        int64_t analog_seqs = 0;
-        const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &analog_seqs);
+        std::set<int64_t> analog_seq_set;
+        const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &analog_seq_set);
         for (const auto &kv : counts) messages_ += kv.second;
         json run;
         run["scene"] = scene_abs_;
         run["scene_name"] = scene_.name;
         run["seed"] = scene_.seed;
-        run["status"] = failure_.empty() ? "ok" : "failed";
+        run["status"] = interrupted_ ? "interrupted" : failure_.empty() ? "ok" : "failed";
         if (!failure_.empty()) run["error"] = failure_;
         const char *ns_mode = std::getenv("AFM_NETNS_MODE");
         run["netns"] = ns_mode ? ns_mode : "unknown";
@@ -582,12 +643,15 @@ private:
         for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
         if (!log_err.empty()) run["log_error"] = log_err;
         run["card"] = card_json();
+        run["launcher"] = {{"rejected", inbox_ ? inbox_->rejected().to_json() : nlohmann::json(nullptr)}};
         merge_reports(&run);
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
         // Completeness of the record: distinct analog blocks in the log against
         // those the simulator simulated (lcm-logger drops when starved of CPU).
         if (run.contains("sim") && run["sim"].contains("blocks")) {
             const int64_t sent = run["sim"]["blocks"].get<int64_t>();
+            // a block the simulator sent (a datagram with another seq is not one)
+            const int64_t analog_seqs = std::count_if(analog_seq_set.begin(), analog_seq_set.end(), [&](int64_t q) { return q >= 0 && q < sent; });
             run["log"] = {{"analog_blocks_recorded", analog_seqs}, {"analog_blocks_simulated", sent}, {"complete", analog_seqs == sent}};
             if (analog_seqs != sent)
                 std::fprintf(stderr, "run: warning: the bus log holds %lld of %lld analog blocks (lcm-logger was starved of CPU)\n",
@@ -666,7 +730,7 @@ private:
     // Each process's own report, under its name.
     void merge_reports(nlohmann::json *run) const
     {
-        for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fidelity.json"}) {
+        for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fw_report.json", "fidelity.json"}) {
             std::ifstream f(out_ + "/" + rep);
             if (!f) continue;
             nlohmann::json j = nlohmann::json::parse(f, nullptr, false);

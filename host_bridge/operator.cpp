@@ -34,6 +34,7 @@
 #include "bus.hpp"
 #include "card_setup.hpp"
 #include "hand_script.hpp"
+#include "inbox.hpp"
 #include "haptic.hpp"
 #include "pattern.hpp"
 #include "objects_view.hpp"
@@ -200,31 +201,44 @@ struct Operator {
         return {(p_nm.x - s.field_center_nm.x) / reach * r, (p_nm.y - s.field_center_nm.y) / reach * r};
     }
 
-    void on_force(const lcm::ReceiveBuffer *, const std::string &, const afm::haptic_force_t *f)
+    afm::Reject on_force(const afm::haptic_force_t &f)
     {
-        if (f->seq == answered) {      // resent force: our pose was lost
+        if (f.seq == answered) {      // resent force: our pose was lost
             lc.publish(AFM_CH_HAPTIC_POSE, &last);
-            return;
+            return afm::Reject::none;
         }
-        if (f->seq != answered + 1 || have_force) return;
-        force = *f;
+        if (f.seq < answered) return afm::Reject::seq_past;
+        if (f.seq > answered + 1) return afm::Reject::seq_future;
+        if (have_force) return afm::Reject::none;   // the same force again, not yet answered
+        force = f;
         have_force = true;
+        return afm::Reject::none;
     }
 
-    void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *m)
+    // FW_OBJECTS n comes with HAPTIC_FORCE n: one from further ahead than
+    // the next force cannot have been sent yet (taking it would make every
+    // later message look old).
+    afm::Reject on_objects(const afm::objects_t &m)
     {
-        if (have_objects && (m->seq < objects.seq || (m->seq == objects.seq && m->fix_id <= objects.fix_id))) return;
-        if (!view.apply(*m)) return;
+        if (m.seq > answered + 2) return afm::Reject::seq_future;
+        if (have_objects && (m.seq < objects.seq || (m.seq == objects.seq && m.fix_id <= objects.fix_id))) return afm::Reject::seq_past;
+        if (!view.apply(m)) return afm::Reject::out_of_range;
         objects = view.whole();
         have_objects = true;
+        return afm::Reject::none;
     }
 
-    void on_line(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_line_t *m) { scan.on_line(*m); }
-
-    void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    afm::Reject on_line(const afm::scan_line_t &m)
     {
-        if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
-        if (m->name == "sim_afm" && m->state == "ending") ending_seen = true;
+        scan.on_line(m);   // lines of another client's scan are not ours to count
+        return afm::Reject::none;
+    }
+
+    afm::Reject on_heartbeat(const afm::heartbeat_t &m)
+    {
+        if ((m.name == "sim_afm" && m.state == "done") || (m.name == "launcher" && m.state == "stop")) sim_done = true;
+        if (m.name == "sim_afm" && m.state == "ending") ending_seen = true;
+        return afm::Reject::none;
     }
 
     // The planner's "finished", again until the simulator says the run ends.
@@ -403,9 +417,10 @@ nlohmann::json plan_json(const afm::Planner &p)
 
 // operator_report.json: what the operator did (the hand's device and the
 // contacts it felt, or the planner's account).
-void write_report(const Operator &op, const afm::Planner *planner, const afm::Scene &scene, const std::string &out_dir)
+void write_report(const Operator &op, const afm::Planner *planner, const afm::Scene &scene, const std::string &out_dir,
+                  const afm::Rejections &rejected)
 {
-    nlohmann::json rep = {{"poses", op.forces}, {"peak_haptic_force_N", op.peak_force_N}};
+    nlohmann::json rep = {{"poses", op.forces}, {"peak_haptic_force_N", op.peak_force_N}, {"rejected", rejected.to_json()}};
     if (planner) {
         rep["plan"] = plan_json(*planner);
     } else {
@@ -453,8 +468,9 @@ int main(int argc, char **argv)
         if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
         auto lc = afm::open_bus();
         Operator op(scene, *lc);
-        lc->subscribe(AFM_CH_HAPTIC_FORCE, &Operator::on_force, &op)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Operator::on_heartbeat, &op)->setQueueCapacity(afm::kQueueCapacity);
+        afm::Inbox inbox(lc.get());
+        inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return op.on_heartbeat(m); });
         TurnBench bench;
         std::thread plan_thread;
         struct Joiner {   // the planner's thread ends with the run, however main leaves
@@ -467,8 +483,8 @@ int main(int argc, char **argv)
             }
         } joiner{bench, plan_thread};
         if (planner) {
-            lc->subscribe(AFM_CH_FW_OBJECTS, &Operator::on_objects, &op)->setQueueCapacity(afm::kQueueCapacity);
-            lc->subscribe(AFM_CH_AFM_SCAN_LINE, &Operator::on_line, &op)->setQueueCapacity(afm::kQueueCapacity);
+            inbox.on<afm::objects_t>(AFM_CH_FW_OBJECTS, [&](const afm::objects_t &m) { return op.on_objects(m); });
+            inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
             op.hold_pose = {scene.start_nm(), false};
             plan_thread = std::thread([&] {
                 try {
@@ -492,7 +508,7 @@ int main(int argc, char **argv)
         bench.stop();
         if (plan_thread.joinable()) plan_thread.join();
         if (planner && bench.error()) std::rethrow_exception(bench.error());
-        if (!out_dir.empty()) write_report(op, planner.get(), scene, out_dir);
+        if (!out_dir.empty()) write_report(op, planner.get(), scene, out_dir, inbox.rejected());
         op.hb.send("done", op.answered, 0);
         return 0;
     } catch (const afm::SceneError &e) {

@@ -35,6 +35,7 @@
 #include "afm/render_frame_t.hpp"
 #include "afm/scan_line_t.hpp"
 #include "bus.hpp"
+#include "inbox.hpp"
 #include "display.hpp"
 #include "fidelity.hpp"
 #include "objects_view.hpp"
@@ -91,6 +92,7 @@ struct Renderer {
     afm::DisplayModel model;
     int frames_written = 0;
     int64_t last_seq = -1;
+    const int64_t blocks_ahead = static_cast<int64_t>(std::ceil(scene.block_hz)) + 2;
     bool sim_done = false;
     bool final_pending = false;  // waiting for the final scan before the last frame
     int local_next = 0;          // next scene local scan to take
@@ -121,6 +123,7 @@ struct Renderer {
     {
         display.set_trails(s.out.trails);
         pick_sheet();
+        tip_msg.seq = force_msg.seq = haptic_msg.seq = -1;   // nothing yet (the first HAPTIC_FORCE is seq -1)
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
         for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
@@ -149,11 +152,25 @@ struct Renderer {
 
     void retry_scan() { scan.retry(kScanRetryMs); }
 
-    void on_line(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_line_t *m)
+    afm::Reject on_line(const afm::scan_line_t &m)
     {
-        if (!scan.on_line(*m)) return;
+        if (!scan.on_line(m)) return afm::Reject::none;   // a line of another client's scan, or one already here
         if (scan.id() == kFinalScan && final_pending) finish_last_frame();
         else if (local_pending >= 0 && scan.id() == kLocalScanBase + local_pending) local_scan_done();
+        return afm::Reject::none;
+    }
+
+    // A message of block `seq` (FW_TIP, FW_FORCE, FW_OBJECTS, HAPTIC_FORCE
+    // n come with block n): its time must be that block's end, and it
+    // cannot be more than a simulated second past the last block the
+    // renderer took objects from (the simulator waits for every frame, 25
+    // per second by default, before it goes on).
+    afm::Reject block_message(int64_t seq, int64_t utime) const
+    {
+        if (seq < -1) return afm::Reject::out_of_range;
+        if (seq > last_seq + blocks_ahead) return afm::Reject::seq_future;
+        if (seq >= 0 && utime != afm::block_end_utime(scene, seq)) return afm::Reject::out_of_range;
+        return afm::Reject::none;
     }
 
     void write_outputs_for_scan(const std::string &name, const cv::Mat &h)
@@ -213,11 +230,26 @@ struct Renderer {
         lc.publish(AFM_CH_RENDER_FRAME, &m);
     }
 
-    void on_tip(const lcm::ReceiveBuffer *, const std::string &, const afm::fw_tip_t *m) { tip_msg = *m; }
-    void on_force(const lcm::ReceiveBuffer *, const std::string &, const afm::fw_force_t *m) { force_msg = *m; }
-    void on_haptic(const lcm::ReceiveBuffer *, const std::string &, const afm::haptic_force_t *m)
+    afm::Reject on_tip(const afm::fw_tip_t &m)
     {
-        if (m->seq >= haptic_msg.seq) haptic_msg = *m;
+        if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
+        if (m.seq < tip_msg.seq) return afm::Reject::seq_past;
+        tip_msg = m;
+        return afm::Reject::none;
+    }
+    afm::Reject on_force(const afm::fw_force_t &m)
+    {
+        if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
+        if (m.seq < force_msg.seq) return afm::Reject::seq_past;
+        force_msg = m;
+        return afm::Reject::none;
+    }
+    afm::Reject on_haptic(const afm::haptic_force_t &m)
+    {
+        if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
+        if (m.seq < haptic_msg.seq) return afm::Reject::seq_past;
+        haptic_msg = m;
+        return afm::Reject::none;
     }
 
     void set_model(const afm::objects_t &m)
@@ -239,11 +271,17 @@ struct Renderer {
         update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    void on_objects(const lcm::ReceiveBuffer *, const std::string &, const afm::objects_t *msg)
+    afm::Reject on_objects(const afm::objects_t &msg)
     {
+        if (const afm::Reject r = block_message(msg.seq, msg.utime); r != afm::Reject::none) return r;
         // Every message keeps the whole set; what follows reads the set.
-        if (!objects.apply(*msg)) return;
-        const afm::objects_t *m = &objects.whole();
+        if (!objects.apply(msg)) return afm::Reject::out_of_range;
+        objects_frames(&objects.whole());
+        return afm::Reject::none;
+    }
+
+    void objects_frames(const afm::objects_t *m)
+    {
         if (!started || final_pending) return;
         if (local_pending >= 0) {
             // Waiting for the firmware to apply the local scan's fix.
@@ -485,8 +523,9 @@ struct Renderer {
         return out;
     }
 
-    void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    afm::Reject on_heartbeat(const afm::heartbeat_t &hb_msg)
     {
+        const afm::heartbeat_t *m = &hb_msg;
         if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
         if (m->name == "sim_afm" && m->state == "ending") {
             // The run ends at block m->seq (the planner finished): its last
@@ -499,6 +538,7 @@ struct Renderer {
                 pick_sheet();
             }
         }
+        return afm::Reject::none;
     }
 };
 
@@ -520,12 +560,13 @@ int main(int argc, char **argv)
         std::filesystem::create_directories(out_dir + "/frames");
         auto lc = afm::open_bus();
         Renderer r(scene, *lc, out_dir);
-        lc->subscribe(AFM_CH_AFM_SCAN_LINE, &Renderer::on_line, &r)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_FW_TIP, &Renderer::on_tip, &r)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_FW_FORCE, &Renderer::on_force, &r)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_HAPTIC_FORCE, &Renderer::on_haptic, &r)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_FW_OBJECTS, &Renderer::on_objects, &r)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Renderer::on_heartbeat, &r)->setQueueCapacity(afm::kQueueCapacity);
+        afm::Inbox inbox(lc.get());
+        inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
+        inbox.on<afm::fw_tip_t>(AFM_CH_FW_TIP, [&](const afm::fw_tip_t &m) { return r.on_tip(m); });
+        inbox.on<afm::fw_force_t>(AFM_CH_FW_FORCE, [&](const afm::fw_force_t &m) { return r.on_force(m); });
+        inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return r.on_haptic(m); });
+        inbox.on<afm::objects_t>(AFM_CH_FW_OBJECTS, [&](const afm::objects_t &m) { return r.on_objects(m); });
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return r.on_heartbeat(m); });
 
         // The full scan first.
         r.hb.send("starting", -1, 0, "scanning");
@@ -569,7 +610,8 @@ int main(int argc, char **argv)
                               {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
                               {"write_ms_per_frame", r.frames_written ? 1e3 * r.write_s / r.frames_written : 0.0},
                               {"pixels_updated", r.touched_px},
-                              {"local_scans", r.local_scans}};
+                              {"local_scans", r.local_scans},
+                              {"rejected", inbox.rejected().to_json()}};
         std::ofstream(out_dir + "/renderer_report.json") << rep.dump(2) << "\n";
         r.hb.send("done", r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
         return 0;

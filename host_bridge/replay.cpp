@@ -33,6 +33,7 @@
 
 #include "afm_channels.h"
 #include "card_node.hpp"
+#include "inbox.hpp"
 #include "lcmlog.hpp"
 #include "scene.hpp"
 
@@ -319,6 +320,8 @@ struct Outputs {
     std::map<Key, std::vector<uint8_t>> recorded, replayed;
     std::vector<std::string> notes;     // what the card said about fixes
     int64_t events = 0, inputs = 0;
+    int64_t refused_inputs = 0;         // input datagrams the card's inbox refused (inbox.hpp), as fw_node did
+    int64_t foreign_outputs = 0;        // datagrams on an output channel that are not the card's (do not decode, or name a block it never stepped)
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
     std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
 };
@@ -365,35 +368,39 @@ Outputs run_replay(const Options &o)
             out.write(utime, m.channel, m.data);
         }
     };
-    auto located = [&](const DecodeError &e, uint64_t offset, const std::string &ch) {
-        return afm::LogError(o.log + ": byte offset " + std::to_string(offset) + ": " + ch + " message " + e.what());
-    };
+    // The card's inputs through the same decode-and-check as fw_node's
+    // (inbox.hpp): a datagram the node refused in the run is refused here.
+    afm::Inbox inbox(nullptr);
+    int64_t ev_utime = 0;
+    inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &b) {
+        afm::Reject why;
+        take(node.on_analog(b, &why), ev_utime);
+        if (why == afm::Reject::none) max_analog = std::max(max_analog, b.seq);
+        return why;
+    });
+    inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &p) {
+        afm::Reject why;
+        take(node.on_pose(p, &why), ev_utime);
+        return why;
+    });
+    inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &f) {
+        std::string note;
+        afm::Reject why;
+        take(node.on_fix(f, &note, &why), ev_utime);
+        if (!note.empty()) r.notes.push_back(note);
+        return why;
+    });
     afm::LogEvent ev;
     while (log.read(&ev)) {
-        try {
-            if (ev.channel == AFM_CH_AFM_ANALOG) {
-                out.write(ev.utime, ev.channel, ev.data);
-                const auto b = decode<afm::analog_block_t>(ev.data, "analog_block_t");
-                max_analog = std::max(max_analog, b.seq);
-                take(node.on_analog(b), ev.utime);
-                ++r.inputs;
-            } else if (ev.channel == AFM_CH_HAPTIC_POSE) {
-                out.write(ev.utime, ev.channel, ev.data);
-                take(node.on_pose(decode<afm::haptic_pose_t>(ev.data, "haptic_pose_t")), ev.utime);
-                ++r.inputs;
-            } else if (ev.channel == AFM_CH_HOST_OBJECT_FIX) {
-                std::string note;
-                out.write(ev.utime, ev.channel, ev.data);
-                take(node.on_fix(decode<afm::object_fix_t>(ev.data, "object_fix_t"), &note), ev.utime);
-                if (!note.empty()) r.notes.push_back(note);
-                ++r.inputs;
-            } else {
-                recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
-            }
-        } catch (const DecodeError &e) {
-            throw located(e, ev.offset, ev.channel);
+        if (ev.channel == AFM_CH_AFM_ANALOG || ev.channel == AFM_CH_HAPTIC_POSE || ev.channel == AFM_CH_HOST_OBJECT_FIX) {
+            out.write(ev.utime, ev.channel, ev.data);
+            ev_utime = ev.utime;
+            if (inbox.deliver(ev.channel, ev.data.data(), ev.data.size()) == afm::Reject::none) ++r.inputs;
+        } else {
+            recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
         }
     }
+    r.refused_inputs = inbox.rejected().total();
     r.events = log.events();
     // The recorded outputs' keys: by content where the replay gave the same
     // bytes on that channel, else from the message itself.
@@ -407,8 +414,13 @@ Outputs run_replay(const Options &o)
             }
         try {
             if (!known) k = output_key(raw.channel, raw.data);
-        } catch (const DecodeError &e) {
-            throw located(e, raw.offset, raw.channel);
+        } catch (const DecodeError &) {
+            ++r.foreign_outputs;   // the card never sent it (a hostile or broken datagram on its channel)
+            continue;
+        }
+        if (std::get<0>(k) < -1 || std::get<0>(k) > max_analog) {
+            ++r.foreign_outputs;   // a block the card never stepped: not the card's answer
+            continue;
         }
         auto [it, fresh] = r.recorded.try_emplace(k, std::move(raw.data));
         if (!fresh && it->second != raw.data) {
@@ -484,6 +496,10 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
     std::printf("\n");
     if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (lcm-logger was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
+    if (r.refused_inputs || r.foreign_outputs)
+        std::printf("replay: %lld input datagrams refused by the card's inbox (as in the run), %lld datagrams on output channels that "
+                    "are not the card's (do not decode, or name a block the card never stepped)\n",
+                    static_cast<long long>(r.refused_inputs), static_cast<long long>(r.foreign_outputs));
     if (r.self_inconsistent)
         std::printf("replay: the recording holds %lld repeated outputs that differ from their first copy\n",
                     static_cast<long long>(r.self_inconsistent));

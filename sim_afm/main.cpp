@@ -27,6 +27,7 @@
 #include "afm/sim_truth_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 #include "bus.hpp"
+#include "inbox.hpp"
 #include "objects_view.hpp"
 #include "log_tail.hpp"
 #include "scene.hpp"
@@ -46,6 +47,9 @@ constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line
 // 8 messages each) and scan lines ahead of what lcm-logger has written, so
 // the logger's 30-message queue never overflows (log_tail.hpp).
 constexpr int64_t kLogWindowBlocks = 3;
+// Scan requests for the next block the simulator keeps at most (each client
+// has one scan under way; more are refused as out_of_range).
+constexpr std::size_t kLaterScans = 16;
 constexpr int64_t kLogWindowLines = 16;
 
 struct Sim {
@@ -78,47 +82,63 @@ struct Sim {
     {
         if (!log) return;
         for (;;) {
-            log->poll();
+            log->poll(waiting_after);   // the last block published
             if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) return;
             ++log_waits;
             std::this_thread::sleep_for(std::chrono::microseconds(200));
         }
     }
 
-    void on_heartbeat(const lcm::ReceiveBuffer *, const std::string &, const afm::heartbeat_t *m)
+    afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        if (m->name == "operator" && m->state == "finished" && finished_seq < 0) finished_seq = m->seq;
-        if (m->state == "ready" || m->state == "running") ready.insert(m->name);
-        if (m->name == "launcher" && m->state == "running") go = true;
-        if (m->name == "launcher" && m->state == "stop") abort = true;
+        if (m.name == "operator" && m.state == "finished" && finished_seq < 0) finished_seq = m.seq;
+        if (m.state == "ready" || m.state == "running") ready.insert(m.name);
+        if (m.name == "launcher" && m.state == "running") go = true;
+        if (m.name == "launcher" && m.state == "stop") abort = true;
+        return afm::Reject::none;
     }
 
-    void on_cmd(const lcm::ReceiveBuffer *, const std::string &, const afm::tip_cmd_t *m)
+    // The card's answer to the block the simulator waits after; an older
+    // one is a duplicate (the card answers a resend again).
+    afm::Reject on_cmd(const afm::tip_cmd_t &m)
     {
-        if (m->ack_seq > acked) {
-            acked = m->ack_seq;
-            pending_cmd = *m;
-            have_cmd = true;
-        }
+        if (m.ack_seq <= acked) return afm::Reject::seq_past;
+        if (m.ack_seq > waiting_after) return afm::Reject::seq_future;
+        acked = m.ack_seq;
+        pending_cmd = m;
+        have_cmd = true;
+        return afm::Reject::none;
     }
 
-    void on_frame(const lcm::ReceiveBuffer *, const std::string &, const afm::render_frame_t *m)
+    // A frame the renderer cannot have drawn yet (it draws a frame once the
+    // simulator has published the blocks before it) is refused.
+    afm::Reject on_frame(const afm::render_frame_t &m)
     {
-        frames_done = std::max(frames_done, m->index + 1);
+        if (m.index < 0) return afm::Reject::out_of_range;
+        if (m.index + 1 > afm::frames_due(scene, afm::block_end_utime(scene, std::max<int64_t>(waiting_after, 0))))
+            return afm::Reject::seq_future;
+        frames_done = std::max(frames_done, m.index + 1);
+        return afm::Reject::none;
     }
 
-    void on_scan_req(const lcm::ReceiveBuffer *, const std::string &, const afm::scan_req_t *m)
+    afm::Reject on_scan_req(const afm::scan_req_t &m)
     {
-        if (m->nx < 1 || m->ny < 1 || m->nx > 8192 || m->ny > 8192 || m->first_line < 0 || m->n_lines < 0) {
-            std::fprintf(stderr, "sim_afm: ignoring scan request %d with bad size nx=%d ny=%d\n", m->req_id, m->nx, m->ny);
-            return;
+        if (m.nx < 1 || m.ny < 1 || m.nx > 8192 || m.ny > 8192 || m.first_line < 0 || m.n_lines < 0 || !(m.width_nm > 0) ||
+            !(m.height_nm > 0)) {
+            std::fprintf(stderr, "sim_afm: ignoring scan request %d with bad size nx=%d ny=%d\n", m.req_id, m.nx, m.ny);
+            return afm::Reject::out_of_range;
         }
-        // One for a later block waits until the simulator waits after it.
-        if (m->at_seq > waiting_after) {
-            later_scans.push_back(*m);
-            return;
+        // One for a later block waits until the simulator waits after it; a
+        // client asks for the block its next pose answers, so more than one
+        // block ahead (or more than kLaterScans waiting) is refused.
+        if (m.at_seq > waiting_after) {
+            if (m.at_seq > waiting_after + 1) return afm::Reject::seq_future;
+            if (later_scans.size() >= kLaterScans) return afm::Reject::out_of_range;
+            later_scans.push_back(m);
+            return afm::Reject::none;
         }
-        serve_scan(m);
+        serve_scan(&m);
+        return afm::Reject::none;
     }
 
     // The planner has finished: the run ends one frame period after it (a
@@ -265,10 +285,11 @@ int main(int argc, char **argv)
         auto lc = afm::open_bus();
         Sim sim(scene, *lc);
         if (!follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(follow_log);
-        lc->subscribe(AFM_CH_AFM_HEARTBEAT, &Sim::on_heartbeat, &sim)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_AFM_CMD, &Sim::on_cmd, &sim)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_RENDER_FRAME, &Sim::on_frame, &sim)->setQueueCapacity(afm::kQueueCapacity);
-        lc->subscribe(AFM_CH_AFM_SCAN_REQ, &Sim::on_scan_req, &sim)->setQueueCapacity(afm::kQueueCapacity);
+        afm::Inbox inbox(lc.get());
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return sim.on_heartbeat(m); });
+        inbox.on<afm::tip_cmd_t>(AFM_CH_AFM_CMD, [&](const afm::tip_cmd_t &m) { return sim.on_cmd(m); });
+        inbox.on<afm::render_frame_t>(AFM_CH_RENDER_FRAME, [&](const afm::render_frame_t &m) { return sim.on_frame(m); });
+        inbox.on<afm::scan_req_t>(AFM_CH_AFM_SCAN_REQ, [&](const afm::scan_req_t &m) { return sim.on_scan_req(m); });
 
         // Start: serve scans until every peer is ready and the launcher says go.
         const std::set<std::string> peers = {"fw_node", "operator", "renderer"};
@@ -376,7 +397,8 @@ int main(int argc, char **argv)
             << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits << ",\n  \"injected_drops\": " << dropped
             << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
             << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()
-            << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped() << "\n}\n";
+            << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped()
+            << ",\n  \"rejected\": " << inbox.rejected().to_json().dump() << "\n}\n";
         rep.close();
         if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");
         for (int i = 0; i < 3; ++i) {

@@ -9,6 +9,7 @@ handy from a Python prompt:
 """
 import copy
 import os
+import struct
 import sys
 from collections import defaultdict
 
@@ -31,11 +32,22 @@ with open(os.path.join(HERE, "..", "lcmtypes", "channels.yaml")) as f:
     CHANNELS = {row["channel"]: row["type"] for row in yaml.safe_load(f)}
 
 
+class Log(defaultdict):
+    """{channel: [msg, ...]}, and .undecodable: {channel: count} of the
+    datagrams on a known channel that do not decode as its type (a hostile
+    or broken sender: the bench's processes refused them too)."""
+
+    def __init__(self):
+        super().__init__(list)
+        self.undecodable = defaultdict(int)
+
+
 def load(path, channels=None):
     """All messages of `path`, decoded, as {channel: [msg, ...]} in log order.
     Channels not in channels.yaml (e.g. LCM_SELF_TEST) are counted under
-    their name with raw bytes."""
-    out = defaultdict(list)
+    their name with raw bytes. A message that does not decode as its
+    channel's type is left out and counted in .undecodable."""
+    out = Log()
     log = lcm.EventLog(path, "r")
     for ev in log:
         if channels and ev.channel not in channels:
@@ -44,7 +56,10 @@ def load(path, channels=None):
         if tname is None:
             out[ev.channel].append(ev.data)
             continue
-        out[ev.channel].append(getattr(afm, tname).decode(ev.data))
+        try:
+            out[ev.channel].append(getattr(afm, tname).decode(ev.data))
+        except (ValueError, struct.error, UnicodeDecodeError, MemoryError, OverflowError):
+            out.undecodable[ev.channel] += 1
     return out
 
 

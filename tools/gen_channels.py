@@ -16,6 +16,8 @@ def main(src: str, dst: str) -> int:
     lines.append("")
     lines.append("#define AFM_CHANNEL_COUNT %d" % len(rows))
     lines.append("#define AFM_CHANNEL_LIST { %s }" % ", ".join(f'"{r["channel"]}"' for r in rows))
+    lines.append("/* X(CHANNEL, type) for every channel: the type each one carries. */")
+    lines.append("#define AFM_CHANNEL_TYPES(X) %s" % " ".join(f'X({r["channel"]}, {r["type"]})' for r in rows))
     lines += ["", "#endif", ""]
     with open(dst, "w") as f:
         f.write("\n".join(lines))

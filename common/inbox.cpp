@@ -1,0 +1,127 @@
+#include "inbox.hpp"
+
+#include <stdexcept>
+
+#include "afm_channels.h"
+#include "bus.hpp"
+#include "afm/analog_block_t.hpp"
+#include "afm/fw_force_t.hpp"
+#include "afm/fw_tip_t.hpp"
+#include "afm/haptic_force_t.hpp"
+#include "afm/haptic_pose_t.hpp"
+#include "afm/heartbeat_t.hpp"
+#include "afm/object_fix_t.hpp"
+#include "afm/objects_t.hpp"
+#include "afm/render_frame_t.hpp"
+#include "afm/scan_line_t.hpp"
+#include "afm/scan_req_t.hpp"
+#include "afm/sim_truth_t.hpp"
+#include "afm/tip_cmd_t.hpp"
+
+namespace afm {
+
+namespace {
+
+struct ChannelType {
+    const char *channel;
+    const char *type;
+    int64_t hash;
+};
+
+#define AFM_ROW(CH, T) {#CH, #T, static_cast<int64_t>(T::getHash())},
+const ChannelType kChannels[] = {AFM_CHANNEL_TYPES(AFM_ROW)};
+#undef AFM_ROW
+
+}  // namespace
+
+const char *reject_name(Reject r)
+{
+    switch (r) {
+    case Reject::none: return "none";
+    case Reject::truncated: return "truncated";
+    case Reject::fingerprint: return "fingerprint";
+    case Reject::wrong_type: return "wrong_type";
+    case Reject::array_length: return "array_length";
+    case Reject::non_finite: return "non_finite";
+    case Reject::seq_past: return "seq_past";
+    case Reject::seq_future: return "seq_future";
+    case Reject::out_of_range: return "out_of_range";
+    case Reject::count_: break;
+    }
+    return "unknown";
+}
+
+std::string bus_type_of_hash(int64_t hash)
+{
+    for (const auto &c : kChannels)
+        if (c.hash == hash) return c.type;
+    return "";
+}
+
+std::string channel_type(const std::string &channel)
+{
+    for (const auto &c : kChannels)
+        if (channel == c.channel) return c.type;
+    return "";
+}
+
+Reject classify_decode_failure(int code, const void *data, std::size_t size, int64_t expected_hash)
+{
+    if (code == AFM_LCM_E_LENGTH) return Reject::array_length;
+    if (code == AFM_LCM_E_NONFINITE) return Reject::non_finite;
+    int64_t hash = 0;
+    // The fingerprint: LCM's own decoder for its first 8 bytes.
+    if (size < sizeof hash || __int64_t_decode_array(data, 0, static_cast<int>(size), &hash, 1) < 0) return Reject::truncated;
+    if (hash == expected_hash) return Reject::truncated;
+    return bus_type_of_hash(hash).empty() ? Reject::fingerprint : Reject::wrong_type;
+}
+
+void Rejections::count(Reject r, const std::string &channel)
+{
+    if (r == Reject::none || r == Reject::count_) return;
+    ++total_;
+    ++by_reason_[static_cast<std::size_t>(r)];
+    // Channels are the bus's own (a subscription's name), so the map stays small.
+    ++by_channel_[channel];
+}
+
+nlohmann::json Rejections::to_json() const
+{
+    nlohmann::json j = {{"total", total_}, {"by_reason", nlohmann::json::object()}, {"by_channel", nlohmann::json::object()}};
+    for (int i = 1; i < static_cast<int>(Reject::count_); ++i)
+        j["by_reason"][reject_name(static_cast<Reject>(i))] = by_reason_[static_cast<std::size_t>(i)];
+    for (const auto &kv : by_channel_) j["by_channel"][kv.first] = kv.second;
+    return j;
+}
+
+void Inbox::check_channel(const std::string &channel, const char *type_name) const
+{
+    const std::string t = channel_type(channel);
+    if (t.empty()) throw std::logic_error("Inbox: channel " + channel + " is not in lcmtypes/channels.yaml");
+    if (t != type_name) throw std::logic_error("Inbox: channel " + channel + " carries " + t + ", not " + type_name);
+}
+
+void Inbox::subscribe(Sub &sub)
+{
+    if (!lc_) return;
+    lc_->subscribe(sub.channel, &Sub::on_raw, &sub)->setQueueCapacity(kQueueCapacity);
+}
+
+void Inbox::Sub::on_raw(const lcm::ReceiveBuffer *rbuf, const std::string &)
+{
+    const Reject r = take(rbuf->data, rbuf->data_size);
+    inbox->rejected_.count(r, channel);
+}
+
+Reject Inbox::deliver(const std::string &channel, const void *data, std::size_t size)
+{
+    for (auto &s : subs_)
+        if (s->channel == channel) {
+            const Reject r = s->take(data, size);
+            rejected_.count(r, channel);
+            return r;
+        }
+    return Reject::none;
+}
+
+}  // namespace afm

@@ -1,0 +1,213 @@
+#!/usr/bin/env python3
+"""Publishes hostile datagrams into a live run's bus: every kind of message a
+process of the bench must count and drop (common/inbox.hpp) on every channel
+someone listens to. Run it inside the run's network namespace (the test and
+./afm faults start it beside afm_launch under one tools/in_netns.sh).
+
+    tools/hostile.py [--seconds S] [--rate HZ] [--kinds K,K,...] [--seed N]
+
+Kinds (each datagram is one of them):
+  truncated     a valid message of the channel's type cut short
+  fingerprint   random bytes behind a fingerprint no type has
+  wrong_type    a valid message of another bus type
+  array_length  a valid message whose array length field says 2^31 - 1
+  non_finite    a valid message with a NaN or an infinity in a double
+  seq_past      a valid message of a block long gone (seq -5)
+  seq_future    a valid message of a block far ahead (seq 10^12)
+  flood         random bytes at the full rate for the whole time
+The first seven are sent once per channel every cycle, spread over the run;
+the flood fills the other half of the rate. Prints a JSON line with what was sent,
+by kind and by channel, on exit.
+
+None of them is a plausible message of the run (a spoofed block with the
+right seq and time is not a fault the bench can tell from the truth), so a
+run that receives them must end exactly as one that did not.
+"""
+import argparse
+import json
+import math
+import os
+import random
+import signal
+import struct
+import sys
+import time
+from collections import defaultdict
+
+import lcm
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.environ.get("AFM_LCMTYPES_PY", os.path.join(HERE, "..", "build", "main", "lcmtypes")))
+import afm  # noqa: E402  (generated at build time)
+import yaml  # noqa: E402
+
+with open(os.path.join(HERE, "..", "lcmtypes", "channels.yaml")) as f:
+    CHANNELS = {row["channel"]: row["type"] for row in yaml.safe_load(f)}
+
+KINDS = ["truncated", "fingerprint", "wrong_type", "array_length", "non_finite", "seq_past", "seq_future", "flood"]
+# Channels whose valid messages a process would act on (others only count).
+SEQ_FIELDS = ("seq", "ack_seq", "at_seq", "index", "fix_id")
+# Arrays of structs (the filler cannot read an element's type off the class).
+STRUCT_ARRAYS = {"particles": "particle_t", "wires": "wire_t", "trenches": "trench_t"}
+BUS_URL = "udpm://239.255.76.67:7667?ttl=0"
+
+
+NO_BLOCK = -7   # the sequence of every hostile message that is not about sequences: no run has it
+
+
+def example(tname, seq=NO_BLOCK, count=None, bad_double=None):
+    """A message of type `tname` with every field filled plausibly; `seq`
+    goes into every sequence field (by default one no run has, so that a
+    run's own messages stay apart in its log); `count`, when given, into the
+    first array length (arrays sized to it); `bad_double` into the first
+    double."""
+    m = getattr(afm, tname)()
+    first_count, first_double = [True], [True]
+
+    def fill(obj):
+        for name in obj.__slots__:
+            v = getattr(obj, name)
+            if name in ("seq", "ack_seq", "at_seq", "base_seq"):
+                setattr(obj, name, seq)
+            elif name in ("index", "fix_id"):
+                setattr(obj, name, max(min(seq, 2**31 - 1), -2**31))
+            elif isinstance(v, float):
+                if bad_double is not None and first_double[0]:
+                    setattr(obj, name, bad_double)
+                    first_double[0] = False
+                else:
+                    setattr(obj, name, 1.0)
+            elif isinstance(v, list) and v and isinstance(v[0], float):
+                vals = [1.0] * len(v)
+                if bad_double is not None and first_double[0]:
+                    vals[0] = bad_double
+                    first_double[0] = False
+                setattr(obj, name, vals)
+            elif isinstance(v, str):
+                setattr(obj, name, "hostile")
+    fill(m)
+    if count is not None:
+        # the first count field sizes the arrays behind it: fill them
+        for name in m.__slots__:
+            if name == "n" or name.startswith("n_"):
+                if first_count[0]:
+                    setattr(m, name, count)
+                    first_count[0] = False
+                    arrays = [a for a in m.__slots__ if isinstance(getattr(m, a), list) and a not in ("joy",)]
+                    for a in arrays:
+                        cur = getattr(m, a)
+                        if a in STRUCT_ARRAYS:
+                            setattr(m, a, [example(STRUCT_ARRAYS[a]) for _ in range(count)])
+                        elif not cur or isinstance(cur[0], float):
+                            setattr(m, a, [1.0] * count)
+    return m
+
+
+def encode(m):
+    try:
+        return m.encode()
+    except Exception:  # a type whose arrays the filler cannot size: skip it
+        return None
+
+
+def datagrams(channel, kind, rng):
+    """The hostile datagrams of `kind` for `channel` (bytes), may be empty."""
+    tname = CHANNELS[channel]
+    valid = encode(example(tname))
+    out = []
+    if kind == "truncated" and valid:
+        out.append(valid[: max(1, len(valid) // 2)])
+    elif kind == "fingerprint":
+        out.append(bytes(rng.getrandbits(8) for _ in range(8 + rng.randrange(64))))
+    elif kind == "wrong_type":
+        other = next(t for t in sorted(set(CHANNELS.values())) if t != tname and encode(example(t)))
+        out.append(encode(example(other)))
+    elif kind == "array_length":
+        # the message with 3 elements, its count field (found by encoding it
+        # with 3 and with 4 elements) replaced by 2^31 - 1
+        a, b = encode(example(tname, count=3)), encode(example(tname, count=4))
+        if a and b:
+            i = next((k for k in range(min(len(a), len(b)) - 3)
+                      if a[k:k + 4] == struct.pack(">i", 3) and b[k:k + 4] == struct.pack(">i", 4)), None)
+            if i is not None:
+                out.append(a[:i] + struct.pack(">i", 2**31 - 1) + a[i + 4:])
+    elif kind == "non_finite":
+        for bad in (math.nan, math.inf, -math.inf):
+            d = encode(example(tname, bad_double=bad))
+            if d:
+                out.append(d)
+    elif kind == "seq_past":
+        d = encode(example(tname, seq=-5))
+        if d and any(n in SEQ_FIELDS for n in getattr(afm, tname).__slots__):
+            out.append(d)
+    elif kind == "seq_future":
+        d = encode(example(tname, seq=10**12))
+        if d and any(n in SEQ_FIELDS for n in getattr(afm, tname).__slots__):
+            out.append(d)
+    elif kind == "flood":
+        out.append(bytes(rng.getrandbits(8) for _ in range(8 + rng.randrange(200))))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=5.0, help="how long to send (wall seconds; default 5)")
+    ap.add_argument("--rate", type=float, default=2000.0, help="datagrams per wall second in all (default 2000)")
+    ap.add_argument("--kinds", default=",".join(KINDS), help="comma-separated kinds (default: all)")
+    ap.add_argument("--channels", default="", help="comma-separated channels (default: every channel)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--delay", type=float, default=0.0, help="wait this many wall seconds first")
+    a = ap.parse_args()
+    kinds = [k for k in a.kinds.split(",") if k]
+    for k in kinds:
+        if k not in KINDS:
+            ap.error(f"--kinds: unknown kind '{k}' (known: {', '.join(KINDS)})")
+    # A valid heartbeat with a process's name would be a spoof: the
+    # hostile ones are named "hostile" (the launcher refuses the name).
+    channels = [c for c in a.channels.split(",") if c] or [c for c in CHANNELS]
+    rng = random.Random(a.seed)
+    lc = lcm.LCM(os.environ.get("LCM_DEFAULT_URL", BUS_URL))
+    cycle = []
+    for ch in channels:
+        for k in kinds:
+            if k == "flood":
+                continue
+            if ch == "AFM_HEARTBEAT" and k in ("wrong_type", "non_finite"):
+                continue
+            for d in datagrams(ch, k, rng):
+                cycle.append((k, ch, d))
+    sent = defaultdict(lambda: defaultdict(int))
+    # SIGTERM (the run is over) ends the sending as SIGINT does: a shell's
+    # background job ignores SIGINT, so callers stop it with SIGTERM.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    time.sleep(a.delay)
+    t0 = time.monotonic()
+    try:
+        send(a, kinds, channels, cycle, rng, lc, sent, t0)
+    except KeyboardInterrupt:   # SIGINT or SIGTERM: the run is over
+        pass
+    total = sum(sum(v.values()) for v in sent.values())
+    print(json.dumps({"sent": {k: dict(v) for k, v in sent.items()}, "total": total, "seconds": time.monotonic() - t0}), flush=True)
+
+
+def send(a, kinds, channels, cycle, rng, lc, sent, t0):
+    period = 1.0 / a.rate if a.rate > 0 else 0.01
+    i = 0
+    next_t = t0
+    while time.monotonic() - t0 < a.seconds:
+        if cycle and (i % 2 == 0 or "flood" not in kinds):
+            k, ch, d = cycle[(i // 2 if "flood" in kinds else i) % len(cycle)]
+        else:
+            k, ch = "flood", rng.choice(channels)
+            d = datagrams(ch, "flood", rng)[0]
+        lc.publish(ch, d)
+        sent[k][ch] += 1
+        i += 1
+        next_t += period
+        delay = next_t - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+
+
+if __name__ == "__main__":
+    main()
