@@ -157,7 +157,12 @@ def main():
     ap.add_argument("--channels", default="", help="comma-separated channels (default: every channel)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--delay", type=float, default=0.0, help="wait this many wall seconds first")
+    ap.add_argument("--echo", type=float, default=0.0, metavar="P",
+                    help="instead: send each message seen on the bus once more with probability P, 0-5 ms later "
+                         "(duplicates, reordered against what follows them)")
     a = ap.parse_args()
+    if a.echo > 0:
+        return echo(a)
     kinds = [k for k in a.kinds.split(",") if k]
     for k in kinds:
         if k not in KINDS:
@@ -190,6 +195,42 @@ def main():
     print(json.dumps({"sent": {k: dict(v) for k, v in sent.items()}, "total": total, "seconds": time.monotonic() - t0}), flush=True)
 
 
+def echo(a):
+    """Each datagram on the bus once more, with probability a.echo, after
+    0-5 ms: a network that duplicates and reorders (where tc netem is not
+    in the kernel)."""
+    import heapq
+    rng = random.Random(a.seed)
+    lc = lcm.LCM(os.environ.get("LCM_DEFAULT_URL", BUS_URL))
+    due, seen, n = [], set(), [0, 0]
+
+    def on(channel, data):
+        key = hash((channel, data))
+        if key in seen:          # our own echo (or a resend, echoed already)
+            return
+        if len(seen) > 200000:
+            seen.clear()
+        seen.add(key)
+        n[0] += 1
+        if rng.random() < a.echo:
+            heapq.heappush(due, (time.monotonic() + rng.uniform(0, 0.005), n[0], channel, data))
+
+    lc.subscribe(".*", on)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    t0 = time.monotonic()
+    try:
+        while time.monotonic() - t0 < a.seconds:
+            lc.handle_timeout(1)
+            while due and due[0][0] <= time.monotonic():
+                _, _, ch, d = heapq.heappop(due)
+                lc.publish(ch, d)
+                n[1] += 1
+    except KeyboardInterrupt:
+        pass
+    print(json.dumps({"seen": n[0], "echoed": n[1], "seconds": time.monotonic() - t0}), flush=True)
+    return 0
+
+
 def send(a, kinds, channels, cycle, rng, lc, sent, t0):
     period = 1.0 / a.rate if a.rate > 0 else 0.01
     i = 0
@@ -210,4 +251,4 @@ def send(a, kinds, channels, cycle, rng, lc, sent, t0):
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,0 +1,412 @@
+#!/usr/bin/env python3
+"""./afm faults: the fault matrix. Runs a short scene undisturbed, then once
+per fault, and prints one row each: the fault, what the bench did, whether
+the bus log and run.json were kept whole, and whether the run's results
+match the undisturbed run where they should.
+
+    tools/faults.py [--only ROW...] [--scene SCENE] [--out DIR] [--seed N] [--list]
+
+Rows (design.md, "Reliability"):
+  kill:NAME       SIGKILL of sim_afm, fw_node, operator or renderer at a random
+                  time in the run: the run fails naming it; log and run.json kept
+  stop:NAME       SIGSTOP for 2 s, then SIGCONT: the run completes, same trajectories
+  launcher:SIG    SIGINT or SIGTERM to the launcher: every child stopped (checked
+                  by process group), run.json says interrupted, the log closed
+  net:drop        10 % of the analog blocks' first sends dropped (sim_afm's
+                  --inject-drop): resends, same trajectories
+  net:dup         every message echoed once more, 0-5 ms later, by a process on
+                  the bus (duplicates, and reordering against what follows):
+                  same trajectories
+  net:netem       tc netem on the run's loopback (drop, duplicate, reorder), where
+                  the kernel has sch_netem (skipped, with the reason, where not)
+  disk:full       the run folder on a 1 MB tmpfs (a run needs 2.4): a clear error, no run.json that
+                  claims success
+  scene:changed   the scene file overwritten with garbage while the run starts:
+                  the run reads its own copy; same trajectories
+  two-runs        two runs of the scene at once in one checkout: both complete,
+                  both with the undisturbed trajectories
+Exit status: 0 when every row is as expected, 1 otherwise.
+"""
+import argparse
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SRC = os.path.dirname(HERE)
+BUILD = os.environ.get("AFM_BUILD", os.path.join(SRC, "build", "main"))
+LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
+IN_NETNS = os.path.join(HERE, "in_netns.sh")
+os.environ.setdefault("AFM_LCMTYPES_PY", os.path.join(BUILD, "lcmtypes"))
+sys.path.insert(0, HERE)
+import afmlog  # noqa: E402
+
+PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
+ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
+        "net:netem", "disk:full", "scene:changed", "two-runs"])
+# What a trajectory is: the simulator's truth and the card's answers, by block.
+TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_FORCE", "seq"), ("HAPTIC_POSE", "seq")]
+
+
+def children(pid):
+    """{name: pid} of the processes whose parent is `pid` (from /proc)."""
+    out = {}
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                st = f.read()
+        except OSError:
+            continue
+        name = st[st.index("(") + 1:st.rindex(")")]
+        fields = st[st.rindex(")") + 2:].split()
+        if int(fields[1]) == pid:
+            out[name] = int(d)
+    return out
+
+
+def alive_in_groups(pgids):
+    """Processes still alive in any of the process groups `pgids`."""
+    left = []
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                st = f.read()
+        except OSError:
+            continue
+        fields = st[st.rindex(")") + 2:].split()
+        if fields[0] != "Z" and int(fields[2]) in pgids:
+            left.append(int(d))
+    return left
+
+
+class Run:
+    """One afm_launch in its own namespace, with hooks while it runs."""
+
+    def __init__(self, scene, out, extra=(), wrap=None):
+        self.out = out
+        cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
+        if wrap:
+            cmd = wrap(cmd)
+        self.p = subprocess.Popen([IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                  start_new_session=True)
+        self.kids = {}
+
+    def wait_kids(self, timeout=30):
+        """Waits until the four bus processes run; returns {name: pid}."""
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout and self.p.poll() is None:
+            self.kids = {k: v for k, v in children(self.launcher_pid()).items() if k in PROCS}
+            if len(self.kids) == len(PROCS):
+                return self.kids
+            time.sleep(0.02)
+        return self.kids
+
+    def launcher_pid(self):
+        # in_netns.sh execs unshare, which execs sh, which execs afm_launch: one pid
+        # (for wrapped commands the launcher is the shell's child)
+        kids = children(self.p.pid)
+        return kids.get("afm_launch", self.p.pid)
+
+    def finish(self, timeout=300):
+        try:
+            out, err = self.p.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.p.pid, signal.SIGKILL)
+            out, err = self.p.communicate()
+            err += "\n(faults: timed out)"
+        self.code, self.stdout, self.stderr = self.p.returncode, out, err
+        self.rj = None
+        try:
+            with open(os.path.join(self.out, "run.json")) as f:
+                self.rj = json.load(f)
+        except (OSError, ValueError):
+            pass
+        return self
+
+
+def trajectories(out, blocks):
+    """{channel: {seq: bytes}} of the run's blocks, or None if the log does not read."""
+    try:
+        log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=[c for c, _ in TRAJ])
+    except Exception as e:  # a log that does not read is a finding, not a crash
+        return None, str(e)
+    traj = {}
+    for ch, field in TRAJ:
+        d = {}
+        for m in log[ch]:
+            q = getattr(m, field)
+            if 0 <= q < blocks:
+                d.setdefault(q, m.encode())
+        traj[ch] = d
+    return traj, ""
+
+
+def log_reads(out):
+    try:
+        afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["AFM_HEARTBEAT"])
+        return True
+    except Exception:
+        return False
+
+
+class Matrix:
+    def __init__(self, args):
+        self.a = args
+        self.rng = random.Random(args.seed)
+        self.rows = []
+        os.makedirs(args.out, exist_ok=True)
+        with open(args.scene) as f:
+            self.scene_text = f.read()
+        self.scene = os.path.join(args.out, "scene.yaml")
+        with open(self.scene, "w") as f:
+            f.write(self.scene_text)
+
+    def dir(self, name):
+        d = os.path.join(self.a.out, name.replace(":", "-"))
+        shutil.rmtree(d, ignore_errors=True)
+        return d
+
+    def baseline(self):
+        r = Run(self.scene, self.dir("undisturbed")).finish()
+        if r.code != 0 or not r.rj:
+            sys.exit(f"faults: the undisturbed run failed (exit {r.code}): {r.stderr.strip()[-400:]}")
+        self.blocks = r.rj["sim"]["blocks"]
+        self.wall = r.rj["wall_seconds"]
+        self.base, _ = trajectories(r.out, self.blocks)
+        return r
+
+    def same(self, out):
+        """Trajectories equal to the undisturbed run's on every block both
+        logs hold. A block missing from a log (lcm-logger starved of CPU:
+        run.json says log.complete false) is counted, not compared; more
+        than 5 % missing is a failure of the record."""
+        traj, err = trajectories(out, self.blocks)
+        if traj is None:
+            return False, "log does not read: " + err
+        missing = 0
+        for ch, _ in TRAJ:
+            common = set(traj[ch]) & set(self.base[ch])
+            missing = max(missing, len(set(self.base[ch]) - common), len(set(traj[ch]) - common))
+            differ = sorted(q for q in common if traj[ch][q] != self.base[ch][q])
+            if differ:
+                return False, f"{ch} differs at blocks {differ[:3]}"
+        if missing > 0.05 * self.blocks:
+            return False, f"the log misses {missing} of {self.blocks} blocks"
+        return True, "same trajectories" + (f" ({missing} blocks missing from a log, not compared)" if missing else "")
+
+    def kept(self, r, want_status):
+        """(log and run.json kept whole?, text)."""
+        if r.rj is None:
+            return False, "no run.json"
+        if r.rj.get("status") != want_status:
+            return False, f"run.json status {r.rj.get('status')!r}, expected {want_status!r}"
+        if not log_reads(r.out):
+            return False, "bus.lcmlog does not read"
+        complete = r.rj.get("log", {}).get("complete")
+        return True, "log reads, run.json " + want_status + ("" if complete is None else f", log complete {complete}")
+
+    def add(self, fault, did, kept, kept_text, match, match_text, ok):
+        self.rows.append({"fault": fault, "bench": did, "kept": kept, "kept_text": kept_text, "match": match, "match_text": match_text,
+                          "ok": ok})
+        if not self.a.quiet:
+            print(f"  {fault:18s} {'ok ' if ok else 'BAD'}  {did}; {kept_text}; {match_text}", flush=True)
+
+    def at_random_time(self):
+        return self.rng.uniform(0.15, 0.6) * self.wall
+
+    # ---- rows -----------------------------------------------------------
+    def kill(self, name):
+        r = Run(self.scene, self.dir(f"kill:{name}"))
+        kids = r.wait_kids()
+        time.sleep(self.at_random_time())
+        if name in kids:
+            os.kill(kids[name], signal.SIGKILL)
+        r.finish()
+        left = alive_in_groups(set(kids.values()))
+        err = (r.rj or {}).get("error", "")
+        did = f"exit {r.code}: {err[:70]}" if err else f"exit {r.code}"
+        kept, kt = self.kept(r, "failed")
+        named = name in err
+        ok = r.code != 0 and kept and named and not left
+        self.add(f"kill:{name}", did, kept, kt, None, "fails naming it" + ("" if named else " (NOT named)") +
+                 (f"; {len(left)} processes left" if left else "; none left"), ok)
+
+    def stop(self, name):
+        r = Run(self.scene, self.dir(f"stop:{name}"))
+        kids = r.wait_kids()
+        time.sleep(self.at_random_time())
+        if name in kids:
+            os.kill(kids[name], signal.SIGSTOP)
+            time.sleep(2.0)
+            os.kill(kids[name], signal.SIGCONT)
+        r.finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        self.add(f"stop:{name}", f"exit {r.code}, {r.rj.get('wall_seconds', 0):.1f} wall s" if r.rj else f"exit {r.code}", kept, kt, same,
+                 st, r.code == 0 and kept and same)
+
+    def launcher(self, sig_name):
+        sig = getattr(signal, sig_name)
+        r = Run(self.scene, self.dir(f"launcher:{sig_name}"))
+        kids = r.wait_kids()
+        time.sleep(self.at_random_time())
+        os.kill(r.launcher_pid(), sig)
+        r.finish()
+        left = alive_in_groups(set(kids.values()))
+        kept, kt = self.kept(r, "interrupted")
+        ok = r.code == 128 + sig and kept and not left and len(kids) == len(PROCS)
+        self.add(f"launcher:{sig_name}", f"exit {r.code}", kept, kt, None,
+                 f"{len(kids)} children stopped" + (f", {len(left)} left" if left else ", none left"), ok)
+
+    def net_drop(self):
+        r = Run(self.scene, self.dir("net:drop"), extra=["--inject-drop", "0.1"]).finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        resends = (r.rj or {}).get("sim", {}).get("resends", 0)
+        self.add("net:drop", f"exit {r.code}, {resends} resends", kept, kt, same, st, r.code == 0 and kept and same)
+
+    def net_dup(self):
+        echo = os.path.join(HERE, "hostile.py")
+
+        def wrap(cmd):
+            q = " ".join(f"'{c}'" for c in cmd)
+            return ["sh", "-c", f"'{sys.executable}' '{echo}' --echo 1.0 --seconds 300 > /dev/null & h=$!; {q}; rc=$?; "
+                                f"kill -TERM $h; wait $h; exit $rc"]
+        r = Run(self.scene, self.dir("net:dup"), wrap=wrap).finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        self.add("net:dup", f"exit {r.code}, every message twice", kept, kt, same, st, r.code == 0 and kept and same)
+
+    def net_netem(self):
+        probe = subprocess.run(["unshare", "-rn", "tc", "qdisc", "add", "dev", "lo", "root", "netem", "loss", "1%"],
+                               capture_output=True, text=True)
+        if probe.returncode != 0:
+            why = probe.stderr.strip().splitlines()[-1] if probe.stderr.strip() else "tc failed"
+            self.add("net:netem", f"skipped: tc netem refused here ({why}); net:drop and net:dup stand in", True, "-", None, "-", True)
+            return
+
+        def wrap(cmd):
+            q = " ".join(f"'{c}'" for c in cmd)
+            return ["sh", "-c", "tc qdisc add dev lo root netem loss 2% duplicate 2% delay 1ms reorder 10% && " + q]
+        r = Run(self.scene, self.dir("net:netem"), wrap=wrap).finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        self.add("net:netem", f"exit {r.code}", kept, kt, same, st, r.code == 0 and kept and same)
+
+    def disk_full(self):
+        d = self.dir("disk:full")
+        os.makedirs(d, exist_ok=True)
+
+        def wrap(cmd):
+            q = " ".join(f"'{c}'" for c in cmd)
+            return ["unshare", "-m", "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs '{d}' && {q}"]
+        r = Run(self.scene, os.path.join(d, "run"), wrap=wrap).finish()
+        # the tmpfs is gone with the mount namespace: what the run left is what
+        # it printed, and whether it claimed success
+        err = r.stderr.strip().splitlines()
+        said = err[-1][:90] if err else "(nothing on stderr)"
+        claimed = "run: ok" in r.stdout
+        ok = r.code != 0 and not claimed and bool(err)
+        self.add("disk:full", f"exit {r.code}: {said}", not claimed, "no success claimed" if not claimed else "CLAIMED SUCCESS", None,
+                 "-", ok)
+
+    def scene_changed(self):
+        scene = os.path.join(self.a.out, "scene-changing.yaml")
+        shutil.copy(self.scene, scene)
+        r = Run(scene, self.dir("scene:changed"))
+        r.wait_kids()
+        with open(scene, "w") as f:
+            f.write("name: [this is not a scene\n")
+        r.finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        self.add("scene:changed", f"exit {r.code}, ran its own copy (scene.yaml)", kept, kt, same, st, r.code == 0 and kept and same)
+
+    def two_runs(self):
+        a = Run(self.scene, self.dir("two-runs-a"))
+        b = Run(self.scene, self.dir("two-runs-b"))
+        a.finish()
+        b.finish()
+        ka, kta = self.kept(a, "ok")
+        kb, _ = self.kept(b, "ok")
+        sa, sta = self.same(a.out) if ka else (False, "-")
+        sb, stb = self.same(b.out) if kb else (False, "-")
+        self.add("two-runs", f"exits {a.code} and {b.code}", ka and kb, kta, sa and sb, sta if sa and sb else f"{sta} / {stb}",
+                 a.code == 0 and b.code == 0 and ka and kb and sa and sb)
+
+    def run(self, only):
+        for row in only:
+            kind, _, arg = row.partition(":")
+            if kind == "kill":
+                self.kill(arg)
+            elif kind == "stop":
+                self.stop(arg)
+            elif kind == "launcher":
+                self.launcher(arg)
+            elif row == "net:drop":
+                self.net_drop()
+            elif row == "net:dup":
+                self.net_dup()
+            elif row == "net:netem":
+                self.net_netem()
+            elif row == "disk:full":
+                self.disk_full()
+            elif row == "scene:changed":
+                self.scene_changed()
+            elif row == "two-runs":
+                self.two_runs()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog="\n\n".join(__doc__.split("\n\n")[1:]),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", nargs="+", metavar="ROW", help="rows to run (default: all; see --list)")
+    ap.add_argument("--scene", default=os.path.join(SRC, "scenes", "short.yaml"), help="the scene (default scenes/short.yaml)")
+    ap.add_argument("--out", default=os.path.join(SRC, "runs", "faults"), help="folder for the runs and faults.json (default runs/faults)")
+    ap.add_argument("--seed", type=int, default=1, help="seed of the random times (default 1)")
+    ap.add_argument("--list", action="store_true", help="list the rows and exit")
+    ap.add_argument("--quiet", action="store_true", help="print only the table")
+    a = ap.parse_args()
+    if a.list:
+        print("\n".join(ROWS))
+        return 0
+    only = a.only or ROWS
+    for r in only:
+        if r not in ROWS:
+            ap.error(f"--only: unknown row '{r}' (--list shows them)")
+    if not os.access(LAUNCH, os.X_OK):
+        sys.exit(f"faults: {LAUNCH} not built (./afm build)")
+    m = Matrix(a)
+    t0 = time.monotonic()
+    if not a.quiet:
+        print(f"faults: {len(only)} rows on {a.scene}; runs in {a.out}", flush=True)
+    base = m.baseline()
+    if not a.quiet:
+        print(f"faults: undisturbed: {m.blocks} blocks in {m.wall:.2f} wall s", flush=True)
+    m.run(only)
+    width = max(len(r["fault"]) for r in m.rows)
+    print()
+    print(f"{'fault':{width}s}  {'as expected':11s}  {'what the bench did':52s}  {'log and run.json':34s}  results")
+    for r in m.rows:
+        print(f"{r['fault']:{width}s}  {'yes' if r['ok'] else 'NO':11s}  {r['bench'][:52]:52s}  {r['kept_text'][:34]:34s}  {r['match_text']}")
+    bad = [r["fault"] for r in m.rows if not r["ok"]]
+    with open(os.path.join(a.out, "faults.json"), "w") as f:
+        json.dump({"scene": a.scene, "blocks": m.blocks, "undisturbed_wall_s": m.wall, "rows": m.rows,
+                   "undisturbed_run": base.out, "seconds": time.monotonic() - t0}, f, indent=2)
+    print(f"\nfaults: {len(m.rows) - len(bad)} of {len(m.rows)} rows as expected in {time.monotonic() - t0:.0f} s"
+          + (f"; NOT: {', '.join(bad)}" if bad else "") + f" (faults.json in {a.out})")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
