@@ -321,6 +321,7 @@ struct Outputs {
     std::vector<std::string> notes;     // what the card said about fixes
     int64_t events = 0, inputs = 0;
     int64_t refused_inputs = 0;         // input datagrams the card's inbox refused (inbox.hpp), as fw_node did
+    std::vector<std::string> refused_at;   // the first few of them, by byte offset in the log
     int64_t foreign_outputs = 0;        // datagrams on an output channel that are not the card's (do not decode, or name a block it never stepped)
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
     std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
@@ -395,7 +396,11 @@ Outputs run_replay(const Options &o)
         if (ev.channel == AFM_CH_AFM_ANALOG || ev.channel == AFM_CH_HAPTIC_POSE || ev.channel == AFM_CH_HOST_OBJECT_FIX) {
             out.write(ev.utime, ev.channel, ev.data);
             ev_utime = ev.utime;
-            if (inbox.deliver(ev.channel, ev.data.data(), ev.data.size()) == afm::Reject::none) ++r.inputs;
+            const afm::Reject why = inbox.deliver(ev.channel, ev.data.data(), ev.data.size());
+            if (why == afm::Reject::none) ++r.inputs;
+            else if (r.refused_at.size() < 5)
+                r.refused_at.push_back("byte offset " + std::to_string(ev.offset) + ": " + ev.channel + " message refused (" +
+                                       afm::reject_name(why) + ")");
         } else {
             recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
         }
@@ -500,6 +505,7 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
         std::printf("replay: %lld input datagrams refused by the card's inbox (as in the run), %lld datagrams on output channels that "
                     "are not the card's (do not decode, or name a block the card never stepped)\n",
                     static_cast<long long>(r.refused_inputs), static_cast<long long>(r.foreign_outputs));
+    for (const auto &w : r.refused_at) std::printf("replay: %s: %s\n", o.log.c_str(), w.c_str());
     if (r.self_inconsistent)
         std::printf("replay: the recording holds %lld repeated outputs that differ from their first copy\n",
                     static_cast<long long>(r.self_inconsistent));

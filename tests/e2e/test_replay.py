@@ -190,8 +190,9 @@ class ReplayEveryScene(unittest.TestCase):
             return blob[:start] + b"\xff" * len(data) + blob[start + len(data):]
         run, log, _ = self._broken_copy("data", garbage_analog)
         rc, so, se = replay(REPLAY, run)
-        self.assertEqual(rc, 2, so + se)
-        self.assertIn(f"byte offset {hit['at']}: AFM_ANALOG message does not decode", se)
+        # refused as fw_node refuses a datagram that does not decode, and named
+        # (the replay goes on; it fails only if the card then lacks an input)
+        self.assertIn(f"byte offset {hit['at']}: AFM_ANALOG message refused", so, so + se)
 
         def absurd_length(evs, blob):
             off = evs[len(evs) // 4][0]
