@@ -224,14 +224,26 @@ class Matrix:
     def at_random_time(self):
         return self.rng.uniform(0.15, 0.6) * self.wall
 
+    def during(self, name, act):
+        """Starts a run, waits a random time into it, and calls act(run,
+        kids) while it still runs. A run that ended first (a loaded machine
+        makes it faster or slower than the undisturbed one) is run again with
+        half the wait, three times at most; returns (run, kids)."""
+        wait = self.at_random_time()
+        for _ in range(3):
+            r = Run(self.scene, self.dir(name))
+            kids = r.wait_kids()
+            time.sleep(wait)
+            if r.p.poll() is None and len(kids) == len(PROCS):
+                act(r, kids)
+                return r.finish(), kids
+            r.finish()
+            wait /= 2
+        return r, kids
+
     # ---- rows -----------------------------------------------------------
     def kill(self, name):
-        r = Run(self.scene, self.dir(f"kill:{name}"))
-        kids = r.wait_kids()
-        time.sleep(self.at_random_time())
-        if name in kids:
-            os.kill(kids[name], signal.SIGKILL)
-        r.finish()
+        r, kids = self.during(f"kill:{name}", lambda r, kids: os.kill(kids[name], signal.SIGKILL))
         left = alive_in_groups(set(kids.values()))
         err = (r.rj or {}).get("error", "")
         did = f"exit {r.code}: {err[:70]}" if err else f"exit {r.code}"
@@ -242,14 +254,11 @@ class Matrix:
                  (f"; {len(left)} processes left" if left else "; none left"), ok)
 
     def stop(self, name):
-        r = Run(self.scene, self.dir(f"stop:{name}"))
-        kids = r.wait_kids()
-        time.sleep(self.at_random_time())
-        if name in kids:
+        def pause(r, kids):
             os.kill(kids[name], signal.SIGSTOP)
             time.sleep(2.0)
             os.kill(kids[name], signal.SIGCONT)
-        r.finish()
+        r, kids = self.during(f"stop:{name}", pause)
         kept, kt = self.kept(r, "ok")
         same, st = self.same(r.out) if kept else (False, "-")
         self.add(f"stop:{name}", f"exit {r.code}, {r.rj.get('wall_seconds', 0):.1f} wall s" if r.rj else f"exit {r.code}", kept, kt, same,
@@ -257,11 +266,7 @@ class Matrix:
 
     def launcher(self, sig_name):
         sig = getattr(signal, sig_name)
-        r = Run(self.scene, self.dir(f"launcher:{sig_name}"))
-        kids = r.wait_kids()
-        time.sleep(self.at_random_time())
-        os.kill(r.launcher_pid(), sig)
-        r.finish()
+        r, kids = self.during(f"launcher:{sig_name}", lambda r, kids: os.kill(r.launcher_pid(), sig))
         left = alive_in_groups(set(kids.values()))
         kept, kt = self.kept(r, "interrupted")
         ok = r.code == 128 + sig and kept and not left and len(kids) == len(PROCS)
