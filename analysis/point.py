@@ -13,7 +13,7 @@ import time
 from analysis import paths, runlog
 
 # The firmware modules every card runs, and those a configuration adds.
-CARD_MODULES = ["fw_math", "fw_acq", "fw_rules", "fw_theta", "fw_force", "fw_comp", "fw_board", "fw_particles",
+CARD_MODULES = ["fw_math", "fw_guard", "fw_acq", "fw_rules", "fw_theta", "fw_force", "fw_comp", "fw_board", "fw_particles",
                 "fw_calib", "fw_drift", "fw_card"]
 
 

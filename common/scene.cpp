@@ -39,6 +39,28 @@ public:
         throw SceneError(file_ + ": " + key + ": " + what);
     }
 
+    // Valid UTF-8 (no overlong forms, surrogates or code points past
+    // U+10FFFF) without control characters.
+    static bool printable_utf8(const std::string &t)
+    {
+        for (std::size_t i = 0; i < t.size();) {
+            const unsigned char c = static_cast<unsigned char>(t[i]);
+            if (c < 0x20 || c == 0x7f) return false;
+            if (c < 0x80) { ++i; continue; }
+            const int n = c >= 0xf0 ? 3 : c >= 0xe0 ? 2 : c >= 0xc2 ? 1 : -1;
+            if (n < 0 || c > 0xf4 || i + static_cast<std::size_t>(n) >= t.size()) return false;
+            uint32_t cp = c & (0x3f >> n);
+            for (int k = 1; k <= n; ++k) {
+                const unsigned char d = static_cast<unsigned char>(t[i + static_cast<std::size_t>(k)]);
+                if ((d & 0xc0) != 0x80) return false;
+                cp = (cp << 6) | (d & 0x3f);
+            }
+            if ((n == 2 && cp < 0x800) || (n == 3 && (cp < 0x10000 || cp > 0x10ffff)) || (cp >= 0xd800 && cp <= 0xdfff)) return false;
+            i += static_cast<std::size_t>(n) + 1;
+        }
+        return true;
+    }
+
     static std::string show(const YAML::Node &n)
     {
         if (!n.IsDefined() || n.IsNull()) return "null";
@@ -51,8 +73,12 @@ public:
     void only_keys(const YAML::Node &map, const std::string &path, std::set<std::string> allowed) const
     {
         if (!map.IsMap()) fail(path.empty() ? "(top level)" : path, "must be a mapping, got " + show(map));
+        std::set<std::string> seen;
         for (auto it = map.begin(); it != map.end(); ++it) {
-            const std::string k = it->first.as<std::string>();
+            if (!it->first.IsScalar()) fail(path.empty() ? "(top level)" : path, "a key must be a name, got " + show(it->first));
+            const std::string k = it->first.Scalar();
+            // yaml-cpp keeps both copies of a key given twice; the reader would see only the first
+            if (!seen.insert(k).second) fail(join(path, k), "given twice");
             if (!allowed.count(k)) {
                 std::string list;
                 for (const auto &a : allowed) list += (list.empty() ? "" : ", ") + a;
@@ -112,6 +138,7 @@ public:
         }
         if (!n.IsScalar()) fail(key, "must be a string, got " + show(n));
         std::string v = n.Scalar();
+        if (!printable_utf8(v)) fail(key, "must be printable UTF-8 text (it is written into run.json)");
         if (!choices.empty() && !choices.count(v)) {
             std::string list;
             for (const auto &c : choices) list += (list.empty() ? "" : ", ") + c;
@@ -281,7 +308,7 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         // The ranges are the card's (fw_card_check): the launcher's --check
         // names the rule a value breaks; here only the types.
         r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate", "disp_n_nm_per_V", "disp_l_nm_per_V", "lateral_nN_per_V", "mu",
-                                     "drift_max_step_nm"});
+                                     "drift_max_step_nm", "interlock", "interlock_normal_nN", "interlock_lateral_nN"});
         auto whole = [&](const char *k, int dflt) {
             const double dv = dflt;
             const double v = r.num(fw, "firmware", k, &dv, -1e6, 1e6);
@@ -302,7 +329,23 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         optional("lateral_nN_per_V", 1e5, &s.fw_cal.lateral_nN_per_V);
         if (fw["mu"].IsDefined() && !fw["mu"].IsNull()) s.fw_cal.mu = r.num(fw, "firmware", "mu", nullptr, 0, 10);
         optional("drift_max_step_nm", 1e6, &s.fw_cal.drift_max_step_nm);
+        // The force interlock: positive limits here; below the channel's
+        // full scale is the card's rule (fw_guard_check, named by the
+        // launcher with the probe's keys).
+        s.fw_cal.interlock = r.boolean(fw, "firmware", "interlock", s.fw_cal.interlock);
+        optional("interlock_normal_nN", 1e6, &s.fw_cal.interlock_normal_nN);
+        optional("interlock_lateral_nN", 1e6, &s.fw_cal.interlock_lateral_nN);
     }
+}
+
+// afm: the microscope's controller (the z servo's speed).
+void read_afm(const Reader &r, const YAML::Node &root, Scene &s)
+{
+    YAML::Node a = root["afm"];
+    if (!a.IsDefined() || a.IsNull()) return;
+    r.only_keys(a, "afm", {"z_speed_nm_per_s"});
+    const Scene d;
+    s.z_speed_nm_per_s = r.num(a, "afm", "z_speed_nm_per_s", &d.z_speed_nm_per_s, 0, 1e9);
 }
 
 // objects.scatter: particles drawn at random, the bench's own generator
@@ -313,7 +356,9 @@ void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
     const std::string k = "objects.scatter";
     r.only_keys(n, k, {"count", "radius_nm", "region_nm", "min_gap_nm", "seed"});
     ScatterSpec &c = s.scatter;
-    const double count = r.num(n, k, "count", nullptr, 1, 100000);
+    // placement tries each particle against the ones placed (O(count^2)):
+    // 5000 take 0.7 s, 20000 took 4.6 s
+    const double count = r.num(n, k, "count", nullptr, 1, 5000);
     if (count != std::floor(count)) r.fail(k + ".count", "must be an integer, got " + Reader::show(n["count"]));
     c.count = static_cast<int>(count);
     const ScatterSpec d;
@@ -753,11 +798,18 @@ void merge_missing(YAML::Node into, const YAML::Node &from)
 // ...], relative to the scene; each may hold probe, firmware and sample
 // only: a lever's calibration, ./afm calib ... --write), and a PNG
 // target's path made absolute, so the tree stands alone.
+// The keys a scene may have at its top level.
+const std::set<std::string> kTopLevelKeys = {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
+                                             "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
+                                             "outputs", "include", "afm"};
+
 YAML::Node resolved_yaml(const std::string &path)
 {
     YAML::Node root = load_yaml(path, "scene file");
     const Reader r(path);
-    if (!root.IsMap()) r.fail("(top level)", "must be a mapping, got " + Reader::show(root));
+    // before the includes are merged (and the include key removed): a key
+    // given twice, or one that is not a name, is refused as the scene has it
+    r.only_keys(root, "", kTopLevelKeys);
     YAML::Node inc = root["include"];
     if (inc.IsDefined() && !inc.IsNull()) {
         std::vector<std::string> files;
@@ -772,7 +824,11 @@ YAML::Node resolved_yaml(const std::string &path)
             const std::string fp = f.empty() || f[0] == '/' ? f : dir_of(path) + "/" + f;
             const YAML::Node part = load_yaml(fp, "included file (include: of " + path + ")");
             Reader(fp).only_keys(part, "", {"probe", "firmware", "sample"});
-            merge_missing(root, part);
+            try {
+                merge_missing(root, part);
+            } catch (const YAML::Exception &e) {   // a nested key that is not a name
+                Reader(fp).fail("(included)", std::string("cannot merge: ") + e.what());
+            }
         }
         root.remove("include");
     }
@@ -801,9 +857,7 @@ Scene load_scene(const std::string &path)
 {
     Reader r(path);
     const YAML::Node root = resolved_yaml(path);
-    r.only_keys(root, "", {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
-                           "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
-                           "outputs", "include"});
+    r.only_keys(root, "", kTopLevelKeys);
     Scene s;
     s.file = path;
     const Scene d;  // defaults
@@ -827,6 +881,7 @@ Scene load_scene(const std::string &path)
     read_sample(r, root, s);
     read_probe(r, root, s);
     read_firmware(r, root, s);
+    read_afm(r, root, s);
     read_objects(r, root, s);
     read_operator(r, root, s);
     check_plan(r, s);

@@ -58,6 +58,14 @@ struct FirmwareCalibration {
     // FW_DRIFT_MAX_STEP_DEFAULT_PM (200 nm). Local scans that miss their
     // object scan again wider, out to this limit.
     std::optional<double> drift_max_step_nm;
+    // The card's force interlock (firmware/include/fw_guard.h): on unless
+    // firmware.interlock is false (a lab turns it off to press past the
+    // lever's range on purpose, as the paper's deep lines do). Its limits
+    // (firmware.interlock_normal_nN, firmware.interlock_lateral_nN, > 0 and
+    // below the channel's full scale, the card's rule); none: 80 % of the
+    // channel's full scale (fw_guard_default_limit_pn).
+    bool interlock = true;
+    std::optional<double> interlock_normal_nN, interlock_lateral_nN;
 };
 
 struct ContactSpec {                    // friction and adhesion of a material pair
@@ -220,6 +228,11 @@ struct Scene {
     double block_hz = 1000.0;           // analog blocks per second (the lockstep/haptic rate)
     double frame_rate_hz = 25.0;        // display frames per simulated second
     std::string time_mode = "lockstep"; // lockstep or realtime
+    // afm: the microscope's controller. The z servo moves the z piezo at
+    // most this fast towards the extension its set point needs (the normal
+    // force lags the set point by k_n times the distance left); 0: ideal
+    // feedback, the force at the set point from the next sample on.
+    double z_speed_nm_per_s = 0.0;
     std::vector<std::string> effects;   // effects the simulator builds
     // sample
     std::string substrate = "glass";   // glass, tilted_glass or polycarbonate

@@ -86,6 +86,14 @@ CardSetup::CardSetup(const Scene &s)
                                                              : haptic_auto_gain_un_per_pn(s, cfg_.board);
     cfg_.haptic_max_un = fwu_un_from_n(s.op.haptic.max_force_N);
     cfg_.start_lifted = !s.start_engaged();
+    // The force interlock (fw_guard.h): the scene's limits, or the
+    // firmware's default, 80 % of each channel's full scale with the gains
+    // the card runs with.
+    cfg_.interlock = s.fw_cal.interlock;
+    cfg_.interlock_normal_pn = s.fw_cal.interlock_normal_nN ? fwu_pn_from_nn(*s.fw_cal.interlock_normal_nN)
+                                                            : fw_guard_default_limit_pn(cfg_.board.normal_gain_pn_per_v);
+    cfg_.interlock_lateral_pn = s.fw_cal.interlock_lateral_nN ? fwu_pn_from_nn(*s.fw_cal.interlock_lateral_nN)
+                                                              : fw_guard_default_limit_pn(cfg_.board.lateral_gain_pn_per_v);
 
     particle_store_.resize(particles_.size());
     wire_store_.resize(wires_.size());
@@ -146,6 +154,12 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
         return {{"sample.lithography.threshold_nN", s.litho.threshold_nN}, {"sample.lithography.depth_nm_per_nN", s.litho.depth_nm_per_nN}};
     case FW_RULE_TIP_HALF_ANGLE: return {{"probe.tip_half_angle_deg", p.tip_half_angle_deg}};
     case FW_RULE_DRIFT_STEP: return {{"sample.field_nm", s.field_nm}};
+    case FW_RULE_INTERLOCK_NORMAL:
+        return {{"firmware.interlock_normal_nN", s.fw_cal.interlock_normal_nN.value_or(-1)}, {"probe.spring_N_per_m", p.spring_N_per_m},
+                {"probe.deflection_nm_per_V", p.deflection_nm_per_V}};
+    case FW_RULE_INTERLOCK_LATERAL:
+        return {{"firmware.interlock_lateral_nN", s.fw_cal.interlock_lateral_nN.value_or(-1)},
+                {s.fw_cal.lateral_nN_per_V ? "firmware.lateral_nN_per_V" : "probe.lateral_nN_per_V", s.fw_cal.lateral_nN_per_V.value_or(p.lateral_nN_per_V)}};
     case FW_RULE_HAPTIC:
         return {{"operator.haptic.force_gain_N_per_nN", s.op.haptic.force_gain_N_per_nN.value_or(-1)}, {"operator.haptic.max_force_N", s.op.haptic.max_force_N}};
     default: return {};
@@ -163,6 +177,11 @@ std::string rule_derived(const fw_card_config_t &c, fw_rule_t rule)
     if ((rule == FW_RULE_DISP_RANGE || rule == FW_RULE_DISP_NEGATIVE) &&
         fw_calib_disp_estimate(b.tip_height_nm, b.lever_length_nm, b.deflection_pm_per_v, &est) == FW_OK)
         m << "; the firmware's estimate C_n = C_l = 3 h K_n / (2 l) = " << fwu_nm_from_pm(est) << " nm/V";
+    if (rule == FW_RULE_INTERLOCK_NORMAL)
+        m << "; the card's normal full scale k_n K_n 10 V = " << fwu_nn_from_pn(fw_guard_full_scale_pn(b.normal_gain_pn_per_v)) << " nN";
+    if (rule == FW_RULE_INTERLOCK_LATERAL)
+        m << "; the card's lateral full scale k_theta K_l / h 10 V = " << fwu_nn_from_pn(fw_guard_full_scale_pn(b.lateral_gain_pn_per_v))
+          << " nN";
     return m.str();
 }
 

@@ -91,7 +91,27 @@ std::pair<double, double> model_extent(const DisplayModel &m)
         for (const auto &p : t.points) deep = std::max(deep, p.depth_nm);
     return {top, deep};
 }
-const cv::Scalar kWhite(255, 255, 255), kCyan(255, 255, 0), kTip(255, 200, 0), kYellow(0, 255, 255);
+const cv::Scalar kWhite(255, 255, 255), kCyan(255, 255, 0), kTip(255, 200, 0), kYellow(0, 255, 255), kRed(0, 0, 255);
+
+// The force interlock's mark (FLAG_INTERLOCK): a red border round the whole
+// frame and a red banner under the flags' line, "INTERLOCK: TIP RETRACTED"
+// (shorter on a narrow frame), drawn last so nothing covers it.
+void draw_interlock(cv::Mat &img)
+{
+    const int N = img.cols, M = img.rows, t = std::max(2, N / 128);
+    for (const cv::Rect &edge : {cv::Rect(0, 0, N, t), cv::Rect(0, M - t, N, t), cv::Rect(0, 0, t, M), cv::Rect(N - t, 0, t, M)})
+        cv::rectangle(img, edge, kRed, cv::FILLED);
+    const cv::Rect bar(t, 28, N - 2 * t, 14);
+    cv::rectangle(img, bar, kRed, cv::FILLED);
+    // the longest wording that fits the frame's width
+    for (const char *text : {"INTERLOCK: TIP RETRACTED", "INTERLOCK: RETRACTED", "INTERLOCK"}) {
+        int base = 0;
+        if (cv::getTextSize(text, cv::FONT_HERSHEY_PLAIN, 0.8, 1, &base).width <= bar.width - 6 || text[9] == '\0') {
+            cv::putText(img, text, cv::Point(bar.x + 3, bar.y + 11), cv::FONT_HERSHEY_PLAIN, 0.8, kWhite, 1, cv::LINE_AA);
+            break;
+        }
+    }
+}
 
 }  // namespace
 
@@ -398,6 +418,7 @@ cv::Mat Display::frame(const Overlay &o) const
     if (o.flags & (fw_force_t::FLAG_SAT_SN | fw_force_t::FLAG_SAT_SL)) flags += "SATURATED ";
     if (o.flags & fw_force_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
     if (o.flags & fw_force_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
+    if (o.flags & fw_force_t::FLAG_INTERLOCK) flags += "INTERLOCK ";
     if (!flags.empty()) put_label(img, flags, cv::Point(4, 24), 0.8, kYellow);
     // The hand's gauge, bottom middle (right of the scale bar): a circle of
     // hand_scale_N, an arrow for the force on the stylus (at most twice out).
@@ -443,6 +464,7 @@ cv::Mat Display::frame(const Overlay &o) const
     if (len >= 1000) std::snprintf(text, sizeof text, "%g um", len / 1000);
     else std::snprintf(text, sizeof text, "%g nm", len);
     put_label(img, text, cv::Point(8, N - 15), 0.7, kWhite);
+    if (o.flags & fw_force_t::FLAG_INTERLOCK) draw_interlock(img);
     return img;
 }
 

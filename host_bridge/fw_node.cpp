@@ -24,6 +24,7 @@ static_assert(FW_FLAG_CONTACT == afm::fw_force_t::FLAG_CONTACT, "flag bits must 
 static_assert(FW_FLAG_THETA_UNKNOWN == afm::fw_force_t::FLAG_THETA_UNKNOWN, "flag bits must match the firmware");
 static_assert(FW_FLAG_SAT_POS == afm::fw_force_t::FLAG_SAT_POS, "flag bits must match the firmware");
 static_assert(FW_FLAG_SQUEEZE == afm::fw_force_t::FLAG_SQUEEZE, "flag bits must match the firmware");
+static_assert(FW_FLAG_INTERLOCK == afm::fw_force_t::FLAG_INTERLOCK, "flag bits must match the firmware");
 
 namespace {
 
@@ -117,7 +118,10 @@ int main(int argc, char **argv)
         node.hb.send("done", node.card.done(), node.card.sim_utime_done());
         if (!out_dir.empty()) {
             std::ofstream rep(out_dir + "/fw_report.json");
-            rep << nlohmann::json{{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()}}.dump(2) << "\n";
+            // the force interlock's trips (fw_guard.h; null when the scene turns it off)
+            const fw_guard_t *guard = fw_card_guard(&node.card.card());
+            rep << nlohmann::json{{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()},
+                                  {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}}.dump(2) << "\n";
             if (!rep) throw std::runtime_error("cannot write " + out_dir + "/fw_report.json");
         }
         return 0;

@@ -28,6 +28,7 @@ World::World(const Scene &s)
     k_lever_max_ = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(K_).eigenvalues().maxCoeff();
     k_contact_ = s.particle_contact_stiffness_N_per_m;
     dt_ = 1.0 / s.sample_rate_hz;
+    z_speed_nm_per_s_ = s.z_speed_nm_per_s;
     tip_mu_ = s.tip_substrate.mu;
 
     const bool adhesion = s.has_effect("adhesion");
@@ -324,10 +325,21 @@ World::ZHold World::hold_z(double surface_nm, double fx_C, double fz) const
     // deflection by the shortfall, and the normal force by k_n times it.
     const double half = kScannerRangeZ_nm / 2;
     const double z_need = surface_nm - lever_.bend_slope(fx_C, fz) * 2.0 * lever_.l / 3.0;
-    ZHold h{std::clamp(z_need, -half, half), fz, false, true};
+    ZHold h{std::clamp(z_need, -half, half), fz, false, true, z_need};
     if (h.z_nm == z_need) return h;
     h.clamped = true;
     h.fz_nN = fz + lever_.spring * (z_need - h.z_nm);
+    h.touching = h.fz_nN > -tip_adhesion_nN_;
+    if (!h.touching) h.fz_nN = 0.0;
+    return h;
+}
+
+World::ZHold World::slew_z(const ZHold &ideal, double fz) const
+{
+    const double step = z_speed_nm_per_s_ * dt_;
+    ZHold h = ideal;
+    h.z_nm = piezo_z_ + std::clamp(ideal.z_nm - piezo_z_, -step, step);
+    h.fz_nN = fz + lever_.spring * (ideal.z_need_nm - h.z_nm);
     h.touching = h.fz_nN > -tip_adhesion_nN_;
     if (!h.touching) h.fz_nN = 0.0;
     return h;
@@ -349,11 +361,23 @@ Sample World::step()
     // the limit: the normal force departs from the set point by k_n times
     // the shortfall (from the next sample on in the mechanics), and the tip
     // leaves the surface when that pulls harder than the adhesion.
+    // A finite z servo (afm.z_speed_nm_per_s) moves z at most v_z dt per
+    // sample: the force lags the set point (World's header). Disengaged,
+    // z is retracted by kRetractLift_nm at once; a finite servo's tip then
+    // counts as lifted, so that engaging again lands it from there.
     Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
-    const ZHold zh = hold_z(height_true(apex_.x(), apex_.y()), fC.x(), engaged_ ? load_nN_ : 0.0);
+    ZHold zh = hold_z(height_true(apex_.x(), apex_.y()), fC.x(), engaged_ ? load_nN_ : 0.0);
+    if (!engaged_) {
+        const double half = kScannerRangeZ_nm / 2, up = zh.z_nm + kRetractLift_nm;
+        zh.clamped = zh.clamped || up > half;
+        zh.z_nm = std::min(up, half);
+    } else if (z_speed_nm_per_s_ > 0 && z_started_) {
+        zh = slew_z(zh, load_nN_);
+    }
+    z_started_ = true;
     piezo_z_ = zh.z_nm;
     z_excess_nN_ = engaged_ && zh.touching ? zh.fz_nN - load_nN_ : 0.0;
-    lifted_ = engaged_ && !zh.touching;
+    lifted_ = engaged_ ? !zh.touching : z_speed_nm_per_s_ > 0;
     if (target_clamped_ || zh.clamped) ++clamped_samples_;
 
     // Lever -> photodiode.

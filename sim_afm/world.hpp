@@ -14,6 +14,20 @@
 // Frames: positions in frame A (the scanner's), nm. The sample may drift
 // against the scanner (thermal_drift): particles are stored in the sample's
 // own frame and shown in frame A shifted by drift().
+//
+// The z piezo, per sample (World::step): engaged, the z servo brings it to
+// the extension that holds the normal force at the load set point; ideal
+// (afm.z_speed_nm_per_s 0, the default) it gets there in the same sample;
+// with a finite speed v_z it moves at most v_z / sample rate per sample,
+// and the normal force is the set point plus k_n times the distance still
+// to go (exact for the linear lever: k_n per nm of bending), so a pressing
+// set point raises the force by at most k_n v_z per second. Disengaged
+// (tip_cmd_t.engaged false: the operator's lift, or the card's interlock),
+// the z piezo is retracted at once to kRetractLift_nm above the extension
+// at which the tip touches with no load, and kept there (following the
+// topography) while disengaged; engaged again, the servo lands it (at once
+// when ideal, at v_z otherwise). Scan lines (scan_point) keep the ideal
+// feedback: a scan is taken as a whole, not sample by sample.
 #pragma once
 
 #include <Eigen/Dense>
@@ -93,6 +107,11 @@ struct EffectClock {
     std::string name;
     double seconds = 0;
 };
+
+// The retract: a disengaged tip's z piezo stands this far above the
+// extension at which the tip touches the surface with no load (the card's
+// interlock documents it as its retract, firmware/include/fw_guard.h).
+constexpr double kRetractLift_nm = 100.0;
 
 class World;
 
@@ -187,8 +206,14 @@ private:
     // C) on the tip: the extension holding the set point fz, clamped to the
     // range; the normal force then acting (fz plus k_n times the shortfall)
     // and whether the tip still touches (that force above -F_adh).
-    struct ZHold { double z_nm, fz_nN; bool clamped, touching; };
+    // z_need_nm: the extension the set point needs, before the clamp.
+    struct ZHold { double z_nm, fz_nN; bool clamped, touching; double z_need_nm; };
     ZHold hold_z(double surface_nm, double fx_C, double fz) const;
+    // The finite z servo (z_speed_nm_per_s_ > 0): from piezo_z_ at most one
+    // sample's travel towards the ideal hold's z; the normal force the set
+    // point fz plus k_n times the extension still missing (z_need - z), the
+    // tip touching while that is above -F_adh.
+    ZHold slew_z(const ZHold &ideal, double fz) const;
     // Normal force the mechanics acts with this sample: the set point plus
     // the z shortfall of the last sample; 0 when lifted off or not engaged.
     bool touching() const { return engaged_ && !lifted_; }
@@ -203,6 +228,8 @@ private:
     double k_contact_;             // penalty stiffness, nN/nm
     double dt_;                    // sample period, s
     double scanner_speed_nm_per_s_ = 20000.0;
+    double z_speed_nm_per_s_ = 0.0;     // afm.z_speed_nm_per_s: 0 is the ideal z servo
+    bool z_started_ = false;            // piezo_z_ holds a sample's extension (the first sample settles at once)
     int relax_iterations_ = 4;
     double max_radius_ = 0;        // largest particle radius, nm
 
@@ -213,7 +240,7 @@ private:
     bool engaged_ = false;
     bool target_clamped_ = false;       // the xy set point lay beyond the range
     double z_excess_nN_ = 0;            // k_n times the z shortfall at the last sample
-    bool lifted_ = false;               // the z range let the tip leave the surface
+    bool lifted_ = false;               // the z range (or a finite servo's z, on its way down) keeps the tip off the surface
     bool jammed_ = false;               // rigid lever against a slope it cannot climb
     int64_t clamped_samples_ = 0;
     mutable int64_t scan_clamped_ = 0;

@@ -15,6 +15,9 @@
  *      particles (fw_particles_update), each wire's push rule with the
  *      squeeze check (fw_wire_update; the lever's twist theta_t = K_l S_l),
  *      the lithography trenches (fw_litho_step);
+ *   3. with the interlock on (interlock): the sample's normal force F_z and
+ *      its lateral channel's F_y (eq. 1a from its code) against the
+ *      limits, a saturated ADC counting as over (fw_guard_over_q23);
  * then, once per block: the block's mean force, flags and last apex, the
  * force on the operator's hand (haptic: gain and limit), and the command to
  * the piezo for the next block from the operator's pose given with the
@@ -22,6 +25,13 @@
  * measured, less the bending offset of the block's last signals. The
  * command answers the pose of the block it is computed in: the haptic
  * loop's latency is one block, as a card's DMA with two buffers has it.
+ * The interlock (fw_guard.h) then steps with the block's causes and the
+ * pose (its load, the joystick target before the drift, its engagement):
+ * latched (the block tripped, or an earlier one did and the operator's
+ * set point has not moved away), the command retracts the tip (engaged
+ * false, the xy set point as the pose asks) and the block carries
+ * FW_FLAG_INTERLOCK. The next block's samples are taken with the command's
+ * engagement (a retracted tip touches nothing: no object model runs).
  *
  * Between blocks, fw_card_fix applies a local scan's finding (physics.md
  * section 10): the object's scanned position against its model is drift
@@ -53,6 +63,7 @@
 #include "fw_wire.h"
 #include "fw_litho.h"
 #include "fw_drift.h"
+#include "fw_guard.h"
 
 /* disp_n_pm_per_v, disp_l_pm_per_v of the board configuration: use the
  * lever's estimate 3 h K_n / (2 l) (fw_calib_disp_estimate). */
@@ -108,6 +119,10 @@ typedef struct {
     int32_t haptic_un_per_pn;           /* stylus force per tip force, uN/pN */
     int32_t haptic_max_un;              /* per axis, uN */
     bool start_lifted;                  /* the first block's samples were taken with the tip lifted */
+    /* the force interlock (fw_guard.h); off: no limit is checked */
+    bool interlock;
+    int32_t interlock_normal_pn;        /* |F_z| above it trips: in (0, k_n K_n 10 V) */
+    int32_t interlock_lateral_pn;       /* |F_y| above it trips: in (0, k_theta K_l / h 10 V) */
 } fw_card_config_t;
 
 /* The caller's storage: capacities at least the configuration's counts
@@ -150,6 +165,8 @@ typedef struct {
     bool engaged;
     int32_t haptic_un[3];    /* force on the stylus, frame A axes, uN, clamped to +-haptic_max_un */
     uint32_t sat_samples;    /* samples with S_n or S_l saturated since reset (saturating) */
+    fw_guard_state_t interlock; /* the interlock's step for this block (FW_GUARD_ARMED when off);
+                                   TRIPPED, HOLDING: engaged is false and flags hold FW_FLAG_INTERLOCK */
 } fw_card_out_t;
 
 typedef enum {
@@ -177,6 +194,7 @@ typedef struct {
     q30_t twist_rad_per_v;           /* K_l = 3 K_n / (2 l), rad/V in 2.30 (the squeeze's theta_t) */
     fw_litho_t litho;
     fw_drift_t drift;
+    fw_guard_t guard;                /* the interlock, when cfg.interlock */
     bool objects;                    /* particles, wires or lithography: the per-sample models run */
     bool down;                       /* this block's samples were taken with the tip engaged */
     uint32_t sat_samples;
@@ -192,7 +210,8 @@ typedef struct {
  * particles (fw_particles_check, each particle's, capacity), wires (each
  * rod's fw_wire_check, fw_wire_check_tip, capacity), lithography
  * (fw_litho_check, storage), drift (fw_drift_check), landmarks (capacity),
- * haptic (gain and limit >= 0). FW_RULE_NULL_POINTER for NULL arguments,
+ * haptic (gain and limit >= 0), the interlock's limits when it is on
+ * (fw_guard_check, against the board's gains). FW_RULE_NULL_POINTER for NULL arguments,
  * a NULL array with a count > 0, or no scratch. */
 fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st);
 
@@ -204,7 +223,8 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
                          fw_rule_t *rule);
 
 /* Back to the state after init: the signal chain, the objects at their
- * configured places, no trenches, no drift, counters zero. */
+ * configured places, no trenches, no drift, the interlock not latched,
+ * counters zero. */
 void fw_card_reset(fw_card_t *c);
 
 /* One DMA block (above). FW_ERR_ARG (nothing done) for a NULL pointer or
@@ -234,6 +254,8 @@ int32_t fw_card_wire_id(const fw_card_t *c, int32_t i);          /* 0 outside [0
 const fw_litho_t *fw_card_litho(const fw_card_t *c);             /* NULL without lithography */
 void fw_card_drift_pm(const fw_card_t *c, int32_t offset_pm[2]);  /* accumulated drift, frame A */
 uint32_t fw_card_fixes_applied(const fw_card_t *c);
+/* The interlock (limits, latch, trips); NULL when it is off. */
+const fw_guard_t *fw_card_guard(const fw_card_t *c);
 /* The displacement constants in use (the estimate, or as configured). */
 int32_t fw_card_disp_n_pm_per_v(const fw_card_t *c);
 int32_t fw_card_disp_l_pm_per_v(const fw_card_t *c);

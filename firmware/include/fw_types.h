@@ -122,5 +122,6 @@ typedef enum {
 #define FW_FLAG_THETA_UNKNOWN   (1u << 6)  /* apex has not moved enough yet: theta is a default */
 #define FW_FLAG_SAT_POS         (1u << 7)  /* a position output was clamped to int32 */
 #define FW_FLAG_SQUEEZE         (1u << 8)  /* tip-wire contact past psi_max: the tip squeezes the wire */
+#define FW_FLAG_INTERLOCK       (1u << 9)  /* the force interlock is latched: the block's command retracts the tip (fw_guard.h) */
 
 #endif /* FW_TYPES_H */

@@ -148,6 +148,10 @@ fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st
     if (rule == FW_RULE_OK && (cfg->haptic_un_per_pn < 0 || cfg->haptic_max_un < 0)) {
         rule = FW_RULE_HAPTIC;
     }
+    if (rule == FW_RULE_OK && cfg->interlock) {
+        rule = fw_guard_check(cfg->interlock_normal_pn, cfg->interlock_lateral_pn, board.normal_gain_pn_per_v,
+                              board.lateral_gain_pn_per_v);
+    }
     return rule;
 }
 
@@ -189,6 +193,10 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
                             cfg->litho_depth_pm_per_pn, cfg->tip_half_angle_mdeg, card_litho_step_pm(cfg));
     }
     (void)fw_drift_init(&c->drift, card_drift_step_pm(cfg));
+    if (cfg->interlock) {
+        (void)fw_guard_init(&c->guard, cfg->interlock_normal_pn, cfg->interlock_lateral_pn,
+                            board.normal_gain_pn_per_v, board.lateral_gain_pn_per_v);
+    }
     c->objects = cfg->n_particles > 0 || cfg->n_wires > 0 || cfg->litho;
     fw_card_reset(c);
     return FW_OK;
@@ -216,6 +224,9 @@ void fw_card_reset(fw_card_t *c)
         fw_litho_reset(&c->litho);
     }
     fw_drift_reset(&c->drift);
+    if (cfg->interlock) {
+        fw_guard_reset(&c->guard);
+    }
     c->sat_samples = 0;
     c->fixes_applied = 0;
     for (i = 0; i < 3; i++) {
@@ -267,14 +278,33 @@ static void card_objects_sample(fw_card_t *c, fw_sample_out_t *o)
     }
 }
 
+/* The interlock's causes of k samples (fw_card.h, step 3), ORed: each
+ * sample's F_z, and its lateral channel's F_y from its code (eq. 1a with
+ * the board's gain, given to the guard at init; the code's signal less the
+ * baseline, as card_twist_rad forms it). A loop of its own that stores
+ * nothing, so the limits and gains stay in registers. Scaling and
+ * overflow: fw_acq_signal_of_code_q23's (within +-20 V), fw_guard_over_q23's. */
+static uint32_t card_guard_samples(const fw_card_t *c, const fw_sample_out_t *o, int32_t k)
+{
+    uint32_t causes = 0u;
+    int32_t j;
+    for (j = 0; j < k; j++) {
+        causes |= fw_guard_over_q23(&c->guard, o[j].force_pn[2], fw_acq_signal_of_code_q23(&c->board.acq_sl, o[j].sl_code),
+                                    o[j].flags);
+    }
+    return causes;
+}
+
 /* round(sum / n), half away from zero, n > 0. */
 static int32_t card_mean_pn(int64_t sum, int32_t n)
 {
     return fw_math_sat_i32(fw_math_div_round_i64(sum, n), NULL);
 }
 
-/* The block's end: the pose's target and command, the hand's force. */
-static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t *out)
+/* The block's end: the pose's target and command, the hand's force;
+ * joy_target_pm: the joystick's target before the drift (the interlock's
+ * xy set point). */
+static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t *out, int32_t joy_target_pm[2])
 {
     q15_t joy[2];
     bool sat = false;
@@ -284,6 +314,8 @@ static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t
         joy[i] = (q15_t)((j > FW_Q15_MAX) ? FW_Q15_MAX : ((j < FW_Q15_MIN) ? FW_Q15_MIN : j));
     }
     fw_comp_target_pm(&c->board.comp, joy, out->target_pm, &sat);
+    joy_target_pm[0] = out->target_pm[0];
+    joy_target_pm[1] = out->target_pm[1];
     if (c->chain16) {
         /* the 16-bit chain's own offset of its latest signals */
         int32_t off[2];
@@ -316,7 +348,10 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
 {
     int64_t sum[3] = { 0, 0, 0 };
     uint32_t flags = 0;
+    uint32_t causes = 0u;
     int32_t done = 0;
+    int32_t joy_target_pm[2];
+    fw_guard_pose_t gp;
     int i;
     if (c == NULL || in == NULL || out == NULL || in->n < 0 || (in->samples == NULL && in->n > 0)) {
         return FW_ERR_ARG;
@@ -345,6 +380,9 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
                 sum[i] += o->force_pn[i];
             }
         }
+        if (c->cfg.interlock) {
+            causes |= card_guard_samples(c, c->st.scratch, k);
+        }
         for (i = 0; i < 3; i++) {
             c->last_tip_pm[i] = c->st.scratch[k - 1].tip_pm[i];
         }
@@ -360,9 +398,21 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
     out->code_n = c->last_code_n;
     out->code_l = c->last_code_l;
     out->sat_samples = c->sat_samples;
-    card_command(c, &in->pose, out);
-    /* the next block's samples are taken with this pose's command */
-    c->down = in->pose.engaged;
+    card_command(c, &in->pose, out, joy_target_pm);
+    out->interlock = FW_GUARD_ARMED;
+    if (c->cfg.interlock) {
+        gp.load_pn = in->pose.load_pn;
+        gp.xy_pm[0] = joy_target_pm[0];
+        gp.xy_pm[1] = joy_target_pm[1];
+        gp.engaged = in->pose.engaged;
+        out->interlock = fw_guard_step(&c->guard, causes, &gp);
+        if (fw_guard_retracts(out->interlock)) {
+            out->engaged = false;
+            out->flags |= FW_FLAG_INTERLOCK;
+        }
+    }
+    /* the next block's samples are taken with this block's command */
+    c->down = out->engaged;
     return FW_OK;
 }
 
@@ -490,6 +540,11 @@ void fw_card_drift_pm(const fw_card_t *c, int32_t offset_pm[2])
 uint32_t fw_card_fixes_applied(const fw_card_t *c)
 {
     return (c == NULL) ? 0u : c->fixes_applied;
+}
+
+const fw_guard_t *fw_card_guard(const fw_card_t *c)
+{
+    return (c == NULL || !c->cfg.interlock) ? NULL : &c->guard;
 }
 
 int32_t fw_card_disp_n_pm_per_v(const fw_card_t *c)

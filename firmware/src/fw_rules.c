@@ -48,6 +48,10 @@ static const rule_row_t rule_rows[FW_RULE_COUNT] = {
       "friction information)", FW_ERR_DOMAIN },
     { "the slopes give a real friction angle: B = 2 (rho + 1) / ((rho - 1) sin 2 phi) >= 2 and phi + beta < 90 deg",
       FW_ERR_DOMAIN },
+    { "the interlock's normal force limit lies above 0 pN and below the normal channel's full scale k_n K_n 10 V",
+      FW_ERR_ARG },
+    { "the interlock's lateral force limit lies above 0 pN and below the lateral channel's full scale "
+      "k_theta K_l / h 10 V", FW_ERR_ARG },
 };
 
 const char *fw_rule_text(fw_rule_t rule)

@@ -124,6 +124,19 @@ class BadScenes(unittest.TestCase):
         self.assertIn(path, stderr)
         self.assertIn("line", stderr)
 
+    def test_interlock_limits_and_z_speed_named(self):
+        self.check_refused(GOOD.replace("objects:", "firmware: {interlock_normal_nN: -5}\nobjects:", 1),
+                           "firmware.interlock_normal_nN", "must be > 0, got '-5'")
+        msg = self.check_refused(GOOD.replace("objects:", "firmware: {interlock_normal_nN: 106.8}\nobjects:", 1),
+                                 "firmware.interlock_normal_nN", "below the normal channel's full scale")
+        self.assertIn("firmware.interlock_normal_nN 106.8", msg)
+        self.assertIn("k_n K_n 10 V = 106.8 nN", msg)
+        msg = self.check_refused(GOOD.replace("objects:", "firmware: {interlock_lateral_nN: 400}\nobjects:", 1),
+                                 "firmware.interlock_lateral_nN", "below the lateral channel's full scale")
+        self.assertIn("k_theta K_l / h 10 V = 379 nN", msg)
+        self.check_refused(GOOD.replace("objects:", "firmware: {interlock: maybe}\nobjects:", 1), "firmware.interlock", "must be true or false")
+        self.check_refused(GOOD.replace("objects:", "afm: {z_speed_nm_per_s: -1}\nobjects:", 1), "afm.z_speed_nm_per_s", "must be >= 0, got '-1'")
+
 
 class ThroughTheAfmScript(unittest.TestCase):
     """The same contract through the README's entry point, ./afm."""

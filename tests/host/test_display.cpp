@@ -13,6 +13,7 @@
 #include <string>
 #include <unistd.h>
 
+#include "afm/fw_force_t.hpp"
 #include "display.hpp"
 #include "fidelity.hpp"
 #include "profile.hpp"
@@ -226,6 +227,35 @@ void test_gsf_header_and_padding()
     TEST_ASSERT_TRUE(err.find("/nonexistent/dir/x.gsf") != std::string::npos);
 }
 
+void test_interlock_flag_draws_a_red_border_and_banner()
+{
+    // FW_FORCE's FLAG_INTERLOCK: a red border round the frame and a red
+    // banner under the flags' line; without it, no red there (the afmhot
+    // map has no pure red: its blue-free colours are orange to yellow).
+    afm::Display d(kField, kTip);
+    d.start(cv::Mat::zeros(kField.px, kField.px, CV_32F), std::vector<afm::DisplayObject>{});
+    auto red_in = [](const cv::Mat &img, const cv::Rect &r) {
+        int n = 0;
+        for (int y = r.y; y < r.y + r.height; ++y)
+            for (int x = r.x; x < r.x + r.width; ++x) {
+                const cv::Vec3b p = img.at<cv::Vec3b>(y, x);
+                n += p[0] < 40 && p[1] < 40 && p[2] > 200;   // BGR red
+            }
+        return n;
+    };
+    const int N = kField.px;
+    const cv::Rect left(0, 50, 2, N - 100), bottom(50, N - 2, N - 100, 2), banner(120, 29, 60, 12);
+    afm::Overlay o;
+    o.flags = afm::fw_force_t::FLAG_SQUEEZE;
+    const cv::Mat plain = d.frame(o);
+    TEST_ASSERT_EQUAL_INT(0, red_in(plain, left) + red_in(plain, bottom) + red_in(plain, banner));
+    o.flags |= afm::fw_force_t::FLAG_INTERLOCK;
+    const cv::Mat locked = d.frame(o);
+    TEST_ASSERT_EQUAL_INT(left.area(), red_in(locked, left));
+    TEST_ASSERT_EQUAL_INT(bottom.area(), red_in(locked, bottom));
+    TEST_ASSERT_TRUE(red_in(locked, banner) > banner.area() / 2);   // the banner, less its white letters
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -233,6 +263,7 @@ int main()
     RUN_TEST(test_known_object_renders_to_its_footprint);
     RUN_TEST(test_local_update_equals_full_redraw);
     RUN_TEST(test_the_hands_force_is_drawn_and_points_its_way);
+    RUN_TEST(test_interlock_flag_draws_a_red_border_and_banner);
     RUN_TEST(test_fidelity_passes_honest_and_catches_20nm_misplacement);
     RUN_TEST(test_fidelity_reports_an_object_missing_from_the_scan);
     RUN_TEST(test_video_reads_back_with_the_frame_count_written);

@@ -320,6 +320,114 @@ void test_included_calibration_is_read_and_the_scenes_own_values_win()
     TEST_ASSERT_TRUE_MESSAGE(msg.find(inc) != std::string::npos && msg.find("cannot open") != std::string::npos, msg.c_str());
 }
 
+// The z servo (afm.z_speed_nm_per_s) and the retract (kRetractLift_nm):
+// a still tip on flat glass, rigid lever (no bending_offset: F_x = 0), so
+// the force is exactly the set point plus k_n times the z still missing.
+static afm::Scene servo_scene(double v_nm_per_s)
+{
+    std::string t = with(kBase, "EFFECTS", "");
+    if (v_nm_per_s > 0) t = with(t, "frame_rate_hz: 25\n", "frame_rate_hz: 25\nafm:\n  z_speed_nm_per_s: " + std::to_string(v_nm_per_s) + "\n");
+    return scene_from_text(t);
+}
+
+void test_ideal_z_servo_by_default_steps_the_force_to_the_set_point()
+{
+    // Speed 0 (the default, every existing scene): the force is the set
+    // point from the first sample after it changes, as before (1e-9: rounding).
+    const afm::Scene s = servo_scene(0);
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, s.z_speed_nm_per_s);
+    World w(s);
+    const double knKn = s.probe.spring_N_per_m * s.probe.deflection_nm_per_V;
+    w.command(Eigen::Vector2d(0, -300), 5, true);
+    afm::sim::Sample smp = w.step();
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 5.0, w.tip_force().z());
+    w.command(Eigen::Vector2d(0, -300), 80, true);
+    smp = w.step();
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 80.0, w.tip_force().z());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 80.0 / knKn, smp.sn_v);
+}
+
+void test_finite_z_servo_raises_the_force_by_k_n_v_z_per_sample()
+{
+    // v_z = 20 um/s at 20 kHz: 1 nm of z per sample, k_n = 0.12 nN/nm: the
+    // force climbs from 5 to 50 nN by 0.12 nN a sample (375 samples), then
+    // holds; back down to 5 nN the same way. The first sample settles at
+    // once (a run starts in contact at its load). Rounding only: 1e-9.
+    const afm::Scene s = servo_scene(20000);
+    TEST_ASSERT_EQUAL_DOUBLE(20000.0, s.z_speed_nm_per_s);
+    World w(s);
+    const double kn = s.probe.spring_N_per_m, knKn = kn * s.probe.deflection_nm_per_V, dz = 20000.0 / s.sample_rate_hz;
+    w.command(Eigen::Vector2d(0, -300), 5, true);
+    afm::sim::Sample smp = w.step();
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 5.0, w.tip_force().z());
+    double z = smp.piezo_nm.z();
+    w.command(Eigen::Vector2d(0, -300), 50, true);
+    for (int m = 1; m <= 400; ++m) {
+        smp = w.step();
+        const double expected = std::min(50.0, 5.0 + kn * dz * m);
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, expected, w.tip_force().z());
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, expected / knKn, smp.sn_v);
+        TEST_ASSERT_TRUE(z - smp.piezo_nm.z() <= dz + 1e-9);   // z moves down at most v_z dt
+        z = smp.piezo_nm.z();
+    }
+    w.command(Eigen::Vector2d(0, -300), 5, true);
+    for (int m = 1; m <= 400; ++m) {
+        w.step();
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, std::max(5.0, 50.0 - kn * dz * m), w.tip_force().z());
+    }
+    // The bound of the card's interlock, from this: a block of 20 samples
+    // raises the force by at most k_n v_z T_block = 2.4 nN.
+    std::printf("finite z servo: %.3f nN per sample, %.3f nN per block of %d samples\n", kn * dz, kn * dz * s.samples_per_block(),
+                s.samples_per_block());
+}
+
+void test_disengaging_retracts_z_100_nm_at_once_and_the_servo_lands_it_again()
+{
+    for (const double v : {0.0, 20000.0}) {
+        const afm::Scene s = servo_scene(v);
+        World w(s);
+        const double kn = s.probe.spring_N_per_m;
+        w.command(Eigen::Vector2d(0, -300), 5, true);
+        for (int i = 0; i < 10; ++i) w.step();
+        const double z_load = w.piezo_z(), z_touch = z_load + 5.0 / kn;   // where the tip touches with no load
+        // lifted: at once, and kept there
+        w.command(Eigen::Vector2d(0, -300), 5, false);
+        for (int i = 0; i < 50; ++i) {
+            const afm::sim::Sample smp = w.step();
+            TEST_ASSERT_DOUBLE_WITHIN(1e-9, z_touch + afm::sim::kRetractLift_nm, smp.piezo_nm.z());
+            TEST_ASSERT_EQUAL_DOUBLE(0.0, w.tip_force().norm());
+            TEST_ASSERT_EQUAL_DOUBLE(0.0, smp.sn_v);
+        }
+        w.command(Eigen::Vector2d(0, -300), 5, true);
+        if (v == 0) {
+            // the ideal servo lands it in the next sample
+            w.step();
+            TEST_ASSERT_DOUBLE_WITHIN(1e-9, 5.0, w.tip_force().z());
+            TEST_ASSERT_DOUBLE_WITHIN(1e-9, z_load, w.piezo_z());
+            continue;
+        }
+        // at 1 nm a sample: 100 samples to come down to the touching height
+        // (no adhesion listed: no force there yet), then 0.12 nN a sample
+        for (int m = 1; m <= 100; ++m) {
+            w.step();
+            TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.0, w.tip_force().z());
+        }
+        for (int m = 1; m <= 60; ++m) {
+            w.step();
+            TEST_ASSERT_DOUBLE_WITHIN(1e-9, std::min(5.0, 0.12 * m), w.tip_force().z());
+        }
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, z_load, w.piezo_z());
+    }
+    // A speed below 0 is refused, naming the key.
+    std::string msg;
+    try {
+        scene_from_text(with(with(kBase, "EFFECTS", ""), "frame_rate_hz: 25\n", "frame_rate_hz: 25\nafm: {z_speed_nm_per_s: -1}\n"));
+    } catch (const afm::SceneError &e) {
+        msg = e.what();
+    }
+    TEST_ASSERT_TRUE_MESSAGE(msg.find("afm.z_speed_nm_per_s") != std::string::npos, msg.c_str());
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -336,5 +444,8 @@ int main()
     RUN_TEST(test_piezo_z_beyond_its_range_is_clamped_and_the_load_departs);
     RUN_TEST(test_field_outside_the_scanner_range_is_refused_with_the_key_named);
     RUN_TEST(test_included_calibration_is_read_and_the_scenes_own_values_win);
+    RUN_TEST(test_ideal_z_servo_by_default_steps_the_force_to_the_set_point);
+    RUN_TEST(test_finite_z_servo_raises_the_force_by_k_n_v_z_per_sample);
+    RUN_TEST(test_disengaging_retracts_z_100_nm_at_once_and_the_servo_lands_it_again);
     return UNITY_END();
 }
