@@ -5,7 +5,7 @@
  * length of 2^30 resizes a vector to 2^30 elements (gigabytes, value
  * initialised) before the decode finds the bytes missing, and a string
  * length of 0 or less makes std::string::assign throw (a crash in the
- * callback). The guarded decoders refuse both before allocating, since every
+ * callback); a string without its NUL, or with one inside, is refused too. The guarded decoders refuse both before allocating, since every
  * element takes at least one byte on the wire, and refuse a NaN or an
  * infinity in any double or float field: no message of the bus carries one.
  *
@@ -22,6 +22,15 @@
 
 #define AFM_LCM_E_LENGTH (-2)
 #define AFM_LCM_E_NONFINITE (-3)
+
+/* A string field of `len` bytes at `at` (its length field says len,
+ * the terminating NUL counted): it must end in its NUL and hold no other,
+ * or the decoded string would lose its last byte or re-encode shorter. */
+static inline int afm_lcm_string_ok(const void *buf, int at, int len)
+{
+    const char *s = (const char *)buf + at;
+    return s[len - 1] == '\0' && memchr(s, '\0', (size_t)(len - 1)) == NULL;
+}
 
 /* Each element through LCM's own 64- and 32-bit decoders, its exponent
  * checked on the bits (all ones: an infinity or a NaN). */

@@ -22,7 +22,8 @@ def guard(text: str, name: str) -> str:
     text = text.replace(INCLUDE, INCLUDE + '#include "afm_lcm_guard.h"\n', 1)
     text = RESIZE.sub(lambda m: f"{m[1]}if ({m[3]} < 0 || {m[3]} > maxlen - pos) return AFM_LCM_E_LENGTH;\n"
                                 f"{m[1]}{m[2]}.resize({m[3]});", text)
-    text = STRLEN.sub(lambda m: f"if({m[1]} < 1 || {m[1]} > maxlen - pos) return AFM_LCM_E_LENGTH;", text)
+    text = STRLEN.sub(lambda m: f"if({m[1]} < 1 || {m[1]} > maxlen - pos || !afm_lcm_string_ok(buf, offset + pos, {m[1]})) "
+                                f"return AFM_LCM_E_LENGTH;", text)
     text = text.replace("__double_decode_array(buf", "afm_lcm_decode_finite_double(buf")
     text = text.replace("__float_decode_array(buf", "afm_lcm_decode_finite_float(buf")
     # What must not be left: every resize and string length guarded, no raw

@@ -12,6 +12,10 @@
  *
  * Exit status: 0 ok, 2 bad or out-of-domain arguments (one message on
  * stderr naming the option and value).
+ *
+ * afm_calc_main (afm_calc.h) is the whole program; main.c calls it, the fuzz
+ * harness (fuzz/fuzz_calc.cpp) calls it in-process: nothing here exits, every
+ * refusal returns its status up to afm_calc_main.
  */
 #include <errno.h>
 #include <math.h>
@@ -27,6 +31,8 @@
 #include "fw_paper_probe.h"
 #include "fw_units.h"
 
+#include "afm_calc.h"
+
 #define EXIT_USAGE 2
 #define CALC_PI 3.14159265358979323846
 #define LIST_MAX FW_CALIB_LINES_MAX
@@ -40,7 +46,8 @@ typedef struct {
     int required;
 } opt_t;
 
-static void die(const char *fmt, ...)
+/* Says why the arguments are refused (one line on stderr); returns EXIT_USAGE. */
+static int refuse(const char *fmt, ...)
 {
     va_list ap;
     fprintf(stderr, "afm_calc: ");
@@ -48,7 +55,7 @@ static void die(const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     va_end(ap);
     fputc('\n', stderr);
-    exit(EXIT_USAGE);
+    return EXIT_USAGE;
 }
 
 static int wants_help(int argc, char **argv)
@@ -62,7 +69,8 @@ static int wants_help(int argc, char **argv)
     return 0;
 }
 
-static void parse_opts(const char *cmd, int argc, char **argv, opt_t *opts, int n)
+/* The helpers below return 0, or EXIT_USAGE once they have said why. */
+static int parse_opts(const char *cmd, int argc, char **argv, opt_t *opts, int n)
 {
     int i;
     int k;
@@ -75,63 +83,66 @@ static void parse_opts(const char *cmd, int argc, char **argv, opt_t *opts, int 
                     opts[k].value = "1";
                 } else {
                     if (i + 1 >= argc) {
-                        die("%s: option %s needs a value", cmd, opts[k].name);
+                        return refuse("%s: option %s needs a value", cmd, opts[k].name);
                     }
                     opts[k].value = argv[++i];
                 }
             }
         }
         if (!found) {
-            die("%s: unknown option '%s' (see %s --help)", cmd, argv[i], cmd);
+            return refuse("%s: unknown option '%s' (see %s --help)", cmd, argv[i], cmd);
         }
     }
     for (k = 0; k < n; k++) {
         if (opts[k].required && opts[k].value == NULL) {
-            die("%s: missing option %s (see %s --help)", cmd, opts[k].name, cmd);
+            return refuse("%s: missing option %s (see %s --help)", cmd, opts[k].name, cmd);
         }
     }
+    return 0;
 }
 
-static double num_opt(const char *cmd, const opt_t *o)
+static int num_opt(const char *cmd, const opt_t *o, double *v)
 {
     char *end;
-    double v;
     errno = 0;
-    v = strtod(o->value, &end);
-    if (end == o->value || *end != '\0' || errno != 0 || !isfinite(v)) {
-        die("%s: %s %s: not a number", cmd, o->name, o->value);
+    *v = strtod(o->value, &end);
+    if (end == o->value || *end != '\0' || errno != 0 || !isfinite(*v)) {
+        return refuse("%s: %s %s: not a number", cmd, o->name, o->value);
     }
-    return v;
+    return 0;
 }
 
-static double num_opt_range(const char *cmd, const opt_t *o, double lo, double hi, const char *why)
+static int num_opt_range(const char *cmd, const opt_t *o, double lo, double hi, const char *why, double *v)
 {
-    double v = num_opt(cmd, o);
-    if (v < lo || v > hi) {
-        die("%s: %s %s: out of range, %s", cmd, o->name, o->value, why);
+    if (num_opt(cmd, o, v) != 0) {
+        return EXIT_USAGE;
     }
-    return v;
+    if (*v < lo || *v > hi) {
+        return refuse("%s: %s %s: out of range, %s", cmd, o->name, o->value, why);
+    }
+    return 0;
 }
 
-static int list_opt(const char *cmd, const opt_t *o, double *out, int max)
+/* *n: the count of values read into out[0..max) */
+static int list_opt(const char *cmd, const opt_t *o, double *out, int max, int *n)
 {
     const char *p = o->value;
-    int n = 0;
+    *n = 0;
     while (*p != '\0') {
         char *end;
         double v;
-        if (n >= max) {
-            die("%s: %s %s: at most %d values", cmd, o->name, o->value, max);
+        if (*n >= max) {
+            return refuse("%s: %s %s: at most %d values", cmd, o->name, o->value, max);
         }
         errno = 0;
         v = strtod(p, &end);
         if (end == p || errno != 0 || !isfinite(v) || (*end != ',' && *end != '\0')) {
-            die("%s: %s %s: not a comma-separated list of numbers", cmd, o->name, o->value);
+            return refuse("%s: %s %s: not a comma-separated list of numbers", cmd, o->name, o->value);
         }
-        out[n++] = v;
+        out[(*n)++] = v;
         p = (*end == ',') ? end + 1 : end;
     }
-    return n;
+    return 0;
 }
 
 static const char *status_name(fw_status_t st)
@@ -154,17 +165,17 @@ static const char *status_name(fw_status_t st)
 /* --write FILE: a scene include (include: FILE) holding what was measured
  * as the card's calibrated constants (firmware.*), written whole or not at
  * all (a temporary file renamed). `keys` is the YAML mapping's body. */
-static void write_include(const char *cmd, const char *path, int argc, char **argv, const char *keys)
+static int write_include(const char *cmd, const char *path, int argc, char **argv, const char *keys)
 {
     char tmp[4096];
     FILE *f;
     int i;
     if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp) {
-        die("%s: --write %s: path too long", cmd, path);
+        return refuse("%s: --write %s: path too long", cmd, path);
     }
     f = fopen(tmp, "w");
     if (f == NULL) {
-        die("%s: --write %s: cannot write: %s", cmd, path, strerror(errno));
+        return refuse("%s: --write %s: cannot write: %s", cmd, path, strerror(errno));
     }
     fprintf(f, "# The card's calibrated constants, measured by ./afm %s", cmd);
     for (i = 0; i < argc; i++) {
@@ -173,16 +184,18 @@ static void write_include(const char *cmd, const char *path, int argc, char **ar
     fprintf(f, "\n# A scene takes them with  include: %s\nfirmware:\n%s", path, keys);
     if (fclose(f) != 0 || rename(tmp, path) != 0) {
         remove(tmp);
-        die("%s: --write %s: cannot write: %s", cmd, path, strerror(errno));
+        return refuse("%s: --write %s: cannot write: %s", cmd, path, strerror(errno));
     }
+    return 0;
 }
 
-static int32_t to_i32(const char *cmd, const opt_t *o, double v)
+static int to_i32(const char *cmd, const opt_t *o, double v, int32_t *out)
 {
     if (!(v >= -2147483648.0 && v <= 2147483647.0)) {
-        die("%s: %s %s: does not fit the firmware's 32-bit units", cmd, o->name, o->value);
+        return refuse("%s: %s %s: does not fit the firmware's 32-bit units", cmd, o->name, o->value);
     }
-    return fwu_i32(v);
+    *out = fwu_i32(v);
+    return 0;
 }
 
 /* ---- calib tilted ------------------------------------------------------- */
@@ -213,15 +226,17 @@ static int cmd_calib_tilted(int argc, char **argv)
                "  Paper: --up 0.07 --down 0.02 --angle-deg 9 --spring-N-per-m 0.12 --deflection-nm-per-V 89 -> mu 0.0865, 37.9 nN/V\n");
         return 0;
     }
-    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
-    ru = num_opt_range(cmd, &o[0], -127.0, 127.0, "slopes must lie in (-127, 127)");
-    rd = num_opt_range(cmd, &o[1], -127.0, 127.0, "slopes must lie in (-127, 127)");
-    phi = num_opt_range(cmd, &o[2], -360.0, 360.0, "degrees");
-    spring_n_per_m = num_opt_range(cmd, &o[3], 1e-6, 1e4, "k_n must lie in [1e-6, 1e4] N/m");
-    deflection_nm_per_v = num_opt_range(cmd, &o[4], 1e-3, 1e6, "K_n must lie in [1e-3, 1e6] nm/V");
+    if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
+        || num_opt_range(cmd, &o[0], -127.0, 127.0, "slopes must lie in (-127, 127)", &ru) != 0
+        || num_opt_range(cmd, &o[1], -127.0, 127.0, "slopes must lie in (-127, 127)", &rd) != 0
+        || num_opt_range(cmd, &o[2], -360.0, 360.0, "degrees", &phi) != 0
+        || num_opt_range(cmd, &o[3], 1e-6, 1e4, "k_n must lie in [1e-6, 1e4] N/m", &spring_n_per_m) != 0
+        || num_opt_range(cmd, &o[4], 1e-3, 1e6, "K_n must lie in [1e-3, 1e6] nm/V", &deflection_nm_per_v) != 0) {
+        return EXIT_USAGE;
+    }
     normal_gain_pn_per_v = spring_n_per_m * deflection_nm_per_v * 1000.0;   /* N/m * nm/V = nN/V, in pN/V */
     if (normal_gain_pn_per_v < 1.0 || normal_gain_pn_per_v > 2147483647.0) {
-        die("%s: --spring-N-per-m %s --deflection-nm-per-V %s: k_n K_n = %g nN/V does not fit int32 pN/V", cmd, o[3].value, o[4].value,
+        return refuse("%s: --spring-N-per-m %s --deflection-nm-per-V %s: k_n K_n = %g nN/V does not fit int32 pN/V", cmd, o[3].value, o[4].value,
             fwu_nn_per_v_from_pn_per_v((int64_t)normal_gain_pn_per_v));
     }
     st = fw_calib_tilted_solve(fwu_q24(ru), fwu_q24(rd), fw_math_bam_from_mdeg(fwu_mdeg_from_deg(phi)),
@@ -231,7 +246,7 @@ static int cmd_calib_tilted(int argc, char **argv)
         fw_rule_t rule = fw_calib_tilted_rule(fwu_q24(ru), fwu_q24(rd), fw_math_bam_from_mdeg(fwu_mdeg_from_deg(phi)),
                                               fwu_i32(normal_gain_pn_per_v));
         const char *opt = (rule == FW_RULE_TILTED_SLOPE) ? "--angle-deg" : (rule == FW_RULE_TILTED_UPHILL) ? "--up" : "--up --down";
-        die("%s: %s (--up %s --down %s --angle-deg %s): the firmware refuses it: %s (fw_calib_tilted_solve: %s, rule %d)",
+        return refuse("%s: %s (--up %s --down %s --angle-deg %s): the firmware refuses it: %s (fw_calib_tilted_solve: %s, rule %d)",
             cmd, opt, o[0].value, o[1].value, o[2].value, fw_rule_text(rule), status_name(st), (int)rule);
     }
     {
@@ -255,7 +270,7 @@ static int cmd_calib_tilted(int argc, char **argv)
         if (o[6].value != NULL) {
             char keys[256];
             snprintf(keys, sizeof keys, "  lateral_nN_per_V: %.3f   # k_theta K_l / h\n  mu: %.6f                # tip-substrate\n", lat, mu);
-            write_include(cmd, o[6].value, argc, argv, keys);
+            return write_include(cmd, o[6].value, argc, argv, keys);
         }
     }
     return 0;
@@ -291,29 +306,31 @@ static int cmd_calib_lines(int argc, char **argv)
                LIST_MAX);
         return 0;
     }
-    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
-    n = list_opt(cmd, &o[0], dz, LIST_MAX);
-    m = list_opt(cmd, &o[1], dd, LIST_MAX);
-    deflection_nm_per_v = num_opt_range(cmd, &o[2], 1e-3, 2e6, "K_n must lie in [1e-3, 2e6] nm/V");
+    if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
+        || list_opt(cmd, &o[0], dz, LIST_MAX, &n) != 0
+        || list_opt(cmd, &o[1], dd, LIST_MAX, &m) != 0
+        || num_opt_range(cmd, &o[2], 1e-3, 2e6, "K_n must lie in [1e-3, 2e6] nm/V", &deflection_nm_per_v) != 0) {
+        return EXIT_USAGE;
+    }
     if (n != m) {
-        die("%s: --depths-nm %s --offsets-nm %s: %d depths but %d offsets", cmd, o[0].value, o[1].value, n, m);
+        return refuse("%s: --depths-nm %s --offsets-nm %s: %d depths but %d offsets", cmd, o[0].value, o[1].value, n, m);
     }
     if (n < 2) {
-        die("%s: --depths-nm %s: at least 2 lines are needed", cmd, o[0].value);
+        return refuse("%s: --depths-nm %s: at least 2 lines are needed", cmd, o[0].value);
     }
     for (i = 0; i < n; i++) {
         if (fabs(dz[i]) * 1000.0 > FW_CALIB_LINES_RANGE_PM) {
-            die("%s: --depths-nm %s: |%g| nm exceeds %d nm", cmd, o[0].value, dz[i], FW_CALIB_LINES_RANGE_PM / 1000);
+            return refuse("%s: --depths-nm %s: |%g| nm exceeds %d nm", cmd, o[0].value, dz[i], FW_CALIB_LINES_RANGE_PM / 1000);
         }
         if (fabs(dd[i]) * 1000.0 > FW_CALIB_LINES_RANGE_PM) {
-            die("%s: --offsets-nm %s: |%g| nm exceeds %d nm", cmd, o[1].value, dd[i], FW_CALIB_LINES_RANGE_PM / 1000);
+            return refuse("%s: --offsets-nm %s: |%g| nm exceeds %d nm", cmd, o[1].value, dd[i], FW_CALIB_LINES_RANGE_PM / 1000);
         }
         dzp[i] = fwu_pm_from_nm(dz[i]);
         ddp[i] = fwu_pm_from_nm(dd[i]);
     }
     st = fw_calib_lines_cn(dzp, ddp, n, fwu_pm_per_v_from_nm_per_v(deflection_nm_per_v), &disp_n_pm_per_v, &res);
     if (st != FW_OK) {
-        die("%s: --depths-nm %s: the depths must not all be equal and |offset/depth| must stay below 128 (%s)",
+        return refuse("%s: --depths-nm %s: the depths must not all be equal and |offset/depth| must stay below 128 (%s)",
             cmd, o[0].value, status_name(st));
     }
     if (o[3].value != NULL) {
@@ -329,7 +346,7 @@ static int cmd_calib_lines(int argc, char **argv)
     if (o[4].value != NULL) {
         char keys[128];
         snprintf(keys, sizeof keys, "  disp_n_nm_per_V: %.3f   # C_n\n", fwu_nm_per_v_from_pm_per_v(disp_n_pm_per_v));
-        write_include(cmd, o[4].value, argc, argv, keys);
+        return write_include(cmd, o[4].value, argc, argv, keys);
     }
     return 0;
 }
@@ -348,7 +365,7 @@ static int cmd_model_wire(int argc, char **argv)
     double at;
     double f = 1.0;
     int32_t len_pm;
-    int32_t at_pm;
+    int32_t at_pm = 0;
     fw_wire_static_t st;
     fw_status_t s;
     const char *regime;
@@ -362,21 +379,23 @@ static int cmd_model_wire(int argc, char **argv)
                "  (0.414 at an end, 1 at the middle) and F_min for friction density f (default 1 nN/um).\n");
         return 0;
     }
-    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
-    len = num_opt_range(cmd, &o[0], 0.001, FW_WIRE_LENGTH_MAX_PM / 1000.0, "0 < L <= 1073741 nm");
-    dia = num_opt_range(cmd, &o[1], 0.001, 1e9, "D must be > 0");
-    at = num_opt(cmd, &o[2]);
-    if (o[3].value != NULL) {
-        f = num_opt_range(cmd, &o[3], 0.0, 1e6, "f must be >= 0");
+    if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
+        || num_opt_range(cmd, &o[0], 0.001, FW_WIRE_LENGTH_MAX_PM / 1000.0, "0 < L <= 1073741 nm", &len) != 0
+        || num_opt_range(cmd, &o[1], 0.001, 1e9, "D must be > 0", &dia) != 0
+        || num_opt(cmd, &o[2], &at) != 0
+        || (o[3].value != NULL && num_opt_range(cmd, &o[3], 0.0, 1e6, "f must be >= 0", &f) != 0)) {
+        return EXIT_USAGE;
     }
     len_pm = fwu_pm_from_nm(len);
     if (at < 0.0 || at > len) {
-        die("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[2].value, len);
+        return refuse("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[2].value, len);
     }
-    at_pm = to_i32(cmd, &o[2], at * 1e3);
+    if (to_i32(cmd, &o[2], at * 1e3, &at_pm) != 0) {
+        return EXIT_USAGE;
+    }
     s = fw_wire_static_point(len_pm, at_pm, &st);
     if (s != FW_OK) {
-        die("%s: --push-at-nm %s: %s", cmd, o[2].value, status_name(s));
+        return refuse("%s: --push-at-nm %s: %s", cmd, o[2].value, status_name(s));
     }
     regime = (st.regime == FW_WIRE_TRANSLATE) ? "translate"
              : (st.regime == FW_WIRE_ROTATE_NEAR_B) ? "rotate_about_far_end_side" : "rotate_about_near_end_side";
@@ -389,7 +408,7 @@ static int cmd_model_wire(int argc, char **argv)
         bool sat = false;
         if (fw_wire_tip_init(&tip, 0, 20000, fwu_pn_per_um_from_nn_per_um(f), 0, 0) != FW_OK
             || fw_wire_init(&w, 0, 0, 0, len_pm, len_pm) != FW_OK) {
-            die("%s: --f-nN-per-um %s: the firmware refuses this friction or length", cmd, o[3].value ? o[3].value : "1");
+            return refuse("%s: --f-nN-per-um %s: the firmware refuses this friction or length", cmd, o[3].value ? o[3].value : "1");
         }
         f_min_nn = fwu_nn_from_pn(fw_wire_push_threshold_pn(st.k, fw_wire_friction_pn(&tip, &w), &sat));
     }
@@ -444,13 +463,13 @@ static void probe_default(probe_t *p)
     p->adh_nn = 0.0;
 }
 
-static void probe_read(const char *cmd, const char *path, probe_t *p)
+static int probe_read(const char *cmd, const char *path, probe_t *p)
 {
     FILE *fp = fopen(path, "r");
     char line[256];
     int lineno = 0;
     if (fp == NULL) {
-        die("%s: --probe %s: cannot open (%s)", cmd, path, strerror(errno));
+        return refuse("%s: --probe %s: cannot open (%s)", cmd, path, strerror(errno));
     }
     while (fgets(line, sizeof line, fp) != NULL) {
         char key[64];
@@ -469,7 +488,7 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
         eq = strchr(s, '=');
         if (eq == NULL) {
             fclose(fp);
-            die("%s: --probe %s: line %d: expected 'key = value'", cmd, path, lineno);
+            return refuse("%s: --probe %s: line %d: expected 'key = value'", cmd, path, lineno);
         }
         n = (size_t)(eq - s);
         while (n > 0 && (s[n - 1] == ' ' || s[n - 1] == '\t')) {
@@ -477,7 +496,7 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
         }
         if (n == 0 || n >= sizeof key) {
             fclose(fp);
-            die("%s: --probe %s: line %d: bad key", cmd, path, lineno);
+            return refuse("%s: --probe %s: line %d: bad key", cmd, path, lineno);
         }
         memcpy(key, s, n);
         key[n] = '\0';
@@ -488,7 +507,7 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
         }
         if (end == eq + 1 || errno != 0 || *end != '\0' || !isfinite(v)) {
             fclose(fp);
-            die("%s: --probe %s: line %d: value of %s is not a number", cmd, path, lineno, key);
+            return refuse("%s: --probe %s: line %d: value of %s is not a number", cmd, path, lineno, key);
         }
         if (strcmp(key, "spring_N_per_m") == 0) {
             p->spring_n_per_m = v;
@@ -506,11 +525,12 @@ static void probe_read(const char *cmd, const char *path, probe_t *p)
             p->adh_nn = v;
         } else {
             fclose(fp);
-            die("%s: --probe %s: line %d: unknown key '%s' (spring_N_per_m, deflection_nm_per_V, lateral_nN_per_V, "
+            return refuse("%s: --probe %s: line %d: unknown key '%s' (spring_N_per_m, deflection_nm_per_V, lateral_nN_per_V, "
                 "tip_height_um, lever_length_um, mu, adhesion_nN)", cmd, path, lineno, key);
         }
     }
     fclose(fp);
+    return 0;
 }
 
 static int cmd_calc_force(int argc, char **argv)
@@ -547,21 +567,23 @@ static int cmd_calc_force(int argc, char **argv)
                "  (0.12 N/m, 89 nm/V, 37.9 nN/V, h 17.3 um, l 100 um, mu 0.0865, no adhesion).\n");
         return 0;
     }
-    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
-    sn = num_opt_range(cmd, &o[0], -255.0, 255.0, "|S_n| must stay below 256 V");
-    sl = num_opt_range(cmd, &o[1], -255.0, 255.0, "|S_l| must stay below 256 V");
-    theta = num_opt_range(cmd, &o[2], -1e6, 1e6, "degrees");
-    scan = num_opt_range(cmd, &o[3], -1e6, 1e6, "degrees");
+    if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
+        || num_opt_range(cmd, &o[0], -255.0, 255.0, "|S_n| must stay below 256 V", &sn) != 0
+        || num_opt_range(cmd, &o[1], -255.0, 255.0, "|S_l| must stay below 256 V", &sl) != 0
+        || num_opt_range(cmd, &o[2], -1e6, 1e6, "degrees", &theta) != 0
+        || num_opt_range(cmd, &o[3], -1e6, 1e6, "degrees", &scan) != 0) {
+        return EXIT_USAGE;
+    }
     probe_default(&p);
-    if (o[4].value != NULL) {
-        probe_read(cmd, o[4].value, &p);
+    if (o[4].value != NULL && probe_read(cmd, o[4].value, &p) != 0) {
+        return EXIT_USAGE;
     }
     {
         fw_rule_t rule = fw_force_check(fwu_pn_per_v_from_nn_per_v(p.spring_n_per_m * p.deflection_nm_per_v),
                                         fwu_pn_per_v_from_nn_per_v(p.lateral_gain_nn_per_v), fwu_nm_from_um(p.h_um),
                                         fwu_nm_from_um(p.l_um), fwu_ppm(p.mu), fwu_pn_from_nn(p.adh_nn));
         if (rule != FW_RULE_OK) {
-            die("%s: --probe %s: the firmware refuses this probe: %s (fw_force_check, rule %d)", cmd,
+            return refuse("%s: --probe %s: the firmware refuses this probe: %s (fw_force_check, rule %d)", cmd,
                 o[4].value != NULL ? o[4].value : "(default)", fw_rule_text(rule), (int)rule);
         }
     }
@@ -573,7 +595,7 @@ static int cmd_calc_force(int argc, char **argv)
     /* the direction as the vector (cos T, sin T) in 2.30: the solver takes any length */
     st = fw_force_solve_pn(&f, fwu_q23_from_v(sn), fwu_q23_from_v(sl), tc, ts, fc, &flags);
     if (st != FW_OK) {
-        die("%s: fw_force_solve_pn failed (%s)", cmd, status_name(st));
+        return refuse("%s: fw_force_solve_pn failed (%s)", cmd, status_name(st));
     }
     fw_force_rotate_pn(fc, ac, as, fa, &sat);
     if (sat) {
@@ -615,7 +637,9 @@ static int cmd_calc_probe(int argc, char **argv)
                "  The paper's probe (fw_paper_probe.h): what a scene without probe keys gets.\n");
         return 0;
     }
-    parse_opts(cmd, argc, argv, o, 1);
+    if (parse_opts(cmd, argc, argv, o, 1) != 0) {
+        return EXIT_USAGE;
+    }
     probe_default(&p);
     if (o[0].value != NULL) {
         printf("{\"command\": \"%s\", \"status\": \"ok\", \"spring_N_per_m\": %.6f, \"deflection_nm_per_V\": %.3f, "
@@ -650,6 +674,7 @@ static int cmd_model_squeeze(int argc, char **argv)
     double fl;
     double fats;
     double twist = 0.0;
+    int32_t at_pm = 0;
     fw_wire_static_t st;
     fw_squeeze_t sq;
     fw_status_t s;
@@ -666,31 +691,34 @@ static int cmd_model_squeeze(int argc, char **argv)
                "  moves the rod), dF = F_r sin psi - F_a,ts (30), or that the tip squeezes the rod.\n");
         return 0;
     }
-    parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0]));
-    len = num_opt_range(cmd, &o[0], 0.001, FW_WIRE_LENGTH_MAX_PM / 1000.0, "0 < L <= 1073741 nm");
-    at = num_opt(cmd, &o[1]);
+    if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
+        || num_opt_range(cmd, &o[0], 0.001, FW_WIRE_LENGTH_MAX_PM / 1000.0, "0 < L <= 1073741 nm", &len) != 0
+        || num_opt(cmd, &o[1], &at) != 0) {
+        return EXIT_USAGE;
+    }
     if (at < 0.0 || at > len) {
-        die("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[1].value, len);
+        return refuse("%s: --push-at-nm %s: must lie on the rod, in [0, %g] nm", cmd, o[1].value, len);
     }
-    gamma = num_opt_range(cmd, &o[2], 0.0, 89.999, "0 <= gamma < 90 deg");
-    mu = num_opt_range(cmd, &o[3], 0.0, FW_WIRE_MU_MAX_PPM / 1e6, "0 <= mu < 2");
-    fl = num_opt_range(cmd, &o[4], 0.0, 2.0e6, "0 <= FL <= 2e6 nN");
-    fats = num_opt_range(cmd, &o[5], 0.0, 2.0e6, "0 <= F_a,ts <= 2e6 nN");
-    if (o[6].value != NULL) {
-        twist = num_opt_range(cmd, &o[6], -89.999, 89.999, "|twist| < 90 deg");
+    if (num_opt_range(cmd, &o[2], 0.0, 89.999, "0 <= gamma < 90 deg", &gamma) != 0
+        || num_opt_range(cmd, &o[3], 0.0, FW_WIRE_MU_MAX_PPM / 1e6, "0 <= mu < 2", &mu) != 0
+        || num_opt_range(cmd, &o[4], 0.0, 2.0e6, "0 <= FL <= 2e6 nN", &fl) != 0
+        || num_opt_range(cmd, &o[5], 0.0, 2.0e6, "0 <= F_a,ts <= 2e6 nN", &fats) != 0
+        || (o[6].value != NULL && num_opt_range(cmd, &o[6], -89.999, 89.999, "|twist| < 90 deg", &twist) != 0)
+        || to_i32(cmd, &o[1], at * 1e3, &at_pm) != 0) {
+        return EXIT_USAGE;
     }
-    s = fw_wire_static_point(fwu_pm_from_nm(len), to_i32(cmd, &o[1], at * 1e3), &st);
+    s = fw_wire_static_point(fwu_pm_from_nm(len), at_pm, &st);
     if (s != FW_OK) {
-        die("%s: --push-at-nm %s: %s", cmd, o[1].value, status_name(s));
+        return refuse("%s: --push-at-nm %s: %s", cmd, o[1].value, status_name(s));
     }
     if (gamma + fabs(twist) >= 90.0) {
-        die("%s: --gamma-deg %s with --twist-deg %s: psi = gamma + |twist| must stay below 90 deg", cmd, o[2].value,
+        return refuse("%s: --gamma-deg %s with --twist-deg %s: psi = gamma + |twist| must stay below 90 deg", cmd, o[2].value,
             o[6].value);
     }
     psi = fw_math_bam_from_mdeg(fwu_mdeg_from_deg(gamma + fabs(twist)));
     s = fw_wire_squeeze_solve(psi, st.k, fwu_q30(mu), fwu_pn_from_nn(fl), fwu_pn_from_nn(fats), &sq);
     if (s == FW_ERR_ARG) {
-        die("%s: the firmware refuses these values (%s)", cmd, status_name(s));
+        return refuse("%s: the firmware refuses these values (%s)", cmd, status_name(s));
     }
     squeezed = s == FW_ERR_DOMAIN;
     if (o[7].value != NULL) {
@@ -738,14 +766,14 @@ static void usage(FILE *fp)
             "  calc probe     the paper's probe (fw_paper_probe.h)\n");
 }
 
-int main(int argc, char **argv)
+int afm_calc_main(int argc, char **argv)
 {
     if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
         usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? EXIT_USAGE : 0;
     }
     if (argc < 3) {
-        die("'%s' needs a command (see afm_calc --help)", argv[1]);
+        return refuse("'%s' needs a command (see afm_calc --help)", argv[1]);
     }
     if (strcmp(argv[1], "calib") == 0 && strcmp(argv[2], "tilted") == 0) {
         return cmd_calib_tilted(argc - 3, argv + 3);
@@ -765,6 +793,5 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "calc") == 0 && strcmp(argv[2], "probe") == 0) {
         return cmd_calc_probe(argc - 3, argv + 3);
     }
-    die("unknown command '%s %s' (see afm_calc --help)", argv[1], argv[2]);
-    return EXIT_USAGE;
+    return refuse("unknown command '%s %s' (see afm_calc --help)", argv[1], argv[2]);
 }
