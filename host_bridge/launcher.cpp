@@ -147,21 +147,20 @@ std::map<std::string, int64_t> count_channels(const std::string &path, std::stri
     return counts;
 }
 
-// The processes whose heartbeats the launcher follows; another name is
-// refused (out_of_range), so that garbage cannot grow the tables.
-const std::set<std::string> kHeartbeatNames = {"sim_afm", "fw_node", "operator", "renderer", "launcher"};
-
 struct Progress {
+    // The processes whose heartbeats the launcher follows (the run's own,
+    // set by Launch); another name is refused (out_of_range), so that
+    // garbage cannot grow the tables.
+    std::set<std::string> names;
     std::map<std::string, afm::heartbeat_t> last;
     std::map<std::string, std::chrono::steady_clock::time_point> progress_at;
-    afm::Reject on_hb(const afm::heartbeat_t &hb)
+    afm::Reject on_hb(const afm::heartbeat_t &m)
     {
-        if (!kHeartbeatNames.count(hb.name)) return afm::Reject::out_of_range;
-        const afm::heartbeat_t *m = &hb;
-        auto it = last.find(m->name);
-        if (it == last.end() || it->second.seq != m->seq || it->second.state != m->state)
-            progress_at[m->name] = std::chrono::steady_clock::now();
-        last[m->name] = *m;
+        if (!names.count(m.name)) return afm::Reject::out_of_range;
+        auto it = last.find(m.name);
+        if (it == last.end() || it->second.seq != m.seq || it->second.state != m.state)
+            progress_at[m.name] = std::chrono::steady_clock::now();
+        last[m.name] = m;
         return afm::Reject::none;
     }
     bool is(const std::string &name, const std::string &state) const
@@ -336,6 +335,8 @@ public:
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
         }
+        prog_.names = {"launcher"};
+        for (const auto &c : kids_) prog_.names.insert(c.name);
         inbox_ = std::make_unique<afm::Inbox>(lc_.get());
         inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
         hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");

@@ -523,16 +523,15 @@ struct Renderer {
         return out;
     }
 
-    afm::Reject on_heartbeat(const afm::heartbeat_t &hb_msg)
+    afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        const afm::heartbeat_t *m = &hb_msg;
-        if ((m->name == "sim_afm" && m->state == "done") || (m->name == "launcher" && m->state == "stop")) sim_done = true;
-        if (m->name == "sim_afm" && m->state == "ending") {
-            // The run ends at block m->seq (the planner finished): its last
+        if ((m.name == "sim_afm" && m.state == "done") || (m.name == "launcher" && m.state == "stop")) sim_done = true;
+        if (m.name == "sim_afm" && m.state == "ending") {
+            // The run ends at block m.seq (the planner finished): its last
             // frame is the last one due by then. The sheet is picked again
             // over the shorter run (frames already written that it now
             // wants are read back from frames/ at the end).
-            const int end = std::max(frames_written + 1, afm::frames_due(scene, afm::block_end_utime(scene, m->seq)));
+            const int end = std::max(frames_written + 1, afm::frames_due(scene, afm::block_end_utime(scene, m.seq)));
             if (end < total_frames) {
                 total_frames = end;
                 pick_sheet();

@@ -54,39 +54,28 @@ ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher
 TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_FORCE", "seq"), ("HAPTIC_POSE", "seq")]
 
 
-def children(pid):
-    """{name: pid} of the processes whose parent is `pid` (from /proc)."""
-    out = {}
+def processes():
+    """(pid, name, state, ppid, pgid) of every process, from /proc/PID/stat."""
     for d in os.listdir("/proc"):
         if not d.isdigit():
             continue
         try:
             with open(f"/proc/{d}/stat") as f:
                 st = f.read()
-        except OSError:
+        except OSError:   # ended meanwhile
             continue
-        name = st[st.index("(") + 1:st.rindex(")")]
         fields = st[st.rindex(")") + 2:].split()
-        if int(fields[1]) == pid:
-            out[name] = int(d)
-    return out
+        yield int(d), st[st.index("(") + 1:st.rindex(")")], fields[0], int(fields[1]), int(fields[2])
+
+
+def children(pid):
+    """{name: pid} of the processes whose parent is `pid`."""
+    return {name: p for p, name, _, ppid, _ in processes() if ppid == pid}
 
 
 def alive_in_groups(pgids):
-    """Processes still alive in any of the process groups `pgids`."""
-    left = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                st = f.read()
-        except OSError:
-            continue
-        fields = st[st.rindex(")") + 2:].split()
-        if fields[0] != "Z" and int(fields[2]) in pgids:
-            left.append(int(d))
-    return left
+    """Processes still alive (not zombies) in any of the process groups `pgids`."""
+    return [p for p, _, state, _, pgid in processes() if state != "Z" and pgid in pgids]
 
 
 class Run:
@@ -226,17 +215,21 @@ class Matrix:
 
     def during(self, name, act):
         """Starts a run, waits a random time into it, and calls act(run,
-        kids) while it still runs. A run that ended first (a loaded machine
-        makes it faster or slower than the undisturbed one) is run again with
-        half the wait, three times at most; returns (run, kids)."""
+        kids) while it still runs. When the run, or the process to signal,
+        ended first (a loaded machine makes a run faster or slower than the
+        undisturbed one), the row is run again with half the wait, three
+        times at most; returns (run, kids)."""
         wait = self.at_random_time()
         for _ in range(3):
             r = Run(self.scene, self.dir(name))
             kids = r.wait_kids()
             time.sleep(wait)
             if r.p.poll() is None and len(kids) == len(PROCS):
-                act(r, kids)
-                return r.finish(), kids
+                try:
+                    act(r, kids)
+                    return r.finish(), kids
+                except ProcessLookupError:   # the process ended between the check and the signal
+                    pass
             r.finish()
             wait /= 2
         return r, kids

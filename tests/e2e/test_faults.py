@@ -19,7 +19,10 @@ class FaultMatrix(unittest.TestCase):
         cls.out = benchtest.tmpdir("faults")
         cls.p = subprocess.run([sys.executable, FAULTS, "--out", cls.out, "--quiet", "--only", *FAST], capture_output=True, text=True,
                                timeout=900)
-        with open(os.path.join(cls.out, "faults.json")) as f:
+        path = os.path.join(cls.out, "faults.json")
+        if not os.path.exists(path):
+            raise AssertionError(f"tools/faults.py wrote no faults.json (exit {cls.p.returncode}):\n{cls.p.stdout}\n{cls.p.stderr}")
+        with open(path) as f:
             cls.rows = {r["fault"]: r for r in json.load(f)["rows"]}
 
     @classmethod
