@@ -213,24 +213,28 @@ class Matrix:
     def at_random_time(self):
         return self.rng.uniform(0.15, 0.6) * self.wall
 
-    def during(self, name, act):
+    def during(self, name, act, too_late=lambda r: False):
         """Starts a run, waits a random time into it, and calls act(run,
         kids) while it still runs. When the run, or the process to signal,
         ended first (a loaded machine makes a run faster or slower than the
         undisturbed one), the row is run again with half the wait, three
-        times at most; returns (run, kids)."""
+        times at most; so is one for which too_late(finished run) says the
+        signal came after the run had already finished. Returns (run, kids)."""
         wait = self.at_random_time()
         for _ in range(3):
             r = Run(self.scene, self.dir(name))
             kids = r.wait_kids()
             time.sleep(wait)
+            acted = False
             if r.p.poll() is None and len(kids) == len(PROCS):
                 try:
                     act(r, kids)
-                    return r.finish(), kids
+                    acted = True
                 except ProcessLookupError:   # the process ended between the check and the signal
                     pass
             r.finish()
+            if acted and not too_late(r):
+                return r, kids
             wait /= 2
         return r, kids
 
@@ -259,7 +263,10 @@ class Matrix:
 
     def launcher(self, sig_name):
         sig = getattr(signal, sig_name)
-        r, kids = self.during(f"launcher:{sig_name}", lambda r, kids: os.kill(r.launcher_pid(), sig))
+        # a signal that reaches the launcher after its children have all
+        # ended finds the run complete: it says ok, and the row is run again
+        r, kids = self.during(f"launcher:{sig_name}", lambda r, kids: os.kill(r.launcher_pid(), sig),
+                              too_late=lambda r: r.code == 0 and (r.rj or {}).get("status") == "ok")
         left = alive_in_groups(set(kids.values()))
         kept, kt = self.kept(r, "interrupted")
         ok = r.code == 128 + sig and kept and not left and len(kids) == len(PROCS)
