@@ -30,6 +30,7 @@
 
 #include "afm/analog_block_t.hpp"
 #include "afm/heartbeat_t.hpp"
+#include "afm/haptic_pose_t.hpp"
 #include "lcmlog.hpp"
 #include "bus.hpp"
 #include "inbox.hpp"
@@ -127,9 +128,15 @@ std::string exe_dir()
     return fs::canonical("/proc/self/exe").parent_path().string();
 }
 
-// Message counts per channel in an LCM log, and the distinct analog blocks
-// in it (their seq, through the bus's own decode-and-check).
-std::map<std::string, int64_t> count_channels(const std::string &path, std::string *err, std::set<int64_t> *seqs)
+// The distinct blocks of the card's two per-block inputs in a log (their
+// seq, through the bus's own decode-and-check): a block the replay can step
+// needs both.
+struct RecordedBlocks {
+    std::set<int64_t> analog, pose;
+};
+
+// Message counts per channel in an LCM log, and the blocks recorded.
+std::map<std::string, int64_t> count_channels(const std::string &path, std::string *err, RecordedBlocks *seqs)
 {
     std::map<std::string, int64_t> counts;
     try {
@@ -138,8 +145,11 @@ std::map<std::string, int64_t> count_channels(const std::string &path, std::stri
         while (log.read(&ev)) {
             ++counts[ev.channel];
             afm::analog_block_t b;
+            afm::haptic_pose_t p;
             if (ev.channel == AFM_CH_AFM_ANALOG && afm::decode_checked(ev.data.data(), ev.data.size(), &b) == afm::Reject::none)
-                seqs->insert(b.seq);
+                seqs->analog.insert(b.seq);
+            if (ev.channel == AFM_CH_HAPTIC_POSE && afm::decode_checked(ev.data.data(), ev.data.size(), &p) == afm::Reject::none)
+                seqs->pose.insert(p.seq);
         }
     } catch (const afm::LogError &e) {
         *err = e.what();
@@ -612,8 +622,8 @@ private:
     {
         using nlohmann::json;
         std::string log_err;
-        std::set<int64_t> analog_seq_set;
-        const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &analog_seq_set);
+        RecordedBlocks recorded;
+        const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &recorded);
         for (const auto &kv : counts) messages_ += kv.second;
         json run;
         run["scene"] = scene_abs_;
@@ -647,16 +657,25 @@ private:
         run["launcher"] = {{"rejected", inbox_ ? inbox_->rejected().to_json() : nlohmann::json(nullptr)}};
         merge_reports(&run);
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
-        // Completeness of the record: distinct analog blocks in the log against
-        // those the simulator simulated (lcm-logger drops when starved of CPU).
+        // Completeness of the record: distinct analog blocks and poses in the
+        // log against the blocks the simulator simulated (lcm-logger drops
+        // when starved of CPU; a block missing either input cannot be replayed).
         if (run.contains("sim") && run["sim"].contains("blocks")) {
             const int64_t sent = run["sim"]["blocks"].get<int64_t>();
             // a block the simulator sent (a datagram with another seq is not one)
-            const int64_t analog_seqs = std::count_if(analog_seq_set.begin(), analog_seq_set.end(), [&](int64_t q) { return q >= 0 && q < sent; });
-            run["log"] = {{"analog_blocks_recorded", analog_seqs}, {"analog_blocks_simulated", sent}, {"complete", analog_seqs == sent}};
-            if (analog_seqs != sent)
-                std::fprintf(stderr, "run: warning: the bus log holds %lld of %lld analog blocks (lcm-logger was starved of CPU)\n",
-                             static_cast<long long>(analog_seqs), static_cast<long long>(sent));
+            auto in_run = [&](const std::set<int64_t> &s) {
+                return static_cast<int64_t>(std::count_if(s.begin(), s.end(), [&](int64_t q) { return q >= 0 && q < sent; }));
+            };
+            const int64_t analog_seqs = in_run(recorded.analog), pose_seqs = in_run(recorded.pose);
+            const bool complete = analog_seqs == sent && pose_seqs == sent;
+            run["log"] = {{"analog_blocks_recorded", analog_seqs},
+                          {"pose_blocks_recorded", pose_seqs},
+                          {"analog_blocks_simulated", sent},
+                          {"complete", complete}};
+            if (!complete)
+                std::fprintf(stderr,
+                             "run: warning: the bus log holds %lld analog blocks and %lld poses of %lld blocks (lcm-logger was starved of CPU)\n",
+                             static_cast<long long>(analog_seqs), static_cast<long long>(pose_seqs), static_cast<long long>(sent));
         }
         json outs = {"bus.lcmlog", "run.json", "scene.yaml", "frames/"};
         for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",

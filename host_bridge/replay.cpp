@@ -355,6 +355,7 @@ Outputs run_replay(const Options &o)
     };
     std::vector<Raw> recorded_raw;
     int64_t max_analog = -1;
+    std::set<int64_t> analog_seen;   // every decodable analog block's seq, taken or refused
     const afm::Scene scene = afm::load_scene(o.scene);
     afm::CardNode node(scene);
     EventLogWriter out(o.write);
@@ -377,6 +378,7 @@ Outputs run_replay(const Options &o)
         afm::Reject why;
         take(node.on_analog(b, &why), ev_utime);
         if (why == afm::Reject::none) max_analog = std::max(max_analog, b.seq);
+        analog_seen.insert(b.seq);
         return why;
     });
     inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &p) {
@@ -436,11 +438,15 @@ Outputs run_replay(const Options &o)
     // Every block the log's analog blocks cover must have been stepped: a
     // block missing its pose (or its analog block) in the log stops the
     // card there, and nothing after it can be judged.
-    if (max_analog > node.done())
-        throw afm::LogError(o.log + ": the log holds AFM_ANALOG up to block " + std::to_string(max_analog) +
-                            ", but the card could step only to block " + std::to_string(node.done()) +
-                            ": the recording misses an input of block " + std::to_string(node.done() + 1) +
-                            " (its HAPTIC_POSE or AFM_ANALOG; lcm-logger drops messages when starved of CPU)");
+    // An analog block for the block after the card's last one (refused as
+    // from the future, or taken and waiting for its pose) is the same: the
+    // log lost, or holds late, an input that fw_node had in time.
+    if (max_analog > node.done() || analog_seen.count(node.done() + 1)) {
+        const int64_t next = node.done() + 1;
+        throw afm::LogError(o.log + ": the log holds AFM_ANALOG of block " + std::to_string(next) + ", but the card could step only to block " + std::to_string(node.done()) +
+                            ": the recording misses, or holds out of order, an input of block " + std::to_string(next) +
+                            " (its HAPTIC_POSE or AFM_ANALOG, or one of the block before; lcm-logger drops messages when starved of CPU)");
+    }
     return r;
 }
 

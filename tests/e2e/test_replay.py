@@ -82,6 +82,17 @@ class ReplayEveryScene(unittest.TestCase):
                 self.assertEqual(code, 0, err)
                 self.assertTrue(os.path.exists(os.path.join(out, "scene.yaml")), "the run keeps its scene")
                 rc, so, se = replay(REPLAY, out)
+                if rc == 2 and "out of order, an input of block" in se:
+                    # lcm-logger, starved of CPU, lost or delayed one of the
+                    # card's inputs (seen once in CI): the log cannot be
+                    # judged, which is not the firmware's fault; a second run
+                    # of the scene must replay
+                    print(f"{name}: the log cannot be judged, running the scene again: {se.strip()}")
+                    out = benchtest.tmpdir("replay-again-" + name[:-5])
+                    self.addCleanup(benchtest.cleanup, out)
+                    code, _, err, _ = benchtest.run(benchtest.scene(name), out)
+                    self.assertEqual(code, 0, err)
+                    rc, so, se = replay(REPLAY, out)
                 self.assertEqual(rc, 0, so + se)
                 self.assertIn("replay: identical", so)
                 self.assertNotIn("DIVERGES", so)
@@ -161,7 +172,34 @@ class ReplayEveryScene(unittest.TestCase):
         rc, so, se = replay(REPLAY, run)
         self.assertEqual(rc, 2, so + se)
         self.assertIn(f"the card could step only to block {gone['block'] - 1}", se)
-        self.assertIn(f"misses an input of block {gone['block']}", se)
+        self.assertIn(f"an input of block {gone['block']}", se)
+        self.assertNotIn("DIVERGES", so)
+
+    def test_a_log_holding_an_input_late_is_named_not_judged(self):
+        # what lcm-logger starved of CPU wrote once in CI: a block's pose
+        # recorded after the next block's analog block (fw_node had it in
+        # time); the card stops there in the replay, which must not claim a
+        # divergence of the firmware
+        late = {}
+
+        def move_a_pose(evs, blob):
+            poses = [i for i, e in enumerate(evs) if e[1] == "HAPTIC_POSE"]
+            i = poses[len(poses) // 2]
+            late["block"] = afmlog.afm.haptic_pose_t.decode(evs[i][2]).seq
+            j = next(k for k in range(i + 1, len(evs)) if evs[k][1] == "AFM_ANALOG"
+                     and afmlog.afm.analog_block_t.decode(evs[k][2]).seq == late["block"] + 1)
+            off, ch, data = evs[i]
+            ev = blob[off:off + 28 + len(ch) + len(data)]
+            end_j = evs[j][0] + 28 + len(evs[j][1]) + len(evs[j][2])
+            return blob[:off] + blob[off + len(ev):end_j] + ev + blob[end_j:]
+        run, log, _ = self._broken_copy("latepose", move_a_pose)
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 2, so + se)
+        # the late pose steps its block; the next block's analog block,
+        # refused as from the future when it came, is never stepped
+        self.assertIn(f"the card could step only to block {late['block']}", se)
+        self.assertIn(f"out of order, an input of block {late['block'] + 1}", se)
+        self.assertNotIn("DIVERGES", so)
 
     def test_write_onto_the_replayed_log_is_refused(self):
         run, log, _ = self._broken_copy("self", lambda evs, blob: blob)
