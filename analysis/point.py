@@ -82,7 +82,10 @@ def costs_of(rj):
     sim_s = rj.get("sim_seconds") or 0.0
     c = {"wall_s_per_sim_s": rj["wall_seconds"] / sim_s if sim_s else None, "log_bytes": rj.get("log_bytes")}
     total = 0.0
-    for p in rj.get("processes", []):
+    procs = list(rj.get("processes", []))
+    if "cpu_user_s" in (rj.get("launcher") or {}):   # the launcher records the bus (bus_recorder.hpp)
+        procs.append(dict(rj["launcher"], name="afm_launch"))
+    for p in procs:
         cpu = p.get("cpu_user_s", 0.0) + p.get("cpu_system_s", 0.0)
         total += cpu
         c[f"cpu_{p['name'].replace('-', '_')}_s_per_sim_s"] = cpu / sim_s if sim_s else None

@@ -111,3 +111,41 @@ bool LogReader::read(LogEvent *ev)
 }
 
 }  // namespace afm
+
+namespace afm {
+
+LogWriter::LogWriter(const std::string &path) : path_(path)
+{
+    errno = 0;
+    log_ = lcm_eventlog_create(path.c_str(), "w");
+    if (!log_) throw LogError(path + ": cannot create the log (" + std::strerror(errno ? errno : EIO) + ")");
+}
+
+LogWriter::~LogWriter()
+{
+    if (log_) lcm_eventlog_destroy(log_);
+}
+
+void LogWriter::write(int64_t utime, const std::string &channel, const void *data, std::size_t size)
+{
+    lcm_eventlog_event_t ev{};
+    ev.eventnum = n_;
+    ev.timestamp = utime;
+    ev.channellen = static_cast<int32_t>(channel.size());
+    ev.datalen = static_cast<int32_t>(size);
+    ev.channel = const_cast<char *>(channel.c_str());
+    ev.data = const_cast<void *>(data);
+    errno = 0;
+    if (lcm_eventlog_write_event(log_, &ev) != 0)
+        throw LogError(path_ + ": cannot write event " + std::to_string(n_) + " (" + std::strerror(errno ? errno : EIO) + ")");
+    ++n_;
+}
+
+void LogWriter::flush()
+{
+    errno = 0;
+    if (std::fflush(log_->f) != 0 || std::ferror(log_->f))
+        throw LogError(path_ + ": cannot write (" + std::strerror(errno ? errno : EIO) + ")");
+}
+
+}  // namespace afm

@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include <lcm/eventlog.h>
 
 namespace afm {
 
@@ -77,6 +78,31 @@ private:
     uint64_t refresh_size();
     Next next_framed(LogEvent *ev);
     bool have(uint64_t bytes);
+};
+
+}  // namespace afm
+
+namespace afm {
+
+// Writes an LCM event log (LCM's own format and writer, lcm_eventlog_*), as
+// lcm-logger does: the run's recorder (bus_recorder.hpp) and replay --write.
+// A write that fails (a full disk) throws LogError naming the file and the
+// system's reason; so does flush(). Not copyable.
+class LogWriter {
+public:
+    explicit LogWriter(const std::string &path);   // "w": an existing file is replaced
+    ~LogWriter();
+    LogWriter(const LogWriter &) = delete;
+    LogWriter &operator=(const LogWriter &) = delete;
+    void write(int64_t utime, const std::string &channel, const void *data, std::size_t size);
+    void flush();   // to the kernel (fflush): a LogTail then reads everything written
+    int64_t events() const { return n_; }
+    const std::string &path() const { return path_; }
+
+private:
+    std::string path_;
+    lcm_eventlog_t *log_ = nullptr;
+    int64_t n_ = 0;
 };
 
 }  // namespace afm

@@ -1,7 +1,7 @@
 // afm_launch: runs one scene. Validates the scene before starting anything,
 // checks that it sits in a private network namespace whose loopback carries
-// the multicast route (./afm run puts it there), records the whole bus with
-// lcm-logger, starts the four processes, prints progress, stops everything
+// the multicast route (./afm run puts it there), records the whole bus
+// itself (bus_recorder.hpp), starts the four processes, prints progress, stops everything
 // at the end (or when one dies), and writes DIR/run.json.
 #include <lcm/lcm-cpp.hpp>
 #include <lcm/lcm.h>
@@ -31,6 +31,7 @@
 #include "afm/analog_block_t.hpp"
 #include "afm/heartbeat_t.hpp"
 #include "afm/haptic_pose_t.hpp"
+#include "bus_recorder.hpp"
 #include "lcmlog.hpp"
 #include "bus.hpp"
 #include "inbox.hpp"
@@ -47,7 +48,7 @@ namespace {
 const char *kUsage =
     "usage: afm_launch --scene FILE --out DIR [options]\n"
     "  Runs one scene through sim_afm, fw_node, operator and renderer on a private\n"
-    "  LCM bus, recording it with lcm-logger. ./afm run calls it inside a fresh\n"
+    "  LCM bus, recording it to DIR/bus.lcmlog. ./afm run calls it inside a fresh\n"
     "  network namespace; run directly it refuses unless loopback carries the\n"
     "  multicast route.\n"
     "options:\n"
@@ -58,7 +59,11 @@ const char *kUsage =
     "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
-    "  --quiet            no progress line (with --check: no warnings, only refusals)\n";
+    "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
+    "bench options (./afm bench bus):\n"
+    "  --log-window N     sim_afm runs at most N blocks ahead of what the record holds\n"
+    "                     (default 8); 0: no pacing\n"
+    "  --no-renderer      no renderer: no frames, no video, no fidelity check\n";
 
 struct Child {
     std::string name;
@@ -68,6 +73,7 @@ struct Child {
     double cpu_user_s = 0;    // the kernel's accounting of the child (wait4), user CPU seconds
     double cpu_system_s = 0;  // and system CPU seconds
     long max_rss_kb = 0;      // its peak resident memory, kB
+    std::chrono::steady_clock::time_point exited_at = {};   // when reap() found it ended
 
     // Reaps the child if it has ended (block: wait for it); records its
     // exit status and the kernel's accounting of its resources.
@@ -78,6 +84,7 @@ struct Child {
         struct rusage ru {};
         if (wait4(pid, &st, block ? 0 : WNOHANG, &ru) != pid) return;
         exited = true;
+        exited_at = std::chrono::steady_clock::now();
         exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
         cpu_user_s = ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6;
         cpu_system_s = ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6;
@@ -86,14 +93,14 @@ struct Child {
 };
 
 // SIGINT or SIGTERM to the launcher: the run stops as on a failure (every
-// child stopped, the logger closed, run.json written) with status
+// child stopped, the record closed, run.json written) with status
 // "interrupted", and the launcher exits with 128 + the signal.
 volatile sig_atomic_t g_signal = 0;
 extern "C" void on_stop_signal(int sig) { g_signal = sig; }
 
-// The bus processes run at a lower priority than lcm-logger, so that on a
-// busy machine the logger keeps up (it drops messages once 30 wait in its
-// subscription queue) and the run slows down instead.
+// The bus processes run at a lower priority than the launcher, which
+// records the bus, so that on a busy machine the record keeps up and the run
+// slows down instead.
 constexpr int kBusProcessNice = 10;
 
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add = {},
@@ -199,6 +206,8 @@ struct Options {
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
+    long long log_window = 8;   // sim_afm --log-window; 0: no --follow-log
+    bool renderer = true;
 };
 
 // Parses argv into o; returns -1 to go on, or the exit code.
@@ -220,6 +229,8 @@ int parse_args(int argc, char **argv, Options *o)
         else if (a == "--quiet") o->quiet = true;
         else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
         else if (a == "--stall-s") o->stall_s = std::atof(val().c_str());
+        else if (a == "--log-window") o->log_window = std::atoll(val().c_str());
+        else if (a == "--no-renderer") o->renderer = false;
         else if (a == "--kill") {
             const std::string v = val();
             const auto colon = v.find(':');
@@ -250,6 +261,10 @@ int parse_args(int argc, char **argv, Options *o)
     }
     if (!(o->drop_p >= 0 && o->drop_p < 1)) {
         std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
+        return 2;
+    }
+    if (o->log_window < 0) {
+        std::fprintf(stderr, "afm_launch: --log-window must be >= 0, got %lld\n", o->log_window);
         return 2;
     }
     return -1;
@@ -345,6 +360,8 @@ public:
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
         }
+        if (!o_.renderer)   // ./afm bench bus: the lockstep without the renderer
+            kids_.erase(std::remove_if(kids_.begin(), kids_.end(), [](const Child &c) { return c.name == "renderer"; }), kids_.end());
         prog_.names = {"launcher"};
         for (const auto &c : kids_) prog_.names.insert(c.name);
         inbox_ = std::make_unique<afm::Inbox>(lc_.get());
@@ -354,42 +371,33 @@ public:
         return -1;
     }
 
-    // 4. The logger first; the processes start once it records (its file
-    // grows with our own heartbeats), so the log holds the whole run.
+    // 4. The record first (the launcher's own, bus_recorder.hpp), so the
+    // log holds the whole run; then the processes.
     int start()
     {
-        logger_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-logger", "--quiet", "-f", "--flush-interval=1", "-l", afm::kBusUrl,
-                             out_ + "/bus.lcmlog"},
-                            out_ + "/logs/lcm-logger.log");
-        for (;;) {
-            if (g_signal) return interrupted_before_start();
-            hb_->send("starting", 0, 0, "waiting for lcm-logger");
-            lc_->handleTimeout(50);
-            std::error_code ec;
-            if (fs::exists(out_ + "/bus.lcmlog", ec) && fs::file_size(out_ + "/bus.lcmlog", ec) > 0) break;
-            logger_.reap();
-            if (logger_.exited) {
-                std::fprintf(stderr, "afm_launch: lcm-logger exited with code %d before recording (log: %s/logs/lcm-logger.log)\n",
-                             logger_.exit_code, out_.c_str());
-                return 1;
-            }
-            if (wall_s() > 10) {
-                std::fprintf(stderr, "afm_launch: lcm-logger recorded nothing in 10 s (log: %s/logs/lcm-logger.log)\n", out_.c_str());
-                kill(logger_.pid, SIGKILL);
-                return 1;
-            }
+        if (g_signal) return interrupted_before_start();
+        try {
+            recorder_ = std::make_unique<afm::BusRecorder>(*lc_, out_ + "/bus.lcmlog");
+            hb_->send("starting", 0, 0, "recording the bus");
+            recorder_->drain(true);
+        } catch (const afm::LogError &e) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.what());
+            return 1;
         }
         const std::string bin = exe_dir();
         const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
-        const std::vector<std::vector<std::string>> cmds = {
-            {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop", std::to_string(o_.drop_p),
-             "--follow-log", out_ + "/bus.lcmlog"},
-            {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block", std::to_string(o_.crash_block)},
-            {bin + "/operator", "--scene", scene_run_, "--out", out_},
-            {bin + "/renderer", "--scene", scene_run_, "--out", out_},
+        std::vector<std::string> sim_cmd = {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop",
+                                            std::to_string(o_.drop_p)};
+        if (o_.log_window > 0)
+            sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(o_.log_window)});
+        if (!o_.renderer) sim_cmd.push_back("--no-renderer");
+        const std::map<std::string, std::vector<std::string>> cmds = {
+            {"sim_afm", sim_cmd},
+            {"fw_node", {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block", std::to_string(o_.crash_block)}},
+            {"operator", {bin + "/operator", "--scene", scene_run_, "--out", out_}},
+            {"renderer", {bin + "/renderer", "--scene", scene_run_, "--out", out_}},
         };
-        for (std::size_t i = 0; i < kids_.size(); ++i)
-            kids_[i].pid = spawn(cmds[i], out_ + "/logs/" + kids_[i].name + ".log", {url_env}, kBusProcessNice);
+        for (auto &c : kids_) c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice);
         if (o_.spy)
             spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
                              {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR});
@@ -401,15 +409,22 @@ public:
     {
         bool started = false;
         auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+        auto last_check = last_print;
         while (true) {
-            lc_->handleTimeout(20);
+            // a record with unwritten messages waits 1 ms for the next one: a
+            // quiet bus (the simulator waiting for the record) flushes it
+            const int got = lc_->handleTimeout(recorder_ && recorder_->unflushed() ? 1 : 20);
+            if (!record(got == 0)) break;
+            // the processes' state at most every 5 ms (a message wakes this
+            // loop thousands of times a second)
+            if (std::chrono::steady_clock::now() - last_check < std::chrono::milliseconds(5)) continue;
+            last_check = std::chrono::steady_clock::now();
             if (g_signal) {
                 interrupted_ = g_signal;
                 failure_ = std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM");
                 break;
             }
             for (auto &c : kids_) c.reap();
-            logger_.reap();
             spy_.reap();
             failure_ = dead_process();
             if (!failure_.empty()) break;
@@ -422,7 +437,7 @@ public:
                     if (c.name == o_.kill_name && !c.exited) kill(c.pid, SIGKILL);
                 o_.kill_after = -1;
             }
-            // Start the run once every process is ready and the logger records.
+            // Start the run once every process is ready.
             if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, "ready"); })) {
                 started = true;
                 for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
@@ -439,7 +454,7 @@ public:
         if (!o_.quiet) std::fprintf(stderr, "\n");
     }
 
-    // 6. Stop: on failure, tell and then make everyone stop; the logger last.
+    // 6. Stop: on failure, tell and then make everyone stop; the record last.
     void stop()
     {
         auto signal_child = [](Child &c, int sig) {
@@ -456,15 +471,20 @@ public:
         while (std::chrono::steady_clock::now() < deadline &&
                !std::all_of(kids_.begin(), kids_.end(), [](const Child &c) { return c.exited; })) {
             for (auto &c : kids_) c.reap();
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+            record(lc_->handleTimeout(20) == 0);
         }
         for (auto &c : kids_) {
             signal_child(c, SIGKILL);
             c.reap(true);
         }
-        std::this_thread::sleep_for(std::chrono::milliseconds(150));   // let the logger drain
-        signal_child(logger_, SIGINT);
-        logger_.reap(true);
+        // the messages still under way, then the record is closed
+        const auto quiet = std::chrono::steady_clock::now() + std::chrono::milliseconds(150);
+        while (std::chrono::steady_clock::now() < quiet) {
+            if (!record(lc_->handleTimeout(10) == 0)) break;
+        }
+        record(true);   // the rest to the file (a full disk fails the run here too)
+        if (recorder_) recorded_events_ = recorder_->events();
+        recorder_.reset();
         // lcm-spy stays open for the person watching (the bus is quiet now);
         // the run ends when they close it. On failure it is closed with the rest.
         if (o_.spy && !spy_.exited) {
@@ -544,11 +564,9 @@ private:
         return true;
     }
 
-    // A signal while the logger was starting: stop it; nothing else ran.
+    // A signal before the run started: nothing ran.
     int interrupted_before_start()
     {
-        if (!logger_.exited && logger_.pid > 0) kill(logger_.pid, SIGINT);
-        logger_.reap(true);
         std::fprintf(stderr, "afm_launch: interrupted before the run started\n");
         return 128 + g_signal;
     }
@@ -561,7 +579,8 @@ private:
     std::unique_ptr<afm::Heartbeat> hb_;
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
-    Child logger_{"lcm-logger"};
+    std::unique_ptr<afm::BusRecorder> recorder_;
+    int64_t recorded_events_ = 0;   // what the record held when it was closed
     Child spy_{"lcm-spy"};
     std::vector<Child> kids_ = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
     std::string failure_;
@@ -575,9 +594,11 @@ private:
     // A process that died before the simulator said done (or with an error).
     std::string dead_process() const
     {
-        if (logger_.exited) return "lcm-logger died with exit code " + std::to_string(logger_.exit_code);
         for (const auto &c : kids_) {
             if (!c.exited || (c.exit_code == 0 && (prog_.is("sim_afm", "done") || c.name == "sim_afm"))) continue;
+            // A clean exit: the process heard the simulator's "done", which
+            // this process may not have dispatched yet; given a moment.
+            if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(500)) continue;
             return c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
         }
         return "";
@@ -618,6 +639,34 @@ private:
                 {"cpu_user_s", c.cpu_user_s}, {"cpu_system_s", c.cpu_system_s}, {"max_rss_kb", c.max_rss_kb}};
     }
 
+    // The launcher itself (run.json "launcher"): it records the bus
+    // (bus_recorder.hpp), so its share of the machine is part of a run's cost.
+    nlohmann::json launcher_json() const
+    {
+        struct rusage ru {};
+        getrusage(RUSAGE_SELF, &ru);
+        return {{"rejected", inbox_ ? inbox_->rejected().to_json() : nlohmann::json(nullptr)},
+                {"recorded_events", recorded_events_},
+                {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
+                {"cpu_system_s", ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6},
+                {"max_rss_kb", ru.ru_maxrss}};
+    }
+
+    // Records what the bus delivered (bus_quiet: the last wait for a message
+    // timed out); false (failure_ set) when the record cannot be written.
+    bool record(bool bus_quiet)
+    {
+        if (!recorder_) return true;
+        try {
+            recorder_->drain(bus_quiet);
+            return true;
+        } catch (const afm::LogError &e) {
+            if (failure_.empty()) failure_ = e.what();
+            recorder_.reset();
+            return false;
+        }
+    }
+
     nlohmann::json run_json()
     {
         using nlohmann::json;
@@ -647,19 +696,18 @@ private:
         run["frames_expected"] = scene_.total_frames();   // fewer when the planner finished early (the renderer's report)
         json procs = json::array();
         for (const auto &c : kids_) procs.push_back(process_json(c));
-        procs.push_back(process_json(logger_));
         run["processes"] = procs;
         run["log_bytes"] = fs::exists(out_ + "/bus.lcmlog") ? static_cast<int64_t>(fs::file_size(out_ + "/bus.lcmlog")) : 0;
         run["channels"] = json::object();
         for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
         if (!log_err.empty()) run["log_error"] = log_err;
         run["card"] = card_json();
-        run["launcher"] = {{"rejected", inbox_ ? inbox_->rejected().to_json() : nlohmann::json(nullptr)}};
+        run["launcher"] = launcher_json();
         merge_reports(&run);
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
         // Completeness of the record: distinct analog blocks and poses in the
-        // log against the blocks the simulator simulated (lcm-logger drops
-        // when starved of CPU; a block missing either input cannot be replayed).
+        // log against the blocks the simulator simulated (a recorder starved
+        // of CPU can lose datagrams; a block missing either input cannot be replayed).
         if (run.contains("sim") && run["sim"].contains("blocks")) {
             const int64_t sent = run["sim"]["blocks"].get<int64_t>();
             // a block the simulator sent (a datagram with another seq is not one)
@@ -674,7 +722,7 @@ private:
                           {"complete", complete}};
             if (!complete)
                 std::fprintf(stderr,
-                             "run: warning: the bus log holds %lld analog blocks and %lld poses of %lld blocks (lcm-logger was starved of CPU)\n",
+                             "run: warning: the bus log holds %lld analog blocks and %lld poses of %lld blocks (the recorder was starved of CPU)\n",
                              static_cast<long long>(analog_seqs), static_cast<long long>(pose_seqs), static_cast<long long>(sent));
         }
         json outs = {"bus.lcmlog", "run.json", "scene.yaml", "frames/"};

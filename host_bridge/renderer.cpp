@@ -111,6 +111,7 @@ struct Renderer {
     int total_frames;            // the run's frames: the scene's, or fewer when the planner finishes early
     std::vector<int> sheet_at;   // frame indices for the contact sheet
     std::map<int, cv::Mat> sheet;   // frames kept for the sheet, by index
+    std::vector<std::pair<int, cv::Mat>> composed;   // frames composed, their files not yet written
     double update_s = 0, compose_s = 0, write_s = 0;
     long touched_px = 0;
     nlohmann::json fidelity;
@@ -194,6 +195,8 @@ struct Renderer {
         started = true;
     }
 
+    // Composes frame k; its files are written after the frame is announced
+    // (write_composed), so the simulator goes on while they are encoded.
     void write_frame(int k)
     {
         auto t0 = std::chrono::steady_clock::now();
@@ -209,15 +212,24 @@ struct Renderer {
             o.hand_scale_N = std::min(kHandGaugeThresholds * scene.op.feel_threshold_N, scene.op.haptic.max_force_N);
         }
         const cv::Mat frame = display.frame(o);
-        auto t1 = std::chrono::steady_clock::now();
-        if (scene.out.png) {
-            char name[64];
-            std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
-            if (!cv::imwrite(out + name, frame)) throw std::runtime_error("cannot write " + out + name);
-        }
-        if (video.isOpened()) video.write(frame);
+        composed.emplace_back(k, frame);
         if (std::find(sheet_at.begin(), sheet_at.end(), k) != sheet_at.end()) sheet[k] = frame;
-        compose_s += std::chrono::duration<double>(t1 - t0).count();
+        compose_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+
+    // The files of the frames composed and announced: PNG and video, in order.
+    void write_composed()
+    {
+        auto t1 = std::chrono::steady_clock::now();
+        for (const auto &[k, frame] : composed) {
+            if (scene.out.png) {
+                char name[64];
+                std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
+                if (!cv::imwrite(out + name, frame)) throw std::runtime_error("cannot write " + out + name);
+            }
+            if (video.isOpened()) video.write(frame);
+        }
+        composed.clear();
         write_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     }
 
@@ -228,6 +240,7 @@ struct Renderer {
         m.index = k;
         m.seq = seq;
         lc.publish(AFM_CH_RENDER_FRAME, &m);
+        write_composed();
     }
 
     afm::Reject on_tip(const afm::fw_tip_t &m)
@@ -582,6 +595,7 @@ int main(int argc, char **argv)
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();
         }
+        r.write_composed();
         r.video.release();
         // The sheet: the frames picked over the run, those not kept in
         // memory (picked again after an early end) read back from frames/.

@@ -287,31 +287,16 @@ bool locate(const std::string &arg, Options *o, std::string *err)
     return true;
 }
 
+// The new log of --write (none: no path).
 struct EventLogWriter {
-    lcm_eventlog_t *log = nullptr;
-    int64_t n = 0;
+    std::unique_ptr<afm::LogWriter> log;
     explicit EventLogWriter(const std::string &path)
     {
-        if (!path.empty()) {
-            log = lcm_eventlog_create(path.c_str(), "w");
-            if (!log) throw std::runtime_error(path + ": cannot create the log");
-        }
-    }
-    ~EventLogWriter()
-    {
-        if (log) lcm_eventlog_destroy(log);
+        if (!path.empty()) log = std::make_unique<afm::LogWriter>(path);
     }
     void write(int64_t utime, const std::string &ch, const std::vector<uint8_t> &d)
     {
-        if (!log) return;
-        lcm_eventlog_event_t ev{};
-        ev.eventnum = n++;
-        ev.timestamp = utime;
-        ev.channellen = static_cast<int32_t>(ch.size());
-        ev.datalen = static_cast<int32_t>(d.size());
-        ev.channel = const_cast<char *>(ch.c_str());
-        ev.data = const_cast<uint8_t *>(d.data());
-        if (lcm_eventlog_write_event(log, &ev) != 0) throw std::runtime_error("cannot write the new log");
+        if (log) log->write(utime, ch, d.data(), d.size());
     }
 };
 

@@ -37,16 +37,22 @@ namespace {
 
 const char *kUsage =
     "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS] [--follow-log LOG]\n"
+    "               [--log-window BLOCKS] [--no-renderer]\n"
     "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
     "  network namespace. --inject-drop P drops the first transmission of each\n"
     "  analog block with probability P (failure injection: tests the resend path).\n"
-    "  --follow-log LOG: stay within a few messages of what lcm-logger has written to LOG.\n";
+    "  --follow-log LOG: stay within a few blocks of what the run's record has written to LOG.\n"
+    "  --log-window BLOCKS: with --follow-log, how many blocks ahead of the log the\n"
+    "  simulator may run (default 8; ./afm bench bus varies it).\n"
+    "  --no-renderer: no renderer on the bus; the simulator waits for no frames\n"
+    "  (./afm bench bus measures the lockstep without it).\n";
 
 constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line reads these
 // With --follow-log, the simulator stays at most this many analog blocks (about
-// 8 messages each) and scan lines ahead of what lcm-logger has written, so
-// the logger's 30-message queue never overflows (log_tail.hpp).
-constexpr int64_t kLogWindowBlocks = 3;
+// 8 messages each) and scan lines ahead of what the run's record holds
+// (log_tail.hpp), so that a recorder starved of CPU slows the run instead of
+// losing messages: the record's queue (kQueueCapacity) holds far more.
+constexpr int64_t kLogWindowBlocks = 8;   // the default of --log-window
 // Scan requests for the next block the simulator keeps at most (each client
 // has one scan under way; more are refused as out_of_range).
 constexpr std::size_t kLaterScans = 16;
@@ -81,11 +87,13 @@ struct Sim {
     void wait_for_log(int64_t seq, int64_t lines)
     {
         if (!log) return;
+        // the file is read only when what it held last time is not enough
+        if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) return;
         for (;;) {
             log->poll(waiting_after);   // the last block published
             if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) return;
             ++log_waits;
-            std::this_thread::sleep_for(std::chrono::microseconds(200));
+            std::this_thread::sleep_for(std::chrono::microseconds(50));
         }
     }
 
@@ -257,6 +265,8 @@ afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int6
 int main(int argc, char **argv)
 {
     std::string scene_path, out_dir, follow_log;
+    int64_t log_window = kLogWindowBlocks;
+    bool renderer = true;
     double drop_p = 0;
     int resend_ms = 100;
     for (int i = 1; i < argc; ++i) {
@@ -273,11 +283,14 @@ int main(int argc, char **argv)
         else if (a == "--inject-drop") drop_p = std::atof(val("--inject-drop").c_str());
         else if (a == "--resend-ms") resend_ms = std::atoi(val("--resend-ms").c_str());
         else if (a == "--follow-log") follow_log = val("--follow-log");
+        else if (a == "--log-window") log_window = std::atoll(val("--log-window").c_str());
+        else if (a == "--no-renderer") renderer = false;
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
     if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return 2; }
     if (!(drop_p >= 0 && drop_p < 1)) { std::fprintf(stderr, "sim_afm: --inject-drop must be in [0, 1)\n"); return 2; }
+    if (log_window < 1) { std::fprintf(stderr, "sim_afm: --log-window must be >= 1\n"); return 2; }
     if (resend_ms < 1) { std::fprintf(stderr, "sim_afm: --resend-ms must be >= 1\n"); return 2; }
 
     try {
@@ -292,7 +305,8 @@ int main(int argc, char **argv)
         inbox.on<afm::scan_req_t>(AFM_CH_AFM_SCAN_REQ, [&](const afm::scan_req_t &m) { return sim.on_scan_req(m); });
 
         // Start: serve scans until every peer is ready and the launcher says go.
-        const std::set<std::string> peers = {"fw_node", "operator", "renderer"};
+        std::set<std::string> peers = {"fw_node", "operator"};
+        if (renderer) peers.insert("renderer");
         while (!sim.go || !std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())) {
             sim.hb.maybe_send("ready", -1, 0, 200000);
             lc->handleTimeout(50);
@@ -321,7 +335,7 @@ int main(int argc, char **argv)
         std::size_t next_change = 0;   // operator.cantilever_changes applied so far
         afm::ObjectsDiff truth_diff;   // SIM_TRUTH lists the objects that changed (objects_t.complete)
         for (int64_t n = 0; n < blocks; ++n) {
-            sim.wait_for_log(n - kLogWindowBlocks, 0);
+            sim.wait_for_log(n - log_window, 0);
             // A cantilever change: the work space jumps against the scanner.
             while (next_change < scene.op.cantilever_changes.size() &&
                    std::llround(scene.op.cantilever_changes[next_change].at_s * 1e6) <= std::llround(n * 1e6 / scene.block_hz)) {
@@ -357,7 +371,7 @@ int main(int argc, char **argv)
             if (scene.time_mode == "realtime") {
                 std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
             }
-            const int frames_due = afm::frames_due(scene, afm::block_end_utime(scene, n));
+            const int frames_due = renderer ? afm::frames_due(scene, afm::block_end_utime(scene, n)) : 0;
             auto last_send = std::chrono::steady_clock::now();
             sim.waiting_after = n;
             sim.serve_due_scans();

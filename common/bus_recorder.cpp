@@ -1,0 +1,41 @@
+#include "bus_recorder.hpp"
+
+#include "bus.hpp"
+
+namespace afm {
+
+BusRecorder::BusRecorder(lcm::LCM &lc, const std::string &path) : lc_(lc), log_(path)
+{
+    sub_ = lc_.subscribe(".*", &BusRecorder::on, this);
+    sub_->setQueueCapacity(kQueueCapacity);
+}
+
+BusRecorder::~BusRecorder()
+{
+    if (sub_) lc_.unsubscribe(sub_);
+}
+
+void BusRecorder::on(const lcm::ReceiveBuffer *rb, const std::string &channel)
+{
+    if (!error_.empty()) return;   // the file is broken: the run is failing already
+    try {
+        log_.write(rb->recv_utime, channel, rb->data, rb->data_size);
+        unflushed_ += rb->data_size + static_cast<int64_t>(channel.size()) + 28;
+    } catch (const LogError &e) {
+        error_ = e.what();   // not thrown through LCM's C dispatch
+    }
+}
+
+int BusRecorder::drain(bool bus_quiet, int max)
+{
+    int n = 0;
+    while (n < max && error_.empty() && lc_.handleTimeout(0) > 0) ++n;
+    if (!error_.empty()) throw LogError(error_);
+    if (unflushed_ > 0 && (bus_quiet || unflushed_ >= kFlushBytes)) {
+        log_.flush();
+        unflushed_ = 0;
+    }
+    return n;
+}
+
+}  // namespace afm

@@ -1,0 +1,223 @@
+// bench_bus: the raw latency of the run's bus (LCM udpm on the namespace's
+// loopback), for ./afm bench bus (tools/bench_bus.py).
+//
+//   bench_bus --sizes 49,836 --count N [--json FILE]
+//
+// Forks an echo process and, for each payload size, sends N pings one at a
+// time through lcm::LCM exactly as the bench's processes publish and receive
+// (afm::open_bus, handleTimeout). Each ping carries its send time; the echo
+// writes its receive time into the copy it sends back. Both clocks are the
+// machine's CLOCK_MONOTONIC, so
+//   one-way    = echo's receive time - send time   (one hop: publish, kernel, receive thread, handler)
+//   round trip = back at the sender - send time    (two hops)
+// Prints median and p99 of each, in microseconds. Must run inside the run's
+// namespace (tools/in_netns.sh), like any process on the bus.
+//
+// The two channels are the bench's own: raw bytes (no LCM type), never on a
+// run's bus, so they are not in lcmtypes/channels.yaml.
+#include <lcm/lcm-cpp.hpp>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "bus.hpp"
+
+namespace {
+
+constexpr const char *kPing = "BENCH_BUS_PING";
+constexpr const char *kPong = "BENCH_BUS_PONG";
+constexpr std::size_t kStampBytes = 24;   // send time, echo's receive time, sequence: int64 each
+
+const char *kUsage =
+    "usage: bench_bus [--sizes B,B,...] [--count N] [--json FILE]\n"
+    "  The raw one-way and round-trip latency of LCM on the run's bus for each\n"
+    "  payload size (bytes, at least 24; default the bench's messages: 49 AFM_CMD,\n"
+    "  57 HAPTIC_POSE, 76 HAPTIC_FORCE, 836 AFM_ANALOG, 2056 AFM_SCAN_LINE),\n"
+    "  N pings each (default 2000). Run inside a network namespace (tools/in_netns.sh).\n";
+
+int64_t now_ns()
+{
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+void put64(uint8_t *p, int64_t v) { std::memcpy(p, &v, 8); }
+int64_t get64(const uint8_t *p)
+{
+    int64_t v;
+    std::memcpy(&v, p, 8);
+    return v;
+}
+
+// The echo: every ping back at once, its receive time written in. Ends when
+// its parent does (SIGTERM).
+[[noreturn]] void echo()
+{
+    auto lc = afm::open_bus();
+    std::vector<uint8_t> out;
+    struct Echo {
+        lcm::LCM *lc;
+        std::vector<uint8_t> *out;
+        void on(const lcm::ReceiveBuffer *rb, const std::string &)
+        {
+            const int64_t t = now_ns();
+            if (rb->data_size < kStampBytes) return;
+            out->assign(static_cast<const uint8_t *>(rb->data), static_cast<const uint8_t *>(rb->data) + rb->data_size);
+            put64(out->data() + 8, t);
+            lc->publish(kPong, out->data(), static_cast<unsigned>(out->size()));
+        }
+    } e{lc.get(), &out};
+    lc->subscribe(kPing, &Echo::on, &e)->setQueueCapacity(afm::kQueueCapacity);
+    for (;;) lc->handleTimeout(1000);
+}
+
+struct Stats {
+    double median_us = 0, p99_us = 0;
+};
+
+Stats stats_of(std::vector<double> v)
+{
+    Stats s;
+    if (v.empty()) return s;
+    std::sort(v.begin(), v.end());
+    s.median_us = v[v.size() / 2];
+    s.p99_us = v[std::min(v.size() - 1, static_cast<std::size_t>(v.size() * 0.99))];
+    return s;
+}
+
+struct Row {
+    int bytes = 0;
+    int sent = 0, answered = 0;
+    Stats one_way, round_trip;
+};
+
+// Pings of one size, one at a time; a ping not answered in 100 ms is lost.
+Row measure(lcm::LCM &lc, int bytes, int count)
+{
+    Row r;
+    r.bytes = bytes;
+    std::vector<uint8_t> buf(static_cast<std::size_t>(bytes), 0x5a);
+    std::vector<double> one, round;
+    struct Back {
+        int64_t want = -1, sent_ns = 0, echo_ns = 0, back_ns = 0;
+        void on(const lcm::ReceiveBuffer *rb, const std::string &)
+        {
+            const int64_t t = now_ns();
+            if (rb->data_size < kStampBytes) return;
+            const auto *d = static_cast<const uint8_t *>(rb->data);
+            if (get64(d + 16) != want) return;   // a late answer to an earlier ping
+            sent_ns = get64(d);
+            echo_ns = get64(d + 8);
+            back_ns = t;
+        }
+    } back;
+    lcm::Subscription *sub = lc.subscribe(kPong, &Back::on, &back);
+    sub->setQueueCapacity(afm::kQueueCapacity);
+    for (int i = -50; i < count; ++i) {   // 50 unmeasured pings first: caches and the scheduler warm
+        back.want = i;
+        back.back_ns = 0;
+        put64(buf.data() + 16, i);
+        put64(buf.data(), now_ns());
+        lc.publish(kPing, buf.data(), static_cast<unsigned>(buf.size()));
+        const int64_t deadline = now_ns() + 100000000;
+        while (!back.back_ns && now_ns() < deadline) lc.handleTimeout(10);
+        if (i < 0) continue;
+        ++r.sent;
+        if (!back.back_ns) continue;
+        ++r.answered;
+        one.push_back((back.echo_ns - back.sent_ns) * 1e-3);
+        round.push_back((back.back_ns - back.sent_ns) * 1e-3);
+    }
+    lc.unsubscribe(sub);
+    r.one_way = stats_of(one);
+    r.round_trip = stats_of(round);
+    return r;
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    std::vector<int> sizes = {49, 57, 76, 836, 2056};
+    int count = 2000;
+    std::string json_path;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto val = [&]() -> std::string {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "bench_bus: %s needs a value\n%s", a.c_str(), kUsage);
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (a == "--sizes") {
+            sizes.clear();
+            const std::string v = val();
+            for (std::size_t p = 0; p <= v.size();) {
+                const std::size_t q = std::min(v.find(',', p), v.size());
+                const int b = std::atoi(v.substr(p, q - p).c_str());
+                if (b < static_cast<int>(kStampBytes) || b > 60000) {
+                    std::fprintf(stderr, "bench_bus: --sizes: '%s' is not a size in bytes from %zu to 60000\n", v.substr(p, q - p).c_str(),
+                                 kStampBytes);
+                    return 2;
+                }
+                sizes.push_back(b);
+                p = q + 1;
+            }
+        } else if (a == "--count") {
+            count = std::atoi(val().c_str());
+            if (count < 10) {
+                std::fprintf(stderr, "bench_bus: --count must be at least 10\n");
+                return 2;
+            }
+        } else if (a == "--json") {
+            json_path = val();
+        } else if (a == "-h" || a == "--help") {
+            std::fputs(kUsage, stdout);
+            return 0;
+        } else {
+            std::fprintf(stderr, "bench_bus: unknown argument '%s'\n%s", a.c_str(), kUsage);
+            return 2;
+        }
+    }
+    try {
+        auto lc = afm::open_bus();   // refuses a bus not confined to loopback
+        const pid_t kid = fork();
+        if (kid < 0) throw std::runtime_error("fork failed");
+        if (kid == 0) echo();
+        std::vector<Row> rows;
+        for (int b : sizes) rows.push_back(measure(*lc, b, count));
+        kill(kid, SIGTERM);
+        waitpid(kid, nullptr, 0);
+        std::printf("%8s %8s %12s %12s %12s %12s\n", "bytes", "answered", "one-way med", "one-way p99", "round med", "round p99");
+        for (const Row &r : rows)
+            std::printf("%8d %4d/%-4d %9.1f us %9.1f us %9.1f us %9.1f us\n", r.bytes, r.answered, r.sent, r.one_way.median_us,
+                        r.one_way.p99_us, r.round_trip.median_us, r.round_trip.p99_us);
+        if (!json_path.empty()) {
+            std::ofstream f(json_path);
+            f << "[";
+            for (std::size_t i = 0; i < rows.size(); ++i) {
+                const Row &r = rows[i];
+                f << (i ? ",\n " : "") << "{\"bytes\": " << r.bytes << ", \"sent\": " << r.sent << ", \"answered\": " << r.answered
+                  << ", \"one_way_median_us\": " << r.one_way.median_us << ", \"one_way_p99_us\": " << r.one_way.p99_us
+                  << ", \"round_trip_median_us\": " << r.round_trip.median_us << ", \"round_trip_p99_us\": " << r.round_trip.p99_us << "}";
+            }
+            f << "]\n";
+            if (!f) throw std::runtime_error("cannot write " + json_path);
+        }
+        return 0;
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "bench_bus: %s\n", e.what());
+        return 1;
+    }
+}

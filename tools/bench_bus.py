@@ -1,0 +1,166 @@
+"""./afm bench bus: the bus's floor and the lockstep's overhead, in one run.
+
+1. The raw latency of LCM on a run's bus (udpm on a private namespace's
+   loopback) for the message sizes the bench sends: one-way and round trip,
+   median and p99 (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp).
+2. The floor of one lockstep block: the hops a block needs as the protocol
+   stands, from those medians (below, FLOOR_PATHS).
+3. The lockstep's measured cost per block on a scene (default: the demo's,
+   scenes/default.yaml) in four arrangements: as a run is made (the log
+   window paces the simulator, the renderer attached), the log window off,
+   the renderer off, and both off; each as a ratio to the floor, with the
+   CPU each process spent per block (the kernel's accounting) and whether
+   the log holds every block.
+
+A benchmark: it prints figures and never fails on them. Exit 1 only when a
+run fails.
+"""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BUILD = os.environ.get("AFM_BUILD", os.path.join(TOP, "build", "main"))
+IN_NETNS = os.path.join(TOP, "tools", "in_netns.sh")
+
+# The messages of one block and their sizes in bytes (LCM payload, as a run's
+# log holds them on the default scene).
+SIZES = {"AFM_CMD": 49, "HAPTIC_POSE": 57, "HAPTIC_FORCE": 76, "AFM_ANALOG": 836, "AFM_SCAN_LINE": 2056}
+
+# The hops block n+1 waits for after the card has stepped block n: two
+# paths in parallel, each of two one-way hops; the block can start on the
+# card when both have arrived.
+FLOOR_PATHS = {
+    "simulator": [("AFM_CMD", "fw_node -> sim_afm"), ("AFM_ANALOG", "sim_afm -> fw_node")],
+    "operator": [("HAPTIC_FORCE", "fw_node -> operator"), ("HAPTIC_POSE", "operator -> fw_node")],
+}
+
+ARRANGEMENTS = [
+    ("as run (log window, renderer)", []),
+    ("log window off", ["--log-window", "0"]),
+    ("renderer off", ["--no-renderer"]),
+    ("both off", ["--log-window", "0", "--no-renderer"]),
+]
+
+
+def raw_latency(count, out):
+    path = os.path.join(out, "latency.json")
+    sizes = ",".join(str(b) for b in sorted(set(SIZES.values())))
+    exe = os.path.join(BUILD, "host_bridge", "bench_bus")
+    p = subprocess.run([IN_NETNS, exe, "--sizes", sizes, "--count", str(count), "--json", path], capture_output=True, text=True)
+    if p.returncode:
+        sys.exit(f"bench bus: {exe} failed ({p.returncode}): {p.stderr.strip()}")
+    with open(path) as f:
+        return {r["bytes"]: r for r in json.load(f)}
+
+
+def floor_of(lat):
+    """(floor in us, the path that sets it, the hops of each path)."""
+    paths = {}
+    for name, hops in FLOOR_PATHS.items():
+        paths[name] = sum(lat[SIZES[ch]]["one_way_median_us"] for ch, _ in hops)
+    worst = max(paths, key=paths.get)
+    return paths[worst], worst, paths
+
+
+def one_run(scene, args, out):
+    exe = os.path.join(BUILD, "host_bridge", "afm_launch")
+    p = subprocess.run([IN_NETNS, exe, "--scene", scene, "--out", out, "--quiet", *args], capture_output=True, text=True)
+    if p.returncode:
+        sys.exit(f"bench bus: the run {' '.join(args) or '(as run)'} failed ({p.returncode}): {p.stderr.strip()[-2000:]}")
+    with open(os.path.join(out, "run.json")) as f:
+        run = json.load(f)
+    with open(os.path.join(out, "sim_report.json")) as f:
+        sim = json.load(f)
+    blocks = sim["blocks"]
+    cpu = {q["name"]: (q["cpu_user_s"] + q["cpu_system_s"]) / blocks * 1e6 for q in run["processes"]}
+    own = run.get("launcher", {})
+    if "cpu_user_s" in own:   # the launcher records the bus itself (bus_recorder.hpp)
+        cpu["afm_launch"] = (own["cpu_user_s"] + own["cpu_system_s"]) / blocks * 1e6
+    return {
+        "us_per_block": sim["loop_wall_seconds"] / blocks * 1e6,
+        "sim_s_per_wall_s": run["sim_seconds"] / sim["loop_wall_seconds"],
+        "complete": run.get("log", {}).get("complete"),
+        "log_waits": sim["log_window_waits"],
+        "cpu_us_per_block": cpu,
+    }
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="./afm bench bus", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", default=os.path.join(TOP, "scenes", "default.yaml"), help="scene of the lockstep runs (default: the demo's)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of each arrangement; the median is shown (default 3)")
+    ap.add_argument("--count", type=int, default=2000, help="pings per message size (default 2000)")
+    ap.add_argument("--out", help="folder for bench_bus.json and the runs (default: a temporary one, removed)")
+    ap.add_argument("--json", action="store_true", help="print the figures as JSON instead of tables")
+    a = ap.parse_args(argv)
+    if a.repeat < 1:
+        ap.error("--repeat must be at least 1")
+    if not os.path.exists(a.scene):
+        ap.error(f"--scene: {a.scene}: no such file")
+    keep = a.out is not None
+    out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
+    os.makedirs(out, exist_ok=True)
+
+    print(f"bench bus: LCM latency, {a.count} pings per size ...", file=sys.stderr)
+    lat = raw_latency(a.count, out)
+    floor, worst, paths = floor_of(lat)
+    rows = []
+    for label, args in ARRANGEMENTS:
+        runs = []
+        for i in range(a.repeat):
+            print(f"bench bus: {label}: run {i + 1} of {a.repeat} ...", file=sys.stderr)
+            runs.append(one_run(a.scene, args, os.path.join(out, f"run-{len(rows)}-{i}")))
+        med = statistics.median(r["us_per_block"] for r in runs)
+        names = sorted({n for r in runs for n in r["cpu_us_per_block"]})
+        rows.append({
+            "arrangement": label, "args": args, "us_per_block": med,
+            "runs_us_per_block": [r["us_per_block"] for r in runs],
+            "ratio_to_floor": med / floor,
+            "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
+            "log_complete": all(r["complete"] for r in runs),
+            "log_waits": statistics.median(r["log_waits"] for r in runs),
+            "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
+        })
+    report = {"latency": list(lat.values()), "floor_us": floor, "floor_path": worst, "paths_us": paths, "lockstep": rows,
+              "scene": a.scene, "repeat": a.repeat}
+    with open(os.path.join(out, "bench_bus.json"), "w") as f:
+        json.dump(report, f, indent=1)
+    if a.json:
+        print(json.dumps(report, indent=1))
+    else:
+        print_tables(report)
+    if not keep:
+        subprocess.run(["rm", "-rf", out])
+    else:
+        print(f"\nfigures: {os.path.join(out, 'bench_bus.json')}")
+    return 0
+
+
+def print_tables(r):
+    print("LCM on the run's bus (udpm, namespace loopback): latency per message size, us")
+    print(f"{'message':14s} {'bytes':>6s} {'one-way med':>12s} {'p99':>8s} {'round trip med':>15s} {'p99':>8s}")
+    by_size = {x["bytes"]: x for x in r["latency"]}
+    for ch, b in SIZES.items():
+        x = by_size[b]
+        print(f"{ch:14s} {b:6d} {x['one_way_median_us']:12.1f} {x['one_way_p99_us']:8.1f} {x['round_trip_median_us']:15.1f} {x['round_trip_p99_us']:8.1f}")
+    print("\nThe floor of one lockstep block: after the card steps block n, block n+1 needs")
+    for name, hops in FLOOR_PATHS.items():
+        print(f"  {name:9s} path: " + " + ".join(f"{ch} ({who})" for ch, who in hops) + f" = {r['paths_us'][name]:.1f} us")
+    print(f"  in parallel: floor {r['floor_us']:.1f} us per block (the {r['floor_path']} path), "
+          f"{1e6 / r['floor_us'] / 1000:.1f} x real time at 1 kHz blocks")
+    print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
+    print(f"{'arrangement':32s} {'us/block':>9s} {'x floor':>8s} {'x real time':>12s} {'log':>9s} {'waits':>7s}  CPU us/block")
+    for x in r["lockstep"]:
+        cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
+        print(f"{x['arrangement']:32s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['sim_s_per_wall_s']:12.2f} "
+              f"{'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_waits']:7.0f}  {cpu}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
