@@ -1,0 +1,71 @@
+"""./afm bench bus (issue 15), reduced: the latency probe answers every
+ping of every size and measures a hop above zero; the benchmark's four
+arrangements run a short scene, each to a complete log, without the
+renderer when asked; and the record the launcher writes (bus_recorder.hpp)
+holds every message the launcher counted, readable by the log reader."""
+import json
+import os
+import subprocess
+import sys
+import unittest
+
+import benchtest
+import lcm
+
+BENCH = os.path.join(benchtest.SRC, "tools", "bench_bus.py")
+PROBE = os.path.join(benchtest.BUILD, "host_bridge", "bench_bus")
+
+
+class BenchBus(unittest.TestCase):
+    def test_the_probe_answers_every_ping_of_every_size(self):
+        p = subprocess.run([benchtest.IN_NETNS, PROBE, "--sizes", "24,836,6200", "--count", "50"], capture_output=True, text=True,
+                           timeout=120)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        rows = [l.split() for l in p.stdout.splitlines()[1:]]
+        self.assertEqual([r[0] for r in rows], ["24", "836", "6200"])
+        for r in rows:
+            self.assertEqual(r[1], "50/50", p.stdout)
+            one_way, round_trip = float(r[2]), float(r[6])
+            self.assertGreater(one_way, 0)
+            self.assertGreater(round_trip, one_way, "a round trip is two hops")
+
+    def test_the_probe_refuses_absurd_sizes_and_counts(self):
+        for args in (["--sizes", "23"], ["--sizes", "100000"], ["--sizes", "49,x"], ["--count", "3"]):
+            p = subprocess.run([benchtest.IN_NETNS, PROBE, *args], capture_output=True, text=True, timeout=60)
+            self.assertEqual(p.returncode, 2, args)
+            self.assertIn("bench_bus:", p.stderr)
+
+    def test_four_arrangements_each_with_a_complete_log(self):
+        out = benchtest.tmpdir("bench-bus")
+        self.addCleanup(benchtest.cleanup, out)
+        p = subprocess.run([sys.executable, BENCH, "--scene", benchtest.scene("short.yaml"), "--repeat", "1", "--count", "50",
+                            "--out", out], capture_output=True, text=True, timeout=600,
+                           env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
+        self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+        with open(os.path.join(out, "bench_bus.json")) as f:
+            r = json.load(f)
+        self.assertGreater(r["floor_us"], 0)
+        self.assertEqual(len(r["lockstep"]), 4)
+        for row in r["lockstep"]:
+            self.assertTrue(row["log_complete"], row)
+            self.assertGreater(row["us_per_block"], 0)
+            self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")
+            self.assertEqual("renderer" in row["cpu_us_per_block"], "--no-renderer" not in row["args"], row)
+            if "--log-window" in row["args"]:
+                self.assertEqual(row["log_waits"], 0, "no window, no wait")
+        # the record of a run: every event the launcher wrote reads back
+        run = os.path.join(out, "run-0-0")
+        with open(os.path.join(run, "run.json")) as f:
+            rj = json.load(f)
+        log = afmlog_events(os.path.join(run, "bus.lcmlog"))
+        self.assertEqual(log, rj["launcher"]["recorded_events"])
+        self.assertEqual(sum(rj["channels"].values()), log)
+
+
+def afmlog_events(path):
+    """Events in a log, counted by LCM's own reader (not the bench's)."""
+    return sum(1 for _ in lcm.EventLog(path, "r"))
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
