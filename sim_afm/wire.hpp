@@ -1,31 +1,44 @@
 // Nanowires on the substrate, pushed by the tip (physics.md sections 6, 8).
 //
-// Both models integrate the wire-substrate Coulomb friction numerically; none
-// of them uses the closed forms of section 6 (those are what the tests check
-// them against).
+// Both models take the wire-substrate Coulomb friction as distributed along
+// the wire and find the quasi-static motion from it; the closed forms of
+// section 6 are what the tests check them against.
 //
 // - RigidWire (no wire_flexibility): a rod of length L with friction density
-//   f (nN/nm) lumped on K points along its axis. A push of the tip at a point
-//   of the axis moves it by the rigid motion (twist) that the principle of
-//   maximum dissipation selects: among the twists that move the contact point
-//   by a unit step along the push, the one with the least friction power
-//   D = sum_k f dL |v_k|. Its stationarity is force AND torque balance of the
-//   push against the integrated friction (the Lagrange multiplier is the push
-//   force, D itself, since D is 1-homogeneous). Solved by iteratively
-//   reweighted least squares (a 3 x 3 system per iteration), warm-started.
-//   Near the middle the rotation centre goes to the rod's end, and at the
-//   middle to pure translation, without any division by (l - s).
+//   f (nN/nm). A push of the tip at a point of the axis moves it by the rigid
+//   motion (twist) that the principle of maximum dissipation selects: among
+//   the twists that move the contact point by a unit step along the push,
+//   the one with the least friction power D. Its stationarity is force AND
+//   torque balance of the push against the integrated friction (the Lagrange
+//   multiplier is the push force, D itself, since D is 1-homogeneous).
+//   Uniform friction (no trench holds any of the rod): rod_push_twist_uniform
+//   integrates the friction exactly, in closed form: eq. 20 for a push
+//   perpendicular to the axis, Newton's method on the exact D for an oblique
+//   push (an end cap's contact). A trench under part of the rod makes the
+//   friction anisotropic there: rod_push_twist lumps it on K points along the
+//   axis and solves by iteratively reweighted least squares (a 3 x 3 system
+//   per iteration), warm-started. Near the middle the rotation centre goes to
+//   the rod's end, and at the middle to pure translation, without any
+//   division by (l - s).
 // - FlexibleWire (wire_flexibility): N segments (N + 1 nodes), stretch springs
 //   (EA / segment length), discrete bending EI / (2 ds^3) |x_{i-1} - 2 x_i +
 //   x_{i+1}|^2 (= EI / (2 ds) theta^2 for small joint angles theta), and Coulomb
 //   friction f ds on each node (half at the ends). Each push the wire takes
 //   the incremental quasi-static step: minimise elastic energy + tip contact
 //   energy + sum_i c_i |x_i - x_i(start)| (rate-independent friction
-//   dissipation, regularised below 1e-6 nm) by Newton steps with an Armijo
-//   line search on a banded system, until every node's force balance holds to
-//   1e-5 c_i (at most max_iterations; the next push resumes). The tip's
-//   contact is one point: the closest point of the axis, shared by that
-//   segment's two nodes, so the load does not depend on the mesh.
+//   dissipation, regularised below 1e-6 nm) until every node's force
+//   balance holds to 1e-5 c_i (at most max_iterations Newton steps; the
+//   next push resumes). The iterates: a first guess (the last increment,
+//   scaled to the apex's advance when the wire keeps sliding; else, after
+//   a test of balance at the start, scaled to the energy's minimum along
+//   it), one step with the last factorisation of H (kept only if it
+//   passes Armijo's test), then Newton steps with an Armijo line search.
+//   H is block-pentadiagonal (2 x 2 blocks: a node couples to two
+//   neighbours each side); each Newton step factors it as L D L^T by
+//   blocks, O(N), shifted (Levenberg) when it is singular (no friction:
+//   the rigid motions cost nothing). The tip's contact is one point: the
+//   closest point of the axis, shared by that segment's two nodes, so the
+//   load does not depend on the mesh.
 //
 // Geometry: frame A (sample frame: the World adds drift), nm; forces nN.
 #pragma once
@@ -53,15 +66,79 @@ struct RodTwist {
 // Least-dissipation twist of a rod whose friction is lumped at axial positions
 // u_k (from the centre, nm) with weight w_nN each, pushed at axial position u_p
 // along the unit direction p = (p_t, p_n) of the rod frame. `warm` seeds the
-// iteration. Force and torque balance hold at the result to `tol` (relative).
+// iteration. The iteration stops when a step changes the twist by at most
+// `tol` of its size (force and torque balance then hold to about that,
+// relative), or after max_iter iterations (the last iterate is returned).
 // `metric` (optional, one per point): the point's friction power is
 // w |G_k v_k| instead of w |v_k| (anisotropic friction, e.g. in a trench).
+// w = 0 (no friction): the twist is the translation along p, force 0.
 RodTwist rod_push_twist(const std::vector<double> &u_nm, double w_nN, double u_p_nm, const Eigen::Vector2d &p,
                         const RodTwist &warm, double tol = 1e-12, int max_iter = 500,
                         const std::vector<Eigen::Matrix2d> *metric = nullptr);
 
+// The same least-dissipation twist for a rod of length L_nm whose friction
+// density f (nN/nm) is uniform along it, integrated exactly (no friction
+// points), pushed at axial position u_p (from the centre, nm; clamped to the
+// rod) along the unit direction p of the rod frame.
+// - |p_t| <= kRodPerpendicular (a side push, up to rounding): the closed
+//   form, eq. 20 (iterations 0): rotation about the static point, or pure
+//   translation at f L when |u_p| <= kRodMiddle L (the bifurcation; the
+//   contact point's own rounding must not pick a side).
+// - otherwise (an end cap's contact): Newton's method on the exact friction
+//   power over the plane of twists that advance the contact point by one,
+//   from `warm` (or the side push's twist, or the translation along p; see
+//   wire.cpp), with a backtracking line search (the projected gradient's
+//   when Newton's direction fails it); stops when force and torque balance
+//   hold to `tol` relative to the push, or after max_iter iterations (the
+//   best iterate is returned).
+// L_nm <= 0 or f <= 0: the translation along p, force f L (0).
+RodTwist rod_push_twist_uniform(double L_nm, double f_nN_per_nm, double u_p_nm, const Eigen::Vector2d &p,
+                                const RodTwist &warm, double tol = 1e-8, int max_iter = 50);
+
+// A push counts as perpendicular to the rod when |p_t| is at most this (the
+// contact normal of a side contact is perpendicular up to rounding).
+constexpr double kRodPerpendicular = 1e-9;
+// A perpendicular push within this fraction of L of the rod's middle
+// translates it: the contact point's own rounding (of order 1e-16 of the
+// coordinates, far below this on a um rod) must not choose which end the
+// rod turns about.
+constexpr double kRodMiddle = 1e-9;
+
 // Closest point of the segment a-b to q: the parameter t in [0, 1].
 double segment_param(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &q);
+
+// A symmetric positive (semi)definite system H x = r whose unknowns come in
+// pairs (a node's x and y) and couple to two pairs either side: 2 x 2
+// blocks H(i, i), H(i, i-1), H(i, i-2) (the flexible wire's Newton system).
+// factor() computes H + shift I = L D L^T by blocks in O(n); solve() then
+// applies its inverse. Each pivot block D_i is kept symmetric, as (a, b,
+// 1/a, 1/det) with b the mean of the two off-diagonal entries rounding
+// leaves it: with both, the asymmetry grows from pivot to pivot, and on a
+// long chain of sliding nodes (whose friction holds them along their slip
+// with next to nothing) it swamps the solve (test_wires checks the
+// backward error on such chains).
+class BlockPentadiagonal {
+public:
+    void resize(int n);                       // n pairs, blocks zeroed
+    int size() const { return static_cast<int>(diag.size()); }
+    std::vector<Eigen::Matrix2d> diag, sub1, sub2;   // H(i, i) (symmetric), H(i, i-1), H(i, i-2)
+    // Factors H + shift I (shift >= 0). False when a pivot is not positive:
+    // a block's pivots a and det / a at most kPivot of its trace (H singular
+    // to rounding, or indefinite); solve() must not be used then.
+    bool factor(double shift);
+    void solve(std::vector<Eigen::Vector2d> &r) const;   // r := (H + shift I)^-1 r, r of size()
+    // Rounding in the elimination of an n-pair chain is about n 1e-16 of a
+    // block's trace; a pivot below kPivot of it counts as zero.
+    static constexpr double kPivot = 1e-13;
+
+    struct Pivot {                            // D = [a b; b c] as (a, b, 1/a, 1/det D)
+        double a = 1, b = 0, inv_a = 1, inv_det = 1;
+    };
+
+private:
+    std::vector<Eigen::Matrix2d> l1_, l2_;   // L(i, i-1), L(i, i-2)
+    std::vector<Pivot> piv_;                 // D_i
+};
 
 class Wire {
 public:
@@ -81,8 +158,10 @@ public:
         return q.x() > lo.x() - m && q.x() < hi.x() + m && q.y() > lo.y() - m && q.y() < hi.y() + m;
     }
     // Contact with the apex circle (centre q, radius r_tip): penetration into
-    // the footprint (half width d/2) and the unit normal from the wire to the
-    // apex. Returns false when not touching.
+    // the footprint (half width d/2), nm (negative: apart), the unit normal
+    // from the wire to the apex, and the arc position along the axis of the
+    // closest point (nm from the first node; the first of equally close).
+    // Returns false when not touching.
     bool contact(const Eigen::Vector2d &q, double r_tip, double &pen, Eigen::Vector2d &n_out, double &u_out) const;
     // The tip at q pushes the wire with contact stiffness k (nN/nm): the wire
     // moves to quasi-static equilibrium. Returns true when it moved.
@@ -106,7 +185,9 @@ protected:
 
 class RigidWire : public Wire {
 public:
-    // Ends a, b; friction density f (nN/nm); K friction points.
+    // Ends a, b; friction density f (nN/nm); K friction points (they carry
+    // the friction only where a trench holds the rod; uniform friction is
+    // integrated exactly).
     RigidWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm, int K);
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
     void place(const Eigen::Vector2d &centre, double psi);   // sets the pose and the nodes
@@ -114,8 +195,9 @@ public:
     Eigen::Vector2d centre;       // nm
     double psi = 0;               // axis angle from +x, rad
     RodTwist last;                // the last twist (for tests: rotation centre)
+    int held_points = 0;          // friction points a trench held in the last push (0: uniform friction)
     double f = 0;                 // friction density, nN/nm
-    std::vector<double> u;        // friction points, from the centre, nm
+    std::vector<double> u;        // friction points, from the centre, nm (used where a trench holds the rod)
 
 private:
     std::vector<Eigen::Matrix2d> metric_;
@@ -132,19 +214,66 @@ public:
     double ks = 0;                    // stretch stiffness EA / ds, nN/nm
     double f = 0;                     // friction density, nN/nm
     int max_iterations = 8;           // Newton iterations per push, at most
-    int last_iterations = 0;          // the last push's Newton iterations
+    int last_iterations = 0;          // the last push's Newton iterations (balance tests; 1: none needed)
     bool last_converged = false;      // whether it met the step tolerance
     long unconverged = 0;             // pushes that hit max_iterations
+    long regularised = 0;             // Newton steps whose system was singular (solved with a Levenberg shift)
 
 private:
+    // The tip's contact during one step: apex q, reach r_tip + d/2, contact
+    // stiffness kc, the segment it touches (fixed for the step) and the
+    // normal to use if the apex sits on the axis.
+    struct Contact {
+        Eigen::Vector2d q, n0;
+        int seg = 0;
+        double reach = 0, kc = 0;
+    };
+    // What one evaluation of the step's energy leaves for the Newton step at
+    // that point: the gradient (nN), each segment's unit direction, each
+    // node's friction stiffness c_i / s and direction dx / s (s =
+    // sqrt(|dx|^2 + eps^2)), the contact's parameter and normal.
+    struct Eval {
+        std::vector<Eigen::Vector2d> g, seg_dir, node_dir;
+        std::vector<double> node_w;
+        double residual = 0;          // worst node's imbalance (a ratio of squares; < 1: balanced)
+        double contact_t = 0;
+        Eigen::Vector2d contact_n = Eigen::Vector2d::Zero();
+        bool touching = false;
+    };
     std::vector<Eigen::Vector2d> last_dx_;   // the last push's increment (warm start)
+    // The step's work arrays, kept between pushes (no allocation per push).
+    std::vector<Eigen::Vector2d> start_, base_, dir_;
+    Eval now_, trial_;                                // at x; at a trial point
+    bool factored_ = false;                           // H_ holds a factorisation
+    BlockPentadiagonal H_;                            // the Newton system (its last factorisation)
     // Distance from q to the axis; the closest segment and its parameter.
     double closest(const Eigen::Vector2d &q, int &seg, double &t) const;
-    // The step's energy: elastic + tip contact (on segment seg) +
-    // regularised friction work from `start`.
-    double energy(const std::vector<Eigen::Vector2d> &start, const Eigen::Vector2d &q, int seg, double reach,
-                  double kc) const;
-    void solve_banded(std::vector<double> &A, std::vector<double> &rhs) const;
+    double node_friction(int i) const;   // c_i = f ds, half at the ends, nN
+    // The step's energy at x (elastic + contact + regularised friction work
+    // from start_), nN nm; fills ev at x.
+    double evaluate(const Contact &c, Eval &ev, bool at_start = false) const;
+    // d^T H d of the elastic and contact energy at ev's point.
+    double elastic_curvature(const Contact &c, const Eval &ev, const std::vector<Eigen::Vector2d> &d) const;
+    void assemble_hessian(const Contact &c, const Eval &ev);   // into H_'s blocks
+    void newton_direction();                   // dir_ := -H^-1 now_.g (Levenberg shift if H is singular)
+    // x := base_ + alpha dir_ if that passes Armijo's test against phi
+    // (then phi and now_ follow); false otherwise (x is left there).
+    bool try_step(const Contact &c, double &phi, double alpha);
+    // One Newton step from x (evaluated in now_) with an Armijo line search
+    // on the energy phi; updates x, phi and now_.
+    void newton_step(const Contact &c, double &phi);
+    // A step with the last factorisation, kept only if it passes Armijo's
+    // test (a steady push's H changes little from step to step).
+    void chord_step(const Contact &c, double &phi);
+    // The last step's increment, scaled to the energy's minimum along it,
+    // as the starting point (x, phi, now_), when it lowers the energy.
+    void warm_start(const Contact &c, double &phi);
+    // The first guess of a steady slide (x, phi, now_): the last increment
+    // scaled to the apex's advance; false (nothing done) when the last push
+    // did not slide to balance or the apex did not advance into the wire.
+    bool follow(const Contact &c, double t_seg, double &phi);
+    Eigen::Vector2d last_q_ = Eigen::Vector2d::Zero();   // the apex at the last push
+    bool has_last_q_ = false;
 };
 
 }  // namespace afm::sim

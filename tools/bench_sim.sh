@@ -2,9 +2,11 @@
 # ./afm bench sim: what the simulator costs and how accurate its knobs are.
 # Runs build/main/sim_afm/bench_sim (sim_afm/bench_sim.cpp) and prints its
 # tables: cost per simulated second against the number of particles and with
-# each effect turned on; for flexible wires, the shape error against an
-# N = 256 reference and the cost, N = 4..128. A benchmark: it never fails on
-# the numbers.
+# each effect turned on; pushed wires against issue 15's goals (a rigid rod
+# with uniform friction and with a trench under part of it, a flexible
+# chain of N = 32; us per sample, per sample in contact, the goal); for flexible
+# wires, the shape error against an N = 256 reference and the cost,
+# N = 4..128. A benchmark: it never fails on the numbers.
 set -euo pipefail
 
 usage() {
@@ -14,8 +16,10 @@ usage: ./afm bench sim [particles|effects|wires]
 
   particles  cost against the number of particles (1, 100, 10000)
   effects    cost of each effect over a base scene
-  wires      flexible wires: shape error and cost against segments N
-  (none)     all three tables
+  wires      pushed wires against issue 15's goals (rigid, rigid with a
+             trench, flexible N = 32), then flexible wires' shape error and
+             cost against segments N
+  (none)     all the tables
   -h, --help this text
 
 Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
