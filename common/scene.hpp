@@ -124,7 +124,7 @@ struct WireModelSpec {
     double friction_nN_per_um = 20.0;   // f: wire-substrate Coulomb friction per length (f L = physics.md eq. 23)
     double youngs_modulus_GPa = 83.0;   // E (silver); EI = E pi d^4 / 64 (wire_flexibility)
     int segments = 32;                  // N: segments of a flexible wire (wire_flexibility)
-    int friction_points = 64;           // K: points integrating the distributed friction of a rigid rod
+    int friction_points = 64;           // K: points integrating a rigid rod's friction where a trench holds part of it (uniform friction: exact, K unused)
     int relax_sweeps = 8;               // Newton-IRLS iterations of a flexible wire's step per sample (>= 8)
     double mu = 0.3;                    // wire-substrate friction coefficient: how firmly a trench holds a rigid wire
 };
