@@ -20,7 +20,6 @@ void BusRecorder::on(const lcm::ReceiveBuffer *rb, const std::string &channel)
     if (!error_.empty()) return;   // the file is broken: the run is failing already
     try {
         log_.write(rb->recv_utime, channel, rb->data, rb->data_size);
-        unflushed_ += rb->data_size + static_cast<int64_t>(channel.size()) + 28;
     } catch (const LogError &e) {
         error_ = e.what();   // not thrown through LCM's C dispatch
     }
@@ -31,9 +30,9 @@ int BusRecorder::drain(bool bus_quiet, int max)
     int n = 0;
     while (n < max && error_.empty() && lc_.handleTimeout(0) > 0) ++n;
     if (!error_.empty()) throw LogError(error_);
-    if (unflushed_ > 0 && (bus_quiet || unflushed_ >= kFlushBytes)) {
+    if (unflushed() && (bus_quiet || log_.bytes() - flushed_ >= kFlushBytes)) {
         log_.flush();
-        unflushed_ = 0;
+        flushed_ = log_.bytes();
     }
     return n;
 }

@@ -43,14 +43,14 @@ public:
     // the file and the reason.
     int drain(bool bus_quiet, int max = 10000);
     int64_t events() const { return log_.events(); }
-    bool unflushed() const { return unflushed_ > 0; }
+    bool unflushed() const { return log_.bytes() > flushed_; }
 
 private:
     void on(const lcm::ReceiveBuffer *rb, const std::string &channel);
     lcm::LCM &lc_;
     LogWriter log_;
     lcm::Subscription *sub_ = nullptr;
-    int64_t unflushed_ = 0;   // bytes written since the last flush
+    int64_t flushed_ = 0;   // the writer's bytes() at the last flush
     std::string error_;   // a write that failed inside LCM's dispatch, thrown by drain()
 };
 

@@ -110,10 +110,6 @@ bool LogReader::read(LogEvent *ev)
                    ", inside the event that starts here");
 }
 
-}  // namespace afm
-
-namespace afm {
-
 LogWriter::LogWriter(const std::string &path) : path_(path)
 {
     errno = 0;
@@ -139,6 +135,7 @@ void LogWriter::write(int64_t utime, const std::string &channel, const void *dat
     if (lcm_eventlog_write_event(log_, &ev) != 0)
         throw LogError(path_ + ": cannot write event " + std::to_string(n_) + " (" + std::strerror(errno ? errno : EIO) + ")");
     ++n_;
+    bytes_ += LogReader::kHeaderBytes + static_cast<int64_t>(channel.size()) + static_cast<int64_t>(size);
 }
 
 void LogWriter::flush()

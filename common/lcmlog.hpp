@@ -80,10 +80,6 @@ private:
     bool have(uint64_t bytes);
 };
 
-}  // namespace afm
-
-namespace afm {
-
 // Writes an LCM event log (LCM's own format and writer, lcm_eventlog_*), as
 // lcm-logger does: the run's recorder (bus_recorder.hpp) and replay --write.
 // A write that fails (a full disk) throws LogError naming the file and the
@@ -97,12 +93,13 @@ public:
     void write(int64_t utime, const std::string &channel, const void *data, std::size_t size);
     void flush();   // to the kernel (fflush): a LogTail then reads everything written
     int64_t events() const { return n_; }
-    const std::string &path() const { return path_; }
+    int64_t bytes() const { return bytes_; }   // the log's size once flushed: headers (LogReader::kHeaderBytes), channels, data
 
 private:
     std::string path_;
     lcm_eventlog_t *log_ = nullptr;
     int64_t n_ = 0;
+    int64_t bytes_ = 0;
 };
 
 }  // namespace afm

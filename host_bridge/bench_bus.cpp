@@ -42,9 +42,9 @@ constexpr std::size_t kStampBytes = 24;   // send time, echo's receive time, seq
 const char *kUsage =
     "usage: bench_bus [--sizes B,B,...] [--count N] [--json FILE]\n"
     "  The raw one-way and round-trip latency of LCM on the run's bus for each\n"
-    "  payload size (bytes, at least 24; default the bench's messages: 49 AFM_CMD,\n"
-    "  57 HAPTIC_POSE, 76 HAPTIC_FORCE, 836 AFM_ANALOG, 2056 AFM_SCAN_LINE),\n"
-    "  N pings each (default 2000). Run inside a network namespace (tools/in_netns.sh).\n";
+    "  payload size (bytes, at least 24; default 49,57,76,836,2056; ./afm bench bus\n"
+    "  passes the sizes of the messages in a run's log), N pings each (default\n"
+    "  2000). Run inside a network namespace (tools/in_netns.sh).\n";
 
 int64_t now_ns()
 {

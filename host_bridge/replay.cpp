@@ -420,17 +420,16 @@ Outputs run_replay(const Options &o)
             r.inconsistent.insert(k);
         }
     }
-    // Every block the log's analog blocks cover must have been stepped: a
-    // block missing its pose (or its analog block) in the log stops the
-    // card there, and nothing after it can be judged.
-    // An analog block for the block after the card's last one (refused as
-    // from the future, or taken and waiting for its pose) is the same: the
-    // log lost, or holds late, an input that fw_node had in time.
-    if (max_analog > node.done() || analog_seen.count(node.done() + 1)) {
+    // Every block the log's analog blocks cover must have been stepped: an
+    // analog block for the block after the card's last one (taken and
+    // waiting for its pose, or refused as from the future) means the log
+    // lost, or holds late, an input that fw_node had in time, and nothing
+    // after it can be judged.
+    if (analog_seen.count(node.done() + 1)) {
         const int64_t next = node.done() + 1;
         throw afm::LogError(o.log + ": the log holds AFM_ANALOG of block " + std::to_string(next) + ", but the card could step only to block " + std::to_string(node.done()) +
                             ": the recording misses, or holds out of order, an input of block " + std::to_string(next) +
-                            " (its HAPTIC_POSE or AFM_ANALOG, or one of the block before; lcm-logger drops messages when starved of CPU)");
+                            " (its HAPTIC_POSE or AFM_ANALOG, or one of the block before; a recorder starved of CPU loses or delays messages)");
     }
     return r;
 }

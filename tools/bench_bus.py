@@ -1,8 +1,9 @@
 """./afm bench bus: the bus's floor and the lockstep's overhead, in one run.
 
 1. The raw latency of LCM on a run's bus (udpm on a private namespace's
-   loopback) for the message sizes the bench sends: one-way and round trip,
-   median and p99 (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp).
+   loopback) for the message sizes the bench sends (read from the first
+   run's log): one-way and round trip, median and p99
+   (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp).
 2. The floor of one lockstep block: the hops a block needs as the protocol
    stands, from those medians (below, FLOOR_PATHS).
 3. The lockstep's measured cost per block on a scene (default: the demo's,
@@ -23,13 +24,16 @@ import subprocess
 import sys
 import tempfile
 
+import lcm
+
 TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = os.environ.get("AFM_BUILD", os.path.join(TOP, "build", "main"))
 IN_NETNS = os.path.join(TOP, "tools", "in_netns.sh")
 
-# The messages of one block and their sizes in bytes (LCM payload, as a run's
-# log holds them on the default scene).
-SIZES = {"AFM_CMD": 49, "HAPTIC_POSE": 57, "HAPTIC_FORCE": 76, "AFM_ANALOG": 836, "AFM_SCAN_LINE": 2056}
+# The messages whose latency is measured: those of the floor's paths, and
+# the largest the simulator sends. Their sizes are read from the first run's
+# log (sizes_of), so they follow the types and the scene.
+LATENCY_CHANNELS = ["AFM_CMD", "HAPTIC_POSE", "HAPTIC_FORCE", "AFM_ANALOG", "AFM_SCAN_LINE"]
 
 # The hops block n+1 waits for after the card has stepped block n: two
 # paths in parallel, each of two one-way hops; the block can start on the
@@ -47,9 +51,21 @@ ARRANGEMENTS = [
 ]
 
 
-def raw_latency(count, out):
+def sizes_of(log_path):
+    """{channel: median LCM payload in bytes} of LATENCY_CHANNELS in a run's log."""
+    seen = {ch: [] for ch in LATENCY_CHANNELS}
+    for ev in lcm.EventLog(log_path, "r"):
+        if ev.channel in seen:
+            seen[ev.channel].append(len(ev.data))
+    missing = [ch for ch, v in seen.items() if not v]
+    if missing:
+        sys.exit(f"bench bus: {log_path} holds no {', '.join(missing)}: the scene sends no such message")
+    return {ch: int(statistics.median(v)) for ch, v in seen.items()}
+
+
+def raw_latency(sizes, count, out):
     path = os.path.join(out, "latency.json")
-    sizes = ",".join(str(b) for b in sorted(set(SIZES.values())))
+    sizes = ",".join(str(b) for b in sorted(set(sizes.values())))
     exe = os.path.join(BUILD, "host_bridge", "bench_bus")
     p = subprocess.run([IN_NETNS, exe, "--sizes", sizes, "--count", str(count), "--json", path], capture_output=True, text=True)
     if p.returncode:
@@ -58,11 +74,11 @@ def raw_latency(count, out):
         return {r["bytes"]: r for r in json.load(f)}
 
 
-def floor_of(lat):
+def floor_of(lat, sizes):
     """(floor in us, the path that sets it, the hops of each path)."""
     paths = {}
     for name, hops in FLOOR_PATHS.items():
-        paths[name] = sum(lat[SIZES[ch]]["one_way_median_us"] for ch, _ in hops)
+        paths[name] = sum(lat[sizes[ch]]["one_way_median_us"] for ch, _ in hops)
     worst = max(paths, key=paths.get)
     return paths[worst], worst, paths
 
@@ -107,9 +123,6 @@ def main(argv=None):
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
     os.makedirs(out, exist_ok=True)
 
-    print(f"bench bus: LCM latency, {a.count} pings per size ...", file=sys.stderr)
-    lat = raw_latency(a.count, out)
-    floor, worst, paths = floor_of(lat)
     rows = []
     for label, args in ARRANGEMENTS:
         runs = []
@@ -121,13 +134,18 @@ def main(argv=None):
         rows.append({
             "arrangement": label, "args": args, "us_per_block": med,
             "runs_us_per_block": [r["us_per_block"] for r in runs],
-            "ratio_to_floor": med / floor,
             "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
             "log_complete": all(r["complete"] for r in runs),
             "log_waits": statistics.median(r["log_waits"] for r in runs),
             "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
         })
-    report = {"latency": list(lat.values()), "floor_us": floor, "floor_path": worst, "paths_us": paths, "lockstep": rows,
+    sizes = sizes_of(os.path.join(out, "run-0-0", "bus.lcmlog"))
+    print(f"bench bus: LCM latency, {a.count} pings per size ...", file=sys.stderr)
+    lat = raw_latency(sizes, a.count, out)
+    floor, worst, paths = floor_of(lat, sizes)
+    for row in rows:
+        row["ratio_to_floor"] = row["us_per_block"] / floor
+    report = {"latency": list(lat.values()), "sizes": sizes, "floor_us": floor, "floor_path": worst, "paths_us": paths, "lockstep": rows,
               "scene": a.scene, "repeat": a.repeat}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)
@@ -146,7 +164,7 @@ def print_tables(r):
     print("LCM on the run's bus (udpm, namespace loopback): latency per message size, us")
     print(f"{'message':14s} {'bytes':>6s} {'one-way med':>12s} {'p99':>8s} {'round trip med':>15s} {'p99':>8s}")
     by_size = {x["bytes"]: x for x in r["latency"]}
-    for ch, b in SIZES.items():
+    for ch, b in r["sizes"].items():
         x = by_size[b]
         print(f"{ch:14s} {b:6d} {x['one_way_median_us']:12.1f} {x['one_way_p99_us']:8.1f} {x['round_trip_median_us']:15.1f} {x['round_trip_p99_us']:8.1f}")
     print("\nThe floor of one lockstep block: after the card steps block n, block n+1 needs")

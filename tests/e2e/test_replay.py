@@ -40,6 +40,18 @@ def events(path):
     return out, blob
 
 
+def span(event):
+    """Bytes of an (offset, channel, data) event in the log: header, channel, data."""
+    return 28 + len(event[1]) + len(event[2])
+
+
+def middle_pose(evs):
+    """Index of the log's middle HAPTIC_POSE event, and the block it is for."""
+    i = [k for k, e in enumerate(evs) if e[1] == "HAPTIC_POSE"]
+    i = i[len(i) // 2]
+    return i, afmlog.afm.haptic_pose_t.decode(evs[i][2]).seq
+
+
 def output_key(ch, data):
     m = getattr(afmlog.afm, afmlog.CHANNELS[ch]).decode(data)
     seq = m.ack_seq if ch == "AFM_CMD" else m.seq
@@ -163,11 +175,9 @@ class ReplayEveryScene(unittest.TestCase):
         gone = {}
 
         def drop_a_pose(evs, blob):
-            poses = [e for e in evs if e[1] == "HAPTIC_POSE"]
-            off, ch, data = poses[len(poses) // 2]
-            gone["block"] = afmlog.afm.haptic_pose_t.decode(data).seq
-            size = 28 + len(ch) + len(data)
-            return blob[:off] + blob[off + size:]
+            i, gone["block"] = middle_pose(evs)
+            off = evs[i][0]
+            return blob[:off] + blob[off + span(evs[i]):]
         run, log, _ = self._broken_copy("nopose", drop_a_pose)
         rc, so, se = replay(REPLAY, run)
         self.assertEqual(rc, 2, so + se)
@@ -183,14 +193,12 @@ class ReplayEveryScene(unittest.TestCase):
         late = {}
 
         def move_a_pose(evs, blob):
-            poses = [i for i, e in enumerate(evs) if e[1] == "HAPTIC_POSE"]
-            i = poses[len(poses) // 2]
-            late["block"] = afmlog.afm.haptic_pose_t.decode(evs[i][2]).seq
+            i, late["block"] = middle_pose(evs)
             j = next(k for k in range(i + 1, len(evs)) if evs[k][1] == "AFM_ANALOG"
                      and afmlog.afm.analog_block_t.decode(evs[k][2]).seq == late["block"] + 1)
-            off, ch, data = evs[i]
-            ev = blob[off:off + 28 + len(ch) + len(data)]
-            end_j = evs[j][0] + 28 + len(evs[j][1]) + len(evs[j][2])
+            off = evs[i][0]
+            ev = blob[off:off + span(evs[i])]
+            end_j = evs[j][0] + span(evs[j])
             return blob[:off] + blob[off + len(ev):end_j] + ev + blob[end_j:]
         run, log, _ = self._broken_copy("latepose", move_a_pose)
         rc, so, se = replay(REPLAY, run)
