@@ -16,6 +16,21 @@ namespace afm {
 // udpm on loopback only: ttl=0, a 4 MB receive buffer (design.md, "The bus").
 constexpr const char *kBusUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
 constexpr const char *kBusGroup = "239.255.76.67";
+
+// The UDP port of a udpm URL ("udpm://GROUP:PORT?..."), at compile time; -1
+// for a URL without one.
+constexpr int udpm_port(const char *url)
+{
+    int colon = -1, i = 0;
+    for (; url[i] && url[i] != '?'; ++i)
+        if (url[i] == ':') colon = i;
+    if (colon < 0 || url[colon + 1] < '0' || url[colon + 1] > '9') return -1;
+    int port = 0;
+    for (int k = colon + 1; url[k] >= '0' && url[k] <= '9'; ++k) port = port * 10 + (url[k] - '0');
+    return port;
+}
+constexpr int kBusPort = udpm_port(kBusUrl);   // 7667: where afm_netfault's rule queues datagrams
+static_assert(kBusPort > 0 && kBusPort < 65536, "kBusUrl names no UDP port");
 // Messages a subscription may hold before LCM drops (its default is 30, which
 // a process starved of CPU for a few ms exceeds).
 constexpr int kQueueCapacity = 10000;

@@ -17,8 +17,14 @@ Rows (design.md, "Reliability"):
   net:dup         every message echoed once more, 0-5 ms later, by a process on
                   the bus (duplicates, and reordering against what follows):
                   same trajectories
+  net:kernel      the kernel drops 1 % of the lockstep's datagrams (AFM_ANALOG,
+                  AFM_CMD, HAPTIC_FORCE, HAPTIC_POSE: the ones a resend repairs),
+                  duplicates 2 % and holds back 10 % of every channel's behind the
+                  next datagram (at most 1 ms): an iptables NFQUEUE rule on the run's
+                  loopback and afm_netfault's verdicts. Same trajectories, complete log
   net:netem       tc netem on the run's loopback (drop, duplicate, reorder), where
-                  the kernel has sch_netem (skipped, with the reason, where not)
+                  the kernel has sch_netem (skipped, with the reason, where not:
+                  net:kernel does the same through netfilter)
   disk:full       the run folder on a 1 MB tmpfs (a run needs 2.4): a clear error, no run.json that
                   claims success
   scene:changed   the scene file overwritten with garbage while the run starts:
@@ -49,7 +55,7 @@ import afmlog  # noqa: E402
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
-        "net:netem", "disk:full", "scene:changed", "two-runs"])
+        "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs"])
 # What a trajectory is: the simulator's truth and the card's answers, by block.
 TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_FORCE", "seq"), ("HAPTIC_POSE", "seq")]
 
@@ -309,12 +315,56 @@ class Matrix:
         same, st = self.same(r.out) if kept else (False, "-")
         self.add("net:dup", f"exit {r.code}, every message twice", kept, kt, same, st, r.code == 0 and kept and same)
 
+    # the lockstep's channels: a datagram of theirs that is lost is sent again
+    # (the simulator resends its block; the card answers a resend again)
+    KERNEL_DROP = ["AFM_ANALOG", "AFM_CMD", "HAPTIC_FORCE", "HAPTIC_POSE"]
+
+    def net_kernel(self):
+        d = self.dir("net:kernel")
+        os.makedirs(d, exist_ok=True)
+        report = os.path.join(d, "netfault.json")
+        nf = [os.path.join(BUILD, "host_bridge", "afm_netfault"), "--queue", "0", "--drop", "0.01", "--dup", "0.02", "--reorder", "0.1",
+              "--hold-us", "1000", "--seed", str(self.a.seed), "--drop-channels", ",".join(self.KERNEL_DROP), "--iptables",
+              "--report", report]
+        log = os.path.join(d, "netfault.log")
+
+        def wrap(cmd):
+            q = " ".join(f"'{c}'" for c in cmd)
+            n = " ".join(f"'{c}'" for c in nf)
+            # the run once the queue has its reader and its rules (afm_netfault says ready)
+            return ["sh", "-c", f"{n} 2> '{log}' & h=$!; "
+                                f"i=0; until grep -q ready '{log}' 2>/dev/null; do i=$((i+1)); "
+                                f"{{ [ $i -lt 500 ] && kill -0 $h 2>/dev/null; }} || exit 97; sleep 0.01; done; "
+                                f"{q}; rc=$?; kill -TERM $h; wait $h; exit $rc"]
+        r = Run(self.scene, os.path.join(d, "run"), wrap=wrap).finish()
+        if r.code == 97:
+            try:
+                with open(log) as f:
+                    tail = f.read().strip().splitlines()
+            except OSError:
+                tail = []
+            said = (tail or [r.stderr.strip() or "(nothing said)"])[-1][:100]
+            self.add("net:kernel", f"could not run: afm_netfault did not get ready: {said}", False, "-", None, "-", False)
+            return
+        try:
+            with open(report) as f:
+                nfr = json.load(f)
+        except (OSError, ValueError):
+            nfr = {}
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        resends = (r.rj or {}).get("sim", {}).get("resends", 0)
+        acted = nfr.get("dropped", 0) > 0 and nfr.get("duplicated", 0) > 0 and nfr.get("reordered", 0) > 0
+        self.add("net:kernel", f"exit {r.code}, kernel dropped {nfr.get('dropped', '?')}, duplicated {nfr.get('duplicated', '?')}, "
+                               f"reordered {nfr.get('reordered', '?')} of {nfr.get('seen', '?')}; {resends} resends",
+                 kept, kt, same, st, r.code == 0 and kept and same and acted and (r.rj or {}).get("log", {}).get("complete") is True)
+
     def net_netem(self):
         probe = subprocess.run(["unshare", "-rn", "tc", "qdisc", "add", "dev", "lo", "root", "netem", "loss", "1%"],
                                capture_output=True, text=True)
         if probe.returncode != 0:
             why = probe.stderr.strip().splitlines()[-1] if probe.stderr.strip() else "tc failed"
-            self.add("net:netem", f"skipped: tc netem refused here ({why}); net:drop and net:dup stand in", True, "-", None, "-", True)
+            self.add("net:netem", f"skipped: tc netem refused here ({why}); net:kernel stands in", True, "-", None, "-", True)
             return
 
         def wrap(cmd):
@@ -379,6 +429,8 @@ class Matrix:
                 self.net_drop()
             elif row == "net:dup":
                 self.net_dup()
+            elif row == "net:kernel":
+                self.net_kernel()
             elif row == "net:netem":
                 self.net_netem()
             elif row == "disk:full":

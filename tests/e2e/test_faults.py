@@ -1,6 +1,7 @@
 """The fault matrix's fast rows (tools/faults.py; ./afm faults runs them all):
 a stopped process, a killed one, the launcher interrupted, every message
-duplicated and reordered, a full disk, the scene changed under a run."""
+duplicated and reordered, datagrams dropped, duplicated and reordered by the
+kernel, a full disk, the scene changed under a run."""
 import json
 import os
 import subprocess
@@ -10,7 +11,8 @@ import unittest
 import benchtest
 
 FAULTS = os.path.join(benchtest.SRC, "tools", "faults.py")
-FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "net:dup", "disk:full", "scene:changed"]
+FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "net:dup", "net:kernel", "disk:full", "scene:changed"]
+NETFAULT = os.path.join(benchtest.BUILD, "host_bridge", "afm_netfault")
 
 
 class FaultMatrix(unittest.TestCase):
@@ -46,6 +48,33 @@ class FaultMatrix(unittest.TestCase):
 
     def test_duplicated_and_reordered_messages_leave_the_trajectories_unchanged(self):
         self.check("net:dup")
+
+    def test_datagrams_dropped_duplicated_and_reordered_by_the_kernel_leave_the_trajectories_unchanged(self):
+        self.check("net:kernel")
+        r = self.rows["net:kernel"]
+        self.assertTrue(r["match"], r)
+        self.assertIn("log complete True", r["kept_text"])
+        with open(os.path.join(self.out, "net-kernel", "netfault.json")) as f:
+            nf = json.load(f)
+        # the kernel did drop (only the lockstep's channels), duplicate and reorder
+        self.assertGreater(nf["dropped"], 0)
+        self.assertEqual(set(nf["dropped_by_channel"]) - {"AFM_ANALOG", "AFM_CMD", "HAPTIC_FORCE", "HAPTIC_POSE"}, set())
+        self.assertGreater(nf["duplicated"], 0)
+        self.assertEqual(nf["duplicates_failed"], 0)
+        self.assertGreater(nf["reordered"], 0)
+        for ch in ("AFM_ANALOG", "AFM_CMD", "FW_TIP", "HAPTIC_POSE"):
+            self.assertGreater(nf["seen_by_channel"].get(ch, 0), 0, ch)
+
+    def test_the_kernel_fault_tool_refuses_absurd_options_naming_them(self):
+        for args, says in ((["--queue", "0", "--report", "x", "--drop", "2"], "--drop"),
+                           (["--queue", "0", "--report", "x", "--reorder", "nan"], "--reorder"),
+                           (["--queue", "70000", "--report", "x"], "--queue"),
+                           (["--queue", "0"], "--report"),
+                           (["--queue", "0", "--report", "x", "--hold-us"], "--hold-us"),
+                           (["--bogus", "1"], "--bogus")):
+            p = subprocess.run([NETFAULT, *args], capture_output=True, text=True, timeout=10)
+            self.assertEqual(p.returncode, 2, args)
+            self.assertIn(says, p.stderr, args)
 
     def test_a_full_disk_gives_a_clear_error_and_no_run_json_claiming_success(self):
         self.check("disk:full")

@@ -1,0 +1,398 @@
+// afm_netfault: drops, duplicates and reorders the bus's datagrams in the
+// kernel, for the fault matrix's net:kernel row (tools/faults.py). It stands
+// where tc netem would (this project's machines run kernels without
+// sch_netem): an iptables rule in the run's namespace hands every UDP
+// datagram to the bus's port to netfilter queue N, and this process gives
+// each its verdict:
+//   drop       NF_DROP, only for a datagram on one of --drop-channels (the
+//              lockstep's channels, whose loss the simulator's resend repairs;
+//              a lost display message has no resend, README "Reliability")
+//   duplicate  NF_ACCEPT, then the same IP packet sent again through a raw
+//              socket marked --mark (the rule lets marked packets pass)
+//   reorder    held without a verdict until the next datagram has been
+//              accepted, or --hold-us has passed, whichever comes first
+// Everything else is accepted at once, in order. It runs until SIGTERM or
+// SIGINT, then writes --report (JSON: counts, per channel) and exits 0.
+//
+//   afm_netfault --queue N [--drop P] [--dup P] [--reorder P] [--hold-us US]
+//                [--drop-channels A,B,...] [--mark M] [--seed S] [--iptables]
+//                --report FILE
+//
+// Inside the run's namespace (tools/in_netns.sh), before the run. With
+// --iptables it adds, once its queue is open, the two rules that feed it
+// (the bus's port from afm::kBusUrl):
+//   iptables -t mangle -A OUTPUT -m mark --mark M -j ACCEPT
+//   iptables -t mangle -A OUTPUT -p udp --dport PORT -j NFQUEUE --queue-num N
+// and prints "ready" on stderr; a datagram queued with no reader would be
+// dropped. Needs CAP_NET_ADMIN and CAP_NET_RAW in the namespace, which
+// unshare -rn gives.
+//
+// The channel of a datagram is read from LCM's UDP multicast header (LCM's
+// "UDP Multicast Protocol": a short message is magic "LC02", a 32-bit
+// sequence number, the channel's name with its NUL, then the payload; a
+// fragment, "LC03", names its channel only in fragment 0). LCM exports no
+// decoder of its datagrams, so this is the one place that reads them; a
+// datagram it cannot read is counted as "unknown" and never dropped.
+#include <netinet/in.h>   // before the netfilter headers (glibc's, then the kernel's, in that order)
+#include <netinet/ip.h>
+#include <libnetfilter_queue/libnetfilter_queue.h>
+#include <linux/netfilter.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bus.hpp"
+
+extern char **environ;
+
+namespace {
+
+const char *kUsage =
+    "usage: afm_netfault --queue N --report FILE [--drop P] [--dup P] [--reorder P]\n"
+    "                    [--hold-us US] [--drop-channels A,B,...] [--mark M] [--seed S]\n"
+    "                    [--iptables]\n"
+    "  Gives a verdict to every datagram on netfilter queue N: drops one on a\n"
+    "  --drop-channels channel with probability P, sends one again with probability\n"
+    "  P (--dup, through a raw socket with SO_MARK M, default 1), holds one back\n"
+    "  behind the next (at most --hold-us, default 1000) with probability P\n"
+    "  (--reorder). Runs until SIGTERM or SIGINT, then writes the counts to FILE.\n"
+    "  Inside the run's namespace, behind an iptables NFQUEUE rule on the bus's\n"
+    "  port, which --iptables adds (tools/faults.py, row net:kernel).\n";
+
+volatile sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+struct Options {
+    int queue = -1;
+    double drop = 0, dup = 0, reorder = 0;
+    int hold_us = 1000;
+    std::set<std::string> drop_channels;
+    uint32_t mark = 1;
+    uint64_t seed = 1;
+    std::string report;
+    bool iptables = false;
+};
+
+// Runs iptables with `args`; "" or what failed.
+std::string iptables(const std::vector<std::string> &args)
+{
+    std::vector<char *> argv;
+    std::vector<std::string> all = {"iptables", "-t", "mangle", "-A", "OUTPUT"};
+    all.insert(all.end(), args.begin(), args.end());
+    for (auto &a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid;
+    if (posix_spawnp(&pid, "iptables", nullptr, nullptr, argv.data(), environ) != 0)
+        return "cannot start iptables (Debian's iptables; ./afm setup installs it)";
+    int st = 0;
+    waitpid(pid, &st, 0);
+    std::string cmd;
+    for (auto &a : all) cmd += (cmd.empty() ? "" : " ") + a;
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0) return "'" + cmd + "' failed (its error above)";
+    return "";
+}
+
+// The rules that feed queue `o.queue` with the bus's datagrams, marked ones excepted.
+std::string add_rules(const Options &o)
+{
+    std::string e = iptables({"-m", "mark", "--mark", std::to_string(o.mark), "-j", "ACCEPT"});
+    if (e.empty())
+        e = iptables({"-p", "udp", "--dport", std::to_string(afm::kBusPort), "-j", "NFQUEUE", "--queue-num", std::to_string(o.queue)});
+    return e;
+}
+
+struct Counts {
+    int64_t seen = 0, dropped = 0, duplicated = 0, reordered = 0, released_by_time = 0, dup_failed = 0;
+    std::map<std::string, int64_t> seen_by, dropped_by;
+};
+
+constexpr uint32_t kLcmShort = 0x4c433032;   // "LC02"
+constexpr uint32_t kLcmFragment = 0x4c433033;   // "LC03"
+
+uint32_t be32(const unsigned char *p) { return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3]; }
+
+// The LCM channel of an IPv4 UDP packet, or "unknown" (see the header note).
+std::string channel_of(const unsigned char *pkt, int len)
+{
+    if (len < 20 || (pkt[0] >> 4) != 4) return "unknown";
+    const int ihl = (pkt[0] & 0x0f) * 4;
+    if (ihl < 20 || pkt[9] != IPPROTO_UDP || len < ihl + 8 + 8) return "unknown";
+    const unsigned char *lcm = pkt + ihl + 8;
+    const int n = len - ihl - 8;
+    const uint32_t magic = be32(lcm);
+    int name_at;
+    if (magic == kLcmShort) name_at = 8;
+    else if (magic == kLcmFragment && n >= 20 && ((lcm[16] << 8) | lcm[17]) == 0) name_at = 20;   // fragment 0
+    else return "unknown";
+    const void *nul = std::memchr(lcm + name_at, 0, static_cast<std::size_t>(n - name_at));
+    if (!nul || nul == lcm + name_at) return "unknown";
+    return std::string(reinterpret_cast<const char *>(lcm + name_at), static_cast<const char *>(nul));
+}
+
+class Fault {
+public:
+    Fault(const Options &o) : o_(o), rng_(o.seed) {}
+    ~Fault()
+    {
+        if (qh_) nfq_destroy_queue(qh_);
+        if (h_) nfq_close(h_);
+        if (raw_ >= 0) close(raw_);
+    }
+
+    // Opens the queue and the raw socket; an error names what failed.
+    std::string open()
+    {
+        h_ = nfq_open();
+        if (!h_) return std::string("nfq_open: ") + std::strerror(errno) + " (needs CAP_NET_ADMIN in the namespace)";
+        if (nfq_bind_pf(h_, AF_INET) < 0) return std::string("nfq_bind_pf: ") + std::strerror(errno);
+        qh_ = nfq_create_queue(h_, static_cast<uint16_t>(o_.queue), &Fault::on_packet, this);
+        if (!qh_) return "nfq_create_queue " + std::to_string(o_.queue) + ": " + std::strerror(errno) + " (another process holds it?)";
+        if (nfq_set_mode(qh_, NFQNL_COPY_PACKET, 0xffff) < 0) return std::string("nfq_set_mode: ") + std::strerror(errno);
+        nfq_set_queue_maxlen(qh_, 4096);
+        const int one = 1;
+        setsockopt(nfq_fd(h_), SOL_NETLINK, NETLINK_NO_ENOBUFS, &one, sizeof one);
+        raw_ = socket(AF_INET, SOCK_RAW, IPPROTO_RAW);
+        if (raw_ < 0) return std::string("raw socket: ") + std::strerror(errno) + " (needs CAP_NET_RAW)";
+        if (setsockopt(raw_, SOL_SOCKET, SO_MARK, &o_.mark, sizeof o_.mark) < 0) return std::string("SO_MARK: ") + std::strerror(errno);
+        return "";
+    }
+
+    // Until a signal: verdicts, and a held datagram released on time.
+    void run()
+    {
+        alignas(8) static char buf[0x10000 + 4096];
+        const int fd = nfq_fd(h_);
+        while (!g_stop) {
+            int timeout_ms = 100;
+            if (held_) {
+                const auto left = std::chrono::duration_cast<std::chrono::microseconds>(held_until_ - clock::now()).count();
+                if (left <= 0) {
+                    release(true);
+                    continue;
+                }
+                timeout_ms = static_cast<int>((left + 999) / 1000);
+            }
+            pollfd p{fd, POLLIN, 0};
+            const int r = poll(&p, 1, timeout_ms);
+            if (r < 0 && errno != EINTR) break;
+            if (r <= 0) continue;
+            const ssize_t n = recv(fd, buf, sizeof buf, 0);
+            if (n > 0) nfq_handle_packet(h_, buf, static_cast<int>(n));
+        }
+        if (held_) release(false);
+    }
+
+    nlohmann::json report() const
+    {
+        return {{"seen", c_.seen},
+                {"dropped", c_.dropped},
+                {"duplicated", c_.duplicated},
+                {"reordered", c_.reordered},
+                {"released_by_time", c_.released_by_time},
+                {"duplicates_failed", c_.dup_failed},
+                {"seen_by_channel", c_.seen_by},
+                {"dropped_by_channel", c_.dropped_by},
+                {"options",
+                 {{"drop", o_.drop}, {"dup", o_.dup}, {"reorder", o_.reorder}, {"hold_us", o_.hold_us}, {"seed", o_.seed},
+                  {"drop_channels", o_.drop_channels}}}};
+    }
+
+private:
+    using clock = std::chrono::steady_clock;
+
+    static int on_packet(nfq_q_handle *, nfgenmsg *, nfq_data *nfa, void *self)
+    {
+        return static_cast<Fault *>(self)->verdict(nfa);
+    }
+
+    bool chance(double p) { return p > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < p; }
+
+    int verdict(nfq_data *nfa)
+    {
+        const nfqnl_msg_packet_hdr *ph = nfq_get_msg_packet_hdr(nfa);
+        if (!ph) return 0;
+        const uint32_t id = ntohl(ph->packet_id);
+        unsigned char *pkt = nullptr;
+        const int len = nfq_get_payload(nfa, &pkt);
+        const std::string ch = len > 0 ? channel_of(pkt, len) : "unknown";
+        ++c_.seen;
+        ++c_.seen_by[ch];
+        // one decision per kind, drawn in a fixed order, so a seed replays them
+        const bool drop = chance(o_.drop) && o_.drop_channels.count(ch);
+        const bool dup = chance(o_.dup);
+        const bool hold = chance(o_.reorder);
+        if (drop) {
+            ++c_.dropped;
+            ++c_.dropped_by[ch];
+            nfq_set_verdict(qh_, id, NF_DROP, 0, nullptr);
+            return 0;
+        }
+        if (hold && !held_) {
+            held_ = true;
+            held_id_ = id;
+            held_dup_ = dup;
+            if (dup) held_pkt_.assign(reinterpret_cast<char *>(pkt), static_cast<std::size_t>(len));
+            held_until_ = clock::now() + std::chrono::microseconds(o_.hold_us);
+            return 0;
+        }
+        accept(id, dup, pkt, len);
+        if (held_) release(false);   // the held one after this one: reordered
+        return 0;
+    }
+
+    void accept(uint32_t id, bool dup, const unsigned char *pkt, int len)
+    {
+        nfq_set_verdict(qh_, id, NF_ACCEPT, 0, nullptr);
+        if (!dup || len < 20) return;
+        sockaddr_in to{};
+        to.sin_family = AF_INET;
+        std::memcpy(&to.sin_addr, pkt + 16, 4);   // the IPv4 destination
+        if (sendto(raw_, pkt, static_cast<std::size_t>(len), 0, reinterpret_cast<sockaddr *>(&to), sizeof to) == len) ++c_.duplicated;
+        else ++c_.dup_failed;
+    }
+
+    void release(bool by_time)
+    {
+        held_ = false;
+        if (by_time) ++c_.released_by_time;
+        else ++c_.reordered;
+        accept(held_id_, held_dup_, reinterpret_cast<const unsigned char *>(held_pkt_.data()), static_cast<int>(held_pkt_.size()));
+        held_pkt_.clear();
+    }
+
+    Options o_;
+    std::mt19937_64 rng_;
+    Counts c_;
+    nfq_handle *h_ = nullptr;
+    nfq_q_handle *qh_ = nullptr;
+    int raw_ = -1;
+    bool held_ = false, held_dup_ = false;
+    uint32_t held_id_ = 0;
+    std::string held_pkt_;
+    clock::time_point held_until_;
+};
+
+bool parse_probability(const char *name, const char *v, double *out)
+{
+    char *end = nullptr;
+    const double p = std::strtod(v, &end);
+    if (end == v || *end || !(p >= 0 && p <= 1)) {
+        std::fprintf(stderr, "afm_netfault: %s must be a probability in [0, 1], not '%s'\n", name, v);
+        return false;
+    }
+    *out = p;
+    return true;
+}
+
+bool parse_int(const char *name, const char *v, long long lo, long long hi, long long *out)
+{
+    char *end = nullptr;
+    errno = 0;
+    const long long x = std::strtoll(v, &end, 10);
+    if (end == v || *end || errno || x < lo || x > hi) {
+        std::fprintf(stderr, "afm_netfault: %s must be an integer in [%lld, %lld], not '%s'\n", name, lo, hi, v);
+        return false;
+    }
+    *out = x;
+    return true;
+}
+
+// 0: parsed; 1: --help printed; 2: an error, printed.
+int parse(int argc, char **argv, Options *o)
+{
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "-h" || a == "--help") {
+            std::fputs(kUsage, stdout);
+            return 1;
+        }
+        if (a == "--iptables") {   // the one flag without a value
+            o->iptables = true;
+            continue;
+        }
+        if (i + 1 >= argc) {
+            std::fprintf(stderr, "afm_netfault: %s needs a value (or is unknown)\n%s", a.c_str(), kUsage);
+            return 2;
+        }
+        const char *v = argv[++i];
+        long long x = 0;
+        bool ok = true;
+        if (a == "--queue") ok = parse_int("--queue", v, 0, 65535, &x), o->queue = static_cast<int>(x);
+        else if (a == "--drop") ok = parse_probability("--drop", v, &o->drop);
+        else if (a == "--dup") ok = parse_probability("--dup", v, &o->dup);
+        else if (a == "--reorder") ok = parse_probability("--reorder", v, &o->reorder);
+        else if (a == "--hold-us") ok = parse_int("--hold-us", v, 1, 1000000, &x), o->hold_us = static_cast<int>(x);
+        else if (a == "--mark") ok = parse_int("--mark", v, 1, 0xffffffffLL, &x), o->mark = static_cast<uint32_t>(x);
+        else if (a == "--seed") ok = parse_int("--seed", v, 0, INT64_MAX, &x), o->seed = static_cast<uint64_t>(x);
+        else if (a == "--report") o->report = v;
+        else if (a == "--drop-channels") {
+            std::stringstream ss(v);
+            std::string c;
+            while (std::getline(ss, c, ','))
+                if (!c.empty()) o->drop_channels.insert(c);
+        } else {
+            std::fprintf(stderr, "afm_netfault: unknown option %s\n%s", a.c_str(), kUsage);
+            return 2;
+        }
+        if (!ok) return 2;
+    }
+    if (o->queue < 0 || o->report.empty()) {
+        std::fprintf(stderr, "afm_netfault: --queue and --report are required\n%s", kUsage);
+        return 2;
+    }
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    Options o;
+    if (const int r = parse(argc, argv, &o)) return r == 1 ? 0 : 2;
+    struct sigaction sa{};
+    sa.sa_handler = on_signal;
+    sigaction(SIGTERM, &sa, nullptr);
+    sigaction(SIGINT, &sa, nullptr);
+    Fault f(o);
+    const std::string err = f.open();
+    if (!err.empty()) {
+        std::fprintf(stderr, "afm_netfault: %s\n", err.c_str());
+        return 1;
+    }
+    if (o.iptables) {
+        const std::string e = add_rules(o);
+        if (!e.empty()) {
+            std::fprintf(stderr, "afm_netfault: %s\n", e.c_str());
+            return 3;
+        }
+    }
+    std::fprintf(stderr, "afm_netfault: queue %d ready%s\n", o.queue,
+                 o.iptables ? (", fed by the bus's port " + std::to_string(afm::kBusPort)).c_str() : "");
+    f.run();
+    std::ofstream out(o.report);
+    out << f.report().dump(2) << "\n";
+    if (!out) {
+        std::fprintf(stderr, "afm_netfault: cannot write %s\n", o.report.c_str());
+        return 1;
+    }
+    return 0;
+}
