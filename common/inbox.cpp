@@ -1,5 +1,7 @@
 #include "inbox.hpp"
 
+#include "bus_filter.hpp"
+
 #include <stdexcept>
 
 #include "afm_channels.h"
@@ -105,6 +107,7 @@ void Inbox::subscribe(Sub &sub)
 {
     if (!lc_) return;
     lc_->subscribe(sub.channel, &Sub::on_raw, &sub)->setQueueCapacity(kQueueCapacity);
+    bus_filter_add(lc_, sub.channel);   // the kernel drops the other processes' channels (bus_filter.hpp)
 }
 
 void Inbox::Sub::on_raw(const lcm::ReceiveBuffer *rbuf, const std::string &)

@@ -11,6 +11,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -103,6 +104,11 @@ extern "C" void on_stop_signal(int sig) { g_signal = sig; }
 // slows down instead.
 constexpr int kBusProcessNice = 10;
 
+// After a datagram wakes the launcher, it sleeps this long before it records
+// the next ones, so that it records a block's datagrams in one wake-up, not
+// eight (the simulator's log window is 8 blocks; ./afm bench bus measures it).
+constexpr int kBatchUs = 500;
+
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add = {},
             int nice_level = 0)
 {
@@ -119,6 +125,10 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
         }
         int devnull = open("/dev/null", O_RDONLY);
         if (devnull >= 0) dup2(devnull, 0);
+        // nothing of the launcher's: its bus socket, its log (a child holding
+        // the launcher's receive socket would filter it as its own: bus_filter.hpp)
+        if (syscall(SYS_close_range, 3u, ~0u, 0u) != 0)
+            for (int k = 3, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
         for (const auto &e : env_add) putenv(const_cast<char *>(e.c_str()));
         std::vector<char *> a;
         for (const auto &s : argv) a.push_back(const_cast<char *>(s.c_str()));
@@ -415,6 +425,9 @@ public:
             // quiet bus (the simulator waiting for the record) flushes it
             const int got = lc_->handleTimeout(recorder_ && recorder_->unflushed() ? 1 : 20);
             if (!record(got == 0)) break;
+            // then let a batch gather: a wake-up per datagram costs more
+            // than the datagram (README, "The bus's latency model")
+            if (got > 0 && kBatchUs > 0) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
             // the processes' state at most every 5 ms (a message wakes this
             // loop thousands of times a second)
             if (std::chrono::steady_clock::now() - last_check < std::chrono::milliseconds(5)) continue;

@@ -24,6 +24,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "afm/fw_force_t.hpp"
@@ -54,6 +55,11 @@ constexpr int kInitialScan = 1, kFinalScan = 2, kLocalScanBase = 100;
 constexpr int kFixRetryMs = 200;
 constexpr int64_t kProgressPeriodUs = 250000;   // heartbeats the launcher's progress line reads
 constexpr int kScanRetryMs = 500;
+// After a batch of datagrams the renderer sleeps this long before it takes
+// the next, so that a block's five display messages cost one wake-up, not
+// five (README, "The bus's latency model"; ./afm bench bus measures it). A
+// frame is announced at most this much later than it could be.
+constexpr int kBatchUs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
@@ -591,7 +597,11 @@ int main(int argc, char **argv)
         r.begin();
         while (!r.sim_done) {
             r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? 200000 : 1000000);
-            lc->handleTimeout(50);
+            // what has come, then a pause for the next batch (kBatchUs)
+            if (lc->handleTimeout(50) > 0) {
+                while (lc->handleTimeout(0) > 0) {}
+                if (kBatchUs > 0 && !r.sim_done && r.started) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
+            }
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();
         }

@@ -306,6 +306,7 @@ struct Outputs {
     std::vector<std::string> notes;     // what the card said about fixes
     int64_t events = 0, inputs = 0;
     int64_t refused_inputs = 0;         // input datagrams the card's inbox refused (inbox.hpp), as fw_node did
+    int64_t held_back = 0;              // inputs recorded one block early, held until the card could take them
     std::vector<std::string> refused_at;   // the first few of them, by byte offset in the log
     int64_t foreign_outputs = 0;        // datagrams on an output channel that are not the card's (do not decode, or name a block it never stepped)
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
@@ -359,17 +360,56 @@ Outputs run_replay(const Options &o)
     // (inbox.hpp): a datagram the node refused in the run is refused here.
     afm::Inbox inbox(nullptr);
     int64_t ev_utime = 0;
-    inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &b) {
+    // An input one block beyond what the card can take now is held until it
+    // can: the card had it in time in the run, but the recorder's socket
+    // may have got it after a later datagram of another sender (two
+    // senders' deliveries to the bus's sockets interleave differently on two
+    // cores). The card steps a block once it has both inputs, in either
+    // order, so the order it got them in does not change its answers.
+    std::map<int64_t, afm::analog_block_t> held_analog;
+    std::map<int64_t, afm::haptic_pose_t> held_pose;
+    auto analog = [&](const afm::analog_block_t &b) {
         afm::Reject why;
         take(node.on_analog(b, &why), ev_utime);
         if (why == afm::Reject::none) max_analog = std::max(max_analog, b.seq);
         analog_seen.insert(b.seq);
         return why;
-    });
-    inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &p) {
+    };
+    auto pose = [&](const afm::haptic_pose_t &p) {
         afm::Reject why;
         take(node.on_pose(p, &why), ev_utime);
         return why;
+    };
+    auto release_held = [&] {
+        for (bool more = true; more;) {
+            more = false;
+            if (!held_analog.empty() && held_analog.begin()->first <= node.done() + 1) {
+                analog(held_analog.begin()->second);
+                held_analog.erase(held_analog.begin());
+                ++r.held_back;
+                more = true;
+            }
+            if (!held_pose.empty() && held_pose.begin()->first <= node.done() + 1) {
+                pose(held_pose.begin()->second);
+                held_pose.erase(held_pose.begin());
+                ++r.held_back;
+                more = true;
+            }
+        }
+    };
+    inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &b) {
+        if (b.seq == node.done() + 2 && node.done() >= 0) {
+            held_analog.emplace(b.seq, b);
+            return afm::Reject::none;
+        }
+        return analog(b);
+    });
+    inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &p) {
+        if (p.seq == node.done() + 2 && node.done() >= 0) {
+            held_pose.emplace(p.seq, p);
+            return afm::Reject::none;
+        }
+        return pose(p);
     });
     inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &f) {
         std::string note;
@@ -384,6 +424,7 @@ Outputs run_replay(const Options &o)
             out.write(ev.utime, ev.channel, ev.data);
             ev_utime = ev.utime;
             const afm::Reject why = inbox.deliver(ev.channel, ev.data.data(), ev.data.size());
+            release_held();
             if (why == afm::Reject::none) ++r.inputs;
             else if (r.refused_at.size() < 5)
                 r.refused_at.push_back("byte offset " + std::to_string(ev.offset) + ": " + ev.channel + " message refused (" +
@@ -392,6 +433,10 @@ Outputs run_replay(const Options &o)
             recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
         }
     }
+    // held to the end (the card never reached their block): refused as from
+    // the future, as the card refused them in the run
+    for (const auto &[seq, b] : held_analog) inbox.count(analog(b), AFM_CH_AFM_ANALOG);
+    for (const auto &[seq, p] : held_pose) inbox.count(pose(p), AFM_CH_HAPTIC_POSE);
     r.refused_inputs = inbox.rejected().total();
     r.events = log.events();
     // The recorded outputs' keys: by content where the replay gave the same
@@ -489,13 +534,17 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
                 static_cast<long long>(r.events), static_cast<long long>(r.inputs), static_cast<long long>(v.blocks), secs);
     if (o.run_wall_s > 0) std::printf(" (the run took %.2f s: %.0fx faster)", o.run_wall_s, o.run_wall_s / secs);
     std::printf("\n");
-    if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (lcm-logger was starved)\n");
+    if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (the recorder was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
     if (r.refused_inputs || r.foreign_outputs)
         std::printf("replay: %lld input datagrams refused by the card's inbox (as in the run), %lld datagrams on output channels that "
                     "are not the card's (do not decode, or name a block the card never stepped)\n",
                     static_cast<long long>(r.refused_inputs), static_cast<long long>(r.foreign_outputs));
     for (const auto &w : r.refused_at) std::printf("replay: %s: %s\n", o.log.c_str(), w.c_str());
+    if (r.held_back)
+        std::printf("replay: %lld inputs were recorded one block early (after a later datagram of another sender) and held "
+                    "until the card could take them\n",
+                    static_cast<long long>(r.held_back));
     if (r.self_inconsistent)
         std::printf("replay: the recording holds %lld repeated outputs that differ from their first copy\n",
                     static_cast<long long>(r.self_inconsistent));

@@ -1,0 +1,158 @@
+#include "bus_filter.hpp"
+
+#include <dirent.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+
+#include "bus.hpp"
+
+namespace afm {
+
+namespace {
+
+constexpr uint32_t kLcmShort = 0x4c433032;   // "LC02"
+constexpr uint32_t kUdpHeader = 8;            // the filter sees the UDP header first
+constexpr uint32_t kNameAt = kUdpHeader + 8;  // after magic and sequence number
+constexpr uint32_t kAccept = 0xffffffffu;     // keep the whole datagram
+
+sock_filter stmt(uint16_t code, uint32_t k) { return sock_filter{code, 0, 0, k}; }
+sock_filter jump(uint16_t code, uint32_t k, uint8_t jt, uint8_t jf) { return sock_filter{code, jt, jf, k}; }
+
+// Instructions that accept a short message on `channel` and fall through
+// (to the next channel's) otherwise.
+std::vector<sock_filter> channel_block(const std::string &channel)
+{
+    const std::string b = channel + '\0';
+    std::vector<sock_filter> p;
+    std::vector<std::size_t> fail;   // jumps whose jf goes past this block
+    p.push_back(stmt(BPF_LD | BPF_W | BPF_LEN, 0));
+    fail.push_back(p.size());
+    p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, kNameAt + static_cast<uint32_t>(b.size()), 0, 0));
+    for (std::size_t at = 0; at < b.size();) {
+        const std::size_t n = b.size() - at >= 4 ? 4 : b.size() - at >= 2 ? 2 : 1;
+        uint32_t v = 0;
+        for (std::size_t i = 0; i < n; ++i) v = (v << 8) | static_cast<unsigned char>(b[at + i]);
+        const uint16_t size = n == 4 ? BPF_W : n == 2 ? BPF_H : BPF_B;
+        p.push_back(stmt(BPF_LD | size | BPF_ABS, kNameAt + static_cast<uint32_t>(at)));
+        fail.push_back(p.size());
+        p.push_back(jump(BPF_JMP | BPF_JEQ | BPF_K, v, 0, 0));
+        at += n;
+    }
+    p.push_back(stmt(BPF_RET | BPF_K, kAccept));
+    for (std::size_t j : fail) p[j].jf = static_cast<uint8_t>(p.size() - (j + 1));   // < 255: names are short (checked below)
+    return p;
+}
+
+struct State {
+    std::set<std::string> channels;
+    bool off = false;        // a pattern subscription: never filter
+    bool attached = false;
+};
+State &state()
+{
+    static State s;
+    return s;
+}
+
+bool attach(const std::set<std::string> &channels, std::string *why)
+{
+    const int fd = bus_receive_socket();
+    if (fd < 0) {
+        if (why) *why = "not one datagram socket bound to the bus's port in this process, but none or several";
+        return false;
+    }
+    std::vector<sock_filter> prog = bus_filter_program(channels);
+    sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
+    if (setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) < 0) {
+        if (why) *why = std::string("SO_ATTACH_FILTER: ") + std::strerror(errno);
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channels)
+{
+    std::vector<sock_filter> p = {
+        stmt(BPF_LD | BPF_W | BPF_LEN, 0),
+        jump(BPF_JMP | BPF_JGE | BPF_K, kUdpHeader + 4, 1, 0),   // too short for a magic: liblcm's to judge
+        stmt(BPF_RET | BPF_K, kAccept),
+        stmt(BPF_LD | BPF_W | BPF_ABS, kUdpHeader),
+        jump(BPF_JMP | BPF_JEQ | BPF_K, kLcmShort, 1, 0),       // a fragment or garbage: liblcm's to judge
+        stmt(BPF_RET | BPF_K, kAccept),
+    };
+    std::set<std::string> all = channels;
+    all.insert("LCM_SELF_TEST");   // liblcm's own test of the socket, when it opens it
+    for (const auto &c : all) {
+        if (c.size() > 200) {   // a jump past a longer name would not fit in 8 bits: keep it unfiltered
+            return {stmt(BPF_RET | BPF_K, kAccept)};
+        }
+        const auto b = channel_block(c);
+        p.insert(p.end(), b.begin(), b.end());
+    }
+    p.push_back(stmt(BPF_RET | BPF_K, 0));   // another process's channel
+    return p;
+}
+
+int bus_receive_socket()
+{
+    DIR *d = opendir("/proc/self/fd");
+    if (!d) return -1;
+    int found = -1;
+    while (dirent *e = readdir(d)) {
+        char *end = nullptr;
+        const long fd = std::strtol(e->d_name, &end, 10);
+        if (end == e->d_name || *end || fd == dirfd(d)) continue;
+        int type = 0, domain = 0;
+        socklen_t n = sizeof type;
+        if (getsockopt(static_cast<int>(fd), SOL_SOCKET, SO_TYPE, &type, &n) < 0 || type != SOCK_DGRAM) continue;
+        n = sizeof domain;
+        if (getsockopt(static_cast<int>(fd), SOL_SOCKET, SO_DOMAIN, &domain, &n) < 0 || domain != AF_INET) continue;
+        sockaddr_in a{};
+        n = sizeof a;
+        if (getsockname(static_cast<int>(fd), reinterpret_cast<sockaddr *>(&a), &n) < 0) continue;
+        if (a.sin_family != AF_INET || ntohs(a.sin_port) != kBusPort) continue;
+        if (found >= 0) {   // two: one inherited from another process (not ours to filter), or two buses
+            found = -2;
+            break;
+        }
+        found = static_cast<int>(fd);
+    }
+    closedir(d);
+    return found < 0 ? -1 : found;
+}
+
+bool bus_filter_add(lcm::LCM *lc, const std::string &channel, std::string *why)
+{
+    State &s = state();
+    if (!lc || s.off) return false;
+    if (channel.empty()) {
+        bus_filter_off(lc);
+        return false;
+    }
+    s.channels.insert(channel);
+    s.attached = attach(s.channels, why);
+    return s.attached;
+}
+
+void bus_filter_off(lcm::LCM *lc)
+{
+    State &s = state();
+    s.off = true;
+    if (!lc || !s.attached) return;
+    const int fd = bus_receive_socket();
+    int dummy = 0;
+    if (fd >= 0) setsockopt(fd, SOL_SOCKET, SO_DETACH_FILTER, &dummy, sizeof dummy);
+    s.attached = false;
+}
+
+bool bus_filtered() { return state().attached; }
+std::set<std::string> bus_filter_channels() { return state().channels; }
+
+}  // namespace afm
