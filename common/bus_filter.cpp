@@ -5,7 +5,6 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 
@@ -15,9 +14,8 @@ namespace afm {
 
 namespace {
 
-constexpr uint32_t kLcmShort = 0x4c433032;   // "LC02"
 constexpr uint32_t kUdpHeader = 8;            // the filter sees the UDP header first
-constexpr uint32_t kNameAt = kUdpHeader + 8;  // after magic and sequence number
+constexpr uint32_t kNameAt = kUdpHeader + kLcmShortNameAt;
 constexpr uint32_t kAccept = 0xffffffffu;     // keep the whole datagram
 
 sock_filter stmt(uint16_t code, uint32_t k) { return sock_filter{code, 0, 0, k}; }
@@ -50,7 +48,7 @@ std::vector<sock_filter> channel_block(const std::string &channel)
 
 struct State {
     std::set<std::string> channels;
-    bool off = false;        // a pattern subscription: never filter
+    bool off = false;        // a subscription to every channel: never filter
     bool attached = false;
 };
 State &state()
@@ -59,23 +57,31 @@ State &state()
     return s;
 }
 
-bool attach(const std::set<std::string> &channels, std::string *why)
+bool attach(const std::set<std::string> &channels)
 {
     const int fd = bus_receive_socket();
-    if (fd < 0) {
-        if (why) *why = "not one datagram socket bound to the bus's port in this process, but none or several";
-        return false;
-    }
+    if (fd < 0) return false;
     std::vector<sock_filter> prog = bus_filter_program(channels);
     sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
-    if (setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) < 0) {
-        if (why) *why = std::string("SO_ATTACH_FILTER: ") + std::strerror(errno);
-        return false;
-    }
-    return true;
+    return setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0;
 }
 
+uint32_t be32(const unsigned char *p) { return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3]; }
+
 }  // namespace
+
+std::string lcm_datagram_channel(const unsigned char *d, std::size_t n)
+{
+    if (n < kLcmShortNameAt) return "";
+    std::size_t at;
+    const uint32_t magic = be32(d);
+    if (magic == kLcmShortMagic) at = kLcmShortNameAt;
+    else if (magic == kLcmFragmentMagic && n > kLcmFragmentNameAt && ((d[16] << 8) | d[17]) == 0) at = kLcmFragmentNameAt;   // fragment 0
+    else return "";
+    const void *nul = std::memchr(d + at, 0, n - at);
+    if (!nul) return "";
+    return std::string(reinterpret_cast<const char *>(d + at), static_cast<const char *>(nul));
+}
 
 std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channels)
 {
@@ -84,7 +90,7 @@ std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channel
         jump(BPF_JMP | BPF_JGE | BPF_K, kUdpHeader + 4, 1, 0),   // too short for a magic: liblcm's to judge
         stmt(BPF_RET | BPF_K, kAccept),
         stmt(BPF_LD | BPF_W | BPF_ABS, kUdpHeader),
-        jump(BPF_JMP | BPF_JEQ | BPF_K, kLcmShort, 1, 0),       // a fragment or garbage: liblcm's to judge
+        jump(BPF_JMP | BPF_JEQ | BPF_K, kLcmShortMagic, 1, 0),       // a fragment or garbage: liblcm's to judge
         stmt(BPF_RET | BPF_K, kAccept),
     };
     std::set<std::string> all = channels;
@@ -128,31 +134,24 @@ int bus_receive_socket()
     return found < 0 ? -1 : found;
 }
 
-bool bus_filter_add(lcm::LCM *lc, const std::string &channel, std::string *why)
+bool bus_filter_add(const std::string &channel)
 {
     State &s = state();
-    if (!lc || s.off) return false;
-    if (channel.empty()) {
-        bus_filter_off(lc);
-        return false;
-    }
+    if (s.off) return false;
     s.channels.insert(channel);
-    s.attached = attach(s.channels, why);
+    s.attached = attach(s.channels);
     return s.attached;
 }
 
-void bus_filter_off(lcm::LCM *lc)
+void bus_filter_off()
 {
     State &s = state();
     s.off = true;
-    if (!lc || !s.attached) return;
+    if (!s.attached) return;
     const int fd = bus_receive_socket();
-    int dummy = 0;
-    if (fd >= 0) setsockopt(fd, SOL_SOCKET, SO_DETACH_FILTER, &dummy, sizeof dummy);
+    int unused = 0;
+    if (fd >= 0) setsockopt(fd, SOL_SOCKET, SO_DETACH_FILTER, &unused, sizeof unused);
     s.attached = false;
 }
-
-bool bus_filtered() { return state().attached; }
-std::set<std::string> bus_filter_channels() { return state().channels; }
 
 }  // namespace afm

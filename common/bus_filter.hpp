@@ -18,18 +18,20 @@
 // liblcm would have dropped itself (no handler).
 //
 // The channel is read from LCM's UDP multicast header (LCM's "UDP Multicast
-// Protocol": magic, a 32-bit sequence number, the channel's name and its
-// NUL); LCM exports no reader of its datagrams, so this and afm_netfault are
-// the two places that read it, each checked by tests against liblcm itself
-// (test_bus_filter).
+// Protocol": a short message is magic "LC02", a 32-bit sequence number, the
+// channel's name with its NUL, then the payload; a fragment, "LC03", adds
+// its message size, offset, number and count, and names its channel only in
+// fragment 0). LCM exports no reader of its datagrams: the constants and
+// lcm_datagram_channel() below are the bench's one reader, used by this
+// filter and by afm_netfault, and tested against what liblcm sends by every
+// run of the bench (each process filters its socket).
 //
-// Where the filter cannot be attached (no receive socket found: another
-// provider than udpm, or a liblcm that keeps it elsewhere), nothing is
-// filtered and the process works as without it; filtered() says which.
+// Where the filter cannot be attached (not exactly one socket bound to the
+// bus's port: another provider than udpm, or a socket inherited from a
+// parent), nothing is filtered and the process works as without it.
 #pragma once
 
-#include <lcm/lcm-cpp.hpp>
-
+#include <cstddef>
 #include <cstdint>
 #include <set>
 #include <string>
@@ -39,10 +41,20 @@
 
 namespace afm {
 
+constexpr uint32_t kLcmShortMagic = 0x4c433032;      // "LC02"
+constexpr uint32_t kLcmFragmentMagic = 0x4c433033;   // "LC03"
+constexpr std::size_t kLcmShortNameAt = 8;            // after magic and sequence number
+constexpr std::size_t kLcmFragmentNameAt = 20;        // after magic, sequence, size, offset, number, count
+
+// The channel an LCM datagram (a UDP payload of `n` bytes) names: a short
+// message's, or fragment 0's; "" for anything else (another fragment,
+// garbage, a name without its NUL).
+std::string lcm_datagram_channel(const unsigned char *d, std::size_t n);
+
 // The classic BPF program that accepts exactly what the header says for
 // `channels` (offsets relative to the UDP header, as a UDP socket's filter
-// sees a datagram). Empty `channels`: accept everything LCM could use
-// nothing of except LCM_SELF_TEST and non-short messages.
+// sees a datagram). Empty `channels`: only LCM_SELF_TEST and what is not a
+// short message pass.
 std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channels);
 
 // The process's LCM receive socket: the one datagram socket bound to the
@@ -50,14 +62,12 @@ std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channel
 // socket inherited from a parent is the parent's too: never filtered here).
 int bus_receive_socket();
 
-// Adds `channel` to what `lc`'s socket lets through, and (re)attaches the
-// filter. "" (a pattern) turns filtering off for good. Returns false, with
-// `why`, when the filter could not be attached (then nothing is filtered).
-bool bus_filter_add(lcm::LCM *lc, const std::string &channel, std::string *why = nullptr);
-void bus_filter_off(lcm::LCM *lc);
-
-// Whether the kernel filters this process's bus socket now, and on which channels.
-bool bus_filtered();
-std::set<std::string> bus_filter_channels();
+// Adds `channel`, just subscribed on the process's bus, to what its socket
+// lets through, and (re)attaches the filter; false when it could not be
+// attached (then nothing is filtered).
+bool bus_filter_add(const std::string &channel);
+// A subscription to every channel (the launcher's recorder): the filter is
+// detached and stays off in this process.
+void bus_filter_off();
 
 }  // namespace afm

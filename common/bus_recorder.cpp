@@ -8,7 +8,7 @@ namespace afm {
 BusRecorder::BusRecorder(lcm::LCM &lc, const std::string &path) : lc_(lc), log_(path)
 {
     sub_ = lc_.subscribe(".*", &BusRecorder::on, this);
-    bus_filter_off(&lc_);   // every channel: no kernel filter in this process
+    bus_filter_off();   // every channel: no kernel filter in this process
     sub_->setQueueCapacity(kQueueCapacity);
 }
 

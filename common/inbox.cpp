@@ -107,7 +107,7 @@ void Inbox::subscribe(Sub &sub)
 {
     if (!lc_) return;
     lc_->subscribe(sub.channel, &Sub::on_raw, &sub)->setQueueCapacity(kQueueCapacity);
-    bus_filter_add(lc_, sub.channel);   // the kernel drops the other processes' channels (bus_filter.hpp)
+    bus_filter_add(sub.channel);   // the kernel drops the other processes' channels (bus_filter.hpp)
 }
 
 void Inbox::Sub::on_raw(const lcm::ReceiveBuffer *rbuf, const std::string &)

@@ -11,7 +11,6 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,6 +31,9 @@
 #include "afm/analog_block_t.hpp"
 #include "afm/heartbeat_t.hpp"
 #include "afm/haptic_pose_t.hpp"
+extern "C" {
+#include "fw_guard.h"
+}
 #include "bus_recorder.hpp"
 #include "lcmlog.hpp"
 #include "bus.hpp"
@@ -127,7 +129,7 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
         if (devnull >= 0) dup2(devnull, 0);
         // nothing of the launcher's: its bus socket, its log (a child holding
         // the launcher's receive socket would filter it as its own: bus_filter.hpp)
-        if (syscall(SYS_close_range, 3u, ~0u, 0u) != 0)
+        if (close_range(3, ~0u, 0) != 0)
             for (int k = 3, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
         for (const auto &e : env_add) putenv(const_cast<char *>(e.c_str()));
         std::vector<char *> a;
@@ -427,7 +429,7 @@ public:
             if (!record(got == 0)) break;
             // then let a batch gather: a wake-up per datagram costs more
             // than the datagram (README, "The bus's latency model")
-            if (got > 0 && kBatchUs > 0) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
+            if (got > 0) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
             // the processes' state at most every 5 ms (a message wakes this
             // loop thousands of times a second)
             if (std::chrono::steady_clock::now() - last_check < std::chrono::milliseconds(5)) continue;
@@ -768,7 +770,7 @@ private:
                 {"mu_ppm", b.mu_ppm},
                 {"adhesion_pn", b.adhesion_pn},
                 {"samples_per_block", scene_.samples_per_block()},
-                {"full_scale_pn", static_cast<int64_t>(b.normal_gain_pn_per_v) * (FW_ACQ_FS_UV / FW_UV_PER_V)}};
+                {"full_scale_pn", fw_guard_full_scale_pn(b.normal_gain_pn_per_v)}};
     }
 
     // The planner's account (operator_report.json) and its result in the

@@ -27,11 +27,8 @@
 // dropped. Needs CAP_NET_ADMIN and CAP_NET_RAW in the namespace, which
 // unshare -rn gives.
 //
-// The channel of a datagram is read from LCM's UDP multicast header (LCM's
-// "UDP Multicast Protocol": a short message is magic "LC02", a 32-bit
-// sequence number, the channel's name with its NUL, then the payload; a
-// fragment, "LC03", names its channel only in fragment 0). LCM exports no
-// decoder of its datagrams, so this is the one place that reads them; a
+// The channel of a datagram is read from LCM's UDP multicast header by the
+// bench's one reader of it (bus_filter.hpp, lcm_datagram_channel); a
 // datagram it cannot read is counted as "unknown" and never dropped.
 #include <netinet/in.h>   // before the netfilter headers (glibc's, then the kernel's, in that order)
 #include <netinet/ip.h>
@@ -61,6 +58,7 @@
 #include <vector>
 
 #include "bus.hpp"
+#include "bus_filter.hpp"
 
 extern char **environ;
 
@@ -125,27 +123,15 @@ struct Counts {
     std::map<std::string, int64_t> seen_by, dropped_by;
 };
 
-constexpr uint32_t kLcmShort = 0x4c433032;   // "LC02"
-constexpr uint32_t kLcmFragment = 0x4c433033;   // "LC03"
-
-uint32_t be32(const unsigned char *p) { return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3]; }
-
-// The LCM channel of an IPv4 UDP packet, or "unknown" (see the header note).
+// The LCM channel of an IPv4 UDP packet (bus_filter.hpp reads LCM's
+// header), or "unknown".
 std::string channel_of(const unsigned char *pkt, int len)
 {
     if (len < 20 || (pkt[0] >> 4) != 4) return "unknown";
     const int ihl = (pkt[0] & 0x0f) * 4;
-    if (ihl < 20 || pkt[9] != IPPROTO_UDP || len < ihl + 8 + 8) return "unknown";
-    const unsigned char *lcm = pkt + ihl + 8;
-    const int n = len - ihl - 8;
-    const uint32_t magic = be32(lcm);
-    int name_at;
-    if (magic == kLcmShort) name_at = 8;
-    else if (magic == kLcmFragment && n >= 20 && ((lcm[16] << 8) | lcm[17]) == 0) name_at = 20;   // fragment 0
-    else return "unknown";
-    const void *nul = std::memchr(lcm + name_at, 0, static_cast<std::size_t>(n - name_at));
-    if (!nul || nul == lcm + name_at) return "unknown";
-    return std::string(reinterpret_cast<const char *>(lcm + name_at), static_cast<const char *>(nul));
+    if (ihl < 20 || pkt[9] != IPPROTO_UDP || len < ihl + 8) return "unknown";
+    const std::string ch = afm::lcm_datagram_channel(pkt + ihl + 8, static_cast<std::size_t>(len - ihl - 8));
+    return ch.empty() ? "unknown" : ch;
 }
 
 class Fault {

@@ -600,7 +600,7 @@ int main(int argc, char **argv)
             // what has come, then a pause for the next batch (kBatchUs)
             if (lc->handleTimeout(50) > 0) {
                 while (lc->handleTimeout(0) > 0) {}
-                if (kBatchUs > 0 && !r.sim_done && r.started) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
+                if (!r.sim_done && r.started) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
             }
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();

@@ -380,36 +380,27 @@ Outputs run_replay(const Options &o)
         take(node.on_pose(p, &why), ev_utime);
         return why;
     };
+    // an input for the block after the next one: held until the card gets there
+    auto early = [&](int64_t seq) { return node.done() >= 0 && seq == node.done() + 2; };
+    auto release_one = [&](auto &held, auto &give) {
+        if (held.empty() || held.begin()->first > node.done() + 1) return false;
+        give(held.begin()->second);
+        held.erase(held.begin());
+        ++r.held_back;
+        return true;
+    };
     auto release_held = [&] {
-        for (bool more = true; more;) {
-            more = false;
-            if (!held_analog.empty() && held_analog.begin()->first <= node.done() + 1) {
-                analog(held_analog.begin()->second);
-                held_analog.erase(held_analog.begin());
-                ++r.held_back;
-                more = true;
-            }
-            if (!held_pose.empty() && held_pose.begin()->first <= node.done() + 1) {
-                pose(held_pose.begin()->second);
-                held_pose.erase(held_pose.begin());
-                ++r.held_back;
-                more = true;
-            }
-        }
+        while (release_one(held_analog, analog) || release_one(held_pose, pose)) {}
     };
     inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &b) {
-        if (b.seq == node.done() + 2 && node.done() >= 0) {
-            held_analog.emplace(b.seq, b);
-            return afm::Reject::none;
-        }
-        return analog(b);
+        if (!early(b.seq)) return analog(b);
+        held_analog.emplace(b.seq, b);
+        return afm::Reject::none;
     });
     inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &p) {
-        if (p.seq == node.done() + 2 && node.done() >= 0) {
-            held_pose.emplace(p.seq, p);
-            return afm::Reject::none;
-        }
-        return pose(p);
+        if (!early(p.seq)) return pose(p);
+        held_pose.emplace(p.seq, p);
+        return afm::Reject::none;
     });
     inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &f) {
         std::string note;

@@ -160,6 +160,25 @@ def trajectories(out, blocks):
     return traj, ""
 
 
+NOT_READY = 97   # beside(): the helper never said it was ready
+
+
+def beside(helper, cmd, ready_log=None):
+    """A shell command that runs `helper` in the background, then `cmd`, then
+    stops the helper (SIGTERM) and waits for it; it exits with cmd's code.
+    With `ready_log`, the helper's stderr goes there and cmd starts only once
+    the helper has written "ready" to it (5 s at most, else exit NOT_READY)."""
+    q = " ".join(f"'{c}'" for c in cmd)
+    h = " ".join(f"'{c}'" for c in helper)
+    if ready_log is None:
+        start = f"{h} > /dev/null & h=$!; "
+    else:
+        start = (f"{h} 2> '{ready_log}' & h=$!; "
+                 f"i=0; until grep -q ready '{ready_log}' 2>/dev/null; do i=$((i+1)); "
+                 f"{{ [ $i -lt 500 ] && kill -0 $h 2>/dev/null; }} || exit {NOT_READY}; sleep 0.01; done; ")
+    return ["sh", "-c", start + f"{q}; rc=$?; kill -TERM $h; wait $h; exit $rc"]
+
+
 def log_reads(out):
     try:
         afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["AFM_HEARTBEAT"])
@@ -306,11 +325,7 @@ class Matrix:
     def net_dup(self):
         echo = os.path.join(HERE, "hostile.py")
 
-        def wrap(cmd):
-            q = " ".join(f"'{c}'" for c in cmd)
-            return ["sh", "-c", f"'{sys.executable}' '{echo}' --echo 1.0 --seconds 300 > /dev/null & h=$!; {q}; rc=$?; "
-                                f"kill -TERM $h; wait $h; exit $rc"]
-        r = Run(self.scene, self.dir("net:dup"), wrap=wrap).finish()
+        r = Run(self.scene, self.dir("net:dup"), wrap=lambda cmd: beside([sys.executable, echo, "--echo", "1.0", "--seconds", "300"], cmd)).finish()
         kept, kt = self.kept(r, "ok")
         same, st = self.same(r.out) if kept else (False, "-")
         self.add("net:dup", f"exit {r.code}, every message twice", kept, kt, same, st, r.code == 0 and kept and same)
@@ -327,17 +342,9 @@ class Matrix:
               "--hold-us", "1000", "--seed", str(self.a.seed), "--drop-channels", ",".join(self.KERNEL_DROP), "--iptables",
               "--report", report]
         log = os.path.join(d, "netfault.log")
-
-        def wrap(cmd):
-            q = " ".join(f"'{c}'" for c in cmd)
-            n = " ".join(f"'{c}'" for c in nf)
-            # the run once the queue has its reader and its rules (afm_netfault says ready)
-            return ["sh", "-c", f"{n} 2> '{log}' & h=$!; "
-                                f"i=0; until grep -q ready '{log}' 2>/dev/null; do i=$((i+1)); "
-                                f"{{ [ $i -lt 500 ] && kill -0 $h 2>/dev/null; }} || exit 97; sleep 0.01; done; "
-                                f"{q}; rc=$?; kill -TERM $h; wait $h; exit $rc"]
-        r = Run(self.scene, os.path.join(d, "run"), wrap=wrap).finish()
-        if r.code == 97:
+        # the run once the queue has its reader and its rules
+        r = Run(self.scene, os.path.join(d, "run"), wrap=lambda cmd: beside(nf, cmd, ready_log=log)).finish()
+        if r.code == NOT_READY:
             try:
                 with open(log) as f:
                     tail = f.read().strip().splitlines()

@@ -172,6 +172,37 @@ void test_a_process_without_a_bus_socket_finds_none(void)
     TEST_ASSERT_EQUAL_INT(-1, afm::bus_receive_socket());
 }
 
+std::string channel_of(const std::string &d)
+{
+    return afm::lcm_datagram_channel(reinterpret_cast<const unsigned char *>(d.data()), d.size());
+}
+
+// A fragment ("LC03"): magic, sequence, message size, offset, fragment number and count, then (fragment 0) the name.
+std::string fragment(const std::string &channel, uint16_t number)
+{
+    std::string d = short_message("", 0, 0x4c433033).substr(0, 8);
+    d += std::string(8, '\0');   // size and offset
+    d += static_cast<char>(number >> 8);
+    d += static_cast<char>(number & 0xff);
+    d += std::string("\0\2", 2);   // two fragments
+    if (number == 0) d += channel + '\0';
+    return d + "payload";
+}
+
+void test_the_channel_of_a_datagram_is_read_as_liblcm_lays_it_out(void)
+{
+    TEST_ASSERT_EQUAL_STRING("AFM_CMD", channel_of(short_message("AFM_CMD")).c_str());
+    TEST_ASSERT_EQUAL_STRING("HAPTIC_FORCE", channel_of(short_message("HAPTIC_FORCE", 0)).c_str());
+    TEST_ASSERT_EQUAL_STRING("AFM_SCAN_LINE", channel_of(fragment("AFM_SCAN_LINE", 0)).c_str());
+    // nothing to read: a later fragment, no name, no NUL, garbage, too short
+    TEST_ASSERT_EQUAL_STRING("", channel_of(fragment("AFM_SCAN_LINE", 1)).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("")).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("FW_TIP", 0).substr(0, 14)).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("FW_TIP", 16, 0xdeadbeef)).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(std::string("LC0")).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(std::string()).c_str());
+}
+
 int bound_to_bus_port()
 {
     const int fd = socket(AF_INET, SOCK_DGRAM, 0);
@@ -211,5 +242,6 @@ int main(void)
     RUN_TEST(test_an_absurdly_long_name_turns_the_filter_off_rather_than_break_it);
     RUN_TEST(test_a_process_without_a_bus_socket_finds_none);
     RUN_TEST(test_the_one_socket_on_the_bus_port_is_found_and_two_are_refused);
+    RUN_TEST(test_the_channel_of_a_datagram_is_read_as_liblcm_lays_it_out);
     return UNITY_END();
 }
