@@ -93,7 +93,7 @@ fw_guard_state_t fw_guard_step(fw_guard_t *g, uint32_t causes, const fw_guard_po
     }
     causes &= FW_GUARD_CAUSE_NORMAL | FW_GUARD_CAUSE_LATERAL;
     if (causes != 0u) {
-        g->causes = (g->latched ? g->causes : 0u) | causes;
+        g->causes |= causes;   /* 0 while armed (reset, release) */
         g->latched = true;
         g->release_load_pn = fw_guard_release_load_pn(g->normal_limit_pn, pose->load_pn);
         g->trip_xy_pm[0] = pose->xy_pm[0];
