@@ -837,7 +837,7 @@ bool FlexibleWire::follow(const Contact &c, double t_seg, double &phi)
     // did. The last increment scaled to that advance is the first guess; no
     // balance test at the start is needed (the step's Newton iteration has
     // the last word either way).
-    if (!last_converged || last_dx_.size() != x.size() || !has_last_q_) return false;
+    if (!last_converged || last_dx_.size() != x.size()) return false;   // sized by a push that set last_q_
     const Eigen::Vector2d moved = (1 - t_seg) * last_dx_[c.seg] + t_seg * last_dx_[c.seg + 1];
     const double wire_advance = -moved.dot(c.n0), apex_advance = -(c.q - last_q_).dot(c.n0);
     if (!(wire_advance > kFollowFloor_nm) || !(apex_advance > 0)) return false;
@@ -868,7 +868,6 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
     double phi = 0;
     const bool followed = follow(c, t_seg, phi);
     last_q_ = q;
-    has_last_q_ = true;
     if (!followed) {   // a wire in balance where it is does not move: one evaluation decides
         phi = evaluate(c, now_, true);
         if (now_.residual >= 1 && last_dx_.size() == start_.size()) warm_start(c, phi);
@@ -888,13 +887,11 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
     // Stuck nodes go back to their start: no creep under a load below c_i,
     // however many steps.
     last_dx_.resize(nn);
-    lo = hi = x.front();
     for (int i = 0; i < nn; ++i) {
         if ((x[i] - start_[i]).squaredNorm() < stuck_nm * stuck_nm) x[i] = start_[i];
         last_dx_[i] = x[i] - start_[i];
-        lo = lo.cwiseMin(x[i]);
-        hi = hi.cwiseMax(x[i]);
     }
+    update_box();
     return true;
 }
 

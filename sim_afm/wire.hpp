@@ -273,7 +273,6 @@ private:
     // did not slide to balance or the apex did not advance into the wire.
     bool follow(const Contact &c, double t_seg, double &phi);
     Eigen::Vector2d last_q_ = Eigen::Vector2d::Zero();   // the apex at the last push
-    bool has_last_q_ = false;
 };
 
 }  // namespace afm::sim

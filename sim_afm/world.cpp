@@ -328,10 +328,7 @@ World::ZHold World::hold_z(double surface_nm, double fx_C, double fz) const
     ZHold h{std::clamp(z_need, -half, half), fz, false, true, z_need};
     if (h.z_nm == z_need) return h;
     h.clamped = true;
-    h.fz_nN = fz + lever_.spring * (z_need - h.z_nm);
-    h.touching = h.fz_nN > -tip_adhesion_nN_;
-    if (!h.touching) h.fz_nN = 0.0;
-    return h;
+    return short_of(h, fz);
 }
 
 World::ZHold World::slew_z(const ZHold &ideal, double fz) const
@@ -339,7 +336,12 @@ World::ZHold World::slew_z(const ZHold &ideal, double fz) const
     const double step = z_speed_nm_per_s_ * dt_;
     ZHold h = ideal;
     h.z_nm = piezo_z_ + std::clamp(ideal.z_nm - piezo_z_, -step, step);
-    h.fz_nN = fz + lever_.spring * (ideal.z_need_nm - h.z_nm);
+    return short_of(h, fz);
+}
+
+World::ZHold World::short_of(ZHold h, double fz) const
+{
+    h.fz_nN = fz + lever_.spring * (h.z_need_nm - h.z_nm);
     h.touching = h.fz_nN > -tip_adhesion_nN_;
     if (!h.touching) h.fz_nN = 0.0;
     return h;

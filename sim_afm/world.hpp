@@ -214,6 +214,10 @@ private:
     // point fz plus k_n times the extension still missing (z_need - z), the
     // tip touching while that is above -F_adh.
     ZHold slew_z(const ZHold &ideal, double fz) const;
+    // A hold whose z falls short of z_need: the normal force the set point
+    // fz plus k_n times the shortfall; 0 and not touching once it pulls the
+    // tip off (beyond the adhesion).
+    ZHold short_of(ZHold h, double fz) const;
     // Normal force the mechanics acts with this sample: the set point plus
     // the z shortfall of the last sample; 0 when lifted off or not engaged.
     bool touching() const { return engaged_ && !lifted_; }

@@ -18,9 +18,26 @@ inline afm::Scene scene_from_text(const std::string &text)
     TEST_ASSERT_TRUE(fd >= 0);
     close(fd);
     std::ofstream(path) << text;
-    afm::Scene s = afm::load_scene(path);
-    unlink(path);
-    return s;
+    try {
+        afm::Scene s = afm::load_scene(path);
+        unlink(path);
+        return s;
+    } catch (...) {
+        unlink(path);   // a refused scene leaves no file behind either
+        throw;
+    }
+}
+
+// What the scene reader says when it refuses `text` (SceneError's message),
+// or "" when it accepts it.
+inline std::string scene_error(const std::string &text)
+{
+    try {
+        scene_from_text(text);
+    } catch (const afm::SceneError &e) {
+        return e.what();
+    }
+    return "";
 }
 
 // Replaces the first occurrence of `key` in `text` by `value`.
