@@ -53,10 +53,15 @@ bool multicast_routed_on_loopback(std::string *why)
     return true;
 }
 
-std::unique_ptr<lcm::LCM> open_bus()
+std::string bus_url()
 {
     const char *env = std::getenv("LCM_DEFAULT_URL");
-    const std::string url = env && *env ? env : kBusUrl;
+    return env && *env ? env : kBusUrl;
+}
+
+std::unique_ptr<lcm::LCM> open_bus()
+{
+    const std::string url = bus_url();
     if (url.rfind("udpm://", 0) == 0 || url.find("://") == std::string::npos) {
         std::string why;
         if (!multicast_routed_on_loopback(&why)) throw std::runtime_error("refusing to open the bus " + url + ": " + why);

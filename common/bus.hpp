@@ -40,6 +40,9 @@ constexpr int kQueueCapacity = 10000;
 // found otherwise.
 bool multicast_routed_on_loopback(std::string *why);
 
+// The bus's URL: $LCM_DEFAULT_URL, or kBusUrl.
+std::string bus_url();
+
 // Opens the bus. A udpm URL (from $LCM_DEFAULT_URL or kBusUrl) is refused
 // unless multicast_routed_on_loopback(); memq:// and file:// are always allowed.
 // Throws std::runtime_error with the reason.

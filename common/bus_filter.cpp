@@ -48,7 +48,6 @@ std::vector<sock_filter> channel_block(const std::string &channel)
 
 struct State {
     std::set<std::string> channels;
-    bool off = false;        // a subscription to every channel: never filter
     bool attached = false;
 };
 State &state()
@@ -81,6 +80,35 @@ std::string lcm_datagram_channel(const unsigned char *d, std::size_t n)
     const void *nul = std::memchr(d + at, 0, n - at);
     if (!nul) return "";
     return std::string(reinterpret_cast<const char *>(d + at), static_cast<const char *>(nul));
+}
+
+bool lcm_datagram(const unsigned char *d, std::size_t n, LcmDatagram *out)
+{
+    if (n < kLcmShortNameAt) return false;
+    LcmDatagram g;
+    const uint32_t magic = be32(d);
+    g.seqno = be32(d + 4);
+    if (magic == kLcmFragmentMagic) {
+        if (n < kLcmFragmentNameAt) return false;
+        g.fragment = true;
+        g.msg_size = be32(d + 8);
+        g.offset = be32(d + 12);
+        g.fragment_no = static_cast<uint16_t>((d[16] << 8) | d[17]);
+        g.fragments = static_cast<uint16_t>((d[18] << 8) | d[19]);
+        if (g.fragment_no >= g.fragments) return false;
+        g.payload_at = kLcmFragmentNameAt;
+    } else if (magic == kLcmShortMagic) {
+        g.payload_at = kLcmShortNameAt;
+    } else {
+        return false;
+    }
+    if (!g.fragment || g.fragment_no == 0) {
+        g.channel = lcm_datagram_channel(d, n);
+        if (g.channel.empty()) return false;
+        g.payload_at += g.channel.size() + 1;
+    }
+    *out = std::move(g);
+    return true;
 }
 
 std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channels)
@@ -137,21 +165,9 @@ int bus_receive_socket()
 bool bus_filter_add(const std::string &channel)
 {
     State &s = state();
-    if (s.off) return false;
     s.channels.insert(channel);
     s.attached = attach(s.channels);
     return s.attached;
-}
-
-void bus_filter_off()
-{
-    State &s = state();
-    s.off = true;
-    if (!s.attached) return;
-    const int fd = bus_receive_socket();
-    int unused = 0;
-    if (fd >= 0) setsockopt(fd, SOL_SOCKET, SO_DETACH_FILTER, &unused, sizeof unused);
-    s.attached = false;
 }
 
 }  // namespace afm

@@ -12,8 +12,8 @@
 //     process's subscriptions or LCM_SELF_TEST;
 //   - every datagram that is not an LCM short message (fragments "LC03",
 //     garbage): liblcm reads and judges those as before.
-// A process with a subscription to a pattern (the launcher's recorder, ".*")
-// is never filtered. Filtering changes what reaches liblcm's receive thread,
+// The launcher, which records every channel, receives through a tap of its
+// own (bus_tap.hpp), not through liblcm. Filtering changes what reaches liblcm's receive thread,
 // never what a subscription receives: a channel dropped by the kernel is one
 // liblcm would have dropped itself (no handler).
 //
@@ -51,6 +51,22 @@ constexpr std::size_t kLcmFragmentNameAt = 20;        // after magic, sequence, 
 // garbage, a name without its NUL).
 std::string lcm_datagram_channel(const unsigned char *d, std::size_t n);
 
+// An LCM datagram read whole: a short message, or one fragment of a longer
+// one (bus_tap.hpp gathers those).
+struct LcmDatagram {
+    bool fragment = false;
+    uint32_t seqno = 0;       // the sender's message number
+    uint32_t msg_size = 0;    // a fragment's whole message, bytes (payload only)
+    uint32_t offset = 0;      // where this fragment's payload goes in it
+    uint16_t fragment_no = 0, fragments = 0;
+    std::string channel;      // a short message's, fragment 0's; "" in a later fragment
+    std::size_t payload_at = 0;   // where the payload starts in the datagram
+};
+// Reads datagram `d` of `n` bytes; false for anything LCM would not take
+// (garbage, a short message or fragment 0 without a NUL-ended name, a
+// fragment number not below its count).
+bool lcm_datagram(const unsigned char *d, std::size_t n, LcmDatagram *out);
+
 // The classic BPF program that accepts exactly what the header says for
 // `channels` (offsets relative to the UDP header, as a UDP socket's filter
 // sees a datagram). Empty `channels`: only LCM_SELF_TEST and what is not a
@@ -66,8 +82,5 @@ int bus_receive_socket();
 // lets through, and (re)attaches the filter; false when it could not be
 // attached (then nothing is filtered).
 bool bus_filter_add(const std::string &channel);
-// A subscription to every channel (the launcher's recorder): the filter is
-// detached and stays off in this process.
-void bus_filter_off();
 
 }  // namespace afm

@@ -35,7 +35,9 @@ extern "C" {
 #include "fw_guard.h"
 }
 #include "bus_recorder.hpp"
+#include "bus_tap.hpp"
 #include "lcmlog.hpp"
+#include "placement.hpp"
 #include "bus.hpp"
 #include "inbox.hpp"
 #include <nlohmann/json.hpp>
@@ -66,13 +68,17 @@ const char *kUsage =
     "bench options (./afm bench bus):\n"
     "  --log-window N     sim_afm runs at most N blocks ahead of what the record holds\n"
     "                     (default 8); 0: no pacing\n"
-    "  --no-renderer      no renderer: no frames, no video, no fidelity check\n";
+    "  --no-renderer      no renderer: no frames, no video, no fidelity check\n"
+    "  --placement off    no CPU placement (default on: sim_afm, fw_node and operator share\n"
+    "                     one CPU, the launcher and the renderer run on the others;\n"
+    "                     common/placement.hpp)\n";
 
 struct Child {
     std::string name;
     pid_t pid = -1;
     int exit_code = -1;       // exit status, or 128 + signal
     bool exited = false;
+    std::string cpus = "";    // the CPUs it may run on, read once it is ready ("" before)
     double cpu_user_s = 0;    // the kernel's accounting of the child (wait4), user CPU seconds
     double cpu_system_s = 0;  // and system CPU seconds
     long max_rss_kb = 0;      // its peak resident memory, kB
@@ -111,14 +117,19 @@ constexpr int kBusProcessNice = 10;
 // eight (the simulator's log window is 8 blocks; ./afm bench bus measures it).
 constexpr int kBatchUs = 500;
 
-pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add = {},
-            int nice_level = 0)
+// Starts argv[0] with its output to log_path, env_add added to its
+// environment, at nice_level, pinned to `cpus` (none: where the kernel puts it).
+pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
+            int nice_level, const std::vector<int> &cpus)
 {
     pid_t pid = fork();
     if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
     if (pid == 0) {
         setpgid(0, 0);
         if (nice_level) setpriority(PRIO_PROCESS, 0, nice_level);
+        // before exec, so that every thread it starts is placed too
+        if (!afm::pin_self(cpus)) std::fprintf(stderr, "afm_launch: cannot pin %s to CPUs %s: %s\n", argv[0].c_str(),
+                                                afm::cpu_list(cpus).c_str(), std::strerror(errno));
         int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0) {
             dup2(fd, 1);
@@ -220,6 +231,7 @@ struct Options {
     long long crash_block = -1;
     long long log_window = 8;   // sim_afm --log-window; 0: no --follow-log
     bool renderer = true;
+    bool placement = true;      // common/placement.hpp; --placement off
 };
 
 // Parses argv into o; returns -1 to go on, or the exit code.
@@ -243,6 +255,14 @@ int parse_args(int argc, char **argv, Options *o)
         else if (a == "--stall-s") o->stall_s = std::atof(val().c_str());
         else if (a == "--log-window") o->log_window = std::atoll(val().c_str());
         else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--placement") {
+            const std::string v = val();
+            if (v != "on" && v != "off") {
+                std::fprintf(stderr, "afm_launch: --placement wants on or off, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->placement = v == "on";
+        }
         else if (a == "--kill") {
             const std::string v = val();
             const auto colon = v.find(':');
@@ -376,7 +396,13 @@ public:
             kids_.erase(std::remove_if(kids_.begin(), kids_.end(), [](const Child &c) { return c.name == "renderer"; }), kids_.end());
         prog_.names = {"launcher"};
         for (const auto &c : kids_) prog_.names.insert(c.name);
-        inbox_ = std::make_unique<afm::Inbox>(lc_.get());
+        try {
+            tap_ = std::make_unique<afm::BusTap>(afm::bus_url());
+        } catch (const std::exception &e) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.what());
+            return 2;
+        }
+        inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
         inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
         hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
         wall0_ = std::chrono::steady_clock::now();
@@ -389,9 +415,10 @@ public:
     {
         if (g_signal) return interrupted_before_start();
         try {
-            recorder_ = std::make_unique<afm::BusRecorder>(*lc_, out_ + "/bus.lcmlog");
+            recorder_ = std::make_unique<afm::BusRecorder>(out_ + "/bus.lcmlog");
             hb_->send("starting", 0, 0, "recording the bus");
-            recorder_->drain(true);
+            pump(0);
+            recorder_->settle(true);
         } catch (const afm::LogError &e) {
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 1;
@@ -409,11 +436,32 @@ public:
             {"operator", {bin + "/operator", "--scene", scene_run_, "--out", out_}},
             {"renderer", {bin + "/renderer", "--scene", scene_run_, "--out", out_}},
         };
-        for (auto &c : kids_) c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice);
+        place();
+        for (auto &c : kids_)
+            c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice, placement_.cpus_for(c.name));
         if (o_.spy)
             spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
-                             {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR});
+                             {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR}, 0, placement_.cpus_for("lcm-spy"));
         return -1;
+    }
+
+    // The lockstep's CPU and the observers' (common/placement.hpp); the
+    // launcher is an observer. Nothing pinned when placement is off or
+    // there is nowhere to place.
+    void place()
+    {
+        if (!o_.placement) return;
+        placement_ = afm::Placement(afm::allowed_cpus(), afm::Placement::kLockDir);
+        if (placement_.on() && !afm::pin_self(placement_.observers()))
+            std::fprintf(stderr, "afm_launch: cannot pin the launcher to CPUs %s: %s\n", afm::cpu_list(placement_.observers()).c_str(),
+                         std::strerror(errno));
+    }
+
+    nlohmann::json placement_json() const
+    {
+        if (!placement_.on()) return {{"on", false}, {"why", placement_.why()}};
+        return {{"on", true}, {"lockstep_cpus", afm::cpu_list(placement_.lockstep())},
+                {"observer_cpus", afm::cpu_list(placement_.observers())}};
     }
 
     // 5. Supervise until every process is done, or one fails or stalls.
@@ -425,7 +473,7 @@ public:
         while (true) {
             // a record with unwritten messages waits 1 ms for the next one: a
             // quiet bus (the simulator waiting for the record) flushes it
-            const int got = lc_->handleTimeout(recorder_ && recorder_->unflushed() ? 1 : 20);
+            const int got = pump(recorder_ && recorder_->unflushed() ? 1 : 20);
             if (!record(got == 0)) break;
             // then let a batch gather: a wake-up per datagram costs more
             // than the datagram (README, "The bus's latency model")
@@ -455,6 +503,7 @@ public:
             // Start the run once every process is ready.
             if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, "ready"); })) {
                 started = true;
+                for (auto &c : kids_) c.cpus = afm::cpu_list(afm::cpus_of(c.pid));   // where each one really runs
                 for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
             }
             if (started && !prog_.is("sim_afm", "done")) hb_->maybe_send("running", 0, 0, 200000);
@@ -478,7 +527,7 @@ public:
         if (!failure_.empty()) {
             for (int i = 0; i < 3; ++i) {
                 hb_->send("stop", 0, 0, failure_);
-                lc_->handleTimeout(20);
+                pump(20);
             }
             for (auto &c : kids_) signal_child(c, SIGTERM);
         }
@@ -486,7 +535,7 @@ public:
         while (std::chrono::steady_clock::now() < deadline &&
                !std::all_of(kids_.begin(), kids_.end(), [](const Child &c) { return c.exited; })) {
             for (auto &c : kids_) c.reap();
-            record(lc_->handleTimeout(20) == 0);
+            record(pump(20) == 0);
         }
         for (auto &c : kids_) {
             signal_child(c, SIGKILL);
@@ -495,7 +544,7 @@ public:
         // the messages still under way, then the record is closed
         const auto quiet = std::chrono::steady_clock::now() + std::chrono::milliseconds(150);
         while (std::chrono::steady_clock::now() < quiet) {
-            if (!record(lc_->handleTimeout(10) == 0)) break;
+            if (!record(pump(10) == 0)) break;
         }
         record(true);   // the rest to the file (a full disk fails the run here too)
         if (recorder_) recorded_events_ = recorder_->events();
@@ -594,8 +643,11 @@ private:
     std::unique_ptr<afm::Heartbeat> hb_;
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
+    std::unique_ptr<afm::BusTap> tap_;   // the whole bus, without liblcm's receive thread
     std::unique_ptr<afm::BusRecorder> recorder_;
+    std::string record_error_;   // a write into the record that failed inside pump()
     int64_t recorded_events_ = 0;   // what the record held when it was closed
+    afm::Placement placement_;   // the lockstep's CPU and the observers' (place())
     Child spy_{"lcm-spy"};
     std::vector<Child> kids_ = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
     std::string failure_;
@@ -650,7 +702,7 @@ private:
 
     static nlohmann::json process_json(const Child &c)
     {
-        return {{"name", c.name}, {"exit_code", c.exit_code}, {"log", "logs/" + c.name + ".log"},
+        return {{"name", c.name}, {"exit_code", c.exit_code}, {"log", "logs/" + c.name + ".log"}, {"cpus", c.cpus},
                 {"cpu_user_s", c.cpu_user_s}, {"cpu_system_s", c.cpu_system_s}, {"max_rss_kb", c.max_rss_kb}};
     }
 
@@ -662,18 +714,39 @@ private:
         getrusage(RUSAGE_SELF, &ru);
         return {{"rejected", inbox_ ? inbox_->rejected().to_json() : nlohmann::json(nullptr)},
                 {"recorded_events", recorded_events_},
+                {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
+                {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
                 {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
                 {"cpu_system_s", ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6},
                 {"max_rss_kb", ru.ru_maxrss}};
     }
 
-    // Records what the bus delivered (bus_quiet: the last wait for a message
+    // Waits up to timeout_ms for the bus, then takes everything it holds:
+    // every message into the record, and each to the launcher's inbox (the
+    // heartbeats). Returns the messages taken.
+    int pump(int timeout_ms)
+    {
+        if (!tap_->wait(timeout_ms)) return 0;
+        return tap_->drain([this](const std::string &channel, const unsigned char *data, std::size_t size, int64_t utime) {
+            if (recorder_ && record_error_.empty()) {
+                try {
+                    recorder_->take(channel, data, size, utime);
+                } catch (const afm::LogError &e) {
+                    record_error_ = e.what();   // record() fails the run with it
+                }
+            }
+            inbox_->deliver(channel, data, size);
+        });
+    }
+
+    // Settles the record after pump() (bus_quiet: the wait for a message
     // timed out); false (failure_ set) when the record cannot be written.
     bool record(bool bus_quiet)
     {
         if (!recorder_) return true;
         try {
-            recorder_->drain(bus_quiet);
+            if (!record_error_.empty()) throw afm::LogError(record_error_);
+            recorder_->settle(bus_quiet);
             return true;
         } catch (const afm::LogError &e) {
             if (failure_.empty()) failure_ = e.what();
@@ -718,6 +791,7 @@ private:
         if (!log_err.empty()) run["log_error"] = log_err;
         run["card"] = card_json();
         run["launcher"] = launcher_json();
+        run["placement"] = placement_json();
         merge_reports(&run);
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
         // Completeness of the record: distinct analog blocks and poses in the

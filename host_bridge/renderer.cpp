@@ -3,7 +3,9 @@
 // particles, wires and lithography trenches from FW_OBJECTS; the scene's
 // wires as laid until the firmware publishes wires),
 // writes a PNG per frame and a video at the scene's frame rate, and announces
-// each frame on RENDER_FRAME (the simulator waits for it: lockstep).
+// each frame on RENDER_FRAME (the simulator runs at most 2 frames ahead of
+// it, and waits for it at the frames where it asks for a scan:
+// afm::frames_to_wait_for).
 //
 // At the last frame it asks the simulator for a fresh full scan and compares
 // it with what it displays (fidelity.hpp), the paper's check, before
@@ -170,8 +172,8 @@ struct Renderer {
     // A message of block `seq` (FW_TIP, FW_FORCE, FW_OBJECTS, HAPTIC_FORCE
     // n come with block n): its time must be that block's end, and it
     // cannot be more than a simulated second past the last block the
-    // renderer took objects from (the simulator waits for every frame, 25
-    // per second by default, before it goes on).
+    // renderer took objects from (messages are taken in the order sent, so
+    // the next one is a block or so past it).
     afm::Reject block_message(int64_t seq, int64_t utime) const
     {
         if (seq < -1) return afm::Reject::out_of_range;
@@ -338,8 +340,7 @@ struct Renderer {
     {
         const int total = total_frames;
         while (frames_written < due_pending) {
-            if (local_next < static_cast<int>(scene.op.local_scans.size()) &&
-                afm::frame_utime(scene, frames_written) >= std::llround(scene.op.local_scans[local_next].at_s * 1e6)) {
+            if (local_next < static_cast<int>(scene.op.local_scans.size()) && frames_written >= afm::local_scan_frame(scene, local_next)) {
                 start_local_scan(local_next++);
                 return;
             }

@@ -1,9 +1,9 @@
 // sim_afm: the simulated AFM controller and sample on the bus.
 //
 // Owns the clock. Lockstep (default): publish analog block n, then wait for the
-// firmware's AFM_CMD acknowledging n and for the renderer's frames due by the
-// end of block n; resend block n on a timeout (udpm may drop). Real time: the
-// same, paced by the wall clock.
+// firmware's AFM_CMD acknowledging n and, when the renderer falls behind or
+// asks for a scan, for its frames (afm::frames_to_wait_for); resend block n
+// on a timeout (udpm may drop). Real time: the same, paced by the wall clock.
 #include <lcm/lcm-cpp.hpp>
 
 #include <cmath>
@@ -45,7 +45,9 @@ const char *kUsage =
     "  --log-window BLOCKS: with --follow-log, how many blocks ahead of the log the\n"
     "  simulator may run (default 8; ./afm bench bus varies it).\n"
     "  --no-renderer: no renderer on the bus; the simulator waits for no frames\n"
-    "  (./afm bench bus measures the lockstep without it).\n";
+    "  (./afm bench bus measures the lockstep without it). With one, the simulator\n"
+    "  runs at most 2 frames ahead of it, and waits for it at each frame where it\n"
+    "  asks for a scan.\n";
 
 constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line reads these
 // With --follow-log, the simulator stays at most this many analog blocks (about
@@ -371,7 +373,7 @@ int main(int argc, char **argv)
             if (scene.time_mode == "realtime") {
                 std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
             }
-            const int frames_due = renderer ? afm::frames_due(scene, afm::block_end_utime(scene, n)) : 0;
+            const int frames_due = renderer ? afm::frames_to_wait_for(scene, n, blocks) : 0;
             auto last_send = std::chrono::steady_clock::now();
             sim.waiting_after = n;
             sim.serve_due_scans();

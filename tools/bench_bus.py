@@ -5,13 +5,18 @@
    run's log): one-way and round trip, median and p99
    (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp).
 2. The floor of one lockstep block: the hops a block needs as the protocol
-   stands, from those medians (below, FLOOR_PATHS).
+   stands, from those medians (below, FLOOR_PATHS). Twice, as the
+   processes are placed (common/placement.hpp): with the lockstep's three
+   processes on one CPU (a run's placement) the latency is measured with
+   both ends on that CPU and the block's four hops follow one another;
+   as the kernel places them (--placement off) the latency is measured
+   unpinned and the two paths run in parallel.
 3. The lockstep's measured cost per block on a scene (default: the demo's,
-   scenes/default.yaml) in four arrangements: as a run is made (the log
-   window paces the simulator, the renderer attached), the log window off,
-   the renderer off, and both off; each as a ratio to the floor, with the
-   CPU each process spent per block (the kernel's accounting) and whether
-   the log holds every block.
+   scenes/default.yaml) in five arrangements: as a run is made (placed, the
+   log window pacing the simulator, the renderer attached), placement off,
+   the log window off, the renderer off, and both off; each as a ratio to
+   the floor of its placement, with the CPU each process spent per block
+   (the kernel's accounting) and whether the log holds every block.
 
 A benchmark: it prints figures and never fails on them. Exit 1 only when a
 run fails.
@@ -36,15 +41,17 @@ IN_NETNS = os.path.join(TOP, "tools", "in_netns.sh")
 LATENCY_CHANNELS = ["AFM_CMD", "HAPTIC_POSE", "HAPTIC_FORCE", "AFM_ANALOG", "AFM_SCAN_LINE"]
 
 # The hops block n+1 waits for after the card has stepped block n: two
-# paths in parallel, each of two one-way hops; the block can start on the
-# card when both have arrived.
+# paths, each of two one-way hops; the block can start on the card when both
+# have arrived. On two CPUs the paths run in parallel; on the one CPU of a
+# placed lockstep their four hops run one after the other.
 FLOOR_PATHS = {
     "simulator": [("AFM_CMD", "fw_node -> sim_afm"), ("AFM_ANALOG", "sim_afm -> fw_node")],
     "operator": [("HAPTIC_FORCE", "fw_node -> operator"), ("HAPTIC_POSE", "operator -> fw_node")],
 }
 
 ARRANGEMENTS = [
-    ("as run (log window, renderer)", []),
+    ("as run (placed, window, renderer)", []),
+    ("placement off", ["--placement", "off"]),
     ("log window off", ["--log-window", "0"]),
     ("renderer off", ["--no-renderer"]),
     ("both off", ["--log-window", "0", "--no-renderer"]),
@@ -63,24 +70,29 @@ def sizes_of(log_path):
     return {ch: int(statistics.median(v)) for ch, v in seen.items()}
 
 
-def raw_latency(sizes, count, out):
-    path = os.path.join(out, "latency.json")
+def raw_latency(sizes, count, out, cpu=None):
+    """{bytes: latency row}; cpu: both ends pinned to that CPU (a placed lockstep's)."""
+    path = os.path.join(out, "latency.json" if cpu is None else f"latency-cpu{cpu}.json")
     sizes = ",".join(str(b) for b in sorted(set(sizes.values())))
     exe = os.path.join(BUILD, "host_bridge", "bench_bus")
-    p = subprocess.run([IN_NETNS, exe, "--sizes", sizes, "--count", str(count), "--json", path], capture_output=True, text=True)
+    pin = [] if cpu is None else ["taskset", "-c", str(cpu)]
+    p = subprocess.run([IN_NETNS, *pin, exe, "--sizes", sizes, "--count", str(count), "--json", path], capture_output=True, text=True)
     if p.returncode:
         sys.exit(f"bench bus: {exe} failed ({p.returncode}): {p.stderr.strip()}")
     with open(path) as f:
         return {r["bytes"]: r for r in json.load(f)}
 
 
-def floor_of(lat, sizes):
-    """(floor in us, the path that sets it, the hops of each path)."""
+def floor_of(lat, sizes, serial):
+    """{floor_us, path (the one that sets it, or "both"), paths_us}: the paths
+    in parallel, or (serial: one CPU) one after the other."""
     paths = {}
     for name, hops in FLOOR_PATHS.items():
         paths[name] = sum(lat[sizes[ch]]["one_way_median_us"] for ch, _ in hops)
+    if serial:
+        return {"floor_us": sum(paths.values()), "path": "both, one after the other", "paths_us": paths}
     worst = max(paths, key=paths.get)
-    return paths[worst], worst, paths
+    return {"floor_us": paths[worst], "path": f"the {worst} path", "paths_us": paths}
 
 
 def one_run(scene, args, out):
@@ -101,6 +113,7 @@ def one_run(scene, args, out):
         "us_per_block": sim["loop_wall_seconds"] / blocks * 1e6,
         "sim_s_per_wall_s": run["sim_seconds"] / sim["loop_wall_seconds"],
         "complete": run.get("log", {}).get("complete"),
+        "placement": run.get("placement", {"on": False, "why": "not in run.json"}),
         "log_waits": sim["log_window_waits"],
         "cpu_us_per_block": cpu,
     }
@@ -138,15 +151,25 @@ def main(argv=None):
             "log_complete": all(r["complete"] for r in runs),
             "log_waits": statistics.median(r["log_waits"] for r in runs),
             "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
+            "placement": runs[0]["placement"],
+            "placed": all(r["placement"].get("on") for r in runs),
         })
     sizes = sizes_of(os.path.join(out, "run-0-0", "bus.lcmlog"))
     print(f"bench bus: LCM latency, {a.count} pings per size ...", file=sys.stderr)
     lat = raw_latency(sizes, a.count, out)
-    floor, worst, paths = floor_of(lat, sizes)
+    floors = {}
+    floors["kernel"] = dict(floor_of(lat, sizes, serial=False), placement="as the kernel places them (unpinned)", latency=list(lat.values()))
+    placed = next((x["placement"] for x in rows if x["placed"]), None)
+    if placed:
+        cpu = int(placed["lockstep_cpus"].split(",")[0].split("-")[0])
+        print(f"bench bus: LCM latency on CPU {cpu} (the lockstep's), {a.count} pings per size ...", file=sys.stderr)
+        lat1 = raw_latency(sizes, a.count, out, cpu)
+        floors["placed"] = dict(floor_of(lat1, sizes, serial=True), placement=f"both ends on CPU {cpu}, as a run places the lockstep",
+                                latency=list(lat1.values()))
     for row in rows:
-        row["ratio_to_floor"] = row["us_per_block"] / floor
-    report = {"latency": list(lat.values()), "sizes": sizes, "floor_us": floor, "floor_path": worst, "paths_us": paths, "lockstep": rows,
-              "scene": a.scene, "repeat": a.repeat}
+        row["floor"] = "placed" if row["placed"] and "placed" in floors else "kernel"
+        row["ratio_to_floor"] = row["us_per_block"] / floors[row["floor"]]["floor_us"]
+    report = {"sizes": sizes, "floors": floors, "lockstep": rows, "scene": a.scene, "repeat": a.repeat}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)
     if a.json:
@@ -161,23 +184,27 @@ def main(argv=None):
 
 
 def print_tables(r):
-    print("LCM on the run's bus (udpm, namespace loopback): latency per message size, us")
-    print(f"{'message':14s} {'bytes':>6s} {'one-way med':>12s} {'p99':>8s} {'round trip med':>15s} {'p99':>8s}")
-    by_size = {x["bytes"]: x for x in r["latency"]}
-    for ch, b in r["sizes"].items():
-        x = by_size[b]
-        print(f"{ch:14s} {b:6d} {x['one_way_median_us']:12.1f} {x['one_way_p99_us']:8.1f} {x['round_trip_median_us']:15.1f} {x['round_trip_p99_us']:8.1f}")
-    print("\nThe floor of one lockstep block: after the card steps block n, block n+1 needs")
-    for name, hops in FLOOR_PATHS.items():
-        print(f"  {name:9s} path: " + " + ".join(f"{ch} ({who})" for ch, who in hops) + f" = {r['paths_us'][name]:.1f} us")
-    print(f"  in parallel: floor {r['floor_us']:.1f} us per block (the {r['floor_path']} path), "
-          f"{1e6 / r['floor_us'] / 1000:.1f} x real time at 1 kHz blocks")
+    for key, fl in r["floors"].items():
+        print(f"LCM on the run's bus (udpm, namespace loopback), {fl['placement']}: latency per message size, us")
+        print(f"{'message':14s} {'bytes':>6s} {'one-way med':>12s} {'p99':>8s} {'round trip med':>15s} {'p99':>8s}")
+        by_size = {x["bytes"]: x for x in fl["latency"]}
+        for ch, b in r["sizes"].items():
+            x = by_size[b]
+            print(f"{ch:14s} {b:6d} {x['one_way_median_us']:12.1f} {x['one_way_p99_us']:8.1f} {x['round_trip_median_us']:15.1f} "
+                  f"{x['round_trip_p99_us']:8.1f}")
+        print(f"The floor of one lockstep block, {fl['placement']}: after the card steps block n, block n+1 needs")
+        for name, hops in FLOOR_PATHS.items():
+            print(f"  {name:9s} path: " + " + ".join(f"{ch} ({who})" for ch, who in hops) + f" = {fl['paths_us'][name]:.1f} us")
+        print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
     print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
-    print(f"{'arrangement':32s} {'us/block':>9s} {'x floor':>8s} {'x real time':>12s} {'log':>9s} {'waits':>7s}  CPU us/block")
+    print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x real time':>12s} {'log':>9s} {'waits':>7s}  CPU us/block")
     for x in r["lockstep"]:
         cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
-        print(f"{x['arrangement']:32s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['sim_s_per_wall_s']:12.2f} "
+        print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['sim_s_per_wall_s']:12.2f} "
               f"{'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_waits']:7.0f}  {cpu}")
+    unplaced = {x["placement"].get("why") for x in r["lockstep"] if not x["placed"] and "--placement" not in x["args"]}
+    for why in sorted(w for w in unplaced if w):
+        print(f"  not placed: {why}")
 
 
 if __name__ == "__main__":

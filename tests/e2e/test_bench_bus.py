@@ -35,7 +35,7 @@ class BenchBus(unittest.TestCase):
             self.assertEqual(p.returncode, 2, args)
             self.assertIn("bench_bus:", p.stderr)
 
-    def test_four_arrangements_each_with_a_complete_log(self):
+    def test_five_arrangements_each_with_a_complete_log(self):
         out = benchtest.tmpdir("bench-bus")
         self.addCleanup(benchtest.cleanup, out)
         p = subprocess.run([sys.executable, BENCH, "--scene", benchtest.scene("short.yaml"), "--repeat", "1", "--count", "50",
@@ -44,9 +44,15 @@ class BenchBus(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         with open(os.path.join(out, "bench_bus.json")) as f:
             r = json.load(f)
-        self.assertGreater(r["floor_us"], 0)
-        self.assertEqual(len(r["lockstep"]), 4)
+        self.assertGreater(r["floors"]["kernel"]["floor_us"], 0)
+        self.assertEqual(len(r["lockstep"]), 5)
         for row in r["lockstep"]:
+            # a placed run is held to the floor of one CPU (the four hops in
+            # series, pinned), an unplaced one to the kernel's (two paths in parallel)
+            self.assertEqual(row["floor"], "placed" if row["placed"] else "kernel", row)
+            self.assertGreater(r["floors"][row["floor"]]["floor_us"], 0)
+            if "--placement" in row["args"]:
+                self.assertFalse(row["placed"], row)
             self.assertTrue(row["log_complete"], row)
             self.assertGreater(row["us_per_block"], 0)
             self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")

@@ -160,6 +160,36 @@ class EndToEnd(unittest.TestCase):
         self.assertEqual(fw1, fw2)
         self.assertEqual(t1, t2)
 
+    def test_same_seed_same_frames(self):
+        # the renderer runs up to 2 frames behind the simulator, waiting only
+        # at scans (scene.hpp, frames_to_wait_for): its frames must not
+        # depend on how far behind it was
+        def frames(out):
+            paths = sorted(glob.glob(os.path.join(out, "frames", "*.png")))
+            return [os.path.basename(p) for p in paths], [open(p, "rb").read() for p in paths]
+        n1, f1 = frames(self.out1)
+        n2, f2 = frames(self.out2)
+        self.assertEqual(n1, n2)
+        self.assertGreater(len(n1), 0)
+        for name, a, b in zip(n1, f1, f2):
+            self.assertEqual(a, b, f"{name} differs between two runs of the same scene")
+
+    def test_processes_are_placed_as_run_json_says(self):
+        # common/placement.hpp: the lockstep on one CPU, the observers on the
+        # others; each process's CPUs are read from the kernel once it is ready
+        rj = self.r1[3]
+        pl = rj["placement"]
+        cpus = {p["name"]: p["cpus"] for p in rj["processes"]}
+        if not pl["on"]:
+            self.assertTrue(pl["why"], pl)
+            mine = len(os.sched_getaffinity(0))
+            self.assertTrue(mine <= 1 or "another run" in pl["why"], f"not placed with {mine} CPUs allowed: {pl['why']}")
+            return
+        self.assertNotEqual(pl["lockstep_cpus"], pl["observer_cpus"])
+        for name in ("sim_afm", "fw_node", "operator"):
+            self.assertEqual(cpus[name], pl["lockstep_cpus"], name)
+        self.assertEqual(cpus["renderer"], pl["observer_cpus"])
+
     def test_lost_blocks_are_resent_and_change_nothing(self):
         code, _, err, rj = self.r3
         self.assertEqual(code, 0, err)

@@ -1,0 +1,175 @@
+#include "bus_tap.hpp"
+
+#include <arpa/inet.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+
+#include "bus.hpp"
+#include "bus_filter.hpp"
+
+namespace afm {
+
+namespace {
+
+constexpr int kBatch = 64;                 // datagrams per recvmmsg
+constexpr std::size_t kDatagramMax = 65536;
+
+struct Url {
+    in_addr group{};
+    int port = 0;
+    int recv_buf = 0;
+};
+
+Url parse(const std::string &url)
+{
+    const std::string head = "udpm://";
+    auto fail = [&](const std::string &why) { return std::runtime_error("bus tap: " + url + ": " + why); };
+    if (url.rfind(head, 0) != 0) throw fail("not a udpm:// URL");
+    const std::size_t colon = url.find(':', head.size()), q = url.find('?');
+    if (colon == std::string::npos || (q != std::string::npos && q < colon)) throw fail("no GROUP:PORT");
+    Url u;
+    if (inet_pton(AF_INET, url.substr(head.size(), colon - head.size()).c_str(), &u.group) != 1) throw fail("the group is not an IPv4 address");
+    u.port = std::atoi(url.substr(colon + 1, q == std::string::npos ? std::string::npos : q - colon - 1).c_str());
+    if (u.port <= 0 || u.port > 65535) throw fail("the port is not in 1..65535");
+    const std::size_t rb = url.find("recv_buf_size=");
+    if (rb != std::string::npos) u.recv_buf = std::atoi(url.c_str() + rb + std::strlen("recv_buf_size="));
+    return u;
+}
+
+}  // namespace
+
+BusTap::BusTap(const std::string &url)
+{
+    const Url u = parse(url);
+    auto fail = [&](const char *what) {
+        const std::string why = std::string("bus tap: ") + url + ": " + what + ": " + std::strerror(errno);
+        if (fd_ >= 0) close(fd_);
+        return std::runtime_error(why);
+    };
+    fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    if (fd_ < 0) throw fail("socket");
+    const int one = 1;
+    if (setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0) throw fail("SO_REUSEADDR");
+    if (setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof one) != 0) throw fail("SO_TIMESTAMP");
+    // as liblcm does: a request the kernel may cap at net.core.rmem_max
+    if (u.recv_buf > 0) setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &u.recv_buf, sizeof u.recv_buf);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<uint16_t>(u.port));
+    a.sin_addr.s_addr = htonl(INADDR_ANY);
+    if (bind(fd_, reinterpret_cast<sockaddr *>(&a), sizeof a) != 0) throw fail("bind");
+    ip_mreq m{};
+    m.imr_multiaddr = u.group;
+    m.imr_interface.s_addr = htonl(INADDR_ANY);
+    if (setsockopt(fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &m, sizeof m) != 0) throw fail("IP_ADD_MEMBERSHIP");
+}
+
+BusTap::~BusTap()
+{
+    if (fd_ >= 0) close(fd_);
+}
+
+bool BusTap::wait(int timeout_ms)
+{
+    pollfd p{fd_, POLLIN, 0};
+    return poll(&p, 1, timeout_ms) > 0 && (p.revents & POLLIN);
+}
+
+int BusTap::drain(const Sink &sink, int max)
+{
+    // the buffers live as long as the tap's thread (one tap per process)
+    static thread_local std::vector<unsigned char> bufs(kBatch * kDatagramMax);
+    static thread_local std::vector<unsigned char> ctl(kBatch * CMSG_SPACE(sizeof(timeval)));
+    mmsghdr msgs[kBatch];
+    iovec iov[kBatch];
+    sockaddr_in from[kBatch];
+    int messages = 0;
+    for (int read = 0; read < max;) {
+        const int want = std::min(kBatch, max - read);
+        for (int i = 0; i < want; ++i) {
+            iov[i] = {bufs.data() + static_cast<std::size_t>(i) * kDatagramMax, kDatagramMax};
+            msgs[i].msg_hdr = {};
+            msgs[i].msg_hdr.msg_name = &from[i];
+            msgs[i].msg_hdr.msg_namelen = sizeof from[i];
+            msgs[i].msg_hdr.msg_iov = &iov[i];
+            msgs[i].msg_hdr.msg_iovlen = 1;
+            msgs[i].msg_hdr.msg_control = ctl.data() + static_cast<std::size_t>(i) * CMSG_SPACE(sizeof(timeval));
+            msgs[i].msg_hdr.msg_controllen = CMSG_SPACE(sizeof(timeval));
+        }
+        const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
+        if (got <= 0) break;   // nothing queued (EAGAIN), or the socket failed: the caller's next wait says
+        for (int i = 0; i < got; ++i) {
+            int64_t utime = wall_utime();
+            for (cmsghdr *c = CMSG_FIRSTHDR(&msgs[i].msg_hdr); c; c = CMSG_NXTHDR(&msgs[i].msg_hdr, c))
+                if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMP) {
+                    timeval tv;
+                    std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
+                    utime = static_cast<int64_t>(tv.tv_sec) * 1000000 + tv.tv_usec;
+                }
+            if (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) {
+                ++dropped_;
+                continue;
+            }
+            messages += take(static_cast<const unsigned char *>(iov[i].iov_base), msgs[i].msg_len, from[i], utime, sink);
+        }
+        read += got;
+        if (got < want) break;
+    }
+    return messages;
+}
+
+int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink)
+{
+    LcmDatagram g;
+    if (!lcm_datagram(d, n, &g)) {
+        ++dropped_;
+        return 0;
+    }
+    if (!g.fragment) {
+        sink(g.channel, d + g.payload_at, n - g.payload_at, utime);
+        return 1;
+    }
+    const uint64_t key = (static_cast<uint64_t>(ntohl(from.sin_addr.s_addr)) << 16) | ntohs(from.sin_port);
+    auto it = partial_.find(key);
+    if (it != partial_.end() &&
+        (it->second.seqno != g.seqno || it->second.data.size() != g.msg_size || it->second.got.size() != g.fragments)) {
+        ++abandoned_;   // the sender has moved on: a fragment of the old message was lost
+        partial_.erase(it);
+        it = partial_.end();
+    }
+    if (it == partial_.end()) {
+        if (g.fragment_no != 0 || g.msg_size > kMaxMessageBytes) {
+            ++dropped_;   // no fragment 0 to name the channel (liblcm drops these too)
+            return 0;
+        }
+        Partial p;
+        p.seqno = g.seqno;
+        p.channel = g.channel;
+        p.data.resize(g.msg_size);
+        p.got.assign(g.fragments, false);
+        p.missing = g.fragments;
+        it = partial_.emplace(key, std::move(p)).first;
+    }
+    Partial &p = it->second;
+    const std::size_t size = n - g.payload_at;
+    if (static_cast<std::size_t>(g.offset) + size > p.data.size()) {
+        ++dropped_;
+        return 0;
+    }
+    if (p.got[g.fragment_no]) return 0;   // a fragment twice (a duplicated datagram): taken once
+    std::memcpy(p.data.data() + g.offset, d + g.payload_at, size);
+    p.got[g.fragment_no] = true;
+    if (--p.missing > 0) return 0;
+    const Partial whole = std::move(p);
+    partial_.erase(it);
+    sink(whole.channel, whole.data.data(), whole.data.size(), utime);
+    return 1;
+}
+
+}  // namespace afm

@@ -1,0 +1,118 @@
+#include "placement.hpp"
+
+#include <fcntl.h>
+#include <sched.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <utility>
+
+namespace afm {
+
+namespace {
+
+std::vector<int> cpus_in(const cpu_set_t &set)
+{
+    std::vector<int> out;
+    for (int c = 0; c < CPU_SETSIZE; ++c)
+        if (CPU_ISSET(c, &set)) out.push_back(c);
+    return out;
+}
+
+const std::vector<int> kNone;
+
+}  // namespace
+
+std::vector<int> cpus_of(pid_t pid)
+{
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(pid, sizeof set, &set) != 0) return {};
+    return cpus_in(set);
+}
+
+std::vector<int> allowed_cpus() { return cpus_of(0); }
+
+bool pin_self(const std::vector<int> &cpus)
+{
+    if (cpus.empty()) return true;
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    for (int c : cpus)
+        if (c >= 0 && c < CPU_SETSIZE) CPU_SET(c, &set);
+    return sched_setaffinity(0, sizeof set, &set) == 0;
+}
+
+std::string cpu_list(const std::vector<int> &cpus)
+{
+    std::string out;
+    for (std::size_t i = 0; i < cpus.size();) {
+        std::size_t j = i;
+        while (j + 1 < cpus.size() && cpus[j + 1] == cpus[j] + 1) ++j;
+        if (!out.empty()) out += ",";
+        out += std::to_string(cpus[i]);
+        if (j > i) out += "-" + std::to_string(cpus[j]);
+        i = j + 1;
+    }
+    return out;
+}
+
+bool Placement::in_lockstep(const std::string &process)
+{
+    return process == "sim_afm" || process == "fw_node" || process == "operator";
+}
+
+Placement::Placement(const std::vector<int> &allowed, const std::string &lock_dir)
+{
+    if (allowed.size() < 2) {
+        why_ = "one CPU allowed (" + cpu_list(allowed) + "): nothing to place";
+        return;
+    }
+    for (int c : allowed) {
+        const std::string path = lock_dir + "/afm-lockstep-cpu" + std::to_string(c) + ".lock";
+        // Read-only is enough for flock, so a file another user created serves too.
+        const int fd = open(path.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0666);
+        if (fd < 0) continue;
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            close(fd);
+            continue;
+        }
+        lock_fd_ = fd;
+        lockstep_ = {c};
+        for (int o : allowed)
+            if (o != c) observers_.push_back(o);
+        why_.clear();
+        return;
+    }
+    why_ = "every CPU allowed (" + cpu_list(allowed) + ") holds another run's lockstep";
+}
+
+Placement::~Placement()
+{
+    if (lock_fd_ >= 0) close(lock_fd_);
+}
+
+Placement::Placement(Placement &&o) noexcept
+    : lockstep_(std::move(o.lockstep_)), observers_(std::move(o.observers_)), why_(std::move(o.why_)), lock_fd_(std::exchange(o.lock_fd_, -1))
+{
+}
+
+Placement &Placement::operator=(Placement &&o) noexcept
+{
+    if (this != &o) {
+        if (lock_fd_ >= 0) close(lock_fd_);
+        lockstep_ = std::move(o.lockstep_);
+        observers_ = std::move(o.observers_);
+        why_ = std::move(o.why_);
+        lock_fd_ = std::exchange(o.lock_fd_, -1);
+    }
+    return *this;
+}
+
+const std::vector<int> &Placement::cpus_for(const std::string &process) const
+{
+    if (!on()) return kNone;
+    return in_lockstep(process) ? lockstep_ : observers_;
+}
+
+}  // namespace afm
