@@ -104,7 +104,7 @@ bool lcm_datagram(const unsigned char *d, std::size_t n, LcmDatagram *out)
     }
     if (!g.fragment || g.fragment_no == 0) {
         g.channel = lcm_datagram_channel(d, n);
-        if (g.channel.empty()) return false;
+        if (g.channel.empty() || g.channel.size() > kLcmMaxChannelBytes) return false;
         g.payload_at += g.channel.size() + 1;
     }
     *out = std::move(g);

@@ -62,9 +62,11 @@ struct LcmDatagram {
     std::string channel;      // a short message's, fragment 0's; "" in a later fragment
     std::size_t payload_at = 0;   // where the payload starts in the datagram
 };
+// liblcm's longest channel name (LCM_MAX_CHANNEL_NAME_LENGTH); it drops longer ones.
+constexpr std::size_t kLcmMaxChannelBytes = 63;
 // Reads datagram `d` of `n` bytes; false for anything LCM would not take
-// (garbage, a short message or fragment 0 without a NUL-ended name, a
-// fragment number not below its count).
+// (garbage, a short message or fragment 0 without a NUL-ended name or with
+// one over kLcmMaxChannelBytes, a fragment number not below its count).
 bool lcm_datagram(const unsigned char *d, std::size_t n, LcmDatagram *out);
 
 // The classic BPF program that accepts exactly what the header says for

@@ -12,6 +12,7 @@
 
 #include "bus.hpp"
 #include "bus_filter.hpp"
+#include "lcmlog.hpp"
 
 namespace afm {
 
@@ -19,6 +20,7 @@ namespace {
 
 constexpr int kBatch = 64;                 // datagrams per recvmmsg
 constexpr std::size_t kDatagramMax = 65536;
+static_assert(BusTap::kMaxMessageBytes <= LogReader::kMaxDataBytes, "the tap gathers no message its log cannot hold");
 
 struct Url {
     in_addr group{};
@@ -77,8 +79,10 @@ BusTap::~BusTap()
 
 bool BusTap::wait(int timeout_ms)
 {
+    // An error on the socket counts as readable: drain()'s recvmmsg takes
+    // it (clearing it), so a socket error never turns waits into a spin.
     pollfd p{fd_, POLLIN, 0};
-    return poll(&p, 1, timeout_ms) > 0 && (p.revents & POLLIN);
+    return poll(&p, 1, timeout_ms) > 0 && p.revents != 0;
 }
 
 int BusTap::drain(const Sink &sink, int max)
@@ -103,7 +107,7 @@ int BusTap::drain(const Sink &sink, int max)
             msgs[i].msg_hdr.msg_controllen = CMSG_SPACE(sizeof(timeval));
         }
         const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
-        if (got <= 0) break;   // nothing queued (EAGAIN), or the socket failed: the caller's next wait says
+        if (got <= 0) break;   // nothing queued (EAGAIN), or a socket error, now taken
         for (int i = 0; i < got; ++i) {
             int64_t utime = wall_utime();
             for (cmsghdr *c = CMSG_FIRSTHDR(&msgs[i].msg_hdr); c; c = CMSG_NXTHDR(&msgs[i].msg_hdr, c))
@@ -144,9 +148,16 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
         it = partial_.end();
     }
     if (it == partial_.end()) {
-        if (g.fragment_no != 0 || g.msg_size > kMaxMessageBytes) {
-            ++dropped_;   // no fragment 0 to name the channel (liblcm drops these too)
+        // no fragment 0 to name the channel (liblcm drops these too), or a
+        // size no message of the log may have or its fragments cannot carry
+        if (g.fragment_no != 0 || g.msg_size > kMaxMessageBytes ||
+            g.msg_size > static_cast<std::size_t>(g.fragments) * kDatagramMax) {
+            ++dropped_;
             return 0;
+        }
+        if (partial_.size() >= kMaxPartial) {
+            ++abandoned_;
+            partial_.erase(partial_.begin());
         }
         Partial p;
         p.seqno = g.seqno;
@@ -158,8 +169,10 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
     }
     Partial &p = it->second;
     const std::size_t size = n - g.payload_at;
-    if (static_cast<std::size_t>(g.offset) + size > p.data.size()) {
-        ++dropped_;
+    if (g.offset > p.data.size() || size > p.data.size() - g.offset) {
+        ++dropped_;   // and its message cannot be whole: abandoned, as liblcm does
+        ++abandoned_;
+        partial_.erase(it);
         return 0;
     }
     if (p.got[g.fragment_no]) return 0;   // a fragment twice (a duplicated datagram): taken once

@@ -19,9 +19,11 @@
 //     as liblcm gathers them; delivered once every fragment has come. A
 //     fragment repeated is taken once; a new message from the same sender
 //     abandons the one it had not finished (counted in abandoned()).
-//   - anything else (garbage, a fragment without its fragment 0, a
-//     fragment past its message's size, a message over kMaxMessageBytes)
-//     is dropped and counted (dropped()), as liblcm drops it.
+//   - anything else (garbage, a name over 63 bytes, a fragment without
+//     its fragment 0, a fragment past its message's size, a message over
+//     kMaxMessageBytes or larger than its fragments can carry) is dropped
+//     and counted (dropped()), as liblcm drops it; a fragment that does
+//     not fit abandons its message.
 // The header layout is bus_filter.hpp's (the bench's one reader of LCM's
 // datagrams). Publishing stays with liblcm, so what lcm-spy, lcm-logger and
 // every other process see is unchanged.
@@ -65,9 +67,13 @@ public:
     // Fragmented messages left unfinished (a fragment lost).
     int64_t abandoned() const { return abandoned_; }
 
-    // The largest message gathered from fragments (liblcm's own limit is larger;
-    // the bench's largest, a scan line of 8192 points, is 200 kB).
-    static constexpr std::size_t kMaxMessageBytes = 64u << 20;
+    // The largest message gathered from fragments: the largest the run's log
+    // holds (LogReader::kMaxDataBytes, 16 MiB; the bench's largest, a scan
+    // line of 8192 points, is 200 kB). liblcm's own limit is larger.
+    static constexpr std::size_t kMaxMessageBytes = 16u << 20;
+    // Fragmented messages held unfinished at once, over every sender (as
+    // liblcm's store, beyond it one is abandoned).
+    static constexpr std::size_t kMaxPartial = 16;
 
 private:
     struct Partial {

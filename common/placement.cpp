@@ -5,6 +5,9 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
+
 #include <utility>
 
 namespace afm {
@@ -68,12 +71,19 @@ Placement::Placement(const std::vector<int> &allowed, const std::string &lock_di
         why_ = "one CPU allowed (" + cpu_list(allowed) + "): nothing to place";
         return;
     }
+    std::string trouble;   // a lock file that could not be used, other than taken
     for (int c : allowed) {
         const std::string path = lock_dir + "/afm-lockstep-cpu" + std::to_string(c) + ".lock";
-        // Read-only is enough for flock, so a file another user created serves too.
-        const int fd = open(path.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0666);
-        if (fd < 0) continue;
+        // Read-only is enough for flock; an existing file is opened without
+        // O_CREAT, which fs.protected_regular refuses on another user's file.
+        int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0 && errno == ENOENT) fd = open(path.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0666);
+        if (fd < 0) {
+            trouble = path + ": " + std::strerror(errno);
+            continue;
+        }
         if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            if (errno != EWOULDBLOCK) trouble = path + ": " + std::strerror(errno);
             close(fd);
             continue;
         }
@@ -84,7 +94,8 @@ Placement::Placement(const std::vector<int> &allowed, const std::string &lock_di
         why_.clear();
         return;
     }
-    why_ = "every CPU allowed (" + cpu_list(allowed) + ") holds another run's lockstep";
+    why_ = trouble.empty() ? "every CPU allowed (" + cpu_list(allowed) + ") holds another run's lockstep"
+                           : "no lock file to take: " + trouble;
 }
 
 Placement::~Placement()

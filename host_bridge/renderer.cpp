@@ -116,6 +116,8 @@ struct Renderer {
     int due_pending = 0;         // frames due when a scan paused the frames
     nlohmann::json local_scans = nlohmann::json::array();
     cv::VideoWriter video;
+    int64_t objects_seq = -1;    // the latest block whose FW_OBJECTS came
+    int64_t objects_missed = 0;  // blocks whose FW_OBJECTS never came (lost on the bus)
     int total_frames;            // the run's frames: the scene's, or fewer when the planner finishes early
     std::vector<int> sheet_at;   // frame indices for the contact sheet
     std::map<int, cv::Mat> sheet;   // frames kept for the sheet, by index
@@ -295,6 +297,11 @@ struct Renderer {
     afm::Reject on_objects(const afm::objects_t &msg)
     {
         if (const afm::Reject r = block_message(msg.seq, msg.utime); r != afm::Reject::none) return r;
+        // A block whose objects never came: the simulator no longer waits at
+        // every frame, so a frame due at a lost block is drawn from a later
+        // one (renderer_report.json: objects_blocks_missed; README).
+        if (objects_seq >= 0 && msg.seq > objects_seq + 1) objects_missed += msg.seq - objects_seq - 1;
+        objects_seq = std::max(objects_seq, msg.seq);
         // Every message keeps the whole set; what follows reads the set.
         if (!objects.apply(msg)) return afm::Reject::out_of_range;
         objects_frames(&objects.whole());
@@ -627,6 +634,7 @@ int main(int argc, char **argv)
             cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
         }
         nlohmann::json rep = {{"frames", r.frames_written},
+                              {"objects_blocks_missed", r.objects_missed},
                               {"frames_expected", r.total_frames},
                               {"image_px", scene.out.image_px},
                               {"update_mode", scene.out.update_mode},

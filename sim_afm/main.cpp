@@ -373,11 +373,11 @@ int main(int argc, char **argv)
             if (scene.time_mode == "realtime") {
                 std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
             }
-            const int frames_due = renderer ? afm::frames_to_wait_for(scene, n, blocks) : 0;
+            const int frames_needed = renderer ? afm::frames_to_wait_for(scene, n, blocks) : 0;
             auto last_send = std::chrono::steady_clock::now();
             sim.waiting_after = n;
             sim.serve_due_scans();
-            while (sim.acked < n || sim.frames_done < frames_due) {
+            while (sim.acked < n || sim.frames_done < frames_needed) {
                 lc->handleTimeout(resend_ms);
                 sim.serve_due_scans();
                 if (sim.abort) return 3;

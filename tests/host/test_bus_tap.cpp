@@ -195,9 +195,16 @@ void test_what_lcm_would_drop_is_dropped_and_counted()
     send_raw(fragment(22, 20, 0, 2, 2, "NUMBER", p));                      // number not below its count
     std::vector<unsigned char> noname = {'L', 'C', '0', '2', 0, 0, 0, 1, 'A', 'B'};   // a name without its NUL
     send_raw(noname);
+    // a name over liblcm's 63 bytes (the run's log could not hold one of 1100)
+    std::vector<unsigned char> longname = {'L', 'C', '0', '2', 0, 0, 0, 2};
+    longname.insert(longname.end(), 64, 'N');
+    longname.push_back(0);
+    send_raw(longname);
+    send_raw(fragment(23, (16u << 20) + 1, 0, 0, 300, "HUGE", p));          // over what the log holds
+    send_raw(fragment(24, 200000, 0, 0, 2, "NOROOM", p));                  // more than 2 fragments can carry
     const auto got = take(0);
     TEST_ASSERT_EQUAL_INT(0, static_cast<int>(got.size()));
-    TEST_ASSERT_EQUAL_INT(6, static_cast<int>(tap->dropped() - before));
+    TEST_ASSERT_EQUAL_INT(9, static_cast<int>(tap->dropped() - before));
 }
 
 // A fragment lost: the sender's next message abandons the unfinished one,

@@ -124,6 +124,9 @@ void test_a_lock_dir_that_cannot_be_written_places_nothing()
 {
     const afm::Placement p({0, 1}, "/nonexistent-afm-dir");
     TEST_ASSERT_FALSE(p.on());
+    // and says why, naming the file: not "taken by another run"
+    TEST_ASSERT_NOT_EQUAL(std::string::npos, p.why().find("/nonexistent-afm-dir/afm-lockstep-cpu1.lock"));
+    TEST_ASSERT_EQUAL(std::string::npos, p.why().find("another run"));
 }
 
 void test_this_process_can_be_pinned_and_read_back()
