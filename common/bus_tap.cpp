@@ -33,12 +33,12 @@ Url parse(const std::string &url)
     const std::string head = "udpm://";
     auto fail = [&](const std::string &why) { return std::runtime_error("bus tap: " + url + ": " + why); };
     if (url.rfind(head, 0) != 0) throw fail("not a udpm:// URL");
-    const std::size_t colon = url.find(':', head.size()), q = url.find('?');
-    if (colon == std::string::npos || (q != std::string::npos && q < colon)) throw fail("no GROUP:PORT");
     Url u;
+    u.port = udpm_port(url.c_str());   // bus.hpp's reader of the port, as afm_netfault's rule uses it
+    if (u.port < 0) throw fail("no GROUP:PORT");
+    if (u.port == 0 || u.port > 65535) throw fail("the port is not in 1..65535");
+    const std::size_t colon = url.rfind(':', url.find('?'));
     if (inet_pton(AF_INET, url.substr(head.size(), colon - head.size()).c_str(), &u.group) != 1) throw fail("the group is not an IPv4 address");
-    u.port = std::atoi(url.substr(colon + 1, q == std::string::npos ? std::string::npos : q - colon - 1).c_str());
-    if (u.port <= 0 || u.port > 65535) throw fail("the port is not in 1..65535");
     const std::size_t rb = url.find("recv_buf_size=");
     if (rb != std::string::npos) u.recv_buf = std::atoi(url.c_str() + rb + std::strlen("recv_buf_size="));
     return u;
@@ -109,13 +109,14 @@ int BusTap::drain(const Sink &sink, int max)
         const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
         if (got <= 0) break;   // nothing queued (EAGAIN), or a socket error, now taken
         for (int i = 0; i < got; ++i) {
-            int64_t utime = wall_utime();
+            int64_t utime = -1;
             for (cmsghdr *c = CMSG_FIRSTHDR(&msgs[i].msg_hdr); c; c = CMSG_NXTHDR(&msgs[i].msg_hdr, c))
                 if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMP) {
                     timeval tv;
                     std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
                     utime = static_cast<int64_t>(tv.tv_sec) * 1000000 + tv.tv_usec;
                 }
+            if (utime < 0) utime = wall_utime();   // no kernel time came with it: now
             if (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) {
                 ++dropped_;
                 continue;
