@@ -1,14 +1,8 @@
 #include "bus_filter.hpp"
 
-#include <dirent.h>
-#include <netinet/in.h>
 #include <sys/socket.h>
-#include <unistd.h>
 
-#include <cstdlib>
 #include <cstring>
-
-#include "bus.hpp"
 
 namespace afm {
 
@@ -44,25 +38,6 @@ std::vector<sock_filter> channel_block(const std::string &channel)
     p.push_back(stmt(BPF_RET | BPF_K, kAccept));
     for (std::size_t j : fail) p[j].jf = static_cast<uint8_t>(p.size() - (j + 1));   // < 255: names are short (checked below)
     return p;
-}
-
-struct State {
-    std::set<std::string> channels;
-    bool attached = false;
-};
-State &state()
-{
-    static State s;
-    return s;
-}
-
-bool attach(const std::set<std::string> &channels)
-{
-    const int fd = bus_receive_socket();
-    if (fd < 0) return false;
-    std::vector<sock_filter> prog = bus_filter_program(channels);
-    sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
-    return setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0;
 }
 
 uint32_t be32(const unsigned char *p) { return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3]; }
@@ -115,15 +90,13 @@ std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channel
 {
     std::vector<sock_filter> p = {
         stmt(BPF_LD | BPF_W | BPF_LEN, 0),
-        jump(BPF_JMP | BPF_JGE | BPF_K, kUdpHeader + 4, 1, 0),   // too short for a magic: liblcm's to judge
+        jump(BPF_JMP | BPF_JGE | BPF_K, kUdpHeader + 4, 1, 0),   // too short for a magic: the receiver's to judge
         stmt(BPF_RET | BPF_K, kAccept),
         stmt(BPF_LD | BPF_W | BPF_ABS, kUdpHeader),
-        jump(BPF_JMP | BPF_JEQ | BPF_K, kLcmShortMagic, 1, 0),       // a fragment or garbage: liblcm's to judge
+        jump(BPF_JMP | BPF_JEQ | BPF_K, kLcmShortMagic, 1, 0),       // a fragment or garbage: the receiver's to judge
         stmt(BPF_RET | BPF_K, kAccept),
     };
-    std::set<std::string> all = channels;
-    all.insert("LCM_SELF_TEST");   // liblcm's own test of the socket, when it opens it
-    for (const auto &c : all) {
+    for (const auto &c : channels) {
         if (c.size() > 200) {   // a jump past a longer name would not fit in 8 bits: keep it unfiltered
             return {stmt(BPF_RET | BPF_K, kAccept)};
         }
@@ -134,40 +107,11 @@ std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channel
     return p;
 }
 
-int bus_receive_socket()
+bool bus_filter_attach(int fd, const std::set<std::string> &channels)
 {
-    DIR *d = opendir("/proc/self/fd");
-    if (!d) return -1;
-    int found = -1;
-    while (dirent *e = readdir(d)) {
-        char *end = nullptr;
-        const long fd = std::strtol(e->d_name, &end, 10);
-        if (end == e->d_name || *end || fd == dirfd(d)) continue;
-        int type = 0, domain = 0;
-        socklen_t n = sizeof type;
-        if (getsockopt(static_cast<int>(fd), SOL_SOCKET, SO_TYPE, &type, &n) < 0 || type != SOCK_DGRAM) continue;
-        n = sizeof domain;
-        if (getsockopt(static_cast<int>(fd), SOL_SOCKET, SO_DOMAIN, &domain, &n) < 0 || domain != AF_INET) continue;
-        sockaddr_in a{};
-        n = sizeof a;
-        if (getsockname(static_cast<int>(fd), reinterpret_cast<sockaddr *>(&a), &n) < 0) continue;
-        if (a.sin_family != AF_INET || ntohs(a.sin_port) != kBusPort) continue;
-        if (found >= 0) {   // two: one inherited from another process (not ours to filter), or two buses
-            found = -2;
-            break;
-        }
-        found = static_cast<int>(fd);
-    }
-    closedir(d);
-    return found < 0 ? -1 : found;
-}
-
-bool bus_filter_add(const std::string &channel)
-{
-    State &s = state();
-    s.channels.insert(channel);
-    s.attached = attach(s.channels);
-    return s.attached;
+    std::vector<sock_filter> prog = bus_filter_program(channels);
+    sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
+    return setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0;
 }
 
 }  // namespace afm

@@ -1,34 +1,32 @@
 // The kernel's share of a subscription: a classic BPF filter on a process's
-// LCM receive socket that lets through only the datagrams on the channels
-// the process subscribed to, so a datagram for another process never wakes
+// bus socket that lets through only the datagrams on the channels the
+// process subscribed to, so a datagram for another process never wakes
 // this one. udpm delivers every datagram of the group to every socket on
-// it; without the filter each of a block's eight datagrams wakes LCM's
-// receive thread in each of the five processes, and most of them are
-// dropped there, after a wake-up, a recvmsg and a channel look-up (README,
-// "The bus's latency model"; ./afm bench bus measures both).
+// it; without the filter each of a block's eight datagrams would wake each
+// of the five processes, most of them to be dropped after a wake-up, a
+// recvmsg and a channel look-up (README, "The bus's latency model";
+// ./afm bench bus measures it).
 //
 // What passes the filter:
 //   - an LCM short message (magic "LC02") whose channel is one of the
-//     process's subscriptions or LCM_SELF_TEST;
+//     process's subscriptions;
 //   - every datagram that is not an LCM short message (fragments "LC03",
-//     garbage): liblcm reads and judges those as before.
-// The launcher, which records every channel, receives through a tap of its
-// own (bus_tap.hpp), not through liblcm. Filtering changes what reaches liblcm's receive thread,
-// never what a subscription receives: a channel dropped by the kernel is one
-// liblcm would have dropped itself (no handler).
+//     garbage): the receiver (bus_tap.hpp) reads and judges those itself.
+// A process receives through a BusTap of its own (inbox.hpp), which
+// attaches this filter to its socket (BusTap::accept_only); the launcher,
+// which records every channel, filters nothing. Filtering changes what
+// reaches the process's socket, never what a subscription receives: a
+// channel the kernel drops is one the inbox would have dropped itself (no
+// handler).
 //
 // The channel is read from LCM's UDP multicast header (LCM's "UDP Multicast
 // Protocol": a short message is magic "LC02", a 32-bit sequence number, the
 // channel's name with its NUL, then the payload; a fragment, "LC03", adds
 // its message size, offset, number and count, and names its channel only in
-// fragment 0). LCM exports no reader of its datagrams: the constants and
-// lcm_datagram_channel() below are the bench's one reader, used by this
-// filter and by afm_netfault, and tested against what liblcm sends by every
-// run of the bench (each process filters its socket).
-//
-// Where the filter cannot be attached (not exactly one socket bound to the
-// bus's port: another provider than udpm, or a socket inherited from a
-// parent), nothing is filtered and the process works as without it.
+// fragment 0). LCM exports no reader of its datagrams: the constants,
+// lcm_datagram() and lcm_datagram_channel() below are the bench's one
+// reader, used by this filter, the bus tap and afm_netfault, and tested
+// against what liblcm sends by every run of the bench.
 #pragma once
 
 #include <cstddef>
@@ -71,18 +69,13 @@ bool lcm_datagram(const unsigned char *d, std::size_t n, LcmDatagram *out);
 
 // The classic BPF program that accepts exactly what the header says for
 // `channels` (offsets relative to the UDP header, as a UDP socket's filter
-// sees a datagram). Empty `channels`: only LCM_SELF_TEST and what is not a
-// short message pass.
+// sees a datagram). Empty `channels`: only what is not a short message
+// passes. A name over 200 bytes (a jump past it would not fit BPF's 8 bits)
+// turns the filter into one that passes everything.
 std::vector<sock_filter> bus_filter_program(const std::set<std::string> &channels);
 
-// The process's LCM receive socket: the one datagram socket bound to the
-// bus's port (bus.hpp, kBusPort); -1 if there is none, or more than one (a
-// socket inherited from a parent is the parent's too: never filtered here).
-int bus_receive_socket();
-
-// Adds `channel`, just subscribed on the process's bus, to what its socket
-// lets through, and (re)attaches the filter; false when it could not be
-// attached (then nothing is filtered).
-bool bus_filter_add(const std::string &channel);
+// Attaches bus_filter_program(channels) to socket `fd` (replacing any
+// filter it had); false when the kernel refuses it (errno says why).
+bool bus_filter_attach(int fd, const std::set<std::string> &channels);
 
 }  // namespace afm

@@ -6,7 +6,9 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <stdexcept>
 
@@ -44,6 +46,19 @@ Url parse(const std::string &url)
     return u;
 }
 
+// The kernel's receive time of a datagram read with its control data
+// (SO_TIMESTAMP), in us since the epoch; now when none came with it.
+int64_t stamp_of(msghdr &h)
+{
+    for (cmsghdr *c = CMSG_FIRSTHDR(&h); c; c = CMSG_NXTHDR(&h, c))
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMP) {
+            timeval tv;
+            std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
+            return static_cast<int64_t>(tv.tv_sec) * 1000000 + tv.tv_usec;
+        }
+    return wall_utime();
+}
+
 }  // namespace
 
 BusTap::BusTap(const std::string &url)
@@ -75,6 +90,20 @@ BusTap::BusTap(const std::string &url)
 BusTap::~BusTap()
 {
     if (fd_ >= 0) close(fd_);
+}
+
+void BusTap::accept_only(const std::set<std::string> &channels)
+{
+    if (!bus_filter_attach(fd_, channels)) throw std::runtime_error(std::string("bus tap: SO_ATTACH_FILTER: ") + std::strerror(errno));
+    filtered_ = true;
+    accept_ = channels;
+}
+
+int64_t BusTap::receive_buffer_bytes() const
+{
+    int v = 0;
+    socklen_t n = sizeof v;
+    return getsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &v, &n) == 0 ? v : 0;
 }
 
 bool BusTap::wait(int timeout_ms)
@@ -109,24 +138,50 @@ int BusTap::drain(const Sink &sink, int max)
         const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
         if (got <= 0) break;   // nothing queued (EAGAIN), or a socket error, now taken
         for (int i = 0; i < got; ++i) {
-            int64_t utime = -1;
-            for (cmsghdr *c = CMSG_FIRSTHDR(&msgs[i].msg_hdr); c; c = CMSG_NXTHDR(&msgs[i].msg_hdr, c))
-                if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_TIMESTAMP) {
-                    timeval tv;
-                    std::memcpy(&tv, CMSG_DATA(c), sizeof tv);
-                    utime = static_cast<int64_t>(tv.tv_sec) * 1000000 + tv.tv_usec;
-                }
-            if (utime < 0) utime = wall_utime();   // no kernel time came with it: now
             if (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) {
                 ++dropped_;
                 continue;
             }
-            messages += take(static_cast<const unsigned char *>(iov[i].iov_base), msgs[i].msg_len, from[i], utime, sink);
+            messages += take(static_cast<const unsigned char *>(iov[i].iov_base), msgs[i].msg_len, from[i], stamp_of(msgs[i].msg_hdr), sink);
         }
         read += got;
         if (got < want) break;
     }
     return messages;
+}
+
+int BusTap::read_one(const Sink &sink)
+{
+    if (one_.empty()) one_.resize(kDatagramMax);
+    alignas(cmsghdr) unsigned char ctl[CMSG_SPACE(sizeof(timeval))];
+    sockaddr_in from{};
+    iovec iov{one_.data(), one_.size()};
+    msghdr h{};
+    h.msg_name = &from;
+    h.msg_namelen = sizeof from;
+    h.msg_iov = &iov;
+    h.msg_iovlen = 1;
+    h.msg_control = ctl;
+    h.msg_controllen = sizeof ctl;
+    const ssize_t n = recvmsg(fd_, &h, MSG_DONTWAIT);
+    if (n < 0) return -1;   // nothing queued, or a socket error (now taken: the next poll waits)
+    if (h.msg_flags & MSG_TRUNC) {
+        ++dropped_;
+        return 0;
+    }
+    return take(one_.data(), static_cast<std::size_t>(n), from, stamp_of(h), sink);
+}
+
+int BusTap::next(const Sink &sink, int timeout_ms)
+{
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(std::max(0, timeout_ms));
+    for (;;) {
+        const int r = read_one(sink);
+        if (r > 0) return 1;
+        if (r == 0) continue;   // a datagram that completed no message (a fragment, one dropped)
+        const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+        if (left <= 0 || !wait(static_cast<int>(left))) return 0;
+    }
 }
 
 int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink)
@@ -137,13 +192,14 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
         return 0;
     }
     if (!g.fragment) {
+        if (filtered_ && !accept_.count(g.channel)) return 0;   // the kernel let it by: a name past its filter's reach
         sink(g.channel, d + g.payload_at, n - g.payload_at, utime);
         return 1;
     }
     const uint64_t key = (static_cast<uint64_t>(ntohl(from.sin_addr.s_addr)) << 16) | ntohs(from.sin_port);
     auto it = partial_.find(key);
     if (it != partial_.end() &&
-        (it->second.seqno != g.seqno || it->second.data.size() != g.msg_size || it->second.got.size() != g.fragments)) {
+        (it->second.seqno != g.seqno || it->second.size != g.msg_size || it->second.got.size() != g.fragments)) {
         ++abandoned_;   // the sender has moved on: a fragment of the old message was lost
         partial_.erase(it);
         it = partial_.end();
@@ -163,25 +219,28 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
         Partial p;
         p.seqno = g.seqno;
         p.channel = g.channel;
-        p.data.resize(g.msg_size);
+        p.size = g.msg_size;
+        p.skip = filtered_ && !accept_.count(g.channel);   // another process's message: followed, not copied
+        if (!p.skip) p.data.resize(g.msg_size);
         p.got.assign(g.fragments, false);
         p.missing = g.fragments;
         it = partial_.emplace(key, std::move(p)).first;
     }
     Partial &p = it->second;
     const std::size_t size = n - g.payload_at;
-    if (g.offset > p.data.size() || size > p.data.size() - g.offset) {
+    if (g.offset > p.size || size > p.size - g.offset) {
         ++dropped_;   // and its message cannot be whole: abandoned, as liblcm does
         ++abandoned_;
         partial_.erase(it);
         return 0;
     }
     if (p.got[g.fragment_no]) return 0;   // a fragment twice (a duplicated datagram): taken once
-    std::memcpy(p.data.data() + g.offset, d + g.payload_at, size);
+    if (!p.skip) std::memcpy(p.data.data() + g.offset, d + g.payload_at, size);
     p.got[g.fragment_no] = true;
     if (--p.missing > 0) return 0;
     const Partial whole = std::move(p);
     partial_.erase(it);
+    if (whole.skip) return 0;
     sink(whole.channel, whole.data.data(), whole.data.size(), utime);
     return 1;
 }

@@ -1,16 +1,20 @@
-// The whole bus, received without liblcm's receive thread: the launcher's
-// tap, from which it records every message (bus_recorder.hpp) and reads the
-// processes' heartbeats.
+// The bus, received without liblcm's receive thread: how every process of
+// a run takes messages off the bus. The launcher's tap records every
+// message (bus_recorder.hpp); each other process's inbox (inbox.hpp) holds
+// a tap filtered to its own channels (accept_only).
 //
 // Why (README "The bus's latency model"; ./afm bench bus measures it):
 // liblcm's udpm provider receives each datagram on a thread of its own,
-// which wakes for every datagram and hands it to the caller through a pipe.
-// The launcher hears all of a block's eight datagrams; a wake-up each cost
-// it about as much CPU as the rest of the run's observers together, on the
-// CPU it shares with the renderer. The tap is one socket read by the
-// caller's own thread: it sleeps between batches (the launcher's 0.5 ms),
-// and then takes every datagram already queued with one recvmmsg call per
-// 64 of them.
+// which wakes for every datagram and hands it to the caller's thread
+// through a pipe: two wake-ups and a pipe per message, where a socket read
+// by the caller's own thread needs one. On a lockstep hop that is about
+// half its latency; the launcher, which hears all of a block's eight
+// datagrams, spent about as much CPU on the wake-ups as the rest of the
+// run's observers together. The tap is one socket read by the caller's own
+// thread, either a message at a time (next(), as liblcm's handleTimeout
+// hands them) or in batches (drain(): the launcher and the renderer sleep
+// between batches and then take every datagram already queued, with one
+// recvmmsg call per 64 of them).
 //
 // What it receives is what liblcm would deliver to a subscription to ".*":
 //   - a short message (magic "LC02"): its channel and payload at once;
@@ -38,6 +42,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -56,11 +61,28 @@ public:
     BusTap(const BusTap &) = delete;
     BusTap &operator=(const BusTap &) = delete;
 
+    // Hands on only messages on `channels`: the kernel drops the other
+    // short messages before they reach the socket (bus_filter.hpp's program,
+    // attached to it); a message gathered from fragments on another channel
+    // is dropped here, uncounted (it is not garbage, only not this
+    // receiver's). Throws std::runtime_error when the kernel refuses the
+    // filter.
+    void accept_only(const std::set<std::string> &channels);
+
     // Waits up to timeout_ms for a datagram; true when one is queued.
     bool wait(int timeout_ms);
+    // Hands the next whole message to `sink`, waiting up to timeout_ms
+    // (0: only what is already queued) for it to come: one message at
+    // most, as liblcm's handleTimeout. Returns 1 when it handed one, 0 when
+    // none came in time.
+    int next(const Sink &sink, int timeout_ms);
     // Hands every message already received (up to `max` datagrams read) to
     // `sink`, in the order they arrived; returns the messages handed.
     int drain(const Sink &sink, int max = 100000);
+
+    // The socket's receive buffer as the kernel granted it (SO_RCVBUF, in
+    // its accounting of a datagram's memory); 0 if it cannot say.
+    int64_t receive_buffer_bytes() const;
 
     // Datagrams that are not part of any message LCM would deliver.
     int64_t dropped() const { return dropped_; }
@@ -79,15 +101,22 @@ private:
     struct Partial {
         uint32_t seqno = 0;
         std::string channel;
+        std::size_t size = 0;             // the whole message's, bytes
+        bool skip = false;                // not on an accepted channel: data left empty
         std::vector<unsigned char> data;
         std::vector<bool> got;   // per fragment
         uint32_t missing = 0;
     };
     int take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink);
+    // Reads one datagram already queued: -1 none, else what take() handed.
+    int read_one(const Sink &sink);
 
     int fd_ = -1;
     std::map<uint64_t, Partial> partial_;   // by sender (address, port)
     int64_t dropped_ = 0, abandoned_ = 0;
+    std::vector<unsigned char> one_;   // read_one's datagram
+    bool filtered_ = false;            // accept_only() was called: only accept_ is handed on
+    std::set<std::string> accept_;
 };
 
 }  // namespace afm

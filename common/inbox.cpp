@@ -1,8 +1,15 @@
 #include "inbox.hpp"
 
-#include "bus_filter.hpp"
+#include "bus_tap.hpp"
 
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 #include "afm_channels.h"
 #include "bus.hpp"
@@ -103,11 +110,99 @@ void Inbox::check_channel(const std::string &channel, const char *type_name) con
     if (t != type_name) throw std::logic_error("Inbox: channel " + channel + " carries " + t + ", not " + type_name);
 }
 
+struct Inbox::Batcher {
+    struct Msg {
+        std::string channel;
+        std::vector<unsigned char> data;
+    };
+    std::mutex m;
+    std::condition_variable ready;
+    std::deque<Msg> queue;
+    std::atomic<bool> stop{false};
+    std::atomic<int64_t> dropped{0};
+    std::thread thread;
+
+    // The thread: the only reader of the tap once started.
+    void run(BusTap &tap, int batch_us)
+    {
+        std::vector<Msg> batch;
+        const BusTap::Sink take = [&](const std::string &channel, const unsigned char *d, std::size_t n, int64_t) {
+            batch.push_back({channel, std::vector<unsigned char>(d, d + n)});
+        };
+        while (!stop) {
+            if (!tap.wait(50)) continue;
+            std::this_thread::sleep_for(std::chrono::microseconds(batch_us));
+            tap.drain(take);
+            dropped = tap.dropped();
+            if (batch.empty()) continue;
+            {
+                std::lock_guard<std::mutex> lock(m);
+                for (auto &x : batch) queue.push_back(std::move(x));
+            }
+            batch.clear();
+            ready.notify_one();
+        }
+    }
+};
+
+Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
+{
+    const std::string url = bus_url();
+    if (lc_ && url.rfind("udpm://", 0) == 0) {
+        tap_ = std::make_unique<BusTap>(url);
+        tap_->accept_only(channels_);   // nothing until a subscription
+    }
+}
+
+Inbox::~Inbox()
+{
+    if (batcher_) {
+        batcher_->stop = true;
+        batcher_->thread.join();   // within the thread's 50 ms wait
+    }
+}
+
 void Inbox::subscribe(Sub &sub)
 {
-    if (!lc_) return;
-    lc_->subscribe(sub.channel, &Sub::on_raw, &sub)->setQueueCapacity(kQueueCapacity);
-    bus_filter_add(sub.channel);   // the kernel drops the other processes' channels (bus_filter.hpp)
+    if (tap_) {
+        if (batcher_) throw std::logic_error("Inbox: " + sub.channel + " subscribed after the receive thread started");
+        channels_.insert(sub.channel);
+        tap_->accept_only(channels_);   // the kernel drops the other processes' channels (bus_filter.hpp)
+    } else if (lc_) {
+        lc_->subscribe(sub.channel, &Sub::on_raw, &sub)->setQueueCapacity(kQueueCapacity);
+    }
+}
+
+int Inbox::handle(int timeout_ms)
+{
+    if (tap_ && batch_us_ > 0) {
+        if (!batcher_) {
+            batcher_ = std::make_unique<Batcher>();
+            batcher_->thread = std::thread([this] { batcher_->run(*tap_, batch_us_); });
+        }
+        Batcher::Msg msg;
+        {
+            std::unique_lock<std::mutex> lock(batcher_->m);
+            if (!batcher_->ready.wait_for(lock, std::chrono::milliseconds(std::max(0, timeout_ms)),
+                                          [&] { return !batcher_->queue.empty(); }))
+                return 0;
+            msg = std::move(batcher_->queue.front());
+            batcher_->queue.pop_front();
+        }
+        deliver(msg.channel, msg.data.data(), msg.data.size());
+        return 1;
+    }
+    if (tap_)
+        return tap_->next([this](const std::string &channel, const unsigned char *data, std::size_t size,
+                                 int64_t) { deliver(channel, data, size); },
+                          timeout_ms);
+    return lc_ ? lc_->handleTimeout(timeout_ms) : 0;
+}
+
+int64_t Inbox::bus_dropped() const
+{
+    if (batcher_) return batcher_->dropped;
+    return tap_ ? tap_->dropped() : 0;
 }
 
 void Inbox::Sub::on_raw(const lcm::ReceiveBuffer *rbuf, const std::string &)

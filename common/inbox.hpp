@@ -14,8 +14,29 @@
 //   seq_past      a sequence number the process has already passed
 //   seq_future    a sequence number beyond what the protocol can have sent yet
 //   out_of_range  a field outside what the protocol allows (a size, an index)
-// Datagrams that are not LCM packets at all never reach a process: liblcm
-// drops them before any subscription (they are not counted here).
+// Datagrams that are not LCM packets at all never reach a process: the
+// inbox's receiver drops them before any subscription, as liblcm would
+// (counted apart: bus_dropped()).
+//
+// How messages come (README, "The bus's latency model"): on a udpm bus the
+// inbox receives on a socket of its own (bus_tap.hpp) read by the caller's
+// thread in handle(), with the kernel's filter letting through only its
+// channels (bus_filter.hpp), not through liblcm's receive thread; the
+// process publishes through liblcm as before. On another provider (memq://,
+// file://) it subscribes through liblcm.
+//
+// Two ways to read the socket:
+//   - on call (batch_us 0; the lockstep's processes): handle() reads it, so
+//     a message wakes the process at once, and nothing else does. Messages
+//     wait in the socket while the process is busy elsewhere: fine for a
+//     process the lockstep waits for, which is never far behind.
+//   - batched (batch_us > 0; the renderer, an observer the simulator may
+//     run 2 frames ahead of): a thread of the inbox's own waits for the
+//     bus, sleeps batch_us, takes everything queued in one go (recvmmsg)
+//     into a queue in memory, and handle() takes from that queue. One
+//     wake-up per batch, not per datagram; and a main thread busy for
+//     longer than the socket's buffer lasts (a frame's PNG, a fidelity
+//     check) loses nothing, as with liblcm's own receive thread.
 #pragma once
 
 #include <lcm/lcm-cpp.hpp>
@@ -26,10 +47,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
 namespace afm {
+
+class BusTap;
 
 enum class Reject : int {
     none = 0,
@@ -83,14 +107,19 @@ private:
 // returns Reject::none when it took the message, or why it did not.
 class Inbox {
 public:
-    // lc: the bus to subscribe on, or nullptr for an inbox fed by deliver()
-    // alone (replay, the fuzz harnesses).
-    explicit Inbox(lcm::LCM *lc) : lc_(lc) {}
+    // lc: the bus the process opened with open_bus() (the URL bus_url()
+    // names), or nullptr for an inbox fed by deliver() alone (replay, the
+    // fuzz harnesses). batch_us: 0 to read the socket in handle(), or the
+    // receive thread's sleep between batches (above). Throws
+    // std::runtime_error when a udpm bus's socket cannot be opened.
+    explicit Inbox(lcm::LCM *lc, int batch_us = 0);
+    ~Inbox();
     Inbox(const Inbox &) = delete;
     Inbox &operator=(const Inbox &) = delete;
 
     // Throws std::logic_error when the channel is not declared in
-    // channels.yaml with type M (a programming error, caught at start).
+    // channels.yaml with type M, or (batched) when handle() has already
+    // started the receive thread (programming errors, caught at start).
     template <class M>
     void on(const std::string &channel, std::function<Reject(const M &)> handler)
     {
@@ -115,6 +144,17 @@ public:
     // arrived (replay and the fuzz harnesses); returns what the inbox decided.
     Reject deliver(const std::string &channel, const void *data, std::size_t size);
 
+    // Takes the next message off the bus into its handler, waiting up to
+    // timeout_ms (0: only what has come) for one: one message at most, as
+    // liblcm's handleTimeout. Returns 1 when it took one, 0 when none came,
+    // -1 on a bus error (liblcm's). An inbox without a bus returns 0.
+    int handle(int timeout_ms);
+    // Datagrams the receiver dropped before any subscription: not LCM,
+    // names liblcm refuses, fragments of a message never whole.
+    int64_t bus_dropped() const;
+
+    // The batched receive thread's state (inbox.cpp).
+    struct Batcher;
 private:
     struct Sub {
         Inbox *inbox = nullptr;
@@ -126,6 +166,10 @@ private:
     void subscribe(Sub &sub);
 
     lcm::LCM *lc_;
+    std::unique_ptr<BusTap> tap_;     // a udpm bus's receiver (nullptr: liblcm's, or none)
+    std::set<std::string> channels_;  // what tap_ lets through
+    int batch_us_ = 0;
+    std::unique_ptr<Batcher> batcher_;   // started by the first handle() when batch_us_ > 0
     std::vector<std::unique_ptr<Sub>> subs_;
     Rejections rejected_;
 };

@@ -21,6 +21,26 @@
 
 namespace afm {
 
+// The window the simulator keeps ahead of the record, in analog blocks:
+// as many blocks as the recorder's socket can hold while it sleeps between
+// batches, at kLogBytesPerBlock of its receive buffer each, from
+// kLogWindowMin to kLogWindowMax. The receive buffer is the kernel's figure
+// for the recorder's socket (SO_RCVBUF: twice the request, capped by
+// net.core.rmem_max), in the kernel's accounting of a datagram (its
+// buffer, not its payload: about 830 bytes for a small message, 2.3 kB for
+// the default scene's 836-byte analog block). A default-scene block takes
+// about 10 kB of it, a 100-particle scene's about 30 kB: 32 kB a block
+// leaves room. Wider than 8 blocks, the recorder's 0.5 ms sleep no longer
+// stops the simulator (./afm bench bus, "log waits"); past 64 it would
+// gain nothing. Scan lines keep their own window (16 lines).
+constexpr int64_t kLogBytesPerBlock = 32 * 1024;
+constexpr int64_t kLogWindowMin = 8, kLogWindowMax = 64;
+constexpr int64_t log_window_blocks(int64_t receive_buffer_bytes)
+{
+    const int64_t n = receive_buffer_bytes / kLogBytesPerBlock;
+    return n < kLogWindowMin ? kLogWindowMin : n > kLogWindowMax ? kLogWindowMax : n;
+}
+
 class LogTail {
 public:
     explicit LogTail(std::string path) : path_(std::move(path)) {}

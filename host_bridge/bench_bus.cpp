@@ -1,14 +1,17 @@
 // bench_bus: the raw latency of the run's bus (LCM udpm on the namespace's
 // loopback), for ./afm bench bus (tools/bench_bus.py).
 //
-//   bench_bus --sizes 49,836 --count N [--json FILE]
+//   bench_bus --sizes 49,836 --count N [--receive tap|liblcm] [--json FILE]
 //
 // Forks an echo process and, for each payload size, sends N pings one at a
-// time through lcm::LCM exactly as the bench's processes publish and receive
-// (afm::open_bus, handleTimeout). Each ping carries its send time; the echo
-// writes its receive time into the copy it sends back. Both clocks are the
-// machine's CLOCK_MONOTONIC, so
-//   one-way    = echo's receive time - send time   (one hop: publish, kernel, receive thread, handler)
+// time. Both ends publish through lcm::LCM (afm::open_bus), and receive
+// either as the bench's processes do (--receive tap, the default: a socket
+// of their own filtered to their channel and read on their own thread,
+// common/bus_tap.hpp, as afm::Inbox does) or through liblcm's own receive
+// thread (--receive liblcm: subscribe and handleTimeout). Each ping carries
+// its send time; the echo writes its receive time into the copy it sends
+// back. Both clocks are the machine's CLOCK_MONOTONIC, so
+//   one-way    = echo's receive time - send time   (one hop: publish, kernel, receive, handler)
 //   round trip = back at the sender - send time    (two hops)
 // Prints median and p99 of each, in microseconds. Must run inside the run's
 // namespace (tools/in_netns.sh), like any process on the bus.
@@ -28,10 +31,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "bus.hpp"
+#include "bus_tap.hpp"
 
 namespace {
 
@@ -40,11 +45,15 @@ constexpr const char *kPong = "BENCH_BUS_PONG";
 constexpr std::size_t kStampBytes = 24;   // send time, echo's receive time, sequence: int64 each
 
 const char *kUsage =
-    "usage: bench_bus [--sizes B,B,...] [--count N] [--json FILE]\n"
+    "usage: bench_bus [--sizes B,B,...] [--count N] [--receive tap|liblcm] [--json FILE]\n"
     "  The raw one-way and round-trip latency of LCM on the run's bus for each\n"
     "  payload size (bytes, at least 24; default 49,57,76,836,2056; ./afm bench bus\n"
     "  passes the sizes of the messages in a run's log), N pings each (default\n"
-    "  2000). Run inside a network namespace (tools/in_netns.sh).\n";
+    "  2000). --receive: how both ends receive: tap (default) as the bench's\n"
+    "  processes do, a filtered socket read on their own thread; liblcm through\n"
+    "  its receive thread. Run inside a network namespace (tools/in_netns.sh).\n";
+
+bool g_tap = true;   // --receive tap
 
 int64_t now_ns()
 {
@@ -65,6 +74,18 @@ int64_t get64(const uint8_t *p)
 {
     auto lc = afm::open_bus();
     std::vector<uint8_t> out;
+    if (g_tap) {
+        afm::BusTap tap(afm::bus_url());
+        tap.accept_only({kPing});
+        const afm::BusTap::Sink back = [&](const std::string &, const unsigned char *d, std::size_t n, int64_t) {
+            const int64_t t = now_ns();
+            if (n < kStampBytes) return;
+            out.assign(d, d + n);
+            put64(out.data() + 8, t);
+            lc->publish(kPong, out.data(), static_cast<unsigned>(out.size()));
+        };
+        for (;;) tap.next(back, 1000);
+    }
     struct Echo {
         lcm::LCM *lc;
         std::vector<uint8_t> *out;
@@ -102,7 +123,8 @@ struct Row {
 };
 
 // Pings of one size, one at a time; a ping not answered in 100 ms is lost.
-Row measure(lcm::LCM &lc, int bytes, int count)
+// tap: the receiver when --receive tap (nullptr: liblcm's).
+Row measure(lcm::LCM &lc, afm::BusTap *tap, int bytes, int count)
 {
     Row r;
     r.bytes = bytes;
@@ -121,8 +143,19 @@ Row measure(lcm::LCM &lc, int bytes, int count)
             back_ns = t;
         }
     } back;
-    lcm::Subscription *sub = lc.subscribe(kPong, &Back::on, &back);
-    sub->setQueueCapacity(afm::kQueueCapacity);
+    lcm::Subscription *sub = nullptr;
+    afm::BusTap::Sink on_tap;
+    if (tap) {
+        on_tap = [&](const std::string &, const unsigned char *d, std::size_t n, int64_t) {
+            lcm::ReceiveBuffer rb{};
+            rb.data = const_cast<unsigned char *>(d);
+            rb.data_size = static_cast<uint32_t>(n);
+            back.on(&rb, kPong);
+        };
+    } else {
+        sub = lc.subscribe(kPong, &Back::on, &back);
+        sub->setQueueCapacity(afm::kQueueCapacity);
+    }
     for (int i = -50; i < count; ++i) {   // 50 unmeasured pings first: caches and the scheduler warm
         back.want = i;
         back.back_ns = 0;
@@ -130,7 +163,10 @@ Row measure(lcm::LCM &lc, int bytes, int count)
         put64(buf.data(), now_ns());
         lc.publish(kPing, buf.data(), static_cast<unsigned>(buf.size()));
         const int64_t deadline = now_ns() + 100000000;
-        while (!back.back_ns && now_ns() < deadline) lc.handleTimeout(10);
+        while (!back.back_ns && now_ns() < deadline) {
+            if (tap) tap->next(on_tap, 10);
+            else lc.handleTimeout(10);
+        }
         if (i < 0) continue;
         ++r.sent;
         if (!back.back_ns) continue;
@@ -138,7 +174,7 @@ Row measure(lcm::LCM &lc, int bytes, int count)
         one.push_back((back.echo_ns - back.sent_ns) * 1e-3);
         round.push_back((back.back_ns - back.sent_ns) * 1e-3);
     }
-    lc.unsubscribe(sub);
+    if (sub) lc.unsubscribe(sub);
     r.one_way = stats_of(one);
     r.round_trip = stats_of(round);
     return r;
@@ -180,6 +216,13 @@ int main(int argc, char **argv)
                 std::fprintf(stderr, "bench_bus: --count must be at least 10\n");
                 return 2;
             }
+        } else if (a == "--receive") {
+            const std::string v = val();
+            if (v != "tap" && v != "liblcm") {
+                std::fprintf(stderr, "bench_bus: --receive: '%s' is neither tap nor liblcm\n", v.c_str());
+                return 2;
+            }
+            g_tap = v == "tap";
         } else if (a == "--json") {
             json_path = val();
         } else if (a == "-h" || a == "--help") {
@@ -195,8 +238,13 @@ int main(int argc, char **argv)
         const pid_t kid = fork();
         if (kid < 0) throw std::runtime_error("fork failed");
         if (kid == 0) echo();
+        std::unique_ptr<afm::BusTap> tap;
+        if (g_tap) {
+            tap = std::make_unique<afm::BusTap>(afm::bus_url());
+            tap->accept_only({kPong});
+        }
         std::vector<Row> rows;
-        for (int b : sizes) rows.push_back(measure(*lc, b, count));
+        for (int b : sizes) rows.push_back(measure(*lc, tap.get(), b, count));
         kill(kid, SIGTERM);
         waitpid(kid, nullptr, 0);
         std::printf("%8s %8s %12s %12s %12s %12s\n", "bytes", "answered", "one-way med", "one-way p99", "round med", "round p99");

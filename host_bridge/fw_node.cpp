@@ -113,7 +113,7 @@ int main(int argc, char **argv)
         while (!node.sim_done) {
             const int64_t done = node.card.done();
             node.hb.maybe_send(done < 0 ? "ready" : "running", done, node.card.sim_utime_done(), done < 0 ? 200000 : 1000000);
-            lc->handleTimeout(100);
+            inbox.handle(100);
         }
         node.hb.send("done", node.card.done(), node.card.sim_utime_done());
         if (!out_dir.empty()) {

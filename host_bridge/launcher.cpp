@@ -37,6 +37,7 @@ extern "C" {
 #include "bus_recorder.hpp"
 #include "bus_tap.hpp"
 #include "lcmlog.hpp"
+#include "log_tail.hpp"
 #include "placement.hpp"
 #include "bus.hpp"
 #include "inbox.hpp"
@@ -67,7 +68,9 @@ const char *kUsage =
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
     "bench options (./afm bench bus):\n"
     "  --log-window N     sim_afm runs at most N blocks ahead of what the record holds\n"
-    "                     (default 8); 0: no pacing\n"
+    "                     (default: as many as the record's receive buffer holds at\n"
+    "                     32 kB a block, 8 to 64; run.json launcher.log_window_blocks);\n"
+    "                     0: no pacing\n"
     "  --no-renderer      no renderer: no frames, no video, no fidelity check\n"
     "  --placement off    no CPU placement (default on: sim_afm, fw_node and operator share\n"
     "                     one CPU, the launcher and the renderer run on the others;\n"
@@ -229,7 +232,7 @@ struct Options {
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
-    long long log_window = 8;   // sim_afm --log-window; 0: no --follow-log
+    long long log_window = -1;  // sim_afm --log-window; 0: no --follow-log; -1: log_window_blocks() of the tap's buffer
     bool renderer = true;
     bool placement = true;      // common/placement.hpp; --placement off
 };
@@ -253,7 +256,15 @@ int parse_args(int argc, char **argv, Options *o)
         else if (a == "--quiet") o->quiet = true;
         else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
         else if (a == "--stall-s") o->stall_s = std::atof(val().c_str());
-        else if (a == "--log-window") o->log_window = std::atoll(val().c_str());
+        else if (a == "--log-window") {
+            const std::string v = val();
+            char *end = nullptr;
+            o->log_window = std::strtoll(v.c_str(), &end, 10);
+            if (v.empty() || *end || o->log_window < 0) {
+                std::fprintf(stderr, "afm_launch: --log-window wants a number of blocks >= 0, got '%s'\n", v.c_str());
+                return 2;
+            }
+        }
         else if (a == "--no-renderer") o->renderer = false;
         else if (a == "--placement") {
             const std::string v = val();
@@ -293,10 +304,6 @@ int parse_args(int argc, char **argv, Options *o)
     }
     if (!(o->drop_p >= 0 && o->drop_p < 1)) {
         std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
-        return 2;
-    }
-    if (o->log_window < 0) {
-        std::fprintf(stderr, "afm_launch: --log-window must be >= 0, got %lld\n", o->log_window);
         return 2;
     }
     return -1;
@@ -427,8 +434,9 @@ public:
         const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
         std::vector<std::string> sim_cmd = {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop",
                                             std::to_string(o_.drop_p)};
-        if (o_.log_window > 0)
-            sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(o_.log_window)});
+        log_window_ = o_.log_window >= 0 ? o_.log_window : afm::log_window_blocks(tap_->receive_buffer_bytes());
+        if (log_window_ > 0)
+            sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(log_window_)});
         if (!o_.renderer) sim_cmd.push_back("--no-renderer");
         const std::map<std::string, std::vector<std::string>> cmds = {
             {"sim_afm", sim_cmd},
@@ -644,6 +652,7 @@ private:
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
     std::unique_ptr<afm::BusTap> tap_;   // the whole bus, without liblcm's receive thread
+    long long log_window_ = 0;           // the simulator's window on the record, blocks (0: none)
     std::unique_ptr<afm::BusRecorder> recorder_;
     std::string record_error_;   // a write into the record that failed inside pump()
     int64_t recorded_events_ = 0;   // what the record held when it was closed
@@ -716,6 +725,8 @@ private:
                 {"recorded_events", recorded_events_},
                 {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
                 {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
+                {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},
+                {"log_window_blocks", log_window_},
                 {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
                 {"cpu_system_s", ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6},
                 {"max_rss_kb", ru.ru_maxrss}};

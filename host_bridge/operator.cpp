@@ -161,6 +161,7 @@ private:
 struct Operator {
     const afm::Scene &scene;
     lcm::LCM &lc;
+    afm::Inbox *inbox = nullptr;     // the process's inbox, once made (main)
     afm::Heartbeat hb;
     int64_t answered = -2;   // last haptic force answered (-1: the card's request for pose 0)
     afm::haptic_pose_t last{};
@@ -299,7 +300,7 @@ struct Operator {
     {
         while (!done()) {
             if (sim_done) return false;
-            lc.handleTimeout(20);
+            inbox->handle(20);
             if (retry) (this->*retry)();
         }
         return true;
@@ -319,7 +320,7 @@ struct Operator {
         while (!plan_done) {
             const TurnBench::Req r = bench.next(50);
             if (r == TurnBench::Req::None) {
-                lc.handleTimeout(0);
+                inbox->handle(0);
                 if (sim_done) return;
                 continue;
             }
@@ -469,6 +470,7 @@ int main(int argc, char **argv)
         auto lc = afm::open_bus();
         Operator op(scene, *lc);
         afm::Inbox inbox(lc.get());
+        op.inbox = &inbox;
         inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return op.on_heartbeat(m); });
         TurnBench bench;
@@ -499,7 +501,7 @@ int main(int argc, char **argv)
         while (!op.sim_done) {
             op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0, op.answered < -1 ? 200000 : 1000000);
             op.repeat_finished();
-            lc->handleTimeout(op.have_force ? 0 : 100);
+            inbox.handle(op.have_force ? 0 : 100);
             if (!op.have_force) continue;
             if (planner) op.answer_by_planner(bench);
             else op.answer_by_hand();

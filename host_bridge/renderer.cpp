@@ -57,10 +57,11 @@ constexpr int kInitialScan = 1, kFinalScan = 2, kLocalScanBase = 100;
 constexpr int kFixRetryMs = 200;
 constexpr int64_t kProgressPeriodUs = 250000;   // heartbeats the launcher's progress line reads
 constexpr int kScanRetryMs = 500;
-// After a batch of datagrams the renderer sleeps this long before it takes
-// the next, so that a block's five display messages cost one wake-up, not
-// five (README, "The bus's latency model"; ./afm bench bus measures it). A
-// frame is announced at most this much later than it could be.
+// The renderer's inbox takes the bus in batches this far apart, on a thread
+// of its own (inbox.hpp, batched), so that a block's display messages cost
+// one wake-up, not one each, and a frame's PNG or the fidelity check loses
+// none of them (README, "The bus's latency model"; ./afm bench bus measures
+// it). A frame is announced at most this much later than it could be.
 constexpr int kBatchUs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
@@ -586,7 +587,7 @@ int main(int argc, char **argv)
         std::filesystem::create_directories(out_dir + "/frames");
         auto lc = afm::open_bus();
         Renderer r(scene, *lc, out_dir);
-        afm::Inbox inbox(lc.get());
+        afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
         inbox.on<afm::fw_tip_t>(AFM_CH_FW_TIP, [&](const afm::fw_tip_t &m) { return r.on_tip(m); });
         inbox.on<afm::fw_force_t>(AFM_CH_FW_FORCE, [&](const afm::fw_force_t &m) { return r.on_force(m); });
@@ -598,18 +599,16 @@ int main(int argc, char **argv)
         r.hb.send("starting", -1, 0, "scanning");
         r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
         while (r.scan.busy()) {
-            lc->handleTimeout(50);
+            inbox.handle(50);
             if (r.sim_done) return 3;
             r.retry_scan();
         }
         r.begin();
         while (!r.sim_done) {
             r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? 200000 : 1000000);
-            // what has come, then a pause for the next batch (kBatchUs)
-            if (lc->handleTimeout(50) > 0) {
-                while (lc->handleTimeout(0) > 0) {}
-                if (!r.sim_done && r.started) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
-            }
+            // what has come (the inbox's thread takes the bus in batches, kBatchUs apart)
+            if (inbox.handle(50) > 0)
+                while (inbox.handle(0) > 0) {}
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();
         }

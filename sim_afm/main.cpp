@@ -43,7 +43,8 @@ const char *kUsage =
     "  analog block with probability P (failure injection: tests the resend path).\n"
     "  --follow-log LOG: stay within a few blocks of what the run's record has written to LOG.\n"
     "  --log-window BLOCKS: with --follow-log, how many blocks ahead of the log the\n"
-    "  simulator may run (default 8; ./afm bench bus varies it).\n"
+    "  simulator may run (default 8; the launcher passes log_window_blocks() of its\n"
+    "  record's receive buffer, common/log_tail.hpp; ./afm bench bus varies it).\n"
     "  --no-renderer: no renderer on the bus; the simulator waits for no frames\n"
     "  (./afm bench bus measures the lockstep without it). With one, the simulator\n"
     "  runs at most 2 frames ahead of it, and waits for it at each frame where it\n"
@@ -53,8 +54,9 @@ constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line
 // With --follow-log, the simulator stays at most this many analog blocks (about
 // 8 messages each) and scan lines ahead of what the run's record holds
 // (log_tail.hpp), so that a recorder starved of CPU slows the run instead of
-// losing messages: the record's queue (kQueueCapacity) holds far more.
-constexpr int64_t kLogWindowBlocks = 8;   // the default of --log-window
+// losing messages. The launcher passes its own window (log_window_blocks(),
+// from its receive buffer); this is the default when run by hand.
+constexpr int64_t kLogWindowBlocks = afm::kLogWindowMin;   // the default of --log-window
 // Scan requests for the next block the simulator keeps at most (each client
 // has one scan under way; more are refused as out_of_range).
 constexpr std::size_t kLaterScans = 16;
@@ -311,7 +313,7 @@ int main(int argc, char **argv)
         if (renderer) peers.insert("renderer");
         while (!sim.go || !std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())) {
             sim.hb.maybe_send("ready", -1, 0, 200000);
-            lc->handleTimeout(50);
+            inbox.handle(50);
             if (sim.abort) return 3;
         }
 
@@ -378,7 +380,7 @@ int main(int argc, char **argv)
             sim.waiting_after = n;
             sim.serve_due_scans();
             while (sim.acked < n || sim.frames_done < frames_needed) {
-                lc->handleTimeout(resend_ms);
+                inbox.handle(resend_ms);
                 sim.serve_due_scans();
                 if (sim.abort) return 3;
                 if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(resend_ms)) {
@@ -419,7 +421,7 @@ int main(int argc, char **argv)
         if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");
         for (int i = 0; i < 3; ++i) {
             sim.hb.send("done", blocks - 1, afm::block_end_utime(scene, blocks - 1));
-            lc->handleTimeout(20);
+            inbox.handle(20);
         }
         return 0;
     } catch (const afm::SceneError &e) {

@@ -3,7 +3,10 @@
 1. The raw latency of LCM on a run's bus (udpm on a private namespace's
    loopback) for the message sizes the bench sends (read from the first
    run's log): one-way and round trip, median and p99
-   (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp).
+   (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp), received
+   as the bench's processes receive (a socket of their own, filtered to
+   their channels and read on their own thread: common/bus_tap.hpp) and,
+   for comparison, through liblcm's own receive thread.
 2. The floor of one lockstep block: the hops a block needs as the protocol
    stands, from those medians (below, FLOOR_PATHS). Twice, as the
    processes are placed (common/placement.hpp): with the lockstep's three
@@ -15,8 +18,10 @@
    scenes/default.yaml) in five arrangements: as a run is made (placed, the
    log window pacing the simulator, the renderer attached), placement off,
    the log window off, the renderer off, and both off; each as a ratio to
-   the floor of its placement, with the CPU each process spent per block
-   (the kernel's accounting) and whether the log holds every block.
+   the floor of its placement (received as the processes receive; the
+   ratio to liblcm's floor is shown beside it), with the CPU each process
+   spent per block (the kernel's accounting) and whether the log holds
+   every block.
 
 A benchmark: it prints figures and never fails on them. Exit 1 only when a
 run fails.
@@ -70,13 +75,15 @@ def sizes_of(log_path):
     return {ch: int(statistics.median(v)) for ch, v in seen.items()}
 
 
-def raw_latency(sizes, count, out, cpu=None):
-    """{bytes: latency row}; cpu: both ends pinned to that CPU (a placed lockstep's)."""
-    path = os.path.join(out, "latency.json" if cpu is None else f"latency-cpu{cpu}.json")
+def raw_latency(sizes, count, out, cpu=None, receive="tap"):
+    """{bytes: latency row}; cpu: both ends pinned to that CPU (a placed
+    lockstep's); receive: tap (as the bench's processes) or liblcm."""
+    path = os.path.join(out, f"latency-{receive}" + ("" if cpu is None else f"-cpu{cpu}") + ".json")
     sizes = ",".join(str(b) for b in sorted(set(sizes.values())))
     exe = os.path.join(BUILD, "host_bridge", "bench_bus")
     pin = [] if cpu is None else ["taskset", "-c", str(cpu)]
-    p = subprocess.run([IN_NETNS, *pin, exe, "--sizes", sizes, "--count", str(count), "--json", path], capture_output=True, text=True)
+    p = subprocess.run([IN_NETNS, *pin, exe, "--sizes", sizes, "--count", str(count), "--receive", receive, "--json", path],
+                       capture_output=True, text=True)
     if p.returncode:
         sys.exit(f"bench bus: {exe} failed ({p.returncode}): {p.stderr.strip()}")
     with open(path) as f:
@@ -115,6 +122,7 @@ def one_run(scene, args, out):
         "complete": run.get("log", {}).get("complete"),
         "placement": run.get("placement", {"on": False, "why": "not in run.json"}),
         "log_waits": sim["log_window_waits"],
+        "log_window_blocks": run.get("launcher", {}).get("log_window_blocks"),
         "cpu_us_per_block": cpu,
     }
 
@@ -150,25 +158,31 @@ def main(argv=None):
             "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
             "log_complete": all(r["complete"] for r in runs),
             "log_waits": statistics.median(r["log_waits"] for r in runs),
+            "log_window_blocks": runs[0]["log_window_blocks"],
             "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
             "placement": runs[0]["placement"],
             "placed": all(r["placement"].get("on") for r in runs),
         })
     sizes = sizes_of(os.path.join(out, "run-0-0", "bus.lcmlog"))
-    print(f"bench bus: LCM latency, {a.count} pings per size ...", file=sys.stderr)
-    lat = raw_latency(sizes, a.count, out)
     floors = {}
-    floors["kernel"] = dict(floor_of(lat, sizes, serial=False), placement="as the kernel places them (unpinned)", latency=list(lat.values()))
     placed = next((x["placement"] for x in rows if x["placed"]), None)
-    if placed:
-        cpu = int(placed["lockstep_cpus"].split(",")[0].split("-")[0])
-        print(f"bench bus: LCM latency on CPU {cpu} (the lockstep's), {a.count} pings per size ...", file=sys.stderr)
-        lat1 = raw_latency(sizes, a.count, out, cpu)
-        floors["placed"] = dict(floor_of(lat1, sizes, serial=True), placement=f"both ends on CPU {cpu}, as a run places the lockstep",
-                                latency=list(lat1.values()))
+    cpu = int(placed["lockstep_cpus"].split(",")[0].split("-")[0]) if placed else None
+    for receive, how in (("tap", "received as the processes receive"), ("liblcm", "received through liblcm's thread")):
+        suffix = "" if receive == "tap" else " liblcm"
+        print(f"bench bus: LCM latency, {how}, {a.count} pings per size ...", file=sys.stderr)
+        lat = raw_latency(sizes, a.count, out, receive=receive)
+        floors["kernel" + suffix] = dict(floor_of(lat, sizes, serial=False), placement=f"as the kernel places them (unpinned), {how}",
+                                         latency=list(lat.values()), receive=receive)
+        if placed:
+            print(f"bench bus: LCM latency on CPU {cpu} (the lockstep's), {how}, {a.count} pings per size ...", file=sys.stderr)
+            lat1 = raw_latency(sizes, a.count, out, cpu, receive=receive)
+            floors["placed" + suffix] = dict(floor_of(lat1, sizes, serial=True),
+                                             placement=f"both ends on CPU {cpu}, as a run places the lockstep, {how}",
+                                             latency=list(lat1.values()), receive=receive)
     for row in rows:
         row["floor"] = "placed" if row["placed"] and "placed" in floors else "kernel"
         row["ratio_to_floor"] = row["us_per_block"] / floors[row["floor"]]["floor_us"]
+        row["ratio_to_liblcm_floor"] = row["us_per_block"] / floors[row["floor"] + " liblcm"]["floor_us"]
     report = {"sizes": sizes, "floors": floors, "lockstep": rows, "scene": a.scene, "repeat": a.repeat}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)
@@ -197,11 +211,15 @@ def print_tables(r):
             print(f"  {name:9s} path: " + " + ".join(f"{ch} ({who})" for ch, who in hops) + f" = {fl['paths_us'][name]:.1f} us")
         print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
     print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
-    print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x real time':>12s} {'log':>9s} {'waits':>7s}  CPU us/block")
+    print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'x real time':>12s} {'log':>9s} "
+          f"{'window':>7s} {'waits':>7s}  CPU us/block")
     for x in r["lockstep"]:
         cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
-        print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['sim_s_per_wall_s']:12.2f} "
-              f"{'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_waits']:7.0f}  {cpu}")
+        print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['ratio_to_liblcm_floor']:9.2f} "
+              f"{x['sim_s_per_wall_s']:12.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
+              f"{x['log_waits']:7.0f}  {cpu}")
+    print("x floor: against the floor of the arrangement's placement, received as the processes receive; "
+          "x liblcm: against the same floor received through liblcm's thread")
     unplaced = {x["placement"].get("why") for x in r["lockstep"] if not x["placed"] and "--placement" not in x["args"]}
     for why in sorted(w for w in unplaced if w):
         print(f"  not placed: {why}")

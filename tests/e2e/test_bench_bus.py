@@ -18,19 +18,21 @@ PROBE = os.path.join(benchtest.BUILD, "host_bridge", "bench_bus")
 
 class BenchBus(unittest.TestCase):
     def test_the_probe_answers_every_ping_of_every_size(self):
-        p = subprocess.run([benchtest.IN_NETNS, PROBE, "--sizes", "24,836,6200", "--count", "50"], capture_output=True, text=True,
-                           timeout=120)
-        self.assertEqual(p.returncode, 0, p.stderr)
-        rows = [l.split() for l in p.stdout.splitlines()[1:]]
-        self.assertEqual([r[0] for r in rows], ["24", "836", "6200"])
-        for r in rows:
-            self.assertEqual(r[1], "50/50", p.stdout)
-            one_way, round_trip = float(r[2]), float(r[6])
-            self.assertGreater(one_way, 0)
-            self.assertGreater(round_trip, one_way, "a round trip is two hops")
+        # as the processes receive (the default), and through liblcm's thread
+        for receive in ([], ["--receive", "liblcm"]):
+            p = subprocess.run([benchtest.IN_NETNS, PROBE, "--sizes", "24,836,6200", "--count", "50", *receive], capture_output=True,
+                               text=True, timeout=120)
+            self.assertEqual(p.returncode, 0, p.stderr)
+            rows = [l.split() for l in p.stdout.splitlines()[1:]]
+            self.assertEqual([r[0] for r in rows], ["24", "836", "6200"])
+            for r in rows:
+                self.assertEqual(r[1], "50/50", p.stdout)
+                one_way, round_trip = float(r[2]), float(r[6])
+                self.assertGreater(one_way, 0)
+                self.assertGreater(round_trip, one_way, "a round trip is two hops")
 
     def test_the_probe_refuses_absurd_sizes_and_counts(self):
-        for args in (["--sizes", "23"], ["--sizes", "100000"], ["--sizes", "49,x"], ["--count", "3"]):
+        for args in (["--sizes", "23"], ["--sizes", "100000"], ["--sizes", "49,x"], ["--count", "3"], ["--receive", "udp"]):
             p = subprocess.run([benchtest.IN_NETNS, PROBE, *args], capture_output=True, text=True, timeout=60)
             self.assertEqual(p.returncode, 2, args)
             self.assertIn("bench_bus:", p.stderr)
@@ -45,12 +47,16 @@ class BenchBus(unittest.TestCase):
         with open(os.path.join(out, "bench_bus.json")) as f:
             r = json.load(f)
         self.assertGreater(r["floors"]["kernel"]["floor_us"], 0)
+        self.assertGreater(r["floors"]["kernel liblcm"]["floor_us"], 0)
+        self.assertEqual(r["floors"]["kernel"]["receive"], "tap")
         self.assertEqual(len(r["lockstep"]), 5)
         for row in r["lockstep"]:
             # a placed run is held to the floor of one CPU (the four hops in
             # series, pinned), an unplaced one to the kernel's (two paths in parallel)
             self.assertEqual(row["floor"], "placed" if row["placed"] else "kernel", row)
             self.assertGreater(r["floors"][row["floor"]]["floor_us"], 0)
+            self.assertGreater(r["floors"][row["floor"] + " liblcm"]["floor_us"], 0)
+            self.assertGreater(row["ratio_to_liblcm_floor"], 0)
             if "--placement" in row["args"]:
                 self.assertFalse(row["placed"], row)
             self.assertTrue(row["log_complete"], row)
@@ -59,6 +65,9 @@ class BenchBus(unittest.TestCase):
             self.assertEqual("renderer" in row["cpu_us_per_block"], "--no-renderer" not in row["args"], row)
             if "--log-window" in row["args"]:
                 self.assertEqual(row["log_waits"], 0, "no window, no wait")
+                self.assertEqual(row["log_window_blocks"], 0, row)
+            else:   # the launcher's window: from its receive buffer, 8 to 64 blocks
+                self.assertTrue(8 <= row["log_window_blocks"] <= 64, row)
         # the record of a run: every event the launcher wrote reads back
         run = os.path.join(out, "run-0-0")
         with open(os.path.join(run, "run.json")) as f:

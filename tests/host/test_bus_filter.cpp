@@ -1,9 +1,10 @@
 // Unity tests of the kernel's share of a subscription (common/bus_filter):
 // the BPF program attached to a real UDP socket on 127.0.0.1, fed datagrams
 // laid out as liblcm lays out a short message (magic "LC02", sequence
-// number, channel and NUL, payload) and everything it must let liblcm
-// judge itself. (That liblcm's own datagrams pass is shown by every run of
-// the bench: each process filters its socket.)
+// number, channel and NUL, payload) and everything it must let the
+// receiver (common/bus_tap) judge itself. (That liblcm's own datagrams pass
+// is shown by every run of the bench, whose processes filter their sockets,
+// and by test_bus_tap, where liblcm publishes to a filtered inbox.)
 #include <unity.h>
 
 #include <arpa/inet.h>
@@ -18,7 +19,6 @@
 #include <string>
 #include <vector>
 
-#include "bus.hpp"
 #include "bus_filter.hpp"
 
 namespace {
@@ -38,12 +38,7 @@ std::string short_message(const std::string &channel, std::size_t payload = 16, 
     return d;
 }
 
-void attach(const std::set<std::string> &channels)
-{
-    auto prog = afm::bus_filter_program(channels);
-    sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
-    TEST_ASSERT_EQUAL_INT(0, setsockopt(rx, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp));
-}
+void attach(const std::set<std::string> &channels) { TEST_ASSERT_TRUE(afm::bus_filter_attach(rx, channels)); }
 
 // Sends `d`, then a marker the filter always passes (garbage), and reports
 // whether `d` arrived before the marker.
@@ -133,21 +128,36 @@ void test_a_datagram_too_short_for_a_longer_subscribed_name_is_compared_with_the
     TEST_ASSERT_FALSE(passes(short_message("C", 0)));
 }
 
-void test_what_liblcm_judges_itself_always_passes(void)
+void test_what_the_receiver_judges_itself_always_passes(void)
 {
     attach({"AFM_CMD"});
     TEST_ASSERT_TRUE(passes(std::string("x")));                                  // shorter than a magic
     TEST_ASSERT_TRUE(passes(short_message("FW_TIP", 16, 0x4c433033)));            // a fragment ("LC03")
     TEST_ASSERT_TRUE(passes(short_message("FW_TIP", 16, 0xdeadbeef)));            // garbage
-    TEST_ASSERT_TRUE(passes(short_message("LCM_SELF_TEST")));                    // liblcm's own test
+    TEST_ASSERT_FALSE(passes(short_message("LCM_SELF_TEST")));                   // liblcm's own test: not subscribed, not read
     TEST_ASSERT_FALSE(passes(std::string("LC02\0\0\0\x2a", 8)));                 // a short message with no name at all
 }
 
-void test_an_empty_subscription_set_passes_only_liblcms_self_test(void)
+void test_an_empty_subscription_set_passes_no_short_message(void)
 {
     attach({});
-    TEST_ASSERT_TRUE(passes(short_message("LCM_SELF_TEST")));
+    TEST_ASSERT_FALSE(passes(short_message("LCM_SELF_TEST")));
     TEST_ASSERT_FALSE(passes(short_message("AFM_CMD")));
+    TEST_ASSERT_TRUE(passes(short_message("AFM_CMD", 16, 0x4c433033)));   // a fragment: the receiver's to judge
+}
+
+void test_attaching_again_replaces_the_filter(void)
+{
+    attach({"AFM_CMD"});
+    TEST_ASSERT_FALSE(passes(short_message("FW_TIP")));
+    attach({"AFM_CMD", "FW_TIP"});
+    TEST_ASSERT_TRUE(passes(short_message("FW_TIP")));
+    TEST_ASSERT_TRUE(passes(short_message("AFM_CMD")));
+}
+
+void test_a_socket_that_is_not_one_is_refused(void)
+{
+    TEST_ASSERT_FALSE(afm::bus_filter_attach(-1, {"AFM_CMD"}));
 }
 
 void test_many_channels_keep_every_jump_in_range(void)
@@ -164,12 +174,6 @@ void test_an_absurdly_long_name_turns_the_filter_off_rather_than_break_it(void)
 {
     attach({std::string(300, 'Q')});
     TEST_ASSERT_TRUE(passes(short_message("ANYTHING")));
-}
-
-void test_a_process_without_a_bus_socket_finds_none(void)
-{
-    // this test process has sockets, none bound to the bus's port
-    TEST_ASSERT_EQUAL_INT(-1, afm::bus_receive_socket());
 }
 
 std::string channel_of(const std::string &d)
@@ -203,31 +207,6 @@ void test_the_channel_of_a_datagram_is_read_as_liblcm_lays_it_out(void)
     TEST_ASSERT_EQUAL_STRING("", channel_of(std::string()).c_str());
 }
 
-int bound_to_bus_port()
-{
-    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-    const int one = 1;
-    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    a.sin_port = htons(afm::kBusPort);
-    TEST_ASSERT_EQUAL_INT(0, bind(fd, reinterpret_cast<sockaddr *>(&a), sizeof a));
-    return fd;
-}
-
-void test_the_one_socket_on_the_bus_port_is_found_and_two_are_refused(void)
-{
-    const int a = bound_to_bus_port();
-    TEST_ASSERT_EQUAL_INT(a, afm::bus_receive_socket());
-    // a second one (a parent's, inherited): which is ours cannot be told
-    const int b = bound_to_bus_port();
-    TEST_ASSERT_EQUAL_INT(-1, afm::bus_receive_socket());
-    close(b);
-    TEST_ASSERT_EQUAL_INT(a, afm::bus_receive_socket());
-    close(a);
-}
-
 int main(void)
 {
     UNITY_BEGIN();
@@ -236,12 +215,12 @@ int main(void)
     RUN_TEST(test_names_of_every_length_modulo_4_are_compared_to_their_last_byte);
     RUN_TEST(test_a_message_with_no_payload_after_its_name_passes);
     RUN_TEST(test_a_datagram_too_short_for_a_longer_subscribed_name_is_compared_with_the_next);
-    RUN_TEST(test_what_liblcm_judges_itself_always_passes);
-    RUN_TEST(test_an_empty_subscription_set_passes_only_liblcms_self_test);
+    RUN_TEST(test_what_the_receiver_judges_itself_always_passes);
+    RUN_TEST(test_an_empty_subscription_set_passes_no_short_message);
+    RUN_TEST(test_attaching_again_replaces_the_filter);
+    RUN_TEST(test_a_socket_that_is_not_one_is_refused);
     RUN_TEST(test_many_channels_keep_every_jump_in_range);
     RUN_TEST(test_an_absurdly_long_name_turns_the_filter_off_rather_than_break_it);
-    RUN_TEST(test_a_process_without_a_bus_socket_finds_none);
-    RUN_TEST(test_the_one_socket_on_the_bus_port_is_found_and_two_are_refused);
     RUN_TEST(test_the_channel_of_a_datagram_is_read_as_liblcm_lays_it_out);
     return UNITY_END();
 }

@@ -1,11 +1,18 @@
-// Unity tests of the launcher's tap on the bus (common/bus_tap): what liblcm
+// Unity tests of the bus's receiver (common/bus_tap), the launcher's tap
+// and every process's inbox (common/inbox): what liblcm
 // publishes, short or in fragments, from one sender or two at once, comes
 // out whole and in order, as a subscription to ".*" would see it; and what
 // liblcm itself would drop (garbage, a fragment without its fragment 0, a
 // fragment past its message) is dropped and counted, a repeated fragment
-// taken once, an unfinished message abandoned when its sender moves on.
+// taken once, an unfinished message abandoned when its sender moves on; a
+// message at a time (next) as liblcm's handleTimeout hands them; a filtered
+// receiver sees only its channels; an inbox on the bus reads its own socket
+// on the caller's thread and starts no receive thread.
 // Runs inside a private network namespace (tools/in_netns.sh, from ctest):
 // the bus is real udpm multicast on its loopback.
+#include "inbox.hpp"   // (with log_tail.hpp) before unity.h, whose isnan macro breaks nlohmann/json
+#include "log_tail.hpp"
+
 #include <unity.h>
 
 #include <arpa/inet.h>
@@ -22,6 +29,12 @@
 #include <string>
 #include <vector>
 
+#include <chrono>
+#include <dirent.h>
+
+#include "afm/heartbeat_t.hpp"
+#include "afm/scan_line_t.hpp"
+#include "afm_channels.h"
 #include "bus.hpp"
 #include "bus_filter.hpp"
 #include "bus_tap.hpp"
@@ -240,6 +253,169 @@ void test_drain_takes_at_most_max_datagrams()
     TEST_ASSERT_FALSE(tap->wait(5));   // nothing queued: the wait times out
 }
 
+// next(): one message per call, in order, a fragmented one whole; nothing
+// queued: 0 at once with timeout 0, 0 after the timeout otherwise.
+void test_next_hands_one_message_at_a_time_and_waits_no_longer_than_asked()
+{
+    const auto a = pattern(49, 11), b = pattern(836, 12), big = pattern(200000, 13);
+    pub->publish("ONE", a.data(), static_cast<unsigned>(a.size()));
+    pub->publish("TWO", b.data(), static_cast<unsigned>(b.size()));
+    pub->publish("BIG", big.data(), static_cast<unsigned>(big.size()));
+    std::vector<Got> got;
+    auto sink = [&](const std::string &c, const unsigned char *d, std::size_t n, int64_t t) { got.push_back({c, {d, d + n}, t}); };
+    for (int k = 1; k <= 3; ++k) {
+        TEST_ASSERT_EQUAL_INT(1, tap->next(sink, 1000));
+        TEST_ASSERT_EQUAL_INT(k, static_cast<int>(got.size()));
+    }
+    TEST_ASSERT_EQUAL_STRING("ONE", got[0].channel.c_str());
+    TEST_ASSERT_TRUE(got[0].data == a);
+    TEST_ASSERT_EQUAL_STRING("TWO", got[1].channel.c_str());
+    TEST_ASSERT_TRUE(got[1].data == b);
+    TEST_ASSERT_EQUAL_STRING("BIG", got[2].channel.c_str());
+    TEST_ASSERT_TRUE(got[2].data == big);
+    const auto t0 = std::chrono::steady_clock::now();
+    TEST_ASSERT_EQUAL_INT(0, tap->next(sink, 0));
+    TEST_ASSERT_EQUAL_INT(0, tap->next(sink, 30));
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    TEST_ASSERT_TRUE_MESSAGE(ms >= 29, "next returned before its timeout");
+    TEST_ASSERT_EQUAL_INT(3, static_cast<int>(got.size()));
+    // garbage alone completes no message: next goes on waiting, and says 0
+    send_raw({'h', 'e', 'l', 'l', 'o'});
+    TEST_ASSERT_EQUAL_INT(0, tap->next(sink, 20));
+}
+
+// A filtered receiver: short messages on other channels never reach its
+// socket, fragmented ones on other channels are followed but not handed on.
+void test_a_filtered_receiver_hands_on_only_its_channels()
+{
+    afm::BusTap mine(afm::kBusUrl);
+    mine.accept_only({"AFM_CMD"});
+    std::vector<Got> got;
+    auto sink = [&](const std::string &c, const unsigned char *d, std::size_t n, int64_t t) { got.push_back({c, {d, d + n}, t}); };
+    const auto a = pattern(40, 14), big = pattern(150000, 15);
+    pub->publish("FW_TIP", a.data(), static_cast<unsigned>(a.size()));
+    TEST_ASSERT_FALSE_MESSAGE(mine.wait(30), "a short message on another channel reached the socket");
+    pub->publish("AFM_SCAN_LINE", big.data(), static_cast<unsigned>(big.size()));   // fragments pass the kernel
+    TEST_ASSERT_EQUAL_INT(0, mine.next(sink, 50));
+    pub->publish("AFM_CMD", a.data(), static_cast<unsigned>(a.size()));
+    pub->publish("AFM_CMD", big.data(), static_cast<unsigned>(big.size()));
+    TEST_ASSERT_EQUAL_INT(1, mine.next(sink, 1000));
+    TEST_ASSERT_EQUAL_INT(1, mine.next(sink, 1000));
+    TEST_ASSERT_EQUAL_INT(2, static_cast<int>(got.size()));
+    TEST_ASSERT_TRUE(got[0].channel == "AFM_CMD" && got[0].data == a);
+    TEST_ASSERT_TRUE(got[1].channel == "AFM_CMD" && got[1].data == big);
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(mine.dropped()));   // other channels' messages are not garbage
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(mine.abandoned()));
+}
+
+int threads_of_this_process()
+{
+    int n = 0;
+    DIR *d = opendir("/proc/self/task");
+    while (dirent *e = readdir(d))
+        if (e->d_name[0] != '.') ++n;
+    closedir(d);
+    return n;
+}
+
+// An inbox on the bus: its own socket, read in handle() on the caller's
+// thread (no liblcm receive thread), its handler called once per message,
+// only for its channels; the process still publishes through liblcm.
+void test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread()
+{
+    const int threads = threads_of_this_process();
+    afm::Inbox inbox(pub.get());
+    int beats = 0;
+    std::string last;
+    inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) {
+        ++beats;
+        last = m.name;
+        return afm::Reject::none;
+    });
+    afm::Heartbeat hb(*pub, "test_bus_tap");
+    const auto a = pattern(40, 16);
+    pub->publish("FW_TIP", a.data(), static_cast<unsigned>(a.size()));   // not the inbox's channel
+    hb.send("ready", -1, 0);
+    hb.send("running", 0, 0);
+    TEST_ASSERT_EQUAL_INT(1, inbox.handle(1000));
+    TEST_ASSERT_EQUAL_INT(1, beats);
+    TEST_ASSERT_EQUAL_INT(1, inbox.handle(1000));
+    TEST_ASSERT_EQUAL_INT(2, beats);
+    TEST_ASSERT_EQUAL_STRING("test_bus_tap", last.c_str());
+    TEST_ASSERT_EQUAL_INT(0, inbox.handle(20));
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(inbox.rejected().total()));
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(inbox.bus_dropped()));
+    TEST_ASSERT_EQUAL_INT_MESSAGE(threads, threads_of_this_process(), "the inbox started a thread");
+    // a message its decoder refuses is counted, not handed on
+    pub->publish(AFM_CH_AFM_HEARTBEAT, a.data(), static_cast<unsigned>(a.size()));
+    TEST_ASSERT_EQUAL_INT(1, inbox.handle(1000));
+    TEST_ASSERT_EQUAL_INT(2, beats);
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(inbox.rejected().total()));
+    // garbage is the receiver's to drop, before any subscription
+    send_raw({'n', 'o', 'i', 's', 'e'});
+    TEST_ASSERT_EQUAL_INT(0, inbox.handle(50));
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(inbox.bus_dropped()));
+}
+
+// Publishes `n` messages of `bytes` on `channel`, paced (a pause every 20)
+// so that a receive thread that keeps up never has its socket full.
+void publish_paced(const char *channel, int n, std::size_t bytes)
+{
+    const auto a = pattern(bytes, 17);
+    for (int i = 0; i < n; ++i) {
+        pub->publish(channel, a.data(), static_cast<unsigned>(a.size()));
+        if (i % 20 == 19) usleep(2000);
+    }
+}
+
+// A batched inbox (the renderer's): its thread keeps taking the bus while
+// the caller is busy for longer than the socket's buffer lasts; it loses
+// nothing there, where an inbox read on call loses what overflows. One
+// thread more, started by the first handle(); a subscription after it is a
+// programming error.
+void test_a_batched_inbox_loses_nothing_while_its_caller_is_busy()
+{
+    // twice what the socket holds, at the kernel's 8448 bytes for a 6200-byte datagram
+    const int n = static_cast<int>(2 * tap->receive_buffer_bytes() / 8448) + 1;
+    int on_call = 0, batched = 0;
+    afm::Inbox slow(pub.get());
+    slow.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &) { return afm::Reject::none; });
+    afm::Inbox busy(pub.get(), 500);
+    busy.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &) { return afm::Reject::none; });
+    const int threads = threads_of_this_process();
+    TEST_ASSERT_EQUAL_INT(0, busy.handle(0));   // starts its thread
+    TEST_ASSERT_EQUAL_INT(threads + 1, threads_of_this_process());
+    try {
+        busy.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [](const afm::heartbeat_t &) { return afm::Reject::none; });
+        TEST_FAIL_MESSAGE("a subscription after the thread started was taken");
+    } catch (const std::logic_error &) {
+    }
+    publish_paced(AFM_CH_AFM_SCAN_LINE, n, 6200);   // neither caller reads meanwhile
+    usleep(100000);
+    while (busy.handle(200) > 0) ++batched;
+    while (slow.handle(0) > 0) ++on_call;
+    // (the payload is no scan line: each is refused by the decoder, and counted)
+    TEST_ASSERT_EQUAL_INT(n, batched);
+    TEST_ASSERT_EQUAL_INT(n, static_cast<int>(busy.rejected().total()));
+    TEST_ASSERT_TRUE_MESSAGE(on_call < n, "the socket held more than its buffer");
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(busy.bus_dropped()));
+}
+
+// The simulator's window on the record, from the recorder's receive buffer.
+void test_the_log_window_follows_the_receive_buffer_within_its_bounds()
+{
+    TEST_ASSERT_EQUAL_INT(8, static_cast<int>(afm::log_window_blocks(0)));
+    TEST_ASSERT_EQUAL_INT(8, static_cast<int>(afm::log_window_blocks(-1)));
+    TEST_ASSERT_EQUAL_INT(8, static_cast<int>(afm::log_window_blocks(212992)));       // Linux's default rmem_max (6 blocks' worth)
+    TEST_ASSERT_EQUAL_INT(13, static_cast<int>(afm::log_window_blocks(2 * 212992)));  // granted twice the request
+    TEST_ASSERT_EQUAL_INT(64, static_cast<int>(afm::log_window_blocks(8 << 20)));     // the bus URL's 4 MB, doubled
+    TEST_ASSERT_EQUAL_INT(64, static_cast<int>(afm::log_window_blocks(INT64_MAX)));
+    // the tap reads back what the kernel granted: at least the URL's request
+    // where rmem_max allows it (this namespace's), never nothing
+    TEST_ASSERT_TRUE(tap->receive_buffer_bytes() > 0);
+    TEST_ASSERT_TRUE(afm::log_window_blocks(tap->receive_buffer_bytes()) >= 8);
+}
+
 void test_a_url_it_cannot_use_is_refused_by_name()
 {
     for (const char *url : {"tcpq://127.0.0.1:7700", "udpm://not-an-address:7667", "udpm://239.255.76.67:0?ttl=0", "udpm://239.255.76.67"}) {
@@ -272,6 +448,11 @@ int main()
     RUN_TEST(test_what_lcm_would_drop_is_dropped_and_counted);
     RUN_TEST(test_a_new_message_abandons_an_unfinished_one);
     RUN_TEST(test_drain_takes_at_most_max_datagrams);
+    RUN_TEST(test_next_hands_one_message_at_a_time_and_waits_no_longer_than_asked);
+    RUN_TEST(test_a_filtered_receiver_hands_on_only_its_channels);
+    RUN_TEST(test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread);
+    RUN_TEST(test_a_batched_inbox_loses_nothing_while_its_caller_is_busy);
+    RUN_TEST(test_the_log_window_follows_the_receive_buffer_within_its_bounds);
     RUN_TEST(test_a_url_it_cannot_use_is_refused_by_name);
     const int r = UNITY_END();
     close(raw);
