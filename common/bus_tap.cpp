@@ -175,10 +175,13 @@ int BusTap::read_one(const Sink &sink)
 int BusTap::next(const Sink &sink, int timeout_ms)
 {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(std::max(0, timeout_ms));
-    for (;;) {
+    for (int idle = 0;;) {
         const int r = read_one(sink);
         if (r > 0) return 1;
-        if (r == 0) continue;   // a datagram that completed no message (a fragment, one dropped)
+        // a datagram that completed no message (a fragment, one dropped):
+        // read on, but not past the timeout under a stream of them
+        if (r == 0 && (++idle % 256 != 0 || std::chrono::steady_clock::now() < deadline)) continue;
+        if (r == 0) return 0;
         const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
         if (left <= 0 || !wait(static_cast<int>(left))) return 0;
     }

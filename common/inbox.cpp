@@ -7,6 +7,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -120,6 +121,7 @@ struct Inbox::Batcher {
     std::deque<Msg> queue;
     std::atomic<bool> stop{false};
     std::atomic<int64_t> dropped{0};
+    std::exception_ptr failed;   // what ended the thread (under m)
     std::thread thread;
 
     // The thread: the only reader of the tap once started.
@@ -129,6 +131,18 @@ struct Inbox::Batcher {
         const BusTap::Sink take = [&](const std::string &channel, const unsigned char *d, std::size_t n, int64_t) {
             batch.push_back({channel, std::vector<unsigned char>(d, d + n)});
         };
+        try {
+            loop(tap, batch_us, batch, take);
+        } catch (...) {
+            std::lock_guard<std::mutex> lock(m);
+            failed = std::current_exception();
+            stop = true;
+        }
+        ready.notify_one();
+    }
+
+    void loop(BusTap &tap, int batch_us, std::vector<Msg> &batch, const BusTap::Sink &take)
+    {
         while (!stop) {
             if (!tap.wait(50)) continue;
             std::this_thread::sleep_for(std::chrono::microseconds(batch_us));
@@ -156,7 +170,7 @@ Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
 
 Inbox::~Inbox()
 {
-    if (batcher_) {
+    if (batcher_ && batcher_->thread.joinable()) {
         batcher_->stop = true;
         batcher_->thread.join();   // within the thread's 50 ms wait
     }
@@ -177,15 +191,19 @@ int Inbox::handle(int timeout_ms)
 {
     if (tap_ && batch_us_ > 0) {
         if (!batcher_) {
-            batcher_ = std::make_unique<Batcher>();
-            batcher_->thread = std::thread([this] { batcher_->run(*tap_, batch_us_); });
+            auto b = std::make_unique<Batcher>();
+            Batcher *bp = b.get();
+            bp->thread = std::thread([bp, this] { bp->run(*tap_, batch_us_); });   // throws before batcher_ is set
+            batcher_ = std::move(b);
         }
         Batcher::Msg msg;
         {
             std::unique_lock<std::mutex> lock(batcher_->m);
             if (!batcher_->ready.wait_for(lock, std::chrono::milliseconds(std::max(0, timeout_ms)),
-                                          [&] { return !batcher_->queue.empty(); }))
+                                          [&] { return !batcher_->queue.empty() || batcher_->failed; })) {
                 return 0;
+            }
+            if (batcher_->queue.empty()) std::rethrow_exception(batcher_->failed);   // the receive thread's end
             msg = std::move(batcher_->queue.front());
             batcher_->queue.pop_front();
         }

@@ -29,7 +29,8 @@
 //   - on call (batch_us 0; the lockstep's processes): handle() reads it, so
 //     a message wakes the process at once, and nothing else does. Messages
 //     wait in the socket while the process is busy elsewhere: fine for a
-//     process the lockstep waits for, which is never far behind.
+//     process the lockstep waits for, as long as it takes all that came
+//     whenever it looks (handle(0) until it says 0).
 //   - batched (batch_us > 0; the renderer, an observer the simulator may
 //     run 2 frames ahead of): a thread of the inbox's own waits for the
 //     bus, sleeps batch_us, takes everything queued in one go (recvmmsg)

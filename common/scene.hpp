@@ -297,8 +297,9 @@ int frames_due(const Scene &s, int64_t t_us);
 int local_scan_frame(const Scene &s, int i);
 
 // The renderer may fall this many frames behind the blocks the simulator
-// has published before the simulator waits for it. Its subscriptions
-// (kQueueCapacity messages each) hold far more than 2 frames of blocks.
+// has published before the simulator waits for it. Its inbox's receive
+// thread queues what comes in memory (inbox.hpp, batched), so 2 frames of
+// blocks wait there, not in its socket.
 constexpr int kRendererWindowFrames = 2;
 // The frames the renderer must have written before the simulator goes on
 // after block n of a run of `blocks` blocks: all but the last

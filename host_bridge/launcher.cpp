@@ -117,7 +117,8 @@ constexpr int kBusProcessNice = 10;
 
 // After a datagram wakes the launcher, it sleeps this long before it records
 // the next ones, so that it records a block's datagrams in one wake-up, not
-// eight (the simulator's log window is 8 blocks; ./afm bench bus measures it).
+// eight (the simulator's log window, log_window_blocks(), is 8 to 64 blocks;
+// ./afm bench bus measures it).
 constexpr int kBatchUs = 500;
 
 // Starts argv[0] with its output to log_path, env_add added to its
@@ -141,8 +142,7 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
         }
         int devnull = open("/dev/null", O_RDONLY);
         if (devnull >= 0) dup2(devnull, 0);
-        // nothing of the launcher's: its bus socket, its log (a child holding
-        // the launcher's receive socket would filter it as its own: bus_filter.hpp)
+        // nothing of the launcher's: its bus socket, its log
         if (close_range(3, ~0u, 0) != 0)
             for (int k = 3, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
         for (const auto &e : env_add) putenv(const_cast<char *>(e.c_str()));

@@ -320,7 +320,7 @@ struct Operator {
         while (!plan_done) {
             const TurnBench::Req r = bench.next(50);
             if (r == TurnBench::Req::None) {
-                inbox->handle(0);
+                while (inbox->handle(0) > 0) {}   // all that came: the socket is the only queue
                 if (sim_done) return;
                 continue;
             }
