@@ -116,23 +116,34 @@ bool BusTap::wait(int timeout_ms)
 
 int BusTap::drain(const Sink &sink, int max)
 {
-    // the buffers live as long as the tap's thread (one tap per process)
-    static thread_local std::vector<unsigned char> bufs(kBatch * kDatagramMax);
-    static thread_local std::vector<unsigned char> ctl(kBatch * CMSG_SPACE(sizeof(timeval)));
+    int read = 0;
+    return receive(sink, max, &read);
+}
+
+int BusTap::receive(const Sink &sink, int max, int *read)
+{
+    // the buffers are the tap's (one thread reads a tap), as large as the
+    // largest batch asked for: a datagram for next(), 64 for drain()
+    const std::size_t batch = static_cast<std::size_t>(std::clamp(max, 1, kBatch));
+    if (bufs_.size() < batch * kDatagramMax) {
+        bufs_.resize(batch * kDatagramMax);
+        ctl_.resize(batch * CMSG_SPACE(sizeof(timeval)));
+    }
     mmsghdr msgs[kBatch];
     iovec iov[kBatch];
     sockaddr_in from[kBatch];
     int messages = 0;
-    for (int read = 0; read < max;) {
-        const int want = std::min(kBatch, max - read);
+    *read = 0;
+    while (*read < max) {
+        const int want = std::min(kBatch, max - *read);
         for (int i = 0; i < want; ++i) {
-            iov[i] = {bufs.data() + static_cast<std::size_t>(i) * kDatagramMax, kDatagramMax};
+            iov[i] = {bufs_.data() + static_cast<std::size_t>(i) * kDatagramMax, kDatagramMax};
             msgs[i].msg_hdr = {};
             msgs[i].msg_hdr.msg_name = &from[i];
             msgs[i].msg_hdr.msg_namelen = sizeof from[i];
             msgs[i].msg_hdr.msg_iov = &iov[i];
             msgs[i].msg_hdr.msg_iovlen = 1;
-            msgs[i].msg_hdr.msg_control = ctl.data() + static_cast<std::size_t>(i) * CMSG_SPACE(sizeof(timeval));
+            msgs[i].msg_hdr.msg_control = ctl_.data() + static_cast<std::size_t>(i) * CMSG_SPACE(sizeof(timeval));
             msgs[i].msg_hdr.msg_controllen = CMSG_SPACE(sizeof(timeval));
         }
         const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
@@ -144,44 +155,22 @@ int BusTap::drain(const Sink &sink, int max)
             }
             messages += take(static_cast<const unsigned char *>(iov[i].iov_base), msgs[i].msg_len, from[i], stamp_of(msgs[i].msg_hdr), sink);
         }
-        read += got;
+        *read += got;
         if (got < want) break;
     }
     return messages;
-}
-
-int BusTap::read_one(const Sink &sink)
-{
-    if (one_.empty()) one_.resize(kDatagramMax);
-    alignas(cmsghdr) unsigned char ctl[CMSG_SPACE(sizeof(timeval))];
-    sockaddr_in from{};
-    iovec iov{one_.data(), one_.size()};
-    msghdr h{};
-    h.msg_name = &from;
-    h.msg_namelen = sizeof from;
-    h.msg_iov = &iov;
-    h.msg_iovlen = 1;
-    h.msg_control = ctl;
-    h.msg_controllen = sizeof ctl;
-    const ssize_t n = recvmsg(fd_, &h, MSG_DONTWAIT);
-    if (n < 0) return -1;   // nothing queued, or a socket error (now taken: the next poll waits)
-    if (h.msg_flags & MSG_TRUNC) {
-        ++dropped_;
-        return 0;
-    }
-    return take(one_.data(), static_cast<std::size_t>(n), from, stamp_of(h), sink);
 }
 
 int BusTap::next(const Sink &sink, int timeout_ms)
 {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(std::max(0, timeout_ms));
     for (int idle = 0;;) {
-        const int r = read_one(sink);
-        if (r > 0) return 1;
+        int read = 0;
+        if (receive(sink, 1, &read) > 0) return 1;
         // a datagram that completed no message (a fragment, one dropped):
         // read on, but not past the timeout under a stream of them
-        if (r == 0 && (++idle % 256 != 0 || std::chrono::steady_clock::now() < deadline)) continue;
-        if (r == 0) return 0;
+        if (read > 0 && (++idle % 256 != 0 || std::chrono::steady_clock::now() < deadline)) continue;
+        if (read > 0) return 0;
         const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
         if (left <= 0 || !wait(static_cast<int>(left))) return 0;
     }

@@ -68,6 +68,8 @@ public:
     // receiver's). Throws std::runtime_error when the kernel refuses the
     // filter.
     void accept_only(const std::set<std::string> &channels);
+    // The channels accept_only() last named (empty before it).
+    const std::set<std::string> &accepted() const { return accept_; }
 
     // Waits up to timeout_ms for a datagram; true when one is queued.
     bool wait(int timeout_ms);
@@ -108,13 +110,14 @@ private:
         uint32_t missing = 0;
     };
     int take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink);
-    // Reads one datagram already queued: -1 none, else what take() handed.
-    int read_one(const Sink &sink);
+    // Reads up to `max` datagrams already queued (*read: how many), handing
+    // each message they complete to `sink`; returns the messages handed.
+    int receive(const Sink &sink, int max, int *read);
 
     int fd_ = -1;
     std::map<uint64_t, Partial> partial_;   // by sender (address, port)
     int64_t dropped_ = 0, abandoned_ = 0;
-    std::vector<unsigned char> one_;   // read_one's datagram
+    std::vector<unsigned char> bufs_, ctl_;   // receive()'s datagrams and their control data
     bool filtered_ = false;            // accept_only() was called: only accept_ is handed on
     std::set<std::string> accept_;
 };

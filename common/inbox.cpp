@@ -9,6 +9,7 @@
 #include <deque>
 #include <exception>
 #include <mutex>
+#include <set>
 #include <stdexcept>
 #include <thread>
 
@@ -164,7 +165,7 @@ Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
     const std::string url = bus_url();
     if (lc_ && url.rfind("udpm://", 0) == 0) {
         tap_ = std::make_unique<BusTap>(url);
-        tap_->accept_only(channels_);   // nothing until a subscription
+        tap_->accept_only({});   // nothing until a subscription
     }
 }
 
@@ -180,8 +181,9 @@ void Inbox::subscribe(Sub &sub)
 {
     if (tap_) {
         if (batcher_) throw std::logic_error("Inbox: " + sub.channel + " subscribed after the receive thread started");
-        channels_.insert(sub.channel);
-        tap_->accept_only(channels_);   // the kernel drops the other processes' channels (bus_filter.hpp)
+        std::set<std::string> channels = tap_->accepted();
+        channels.insert(sub.channel);
+        tap_->accept_only(channels);   // the kernel drops the other processes' channels (bus_filter.hpp)
     } else if (lc_) {
         lc_->subscribe(sub.channel, &Sub::on_raw, &sub)->setQueueCapacity(kQueueCapacity);
     }

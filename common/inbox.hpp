@@ -48,7 +48,6 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -168,7 +167,6 @@ private:
 
     lcm::LCM *lc_;
     std::unique_ptr<BusTap> tap_;     // a udpm bus's receiver (nullptr: liblcm's, or none)
-    std::set<std::string> channels_;  // what tap_ lets through
     int batch_us_ = 0;
     std::unique_ptr<Batcher> batcher_;   // started by the first handle() when batch_us_ > 0
     std::vector<std::unique_ptr<Sub>> subs_;

@@ -73,31 +73,25 @@ int64_t get64(const uint8_t *p)
 [[noreturn]] void echo()
 {
     auto lc = afm::open_bus();
-    std::vector<uint8_t> out;
+    struct Echo {
+        lcm::LCM *lc;
+        std::vector<uint8_t> out;
+        void got(const void *d, std::size_t n)
+        {
+            const int64_t t = now_ns();
+            if (n < kStampBytes) return;
+            out.assign(static_cast<const uint8_t *>(d), static_cast<const uint8_t *>(d) + n);
+            put64(out.data() + 8, t);
+            lc->publish(kPong, out.data(), static_cast<unsigned>(out.size()));
+        }
+        void on(const lcm::ReceiveBuffer *rb, const std::string &) { got(rb->data, rb->data_size); }
+    } e{lc.get(), {}};
     if (g_tap) {
         afm::BusTap tap(afm::bus_url());
         tap.accept_only({kPing});
-        const afm::BusTap::Sink back = [&](const std::string &, const unsigned char *d, std::size_t n, int64_t) {
-            const int64_t t = now_ns();
-            if (n < kStampBytes) return;
-            out.assign(d, d + n);
-            put64(out.data() + 8, t);
-            lc->publish(kPong, out.data(), static_cast<unsigned>(out.size()));
-        };
-        for (;;) tap.next(back, 1000);
+        const afm::BusTap::Sink sink = [&](const std::string &, const unsigned char *d, std::size_t n, int64_t) { e.got(d, n); };
+        for (;;) tap.next(sink, 1000);
     }
-    struct Echo {
-        lcm::LCM *lc;
-        std::vector<uint8_t> *out;
-        void on(const lcm::ReceiveBuffer *rb, const std::string &)
-        {
-            const int64_t t = now_ns();
-            if (rb->data_size < kStampBytes) return;
-            out->assign(static_cast<const uint8_t *>(rb->data), static_cast<const uint8_t *>(rb->data) + rb->data_size);
-            put64(out->data() + 8, t);
-            lc->publish(kPong, out->data(), static_cast<unsigned>(out->size()));
-        }
-    } e{lc.get(), &out};
     lc->subscribe(kPing, &Echo::on, &e)->setQueueCapacity(afm::kQueueCapacity);
     for (;;) lc->handleTimeout(1000);
 }
@@ -132,26 +126,22 @@ Row measure(lcm::LCM &lc, afm::BusTap *tap, int bytes, int count)
     std::vector<double> one, round;
     struct Back {
         int64_t want = -1, sent_ns = 0, echo_ns = 0, back_ns = 0;
-        void on(const lcm::ReceiveBuffer *rb, const std::string &)
+        void got(const void *data, std::size_t n)
         {
             const int64_t t = now_ns();
-            if (rb->data_size < kStampBytes) return;
-            const auto *d = static_cast<const uint8_t *>(rb->data);
+            if (n < kStampBytes) return;
+            const auto *d = static_cast<const uint8_t *>(data);
             if (get64(d + 16) != want) return;   // a late answer to an earlier ping
             sent_ns = get64(d);
             echo_ns = get64(d + 8);
             back_ns = t;
         }
+        void on(const lcm::ReceiveBuffer *rb, const std::string &) { got(rb->data, rb->data_size); }
     } back;
     lcm::Subscription *sub = nullptr;
     afm::BusTap::Sink on_tap;
     if (tap) {
-        on_tap = [&](const std::string &, const unsigned char *d, std::size_t n, int64_t) {
-            lcm::ReceiveBuffer rb{};
-            rb.data = const_cast<unsigned char *>(d);
-            rb.data_size = static_cast<uint32_t>(n);
-            back.on(&rb, kPong);
-        };
+        on_tap = [&](const std::string &, const unsigned char *d, std::size_t n, int64_t) { back.got(d, n); };
     } else {
         sub = lc.subscribe(kPong, &Back::on, &back);
         sub->setQueueCapacity(afm::kQueueCapacity);
