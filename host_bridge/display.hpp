@@ -131,6 +131,7 @@ private:
     double z_top_ = 1, z_bot_ = 0;
     cv::Mat base_, height_, colour_;
     cv::Mat lut_;
+    cv::Mat colour_bar_;   // the colour bar's gradient (frame()), made once
     std::map<int, DisplayObject> drawn_;
     std::map<int, DisplayWire> wires_;
     std::map<int, DisplayTrench> trenches_;

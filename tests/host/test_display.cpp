@@ -1,6 +1,7 @@
 // Unity tests of the videolized display (host_bridge/display, fidelity,
 // profile): footprints of known objects, local update == full redraw, the
-// fidelity check, the video writer read back by OpenCV, the GSF header.
+// fidelity check, the video writer read back by OpenCV, the GSF header,
+// labels legible on any map.
 #include <unity.h>
 
 #include <opencv2/core.hpp>
@@ -125,6 +126,49 @@ void test_the_hands_force_is_drawn_and_points_its_way()
     const cv::Mat down = d.frame(o);
     TEST_ASSERT_TRUE(yellow_in(down, below) > 3);
     TEST_ASSERT_EQUAL_INT(0, yellow_in(down, above));
+}
+
+void test_labels_stay_legible_on_any_map_and_may_run_off_the_frame()
+{
+    // put_label: thin text over an outline (its mask dilated by a pixel).
+    // The time label at the top left must show both its white strokes and a
+    // dark rim, on a black map and on a near-white one (heights at the top
+    // of the colour scale), where white text alone would vanish.
+    auto count = [](const cv::Mat &img, const cv::Rect &r, bool dark) {
+        int n = 0;
+        for (int y = r.y; y < r.y + r.height; ++y)
+            for (int x = r.x; x < r.x + r.width; ++x) {
+                const cv::Vec3b p = img.at<cv::Vec3b>(y, x);
+                n += dark ? (p[0] < 60 && p[1] < 60 && p[2] < 60) : (p[0] > 160 && p[1] > 160 && p[2] > 160);
+            }
+        return n;
+    };
+    const cv::Rect label(0, 0, 110, 16);
+    afm::Overlay o;
+    o.t_s = 1.25;
+    afm::Display dark(kField, kTip), bright(kField, kTip);
+    dark.start(cv::Mat::zeros(kField.px, kField.px, CV_32F), afm::DisplayModel{});
+    bright.start(cv::Mat(kField.px, kField.px, CV_32F, cv::Scalar(100.0f)), afm::DisplayModel{});
+    const cv::Mat on_dark = dark.frame(o), on_bright = bright.frame(o);
+    TEST_ASSERT_TRUE(count(on_dark, label, false) > 40);     // the strokes
+    TEST_ASSERT_TRUE(count(on_bright, label, true) > 80);    // the rim
+    std::printf("label pixels: %d bright on the dark map, %d dark on the bright one\n", count(on_dark, label, false),
+                count(on_bright, label, true));
+    // the map itself has no near-white or dark pixels there without the label
+    TEST_ASSERT_EQUAL_INT(0, count(on_bright, cv::Rect(0, 60, 110, 16), true));
+    // The colour bar: white at the top of the scale, black at the bottom.
+    const int N = kField.px, bx = N - std::max(4, N / 40) - 30;
+    TEST_ASSERT_TRUE(on_dark.at<cv::Vec3b>(30, bx + 1) == cv::Vec3b(255, 255, 255));
+    TEST_ASSERT_TRUE(on_dark.at<cv::Vec3b>(N - 30, bx + 1) == cv::Vec3b(0, 0, 0));
+    // A frame too small for most of its labels: they are cut at its edges.
+    const afm::Field tiny{-50, -50, 100, 24};
+    afm::Display small(tiny, kTip);
+    small.start(cv::Mat::zeros(tiny.px, tiny.px, CV_32F), afm::DisplayModel{});
+    o.hand_scale_N = 0.08;
+    o.flags = afm::fw_force_t::FLAG_CONTACT | afm::fw_force_t::FLAG_SQUEEZE;
+    const cv::Mat f = small.frame(o);
+    TEST_ASSERT_EQUAL_INT(tiny.px, f.rows);
+    TEST_ASSERT_EQUAL_INT(tiny.px, f.cols);
 }
 
 void test_fidelity_passes_honest_and_catches_20nm_misplacement()
@@ -264,6 +308,7 @@ int main()
     RUN_TEST(test_local_update_equals_full_redraw);
     RUN_TEST(test_the_hands_force_is_drawn_and_points_its_way);
     RUN_TEST(test_interlock_flag_draws_a_red_border_and_banner);
+    RUN_TEST(test_labels_stay_legible_on_any_map_and_may_run_off_the_frame);
     RUN_TEST(test_fidelity_passes_honest_and_catches_20nm_misplacement);
     RUN_TEST(test_fidelity_reports_an_object_missing_from_the_scan);
     RUN_TEST(test_video_reads_back_with_the_frame_count_written);
