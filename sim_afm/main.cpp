@@ -78,6 +78,13 @@ struct Sim {
     afm::tip_cmd_t pending_cmd{};
     bool have_cmd = false;
     int64_t scan_lines_sent = 0;
+    // Wall time serving scans (serve_scan) before the first block and
+    // during the blocks (the renderer's local scans, the final scan of the
+    // display check): sim_report.json, start_scan_wall_seconds and
+    // loop_scan_wall_seconds; ./afm bench bus takes the latter out of the
+    // lockstep's cost per block.
+    bool in_loop = false;
+    double start_scan_s = 0, loop_scan_s = 0;
     int64_t finished_seq = -1;         // the operator's planner finished with the pose answering this block
     bool ending_announced = false;
     int64_t waiting_after = -1;        // the analog block the simulator has published and waits after (-1: none yet)
@@ -186,6 +193,7 @@ struct Sim {
 
     void serve_scan(const afm::scan_req_t *m)
     {
+        const auto t0 = std::chrono::steady_clock::now();
         const int last = std::min(m->ny, m->first_line + m->n_lines);
         const double dx = m->width_nm / m->nx, dy = m->height_nm / m->ny;
         for (int j = m->first_line; j < last; ++j) {
@@ -211,6 +219,7 @@ struct Sim {
             lc.publish(AFM_CH_AFM_SCAN_LINE, &line);
             ++scan_lines_sent;
         }
+        (in_loop ? loop_scan_s : start_scan_s) += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 };
 
@@ -324,6 +333,7 @@ int main(int argc, char **argv)
         std::bernoulli_distribution drop(drop_p);
         int64_t resends = 0, dropped = 0;
         const auto wall0 = std::chrono::steady_clock::now();
+        sim.in_loop = true;
         afm::analog_block_t blk;
         blk.fs_hz = scene.sample_rate_hz;
         blk.n = spb;
@@ -413,7 +423,8 @@ int main(int argc, char **argv)
         for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
         rep << "],\n  \"blocks\": " << blocks << ",\n  \"ended_early_at_block\": " << ended_early_at << ",\n  \"samples\": " << blocks * spb
             << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits << ",\n  \"injected_drops\": " << dropped
-            << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
+            << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"loop_scan_wall_seconds\": " << sim.loop_scan_s
+            << ",\n  \"start_scan_wall_seconds\": " << sim.start_scan_s << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
             << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()
             << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped()
             << ",\n  \"rejected\": " << inbox.rejected().to_json().dump() << "\n}\n";

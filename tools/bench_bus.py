@@ -19,7 +19,10 @@
    log window pacing the simulator, the renderer attached), placement off,
    the log window off, the renderer off, and both off; each as a ratio to
    the floor of its placement (received as the processes receive; the
-   ratio to liblcm's floor is shown beside it), with the CPU each process
+   ratio to liblcm's floor is shown beside it). The cost per block is the
+   blocks' wall time less the scans the simulator serves between blocks
+   (the display check's final scan, local scans: sim_report.json
+   loop_scan_wall_seconds), which are shown apart; with the CPU each process
    spent per block (the kernel's accounting) and whether the log holds
    every block.
 
@@ -116,8 +119,13 @@ def one_run(scene, args, out):
     own = run.get("launcher", {})
     if "cpu_user_s" in own:   # the launcher records the bus itself (bus_recorder.hpp)
         cpu["afm_launch"] = (own["cpu_user_s"] + own["cpu_system_s"]) / blocks * 1e6
+    # the scans the simulator serves between blocks (the display check's
+    # final scan, a local scan) are a cost of their own, not the lockstep's
+    scan_s = sim.get("loop_scan_wall_seconds", 0.0)
     return {
-        "us_per_block": sim["loop_wall_seconds"] / blocks * 1e6,
+        "us_per_block": (sim["loop_wall_seconds"] - scan_s) / blocks * 1e6,
+        "loop_us_per_block": sim["loop_wall_seconds"] / blocks * 1e6,
+        "scan_ms": scan_s * 1e3,
         "sim_s_per_wall_s": run["sim_seconds"] / sim["loop_wall_seconds"],
         "complete": run.get("log", {}).get("complete"),
         "placement": run.get("placement", {"on": False, "why": "not in run.json"}),
@@ -155,6 +163,8 @@ def main(argv=None):
         rows.append({
             "arrangement": label, "args": args, "us_per_block": med,
             "runs_us_per_block": [r["us_per_block"] for r in runs],
+            "loop_us_per_block": statistics.median(r["loop_us_per_block"] for r in runs),
+            "scan_ms": statistics.median(r["scan_ms"] for r in runs),
             "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
             "log_complete": all(r["complete"] for r in runs),
             "log_waits": statistics.median(r["log_waits"] for r in runs),
@@ -183,6 +193,7 @@ def main(argv=None):
         row["floor"] = "placed" if row["placed"] and "placed" in floors else "kernel"
         row["ratio_to_floor"] = row["us_per_block"] / floors[row["floor"]]["floor_us"]
         row["ratio_to_liblcm_floor"] = row["us_per_block"] / floors[row["floor"] + " liblcm"]["floor_us"]
+        row["loop_ratio_to_floor"] = row["loop_us_per_block"] / floors[row["floor"]]["floor_us"]
     report = {"sizes": sizes, "floors": floors, "lockstep": rows, "scene": a.scene, "repeat": a.repeat}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)
@@ -211,13 +222,15 @@ def print_tables(r):
             print(f"  {name:9s} path: " + " + ".join(f"{ch} ({who})" for ch, who in hops) + f" = {fl['paths_us'][name]:.1f} us")
         print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
     print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
-    print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'x real time':>12s} {'log':>9s} "
-          f"{'window':>7s} {'waits':>7s}  CPU us/block")
+    print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'scans ms':>9s} {'with scans':>11s} "
+          f"{'x real time':>12s} {'log':>9s} {'window':>7s} {'waits':>7s}  CPU us/block")
     for x in r["lockstep"]:
         cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
         print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['ratio_to_liblcm_floor']:9.2f} "
-              f"{x['sim_s_per_wall_s']:12.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
+              f"{x['scan_ms']:9.1f} {x['loop_us_per_block']:11.1f} {x['sim_s_per_wall_s']:12.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
               f"{x['log_waits']:7.0f}  {cpu}")
+    print("us/block: the blocks' wall time less the scans the simulator served between them (scans ms: the display "
+          "check's final scan, any local scan; with scans: the loop's whole wall time per block; x real time is of the whole)")
     print("x floor: against the floor of the arrangement's placement, received as the processes receive; "
           "x liblcm: against the same floor received through liblcm's thread")
     unplaced = {x["placement"].get("why") for x in r["lockstep"] if not x["placed"] and "--placement" not in x["args"]}

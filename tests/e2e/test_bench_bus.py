@@ -50,6 +50,8 @@ class BenchBus(unittest.TestCase):
         self.assertGreater(r["floors"]["kernel liblcm"]["floor_us"], 0)
         self.assertEqual(r["floors"]["kernel"]["receive"], "tap")
         self.assertEqual(len(r["lockstep"]), 5)
+        with open(os.path.join(out, "run-0-0", "sim_report.json")) as f:
+            blocks = json.load(f)["blocks"]   # every run of the scene has as many
         for row in r["lockstep"]:
             # a placed run is held to the floor of one CPU (the four hops in
             # series, pinned), an unplaced one to the kernel's (two paths in parallel)
@@ -61,6 +63,13 @@ class BenchBus(unittest.TestCase):
                 self.assertFalse(row["placed"], row)
             self.assertTrue(row["log_complete"], row)
             self.assertGreater(row["us_per_block"], 0)
+            # the scans served between blocks are taken out of the lockstep's
+            # cost: the renderer's display check asks for a final one
+            self.assertAlmostEqual(row["loop_us_per_block"] - row["us_per_block"], row["scan_ms"] * 1e3 / blocks, delta=0.5)
+            if "--no-renderer" in row["args"]:
+                self.assertEqual(row["scan_ms"], 0, row)
+            else:
+                self.assertGreater(row["scan_ms"], 0, row)
             self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")
             self.assertEqual("renderer" in row["cpu_us_per_block"], "--no-renderer" not in row["args"], row)
             if "--log-window" in row["args"]:
