@@ -136,6 +136,14 @@ public:
         subs_.push_back(std::move(sub));
     }
 
+    // The channels subscribed to, in the order on() named them.
+    std::vector<std::string> channels() const
+    {
+        std::vector<std::string> c;
+        for (const auto &s : subs_) c.push_back(s->channel);
+        return c;
+    }
+
     const Rejections &rejected() const { return rejected_; }
     // A refusal found outside a handler (counted with the others).
     void count(Reject r, const std::string &channel) { rejected_.count(r, channel); }

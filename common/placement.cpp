@@ -5,7 +5,9 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include <utility>
@@ -46,6 +48,15 @@ bool pin_self(const std::vector<int> &cpus)
     return sched_setaffinity(0, sizeof set, &set) == 0;
 }
 
+std::thread start_pinned(std::vector<int> cpus, std::string what, std::function<void()> body)
+{
+    return std::thread([cpus = std::move(cpus), what = std::move(what), body = std::move(body)] {
+        if (!pin_self(cpus))
+            std::fprintf(stderr, "%s: cannot pin to CPUs %s: %s\n", what.c_str(), cpu_list(cpus).c_str(), std::strerror(errno));
+        body();
+    });
+}
+
 std::string cpu_list(const std::vector<int> &cpus)
 {
     std::string out;
@@ -58,6 +69,46 @@ std::string cpu_list(const std::vector<int> &cpus)
         i = j + 1;
     }
     return out;
+}
+
+bool parse_cpu_list(const std::string &text, std::vector<int> *cpus)
+{
+    std::vector<int> out;
+    std::size_t i = 0;
+    auto number = [&](int *v) {
+        if (i >= text.size() || text[i] < '0' || text[i] > '9') return false;
+        long n = 0;
+        while (i < text.size() && text[i] >= '0' && text[i] <= '9') {
+            n = n * 10 + (text[i++] - '0');
+            if (n >= CPU_SETSIZE) return false;
+        }
+        *v = static_cast<int>(n);
+        return true;
+    };
+    while (i < text.size()) {
+        int a, b;
+        if (!number(&a)) return false;
+        b = a;
+        if (i < text.size() && text[i] == '-') {
+            ++i;
+            if (!number(&b) || b < a) return false;
+        }
+        for (int c = a; c <= b; ++c)
+            if (out.empty() || c > out.back()) out.push_back(c);
+            else return false;   // not ascending, or repeated
+        if (i < text.size() && text[i++] != ',') return false;
+        if (i == text.size() && text.back() == ',') return false;
+    }
+    *cpus = std::move(out);
+    return true;
+}
+
+std::vector<int> Placement::all() const
+{
+    std::vector<int> a = lockstep_;
+    a.insert(a.end(), observers_.begin(), observers_.end());
+    std::sort(a.begin(), a.end());
+    return a;
 }
 
 bool Placement::in_lockstep(const std::string &process)

@@ -23,7 +23,9 @@
 
 #include <sys/types.h>
 
+#include <functional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace afm {
@@ -35,11 +37,20 @@ std::vector<int> allowed_cpus();
 // `cpus`. Empty: does nothing. Returns false (errno set) if the kernel refuses.
 bool pin_self(const std::vector<int> &cpus);
 
+// Starts a thread that pins itself to `cpus` (sched_setaffinity on the
+// thread: it alone; empty: where the kernel puts it), then runs `body`. A
+// pin the kernel refuses is reported on stderr, naming `what`, and the
+// thread runs unpinned.
+std::thread start_pinned(std::vector<int> cpus, std::string what, std::function<void()> body);
+
 // The CPUs process `pid` may run on, ascending; empty if it cannot be read.
 std::vector<int> cpus_of(pid_t pid);
 
 // "0", "1-3", "0,2-3": a CPU list as the kernel writes one.
 std::string cpu_list(const std::vector<int> &cpus);
+// The reverse: "" is no CPU; false (cpus untouched) for anything cpu_list()
+// would not write (not ascending, a CPU past CPU_SETSIZE, stray text).
+bool parse_cpu_list(const std::string &text, std::vector<int> *cpus);
 
 class Placement {
 public:
@@ -61,6 +72,8 @@ public:
     const std::vector<int> &cpus_for(const std::string &process) const;
     const std::vector<int> &lockstep() const { return lockstep_; }
     const std::vector<int> &observers() const { return observers_; }
+    // Both, ascending: every CPU the run may use.
+    std::vector<int> all() const;
     // Why there is no placement ("" when there is one).
     const std::string &why() const { return why_; }
 

@@ -1,18 +1,23 @@
 // fw_node: the A/D card's firmware on the bus. A thin adapter: it hands the
 // card's input messages to CardNode (card_node.hpp: the card, fw_card.h,
-// behind unit conversion) and publishes what it answers, in order. The
-// protocol and everything the card computes are described there.
+// behind unit conversion) and publishes what it answers, in order: what the
+// lockstep waits for at once, the observers' channels aside (common/aside.hpp:
+// from a thread on the observers' CPUs, in batches). The protocol and
+// everything the card computes are described in card_node.hpp.
 #include <lcm/lcm-cpp.hpp>
 
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "afm/heartbeat_t.hpp"
+#include "aside.hpp"
 #include "bus.hpp"
 #include "card_node.hpp"
 #include "inbox.hpp"
+#include "placement.hpp"
 #include "scene.hpp"
 
 static_assert(FW_FLAG_SAT_SN == afm::fw_force_t::FLAG_SAT_SN, "flag bits must match the firmware");
@@ -29,25 +34,33 @@ static_assert(FW_FLAG_INTERLOCK == afm::fw_force_t::FLAG_INTERLOCK, "flag bits m
 namespace {
 
 const char *kUsage =
-    "usage: fw_node --scene FILE [--out DIR] [--crash-at-block N]\n"
+    "usage: fw_node --scene FILE [--out DIR] [--crash-at-block N] [--observer-cpus LIST]\n"
     "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
     "  --out DIR           write DIR/fw_report.json at the end (what the node refused, by reason)\n"
-    "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n";
+    "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n"
+    "  --observer-cpus L   the CPUs (\"1\", \"1-3\") of the thread that publishes the observers'\n"
+    "                      channels aside (common/aside.hpp; the launcher passes its placement's)\n";
 
 constexpr int kCrashExitCode = 70;
 
 struct Node {
+    const afm::Scene &scene;
     lcm::LCM &lc;
+    afm::Aside &aside;
     afm::CardNode card;
     afm::Heartbeat hb;
     int64_t crash_at = -1;
     bool sim_done = false;
 
-    Node(const afm::Scene &s, lcm::LCM &l) : lc(l), card(s), hb(l, "fw_node") {}
+    Node(const afm::Scene &s, lcm::LCM &l, afm::Aside &a) : scene(s), lc(l), aside(a), card(s), hb(l, "fw_node") {}
 
+    // In the card's order; a channel no process of the lockstep reads aside.
     void publish(const afm::Outbox &box)
     {
-        for (const auto &o : box) lc.publish(o.channel, o.data.data(), static_cast<unsigned>(o.data.size()));
+        for (const auto &o : box) {
+            if (afm::lockstep_reads(scene, o.channel)) lc.publish(o.channel, o.data.data(), static_cast<unsigned>(o.data.size()));
+            else aside.post(o.channel, o.data.data(), o.data.size());
+        }
     }
 
     afm::Reject on_analog(const afm::analog_block_t &b)
@@ -91,11 +104,18 @@ int main(int argc, char **argv)
 {
     std::string scene_path, out_dir;
     int64_t crash_at = -1;
+    std::vector<int> observer_cpus;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
         else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
+        else if (a == "--observer-cpus" && i + 1 < argc) {
+            if (!afm::parse_cpu_list(argv[++i], &observer_cpus)) {
+                std::fprintf(stderr, "fw_node: --observer-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", argv[i]);
+                return 2;
+            }
+        }
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
@@ -103,24 +123,28 @@ int main(int argc, char **argv)
     try {
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
-        Node node(scene, *lc);
+        afm::Aside aside(observer_cpus);
+        Node node(scene, *lc, aside);
         node.crash_at = crash_at;
         afm::Inbox inbox(lc.get());
         inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &m) { return node.on_analog(m); });
         inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &m) { return node.on_fix(m); });
         inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &m) { return node.on_pose(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return node.on_heartbeat(m); });
+        afm::check_lockstep_reads(scene, inbox.channels(), "fw_node");
         while (!node.sim_done) {
             const int64_t done = node.card.done();
             node.hb.maybe_send(done < 0 ? "ready" : "running", done, node.card.sim_utime_done(), done < 0 ? 200000 : 1000000);
             inbox.handle(100);
         }
+        aside.flush();   // the record holds every block before "done"
         node.hb.send("done", node.card.done(), node.card.sim_utime_done());
         if (!out_dir.empty()) {
             std::ofstream rep(out_dir + "/fw_report.json");
             // the force interlock's trips (fw_guard.h; null when the scene turns it off)
             const fw_guard_t *guard = fw_card_guard(&node.card.card());
             rep << nlohmann::json{{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()},
+                                  {"aside", {{"published", aside.published()}, {"failed", aside.failed()}, {"waits", aside.waits()}}},
                                   {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}}.dump(2) << "\n";
             if (!rep) throw std::runtime_error("cannot write " + out_dir + "/fw_report.json");
         }

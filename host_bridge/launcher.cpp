@@ -438,13 +438,22 @@ public:
         if (log_window_ > 0)
             sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(log_window_)});
         if (!o_.renderer) sim_cmd.push_back("--no-renderer");
+        std::vector<std::string> fw_cmd = {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block",
+                                           std::to_string(o_.crash_block)};
+        place();
+        std::vector<std::string> renderer_cmd = {bin + "/renderer", "--scene", scene_run_, "--out", out_};
+        if (placement_.on()) {
+            // the threads that publish aside (common/aside.hpp) run with the observers
+            for (auto *cmd : {&sim_cmd, &fw_cmd}) cmd->insert(cmd->end(), {"--observer-cpus", afm::cpu_list(placement_.observers())});
+            // the frame writer (frame_writer.hpp) on any CPU of the run
+            renderer_cmd.insert(renderer_cmd.end(), {"--writer-cpus", afm::cpu_list(placement_.all())});
+        }
         const std::map<std::string, std::vector<std::string>> cmds = {
             {"sim_afm", sim_cmd},
-            {"fw_node", {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block", std::to_string(o_.crash_block)}},
+            {"fw_node", fw_cmd},
             {"operator", {bin + "/operator", "--scene", scene_run_, "--out", out_}},
-            {"renderer", {bin + "/renderer", "--scene", scene_run_, "--out", out_}},
+            {"renderer", renderer_cmd},
         };
-        place();
         for (auto &c : kids_)
             c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice, placement_.cpus_for(c.name));
         if (o_.spy)

@@ -31,6 +31,7 @@
 #include "afm/object_fix_t.hpp"
 #include "afm/objects_t.hpp"
 #include "afm/scan_line_t.hpp"
+#include "aside.hpp"
 #include "bus.hpp"
 #include "card_setup.hpp"
 #include "hand_script.hpp"
@@ -488,6 +489,9 @@ int main(int argc, char **argv)
             inbox.on<afm::objects_t>(AFM_CH_FW_OBJECTS, [&](const afm::objects_t &m) { return op.on_objects(m); });
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
             op.hold_pose = {scene.start_nm(), false};
+        }
+        afm::check_lockstep_reads(scene, inbox.channels(), "operator");
+        if (planner) {
             plan_thread = std::thread([&] {
                 try {
                     planner->run(bench);

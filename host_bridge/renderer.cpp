@@ -2,8 +2,9 @@
 // updates the image locally from the firmware's object states (display.hpp:
 // particles, wires and lithography trenches from FW_OBJECTS; the scene's
 // wires as laid until the firmware publishes wires),
-// writes a PNG per frame and a video at the scene's frame rate, and announces
-// each frame on RENDER_FRAME (the simulator runs at most 2 frames ahead of
+// writes a PNG per frame and a video at the scene's frame rate (on a thread
+// of its own: frame_writer.hpp), and announces each frame
+// on RENDER_FRAME (the simulator runs at most 2 frames ahead of
 // it, and waits for it at the frames where it asks for a scan:
 // afm::frames_to_wait_for).
 //
@@ -41,8 +42,10 @@
 #include "inbox.hpp"
 #include "display.hpp"
 #include "fidelity.hpp"
+#include "frame_writer.hpp"
 #include "objects_view.hpp"
 #include "pattern.hpp"
+#include "placement.hpp"
 #include "scan_client.hpp"
 #include "scene.hpp"
 #include "fw_drift.h"
@@ -50,8 +53,10 @@
 namespace {
 
 const char *kUsage =
-    "usage: renderer --scene FILE --out DIR\n"
-    "  The videolized display; normally started by ./afm run inside the run's namespace.\n";
+    "usage: renderer --scene FILE --out DIR [--writer-cpus LIST]\n"
+    "  The videolized display; normally started by ./afm run inside the run's namespace.\n"
+    "  --writer-cpus LIST  the CPUs (\"0-1\") the frame writer's thread may use\n"
+    "                      (host_bridge/frame_writer.hpp; the launcher passes every CPU of the run)\n";
 
 constexpr int kInitialScan = 1, kFinalScan = 2, kLocalScanBase = 100;
 constexpr int kFixRetryMs = 200;
@@ -96,7 +101,12 @@ struct Renderer {
 
     afm::fw_tip_t tip_msg{};
     afm::fw_force_t force_msg{};
-    afm::haptic_force_t haptic_msg{};   // the force on the operator's hand
+    // The force on the operator's hand, by block: HAPTIC_FORCE comes at once,
+    // FW_OBJECTS, FW_TIP and FW_FORCE a batch later (published aside,
+    // common/aside.hpp), so a frame takes the hand's force of its own block
+    // (hand_at), not the latest. At most kHandKept blocks are kept.
+    std::map<int64_t, afm::haptic_force_t> hand_by_seq;
+    static constexpr std::size_t kHandKept = 4096;
     afm::ObjectsView objects;           // FW_OBJECTS, whole
     afm::DisplayModel model;
     int frames_written = 0;
@@ -116,14 +126,15 @@ struct Renderer {
     std::chrono::steady_clock::time_point fix_sent;
     int due_pending = 0;         // frames due when a scan paused the frames
     nlohmann::json local_scans = nlohmann::json::array();
-    cv::VideoWriter video;
+    std::vector<int> writer_cpus;            // --writer-cpus
+    std::unique_ptr<afm::FrameWriter> writer;   // the frames' files (begin())
     int64_t objects_seq = -1;    // the latest block whose FW_OBJECTS came
     int64_t objects_missed = 0;  // blocks whose FW_OBJECTS never came (lost on the bus)
     int total_frames;            // the run's frames: the scene's, or fewer when the planner finishes early
     std::vector<int> sheet_at;   // frame indices for the contact sheet
     std::map<int, cv::Mat> sheet;   // frames kept for the sheet, by index
     std::vector<std::pair<int, cv::Mat>> composed;   // frames composed, their files not yet written
-    double update_s = 0, compose_s = 0, write_s = 0;
+    double update_s = 0, compose_s = 0;
     long touched_px = 0;
     nlohmann::json fidelity;
 
@@ -135,7 +146,7 @@ struct Renderer {
     {
         display.set_trails(s.out.trails);
         pick_sheet();
-        tip_msg.seq = force_msg.seq = haptic_msg.seq = -1;   // nothing yet (the first HAPTIC_FORCE is seq -1)
+        tip_msg.seq = force_msg.seq = -1;   // nothing yet
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
         for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
@@ -196,13 +207,7 @@ struct Renderer {
         display.start(scan.heights(), model);
         cv::imwrite(out + "/scan_initial.png", display.colourise(scan.heights()));
         write_outputs_for_scan("scan_initial", scan.heights());
-        if (scene.out.video != "none") {
-            const bool mp4 = scene.out.video == "mp4";
-            const std::string path = out + (mp4 ? "/video.mp4" : "/video.avi");
-            video.open(path, mp4 ? cv::VideoWriter::fourcc('m', 'p', '4', 'v') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
-                       scene.frame_rate_hz, cv::Size(field.px, field.px));
-            if (!video.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
-        }
+        writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, field.px, writer_cpus);
         started = true;
     }
 
@@ -218,8 +223,9 @@ struct Renderer {
         for (int i = 0; i < 3; ++i) o.force_nN[i] = force_msg.force_nN[i];
         o.flags = force_msg.flags;
         if (!scene.op.plan.enabled) {   // a hand on the device (the planner drives the pose itself)
-            o.hand_N[0] = haptic_msg.force_N[0];
-            o.hand_N[1] = haptic_msg.force_N[1];
+            const afm::haptic_force_t hand = hand_at(last_seq);
+            o.hand_N[0] = hand.force_N[0];
+            o.hand_N[1] = hand.force_N[1];
             o.hand_scale_N = std::min(kHandGaugeThresholds * scene.op.feel_threshold_N, scene.op.haptic.max_force_N);
         }
         const cv::Mat frame = display.frame(o);
@@ -228,20 +234,12 @@ struct Renderer {
         compose_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    // The files of the frames composed and announced: PNG and video, in order.
+    // The frames composed and announced, to the writer (their files: PNG and
+    // video, in order).
     void write_composed()
     {
-        auto t1 = std::chrono::steady_clock::now();
-        for (const auto &[k, frame] : composed) {
-            if (scene.out.png) {
-                char name[64];
-                std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
-                if (!cv::imwrite(out + name, frame)) throw std::runtime_error("cannot write " + out + name);
-            }
-            if (video.isOpened()) video.write(frame);
-        }
+        for (auto &[k, frame] : composed) writer->write(k, std::move(frame));
         composed.clear();
-        write_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     }
 
     void announce(int k, int64_t seq)
@@ -271,9 +269,21 @@ struct Renderer {
     afm::Reject on_haptic(const afm::haptic_force_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        if (m.seq < haptic_msg.seq) return afm::Reject::seq_past;
-        haptic_msg = m;
+        if (!hand_by_seq.empty() && m.seq < hand_by_seq.rbegin()->first) return afm::Reject::seq_past;
+        hand_by_seq[m.seq] = m;   // a block's force sent again replaces the first
+        while (hand_by_seq.size() > kHandKept) hand_by_seq.erase(hand_by_seq.begin());
         return afm::Reject::none;
+    }
+
+    // The hand's force as block `seq` left it: the latest HAPTIC_FORCE of a
+    // block up to `seq` (zero before the first); the older ones are let go.
+    afm::haptic_force_t hand_at(int64_t seq)
+    {
+        auto it = hand_by_seq.upper_bound(seq);
+        if (it == hand_by_seq.begin()) return afm::haptic_force_t{};
+        --it;
+        hand_by_seq.erase(hand_by_seq.begin(), it);
+        return it->second;
     }
 
     void set_model(const afm::objects_t &m)
@@ -574,10 +584,17 @@ struct Renderer {
 int main(int argc, char **argv)
 {
     std::string scene_path, out_dir;
+    std::vector<int> writer_cpus;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
+        else if (a == "--writer-cpus" && i + 1 < argc) {
+            if (!afm::parse_cpu_list(argv[++i], &writer_cpus)) {
+                std::fprintf(stderr, "renderer: --writer-cpus wants a CPU list such as 0-1, got '%s'\n", argv[i]);
+                return 2;
+            }
+        }
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "renderer: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
@@ -587,6 +604,7 @@ int main(int argc, char **argv)
         std::filesystem::create_directories(out_dir + "/frames");
         auto lc = afm::open_bus();
         Renderer r(scene, *lc, out_dir);
+        r.writer_cpus = writer_cpus;
         afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
         inbox.on<afm::fw_tip_t>(AFM_CH_FW_TIP, [&](const afm::fw_tip_t &m) { return r.on_tip(m); });
@@ -612,8 +630,10 @@ int main(int argc, char **argv)
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();
         }
-        r.write_composed();
-        r.video.release();
+        if (r.writer) {
+            r.write_composed();
+            r.writer->finish();
+        }
         // The sheet: the frames picked over the run, those not kept in
         // memory (picked again after an early end) read back from frames/.
         std::vector<cv::Mat> tiles;
@@ -639,7 +659,8 @@ int main(int argc, char **argv)
                               {"update_mode", scene.out.update_mode},
                               {"update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
                               {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
-                              {"write_ms_per_frame", r.frames_written ? 1e3 * r.write_s / r.frames_written : 0.0},
+                              // the writer thread's CPU time (frame_writer.hpp), not its wall time
+                              {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
                               {"pixels_updated", r.touched_px},
                               {"local_scans", r.local_scans},
                               {"rejected", inbox.rejected().to_json()}};

@@ -26,10 +26,12 @@
 #include "afm/scan_req_t.hpp"
 #include "afm/sim_truth_t.hpp"
 #include "afm/tip_cmd_t.hpp"
+#include "aside.hpp"
 #include "bus.hpp"
 #include "inbox.hpp"
-#include "objects_view.hpp"
 #include "log_tail.hpp"
+#include "objects_view.hpp"
+#include "placement.hpp"
 #include "scene.hpp"
 #include "world.hpp"
 
@@ -37,7 +39,7 @@ namespace {
 
 const char *kUsage =
     "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS] [--follow-log LOG]\n"
-    "               [--log-window BLOCKS] [--no-renderer]\n"
+    "               [--log-window BLOCKS] [--no-renderer] [--observer-cpus LIST]\n"
     "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
     "  network namespace. --inject-drop P drops the first transmission of each\n"
     "  analog block with probability P (failure injection: tests the resend path).\n"
@@ -45,6 +47,8 @@ const char *kUsage =
     "  --log-window BLOCKS: with --follow-log, how many blocks ahead of the log the\n"
     "  simulator may run (default 8; the launcher passes log_window_blocks() of its\n"
     "  record's receive buffer, common/log_tail.hpp; ./afm bench bus varies it).\n"
+    "  --observer-cpus LIST: the CPUs (\"1\", \"1-3\") of the thread that publishes SIM_TRUTH\n"
+    "  aside (common/aside.hpp; the launcher passes its placement's).\n"
     "  --no-renderer: no renderer on the bus; the simulator waits for no frames\n"
     "  (./afm bench bus measures the lockstep without it). With one, the simulator\n"
     "  runs at most 2 frames ahead of it, and waits for it at each frame where it\n"
@@ -282,6 +286,7 @@ int main(int argc, char **argv)
     bool renderer = true;
     double drop_p = 0;
     int resend_ms = 100;
+    std::vector<int> observer_cpus;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto val = [&](const char *name) -> std::string {
@@ -298,6 +303,13 @@ int main(int argc, char **argv)
         else if (a == "--follow-log") follow_log = val("--follow-log");
         else if (a == "--log-window") log_window = std::atoll(val("--log-window").c_str());
         else if (a == "--no-renderer") renderer = false;
+        else if (a == "--observer-cpus") {
+            const std::string v = val("--observer-cpus");
+            if (!afm::parse_cpu_list(v, &observer_cpus)) {
+                std::fprintf(stderr, "sim_afm: --observer-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", v.c_str());
+                return 2;
+            }
+        }
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
@@ -310,12 +322,14 @@ int main(int argc, char **argv)
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
         Sim sim(scene, *lc);
+        afm::Aside aside(observer_cpus);   // SIM_TRUTH: the record's, no process of the lockstep reads it
         if (!follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(follow_log);
         afm::Inbox inbox(lc.get());
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return sim.on_heartbeat(m); });
         inbox.on<afm::tip_cmd_t>(AFM_CH_AFM_CMD, [&](const afm::tip_cmd_t &m) { return sim.on_cmd(m); });
         inbox.on<afm::render_frame_t>(AFM_CH_RENDER_FRAME, [&](const afm::render_frame_t &m) { return sim.on_frame(m); });
         inbox.on<afm::scan_req_t>(AFM_CH_AFM_SCAN_REQ, [&](const afm::scan_req_t &m) { return sim.on_scan_req(m); });
+        afm::check_lockstep_reads(scene, inbox.channels(), "sim_afm");
 
         // Start: serve scans until every peer is ready and the launcher says go.
         std::set<std::string> peers = {"fw_node", "operator"};
@@ -378,7 +392,7 @@ int main(int argc, char **argv)
             truth.tip_nm[2] = truth.piezo_nm[2] = sim.world.piezo_z();
             for (int k = 0; k < 3; ++k) truth.force_nN[k] = force_sum[k] / spb;
             truth.objects = truth_diff.next(truth_objects(scene, sim.world, n));
-            lc->publish(AFM_CH_SIM_TRUTH, &truth);
+            aside.post(AFM_CH_SIM_TRUTH, truth);
             if (drop(drop_rng)) ++dropped;
             else lc->publish(AFM_CH_AFM_ANALOG, &blk);
 
@@ -409,6 +423,7 @@ int main(int argc, char **argv)
             sim.hb.maybe_send("running", n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
         }
         const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+        aside.flush();   // the record holds every block before "done", and the report counts them all
 
         // Report: effects built and the time each took; lockstep statistics.
         std::ofstream rep(out_dir + "/sim_report.json");
@@ -427,6 +442,8 @@ int main(int argc, char **argv)
             << ",\n  \"start_scan_wall_seconds\": " << sim.start_scan_s << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
             << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()
             << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped()
+            << ",\n  \"aside\": {\"published\": " << aside.published() << ", \"failed\": " << aside.failed()
+            << ", \"waits\": " << aside.waits() << "}"
             << ",\n  \"rejected\": " << inbox.rejected().to_json().dump() << "\n}\n";
         rep.close();
         if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");

@@ -66,6 +66,20 @@ class EndToEnd(unittest.TestCase):
         for ch in afmlog.CHANNELS:
             self.assertEqual(rj["channels"][ch], len(self.log1[ch]), ch)
 
+    def test_what_went_aside_is_all_in_the_log(self):
+        # common/aside.hpp: the observers' channels are published from a
+        # thread of the card's and the simulator's own; every one the
+        # process counted is in the record, none failed
+        import json
+        with open(os.path.join(self.out1, "fw_report.json")) as f:
+            fw = json.load(f)["aside"]
+        with open(os.path.join(self.out1, "sim_report.json")) as f:
+            sim = json.load(f)["aside"]
+        self.assertEqual(fw["failed"], 0, fw)
+        self.assertEqual(sim["failed"], 0, sim)
+        self.assertEqual(fw["published"], sum(len(self.log1[ch]) for ch in ("FW_FORCE", "FW_TIP", "FW_OBJECTS")), fw)
+        self.assertEqual(sim["published"], len(self.log1["SIM_TRUTH"]), sim)
+
     def test_final_model_within_5nm_of_truth(self):
         fw, truth = trajectories(self.log1)
         last = max(fw)

@@ -62,6 +62,23 @@ void test_cpu_list_is_written_as_the_kernel_writes_it()
     TEST_ASSERT_EQUAL_STRING("1,3,5-6", afm::cpu_list({1, 3, 5, 6}).c_str());
 }
 
+// parse_cpu_list reads what cpu_list writes, and refuses anything else
+// (the processes' --observer-cpus and --writer-cpus) without touching its output.
+void test_a_cpu_list_reads_back_and_anything_else_is_refused()
+{
+    for (const std::vector<int> &c : {std::vector<int>{}, {0}, {1}, {0, 1, 2, 5}, {1, 3, 5, 6}}) {
+        std::vector<int> back = {99};
+        TEST_ASSERT_TRUE(afm::parse_cpu_list(afm::cpu_list(c), &back));
+        TEST_ASSERT_TRUE(back == c);
+    }
+    for (const char *bad : {"x", "1,", ",1", "1-", "-1", "2-1", "1,1", "3,2", "1 2", "1-2-3", "99999", "1,,2"}) {
+        std::vector<int> out = {7};
+        TEST_ASSERT_FALSE_MESSAGE(afm::parse_cpu_list(bad, &out), bad);
+        TEST_ASSERT_EQUAL_INT(1, static_cast<int>(out.size()));
+        TEST_ASSERT_EQUAL_INT(7, out[0]);
+    }
+}
+
 void test_one_cpu_or_none_places_nothing()
 {
     setUp_dir();
@@ -90,6 +107,8 @@ void test_the_lockstep_shares_one_cpu_and_the_observers_take_the_rest()
     TEST_ASSERT_EQUAL_STRING("1-2", afm::cpu_list(p.cpus_for("renderer")).c_str());
     TEST_ASSERT_EQUAL_STRING("1-2", afm::cpu_list(p.cpus_for("lcm-spy")).c_str());
     TEST_ASSERT_EQUAL_STRING("1-2", afm::cpu_list(p.observers()).c_str());
+    TEST_ASSERT_EQUAL_STRING("0-2", afm::cpu_list(p.all()).c_str());
+    TEST_ASSERT_TRUE(afm::Placement().all().empty());
     remove_dir();
 }
 
@@ -214,6 +233,7 @@ int main()
 {
     UNITY_BEGIN();
     RUN_TEST(test_cpu_list_is_written_as_the_kernel_writes_it);
+    RUN_TEST(test_a_cpu_list_reads_back_and_anything_else_is_refused);
     RUN_TEST(test_one_cpu_or_none_places_nothing);
     RUN_TEST(test_the_lockstep_shares_one_cpu_and_the_observers_take_the_rest);
     RUN_TEST(test_concurrent_runs_take_different_cpus);

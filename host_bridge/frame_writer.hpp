@@ -1,0 +1,84 @@
+// The display's frames into their files: frames/frame_NNNNN.png and the
+// video, in order, on a thread of the renderer's own, allowed on every CPU
+// of the run.
+//
+// Why (README "The bus's latency model"; ./afm bench bus measures it): a
+// frame's PNG and video cost about 0.6-1.2 ms of CPU, five times composing
+// it. On the renderer's thread, pinned with the observers, they kept the
+// renderer from taking the bus while they were encoded, and the observers'
+// CPU (the record, the datagrams published aside) was the run's bottleneck
+// while the lockstep's CPU waited for frames. On a thread of its own that
+// may run on any CPU of the run, the kernel puts the encoding where there
+// is room. (Tried and measured: the same thread at SCHED_IDLE, on every CPU
+// or on the lockstep's alone, was slower: the lockstep's CPU is idle in
+// slivers of microseconds, too short for a frame.)
+//
+// What stays as it was: the files, byte for byte, and their order; the
+// renderer announces a frame (RENDER_FRAME) when it is composed, before its
+// files are written. Nothing is dropped: write() waits while kMaxPending
+// frames wait to be written (on a machine with no idle CPU the renderer,
+// and so the simulator within its frame window, slows down to the writer's
+// pace). An error (a file that cannot be written) stops the writer and is
+// thrown by the next write() or finish(), naming the file.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+namespace afm {
+
+class FrameWriter {
+public:
+    static constexpr std::size_t kMaxPending = 8;
+
+    // out_dir: the run's folder (frames/ in it exists). png: write
+    // frames/frame_NNNNN.png. video: "mp4", "avi" or "none" (the scene's
+    // outputs.video), opened here at fps for px x px frames. cpus: where the
+    // thread may run (empty: the process's CPUs). Throws
+    // std::runtime_error when the video cannot be opened.
+    FrameWriter(std::string out_dir, bool png, const std::string &video, double fps, int px, std::vector<int> cpus,
+                std::size_t max_pending = kMaxPending);
+    // Stops the thread; what is still queued is not written (finish() writes it).
+    ~FrameWriter();
+    FrameWriter(const FrameWriter &) = delete;
+    FrameWriter &operator=(const FrameWriter &) = delete;
+
+    // Queues frame k (its pixels are shared, not copied: the caller does not
+    // draw on it again). Waits while kMaxPending frames are queued.
+    void write(int k, cv::Mat frame);
+    // Writes what is queued, closes the video; rethrows the writer's error.
+    void finish();
+
+    // Frames written, and the writer thread's CPU time (s) in writing them.
+    int written() const;
+    double cpu_seconds() const;
+
+private:
+    void run();
+    void write_one(int k, const cv::Mat &frame);
+
+    const std::string out_;
+    const bool png_;
+    const std::size_t max_pending_;
+    cv::VideoWriter video_;
+    mutable std::mutex m_;
+    std::condition_variable work_, room_;
+    std::deque<std::pair<int, cv::Mat>> queue_;
+    bool busy_ = false, stop_ = false;
+    int written_ = 0;
+    double cpu_s_ = 0;
+    std::exception_ptr error_;
+    std::thread thread_;
+};
+
+}  // namespace afm
