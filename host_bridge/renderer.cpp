@@ -21,7 +21,9 @@
 #include <opencv2/videoio.hpp>
 
 #include <chrono>
+#include <deque>
 #include <map>
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -72,6 +74,55 @@ constexpr double kFidelitySearch_nm = 40.0;    // how far from its model positio
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
 
+// How long a frame due at a block waits for that block's FW_FORCE and
+// FW_TIP (published aside, a batch of 0.5 ms after the block) before it is
+// drawn with the latest that came: they are never dropped on the bus
+// (tools/faults.py drops only the lockstep's channels), so this is a guard
+// against a lost datagram on a real network, counted in renderer_report.json
+// (frames_mixed_blocks).
+constexpr int kOwnBlockWaitMs = 1000;
+
+// One channel's messages by block (FW_FORCE, FW_TIP, HAPTIC_FORCE), so that
+// a frame shows those of its own block: the channels come at different
+// times (HAPTIC_FORCE, and FW_OBJECTS when the operator plans, at once;
+// FW_FORCE and FW_TIP aside, a batch later: common/aside.hpp). At most
+// kKept blocks are kept; taking a block lets the older ones go.
+template <class M> class BySeq
+{
+public:
+    static constexpr std::size_t kKept = 4096;
+
+    // The newest block that came, or -1.
+    int64_t newest() const { return by_seq_.empty() ? -1 : by_seq_.rbegin()->first; }
+
+    // A block older than the newest is refused; one sent again replaces the first.
+    afm::Reject put(const M &m)
+    {
+        if (m.seq < newest()) return afm::Reject::seq_past;
+        by_seq_[m.seq] = m;
+        while (by_seq_.size() > kKept) by_seq_.erase(by_seq_.begin());
+        return afm::Reject::none;
+    }
+
+    // The latest message of a block up to `seq` (a zero message of block -1
+    // before the first).
+    M at(int64_t seq)
+    {
+        auto it = by_seq_.upper_bound(seq);
+        if (it == by_seq_.begin()) {
+            M none{};
+            none.seq = -1;
+            return none;
+        }
+        --it;
+        by_seq_.erase(by_seq_.begin(), it);
+        return it->second;
+    }
+
+private:
+    std::map<int64_t, M> by_seq_;
+};
+
 // The firmware's wires and trenches as the display draws them.
 afm::DisplayWire display_wire(const afm::wire_t &w)
 {
@@ -99,18 +150,28 @@ struct Renderer {
     cv::Rect scan_px;            // the scan's region, in display pixels (same pitch)
     bool started = false;        // the initial scan is in and the display set up
 
-    afm::fw_tip_t tip_msg{};
-    afm::fw_force_t force_msg{};
-    // The force on the operator's hand, by block: HAPTIC_FORCE comes at once,
-    // FW_OBJECTS, FW_TIP and FW_FORCE a batch later (published aside,
-    // common/aside.hpp), so a frame takes the hand's force of its own block
-    // (hand_at), not the latest. At most kHandKept blocks are kept.
-    std::map<int64_t, afm::haptic_force_t> hand_by_seq;
-    static constexpr std::size_t kHandKept = 4096;
+    BySeq<afm::fw_tip_t> tips;
+    BySeq<afm::fw_force_t> forces;
+    BySeq<afm::haptic_force_t> hands;
     afm::ObjectsView objects;           // FW_OBJECTS, whole
     afm::DisplayModel model;
     int frames_written = 0;
-    int64_t last_seq = -1;
+    int64_t last_seq = -1;       // the latest block whose FW_OBJECTS the renderer took
+    int64_t shown_seq = -1;      // the block whose objects, force, tip and hand the frames show
+    // Frames fallen due at a block, waiting for its FW_FORCE and FW_TIP
+    // (draw_ready): the block, the frames due by its end, its objects (none
+    // when the model is already set: after a fix), since when.
+    struct Due {
+        int64_t seq;
+        int due;
+        std::optional<afm::objects_t> objects;
+        std::chrono::steady_clock::time_point since;
+    };
+    std::deque<Due> due_queue;
+    int due_queued = 0;          // frames due so far, drawn or queued
+    // Frames whose FW_FORCE or FW_TIP is not of their objects' block (drawn
+    // after kOwnBlockWaitMs without it: a datagram lost).
+    int64_t frames_mixed_blocks = 0;
     const int64_t blocks_ahead = static_cast<int64_t>(std::ceil(scene.block_hz)) + 2;
     bool sim_done = false;
     bool final_pending = false;  // waiting for the final scan before the last frame
@@ -124,7 +185,7 @@ struct Renderer {
     bool fix_on_landmark = false;
     afm::object_fix_t fix_msg{};
     std::chrono::steady_clock::time_point fix_sent;
-    int due_pending = 0;         // frames due when a scan paused the frames
+    int due_pending = 0;         // frames due by the block being drawn (continue_frames draws up to it; a scan pauses it)
     nlohmann::json local_scans = nlohmann::json::array();
     std::vector<int> writer_cpus;            // --writer-cpus
     std::unique_ptr<afm::FrameWriter> writer;   // the frames' files (begin())
@@ -146,7 +207,6 @@ struct Renderer {
     {
         display.set_trails(s.out.trails);
         pick_sheet();
-        tip_msg.seq = force_msg.seq = -1;   // nothing yet
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
         for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
@@ -218,12 +278,15 @@ struct Renderer {
         auto t0 = std::chrono::steady_clock::now();
         afm::Overlay o;
         o.t_s = afm::frame_utime(scene, k) * 1e-6;
+        const afm::fw_tip_t tip_msg = tips.at(shown_seq);
+        const afm::fw_force_t force_msg = forces.at(shown_seq);
         o.tip_nm[0] = tip_msg.tip_nm[0];
         o.tip_nm[1] = tip_msg.tip_nm[1];
         for (int i = 0; i < 3; ++i) o.force_nN[i] = force_msg.force_nN[i];
         o.flags = force_msg.flags;
+        if (force_msg.seq != shown_seq || tip_msg.seq != shown_seq) ++frames_mixed_blocks;
         if (!scene.op.plan.enabled) {   // a hand on the device (the planner drives the pose itself)
-            const afm::haptic_force_t hand = hand_at(last_seq);
+            const afm::haptic_force_t hand = hands.at(shown_seq);
             o.hand_N[0] = hand.force_N[0];
             o.hand_N[1] = hand.force_N[1];
             o.hand_scale_N = std::min(kHandGaugeThresholds * scene.op.feel_threshold_N, scene.op.haptic.max_force_N);
@@ -255,35 +318,21 @@ struct Renderer {
     afm::Reject on_tip(const afm::fw_tip_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        if (m.seq < tip_msg.seq) return afm::Reject::seq_past;
-        tip_msg = m;
-        return afm::Reject::none;
+        const afm::Reject r = tips.put(m);
+        draw_ready();
+        return r;
     }
     afm::Reject on_force(const afm::fw_force_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        if (m.seq < force_msg.seq) return afm::Reject::seq_past;
-        force_msg = m;
-        return afm::Reject::none;
+        const afm::Reject r = forces.put(m);
+        draw_ready();
+        return r;
     }
     afm::Reject on_haptic(const afm::haptic_force_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        if (!hand_by_seq.empty() && m.seq < hand_by_seq.rbegin()->first) return afm::Reject::seq_past;
-        hand_by_seq[m.seq] = m;   // a block's force sent again replaces the first
-        while (hand_by_seq.size() > kHandKept) hand_by_seq.erase(hand_by_seq.begin());
-        return afm::Reject::none;
-    }
-
-    // The hand's force as block `seq` left it: the latest HAPTIC_FORCE of a
-    // block up to `seq` (zero before the first); the older ones are let go.
-    afm::haptic_force_t hand_at(int64_t seq)
-    {
-        auto it = hand_by_seq.upper_bound(seq);
-        if (it == hand_by_seq.begin()) return afm::haptic_force_t{};
-        --it;
-        hand_by_seq.erase(hand_by_seq.begin(), it);
-        return it->second;
+        return hands.put(m);
     }
 
     void set_model(const afm::objects_t &m)
@@ -337,19 +386,42 @@ struct Renderer {
                 local_scans.back()["model_drift_nm"] = {m->drift_nm[0], m->drift_nm[1]};
                 local_pending = -1;
                 fix_awaited = 0;
-                continue_frames();
+                // The frames paused and those queued meanwhile show the fixed
+                // model, with the force and tip of the fix's block.
+                for (const Due &d : due_queue) due_pending = std::max(due_pending, d.due);
+                due_queue.clear();
+                due_queue.push_back({m->seq, due_pending, std::nullopt, std::chrono::steady_clock::now()});
+                draw_ready();
             }
             return;
         }
         if (m->seq <= last_seq) {       // a resend: our announcement may be lost
-            if (frames_written > 0) announce(frames_written - 1, last_seq);
+            if (frames_written > 0) announce(frames_written - 1, shown_seq);
             return;
         }
         last_seq = m->seq;
-        due_pending = afm::frames_due(scene, m->utime);
-        if (due_pending <= frames_written) return;
-        set_model(*m);
-        continue_frames();
+        const int due = afm::frames_due(scene, m->utime);
+        if (due <= due_queued) return;
+        due_queued = due;
+        due_queue.push_back({m->seq, due, *m, std::chrono::steady_clock::now()});
+        draw_ready();
+    }
+
+    // Draws the frames queued whose block's FW_FORCE and FW_TIP have come
+    // (or after kOwnBlockWaitMs without them), in order, until a scan
+    // pauses the frames.
+    void draw_ready()
+    {
+        while (!due_queue.empty() && started && local_pending < 0 && !final_pending) {
+            Due &d = due_queue.front();
+            const bool own = forces.newest() >= d.seq && tips.newest() >= d.seq;
+            if (!own && std::chrono::steady_clock::now() - d.since < std::chrono::milliseconds(kOwnBlockWaitMs)) return;
+            shown_seq = std::max(shown_seq, d.seq);
+            due_pending = std::max(due_pending, d.due);
+            if (d.objects) set_model(*d.objects);
+            due_queue.pop_front();
+            continue_frames();
+        }
     }
 
     // Writes the frames due, pausing for a scheduled local scan or, before
@@ -369,7 +441,7 @@ struct Renderer {
             }
             write_frame(frames_written++);
         }
-        announce(frames_written - 1, last_seq);
+        announce(frames_written - 1, shown_seq);
         hb.maybe_send("running", last_seq, afm::frame_utime(scene, frames_written - 1), kProgressPeriodUs);
     }
 
@@ -464,6 +536,7 @@ struct Renderer {
             // Nothing to register: the scan still replaces its region of the image.
             local_pending = -1;
             continue_frames();
+            draw_ready();
             return;
         }
         rec["found"] = true;
@@ -520,7 +593,7 @@ struct Renderer {
         std::ofstream(out + "/fidelity.json") << fidelity.dump(2) << "\n";
         final_pending = false;
         write_frame(frames_written++);
-        announce(frames_written - 1, last_seq);
+        announce(frames_written - 1, shown_seq);
     }
 
     // The planner's result in the fresh scan: each target site (sample
@@ -629,6 +702,7 @@ int main(int argc, char **argv)
                 while (inbox.handle(0) > 0) {}
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();
+            r.draw_ready();   // a frame waiting past kOwnBlockWaitMs
         }
         if (r.writer) {
             r.write_composed();
@@ -654,6 +728,7 @@ int main(int argc, char **argv)
         }
         nlohmann::json rep = {{"frames", r.frames_written},
                               {"objects_blocks_missed", r.objects_missed},
+                              {"frames_mixed_blocks", r.frames_mixed_blocks},
                               {"frames_expected", r.total_frames},
                               {"image_px", scene.out.image_px},
                               {"update_mode", scene.out.update_mode},

@@ -188,6 +188,12 @@ class EndToEnd(unittest.TestCase):
         for name, a, b in zip(n1, f1, f2):
             self.assertEqual(a, b, f"{name} differs between two runs of the same scene")
 
+    def test_each_frame_shows_its_own_block(self):
+        # FW_FORCE and FW_TIP come a batch after their block (published
+        # aside): a frame waits for those of the block it fell due at
+        self.assertEqual(self.r1[3]["renderer"]["frames_mixed_blocks"], 0)
+        self.assertEqual(self.r2[3]["renderer"]["frames_mixed_blocks"], 0)
+
     def test_processes_are_placed_as_run_json_says(self):
         # common/placement.hpp: the lockstep on one CPU, the observers on the
         # others; each process's CPUs are read from the kernel once it is ready
