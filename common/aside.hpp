@@ -1,8 +1,11 @@
 // Publishing aside: the messages no process of the lockstep waits for (the
 // card's FW_FORCE, FW_TIP and, unless the planner reads them, FW_OBJECTS;
-// the simulator's SIM_TRUTH), published from a thread of the process's own
-// on the observers' CPUs (common/placement.hpp), in batches, instead of by
-// the lockstep's thread on the lockstep's CPU.
+// the simulator's SIM_TRUTH), published from a thread of the process's own,
+// in batches, instead of by the lockstep's thread on the lockstep's CPU.
+// The thread may run on every CPU of the run (the launcher's placement:
+// common/placement.hpp): the kernel puts its sends where there is room.
+// Pinned to the observers' CPU, the run's busiest (the renderer, the
+// record), a block cost more: 82 against 71 us interleaved, 8 runs each.
 //
 // Why (README "The bus's latency model"; ./afm bench bus measures it): a
 // datagram costs its sender's CPU its delivery to every socket on the bus,

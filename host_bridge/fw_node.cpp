@@ -34,12 +34,12 @@ static_assert(FW_FLAG_INTERLOCK == afm::fw_force_t::FLAG_INTERLOCK, "flag bits m
 namespace {
 
 const char *kUsage =
-    "usage: fw_node --scene FILE [--out DIR] [--crash-at-block N] [--observer-cpus LIST]\n"
+    "usage: fw_node --scene FILE [--out DIR] [--crash-at-block N] [--aside-cpus LIST]\n"
     "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
     "  --out DIR           write DIR/fw_report.json at the end (what the node refused, by reason)\n"
     "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n"
-    "  --observer-cpus L   the CPUs (\"1\", \"1-3\") of the thread that publishes the observers'\n"
-    "                      channels aside (common/aside.hpp; the launcher passes its placement's)\n";
+    "  --aside-cpus L      the CPUs (\"0-1\") the thread that publishes the observers' channels\n"
+    "                      aside may use (common/aside.hpp; the launcher passes every CPU of the run)\n";
 
 constexpr int kCrashExitCode = 70;
 
@@ -104,15 +104,15 @@ int main(int argc, char **argv)
 {
     std::string scene_path, out_dir;
     int64_t crash_at = -1;
-    std::vector<int> observer_cpus;
+    std::vector<int> aside_cpus;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
         else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
-        else if (a == "--observer-cpus" && i + 1 < argc) {
-            if (!afm::parse_cpu_list(argv[++i], &observer_cpus)) {
-                std::fprintf(stderr, "fw_node: --observer-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", argv[i]);
+        else if (a == "--aside-cpus" && i + 1 < argc) {
+            if (!afm::parse_cpu_list(argv[++i], &aside_cpus)) {
+                std::fprintf(stderr, "fw_node: --aside-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", argv[i]);
                 return 2;
             }
         }
@@ -123,7 +123,7 @@ int main(int argc, char **argv)
     try {
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
-        afm::Aside aside(observer_cpus);
+        afm::Aside aside(aside_cpus);
         Node node(scene, *lc, aside);
         node.crash_at = crash_at;
         afm::Inbox inbox(lc.get());

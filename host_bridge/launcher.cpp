@@ -443,9 +443,10 @@ public:
         place();
         std::vector<std::string> renderer_cmd = {bin + "/renderer", "--scene", scene_run_, "--out", out_};
         if (placement_.on()) {
-            // the threads that publish aside (common/aside.hpp) run with the observers
-            for (auto *cmd : {&sim_cmd, &fw_cmd}) cmd->insert(cmd->end(), {"--observer-cpus", afm::cpu_list(placement_.observers())});
-            // the frame writer (frame_writer.hpp) on any CPU of the run
+            // the threads that publish aside (common/aside.hpp) and the frame
+            // writer (frame_writer.hpp) on any CPU of the run: the kernel puts
+            // them where there is room (the observers' CPU is the run's busiest)
+            for (auto *cmd : {&sim_cmd, &fw_cmd}) cmd->insert(cmd->end(), {"--aside-cpus", afm::cpu_list(placement_.all())});
             renderer_cmd.insert(renderer_cmd.end(), {"--writer-cpus", afm::cpu_list(placement_.all())});
         }
         const std::map<std::string, std::vector<std::string>> cmds = {

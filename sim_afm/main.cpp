@@ -39,7 +39,7 @@ namespace {
 
 const char *kUsage =
     "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS] [--follow-log LOG]\n"
-    "               [--log-window BLOCKS] [--no-renderer] [--observer-cpus LIST]\n"
+    "               [--log-window BLOCKS] [--no-renderer] [--aside-cpus LIST]\n"
     "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
     "  network namespace. --inject-drop P drops the first transmission of each\n"
     "  analog block with probability P (failure injection: tests the resend path).\n"
@@ -47,8 +47,8 @@ const char *kUsage =
     "  --log-window BLOCKS: with --follow-log, how many blocks ahead of the log the\n"
     "  simulator may run (default 8; the launcher passes log_window_blocks() of its\n"
     "  record's receive buffer, common/log_tail.hpp; ./afm bench bus varies it).\n"
-    "  --observer-cpus LIST: the CPUs (\"1\", \"1-3\") of the thread that publishes SIM_TRUTH\n"
-    "  aside (common/aside.hpp; the launcher passes its placement's).\n"
+    "  --aside-cpus LIST: the CPUs (\"0-1\") the thread that publishes SIM_TRUTH aside may use\n"
+    "  (common/aside.hpp; the launcher passes every CPU of the run).\n"
     "  --no-renderer: no renderer on the bus; the simulator waits for no frames\n"
     "  (./afm bench bus measures the lockstep without it). With one, the simulator\n"
     "  runs at most 2 frames ahead of it, and waits for it at each frame where it\n"
@@ -286,7 +286,7 @@ int main(int argc, char **argv)
     bool renderer = true;
     double drop_p = 0;
     int resend_ms = 100;
-    std::vector<int> observer_cpus;
+    std::vector<int> aside_cpus;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto val = [&](const char *name) -> std::string {
@@ -303,10 +303,10 @@ int main(int argc, char **argv)
         else if (a == "--follow-log") follow_log = val("--follow-log");
         else if (a == "--log-window") log_window = std::atoll(val("--log-window").c_str());
         else if (a == "--no-renderer") renderer = false;
-        else if (a == "--observer-cpus") {
-            const std::string v = val("--observer-cpus");
-            if (!afm::parse_cpu_list(v, &observer_cpus)) {
-                std::fprintf(stderr, "sim_afm: --observer-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", v.c_str());
+        else if (a == "--aside-cpus") {
+            const std::string v = val("--aside-cpus");
+            if (!afm::parse_cpu_list(v, &aside_cpus)) {
+                std::fprintf(stderr, "sim_afm: --aside-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", v.c_str());
                 return 2;
             }
         }
@@ -322,7 +322,7 @@ int main(int argc, char **argv)
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
         Sim sim(scene, *lc);
-        afm::Aside aside(observer_cpus);   // SIM_TRUTH: the record's, no process of the lockstep reads it
+        afm::Aside aside(aside_cpus);   // SIM_TRUTH: the record's, no process of the lockstep reads it
         if (!follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(follow_log);
         afm::Inbox inbox(lc.get());
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return sim.on_heartbeat(m); });

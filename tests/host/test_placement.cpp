@@ -63,7 +63,7 @@ void test_cpu_list_is_written_as_the_kernel_writes_it()
 }
 
 // parse_cpu_list reads what cpu_list writes, and refuses anything else
-// (the processes' --observer-cpus and --writer-cpus) without touching its output.
+// (the processes' --aside-cpus and --writer-cpus) without touching its output.
 void test_a_cpu_list_reads_back_and_anything_else_is_refused()
 {
     for (const std::vector<int> &c : {std::vector<int>{}, {0}, {1}, {0, 1, 2, 5}, {1, 3, 5, 6}}) {
