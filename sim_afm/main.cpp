@@ -76,6 +76,9 @@ struct Sim {
     bool go = false;                   // launcher said running
     std::unique_ptr<afm::LogTail> log;  // --follow-log
     int64_t log_waits = 0;             // times the run waited for the logger
+    double log_wait_s = 0;             // the wall time it waited for the logger
+    int64_t frame_waits = 0;           // blocks whose card answer came before the renderer's frames
+    double frame_wait_s = 0;           // the wall time those blocks waited for the frames after the answer
     bool abort = false;
     int64_t acked = -1;                // last acknowledged block
     int frames_done = 0;               // frames the renderer has written
@@ -104,12 +107,14 @@ struct Sim {
         if (!log) return;
         // the file is read only when what it held last time is not enough
         if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) return;
+        const auto t0 = std::chrono::steady_clock::now();
         for (;;) {
             log->poll(waiting_after);   // the last block published
-            if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) return;
+            if (log->last_block_recorded() >= seq && log->scan_lines() >= lines) break;
             ++log_waits;
             std::this_thread::sleep_for(std::chrono::microseconds(50));
         }
+        log_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
@@ -403,8 +408,11 @@ int main(int argc, char **argv)
             auto last_send = std::chrono::steady_clock::now();
             sim.waiting_after = n;
             sim.serve_due_scans();
+            std::chrono::steady_clock::time_point answered{};   // the card answered, the frames had not come
             while (sim.acked < n || sim.frames_done < frames_needed) {
                 inbox.handle(resend_ms);
+                if (sim.acked >= n && sim.frames_done < frames_needed && answered == std::chrono::steady_clock::time_point{})
+                    answered = std::chrono::steady_clock::now();
                 sim.serve_due_scans();
                 if (sim.abort) return 3;
                 if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(resend_ms)) {
@@ -413,6 +421,10 @@ int main(int argc, char **argv)
                     last_send = std::chrono::steady_clock::now();
                 }
                 sim.hb.maybe_send("running", n, blk.utime, kHeartbeatPeriodUs);
+            }
+            if (answered != std::chrono::steady_clock::time_point{}) {
+                ++sim.frame_waits;
+                sim.frame_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - answered).count();
             }
             if (sim.have_cmd) {
                 sim.world.command(Eigen::Vector2d(sim.pending_cmd.piezo_x_nm, sim.pending_cmd.piezo_y_nm),
@@ -437,7 +449,9 @@ int main(int argc, char **argv)
         const auto built = sim.world.models_built();
         for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
         rep << "],\n  \"blocks\": " << blocks << ",\n  \"ended_early_at_block\": " << ended_early_at << ",\n  \"samples\": " << blocks * spb
-            << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits << ",\n  \"injected_drops\": " << dropped
+            << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits
+            << ",\n  \"log_window_wait_seconds\": " << sim.log_wait_s << ",\n  \"frame_window_waits\": " << sim.frame_waits
+            << ",\n  \"frame_window_wait_seconds\": " << sim.frame_wait_s << ",\n  \"injected_drops\": " << dropped
             << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"loop_scan_wall_seconds\": " << sim.loop_scan_s
             << ",\n  \"start_scan_wall_seconds\": " << sim.start_scan_s << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
             << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()

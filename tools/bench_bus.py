@@ -15,16 +15,20 @@
    as the kernel places them (--placement off) the latency is measured
    unpinned and the two paths run in parallel.
 3. The lockstep's measured cost per block on a scene (default: the demo's,
-   scenes/default.yaml) in five arrangements: as a run is made (placed, the
+   scenes/default.yaml) in six arrangements: as a run is made (placed, the
    log window pacing the simulator, the renderer attached), placement off,
-   the log window off, the renderer off, and both off; each as a ratio to
+   the log window off, the renderer writing no frame files (the scene's
+   outputs png: false, video: none: what encoding the frames costs), the
+   renderer off, and both off; each as a ratio to
    the floor of its placement (received as the processes receive; the
    ratio to liblcm's floor is shown beside it). The cost per block is the
    blocks' wall time less the scans the simulator serves between blocks
    (the display check's final scan, local scans: sim_report.json
    loop_scan_wall_seconds), which are shown apart; with the CPU each process
-   spent per block (the kernel's accounting) and whether the log holds
-   every block.
+   spent per block (the kernel's accounting), how long the simulator waited
+   for the record (the log window) and for the renderer's frames (the frame
+   window) after the card had answered, and whether the log holds every
+   block.
 
 A benchmark: it prints figures and never fails on them. Exit 1 only when a
 run fails.
@@ -38,6 +42,7 @@ import sys
 import tempfile
 
 import lcm
+import yaml
 
 TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = os.environ.get("AFM_BUILD", os.path.join(TOP, "build", "main"))
@@ -57,13 +62,29 @@ FLOOR_PATHS = {
     "operator": [("HAPTIC_FORCE", "fw_node -> operator"), ("HAPTIC_POSE", "operator -> fw_node")],
 }
 
+# (label, launcher arguments, the scene's outputs changed)
+NO_FILES = {"png": False, "video": "none"}
 ARRANGEMENTS = [
-    ("as run (placed, window, renderer)", []),
-    ("placement off", ["--placement", "off"]),
-    ("log window off", ["--log-window", "0"]),
-    ("renderer off", ["--no-renderer"]),
-    ("both off", ["--log-window", "0", "--no-renderer"]),
+    ("as run (placed, window, renderer)", [], None),
+    ("placement off", ["--placement", "off"], None),
+    ("log window off", ["--log-window", "0"], None),
+    ("renderer, no frame files", [], NO_FILES),
+    ("renderer off", ["--no-renderer"], None),
+    ("both off", ["--log-window", "0", "--no-renderer"], None),
 ]
+
+
+def scene_with_outputs(scene, outputs, out):
+    """A copy of the scene in `out` with its outputs section changed."""
+    with open(scene) as f:
+        s = yaml.safe_load(f)
+    if not isinstance(s, dict):
+        sys.exit(f"bench bus: {scene}: not a scene (a mapping at the top)")
+    s["outputs"] = dict(s.get("outputs") or {}, **outputs)
+    path = os.path.join(out, "scene-" + "-".join(f"{k}-{v}" for k, v in outputs.items()).lower() + ".yaml")
+    with open(path, "w") as f:
+        yaml.safe_dump(s, f, sort_keys=False)
+    return path
 
 
 def sizes_of(log_path):
@@ -130,6 +151,8 @@ def one_run(scene, args, out):
         "complete": run.get("log", {}).get("complete"),
         "placement": run.get("placement", {"on": False, "why": "not in run.json"}),
         "log_waits": sim["log_window_waits"],
+        "log_wait_ms": sim.get("log_window_wait_seconds", 0.0) * 1e3,
+        "frame_wait_ms": sim.get("frame_window_wait_seconds", 0.0) * 1e3,
         "log_window_blocks": run.get("launcher", {}).get("log_window_blocks"),
         "cpu_us_per_block": cpu,
     }
@@ -153,21 +176,24 @@ def main(argv=None):
     os.makedirs(out, exist_ok=True)
 
     rows = []
-    for label, args in ARRANGEMENTS:
+    for label, args, outputs in ARRANGEMENTS:
+        scene = a.scene if outputs is None else scene_with_outputs(a.scene, outputs, out)
         runs = []
         for i in range(a.repeat):
             print(f"bench bus: {label}: run {i + 1} of {a.repeat} ...", file=sys.stderr)
-            runs.append(one_run(a.scene, args, os.path.join(out, f"run-{len(rows)}-{i}")))
+            runs.append(one_run(scene, args, os.path.join(out, f"run-{len(rows)}-{i}")))
         med = statistics.median(r["us_per_block"] for r in runs)
         names = sorted({n for r in runs for n in r["cpu_us_per_block"]})
         rows.append({
-            "arrangement": label, "args": args, "us_per_block": med,
+            "arrangement": label, "args": args, "outputs": outputs, "us_per_block": med,
             "runs_us_per_block": [r["us_per_block"] for r in runs],
             "loop_us_per_block": statistics.median(r["loop_us_per_block"] for r in runs),
             "scan_ms": statistics.median(r["scan_ms"] for r in runs),
             "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
             "log_complete": all(r["complete"] for r in runs),
             "log_waits": statistics.median(r["log_waits"] for r in runs),
+            "log_wait_ms": statistics.median(r["log_wait_ms"] for r in runs),
+            "frame_wait_ms": statistics.median(r["frame_wait_ms"] for r in runs),
             "log_window_blocks": runs[0]["log_window_blocks"],
             "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
             "placement": runs[0]["placement"],
@@ -223,16 +249,18 @@ def print_tables(r):
         print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
     print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
     print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'scans ms':>9s} {'with scans':>11s} "
-          f"{'x real time':>12s} {'log':>9s} {'window':>7s} {'waits':>7s}  CPU us/block")
+          f"{'x real time':>12s} {'log':>9s} {'window':>7s} {'waits':>7s} {'log ms':>7s} {'frames ms':>10s}  CPU us/block")
     for x in r["lockstep"]:
         cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
         print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['ratio_to_liblcm_floor']:9.2f} "
               f"{x['scan_ms']:9.1f} {x['loop_us_per_block']:11.1f} {x['sim_s_per_wall_s']:12.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
-              f"{x['log_waits']:7.0f}  {cpu}")
+              f"{x['log_waits']:7.0f} {x['log_wait_ms']:7.1f} {x['frame_wait_ms']:10.1f}  {cpu}")
     print("us/block: the blocks' wall time less the scans the simulator served between them (scans ms: the display "
           "check's final scan, any local scan; with scans: the loop's whole wall time per block; x real time is of the whole)")
     print("x floor: against the floor of the arrangement's placement, received as the processes receive; "
           "x liblcm: against the same floor received through liblcm's thread")
+    print("waits, log ms: the simulator's waits for the record (the log window) and their wall time; frames ms: the wall "
+          "time blocks waited for the renderer's frames after the card had answered (the frame window)")
     unplaced = {x["placement"].get("why") for x in r["lockstep"] if not x["placed"] and "--placement" not in x["args"]}
     for why in sorted(w for w in unplaced if w):
         print(f"  not placed: {why}")

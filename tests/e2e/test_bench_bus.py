@@ -1,7 +1,7 @@
 """./afm bench bus (issue 15), reduced: the latency probe answers every
-ping of every size and measures a hop above zero; the benchmark's four
+ping of every size and measures a hop above zero; the benchmark's six
 arrangements run a short scene, each to a complete log, without the
-renderer when asked; and the record the launcher writes (bus_recorder.hpp)
+renderer or without its frame files when asked; and the record the launcher writes (bus_recorder.hpp)
 holds every message the launcher counted, readable by the log reader."""
 import json
 import os
@@ -37,7 +37,7 @@ class BenchBus(unittest.TestCase):
             self.assertEqual(p.returncode, 2, args)
             self.assertIn("bench_bus:", p.stderr)
 
-    def test_five_arrangements_each_with_a_complete_log(self):
+    def test_six_arrangements_each_with_a_complete_log(self):
         out = benchtest.tmpdir("bench-bus")
         self.addCleanup(benchtest.cleanup, out)
         p = subprocess.run([sys.executable, BENCH, "--scene", benchtest.scene("short.yaml"), "--repeat", "1", "--count", "50",
@@ -49,10 +49,21 @@ class BenchBus(unittest.TestCase):
         self.assertGreater(r["floors"]["kernel"]["floor_us"], 0)
         self.assertGreater(r["floors"]["kernel liblcm"]["floor_us"], 0)
         self.assertEqual(r["floors"]["kernel"]["receive"], "tap")
-        self.assertEqual(len(r["lockstep"]), 5)
+        self.assertEqual(len(r["lockstep"]), 6)
         with open(os.path.join(out, "run-0-0", "sim_report.json")) as f:
             blocks = json.load(f)["blocks"]   # every run of the scene has as many
-        for row in r["lockstep"]:
+        for k, row in enumerate(r["lockstep"]):
+            frames = os.listdir(os.path.join(out, f"run-{k}-0", "frames")) if os.path.isdir(os.path.join(out, f"run-{k}-0", "frames")) else []
+            if row["outputs"]:   # the renderer draws, announces and checks, but writes no frame file
+                self.assertEqual(row["outputs"], {"png": False, "video": "none"})
+                self.assertEqual(frames, [], row)
+                self.assertFalse([n for n in os.listdir(os.path.join(out, f"run-{k}-0")) if n.startswith("video")], row)
+                self.assertIn("renderer", row["cpu_us_per_block"])
+            elif "--no-renderer" not in row["args"]:
+                self.assertTrue(frames, row)
+            self.assertGreaterEqual(row["frame_wait_ms"], 0)
+            if "--no-renderer" in row["args"]:
+                self.assertEqual(row["frame_wait_ms"], 0, "no renderer, no frame to wait for")
             # a placed run is held to the floor of one CPU (the four hops in
             # series, pinned), an unplaced one to the kernel's (two paths in parallel)
             self.assertEqual(row["floor"], "placed" if row["placed"] else "kernel", row)
