@@ -91,6 +91,12 @@ int64_t Aside::waits() const
     return waits_;
 }
 
+nlohmann::json Aside::report() const
+{
+    std::lock_guard<std::mutex> l(m_);
+    return {{"published", published_}, {"failed", failed_}, {"waits", waits_}};
+}
+
 void Aside::run()
 {
     std::vector<Msg> batch;

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
 
 #include <condition_variable>
 #include <cstddef>
@@ -96,6 +97,9 @@ public:
     int64_t published() const;
     int64_t failed() const;
     int64_t waits() const;
+    // The three, at one moment, as the processes' reports hold them:
+    // {"published", "failed", "waits"}.
+    nlohmann::json report() const;
 
 private:
     struct Msg {

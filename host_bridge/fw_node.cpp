@@ -2,7 +2,7 @@
 // card's input messages to CardNode (card_node.hpp: the card, fw_card.h,
 // behind unit conversion) and publishes what it answers, in order: what the
 // lockstep waits for at once, the observers' channels aside (common/aside.hpp:
-// from a thread on the observers' CPUs, in batches). The protocol and
+// from a thread of its own, in batches). The protocol and
 // everything the card computes are described in card_node.hpp.
 #include <lcm/lcm-cpp.hpp>
 
@@ -111,10 +111,7 @@ int main(int argc, char **argv)
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
         else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
         else if (a == "--aside-cpus" && i + 1 < argc) {
-            if (!afm::parse_cpu_list(argv[++i], &aside_cpus)) {
-                std::fprintf(stderr, "fw_node: --aside-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", argv[i]);
-                return 2;
-            }
+            if (!afm::cpu_list_option("fw_node", a, argv[++i], &aside_cpus)) return 2;
         }
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
@@ -144,7 +141,7 @@ int main(int argc, char **argv)
             // the force interlock's trips (fw_guard.h; null when the scene turns it off)
             const fw_guard_t *guard = fw_card_guard(&node.card.card());
             rep << nlohmann::json{{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()},
-                                  {"aside", {{"published", aside.published()}, {"failed", aside.failed()}, {"waits", aside.waits()}}},
+                                  {"aside", aside.report()},
                                   {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}}.dump(2) << "\n";
             if (!rep) throw std::runtime_error("cannot write " + out_dir + "/fw_report.json");
         }

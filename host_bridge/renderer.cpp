@@ -663,10 +663,7 @@ int main(int argc, char **argv)
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
         else if (a == "--writer-cpus" && i + 1 < argc) {
-            if (!afm::parse_cpu_list(argv[++i], &writer_cpus)) {
-                std::fprintf(stderr, "renderer: --writer-cpus wants a CPU list such as 0-1, got '%s'\n", argv[i]);
-                return 2;
-            }
+            if (!afm::cpu_list_option("renderer", a, argv[++i], &writer_cpus)) return 2;
         }
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "renderer: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }

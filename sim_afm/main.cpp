@@ -309,11 +309,7 @@ int main(int argc, char **argv)
         else if (a == "--log-window") log_window = std::atoll(val("--log-window").c_str());
         else if (a == "--no-renderer") renderer = false;
         else if (a == "--aside-cpus") {
-            const std::string v = val("--aside-cpus");
-            if (!afm::parse_cpu_list(v, &aside_cpus)) {
-                std::fprintf(stderr, "sim_afm: --aside-cpus wants a CPU list such as 1 or 1-3, got '%s'\n", v.c_str());
-                return 2;
-            }
+            if (!afm::cpu_list_option("sim_afm", a, val("--aside-cpus"), &aside_cpus)) return 2;
         }
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
@@ -456,8 +452,7 @@ int main(int argc, char **argv)
             << ",\n  \"start_scan_wall_seconds\": " << sim.start_scan_s << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
             << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()
             << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped()
-            << ",\n  \"aside\": {\"published\": " << aside.published() << ", \"failed\": " << aside.failed()
-            << ", \"waits\": " << aside.waits() << "}"
+            << ",\n  \"aside\": " << aside.report().dump()
             << ",\n  \"rejected\": " << inbox.rejected().to_json().dump() << "\n}\n";
         rep.close();
         if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");

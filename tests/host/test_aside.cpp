@@ -131,6 +131,12 @@ void test_a_full_queue_holds_the_poster_back_and_drops_nothing()
     aside.flush();
     TEST_ASSERT_TRUE(aside.waits() >= (n - 4) / 4);   // a wait at every full queue, at least
     TEST_ASSERT_EQUAL_INT64(n, aside.published());
+    // the reports' figures are the same counts
+    const nlohmann::json r = aside.report();
+    TEST_ASSERT_EQUAL_INT64(n, r.at("published").get<int64_t>());
+    TEST_ASSERT_EQUAL_INT64(0, r.at("failed").get<int64_t>());
+    TEST_ASSERT_EQUAL_INT64(aside.waits(), r.at("waits").get<int64_t>());
+    TEST_ASSERT_EQUAL_INT(3, static_cast<int>(r.size()));
     expect_in_order(take(n), n);
 }
 
