@@ -120,7 +120,7 @@ int BusTap::drain(const Sink &sink, int max)
     return receive(sink, max, &read);
 }
 
-int BusTap::receive(const Sink &sink, int max, int *read)
+int BusTap::receive(const Sink &sink, int max, int *read, int wait_ms)
 {
     // the buffers are the tap's (one thread reads a tap), as large as the
     // largest batch asked for: a datagram for next(), 64 for drain()
@@ -146,8 +146,11 @@ int BusTap::receive(const Sink &sink, int max, int *read)
             msgs[i].msg_hdr.msg_control = ctl_.data() + static_cast<std::size_t>(i) * CMSG_SPACE(sizeof(timeval));
             msgs[i].msg_hdr.msg_controllen = CMSG_SPACE(sizeof(timeval));
         }
-        const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
-        if (got <= 0) break;   // nothing queued (EAGAIN), or a socket error, now taken
+        // The first read may block up to wait_ms (SO_RCVTIMEO), so that a
+        // waiting process takes a datagram in the one call that wakes it.
+        const bool block = wait_ms > 0 && *read == 0 && set_timeout(wait_ms);
+        const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), block ? 0 : MSG_DONTWAIT, nullptr);
+        if (got <= 0) break;   // nothing queued (EAGAIN), the timeout, a signal, or a socket error, now taken
         for (int i = 0; i < got; ++i) {
             if (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) {
                 ++dropped_;
@@ -161,18 +164,37 @@ int BusTap::receive(const Sink &sink, int max, int *read)
     return messages;
 }
 
+bool BusTap::set_timeout(int ms)
+{
+    if (ms == timeout_ms_) return true;
+    const timeval tv{ms / 1000, (ms % 1000) * 1000};
+    if (setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) != 0) return false;   // then poll, as before
+    timeout_ms_ = ms;
+    return true;
+}
+
 int BusTap::next(const Sink &sink, int timeout_ms)
 {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(std::max(0, timeout_ms));
     for (int idle = 0;;) {
+        int wait_ms = static_cast<int>(
+            std::max<int64_t>(0, std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count()));
+        // One call: the read waits (up to wait_ms, SO_RCVTIMEO) for the
+        // datagram itself, where a poll and then a read would take two
+        // calls and the empty read before them a third (README, "The bus's
+        // latency model"). Without SO_RCVTIMEO, a poll and a read.
+        if (wait_ms > 0 && !set_timeout(wait_ms)) {
+            if (!wait(wait_ms)) return 0;
+            wait_ms = 0;
+        }
         int read = 0;
-        if (receive(sink, 1, &read) > 0) return 1;
+        if (receive(sink, 1, &read, wait_ms) > 0) return 1;
         // a datagram that completed no message (a fragment, one dropped):
         // read on, but not past the timeout under a stream of them
         if (read > 0 && (++idle % 256 != 0 || std::chrono::steady_clock::now() < deadline)) continue;
-        if (read > 0) return 0;
-        const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
-        if (left <= 0 || !wait(static_cast<int>(left))) return 0;
+        // nothing came in time (or a signal, or a socket error, taken by the
+        // read so that it never turns into a spin: the next read waits)
+        if (read > 0 || std::chrono::steady_clock::now() >= deadline) return 0;
     }
 }
 

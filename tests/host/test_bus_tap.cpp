@@ -30,6 +30,9 @@
 #include <vector>
 
 #include <chrono>
+#include <csignal>
+#include <pthread.h>
+#include <thread>
 #include <dirent.h>
 
 #include "afm/heartbeat_t.hpp"
@@ -284,6 +287,52 @@ void test_next_hands_one_message_at_a_time_and_waits_no_longer_than_asked()
     TEST_ASSERT_EQUAL_INT(0, tap->next(sink, 20));
 }
 
+// next() waits in the read itself (SO_RCVTIMEO): a message that comes while
+// it waits is taken at once; a timeout changed from call to call is the one
+// honoured; a signal that interrupts the read does not end the wait early.
+void handle_usr1(int) {}
+
+void test_next_waits_in_the_read_for_as_long_as_each_call_asks()
+{
+    const auto a = pattern(57, 21);
+    std::vector<Got> got;
+    auto sink = [&](const std::string &c, const unsigned char *d, std::size_t n, int64_t t) { got.push_back({c, {d, d + n}, t}); };
+    auto ms_since = [](std::chrono::steady_clock::time_point t0) {
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    };
+    // a short wait, then a long one: the second is not cut to the first's
+    auto t0 = std::chrono::steady_clock::now();
+    TEST_ASSERT_EQUAL_INT(0, tap->next(sink, 5));
+    TEST_ASSERT_TRUE_MESSAGE(ms_since(t0) >= 4, "next(5) returned before its timeout");
+    std::thread later([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(40));
+        pub->publish("LATE", a.data(), static_cast<unsigned>(a.size()));
+    });
+    t0 = std::chrono::steady_clock::now();
+    TEST_ASSERT_EQUAL_INT(1, tap->next(sink, 2000));
+    const double took = ms_since(t0);
+    later.join();
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(got.size()));
+    TEST_ASSERT_EQUAL_STRING("LATE", got[0].channel.c_str());
+    TEST_ASSERT_TRUE_MESSAGE(took >= 35 && took < 1000, "the message that came while next waited was not taken when it came");
+    // a signal (no SA_RESTART: the read fails with EINTR) mid-wait
+    struct sigaction sa{}, old{};
+    sa.sa_handler = handle_usr1;
+    sigaction(SIGUSR1, &sa, &old);
+    const pthread_t me = pthread_self();
+    std::thread poke([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        pthread_kill(me, SIGUSR1);
+    });
+    t0 = std::chrono::steady_clock::now();
+    TEST_ASSERT_EQUAL_INT(0, tap->next(sink, 60));
+    const double waited = ms_since(t0);
+    poke.join();
+    sigaction(SIGUSR1, &old, nullptr);
+    TEST_ASSERT_TRUE_MESSAGE(waited >= 59, "a signal ended next's wait before its timeout");
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(got.size()));
+}
+
 // A filtered receiver: short messages on other channels never reach its
 // socket, fragmented ones on other channels are followed but not handed on.
 void test_a_filtered_receiver_hands_on_only_its_channels()
@@ -449,6 +498,7 @@ int main()
     RUN_TEST(test_a_new_message_abandons_an_unfinished_one);
     RUN_TEST(test_drain_takes_at_most_max_datagrams);
     RUN_TEST(test_next_hands_one_message_at_a_time_and_waits_no_longer_than_asked);
+    RUN_TEST(test_next_waits_in_the_read_for_as_long_as_each_call_asks);
     RUN_TEST(test_a_filtered_receiver_hands_on_only_its_channels);
     RUN_TEST(test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread);
     RUN_TEST(test_a_batched_inbox_loses_nothing_while_its_caller_is_busy);
