@@ -211,9 +211,9 @@ void World::relax()
         }
         for (auto &w : wires_) {
             if (!w->near(as2, rt)) { w->in_contact = false; continue; }
-            const auto t0 = Clock::now();
+            const auto t0 = timed_ ? Clock::now() : Clock::time_point{};
             w->push(as2, rt, k_contact_);
-            t_wires_ += seconds_since(t0);
+            if (timed_) t_wires_ += seconds_since(t0);
         }
     }
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
@@ -248,9 +248,9 @@ void World::relax_rigid()
         double pen, u;
         Eigen::Vector2d n;
         if (!w->near(as, rt)) { w->in_contact = false; continue; }
-        const auto t0 = Clock::now();
+        const auto t0 = timed_ ? Clock::now() : Clock::time_point{};
         w->push(as, rt, k_contact_);
-        t_wires_ += seconds_since(t0);
+        if (timed_) t_wires_ += seconds_since(t0);
         if (w->contact(as, rt, pen, n, u) && !rides_over(*w, k_contact_ * pen)) f += k_contact_ * pen * n;
     }
     near(as, rt + max_radius_ + 1.0, scratch_);
@@ -354,9 +354,16 @@ Sample World::step()
     const double max_step = scanner_speed_nm_per_s_ * dt_;
     piezo_ += to.norm() > max_step ? Eigen::Vector2d(to.normalized() * max_step) : to;
 
-    auto t0 = Clock::now();
+    // 1 sample in kClockEvery is timed (clocks()): xorshift32's low bits
+    clock_pick_ ^= clock_pick_ << 13;
+    clock_pick_ ^= clock_pick_ >> 17;
+    clock_pick_ ^= clock_pick_ << 5;
+    timed_ = clock_pick_ % kClockEvery == 0;
+    ++samples_;
+    timed_samples_ += timed_;
+    auto t0 = timed_ ? Clock::now() : Clock::time_point{};
     (this->*mechanics_)();
-    t_mech_ += seconds_since(t0);
+    if (timed_) t_mech_ += seconds_since(t0);
 
     // z feedback (ideal) holds the normal force at the set point while the
     // extension it needs lies in the scanner's range. Beyond it z stays at
@@ -389,6 +396,10 @@ Sample World::step()
     double sl = lever_.sl_volts(fC.y());
     if (jammed_ && touching()) saturate_against(last_motion_, sn, sl);
     for (auto &e : per_sample_) {
+        if (!timed_) {
+            e->apply(*this, sn, sl);
+            continue;
+        }
         t0 = Clock::now();
         e->apply(*this, sn, sl);
         e->seconds += seconds_since(t0);
@@ -680,11 +691,13 @@ Eigen::Vector2d RoughSurface::gradient(const Eigen::Vector2d &q) const
 
 std::vector<EffectClock> World::clocks() const
 {
+    // the timed samples stand for all of them
+    const double scale = timed_samples_ > 0 ? static_cast<double>(samples_) / static_cast<double>(timed_samples_) : 0.0;
     std::vector<EffectClock> c;
-    c.push_back({scene_.has_effect("bending_offset") ? "mechanics+bending_offset" : "mechanics", t_mech_});
+    c.push_back({scene_.has_effect("bending_offset") ? "mechanics+bending_offset" : "mechanics", t_mech_ * scale});
     if (!wires_.empty())
-        c.push_back({scene_.has_effect("wire_flexibility") ? "wires+wire_flexibility" : "wires", t_wires_});
-    for (const auto &e : per_sample_) c.push_back({e->name(), e->seconds});
+        c.push_back({scene_.has_effect("wire_flexibility") ? "wires+wire_flexibility" : "wires", t_wires_ * scale});
+    for (const auto &e : per_sample_) c.push_back({e->name(), e->seconds * scale});
     c.push_back({scene_.has_effect("tip_convolution") ? "imaging+tip_convolution" : "imaging", t_scan_});
     return c;
 }

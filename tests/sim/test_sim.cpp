@@ -7,6 +7,7 @@
 #include <fstream>
 #include <unistd.h>
 #include <string>
+#include <vector>
 
 #include "scene.hpp"
 #include "../scene_text.hpp"
@@ -77,6 +78,31 @@ void test_drift_listed_runs_and_moves_the_sample()
     for (const auto &c : w.clocks())
         if (c.name == "thermal_drift") timed = c.seconds > 0;
     TEST_ASSERT_TRUE_MESSAGE(timed, "run.json must list thermal_drift with its time");
+}
+
+void test_clocks_time_one_sample_in_sixteen()
+{
+    const afm::Scene s = scene_with("thermal_drift");
+    World w(s);
+    for (const auto &c : w.clocks())
+        if (c.name != "imaging" && c.name != "imaging+tip_convolution")
+            TEST_ASSERT_EQUAL_DOUBLE_MESSAGE(0.0, c.seconds, "no sample stepped: no per-sample time");
+    const int n = 16000;
+    for (int i = 0; i < n; ++i) w.step();
+    TEST_ASSERT_EQUAL_INT64(n, w.samples_stepped());
+    // 1 in kClockEvery at random: 1000 expected, binomial sd about 31
+    TEST_ASSERT_INT64_WITHIN(200, n / World::kClockEvery, w.samples_timed());
+    // and not in a pattern that follows the block: every phase of 20 timed
+    World v(s);
+    std::vector<int> phases(20, 0);
+    for (int i = 0; i < 4000; ++i) {
+        const int64_t before = v.samples_timed();
+        v.step();
+        if (v.samples_timed() > before) ++phases[static_cast<std::size_t>(i % 20)];
+    }
+    for (int p : phases) TEST_ASSERT_GREATER_THAN_INT(0, p);
+    for (const auto &c : w.clocks())
+        if (c.name.rfind("mechanics", 0) == 0 || c.name == "thermal_drift") TEST_ASSERT_TRUE(c.seconds > 0);
 }
 
 void test_force_along_the_lever_reads_as_normal_load()
@@ -423,6 +449,7 @@ int main()
     UNITY_BEGIN();
     RUN_TEST(test_particle_scene_builds_no_wire_drift_or_lithography_model);
     RUN_TEST(test_drift_listed_runs_and_moves_the_sample);
+    RUN_TEST(test_clocks_time_one_sample_in_sixteen);
     RUN_TEST(test_force_along_the_lever_reads_as_normal_load);
     RUN_TEST(test_apex_moves_forward_with_upward_bending);
     RUN_TEST(test_imaged_sphere_width_matches_tip_dilation_closed_form);
