@@ -120,7 +120,7 @@ int BusTap::drain(const Sink &sink, int max)
     return receive(sink, max, &read);
 }
 
-int BusTap::receive(const Sink &sink, int max, int *read, int wait_ms)
+int BusTap::receive(const Sink &sink, int max, int *read, bool wait)
 {
     // the buffers are the tap's (one thread reads a tap), as large as the
     // largest batch asked for: a datagram for next(), 64 for drain()
@@ -146,9 +146,10 @@ int BusTap::receive(const Sink &sink, int max, int *read, int wait_ms)
             msgs[i].msg_hdr.msg_control = ctl_.data() + static_cast<std::size_t>(i) * CMSG_SPACE(sizeof(timeval));
             msgs[i].msg_hdr.msg_controllen = CMSG_SPACE(sizeof(timeval));
         }
-        // The first read may block up to wait_ms (SO_RCVTIMEO), so that a
-        // waiting process takes a datagram in the one call that wakes it.
-        const bool block = wait_ms > 0 && *read == 0 && set_timeout(wait_ms);
+        // The first read may wait (for the socket's SO_RCVTIMEO, set by
+        // next()), so that a waiting process takes a datagram in the one
+        // call that wakes it.
+        const bool block = wait && *read == 0;
         const int got = recvmmsg(fd_, msgs, static_cast<unsigned>(want), block ? 0 : MSG_DONTWAIT, nullptr);
         if (got <= 0) break;   // nothing queued (EAGAIN), the timeout, a signal, or a socket error, now taken
         for (int i = 0; i < got; ++i) {
@@ -188,7 +189,7 @@ int BusTap::next(const Sink &sink, int timeout_ms)
             wait_ms = 0;
         }
         int read = 0;
-        if (receive(sink, 1, &read, wait_ms) > 0) return 1;
+        if (receive(sink, 1, &read, wait_ms > 0) > 0) return 1;
         // a datagram that completed no message (a fragment, one dropped):
         // read on, but not past the timeout under a stream of them
         if (read > 0 && (++idle % 256 != 0 || std::chrono::steady_clock::now() < deadline)) continue;

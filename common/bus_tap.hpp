@@ -112,8 +112,9 @@ private:
     int take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink);
     // Reads up to `max` datagrams already queued (*read: how many), handing
     // each message they complete to `sink`; returns the messages handed.
-    // wait_ms > 0: the first read waits up to wait_ms for a datagram.
-    int receive(const Sink &sink, int max, int *read, int wait_ms = 0);
+    // wait: the first read waits for a datagram, up to the socket's
+    // SO_RCVTIMEO (set_timeout(); never set: without end).
+    int receive(const Sink &sink, int max, int *read, bool wait = false);
     // Sets the socket's SO_RCVTIMEO to `ms` (> 0) unless it is set to it
     // already; false when the kernel refuses it.
     bool set_timeout(int ms);
@@ -123,7 +124,7 @@ private:
     int64_t dropped_ = 0, abandoned_ = 0;
     std::vector<unsigned char> bufs_, ctl_;   // receive()'s datagrams and their control data
     bool filtered_ = false;            // accept_only() was called: only accept_ is handed on
-    int timeout_ms_ = 0;               // the socket's SO_RCVTIMEO (0: none set, reads never block)
+    int timeout_ms_ = 0;               // the socket's SO_RCVTIMEO, ms (0: none set; next() sets it before a read waits)
     std::set<std::string> accept_;
 };
 

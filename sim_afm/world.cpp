@@ -211,9 +211,9 @@ void World::relax()
         }
         for (auto &w : wires_) {
             if (!w->near(as2, rt)) { w->in_contact = false; continue; }
-            const auto t0 = timed_ ? Clock::now() : Clock::time_point{};
+            const auto t0 = clock_start();
             w->push(as2, rt, k_contact_);
-            if (timed_) t_wires_ += seconds_since(t0);
+            clock_add(&t_wires_, t0);
         }
     }
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
@@ -248,9 +248,9 @@ void World::relax_rigid()
         double pen, u;
         Eigen::Vector2d n;
         if (!w->near(as, rt)) { w->in_contact = false; continue; }
-        const auto t0 = timed_ ? Clock::now() : Clock::time_point{};
+        const auto t0 = clock_start();
         w->push(as, rt, k_contact_);
-        if (timed_) t_wires_ += seconds_since(t0);
+        clock_add(&t_wires_, t0);
         if (w->contact(as, rt, pen, n, u) && !rides_over(*w, k_contact_ * pen)) f += k_contact_ * pen * n;
     }
     near(as, rt + max_radius_ + 1.0, scratch_);
@@ -361,9 +361,9 @@ Sample World::step()
     timed_ = clock_pick_ % kClockEvery == 0;
     ++samples_;
     timed_samples_ += timed_;
-    auto t0 = timed_ ? Clock::now() : Clock::time_point{};
+    auto t0 = clock_start();
     (this->*mechanics_)();
-    if (timed_) t_mech_ += seconds_since(t0);
+    clock_add(&t_mech_, t0);
 
     // z feedback (ideal) holds the normal force at the set point while the
     // extension it needs lies in the scanner's range. Beyond it z stays at
@@ -396,13 +396,9 @@ Sample World::step()
     double sl = lever_.sl_volts(fC.y());
     if (jammed_ && touching()) saturate_against(last_motion_, sn, sl);
     for (auto &e : per_sample_) {
-        if (!timed_) {
-            e->apply(*this, sn, sl);
-            continue;
-        }
-        t0 = Clock::now();
+        t0 = clock_start();
         e->apply(*this, sn, sl);
-        e->seconds += seconds_since(t0);
+        clock_add(&e->seconds, t0);
     }
     Sample out;
     out.sn_v = std::clamp(sn, -kSignalLimitV, kSignalLimitV);
@@ -687,6 +683,13 @@ Eigen::Vector2d RoughSurface::gradient(const Eigen::Vector2d &q) const
     Eigen::Vector2d g = Eigen::Vector2d::Zero();
     for (int i = 0; i < kWaves; ++i) g -= std::sin(k_[i].dot(q) + phase_[i]) * k_[i];
     return amp_ * g;
+}
+
+World::Clock::time_point World::clock_start() const { return timed_ ? Clock::now() : Clock::time_point{}; }
+
+void World::clock_add(double *sum, Clock::time_point t0) const
+{
+    if (timed_) *sum += seconds_since(t0);
 }
 
 std::vector<EffectClock> World::clocks() const

@@ -291,6 +291,10 @@ private:
     double t_mech_ = 0;
     double t_wires_ = 0;           // inside t_mech_: wire pushes
     bool timed_ = false;           // this sample is timed
+    // A timed sample's stage: its start, then its wall time added to *sum
+    // (an untimed sample's: no clock read, nothing added).
+    Clock::time_point clock_start() const;
+    void clock_add(double *sum, Clock::time_point t0) const;
     uint32_t clock_pick_ = 0x9E3779B9u;   // xorshift32 state picking the timed samples
     int64_t samples_ = 0, timed_samples_ = 0;
     mutable double t_scan_ = 0;
