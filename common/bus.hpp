@@ -50,6 +50,15 @@ std::unique_ptr<lcm::LCM> open_bus();
 
 int64_t wall_utime();
 
+// While a process waits for the run to start, it says "ready" this often
+// (and waits for the bus no longer than that between two): the simulator
+// starts the loop once it has heard every peer say so, and a peer that
+// began listening after another's first "ready" hears the next within this
+// period. (Every 200 ms, a run waited up to 200 ms for it: about 100 ms of
+// the demo's 0.55 s.)
+constexpr int64_t kReadyPeriodUs = 10000;
+constexpr int kReadyPeriodMs = static_cast<int>(kReadyPeriodUs / 1000);
+
 // Publishes AFM_HEARTBEAT for one process.
 class Heartbeat {
 public:

@@ -121,6 +121,14 @@ constexpr int kBusProcessNice = 10;
 // ./afm bench bus measures it).
 constexpr int kBatchUs = 500;
 
+// Once every process has exited, what they sent is in the tap's socket or a
+// softirq away from it (loopback delivers in the sender's system call, or
+// on ksoftirqd soon after): the record takes the bus until it has been
+// quiet for kQuietMs, at most kDrainMs, and is closed. (A fixed 150 ms was
+// a quarter of the demo's wall time.)
+constexpr int kQuietMs = 20;
+constexpr int kDrainMs = 150;
+
 // Starts argv[0] with its output to log_path, env_add added to its
 // environment, at nice_level, pinned to `cpus` (none: where the kernel puts it).
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
@@ -559,10 +567,11 @@ public:
             signal_child(c, SIGKILL);
             c.reap(true);
         }
-        // the messages still under way, then the record is closed
-        const auto quiet = std::chrono::steady_clock::now() + std::chrono::milliseconds(150);
-        while (std::chrono::steady_clock::now() < quiet) {
-            if (!record(pump(10) == 0)) break;
+        // the messages still under way (kQuietMs), then the record is closed
+        const auto drain_end = std::chrono::steady_clock::now() + std::chrono::milliseconds(kDrainMs);
+        while (std::chrono::steady_clock::now() < drain_end) {
+            const int got = pump(kQuietMs);
+            if (!record(got == 0) || got == 0) break;
         }
         record(true);   // the rest to the file (a full disk fails the run here too)
         if (recorder_) recorded_events_ = recorder_->events();

@@ -693,9 +693,9 @@ int main(int argc, char **argv)
         }
         r.begin();
         while (!r.sim_done) {
-            r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? 200000 : 1000000);
+            r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? afm::kReadyPeriodUs : 1000000);
             // what has come (the inbox's thread takes the bus in batches, kBatchUs apart)
-            if (inbox.handle(50) > 0)
+            if (inbox.handle(r.last_seq < 0 ? afm::kReadyPeriodMs : 50) > 0)
                 while (inbox.handle(0) > 0) {}
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();

@@ -166,6 +166,16 @@ class EndToEnd(unittest.TestCase):
     def test_log_is_complete(self):
         self.assertTrue(self.r1[3]["log"]["complete"], self.r1[3]["log"])
 
+    def test_log_ends_with_every_process_done(self):
+        # the launcher closes the record once the bus has been quiet for
+        # kQuietMs after every process exited: what each sent last (its
+        # "done", after its last block) is in it
+        done = {m.name for m in self.log1["AFM_HEARTBEAT"] if m.state == "done"}
+        self.assertEqual(done, {"sim_afm", "fw_node", "operator", "renderer"})
+        frames = self.log1["RENDER_FRAME"]
+        self.assertTrue(frames)
+        self.assertEqual(max(m.index for m in frames), self.r1[3]["frames_expected"] - 1)
+
     def test_same_seed_same_trajectories(self):
         self.assertEqual(self.r2[0], 0, self.r2[2])
         log2 = afmlog.load(os.path.join(self.out2, "bus.lcmlog"))
