@@ -7,6 +7,7 @@
 #include <lcm/lcm.h>
 
 #include <fcntl.h>
+#include <spawn.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -44,7 +45,6 @@ extern "C" {
 #include <nlohmann/json.hpp>
 #include "card_setup.hpp"
 #include "haptic.hpp"
-#include "pattern.hpp"
 #include "scene.hpp"
 
 namespace fs = std::filesystem;
@@ -167,6 +167,31 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
 std::string exe_dir()
 {
     return fs::canonical("/proc/self/exe").parent_path().string();
+}
+
+// Whether the planner can serve the scene's targets (pattern.hpp), asked of
+// the operator, which owns the planner: `operator --check-targets` prints
+// the refusal itself. The launcher does not link OpenCV (the text and PNG
+// patterns need it) so that it starts in a few ms, not 60: it is on the path
+// of every run. Returns -1 if they can be served, else 2 (said on stderr).
+int check_targets(const std::string &scene_path)
+{
+    const std::string op = exe_dir() + "/operator";
+    std::vector<char *> a = {const_cast<char *>(op.c_str()), const_cast<char *>("--scene"), const_cast<char *>(scene_path.c_str()),
+                             const_cast<char *>("--check-targets"), nullptr};
+    pid_t pid = -1;
+    if (const int e = posix_spawn(&pid, op.c_str(), nullptr, nullptr, a.data(), environ); e != 0) {
+        std::fprintf(stderr, "afm_launch: cannot check the planner's targets: cannot execute %s: %s\n", op.c_str(), std::strerror(e));
+        return 2;
+    }
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return -1;
+    if (!(WIFEXITED(status) && WEXITSTATUS(status) == 2))
+        std::fprintf(stderr, "afm_launch: cannot check the planner's targets: %s --check-targets %s\n", op.c_str(),
+                     WIFEXITED(status) ? ("exited " + std::to_string(WEXITSTATUS(status))).c_str()
+                                       : ("died of signal " + std::to_string(WTERMSIG(status))).c_str());
+    return 2;
 }
 
 // The distinct blocks of the card's two per-block inputs in a log (their
@@ -354,12 +379,7 @@ public:
                              "limit %.0f N/m) and operator.haptic.passivity_check is false: the device's passivity controller will clamp it\n",
                              o_.scene_path.c_str(), b.rendered_N_per_m, b.max_rendered_N_per_m, scene_.op.haptic.max_stiffness_N_per_m);
         }
-        if (scene_.op.plan.enabled) {
-            if (const std::string why = afm::targets_refusal(scene_); !why.empty()) {
-                std::fprintf(stderr, "%s\n", why.c_str());
-                return 2;
-            }
-        }
+        if (scene_.op.plan.enabled) return check_targets(o_.scene_path);
         return -1;
     }
 

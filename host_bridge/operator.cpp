@@ -47,8 +47,14 @@ namespace {
 
 const char *kUsage =
     "usage: operator --scene FILE [--out DIR]\n"
+    "       operator --scene FILE --check-targets\n"
     "  The operator: a scripted hand on a haptic device, or the planner (operator.plan);\n"
-    "  normally started by ./afm run inside the run's namespace.\n";
+    "  normally started by ./afm run inside the run's namespace.\n"
+    "  --check-targets: only say whether the planner can serve the scene's targets\n"
+    "      (pattern.hpp: sites inside the field, no more than the particles, far enough\n"
+    "      apart); exit 0 if it can (or the scene does not plan), 2 naming the problem.\n"
+    "      afm_launch asks this before a planning run starts, so that it need not\n"
+    "      load OpenCV itself.\n";
 
 constexpr int kScanReqBase = 10000;   // the planner's scans (the renderer's are below)
 constexpr int kFixRetryMs = 200;
@@ -456,16 +462,23 @@ void write_report(const Operator &op, const afm::Planner *planner, const afm::Sc
 int main(int argc, char **argv)
 {
     std::string scene_path, out_dir;
+    bool check_targets = false;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
+        else if (a == "--check-targets") check_targets = true;
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "operator: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
     if (scene_path.empty()) { std::fputs(kUsage, stderr); return 2; }
     try {
         const afm::Scene scene = afm::load_scene(scene_path);
+        if (check_targets) {
+            const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
+            if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
+            return why.empty() ? 0 : 2;
+        }
         std::unique_ptr<afm::Planner> planner;
         if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
         auto lc = afm::open_bus();

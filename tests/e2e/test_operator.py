@@ -17,6 +17,7 @@ run replays bit for bit; bad targets are named.
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import unittest
@@ -221,6 +222,26 @@ class BadTargets(unittest.TestCase):
     def test_a_text_larger_than_the_field(self):
         self.named(self.BASE + "  scatter: {count: 60, min_gap_nm: 20}\n  targets: {text: \"WIDE\", pitch_nm: 300, height_nm: 3000}\n"
                    "operator:\n  plan: {}\n", "objects.targets.text: a site at")
+
+    def test_the_launcher_asks_the_operator_and_says_when_it_cannot(self):
+        # afm_launch does not load OpenCV (it would take 60 ms of every run):
+        # `operator --check-targets` checks the planner's targets for it
+        p = subprocess.run(["ldd", benchtest.LAUNCH], capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertNotIn("libopencv", p.stdout)
+        scene = benchtest.write_scene(self.BASE + "  targets: [[0, 0], [300, 0]]\noperator:\n  plan: {}\n", "badtargets")
+        p = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "operator"), "--scene", scene, "--check-targets"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn("objects.targets: 2 sites but the scene has only 1 particles", p.stderr)
+        ok = benchtest.write_scene(self.BASE + "  targets: [[0, 0]]\noperator:\n  plan: {}\n", "goodtargets")
+        p = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "operator"), "--scene", ok, "--check-targets"], capture_output=True, text=True, timeout=60)
+        self.assertEqual((p.returncode, p.stderr), (0, ""))
+        # a launcher without its operator beside it names what it could not run
+        alone = benchtest.tmpdir("launcher-alone")
+        shutil.copy(benchtest.LAUNCH, alone)
+        p = subprocess.run([os.path.join(alone, "afm_launch"), "--check", "--scene", ok], capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn("cannot check the planner's targets: cannot execute " + os.path.join(alone, "operator"), p.stderr)
 
     def test_a_gain_that_is_not_a_number(self):
         self.named(self.BASE + "operator:\n  path_nm: [[0, -500]]\n  haptic: {force_gain_N_per_nN: lots}\n",
