@@ -28,7 +28,8 @@
    spent per block (the kernel's accounting), how long the simulator waited
    for the record (the log window) and for the renderer's frames (the frame
    window) after the card had answered, and whether the log holds every
-   block.
+   block. Beside them, the whole command as a user runs it (afm_launch in
+   its namespace, from start to exit) and its simulated seconds per second.
 
 A benchmark: it prints figures and never fails on them. Exit 1 only when a
 run fails.
@@ -40,6 +41,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 
 import lcm
 import yaml
@@ -128,7 +130,9 @@ def floor_of(lat, sizes, serial):
 
 def one_run(scene, args, out):
     exe = os.path.join(BUILD, "host_bridge", "afm_launch")
+    t0 = time.monotonic()
     p = subprocess.run([IN_NETNS, exe, "--scene", scene, "--out", out, "--quiet", *args], capture_output=True, text=True)
+    run_s = time.monotonic() - t0   # the whole command: namespace, start, loop, end
     if p.returncode:
         sys.exit(f"bench bus: the run {' '.join(args) or '(as run)'} failed ({p.returncode}): {p.stderr.strip()[-2000:]}")
     with open(os.path.join(out, "run.json")) as f:
@@ -148,6 +152,8 @@ def one_run(scene, args, out):
         "loop_us_per_block": sim["loop_wall_seconds"] / blocks * 1e6,
         "scan_ms": scan_s * 1e3,
         "sim_s_per_wall_s": run["sim_seconds"] / sim["loop_wall_seconds"],
+        "run_s": run_s,
+        "run_sim_s_per_wall_s": run["sim_seconds"] / run_s,
         "complete": run.get("log", {}).get("complete"),
         "placement": run.get("placement", {"on": False, "why": "not in run.json"}),
         "log_waits": sim["log_window_waits"],
@@ -190,6 +196,8 @@ def main(argv=None):
             "loop_us_per_block": statistics.median(r["loop_us_per_block"] for r in runs),
             "scan_ms": statistics.median(r["scan_ms"] for r in runs),
             "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
+            "run_s": statistics.median(r["run_s"] for r in runs),
+            "run_sim_s_per_wall_s": statistics.median(r["run_sim_s_per_wall_s"] for r in runs),
             "log_complete": all(r["complete"] for r in runs),
             "log_waits": statistics.median(r["log_waits"] for r in runs),
             "log_wait_ms": statistics.median(r["log_wait_ms"] for r in runs),
@@ -249,14 +257,16 @@ def print_tables(r):
         print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
     print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
     print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'scans ms':>9s} {'with scans':>11s} "
-          f"{'x real time':>12s} {'log':>9s} {'window':>7s} {'waits':>7s} {'log ms':>7s} {'frames ms':>10s}  CPU us/block")
+          f"{'x real time':>12s} {'run s':>6s} {'run x real':>11s} {'log':>9s} {'window':>7s} {'waits':>7s} {'log ms':>7s} {'frames ms':>10s}  CPU us/block")
     for x in r["lockstep"]:
         cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
         print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['ratio_to_liblcm_floor']:9.2f} "
-              f"{x['scan_ms']:9.1f} {x['loop_us_per_block']:11.1f} {x['sim_s_per_wall_s']:12.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
+              f"{x['scan_ms']:9.1f} {x['loop_us_per_block']:11.1f} {x['sim_s_per_wall_s']:12.2f} {x['run_s']:6.2f} {x['run_sim_s_per_wall_s']:11.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
               f"{x['log_waits']:7.0f} {x['log_wait_ms']:7.1f} {x['frame_wait_ms']:10.1f}  {cpu}")
     print("us/block: the blocks' wall time less the scans the simulator served between them (scans ms: the display "
-          "check's final scan, any local scan; with scans: the loop's whole wall time per block; x real time is of the whole)")
+          "check's final scan, any local scan; with scans: the loop's whole wall time per block; x real time is of the loop with its scans)")
+    print("run s, run x real: the whole command as a user runs it (the namespace, the processes' start, the first scan, the loop, "
+          "the files, the record closed), and the simulated seconds per second of it")
     print("x floor: against the floor of the arrangement's placement, received as the processes receive; "
           "x liblcm: against the same floor received through liblcm's thread")
     print("waits, log ms: the simulator's waits for the record (the log window) and their wall time; frames ms: the wall "

@@ -82,6 +82,11 @@ class BenchBus(unittest.TestCase):
             else:
                 self.assertGreater(row["scan_ms"], 0, row)
             self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")
+            # the whole command holds the loop and more (the start, the first scan, the files)
+            self.assertGreater(row["run_s"], row["loop_us_per_block"] * blocks * 1e-6, row)
+            with open(os.path.join(out, f"run-{k}-0", "run.json")) as f:
+                sim_s = json.load(f)["sim_seconds"]
+            self.assertAlmostEqual(row["run_sim_s_per_wall_s"] * row["run_s"], sim_s, places=6)
             self.assertEqual("renderer" in row["cpu_us_per_block"], "--no-renderer" not in row["args"], row)
             if "--log-window" in row["args"]:
                 self.assertEqual(row["log_waits"], 0, "no window, no wait")
