@@ -98,6 +98,7 @@ void Heartbeat::send(const std::string &state, int64_t seq, int64_t sim_utime, c
 
 void Heartbeat::maybe_send(const std::string &state, int64_t seq, int64_t sim_utime, int64_t period_us)
 {
+    if (state == "ready") period_us = kReadyPeriodUs;
     if (state != last_state_ || wall_utime() - last_us_ >= period_us) send(state, seq, sim_utime);
 }
 

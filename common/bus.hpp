@@ -64,7 +64,8 @@ class Heartbeat {
 public:
     Heartbeat(lcm::LCM &lc, std::string name);
     void send(const std::string &state, int64_t seq, int64_t sim_utime, const std::string &detail = "");
-    // Sends at most once per `period_us` of wall time unless the state changed.
+    // Sends at most once per `period_us` of wall time unless the state changed;
+    // "ready" every kReadyPeriodUs, whatever period_us says.
     void maybe_send(const std::string &state, int64_t seq, int64_t sim_utime, int64_t period_us = 1000000);
 
 private:

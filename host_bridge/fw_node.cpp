@@ -131,7 +131,7 @@ int main(int argc, char **argv)
         afm::check_lockstep_reads(scene, inbox.channels(), "fw_node");
         while (!node.sim_done) {
             const int64_t done = node.card.done();
-            node.hb.maybe_send(done < 0 ? "ready" : "running", done, node.card.sim_utime_done(), done < 0 ? afm::kReadyPeriodUs : 1000000);
+            node.hb.maybe_send(done < 0 ? "ready" : "running", done, node.card.sim_utime_done());
             inbox.handle(done < 0 ? afm::kReadyPeriodMs : 100);
         }
         aside.flush();   // the record holds every block before "done"

@@ -516,7 +516,7 @@ int main(int argc, char **argv)
             });
         }
         while (!op.sim_done) {
-            op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0, op.answered < -1 ? afm::kReadyPeriodUs : 1000000);
+            op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0);
             op.repeat_finished();
             inbox.handle(op.have_force ? 0 : op.answered < -1 ? afm::kReadyPeriodMs : 100);
             if (!op.have_force) continue;

@@ -693,7 +693,7 @@ int main(int argc, char **argv)
         }
         r.begin();
         while (!r.sim_done) {
-            r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0, r.last_seq < 0 ? afm::kReadyPeriodUs : 1000000);
+            r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0);
             // what has come (the inbox's thread takes the bus in batches, kBatchUs apart)
             if (inbox.handle(r.last_seq < 0 ? afm::kReadyPeriodMs : 50) > 0)
                 while (inbox.handle(0) > 0) {}

@@ -336,7 +336,7 @@ int main(int argc, char **argv)
         std::set<std::string> peers = {"fw_node", "operator"};
         if (renderer) peers.insert("renderer");
         while (!sim.go || !std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())) {
-            sim.hb.maybe_send("ready", -1, 0, afm::kReadyPeriodUs);
+            sim.hb.maybe_send("ready", -1, 0);
             inbox.handle(afm::kReadyPeriodMs);
             if (sim.abort) return 3;
         }

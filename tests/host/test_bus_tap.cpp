@@ -367,6 +367,33 @@ int threads_of_this_process()
     return n;
 }
 
+// A heartbeat says "ready" every kReadyPeriodUs, whatever period its caller
+// gives (the simulator starts once it has heard every peer: bus.hpp), and
+// any other state at most once per the period given, unless it changed.
+void test_a_heartbeat_repeats_ready_at_its_own_period()
+{
+    afm::Inbox inbox(pub.get());
+    std::vector<std::string> states;
+    inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) {
+        states.push_back(m.state);
+        return afm::Reject::none;
+    });
+    afm::Heartbeat hb(*pub, "test_bus_tap");
+    const auto past_ready_period = std::chrono::microseconds(afm::kReadyPeriodUs + 5000);
+    hb.maybe_send("ready", -1, 0, 1000000);   // a new state: sent
+    hb.maybe_send("ready", -1, 0, 1000000);   // within the ready period: not
+    std::this_thread::sleep_for(past_ready_period);
+    hb.maybe_send("ready", -1, 0, 1000000);   // past it, although the caller said 1 s
+    hb.maybe_send("running", 0, 0, 1000000);  // a new state
+    std::this_thread::sleep_for(past_ready_period);
+    hb.maybe_send("running", 0, 0, 1000000);  // within the caller's 1 s: not
+    while (inbox.handle(100) > 0) {}
+    TEST_ASSERT_EQUAL_INT(3, static_cast<int>(states.size()));
+    TEST_ASSERT_EQUAL_STRING("ready", states[0].c_str());
+    TEST_ASSERT_EQUAL_STRING("ready", states[1].c_str());
+    TEST_ASSERT_EQUAL_STRING("running", states[2].c_str());
+}
+
 // An inbox on the bus: its own socket, read in handle() on the caller's
 // thread (no liblcm receive thread), its handler called once per message,
 // only for its channels; the process still publishes through liblcm.
@@ -501,6 +528,7 @@ int main()
     RUN_TEST(test_next_waits_in_the_read_for_as_long_as_each_call_asks);
     RUN_TEST(test_a_filtered_receiver_hands_on_only_its_channels);
     RUN_TEST(test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread);
+    RUN_TEST(test_a_heartbeat_repeats_ready_at_its_own_period);
     RUN_TEST(test_a_batched_inbox_loses_nothing_while_its_caller_is_busy);
     RUN_TEST(test_the_log_window_follows_the_receive_buffer_within_its_bounds);
     RUN_TEST(test_a_url_it_cannot_use_is_refused_by_name);
