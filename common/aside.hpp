@@ -1,5 +1,5 @@
 // Publishing aside: the messages no process of the lockstep waits for (the
-// card's FW_FORCE, FW_TIP and, unless the planner reads them, FW_OBJECTS;
+// card's FW_STATE and, unless the planner reads them, FW_OBJECTS;
 // the simulator's SIM_TRUTH), published from a thread of the process's own,
 // in batches, instead of by the lockstep's thread on the lockstep's CPU.
 // The thread may run on every CPU of the run (the launcher's placement:
@@ -9,7 +9,7 @@
 //
 // Why (README "The bus's latency model"; ./afm bench bus measures it): a
 // datagram costs its sender's CPU its delivery to every socket on the bus,
-// about 3.5 us on the default scene; half of a block's eight datagrams are
+// about 3.5 us on the default scene; three of a block's seven datagrams are
 // for the observers (the launcher's record, the renderer), and on the one
 // CPU of the lockstep they cost as much as its hops. The observers do not
 // need them at once: the renderer draws a frame from them a window of
@@ -17,7 +17,7 @@
 //
 // What a receiver sees: each channel published aside in the order it was
 // posted, a batch at most kBatchUs (0.5 ms) after it was posted; relative to
-// the channels published at once, later (a log holds FW_FORCE n after
+// the channels published at once, later (a log holds FW_STATE n after
 // AFM_ANALOG n + k). Nothing is dropped: post() waits while kMaxQueued
 // messages wait (the lockstep slows down to the observers' pace, as it
 // does for the record's window), and flush() returns once everything

@@ -161,10 +161,9 @@ def bus_messages(afm):
     line.height_nm = [0.1 * i for i in range(8)]
     line.defl_v = [0.0] * 8
     line.lat_v = [0.01] * 8
-    force = afm.fw_force_t()
-    force.utime, force.seq, force.force_nN, force.flags, force.sn_code, force.sl_code, force.sat_count = 1000, 0, [1.0, -2.0, 5.0], 32, 1200, -40, 0
-    tip = afm.fw_tip_t()
-    tip.utime, tip.seq, tip.tip_nm, tip.piezo_nm, tip.cmd_nm = 1000, 0, [0.0, -699.0, -20.0], [0.0, -698.0, -20.0], [0.0, -698.0]
+    state = afm.fw_state_t()
+    state.utime, state.seq, state.force_nN, state.flags, state.sn_code, state.sl_code, state.sat_count = 1000, 0, [1.0, -2.0, 5.0], 32, 1200, -40, 0
+    state.tip_nm, state.piezo_nm, state.cmd_nm = [0.0, -699.0, -20.0], [0.0, -698.0, -20.0], [0.0, -698.0]
     hf = afm.haptic_force_t()
     hf.utime, hf.seq, hf.force_N, hf.tip_force_nN, hf.flags = 1000, 0, [0.0, 0.1, 0.0], [1.0, -2.0, 5.0], 0
     truth = afm.sim_truth_t()
@@ -177,7 +176,7 @@ def bus_messages(afm):
     return [
         ("AFM_ANALOG", block(0, -700.0)), ("AFM_ANALOG", block(1, -698.0)),
         ("AFM_CMD", cmd), ("AFM_SCAN_REQ", req), ("AFM_SCAN_LINE", line),
-        ("FW_FORCE", force), ("FW_TIP", tip),
+        ("FW_STATE", state),
         ("FW_OBJECTS", objects(0, True)), ("FW_OBJECTS", objects(1, False, True)),
         ("HAPTIC_POSE", pose(0, [0.0, -0.1, 0.0])), ("HAPTIC_POSE", pose(0, [0.5, 0.5, 0.0])),
         ("HAPTIC_FORCE", hf), ("SIM_TRUTH", truth), ("RENDER_FRAME", frame), ("AFM_HEARTBEAT", hb),

@@ -120,32 +120,29 @@ void CardNode::step(Outbox &box)
     fw_card_step_block(&card_, &in, &out);
 
     const int64_t t_end = block_end_utime(scene_, b.seq);
-    force_.utime = t_end;
-    force_.seq = b.seq;
-    for (int k = 0; k < 3; ++k) force_.force_nN[k] = fwu_nn_from_pn(out.force_pn[k]);
-    force_.flags = static_cast<int32_t>(out.flags);
-    force_.sn_code = out.code_n;
-    force_.sl_code = out.code_l;
-    force_.sat_count = out.sat_samples;
-
-    tip_.utime = t_end;
-    tip_.seq = b.seq;
-    for (int k = 0; k < 3; ++k) tip_.tip_nm[k] = fwu_nm_from_pm(out.tip_pm[k]);
+    state_.utime = t_end;
+    state_.seq = b.seq;
+    for (int k = 0; k < 3; ++k) state_.force_nN[k] = fwu_nn_from_pn(out.force_pn[k]);
+    state_.flags = static_cast<int32_t>(out.flags);
+    state_.sn_code = out.code_n;
+    state_.sl_code = out.code_l;
+    state_.sat_count = out.sat_samples;
+    for (int k = 0; k < 3; ++k) state_.tip_nm[k] = fwu_nm_from_pm(out.tip_pm[k]);
     if (b.n > 0) {
-        tip_.piezo_nm[0] = b.piezo_x_nm[b.n - 1];
-        tip_.piezo_nm[1] = b.piezo_y_nm[b.n - 1];
-        tip_.piezo_nm[2] = b.piezo_z_nm[b.n - 1];
+        state_.piezo_nm[0] = b.piezo_x_nm[b.n - 1];
+        state_.piezo_nm[1] = b.piezo_y_nm[b.n - 1];
+        state_.piezo_nm[2] = b.piezo_z_nm[b.n - 1];
     }
-    tip_.cmd_nm[0] = fwu_nm_from_pm(out.target_pm[0]);
-    tip_.cmd_nm[1] = fwu_nm_from_pm(out.target_pm[1]);
+    state_.cmd_nm[0] = fwu_nm_from_pm(out.target_pm[0]);
+    state_.cmd_nm[1] = fwu_nm_from_pm(out.target_pm[1]);
 
     haptic_.utime = t_end;
     haptic_.seq = b.seq;
     for (int k = 0; k < 3; ++k) {
-        haptic_.tip_force_nN[k] = force_.force_nN[k];
+        haptic_.tip_force_nN[k] = state_.force_nN[k];
         haptic_.force_N[k] = fwu_n_from_un(out.haptic_un[k]);
     }
-    haptic_.flags = force_.flags;
+    haptic_.flags = state_.flags;
 
     cmd_.utime = t_end;   // it applies from the next block on
     cmd_.ack_seq = b.seq;
@@ -170,8 +167,7 @@ void CardNode::post_block(Outbox &box) const
     // the two the next block waits for first
     post(box, AFM_CH_AFM_CMD, cmd_, cmd_.ack_seq);
     post(box, AFM_CH_HAPTIC_FORCE, haptic_, haptic_.seq);
-    post(box, AFM_CH_FW_FORCE, force_, force_.seq);
-    post(box, AFM_CH_FW_TIP, tip_, tip_.seq);
+    post(box, AFM_CH_FW_STATE, state_, state_.seq);
     post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
 }
 

@@ -9,7 +9,7 @@
 //  - block n is stepped when both AFM_ANALOG n and HAPTIC_POSE n are here
 //    (the operator answers HAPTIC_FORCE n - 1 with pose n); the card's
 //    outputs for n follow at once: AFM_CMD (ack n, the set point for block
-//    n + 1), HAPTIC_FORCE n, FW_FORCE n, FW_TIP n, FW_OBJECTS n (the
+//    n + 1), HAPTIC_FORCE n, FW_STATE n, FW_OBJECTS n (the
 //    objects that changed, or all of them: objects_t.complete);
 //  - AFM_ANALOG n again (a resend: something was lost) repeats block n's
 //    outputs; AFM_ANALOG n + 1 without pose n + 1 repeats HAPTIC_FORCE n
@@ -30,8 +30,7 @@
 #include <vector>
 
 #include "afm/analog_block_t.hpp"
-#include "afm/fw_force_t.hpp"
-#include "afm/fw_tip_t.hpp"
+#include "afm/fw_state_t.hpp"
 #include "afm/haptic_force_t.hpp"
 #include "afm/haptic_pose_t.hpp"
 #include "afm/object_fix_t.hpp"
@@ -94,8 +93,7 @@ private:
     std::unique_ptr<analog_block_t> pending_;          // AFM_ANALOG done_ + 1, waiting for its pose
     std::map<int64_t, haptic_pose_t> poses_;           // poses for blocks > done_
     std::vector<fw_sample_in_t> block_in_;
-    afm::fw_force_t force_{};         // the LCM message (not the firmware's ::fw_force_t)
-    afm::fw_tip_t tip_{};
+    afm::fw_state_t state_{};         // the card's force, flags and apex of the block (FW_STATE)
     afm::objects_t whole_{};          // the card's objects, every one
     afm::objects_t objects_{};        // the FW_OBJECTS message last made from them (objects_view.hpp)
     ObjectsDiff objects_diff_;

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <utility>
 
-#include "afm/fw_force_t.hpp"
+#include "afm/fw_state_t.hpp"
 
 namespace afm {
 
@@ -465,11 +465,11 @@ cv::Mat Display::frame(const Overlay &o) const
     std::snprintf(text, sizeof text, "t %.2f s  |F| %.2f nN", o.t_s, std::hypot(o.force_nN[0], o.force_nN[1]));
     put_label(img, text, cv::Point(4, 12), 0.8, kWhite);
     std::string flags;
-    if (o.flags & fw_force_t::FLAG_CONTACT) flags += "PUSH ";
-    if (o.flags & (fw_force_t::FLAG_SAT_SN | fw_force_t::FLAG_SAT_SL)) flags += "SATURATED ";
-    if (o.flags & fw_force_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
-    if (o.flags & fw_force_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
-    if (o.flags & fw_force_t::FLAG_INTERLOCK) flags += "INTERLOCK ";
+    if (o.flags & fw_state_t::FLAG_CONTACT) flags += "PUSH ";
+    if (o.flags & (fw_state_t::FLAG_SAT_SN | fw_state_t::FLAG_SAT_SL)) flags += "SATURATED ";
+    if (o.flags & fw_state_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
+    if (o.flags & fw_state_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
+    if (o.flags & fw_state_t::FLAG_INTERLOCK) flags += "INTERLOCK ";
     if (!flags.empty()) put_label(img, flags, cv::Point(4, 24), 0.8, kYellow);
     // The hand's gauge, bottom middle (right of the scale bar): a circle of
     // hand_scale_N, an arrow for the force on the stylus (at most twice out).
@@ -511,7 +511,7 @@ cv::Mat Display::frame(const Overlay &o) const
     if (len >= 1000) std::snprintf(text, sizeof text, "%g um", len / 1000);
     else std::snprintf(text, sizeof text, "%g nm", len);
     put_label(img, text, cv::Point(8, N - 15), 0.7, kWhite);
-    if (o.flags & fw_force_t::FLAG_INTERLOCK) draw_interlock(img);
+    if (o.flags & fw_state_t::FLAG_INTERLOCK) draw_interlock(img);
     return img;
 }
 

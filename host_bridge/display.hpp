@@ -61,7 +61,7 @@ struct Overlay {              // what is drawn over the image in one frame
     double t_s = 0;
     double tip_nm[2] = {0, 0};
     double force_nN[3] = {0, 0, 0};
-    int flags = 0;            // fw_force_t FLAG_* bits
+    int flags = 0;            // fw_state_t FLAG_* bits
     // The force the operator's hand feels (HAPTIC_FORCE, N, frame A axes),
     // drawn as an arrow in a circle of hand_scale_N; none when that is 0.
     double hand_N[2] = {0, 0};

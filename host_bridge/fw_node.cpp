@@ -20,16 +20,16 @@
 #include "placement.hpp"
 #include "scene.hpp"
 
-static_assert(FW_FLAG_SAT_SN == afm::fw_force_t::FLAG_SAT_SN, "flag bits must match the firmware");
-static_assert(FW_FLAG_SAT_SL == afm::fw_force_t::FLAG_SAT_SL, "flag bits must match the firmware");
-static_assert(FW_FLAG_FX_UNOBSERVABLE == afm::fw_force_t::FLAG_FX_UNOBSERVABLE, "flag bits must match the firmware");
-static_assert(FW_FLAG_VIRTUAL_SN == afm::fw_force_t::FLAG_VIRTUAL_SN, "flag bits must match the firmware");
-static_assert(FW_FLAG_SAT_FORCE == afm::fw_force_t::FLAG_SAT_FORCE, "flag bits must match the firmware");
-static_assert(FW_FLAG_CONTACT == afm::fw_force_t::FLAG_CONTACT, "flag bits must match the firmware");
-static_assert(FW_FLAG_THETA_UNKNOWN == afm::fw_force_t::FLAG_THETA_UNKNOWN, "flag bits must match the firmware");
-static_assert(FW_FLAG_SAT_POS == afm::fw_force_t::FLAG_SAT_POS, "flag bits must match the firmware");
-static_assert(FW_FLAG_SQUEEZE == afm::fw_force_t::FLAG_SQUEEZE, "flag bits must match the firmware");
-static_assert(FW_FLAG_INTERLOCK == afm::fw_force_t::FLAG_INTERLOCK, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_SN == afm::fw_state_t::FLAG_SAT_SN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_SL == afm::fw_state_t::FLAG_SAT_SL, "flag bits must match the firmware");
+static_assert(FW_FLAG_FX_UNOBSERVABLE == afm::fw_state_t::FLAG_FX_UNOBSERVABLE, "flag bits must match the firmware");
+static_assert(FW_FLAG_VIRTUAL_SN == afm::fw_state_t::FLAG_VIRTUAL_SN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_FORCE == afm::fw_state_t::FLAG_SAT_FORCE, "flag bits must match the firmware");
+static_assert(FW_FLAG_CONTACT == afm::fw_state_t::FLAG_CONTACT, "flag bits must match the firmware");
+static_assert(FW_FLAG_THETA_UNKNOWN == afm::fw_state_t::FLAG_THETA_UNKNOWN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_POS == afm::fw_state_t::FLAG_SAT_POS, "flag bits must match the firmware");
+static_assert(FW_FLAG_SQUEEZE == afm::fw_state_t::FLAG_SQUEEZE, "flag bits must match the firmware");
+static_assert(FW_FLAG_INTERLOCK == afm::fw_state_t::FLAG_INTERLOCK, "flag bits must match the firmware");
 
 namespace {
 

@@ -32,8 +32,7 @@
 #include <thread>
 #include <vector>
 
-#include "afm/fw_force_t.hpp"
-#include "afm/fw_tip_t.hpp"
+#include "afm/fw_state_t.hpp"
 #include "afm/heartbeat_t.hpp"
 #include "afm/haptic_force_t.hpp"
 #include "afm/object_fix_t.hpp"
@@ -74,18 +73,18 @@ constexpr double kFidelitySearch_nm = 40.0;    // how far from its model positio
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
 
-// How long a frame due at a block waits for that block's FW_FORCE and
-// FW_TIP (published aside, a batch of 0.5 ms after the block) before it is
+// How long a frame due at a block waits for that block's FW_STATE
+// (published aside, a batch of 0.5 ms after the block) before it is
 // drawn with the latest that came: they are never dropped on the bus
 // (tools/faults.py drops only the lockstep's channels), so this is a guard
 // against a lost datagram on a real network, counted in renderer_report.json
 // (frames_mixed_blocks).
 constexpr int kOwnBlockWaitMs = 1000;
 
-// One channel's messages by block (FW_FORCE, FW_TIP, HAPTIC_FORCE), so that
+// One channel's messages by block (FW_STATE, HAPTIC_FORCE), so that
 // a frame shows those of its own block: the channels come at different
 // times (HAPTIC_FORCE, and FW_OBJECTS when the operator plans, at once;
-// FW_FORCE and FW_TIP aside, a batch later: common/aside.hpp). At most
+// FW_STATE aside, a batch later: common/aside.hpp). At most
 // kKept blocks are kept; taking a block lets the older ones go.
 template <class M> class BySeq
 {
@@ -150,15 +149,14 @@ struct Renderer {
     cv::Rect scan_px;            // the scan's region, in display pixels (same pitch)
     bool started = false;        // the initial scan is in and the display set up
 
-    BySeq<afm::fw_tip_t> tips;
-    BySeq<afm::fw_force_t> forces;
+    BySeq<afm::fw_state_t> states;
     BySeq<afm::haptic_force_t> hands;
     afm::ObjectsView objects;           // FW_OBJECTS, whole
     afm::DisplayModel model;
     int frames_written = 0;
     int64_t last_seq = -1;       // the latest block whose FW_OBJECTS the renderer took
     int64_t shown_seq = -1;      // the block whose objects, force, tip and hand the frames show
-    // Frames fallen due at a block, waiting for its FW_FORCE and FW_TIP
+    // Frames fallen due at a block, waiting for its FW_STATE
     // (draw_ready): the block, the frames due by its end, its objects (none
     // when the model is already set: after a fix), since when.
     struct Due {
@@ -169,7 +167,7 @@ struct Renderer {
     };
     std::deque<Due> due_queue;
     int due_queued = 0;          // frames due so far, drawn or queued
-    // Frames whose FW_FORCE or FW_TIP is not of their objects' block (drawn
+    // Frames whose FW_STATE is not of their objects' block (drawn
     // after kOwnBlockWaitMs without it: a datagram lost).
     int64_t frames_mixed_blocks = 0;
     const int64_t blocks_ahead = static_cast<int64_t>(std::ceil(scene.block_hz)) + 2;
@@ -243,7 +241,7 @@ struct Renderer {
         return afm::Reject::none;
     }
 
-    // A message of block `seq` (FW_TIP, FW_FORCE, FW_OBJECTS, HAPTIC_FORCE
+    // A message of block `seq` (FW_STATE, FW_OBJECTS, HAPTIC_FORCE
     // n come with block n): its time must be that block's end, and it
     // cannot be more than a simulated second past the last block the
     // renderer took objects from (messages are taken in the order sent, so
@@ -278,13 +276,12 @@ struct Renderer {
         auto t0 = std::chrono::steady_clock::now();
         afm::Overlay o;
         o.t_s = afm::frame_utime(scene, k) * 1e-6;
-        const afm::fw_tip_t tip_msg = tips.at(shown_seq);
-        const afm::fw_force_t force_msg = forces.at(shown_seq);
-        o.tip_nm[0] = tip_msg.tip_nm[0];
-        o.tip_nm[1] = tip_msg.tip_nm[1];
-        for (int i = 0; i < 3; ++i) o.force_nN[i] = force_msg.force_nN[i];
-        o.flags = force_msg.flags;
-        if (force_msg.seq != shown_seq || tip_msg.seq != shown_seq) ++frames_mixed_blocks;
+        const afm::fw_state_t state = states.at(shown_seq);
+        o.tip_nm[0] = state.tip_nm[0];
+        o.tip_nm[1] = state.tip_nm[1];
+        for (int i = 0; i < 3; ++i) o.force_nN[i] = state.force_nN[i];
+        o.flags = state.flags;
+        if (state.seq != shown_seq) ++frames_mixed_blocks;
         if (!scene.op.plan.enabled) {   // a hand on the device (the planner drives the pose itself)
             const afm::haptic_force_t hand = hands.at(shown_seq);
             o.hand_N[0] = hand.force_N[0];
@@ -315,17 +312,10 @@ struct Renderer {
         write_composed();
     }
 
-    afm::Reject on_tip(const afm::fw_tip_t &m)
+    afm::Reject on_state(const afm::fw_state_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        const afm::Reject r = tips.put(m);
-        draw_ready();
-        return r;
-    }
-    afm::Reject on_force(const afm::fw_force_t &m)
-    {
-        if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        const afm::Reject r = forces.put(m);
+        const afm::Reject r = states.put(m);
         draw_ready();
         return r;
     }
@@ -407,14 +397,14 @@ struct Renderer {
         draw_ready();
     }
 
-    // Draws the frames queued whose block's FW_FORCE and FW_TIP have come
+    // Draws the frames queued whose block's FW_STATE has come
     // (or after kOwnBlockWaitMs without them), in order, until a scan
     // pauses the frames.
     void draw_ready()
     {
         while (!due_queue.empty() && started && local_pending < 0 && !final_pending) {
             Due &d = due_queue.front();
-            const bool own = forces.newest() >= d.seq && tips.newest() >= d.seq;
+            const bool own = states.newest() >= d.seq;
             if (!own && std::chrono::steady_clock::now() - d.since < std::chrono::milliseconds(kOwnBlockWaitMs)) return;
             shown_seq = std::max(shown_seq, d.seq);
             due_pending = std::max(due_pending, d.due);
@@ -677,8 +667,7 @@ int main(int argc, char **argv)
         r.writer_cpus = writer_cpus;
         afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
-        inbox.on<afm::fw_tip_t>(AFM_CH_FW_TIP, [&](const afm::fw_tip_t &m) { return r.on_tip(m); });
-        inbox.on<afm::fw_force_t>(AFM_CH_FW_FORCE, [&](const afm::fw_force_t &m) { return r.on_force(m); });
+        inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &m) { return r.on_state(m); });
         inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return r.on_haptic(m); });
         inbox.on<afm::objects_t>(AFM_CH_FW_OBJECTS, [&](const afm::objects_t &m) { return r.on_objects(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return r.on_heartbeat(m); });

@@ -5,8 +5,8 @@
 // run's bus.lcmlog and feeds what the card consumed, AFM_ANALOG,
 // HAPTIC_POSE and HOST_OBJECT_FIX, in the order they were recorded, to a
 // CardNode (the adapter fw_node runs, card_node.hpp): no simulator, no
-// bus. Every output, AFM_CMD, HAPTIC_FORCE, FW_FORCE, FW_TIP and
-// FW_OBJECTS, is compared with the recorded one of the same block (and
+// bus. Every output, AFM_CMD, HAPTIC_FORCE, FW_STATE and FW_OBJECTS, is
+// compared with the recorded one of the same block (and
 // fix): identical bit for bit, or the first divergence is named (block,
 // channel, field, recorded and new value) with a count and the worst
 // difference per channel. Replay is open loop: the recorded signals are fed
@@ -45,7 +45,7 @@ const char *kUsage =
     "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--quiet]\n"
     "  Feeds the card inputs recorded in RUN_DIR/bus.lcmlog (AFM_ANALOG, HAPTIC_POSE,\n"
     "  HOST_OBJECT_FIX) into the firmware card as built now and compares every output\n"
-    "  (AFM_CMD, HAPTIC_FORCE, FW_FORCE, FW_TIP, FW_OBJECTS) with the recording.\n"
+    "  (AFM_CMD, HAPTIC_FORCE, FW_STATE, FW_OBJECTS) with the recording.\n"
     "  RUN_DIR may also be the log file itself. The scene is RUN_DIR/scene.yaml (the\n"
     "  copy the run kept), or --scene FILE.\n"
     "  --write NEW_LOG  write the recorded inputs and the new outputs as an LCM log\n"
@@ -55,8 +55,12 @@ const char *kUsage =
     "      2 a bad argument, or a log that is missing, truncated or corrupt (file and byte offset)\n";
 
 // The outputs in the order a block publishes them.
-const std::vector<std::string> kOutputs = {AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_FORCE, AFM_CH_FW_TIP,
-                                           AFM_CH_FW_OBJECTS};
+const std::vector<std::string> kOutputs = {AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE, AFM_CH_FW_OBJECTS};
+
+// The two channels FW_STATE replaced (2026-11, issue 15): a recording made
+// before holds them instead. Their types are gone from the bus; replay
+// compares such a recording's other outputs and says that FW_STATE was not.
+const std::vector<std::string> kBeforeFwState = {"FW_FORCE", "FW_TIP"};
 
 int output_rank(const std::string &ch)
 {
@@ -102,8 +106,7 @@ Key output_key(const std::string &ch, const std::vector<uint8_t> &d)
     const int r = output_rank(ch);
     if (ch == AFM_CH_AFM_CMD) return {decode<afm::tip_cmd_t>(d, "tip_cmd_t").ack_seq, r, 0};
     if (ch == AFM_CH_HAPTIC_FORCE) return {decode<afm::haptic_force_t>(d, "haptic_force_t").seq, r, 0};
-    if (ch == AFM_CH_FW_FORCE) return {decode<afm::fw_force_t>(d, "fw_force_t").seq, r, 0};
-    if (ch == AFM_CH_FW_TIP) return {decode<afm::fw_tip_t>(d, "fw_tip_t").seq, r, 0};
+    if (ch == AFM_CH_FW_STATE) return {decode<afm::fw_state_t>(d, "fw_state_t").seq, r, 0};
     const auto o = decode<afm::objects_t>(d, "objects_t");
     return {o.seq, r, o.fix_id};
 }
@@ -127,8 +130,8 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
         for (int k = 0; k < 3; ++k) x.add(std::string("force_N") + xyz[k], m.force_N[k]);
         for (int k = 0; k < 3; ++k) x.force_nN(std::string("tip_force_nN") + xyz[k], m.tip_force_nN[k]);
         x.add("flags", m.flags);
-    } else if (ch == AFM_CH_FW_FORCE) {
-        const auto m = decode<afm::fw_force_t>(d, "fw_force_t");
+    } else if (ch == AFM_CH_FW_STATE) {
+        const auto m = decode<afm::fw_state_t>(d, "fw_state_t");
         x.add("utime", m.utime);
         x.add("seq", m.seq);
         for (int k = 0; k < 3; ++k) x.force_nN(std::string("force_nN") + xyz[k], m.force_nN[k]);
@@ -136,10 +139,6 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
         x.add("sn_code", m.sn_code);
         x.add("sl_code", m.sl_code);
         x.add("sat_count", static_cast<double>(m.sat_count));
-    } else if (ch == AFM_CH_FW_TIP) {
-        const auto m = decode<afm::fw_tip_t>(d, "fw_tip_t");
-        x.add("utime", m.utime);
-        x.add("seq", m.seq);
         for (int k = 0; k < 3; ++k) x.pos_nm(std::string("tip_nm") + xyz[k], m.tip_nm[k]);
         for (int k = 0; k < 3; ++k) x.pos_nm(std::string("piezo_nm") + xyz[k], m.piezo_nm[k]);
         for (int k = 0; k < 2; ++k) x.pos_nm(std::string("cmd_nm") + xyz[k], m.cmd_nm[k]);
@@ -311,6 +310,15 @@ struct Outputs {
     int64_t foreign_outputs = 0;        // datagrams on an output channel that are not the card's (do not decode, or name a block it never stepped)
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
     std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
+    int64_t before_fw_state = 0;        // recorded messages on FW_FORCE and FW_TIP (kBeforeFwState)
+    // A recording made before FW_STATE: it has none, and has FW_FORCE or FW_TIP.
+    bool predates_fw_state() const
+    {
+        if (before_fw_state == 0) return false;
+        for (const auto &kv : recorded)
+            if (kOutputs[static_cast<std::size_t>(std::get<1>(kv.first))] == AFM_CH_FW_STATE) return false;
+        return true;
+    }
 };
 
 // Hashes an output on its length and at most 64 bytes at either end: equal
@@ -346,8 +354,8 @@ Outputs run_replay(const Options &o)
     afm::CardNode node(scene);
     EventLogWriter out(o.write);
     afm::LogReader log(o.log);
-    log.only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_FORCE,
-              AFM_CH_FW_TIP, AFM_CH_FW_OBJECTS});
+    log.only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE,
+              AFM_CH_FW_OBJECTS, kBeforeFwState[0], kBeforeFwState[1]});
     auto take = [&](const afm::Outbox &box, int64_t utime) {
         for (const auto &m : box) {
             const Key k{m.seq, output_rank(m.channel), m.fix_id};
@@ -420,6 +428,8 @@ Outputs run_replay(const Options &o)
             else if (r.refused_at.size() < 5)
                 r.refused_at.push_back("byte offset " + std::to_string(ev.offset) + ": " + ev.channel + " message refused (" +
                                        afm::reject_name(why) + ")");
+        } else if (output_rank(ev.channel) < 0) {
+            ++r.before_fw_state;
         } else {
             recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
         }
@@ -477,6 +487,7 @@ struct Verdict {
     Divergence first;
     int64_t blocks = 0;
     int64_t messages = 0;
+    std::vector<std::string> compared;   // the output channels compared (all but FW_STATE in a recording before it)
 };
 
 Verdict compare_all(const Outputs &r)
@@ -485,11 +496,15 @@ Verdict compare_all(const Outputs &r)
     std::set<Key> keys;
     for (const auto &kv : r.recorded) keys.insert(kv.first);
     for (const auto &kv : r.replayed) keys.insert(kv.first);
+    const bool skip_state = r.predates_fw_state();
+    for (const auto &c : kOutputs)
+        if (!(c == AFM_CH_FW_STATE && skip_state)) v.compared.push_back(c);
     for (const Key &k : keys) {
         const std::string &ch = kOutputs[static_cast<std::size_t>(std::get<1>(k))];
-        ChannelStats &st = v.stats[ch];
         const auto rec = r.recorded.find(k), now = r.replayed.find(k);
-        if (ch == AFM_CH_FW_FORCE && now != r.replayed.end()) ++v.blocks;
+        if (ch == AFM_CH_FW_STATE && now != r.replayed.end()) ++v.blocks;
+        if (ch == AFM_CH_FW_STATE && skip_state) continue;
+        ChannelStats &st = v.stats[ch];
         ++v.messages;
         std::string what;
         bool same = true;
@@ -527,6 +542,10 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
     std::printf("\n");
     if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (the recorder was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
+    if (r.predates_fw_state())
+        std::printf("replay: the recording is of the bus before FW_STATE (%lld messages on FW_FORCE and FW_TIP, the two "
+                    "channels it replaced): FW_STATE is not compared\n",
+                    static_cast<long long>(r.before_fw_state));
     if (r.refused_inputs || r.foreign_outputs)
         std::printf("replay: %lld input datagrams refused by the card's inbox (as in the run), %lld datagrams on output channels that "
                     "are not the card's (do not decode, or name a block the card never stepped)\n",
@@ -545,9 +564,11 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
 int verdict_line(const Options &o, const Verdict &v)
 {
     if (!v.first.found) {
+        std::string on;
+        for (const auto &c : v.compared) on += (on.empty() ? "" : ", ") + c;
         std::printf("replay: identical: every output of the card as built now equals the recording, bit for bit "
-                    "(%lld messages on AFM_CMD, HAPTIC_FORCE, FW_FORCE, FW_TIP, FW_OBJECTS)\n",
-                    static_cast<long long>(v.messages));
+                    "(%lld messages on %s)\n",
+                    static_cast<long long>(v.messages), on.c_str());
         return 0;
     }
     const std::string ch = kOutputs[static_cast<std::size_t>(std::get<1>(v.first.key))];
@@ -556,7 +577,7 @@ int verdict_line(const Options &o, const Verdict &v)
                 ch.c_str(), fix ? (" (fix " + std::to_string(fix) + ")").c_str() : "", v.first.text.c_str());
     if (!o.quiet) {
         std::printf("replay: per channel: messages differing of those compared; missing on either side; worst difference\n");
-        for (const auto &c : kOutputs) {
+        for (const auto &c : v.compared) {
             const auto it = v.stats.find(c);
             const ChannelStats s = it == v.stats.end() ? ChannelStats{} : it->second;
             std::printf("  %-13s %7lld of %-7lld  missing: %lld replayed, %lld recorded   worst %.3f pN, %.3f nm\n", c.c_str(),

@@ -373,7 +373,7 @@ int main(int argc, char **argv)
             }
             blk.seq = n;
             blk.utime = std::llround(n * 1e6 / scene.block_hz);
-            Eigen::Vector3d force_sum = Eigen::Vector3d::Zero();   // the block's mean true force, as FW_FORCE's
+            Eigen::Vector3d force_sum = Eigen::Vector3d::Zero();   // the block's mean true force, as FW_STATE's
             for (int i = 0; i < spb; ++i) {
                 const afm::sim::Sample s = sim.world.step();
                 force_sum += sim.world.tip_force();

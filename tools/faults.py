@@ -57,7 +57,7 @@ PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
         "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs"])
 # What a trajectory is: the simulator's truth and the card's answers, by block.
-TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_FORCE", "seq"), ("HAPTIC_POSE", "seq")]
+TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq")]
 
 
 def processes():

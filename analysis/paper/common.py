@@ -184,15 +184,15 @@ def plt():
 
 
 def apex_error(run_dir, min_load_nN=1.0):
-    """The card's apex (FW_TIP) against the simulator's (SIM_TRUTH), block
+    """The card's apex (FW_STATE) against the simulator's (SIM_TRUTH), block
     by block where the card reads a load above min_load_nN: arrays of the
     error (nm, x and y, frame A) and of the simulated time (s)."""
     import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_TIP", "SIM_TRUTH", "FW_FORCE"})
-    tip, truth, force = (afmlog.by_seq(log.get(c, [])) for c in ("FW_TIP", "SIM_TRUTH", "FW_FORCE"))
-    seqs = sorted(s for s in tip if s in truth and s in force and force[s].force_nN[2] > min_load_nN)
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
+    tip, truth = (afmlog.by_seq(log.get(c, [])) for c in ("FW_STATE", "SIM_TRUTH"))
+    seqs = sorted(s for s in tip if s in truth and tip[s].force_nN[2] > min_load_nN)
     if not seqs:
-        raise PaperError(f"{run_dir}/bus.lcmlog: no block with the tip on the surface (FW_TIP, SIM_TRUTH, FW_FORCE)")
+        raise PaperError(f"{run_dir}/bus.lcmlog: no block with the tip on the surface (FW_STATE, SIM_TRUTH)")
     err = np.array([[tip[s].tip_nm[i] - truth[s].tip_nm[i] for i in (0, 1)] for s in seqs])
     t = np.array([tip[s].utime * 1e-6 for s in seqs])
     return err, t

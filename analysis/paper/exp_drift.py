@@ -49,12 +49,12 @@ def registration(run_dir):
     and the model states they came from."""
     import afmlog
     st = common.model_states(run_dir)
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_FORCE"})
-    ff = afmlog.by_seq(log.get("FW_FORCE", []))
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
+    ff = afmlog.by_seq(log.get("FW_STATE", []))
     t = np.array([f.utime * 1e-6 for _, f, _ in st])
     err = np.array([np.hypot(f.drift_nm[0] - tr.drift_nm[0], f.drift_nm[1] - tr.drift_nm[1]) for _, f, tr in st])
     drift = np.array([np.hypot(*tr.drift_nm) for _, _, tr in st])
-    contact = np.array([bool(ff[s].flags & 32) if s in ff else False for s, _, _ in st])   # fw_force_t.FLAG_CONTACT
+    contact = np.array([bool(ff[s].flags & afmlog.afm.fw_state_t.FLAG_CONTACT) if s in ff else False for s, _, _ in st])
     first, last = st[0][2], st[-1][2]
     start = {p.id: (p.x_nm, p.y_nm) for p in first.particles}
     dd = np.subtract(last.drift_nm[:2], first.drift_nm[:2])

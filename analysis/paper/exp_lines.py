@@ -6,7 +6,7 @@ depth-weighted centre of its groove); the firmware's fw_calib_lines_cn
 (afm_calc calib lines) fits C_n. The simulated lever's true C_n differs from
 the beam's estimate. Then afm_calc calib lines --write makes the include
 file a scene takes, and a push with the estimate and one with the
-calibrated value show the apex error (the card's FW_TIP against SIM_TRUTH)."""
+calibrated value show the apex error (the card's FW_STATE against SIM_TRUTH)."""
 import os
 
 import numpy as np
@@ -114,7 +114,7 @@ def analyse(dirs, exp_dir, size):
         res.rows += [
             common.Row("apex error on a push, C_n estimated", "nm", bench=rms["push_estimate"],
                        truth=(cn_t - estimate) * sn, tolerance=0.15, relative=True,
-                       note=f"RMS of FW_TIP - SIM_TRUTH while pushing at 30 nN; truth: (C_n - estimate) S_n, S_n = {sn:.2f} V"),
+                       note=f"RMS of FW_STATE - SIM_TRUTH while pushing at 30 nN; truth: (C_n - estimate) S_n, S_n = {sn:.2f} V"),
             common.Row("apex error on a push, C_n calibrated", "nm", bench=rms["push_calibrated"], tolerance=2.0,
                        note=f"the same push with include: {INCLUDE} (written by afm_calc calib lines --write); "
                             "held below the tolerance"),

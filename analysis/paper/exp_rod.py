@@ -3,7 +3,7 @@ it. The static point is the point of the rod that did not move between the
 run's initial and final scans (the rod's axis and centre fitted to the
 pixels above half its height, in each scan; the point of least
 displacement between the two poses); the push that moved it is the card's
-force (FW_FORCE) across the rod while it flags contact. Both against the
+force (FW_STATE) across the rod while it flags contact. Both against the
 closed form (physics.md section 6, as corrected: s = l +- sqrt((l - L/2)^2
 + L^2/4), F_min = f |L - 2 s|), the firmware's fw_wire (afm_calc model
 wire) and the simulator's truth (SIM_TRUTH: poses and force)."""
@@ -87,13 +87,13 @@ def truth_offset(run_dir):
 
 
 def push_force(run_dir):
-    """The push (nN): median |F| across the rod from the card (FW_FORCE)
+    """The push (nN): median |F| across the rod from the card (FW_STATE)
     and from the simulator (SIM_TRUTH) over the blocks the card flags
     contact."""
     import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_FORCE", "SIM_TRUTH"})
-    ff, tr = afmlog.by_seq(log.get("FW_FORCE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
-    contact = [s for s, m in ff.items() if m.flags & 32 and s in tr]   # fw_force_t.FLAG_CONTACT
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
+    ff, tr = afmlog.by_seq(log.get("FW_STATE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
+    contact = [s for s, m in ff.items() if m.flags & afmlog.afm.fw_state_t.FLAG_CONTACT and s in tr]
     if len(contact) < 5:
         raise common.PaperError(f"{run_dir}/bus.lcmlog: the card flagged contact in {len(contact)} blocks")
     return (float(np.median([abs(ff[s].force_nN[1]) for s in contact])),

@@ -4,7 +4,7 @@ what the tip pushes by H tan psi, the card models the same (fw_wire_update,
 fw_particles_down_threshold_pn) and flags SQUEEZE past psi_max.
 
 - A rod (1.3 um x 100 nm, f L = 26 nN, wire mu 0.5) pushed at an end by cones
-  of several half angles: the push measured from the card's force (FW_FORCE,
+  of several half angles: the push measured from the card's force (FW_STATE,
   less the tip's own friction measured in the same run before contact)
   against the firmware's eq. 29 (afm_calc model squeeze) and the simulator;
   dF = H tan psi - F_a,ts from the measured push against eq. 30.
@@ -61,14 +61,15 @@ def push_excess(run_dir):
     """The push the object takes (nN): the median lateral force across the
     push while the card flags contact, less the tip's own sliding friction,
     the median over the blocks of free sliding before the first contact
-    (their second half: the scanner at speed). From the card (FW_FORCE) and
+    (their second half: the scanner at speed). From the card (FW_STATE) and
     from the simulator (SIM_TRUTH); and the blocks the card flagged SQUEEZE."""
     import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_FORCE", "SIM_TRUTH"})
-    ff, tr = afmlog.by_seq(log.get("FW_FORCE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
+    ff, tr = afmlog.by_seq(log.get("FW_STATE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
     seqs = sorted(s for s in ff if s in tr)
-    contact = [s for s in seqs if ff[s].flags & 32]   # fw_force_t.FLAG_CONTACT
-    squeeze = sum(1 for s in seqs if ff[s].flags & 256)   # fw_force_t.FLAG_SQUEEZE
+    flag = afmlog.afm.fw_state_t
+    contact = [s for s in seqs if ff[s].flags & flag.FLAG_CONTACT]
+    squeeze = sum(1 for s in seqs if ff[s].flags & flag.FLAG_SQUEEZE)
     if len(contact) < 5:
         return None, None, squeeze
     free = [s for s in seqs if s < contact[0]]
@@ -88,12 +89,12 @@ def _rod_moved(run_dir):
 
 
 def _apex_final_y(run_dir):
-    """The apex's last y (nm) from the card (FW_TIP): past the rod when the tip rode over it."""
+    """The apex's last y (nm) from the card (FW_STATE): past the rod when the tip rode over it."""
     import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_TIP"})
-    tips = sorted(afmlog.by_seq(log.get("FW_TIP", [])).values(), key=lambda m: m.seq)
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
+    tips = sorted(afmlog.by_seq(log.get("FW_STATE", [])).values(), key=lambda m: m.seq)
     if not tips:
-        raise common.PaperError(f"{run_dir}/bus.lcmlog: no FW_TIP")
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: no FW_STATE")
     return float(tips[-1].tip_nm[1])
 
 

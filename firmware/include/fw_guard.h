@@ -7,7 +7,7 @@
  *
  * The forces: the firmware's own, per sample, pN.
  *   normal   F_z of eq. 1c, the sample's force_pn[2] (frame A's z is frame
- *            C's), as FW_FORCE publishes it;
+ *            C's), as FW_STATE publishes it;
  *   lateral  F_y of eq. 1a on the lever's lateral channel (frame C),
  *            round(k_theta K_l / h S_l) with S_l the sample's lateral ADC
  *            code as a signal (fw_guard_lateral_pn): what saturates that

@@ -77,7 +77,7 @@ class EndToEnd(unittest.TestCase):
             sim = json.load(f)["aside"]
         self.assertEqual(fw["failed"], 0, fw)
         self.assertEqual(sim["failed"], 0, sim)
-        self.assertEqual(fw["published"], sum(len(self.log1[ch]) for ch in ("FW_FORCE", "FW_TIP", "FW_OBJECTS")), fw)
+        self.assertEqual(fw["published"], sum(len(self.log1[ch]) for ch in ("FW_STATE", "FW_OBJECTS")), fw)
         self.assertEqual(sim["published"], len(self.log1["SIM_TRUTH"]), sim)
 
     def test_final_model_within_5nm_of_truth(self):
@@ -199,8 +199,8 @@ class EndToEnd(unittest.TestCase):
             self.assertEqual(a, b, f"{name} differs between two runs of the same scene")
 
     def test_each_frame_shows_its_own_block(self):
-        # FW_FORCE and FW_TIP come a batch after their block (published
-        # aside): a frame waits for those of the block it fell due at
+        # FW_STATE comes a batch after its block (published aside): a
+        # frame waits for that of the block it fell due at
         self.assertEqual(self.r1[3]["renderer"]["frames_mixed_blocks"], 0)
         self.assertEqual(self.r2[3]["renderer"]["frames_mixed_blocks"], 0)
 

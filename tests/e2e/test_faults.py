@@ -62,7 +62,7 @@ class FaultMatrix(unittest.TestCase):
         self.assertGreater(nf["duplicated"], 0)
         self.assertEqual(nf["duplicates_failed"], 0)
         self.assertGreater(nf["reordered"], 0)
-        for ch in ("AFM_ANALOG", "AFM_CMD", "FW_TIP", "HAPTIC_POSE"):
+        for ch in ("AFM_ANALOG", "AFM_CMD", "FW_STATE", "HAPTIC_POSE"):
             self.assertGreater(nf["seen_by_channel"].get(ch, 0), 0, ch)
 
     def test_the_kernel_fault_tool_refuses_absurd_options_naming_them(self):

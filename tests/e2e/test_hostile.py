@@ -66,7 +66,7 @@ class HostileDatagrams(unittest.TestCase):
         cls.code0, _, cls.err0, cls.rj0 = benchtest.run(cls.scene, cls.clean)
         cls.hostile = benchtest.tmpdir("hostile")
         cls.code, cls.err, cls.rj, cls.sent = run_with_hostile(cls.scene, cls.hostile)
-        chans = ["SIM_TRUTH", "AFM_CMD", "FW_FORCE", "HAPTIC_POSE", "HAPTIC_FORCE", "FW_TIP"]
+        chans = ["SIM_TRUTH", "AFM_CMD", "FW_STATE", "HAPTIC_POSE", "HAPTIC_FORCE"]
         cls.log0 = afmlog.load(os.path.join(cls.clean, "bus.lcmlog"), channels=chans)
         cls.log = afmlog.load(os.path.join(cls.hostile, "bus.lcmlog"), channels=chans)
 
@@ -108,8 +108,8 @@ class HostileDatagrams(unittest.TestCase):
 
     def test_the_trajectories_are_those_of_the_undisturbed_run(self):
         self.assertEqual(self.rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
-        for ch, field in (("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_FORCE", "seq"), ("HAPTIC_POSE", "seq"),
-                          ("HAPTIC_FORCE", "seq"), ("FW_TIP", "seq")):
+        for ch, field in (("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq"),
+                          ("HAPTIC_FORCE", "seq")):
             blocks = self.rj0["sim"]["blocks"]
             calm, hostile = by_seq(self.log0[ch], blocks, field), by_seq(self.log[ch], blocks, field)
             self.assertEqual(sorted(calm), sorted(hostile), ch)

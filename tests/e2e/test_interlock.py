@@ -1,7 +1,7 @@
 """The card's force interlock on the bench (issue 14, firmware/include/fw_guard.h):
 scenes/interlock.yaml's operator asks for 120 nN, above the card's normal
 limit (80 % of k_n K_n 10 V: 85.44 nN), with a z servo of 20 um/s. Checked
-from the run's own bus log: FW_FORCE carries INTERLOCK from the block whose
+from the run's own bus log: FW_STATE carries INTERLOCK from the block whose
 samples crossed the limit; the command of that block retracts the tip and
 the simulator's force drops to zero at once, z 100 nm above contact; the
 interlock holds while the operator keeps pressing and releases once the
@@ -21,8 +21,8 @@ import matplotlib.image
 import benchtest
 import afmlog
 
-FLAG_INTERLOCK = 512   # afm.fw_force_t.FLAG_INTERLOCK (= FW_FLAG_INTERLOCK)
-CHANNELS = {"FW_FORCE", "SIM_TRUTH", "AFM_CMD", "HAPTIC_POSE", "AFM_ANALOG", "RENDER_FRAME"}
+FLAG_INTERLOCK = afmlog.afm.fw_state_t.FLAG_INTERLOCK   # = the firmware's FW_FLAG_INTERLOCK (fw_node checks)
+CHANNELS = {"FW_STATE", "SIM_TRUTH", "AFM_CMD", "HAPTIC_POSE", "AFM_ANALOG", "RENDER_FRAME"}
 
 
 class Run:
@@ -32,7 +32,7 @@ class Run:
         self.out = benchtest.tmpdir(tag)
         self.code, _, self.err, self.rj = benchtest.run(scene_path, self.out)
         log = afmlog.load(os.path.join(self.out, "bus.lcmlog"), channels=CHANNELS)
-        self.force = afmlog.by_seq(log["FW_FORCE"])
+        self.force = afmlog.by_seq(log["FW_STATE"])
         self.truth = log["SIM_TRUTH"]
         self.truth_by_seq = afmlog.by_seq(self.truth)
         self.cmd = {m.ack_seq: m for m in log["AFM_CMD"]}
@@ -164,10 +164,10 @@ class Interlock(unittest.TestCase):
 
     def test_the_display_shows_it(self):
         # Each frame shows its own block: the objects (FW_OBJECTS, at once:
-        # the operator plans), the force and the tip (FW_FORCE, FW_TIP, a
-        # batch later: published aside) of the block it fell due at, which
-        # its announcement names (RENDER_FRAME.seq), and the red border
-        # exactly when that block's FW_FORCE is latched.
+        # the operator plans), the force and the tip (FW_STATE, a batch
+        # later: published aside) of the block it fell due at, which its
+        # announcement names (RENDER_FRAME.seq), and the red border
+        # exactly when that block's FW_STATE is latched.
         r = self.base
         fps, bhz = r.scene["frame_rate_hz"], r.scene["block_hz"]
         self.assertEqual(r.rj["renderer"]["frames_mixed_blocks"], 0)

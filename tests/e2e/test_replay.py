@@ -16,7 +16,7 @@ import afmlog
 
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 REPLAY_PERTURBED = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay_perturbed")
-OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_FORCE", "FW_TIP", "FW_OBJECTS"]
+OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_STATE", "FW_OBJECTS"]
 SYNC = 0xEDA1DA01
 
 
@@ -109,7 +109,7 @@ class ReplayEveryScene(unittest.TestCase):
                 self.assertIn("replay: identical", so)
                 self.assertNotIn("DIVERGES", so)
                 compared = int(so.split("bit for bit (")[1].split(" messages")[0])
-                self.assertGreaterEqual(compared, 5 * 500, "too few outputs compared")
+                self.assertGreaterEqual(compared, len(OUTPUTS) * 500, "too few outputs compared")   # every output of 500 blocks at least
 
     def test_a_run_with_lost_datagrams_and_resends_replays_identical(self):
         out = benchtest.tmpdir("replay-drops")
@@ -225,6 +225,37 @@ class ReplayEveryScene(unittest.TestCase):
         self.assertIn(f"the card could step only to block {block + 1}", se)
         self.assertIn(f"out of order, an input of block {block + 2}", se)
         self.assertNotIn("DIVERGES", so)
+
+    def _renamed_state(self, tag, names):
+        """A copy of the short run's log with each FW_STATE event recorded on
+        the channels `names` instead (none: dropped), the same bytes."""
+        def rename(evs, blob):
+            out = b""
+            for off, ch, data in evs:
+                if ch != "FW_STATE":
+                    out += blob[off:off + 28 + len(ch) + len(data)]
+                    continue
+                sync, num, utime, _, _ = struct.unpack(">IqqII", blob[off:off + 28])
+                for n in names:
+                    out += struct.pack(">IqqII", sync, num, utime, len(n), len(data)) + n.encode() + data
+            return out
+        run, _, _ = self._broken_copy(tag, rename)
+        return run
+
+    def test_a_recording_from_before_fw_state_is_compared_without_it(self):
+        # FW_STATE replaced FW_FORCE and FW_TIP (issue 15): a run recorded
+        # before holds those two; its other outputs are still judged
+        run = self._renamed_state("before-state", ("FW_FORCE", "FW_TIP"))
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 0, so + se)
+        self.assertRegex(so, r"the recording is of the bus before FW_STATE \(\d+ messages on FW_FORCE and FW_TIP")
+        self.assertIn("messages on AFM_CMD, HAPTIC_FORCE, FW_OBJECTS)", so)
+        # a recording that lost FW_STATE without being of the old bus is judged: it misses outputs
+        run = self._renamed_state("no-state", ())
+        rc, so, se = replay(REPLAY, run)
+        self.assertEqual(rc, 1, so + se)
+        self.assertIn("channel FW_STATE: the replay answers it, the recording has no such message", so)
+        self.assertNotIn("before FW_STATE", so)
 
     def test_write_onto_the_replayed_log_is_refused(self):
         run, log, _ = self._broken_copy("self", lambda evs, blob: blob)

@@ -73,11 +73,11 @@ void test_the_lockstep_reads_its_hops_and_the_planner_the_objects()
     for (const char *c : {AFM_CH_AFM_ANALOG, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_HAPTIC_POSE, AFM_CH_AFM_SCAN_REQ,
                           AFM_CH_AFM_SCAN_LINE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_RENDER_FRAME, AFM_CH_AFM_HEARTBEAT})
         TEST_ASSERT_TRUE_MESSAGE(afm::lockstep_reads(s, c), c);
-    for (const char *c : {AFM_CH_FW_FORCE, AFM_CH_FW_TIP, AFM_CH_FW_OBJECTS, AFM_CH_SIM_TRUTH, "NOT_A_CHANNEL", ""})
+    for (const char *c : {AFM_CH_FW_STATE, AFM_CH_FW_OBJECTS, AFM_CH_SIM_TRUTH, "NOT_A_CHANNEL", ""})
         TEST_ASSERT_FALSE_MESSAGE(afm::lockstep_reads(s, c), c);
     s.op.plan.enabled = true;
     TEST_ASSERT_TRUE(afm::lockstep_reads(s, AFM_CH_FW_OBJECTS));
-    TEST_ASSERT_FALSE(afm::lockstep_reads(s, AFM_CH_FW_TIP));
+    TEST_ASSERT_FALSE(afm::lockstep_reads(s, AFM_CH_FW_STATE));
 }
 
 // A process of the lockstep that subscribes to a channel published aside

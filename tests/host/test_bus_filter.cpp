@@ -86,7 +86,7 @@ void test_a_subscribed_channel_passes_and_another_does_not(void)
     attach({"AFM_CMD", "HAPTIC_POSE"});
     TEST_ASSERT_TRUE(passes(short_message("AFM_CMD")));
     TEST_ASSERT_TRUE(passes(short_message("HAPTIC_POSE")));
-    TEST_ASSERT_FALSE(passes(short_message("FW_TIP")));
+    TEST_ASSERT_FALSE(passes(short_message("FW_STATE")));
     TEST_ASSERT_FALSE(passes(short_message("AFM_ANALOG")));
 }
 
@@ -132,8 +132,8 @@ void test_what_the_receiver_judges_itself_always_passes(void)
 {
     attach({"AFM_CMD"});
     TEST_ASSERT_TRUE(passes(std::string("x")));                                  // shorter than a magic
-    TEST_ASSERT_TRUE(passes(short_message("FW_TIP", 16, 0x4c433033)));            // a fragment ("LC03")
-    TEST_ASSERT_TRUE(passes(short_message("FW_TIP", 16, 0xdeadbeef)));            // garbage
+    TEST_ASSERT_TRUE(passes(short_message("FW_STATE", 16, 0x4c433033)));            // a fragment ("LC03")
+    TEST_ASSERT_TRUE(passes(short_message("FW_STATE", 16, 0xdeadbeef)));            // garbage
     TEST_ASSERT_FALSE(passes(short_message("LCM_SELF_TEST")));                   // liblcm's own test: not subscribed, not read
     TEST_ASSERT_FALSE(passes(std::string("LC02\0\0\0\x2a", 8)));                 // a short message with no name at all
 }
@@ -149,9 +149,9 @@ void test_an_empty_subscription_set_passes_no_short_message(void)
 void test_attaching_again_replaces_the_filter(void)
 {
     attach({"AFM_CMD"});
-    TEST_ASSERT_FALSE(passes(short_message("FW_TIP")));
-    attach({"AFM_CMD", "FW_TIP"});
-    TEST_ASSERT_TRUE(passes(short_message("FW_TIP")));
+    TEST_ASSERT_FALSE(passes(short_message("FW_STATE")));
+    attach({"AFM_CMD", "FW_STATE"});
+    TEST_ASSERT_TRUE(passes(short_message("FW_STATE")));
     TEST_ASSERT_TRUE(passes(short_message("AFM_CMD")));
 }
 
@@ -201,8 +201,8 @@ void test_the_channel_of_a_datagram_is_read_as_liblcm_lays_it_out(void)
     // nothing to read: a later fragment, no name, no NUL, garbage, too short
     TEST_ASSERT_EQUAL_STRING("", channel_of(fragment("AFM_SCAN_LINE", 1)).c_str());
     TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("")).c_str());
-    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("FW_TIP", 0).substr(0, 14)).c_str());
-    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("FW_TIP", 16, 0xdeadbeef)).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("FW_STATE", 0).substr(0, 14)).c_str());
+    TEST_ASSERT_EQUAL_STRING("", channel_of(short_message("FW_STATE", 16, 0xdeadbeef)).c_str());
     TEST_ASSERT_EQUAL_STRING("", channel_of(std::string("LC0")).c_str());
     TEST_ASSERT_EQUAL_STRING("", channel_of(std::string()).c_str());
 }

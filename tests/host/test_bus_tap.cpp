@@ -342,7 +342,7 @@ void test_a_filtered_receiver_hands_on_only_its_channels()
     std::vector<Got> got;
     auto sink = [&](const std::string &c, const unsigned char *d, std::size_t n, int64_t t) { got.push_back({c, {d, d + n}, t}); };
     const auto a = pattern(40, 14), big = pattern(150000, 15);
-    pub->publish("FW_TIP", a.data(), static_cast<unsigned>(a.size()));
+    pub->publish("FW_STATE", a.data(), static_cast<unsigned>(a.size()));
     TEST_ASSERT_FALSE_MESSAGE(mine.wait(30), "a short message on another channel reached the socket");
     pub->publish("AFM_SCAN_LINE", big.data(), static_cast<unsigned>(big.size()));   // fragments pass the kernel
     TEST_ASSERT_EQUAL_INT(0, mine.next(sink, 50));
@@ -410,7 +410,7 @@ void test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread()
     });
     afm::Heartbeat hb(*pub, "test_bus_tap");
     const auto a = pattern(40, 16);
-    pub->publish("FW_TIP", a.data(), static_cast<unsigned>(a.size()));   // not the inbox's channel
+    pub->publish("FW_STATE", a.data(), static_cast<unsigned>(a.size()));   // not the inbox's channel
     hb.send("ready", -1, 0);
     hb.send("running", 0, 0);
     TEST_ASSERT_EQUAL_INT(1, inbox.handle(1000));

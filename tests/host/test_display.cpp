@@ -14,7 +14,7 @@
 #include <string>
 #include <unistd.h>
 
-#include "afm/fw_force_t.hpp"
+#include "afm/fw_state_t.hpp"
 #include "display.hpp"
 #include "fidelity.hpp"
 #include "profile.hpp"
@@ -165,7 +165,7 @@ void test_labels_stay_legible_on_any_map_and_may_run_off_the_frame()
     afm::Display small(tiny, kTip);
     small.start(cv::Mat::zeros(tiny.px, tiny.px, CV_32F), afm::DisplayModel{});
     o.hand_scale_N = 0.08;
-    o.flags = afm::fw_force_t::FLAG_CONTACT | afm::fw_force_t::FLAG_SQUEEZE;
+    o.flags = afm::fw_state_t::FLAG_CONTACT | afm::fw_state_t::FLAG_SQUEEZE;
     const cv::Mat f = small.frame(o);
     TEST_ASSERT_EQUAL_INT(tiny.px, f.rows);
     TEST_ASSERT_EQUAL_INT(tiny.px, f.cols);
@@ -273,7 +273,7 @@ void test_gsf_header_and_padding()
 
 void test_interlock_flag_draws_a_red_border_and_banner()
 {
-    // FW_FORCE's FLAG_INTERLOCK: a red border round the frame and a red
+    // FW_STATE's FLAG_INTERLOCK: a red border round the frame and a red
     // banner under the flags' line; without it, no red there (the afmhot
     // map has no pure red: its blue-free colours are orange to yellow).
     afm::Display d(kField, kTip);
@@ -290,10 +290,10 @@ void test_interlock_flag_draws_a_red_border_and_banner()
     const int N = kField.px;
     const cv::Rect left(0, 50, 2, N - 100), bottom(50, N - 2, N - 100, 2), banner(120, 29, 60, 12);
     afm::Overlay o;
-    o.flags = afm::fw_force_t::FLAG_SQUEEZE;
+    o.flags = afm::fw_state_t::FLAG_SQUEEZE;
     const cv::Mat plain = d.frame(o);
     TEST_ASSERT_EQUAL_INT(0, red_in(plain, left) + red_in(plain, bottom) + red_in(plain, banner));
-    o.flags |= afm::fw_force_t::FLAG_INTERLOCK;
+    o.flags |= afm::fw_state_t::FLAG_INTERLOCK;
     const cv::Mat locked = d.frame(o);
     TEST_ASSERT_EQUAL_INT(left.area(), red_in(locked, left));
     TEST_ASSERT_EQUAL_INT(bottom.area(), red_in(locked, bottom));
