@@ -21,9 +21,33 @@ def scene(name):
     return os.path.join(SRC, "scenes", name)
 
 
+_root = None
+
+
 def tmpdir(tag):
-    d = tempfile.mkdtemp(prefix=f"afm-{tag}-", dir=os.environ.get("AFM_TEST_TMP"))
-    return d
+    """A fresh folder for a test's run or scene, inside this test file's own
+    folder of runs (main() removes it when every test passed, and keeps it,
+    naming it, when one failed)."""
+    global _root
+    if _root is None:
+        script = os.path.splitext(os.path.basename(sys.argv[0]))[0] or "e2e"
+        _root = tempfile.mkdtemp(prefix=f"afm-{script}-", dir=os.environ.get("AFM_TEST_TMP"))
+    return tempfile.mkdtemp(prefix=f"{tag}-", dir=_root)
+
+
+def main():
+    """unittest.main for a test file: the runs of a file whose tests all
+    passed are removed (unless AFM_KEEP_TEST_RUNS is set); those of a file
+    with a failure are kept and named, for a person to look at."""
+    import unittest
+    result = unittest.main(verbosity=2, exit=False).result
+    ok = result.wasSuccessful()
+    if _root is not None and os.path.isdir(_root):
+        if ok and not os.environ.get("AFM_KEEP_TEST_RUNS"):
+            shutil.rmtree(_root, ignore_errors=True)
+        else:
+            print(f"benchtest: the runs of these tests are kept in {_root}", file=sys.stderr)
+    sys.exit(0 if ok else 1)
 
 
 def run(scene_path, out, *extra, timeout=300):

@@ -108,4 +108,4 @@ def afmlog_events(path):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

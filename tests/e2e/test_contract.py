@@ -60,4 +60,4 @@ class ChannelTable(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

@@ -99,4 +99,4 @@ class CantileverChangeAndLandmark(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

@@ -249,4 +249,4 @@ class RealTime(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

@@ -89,4 +89,4 @@ class FaultMatrix(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

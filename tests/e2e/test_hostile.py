@@ -124,4 +124,4 @@ class HostileDatagrams(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

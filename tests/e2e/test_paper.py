@@ -155,4 +155,4 @@ class Judge(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()

@@ -314,4 +314,4 @@ class ReplayEveryScene(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    benchtest.main()
