@@ -35,12 +35,34 @@ def tmpdir(tag):
     return tempfile.mkdtemp(prefix=f"{tag}-", dir=_root)
 
 
+_failed = False   # a test of this file has failed: cleanup() keeps what it is given
+
+
 def main():
     """unittest.main for a test file: the runs of a file whose tests all
     passed are removed (unless AFM_KEEP_TEST_RUNS is set); those of a file
     with a failure are kept and named, for a person to look at."""
     import unittest
-    result = unittest.main(verbosity=2, exit=False).result
+
+    class Result(unittest.TextTestResult):
+        def addFailure(self, test, err):
+            global _failed
+            _failed = True
+            super().addFailure(test, err)
+
+        def addError(self, test, err):
+            global _failed
+            _failed = True
+            super().addError(test, err)
+
+        def addSubTest(self, test, subtest, err):
+            global _failed
+            if err is not None:
+                _failed = True
+            super().addSubTest(test, subtest, err)
+
+    runner = unittest.TextTestRunner(resultclass=Result, verbosity=2)
+    result = unittest.main(testRunner=runner, exit=False).result
     ok = result.wasSuccessful()
     if _root is not None and os.path.isdir(_root):
         if ok and not os.environ.get("AFM_KEEP_TEST_RUNS"):
@@ -80,7 +102,9 @@ def write_scene(text, tag="scene"):
 
 
 def cleanup(*dirs):
-    if os.environ.get("AFM_KEEP_TEST_RUNS"):
+    """Removes runs as soon as their tests are done, unless a test of this
+    file has failed (main() then keeps them all) or AFM_KEEP_TEST_RUNS is set."""
+    if os.environ.get("AFM_KEEP_TEST_RUNS") or _failed:
         return
     for d in dirs:
         shutil.rmtree(d, ignore_errors=True)
