@@ -14,6 +14,7 @@
 // computes from the old run's signals, not what a new run would do.
 #include <lcm/eventlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -311,14 +312,7 @@ struct Outputs {
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
     std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
     int64_t before_fw_state = 0;        // recorded messages on FW_FORCE and FW_TIP (kBeforeFwState)
-    // A recording made before FW_STATE: it has none, and has FW_FORCE or FW_TIP.
-    bool predates_fw_state() const
-    {
-        if (before_fw_state == 0) return false;
-        for (const auto &kv : recorded)
-            if (kOutputs[static_cast<std::size_t>(std::get<1>(kv.first))] == AFM_CH_FW_STATE) return false;
-        return true;
-    }
+    bool predates_fw_state = false;     // a recording made before FW_STATE: it has none, and has FW_FORCE or FW_TIP
 };
 
 // Hashes an output on its length and at most 64 bytes at either end: equal
@@ -466,6 +460,9 @@ Outputs run_replay(const Options &o)
             r.inconsistent.insert(k);
         }
     }
+    r.predates_fw_state = r.before_fw_state > 0 && std::none_of(r.recorded.begin(), r.recorded.end(), [](const auto &kv) {
+                              return std::get<1>(kv.first) == output_rank(AFM_CH_FW_STATE);
+                          });
     // Every block the log's analog blocks cover must have been stepped: an
     // analog block for the block after the card's last one (taken and
     // waiting for its pose, or refused as from the future) means the log
@@ -496,7 +493,7 @@ Verdict compare_all(const Outputs &r)
     std::set<Key> keys;
     for (const auto &kv : r.recorded) keys.insert(kv.first);
     for (const auto &kv : r.replayed) keys.insert(kv.first);
-    const bool skip_state = r.predates_fw_state();
+    const bool skip_state = r.predates_fw_state;
     for (const auto &c : kOutputs)
         if (!(c == AFM_CH_FW_STATE && skip_state)) v.compared.push_back(c);
     for (const Key &k : keys) {
@@ -542,7 +539,7 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
     std::printf("\n");
     if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (the recorder was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
-    if (r.predates_fw_state())
+    if (r.predates_fw_state)
         std::printf("replay: the recording is of the bus before FW_STATE (%lld messages on FW_FORCE and FW_TIP, the two "
                     "channels it replaced): FW_STATE is not compared\n",
                     static_cast<long long>(r.before_fw_state));

@@ -35,7 +35,7 @@ def tmpdir(tag):
     return tempfile.mkdtemp(prefix=f"{tag}-", dir=_root)
 
 
-_failed = False   # a test of this file has failed: cleanup() keeps what it is given
+_result = None   # the running tests' result (main()): once it has a failure, cleanup() keeps what it is given
 
 
 def main():
@@ -45,21 +45,10 @@ def main():
     import unittest
 
     class Result(unittest.TextTestResult):
-        def addFailure(self, test, err):
-            global _failed
-            _failed = True
-            super().addFailure(test, err)
-
-        def addError(self, test, err):
-            global _failed
-            _failed = True
-            super().addError(test, err)
-
-        def addSubTest(self, test, subtest, err):
-            global _failed
-            if err is not None:
-                _failed = True
-            super().addSubTest(test, subtest, err)
+        def __init__(self, *args, **kwargs):
+            global _result
+            super().__init__(*args, **kwargs)
+            _result = self
 
     runner = unittest.TextTestRunner(resultclass=Result, verbosity=2)
     result = unittest.main(testRunner=runner, exit=False).result
@@ -104,7 +93,7 @@ def write_scene(text, tag="scene"):
 def cleanup(*dirs):
     """Removes runs as soon as their tests are done, unless a test of this
     file has failed (main() then keeps them all) or AFM_KEEP_TEST_RUNS is set."""
-    if os.environ.get("AFM_KEEP_TEST_RUNS") or _failed:
+    if os.environ.get("AFM_KEEP_TEST_RUNS") or (_result is not None and not _result.wasSuccessful()):
         return
     for d in dirs:
         shutil.rmtree(d, ignore_errors=True)
