@@ -9,7 +9,7 @@ Definitions (README, "Sweeps: what each point measures"):
   apex        the distance in the plane between FW_STATE's apex estimate and
               the true apex at the block's last sample, nm; RMS and worst.
   objects     per object (particles, wires), the distance between the
-              firmware's model (FW_OBJECTS of the block, before any local
+              firmware's model (FW_STATE of the block, before any local
               scan fix of that block) and the truth; for a wire the larger of
               its two ends; worst over the run and at the last block, nm.
 """
@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-CHANNELS = ["FW_STATE", "FW_OBJECTS", "SIM_TRUTH"]
+CHANNELS = ["FW_STATE", "SIM_TRUTH"]
 
 
 def _wire_ends(w):
@@ -50,7 +50,7 @@ def errors(run_dir, full_scale_pn=None):
     # Objects as whole sets (a message may list only what changed); the
     # firmware's: the first of each block, before any fix of that block.
     objects = {}
-    for msg, whole in afmlog.whole_objects(log.get("FW_OBJECTS", [])):
+    for msg, whole in afmlog.whole_objects(log.get("FW_STATE", []), lambda m: m.objects):
         objects.setdefault(msg.seq, whole)
     truth = afmlog.by_seq(log.get("SIM_TRUTH", []))
     truth_objects = afmlog.whole_by_seq(log.get("SIM_TRUTH", []), lambda m: m.objects)

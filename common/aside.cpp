@@ -19,7 +19,7 @@ bool lockstep_reads(const Scene &s, const std::string &channel)
                                          AFM_CH_HOST_OBJECT_FIX, AFM_CH_RENDER_FRAME, AFM_CH_AFM_HEARTBEAT};
     for (const char *c : always)
         if (channel == c) return true;
-    return channel == AFM_CH_FW_OBJECTS && s.op.plan.enabled;
+    return channel == AFM_CH_FW_STATE && s.op.plan.enabled;   // the planner steers on the objects
 }
 
 void check_lockstep_reads(const Scene &s, const std::vector<std::string> &subscribed, const std::string &process)

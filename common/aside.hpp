@@ -1,5 +1,5 @@
 // Publishing aside: the messages no process of the lockstep waits for (the
-// card's FW_STATE and, unless the planner reads them, FW_OBJECTS;
+// card's FW_STATE unless the planner reads it;
 // the simulator's SIM_TRUTH), published from a thread of the process's own,
 // in batches, instead of by the lockstep's thread on the lockstep's CPU.
 // The thread may run on every CPU of the run (the launcher's placement:
@@ -9,7 +9,7 @@
 //
 // Why (README "The bus's latency model"; ./afm bench bus measures it): a
 // datagram costs its sender's CPU its delivery to every socket on the bus,
-// about 3.5 us on the default scene; three of a block's seven datagrams are
+// about 3.5 us on the default scene; two of a block's six datagrams are
 // for the observers (the launcher's record, the renderer), and on the one
 // CPU of the lockstep they cost as much as its hops. The observers do not
 // need them at once: the renderer draws a frame from them a window of
@@ -50,7 +50,7 @@ namespace afm {
 // for a message on `channel` in scene `s`: the lockstep's own hops
 // (AFM_ANALOG, AFM_CMD, HAPTIC_FORCE, HAPTIC_POSE), a scan's (AFM_SCAN_REQ,
 // AFM_SCAN_LINE), a fix (HOST_OBJECT_FIX), a frame (RENDER_FRAME), a
-// heartbeat; and FW_OBJECTS when the scene's operator plans
+// heartbeat; and FW_STATE when the scene's operator plans
 // (op.plan.enabled: the planner reads the card's objects every block). A
 // channel it does not name is published aside (Aside) by a process of the
 // lockstep.

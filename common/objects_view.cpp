@@ -61,20 +61,79 @@ objects_t ObjectsDiff::next(const objects_t &whole, bool force_complete)
     return m;
 }
 
-bool ObjectsView::apply(const objects_t &m)
+bool ObjectsView::later(const objects_t &a, const objects_t &b)
+{
+    return a.seq > b.seq || (a.seq == b.seq && a.fix_id > b.fix_id);
+}
+
+bool ObjectsView::newer(const objects_t &m) const
+{
+    return later(m, whole_);
+}
+
+bool ObjectsView::follows(const objects_t &m) const
+{
+    return m.base_seq == whole_.seq && m.base_fix_id == whole_.fix_id;
+}
+
+ObjectsView::Take ObjectsView::apply(const objects_t &m)
 {
     // A resend of the message last applied, or of an older one: nothing new.
-    if (ready_ && (m.seq < whole_.seq || (m.seq == whole_.seq && m.fix_id <= whole_.fix_id))) return true;
+    if (ready_ && !newer(m)) return Take::applied;
     if (m.complete) {
         whole_ = m;
         ready_ = true;
-        return true;
+        drain();
+        return Take::applied;
     }
-    if (!ready_) return false;
-    if (m.base_seq != whole_.seq || m.base_fix_id != whole_.fix_id) {
-        ready_ = false;   // one was missed: not whole until the next complete message
-        return false;
+    if (!ready_ || !follows(m)) {
+        // Its base is still to come (the bus reordered them; before the
+        // first complete message, every base is): keep it. A base older than
+        // the set: one was missed, and the set waits for the next complete
+        // message.
+        const bool base_ahead = !ready_ || m.base_seq > whole_.seq || (m.base_seq == whole_.seq && m.base_fix_id > whole_.fix_id);
+        if (!base_ahead) return Take::refused;
+        for (const auto &h : held_)
+            if (h.seq == m.seq && h.fix_id == m.fix_id) return Take::held;   // a resend of one kept
+        if (held_.size() == kMaxHeld) {
+            // Full: the newest of them and m is let go (the oldest are the
+            // next the set can place).
+            auto newest = held_.begin();
+            for (auto it = held_.begin(); it != held_.end(); ++it)
+                if (later(*it, *newest)) newest = it;
+            if (!later(*newest, m)) return Take::refused;
+            held_.erase(newest);
+        }
+        held_.push_back(m);
+        return Take::held;
     }
+    if (!place(m)) return Take::refused;
+    drain();
+    return Take::applied;
+}
+
+void ObjectsView::drain()
+{
+    for (bool more = true; more;) {
+        more = false;
+        for (auto it = held_.begin(); it != held_.end();) {
+            if (!newer(*it)) {
+                it = held_.erase(it);   // made old by what came since
+            } else if (follows(*it)) {
+                const objects_t m = std::move(*it);
+                held_.erase(it);
+                place(m);               // one that cannot be placed is let go
+                more = true;            // each turn takes one away: it ends
+                break;
+            } else {
+                ++it;
+            }
+        }
+    }
+}
+
+bool ObjectsView::place(const objects_t &m)
+{
     // Every listed object must be one the set holds.
     for (const auto &p : m.particles) {
         bool known = false;

@@ -3,7 +3,9 @@
 // and read back whole by a reader.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "afm/objects_t.hpp"
 
@@ -25,21 +27,39 @@ private:
 };
 
 // The reader's side: the whole set after each message.
+//
+// The bus may hand a reader two messages out of order (the kernel holds a
+// datagram back behind the next one: tools/faults.py, net:kernel; the first
+// block's complete message may come after the second's changes). A
+// changes-only message whose base is newer than the set held, or that comes
+// before any complete message, is kept (at
+// most kMaxHeld: past that the newest is let go, as the oldest are the next
+// the set can place) and applied as soon as its base has been: the set then
+// jumps to the newest message it can place.
 class ObjectsView {
 public:
-    // Applies a message. A changes-only message before any complete one,
-    // naming an object the set does not hold, or following a message this
-    // reader does not hold (one was missed: base_seq, base_fix_id), is not
-    // applied: false, and after a missed one the reader is not ready until
-    // the next complete message. A resend of the message last applied (or
-    // of an older one) changes nothing and is taken as applied.
-    bool apply(const objects_t &m);
-    bool ready() const { return ready_; }
-    const objects_t &whole() const { return whole_; }   // complete, in the publisher's order
+    enum class Take {
+        applied,   // the set now includes the message (or a later one: a resend, an old message)
+        held,      // kept until its base comes (or a complete message makes it old)
+        refused,   // cannot be placed: an id the set does not hold, a base older than the set
+                   // (one was missed: the next complete one heals), or newer than all kMaxHeld held
+    };
+    static constexpr std::size_t kMaxHeld = objects_t::MAX_HELD;
+
+    Take apply(const objects_t &m);
+    bool ready() const { return ready_; }                 // a complete message has come
+    const objects_t &whole() const { return whole_; }     // complete, in the publisher's order
+    std::size_t held() const { return held_.size(); }     // messages kept for their base
 
 private:
+    static bool later(const objects_t &a, const objects_t &b);   // a after b (seq, then fix id)
+    bool newer(const objects_t &m) const;        // after the set held
+    bool follows(const objects_t &m) const;      // its base is the set held
+    bool place(const objects_t &m);              // a changes-only message that follows: applied, or false
+    void drain();                                // the held messages that now follow, in turn
+
     objects_t whole_{};
     bool ready_ = false;
+    std::vector<objects_t> held_;
 };
-
 }  // namespace afm

@@ -16,9 +16,10 @@
 //    for it (and its signals for 7 blocks more), the pose with a block of
 //    zeros for it (and 7 more), the fix after block 0 and before block 1.
 //    Everything the card publishes must itself pass the bus's decoder;
-//  - FW_OBJECTS and SIM_TRUTH's objects go to an afm::ObjectsView holding
-//    the card's first complete FW_OBJECTS (objects_view.hpp); the whole set
-//    it then holds must encode and decode cleanly.
+//  - FW_STATE's and SIM_TRUTH's objects go to an afm::ObjectsView holding
+//    the card's first complete objects (objects_view.hpp), then, when the
+//    view holds one for its base, that base; the whole set it then holds
+//    must encode and decode cleanly.
 // A broken promise aborts (a crash); so does a sanitizer's report.
 #include <cstddef>
 #include <cstdint>
@@ -171,17 +172,17 @@ public:
         return why;
     }
 
-    // The first complete FW_OBJECTS the card publishes (after block 0).
+    // The first complete objects the card publishes (FW_STATE after block 0).
     objects_t first_objects()
     {
         block(0);
         for (const auto &o : last_)
-            if (o.channel == AFM_CH_FW_OBJECTS) {
-                objects_t m;
-                if (decode_checked(o.data.data(), o.data.size(), &m) != Reject::none) broken("the card's FW_OBJECTS is refused");
-                return m;
+            if (o.channel == AFM_CH_FW_STATE) {
+                fw_state_t m;
+                if (decode_checked(o.data.data(), o.data.size(), &m) != Reject::none) broken("the card's FW_STATE is refused");
+                return m.objects;
             }
-        broken("block 0 published no FW_OBJECTS");
+        broken("block 0 published no FW_STATE");
     }
 
 private:
@@ -217,9 +218,24 @@ void view_objects(const objects_t &m)
 {
     Card card;
     ObjectsView v;
-    if (!v.apply(card.first_objects())) broken("a view refuses the card's first complete FW_OBJECTS");
-    v.apply(m);
-    if (!v.ready()) return;
+    if (v.apply(card.first_objects()) != ObjectsView::Take::applied) broken("a view refuses the card's first complete objects");
+    // m, and then, if m came before its base, that base (nothing changed
+    // but the block): m is then placed from where the view held it
+    if (v.apply(m) == ObjectsView::Take::held) {
+        objects_t base = v.whole();
+        base.complete = false;
+        base.base_seq = base.seq;
+        base.base_fix_id = base.fix_id;
+        base.seq = m.base_seq;
+        base.fix_id = m.base_fix_id;
+        base.particles.clear();
+        base.wires.clear();
+        base.n_particles = base.n_wires = 0;
+        if (v.apply(base) != ObjectsView::Take::applied) broken("a view refuses a base with nothing changed");
+        if (v.held() != 0) broken("a view keeps a message whose base it has placed");
+    }
+    if (v.held() > ObjectsView::kMaxHeld) broken("a view holds more messages than kMaxHeld");
+    if (!v.ready()) broken("a view that took a complete message is not ready");
     const objects_t &w = v.whole();
     if (w.n_particles != static_cast<int32_t>(w.particles.size()) || w.n_wires != static_cast<int32_t>(w.wires.size()) ||
         w.n_trenches != static_cast<int32_t>(w.trenches.size()))
@@ -235,9 +251,9 @@ Reject take(const M &) { return Reject::none; }
 Reject take(const analog_block_t &b) { return Card().analog(b); }
 Reject take(const haptic_pose_t &p) { return Card().pose(p); }
 Reject take(const object_fix_t &f) { return Card().fix(f); }
-Reject take(const objects_t &m)
+Reject take(const fw_state_t &s)
 {
-    view_objects(m);
+    view_objects(s.objects);
     return Reject::none;
 }
 Reject take(const sim_truth_t &t)

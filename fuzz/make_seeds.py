@@ -19,6 +19,7 @@ holding the afm/ package lcm-gen wrote). Seeds are rewritten, never added
 to: run it again after changing the messages.
 """
 import argparse
+import copy
 import os
 import shutil
 import sys
@@ -164,6 +165,9 @@ def bus_messages(afm):
     state = afm.fw_state_t()
     state.utime, state.seq, state.force_nN, state.flags, state.sn_code, state.sl_code, state.sat_count = 1000, 0, [1.0, -2.0, 5.0], 32, 1200, -40, 0
     state.tip_nm, state.piezo_nm, state.cmd_nm = [0.0, -699.0, -20.0], [0.0, -698.0, -20.0], [0.0, -698.0]
+    state.objects = objects(0, True)
+    state1 = copy.deepcopy(state)
+    state1.utime, state1.seq, state1.objects = 1000, 1, objects(1, False, True)
     hf = afm.haptic_force_t()
     hf.utime, hf.seq, hf.force_N, hf.tip_force_nN, hf.flags = 1000, 0, [0.0, 0.1, 0.0], [1.0, -2.0, 5.0], 0
     truth = afm.sim_truth_t()
@@ -176,8 +180,7 @@ def bus_messages(afm):
     return [
         ("AFM_ANALOG", block(0, -700.0)), ("AFM_ANALOG", block(1, -698.0)),
         ("AFM_CMD", cmd), ("AFM_SCAN_REQ", req), ("AFM_SCAN_LINE", line),
-        ("FW_STATE", state),
-        ("FW_OBJECTS", objects(0, True)), ("FW_OBJECTS", objects(1, False, True)),
+        ("FW_STATE", state), ("FW_STATE", state1),
         ("HAPTIC_POSE", pose(0, [0.0, -0.1, 0.0])), ("HAPTIC_POSE", pose(0, [0.5, 0.5, 0.0])),
         ("HAPTIC_FORCE", hf), ("SIM_TRUTH", truth), ("RENDER_FRAME", frame), ("AFM_HEARTBEAT", hb),
         ("HOST_OBJECT_FIX", fix(1, 0)), ("HOST_OBJECT_FIX", fix(1, 1)),

@@ -16,6 +16,7 @@ CardNode::CardNode(const Scene &s) : scene_(s), setup_(s)
     if (fw_card_init(&card_, &setup_.config(), &setup_.storage(), &rule) != FW_OK)
         throw std::runtime_error(card_refusal_text(s, setup_, rule));
     haptic_.seq = -1;   // the zero force that asks for the first pose
+    state_.seq = -1;    // before the first block (a fix answered then carries the objects of block -1)
     fill_objects();
     whole_.seq = -1;
     objects_ = whole_;   // complete; not sent (the first block's message is complete: the diff has none before)
@@ -47,7 +48,7 @@ Outbox CardNode::on_analog(const analog_block_t &b, Reject *why)
         // ask the operator for it with the force it answers, and the
         // objects of that block (an operator that steers on them waits for them)
         post(box, AFM_CH_HAPTIC_FORCE, haptic_, haptic_.seq);
-        if (done_ >= 0) post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
+        if (done_ >= 0) post_state(box);
     }
     return box;
 }
@@ -92,7 +93,7 @@ Outbox CardNode::on_fix(const object_fix_t &f, std::string *note, Reject *why)
         whole_.utime = utime;
         objects_ = objects_diff_.next(whole_, true);
     }
-    if (f.fix_id <= fix_id_) post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
+    if (f.fix_id <= fix_id_) post_state(box);
     return box;
 }
 
@@ -167,8 +168,15 @@ void CardNode::post_block(Outbox &box) const
     // the two the next block waits for first
     post(box, AFM_CH_AFM_CMD, cmd_, cmd_.ack_seq);
     post(box, AFM_CH_HAPTIC_FORCE, haptic_, haptic_.seq);
-    post(box, AFM_CH_FW_STATE, state_, state_.seq);
-    post(box, AFM_CH_FW_OBJECTS, objects_, objects_.seq, objects_.fix_id);
+    post_state(box);
+}
+
+void CardNode::post_state(Outbox &box) const
+{
+    // the block's force and apex with the objects last made (the block's, or a fix's answer)
+    afm::fw_state_t m = state_;
+    m.objects = objects_;
+    post(box, AFM_CH_FW_STATE, m, m.seq, m.objects.fix_id);
 }
 
 void CardNode::fill_objects()

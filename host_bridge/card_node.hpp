@@ -9,15 +9,15 @@
 //  - block n is stepped when both AFM_ANALOG n and HAPTIC_POSE n are here
 //    (the operator answers HAPTIC_FORCE n - 1 with pose n); the card's
 //    outputs for n follow at once: AFM_CMD (ack n, the set point for block
-//    n + 1), HAPTIC_FORCE n, FW_STATE n, FW_OBJECTS n (the
-//    objects that changed, or all of them: objects_t.complete);
+//    n + 1), HAPTIC_FORCE n, FW_STATE n (with the objects that changed,
+//    or all of them: objects_t.complete);
 //  - AFM_ANALOG n again (a resend: something was lost) repeats block n's
 //    outputs; AFM_ANALOG n + 1 without pose n + 1 repeats HAPTIC_FORCE n
 //    (for n + 1 = 0: a zero force with seq -1), which asks the operator for
 //    the pose again;
 //  - HOST_OBJECT_FIX k + 1 is applied at once (fw_card_fix, or fw_card_place
-//    for a place fix) and answered with a complete FW_OBJECTS carrying
-//    fix_id k + 1; an older fix_id is answered
+//    for a place fix) and answered with FW_STATE of the last block again,
+//    its objects complete and carrying fix_id k + 1; an older fix_id is answered
 //    again. A fix arrives between two blocks (the renderer waits for its
 //    answer before the frame the simulator waits for), so its place
 //    among the blocks is the same in a run and in its log.
@@ -44,7 +44,7 @@
 namespace afm {
 
 // One message to publish: channel and encoded bytes, and the block it
-// answers (and the fix, for FW_OBJECTS), which replay keys it by.
+// answers (and the fix, for FW_STATE), which replay keys it by.
 struct Outgoing {
     std::string channel;
     std::vector<uint8_t> data;
@@ -95,7 +95,7 @@ private:
     std::vector<fw_sample_in_t> block_in_;
     afm::fw_state_t state_{};         // the card's force, flags and apex of the block (FW_STATE)
     afm::objects_t whole_{};          // the card's objects, every one
-    afm::objects_t objects_{};        // the FW_OBJECTS message last made from them (objects_view.hpp)
+    afm::objects_t objects_{};        // the objects FW_STATE last carried, made from them (objects_view.hpp)
     ObjectsDiff objects_diff_;
     afm::haptic_force_t haptic_{};
     afm::tip_cmd_t cmd_{};
@@ -106,6 +106,7 @@ private:
     void fill_objects();
     void fill_trenches(const int32_t drift_pm[2]);
     void post_block(Outbox &box) const;
+    void post_state(Outbox &box) const;   // FW_STATE: state_ with objects_
 };
 
 }  // namespace afm

@@ -29,6 +29,7 @@
 #include "afm/haptic_pose_t.hpp"
 #include "afm/heartbeat_t.hpp"
 #include "afm/object_fix_t.hpp"
+#include "afm/fw_state_t.hpp"
 #include "afm/objects_t.hpp"
 #include "afm/scan_line_t.hpp"
 #include "aside.hpp"
@@ -185,7 +186,7 @@ struct Operator {
     double half_range_m;
     double peak_speed_m_per_s = 0;
     // the planner
-    afm::ObjectsView view;            // FW_OBJECTS, whole
+    afm::ObjectsView view;            // FW_STATE's objects, whole
     afm::objects_t objects;           // the latest whole set (highest seq, then fix id)
     bool have_objects = false;
     afm::ScanClient scan;
@@ -223,14 +224,19 @@ struct Operator {
         return afm::Reject::none;
     }
 
-    // FW_OBJECTS n comes with HAPTIC_FORCE n: one from further ahead than
+    // FW_STATE n comes with HAPTIC_FORCE n: one from further ahead than
     // the next force cannot have been sent yet (taking it would make every
-    // later message look old).
-    afm::Reject on_objects(const afm::objects_t &m)
+    // later message look old). The planner reads its objects.
+    afm::Reject on_state(const afm::fw_state_t &s)
     {
+        const afm::objects_t &m = s.objects;
         if (m.seq > answered + 2) return afm::Reject::seq_future;
         if (have_objects && (m.seq < objects.seq || (m.seq == objects.seq && m.fix_id <= objects.fix_id))) return afm::Reject::seq_past;
-        if (!view.apply(m)) return afm::Reject::out_of_range;
+        switch (view.apply(m)) {
+        case afm::ObjectsView::Take::refused: return afm::Reject::out_of_range;
+        case afm::ObjectsView::Take::held: return afm::Reject::none;   // before its base: taken when that comes
+        case afm::ObjectsView::Take::applied: break;
+        }
         objects = view.whole();
         have_objects = true;
         return afm::Reject::none;
@@ -499,7 +505,7 @@ int main(int argc, char **argv)
             }
         } joiner{bench, plan_thread};
         if (planner) {
-            inbox.on<afm::objects_t>(AFM_CH_FW_OBJECTS, [&](const afm::objects_t &m) { return op.on_objects(m); });
+            inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
             op.hold_pose = {scene.start_nm(), false};
         }

@@ -17,7 +17,7 @@
 //    local scan (before its first stroke: drift, when a second particle
 //    shows the same offset, else a place fix); land approach_nm behind its
 //    surface; steer: every block the tip aims push_depth_nm into the
-//    particle's modelled surface (FW_OBJECTS) on the line from the stroke's
+//    particle's modelled surface (FW_STATE's objects) on the line from the stroke's
 //    end through its centre, at speed_nm_per_s; a stroke ends when the
 //    model is within 2 nm of its end (onto the site: slowing over the last
 //    40 nm, within 0.5 nm); back off, lift. After every stroke a local scan

@@ -1,6 +1,6 @@
 // renderer: the videolized display, off-screen. Starts from a full scan,
 // updates the image locally from the firmware's object states (display.hpp:
-// particles, wires and lithography trenches from FW_OBJECTS; the scene's
+// particles, wires and lithography trenches from FW_STATE's objects; the scene's
 // wires as laid until the firmware publishes wires),
 // writes a PNG per frame and a video at the scene's frame rate (on a thread
 // of its own: frame_writer.hpp), and announces each frame
@@ -24,6 +24,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <set>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -73,19 +74,11 @@ constexpr double kFidelitySearch_nm = 40.0;    // how far from its model positio
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
 
-// How long a frame due at a block waits for that block's FW_STATE
-// (published aside, a batch of 0.5 ms after the block) before it is
-// drawn with the latest that came: they are never dropped on the bus
-// (tools/faults.py drops only the lockstep's channels), so this is a guard
-// against a lost datagram on a real network, counted in renderer_report.json
-// (frames_mixed_blocks).
-constexpr int kOwnBlockWaitMs = 1000;
-
-// One channel's messages by block (FW_STATE, HAPTIC_FORCE), so that
-// a frame shows those of its own block: the channels come at different
-// times (HAPTIC_FORCE, and FW_OBJECTS when the operator plans, at once;
-// FW_STATE aside, a batch later: common/aside.hpp). At most
-// kKept blocks are kept; taking a block lets the older ones go.
+// One channel's messages by block (FW_STATE, HAPTIC_FORCE), so that a
+// frame shows those of its own block: the channels come at different times
+// (HAPTIC_FORCE at once; FW_STATE, whose objects make a frame due, aside, a
+// batch later, unless the operator plans: common/aside.hpp). At most kKept
+// blocks are kept; taking a block lets the older ones go.
 template <class M> class BySeq
 {
 public:
@@ -151,24 +144,23 @@ struct Renderer {
 
     BySeq<afm::fw_state_t> states;
     BySeq<afm::haptic_force_t> hands;
-    afm::ObjectsView objects;           // FW_OBJECTS, whole
+    afm::ObjectsView objects;           // FW_STATE's objects, whole
     afm::DisplayModel model;
     int frames_written = 0;
-    int64_t last_seq = -1;       // the latest block whose FW_OBJECTS the renderer took
+    int64_t last_seq = -1;       // the latest block whose objects the renderer took
     int64_t shown_seq = -1;      // the block whose objects, force, tip and hand the frames show
-    // Frames fallen due at a block, waiting for its FW_STATE
+    // Frames fallen due at a block, waiting while a scan pauses the frames
     // (draw_ready): the block, the frames due by its end, its objects (none
-    // when the model is already set: after a fix), since when.
+    // when the model is already set: after a fix).
     struct Due {
         int64_t seq;
         int due;
         std::optional<afm::objects_t> objects;
-        std::chrono::steady_clock::time_point since;
     };
     std::deque<Due> due_queue;
     int due_queued = 0;          // frames due so far, drawn or queued
-    // Frames whose FW_STATE is not of their objects' block (drawn
-    // after kOwnBlockWaitMs without it: a datagram lost).
+    // Frames drawn with a state (force, tip) that is not of their objects'
+    // block: none, as FW_STATE carries both (a check of BySeq).
     int64_t frames_mixed_blocks = 0;
     const int64_t blocks_ahead = static_cast<int64_t>(std::ceil(scene.block_hz)) + 2;
     bool sim_done = false;
@@ -179,7 +171,7 @@ struct Renderer {
     bool local_wide = false;     // it is the wider retry of a scan that missed its object
     int fix_awaited = 0;         // object fix sent, waiting for the firmware's acknowledgement
     int fixes_sent = 0;
-    double fw_drift_nm[2] = {0, 0};   // the firmware's drift estimate, from FW_OBJECTS
+    double fw_drift_nm[2] = {0, 0};   // the firmware's drift estimate, from FW_STATE's objects
     bool fix_on_landmark = false;
     afm::object_fix_t fix_msg{};
     std::chrono::steady_clock::time_point fix_sent;
@@ -187,8 +179,12 @@ struct Renderer {
     nlohmann::json local_scans = nlohmann::json::array();
     std::vector<int> writer_cpus;            // --writer-cpus
     std::unique_ptr<afm::FrameWriter> writer;   // the frames' files (begin())
-    int64_t objects_seq = -1;    // the latest block whose FW_OBJECTS came
-    int64_t objects_missed = 0;  // blocks whose FW_OBJECTS never came (lost on the bus)
+    int64_t objects_seq = -1;    // the latest block whose FW_STATE came
+    // blocks whose FW_STATE never came (lost on the bus): those skipped over
+    // and not come since (kept up to kMaxGaps; past that, only counted)
+    static constexpr std::size_t kMaxGaps = 100000;
+    std::set<int64_t> objects_gaps;
+    int64_t objects_gaps_uncounted = 0;
     int total_frames;            // the run's frames: the scene's, or fewer when the planner finishes early
     std::vector<int> sheet_at;   // frame indices for the contact sheet
     std::map<int, cv::Mat> sheet;   // frames kept for the sheet, by index
@@ -241,7 +237,7 @@ struct Renderer {
         return afm::Reject::none;
     }
 
-    // A message of block `seq` (FW_STATE, FW_OBJECTS, HAPTIC_FORCE
+    // A message of block `seq` (FW_STATE, HAPTIC_FORCE
     // n come with block n): its time must be that block's end, and it
     // cannot be more than a simulated second past the last block the
     // renderer took objects from (messages are taken in the order sent, so
@@ -312,12 +308,17 @@ struct Renderer {
         write_composed();
     }
 
+    // The card's state of a block: its force and tip kept by block, its
+    // objects taken (take_objects), which may make frames due.
     afm::Reject on_state(const afm::fw_state_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        const afm::Reject r = states.put(m);
-        draw_ready();
-        return r;
+        if (m.objects.seq != m.seq || m.objects.utime != m.utime) return afm::Reject::out_of_range;
+        // A block older than the newest (the bus reordered them) is not kept
+        // for the frames (BySeq), but its objects are taken: the next
+        // block's lists only what changed since it (objects_t.lcm).
+        states.put(m);
+        return take_objects(m.objects);
     }
     afm::Reject on_haptic(const afm::haptic_force_t &m)
     {
@@ -344,19 +345,38 @@ struct Renderer {
         update_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
 
-    afm::Reject on_objects(const afm::objects_t &msg)
+    afm::Reject take_objects(const afm::objects_t &msg)
     {
-        if (const afm::Reject r = block_message(msg.seq, msg.utime); r != afm::Reject::none) return r;
-        // A block whose objects never came: the simulator no longer waits at
-        // every frame, so a frame due at a lost block is drawn from a later
-        // one (renderer_report.json: objects_blocks_missed; README).
-        if (objects_seq >= 0 && msg.seq > objects_seq + 1) objects_missed += msg.seq - objects_seq - 1;
-        objects_seq = std::max(objects_seq, msg.seq);
-        // Every message keeps the whole set; what follows reads the set.
-        if (!objects.apply(msg)) return afm::Reject::out_of_range;
+        count_objects_block(msg.seq);
+        // Every message keeps the whole set; what follows reads the set. One
+        // that came before the block it follows is held, and the set moves on
+        // when that block comes (ObjectsView).
+        switch (objects.apply(msg)) {
+        case afm::ObjectsView::Take::refused: return afm::Reject::out_of_range;
+        case afm::ObjectsView::Take::held: return afm::Reject::none;
+        case afm::ObjectsView::Take::applied: break;
+        }
         objects_frames(&objects.whole());
         return afm::Reject::none;
     }
+
+    // A block whose objects never came: the simulator no longer waits at
+    // every frame, so a frame due at a lost block is drawn from a later one
+    // (renderer_report.json: objects_blocks_missed; README). A block the bus
+    // handed over late, after a later one, is not missed.
+    void count_objects_block(int64_t seq)
+    {
+        if (seq > objects_seq) {
+            for (int64_t k = objects_seq + 1; objects_seq >= 0 && k < seq; ++k) {
+                if (objects_gaps.size() < kMaxGaps) objects_gaps.insert(k);
+                else ++objects_gaps_uncounted;
+            }
+            objects_seq = seq;
+        } else {
+            objects_gaps.erase(seq);
+        }
+    }
+    int64_t objects_missed() const { return static_cast<int64_t>(objects_gaps.size()) + objects_gaps_uncounted; }
 
     void objects_frames(const afm::objects_t *m)
     {
@@ -380,7 +400,7 @@ struct Renderer {
                 // model, with the force and tip of the fix's block.
                 for (const Due &d : due_queue) due_pending = std::max(due_pending, d.due);
                 due_queue.clear();
-                due_queue.push_back({m->seq, due_pending, std::nullopt, std::chrono::steady_clock::now()});
+                due_queue.push_back({m->seq, due_pending, std::nullopt});
                 draw_ready();
             }
             return;
@@ -393,19 +413,15 @@ struct Renderer {
         const int due = afm::frames_due(scene, m->utime);
         if (due <= due_queued) return;
         due_queued = due;
-        due_queue.push_back({m->seq, due, *m, std::chrono::steady_clock::now()});
+        due_queue.push_back({m->seq, due, *m});
         draw_ready();
     }
 
-    // Draws the frames queued whose block's FW_STATE has come
-    // (or after kOwnBlockWaitMs without them), in order, until a scan
-    // pauses the frames.
+    // Draws the frames queued, in order, until a scan pauses the frames.
     void draw_ready()
     {
         while (!due_queue.empty() && started && local_pending < 0 && !final_pending) {
             Due &d = due_queue.front();
-            const bool own = states.newest() >= d.seq;
-            if (!own && std::chrono::steady_clock::now() - d.since < std::chrono::milliseconds(kOwnBlockWaitMs)) return;
             shown_seq = std::max(shown_seq, d.seq);
             due_pending = std::max(due_pending, d.due);
             if (d.objects) set_model(*d.objects);
@@ -669,7 +685,6 @@ int main(int argc, char **argv)
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
         inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &m) { return r.on_state(m); });
         inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return r.on_haptic(m); });
-        inbox.on<afm::objects_t>(AFM_CH_FW_OBJECTS, [&](const afm::objects_t &m) { return r.on_objects(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return r.on_heartbeat(m); });
 
         // The full scan first.
@@ -688,7 +703,7 @@ int main(int argc, char **argv)
                 while (inbox.handle(0) > 0) {}
             if (r.final_pending || r.local_pending >= 0) r.retry_scan();
             r.retry_fix();
-            r.draw_ready();   // a frame waiting past kOwnBlockWaitMs
+            r.draw_ready();   // frames queued while a scan paused them
         }
         if (r.writer) {
             r.write_composed();
@@ -713,7 +728,7 @@ int main(int argc, char **argv)
             cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
         }
         nlohmann::json rep = {{"frames", r.frames_written},
-                              {"objects_blocks_missed", r.objects_missed},
+                              {"objects_blocks_missed", r.objects_missed()},
                               {"frames_mixed_blocks", r.frames_mixed_blocks},
                               {"frames_expected", r.total_frames},
                               {"image_px", scene.out.image_px},

@@ -5,7 +5,7 @@
 // run's bus.lcmlog and feeds what the card consumed, AFM_ANALOG,
 // HAPTIC_POSE and HOST_OBJECT_FIX, in the order they were recorded, to a
 // CardNode (the adapter fw_node runs, card_node.hpp): no simulator, no
-// bus. Every output, AFM_CMD, HAPTIC_FORCE, FW_STATE and FW_OBJECTS, is
+// bus. Every output, AFM_CMD, HAPTIC_FORCE and FW_STATE, is
 // compared with the recorded one of the same block (and
 // fix): identical bit for bit, or the first divergence is named (block,
 // channel, field, recorded and new value) with a count and the worst
@@ -46,7 +46,7 @@ const char *kUsage =
     "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--quiet]\n"
     "  Feeds the card inputs recorded in RUN_DIR/bus.lcmlog (AFM_ANALOG, HAPTIC_POSE,\n"
     "  HOST_OBJECT_FIX) into the firmware card as built now and compares every output\n"
-    "  (AFM_CMD, HAPTIC_FORCE, FW_STATE, FW_OBJECTS) with the recording.\n"
+    "  (AFM_CMD, HAPTIC_FORCE, FW_STATE) with the recording.\n"
     "  RUN_DIR may also be the log file itself. The scene is RUN_DIR/scene.yaml (the\n"
     "  copy the run kept), or --scene FILE.\n"
     "  --write NEW_LOG  write the recorded inputs and the new outputs as an LCM log\n"
@@ -56,12 +56,12 @@ const char *kUsage =
     "      2 a bad argument, or a log that is missing, truncated or corrupt (file and byte offset)\n";
 
 // The outputs in the order a block publishes them.
-const std::vector<std::string> kOutputs = {AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE, AFM_CH_FW_OBJECTS};
+const std::vector<std::string> kOutputs = {AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE};
 
-// The two channels FW_STATE replaced (2026-11, issue 15): a recording made
-// before holds them instead. Their types are gone from the bus; replay
+// The three channels FW_STATE replaced (2026-11, issue 15): a recording
+// made before holds them instead. Their types are gone from the bus; replay
 // compares such a recording's other outputs and says that FW_STATE was not.
-const std::vector<std::string> kBeforeFwState = {"FW_FORCE", "FW_TIP"};
+const std::vector<std::string> kBeforeFwState = {"FW_FORCE", "FW_TIP", "FW_OBJECTS"};
 
 int output_rank(const std::string &ch)
 {
@@ -107,9 +107,56 @@ Key output_key(const std::string &ch, const std::vector<uint8_t> &d)
     const int r = output_rank(ch);
     if (ch == AFM_CH_AFM_CMD) return {decode<afm::tip_cmd_t>(d, "tip_cmd_t").ack_seq, r, 0};
     if (ch == AFM_CH_HAPTIC_FORCE) return {decode<afm::haptic_force_t>(d, "haptic_force_t").seq, r, 0};
-    if (ch == AFM_CH_FW_STATE) return {decode<afm::fw_state_t>(d, "fw_state_t").seq, r, 0};
-    const auto o = decode<afm::objects_t>(d, "objects_t");
-    return {o.seq, r, o.fix_id};
+    const auto m = decode<afm::fw_state_t>(d, "fw_state_t");   // FW_STATE: a block's, or a fix's answer
+    return {m.seq, r, m.objects.fix_id};
+}
+
+// An objects_t's fields into x, each name after pre.
+void flatten_objects(const afm::objects_t &m, const std::string &pre, Flat &x)
+{
+    const char *xyz[3] = {"[0]", "[1]", "[2]"};
+    x.add(pre + "utime", m.utime);
+    x.add(pre + "seq", m.seq);
+    x.add(pre + "complete", m.complete);
+    x.add(pre + "n_particles", m.n_particles);
+    for (std::size_t i = 0; i < m.particles.size(); ++i) {
+        const auto &p = m.particles[i];
+        const std::string n = pre + "particles[" + std::to_string(i) + "].";
+        x.add(n + "id", p.id);
+        x.pos_nm(n + "x_nm", p.x_nm);
+        x.pos_nm(n + "y_nm", p.y_nm);
+        x.pos_nm(n + "radius_nm", p.radius_nm);
+        x.add(n + "in_contact", p.in_contact);
+    }
+    x.add(pre + "n_wires", m.n_wires);
+    for (std::size_t i = 0; i < m.wires.size(); ++i) {
+        const auto &w = m.wires[i];
+        const std::string n = pre + "wires[" + std::to_string(i) + "].";
+        x.add(n + "id", w.id);
+        x.pos_nm(n + "diameter_nm", w.diameter_nm);
+        x.add(n + "n", w.n);
+        for (std::size_t j = 0; j < w.x_nm.size(); ++j) {
+            x.pos_nm(n + "x_nm[" + std::to_string(j) + "]", w.x_nm[j]);
+            x.pos_nm(n + "y_nm[" + std::to_string(j) + "]", w.y_nm[j]);
+        }
+        x.add(n + "in_contact", w.in_contact);
+    }
+    x.add(pre + "n_trenches", m.n_trenches);
+    for (std::size_t i = 0; i < m.trenches.size(); ++i) {
+        const auto &t = m.trenches[i];
+        const std::string n = pre + "trenches[" + std::to_string(i) + "].";
+        x.add(n + "id", t.id);
+        x.add(n + "n", t.n);
+        for (std::size_t j = 0; j < t.x_nm.size(); ++j) {
+            const std::string nj = "[" + std::to_string(j) + "]";
+            x.pos_nm(n + "x_nm" + nj, t.x_nm[j]);
+            x.pos_nm(n + "y_nm" + nj, t.y_nm[j]);
+            x.pos_nm(n + "depth_nm" + nj, t.depth_nm[j]);
+            x.pos_nm(n + "width_nm" + nj, t.width_nm[j]);
+        }
+    }
+    for (int k = 0; k < 2; ++k) x.pos_nm(pre + "drift_nm" + xyz[k], m.drift_nm[k]);
+    x.add(pre + "fix_id", m.fix_id);
 }
 
 Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
@@ -143,50 +190,7 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
         for (int k = 0; k < 3; ++k) x.pos_nm(std::string("tip_nm") + xyz[k], m.tip_nm[k]);
         for (int k = 0; k < 3; ++k) x.pos_nm(std::string("piezo_nm") + xyz[k], m.piezo_nm[k]);
         for (int k = 0; k < 2; ++k) x.pos_nm(std::string("cmd_nm") + xyz[k], m.cmd_nm[k]);
-    } else {
-        const auto m = decode<afm::objects_t>(d, "objects_t");
-        x.add("utime", m.utime);
-        x.add("seq", m.seq);
-        x.add("complete", m.complete);
-        x.add("n_particles", m.n_particles);
-        for (std::size_t i = 0; i < m.particles.size(); ++i) {
-            const auto &p = m.particles[i];
-            const std::string n = "particles[" + std::to_string(i) + "].";
-            x.add(n + "id", p.id);
-            x.pos_nm(n + "x_nm", p.x_nm);
-            x.pos_nm(n + "y_nm", p.y_nm);
-            x.pos_nm(n + "radius_nm", p.radius_nm);
-            x.add(n + "in_contact", p.in_contact);
-        }
-        x.add("n_wires", m.n_wires);
-        for (std::size_t i = 0; i < m.wires.size(); ++i) {
-            const auto &w = m.wires[i];
-            const std::string n = "wires[" + std::to_string(i) + "].";
-            x.add(n + "id", w.id);
-            x.pos_nm(n + "diameter_nm", w.diameter_nm);
-            x.add(n + "n", w.n);
-            for (std::size_t j = 0; j < w.x_nm.size(); ++j) {
-                x.pos_nm(n + "x_nm[" + std::to_string(j) + "]", w.x_nm[j]);
-                x.pos_nm(n + "y_nm[" + std::to_string(j) + "]", w.y_nm[j]);
-            }
-            x.add(n + "in_contact", w.in_contact);
-        }
-        x.add("n_trenches", m.n_trenches);
-        for (std::size_t i = 0; i < m.trenches.size(); ++i) {
-            const auto &t = m.trenches[i];
-            const std::string n = "trenches[" + std::to_string(i) + "].";
-            x.add(n + "id", t.id);
-            x.add(n + "n", t.n);
-            for (std::size_t j = 0; j < t.x_nm.size(); ++j) {
-                const std::string nj = "[" + std::to_string(j) + "]";
-                x.pos_nm(n + "x_nm" + nj, t.x_nm[j]);
-                x.pos_nm(n + "y_nm" + nj, t.y_nm[j]);
-                x.pos_nm(n + "depth_nm" + nj, t.depth_nm[j]);
-                x.pos_nm(n + "width_nm" + nj, t.width_nm[j]);
-            }
-        }
-        for (int k = 0; k < 2; ++k) x.pos_nm(std::string("drift_nm") + xyz[k], m.drift_nm[k]);
-        x.add("fix_id", m.fix_id);
+        flatten_objects(m.objects, "objects.", x);
     }
     return x;
 }
@@ -311,8 +315,8 @@ struct Outputs {
     int64_t foreign_outputs = 0;        // datagrams on an output channel that are not the card's (do not decode, or name a block it never stepped)
     int64_t self_inconsistent = 0;      // recorded repeats that differ from their first copy
     std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
-    int64_t before_fw_state = 0;        // recorded messages on FW_FORCE and FW_TIP (kBeforeFwState)
-    bool predates_fw_state = false;     // a recording made before FW_STATE: it has none, and has FW_FORCE or FW_TIP
+    int64_t before_fw_state = 0;        // recorded messages on FW_FORCE, FW_TIP and FW_OBJECTS (kBeforeFwState)
+    bool predates_fw_state = false;     // a recording of an earlier bus: no FW_STATE of this build's type, and messages on those
 };
 
 // Hashes an output on its length and at most 64 bytes at either end: equal
@@ -349,7 +353,7 @@ Outputs run_replay(const Options &o)
     EventLogWriter out(o.write);
     afm::LogReader log(o.log);
     log.only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE,
-              AFM_CH_FW_OBJECTS, kBeforeFwState[0], kBeforeFwState[1]});
+              kBeforeFwState[0], kBeforeFwState[1], kBeforeFwState[2]});
     auto take = [&](const afm::Outbox &box, int64_t utime) {
         for (const auto &m : box) {
             const Key k{m.seq, output_rank(m.channel), m.fix_id};
@@ -540,8 +544,8 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
     if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (the recorder was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
     if (r.predates_fw_state)
-        std::printf("replay: the recording is of the bus before FW_STATE (%lld messages on FW_FORCE and FW_TIP, the two "
-                    "channels it replaced): FW_STATE is not compared\n",
+        std::printf("replay: the recording is of an earlier bus (%lld messages on FW_FORCE, FW_TIP and FW_OBJECTS, "
+                    "the channels FW_STATE now holds): FW_STATE is not compared\n",
                     static_cast<long long>(r.before_fw_state));
     if (r.refused_inputs || r.foreign_outputs)
         std::printf("replay: %lld input datagrams refused by the card's inbox (as in the run), %lld datagrams on output channels that "

@@ -5,7 +5,7 @@ handy from a Python prompt:
 
     import afmlog
     log = afmlog.load("runs/demo/bus.lcmlog")
-    afmlog.whole_objects(log["FW_OBJECTS"])[-1][1].particles[0].x_nm
+    afmlog.whole_objects(log["FW_STATE"], lambda m: m.objects)[-1][1].particles[0].x_nm
 """
 import copy
 import os
@@ -80,52 +80,77 @@ class _Whole:
         self.complete = True
 
 
+def _place(cur, m):
+    """The whole set after changes-only message m, which follows cur."""
+    nxt = copy.copy(cur)
+    dx, dy = m.drift_nm[0] - cur.drift_nm[0], m.drift_nm[1] - cur.drift_nm[1]
+    changed = {p.id: p for p in m.particles}
+    nxt.particles = []
+    for p in cur.particles:
+        q = copy.copy(changed.get(p.id, p))
+        if p.id not in changed:
+            q.x_nm, q.y_nm = p.x_nm + dx, p.y_nm + dy
+        nxt.particles.append(q)
+    wchanged = {w.id: w for w in m.wires}
+    nxt.wires = []
+    for w in cur.wires:
+        if w.id in wchanged:
+            nxt.wires.append(copy.deepcopy(wchanged[w.id]))
+        else:
+            v = copy.deepcopy(w)
+            v.x_nm = [x + dx for x in w.x_nm]
+            v.y_nm = [y + dy for y in w.y_nm]
+            nxt.wires.append(v)
+    nxt.utime, nxt.seq, nxt.fix_id = m.utime, m.seq, m.fix_id
+    nxt.drift_nm = list(m.drift_nm)
+    nxt.trenches = list(m.trenches)
+    return nxt
+
+
 def whole_objects(msgs, objects=lambda m: m):
-    """The objects after each message, whole: [(msg, whole), ...] in order.
-    A message may list only the objects that changed (objects_t.complete
-    false: lcmtypes/objects_t.lcm); the others are where the previous
-    message had them, moved by the change in drift_nm. `objects` picks the
-    objects_t out of a message (SIM_TRUTH: lambda m: m.objects). Messages
-    before the first complete one, and after a missed one (its successor's
-    base_seq names a message not in the log) until the next complete one,
-    are left out."""
-    out, cur = [], None
+    """The objects after each message placed, whole: [(msg, whole), ...] in
+    the order they were placed. A message may list only the objects that
+    changed (objects_t.complete false: lcmtypes/objects_t.lcm); the others
+    are where the previous message had them, moved by the change in
+    drift_nm. `objects` picks the objects_t out of a message (SIM_TRUTH:
+    lambda m: m.objects). The reading rule is ObjectsView's
+    (common/objects_view.hpp): a message recorded before the one it follows
+    (the bus reordered them) is held, at most objects_t.MAX_HELD, and placed
+    after it, as is one recorded before the first complete one. Messages
+    after a missed one, until the next complete one, are left out."""
+    out, cur, held = [], None, []
+
+    def later(a, b):
+        return (a.seq, a.fix_id) > (b.seq, b.fix_id)
+
     for msg in msgs:
         m = objects(msg)
-        if cur is not None and (m.seq, m.fix_id) <= (cur.seq, cur.fix_id):
-            pass   # a resend of the message last applied (or an older one)
-        elif m.complete:
+        if cur is not None and not later(m, cur):
+            out.append((msg, cur))   # a resend of the message last placed (or an older one)
+            continue
+        if m.complete:
             cur = _Whole(m)
-        elif cur is None:
-            continue
-        elif (m.base_seq, m.base_fix_id) != (cur.seq, cur.fix_id):
-            cur = None   # one was missed (lcm-logger dropped it): unknown until the next complete one
-            continue
+        elif cur is None or (m.base_seq, m.base_fix_id) != (cur.seq, cur.fix_id):
+            if cur is None or (m.base_seq, m.base_fix_id) > (cur.seq, cur.fix_id):   # its base is still to come
+                if len(held) >= m.MAX_HELD:   # full: the newest of them and m is let go
+                    newest = max(held, key=lambda x: (x[1].seq, x[1].fix_id))
+                    if not later(newest[1], m):
+                        continue
+                    held.remove(newest)
+                held.append((msg, m))
+            continue   # else one was missed (lcm-logger dropped it): unknown until the next complete one
         else:
-            nxt = copy.copy(cur)
-            dx, dy = m.drift_nm[0] - cur.drift_nm[0], m.drift_nm[1] - cur.drift_nm[1]
-            changed = {p.id: p for p in m.particles}
-            nxt.particles = []
-            for p in cur.particles:
-                q = copy.copy(changed.get(p.id, p))
-                if p.id not in changed:
-                    q.x_nm, q.y_nm = p.x_nm + dx, p.y_nm + dy
-                nxt.particles.append(q)
-            wchanged = {w.id: w for w in m.wires}
-            nxt.wires = []
-            for w in cur.wires:
-                if w.id in wchanged:
-                    nxt.wires.append(copy.deepcopy(wchanged[w.id]))
-                else:
-                    v = copy.deepcopy(w)
-                    v.x_nm = [x + dx for x in w.x_nm]
-                    v.y_nm = [y + dy for y in w.y_nm]
-                    nxt.wires.append(v)
-            nxt.utime, nxt.seq, nxt.fix_id = m.utime, m.seq, m.fix_id
-            nxt.drift_nm = list(m.drift_nm)
-            nxt.trenches = list(m.trenches)
-            cur = nxt
+            cur = _place(cur, m)
         out.append((msg, cur))
+        # the held ones that now follow, in turn; those made old, let go
+        while True:
+            held = [(hm, h) for hm, h in held if later(h, cur)]
+            nxt = next(((hm, h) for hm, h in held if (h.base_seq, h.base_fix_id) == (cur.seq, cur.fix_id)), None)
+            if nxt is None:
+                break
+            held.remove(nxt)
+            cur = _place(cur, nxt[1])
+            out.append((nxt[0], cur))
     return out
 
 

@@ -201,12 +201,12 @@ def apex_error(run_dir, min_load_nN=1.0):
 def model_states(run_dir):
     """[(seq, card's objects, true objects)] for every block both logged."""
     import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_OBJECTS", "SIM_TRUTH"})
-    fw = afmlog.whole_by_seq(log.get("FW_OBJECTS", []))
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
+    fw = afmlog.whole_by_seq(log.get("FW_STATE", []), objects=lambda m: m.objects)
     tr = afmlog.whole_by_seq(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
     seqs = sorted(set(fw) & set(tr))
     if not seqs:
-        raise PaperError(f"{run_dir}/bus.lcmlog: no block with both FW_OBJECTS and SIM_TRUTH")
+        raise PaperError(f"{run_dir}/bus.lcmlog: no block with both FW_STATE and SIM_TRUTH")
     return [(s, fw[s], tr[s]) for s in seqs]
 
 

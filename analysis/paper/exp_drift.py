@@ -1,7 +1,7 @@
 """The sample drifts several hundred nm over the run (600 nm/min and a
 random walk); eight particles are pushed one after another, each after a
 400 nm local scan around it that re-registers the firmware's models. The
-registration error is the card's work-space offset (FW_OBJECTS.drift_nm)
+registration error is the card's work-space offset (FW_STATE.objects.drift_nm)
 against the simulator's drift (SIM_TRUTH), read at every block where the
 card flags contact (when the models matter); the same run without local
 scans shows it growing with the drift, and its pushes missing. A push met
@@ -30,7 +30,7 @@ def runs(size):
 def far_case(run_dir):
     """The far case's last local scan (renderer_report.json): whether the
     first scan missed, whether the wider retry found the particle, its size;
-    the card's offset after it (FW_OBJECTS) and the true drift then."""
+    the card's offset after it (FW_STATE) and the true drift then."""
     import json
     with open(os.path.join(run_dir, "renderer_report.json")) as f:
         scans = [r for r in json.load(f)["local_scans"] if r["around_id"] == 2]

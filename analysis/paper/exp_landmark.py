@@ -1,7 +1,7 @@
 """A cantilever change (the new lever sits 310 nm away over the sample; only
 the simulator knows) and a 1.4 um scan around a landmark pillar: the
 firmware takes the pillar's displacement as the work space's new offset.
-The re-registration error is the card's offset (FW_OBJECTS.drift_nm) against
+The re-registration error is the card's offset (FW_STATE.objects.drift_nm) against
 the simulator's (SIM_TRUTH), and the models' error after it: the card's
 particles against the true ones at the end of the run, after a push. The
 same run without the landmark scan shows what the change costs unmended."""
@@ -28,7 +28,7 @@ def analyse(dirs, exp_dir, size):
     res = common.Result()
     res.rows = [
         common.Row("re-registered offset x", "nm", bench=f_end.drift_nm[0], truth=t_end.drift_nm[0], tolerance=5.0,
-                   note="the card's work-space offset from the landmark scan (FW_OBJECTS.drift_nm)"),
+                   note="the card's work-space offset from the landmark scan (FW_STATE.objects.drift_nm)"),
         common.Row("re-registered offset y", "nm", bench=f_end.drift_nm[1], truth=t_end.drift_nm[1], tolerance=5.0),
         common.Row("models' error at the end, with the landmark scan", "nm", bench=common.model_error(f_end, t_end), tolerance=10.0,
                    note="largest distance between a modelled and a true particle, after a push on the moved work space"),

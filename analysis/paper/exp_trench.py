@@ -5,7 +5,7 @@ model, which knows the trench the card recorded (fw_wire_hold). From the
 run's own data: the trench's width and path and the rod's thickness and
 axis from the final fresh scan, the pushes and the time from the
 operator's report, the card's rod against the simulator's at the end
-(FW_OBJECTS, SIM_TRUTH), the display against the fresh scan. The truth
+(FW_STATE, SIM_TRUTH), the display against the fresh scan. The truth
 column is the simulator's trench and rod (SIM_TRUTH). The simulator holds
 a rod whose axis lies within (width - d) / 2 of the trench's path, at the
 V's edge: it goes no deeper, so "in the trench" is that; one size (the
@@ -133,7 +133,7 @@ def analyse(dirs, exp_dir, size):
         common.Row("simulated time: cut, then pushed in", "s", bench=plan["finished_sim_s"],
                    note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
         common.Row("the card's rod against the simulator's, at the end", "nm", bench=model_err, tolerance=10.0,
-                   note="largest end distance (FW_OBJECTS, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
+                   note="largest end distance (FW_STATE, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
         common.Row("the same, worst over the run", "nm", bench=worst, tolerance=40.0,
                    note="a lag while an end a trench holds is pushed: the card moves a held rod only past its whole "
                         "threshold (fw_wire.h), and catches up when the apex reaches it"),

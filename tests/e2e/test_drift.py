@@ -38,7 +38,7 @@ class DriftAndLocalScans(unittest.TestCase):
         self.assertEqual(sorted(fixes), [1, 2, 3])
         truth = afmlog.whole_by_seq(self.log["SIM_TRUTH"], lambda m: m.objects)
         acked = {}
-        for m in self.log["FW_OBJECTS"]:   # a fix's answer lists every object (complete)
+        for m in (s.objects for s in self.log["FW_STATE"]):   # a fix's answer lists every object (complete)
             if m.fix_id and m.fix_id not in acked:
                 self.assertTrue(m.complete)
                 acked[m.fix_id] = m
@@ -72,7 +72,7 @@ class CantileverChangeAndLandmark(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("landmark.yaml", "landmark",
-                                                                            {"FW_OBJECTS", "SIM_TRUTH"})
+                                                                            {"FW_STATE", "SIM_TRUTH"})
 
     @classmethod
     def tearDownClass(cls):
@@ -84,7 +84,7 @@ class CantileverChangeAndLandmark(unittest.TestCase):
         self.assertEqual([s["kind"] for s in scans], ["landmark"])
         self.assertTrue(scans[0]["found"])
         truth = afmlog.whole_by_seq(self.log["SIM_TRUTH"], lambda m: m.objects)
-        acked = next(m for m in self.log["FW_OBJECTS"] if m.fix_id == 1)
+        acked = next(s.objects for s in self.log["FW_STATE"] if s.objects.fix_id == 1)
         true = truth[acked.seq].drift_nm
         err = math.hypot(acked.drift_nm[0] - true[0], acked.drift_nm[1] - true[1])
         print(f"landmark fix: firmware offset ({acked.drift_nm[0]:.2f}, {acked.drift_nm[1]:.2f}) nm, "

@@ -20,7 +20,7 @@ TOL_NM = 5.0
 
 
 def trajectories(log):
-    fw = {s: tuple((p.id, p.x_nm, p.y_nm) for p in w.particles) for s, w in afmlog.whole_by_seq(log["FW_OBJECTS"]).items()}
+    fw = {s: tuple((p.id, p.x_nm, p.y_nm) for p in w.particles) for s, w in afmlog.whole_by_seq(log["FW_STATE"], lambda m: m.objects).items()}
     truth = {s: tuple((p.id, p.x_nm, p.y_nm) for p in w.particles)
              for s, w in afmlog.whole_by_seq(log["SIM_TRUTH"], lambda m: m.objects).items()}
     return fw, truth
@@ -59,7 +59,7 @@ class EndToEnd(unittest.TestCase):
             self.assertGreater(len(self.log1.get(ch, [])), 0, f"no {ch} in the log")
         blocks = round(self.spec["duration_s"] * self.spec["block_hz"])
         self.assertEqual(len(afmlog.by_seq(self.log1["AFM_ANALOG"])), blocks)
-        self.assertEqual(len(afmlog.by_seq(self.log1["FW_OBJECTS"])), blocks)
+        self.assertEqual(len(afmlog.by_seq(self.log1["FW_STATE"])), blocks)
 
     def test_run_json_counts_match_the_log(self):
         rj = self.r1[3]
@@ -77,7 +77,7 @@ class EndToEnd(unittest.TestCase):
             sim = json.load(f)["aside"]
         self.assertEqual(fw["failed"], 0, fw)
         self.assertEqual(sim["failed"], 0, sim)
-        self.assertEqual(fw["published"], sum(len(self.log1[ch]) for ch in ("FW_STATE", "FW_OBJECTS")), fw)
+        self.assertEqual(fw["published"], len(self.log1["FW_STATE"]), fw)
         self.assertEqual(sim["published"], len(self.log1["SIM_TRUTH"]), sim)
 
     def test_final_model_within_5nm_of_truth(self):

@@ -163,11 +163,10 @@ class Interlock(unittest.TestCase):
         self.assertGreater(self.worst.overshoot(), 0.9 * self.worst.bound)
 
     def test_the_display_shows_it(self):
-        # Each frame shows its own block: the objects (FW_OBJECTS, at once:
-        # the operator plans), the force and the tip (FW_STATE, a batch
-        # later: published aside) of the block it fell due at, which its
-        # announcement names (RENDER_FRAME.seq), and the red border
-        # exactly when that block's FW_STATE is latched.
+        # Each frame shows its own block: the objects, the force and the tip
+        # (FW_STATE) of the block it fell due at, which its announcement
+        # names (RENDER_FRAME.seq), and the red border exactly when that
+        # block's FW_STATE is latched.
         r = self.base
         fps, bhz = r.scene["frame_rate_hz"], r.scene["block_hz"]
         self.assertEqual(r.rj["renderer"]["frames_mixed_blocks"], 0)

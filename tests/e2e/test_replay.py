@@ -16,7 +16,7 @@ import afmlog
 
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 REPLAY_PERTURBED = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay_perturbed")
-OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_STATE", "FW_OBJECTS"]
+OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_STATE"]
 SYNC = 0xEDA1DA01
 
 
@@ -55,7 +55,7 @@ def middle_pose(evs):
 def output_key(ch, data):
     m = getattr(afmlog.afm, afmlog.CHANNELS[ch]).decode(data)
     seq = m.ack_seq if ch == "AFM_CMD" else m.seq
-    return (seq, OUTPUTS.index(ch), m.fix_id if ch == "FW_OBJECTS" else 0)
+    return (seq, OUTPUTS.index(ch), m.objects.fix_id if ch == "FW_STATE" else 0)
 
 
 def outputs(path):
@@ -243,19 +243,19 @@ class ReplayEveryScene(unittest.TestCase):
         return run
 
     def test_a_recording_from_before_fw_state_is_compared_without_it(self):
-        # FW_STATE replaced FW_FORCE and FW_TIP (issue 15): a run recorded
-        # before holds those two; its other outputs are still judged
-        run = self._renamed_state("before-state", ("FW_FORCE", "FW_TIP"))
+        # FW_STATE replaced FW_FORCE, FW_TIP and FW_OBJECTS (issue 15): a
+        # run recorded before holds those; its other outputs are still judged
+        run = self._renamed_state("before-state", ("FW_FORCE", "FW_TIP", "FW_OBJECTS"))
         rc, so, se = replay(REPLAY, run)
         self.assertEqual(rc, 0, so + se)
-        self.assertRegex(so, r"the recording is of the bus before FW_STATE \(\d+ messages on FW_FORCE and FW_TIP")
-        self.assertIn("messages on AFM_CMD, HAPTIC_FORCE, FW_OBJECTS)", so)
+        self.assertRegex(so, r"the recording is of an earlier bus \(\d+ messages on FW_FORCE, FW_TIP and FW_OBJECTS")
+        self.assertIn("messages on AFM_CMD, HAPTIC_FORCE)", so)
         # a recording that lost FW_STATE without being of the old bus is judged: it misses outputs
         run = self._renamed_state("no-state", ())
         rc, so, se = replay(REPLAY, run)
         self.assertEqual(rc, 1, so + se)
         self.assertIn("channel FW_STATE: the replay answers it, the recording has no such message", so)
-        self.assertNotIn("before FW_STATE", so)
+        self.assertNotIn("earlier bus", so)
 
     def test_write_onto_the_replayed_log_is_refused(self):
         run, log, _ = self._broken_copy("self", lambda evs, blob: blob)

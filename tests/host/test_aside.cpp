@@ -73,11 +73,11 @@ void test_the_lockstep_reads_its_hops_and_the_planner_the_objects()
     for (const char *c : {AFM_CH_AFM_ANALOG, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_HAPTIC_POSE, AFM_CH_AFM_SCAN_REQ,
                           AFM_CH_AFM_SCAN_LINE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_RENDER_FRAME, AFM_CH_AFM_HEARTBEAT})
         TEST_ASSERT_TRUE_MESSAGE(afm::lockstep_reads(s, c), c);
-    for (const char *c : {AFM_CH_FW_STATE, AFM_CH_FW_OBJECTS, AFM_CH_SIM_TRUTH, "NOT_A_CHANNEL", ""})
+    for (const char *c : {AFM_CH_FW_STATE, AFM_CH_SIM_TRUTH, "NOT_A_CHANNEL", ""})
         TEST_ASSERT_FALSE_MESSAGE(afm::lockstep_reads(s, c), c);
     s.op.plan.enabled = true;
-    TEST_ASSERT_TRUE(afm::lockstep_reads(s, AFM_CH_FW_OBJECTS));
-    TEST_ASSERT_FALSE(afm::lockstep_reads(s, AFM_CH_FW_STATE));
+    TEST_ASSERT_TRUE(afm::lockstep_reads(s, AFM_CH_FW_STATE));
+    TEST_ASSERT_FALSE(afm::lockstep_reads(s, AFM_CH_SIM_TRUTH));
 }
 
 // A process of the lockstep that subscribes to a channel published aside
@@ -89,15 +89,15 @@ void test_a_lockstep_process_reading_an_aside_channel_is_refused_by_name()
     afm::check_lockstep_reads(s, {AFM_CH_HAPTIC_FORCE, AFM_CH_AFM_HEARTBEAT}, "operator");   // fine
     afm::check_lockstep_reads(s, {}, "operator");
     try {
-        afm::check_lockstep_reads(s, {AFM_CH_HAPTIC_FORCE, AFM_CH_FW_OBJECTS}, "operator");
-        TEST_FAIL_MESSAGE("FW_OBJECTS without the planner was accepted");
+        afm::check_lockstep_reads(s, {AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE}, "operator");
+        TEST_FAIL_MESSAGE("FW_STATE without the planner was accepted");
     } catch (const std::logic_error &e) {
         const std::string what = e.what();
         TEST_ASSERT_NOT_EQUAL(std::string::npos, what.find("operator"));
-        TEST_ASSERT_NOT_EQUAL(std::string::npos, what.find("FW_OBJECTS"));
+        TEST_ASSERT_NOT_EQUAL(std::string::npos, what.find("FW_STATE"));
     }
     s.op.plan.enabled = true;
-    afm::check_lockstep_reads(s, {AFM_CH_HAPTIC_FORCE, AFM_CH_FW_OBJECTS}, "operator");
+    afm::check_lockstep_reads(s, {AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE}, "operator");
 }
 
 // Every message posted is on the bus once flush() returns, in the order posted.

@@ -2,16 +2,20 @@
 // what a publisher sends (only what changed, complete ones first, after a
 // forced one and every KEYFRAME_BLOCKS) read back whole by a reader, with
 // drift moving everything between messages; resends; a missed message
-// noticed, and the reader whole again at the next complete one.
+// noticed, and the reader whole again at the next complete one; messages
+// handed over out of order held until their base comes (at most kMaxHeld).
 #include <unity.h>
 
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <vector>
 
 #include "objects_view.hpp"
 
 namespace {
+
+using Take = afm::ObjectsView::Take;
 
 afm::particle_t particle(int id, double x, double y)
 {
@@ -85,10 +89,10 @@ void test_round_trip_with_moves_and_drift()
         const afm::objects_t m = diff.next(w);
         complete += m.complete;
         if (!m.complete) listed += m.particles.size();
-        TEST_ASSERT_TRUE(view.apply(m));
+        TEST_ASSERT_TRUE(view.apply(m) == Take::applied);
         assert_same(w, view.whole());
         // a resend of the same message changes nothing
-        TEST_ASSERT_TRUE(view.apply(m));
+        TEST_ASSERT_TRUE(view.apply(m) == Take::applied);
         assert_same(w, view.whole());
     }
     TEST_ASSERT_EQUAL_INT(1000 / afm::objects_t::KEYFRAME_BLOCKS, complete);
@@ -119,15 +123,16 @@ void test_reader_refuses_what_it_cannot_place()
     afm::ObjectsView view;
     afm::objects_t m = whole(5, 3);
     m.complete = false;
-    TEST_ASSERT_FALSE(view.apply(m));   // changes before any whole set
+    TEST_ASSERT_TRUE(view.apply(m) == Take::held);   // changes before any whole set: kept for its base
     TEST_ASSERT_FALSE(view.ready());
     m.complete = true;
-    TEST_ASSERT_TRUE(view.apply(m));
+    TEST_ASSERT_TRUE(view.apply(m) == Take::applied);
+    TEST_ASSERT_EQUAL_UINT(0, view.held());           // of the same block as the set: old
     afm::objects_t odd = whole(6, 0);
     odd.complete = false;
     odd.particles.push_back(particle(99, 0, 0));   // an id the set does not hold
     odd.n_particles = 1;
-    TEST_ASSERT_FALSE(view.apply(odd));
+    TEST_ASSERT_TRUE(view.apply(odd) == Take::refused);
     TEST_ASSERT_EQUAL_INT(5, static_cast<int>(view.whole().seq));
 }
 
@@ -136,7 +141,7 @@ void test_a_missed_message_is_noticed_and_healed_by_the_next_complete()
     afm::ObjectsDiff diff;
     afm::ObjectsView view;
     afm::objects_t w = whole(0, 5);
-    TEST_ASSERT_TRUE(view.apply(diff.next(w)));
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)) == Take::applied);
     w.seq = 1;
     w.particles[2].x_nm += 7;
     const afm::objects_t lost = diff.next(w);   // never reaches the reader
@@ -145,16 +150,142 @@ void test_a_missed_message_is_noticed_and_healed_by_the_next_complete()
     w.particles[3].y_nm += 3;
     const afm::objects_t after = diff.next(w);
     TEST_ASSERT_EQUAL_INT(1, static_cast<int>(after.base_seq));
-    TEST_ASSERT_FALSE(view.apply(after));       // it follows a message the reader does not hold
-    TEST_ASSERT_FALSE(view.ready());
-    // Not ready until a complete message; then whole again.
+    // It follows a message the reader does not hold: kept for that base,
+    // which never comes; the set stays the last one placed.
+    TEST_ASSERT_TRUE(view.apply(after) == Take::held);
+    TEST_ASSERT_TRUE(view.ready());
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(view.whole().seq));
     w.seq = 3;
-    TEST_ASSERT_FALSE(view.apply(diff.next(w)));
-    TEST_ASSERT_TRUE(view.apply(diff.next(w, true)));
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)) == Take::held);
+    TEST_ASSERT_EQUAL_UINT(2, view.held());
+    // Whole again at the next complete message, which makes the held old.
+    TEST_ASSERT_TRUE(view.apply(diff.next(w, true)) == Take::applied);
     assert_same(w, view.whole());
+    TEST_ASSERT_EQUAL_UINT(0, view.held());
     // An older message arriving late changes nothing.
-    TEST_ASSERT_TRUE(view.apply(lost));
+    TEST_ASSERT_TRUE(view.apply(lost) == Take::applied);
     assert_same(w, view.whole());
+}
+
+// A base older than the set (a fix's answer came between): cannot be placed.
+void test_a_change_on_an_older_base_is_refused()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 3);
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)) == Take::applied);
+    w.seq = 1;
+    afm::objects_t m = diff.next(w);
+    m.base_seq = -1;
+    TEST_ASSERT_TRUE(view.apply(m) == Take::refused);
+    TEST_ASSERT_EQUAL_UINT(0, view.held());
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(view.whole().seq));
+}
+
+// The kernel holds a datagram back behind the next one (tools/faults.py,
+// net:kernel): block n+1's changes come before block n's. Both are placed
+// when n comes, in turn; a resend of the held one is not kept twice.
+void test_a_message_before_its_base_is_held_until_the_base_comes()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 5);
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)) == Take::applied);
+    w.seq = 1;
+    w.particles[1].x_nm += 4;
+    w.drift_nm[0] += 0.5;
+    for (auto &p : w.particles) p.x_nm += 0.5;
+    const afm::objects_t first = diff.next(w);
+    w.seq = 2;
+    w.particles[2].y_nm -= 6;
+    const afm::objects_t second = diff.next(w);
+    TEST_ASSERT_FALSE(second.complete);
+    TEST_ASSERT_TRUE(view.apply(second) == Take::held);
+    TEST_ASSERT_TRUE(view.apply(second) == Take::held);   // resent
+    TEST_ASSERT_EQUAL_UINT(1, view.held());
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(view.whole().seq));
+    TEST_ASSERT_TRUE(view.apply(first) == Take::applied);
+    TEST_ASSERT_EQUAL_INT(2, static_cast<int>(view.whole().seq));
+    TEST_ASSERT_EQUAL_UINT(0, view.held());
+    assert_same(w, view.whole());
+    // Now both are old.
+    TEST_ASSERT_TRUE(view.apply(second) == Take::applied);
+    TEST_ASSERT_TRUE(view.apply(first) == Take::applied);
+    assert_same(w, view.whole());
+}
+
+// Many blocks before their base: at most kMaxHeld are kept, the newest let
+// go first (the oldest are the next the set can place); when the base comes
+// the set moves as far as the chain holds, and the rest come as resends.
+void test_at_most_kmaxheld_are_held_and_the_chain_is_placed_as_far_as_it_goes()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 4);
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)) == Take::applied);
+    const int64_t last = static_cast<int64_t>(afm::ObjectsView::kMaxHeld) + 3;
+    std::vector<afm::objects_t> sent(1);   // sent[n]: block n's message
+    for (int64_t n = 1; n <= last; ++n) {
+        w.seq = n;
+        w.particles[static_cast<std::size_t>(n % 4)].x_nm += 1.0 * static_cast<double>(n);
+        sent.push_back(diff.next(w));
+    }
+    // Blocks last .. 2, newest first: the first kMaxHeld are held, then each
+    // older one takes the place of the newest held.
+    for (int64_t n = last; n >= 2; --n) TEST_ASSERT_TRUE(view.apply(sent[static_cast<std::size_t>(n)]) == Take::held);
+    TEST_ASSERT_EQUAL_UINT(afm::ObjectsView::kMaxHeld, view.held());
+    // Full, and newer than every one held: let go.
+    TEST_ASSERT_TRUE(view.apply(sent[static_cast<std::size_t>(last)]) == Take::refused);
+    TEST_ASSERT_EQUAL_INT(0, static_cast<int>(view.whole().seq));
+    // Block 1: the chain 1 .. kMaxHeld + 1 is placed.
+    TEST_ASSERT_TRUE(view.apply(sent[1]) == Take::applied);
+    TEST_ASSERT_EQUAL_INT(static_cast<int>(afm::ObjectsView::kMaxHeld) + 1, static_cast<int>(view.whole().seq));
+    TEST_ASSERT_EQUAL_UINT(0, view.held());
+    // The two let go come again (the card resends): the set is whole.
+    TEST_ASSERT_TRUE(view.apply(sent[static_cast<std::size_t>(last - 1)]) == Take::applied);
+    TEST_ASSERT_TRUE(view.apply(sent[static_cast<std::size_t>(last)]) == Take::applied);
+    assert_same(w, view.whole());
+}
+
+// The first block's complete message comes after the second block's
+// changes (seen under net:kernel: the renderer then waited for a keyframe
+// while the simulator waited for its frame): both are placed.
+void test_changes_before_the_first_complete_are_placed_when_it_comes()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 3);
+    const afm::objects_t first = diff.next(w);
+    w.seq = 1;
+    w.particles[0].x_nm += 2;
+    const afm::objects_t second = diff.next(w);
+    TEST_ASSERT_TRUE(first.complete);
+    TEST_ASSERT_FALSE(second.complete);
+    TEST_ASSERT_TRUE(view.apply(second) == Take::held);
+    TEST_ASSERT_FALSE(view.ready());
+    TEST_ASSERT_TRUE(view.apply(first) == Take::applied);
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(view.whole().seq));
+    assert_same(w, view.whole());
+}
+
+// A held message naming an object the set does not hold is let go when its
+// base comes; the base is placed.
+void test_a_held_message_that_cannot_be_placed_is_let_go()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    afm::objects_t w = whole(0, 3);
+    TEST_ASSERT_TRUE(view.apply(diff.next(w)) == Take::applied);
+    w.seq = 1;
+    const afm::objects_t base = diff.next(w);
+    w.seq = 2;
+    afm::objects_t odd = diff.next(w);
+    odd.particles.push_back(particle(99, 0, 0));
+    odd.n_particles = static_cast<int32_t>(odd.particles.size());
+    TEST_ASSERT_TRUE(view.apply(odd) == Take::held);
+    TEST_ASSERT_TRUE(view.apply(base) == Take::applied);
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(view.whole().seq));
+    TEST_ASSERT_EQUAL_UINT(0, view.held());
 }
 
 int main()
@@ -164,5 +295,10 @@ int main()
     RUN_TEST(test_forced_and_count_changes_are_complete);
     RUN_TEST(test_reader_refuses_what_it_cannot_place);
     RUN_TEST(test_a_missed_message_is_noticed_and_healed_by_the_next_complete);
+    RUN_TEST(test_a_change_on_an_older_base_is_refused);
+    RUN_TEST(test_a_message_before_its_base_is_held_until_the_base_comes);
+    RUN_TEST(test_at_most_kmaxheld_are_held_and_the_chain_is_placed_as_far_as_it_goes);
+    RUN_TEST(test_changes_before_the_first_complete_are_placed_when_it_comes);
+    RUN_TEST(test_a_held_message_that_cannot_be_placed_is_let_go);
     return UNITY_END();
 }
