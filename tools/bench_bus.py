@@ -19,7 +19,8 @@
    log window pacing the simulator, the renderer attached), placement off,
    the log window off, the renderer writing no frame files (the scene's
    outputs png: false, video: none: what encoding the frames costs), the
-   renderer off, and both off; each as a ratio to
+   renderer off, and both off (in turn: a run of each, --repeat rounds);
+   each as a ratio to
    the floor of its placement (received as the processes receive; the
    ratio to liblcm's floor is shown beside it). The cost per block is the
    blocks' wall time less the scans the simulator serves between blocks
@@ -181,13 +182,18 @@ def main(argv=None):
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
     os.makedirs(out, exist_ok=True)
 
+    # The arrangements in turn, a run of each per round: what slows the
+    # machine for a while (another job; creating files on ext4 without a
+    # journal just after many were deleted, README "Files and the disk")
+    # falls on every arrangement alike, not on the first one run.
+    scenes = [a.scene if outputs is None else scene_with_outputs(a.scene, outputs, out) for _, _, outputs in ARRANGEMENTS]
+    runs_of = [[] for _ in ARRANGEMENTS]
+    for i in range(a.repeat):
+        for k, (label, args, _) in enumerate(ARRANGEMENTS):
+            print(f"bench bus: round {i + 1} of {a.repeat}: {label} ...", file=sys.stderr)
+            runs_of[k].append(one_run(scenes[k], args, os.path.join(out, f"run-{k}-{i}")))
     rows = []
-    for label, args, outputs in ARRANGEMENTS:
-        scene = a.scene if outputs is None else scene_with_outputs(a.scene, outputs, out)
-        runs = []
-        for i in range(a.repeat):
-            print(f"bench bus: {label}: run {i + 1} of {a.repeat} ...", file=sys.stderr)
-            runs.append(one_run(scene, args, os.path.join(out, f"run-{len(rows)}-{i}")))
+    for (label, args, outputs), runs in zip(ARRANGEMENTS, runs_of):
         med = statistics.median(r["us_per_block"] for r in runs)
         names = sorted({n for r in runs for n in r["cpu_us_per_block"]})
         rows.append({
