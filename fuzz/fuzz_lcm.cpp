@@ -1,9 +1,13 @@
 // Fuzz target "lcm": every bus message's decode-and-validate path, and the
 // handlers behind it that need no bus.
 //
-// Input: the first byte picks a channel (its index in lcmtypes/channels.yaml,
-// modulo the number of channels); the rest is the datagram, handed to an
-// afm::Inbox (common/inbox.hpp) as if it had arrived on that channel. The
+// Input: the channel's name and a NUL, then the datagram (as LCM's own
+// datagram names its channel: the committed seeds and crash inputs name
+// theirs, whatever the order of lcmtypes/channels.yaml). An input that does
+// not begin with the name of a channel of the bus (the fuzzer changed it)
+// has its first byte pick one, modulo the number of channels, and the rest
+// is the datagram: every input reaches a decoder. The datagram is handed to
+// an afm::Inbox (common/inbox.hpp) as if it had arrived on that channel. The
 // inbox decodes it as the channel's type (the guarded decoder,
 // decode_checked); what it refuses it names, and nothing else happens.
 //
@@ -290,9 +294,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, std::size_t size)
     static afm::Bus bus;
     (void)afm::scene();
     if (size < 1) return 0;
-    const std::string &channel = bus.channels[data[0] % bus.channels.size()];
-    afm::g_data = data + 1;
-    afm::g_size = size - 1;
-    bus.inbox.deliver(channel, data + 1, size - 1);
+    std::string channel = bus.channels[data[0] % bus.channels.size()];
+    std::size_t skip = 1;
+    if (const void *nul = std::memchr(data, 0, size)) {
+        const std::string name(reinterpret_cast<const char *>(data), static_cast<const uint8_t *>(nul) - data);
+        for (const auto &c : bus.channels)
+            if (c == name) {
+                channel = name;
+                skip = name.size() + 1;
+            }
+    }
+    afm::g_data = data + skip;
+    afm::g_size = size - skip;
+    bus.inbox.deliver(channel, data + skip, size - skip);
     return 0;
 }

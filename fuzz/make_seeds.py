@@ -5,8 +5,8 @@
 
 scene:  small scenes of scenes/ and scenes/paper/, copied, and one that
         includes the calibration file the harness keeps beside its input.
-lcm:    valid messages of every channel, one byte (the channel's index in
-        lcmtypes/channels.yaml) before the encoded message; the card's
+lcm:    valid messages of every channel, the channel's name and a NUL
+        before the encoded message (fuzz/fuzz_lcm.cpp); the card's
         inputs fit the harness's scene (4 samples per block).
 calc:   the calculator's command lines from its --help texts and its test
         (host_bridge/calc/test_afm_calc.cmake), one argument per line.
@@ -193,7 +193,8 @@ def lcm_seeds(afm, channels):
     for ch, m in bus_messages(afm):
         k = count.get(ch, 0)
         count[ch] = k + 1
-        write("lcm", f"{ch.lower()}_{k}", bytes([channels.index(ch)]) + m.encode())
+        assert ch in channels, f"{ch}: not a channel of lcmtypes/channels.yaml"
+        write("lcm", f"{ch.lower()}_{k}", ch.encode() + b"\0" + m.encode())
 
 
 def lcmlog_seeds(afm, run_log):

@@ -1,7 +1,8 @@
 """The bus contract is kept in one place and documented (issue 2, style.md):
 one message per .lcm file, lower_snake_t, utime first, a comment with the unit
 on every field, an explicit count on every variable array; README's channel
-table equals lcmtypes/channels.yaml; .ci/run runs ./afm test."""
+table equals lcmtypes/channels.yaml; .ci/run runs ./afm test; the lcm fuzz
+target's committed inputs name a channel of the bus and carry its type."""
 import glob
 import os
 import re
@@ -10,6 +11,7 @@ import unittest
 import yaml
 
 import benchtest
+import afmlog
 
 LCM_DIR = os.path.join(benchtest.SRC, "lcmtypes")
 
@@ -34,6 +36,29 @@ class Messages(unittest.TestCase):
                 m = re.match(r"\w+\s+\w+\[(\w+)\]", f)
                 if m and not m.group(1).isdigit():
                     self.assertRegex(body, r"int32_t\s+%s;" % m.group(1), f"{path}: array count {m.group(1)} undeclared")
+
+
+class FuzzInputs(unittest.TestCase):
+    def test_lcm_inputs_name_their_channel_and_carry_its_type(self):
+        # fuzz/fuzz_lcm.cpp: the channel's name and a NUL, then the datagram,
+        # so that the seeds and the crash inputs reach the decoder they were
+        # made for whatever the order of channels.yaml
+        rows = yaml.safe_load(open(os.path.join(LCM_DIR, "channels.yaml")))
+        types = {r["channel"]: r["type"] for r in rows}
+        paths = glob.glob(os.path.join(benchtest.SRC, "fuzz", "corpus", "lcm", "*")) + \
+            glob.glob(os.path.join(benchtest.SRC, "fuzz", "crashes", "lcm", "*"))
+        self.assertGreater(len(paths), len(types))
+        seen = set()
+        for path in paths:
+            data = open(path, "rb").read()
+            name, nul, datagram = data.partition(b"\0")
+            self.assertTrue(nul, f"{path}: no channel name")
+            channel = name.decode()
+            self.assertIn(channel, types, path)
+            fingerprint = getattr(afmlog.afm, types[channel])._get_packed_fingerprint()
+            self.assertEqual(datagram[:8], fingerprint, f"{path}: not a {types[channel]}")
+            seen.add(channel)
+        self.assertEqual(seen, set(types), "a seed for every channel")
 
 
 class ChannelTable(unittest.TestCase):
