@@ -1,5 +1,6 @@
 #include "objects_view.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace afm {
@@ -61,47 +62,30 @@ objects_t ObjectsDiff::next(const objects_t &whole, bool force_complete)
     return m;
 }
 
-bool ObjectsView::later(const objects_t &a, const objects_t &b)
-{
-    return a.seq > b.seq || (a.seq == b.seq && a.fix_id > b.fix_id);
-}
-
-bool ObjectsView::newer(const objects_t &m) const
-{
-    return later(m, whole_);
-}
-
-bool ObjectsView::follows(const objects_t &m) const
-{
-    return m.base_seq == whole_.seq && m.base_fix_id == whole_.fix_id;
-}
-
 ObjectsView::Take ObjectsView::apply(const objects_t &m)
 {
     // A resend of the message last applied, or of an older one: nothing new.
-    if (ready_ && !newer(m)) return Take::applied;
+    if (ready_ && key_of(m) <= key_of(whole_)) return Take::applied;
     if (m.complete) {
         whole_ = m;
         ready_ = true;
         drain();
         return Take::applied;
     }
-    if (!ready_ || !follows(m)) {
+    if (!ready_ || base_of(m) != key_of(whole_)) {
         // Its base is still to come (the bus reordered them; before the
         // first complete message, every base is): keep it. A base older than
         // the set: one was missed, and the set waits for the next complete
         // message.
-        const bool base_ahead = !ready_ || m.base_seq > whole_.seq || (m.base_seq == whole_.seq && m.base_fix_id > whole_.fix_id);
-        if (!base_ahead) return Take::refused;
+        if (ready_ && base_of(m) < key_of(whole_)) return Take::refused;
         for (const auto &h : held_)
-            if (h.seq == m.seq && h.fix_id == m.fix_id) return Take::held;   // a resend of one kept
+            if (key_of(h) == key_of(m)) return Take::held;   // a resend of one kept
         if (held_.size() == kMaxHeld) {
             // Full: the newest of them and m is let go (the oldest are the
             // next the set can place).
-            auto newest = held_.begin();
-            for (auto it = held_.begin(); it != held_.end(); ++it)
-                if (later(*it, *newest)) newest = it;
-            if (!later(*newest, m)) return Take::refused;
+            const auto newest = std::max_element(held_.begin(), held_.end(),
+                                                 [](const objects_t &a, const objects_t &b) { return key_of(a) < key_of(b); });
+            if (key_of(*newest) <= key_of(m)) return Take::refused;
             held_.erase(newest);
         }
         held_.push_back(m);
@@ -117,9 +101,9 @@ void ObjectsView::drain()
     for (bool more = true; more;) {
         more = false;
         for (auto it = held_.begin(); it != held_.end();) {
-            if (!newer(*it)) {
+            if (key_of(*it) <= key_of(whole_)) {
                 it = held_.erase(it);   // made old by what came since
-            } else if (follows(*it)) {
+            } else if (base_of(*it) == key_of(whole_)) {
                 const objects_t m = std::move(*it);
                 held_.erase(it);
                 place(m);               // one that cannot be placed is let go

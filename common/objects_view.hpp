@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "afm/objects_t.hpp"
@@ -25,6 +26,13 @@ private:
     bool have_last_ = false;
     int64_t last_complete_seq_ = 0;
 };
+
+// The order of objects messages: by block, then by fix (a fix's answer
+// follows its block's message). Where a message stands, and where the one
+// it follows (its base) stood.
+using ObjectsKey = std::pair<int64_t, int32_t>;
+inline ObjectsKey key_of(const objects_t &m) { return {m.seq, m.fix_id}; }
+inline ObjectsKey base_of(const objects_t &m) { return {m.base_seq, m.base_fix_id}; }
 
 // The reader's side: the whole set after each message.
 //
@@ -52,9 +60,6 @@ public:
     std::size_t held() const { return held_.size(); }     // messages kept for their base
 
 private:
-    static bool later(const objects_t &a, const objects_t &b);   // a after b (seq, then fix id)
-    bool newer(const objects_t &m) const;        // after the set held
-    bool follows(const objects_t &m) const;      // its base is the set held
     bool place(const objects_t &m);              // a changes-only message that follows: applied, or false
     void drain();                                // the held messages that now follow, in turn
 

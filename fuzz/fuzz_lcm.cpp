@@ -25,6 +25,7 @@
 //    view holds one for its base, that base; the whole set it then holds
 //    must encode and decode cleanly.
 // A broken promise aborts (a crash); so does a sanitizer's report.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -298,11 +299,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, std::size_t size)
     std::size_t skip = 1;
     if (const void *nul = std::memchr(data, 0, size)) {
         const std::string name(reinterpret_cast<const char *>(data), static_cast<const uint8_t *>(nul) - data);
-        for (const auto &c : bus.channels)
-            if (c == name) {
-                channel = name;
-                skip = name.size() + 1;
-            }
+        if (std::find(bus.channels.begin(), bus.channels.end(), name) != bus.channels.end()) {
+            channel = name;
+            skip = name.size() + 1;
+        }
     }
     afm::g_data = data + skip;
     afm::g_size = size - skip;

@@ -231,7 +231,7 @@ struct Operator {
     {
         const afm::objects_t &m = s.objects;
         if (m.seq > answered + 2) return afm::Reject::seq_future;
-        if (have_objects && (m.seq < objects.seq || (m.seq == objects.seq && m.fix_id <= objects.fix_id))) return afm::Reject::seq_past;
+        if (have_objects && afm::key_of(m) <= afm::key_of(objects)) return afm::Reject::seq_past;
         switch (view.apply(m)) {
         case afm::ObjectsView::Take::refused: return afm::Reject::out_of_range;
         case afm::ObjectsView::Take::held: return afm::Reject::none;   // before its base: taken when that comes
