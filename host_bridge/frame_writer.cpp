@@ -3,10 +3,10 @@
 #include <time.h>
 
 #include <cstdio>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
 #include "placement.hpp"
+#include "png_file.hpp"
 
 namespace afm {
 
@@ -82,7 +82,7 @@ void FrameWriter::write_one(int k, const cv::Mat &frame)
     if (png_) {
         char name[64];
         std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
-        if (!cv::imwrite(out_ + name, frame)) throw std::runtime_error("cannot write " + out_ + name);
+        write_png(out_ + name, frame);
     }
     if (video_.isOpened()) video_.write(frame);
 }

@@ -1,10 +1,10 @@
 // The display's frames into their files: frames/frame_NNNNN.png and the
 // video, in order, on a thread of the renderer's own, allowed on every CPU
-// of the run.
+// of the run. The PNG files are png_file.hpp's (ISA-L's deflate).
 //
 // Why (README "The bus's latency model"; ./afm bench bus measures it): a
-// frame's PNG and video cost about 0.6-1.2 ms of CPU, five times composing
-// it. On the renderer's thread, pinned with the observers, they kept the
+// frame's PNG and video cost about 0.6-1.2 ms of CPU with OpenCV's PNG,
+// five times composing it (0.3-0.5 ms since the PNG is png_file.hpp's). On the renderer's thread, pinned with the observers, they kept the
 // renderer from taking the bus while they were encoded, and the observers'
 // CPU (the record, the datagrams published aside) was the run's bottleneck
 // while the lockstep's CPU waited for frames. On a thread of its own that
@@ -13,7 +13,7 @@
 // or on the lockstep's alone, was slower: the lockstep's CPU is idle in
 // slivers of microseconds, too short for a frame.)
 //
-// What stays as it was: the files, byte for byte, and their order; the
+// What stays as it was: the frames' pixels and their order; the
 // renderer announces a frame (RENDER_FRAME) when it is composed, before its
 // files are written. Nothing is dropped: write() waits while kMaxPending
 // frames wait to be written (on a machine with no idle CPU the renderer,

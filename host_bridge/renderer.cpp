@@ -48,6 +48,7 @@
 #include "objects_view.hpp"
 #include "pattern.hpp"
 #include "placement.hpp"
+#include "png_file.hpp"
 #include "scan_client.hpp"
 #include "scene.hpp"
 #include "fw_drift.h"
@@ -259,7 +260,7 @@ struct Renderer {
     void begin()
     {
         display.start(scan.heights(), model);
-        cv::imwrite(out + "/scan_initial.png", display.colourise(scan.heights()));
+        afm::write_png(out + "/scan_initial.png", display.colourise(scan.heights()));
         write_outputs_for_scan("scan_initial", scan.heights());
         writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, field.px, writer_cpus);
         started = true;
@@ -574,7 +575,7 @@ struct Renderer {
         const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.heights(), field, model, tip, kFidelitySearch_nm);
         write_outputs_for_scan("scan_final", scan.heights());
         write_outputs_for_scan("display_final", display.height());
-        cv::imwrite(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, (display.z_top() - display.z_bottom()) / 4)));
+        afm::write_png(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, (display.z_top() - display.z_bottom()) / 4)));
         using nlohmann::json;
         fidelity = json{{"max_position_error_nm", f.max_position_error_nm},
                         {"max_angle_error_deg", f.max_angle_error_deg},
@@ -725,7 +726,7 @@ int main(int argc, char **argv)
         }
         if (!tiles.empty()) {
             const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(tiles.size()))));
-            cv::imwrite(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
+            afm::write_png(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
         }
         nlohmann::json rep = {{"frames", r.frames_written},
                               {"objects_blocks_missed", r.objects_missed()},

@@ -30,7 +30,13 @@
    for the record (the log window) and for the renderer's frames (the frame
    window) after the card had answered, and whether the log holds every
    block. Beside them, the whole command as a user runs it (afm_launch in
-   its namespace, from start to exit) and its simulated seconds per second.
+   its namespace, from start to exit) and its simulated seconds per second,
+   and the CPU the renderer's frame writer spent on a frame's files (its
+   PNG and video: renderer_report.json write_ms_per_frame).
+4. The disk's state, before the runs: how long creating a frame-sized
+   file in the runs' folder takes. On ext4 without a journal it is ten
+   times more in the seconds after many files were deleted (README, "Files
+   and the disk"), and the frames' files cost the run as much more.
 
 A benchmark: it prints figures and never fails on them. Exit 1 only when a
 run fails.
@@ -129,6 +135,23 @@ def floor_of(lat, sizes, serial):
     return {"floor_us": paths[worst], "path": f"the {worst} path", "paths_us": paths}
 
 
+def disk_probe(folder, files=100, size=12000):
+    """Median ms to create, write and close a file of `size` bytes in folder
+    (the files are left for the caller's folder to take away: deleting
+    them would slow the next files created)."""
+    d = os.path.join(folder, "disk-probe")
+    os.makedirs(d, exist_ok=True)
+    data = os.urandom(size)
+    ms = []
+    for k in range(files):
+        t0 = time.perf_counter()
+        fd = os.open(os.path.join(d, f"f{k:04d}.bin"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        os.write(fd, data)
+        os.close(fd)
+        ms.append((time.perf_counter() - t0) * 1e3)
+    return {"folder": folder, "files": files, "bytes": size, "median_ms": statistics.median(ms), "max_ms": max(ms)}
+
+
 def one_run(scene, args, out):
     exe = os.path.join(BUILD, "host_bridge", "afm_launch")
     t0 = time.monotonic()
@@ -148,7 +171,13 @@ def one_run(scene, args, out):
     # the scans the simulator serves between blocks (the display check's
     # final scan, a local scan) are a cost of their own, not the lockstep's
     scan_s = sim.get("loop_scan_wall_seconds", 0.0)
+    files_ms = None   # the frame writer's CPU a frame (no renderer, or no files: None)
+    rep = os.path.join(out, "renderer_report.json")
+    if os.path.exists(rep):
+        with open(rep) as f:
+            files_ms = json.load(f).get("write_ms_per_frame") or None
     return {
+        "frame_files_cpu_ms": files_ms,
         "us_per_block": (sim["loop_wall_seconds"] - scan_s) / blocks * 1e6,
         "loop_us_per_block": sim["loop_wall_seconds"] / blocks * 1e6,
         "scan_ms": scan_s * 1e3,
@@ -181,6 +210,7 @@ def main(argv=None):
     keep = a.out is not None
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
     os.makedirs(out, exist_ok=True)
+    disk = disk_probe(out)
 
     # The arrangements in turn, a run of each per round: what slows the
     # machine for a while (another job; creating files on ext4 without a
@@ -208,6 +238,8 @@ def main(argv=None):
             "log_waits": statistics.median(r["log_waits"] for r in runs),
             "log_wait_ms": statistics.median(r["log_wait_ms"] for r in runs),
             "frame_wait_ms": statistics.median(r["frame_wait_ms"] for r in runs),
+            "frame_files_cpu_ms": (statistics.median(r["frame_files_cpu_ms"] for r in runs)
+                                   if all(r["frame_files_cpu_ms"] for r in runs) else None),
             "log_window_blocks": runs[0]["log_window_blocks"],
             "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
             "placement": runs[0]["placement"],
@@ -234,7 +266,7 @@ def main(argv=None):
         row["ratio_to_floor"] = row["us_per_block"] / floors[row["floor"]]["floor_us"]
         row["ratio_to_liblcm_floor"] = row["us_per_block"] / floors[row["floor"] + " liblcm"]["floor_us"]
         row["loop_ratio_to_floor"] = row["loop_us_per_block"] / floors[row["floor"]]["floor_us"]
-    report = {"sizes": sizes, "floors": floors, "lockstep": rows, "scene": a.scene, "repeat": a.repeat}
+    report = {"sizes": sizes, "floors": floors, "lockstep": rows, "scene": a.scene, "repeat": a.repeat, "disk": disk}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)
     if a.json:
@@ -263,12 +295,14 @@ def print_tables(r):
         print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
     print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
     print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'scans ms':>9s} {'with scans':>11s} "
-          f"{'x real time':>12s} {'run s':>6s} {'run x real':>11s} {'log':>9s} {'window':>7s} {'waits':>7s} {'log ms':>7s} {'frames ms':>10s}  CPU us/block")
+          f"{'x real time':>12s} {'run s':>6s} {'run x real':>11s} {'log':>9s} {'window':>7s} {'waits':>7s} {'log ms':>7s} {'frames ms':>10s} "
+          f"{'files ms':>9s}  CPU us/block")
     for x in r["lockstep"]:
         cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
         print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {x['ratio_to_floor']:8.2f} {x['floor']:>7s} {x['ratio_to_liblcm_floor']:9.2f} "
               f"{x['scan_ms']:9.1f} {x['loop_us_per_block']:11.1f} {x['sim_s_per_wall_s']:12.2f} {x['run_s']:6.2f} {x['run_sim_s_per_wall_s']:11.2f} {'complete' if x['log_complete'] else 'GAPS':>9s} {x['log_window_blocks'] or 0:7d} "
-              f"{x['log_waits']:7.0f} {x['log_wait_ms']:7.1f} {x['frame_wait_ms']:10.1f}  {cpu}")
+              f"{x['log_waits']:7.0f} {x['log_wait_ms']:7.1f} {x['frame_wait_ms']:10.1f} "
+              f"{'-' if x['frame_files_cpu_ms'] is None else format(x['frame_files_cpu_ms'], '.2f'):>9s}  {cpu}")
     print("us/block: the blocks' wall time less the scans the simulator served between them (scans ms: the display "
           "check's final scan, any local scan; with scans: the loop's whole wall time per block; x real time is of the loop with its scans)")
     print("run s, run x real: the whole command as a user runs it (the namespace, the processes' start, the first scan, the loop, "
@@ -277,6 +311,11 @@ def print_tables(r):
           "x liblcm: against the same floor received through liblcm's thread")
     print("waits, log ms: the simulator's waits for the record (the log window) and their wall time; frames ms: the wall "
           "time blocks waited for the renderer's frames after the card had answered (the frame window)")
+    print("files ms: the CPU the renderer's frame writer spent on a frame's files (its PNG and video)")
+    d = r["disk"]
+    print(f"the disk, before the runs: creating a {d['bytes'] // 1000} kB file in {d['folder']} took a median {d['median_ms']:.3f} ms "
+          f"({d['files']} files, the slowest {d['max_ms']:.3f} ms); ext4 without a journal takes about ten times more in the "
+          "seconds after many files were deleted, and so do the frames' files (README, \"Files and the disk\")")
     unplaced = {x["placement"].get("why") for x in r["lockstep"] if not x["placed"] and "--placement" not in x["args"]}
     for why in sorted(w for w in unplaced if w):
         print(f"  not placed: {why}")

@@ -17,7 +17,8 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           python3 python3-venv libeigen3-dev libopencv-dev libglib2.0-dev
           libyaml-cpp-dev xvfb valgrind gcc-arm-none-eabi libnewlib-arm-none-eabi
           qemu-system-arm nlohmann-json3-dev gwyddion libdlib-dev
-          clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev)
+          clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev
+          libisal-dev zlib1g-dev)
 missing=()
 for p in "${apt_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

@@ -1,0 +1,223 @@
+// Unity tests of the display's PNG files (host_bridge/png_file.hpp): every
+// image comes back pixel for pixel through libpng (OpenCV's imread), in
+// each kind it takes (grey, BGR, BGRA), at the sizes where a row's filter
+// or the deflate has edges (1 px, odd widths, a view into a larger image,
+// noise that does not compress, samples that wrap round 0 and 255); what it
+// does not take is refused naming what it got; a file it cannot write is
+// named and not left half written.
+#include <unity.h>
+
+#include <signal.h>
+#include <sys/resource.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "png_file.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string dir;
+
+// Written, read back by libpng with nothing converted, and compared.
+void assert_round_trip(const cv::Mat &img, const char *what)
+{
+    const std::string path = dir + "/x.png";
+    afm::write_png(path, img);
+    const cv::Mat back = cv::imread(path, cv::IMREAD_UNCHANGED);
+    TEST_ASSERT_FALSE_MESSAGE(back.empty(), what);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(img.type(), back.type(), what);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(img.cols, back.cols, what);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(img.rows, back.rows, what);
+    TEST_ASSERT_EQUAL_DOUBLE_MESSAGE(0.0, cv::norm(img, back, cv::NORM_INF), what);
+    // the file is the encoding, byte for byte
+    const std::vector<std::uint8_t> bytes = afm::encode_png(img);
+    TEST_ASSERT_EQUAL_UINT64_MESSAGE(bytes.size(), fs::file_size(path), what);
+}
+
+cv::Mat noise(int rows, int cols, int type, unsigned seed)
+{
+    cv::Mat m(rows, cols, type);
+    cv::RNG rng(seed);
+    rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+    return m;
+}
+
+// A frame as the display draws one: a colour ramp, discs, text.
+cv::Mat frame_like(int px)
+{
+    cv::Mat f(px, px, CV_8UC3);
+    for (int y = 0; y < px; ++y)
+        for (int x = 0; x < px; ++x) f.at<cv::Vec3b>(y, x) = cv::Vec3b(x * 255 / px, y * 255 / px, 128);
+    for (int k = 0; k < 6; ++k) cv::circle(f, cv::Point(20 + 35 * k, px / 2), 12, cv::Scalar(255, 255 - 40 * k, 40 * k), cv::FILLED, cv::LINE_AA);
+    cv::putText(f, "1 um  12.3 nN", cv::Point(8, px - 10), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    return f;
+}
+
+}  // namespace
+
+void setUp()
+{
+    char tmpl[] = "/tmp/afm-test-png-XXXXXX";
+    TEST_ASSERT_NOT_NULL(mkdtemp(tmpl));
+    dir = tmpl;
+}
+void tearDown() { fs::remove_all(dir); }
+
+void test_a_frame_comes_back_pixel_for_pixel_and_smaller_than_raw()
+{
+    const cv::Mat f = frame_like(256);
+    assert_round_trip(f, "frame 256 px");
+    // it compresses: a frame's raw samples are 196608 bytes
+    TEST_ASSERT_LESS_THAN_UINT64(60000, afm::encode_png(f).size());
+}
+
+void test_each_kind_it_takes_comes_back()
+{
+    assert_round_trip(noise(17, 23, CV_8UC1, 1), "grey");
+    assert_round_trip(noise(17, 23, CV_8UC3, 2), "BGR");
+    assert_round_trip(noise(17, 23, CV_8UC4, 3), "BGRA");
+}
+
+// The channels' order: blue stays blue (BGR in memory, RGB in the file).
+void test_blue_is_blue_to_another_reader()
+{
+    const cv::Mat blue(4, 4, CV_8UC3, cv::Scalar(255, 0, 0));
+    assert_round_trip(blue, "blue");
+    const cv::Mat back = cv::imread(dir + "/x.png", cv::IMREAD_UNCHANGED);
+    TEST_ASSERT_EQUAL_UINT8(255, back.at<cv::Vec3b>(0, 0)[0]);
+    TEST_ASSERT_EQUAL_UINT8(0, back.at<cv::Vec3b>(0, 0)[2]);
+}
+
+// Edges of a row's filter: one pixel, one column, one row, odd widths.
+void test_one_pixel_one_row_one_column_and_odd_widths()
+{
+    assert_round_trip(cv::Mat(1, 1, CV_8UC3, cv::Scalar(1, 2, 3)), "1 x 1 BGR");
+    assert_round_trip(cv::Mat(1, 1, CV_8UC1, cv::Scalar(200)), "1 x 1 grey");
+    assert_round_trip(noise(1, 301, CV_8UC3, 4), "one row");
+    assert_round_trip(noise(301, 1, CV_8UC4, 5), "one column");
+    for (int w : {2, 3, 5, 7, 31, 33, 63, 65}) assert_round_trip(noise(9, w, CV_8UC3, 6 + w), "odd width");
+}
+
+// The Sub filter is modulo 256: a 255 next to a 0, and a 0 next to a 255.
+void test_samples_that_wrap_round_0_and_255()
+{
+    cv::Mat m(8, 16, CV_8UC3);
+    for (int y = 0; y < m.rows; ++y)
+        for (int x = 0; x < m.cols; ++x) m.at<cv::Vec3b>(y, x) = (x + y) % 2 ? cv::Vec3b(255, 0, 255) : cv::Vec3b(0, 255, 0);
+    assert_round_trip(m, "checkerboard of 0 and 255");
+}
+
+// A view into a larger image: its rows are not contiguous.
+void test_a_view_into_a_larger_image()
+{
+    const cv::Mat big = noise(100, 120, CV_8UC3, 7);
+    const cv::Mat roi = big(cv::Rect(13, 7, 51, 40));
+    TEST_ASSERT_FALSE(roi.isContinuous());
+    assert_round_trip(roi, "view");
+}
+
+// Noise does not compress: the deflate's output bound (stored blocks) holds.
+void test_noise_that_does_not_compress()
+{
+    const cv::Mat n = noise(512, 512, CV_8UC4, 8);
+    assert_round_trip(n, "512 px noise");
+    TEST_ASSERT_GREATER_OR_EQUAL_UINT64(512u * 512u * 4u, afm::encode_png(n).size());
+}
+
+// Encoding is the same each time (the thread's buffers are reused).
+void test_the_same_image_gives_the_same_bytes_after_a_larger_one()
+{
+    const cv::Mat small = frame_like(64);
+    const std::vector<std::uint8_t> a = afm::encode_png(small);
+    (void)afm::encode_png(noise(300, 300, CV_8UC3, 9));
+    TEST_ASSERT_TRUE(a == afm::encode_png(small));
+}
+
+void test_what_it_does_not_take_is_refused_by_name()
+{
+    const struct {
+        cv::Mat img;
+        const char *said;
+    } bad[] = {
+        {cv::Mat(), "empty"},
+        {cv::Mat(4, 4, CV_16UC1, cv::Scalar(0)), "16UC1"},
+        {cv::Mat(4, 4, CV_8UC2, cv::Scalar(0)), "8UC2"},
+        {cv::Mat(4, 4, CV_32FC3, cv::Scalar(0)), "32FC3"},
+        {cv::Mat(1, 70000, CV_8UC1, cv::Scalar(0)), "70000 x 1"},
+    };
+    for (const auto &b : bad) {
+        bool refused = false;
+        try {
+            (void)afm::encode_png(b.img);
+        } catch (const std::invalid_argument &e) {
+            refused = true;
+            TEST_ASSERT_NOT_NULL_MESSAGE(std::strstr(e.what(), b.said), e.what());
+        }
+        TEST_ASSERT_TRUE_MESSAGE(refused, b.said);
+    }
+}
+
+void test_a_folder_that_is_not_there_is_named()
+{
+    const std::string path = dir + "/gone/frame_00000.png";
+    try {
+        afm::write_png(path, frame_like(16));
+        TEST_FAIL_MESSAGE("wrote into a missing folder");
+    } catch (const std::runtime_error &e) {
+        TEST_ASSERT_NOT_NULL_MESSAGE(std::strstr(e.what(), path.c_str()), e.what());
+        TEST_ASSERT_NOT_NULL_MESSAGE(std::strstr(e.what(), "No such file"), e.what());
+    }
+}
+
+// A file cut short (here by the process's file-size limit, as a full disk
+// would) is named, and removed rather than left half written.
+void test_a_file_cut_short_is_named_and_removed()
+{
+    const std::string path = dir + "/frame_00001.png";
+    struct rlimit old {};
+    TEST_ASSERT_EQUAL_INT(0, getrlimit(RLIMIT_FSIZE, &old));
+    signal(SIGXFSZ, SIG_IGN);
+    struct rlimit small = old;
+    small.rlim_cur = 1000;
+    TEST_ASSERT_EQUAL_INT(0, setrlimit(RLIMIT_FSIZE, &small));
+    bool thrown = false;
+    try {
+        afm::write_png(path, noise(64, 64, CV_8UC3, 10));
+    } catch (const std::runtime_error &e) {
+        thrown = true;
+        TEST_ASSERT_NOT_NULL_MESSAGE(std::strstr(e.what(), path.c_str()), e.what());
+    }
+    TEST_ASSERT_EQUAL_INT(0, setrlimit(RLIMIT_FSIZE, &old));
+    signal(SIGXFSZ, SIG_DFL);
+    TEST_ASSERT_TRUE(thrown);
+    TEST_ASSERT_FALSE(fs::exists(path));
+}
+
+int main()
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_a_frame_comes_back_pixel_for_pixel_and_smaller_than_raw);
+    RUN_TEST(test_each_kind_it_takes_comes_back);
+    RUN_TEST(test_blue_is_blue_to_another_reader);
+    RUN_TEST(test_one_pixel_one_row_one_column_and_odd_widths);
+    RUN_TEST(test_samples_that_wrap_round_0_and_255);
+    RUN_TEST(test_a_view_into_a_larger_image);
+    RUN_TEST(test_noise_that_does_not_compress);
+    RUN_TEST(test_the_same_image_gives_the_same_bytes_after_a_larger_one);
+    RUN_TEST(test_what_it_does_not_take_is_refused_by_name);
+    RUN_TEST(test_a_folder_that_is_not_there_is_named);
+    RUN_TEST(test_a_file_cut_short_is_named_and_removed);
+    return UNITY_END();
+}
