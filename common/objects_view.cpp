@@ -62,14 +62,15 @@ objects_t ObjectsDiff::next(const objects_t &whole, bool force_complete)
     return m;
 }
 
-ObjectsView::Take ObjectsView::apply(const objects_t &m)
+ObjectsView::Take ObjectsView::apply(const objects_t &m, const Placed &placed)
 {
     // A resend of the message last applied, or of an older one: nothing new.
     if (ready_ && key_of(m) <= key_of(whole_)) return Take::applied;
     if (m.complete) {
         whole_ = m;
         ready_ = true;
-        drain();
+        if (placed) placed(m);
+        drain(placed);
         return Take::applied;
     }
     if (!ready_ || base_of(m) != key_of(whole_)) {
@@ -92,11 +93,12 @@ ObjectsView::Take ObjectsView::apply(const objects_t &m)
         return Take::held;
     }
     if (!place(m)) return Take::refused;
-    drain();
+    if (placed) placed(m);
+    drain(placed);
     return Take::applied;
 }
 
-void ObjectsView::drain()
+void ObjectsView::drain(const Placed &placed)
 {
     for (bool more = true; more;) {
         more = false;
@@ -106,7 +108,7 @@ void ObjectsView::drain()
             } else if (base_of(*it) == key_of(whole_)) {
                 const objects_t m = std::move(*it);
                 held_.erase(it);
-                place(m);               // one that cannot be placed is let go
+                if (place(m) && placed) placed(m);   // one that cannot be placed is let go
                 more = true;            // each turn takes one away: it ends
                 break;
             } else {

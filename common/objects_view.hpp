@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -44,6 +45,10 @@ inline ObjectsKey base_of(const objects_t &m) { return {m.base_seq, m.base_fix_i
 // most kMaxHeld: past that the newest is let go, as the oldest are the next
 // the set can place) and applied as soon as its base has been: the set then
 // jumps to the newest message it can place.
+//
+// This is the one reader of objects messages: the renderer and the
+// operator use it directly, and the Python log reader (tools/afmlog.py)
+// through objects_view_c.h, so a log reads as the bus's processes read it.
 class ObjectsView {
 public:
     enum class Take {
@@ -53,15 +58,18 @@ public:
                    // (one was missed: the next complete one heals), or newer than all kMaxHeld held
     };
     static constexpr std::size_t kMaxHeld = objects_t::MAX_HELD;
+    // Told of each message as it is placed in the set (whole() is then the
+    // set after it): m itself, then each held message it lets follow, in turn.
+    using Placed = std::function<void(const objects_t &placed)>;
 
-    Take apply(const objects_t &m);
+    Take apply(const objects_t &m, const Placed &placed = nullptr);
     bool ready() const { return ready_; }                 // a complete message has come
     const objects_t &whole() const { return whole_; }     // complete, in the publisher's order
     std::size_t held() const { return held_.size(); }     // messages kept for their base
 
 private:
     bool place(const objects_t &m);              // a changes-only message that follows: applied, or false
-    void drain();                                // the held messages that now follow, in turn
+    void drain(const Placed &placed);            // the held messages that now follow, in turn
 
     objects_t whole_{};
     bool ready_ = false;

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Read a run's bus.lcmlog: decoded messages per channel, with the project's
-generated Python types (build/main/lcmtypes). Used by the end-to-end tests and
-handy from a Python prompt:
+generated Python types (build/main/lcmtypes), and its objects made whole by
+the bus processes' own reader (build/main/common/libafm_objects_view_c.so).
+Used by the end-to-end tests and the analyses, and handy from a Python
+prompt:
 
     import afmlog
     log = afmlog.load("runs/demo/bus.lcmlog")
     afmlog.whole_objects(log["FW_STATE"], lambda m: m.objects)[-1][1].particles[0].x_nm
 """
-import copy
+import ctypes
 import os
 import struct
 import sys
@@ -68,89 +70,67 @@ def by_seq(msgs):
     return {m.seq: m for m in msgs}
 
 
-class _Whole:
-    """objects_t made whole: particles, wires (and the rest) of the set."""
+def _objects_lib():
+    """The bus processes' reader of objects messages (common/objects_view.hpp)
+    behind its C interface (common/objects_view_c.h), built beside the
+    generated types."""
+    global _LIB
+    if _LIB is None:
+        path = os.path.join(os.path.dirname(os.path.abspath(_types_dir())), "common", "libafm_objects_view_c.so")
+        if not os.path.exists(path):
+            raise FileNotFoundError(f"afmlog: {path} is missing: build the bench first (./afm build)")
+        lib = ctypes.CDLL(path)
+        lib.afm_objects_view_new.restype = ctypes.c_void_p
+        lib.afm_objects_view_free.argtypes = [ctypes.c_void_p]
+        lib.afm_objects_view_apply.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_size_t, _PLACED, ctypes.c_void_p]
+        lib.afm_objects_view_apply.restype = ctypes.c_int
+        _LIB = lib
+    return _LIB
 
-    def __init__(self, m):
-        self.utime, self.seq, self.fix_id = m.utime, m.seq, m.fix_id
-        self.drift_nm = list(m.drift_nm)
-        self.particles = [copy.copy(p) for p in m.particles]
-        self.wires = [copy.deepcopy(w) for w in m.wires]
-        self.trenches = list(m.trenches)
-        self.complete = True
 
-
-def _place(cur, m):
-    """The whole set after changes-only message m, which follows cur."""
-    nxt = copy.copy(cur)
-    dx, dy = m.drift_nm[0] - cur.drift_nm[0], m.drift_nm[1] - cur.drift_nm[1]
-    changed = {p.id: p for p in m.particles}
-    nxt.particles = []
-    for p in cur.particles:
-        q = copy.copy(changed.get(p.id, p))
-        if p.id not in changed:
-            q.x_nm, q.y_nm = p.x_nm + dx, p.y_nm + dy
-        nxt.particles.append(q)
-    wchanged = {w.id: w for w in m.wires}
-    nxt.wires = []
-    for w in cur.wires:
-        if w.id in wchanged:
-            nxt.wires.append(copy.deepcopy(wchanged[w.id]))
-        else:
-            v = copy.deepcopy(w)
-            v.x_nm = [x + dx for x in w.x_nm]
-            v.y_nm = [y + dy for y in w.y_nm]
-            nxt.wires.append(v)
-    nxt.utime, nxt.seq, nxt.fix_id = m.utime, m.seq, m.fix_id
-    nxt.drift_nm = list(m.drift_nm)
-    nxt.trenches = list(m.trenches)
-    return nxt
+_LIB = None
+_PLACED = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_int64, ctypes.c_int32, ctypes.POINTER(ctypes.c_uint8), ctypes.c_size_t)
 
 
 def whole_objects(msgs, objects=lambda m: m):
     """The objects after each message placed, whole: [(msg, whole), ...] in
-    the order they were placed. A message may list only the objects that
-    changed (objects_t.complete false: lcmtypes/objects_t.lcm); the others
-    are where the previous message had them, moved by the change in
-    drift_nm. `objects` picks the objects_t out of a message (SIM_TRUTH:
-    lambda m: m.objects). The reading rule is ObjectsView's
-    (common/objects_view.hpp): a message recorded before the one it follows
-    (the bus reordered them) is held, at most objects_t.MAX_HELD, and placed
-    after it, as is one recorded before the first complete one. Messages
-    after a missed one, until the next complete one, are left out."""
-    out, cur, held = [], None, []
+    the order they were placed; each whole is an objects_t with every
+    object (complete). A message may list only the objects that changed
+    (objects_t.complete false: lcmtypes/objects_t.lcm). `objects` picks the
+    objects_t out of a message (SIM_TRUTH: lambda m: m.objects).
 
-    def later(a, b):
-        return (a.seq, a.fix_id) > (b.seq, b.fix_id)
+    The reading is ObjectsView's (common/objects_view.hpp), the renderer's
+    and the operator's own, called through its C interface: a message
+    recorded before the one it follows (the bus reordered them) is held, at
+    most objects_t.MAX_HELD, and placed after it, as is one recorded before
+    the first complete one; a resend or an older message reads as the set
+    it finds; messages after a missed one, until the next complete one, and
+    one that names an object the set does not hold, are left out."""
+    lib = _objects_lib()
+    view = lib.afm_objects_view_new()
+    if not view:
+        raise MemoryError("afmlog: cannot make an objects reader")
+    out, held, cur, placed = [], {}, [None], []
 
-    for msg in msgs:
-        m = objects(msg)
-        if cur is not None and not later(m, cur):
-            out.append((msg, cur))   # a resend of the message last placed (or an older one)
-            continue
-        if m.complete:
-            cur = _Whole(m)
-        elif cur is None or (m.base_seq, m.base_fix_id) != (cur.seq, cur.fix_id):
-            if cur is None or (m.base_seq, m.base_fix_id) > (cur.seq, cur.fix_id):   # its base is still to come
-                if len(held) >= m.MAX_HELD:   # full: the newest of them and m is let go
-                    newest = max(held, key=lambda x: (x[1].seq, x[1].fix_id))
-                    if not later(newest[1], m):
-                        continue
-                    held.remove(newest)
-                held.append((msg, m))
-            continue   # else one was missed (lcm-logger dropped it): unknown until the next complete one
-        else:
-            cur = _place(cur, m)
-        out.append((msg, cur))
-        # the held ones that now follow, in turn; those made old, let go
-        while True:
-            held = [(hm, h) for hm, h in held if later(h, cur)]
-            nxt = next(((hm, h) for hm, h in held if (h.base_seq, h.base_fix_id) == (cur.seq, cur.fix_id)), None)
-            if nxt is None:
-                break
-            held.remove(nxt)
-            cur = _place(cur, nxt[1])
-            out.append((nxt[0], cur))
+    def on_placed(_ctx, seq, fix_id, data, n):
+        placed.append(((seq, fix_id), afm.objects_t.decode(ctypes.string_at(data, n))))
+
+    callback = _PLACED(on_placed)
+    try:
+        for msg in msgs:
+            m = objects(msg)
+            data = m.encode()
+            placed.clear()
+            r = lib.afm_objects_view_apply(view, data, len(data), callback, None)
+            if r == 1:
+                held[(m.seq, m.fix_id)] = msg
+            elif r == 0 and not placed and cur[0] is not None:
+                out.append((msg, cur[0]))   # a resend of the message last placed (or an older one)
+            for key, whole in placed:
+                out.append((msg if key == (m.seq, m.fix_id) else held.pop(key, msg), whole))
+                cur[0] = whole
+    finally:
+        lib.afm_objects_view_free(view)
     return out
 
 

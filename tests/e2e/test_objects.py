@@ -4,6 +4,7 @@ zigzag, and a trench inscribed on polycarbonate. The firmware's closed forms
 (fw_wire: static point, k(l) f L, first-order rotation; fw_litho: depth law)
 are checked against the simulator's own physics (least friction power over
 K friction points; material removal), from the recorded log."""
+import copy
 import math
 import unittest
 
@@ -90,6 +91,28 @@ class WireZigzag(unittest.TestCase):
         self.assertNotIn(lost_seq + 1, gone)
         self.assertIn(healed, gone)
         self.assertEqual(coords(gone[healed]), coords(ordered[healed]))
+
+
+    def test_a_change_to_an_object_the_set_lacks_reads_as_a_lost_message(self):
+        # afmlog reads objects through the renderer's and the operator's own
+        # reader (common/objects_view_c.h): a changes-only message naming a
+        # wire the set does not hold is refused, and the blocks after it are
+        # unknown until the next complete message, as the renderer has them
+        msgs = self.log["FW_STATE"]
+        i = next(k for k in range(len(msgs) // 2, len(msgs))
+                 if not msgs[k].objects.complete and msgs[k].objects.n_wires > 0)
+        bad = copy.deepcopy(msgs[i])
+        bad.objects.wires[0].id = 999
+        ordered = afmlog.whole_by_seq(msgs, lambda m: m.objects)
+        read = afmlog.whole_by_seq(msgs[:i] + [bad] + msgs[i + 1:], lambda m: m.objects)
+        seq = msgs[i].objects.seq
+        healed = min(m.objects.seq for m in msgs[i:] if m.objects.complete)
+        self.assertTrue(seq - 1 in read, f"block {seq - 1}, before it, unknown")
+        self.assertFalse(seq in read, f"block {seq}, naming wire 999, read")
+        self.assertFalse(seq + 1 in read, f"block {seq + 1}, after it, read")
+        self.assertTrue(healed in read, f"block {healed}, the next complete one, unknown")
+        self.assertEqual([w.id for w in read[healed].wires], [w.id for w in ordered[healed].wires])
+        self.assertTrue(all(w.complete for w in read.values()))
 
 
 class Trench(unittest.TestCase):

@@ -288,6 +288,45 @@ void test_a_held_message_that_cannot_be_placed_is_let_go()
     TEST_ASSERT_EQUAL_UINT(0, view.held());
 }
 
+// The reader tells of each message as it is placed, in the order placed
+// (the Python log reader builds its blocks from this: objects_view_c.h):
+// a held chain after its base, a resend and a refused one not at all, one
+// let go from the held list not at all.
+void test_each_message_placed_is_told_in_order_with_the_set_after_it()
+{
+    afm::ObjectsDiff diff;
+    afm::ObjectsView view;
+    std::vector<std::pair<int64_t, int64_t>> told;   // (the message's seq, the set's seq then)
+    const afm::ObjectsView::Placed tell = [&](const afm::objects_t &m) { told.emplace_back(m.seq, view.whole().seq); };
+    afm::objects_t w = whole(0, 3);
+    std::vector<afm::objects_t> sent;
+    sent.push_back(diff.next(w));
+    for (int64_t n = 1; n <= 4; ++n) {
+        w.seq = n;
+        w.particles[static_cast<std::size_t>(n % 3)].x_nm += 3;
+        sent.push_back(diff.next(w));
+    }
+    afm::objects_t odd = sent[4];
+    odd.particles.push_back(particle(99, 0, 0));
+    odd.n_particles = static_cast<int32_t>(odd.particles.size());
+    TEST_ASSERT_TRUE(view.apply(sent[2], tell) == Take::held);   // before the first complete one
+    TEST_ASSERT_TRUE(view.apply(sent[3], tell) == Take::held);
+    TEST_ASSERT_TRUE(view.apply(odd, tell) == Take::held);       // cannot be placed: let go when its turn comes
+    TEST_ASSERT_TRUE(told.empty());
+    TEST_ASSERT_TRUE(view.apply(sent[0], tell) == Take::applied);
+    TEST_ASSERT_EQUAL_UINT(1, told.size());                      // 1 is still to come
+    TEST_ASSERT_TRUE(view.apply(sent[1], tell) == Take::applied);
+    const std::vector<std::pair<int64_t, int64_t>> want = {{0, 0}, {1, 1}, {2, 2}, {3, 3}};
+    TEST_ASSERT_TRUE(told == want);
+    TEST_ASSERT_EQUAL_UINT(0, view.held());
+    TEST_ASSERT_TRUE(view.apply(sent[2], tell) == Take::applied);  // a resend: nothing new
+    TEST_ASSERT_TRUE(view.apply(odd, tell) == Take::refused);
+    TEST_ASSERT_TRUE(told == want);
+    TEST_ASSERT_TRUE(view.apply(sent[4], tell) == Take::applied);
+    TEST_ASSERT_EQUAL_UINT(5, told.size());
+    assert_same(w, view.whole());
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -300,5 +339,6 @@ int main()
     RUN_TEST(test_at_most_kmaxheld_are_held_and_the_chain_is_placed_as_far_as_it_goes);
     RUN_TEST(test_changes_before_the_first_complete_are_placed_when_it_comes);
     RUN_TEST(test_a_held_message_that_cannot_be_placed_is_let_go);
+    RUN_TEST(test_each_message_placed_is_told_in_order_with_the_set_after_it);
     return UNITY_END();
 }
