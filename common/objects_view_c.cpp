@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <climits>
-#include <new>
+#include <stdexcept>
 #include <vector>
 
 #include "objects_view.hpp"
@@ -22,7 +22,17 @@ bool encode(const afm::objects_t &m, std::vector<uint8_t> &out)
 
 extern "C" {
 
-void *afm_objects_view_new(void) { return new (std::nothrow) afm::ObjectsView(); }
+// No C++ exception leaves these functions (a caller in C or Python cannot
+// catch one): each is caught and said as the documented failure.
+
+void *afm_objects_view_new(void)
+{
+    try {
+        return new afm::ObjectsView();
+    } catch (...) {
+        return nullptr;
+    }
+}
 
 void afm_objects_view_free(void *view) { delete static_cast<afm::ObjectsView *>(view); }
 
@@ -30,28 +40,38 @@ int afm_objects_view_apply(void *view, const uint8_t *data, size_t len, afm_obje
 {
     auto *v = static_cast<afm::ObjectsView *>(view);
     if (!v || (!data && len) || len > static_cast<size_t>(INT_MAX)) return -1;
-    afm::objects_t m;
-    if (m.decode(data, 0, static_cast<int>(len)) < 0) return -1;
-    std::vector<uint8_t> buf;
-    const auto tell = [&](const afm::objects_t &p) {
-        if (placed && encode(v->whole(), buf)) placed(ctx, p.seq, p.fix_id, buf.data(), buf.size());
-    };
-    switch (v->apply(m, placed ? afm::ObjectsView::Placed(tell) : nullptr)) {
-    case afm::ObjectsView::Take::applied: return 0;
-    case afm::ObjectsView::Take::held: return 1;
-    case afm::ObjectsView::Take::refused: return 2;
+    try {
+        afm::objects_t m;
+        if (m.decode(data, 0, static_cast<int>(len)) < 0) return -1;
+        std::vector<uint8_t> buf;
+        const auto tell = [&](const afm::objects_t &p) {
+            // a placement the caller is not told of would be lost to it: fail instead
+            if (!encode(v->whole(), buf)) throw std::runtime_error("cannot encode the set");
+            placed(ctx, p.seq, p.fix_id, buf.data(), buf.size());
+        };
+        switch (v->apply(m, placed ? afm::ObjectsView::Placed(tell) : nullptr)) {
+        case afm::ObjectsView::Take::applied: return 0;
+        case afm::ObjectsView::Take::held: return 1;
+        case afm::ObjectsView::Take::refused: return 2;
+        }
+        return 2;
+    } catch (...) {
+        return -1;
     }
-    return 2;
 }
 
 int64_t afm_objects_view_whole(const void *view, uint8_t *buf, size_t cap)
 {
     const auto *v = static_cast<const afm::ObjectsView *>(view);
     if (!v || !v->ready()) return 0;
-    std::vector<uint8_t> out;
-    if (!encode(v->whole(), out)) return -1;
-    if (out.size() <= cap && buf) std::copy(out.begin(), out.end(), buf);
-    return static_cast<int64_t>(out.size());
+    try {
+        std::vector<uint8_t> out;
+        if (!encode(v->whole(), out)) return -1;
+        if (out.size() <= cap && buf) std::copy(out.begin(), out.end(), buf);
+        return static_cast<int64_t>(out.size());
+    } catch (...) {
+        return -1;
+    }
 }
 
 }  // extern "C"

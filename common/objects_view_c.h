@@ -28,9 +28,11 @@ void afm_objects_view_free(void *view);
 /* Reads one encoded objects_t message. Returns 0 applied (the set now
  * includes it, or a later one: a resend, an old message), 1 held (kept for
  * its base), 2 refused (ObjectsView::Take), or -1 if the bytes do not
- * decode as objects_t (the view is unchanged). `placed` (may be NULL) is
- * called for the message if it is placed, then for each held message it
- * lets follow, in turn. */
+ * decode as objects_t (the view is unchanged) or the set cannot be handed
+ * to `placed` (out of memory: the view then holds the message, the caller
+ * was not told). `placed` (may be NULL) is called for the message if it is
+ * placed, then for each held message it lets follow, in turn. No C++
+ * exception leaves these functions. */
 int afm_objects_view_apply(void *view, const uint8_t *data, size_t len, afm_objects_placed_fn placed, void *ctx);
 
 /* The set now, encoded, into buf (cap bytes). Returns its length (nothing

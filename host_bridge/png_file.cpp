@@ -98,6 +98,7 @@ void deflate_zlib(const std::vector<std::uint8_t> &raw, std::vector<std::uint8_t
 std::vector<std::uint8_t> encode_png(const cv::Mat &img)
 {
     if (img.empty()) throw std::invalid_argument("PNG: the image is empty");
+    if (img.dims != 2) throw std::invalid_argument("PNG: the image has " + std::to_string(img.dims) + " dimensions, not 2");
     if (img.depth() != CV_8U || (img.channels() != 1 && img.channels() != 3 && img.channels() != 4))
         throw std::invalid_argument("PNG: only 8-bit grey, BGR or BGRA images are written, got type " + cv::typeToString(img.type()));
     if (img.cols > kMaxSide || img.rows > kMaxSide || static_cast<double>(img.total()) * img.channels() > 1.0e9)

@@ -14,17 +14,19 @@
 // specification (ISO/IEC 15948) asks of a non-interlaced 8-bit image.
 //
 // What a file holds: the image's pixels exactly (lossless; any PNG reader
-// gives them back, tests/host/test_png_file.cpp reads them with libpng
-// through OpenCV and with Pillow), 8 bits a sample, grey (CV_8UC1), RGB
+// gives them back: tests/host/test_png_file.cpp reads them with libpng
+// through OpenCV, tests/e2e/test_end_to_end.py a run's with Pillow), 8 bits
+// a sample, grey (CV_8UC1), RGB
 // (CV_8UC3, OpenCV's BGR order turned into PNG's RGB) or RGBA (CV_8UC4,
 // from BGRA); each row with filter type 1 (Sub, as OpenCV's default uses);
 // no ancillary chunks. The bytes differ from imwrite's (another deflate);
 // the pixels do not.
 //
-// Ranges and errors: an empty image, another depth or channel count, or a
-// side above 65535 px is refused (std::invalid_argument, naming what it
-// got). A file that cannot be written throws std::runtime_error naming the
-// file and the system's reason, and leaves no partial file behind.
+// Ranges and errors: an empty image, one of more than 2 dimensions, another
+// depth or channel count, a side above 65535 px or more than 1e9 samples is
+// refused (std::invalid_argument, naming what it got). A file that cannot
+// be written throws std::runtime_error naming the file and the system's
+// reason, and leaves no partial file behind.
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -110,25 +110,36 @@ def whole_objects(msgs, objects=lambda m: m):
     view = lib.afm_objects_view_new()
     if not view:
         raise MemoryError("afmlog: cannot make an objects reader")
-    out, held, cur, placed = [], {}, [None], []
+    out, held, cur, placed, failed = [], {}, None, [], []
 
     def on_placed(_ctx, seq, fix_id, data, n):
-        placed.append(((seq, fix_id), afm.objects_t.decode(ctypes.string_at(data, n))))
+        try:
+            placed.append(((seq, fix_id), afm.objects_t.decode(ctypes.string_at(data, n))))
+        except Exception as e:   # ctypes would print it and go on: keep it for the caller
+            failed.append(e)
 
     callback = _PLACED(on_placed)
     try:
         for msg in msgs:
             m = objects(msg)
+            key = (m.seq, m.fix_id)
             data = m.encode()
             placed.clear()
             r = lib.afm_objects_view_apply(view, data, len(data), callback, None)
+            if failed:
+                raise failed[0]
+            if r < 0:
+                raise ValueError(f"afmlog: the objects reader refused message {key} (it does not decode, or out of memory)")
             if r == 1:
-                held[(m.seq, m.fix_id)] = msg
-            elif r == 0 and not placed and cur[0] is not None:
-                out.append((msg, cur[0]))   # a resend of the message last placed (or an older one)
-            for key, whole in placed:
-                out.append((msg if key == (m.seq, m.fix_id) else held.pop(key, msg), whole))
-                cur[0] = whole
+                held.setdefault(key, msg)   # the first recorded, as a resend carries the same
+            elif r == 0 and not placed and cur is not None:
+                out.append((msg, cur))   # a resend of the message last placed (or an older one)
+            for k, whole in placed:
+                out.append((msg if k == key else held.pop(k, msg), whole))
+                cur = whole
+            if placed and held:   # those the reader let go, made old by the set
+                for k in [k for k in held if k <= (cur.seq, cur.fix_id)]:
+                    del held[k]
     finally:
         lib.afm_objects_view_free(view)
     return out

@@ -146,8 +146,10 @@ def disk_probe(folder, files=100, size=12000):
     for k in range(files):
         t0 = time.perf_counter()
         fd = os.open(os.path.join(d, f"f{k:04d}.bin"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-        os.write(fd, data)
-        os.close(fd)
+        try:
+            os.write(fd, data)
+        finally:
+            os.close(fd)
         ms.append((time.perf_counter() - t0) * 1e3)
     return {"folder": folder, "files": files, "bytes": size, "median_ms": statistics.median(ms), "max_ms": max(ms)}
 

@@ -42,7 +42,7 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib PyYAML dask==2026.8.0 distributed==2026.8.0 jinja2==3.1.6 scipy==1.17.1"
+py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 jinja2==3.1.6 scipy==1.17.1"
 stamp="$venv/.afm-reqs"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
   say "creating Python venv in .venv ($py_reqs)"

@@ -99,8 +99,11 @@ class WireZigzag(unittest.TestCase):
         # wire the set does not hold is refused, and the blocks after it are
         # unknown until the next complete message, as the renderer has them
         msgs = self.log["FW_STATE"]
-        i = next(k for k in range(len(msgs) // 2, len(msgs))
-                 if not msgs[k].objects.complete and msgs[k].objects.n_wires > 0)
+        # a changes-only message naming a wire, followed by another
+        # changes-only one, with a complete message after them
+        last_complete = max(k for k, m in enumerate(msgs) if m.objects.complete)
+        i = next(k for k in range(1, last_complete - 1)
+                 if not msgs[k].objects.complete and msgs[k].objects.n_wires > 0 and not msgs[k + 1].objects.complete)
         bad = copy.deepcopy(msgs[i])
         bad.objects.wires[0].id = 999
         ordered = afmlog.whole_by_seq(msgs, lambda m: m.objects)

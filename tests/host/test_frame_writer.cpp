@@ -62,7 +62,7 @@ void tearDown() { fs::remove_all(dir); }
 
 // Through a queue of one: every frame's PNG is encode_png's and reads back
 // as the frame, the video holds every frame in order.
-void test_frames_come_out_as_imwrite_makes_them_and_in_order()
+void test_frames_come_out_as_encode_png_makes_them_and_in_order()
 {
     const int n = 12;
     {
@@ -148,7 +148,7 @@ void test_a_writer_dropped_unfinished_stops()
 int main()
 {
     UNITY_BEGIN();
-    RUN_TEST(test_frames_come_out_as_imwrite_makes_them_and_in_order);
+    RUN_TEST(test_frames_come_out_as_encode_png_makes_them_and_in_order);
     RUN_TEST(test_no_outputs_writes_nothing);
     RUN_TEST(test_a_file_it_cannot_write_is_named_by_the_next_call);
     RUN_TEST(test_a_video_it_cannot_open_is_refused_by_name);
