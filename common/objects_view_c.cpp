@@ -1,6 +1,5 @@
 #include "objects_view_c.h"
 
-#include <algorithm>
 #include <climits>
 #include <stdexcept>
 #include <vector>
@@ -55,20 +54,6 @@ int afm_objects_view_apply(void *view, const uint8_t *data, size_t len, afm_obje
         case afm::ObjectsView::Take::refused: return 2;
         }
         return 2;
-    } catch (...) {
-        return -1;
-    }
-}
-
-int64_t afm_objects_view_whole(const void *view, uint8_t *buf, size_t cap)
-{
-    const auto *v = static_cast<const afm::ObjectsView *>(view);
-    if (!v || !v->ready()) return 0;
-    try {
-        std::vector<uint8_t> out;
-        if (!encode(v->whole(), out)) return -1;
-        if (out.size() <= cap && buf) std::copy(out.begin(), out.end(), buf);
-        return static_cast<int64_t>(out.size());
     } catch (...) {
         return -1;
     }

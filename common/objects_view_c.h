@@ -35,11 +35,6 @@ void afm_objects_view_free(void *view);
  * exception leaves these functions. */
 int afm_objects_view_apply(void *view, const uint8_t *data, size_t len, afm_objects_placed_fn placed, void *ctx);
 
-/* The set now, encoded, into buf (cap bytes). Returns its length (nothing
- * written when it exceeds cap: call again with a larger buf), 0 if no
- * complete message has come, -1 if it cannot be encoded. */
-int64_t afm_objects_view_whole(const void *view, uint8_t *buf, size_t cap);
-
 #ifdef __cplusplus
 }
 #endif

@@ -186,9 +186,7 @@ struct Operator {
     double half_range_m;
     double peak_speed_m_per_s = 0;
     // the planner
-    afm::ObjectsView view;            // FW_STATE's objects, whole
-    afm::objects_t objects;           // the latest whole set (highest seq, then fix id)
-    bool have_objects = false;
+    afm::ObjectsView view;            // FW_STATE's objects, whole: view.whole() the latest set (highest seq, then fix id)
     afm::ScanClient scan;
     int scans = 0, fixes_sent = 0;
     bool plan_done = false;
@@ -231,15 +229,9 @@ struct Operator {
     {
         const afm::objects_t &m = s.objects;
         if (m.seq > answered + 2) return afm::Reject::seq_future;
-        if (have_objects && afm::key_of(m) <= afm::key_of(objects)) return afm::Reject::seq_past;
-        switch (view.apply(m)) {
-        case afm::ObjectsView::Take::refused: return afm::Reject::out_of_range;
-        case afm::ObjectsView::Take::held: return afm::Reject::none;   // before its base: taken when that comes
-        case afm::ObjectsView::Take::applied: break;
-        }
-        objects = view.whole();
-        have_objects = true;
-        return afm::Reject::none;
+        if (view.ready() && afm::key_of(m) <= afm::key_of(view.whole())) return afm::Reject::seq_past;
+        // held: before its base, taken when that comes
+        return view.apply(m) == afm::ObjectsView::Take::refused ? afm::Reject::out_of_range : afm::Reject::none;
     }
 
     afm::Reject on_line(const afm::scan_line_t &m)
@@ -304,7 +296,7 @@ struct Operator {
     // is the target in the sample's coordinates.
     afm::Vec2 joy_of(afm::Vec2 tip_nm) const
     {
-        const double dx = have_objects ? objects.drift_nm[0] : 0.0, dy = have_objects ? objects.drift_nm[1] : 0.0;
+        const double dx = view.ready() ? view.whole().drift_nm[0] : 0.0, dy = view.ready() ? view.whole().drift_nm[1] : 0.0;
         return {(tip_nm.x - dx - scene.field_center_nm.x) / reach_nm, (tip_nm.y - dy - scene.field_center_nm.y) / reach_nm};
     }
 
@@ -327,8 +319,8 @@ struct Operator {
         count_force();
         const int64_t n = force.seq;
         if (n >= 0 && !plan_done) {
-            if (!pump_until([&] { return have_objects && objects.seq >= n; })) return;
-            bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6);
+            if (!pump_until([&] { return view.ready() && view.whole().seq >= n; })) return;
+            bench.answer(view.whole(), afm::block_end_utime(scene, n) * 1e-6);
         }
         while (!plan_done) {
             const TurnBench::Req r = bench.next(50);
@@ -347,7 +339,7 @@ struct Operator {
                 afm::ScanRegion reg{f.x0_nm, f.y0_nm, f.size_nm, f.size_nm, f.px, f.px};
                 scan.start(kScanReqBase + ++scans, reg, n + 1);   // the sample as the simulator holds it after block n + 1
                 if (!pump_until([&] { return !scan.busy(); }, &Operator::retry_scan)) return;
-                bench.answer(objects, afm::block_end_utime(scene, n) * 1e-6, &scan.heights());
+                bench.answer(view.whole(), afm::block_end_utime(scene, n) * 1e-6, &scan.heights());
                 continue;
             }
             if (r == TurnBench::Req::Fix) {
@@ -375,7 +367,7 @@ struct Operator {
         auto sent = std::chrono::steady_clock::now();
         lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
         const bool ok = pump_until([&] {
-            if (objects.fix_id >= f.fix_id) return true;
+            if (view.whole().fix_id >= f.fix_id) return true;
             if (std::chrono::steady_clock::now() - sent > std::chrono::milliseconds(kFixRetryMs)) {
                 lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
                 sent = std::chrono::steady_clock::now();
@@ -386,9 +378,9 @@ struct Operator {
         // The card's answer is its model: a fix it applied (drift or place)
         // leaves that particle where the scan found it, to the pm.
         bool applied = false;
-        for (const auto &p : objects.particles)
+        for (const auto &p : view.whole().particles)
             if (p.id == f.object_id) applied = std::fabs(p.x_nm - f.scan_x_nm) <= kPm_nm && std::fabs(p.y_nm - f.scan_y_nm) <= kPm_nm;
-        bench.answer(objects, afm::block_end_utime(scene, force.seq) * 1e-6, nullptr, applied ? "" : "refused: beyond the firmware's limit");
+        bench.answer(view.whole(), afm::block_end_utime(scene, force.seq) * 1e-6, nullptr, applied ? "" : "refused: beyond the firmware's limit");
         return true;
     }
 };
