@@ -149,8 +149,9 @@ def run_point(task):
         rec["run_dir"] = first["run_dir"]
         rec["errors"] = dict(first["errors"], display_max_nm=first["fidelity"]["max_position_error_nm"],
                              display_rms_height_nm=first["fidelity"]["rms_height_error_nm"])
-        rec["errors_identical_over_repeats"] = all(
-            {k: v for k, v in r["errors"].items()} == first["errors"] for r in rec["runs"][1:])
+        # None with one run: nothing was repeated, so nothing is claimed
+        rec["errors_identical_over_repeats"] = (all(r["errors"] == first["errors"] for r in rec["runs"][1:])
+                                                if len(rec["runs"]) > 1 else None)
         costs = {k: [r["costs"].get(k) for r in rec["runs"]] for k in first["costs"]}
         rec["costs"] = {k: _median(v) for k, v in costs.items()}
         if task["repeat"] > 1:
@@ -165,6 +166,19 @@ def run_point(task):
     rec["point_wall_s"] = time.time() - t0
     _write_json(os.path.join(d, "point.json"), rec)
     return rec
+
+
+def run_point_json(task):
+    """run_point as a Dask task: the record as JSON text, the one kind of
+    answer the sweep's client reads (analysis/engine.py: nothing from the
+    network is unpickled). An exception is the point's failure, in words,
+    so no exception object travels either."""
+    try:
+        return json.dumps(run_point(task))
+    except Exception as e:   # noqa: BLE001 (every failure is the point's, named)
+        return json.dumps({"id": task.get("id"), "settings": task.get("settings"), "label": task.get("label"),
+                           "dir": task.get("dir"), "status": "failed",
+                           "failure": {"exit_code": -1, "error": f"the point's task raised {type(e).__name__}: {e}"}})
 
 
 def _median(v):

@@ -2,7 +2,8 @@
 in its own network namespace, its errors against the simulator's truth and
 its costs measured from the run itself; a CSV, JSON, a table, Pareto plots
 and one report.html. Points run on Dask distributed: a LocalCluster by
-default, an existing cluster with --scheduler ADDRESS.
+default, an existing cluster with --scheduler ADDRESS; both TLS with
+credentials (analysis/engine.py), and nothing from the network unpickled.
 
 A point is known by a hash of its scene (the base scene with the point's
 settings) and of the build (the run's programs): running the sweep again
@@ -20,7 +21,7 @@ import time
 import yaml
 
 from analysis import knobs as K
-from analysis import paths, point, report
+from analysis import engine, paths, point, report
 
 USAGE = """usage: ./afm sweep SCENE --vary KEY=V1,V2,... [--vary ...] [options]
        ./afm sweep SWEEP.yaml [options]
@@ -43,9 +44,16 @@ options:
                         earlier sweep's folder is resumed: done points are kept
   --repeat N            runs per point (default 1): costs as the median and
                         the spread; errors must repeat exactly
-  --workers N           a local Dask cluster of N workers (default: one per core)
-  --scheduler ADDRESS   an existing Dask cluster (tcp://host:8786) whose
+  --workers N           a local Dask cluster of N workers (default: one per core),
+                        on 127.0.0.1, TLS with credentials made for this sweep
+  --scheduler ADDRESS   an existing Dask cluster (tls://HOST:PORT) whose
                         workers have this checkout, built, at the same path
+                        (docs/sweeps.md: python -m analysis.cluster)
+  --tls-ca FILE, --tls-cert FILE, --tls-key FILE
+                        the cluster's CA and this client's certificate and key
+                        (PEM), for --scheduler tls://...
+  --insecure            allow a plain tcp:// --scheduler (anyone who reaches it
+                        can run code as its workers' user)
   --no-callgrind        skip the firmware's instructions per sample
   --timeout-s S         a point's run is killed after S s (default: 60 s + 40 x
                         the scene's duration)
@@ -67,6 +75,10 @@ def parse_args(argv):
     p.add_argument("--repeat", type=int)
     p.add_argument("--workers", type=int)
     p.add_argument("--scheduler")
+    p.add_argument("--tls-ca")
+    p.add_argument("--tls-cert")
+    p.add_argument("--tls-key")
+    p.add_argument("--insecure", action="store_true")
     p.add_argument("--no-callgrind", action="store_true")
     p.add_argument("--timeout-s", type=float)
     p.add_argument("-h", "--help", action="store_true")
@@ -84,6 +96,16 @@ def parse_args(argv):
         raise SweepError("--workers and --scheduler: one or the other (a cluster has its own workers)")
     if a.repeat is not None and a.repeat < 1:
         raise SweepError(f"--repeat {a.repeat}: at least 1")
+    tls = [f for f, v in (("--tls-ca", a.tls_ca), ("--tls-cert", a.tls_cert), ("--tls-key", a.tls_key)) if v]
+    if (tls or a.insecure) and not a.scheduler:
+        raise SweepError(f"{(tls or ['--insecure'])[0]}: only with --scheduler (the local cluster makes its own credentials)")
+    if a.scheduler:
+        try:
+            scheme, _, _ = engine.parse_address(a.scheduler, a.insecure)
+        except engine.EngineError as e:
+            raise SweepError(str(e)) from None
+        if scheme == "tcp" and tls:
+            raise SweepError(f"{tls[0]} with a tcp:// --scheduler: TLS needs a tls:// address")
     return a
 
 
@@ -217,35 +239,46 @@ class Progress:
 
 
 def start_engine(a):
-    from distributed import Client, LocalCluster
+    """(client, cluster or None, the engine in words); EngineError names a
+    cluster that cannot be used."""
     if a.scheduler:
-        return Client(a.scheduler, timeout=30), None, f"Dask cluster at {a.scheduler}"
+        client = engine.connect(a.scheduler, a.tls_ca, a.tls_cert, a.tls_key, a.insecure)
+        return client, None, f"Dask cluster at {a.scheduler}"
     n = a.workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=40)
-    return Client(cluster), cluster, f"Dask LocalCluster, {n} worker(s) on 127.0.0.1"
+    client, cluster = engine.local_cluster(n)
+    return client, cluster, f"Dask local cluster, {n} worker(s) on 127.0.0.1, TLS"
 
 
-def run_points(a, tasks, prog):
-    """Submits the tasks; returns their records (failed ones included)."""
-    client, cluster, engine = start_engine(a)
+def record_of(f, t):
+    """A finished future's point record; a failed task or a refused answer
+    is the point's failure, named."""
+    if f.status == "finished":
+        try:
+            return engine.result_of(f)
+        except engine.EngineError as e:
+            error = str(e)
+    else:   # the task's exception is never fetched: it would arrive pickled
+        error = f"the worker failed the task ({f.status})"
+    return {"id": t["id"], "settings": t["settings"], "label": t["label"], "status": "failed", "dir": t["dir"],
+            "failure": {"exit_code": -1, "error": error}}
+
+
+def run_points(a, tasks, prog, started=None):
+    """Submits the tasks; returns their records (failed ones included) and
+    the engine in words. started: start_engine's answer, if already had."""
+    client, cluster, engine_name = started or start_engine(a)
     records = []
     futures = []
     t0 = time.monotonic()
     try:
-        futures = [client.submit(point.run_point, t, key=f"afm-point-{t['id']}", pure=False) for t in tasks]
+        futures = [client.submit(point.run_point_json, t, key=f"afm-point-{t['id']}", pure=False) for t in tasks]
         by_key = {f.key: t for f, t in zip(futures, tasks)}
         pending = set(futures)
         while pending:
             time.sleep(0.5)
             for f in [f for f in pending if f.status in ("finished", "error", "cancelled")]:
                 pending.discard(f)
-                t = by_key[f.key]
-                if f.status == "finished":
-                    rec = f.result()
-                else:
-                    rec = {"id": t["id"], "settings": t["settings"], "label": t["label"], "status": "failed",
-                           "dir": t["dir"], "failure": {"exit_code": -1, "error": f"the worker failed: {f.exception()!r}"}}
+                rec = record_of(f, by_key[f.key])
                 records.append(rec)
                 if rec["status"] == "ok":
                     prog.done += 1
@@ -266,18 +299,23 @@ def run_points(a, tasks, prog):
         client.close()
         if cluster is not None:
             cluster.close()
-    return records, engine
+    return records, engine_name
 
 
 def main(argv):
+    started = None
     try:
         a = parse_args(argv)
+        if a.scheduler:   # a cluster that cannot be used is named before anything else starts
+            started = start_engine(a)
         scene_path, scene, knobs, out, repeat, sources = plan(a)
         settings_list = K.grid(knobs)
         validate(scene_path, scene, settings_list, sources)
         build = build_id()
-    except (SweepError, K.KnobError) as e:
+    except (SweepError, K.KnobError, engine.EngineError) as e:
         print(f"sweep: {e}", file=sys.stderr)
+        if started:
+            started[0].close()
         return 2
     duration = float(scene.get("duration_s", 1.0))
     timeout = a.timeout_s or 60.0 + 40.0 * duration
@@ -297,19 +335,24 @@ def main(argv):
     print(f"sweep: {len(settings_list)} points of {os.path.basename(scene_path)} into {out}: {len(done)} done before, "
           f"{len(tasks)} to run", file=sys.stderr)
     prog = Progress(len(settings_list), len(done))
-    engine = "nothing to run"
+    engine_name = "nothing to run"
+    if started and not tasks:
+        started[0].close()
     interrupted = False
     new = []
     if tasks:
         try:
-            new, engine = run_points(a, tasks, prog)
+            new, engine_name = run_points(a, tasks, prog, started)
+        except engine.EngineError as e:
+            print(f"\nsweep: {e}", file=sys.stderr)
+            return 2
         except KeyboardInterrupt:
             interrupted = True
             new = [r for r in (load_done(os.path.join(t["dir"], "point.json"), build) for t in tasks) if r]
             print("\nsweep: interrupted; the points done so far are kept", file=sys.stderr)
     order = {point_id(K.apply(scene, s), build): i for i, s in enumerate(settings_list)}
     points = sorted(done + new, key=lambda r: order.get(r["id"], 0))
-    finish(out, scene_path, scene, knobs, points, repeat, build, engine, prog.points_wall_s)
+    finish(out, scene_path, scene, knobs, points, repeat, build, engine_name, prog.points_wall_s)
     if interrupted:
         print(f"sweep: {len(points)} of {len(settings_list)} points kept; run the same command again to finish",
               file=sys.stderr)

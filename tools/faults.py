@@ -49,9 +49,8 @@ SRC = os.path.dirname(HERE)
 BUILD = os.environ.get("AFM_BUILD", os.path.join(SRC, "build", "main"))
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(HERE, "in_netns.sh")
-os.environ.setdefault("AFM_LCMTYPES_PY", os.path.join(BUILD, "lcmtypes"))
-sys.path.insert(0, HERE)
-import afmlog  # noqa: E402
+os.environ.setdefault("AFM_BUILD", BUILD)   # the log reader's generated types
+from analysis import afmlog  # noqa: E402
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",

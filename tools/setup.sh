@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs what the bench needs and is missing, and nothing else:
 #   Debian packages (apt), the project's Python venv (.venv: LCM 1.5 from PyPI,
-#   numpy, matplotlib, PyYAML; Dask distributed, Jinja2 and SciPy for sweeps,
-#   reports and the planner) and Unity (from Debian's cjson source package,
+#   numpy, matplotlib, PyYAML; Dask distributed with cryptography for its TLS,
+#   Jinja2 and SciPy for sweeps, reports and the planner; the project's own
+#   package, analysis/, installed editable) and Unity (from Debian's cjson source package,
 #   hash checked, unpacked into build/_deps/unity).
 # Idempotent: a second run checks and returns in well under a second.
 # Usage: tools/setup.sh [--quiet]
@@ -42,13 +43,23 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 jinja2==3.1.6 scipy==1.17.1"
+py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1"
 stamp="$venv/.afm-reqs"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
   say "creating Python venv in .venv ($py_reqs)"
   /usr/bin/python3 -m venv "$venv" || die "python3 -m venv failed (is python3-venv installed?)"
   "$venv/bin/pip" install -q --disable-pip-version-check $py_reqs || die "pip install failed: $py_reqs"
   echo "$py_reqs" > "$stamp"
+fi
+# The project's own package (pyproject.toml: analysis), editable: the venv's
+# python imports this checkout's analysis/ wherever it runs from.
+pkg_stamp="$venv/.afm-package"
+pkg_want="$top $(sha256sum "$top/pyproject.toml" | cut -d' ' -f1)"
+if [ "$(cat "$pkg_stamp" 2>/dev/null)" != "$pkg_want" ]; then
+  say "installing the project's Python package (analysis) into .venv, editable"
+  "$venv/bin/pip" install -q --disable-pip-version-check --no-deps -e "$top" \
+    || die "pip install -e $top failed (pyproject.toml)"
+  echo "$pkg_want" > "$pkg_stamp"
 fi
 
 # ---- Unity 2.4.3 from Debian's cjson source package ---------------------------

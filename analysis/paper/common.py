@@ -112,7 +112,7 @@ def analog(run_dir):
     """The run's photodiode signals and piezo, sample by sample, from its
     own bus.lcmlog: dict of numpy arrays sn_v, sl_v, x_nm, y_nm, z_nm, and
     t_s; and the sample rate."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"AFM_ANALOG"})
     blocks = sorted(afmlog.by_seq(log.get("AFM_ANALOG", [])).values(), key=lambda m: m.seq)
     if not blocks:
@@ -187,7 +187,7 @@ def apex_error(run_dir, min_load_nN=1.0):
     """The card's apex (FW_STATE) against the simulator's (SIM_TRUTH), block
     by block where the card reads a load above min_load_nN: arrays of the
     error (nm, x and y, frame A) and of the simulated time (s)."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
     tip, truth = (afmlog.by_seq(log.get(c, [])) for c in ("FW_STATE", "SIM_TRUTH"))
     seqs = sorted(s for s in tip if s in truth and tip[s].force_nN[2] > min_load_nN)
@@ -200,7 +200,7 @@ def apex_error(run_dir, min_load_nN=1.0):
 
 def model_states(run_dir):
     """[(seq, card's objects, true objects)] for every block both logged."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
     fw = afmlog.whole_by_seq(log.get("FW_STATE", []), objects=lambda m: m.objects)
     tr = afmlog.whole_by_seq(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)

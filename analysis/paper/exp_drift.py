@@ -47,7 +47,7 @@ def registration(run_dir):
     """Per block: time (s), |card offset - true drift| (nm), true drift (nm),
     the card's contact flag; how many particles a push moved, of how many;
     and the model states they came from."""
-    import afmlog
+    from analysis import afmlog
     st = common.model_states(run_dir)
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
     ff = afmlog.by_seq(log.get("FW_STATE", []))

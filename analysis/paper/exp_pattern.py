@@ -26,7 +26,7 @@ def runs(size):
 
 def true_errors(run_dir, sites):
     """For each site, the distance (nm) to the nearest true particle at the end."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
     whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
     if not whole:

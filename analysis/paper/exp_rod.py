@@ -67,7 +67,7 @@ def static_offset(c0, e0, c1, e1):
 def truth_poses(run_dir):
     """The rod's first and last poses in the simulator (SIM_TRUTH): two
     (centre, unit axis) pairs, nm."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"SIM_TRUTH"})
     whole = afmlog.whole_objects(log.get("SIM_TRUTH", []), objects=lambda m: m.objects)
     if not whole:
@@ -90,7 +90,7 @@ def push_force(run_dir):
     """The push (nN): median |F| across the rod from the card (FW_STATE)
     and from the simulator (SIM_TRUTH) over the blocks the card flags
     contact."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
     ff, tr = afmlog.by_seq(log.get("FW_STATE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
     contact = [s for s, m in ff.items() if m.flags & afmlog.afm.fw_state_t.FLAG_CONTACT and s in tr]

@@ -63,7 +63,7 @@ def push_excess(run_dir):
     the median over the blocks of free sliding before the first contact
     (their second half: the scanner at speed). From the card (FW_STATE) and
     from the simulator (SIM_TRUTH); and the blocks the card flagged SQUEEZE."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
     ff, tr = afmlog.by_seq(log.get("FW_STATE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
     seqs = sorted(s for s in ff if s in tr)
@@ -90,7 +90,7 @@ def _rod_moved(run_dir):
 
 def _apex_final_y(run_dir):
     """The apex's last y (nm) from the card (FW_STATE): past the rod when the tip rode over it."""
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
     tips = sorted(afmlog.by_seq(log.get("FW_STATE", [])).values(), key=lambda m: m.seq)
     if not tips:

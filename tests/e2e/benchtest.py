@@ -11,10 +11,7 @@ SRC = os.environ["AFM_SOURCE"]
 BUILD = os.environ["AFM_BUILD"]
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(SRC, "tools", "in_netns.sh")
-os.environ.setdefault("AFM_LCMTYPES_PY", os.path.join(BUILD, "lcmtypes"))
-sys.path.insert(0, os.path.join(SRC, "tools"))
-sys.path.insert(0, SRC)   # the analysis package (gsf, runlog, paper)
-import afmlog  # noqa: E402
+from analysis import afmlog  # noqa: E402,F401  (the project's package, installed in the venv)
 
 
 def scene(name):

@@ -11,7 +11,7 @@ import unittest
 import yaml
 
 import benchtest
-import afmlog
+from analysis import afmlog
 
 LCM_DIR = os.path.join(benchtest.SRC, "lcmtypes")
 

@@ -10,7 +10,7 @@ import math
 import unittest
 
 import benchtest
-import afmlog
+from analysis import afmlog
 
 
 class DriftAndLocalScans(unittest.TestCase):

@@ -14,7 +14,7 @@ import yaml
 from PIL import Image
 
 import benchtest
-import afmlog
+from analysis import afmlog
 from analysis import gsf
 
 TOL_NM = 5.0

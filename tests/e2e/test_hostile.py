@@ -12,7 +12,7 @@ import sys
 import unittest
 
 import benchtest
-import afmlog
+from analysis import afmlog
 
 HOSTILE = os.path.join(benchtest.SRC, "tools", "hostile.py")
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")

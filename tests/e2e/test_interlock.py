@@ -19,7 +19,7 @@ import yaml
 import matplotlib.image
 
 import benchtest
-import afmlog
+from analysis import afmlog
 
 FLAG_INTERLOCK = afmlog.afm.fw_state_t.FLAG_INTERLOCK   # = the firmware's FW_FLAG_INTERLOCK (fw_node checks)
 CHANNELS = {"FW_STATE", "SIM_TRUTH", "AFM_CMD", "HAPTIC_POSE", "AFM_ANALOG", "RENDER_FRAME"}

@@ -9,7 +9,7 @@ import math
 import unittest
 
 import benchtest
-import afmlog
+from analysis import afmlog
 
 
 CHANNELS = {"FW_STATE", "SIM_TRUTH"}

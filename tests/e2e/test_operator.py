@@ -23,7 +23,7 @@ import sys
 import unittest
 
 import benchtest
-import afmlog
+from analysis import afmlog
 import yaml
 
 FEEL = benchtest.scene("feel.yaml")

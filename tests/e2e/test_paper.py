@@ -14,8 +14,7 @@ import unittest
 import benchtest
 
 PY = sys.executable
-ENV = dict(os.environ, PYTHONPATH=f"{benchtest.SRC}:{os.path.join(benchtest.SRC, 'tools')}")
-sys.path[:0] = [benchtest.SRC, os.path.join(benchtest.SRC, "tools")]
+ENV = dict(os.environ)
 
 from analysis.paper import cli, common  # noqa: E402
 

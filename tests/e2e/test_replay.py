@@ -12,7 +12,7 @@ import subprocess
 import unittest
 
 import benchtest
-import afmlog
+from analysis import afmlog
 
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 REPLAY_PERTURBED = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay_perturbed")

@@ -1,9 +1,12 @@
 """./afm sweep (issue 11): a 4-point sweep on a local Dask cluster writes a
 CSV with every knob, error and cost; the errors fall as the ADC's bits rise
 from 10 to 16; a repeat gives identical errors; running it again resumes
-(nothing is run twice). A sweep through a real `dask scheduler` with two
-`dask worker` processes on 127.0.0.1. Bad input is named before anything
-starts."""
+(nothing is run twice). Bad input is named before anything starts.
+
+The engine is closed (issue 32): a sweep through a TLS scheduler and worker
+started as docs/sweeps.md says; no port of a running local sweep answers a
+plain client; a worker's pickled answer is refused and nothing runs; plain
+tcp:// needs --insecure; a dead scheduler is named in one line."""
 import csv
 import json
 import os
@@ -16,7 +19,6 @@ import unittest
 import benchtest
 
 PY = sys.executable
-DASK = os.path.join(os.path.dirname(PY), "dask")
 ENV = dict(os.environ, PYTHONPATH=f"{benchtest.SRC}:{os.path.join(benchtest.SRC, 'tools')}")
 SHORT = benchtest.scene("short.yaml")
 
@@ -107,31 +109,105 @@ def free_port():
         return s.getsockname()[1]
 
 
-class ThroughADaskScheduler(unittest.TestCase):
-    def test_a_sweep_through_a_scheduler_and_two_workers_on_127_0_0_1(self):
-        port = free_port()
-        addr = f"tcp://127.0.0.1:{port}"
-        procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
-                                  env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)]
-        out = benchtest.tmpdir("sweep-sched")
+def listeners(root):
+    """{(address, port)} of the TCP sockets listening in root's process tree
+    (the kernel's /proc tables, not what the sweep says of itself)."""
+    kids = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    kids.setdefault(int(f.read().rsplit(")", 1)[1].split()[1]), []).append(int(d))
+            except (OSError, IndexError):
+                pass
+    tree, todo = set(), [root]
+    while todo:
+        p = todo.pop()
+        tree.add(p)
+        todo += kids.get(p, [])
+    inodes = set()
+    for p in tree:
         try:
-            for _ in range(2):
-                procs.append(subprocess.Popen([DASK, "worker", addr, "--host", "127.0.0.1", "--nthreads", "1",
-                                               "--no-dashboard"], env=ENV, stdout=subprocess.DEVNULL,
-                                              stderr=subprocess.DEVNULL, start_new_session=True))
+            for fd in os.listdir(f"/proc/{p}/fd"):
+                link = os.readlink(f"/proc/{p}/fd/{fd}")
+                if link.startswith("socket:["):
+                    inodes.add(link[8:-1])
+        except OSError:
+            pass
+    out = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(table) as f:
+            for line in f.readlines()[1:]:
+                x = line.split()
+                if x[3] == "0A" and x[9] in inodes:   # LISTEN
+                    host, port = x[1].split(":")
+                    out.add((socket.inet_ntoa(bytes.fromhex(host)[::-1]) if len(host) == 8 else host, int(port, 16)))
+    return out
+
+
+def plain_client_refused(port):
+    """True if a Dask client without credentials, over plain TCP, gets
+    nothing from the port; and no HTTP answers there either."""
+    from distributed import Client
+    try:
+        Client(f"tcp://127.0.0.1:{port}", timeout=3).close()
+        return False
+    except Exception:   # refused: reset, closed or timed out
+        pass
+    with socket.create_connection(("127.0.0.1", port), timeout=3) as s:
+        s.sendall(b"GET / HTTP/1.0\r\n\r\n")
+        try:
+            return not s.recv(64).startswith(b"HTTP/")
+        except OSError:
+            return True
+
+
+NO_PATH = {k: v for k, v in ENV.items() if k != "PYTHONPATH"}   # the package must come from the venv
+
+
+class ThroughATlsScheduler(unittest.TestCase):
+    """A scheduler and a worker started as docs/sweeps.md says (the venv's
+    python, no PYTHONPATH, from another folder), TLS with files from
+    `analysis.cluster certs`, run a two-point sweep; a client without the
+    credentials is refused; the scheduler opens no port but its own."""
+
+    def test_a_sweep_through_a_tls_scheduler_and_worker_on_127_0_0_1(self):
+        port = free_port()
+        addr = f"tls://127.0.0.1:{port}"
+        tmp = benchtest.tmpdir("sweep-tls")
+        certs, out = os.path.join(tmp, "certs"), os.path.join(tmp, "out")
+        cluster = [PY, "-m", "analysis.cluster"]
+        subprocess.run(cluster + ["certs", certs], check=True, env=NO_PATH, cwd="/", capture_output=True)
+        self.assertEqual(os.stat(os.path.join(certs, "key.pem")).st_mode & 0o777, 0o600)
+        procs = [subprocess.Popen(cluster + ["scheduler", "--host", "127.0.0.1", "--port", str(port), "--tls-dir", certs],
+                                  env=NO_PATH, cwd="/", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                  start_new_session=True)]
+        try:
+            procs.append(subprocess.Popen(cluster + ["worker", addr, "--host", "127.0.0.1", "--tls-dir", certs], env=NO_PATH,
+                                          cwd="/", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                          start_new_session=True))
             from distributed import Client
+            from analysis import engine
+            sec = engine.security_from_files(*(os.path.join(certs, n) for n in ("ca.pem", "cert.pem", "key.pem")))
             deadline = time.time() + 60
             while True:
                 try:
-                    with Client(addr, timeout=5) as c:
-                        if len(c.scheduler_info()["workers"]) == 2:
+                    with Client(addr, security=sec, timeout=5) as c:
+                        if len(c.scheduler_info()["workers"]) == 1:
                             break
                 except OSError:
                     pass
-                self.assertLess(time.time(), deadline, "the scheduler and its two workers did not come up")
+                self.assertLess(time.time(), deadline, "the scheduler and its worker did not come up")
                 time.sleep(0.5)
+            self.assertEqual(listeners(procs[0].pid), {("127.0.0.1", port)}, "the scheduler listens on one port only")
+            # a client with other credentials, and one without TLS, are refused
+            from distributed import Security
+            with self.assertRaises(Exception):
+                Client(addr, security=Security.temporary(), timeout=5).close()
+            self.assertTrue(plain_client_refused(port))
             code, so, se = sweep(SHORT, "--vary", "firmware.word_bits=16,32", "--out", out, "--scheduler", addr,
-                                 "--no-callgrind")
+                                 "--tls-ca", os.path.join(certs, "ca.pem"), "--tls-cert", os.path.join(certs, "cert.pem"),
+                                 "--tls-key", os.path.join(certs, "key.pem"), "--no-callgrind")
             self.assertEqual(code, 0, so + se)
             self.assertIn(f"Dask cluster at {addr}", open(os.path.join(out, "report.html")).read())
             r = rows(out)
@@ -145,7 +221,139 @@ class ThroughADaskScheduler(unittest.TestCase):
                     p.wait(timeout=20)
                 except subprocess.TimeoutExpired:
                     p.kill()
-            benchtest.cleanup(out)
+            benchtest.cleanup(tmp)
+
+
+class LocalEngineIsClosed(unittest.TestCase):
+    """The local cluster's ports, seen from the kernel while a sweep runs,
+    answer no plain client and no HTTP; none is on another address."""
+
+    def test_no_port_of_a_running_local_sweep_answers_a_plain_client(self):
+        out = benchtest.tmpdir("sweep-closed")
+        self.addCleanup(benchtest.cleanup, out)
+        p = subprocess.Popen([PY, "-m", "analysis.sweep", SHORT, "--vary", "firmware.adc_bits=12,16", "--out", out,
+                              "--workers", "2", "--no-callgrind"], env=ENV, cwd=benchtest.SRC, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+        seen = set()
+        try:
+            deadline = time.time() + 120
+            while p.poll() is None and len(seen) < 5 and time.time() < deadline:   # scheduler, 2 nannies, 2 workers
+                seen |= listeners(p.pid)
+                time.sleep(0.2)
+            self.assertGreaterEqual(len(seen), 5, f"the sweep's listeners, as seen: {sorted(seen)}")
+            for host, port in sorted(seen):
+                self.assertEqual(host, "127.0.0.1", (host, port))
+                if p.poll() is None:
+                    self.assertTrue(plain_client_refused(port), f"port {port} answered a plain client")
+            so, se = p.communicate(timeout=600)
+        finally:
+            if p.poll() is None:
+                p.kill()
+        self.assertEqual(p.returncode, 0, so + se)
+        self.assertNotIn(8787, {port for _, port in seen})
+
+
+class WorkerAnswers(unittest.TestCase):
+    """What a worker sends back is read as JSON text or refused: a pickled
+    object, a pickled exception and a result's pickled type never run in
+    the sweep's process (a mark file names every process that unpickled)."""
+
+    def test_a_pickled_answer_is_refused_and_nothing_runs(self):
+        from analysis import engine, sweep as sw
+        mark = os.path.join(benchtest.tmpdir("sweep-pickle"), "unpickled-by")
+        self.addCleanup(benchtest.cleanup, os.path.dirname(mark))
+        client, cluster = engine.local_cluster(1)
+        try:
+            good = client.submit(json.dumps, {"x": 1})
+            self.assertEqual(engine.result_of(good), {"x": 1})
+            task = {"id": "p", "settings": {}, "label": "p", "dir": "d"}
+            for fn in (pickled_answer, pickled_exception, not_json):
+                f = client.submit(fn, mark, pure=False)
+                while f.status == "pending":
+                    time.sleep(0.05)
+                with self.assertRaises(engine.EngineError) as e:
+                    engine.result_of(f)
+                self.assertIn("refused", str(e.exception))
+                rec = sw.record_of(f, task)
+                self.assertEqual(rec["status"], "failed", fn.__name__)
+        finally:
+            client.close()
+            cluster.close()
+        pids = open(mark).read().split() if os.path.exists(mark) else []
+        self.assertNotIn(str(os.getpid()), pids, "the sweep's process unpickled what a worker sent")
+
+
+class _Mark:
+    """Unpickled, it writes the unpickling process's pid to a file."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def __reduce__(self):
+        return (exec, (f"import os; open({self.path!r}, 'a').write(str(os.getpid()) + '\\n')",))
+
+
+class _MarkError(Exception):
+    def __init__(self, path):
+        super().__init__(path)
+        self.path = path
+
+    def __reduce__(self):
+        return _Mark(self.path).__reduce__()
+
+
+def pickled_answer(mark):
+    from distributed.protocol.serialize import Serialized, serialize
+    return Serialized(*serialize(_Mark(mark), serializers=["pickle"]))
+
+
+def pickled_exception(mark):
+    raise _MarkError(mark)
+
+
+def not_json(mark):
+    return _Mark(mark)
+
+
+class EngineAddresses(unittest.TestCase):
+    """--scheduler: a plain tcp:// without --insecure is refused; a dead
+    scheduler, an unknown host and a malformed address each in one line
+    within 10 s."""
+
+    def one_line(self, address, needle, *extra):
+        t0 = time.monotonic()
+        code, so, se = sweep(SHORT, "--vary", "firmware.adc_bits=12,16", "--scheduler", address, *extra, timeout=60)
+        took = time.monotonic() - t0
+        self.assertEqual(code, 2, so + se)
+        self.assertEqual(len(se.strip().splitlines()), 1, se)
+        self.assertIn(needle, se)
+        self.assertLess(took, 10.0, se)
+        return se
+
+    def test_a_plain_tcp_address_is_refused_without_insecure(self):
+        self.one_line("tcp://127.0.0.1:8786", "--insecure")
+
+    def test_a_scheduler_that_does_not_answer(self):
+        certs = benchtest.tmpdir("sweep-dead")
+        self.addCleanup(benchtest.cleanup, certs)
+        subprocess.run([PY, "-m", "analysis.cluster", "certs", certs], check=True, env=ENV, capture_output=True)
+        tls = ["--tls-ca", os.path.join(certs, "ca.pem"), "--tls-cert", os.path.join(certs, "cert.pem"), "--tls-key",
+               os.path.join(certs, "key.pem")]
+        self.one_line(f"tls://127.0.0.1:{free_port()}", "the scheduler does not answer", *tls)
+        self.one_line("tls://no-such-host.invalid:8786", "unknown host 'no-such-host.invalid'", *tls)
+        # a port that takes the connection and never speaks (the kernel
+        # completes the handshake for the listening backlog)
+        with socket.socket() as silent:
+            silent.bind(("127.0.0.1", 0))
+            silent.listen(8)
+            self.one_line(f"tls://127.0.0.1:{silent.getsockname()[1]}", "cannot connect", *tls)
+
+    def test_a_malformed_address(self):
+        for bad in ("127.0.0.1:8786", "tls://127.0.0.1", "udp://127.0.0.1:8786", "tls://:8786"):
+            self.one_line(bad, f"--scheduler {bad!r}")
+
+    def test_tls_files_without_a_scheduler_are_refused(self):
+        self.one_line("tls://127.0.0.1:1", "--tls-ca", "--tls-ca", "/nonexistent/ca.pem", "--tls-cert", "x", "--tls-key", "y")
 
 
 class BadInput(unittest.TestCase):

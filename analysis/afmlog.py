@@ -1,11 +1,10 @@
-#!/usr/bin/env python3
 """Read a run's bus.lcmlog: decoded messages per channel, with the project's
 generated Python types (build/main/lcmtypes), and its objects made whole by
 the bus processes' own reader (build/main/common/libafm_objects_view_c.so).
-Used by the end-to-end tests and the analyses, and handy from a Python
-prompt:
+Used by the end-to-end tests and the analyses, and handy from the venv's
+Python (the package is installed in .venv by the setup; no sys.path edits):
 
-    import afmlog
+    from analysis import afmlog
     log = afmlog.load("runs/demo/bus.lcmlog")
     afmlog.whole_objects(log["FW_STATE"], lambda m: m.objects)[-1][1].particles[0].x_nm
 """
@@ -17,20 +16,23 @@ from collections import defaultdict
 
 import lcm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+from analysis import paths
 
 
 def _types_dir():
-    return os.environ.get("AFM_LCMTYPES_PY", os.path.join(HERE, "..", "build", "main", "lcmtypes"))
+    """The generated Python types: they live in the build tree, never in the
+    source tree (AFM_LCMTYPES_PY overrides, e.g. for another build)."""
+    return os.environ.get("AFM_LCMTYPES_PY", os.path.join(paths.BUILD, "lcmtypes"))
 
 
+# The one place the build tree's generated package is put on the path.
 sys.path.insert(0, _types_dir())
 import afm  # noqa: E402  (generated at build time)
 
 # Channel -> type, from the one table of channels.
 import yaml  # noqa: E402
 
-with open(os.path.join(HERE, "..", "lcmtypes", "channels.yaml")) as f:
+with open(os.path.join(paths.ROOT, "lcmtypes", "channels.yaml")) as f:
     CHANNELS = {row["channel"]: row["type"] for row in yaml.safe_load(f)}
 
 
@@ -152,6 +154,6 @@ def whole_by_seq(msgs, objects=lambda m: m):
 
 if __name__ == "__main__":
     if len(sys.argv) != 2:
-        sys.exit("usage: afmlog.py bus.lcmlog   (prints message counts per channel)")
+        sys.exit("usage: python -m analysis.afmlog bus.lcmlog   (prints message counts per channel)")
     for ch, msgs in sorted(load(sys.argv[1]).items()):
         print(f"{ch:16s} {len(msgs)}")
