@@ -81,25 +81,26 @@ int64_t wall_utime()
 
 Heartbeat::Heartbeat(lcm::LCM &lc, std::string name) : lc_(lc), name_(std::move(name)) {}
 
-void Heartbeat::send(const std::string &state, int64_t seq, int64_t sim_utime, const std::string &detail)
+void Heartbeat::send(RunState state, int64_t seq, int64_t sim_utime, const std::string &detail)
 {
     heartbeat_t hb;
     hb.utime = wall_utime();
     hb.name = name_;
     hb.pid = static_cast<int32_t>(getpid());
-    hb.state = state;
+    hb.state = state_text(state);
     hb.seq = seq;
     hb.sim_utime = sim_utime;
     hb.detail = detail;
     lc_.publish(AFM_CH_AFM_HEARTBEAT, &hb);
     last_state_ = state;
+    sent_ = true;
     last_us_ = hb.utime;
 }
 
-void Heartbeat::maybe_send(const std::string &state, int64_t seq, int64_t sim_utime, int64_t period_us)
+void Heartbeat::maybe_send(RunState state, int64_t seq, int64_t sim_utime, int64_t period_us)
 {
-    if (state == "ready") period_us = kReadyPeriodUs;
-    if (state != last_state_ || wall_utime() - last_us_ >= period_us) send(state, seq, sim_utime);
+    if (state == RunState::ready) period_us = kReadyPeriodUs;
+    if (!sent_ || state != last_state_ || wall_utime() - last_us_ >= period_us) send(state, seq, sim_utime);
 }
 
 }  // namespace afm

@@ -10,6 +10,7 @@
 
 #include "afm/heartbeat_t.hpp"
 #include "afm_channels.h"
+#include "process.hpp"
 
 namespace afm {
 
@@ -59,19 +60,20 @@ int64_t wall_utime();
 constexpr int64_t kReadyPeriodUs = 10000;
 constexpr int kReadyPeriodMs = static_cast<int>(kReadyPeriodUs / 1000);
 
-// Publishes AFM_HEARTBEAT for one process.
+// Publishes AFM_HEARTBEAT for one process, in the states of process.hpp.
 class Heartbeat {
 public:
     Heartbeat(lcm::LCM &lc, std::string name);
-    void send(const std::string &state, int64_t seq, int64_t sim_utime, const std::string &detail = "");
+    void send(RunState state, int64_t seq, int64_t sim_utime, const std::string &detail = "");
     // Sends at most once per `period_us` of wall time unless the state changed;
-    // "ready" every kReadyPeriodUs, whatever period_us says.
-    void maybe_send(const std::string &state, int64_t seq, int64_t sim_utime, int64_t period_us = 1000000);
+    // ready every kReadyPeriodUs, whatever period_us says.
+    void maybe_send(RunState state, int64_t seq, int64_t sim_utime, int64_t period_us = 1000000);
 
 private:
     lcm::LCM &lc_;
     std::string name_;
-    std::string last_state_;
+    RunState last_state_ = RunState::starting;
+    bool sent_ = false;
     int64_t last_us_ = 0;
 };
 

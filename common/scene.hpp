@@ -15,11 +15,15 @@ extern "C" {
 #include "fw_paper_probe.h"
 }
 
+#include "process.hpp"
+
 namespace afm {
 
-class SceneError : public std::runtime_error {
+// A scene the bench refuses, said in one line naming the file, key and value
+// (an input error: exit 2, process.hpp).
+class SceneError : public InputError {
 public:
-    using std::runtime_error::runtime_error;
+    using InputError::InputError;
 };
 
 struct Vec2 { double x = 0, y = 0; };

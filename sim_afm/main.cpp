@@ -10,8 +10,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <iostream>
 #include <map>
 #include <random>
 #include <set>
@@ -32,6 +30,7 @@
 #include "log_tail.hpp"
 #include "objects_view.hpp"
 #include "placement.hpp"
+#include "process.hpp"
 #include "scene.hpp"
 #include "world.hpp"
 
@@ -119,10 +118,11 @@ struct Sim {
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        if (m.name == "operator" && m.state == "finished" && finished_seq < 0) finished_seq = m.seq;
-        if (m.state == "ready" || m.state == "running") ready.insert(m.name);
-        if (m.name == "launcher" && m.state == "running") go = true;
-        if (m.name == "launcher" && m.state == "stop") abort = true;
+        using afm::RunState;
+        if (afm::says(m, "operator", RunState::finished) && finished_seq < 0) finished_seq = m.seq;
+        if (m.state == afm::state_text(RunState::ready) || m.state == afm::state_text(RunState::running)) ready.insert(m.name);
+        if (afm::says(m, "launcher", RunState::running)) go = true;
+        if (afm::says(m, "launcher", RunState::stop)) abort = true;
         return afm::Reject::none;
     }
 
@@ -183,7 +183,8 @@ struct Sim {
             *blocks = end + 1;
             *ended_at = end;
         }
-        for (int i = 0; i < 3; ++i) hb.send("ending", *blocks - 1, afm::block_end_utime(scene, *blocks - 1), "the planner finished");
+        for (int i = 0; i < 3; ++i)
+            hb.send(afm::RunState::ending, *blocks - 1, afm::block_end_utime(scene, *blocks - 1), "the planner finished");
     }
 
     // The scans asked for the block the simulator now waits after.
@@ -282,49 +283,222 @@ afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int6
     return o;
 }
 
-}  // namespace
-
-int main(int argc, char **argv)
-{
+// The command line of sim_afm (kUsage).
+struct Options {
     std::string scene_path, out_dir, follow_log;
     int64_t log_window = kLogWindowBlocks;
     bool renderer = true;
     double drop_p = 0;
     int resend_ms = 100;
     std::vector<int> aside_cpus;
+};
+
+// Reads the command line; false (after saying why, or printing the usage
+// for --help with *code 0) when the process should exit with *code.
+bool parse_options(int argc, char **argv, Options *o, int *code)
+{
+    *code = afm::kExitInput;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
-        auto val = [&](const char *name) -> std::string {
-            if (i + 1 >= argc) {
-                std::fprintf(stderr, "sim_afm: %s needs a value\n%s", name, kUsage);
-                std::exit(2);
-            }
-            return argv[++i];
-        };
-        if (a == "--scene") scene_path = val("--scene");
-        else if (a == "--out") out_dir = val("--out");
-        else if (a == "--inject-drop") drop_p = std::atof(val("--inject-drop").c_str());
-        else if (a == "--resend-ms") resend_ms = std::atoi(val("--resend-ms").c_str());
-        else if (a == "--follow-log") follow_log = val("--follow-log");
-        else if (a == "--log-window") log_window = std::atoll(val("--log-window").c_str());
-        else if (a == "--no-renderer") renderer = false;
-        else if (a == "--aside-cpus") {
-            if (!afm::cpu_list_option("sim_afm", a, val("--aside-cpus"), &aside_cpus)) return 2;
+        const bool has_value = i + 1 < argc;
+        auto val = [&]() -> std::string { return argv[++i]; };
+        if ((a == "--scene" || a == "--out" || a == "--inject-drop" || a == "--resend-ms" || a == "--follow-log" ||
+             a == "--log-window" || a == "--aside-cpus") && !has_value) {
+            std::fprintf(stderr, "sim_afm: %s needs a value\n%s", a.c_str(), kUsage);
+            return false;
         }
-        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
-        else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
+        if (a == "--scene") o->scene_path = val();
+        else if (a == "--out") o->out_dir = val();
+        else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
+        else if (a == "--resend-ms") o->resend_ms = std::atoi(val().c_str());
+        else if (a == "--follow-log") o->follow_log = val();
+        else if (a == "--log-window") o->log_window = std::atoll(val().c_str());
+        else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--aside-cpus") {
+            if (!afm::cpu_list_option("sim_afm", a, val(), &o->aside_cpus)) return false;
+        }
+        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); *code = afm::kExitOk; return false; }
+        else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return false; }
     }
-    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return 2; }
-    if (!(drop_p >= 0 && drop_p < 1)) { std::fprintf(stderr, "sim_afm: --inject-drop must be in [0, 1)\n"); return 2; }
-    if (log_window < 1) { std::fprintf(stderr, "sim_afm: --log-window must be >= 1\n"); return 2; }
-    if (resend_ms < 1) { std::fprintf(stderr, "sim_afm: --resend-ms must be >= 1\n"); return 2; }
+    const char *bad = o->scene_path.empty() || o->out_dir.empty() ? "" :
+                      !(o->drop_p >= 0 && o->drop_p < 1) ? "--inject-drop must be in [0, 1)" :
+                      o->log_window < 1 ? "--log-window must be >= 1" : o->resend_ms < 1 ? "--resend-ms must be >= 1" : nullptr;
+    if (bad && !*bad) std::fputs(kUsage, stderr);
+    else if (bad) std::fprintf(stderr, "sim_afm: %s\n", bad);
+    return bad == nullptr;
+}
 
-    try {
-        const afm::Scene scene = afm::load_scene(scene_path);
+// The lockstep loop of a run: one analog block after another, each answered
+// by the card (and by the renderer's frames when due) before the next.
+struct Loop {
+    Sim &sim;
+    lcm::LCM &lc;
+    afm::Inbox &inbox;
+    afm::Aside &aside;
+    const afm::Scene &scene;
+    const Options &opt;
+    const int spb;
+    int64_t blocks;
+    int64_t ended_early_at = -1;   // the last block, when the planner finished first
+    int64_t resends = 0, dropped = 0;
+    double wall_s = 0;
+    std::mt19937_64 drop_rng;
+    std::bernoulli_distribution drop;
+    afm::analog_block_t blk;
+    std::size_t next_change = 0;   // operator.cantilever_changes applied so far
+    afm::ObjectsDiff truth_diff;   // SIM_TRUTH lists the objects that changed (objects_t.complete)
+
+    Loop(Sim &s, lcm::LCM &l, afm::Inbox &in, afm::Aside &as, const Options &o)
+        : sim(s), lc(l), inbox(in), aside(as), scene(s.scene), opt(o), spb(s.scene.samples_per_block()),
+          blocks(s.scene.total_blocks()), drop_rng(s.scene.seed ^ 0x5eedULL), drop(o.drop_p)
+    {
+        blk.fs_hz = scene.sample_rate_hz;
+        blk.n = spb;
+        blk.sn_v.resize(spb);
+        blk.sl_v.resize(spb);
+        blk.piezo_x_nm.resize(spb);
+        blk.piezo_y_nm.resize(spb);
+        blk.piezo_z_nm.resize(spb);
+    }
+
+    // A cantilever change: the work space jumps against the scanner.
+    void apply_cantilever_changes(int64_t n)
+    {
+        while (next_change < scene.op.cantilever_changes.size() &&
+               std::llround(scene.op.cantilever_changes[next_change].at_s * 1e6) <= std::llround(n * 1e6 / scene.block_hz)) {
+            const afm::Vec2 o = scene.op.cantilever_changes[next_change++].offset_nm;
+            sim.world.add_drift(Eigen::Vector2d(o.x, o.y));
+        }
+    }
+
+    // Block n's samples into blk; the block's truth aside (SIM_TRUTH).
+    void simulate_block(int64_t n)
+    {
+        blk.seq = n;
+        blk.utime = std::llround(n * 1e6 / scene.block_hz);
+        Eigen::Vector3d force_sum = Eigen::Vector3d::Zero();   // the block's mean true force, as FW_STATE's
+        for (int i = 0; i < spb; ++i) {
+            const afm::sim::Sample s = sim.world.step();
+            force_sum += sim.world.tip_force();
+            blk.sn_v[i] = s.sn_v;
+            blk.sl_v[i] = s.sl_v;
+            blk.piezo_x_nm[i] = s.piezo_nm.x();
+            blk.piezo_y_nm[i] = s.piezo_nm.y();
+            blk.piezo_z_nm[i] = s.piezo_nm.z();
+        }
+        afm::sim_truth_t truth;
+        truth.utime = afm::block_end_utime(scene, n);
+        truth.seq = n;
+        for (int k = 0; k < 2; ++k) {
+            truth.tip_nm[k] = sim.world.apex()[k];
+            truth.piezo_nm[k] = sim.world.piezo()[k];
+        }
+        truth.tip_nm[2] = truth.piezo_nm[2] = sim.world.piezo_z();
+        for (int k = 0; k < 3; ++k) truth.force_nN[k] = force_sum[k] / spb;
+        truth.objects = truth_diff.next(truth_objects(scene, sim.world, n));
+        aside.post(AFM_CH_SIM_TRUTH, truth);
+    }
+
+    // Waits for the card's answer to block n (and the frames due), resending
+    // the block every resend_ms; false if the launcher stopped the run.
+    bool wait_for_answer(int64_t n)
+    {
+        const int frames_needed = opt.renderer ? afm::frames_to_wait_for(scene, n, blocks) : 0;
+        auto last_send = std::chrono::steady_clock::now();
+        sim.waiting_after = n;
+        sim.serve_due_scans();
+        std::chrono::steady_clock::time_point answered{};   // the card answered, the frames had not come
+        while (sim.acked < n || sim.frames_done < frames_needed) {
+            inbox.handle(opt.resend_ms);
+            if (sim.acked >= n && sim.frames_done < frames_needed && answered == std::chrono::steady_clock::time_point{})
+                answered = std::chrono::steady_clock::now();
+            sim.serve_due_scans();
+            if (sim.abort) return false;
+            if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(opt.resend_ms)) {
+                lc.publish(AFM_CH_AFM_ANALOG, &blk);
+                ++resends;
+                last_send = std::chrono::steady_clock::now();
+            }
+            sim.hb.maybe_send(afm::RunState::running, n, blk.utime, kHeartbeatPeriodUs);
+        }
+        if (answered != std::chrono::steady_clock::time_point{}) {
+            ++sim.frame_waits;
+            sim.frame_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - answered).count();
+        }
+        return true;
+    }
+
+    // The whole run; false if the launcher stopped it.
+    bool run()
+    {
+        const auto wall0 = std::chrono::steady_clock::now();
+        sim.in_loop = true;
+        {
+            const afm::Vec2 s0 = scene.start_nm();
+            sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, scene.start_engaged());
+        }
+        for (int64_t n = 0; n < blocks; ++n) {
+            sim.wait_for_log(n - opt.log_window, 0);
+            apply_cantilever_changes(n);
+            simulate_block(n);
+            if (drop(drop_rng)) ++dropped;
+            else lc.publish(AFM_CH_AFM_ANALOG, &blk);
+            if (scene.time_mode == "realtime")
+                std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
+            if (!wait_for_answer(n)) return false;
+            if (sim.have_cmd) {
+                sim.world.command(Eigen::Vector2d(sim.pending_cmd.piezo_x_nm, sim.pending_cmd.piezo_y_nm),
+                                  sim.pending_cmd.load_nN, sim.pending_cmd.engaged);
+                sim.have_cmd = false;
+            }
+            sim.end_early(n, &blocks, &ended_early_at);
+            sim.hb.maybe_send(afm::RunState::running, n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
+        }
+        wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+        return true;
+    }
+
+    // sim_report.json: the effects built and the time each took; lockstep statistics.
+    nlohmann::json report() const
+    {
+        nlohmann::json effects = nlohmann::json::array();
+        for (const auto &c : sim.world.clocks()) effects.push_back({{"name", c.name}, {"seconds", c.seconds}});
+        return {{"effects", effects},
+                {"effects_listed", scene.effects},
+                {"models_built", sim.world.models_built()},
+                {"blocks", blocks},
+                {"ended_early_at_block", ended_early_at},
+                {"samples", blocks * spb},
+                {"resends", resends},
+                {"log_window_waits", sim.log_waits},
+                {"log_window_wait_seconds", sim.log_wait_s},
+                {"frame_window_waits", sim.frame_waits},
+                {"frame_window_wait_seconds", sim.frame_wait_s},
+                {"injected_drops", dropped},
+                {"loop_wall_seconds", wall_s},
+                {"loop_scan_wall_seconds", sim.loop_scan_s},
+                {"start_scan_wall_seconds", sim.start_scan_s},
+                {"scan_lines_sent", sim.scan_lines_sent},
+                {"piezo_clamped_samples", sim.world.piezo_clamped_samples()},
+                {"scan_points_clamped", sim.world.scan_points_clamped()},
+                {"aside", aside.report()},
+                {"rejected", inbox.rejected().to_json()}};
+    }
+};
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    Options opt;
+    int code = afm::kExitOk;
+    if (!parse_options(argc, argv, &opt, &code)) return code;
+    return afm::run_process("sim_afm", [&] {
+        const afm::Scene scene = afm::load_scene(opt.scene_path);
         auto lc = afm::open_bus();
         Sim sim(scene, *lc);
-        afm::Aside aside(aside_cpus);   // SIM_TRUTH: the record's, no process of the lockstep reads it
-        if (!follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(follow_log);
+        afm::Aside aside(opt.aside_cpus);   // SIM_TRUTH: the record's, no process of the lockstep reads it
+        if (!opt.follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(opt.follow_log);
         afm::Inbox inbox(lc.get());
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return sim.on_heartbeat(m); });
         inbox.on<afm::tip_cmd_t>(AFM_CH_AFM_CMD, [&](const afm::tip_cmd_t &m) { return sim.on_cmd(m); });
@@ -334,138 +508,20 @@ int main(int argc, char **argv)
 
         // Start: serve scans until every peer is ready and the launcher says go.
         std::set<std::string> peers = {"fw_node", "operator"};
-        if (renderer) peers.insert("renderer");
+        if (opt.renderer) peers.insert("renderer");
         while (!sim.go || !std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())) {
-            sim.hb.maybe_send("ready", -1, 0);
+            sim.hb.maybe_send(afm::RunState::ready, -1, 0);
             inbox.handle(afm::kReadyPeriodMs);
-            if (sim.abort) return 3;
+            if (sim.abort) return static_cast<int>(afm::kExitRunOverEarly);
         }
-
-        const int spb = scene.samples_per_block();
-        int64_t blocks = scene.total_blocks();
-        int64_t ended_early_at = -1;   // the last block, when the planner finished first
-        std::mt19937_64 drop_rng(scene.seed ^ 0x5eedULL);
-        std::bernoulli_distribution drop(drop_p);
-        int64_t resends = 0, dropped = 0;
-        const auto wall0 = std::chrono::steady_clock::now();
-        sim.in_loop = true;
-        afm::analog_block_t blk;
-        blk.fs_hz = scene.sample_rate_hz;
-        blk.n = spb;
-        blk.sn_v.resize(spb);
-        blk.sl_v.resize(spb);
-        blk.piezo_x_nm.resize(spb);
-        blk.piezo_y_nm.resize(spb);
-        blk.piezo_z_nm.resize(spb);
-        {
-            const afm::Vec2 s0 = scene.start_nm();
-            sim.world.command(Eigen::Vector2d(s0.x, s0.y), scene.op.load_nN, scene.start_engaged());
-        }
-        std::size_t next_change = 0;   // operator.cantilever_changes applied so far
-        afm::ObjectsDiff truth_diff;   // SIM_TRUTH lists the objects that changed (objects_t.complete)
-        for (int64_t n = 0; n < blocks; ++n) {
-            sim.wait_for_log(n - log_window, 0);
-            // A cantilever change: the work space jumps against the scanner.
-            while (next_change < scene.op.cantilever_changes.size() &&
-                   std::llround(scene.op.cantilever_changes[next_change].at_s * 1e6) <= std::llround(n * 1e6 / scene.block_hz)) {
-                const afm::Vec2 o = scene.op.cantilever_changes[next_change++].offset_nm;
-                sim.world.add_drift(Eigen::Vector2d(o.x, o.y));
-            }
-            blk.seq = n;
-            blk.utime = std::llround(n * 1e6 / scene.block_hz);
-            Eigen::Vector3d force_sum = Eigen::Vector3d::Zero();   // the block's mean true force, as FW_STATE's
-            for (int i = 0; i < spb; ++i) {
-                const afm::sim::Sample s = sim.world.step();
-                force_sum += sim.world.tip_force();
-                blk.sn_v[i] = s.sn_v;
-                blk.sl_v[i] = s.sl_v;
-                blk.piezo_x_nm[i] = s.piezo_nm.x();
-                blk.piezo_y_nm[i] = s.piezo_nm.y();
-                blk.piezo_z_nm[i] = s.piezo_nm.z();
-            }
-            afm::sim_truth_t truth;
-            truth.utime = afm::block_end_utime(scene, n);
-            truth.seq = n;
-            for (int k = 0; k < 2; ++k) {
-                truth.tip_nm[k] = sim.world.apex()[k];
-                truth.piezo_nm[k] = sim.world.piezo()[k];
-            }
-            truth.tip_nm[2] = truth.piezo_nm[2] = sim.world.piezo_z();
-            for (int k = 0; k < 3; ++k) truth.force_nN[k] = force_sum[k] / spb;
-            truth.objects = truth_diff.next(truth_objects(scene, sim.world, n));
-            aside.post(AFM_CH_SIM_TRUTH, truth);
-            if (drop(drop_rng)) ++dropped;
-            else lc->publish(AFM_CH_AFM_ANALOG, &blk);
-
-            if (scene.time_mode == "realtime") {
-                std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
-            }
-            const int frames_needed = renderer ? afm::frames_to_wait_for(scene, n, blocks) : 0;
-            auto last_send = std::chrono::steady_clock::now();
-            sim.waiting_after = n;
-            sim.serve_due_scans();
-            std::chrono::steady_clock::time_point answered{};   // the card answered, the frames had not come
-            while (sim.acked < n || sim.frames_done < frames_needed) {
-                inbox.handle(resend_ms);
-                if (sim.acked >= n && sim.frames_done < frames_needed && answered == std::chrono::steady_clock::time_point{})
-                    answered = std::chrono::steady_clock::now();
-                sim.serve_due_scans();
-                if (sim.abort) return 3;
-                if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(resend_ms)) {
-                    lc->publish(AFM_CH_AFM_ANALOG, &blk);
-                    ++resends;
-                    last_send = std::chrono::steady_clock::now();
-                }
-                sim.hb.maybe_send("running", n, blk.utime, kHeartbeatPeriodUs);
-            }
-            if (answered != std::chrono::steady_clock::time_point{}) {
-                ++sim.frame_waits;
-                sim.frame_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - answered).count();
-            }
-            if (sim.have_cmd) {
-                sim.world.command(Eigen::Vector2d(sim.pending_cmd.piezo_x_nm, sim.pending_cmd.piezo_y_nm),
-                                  sim.pending_cmd.load_nN, sim.pending_cmd.engaged);
-                sim.have_cmd = false;
-            }
-            sim.end_early(n, &blocks, &ended_early_at);
-            sim.hb.maybe_send("running", n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
-        }
-        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+        Loop loop(sim, *lc, inbox, aside, opt);
+        if (!loop.run()) return static_cast<int>(afm::kExitRunOverEarly);
         aside.flush();   // the record holds every block before "done", and the report counts them all
-
-        // Report: effects built and the time each took; lockstep statistics.
-        std::ofstream rep(out_dir + "/sim_report.json");
-        rep << "{\n  \"effects\": [";
-        const auto clocks = sim.world.clocks();
-        for (std::size_t i = 0; i < clocks.size(); ++i)
-            rep << (i ? ", " : "") << "{\"name\": \"" << clocks[i].name << "\", \"seconds\": " << clocks[i].seconds << "}";
-        rep << "],\n  \"effects_listed\": [";
-        for (std::size_t i = 0; i < scene.effects.size(); ++i) rep << (i ? ", " : "") << "\"" << scene.effects[i] << "\"";
-        rep << "],\n  \"models_built\": [";
-        const auto built = sim.world.models_built();
-        for (std::size_t i = 0; i < built.size(); ++i) rep << (i ? ", " : "") << "\"" << built[i] << "\"";
-        rep << "],\n  \"blocks\": " << blocks << ",\n  \"ended_early_at_block\": " << ended_early_at << ",\n  \"samples\": " << blocks * spb
-            << ",\n  \"resends\": " << resends << ",\n  \"log_window_waits\": " << sim.log_waits
-            << ",\n  \"log_window_wait_seconds\": " << sim.log_wait_s << ",\n  \"frame_window_waits\": " << sim.frame_waits
-            << ",\n  \"frame_window_wait_seconds\": " << sim.frame_wait_s << ",\n  \"injected_drops\": " << dropped
-            << ",\n  \"loop_wall_seconds\": " << wall << ",\n  \"loop_scan_wall_seconds\": " << sim.loop_scan_s
-            << ",\n  \"start_scan_wall_seconds\": " << sim.start_scan_s << ",\n  \"scan_lines_sent\": " << sim.scan_lines_sent
-            << ",\n  \"piezo_clamped_samples\": " << sim.world.piezo_clamped_samples()
-            << ",\n  \"scan_points_clamped\": " << sim.world.scan_points_clamped()
-            << ",\n  \"aside\": " << aside.report().dump()
-            << ",\n  \"rejected\": " << inbox.rejected().to_json().dump() << "\n}\n";
-        rep.close();
-        if (!rep) throw std::runtime_error("cannot write " + out_dir + "/sim_report.json");
+        afm::write_report(opt.out_dir + "/sim_report.json", loop.report());
         for (int i = 0; i < 3; ++i) {
-            sim.hb.send("done", blocks - 1, afm::block_end_utime(scene, blocks - 1));
+            sim.hb.send(afm::RunState::done, loop.blocks - 1, afm::block_end_utime(scene, loop.blocks - 1));
             inbox.handle(20);
         }
-        return 0;
-    } catch (const afm::SceneError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 2;
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "sim_afm: %s\n", e.what());
-        return 1;
-    }
+        return static_cast<int>(afm::kExitOk);
+    });
 }

@@ -12,8 +12,8 @@ import unittest
 import benchtest
 import lcm
 
-BENCH = os.path.join(benchtest.SRC, "tools", "bench_bus.py")
-PROBE = os.path.join(benchtest.BUILD, "host_bridge", "bench_bus")
+BENCH = os.path.join(benchtest.SRC, "bench", "bench_bus.py")
+PROBE = os.path.join(benchtest.BUILD, "bench", "host", "bench_bus")
 
 
 class BenchBus(unittest.TestCase):

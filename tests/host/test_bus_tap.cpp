@@ -380,13 +380,13 @@ void test_a_heartbeat_repeats_ready_at_its_own_period()
     });
     afm::Heartbeat hb(*pub, "test_bus_tap");
     const auto past_ready_period = std::chrono::microseconds(afm::kReadyPeriodUs + 5000);
-    hb.maybe_send("ready", -1, 0, 1000000);   // a new state: sent
-    hb.maybe_send("ready", -1, 0, 1000000);   // within the ready period: not
+    hb.maybe_send(afm::RunState::ready, -1, 0, 1000000);   // a new state: sent
+    hb.maybe_send(afm::RunState::ready, -1, 0, 1000000);   // within the ready period: not
     std::this_thread::sleep_for(past_ready_period);
-    hb.maybe_send("ready", -1, 0, 1000000);   // past it, although the caller said 1 s
-    hb.maybe_send("running", 0, 0, 1000000);  // a new state
+    hb.maybe_send(afm::RunState::ready, -1, 0, 1000000);   // past it, although the caller said 1 s
+    hb.maybe_send(afm::RunState::running, 0, 0, 1000000);  // a new state
     std::this_thread::sleep_for(past_ready_period);
-    hb.maybe_send("running", 0, 0, 1000000);  // within the caller's 1 s: not
+    hb.maybe_send(afm::RunState::running, 0, 0, 1000000);  // within the caller's 1 s: not
     while (inbox.handle(100) > 0) {}
     TEST_ASSERT_EQUAL_INT(3, static_cast<int>(states.size()));
     TEST_ASSERT_EQUAL_STRING("ready", states[0].c_str());
@@ -411,8 +411,8 @@ void test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread()
     afm::Heartbeat hb(*pub, "test_bus_tap");
     const auto a = pattern(40, 16);
     pub->publish("FW_STATE", a.data(), static_cast<unsigned>(a.size()));   // not the inbox's channel
-    hb.send("ready", -1, 0);
-    hb.send("running", 0, 0);
+    hb.send(afm::RunState::ready, -1, 0);
+    hb.send(afm::RunState::running, 0, 0);
     TEST_ASSERT_EQUAL_INT(1, inbox.handle(1000));
     TEST_ASSERT_EQUAL_INT(1, beats);
     TEST_ASSERT_EQUAL_INT(1, inbox.handle(1000));

@@ -18,7 +18,6 @@
 #include <condition_variable>
 #include <cstdio>
 #include <exception>
-#include <fstream>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -41,6 +40,7 @@
 #include "pattern.hpp"
 #include "objects_view.hpp"
 #include "planner.hpp"
+#include "process.hpp"
 #include "scan_client.hpp"
 #include "scene.hpp"
 
@@ -242,8 +242,8 @@ struct Operator {
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        if ((m.name == "sim_afm" && m.state == "done") || (m.name == "launcher" && m.state == "stop")) sim_done = true;
-        if (m.name == "sim_afm" && m.state == "ending") ending_seen = true;
+        if (afm::run_over(m)) sim_done = true;
+        if (afm::says(m, "sim_afm", afm::RunState::ending)) ending_seen = true;
         return afm::Reject::none;
     }
 
@@ -252,7 +252,7 @@ struct Operator {
     {
         if (!plan_done || ending_seen || finished_seq < 0) return;
         if (std::chrono::steady_clock::now() - finished_sent < std::chrono::milliseconds(kFinishedRepeatMs)) return;
-        hb.send("finished", finished_seq, afm::block_end_utime(scene, finished_seq));
+        hb.send(afm::RunState::finished, finished_seq, afm::block_end_utime(scene, finished_seq));
         finished_sent = std::chrono::steady_clock::now();
     }
 
@@ -269,7 +269,7 @@ struct Operator {
         answered = n;
         have_force = false;
         lc.publish(AFM_CH_HAPTIC_POSE, &last);
-        hb.maybe_send("running", n, last.utime);
+        hb.maybe_send(afm::RunState::running, n, last.utime);
     }
 
     void count_force()
@@ -348,7 +348,7 @@ struct Operator {
             }
             plan_done = true;   // Done or Failed
             finished_seq = n;
-            hb.send("finished", n, afm::block_end_utime(scene, n));   // the simulator ends the run soon after (before the pose)
+            hb.send(afm::RunState::finished, n, afm::block_end_utime(scene, n));   // the simulator ends the run soon after (before the pose)
             finished_sent = std::chrono::steady_clock::now();
         }
         publish_pose(joy_of(hold_pose.tip_nm), false);
@@ -452,7 +452,7 @@ void write_report(const Operator &op, const afm::Planner *planner, const afm::Sc
             contacts.push_back({{"t_s", c.t_s}, {"aim_nm", {c.aim_nm.x, c.aim_nm.y}}, {"force_N", c.force_N}, {"stroke", c.stroke}});
         rep["contacts_felt"] = contacts;
     }
-    std::ofstream(out_dir + "/operator_report.json") << rep.dump(2) << "\n";
+    afm::write_report(out_dir + "/operator_report.json", rep);
 }
 
 }  // namespace
@@ -469,13 +469,14 @@ int main(int argc, char **argv)
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "operator: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
-    if (scene_path.empty()) { std::fputs(kUsage, stderr); return 2; }
-    try {
+    if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    return afm::run_process("operator", [&] {
+      try {
         const afm::Scene scene = afm::load_scene(scene_path);
         if (check_targets) {
             const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
             if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
-            return why.empty() ? 0 : 2;
+            return why.empty() ? afm::kExitOk : afm::kExitInput;
         }
         std::unique_ptr<afm::Planner> planner;
         if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
@@ -514,7 +515,7 @@ int main(int argc, char **argv)
             });
         }
         while (!op.sim_done) {
-            op.hb.maybe_send(op.answered < -1 ? "ready" : "running", op.answered, 0);
+            op.hb.maybe_send(op.answered < -1 ? afm::RunState::ready : afm::RunState::running, op.answered, 0);
             op.repeat_finished();
             inbox.handle(op.have_force ? 0 : op.answered < -1 ? afm::kReadyPeriodMs : 100);
             if (!op.have_force) continue;
@@ -526,19 +527,10 @@ int main(int argc, char **argv)
         if (plan_thread.joinable()) plan_thread.join();
         if (planner && bench.error()) std::rethrow_exception(bench.error());
         if (!out_dir.empty()) write_report(op, planner.get(), scene, out_dir, inbox.rejected());
-        op.hb.send("done", op.answered, 0);
-        return 0;
-    } catch (const afm::SceneError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 2;
-    } catch (const afm::PatternError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 2;
-    } catch (const afm::PlanError &e) {
-        std::fprintf(stderr, "operator: the planner: %s\n", e.what());
-        return 2;
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "operator: %s\n", e.what());
-        return 1;
-    }
+        op.hb.send(afm::RunState::done, op.answered, 0);
+        return afm::kExitOk;
+      } catch (const afm::PlanError &e) {   // the scene asks the planner for what it cannot do
+        throw afm::InputError(std::string("operator: the planner: ") + e.what());
+      }
+    });
 }

@@ -8,7 +8,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +17,7 @@
 #include "card_node.hpp"
 #include "inbox.hpp"
 #include "placement.hpp"
+#include "process.hpp"
 #include "scene.hpp"
 
 static_assert(FW_FLAG_SAT_SN == afm::fw_state_t::FLAG_SAT_SN, "flag bits must match the firmware");
@@ -71,7 +71,7 @@ struct Node {
         }
         afm::Reject why;
         publish(card.on_analog(b, &why));
-        hb.maybe_send("running", card.done(), card.sim_utime_done());
+        hb.maybe_send(afm::RunState::running, card.done(), card.sim_utime_done());
         return why;
     }
 
@@ -93,7 +93,7 @@ struct Node {
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        if ((m.name == "sim_afm" && m.state == "done") || (m.name == "launcher" && m.state == "stop")) sim_done = true;
+        if (afm::run_over(m)) sim_done = true;
         return afm::Reject::none;
     }
 };
@@ -116,8 +116,8 @@ int main(int argc, char **argv)
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
-    if (scene_path.empty()) { std::fputs(kUsage, stderr); return 2; }
-    try {
+    if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    return afm::run_process("fw_node", [&] {
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
         afm::Aside aside(aside_cpus);
@@ -131,26 +131,19 @@ int main(int argc, char **argv)
         afm::check_lockstep_reads(scene, inbox.channels(), "fw_node");
         while (!node.sim_done) {
             const int64_t done = node.card.done();
-            node.hb.maybe_send(done < 0 ? "ready" : "running", done, node.card.sim_utime_done());
+            node.hb.maybe_send(done < 0 ? afm::RunState::ready : afm::RunState::running, done, node.card.sim_utime_done());
             inbox.handle(done < 0 ? afm::kReadyPeriodMs : 100);
         }
         aside.flush();   // the record holds every block before "done"
-        node.hb.send("done", node.card.done(), node.card.sim_utime_done());
+        node.hb.send(afm::RunState::done, node.card.done(), node.card.sim_utime_done());
         if (!out_dir.empty()) {
-            std::ofstream rep(out_dir + "/fw_report.json");
             // the force interlock's trips (fw_guard.h; null when the scene turns it off)
             const fw_guard_t *guard = fw_card_guard(&node.card.card());
-            rep << nlohmann::json{{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()},
-                                  {"aside", aside.report()},
-                                  {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}}.dump(2) << "\n";
-            if (!rep) throw std::runtime_error("cannot write " + out_dir + "/fw_report.json");
+            afm::write_report(out_dir + "/fw_report.json",
+                              {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()},
+                               {"aside", aside.report()},
+                               {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}});
         }
-        return 0;
-    } catch (const afm::SceneError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 2;
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "fw_node: %s\n", e.what());
-        return 1;
-    }
+        return afm::kExitOk;
+    });
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # ./afm bench sim: what the simulator costs and how accurate its knobs are.
-# Runs build/main/sim_afm/bench_sim (sim_afm/bench_sim.cpp) and prints its
+# Runs build/main/bench/host/bench_sim (bench/host/bench_sim.cpp) and prints its
 # tables: cost per simulated second against the number of particles and with
 # each effect turned on; pushed wires against issue 15's goals (a rigid rod
 # with uniform friction and with a trench under part of it, a flexible
@@ -12,7 +12,7 @@ set -euo pipefail
 usage() {
   cat <<'TXT'
 usage: ./afm bench sim [particles|effects|wires]
-       tools/bench_sim.sh [same]
+       bench/bench_sim.sh [same]
 
   particles  cost against the number of particles (1, 100, 10000)
   effects    cost of each effect over a base scene
@@ -23,7 +23,7 @@ usage: ./afm bench sim [particles|effects|wires]
   -h, --help this text
 
 Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
-at $AFM_BUILD/sim_afm/bench_sim.
+at $AFM_BUILD/bench/host/bench_sim.
 TXT
 }
 
@@ -35,6 +35,6 @@ esac
 
 top=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${AFM_BUILD:-$top/build/main}
-bin="$build/sim_afm/bench_sim"
+bin="$build/bench/host/bench_sim"
 [ -x "$bin" ] || { echo "bench_sim: $bin not built (run ./afm build)" >&2; exit 2; }
 exec "$bin" "$@"

@@ -48,6 +48,7 @@
 #include "objects_view.hpp"
 #include "pattern.hpp"
 #include "placement.hpp"
+#include "process.hpp"
 #include "png_file.hpp"
 #include "scan_client.hpp"
 #include "scene.hpp"
@@ -449,7 +450,7 @@ struct Renderer {
             write_frame(frames_written++);
         }
         announce(frames_written - 1, shown_seq);
-        hb.maybe_send("running", last_seq, afm::frame_utime(scene, frames_written - 1), kProgressPeriodUs);
+        hb.maybe_send(afm::RunState::running, last_seq, afm::frame_utime(scene, frames_written - 1), kProgressPeriodUs);
     }
 
     // The modelled position of a particle, or of a landmark (its scene
@@ -597,7 +598,7 @@ struct Renderer {
             fidelity["objects"].push_back(rec);
         }
         if (scene.op.plan.enabled) fidelity["placement"] = placement_json();
-        std::ofstream(out + "/fidelity.json") << fidelity.dump(2) << "\n";
+        afm::write_report(out + "/fidelity.json", fidelity);
         final_pending = false;
         write_frame(frames_written++);
         announce(frames_written - 1, shown_seq);
@@ -643,8 +644,8 @@ struct Renderer {
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
-        if ((m.name == "sim_afm" && m.state == "done") || (m.name == "launcher" && m.state == "stop")) sim_done = true;
-        if (m.name == "sim_afm" && m.state == "ending") {
+        if (afm::run_over(m)) sim_done = true;
+        if (afm::says(m, "sim_afm", afm::RunState::ending)) {
             // The run ends at block m.seq (the planner finished): its last
             // frame is the last one due by then. The sheet is picked again
             // over the shorter run (frames already written that it now
@@ -658,6 +659,46 @@ struct Renderer {
         return afm::Reject::none;
     }
 };
+
+// The sheet: the frames picked over the run, those not kept in memory
+// (picked again after an early end) read back from frames/.
+void write_contact_sheet(Renderer &r, const afm::Scene &scene, const std::string &out_dir)
+{
+    std::vector<cv::Mat> tiles;
+    for (int k : r.sheet_at) {
+        if (k >= r.frames_written) continue;
+        if (r.sheet.count(k)) {
+            tiles.push_back(r.sheet[k]);
+        } else if (scene.out.png) {
+            char name[64];
+            std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
+            const cv::Mat f = cv::imread(out_dir + name);
+            if (!f.empty()) tiles.push_back(f);
+        }
+    }
+    if (!tiles.empty()) {
+        const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(tiles.size()))));
+        afm::write_png(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
+    }
+}
+
+// renderer_report.json: the frames, what they cost, what the renderer refused.
+nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, const afm::Rejections &rejected)
+{
+    return {{"frames", r.frames_written},
+            {"objects_blocks_missed", r.objects_missed()},
+            {"frames_mixed_blocks", r.frames_mixed_blocks},
+            {"frames_expected", r.total_frames},
+            {"image_px", scene.out.image_px},
+            {"update_mode", scene.out.update_mode},
+            {"update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
+            {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
+            // the writer thread's CPU time (frame_writer.hpp), not its wall time
+            {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
+            {"pixels_updated", r.touched_px},
+            {"local_scans", r.local_scans},
+            {"rejected", rejected.to_json()}};
+}
 
 }  // namespace
 
@@ -675,8 +716,8 @@ int main(int argc, char **argv)
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "renderer: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
-    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return 2; }
-    try {
+    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    return afm::run_process("renderer", [&] {
         const afm::Scene scene = afm::load_scene(scene_path);
         std::filesystem::create_directories(out_dir + "/frames");
         auto lc = afm::open_bus();
@@ -689,16 +730,16 @@ int main(int argc, char **argv)
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return r.on_heartbeat(m); });
 
         // The full scan first.
-        r.hb.send("starting", -1, 0, "scanning");
+        r.hb.send(afm::RunState::starting, -1, 0, "scanning");
         r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
         while (r.scan.busy()) {
             inbox.handle(50);
-            if (r.sim_done) return 3;
+            if (r.sim_done) return static_cast<int>(afm::kExitRunOverEarly);
             r.retry_scan();
         }
         r.begin();
         while (!r.sim_done) {
-            r.hb.maybe_send(r.last_seq < 0 ? "ready" : "running", r.last_seq, 0);
+            r.hb.maybe_send(r.last_seq < 0 ? afm::RunState::ready : afm::RunState::running, r.last_seq, 0);
             // what has come (the inbox's thread takes the bus in batches, kBatchUs apart)
             if (inbox.handle(r.last_seq < 0 ? afm::kReadyPeriodMs : 50) > 0)
                 while (inbox.handle(0) > 0) {}
@@ -710,45 +751,9 @@ int main(int argc, char **argv)
             r.write_composed();
             r.writer->finish();
         }
-        // The sheet: the frames picked over the run, those not kept in
-        // memory (picked again after an early end) read back from frames/.
-        std::vector<cv::Mat> tiles;
-        for (int k : r.sheet_at) {
-            if (k >= r.frames_written) continue;
-            if (r.sheet.count(k)) {
-                tiles.push_back(r.sheet[k]);
-            } else if (scene.out.png) {
-                char name[64];
-                std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
-                const cv::Mat f = cv::imread(out_dir + name);
-                if (!f.empty()) tiles.push_back(f);
-            }
-        }
-        if (!tiles.empty()) {
-            const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(tiles.size()))));
-            afm::write_png(out_dir + "/contact_sheet.png", afm::contact_sheet(tiles, cols));
-        }
-        nlohmann::json rep = {{"frames", r.frames_written},
-                              {"objects_blocks_missed", r.objects_missed()},
-                              {"frames_mixed_blocks", r.frames_mixed_blocks},
-                              {"frames_expected", r.total_frames},
-                              {"image_px", scene.out.image_px},
-                              {"update_mode", scene.out.update_mode},
-                              {"update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
-                              {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
-                              // the writer thread's CPU time (frame_writer.hpp), not its wall time
-                              {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
-                              {"pixels_updated", r.touched_px},
-                              {"local_scans", r.local_scans},
-                              {"rejected", inbox.rejected().to_json()}};
-        std::ofstream(out_dir + "/renderer_report.json") << rep.dump(2) << "\n";
-        r.hb.send("done", r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
-        return 0;
-    } catch (const afm::SceneError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return 2;
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "renderer: %s\n", e.what());
-        return 1;
-    }
+        write_contact_sheet(r, scene, out_dir);
+        afm::write_report(out_dir + "/renderer_report.json", report_json(r, scene, inbox.rejected()));
+        r.hb.send(afm::RunState::done, r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
+        return static_cast<int>(afm::kExitOk);
+    });
 }

@@ -10,7 +10,7 @@ set -euo pipefail
 usage() {
   cat <<'TXT'
 usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-b SAMPLES] [-a DEG,DEG]
-       tools/bench_firmware.sh [same options]
+       bench/bench_firmware.sh [same options]
 
   -n SAMPLES  timing and error run: samples per scan angle (default 200000)
   -r REPEATS  timing repeats; the median ns/sample is shown (default 7)

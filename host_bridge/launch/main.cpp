@@ -239,10 +239,10 @@ struct Progress {
         last[m.name] = m;
         return afm::Reject::none;
     }
-    bool is(const std::string &name, const std::string &state) const
+    bool is(const std::string &name, afm::RunState state) const
     {
         auto it = last.find(name);
-        return it != last.end() && it->second.state == state;
+        return it != last.end() && it->second.state == afm::state_text(state);
     }
 };
 
@@ -451,7 +451,7 @@ public:
         if (g_signal) return interrupted_before_start();
         try {
             recorder_ = std::make_unique<afm::BusRecorder>(out_ + "/bus.lcmlog");
-            hb_->send("starting", 0, 0, "recording the bus");
+            hb_->send(afm::RunState::starting, 0, 0, "recording the bus");
             pump(0);
             recorder_->settle(true);
         } catch (const afm::LogError &e) {
@@ -547,12 +547,12 @@ public:
                 o_.kill_after = -1;
             }
             // Start the run once every process is ready.
-            if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, "ready"); })) {
+            if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, afm::RunState::ready); })) {
                 started = true;
                 for (auto &c : kids_) c.cpus = afm::cpu_list(afm::cpus_of(c.pid));   // where each one really runs
                 for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
             }
-            if (started && !prog_.is("sim_afm", "done")) hb_->maybe_send("running", 0, 0, 200000);
+            if (started && !prog_.is("sim_afm", afm::RunState::done)) hb_->maybe_send(afm::RunState::running, 0, 0, 200000);
             failure_ = stalled_process();
             if (!failure_.empty()) break;
             const auto now = std::chrono::steady_clock::now();
@@ -572,7 +572,7 @@ public:
         };
         if (!failure_.empty()) {
             for (int i = 0; i < 3; ++i) {
-                hb_->send("stop", 0, 0, failure_);
+                hb_->send(afm::RunState::stop, 0, 0, failure_);
                 pump(20);
             }
             for (auto &c : kids_) signal_child(c, SIGTERM);
@@ -710,7 +710,7 @@ private:
     std::string dead_process() const
     {
         for (const auto &c : kids_) {
-            if (!c.exited || (c.exit_code == 0 && (prog_.is("sim_afm", "done") || c.name == "sim_afm"))) continue;
+            if (!c.exited || (c.exit_code == 0 && (prog_.is("sim_afm", afm::RunState::done) || c.name == "sim_afm"))) continue;
             // A clean exit: the process heard the simulator's "done", which
             // this process may not have dispatched yet; given a moment.
             if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(500)) continue;
@@ -726,7 +726,7 @@ private:
         for (const auto &c : kids_) {
             auto it = prog_.progress_at.find(c.name);
             const auto since = it == prog_.progress_at.end() ? wall0_ : it->second;
-            if (!c.exited && std::chrono::duration<double>(now - since).count() > o_.stall_s && !prog_.is(c.name, "done"))
+            if (!c.exited && std::chrono::duration<double>(now - since).count() > o_.stall_s && !prog_.is(c.name, afm::RunState::done))
                 return c.name + " made no progress for " + std::to_string(static_cast<int>(o_.stall_s)) + " s (log: " + out_ + "/logs/" +
                        c.name + ".log)";
         }

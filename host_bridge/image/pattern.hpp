@@ -19,9 +19,10 @@
 
 namespace afm {
 
-class PatternError : public std::runtime_error {
+// Targets the planner cannot serve (an input error: exit 2, process.hpp).
+class PatternError : public InputError {
 public:
-    using std::runtime_error::runtime_error;
+    using InputError::InputError;
 };
 
 // The sites, frame A at zero drift (the sample's coordinates), nm, in

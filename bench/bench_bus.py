@@ -3,7 +3,7 @@
 1. The raw latency of LCM on a run's bus (udpm on a private namespace's
    loopback) for the message sizes the bench sends (read from the first
    run's log): one-way and round trip, median and p99
-   (build/main/host_bridge/bench_bus, host_bridge/bench_bus.cpp), received
+   (build/main/bench/host/bench_bus, bench/host/bench_bus.cpp), received
    as the bench's processes receive (a socket of their own, filtered to
    their channels and read on their own thread: common/bus_tap.hpp) and,
    for comparison, through liblcm's own receive thread.
@@ -113,7 +113,7 @@ def raw_latency(sizes, count, out, cpu=None, receive="tap"):
     lockstep's); receive: tap (as the bench's processes) or liblcm."""
     path = os.path.join(out, f"latency-{receive}" + ("" if cpu is None else f"-cpu{cpu}") + ".json")
     sizes = ",".join(str(b) for b in sorted(set(sizes.values())))
-    exe = os.path.join(BUILD, "host_bridge", "bench_bus")
+    exe = os.path.join(BUILD, "bench", "host", "bench_bus")
     pin = [] if cpu is None else ["taskset", "-c", str(cpu)]
     p = subprocess.run([IN_NETNS, *pin, exe, "--sizes", sizes, "--count", str(count), "--receive", receive, "--json", path],
                        capture_output=True, text=True)
