@@ -67,6 +67,17 @@ def load(path, channels=None):
     return out
 
 
+def column(msgs, name):
+    """One field of every message, as a numpy array: a number per message,
+    or a row per message for a fixed-size array field. For a notebook:
+
+        log = afmlog.load("runs/demo/bus.lcmlog")
+        force = afmlog.column(log["FW_STATE"], "force_nN")   # (blocks, 3), nN, frame A
+        seq = afmlog.column(log["FW_STATE"], "seq")"""
+    import numpy as np
+    return np.array([getattr(m, name) for m in msgs])
+
+
 def by_seq(msgs):
     """{seq: last message with that seq} (resends carry the same content)."""
     return {m.seq: m for m in msgs}

@@ -35,8 +35,8 @@
    PNG and video: renderer_report.json write_ms_per_frame).
 4. The disk's state, before the runs: how long creating a frame-sized
    file in the runs' folder takes. On ext4 without a journal it is ten
-   times more in the seconds after many files were deleted (README, "Files
-   and the disk"), and the frames' files cost the run as much more.
+   times more in the seconds after many files were deleted (docs/bus.md, "The
+   lockstep's cost per block"), and the frames' files cost the run as much more.
 
 A benchmark: it prints figures and never fails on them. Exit 1 only when a
 run fails.
@@ -216,7 +216,7 @@ def main(argv=None):
 
     # The arrangements in turn, a run of each per round: what slows the
     # machine for a while (another job; creating files on ext4 without a
-    # journal just after many were deleted, README "Files and the disk")
+    # journal just after many were deleted, docs/bus.md, "The lockstep's cost per block")
     # falls on every arrangement alike, not on the first one run.
     scenes = [a.scene if outputs is None else scene_with_outputs(a.scene, outputs, out) for _, _, outputs in ARRANGEMENTS]
     runs_of = [[] for _ in ARRANGEMENTS]
@@ -317,7 +317,7 @@ def print_tables(r):
     d = r["disk"]
     print(f"the disk, before the runs: creating a {d['bytes'] // 1000} kB file in {d['folder']} took a median {d['median_ms']:.3f} ms "
           f"({d['files']} files, the slowest {d['max_ms']:.3f} ms); ext4 without a journal takes about ten times more in the "
-          "seconds after many files were deleted, and so do the frames' files (README, \"Files and the disk\")")
+          "seconds after many files were deleted, and so do the frames' files (docs/bus.md, \"The lockstep's cost per block\")")
     unplaced = {x["placement"].get("why") for x in r["lockstep"] if not x["placed"] and "--placement" not in x["args"]}
     for why in sorted(w for w in unplaced if w):
         print(f"  not placed: {why}")

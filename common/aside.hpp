@@ -7,7 +7,7 @@
 // Pinned to the observers' CPU, the run's busiest (the renderer, the
 // record), a block cost more: 82 against 71 us interleaved, 8 runs each.
 //
-// Why (README "The bus's latency model"; ./afm bench bus measures it): a
+// Why (docs/bus.md "The latency model"; ./afm bench bus measures it): a
 // datagram costs its sender's CPU its delivery to every socket on the bus,
 // about 3.5 us on the default scene; two of a block's six datagrams are
 // for the observers (the launcher's record, the renderer), and on the one

@@ -4,7 +4,7 @@
 // this one. udpm delivers every datagram of the group to every socket on
 // it; without the filter each of a block's eight datagrams would wake each
 // of the five processes, most of them to be dropped after a wake-up, a
-// recvmsg and a channel look-up (README, "The bus's latency model";
+// recvmsg and a channel look-up (docs/bus.md, "The latency model";
 // ./afm bench bus measures it).
 //
 // What passes the filter:

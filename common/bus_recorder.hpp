@@ -1,8 +1,8 @@
 // The run's record of its bus: every message on every channel, in the order
 // this process receives them, written to an LCM event log (the format of
-// lcm-logger, read by lcm-logplayer, afmlog.py and replay).
+// lcm-logger, read by lcm-logplayer, analysis/afmlog.py and replay).
 //
-// Why not lcm-logger (measured by ./afm bench bus, README "The bus's
+// Why not lcm-logger (measured by ./afm bench bus, docs/bus.md "The
 // latency model"): lcm-logger passes each message through three threads and
 // flushes its file only when a message arrives a flush interval after the
 // last flush, so a simulator that paces itself on the file stops and goes;

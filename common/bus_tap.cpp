@@ -182,7 +182,7 @@ int BusTap::next(const Sink &sink, int timeout_ms)
             std::max<int64_t>(0, std::chrono::ceil<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count()));
         // One call: the read waits (up to wait_ms, SO_RCVTIMEO) for the
         // datagram itself, where a poll and then a read would take two
-        // calls and the empty read before them a third (README, "The bus's
+        // calls and the empty read before them a third (docs/bus.md, "The
         // latency model"). Without SO_RCVTIMEO, a poll and a read.
         if (wait_ms > 0 && !set_timeout(wait_ms)) {
             if (!wait(wait_ms)) return 0;

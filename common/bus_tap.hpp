@@ -3,7 +3,7 @@
 // message (bus_recorder.hpp); each other process's inbox (inbox.hpp) holds
 // a tap filtered to its own channels (accept_only).
 //
-// Why (README "The bus's latency model"; ./afm bench bus measures it):
+// Why (docs/bus.md "The latency model"; ./afm bench bus measures it):
 // liblcm's udpm provider receives each datagram on a thread of its own,
 // which wakes for every datagram and hands it to the caller's thread
 // through a pipe: two wake-ups and a pipe per message, where a socket read

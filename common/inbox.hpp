@@ -18,7 +18,7 @@
 // inbox's receiver drops them before any subscription, as liblcm would
 // (counted apart: bus_dropped()).
 //
-// How messages come (README, "The bus's latency model"): on a udpm bus the
+// How messages come (docs/bus.md, "The latency model"): on a udpm bus the
 // inbox receives on a socket of its own (bus_tap.hpp) read by the caller's
 // thread in handle(), with the kernel's filter letting through only its
 // channels (bus_filter.hpp), not through liblcm's receive thread; the

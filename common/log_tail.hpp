@@ -1,9 +1,9 @@
-// Follows an LCM log file as lcm-logger writes it, to know what is safely
-// recorded: the last block of the card's inputs and answer (AFM_ANALOG,
-// HAPTIC_POSE, AFM_CMD) and the number of scan lines. The
-// simulator stays within a few messages of it, because lcm-logger drops
-// messages once 30 wait in its subscription queue (a CPU-starved logger):
-// with the window, a busy machine slows the run down instead.
+// Follows the run's LCM log file as the launcher's recorder writes it
+// (bus_recorder.hpp), to know what is safely recorded: the last block of the
+// card's inputs and answer (AFM_ANALOG, HAPTIC_POSE, AFM_CMD) and the number
+// of scan lines. The simulator stays within a window of it, because a
+// recorder starved of CPU loses datagrams once its socket's receive buffer
+// fills: with the window, a busy machine slows the run down instead.
 //
 // The log is read with LogReader (lcmlog.hpp), each message through the
 // bus's decode-and-check (inbox.hpp). The log holds whatever was on the

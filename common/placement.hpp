@@ -2,7 +2,7 @@
 // fw_node, operator) share one CPU, and the observers (the launcher, which
 // records the bus, the renderer, lcm-spy) run on the others.
 //
-// Why (measured by ./afm bench bus, README "The bus's latency model"): a
+// Why (measured by ./afm bench bus, docs/bus.md "The latency model"): a
 // block of the lockstep is a chain of datagrams, each one waking a thread of
 // the next process. When the next process sleeps on another CPU, the wake-up
 // is an inter-processor interrupt, which on a virtual machine costs a trip

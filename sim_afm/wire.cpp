@@ -517,6 +517,23 @@ double FlexibleWire::node_friction(int i) const
     return f * ds * ((i == 0 || i == last_node) ? 0.5 : 1.0);
 }
 
+// The tip's contact at the point of segment c.seg closest to the apex: its
+// energy, nN nm, and the forces *fa, *fb on that segment's nodes (ev's
+// contact fields set).
+double FlexibleWire::contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev, Eigen::Vector2d *fa, Eigen::Vector2d *fb)
+{
+    const int i = c.seg;
+    ev.contact_t = segment_param(xs[i], xs[i + 1], c.q);
+    const Eigen::Vector2d dv = c.q - (xs[i] + ev.contact_t * (xs[i + 1] - xs[i]));
+    const double dn = dv.norm(), pen = c.reach - dn;
+    ev.touching = pen > 0;
+    if (!ev.touching) return 0;
+    ev.contact_n = dn > 1e-12 ? Eigen::Vector2d(dv / dn) : c.n0;
+    *fa = c.kc * pen * (1 - ev.contact_t) * ev.contact_n;
+    *fb = c.kc * pen * ev.contact_t * ev.contact_n;
+    return 0.5 * c.kc * pen * pen;
+}
+
 double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
 {
     // Energy, nN nm; ev at x (see Eval). One pass over the nodes: node i's
@@ -532,23 +549,8 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
     const Eigen::Vector2d *xs = x.data(), *x0 = start_.data();
     Eigen::Vector2d *g = ev.g.data(), *seg_dir = ev.seg_dir.data(), *node_dir = ev.node_dir.data();
     double *node_w = ev.node_w.data();
-    // The tip's contact at the point of segment c.seg closest to the apex:
-    // forces fa, fb on that segment's nodes.
     Eigen::Vector2d fa = Eigen::Vector2d::Zero(), fb = Eigen::Vector2d::Zero();
-    double e = 0;
-    {
-        const int i = c.seg;
-        ev.contact_t = segment_param(xs[i], xs[i + 1], c.q);
-        const Eigen::Vector2d dv = c.q - (xs[i] + ev.contact_t * (xs[i + 1] - xs[i]));
-        const double dn = dv.norm(), pen = c.reach - dn;
-        ev.touching = pen > 0;
-        if (ev.touching) {
-            e += 0.5 * c.kc * pen * pen;
-            ev.contact_n = dn > 1e-12 ? Eigen::Vector2d(dv / dn) : c.n0;
-            fa = c.kc * pen * (1 - ev.contact_t) * ev.contact_n;
-            fb = c.kc * pen * ev.contact_t * ev.contact_n;
-        }
-    }
+    const double e = contact_energy(c, xs, ev, &fa, &fb);
     // Coulomb friction c_i |dx_i|, regularised as c_i (sqrt(|dx_i|^2 +
     // eps^2) - eps). A node is in balance when stuck (within stuck_nm of its
     // start) with an elastic and contact force of at most c_i (the Coulomb

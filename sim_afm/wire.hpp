@@ -251,6 +251,8 @@ private:
     double node_friction(int i) const;   // c_i = f ds, half at the ends, nN
     // The step's energy at x (elastic + contact + regularised friction work
     // from start_), nN nm; fills ev at x.
+    // evaluate()'s tip contact: its energy and the forces on its segment's nodes.
+    static double contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev, Eigen::Vector2d *fa, Eigen::Vector2d *fb);
     double evaluate(const Contact &c, Eval &ev, bool at_start = false) const;
     // d^T H d of the elastic and contact energy at ev's point.
     double elastic_curvature(const Contact &c, const Eval &ev, const std::vector<Eigen::Vector2d> &d) const;

@@ -140,84 +140,106 @@ void World::relax()
     near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
     for (int idx : scratch_) particles_[idx].in_contact = false;
     for (int it = 0; it < relax_iterations_; ++it) {
-        // Apex.
-        const Eigen::Vector2d as = apex_ - drift_;
-        Eigen::Vector2d g = K_ * (rest - apex_);
         double kt = k_lever_max_;
-        for (int idx : scratch_) {
-            const Particle &p = particles_[idx];
-            const Eigen::Vector2d d = as - p.c;
-            const double reach = rt + p.r;
-            const double dn = d.norm();
-            if (dn >= reach) continue;
-            g += k_contact_ * (reach - dn) * unit_or(d, -last_motion_);
-            kt += k_contact_;
-        }
-        for (const auto &w : wires_) {
-            double pen, u;
-            Eigen::Vector2d n;
-            if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
-            if (rides_over(*w, k_contact_ * pen)) continue;
-            g += k_contact_ * pen * n;
-            kt += k_contact_;
-        }
-        // Substrate: the tip stays while the force it must supply, S = (-g,
-        // F_z) (lever and contacts horizontal, the set point vertical), lies in
-        // its friction cone about the surface normal n: |S_t| <= mu (S . n +
-        // F_adh). Otherwise it slides along the surface, against S_t.
-        const Eigen::Vector3d S(-g.x(), -g.y(), fz);
-        const double sn = S.dot(normal);
-        const Eigen::Vector3d St = S - sn * normal;
-        const double capacity = tip_mu_ * std::max(0.0, sn + tip_adhesion_nN_);
-        const double stn = St.norm();
-        if (stn > capacity) {
-            const Eigen::Vector2d mh = -St.head<2>();
-            const double mhn = mh.norm();
-            if (mhn > 1e-12) apex_ += (stn - capacity) / kt * (mh / mhn);
-        }
-        // Particles touching the apex, then (particle_contacts) those they touch.
+        const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
+        slide_apex(g, fz, normal, kt);
         const Eigen::Vector2d as2 = apex_ - drift_;
-        for (std::size_t q = 0; q < scratch_.size(); ++q) {
-            const int i = scratch_[q];
-            Particle &p = particles_[i];
-            Eigen::Vector2d gp = Eigen::Vector2d::Zero();
-            double kp = 0;
-            const Eigen::Vector2d d = p.c - as2;
-            const double dn = d.norm();
-            if (dn < rt + p.r) {
-                p.in_contact = true;
-                gp += k_contact_ * (rt + p.r - dn) * unit_or(d, last_motion_);
-                kp += k_contact_;
-            }
-            if (chains) {
-                near(p.c, p.r + max_radius_, scratch2_);
-                for (int j : scratch2_) {
-                    if (j == i) continue;
-                    const Eigen::Vector2d e = p.c - particles_[j].c;
-                    const double en = e.norm();
-                    const double reach = p.r + particles_[j].r;
-                    if (en >= reach) continue;
-                    gp += k_contact_ * (reach - en) * unit_or(e, last_motion_);
-                    kp += k_contact_;
-                    // A neighbour being pushed joins the sweep.
-                    if (std::find(scratch_.begin(), scratch_.end(), j) == scratch_.end()) scratch_.push_back(j);
-                }
-            }
-            const double gpn = gp.norm();
-            if (kp > 0 && gpn > p.threshold_nN) {
-                p.c += (gpn - p.threshold_nN) / kp * (gp / gpn);
-                grid_.update(i, p.c);
-            }
-        }
-        for (auto &w : wires_) {
-            if (!w->near(as2, rt)) { w->in_contact = false; continue; }
-            const auto t0 = clock_start();
-            w->push(as2, rt, k_contact_);
-            clock_add(&t_wires_, t0);
-        }
+        push_particles(as2, rt, chains);
+        push_wires(as2, rt);
     }
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     lateral_force_ = -(K_ * (rest - apex_));
+}
+
+Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, double *kt)
+{
+    // The force on the apex from the lever and from every contact, and the
+    // stiffness it meets (*kt, from the lever's).
+    const Eigen::Vector2d as = apex_ - drift_;
+    Eigen::Vector2d g = K_ * (rest - apex_);
+    for (int idx : scratch_) {
+        const Particle &p = particles_[idx];
+        const Eigen::Vector2d d = as - p.c;
+        const double reach = rt + p.r;
+        const double dn = d.norm();
+        if (dn >= reach) continue;
+        g += k_contact_ * (reach - dn) * unit_or(d, -last_motion_);
+        *kt += k_contact_;
+    }
+    for (const auto &w : wires_) {
+        double pen, u;
+        Eigen::Vector2d n;
+        if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
+        if (rides_over(*w, k_contact_ * pen)) continue;
+        g += k_contact_ * pen * n;
+        *kt += k_contact_;
+    }
+    return g;
+}
+
+void World::slide_apex(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal, double kt)
+{
+    // Substrate: the tip stays while the force it must supply, S = (-g,
+    // F_z) (lever and contacts horizontal, the set point vertical), lies in
+    // its friction cone about the surface normal n: |S_t| <= mu (S . n +
+    // F_adh). Otherwise it slides along the surface, against S_t.
+    const Eigen::Vector3d S(-g.x(), -g.y(), fz);
+    const double sn = S.dot(normal);
+    const Eigen::Vector3d St = S - sn * normal;
+    const double capacity = tip_mu_ * std::max(0.0, sn + tip_adhesion_nN_);
+    const double stn = St.norm();
+    if (stn > capacity) {
+        const Eigen::Vector2d mh = -St.head<2>();
+        const double mhn = mh.norm();
+        if (mhn > 1e-12) apex_ += (stn - capacity) / kt * (mh / mhn);
+    }
+}
+
+void World::push_particles(const Eigen::Vector2d &as2, double rt, bool chains)
+{
+    // Particles touching the apex, then (particle_contacts) those they touch.
+    for (std::size_t q = 0; q < scratch_.size(); ++q) {
+        const int i = scratch_[q];
+        Particle &p = particles_[i];
+        Eigen::Vector2d gp = Eigen::Vector2d::Zero();
+        double kp = 0;
+        const Eigen::Vector2d d = p.c - as2;
+        const double dn = d.norm();
+        if (dn < rt + p.r) {
+            p.in_contact = true;
+            gp += k_contact_ * (rt + p.r - dn) * unit_or(d, last_motion_);
+            kp += k_contact_;
+        }
+        if (chains) {
+            near(p.c, p.r + max_radius_, scratch2_);
+            for (int j : scratch2_) {
+                if (j == i) continue;
+                const Eigen::Vector2d e = p.c - particles_[j].c;
+                const double en = e.norm();
+                const double reach = p.r + particles_[j].r;
+                if (en >= reach) continue;
+                gp += k_contact_ * (reach - en) * unit_or(e, last_motion_);
+                kp += k_contact_;
+                // A neighbour being pushed joins the sweep.
+                if (std::find(scratch_.begin(), scratch_.end(), j) == scratch_.end()) scratch_.push_back(j);
+            }
+        }
+        const double gpn = gp.norm();
+        if (kp > 0 && gpn > p.threshold_nN) {
+            p.c += (gpn - p.threshold_nN) / kp * (gp / gpn);
+            grid_.update(i, p.c);
+        }
+    }
+}
+
+void World::push_wires(const Eigen::Vector2d &as2, double rt)
+{
+    for (auto &w : wires_) {
+        if (!w->near(as2, rt)) { w->in_contact = false; continue; }
+        const auto t0 = clock_start();
+        w->push(as2, rt, k_contact_);
+        clock_add(&t_wires_, t0);
+    }
 }
 
 void World::relax_rigid()

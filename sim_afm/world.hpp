@@ -190,6 +190,11 @@ public:
 private:
     using Clock = std::chrono::steady_clock;
     void relax();
+    // relax()'s parts, one Gauss-Seidel sweep each:
+    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt, double *kt);
+    void slide_apex(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal, double kt);
+    void push_particles(const Eigen::Vector2d &as2, double rt, bool chains);
+    void push_wires(const Eigen::Vector2d &as2, double rt);
     void relax_rigid();
     double height_true(double x, double y) const;
     double height_convolved(double x, double y) const;

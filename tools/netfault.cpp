@@ -6,7 +6,7 @@
 // each its verdict:
 //   drop       NF_DROP, only for a datagram on one of --drop-channels (the
 //              lockstep's channels, whose loss the simulator's resend repairs;
-//              a lost display message has no resend, README "Reliability")
+//              a lost display message has no resend, docs/faults.md)
 //   duplicate  NF_ACCEPT, then the same IP packet sent again through a raw
 //              socket marked --mark (the rule lets marked packets pass)
 //   reorder    held without a verdict until the next datagram has been

@@ -1,6 +1,6 @@
 """./afm paper: the paper's experiments run on the bench and analysed from
 the runs' own data, side by side with the paper's values and the
-simulator's truth. See README, "The paper, reproduced"."""
+simulator's truth. See docs/paper.md."""
 import argparse
 import concurrent.futures
 import json

@@ -135,6 +135,62 @@ static void sweep_signals(const fw_board_config_t *c, double fpar, double fz, do
     *sn_v = (fz + g * fx) / c->normal_gain_pn_per_v;
 }
 
+/* The piezo's path: a segment at a time, each curving, straight or along
+ * the lever. */
+typedef struct {
+    double heading;   /* piezo, frame A */
+    double turn;      /* rad per sample */
+    double speed;     /* pm per sample */
+    size_t left;      /* samples left in the segment */
+} bench_seg_t;
+
+/* A new segment (its first sample is a corner). */
+static void new_segment(bench_seg_t *g, double alpha)
+{
+    int kind = (int)(rng_next() % 3u);
+    g->left = BENCH_SEG_MIN + (size_t)(rng_next() % BENCH_SEG_SPAN);
+    g->speed = rng_range(BENCH_SPEED_MIN_PM, BENCH_SPEED_MAX_PM);
+    if (kind == 0) {           /* curving, radius 0.3..3 um */
+        g->turn = g->speed / rng_range(BENCH_RADIUS_MIN_PM, BENCH_RADIUS_MAX_PM);
+        if (rng_next() & 1u) {
+            g->turn = -g->turn;
+        }
+        g->heading = rng_range(-BENCH_PI, BENCH_PI);
+    } else if (kind == 1) {    /* straight, any direction */
+        g->turn = 0.0;
+        g->heading = rng_range(-BENCH_PI, BENCH_PI);
+    } else {                   /* along the lever: theta 0 or pi, exactly or within 3 deg */
+        double off = (rng_next() & 1u) ? 0.0 : rng_range(-3.0, 3.0) * BENCH_PI / 180.0;
+        g->turn = 0.0;
+        g->heading = alpha + ((rng_next() & 1u) ? 0.0 : BENCH_PI) + off;
+    }
+}
+
+/* The apex's direction of motion theta (frame C) and the sample's signals.
+ * Friction opposes the APEX's motion, and the apex moves with the signals
+ * (fw_comp.h): theta = direction of the apex's velocity, piezo step +
+ * R(alpha) C (S(i, theta) - S(i - 1, theta - turn)), found by fixed-point
+ * iteration from the piezo's heading (the apex turns with the piezo on a
+ * smooth path). At a corner the piezo's heading is used. */
+static double apex_theta(const fw_board_config_t *c, const double step_c[2], double th, double turn, int corner, double fpar,
+                         double fz, double fpar_prev, double fz_prev, double *sn_v, double *sl_v)
+{
+    int it;
+    for (it = 0; it < BENCH_APEX_ITER && !corner; it++) {
+        double sn0;
+        double sl0;
+        double dx;
+        double dy;
+        sweep_signals(c, fpar, fz, th, sn_v, sl_v);
+        sweep_signals(c, fpar_prev, fz_prev, th - turn, &sn0, &sl0);
+        dx = c->disp_n_pm_per_v * (*sn_v - sn0);
+        dy = c->disp_l_pm_per_v * (*sl_v - sl0);
+        th = atan2(step_c[1] + dy, step_c[0] + dx);
+    }
+    sweep_signals(c, fpar, fz, th, sn_v, sl_v);
+    return th;
+}
+
 static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
 {
     const fw_board_config_t *c = &a->cfg;
@@ -142,13 +198,10 @@ static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
     double mu = c->mu_ppm * 1e-6;
     double x = c->scan_center_pm[0];
     double y = c->scan_center_pm[1];
-    double heading = 0.0;     /* piezo, frame A */
-    double turn = 0.0;        /* rad per sample */
-    double speed = 300.0;     /* pm per sample */
+    bench_seg_t g = {0.0, 0.0, 300.0, 0};
     double step_c[2];
     double fpar_prev = 0.0;
     double fz_prev = 0.0;
-    size_t seg_left = 0;
     size_t i;
     rng_state = seed;
     for (i = 0; i < n; i++) {
@@ -158,56 +211,21 @@ static void make_sweep(bench_angle_t *a, size_t n, uint64_t seed)
         double fpar;
         double sn_v = 0.0;
         double sl_v = 0.0;
-        int it;
-        if (seg_left == 0) {
-            int kind = (int)(rng_next() % 3u);
-            seg_left = BENCH_SEG_MIN + (size_t)(rng_next() % BENCH_SEG_SPAN);
-            speed = rng_range(BENCH_SPEED_MIN_PM, BENCH_SPEED_MAX_PM);
+        if (g.left == 0) {
+            new_segment(&g, alpha);
             a->corner[i] = 1;
-            if (kind == 0) {           /* curving, radius 0.3..3 um */
-                turn = speed / rng_range(BENCH_RADIUS_MIN_PM, BENCH_RADIUS_MAX_PM);
-                if (rng_next() & 1u) {
-                    turn = -turn;
-                }
-                heading = rng_range(-BENCH_PI, BENCH_PI);
-            } else if (kind == 1) {    /* straight, any direction */
-                turn = 0.0;
-                heading = rng_range(-BENCH_PI, BENCH_PI);
-            } else {                   /* along the lever: theta 0 or pi, exactly or within 3 deg */
-                double off = (rng_next() & 1u) ? 0.0 : rng_range(-3.0, 3.0) * BENCH_PI / 180.0;
-                turn = 0.0;
-                heading = alpha + ((rng_next() & 1u) ? 0.0 : BENCH_PI) + off;
-            }
         }
-        seg_left--;
-        heading += turn;
-        x += speed * cos(heading);
-        y += speed * sin(heading);
-        step_c[0] = speed * cos(heading - alpha);   /* piezo step in frame C */
-        step_c[1] = speed * sin(heading - alpha);
+        g.left--;
+        g.heading += g.turn;
+        x += g.speed * cos(g.heading);
+        y += g.speed * sin(g.heading);
+        step_c[0] = g.speed * cos(g.heading - alpha);   /* piezo step in frame C */
+        step_c[1] = g.speed * sin(g.heading - alpha);
         fz = BENCH_LOAD_MEAN_PN + BENCH_LOAD_AMP_PN * sin(2.0 * BENCH_PI * i / BENCH_LOAD_PERIOD);
         push = BENCH_PUSH_AMP_PN * sin(2.0 * BENCH_PI * i / BENCH_PUSH_PERIOD);
         push = push < 0.0 ? 0.0 : push;
         fpar = mu * (fz + c->adhesion_pn) + push;
-        /* friction opposes the APEX's motion, and the apex moves with the
-         * signals (fw_comp.h): theta = direction of the apex's velocity,
-         * piezo step + R(alpha) C (S(i, theta) - S(i - 1, theta - turn)),
-         * found by fixed-point iteration from the piezo's heading (the
-         * apex turns with the piezo on a smooth path). At a corner the
-         * piezo's heading is used. */
-        th = heading - alpha;
-        for (it = 0; it < BENCH_APEX_ITER && !a->corner[i]; it++) {
-            double sn0;
-            double sl0;
-            double dx;
-            double dy;
-            sweep_signals(c, fpar, fz, th, &sn_v, &sl_v);
-            sweep_signals(c, fpar_prev, fz_prev, th - turn, &sn0, &sl0);
-            dx = c->disp_n_pm_per_v * (sn_v - sn0);
-            dy = c->disp_l_pm_per_v * (sl_v - sl0);
-            th = atan2(step_c[1] + dy, step_c[0] + dx);
-        }
-        sweep_signals(c, fpar, fz, th, &sn_v, &sl_v);
+        th = apex_theta(c, step_c, g.heading - alpha, g.turn, a->corner[i], fpar, fz, fpar_prev, fz_prev, &sn_v, &sl_v);
         fpar_prev = fpar;
         fz_prev = fz;
         a->in[i].sn_uv = (int32_t)clampd(lround(sn_v * 1e6) + rng_range(-BENCH_NOISE_UV, BENCH_NOISE_UV),
@@ -310,24 +328,45 @@ static void usage(FILE *f)
             BENCH_N_DEFAULT, BENCH_REPEATS_DEFAULT, BENCH_BLOCK_DEFAULT);
 }
 
-int main(int argc, char **argv)
-{
-    size_t n = BENCH_N_DEFAULT;
-    int repeats = BENCH_REPEATS_DEFAULT;
-    int n_angles = 0;
+/* The command line (usage()). */
+typedef struct {
+    size_t n;
+    int repeats;
+    int n_angles;
     double angles_deg[BENCH_MAX_ANGLES];
-    bench_angle_t ang[BENCH_MAX_ANGLES];
-    int only_path = -1;
-    int callgrind = 0;
-    int i;
-    int k;
-    int p;
+    int only_path;
+    int callgrind;
+} bench_opts_t;
 
+/* "-a 270,300": the scan angles, at most BENCH_MAX_ANGLES. */
+static void parse_angles(char *s, bench_opts_t *o)
+{
+    o->n_angles = 0;
+    while (*s != '\0' && o->n_angles < BENCH_MAX_ANGLES) {
+        char *end;
+        o->angles_deg[o->n_angles++] = strtod(s, &end);
+        s = (*end == ',') ? end + 1 : end;
+        if (end == s && *s != '\0') {
+            break;
+        }
+    }
+}
+
+/* Reads the command line into o; returns -1 to go on, else the exit code. */
+static int parse_args(int argc, char **argv, bench_opts_t *o)
+{
+    int i;
+    int p;
+    o->n = BENCH_N_DEFAULT;
+    o->repeats = BENCH_REPEATS_DEFAULT;
+    o->n_angles = 0;
+    o->only_path = -1;
+    o->callgrind = 0;
     for (i = 1; i < argc; i++) {
         if (strcmp(argv[i], "-n") == 0 && i + 1 < argc) {
-            n = (size_t)strtoul(argv[++i], NULL, 10);
+            o->n = (size_t)strtoul(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "-r") == 0 && i + 1 < argc) {
-            repeats = atoi(argv[++i]);
+            o->repeats = atoi(argv[++i]);
         } else if (strcmp(argv[i], "-b") == 0 && i + 1 < argc) {
             long v = strtol(argv[++i], NULL, 10);
             if (v < 1 || v > 1000000) {
@@ -336,26 +375,17 @@ int main(int argc, char **argv)
             }
             bench_block = (size_t)v;
         } else if (strcmp(argv[i], "-a") == 0 && i + 1 < argc) {
-            char *s = argv[++i];
-            n_angles = 0;
-            while (*s != '\0' && n_angles < BENCH_MAX_ANGLES) {
-                char *end;
-                angles_deg[n_angles++] = strtod(s, &end);
-                s = (*end == ',') ? end + 1 : end;
-                if (end == s && *s != '\0') {
-                    break;
-                }
-            }
+            parse_angles(argv[++i], o);
         } else if (strcmp(argv[i], "--callgrind") == 0) {
-            callgrind = 1;
+            o->callgrind = 1;
         } else if (strcmp(argv[i], "--path") == 0 && i + 1 < argc) {
             const char *name = argv[++i];
             for (p = 0; p < PATH_COUNT; p++) {
                 if (strcmp(name, path_name[p]) == 0) {
-                    only_path = p;
+                    o->only_path = p;
                 }
             }
-            if (only_path < 0) {
+            if (o->only_path < 0) {
                 fprintf(stderr, "bench_fw: unknown path '%s'\n", name);
                 return 2;
             }
@@ -374,161 +404,209 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    if (n_angles == 0) {
-        angles_deg[0] = 270.0;
-        angles_deg[1] = 300.0;
-        n_angles = 2;
+    if (o->n_angles == 0) {
+        o->angles_deg[0] = 270.0;
+        o->angles_deg[1] = 300.0;
+        o->n_angles = 2;
     }
-    if (n < 100 || repeats < 1) {
+    if (o->n < 100 || o->repeats < 1) {
         fprintf(stderr, "bench_fw: need at least 100 samples and 1 repeat\n");
         return 2;
     }
+    return -1;
+}
 
-    for (k = 0; k < n_angles; k++) {
-        bench_angle_t *a = &ang[k];
-        paper_config(&a->cfg, (int32_t)lround(angles_deg[k] * 1000.0));
-        a->in = malloc(n * sizeof *a->in);
-        a->out_16 = malloc(n * sizeof *a->out_16);
-        a->out_fw = malloc(n * sizeof *a->out_fw);
-        a->out_d = malloc(n * sizeof *a->out_d);
-        a->ref = malloc(n * sizeof *a->ref);
-        a->theta_c = malloc(n * sizeof *a->theta_c);
-        a->corner = calloc(n, 1);
-        if (a->in == NULL || a->out_16 == NULL || a->out_fw == NULL || a->out_d == NULL || a->ref == NULL
-            || a->theta_c == NULL || a->corner == NULL) {
-            fprintf(stderr, "bench_fw: out of memory\n");
-            return 1;
-        }
-        if (fw_board_init(&a->board, &a->cfg) != FW_OK) {
-            fprintf(stderr, "bench_fw: fw_board_init refused the paper's lever\n");
-            return 1;
-        }
-        if (fw_board16_init(&a->q15, &a->cfg) != FW_OK) {
-            fprintf(stderr, "bench_fw: fw_board16_init refused the paper's lever\n");
-            return 1;
-        }
-        bench_ref_init(&a->refp, &a->cfg, a->cfg.adc_bits);
-        bench_ref_init(&a->ref_analog, &a->cfg, 0);
-        make_sweep(a, n, 0x5EEDull + (uint64_t)k * 0x10001ull);
+/* One scan angle's card, references and input sweep; 0, or 1 after saying why. */
+static int setup_angle(bench_angle_t *a, double angle_deg, size_t n, int k)
+{
+    paper_config(&a->cfg, (int32_t)lround(angle_deg * 1000.0));
+    a->in = malloc(n * sizeof *a->in);
+    a->out_16 = malloc(n * sizeof *a->out_16);
+    a->out_fw = malloc(n * sizeof *a->out_fw);
+    a->out_d = malloc(n * sizeof *a->out_d);
+    a->ref = malloc(n * sizeof *a->ref);
+    a->theta_c = malloc(n * sizeof *a->theta_c);
+    a->corner = calloc(n, 1);
+    if (a->in == NULL || a->out_16 == NULL || a->out_fw == NULL || a->out_d == NULL || a->ref == NULL || a->theta_c == NULL
+        || a->corner == NULL) {
+        fprintf(stderr, "bench_fw: out of memory\n");
+        return 1;
     }
+    if (fw_board_init(&a->board, &a->cfg) != FW_OK) {
+        fprintf(stderr, "bench_fw: fw_board_init refused the paper's lever\n");
+        return 1;
+    }
+    if (fw_board16_init(&a->q15, &a->cfg) != FW_OK) {
+        fprintf(stderr, "bench_fw: fw_board16_init refused the paper's lever\n");
+        return 1;
+    }
+    bench_ref_init(&a->refp, &a->cfg, a->cfg.adc_bits);
+    bench_ref_init(&a->ref_analog, &a->cfg, 0);
+    make_sweep(a, n, 0x5EEDull + (uint64_t)k * 0x10001ull);
+    return 0;
+}
 
-    if (callgrind || only_path >= 0) {
-        for (p = 0; p < PATH_COUNT; p++) {
-            char dump[32];
-            if (only_path >= 0 && p != only_path) {
-                continue;
+static void free_angle(bench_angle_t *a)
+{
+    free(a->in);
+    free(a->out_16);
+    free(a->out_fw);
+    free(a->out_d);
+    free(a->ref);
+    free(a->theta_c);
+    free(a->corner);
+}
+
+/* --callgrind or --path: each path's loops between callgrind's requests, no table. */
+static void run_for_callgrind(const bench_opts_t *o, bench_angle_t *ang)
+{
+    int p;
+    int k;
+    for (p = 0; p < PATH_COUNT; p++) {
+        char dump[32];
+        if (o->only_path >= 0 && p != o->only_path) {
+            continue;
+        }
+        for (k = 0; k < o->n_angles; k++) {
+            snprintf(dump, sizeof dump, "bench_%s@%g", path_name[p], o->angles_deg[k]);
+            BENCH_CG_BEGIN();
+            run_path(p, &ang[k], o->n);
+            BENCH_CG_END(dump);
+        }
+    }
+    printf("input samples=%zu\n", o->n * (size_t)o->n_angles);
+}
+
+/* The "input" line: the sweep's ranges and how much of it runs near the lever's axis. */
+static void print_inputs(const bench_opts_t *o, const bench_angle_t *ang)
+{
+    double sn_min = 1e9, sn_max = -1e9, sl_min = 1e9, sl_max = -1e9;
+    size_t near_axis = 0;
+    const size_t n = o->n;
+    int k;
+    for (k = 0; k < o->n_angles; k++) {
+        size_t j;
+        for (j = 0; j < n; j++) {
+            double sn = ang[k].in[j].sn_uv * 1e-6;
+            double sl = ang[k].in[j].sl_uv * 1e-6;
+            sn_min = sn < sn_min ? sn : sn_min;
+            sn_max = sn > sn_max ? sn : sn_max;
+            sl_min = sl < sl_min ? sl : sl_min;
+            sl_max = sl > sl_max ? sl : sl_max;
+            near_axis += fabs(sin(ang[k].theta_c[j])) < 0.25;
+        }
+    }
+    printf("input samples=%zu per_angle=%zu angles=", n * (size_t)o->n_angles, n);
+    for (k = 0; k < o->n_angles; k++) {
+        printf("%s%g", k ? "," : "", o->angles_deg[k]);
+    }
+    printf(" sn_v=%.2f..%.2f sl_v=%.2f..%.2f near_axis_pct=%.1f repeats=%d fs_pn=%.0f fw_block=%zu\n", sn_min, sn_max, sl_min,
+           sl_max, 100.0 * near_axis / (n * (double)o->n_angles), o->repeats, BENCH_FS_PN(&ang[0].cfg), bench_block);
+}
+
+/* A path's force error against the reference over every angle's sweep. */
+typedef struct {
+    double worst, sum2, worst_theta, worst_angle, worst_steady;
+    size_t worst_at, worst_since, over;
+} bench_err_t;
+
+static void path_errors(int p, const bench_opts_t *o, const bench_angle_t *ang, bench_err_t *e)
+{
+    int k;
+    memset(e, 0, sizeof *e);
+    for (k = 0; k < o->n_angles; k++) {
+        size_t j;
+        size_t since_corner = FW_THETA_WINDOW;
+        for (j = 0; j < o->n; j++) {
+            double d2 = 0.0;
+            double d;
+            int c;
+            since_corner = ang[k].corner[j] ? 0 : since_corner + 1;
+            for (c = 0; c < 3; c++) {
+                double v = (p == PATH_FW32) ? ang[k].out_fw[j].force_pn[c]
+                           : (p == PATH_Q15) ? ang[k].out_16[j].force_pn[c] : ang[k].out_d[j][c];
+                double err = v - ang[k].ref[j][c];
+                d2 += err * err;
             }
-            for (k = 0; k < n_angles; k++) {
-                snprintf(dump, sizeof dump, "bench_%s@%g", path_name[p], angles_deg[k]);
-                BENCH_CG_BEGIN();
-                run_path(p, &ang[k], n);
-                BENCH_CG_END(dump);
+            d = sqrt(d2);
+            e->sum2 += d2;
+            e->over += d > BENCH_TARGET_FRAC * BENCH_FS_PN(&ang[k].cfg);
+            if (since_corner >= FW_THETA_WINDOW && d > e->worst_steady) {
+                e->worst_steady = d;
+            }
+            if (d > e->worst) {
+                e->worst = d;
+                e->worst_at = j;
+                e->worst_theta = ang[k].theta_c[j] * 180.0 / BENCH_PI;
+                e->worst_angle = o->angles_deg[k];
+                e->worst_since = since_corner;
             }
         }
-        printf("input samples=%zu\n", n * (size_t)n_angles);
+    }
+}
+
+/* One path's row: the median time per sample over the repeats, its errors. 0, or 1 out of memory. */
+static int bench_path(int p, const bench_opts_t *o, bench_angle_t *ang)
+{
+    double *t = malloc((size_t)o->repeats * sizeof *t);
+    bench_err_t e;
+    int r;
+    int k;
+    if (t == NULL) {
+        return 1;
+    }
+    for (r = 0; r < o->repeats; r++) {
+        double t0 = now_ns();
+        for (k = 0; k < o->n_angles; k++) {
+            run_path(p, &ang[k], o->n);
+        }
+        t[r] = (now_ns() - t0) / (o->n * (double)o->n_angles);
+    }
+    qsort(t, (size_t)o->repeats, sizeof *t, cmp_double);
+    path_errors(p, o, ang, &e);
+    printf("row path=%s ns=%.1f worst_pn=%.1f rms_pn=%.2f worst_pct=%.4f\n", path_name[p], t[o->repeats / 2], e.worst,
+           sqrt(e.sum2 / (o->n * (double)o->n_angles)), 100.0 * e.worst / BENCH_FS_PN(&ang[0].cfg));
+    if (e.worst > 0.0) {
+        printf("note %s: worst at scan %g deg, sample %zu (%zu after a corner), true theta %.1f deg;"
+               " %zu samples over 0.1%% FS; worst outside the %d samples after a corner %.1f pN\n",
+               path_name[p], e.worst_angle, e.worst_at, e.worst_since, e.worst_theta, e.over, FW_THETA_WINDOW, e.worst_steady);
+    }
+    free(t);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    bench_opts_t o;
+    bench_angle_t ang[BENCH_MAX_ANGLES];
+    int code = parse_args(argc, argv, &o);
+    int k;
+    int p;
+    if (code >= 0) {
+        return code;
+    }
+    for (k = 0; k < o.n_angles; k++) {
+        if (setup_angle(&ang[k], o.angles_deg[k], o.n, k) != 0) {
+            return 1;
+        }
+    }
+    if (o.callgrind || o.only_path >= 0) {
+        run_for_callgrind(&o, ang);
         return 0;
     }
-
     /* the reference outputs */
-    for (k = 0; k < n_angles; k++) {
-        run_path(PATH_REF, &ang[k], n);
-        memcpy(ang[k].ref, ang[k].out_d, n * sizeof *ang[k].ref);
+    for (k = 0; k < o.n_angles; k++) {
+        run_path(PATH_REF, &ang[k], o.n);
+        memcpy(ang[k].ref, ang[k].out_d, o.n * sizeof *ang[k].ref);
     }
-
-    {
-        double sn_min = 1e9, sn_max = -1e9, sl_min = 1e9, sl_max = -1e9;
-        size_t near_axis = 0;
-        for (k = 0; k < n_angles; k++) {
-            size_t j;
-            for (j = 0; j < n; j++) {
-                double sn = ang[k].in[j].sn_uv * 1e-6;
-                double sl = ang[k].in[j].sl_uv * 1e-6;
-                sn_min = sn < sn_min ? sn : sn_min;
-                sn_max = sn > sn_max ? sn : sn_max;
-                sl_min = sl < sl_min ? sl : sl_min;
-                sl_max = sl > sl_max ? sl : sl_max;
-                near_axis += fabs(sin(ang[k].theta_c[j])) < 0.25;
-            }
-        }
-        printf("input samples=%zu per_angle=%zu angles=", n * (size_t)n_angles, n);
-        for (k = 0; k < n_angles; k++) {
-            printf("%s%g", k ? "," : "", angles_deg[k]);
-        }
-        printf(" sn_v=%.2f..%.2f sl_v=%.2f..%.2f near_axis_pct=%.1f repeats=%d fs_pn=%.0f fw_block=%zu\n",
-               sn_min, sn_max, sl_min, sl_max, 100.0 * near_axis / (n * (double)n_angles),
-               repeats, BENCH_FS_PN(&ang[0].cfg), bench_block);
-    }
-
+    print_inputs(&o, ang);
     for (p = 0; p < PATH_COUNT; p++) {
-        double *t = malloc((size_t)repeats * sizeof *t);
-        double worst = 0.0;
-        double sum2 = 0.0;
-        double worst_theta = 0.0;
-        double worst_angle = 0.0;
-        size_t worst_at = 0;
-        size_t worst_since = 0;
-        size_t over = 0;
-        double worst_steady = 0.0;
-        int r;
-        if (t == NULL) {
+        if (bench_path(p, &o, ang) != 0) {
             return 1;
         }
-        for (r = 0; r < repeats; r++) {
-            double t0 = now_ns();
-            for (k = 0; k < n_angles; k++) {
-                run_path(p, &ang[k], n);
-            }
-            t[r] = (now_ns() - t0) / (n * (double)n_angles);
-        }
-        qsort(t, (size_t)repeats, sizeof *t, cmp_double);
-        for (k = 0; k < n_angles; k++) {
-            size_t j;
-            size_t since_corner = FW_THETA_WINDOW;
-            for (j = 0; j < n; j++) {
-                double d2 = 0.0;
-                double d;
-                int c;
-                since_corner = ang[k].corner[j] ? 0 : since_corner + 1;
-                for (c = 0; c < 3; c++) {
-                    double v = (p == PATH_FW32) ? ang[k].out_fw[j].force_pn[c]
-                               : (p == PATH_Q15) ? ang[k].out_16[j].force_pn[c] : ang[k].out_d[j][c];
-                    double e = v - ang[k].ref[j][c];
-                    d2 += e * e;
-                }
-                d = sqrt(d2);
-                sum2 += d2;
-                over += d > BENCH_TARGET_FRAC * BENCH_FS_PN(&ang[k].cfg);
-                if (since_corner >= FW_THETA_WINDOW && d > worst_steady) {
-                    worst_steady = d;
-                }
-                if (d > worst) {
-                    worst = d;
-                    worst_at = j;
-                    worst_theta = ang[k].theta_c[j] * 180.0 / BENCH_PI;
-                    worst_angle = angles_deg[k];
-                    worst_since = since_corner;
-                }
-            }
-        }
-        printf("row path=%s ns=%.1f worst_pn=%.1f rms_pn=%.2f worst_pct=%.4f\n", path_name[p],
-               t[repeats / 2], worst, sqrt(sum2 / (n * (double)n_angles)),
-               100.0 * worst / BENCH_FS_PN(&ang[0].cfg));
-        if (worst > 0.0) {
-            printf("note %s: worst at scan %g deg, sample %zu (%zu after a corner), true theta %.1f deg;"
-                   " %zu samples over 0.1%% FS; worst outside the %d samples after a corner %.1f pN\n",
-                   path_name[p], worst_angle, worst_at, worst_since, worst_theta, over,
-                   FW_THETA_WINDOW, worst_steady);
-        }
-        free(t);
     }
-    for (k = 0; k < n_angles; k++) {
-        free(ang[k].in);
-        free(ang[k].out_16);
-        free(ang[k].out_fw);
-        free(ang[k].out_d);
-        free(ang[k].ref);
-        free(ang[k].theta_c);
-        free(ang[k].corner);
+    for (k = 0; k < o.n_angles; k++) {
+        free_angle(&ang[k]);
     }
     return 0;
 }

@@ -30,13 +30,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "bus.hpp"
 #include "bus_tap.hpp"
+#include "process.hpp"
 
 namespace {
 
@@ -170,60 +172,94 @@ Row measure(lcm::LCM &lc, afm::BusTap *tap, int bytes, int count)
     return r;
 }
 
+// The command line (kUsage).
+struct Options {
+    std::vector<int> sizes = {49, 57, 76, 836, 2056};
+    int count = 2000;
+    std::string json_path;
+};
+
+// "--sizes 49,836": false (after saying why) unless every size is a size in bytes the probe can send.
+bool parse_sizes(const std::string &v, std::vector<int> *sizes)
+{
+    sizes->clear();
+    for (std::size_t p = 0; p <= v.size();) {
+        const std::size_t q = std::min(v.find(',', p), v.size());
+        const int b = std::atoi(v.substr(p, q - p).c_str());
+        if (b < static_cast<int>(kStampBytes) || b > 60000) {
+            std::fprintf(stderr, "bench_bus: --sizes: '%s' is not a size in bytes from %zu to 60000\n", v.substr(p, q - p).c_str(),
+                         kStampBytes);
+            return false;
+        }
+        sizes->push_back(b);
+        p = q + 1;
+    }
+    return true;
+}
+
+// Reads the command line; -1 to go on, else the exit code.
+int parse_args(int argc, char **argv, Options *o)
+{
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        const bool takes_value = a == "--sizes" || a == "--count" || a == "--receive" || a == "--json";
+        if (takes_value && i + 1 >= argc) {
+            std::fprintf(stderr, "bench_bus: %s needs a value\n%s", a.c_str(), kUsage);
+            return afm::kExitInput;
+        }
+        if (a == "--sizes") {
+            if (!parse_sizes(argv[++i], &o->sizes)) return afm::kExitInput;
+        } else if (a == "--count") {
+            o->count = std::atoi(argv[++i]);
+            if (o->count < 10) {
+                std::fprintf(stderr, "bench_bus: --count must be at least 10\n");
+                return afm::kExitInput;
+            }
+        } else if (a == "--receive") {
+            const std::string v = argv[++i];
+            if (v != "tap" && v != "liblcm") {
+                std::fprintf(stderr, "bench_bus: --receive: '%s' is neither tap nor liblcm\n", v.c_str());
+                return afm::kExitInput;
+            }
+            g_tap = v == "tap";
+        } else if (a == "--json") {
+            o->json_path = argv[++i];
+        } else if (a == "-h" || a == "--help") {
+            std::fputs(kUsage, stdout);
+            return afm::kExitOk;
+        } else {
+            std::fprintf(stderr, "bench_bus: unknown argument '%s'\n%s", a.c_str(), kUsage);
+            return afm::kExitInput;
+        }
+    }
+    return -1;
+}
+
+void print_rows(const std::vector<Row> &rows)
+{
+    std::printf("%8s %8s %12s %12s %12s %12s\n", "bytes", "answered", "one-way med", "one-way p99", "round med", "round p99");
+    for (const Row &r : rows)
+        std::printf("%8d %4d/%-4d %9.1f us %9.1f us %9.1f us %9.1f us\n", r.bytes, r.answered, r.sent, r.one_way.median_us,
+                    r.one_way.p99_us, r.round_trip.median_us, r.round_trip.p99_us);
+}
+
+nlohmann::json rows_json(const std::vector<Row> &rows)
+{
+    nlohmann::json out = nlohmann::json::array();
+    for (const Row &r : rows)
+        out.push_back({{"bytes", r.bytes}, {"sent", r.sent}, {"answered", r.answered}, {"one_way_median_us", r.one_way.median_us},
+                       {"one_way_p99_us", r.one_way.p99_us}, {"round_trip_median_us", r.round_trip.median_us},
+                       {"round_trip_p99_us", r.round_trip.p99_us}});
+    return out;
+}
+
 }  // namespace
 
 int main(int argc, char **argv)
 {
-    std::vector<int> sizes = {49, 57, 76, 836, 2056};
-    int count = 2000;
-    std::string json_path;
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        auto val = [&]() -> std::string {
-            if (i + 1 >= argc) {
-                std::fprintf(stderr, "bench_bus: %s needs a value\n%s", a.c_str(), kUsage);
-                std::exit(2);
-            }
-            return argv[++i];
-        };
-        if (a == "--sizes") {
-            sizes.clear();
-            const std::string v = val();
-            for (std::size_t p = 0; p <= v.size();) {
-                const std::size_t q = std::min(v.find(',', p), v.size());
-                const int b = std::atoi(v.substr(p, q - p).c_str());
-                if (b < static_cast<int>(kStampBytes) || b > 60000) {
-                    std::fprintf(stderr, "bench_bus: --sizes: '%s' is not a size in bytes from %zu to 60000\n", v.substr(p, q - p).c_str(),
-                                 kStampBytes);
-                    return 2;
-                }
-                sizes.push_back(b);
-                p = q + 1;
-            }
-        } else if (a == "--count") {
-            count = std::atoi(val().c_str());
-            if (count < 10) {
-                std::fprintf(stderr, "bench_bus: --count must be at least 10\n");
-                return 2;
-            }
-        } else if (a == "--receive") {
-            const std::string v = val();
-            if (v != "tap" && v != "liblcm") {
-                std::fprintf(stderr, "bench_bus: --receive: '%s' is neither tap nor liblcm\n", v.c_str());
-                return 2;
-            }
-            g_tap = v == "tap";
-        } else if (a == "--json") {
-            json_path = val();
-        } else if (a == "-h" || a == "--help") {
-            std::fputs(kUsage, stdout);
-            return 0;
-        } else {
-            std::fprintf(stderr, "bench_bus: unknown argument '%s'\n%s", a.c_str(), kUsage);
-            return 2;
-        }
-    }
-    try {
+    Options o;
+    if (const int code = parse_args(argc, argv, &o); code >= 0) return code;
+    return afm::run_process("bench_bus", [&] {
         auto lc = afm::open_bus();   // refuses a bus not confined to loopback
         const pid_t kid = fork();
         if (kid < 0) throw std::runtime_error("fork failed");
@@ -234,28 +270,11 @@ int main(int argc, char **argv)
             tap->accept_only({kPong});
         }
         std::vector<Row> rows;
-        for (int b : sizes) rows.push_back(measure(*lc, tap.get(), b, count));
+        for (int b : o.sizes) rows.push_back(measure(*lc, tap.get(), b, o.count));
         kill(kid, SIGTERM);
         waitpid(kid, nullptr, 0);
-        std::printf("%8s %8s %12s %12s %12s %12s\n", "bytes", "answered", "one-way med", "one-way p99", "round med", "round p99");
-        for (const Row &r : rows)
-            std::printf("%8d %4d/%-4d %9.1f us %9.1f us %9.1f us %9.1f us\n", r.bytes, r.answered, r.sent, r.one_way.median_us,
-                        r.one_way.p99_us, r.round_trip.median_us, r.round_trip.p99_us);
-        if (!json_path.empty()) {
-            std::ofstream f(json_path);
-            f << "[";
-            for (std::size_t i = 0; i < rows.size(); ++i) {
-                const Row &r = rows[i];
-                f << (i ? ",\n " : "") << "{\"bytes\": " << r.bytes << ", \"sent\": " << r.sent << ", \"answered\": " << r.answered
-                  << ", \"one_way_median_us\": " << r.one_way.median_us << ", \"one_way_p99_us\": " << r.one_way.p99_us
-                  << ", \"round_trip_median_us\": " << r.round_trip.median_us << ", \"round_trip_p99_us\": " << r.round_trip.p99_us << "}";
-            }
-            f << "]\n";
-            if (!f) throw std::runtime_error("cannot write " + json_path);
-        }
-        return 0;
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "bench_bus: %s\n", e.what());
-        return 1;
-    }
+        print_rows(rows);
+        if (!o.json_path.empty()) afm::write_report(o.json_path, rows_json(rows));
+        return static_cast<int>(afm::kExitOk);
+    });
 }

@@ -12,9 +12,10 @@
  * its end then tilts nose-up and swings the apex towards the free end, +x_C,
  * by h times the slope, i.e. +C_n S_n (C_n = 3 h K_n / (2 l)). The same
  * holds for the moment of F_x (eq. 1c: it adds to S_n and displaces the apex
- * along +F_x, as a spring must). physics.md section 4 prints -C_n S_n, which
- * contradicts its section 1 with x from base to tip; the paper (II-E) also
- * finds the lines shifting along +x_C with deeper pushes.
+ * along +F_x, as a spring must). docs/physics.md section 4 gives the same
+ * +C_n S_n (an earlier version of the notes printed -C_n S_n, which put the
+ * apex estimate about 22 nm off); the paper (II-E) also finds the lines
+ * shifting along +x_C with deeper pushes.
  *
  * The joystick is 1.15 in [-1, 1); full deflection with kappa = 1 reaches
  * centre +- r_half (r_half = r_scan / 2), i.e. kappa r_scan p_joy with p_joy

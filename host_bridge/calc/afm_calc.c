@@ -353,6 +353,44 @@ static int cmd_calib_lines(int argc, char **argv)
 
 /* ---- model wire --------------------------------------------------------- */
 
+/* model wire's answer: JSON, or lines for people. */
+static void print_wire(bool s_defined, int32_t s_pm, double k, double f_min_nn, double f, const char *regime, double lambda, double at,
+                       double len, bool json)
+{
+    if (json) {
+        printf("{\"command\": \"model wire\", \"status\": \"ok\", ");
+        if (s_defined) {
+            printf("\"static_point_nm\": %.3f, ", fwu_nm_from_pm(s_pm));
+        } else {
+            printf("\"static_point_nm\": null, ");
+        }
+        printf("\"min_force_per_fL\": %.6f, \"min_force_nN\": %.6f, \"regime\": \"%s\", "
+               "\"aspect_ratio\": %.3f, \"rigid_rod_model_valid\": %s}\n",
+               k, f_min_nn, regime, lambda, lambda <= 15.0 ? "true" : "false");
+    } else {
+        printf("rigid rod pushed at l = %g nm of L = %g nm (firmware fw_wire_static_point)\n", at, len);
+        if (s_defined) {
+            printf("  static point S         %.3f nm from end A\n", fwu_nm_from_pm(s_pm));
+        } else {
+            printf("  static point S         none: pure translation (bifurcation at L/2)\n");
+        }
+        printf("  regime                 %s\n", regime);
+        printf("  F_min / (f L)          %.6f\n", k);
+        printf("  F_min                  %.6f nN (f = %g nN/um)\n", f_min_nn, f);
+        printf("  aspect ratio L/d       %.2f%s\n", lambda,
+               lambda <= 15.0 ? "" : "  (above 15: the rod bends, rigid model out of scope)");
+        printf("  status                 ok\n");
+    }
+}
+
+static void help_model_wire(void)
+{
+    printf("usage: afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]\n"
+           "  Rigid rod pushed perpendicular to its axis at l from end A (physics.md section 6):\n"
+           "  static point S (distance from A; none at l = L/2), minimum push F_min / (f L)\n"
+           "  (0.414 at an end, 1 at the middle) and F_min for friction density f (default 1 nN/um).\n");
+}
+
 static int cmd_model_wire(int argc, char **argv)
 {
     const char *cmd = "model wire";
@@ -373,10 +411,7 @@ static int cmd_model_wire(int argc, char **argv)
     double f_min_nn;
     double lambda;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc model wire --length-nm L --diameter-nm D --push-at-nm l [--f-nN-per-um f] [--json]\n"
-               "  Rigid rod pushed perpendicular to its axis at l from end A (physics.md section 6):\n"
-               "  static point S (distance from A; none at l = L/2), minimum push F_min / (f L)\n"
-               "  (0.414 at an end, 1 at the middle) and F_min for friction density f (default 1 nN/um).\n");
+        help_model_wire();
         return 0;
     }
     if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
@@ -412,30 +447,7 @@ static int cmd_model_wire(int argc, char **argv)
         }
         f_min_nn = fwu_nn_from_pn(fw_wire_push_threshold_pn(st.k, fw_wire_friction_pn(&tip, &w), &sat));
     }
-    if (o[4].value != NULL) {
-        printf("{\"command\": \"model wire\", \"status\": \"ok\", ");
-        if (st.s_defined) {
-            printf("\"static_point_nm\": %.3f, ", fwu_nm_from_pm(st.s_pm));
-        } else {
-            printf("\"static_point_nm\": null, ");
-        }
-        printf("\"min_force_per_fL\": %.6f, \"min_force_nN\": %.6f, \"regime\": \"%s\", "
-               "\"aspect_ratio\": %.3f, \"rigid_rod_model_valid\": %s}\n",
-               k, f_min_nn, regime, lambda, lambda <= 15.0 ? "true" : "false");
-    } else {
-        printf("rigid rod pushed at l = %g nm of L = %g nm (firmware fw_wire_static_point)\n", at, len);
-        if (st.s_defined) {
-            printf("  static point S         %.3f nm from end A\n", fwu_nm_from_pm(st.s_pm));
-        } else {
-            printf("  static point S         none: pure translation (bifurcation at L/2)\n");
-        }
-        printf("  regime                 %s\n", regime);
-        printf("  F_min / (f L)          %.6f\n", k);
-        printf("  F_min                  %.6f nN (f = %g nN/um)\n", f_min_nn, f);
-        printf("  aspect ratio L/d       %.2f%s\n", lambda,
-               lambda <= 15.0 ? "" : "  (above 15: the rod bends, rigid model out of scope)");
-        printf("  status                 ok\n");
-    }
+    print_wire(st.s_defined, st.s_pm, k, f_min_nn, f, regime, lambda, at, len, o[4].value != NULL);
     return 0;
 }
 
@@ -533,6 +545,45 @@ static int probe_read(const char *cmd, const char *path, probe_t *p)
     return 0;
 }
 
+/* calc force's answer: JSON, or lines for people. */
+static void print_force(const int32_t fa[3], const int32_t fc[3], uint32_t flags, bool json)
+{
+    if (json) {
+        printf("{\"command\": \"calc force\", \"status\": \"ok\", \"fx_nN\": %.3f, \"fy_nN\": %.3f, \"fz_nN\": %.3f, "
+               "\"frame\": \"AFM\", \"fx_cantilever_nN\": %.3f, \"fy_cantilever_nN\": %.3f, "
+               "\"fx_unobservable\": %s, \"saturated\": %s}\n",
+               fwu_nn_from_pn(fa[0]), fwu_nn_from_pn(fa[1]), fwu_nn_from_pn(fa[2]), fwu_nn_from_pn(fc[0]), fwu_nn_from_pn(fc[1]),
+               (flags & FW_FLAG_FX_UNOBSERVABLE) ? "true" : "false",
+               (flags & FW_FLAG_SAT_FORCE) ? "true" : "false");
+    } else {
+        printf("force of the sample on the tip (firmware fw_force_solve_pn), AFM frame\n");
+        printf("  F_x                    %.3f nN\n", fwu_nn_from_pn(fa[0]));
+        printf("  F_y                    %.3f nN\n", fwu_nn_from_pn(fa[1]));
+        printf("  F_z                    %.3f nN\n", fwu_nn_from_pn(fa[2]));
+        printf("  cantilever frame       F_x %.3f nN, F_y %.3f nN\n", fwu_nn_from_pn(fc[0]), fwu_nn_from_pn(fc[1]));
+        if (flags & FW_FLAG_FX_UNOBSERVABLE) {
+            printf("  note                   |sin theta| < 1/4: F_x from the friction fallback (blended)\n");
+        }
+        if (flags & FW_FLAG_SAT_FORCE) {
+            printf("  note                   a force was clamped to the firmware's int32 pN range\n");
+        }
+        printf("  status                 ok\n");
+    }
+}
+
+static void help_calc_force(void)
+{
+    printf("usage: afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]\n"
+           "  Force of the sample on the tip (physics.md section 1, eq. 1a-1c, 3) from the\n"
+           "  photodiode signals S_n, S_l (volts, |S| < 256), the tip's direction of motion T\n"
+           "  in the cantilever frame and the scan angle A (alpha = A - 270 deg); printed in\n"
+           "  the AFM frame, nN. Near T = 0 or 180 deg (|sin T| < 1/4) F_x comes (partly) from\n"
+           "  the friction fallback mu (F_z + F_adh).\n"
+           "  --probe FILE: 'key = value' lines (spring_N_per_m, deflection_nm_per_V, lateral_nN_per_V,\n"
+           "  tip_height_um, lever_length_um, mu, adhesion_nN); default: the paper's probe\n"
+           "  (0.12 N/m, 89 nm/V, 37.9 nN/V, h 17.3 um, l 100 um, mu 0.0865, no adhesion).\n");
+}
+
 static int cmd_calc_force(int argc, char **argv)
 {
     const char *cmd = "calc force";
@@ -556,15 +607,7 @@ static int cmd_calc_force(int argc, char **argv)
     uint32_t flags = 0;
     bool sat = false;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc calc force --sn V --sl V --theta-deg T --scan-angle-deg A [--probe FILE] [--json]\n"
-               "  Force of the sample on the tip (physics.md section 1, eq. 1a-1c, 3) from the\n"
-               "  photodiode signals S_n, S_l (volts, |S| < 256), the tip's direction of motion T\n"
-               "  in the cantilever frame and the scan angle A (alpha = A - 270 deg); printed in\n"
-               "  the AFM frame, nN. Near T = 0 or 180 deg (|sin T| < 1/4) F_x comes (partly) from\n"
-               "  the friction fallback mu (F_z + F_adh).\n"
-               "  --probe FILE: 'key = value' lines (spring_N_per_m, deflection_nm_per_V, lateral_nN_per_V,\n"
-               "  tip_height_um, lever_length_um, mu, adhesion_nN); default: the paper's probe\n"
-               "  (0.12 N/m, 89 nm/V, 37.9 nN/V, h 17.3 um, l 100 um, mu 0.0865, no adhesion).\n");
+        help_calc_force();
         return 0;
     }
     if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
@@ -601,27 +644,7 @@ static int cmd_calc_force(int argc, char **argv)
     if (sat) {
         flags |= FW_FLAG_SAT_FORCE;
     }
-    if (o[5].value != NULL) {
-        printf("{\"command\": \"calc force\", \"status\": \"ok\", \"fx_nN\": %.3f, \"fy_nN\": %.3f, \"fz_nN\": %.3f, "
-               "\"frame\": \"AFM\", \"fx_cantilever_nN\": %.3f, \"fy_cantilever_nN\": %.3f, "
-               "\"fx_unobservable\": %s, \"saturated\": %s}\n",
-               fwu_nn_from_pn(fa[0]), fwu_nn_from_pn(fa[1]), fwu_nn_from_pn(fa[2]), fwu_nn_from_pn(fc[0]), fwu_nn_from_pn(fc[1]),
-               (flags & FW_FLAG_FX_UNOBSERVABLE) ? "true" : "false",
-               (flags & FW_FLAG_SAT_FORCE) ? "true" : "false");
-    } else {
-        printf("force of the sample on the tip (firmware fw_force_solve_pn), AFM frame\n");
-        printf("  F_x                    %.3f nN\n", fwu_nn_from_pn(fa[0]));
-        printf("  F_y                    %.3f nN\n", fwu_nn_from_pn(fa[1]));
-        printf("  F_z                    %.3f nN\n", fwu_nn_from_pn(fa[2]));
-        printf("  cantilever frame       F_x %.3f nN, F_y %.3f nN\n", fwu_nn_from_pn(fc[0]), fwu_nn_from_pn(fc[1]));
-        if (flags & FW_FLAG_FX_UNOBSERVABLE) {
-            printf("  note                   |sin theta| < 1/4: F_x from the friction fallback (blended)\n");
-        }
-        if (flags & FW_FLAG_SAT_FORCE) {
-            printf("  note                   a force was clamped to the firmware's int32 pN range\n");
-        }
-        printf("  status                 ok\n");
-    }
+    print_force(fa, fc, flags, o[5].value != NULL);
     return 0;
 }
 
@@ -659,6 +682,52 @@ static int cmd_calc_probe(int argc, char **argv)
 
 /* ---- model squeeze ------------------------------------------------------ */
 
+/* model squeeze's answer: JSON, or lines for people. */
+static void print_squeeze(q30_t k, double psi_deg, const fw_squeeze_t *sq_in, bool squeezed, double at, double len, bool json)
+{
+    const fw_squeeze_t sq = *sq_in;
+    if (json) {
+        printf("{\"command\": \"model squeeze\", \"status\": \"ok\", \"k\": %.6f, \"psi_deg\": %.6f, "
+               "\"psi_max_deg\": %.6f, \"squeezed\": %s, ",
+               fwu_from_q30(k), psi_deg, fw_math_mdeg_from_bam(sq.psi_max) * 1e-3,
+               squeezed ? "true" : "false");
+        if (squeezed) {
+            printf("\"f_r_nN\": null, \"push_nN\": null, \"df_nN\": null, \"saturated\": false}\n");
+        } else {
+            printf("\"f_r_nN\": %.6f, \"push_nN\": %.6f, \"df_nN\": %.6f, \"saturated\": %s}\n",
+                   fwu_nn_from_pn(sq.f_r_pn), fwu_nn_from_pn(sq.push_pn), fwu_nn_from_pn(sq.df_pn),
+                   (sq.flags & FW_FLAG_SAT_FORCE) != 0u ? "true" : "false");
+        }
+    } else {
+        printf("tip-substrate-wire squeeze at l = %g nm of L = %g nm (firmware fw_wire_squeeze_solve)\n", at, len);
+        printf("  k(l)                   %.6f\n", fwu_from_q30(k));
+        printf("  psi = gamma + |twist|  %.4f deg\n", psi_deg);
+        printf("  psi_max                %.4f deg\n", fw_math_mdeg_from_bam(sq.psi_max) * 1e-3);
+        if (squeezed) {
+            printf("  regime                 squeeze: psi >= psi_max, no push moves the rod\n");
+        } else {
+            printf("  F_r (29)               %.4f nN%s\n", fwu_nn_from_pn(sq.f_r_pn),
+                   (sq.flags & FW_FLAG_SAT_FORCE) != 0u ? "  (saturated)" : "");
+            printf("  push F_r cos psi       %.4f nN\n", fwu_nn_from_pn(sq.push_pn));
+            printf("  dF (30)                %.4f nN%s\n", fwu_nn_from_pn(sq.df_pn),
+                   sq.df_pn <= 0 ? "  (adhesion alone holds the tip)" : "");
+        }
+        printf("  status                 ok\n");
+    }
+}
+
+static void help_model_squeeze(void)
+{
+    printf("usage: afm_calc model squeeze --length-nm L --push-at-nm l --gamma-deg G --mu MU --fl-nN FL\n"
+           "                              --fa-ts-nN F [--twist-deg T] [--json]\n"
+           "  Tip-substrate-wire squeeze (physics.md section 7, eq. 29-30) by the firmware's\n"
+           "  fw_wire_squeeze_solve: a rod of length L pushed at l (k(l) of section 6) by a cone\n"
+           "  of half angle G twisted by T (psi = G + |T|), wire-substrate mu, the rod's own\n"
+           "  friction FL = mu F_a,os + tau A (nN) and tip-substrate adhesion F_a,ts (nN).\n"
+           "  Prints psi_max = atan(1 / (k mu)), F_r (29), its horizontal part (the push that\n"
+           "  moves the rod), dF = F_r sin psi - F_a,ts (30), or that the tip squeezes the rod.\n");
+}
+
 static int cmd_model_squeeze(int argc, char **argv)
 {
     const char *cmd = "model squeeze";
@@ -681,14 +750,7 @@ static int cmd_model_squeeze(int argc, char **argv)
     fw_bam_t psi;
     bool squeezed;
     if (wants_help(argc, argv)) {
-        printf("usage: afm_calc model squeeze --length-nm L --push-at-nm l --gamma-deg G --mu MU --fl-nN FL\n"
-               "                              --fa-ts-nN F [--twist-deg T] [--json]\n"
-               "  Tip-substrate-wire squeeze (physics.md section 7, eq. 29-30) by the firmware's\n"
-               "  fw_wire_squeeze_solve: a rod of length L pushed at l (k(l) of section 6) by a cone\n"
-               "  of half angle G twisted by T (psi = G + |T|), wire-substrate mu, the rod's own\n"
-               "  friction FL = mu F_a,os + tau A (nN) and tip-substrate adhesion F_a,ts (nN).\n"
-               "  Prints psi_max = atan(1 / (k mu)), F_r (29), its horizontal part (the push that\n"
-               "  moves the rod), dF = F_r sin psi - F_a,ts (30), or that the tip squeezes the rod.\n");
+        help_model_squeeze();
         return 0;
     }
     if (parse_opts(cmd, argc, argv, o, (int)(sizeof o / sizeof o[0])) != 0
@@ -721,34 +783,7 @@ static int cmd_model_squeeze(int argc, char **argv)
         return refuse("%s: the firmware refuses these values (%s)", cmd, status_name(s));
     }
     squeezed = s == FW_ERR_DOMAIN;
-    if (o[7].value != NULL) {
-        printf("{\"command\": \"model squeeze\", \"status\": \"ok\", \"k\": %.6f, \"psi_deg\": %.6f, "
-               "\"psi_max_deg\": %.6f, \"squeezed\": %s, ",
-               fwu_from_q30(st.k), gamma + fabs(twist), fw_math_mdeg_from_bam(sq.psi_max) * 1e-3,
-               squeezed ? "true" : "false");
-        if (squeezed) {
-            printf("\"f_r_nN\": null, \"push_nN\": null, \"df_nN\": null, \"saturated\": false}\n");
-        } else {
-            printf("\"f_r_nN\": %.6f, \"push_nN\": %.6f, \"df_nN\": %.6f, \"saturated\": %s}\n",
-                   fwu_nn_from_pn(sq.f_r_pn), fwu_nn_from_pn(sq.push_pn), fwu_nn_from_pn(sq.df_pn),
-                   (sq.flags & FW_FLAG_SAT_FORCE) != 0u ? "true" : "false");
-        }
-    } else {
-        printf("tip-substrate-wire squeeze at l = %g nm of L = %g nm (firmware fw_wire_squeeze_solve)\n", at, len);
-        printf("  k(l)                   %.6f\n", fwu_from_q30(st.k));
-        printf("  psi = gamma + |twist|  %.4f deg\n", gamma + fabs(twist));
-        printf("  psi_max                %.4f deg\n", fw_math_mdeg_from_bam(sq.psi_max) * 1e-3);
-        if (squeezed) {
-            printf("  regime                 squeeze: psi >= psi_max, no push moves the rod\n");
-        } else {
-            printf("  F_r (29)               %.4f nN%s\n", fwu_nn_from_pn(sq.f_r_pn),
-                   (sq.flags & FW_FLAG_SAT_FORCE) != 0u ? "  (saturated)" : "");
-            printf("  push F_r cos psi       %.4f nN\n", fwu_nn_from_pn(sq.push_pn));
-            printf("  dF (30)                %.4f nN%s\n", fwu_nn_from_pn(sq.df_pn),
-                   sq.df_pn <= 0 ? "  (adhesion alone holds the tip)" : "");
-        }
-        printf("  status                 ok\n");
-    }
+    print_squeeze(st.k, gamma + fabs(twist), &sq, squeezed, at, len, o[7].value != NULL);
     return 0;
 }
 

@@ -45,7 +45,6 @@ static inline double fwu_from_q(int64_t q, int frac) { return ldexp((double)q, -
 
 /* lengths */
 static inline int32_t fwu_pm_from_nm(double nm) { return fwu_i32(nm * 1e3); }
-static inline int32_t fwu_pm_from_um(double um) { return fwu_i32(um * 1e6); }
 static inline int32_t fwu_nm_from_um(double um) { return fwu_i32(um * 1e3); }
 static inline double fwu_nm_from_pm(int64_t pm) { return (double)pm * 1e-3; }
 /* forces */
@@ -59,7 +58,6 @@ static inline double fwu_n_per_nn_from_un_per_pn(int64_t un_per_pn) { return (do
 /* voltages and gains per volt */
 static inline int32_t fwu_uv_from_v(double v) { return fwu_i32(v * 1e6); }
 static inline q23_t fwu_q23_from_v(double v) { return fwu_q(v, FW_Q23_FRAC); }
-static inline double fwu_v_from_q23(q23_t q) { return fwu_from_q(q, FW_Q23_FRAC); }
 static inline int32_t fwu_pm_per_v_from_nm_per_v(double nm_per_v) { return fwu_i32(nm_per_v * 1e3); }
 static inline int32_t fwu_pn_per_v_from_nn_per_v(double nn_per_v) { return fwu_i32(nn_per_v * 1e3); }
 static inline double fwu_nn_per_v_from_pn_per_v(int64_t pn_per_v) { return (double)pn_per_v * 1e-3; }
@@ -74,7 +72,6 @@ static inline q15_t fwu_q15_from_unit(double v)
     int32_t q = fwu_q(v, FW_Q15_FRAC);
     return (q15_t)(q > FW_Q15_MAX ? FW_Q15_MAX : (q < FW_Q15_MIN ? FW_Q15_MIN : q));
 }
-static inline double fwu_unit_from_q15(int32_t q) { return fwu_from_q(q, FW_Q15_FRAC); }
 static inline q16_t fwu_q16(double v) { return fwu_q(v, FW_Q16_FRAC); }
 static inline q24_t fwu_q24(double v) { return fwu_q(v, FW_Q24_FRAC); }
 static inline q30_t fwu_q30(double v) { return fwu_q(v, FW_Q30_FRAC); }

@@ -685,110 +685,144 @@ bool Planner::push_wire_end(int wire_id, bool end_b, double dn_nm)
 
 void Planner::run_wires()
 {
-    const PlanSpec &ps = s_.op.plan;
     for (const WireTargetSpec &t : s_.wire_targets) {
         PlanItem item;
         item.kind = "wire";
         item.id = t.id;
         item.target_nm = {t.x_nm, t.y_nm};
         item.target_angle_deg = t.angle_deg;
-        const int max_pushes = 10 * ps.max_pushes;
-        bool carrying = true;
-        Vec2 lastA, lastB;
-        int unmoved = 0;
-        while (true) {
-            const wire_t *w = nullptr;
-            for (const auto &x : model_->wires)
-                if (x.id == t.id) w = &x;
-            if (!w || w->n < 2) {
-                item.why = "not in the firmware's model";
-                break;
-            }
-            const Vec2 A{w->x_nm[0], w->y_nm[0]}, B{w->x_nm[w->n - 1], w->y_nm[w->n - 1]};
-            const double L = norm(B - A);
-            const Vec2 a = unit(B - A), n = perp(a), C = 0.5 * (A + B);
-            // The target's ends, labelled to need the smaller turn.
-            const double th = t.angle_deg * kPi / 180;
-            Vec2 ta{std::cos(th), std::sin(th)};
-            if (dot(ta, a) < 0) ta = -1.0 * ta;
-            const Vec2 T = item.target_nm + drift();
-            const Vec2 As = T - (L / 2) * ta, Bs = T + (L / 2) * ta;
-            item.error_nm = std::max(norm(As - A), norm(Bs - B));
-            if (item.error_nm <= ps.wire_tolerance_nm) break;
-            // Held along its whole length by a trench that also holds the
-            // target pose: in the trench it was meant for, and no deeper.
-            fw_wire_t rod{}, at_target{};
-            wire_t target_rod = *w;
-            target_rod.x_nm = {As.x, Bs.x};
-            target_rod.y_nm = {As.y, Bs.y};
-            target_rod.n = 2;
-            if (rod_model(*w, &rod) && rod.held == 0xffffffffu && rod_model(target_rod, &at_target) && at_target.held == 0xffffffffu) {
-                item.note = "held along its whole length by the trench its target lies in";
-                break;
-            }
-            if (item.pushes > 0 && norm(A - lastA) < kStuck_nm && norm(B - lastB) < kStuck_nm) {
-                if (++unmoved >= 3) {
-                    item.why = "stuck: three end pushes in a row left its model where it was";
-                    break;
-                }
-            } else {
-                unmoved = 0;
-            }
-            lastA = A;
-            lastB = B;
-            // Pushed along its normal: along the lever's axis the firmware
-            // cannot see the push (F_x unobservable) and its model stays.
-            if (std::fabs(dot(n, geometry(w->diameter_nm / 2).lever_axis)) > std::cos(kMinLeverAngle_deg * kPi / 180)) {
-                item.why = "its normal lies along the lever's axis, where the firmware cannot see a push: turn it first or change the scan angle";
-                break;
-            }
-            if (item.pushes >= max_pushes) {
-                std::ostringstream m;
-                m.precision(3);
-                m << "off its target by " << item.error_nm << " nm after " << item.pushes << " end pushes";
-                item.why = m.str();
-                break;
-            }
-            // Where the ends must go along the normal. A rod moves only
-            // along its normal: while its centre is far from the target
-            // (carrying), it is turned until its normal points the way and
-            // then carried along it; near (from then on), its ends are
-            // pushed to the target's.
-            double eA = dot(As - A, n), eB = dot(Bs - B, n);
-            const Vec2 way = T - C;
-            if (carrying && norm(way) <= kCarryUntil * ps.wire_tolerance_nm) carrying = false;
-            if (carrying) {
-                Vec2 want = perp(unit(way));   // the axis whose normal is the way
-                if (dot(want, a) < 0) want = -1.0 * want;
-                const double turn = std::atan2(a.x * want.y - a.y * want.x, dot(a, want));
-                // Far off the way: turned alone. Else carried and turned
-                // together (the zigzag of end pushes swings it either side).
-                const double carry = std::fabs(turn) > kTurnTol_deg * kPi / 180 ? 0.0 : dot(way, n);
-                eA = carry - (L / 2) * std::sin(turn);
-                eB = carry + (L / 2) * std::sin(turn);
-            }
-            // The end pushes that remove both: x at L/10 from A, y at L/10
-            // from B, from the firmware's static points of each (with the
-            // trenches that hold the rod): gA x + gB y = e per end.
-            const EndGains gA = end_gains(*w, kEndAt * L), gB = end_gains(*w, (1 - kEndAt) * L);
-            const double det = gA.a * gB.b - gB.a * gA.b;
-            if (!gA.ok || !gB.ok || std::fabs(det) < 1e-9) {
-                item.why = "the rod's static point is undefined";
-                break;
-            }
-            const double x = (eA * gB.b - gB.a * eB) / det, y = (gA.a * eB - gA.b * eA) / det;
-            const bool at_b = std::fabs(y) > std::fabs(x);
-            const double dn = std::clamp(at_b ? y : x, -ps.wire_step_nm, ps.wire_step_nm);
-            if (std::getenv("AFM_PLAN_TRACE"))
-                std::fprintf(stderr, "plan: t %.2f rod %d A (%.1f, %.1f) B (%.1f, %.1f) eA %.1f eB %.1f push %s by %.1f nm\n", bench_->time_s(), t.id,
-                             A.x, A.y, B.x, B.y, eA, eB, at_b ? "B" : "A", dn);
-            ++item.pushes;
-            ++rep_.pushes;
-            push_wire_end(t.id, at_b, dn);
-        }
+        RodPushes st;
+        while (push_rod_once(t, item, st)) {}
         if (item.why.empty()) check_rod_by_scan(item, t);
         rep_.items.push_back(item);
     }
+}
+
+// The rod's pose and its target's, as one push sees them.
+struct Planner::RodPose {
+    Vec2 A, B;        // the model's ends
+    double L;         // its length
+    Vec2 a, n, C;     // its axis, normal and centre
+    Vec2 T, As, Bs;   // the target's centre and ends (labelled to need the smaller turn), with the drift
+};
+
+Planner::RodPose Planner::rod_pose(const wire_t &w, const PlanItem &item, const WireTargetSpec &t) const
+{
+    RodPose p;
+    p.A = {w.x_nm[0], w.y_nm[0]};
+    p.B = {w.x_nm[w.n - 1], w.y_nm[w.n - 1]};
+    p.L = norm(p.B - p.A);
+    p.a = unit(p.B - p.A);
+    p.n = perp(p.a);
+    p.C = 0.5 * (p.A + p.B);
+    const double th = t.angle_deg * kPi / 180;
+    Vec2 ta{std::cos(th), std::sin(th)};
+    if (dot(ta, p.a) < 0) ta = -1.0 * ta;
+    p.T = item.target_nm + drift();
+    p.As = p.T - (p.L / 2) * ta;
+    p.Bs = p.T + (p.L / 2) * ta;
+    return p;
+}
+
+// Held along its whole length by a trench that also holds the target pose:
+// in the trench it was meant for, and no deeper.
+bool Planner::held_in_target_trench(const wire_t &w, const RodPose &p) const
+{
+    fw_wire_t rod{}, at_target{};
+    wire_t target_rod = w;
+    target_rod.x_nm = {p.As.x, p.Bs.x};
+    target_rod.y_nm = {p.As.y, p.Bs.y};
+    target_rod.n = 2;
+    return rod_model(w, &rod) && rod.held == 0xffffffffu && rod_model(target_rod, &at_target) && at_target.held == 0xffffffffu;
+}
+
+// Where the ends must go along the normal (eA, eB). A rod moves only along
+// its normal: while its centre is far from the target (carrying), it is
+// turned until its normal points the way and then carried along it; near
+// (from then on), its ends are pushed to the target's.
+void Planner::rod_end_errors(const RodPose &p, RodPushes &st, double *eA, double *eB) const
+{
+    *eA = dot(p.As - p.A, p.n);
+    *eB = dot(p.Bs - p.B, p.n);
+    const Vec2 way = p.T - p.C;
+    if (st.carrying && norm(way) <= kCarryUntil * s_.op.plan.wire_tolerance_nm) st.carrying = false;
+    if (!st.carrying) return;
+    Vec2 want = perp(unit(way));   // the axis whose normal is the way
+    if (dot(want, p.a) < 0) want = -1.0 * want;
+    const double turn = std::atan2(p.a.x * want.y - p.a.y * want.x, dot(p.a, want));
+    // Far off the way: turned alone. Else carried and turned together (the
+    // zigzag of end pushes swings it either side).
+    const double carry = std::fabs(turn) > kTurnTol_deg * kPi / 180 ? 0.0 : dot(way, p.n);
+    *eA = carry - (p.L / 2) * std::sin(turn);
+    *eB = carry + (p.L / 2) * std::sin(turn);
+}
+
+// Why the rod cannot be pushed now ("" if it can): stuck, along the lever's
+// axis, or out of pushes.
+std::string Planner::rod_refusal(const wire_t &w, const RodPose &p, const PlanItem &item, RodPushes &st) const
+{
+    if (item.pushes > 0 && norm(p.A - st.lastA) < kStuck_nm && norm(p.B - st.lastB) < kStuck_nm) {
+        if (++st.unmoved >= 3) return "stuck: three end pushes in a row left its model where it was";
+    } else {
+        st.unmoved = 0;
+    }
+    st.lastA = p.A;
+    st.lastB = p.B;
+    // Pushed along its normal: along the lever's axis the firmware cannot
+    // see the push (F_x unobservable) and its model stays.
+    if (std::fabs(dot(p.n, geometry(w.diameter_nm / 2).lever_axis)) > std::cos(kMinLeverAngle_deg * kPi / 180))
+        return "its normal lies along the lever's axis, where the firmware cannot see a push: turn it first or change the scan angle";
+    if (item.pushes >= 10 * s_.op.plan.max_pushes) {
+        std::ostringstream m;
+        m.precision(3);
+        m << "off its target by " << item.error_nm << " nm after " << item.pushes << " end pushes";
+        return m.str();
+    }
+    return "";
+}
+
+// One end push of the rod towards its target; false when it is done: on
+// target, or item.why (or item.note) says why it stops.
+bool Planner::push_rod_once(const WireTargetSpec &t, PlanItem &item, RodPushes &st)
+{
+    const PlanSpec &ps = s_.op.plan;
+    const wire_t *w = nullptr;
+    for (const auto &x : model_->wires)
+        if (x.id == t.id) w = &x;
+    if (!w || w->n < 2) {
+        item.why = "not in the firmware's model";
+        return false;
+    }
+    const RodPose p = rod_pose(*w, item, t);
+    item.error_nm = std::max(norm(p.As - p.A), norm(p.Bs - p.B));
+    if (item.error_nm <= ps.wire_tolerance_nm) return false;
+    if (held_in_target_trench(*w, p)) {
+        item.note = "held along its whole length by the trench its target lies in";
+        return false;
+    }
+    item.why = rod_refusal(*w, p, item, st);
+    if (!item.why.empty()) return false;
+    double eA, eB;
+    rod_end_errors(p, st, &eA, &eB);
+    // The end pushes that remove both: x at L/10 from A, y at L/10 from B,
+    // from the firmware's static points of each (with the trenches that hold
+    // the rod): gA x + gB y = e per end.
+    const EndGains gA = end_gains(*w, kEndAt * p.L), gB = end_gains(*w, (1 - kEndAt) * p.L);
+    const double det = gA.a * gB.b - gB.a * gA.b;
+    if (!gA.ok || !gB.ok || std::fabs(det) < 1e-9) {
+        item.why = "the rod's static point is undefined";
+        return false;
+    }
+    const double x = (eA * gB.b - gB.a * eB) / det, y = (gA.a * eB - gA.b * eA) / det;
+    const bool at_b = std::fabs(y) > std::fabs(x);
+    const double dn = std::clamp(at_b ? y : x, -ps.wire_step_nm, ps.wire_step_nm);
+    if (std::getenv("AFM_PLAN_TRACE"))
+        std::fprintf(stderr, "plan: t %.2f rod %d A (%.1f, %.1f) B (%.1f, %.1f) eA %.1f eB %.1f push %s by %.1f nm\n", bench_->time_s(),
+                     t.id, p.A.x, p.A.y, p.B.x, p.B.y, eA, eB, at_b ? "B" : "A", dn);
+    ++item.pushes;
+    ++rep_.pushes;
+    push_wire_end(t.id, at_b, dn);
+    return true;
 }
 
 void Planner::check_rod_by_scan(PlanItem &item, const WireTargetSpec &t)

@@ -213,6 +213,18 @@ private:
     void clear_blockers(const std::vector<int> &assigned);
     void run_particles();
     void run_wires();
+    // A rod's pushes towards its target (run_wires), one at a time.
+    struct RodPushes {
+        bool carrying = true;   // far from the target: turned and carried, not yet placed end by end
+        Vec2 lastA, lastB;      // its ends before the last push
+        int unmoved = 0;        // pushes in a row that left it where it was
+    };
+    struct RodPose;
+    bool push_rod_once(const WireTargetSpec &t, PlanItem &item, RodPushes &st);
+    RodPose rod_pose(const wire_t &w, const PlanItem &item, const WireTargetSpec &t) const;
+    bool held_in_target_trench(const wire_t &w, const RodPose &p) const;
+    void rod_end_errors(const RodPose &p, RodPushes &st, double *eA, double *eB) const;
+    std::string rod_refusal(const wire_t &w, const RodPose &p, const PlanItem &item, RodPushes &st) const;
     bool push_wire_end(int wire_id, bool end_b, double dn_nm);
     struct EndGains { double a = 0, b = 0; bool ok = false; };
     EndGains end_gains(const wire_t &w, double l_nm) const;

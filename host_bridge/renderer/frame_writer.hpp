@@ -2,7 +2,7 @@
 // video, in order, on a thread of the renderer's own, allowed on every CPU
 // of the run. The PNG files are png_file.hpp's (ISA-L's deflate).
 //
-// Why (README "The bus's latency model"; ./afm bench bus measures it): a
+// Why (docs/bus.md "The latency model"; ./afm bench bus measures it): a
 // frame's PNG and video cost about 0.6-1.2 ms of CPU with OpenCV's PNG,
 // five times composing it (0.3-0.5 ms since the PNG is png_file.hpp's). On the renderer's thread, pinned with the observers, they kept the
 // renderer from taking the bus while they were encoded, and the observers'

@@ -1,7 +1,7 @@
 // PNG files of the display's images: the frames (frames/frame_NNNNN.png),
 // the first scan, the fidelity difference and the contact sheet.
 //
-// Why not cv::imwrite (README "The bus's latency model"): a frame's PNG was
+// Why not cv::imwrite (docs/bus.md "The latency model"): a frame's PNG was
 // the largest share of the renderer's CPU, and on a machine whose two CPUs
 // the lockstep and its observers keep busy, the observers' CPU is the
 // lockstep's too. OpenCV's PNG is libpng with zlib at level 1 (0.3-0.7 ms

@@ -92,7 +92,7 @@ struct DecodeError : std::runtime_error {
 };
 
 template <class M>
-M decode(const std::vector<uint8_t> &d, const char *type)
+M decode_recorded(const std::vector<uint8_t> &d, const char *type)
 {
     M m;
     if (m.decode(d.data(), 0, static_cast<int>(d.size())) < 0) throw DecodeError(std::string("does not decode as ") + type);
@@ -105,9 +105,9 @@ using Key = std::tuple<int64_t, int, int32_t>;
 Key output_key(const std::string &ch, const std::vector<uint8_t> &d)
 {
     const int r = output_rank(ch);
-    if (ch == AFM_CH_AFM_CMD) return {decode<afm::tip_cmd_t>(d, "tip_cmd_t").ack_seq, r, 0};
-    if (ch == AFM_CH_HAPTIC_FORCE) return {decode<afm::haptic_force_t>(d, "haptic_force_t").seq, r, 0};
-    const auto m = decode<afm::fw_state_t>(d, "fw_state_t");   // FW_STATE: a block's, or a fix's answer
+    if (ch == AFM_CH_AFM_CMD) return {decode_recorded<afm::tip_cmd_t>(d, "tip_cmd_t").ack_seq, r, 0};
+    if (ch == AFM_CH_HAPTIC_FORCE) return {decode_recorded<afm::haptic_force_t>(d, "haptic_force_t").seq, r, 0};
+    const auto m = decode_recorded<afm::fw_state_t>(d, "fw_state_t");   // FW_STATE: a block's, or a fix's answer
     return {m.seq, r, m.objects.fix_id};
 }
 
@@ -164,7 +164,7 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
     Flat x;
     const char *xyz[3] = {"[0]", "[1]", "[2]"};
     if (ch == AFM_CH_AFM_CMD) {
-        const auto m = decode<afm::tip_cmd_t>(d, "tip_cmd_t");
+        const auto m = decode_recorded<afm::tip_cmd_t>(d, "tip_cmd_t");
         x.add("utime", m.utime);
         x.add("ack_seq", m.ack_seq);
         x.pos_nm("piezo_x_nm", m.piezo_x_nm);
@@ -172,14 +172,14 @@ Flat flatten(const std::string &ch, const std::vector<uint8_t> &d)
         x.force_nN("load_nN", m.load_nN);
         x.add("engaged", m.engaged);
     } else if (ch == AFM_CH_HAPTIC_FORCE) {
-        const auto m = decode<afm::haptic_force_t>(d, "haptic_force_t");
+        const auto m = decode_recorded<afm::haptic_force_t>(d, "haptic_force_t");
         x.add("utime", m.utime);
         x.add("seq", m.seq);
         for (int k = 0; k < 3; ++k) x.add(std::string("force_N") + xyz[k], m.force_N[k]);
         for (int k = 0; k < 3; ++k) x.force_nN(std::string("tip_force_nN") + xyz[k], m.tip_force_nN[k]);
         x.add("flags", m.flags);
     } else if (ch == AFM_CH_FW_STATE) {
-        const auto m = decode<afm::fw_state_t>(d, "fw_state_t");
+        const auto m = decode_recorded<afm::fw_state_t>(d, "fw_state_t");
         x.add("utime", m.utime);
         x.add("seq", m.seq);
         for (int k = 0; k < 3; ++k) x.force_nN(std::string("force_nN") + xyz[k], m.force_nN[k]);
@@ -332,152 +332,208 @@ struct EndsHash {
 
 std::string_view bytes_of(const std::vector<uint8_t> &d) { return {reinterpret_cast<const char *>(d.data()), d.size()}; }
 
+// A recorded output, as read (keyed once the whole log is read).
+struct RecordedRaw {
+    std::string channel;
+    std::vector<uint8_t> data;
+    uint64_t offset;
+};
+
+// Feeding: the card's inputs through the same decode-and-check as fw_node's
+// (inbox.hpp), so that a datagram the node refused in the run is refused
+// here; the card's outputs kept by key, and indexed by content.
+//
+// An input one block beyond what the card can take now is held until it
+// can: the card had it in time in the run, but the recorder's socket may
+// have got it after a later datagram of another sender (two senders'
+// deliveries to the bus's sockets interleave differently on two cores).
+// The card steps a block once it has both inputs, in either order, so the
+// order it got them in does not change its answers.
+class Feeder {
+public:
+    Feeder(const afm::Scene &scene, const std::string &write_path, Outputs *r) : node_(scene), out_(write_path), r_(r), inbox_(nullptr)
+    {
+        inbox_.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [this](const afm::analog_block_t &b) {
+            if (!early(b.seq)) return analog(b);
+            held_analog_.emplace(b.seq, b);
+            return afm::Reject::none;
+        });
+        inbox_.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [this](const afm::haptic_pose_t &p) {
+            if (!early(p.seq)) return pose(p);
+            held_pose_.emplace(p.seq, p);
+            return afm::Reject::none;
+        });
+        inbox_.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [this](const afm::object_fix_t &f) {
+            std::string note;
+            afm::Reject why;
+            take(node_.on_fix(f, &note, &why), ev_utime_);
+            if (!note.empty()) r_->notes.push_back(note);
+            return why;
+        });
+    }
+
+    static bool is_input(const std::string &ch)
+    {
+        return ch == AFM_CH_AFM_ANALOG || ch == AFM_CH_HAPTIC_POSE || ch == AFM_CH_HOST_OBJECT_FIX;
+    }
+
+    // One recorded input, given to the card (or held, or refused and named).
+    void input(const afm::LogEvent &ev)
+    {
+        out_.write(ev.utime, ev.channel, ev.data);
+        ev_utime_ = ev.utime;
+        const afm::Reject why = inbox_.deliver(ev.channel, ev.data.data(), ev.data.size());
+        release_held();
+        if (why == afm::Reject::none) ++r_->inputs;
+        else if (r_->refused_at.size() < 5)
+            r_->refused_at.push_back("byte offset " + std::to_string(ev.offset) + ": " + ev.channel + " message refused (" +
+                                     afm::reject_name(why) + ")");
+    }
+
+    // The log is read: inputs held to the end (the card never reached their
+    // block) are refused as from the future, as the card refused them in the run.
+    void finish()
+    {
+        for (const auto &[seq, b] : held_analog_) inbox_.count(analog(b), AFM_CH_AFM_ANALOG);
+        for (const auto &[seq, p] : held_pose_) inbox_.count(pose(p), AFM_CH_HAPTIC_POSE);
+        r_->refused_inputs = inbox_.rejected().total();
+    }
+
+    // The key of a replayed output with these bytes on this channel, if any.
+    bool key_by_content(const std::vector<uint8_t> &data, int rank, Key *k) const
+    {
+        for (auto [it, end] = by_content_.equal_range(bytes_of(data)); it != end; ++it)
+            if (std::get<1>(it->second) == rank) {
+                *k = it->second;
+                return true;
+            }
+        return false;
+    }
+
+    int64_t max_analog() const { return max_analog_; }           // the last analog block the card took
+    int64_t done() const { return node_.done(); }                 // the last block the card stepped
+    bool analog_seen(int64_t seq) const { return analog_seen_.count(seq) > 0; }
+
+private:
+    void take(const afm::Outbox &box, int64_t utime)
+    {
+        for (const auto &m : box) {
+            const Key k{m.seq, output_rank(m.channel), m.fix_id};
+            auto [it, fresh] = r_->replayed.try_emplace(k, m.data);
+            if (fresh) by_content_.emplace(bytes_of(it->second), k);
+            out_.write(utime, m.channel, m.data);
+        }
+    }
+    afm::Reject analog(const afm::analog_block_t &b)
+    {
+        afm::Reject why;
+        take(node_.on_analog(b, &why), ev_utime_);
+        if (why == afm::Reject::none) max_analog_ = std::max(max_analog_, b.seq);
+        analog_seen_.insert(b.seq);
+        return why;
+    }
+    afm::Reject pose(const afm::haptic_pose_t &p)
+    {
+        afm::Reject why;
+        take(node_.on_pose(p, &why), ev_utime_);
+        return why;
+    }
+    // an input for the block after the next one: held until the card gets there
+    bool early(int64_t seq) const { return node_.done() >= 0 && seq == node_.done() + 2; }
+    template <class M, class Give> bool release_one(std::map<int64_t, M> &held, Give give)
+    {
+        if (held.empty() || held.begin()->first > node_.done() + 1) return false;
+        give(held.begin()->second);
+        held.erase(held.begin());
+        ++r_->held_back;
+        return true;
+    }
+    void release_held()
+    {
+        while (release_one(held_analog_, [this](const afm::analog_block_t &b) { analog(b); }) ||
+               release_one(held_pose_, [this](const afm::haptic_pose_t &p) { pose(p); })) {}
+    }
+
+    afm::CardNode node_;
+    EventLogWriter out_;
+    Outputs *r_;
+    afm::Inbox inbox_;
+    int64_t ev_utime_ = 0;
+    int64_t max_analog_ = -1;
+    std::set<int64_t> analog_seen_;   // every decodable analog block's seq, taken or refused
+    std::map<int64_t, afm::analog_block_t> held_analog_;
+    std::map<int64_t, afm::haptic_pose_t> held_pose_;
+    // the replay's outputs by content, so that a recorded output equal to
+    // one of them needs no decoding to find its key
+    std::unordered_multimap<std::string_view, Key, EndsHash> by_content_;
+};
+
+// Keying: the recorded outputs' keys, by content where the replay gave the
+// same bytes on that channel, else from the message itself; a datagram the
+// card never sent (it does not decode, or names a block the card never
+// stepped) is foreign.
+void key_recorded(std::vector<RecordedRaw> &raws, const Feeder &feed, Outputs *r)
+{
+    for (auto &raw : raws) {
+        Key k{};
+        const bool known = feed.key_by_content(raw.data, output_rank(raw.channel), &k);
+        try {
+            if (!known) k = output_key(raw.channel, raw.data);
+        } catch (const DecodeError &) {
+            ++r->foreign_outputs;
+            continue;
+        }
+        if (std::get<0>(k) < -1 || std::get<0>(k) > feed.max_analog()) {
+            ++r->foreign_outputs;
+            continue;
+        }
+        auto [it, fresh] = r->recorded.try_emplace(k, std::move(raw.data));
+        if (!fresh && it->second != raw.data) {
+            ++r->self_inconsistent;
+            r->inconsistent.insert(k);
+        }
+    }
+    r->predates_fw_state = r->before_fw_state > 0 && std::none_of(r->recorded.begin(), r->recorded.end(), [](const auto &kv) {
+                               return std::get<1>(kv.first) == output_rank(AFM_CH_FW_STATE);
+                           });
+}
+
+// Coverage: every block the log's analog blocks cover must have been
+// stepped. An analog block for the block after the card's last one (taken
+// and waiting for its pose, or refused as from the future) means the log
+// lost, or holds late, an input that fw_node had in time, and nothing after
+// it can be judged.
+void check_coverage(const std::string &log, const Feeder &feed)
+{
+    const int64_t next = feed.done() + 1;
+    if (!feed.analog_seen(next)) return;
+    throw afm::LogError(log + ": the log holds AFM_ANALOG of block " + std::to_string(next) + ", but the card could step only to block " +
+                        std::to_string(feed.done()) + ": the recording misses, or holds out of order, an input of block " +
+                        std::to_string(next) +
+                        " (its HAPTIC_POSE or AFM_ANALOG, or one of the block before; a recorder starved of CPU loses or delays messages)");
+}
+
 // Reads the log, feeds the card's inputs to a CardNode as fw_node would,
 // keeps both sides' outputs. Throws LogError (file, offset) or SceneError.
 Outputs run_replay(const Options &o)
 {
     Outputs r;
-    // the replay's outputs by content, so that a recorded output equal to
-    // one of them needs no decoding to find its key
-    std::unordered_multimap<std::string_view, Key, EndsHash> by_content;
-    struct Raw {
-        std::string channel;
-        std::vector<uint8_t> data;
-        uint64_t offset;
-    };
-    std::vector<Raw> recorded_raw;
-    int64_t max_analog = -1;
-    std::set<int64_t> analog_seen;   // every decodable analog block's seq, taken or refused
     const afm::Scene scene = afm::load_scene(o.scene);
-    afm::CardNode node(scene);
-    EventLogWriter out(o.write);
+    Feeder feed(scene, o.write, &r);
+    std::vector<RecordedRaw> recorded_raw;
     afm::LogReader log(o.log);
     log.only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE,
               kBeforeFwState[0], kBeforeFwState[1], kBeforeFwState[2]});
-    auto take = [&](const afm::Outbox &box, int64_t utime) {
-        for (const auto &m : box) {
-            const Key k{m.seq, output_rank(m.channel), m.fix_id};
-            auto [it, fresh] = r.replayed.try_emplace(k, m.data);
-            if (fresh) by_content.emplace(bytes_of(it->second), k);
-            out.write(utime, m.channel, m.data);
-        }
-    };
-    // The card's inputs through the same decode-and-check as fw_node's
-    // (inbox.hpp): a datagram the node refused in the run is refused here.
-    afm::Inbox inbox(nullptr);
-    int64_t ev_utime = 0;
-    // An input one block beyond what the card can take now is held until it
-    // can: the card had it in time in the run, but the recorder's socket
-    // may have got it after a later datagram of another sender (two
-    // senders' deliveries to the bus's sockets interleave differently on two
-    // cores). The card steps a block once it has both inputs, in either
-    // order, so the order it got them in does not change its answers.
-    std::map<int64_t, afm::analog_block_t> held_analog;
-    std::map<int64_t, afm::haptic_pose_t> held_pose;
-    auto analog = [&](const afm::analog_block_t &b) {
-        afm::Reject why;
-        take(node.on_analog(b, &why), ev_utime);
-        if (why == afm::Reject::none) max_analog = std::max(max_analog, b.seq);
-        analog_seen.insert(b.seq);
-        return why;
-    };
-    auto pose = [&](const afm::haptic_pose_t &p) {
-        afm::Reject why;
-        take(node.on_pose(p, &why), ev_utime);
-        return why;
-    };
-    // an input for the block after the next one: held until the card gets there
-    auto early = [&](int64_t seq) { return node.done() >= 0 && seq == node.done() + 2; };
-    auto release_one = [&](auto &held, auto &give) {
-        if (held.empty() || held.begin()->first > node.done() + 1) return false;
-        give(held.begin()->second);
-        held.erase(held.begin());
-        ++r.held_back;
-        return true;
-    };
-    auto release_held = [&] {
-        while (release_one(held_analog, analog) || release_one(held_pose, pose)) {}
-    };
-    inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &b) {
-        if (!early(b.seq)) return analog(b);
-        held_analog.emplace(b.seq, b);
-        return afm::Reject::none;
-    });
-    inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &p) {
-        if (!early(p.seq)) return pose(p);
-        held_pose.emplace(p.seq, p);
-        return afm::Reject::none;
-    });
-    inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &f) {
-        std::string note;
-        afm::Reject why;
-        take(node.on_fix(f, &note, &why), ev_utime);
-        if (!note.empty()) r.notes.push_back(note);
-        return why;
-    });
     afm::LogEvent ev;
     while (log.read(&ev)) {
-        if (ev.channel == AFM_CH_AFM_ANALOG || ev.channel == AFM_CH_HAPTIC_POSE || ev.channel == AFM_CH_HOST_OBJECT_FIX) {
-            out.write(ev.utime, ev.channel, ev.data);
-            ev_utime = ev.utime;
-            const afm::Reject why = inbox.deliver(ev.channel, ev.data.data(), ev.data.size());
-            release_held();
-            if (why == afm::Reject::none) ++r.inputs;
-            else if (r.refused_at.size() < 5)
-                r.refused_at.push_back("byte offset " + std::to_string(ev.offset) + ": " + ev.channel + " message refused (" +
-                                       afm::reject_name(why) + ")");
-        } else if (output_rank(ev.channel) < 0) {
-            ++r.before_fw_state;
-        } else {
-            recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
-        }
+        if (Feeder::is_input(ev.channel)) feed.input(ev);
+        else if (output_rank(ev.channel) < 0) ++r.before_fw_state;
+        else recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
     }
-    // held to the end (the card never reached their block): refused as from
-    // the future, as the card refused them in the run
-    for (const auto &[seq, b] : held_analog) inbox.count(analog(b), AFM_CH_AFM_ANALOG);
-    for (const auto &[seq, p] : held_pose) inbox.count(pose(p), AFM_CH_HAPTIC_POSE);
-    r.refused_inputs = inbox.rejected().total();
+    feed.finish();
     r.events = log.events();
-    // The recorded outputs' keys: by content where the replay gave the same
-    // bytes on that channel, else from the message itself.
-    for (auto &raw : recorded_raw) {
-        Key k{};
-        bool known = false;
-        for (auto [it, end] = by_content.equal_range(bytes_of(raw.data)); it != end && !known; ++it)
-            if (std::get<1>(it->second) == output_rank(raw.channel)) {
-                k = it->second;
-                known = true;
-            }
-        try {
-            if (!known) k = output_key(raw.channel, raw.data);
-        } catch (const DecodeError &) {
-            ++r.foreign_outputs;   // the card never sent it (a hostile or broken datagram on its channel)
-            continue;
-        }
-        if (std::get<0>(k) < -1 || std::get<0>(k) > max_analog) {
-            ++r.foreign_outputs;   // a block the card never stepped: not the card's answer
-            continue;
-        }
-        auto [it, fresh] = r.recorded.try_emplace(k, std::move(raw.data));
-        if (!fresh && it->second != raw.data) {
-            ++r.self_inconsistent;
-            r.inconsistent.insert(k);
-        }
-    }
-    r.predates_fw_state = r.before_fw_state > 0 && std::none_of(r.recorded.begin(), r.recorded.end(), [](const auto &kv) {
-                              return std::get<1>(kv.first) == output_rank(AFM_CH_FW_STATE);
-                          });
-    // Every block the log's analog blocks cover must have been stepped: an
-    // analog block for the block after the card's last one (taken and
-    // waiting for its pose, or refused as from the future) means the log
-    // lost, or holds late, an input that fw_node had in time, and nothing
-    // after it can be judged.
-    if (analog_seen.count(node.done() + 1)) {
-        const int64_t next = node.done() + 1;
-        throw afm::LogError(o.log + ": the log holds AFM_ANALOG of block " + std::to_string(next) + ", but the card could step only to block " + std::to_string(node.done()) +
-                            ": the recording misses, or holds out of order, an input of block " + std::to_string(next) +
-                            " (its HAPTIC_POSE or AFM_ANALOG, or one of the block before; a recorder starved of CPU loses or delays messages)");
-    }
+    key_recorded(recorded_raw, feed, &r);
+    check_coverage(o.log, feed);
     return r;
 }
 

@@ -2,10 +2,14 @@
 one message per .lcm file, lower_snake_t, utime first, a comment with the unit
 on every field, an explicit count on every variable array; README's channel
 table equals lcmtypes/channels.yaml; .ci/run runs ./afm test; the lcm fuzz
-target's committed inputs name a channel of the bus and carry its type."""
+target's committed inputs name a channel of the bus and carry its type.
+
+Each program links what it uses and nothing more (issue 33): the shared
+libraries it needs (readelf's NEEDED) are within its allowed list."""
 import glob
 import os
 import re
+import subprocess
 import unittest
 
 import yaml
@@ -82,6 +86,41 @@ class ChannelTable(unittest.TestCase):
         readme = open(os.path.join(benchtest.SRC, "README.md")).read()
         self.assertIn("./afm demo", readme)
         self.assertIn("./afm test", readme)
+
+
+# The shared libraries each program may need, by name without the version.
+_BASE = {"libstdc++", "libm", "libgcc_s", "libc"}
+_BUS = _BASE | {"libyaml-cpp", "libglib-2.0"}   # the scene (yaml-cpp) and LCM (GLib)
+ALLOWED = {
+    "sim_afm/sim_afm": _BUS,
+    "host_bridge/fw_node": _BUS,
+    "host_bridge/afm_launch": _BUS,                 # no OpenCV: it is on the path of every run
+    "host_bridge/afm_replay": _BUS,
+    "host_bridge/operator": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs"},   # no ISA-L, no zlib
+    "host_bridge/renderer": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs", "libopencv_videoio",
+                                    "libisal", "libz"},
+    "host_bridge/afm_netfault": _BASE | {"libnetfilter_queue"},
+    "host_bridge/afm_media": _BASE | {"libopencv_core", "libopencv_videoio"},
+    "host_bridge/calc/afm_calc": {"libm", "libc"},
+}
+
+
+def needed(path):
+    out = subprocess.run(["readelf", "-d", path], capture_output=True, text=True, check=True).stdout
+    return {re.sub(r"\.so(\.[0-9.]+)?$", "", m) for m in re.findall(r"\(NEEDED\)\s+Shared library: \[([^\]]+)\]", out)}
+
+
+class LinkedLibraries(unittest.TestCase):
+    def test_each_program_needs_only_its_allowed_libraries(self):
+        for rel, allowed in ALLOWED.items():
+            got = needed(os.path.join(benchtest.BUILD, rel))
+            self.assertTrue(got, f"{rel}: readelf found no NEEDED entry")
+            self.assertEqual(sorted(got - allowed), [], f"{rel} needs libraries outside its list")
+
+    def test_the_operator_has_no_png_encoder(self):
+        got = needed(os.path.join(benchtest.BUILD, "host_bridge", "operator"))
+        self.assertNotIn("libisal", got)
+        self.assertNotIn("libz", got)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ simulator drops analog blocks on purpose (the resend path)."""
 import glob
 import math
 import os
+import sys
 import re
 import subprocess
 import unittest
@@ -245,6 +246,31 @@ class EndToEnd(unittest.TestCase):
         fw3, t3 = trajectories(log3)
         self.assertEqual(fw1, fw3)
         self.assertEqual(t1, t3)
+
+
+class FromANotebook(unittest.TestCase):
+    """The project's Python is installed in the venv: a script run with the
+    venv's python alone, from another folder and with no PYTHONPATH or AFM_*
+    variable, reads a run's forces as arrays (issue 33)."""
+
+    def test_the_venvs_python_reads_a_runs_forces_as_arrays(self):
+        out = benchtest.tmpdir("notebook")
+        self.addCleanup(benchtest.cleanup, out)
+        code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        self.assertEqual(code, 0, err)
+        script = ("from analysis import afmlog\n"
+                  f"log = afmlog.load({os.path.join(out, 'bus.lcmlog')!r})\n"
+                  "f = afmlog.column(log['FW_STATE'], 'force_nN')\n"
+                  "s = afmlog.column(log['FW_STATE'], 'seq')\n"
+                  "print(f.shape[0], f.shape[1], s.shape[0], type(f).__module__)\n")
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH" and not k.startswith("AFM_")}
+        p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd="/", env=env, timeout=120)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        n, three, n_seq, module = p.stdout.split()
+        self.assertGreater(int(n), 500)
+        self.assertEqual(three, "3")
+        self.assertEqual(n, n_seq)
+        self.assertEqual(module, "numpy")
 
 
 class RealTime(unittest.TestCase):

@@ -71,7 +71,7 @@ class FeelContact(unittest.TestCase):
     def test_feel_stops_within_the_stated_distance_and_script_overshoots(self):
         self.assertEqual(self.feel_run[0], 0, self.feel_run[2])
         self.assertEqual(self.script_run[0], 0, self.script_run[2])
-        # The stated distance (README, "The operator"): contact is felt one
+        # The stated distance (docs/operator.md): contact is felt one
         # block after the card measures it and the hand's aim stops then; the
         # stylus runs on for about m / (B_h + b) (the hand and the device's
         # damping), so the particle moves at most v (2 T + m / (B_h + b)).

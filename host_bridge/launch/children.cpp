@@ -1,0 +1,64 @@
+#include "children.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+
+#include "placement.hpp"
+
+namespace afm::launch {
+
+pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
+            int nice_level, const std::vector<int> &cpus)
+{
+    pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
+    if (pid == 0) {
+        setpgid(0, 0);
+        if (nice_level) setpriority(PRIO_PROCESS, 0, nice_level);
+        // before exec, so that every thread it starts is placed too
+        if (!pin_self(cpus)) std::fprintf(stderr, "afm_launch: cannot pin %s to CPUs %s: %s\n", argv[0].c_str(),
+                                                cpu_list(cpus).c_str(), std::strerror(errno));
+        int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+            close(fd);
+        }
+        int devnull = open("/dev/null", O_RDONLY);
+        if (devnull >= 0) dup2(devnull, 0);
+        // nothing of the launcher's: its bus socket, its log
+        if (close_range(3, ~0u, 0) != 0)
+            for (int k = 3, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
+        for (const auto &e : env_add) putenv(const_cast<char *>(e.c_str()));
+        std::vector<char *> a;
+        for (const auto &s : argv) a.push_back(const_cast<char *>(s.c_str()));
+        a.push_back(nullptr);
+        execv(a[0], a.data());
+        std::fprintf(stderr, "afm_launch: cannot execute %s: %s\n", a[0], std::strerror(errno));
+        _exit(127);
+    }
+    return pid;
+}
+
+
+std::string slurp_tail(const std::string &path, std::size_t max_lines)
+{
+    std::ifstream f(path);
+    std::vector<std::string> lines;
+    std::string l;
+    while (std::getline(f, l)) lines.push_back(l);
+    std::string out;
+    for (std::size_t i = lines.size() > max_lines ? lines.size() - max_lines : 0; i < lines.size(); ++i) out += "    " + lines[i] + "\n";
+    return out;
+}
+
+
+
+}  // namespace afm::launch

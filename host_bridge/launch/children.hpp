@@ -1,0 +1,81 @@
+// The launcher's children (launch/launch.hpp): starting one (spawn), reaping
+// it with the kernel's accounting (Child), following the heartbeats of the
+// run's processes (Progress), and the tail of a child's log.
+#pragma once
+
+#include <sys/resource.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "afm/heartbeat_t.hpp"
+#include "inbox.hpp"
+#include "process.hpp"
+
+namespace afm::launch {
+
+struct Child {
+    std::string name;
+    pid_t pid = -1;
+    int exit_code = -1;       // exit status, or 128 + signal
+    bool exited = false;
+    std::string cpus = "";    // the CPUs it may run on, read once it is ready ("" before)
+    double cpu_user_s = 0;    // the kernel's accounting of the child (wait4), user CPU seconds
+    double cpu_system_s = 0;  // and system CPU seconds
+    long max_rss_kb = 0;      // its peak resident memory, kB
+    std::chrono::steady_clock::time_point exited_at = {};   // when reap() found it ended
+
+    // Reaps the child if it has ended (block: wait for it); records its
+    // exit status and the kernel's accounting of its resources.
+    void reap(bool block = false)
+    {
+        if (exited || pid <= 0) return;
+        int st;
+        struct rusage ru {};
+        if (wait4(pid, &st, block ? 0 : WNOHANG, &ru) != pid) return;
+        exited = true;
+        exited_at = std::chrono::steady_clock::now();
+        exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        cpu_user_s = ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6;
+        cpu_system_s = ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6;
+        max_rss_kb = ru.ru_maxrss;
+    }
+};
+
+// Starts argv[0] with its output to log_path, env_add added to its
+// environment, at nice_level, pinned to `cpus` (none: where the kernel puts it).
+pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
+            int nice_level, const std::vector<int> &cpus);
+
+struct Progress {
+    // The processes whose heartbeats the launcher follows (the run's own,
+    // set by Launch); another name is refused (out_of_range), so that
+    // garbage cannot grow the tables.
+    std::set<std::string> names;
+    std::map<std::string, heartbeat_t> last;
+    std::map<std::string, std::chrono::steady_clock::time_point> progress_at;
+    Reject on_hb(const heartbeat_t &m)
+    {
+        if (!names.count(m.name)) return Reject::out_of_range;
+        auto it = last.find(m.name);
+        if (it == last.end() || it->second.seq != m.seq || it->second.state != m.state)
+            progress_at[m.name] = std::chrono::steady_clock::now();
+        last[m.name] = m;
+        return Reject::none;
+    }
+    bool is(const std::string &name, RunState state) const
+    {
+        auto it = last.find(name);
+        return it != last.end() && it->second.state == state_text(state);
+    }
+};
+
+// The last max_lines lines of a file, each indented by four spaces.
+std::string slurp_tail(const std::string &path, std::size_t max_lines);
+
+}  // namespace afm::launch

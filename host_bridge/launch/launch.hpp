@@ -1,0 +1,862 @@
+// Launch: how afm_launch runs one scene (launch/main.cpp). Validates the scene before starting anything,
+// checks that it sits in a private network namespace whose loopback carries
+// the multicast route (./afm run puts it there), records the whole bus
+// itself (bus_recorder.hpp), starts the four processes, prints progress, stops everything
+// at the end (or when one dies), and writes DIR/run.json.
+#pragma once
+
+#include <lcm/lcm-cpp.hpp>
+#include <lcm/lcm.h>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "afm/analog_block_t.hpp"
+#include "afm/heartbeat_t.hpp"
+#include "afm/haptic_pose_t.hpp"
+extern "C" {
+#include "fw_guard.h"
+}
+#include "bus_recorder.hpp"
+#include "bus_tap.hpp"
+#include "lcmlog.hpp"
+#include "log_tail.hpp"
+#include "placement.hpp"
+#include "bus.hpp"
+#include "inbox.hpp"
+#include <nlohmann/json.hpp>
+#include "card_setup.hpp"
+#include "haptic.hpp"
+#include "scene.hpp"
+
+#include "children.hpp"
+
+namespace fs = std::filesystem;
+
+namespace afm::launch {
+
+inline const char *kUsage =
+    "usage: afm_launch --scene FILE --out DIR [options]\n"
+    "  Runs one scene through sim_afm, fw_node, operator and renderer on a private\n"
+    "  LCM bus, recording it to DIR/bus.lcmlog. ./afm run calls it inside a fresh\n"
+    "  network namespace; run directly it refuses unless loopback carries the\n"
+    "  multicast route.\n"
+    "options:\n"
+    "  --check            validate the scene and exit (0: valid, 2: not)\n"
+    "  --spy              also start lcm-spy on the run's bus (needs a display); the run\n"
+    "                     ends when lcm-spy is closed (time_mode: realtime to watch at pace)\n"
+    "  --inject-drop P    sim_afm drops each analog block's first send with probability P\n"
+    "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
+    "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
+    "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
+    "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
+    "bench options (./afm bench bus):\n"
+    "  --log-window N     sim_afm runs at most N blocks ahead of what the record holds\n"
+    "                     (default: as many as the record's receive buffer holds at\n"
+    "                     32 kB a block, 8 to 64; run.json launcher.log_window_blocks);\n"
+    "                     0: no pacing\n"
+    "  --no-renderer      no renderer: no frames, no video, no fidelity check\n"
+    "  --placement off    no CPU placement (default on: sim_afm, fw_node and operator share\n"
+    "                     one CPU, the launcher and the renderer run on the others;\n"
+    "                     common/placement.hpp)\n";
+
+// SIGINT or SIGTERM to the launcher: the run stops as on a failure (every
+// child stopped, the record closed, run.json written) with status
+// "interrupted", and the launcher exits with 128 + the signal.
+inline volatile sig_atomic_t g_signal = 0;
+inline void on_stop_signal(int sig) { g_signal = sig; }
+
+// The bus processes run at a lower priority than the launcher, which
+// records the bus, so that on a busy machine the record keeps up and the run
+// slows down instead.
+constexpr int kBusProcessNice = 10;
+
+// After a datagram wakes the launcher, it sleeps this long before it records
+// the next ones, so that it records a block's datagrams in one wake-up, not
+// eight (the simulator's log window, log_window_blocks(), is 8 to 64 blocks;
+// ./afm bench bus measures it).
+constexpr int kBatchUs = 500;
+
+// Once every process has exited, what they sent is in the tap's socket or a
+// softirq away from it (loopback delivers in the sender's system call, or
+// on ksoftirqd soon after): the record takes the bus until it has been
+// quiet for kQuietMs, at most kDrainMs, and is closed. (A fixed 150 ms was
+// a quarter of the demo's wall time.)
+constexpr int kQuietMs = 20;
+constexpr int kDrainMs = 150;
+
+inline std::string exe_dir()
+{
+    return fs::canonical("/proc/self/exe").parent_path().string();
+}
+
+// Whether the planner can serve the scene's targets (pattern.hpp), asked of
+// the operator, which owns the planner: `operator --check-targets` prints
+// the refusal itself. The launcher does not link OpenCV (the text and PNG
+// patterns need it) so that it starts in a few ms, not 60: it is on the path
+// of every run. Returns -1 if they can be served, else 2 (said on stderr).
+inline int check_targets(const std::string &scene_path)
+{
+    const std::string op = exe_dir() + "/operator";
+    std::vector<char *> a = {const_cast<char *>(op.c_str()), const_cast<char *>("--scene"), const_cast<char *>(scene_path.c_str()),
+                             const_cast<char *>("--check-targets"), nullptr};
+    pid_t pid = -1;
+    if (const int e = posix_spawn(&pid, op.c_str(), nullptr, nullptr, a.data(), environ); e != 0) {
+        std::fprintf(stderr, "afm_launch: cannot check the planner's targets: cannot execute %s: %s\n", op.c_str(), std::strerror(e));
+        return 2;
+    }
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return -1;
+    if (!(WIFEXITED(status) && WEXITSTATUS(status) == 2))
+        std::fprintf(stderr, "afm_launch: cannot check the planner's targets: %s --check-targets %s\n", op.c_str(),
+                     WIFEXITED(status) ? ("exited " + std::to_string(WEXITSTATUS(status))).c_str()
+                                       : ("died of signal " + std::to_string(WTERMSIG(status))).c_str());
+    return 2;
+}
+
+// The distinct blocks of the card's two per-block inputs in a log (their
+// seq, through the bus's own decode-and-check): a block the replay can step
+// needs both.
+struct RecordedBlocks {
+    std::set<int64_t> analog, pose;
+};
+
+// Message counts per channel in an LCM log, and the blocks recorded.
+inline std::map<std::string, int64_t> count_channels(const std::string &path, std::string *err, RecordedBlocks *seqs)
+{
+    std::map<std::string, int64_t> counts;
+    try {
+        afm::LogReader log(path);
+        afm::LogEvent ev;
+        while (log.read(&ev)) {
+            ++counts[ev.channel];
+            afm::analog_block_t b;
+            afm::haptic_pose_t p;
+            if (ev.channel == AFM_CH_AFM_ANALOG && afm::decode_checked(ev.data.data(), ev.data.size(), &b) == afm::Reject::none)
+                seqs->analog.insert(b.seq);
+            if (ev.channel == AFM_CH_HAPTIC_POSE && afm::decode_checked(ev.data.data(), ev.data.size(), &p) == afm::Reject::none)
+                seqs->pose.insert(p.seq);
+        }
+    } catch (const afm::LogError &e) {
+        *err = e.what();
+    }
+    return counts;
+}
+
+// The command line.
+struct Options {
+    std::string scene_path, out_dir;
+    bool spy = false, quiet = false, check_only = false;
+    double drop_p = 0, stall_s = 60, kill_after = -1;
+    std::string kill_name;
+    long long crash_block = -1;
+    long long log_window = -1;  // sim_afm --log-window; 0: no --follow-log; -1: log_window_blocks() of the tap's buffer
+    bool renderer = true;
+    bool placement = true;      // common/placement.hpp; --placement off
+};
+
+// Parses argv into o; returns -1 to go on, or the exit code.
+inline int parse_args(int argc, char **argv, Options *o)
+{
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto val = [&]() -> std::string {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "afm_launch: %s needs a value\n", a.c_str());
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (a == "--scene") o->scene_path = val();
+        else if (a == "--out") o->out_dir = val();
+        else if (a == "--spy") o->spy = true;
+        else if (a == "--check") o->check_only = true;
+        else if (a == "--quiet") o->quiet = true;
+        else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
+        else if (a == "--stall-s") o->stall_s = std::atof(val().c_str());
+        else if (a == "--log-window") {
+            const std::string v = val();
+            char *end = nullptr;
+            o->log_window = std::strtoll(v.c_str(), &end, 10);
+            if (v.empty() || *end || o->log_window < 0) {
+                std::fprintf(stderr, "afm_launch: --log-window wants a number of blocks >= 0, got '%s'\n", v.c_str());
+                return 2;
+            }
+        }
+        else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--placement") {
+            const std::string v = val();
+            if (v != "on" && v != "off") {
+                std::fprintf(stderr, "afm_launch: --placement wants on or off, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->placement = v == "on";
+        }
+        else if (a == "--kill") {
+            const std::string v = val();
+            const auto colon = v.find(':');
+            if (colon == std::string::npos) {
+                std::fprintf(stderr, "afm_launch: --kill wants AFTER_S:NAME, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->kill_after = std::atof(v.substr(0, colon).c_str());
+            o->kill_name = v.substr(colon + 1);
+        } else if (a == "--inject-crash") {
+            const std::string v = val();
+            if (v.rfind("fw_node:", 0) != 0) {
+                std::fprintf(stderr, "afm_launch: --inject-crash supports fw_node:N, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->crash_block = std::atoll(v.substr(8).c_str());
+        } else if (a == "-h" || a == "--help") {
+            std::fputs(kUsage, stdout);
+            return 0;
+        } else {
+            std::fprintf(stderr, "afm_launch: unknown argument '%s'\n%s", a.c_str(), kUsage);
+            return 2;
+        }
+    }
+    if (o->scene_path.empty() || (o->out_dir.empty() && !o->check_only)) {
+        std::fputs(kUsage, stderr);
+        return 2;
+    }
+    if (!(o->drop_p >= 0 && o->drop_p < 1)) {
+        std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
+        return 2;
+    }
+    return -1;
+}
+
+// The files an earlier run left in a folder that this run replaces.
+const char *const kRunOutputs[] = {"frames", "logs", "bus.lcmlog", "run.json", "scene.yaml", "video.mp4", "video.avi",
+                                   "sim_report.json", "renderer_report.json", "operator_report.json", "fw_report.json", "scan_initial.png",
+                                   "contact_sheet.png", "scan_initial.gsf", "scan_final.gsf", "display_final.gsf",
+                                   "fidelity.json", "fidelity_diff.png"};
+
+// One run: the steps of main, in order, sharing the run's state.
+class Launch {
+public:
+    explicit Launch(Options o) : o_(std::move(o)) {}
+
+    // 1. The scene and the card's acceptance, before anything starts.
+    int check_scene()
+    {
+        try {
+            scene_ = afm::load_scene(o_.scene_path);
+        } catch (const afm::SceneError &e) {
+            std::fprintf(stderr, "%s\n", e.what());
+            return 2;
+        }
+        if (const std::string why_fw = afm::card_refusal(scene_); !why_fw.empty()) {
+            std::fprintf(stderr, "%s: %s\n", o_.scene_path.c_str(), why_fw.c_str());
+            return 2;
+        }
+        // The force loop's stability bound (haptic.hpp) and the planner's targets.
+        const afm::CardSetup card(scene_);
+        if (const std::string why = afm::haptic_refusal(scene_, card.config()); !why.empty()) {
+            std::fprintf(stderr, "%s: %s\n", o_.scene_path.c_str(), why.c_str());
+            return 2;
+        }
+        if (!scene_.op.plan.enabled && !scene_.op.haptic.passivity_check && !(o_.check_only && o_.quiet)) {
+            const afm::HapticBound b = afm::haptic_bound(scene_, card.config());
+            if (!b.passive || !b.within_device)
+                std::fprintf(stderr, "%s: warning: the force loop is outside its stability bound (K_r %.0f N/m, K_max %.0f N/m, the device's "
+                             "limit %.0f N/m) and operator.haptic.passivity_check is false: the device's passivity controller will clamp it\n",
+                             o_.scene_path.c_str(), b.rendered_N_per_m, b.max_rendered_N_per_m, scene_.op.haptic.max_stiffness_N_per_m);
+        }
+        if (scene_.op.plan.enabled) return check_targets(o_.scene_path);
+        return -1;
+    }
+
+    // 2. The bus must stay on this namespace's loopback; 3. the run folder:
+    // a fresh one, or an earlier run's (its outputs replaced), with a copy of
+    // the scene that the run's processes read (what the run ran stays known:
+    // replay reads it, while the original may change).
+    int prepare()
+    {
+        std::string why;
+        if (!afm::multicast_routed_on_loopback(&why)) {
+            std::fprintf(stderr, "afm_launch: %s\n", why.c_str());
+            return 2;
+        }
+        const fs::path dir = o_.out_dir;
+        try {
+            if (fs::exists(dir) && !fs::is_empty(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
+                std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
+                             o_.out_dir.c_str());
+                return 2;
+            }
+            for (const char *old : kRunOutputs) fs::remove_all(dir / old);
+            fs::create_directories(dir / "logs");
+            fs::create_directories(dir / "frames");
+            for (const auto &e : fs::directory_iterator(dir))
+                if (e.path().filename().string().rfind("scan_local_", 0) == 0) fs::remove(e.path());
+            out_ = fs::canonical(dir).string();
+            scene_abs_ = fs::canonical(o_.scene_path).string();
+            scene_run_ = out_ + "/scene.yaml";
+            std::ofstream(scene_run_) << afm::resolved_scene_text(scene_abs_);   // includes merged: it stands alone
+        } catch (const fs::filesystem_error &e) {
+            std::fprintf(stderr, "afm_launch: cannot prepare output folder %s: %s\n", o_.out_dir.c_str(), e.what());
+            return 2;
+        }
+        signal(SIGPIPE, SIG_IGN);
+        struct sigaction sa {};
+        sa.sa_handler = on_stop_signal;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, nullptr);
+        sigaction(SIGTERM, &sa, nullptr);
+        try {
+            setenv("LCM_DEFAULT_URL", afm::kBusUrl, 1);
+            lc_ = afm::open_bus();
+        } catch (const std::exception &e) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.what());
+            return 2;
+        }
+        if (!o_.renderer)   // ./afm bench bus: the lockstep without the renderer
+            kids_.erase(std::remove_if(kids_.begin(), kids_.end(), [](const Child &c) { return c.name == "renderer"; }), kids_.end());
+        prog_.names = {"launcher"};
+        for (const auto &c : kids_) prog_.names.insert(c.name);
+        try {
+            tap_ = std::make_unique<afm::BusTap>(afm::bus_url());
+        } catch (const std::exception &e) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.what());
+            return 2;
+        }
+        inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
+        inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
+        hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
+        wall0_ = std::chrono::steady_clock::now();
+        return -1;
+    }
+
+    // 4. The record first (the launcher's own, bus_recorder.hpp), so the
+    // log holds the whole run; then the processes.
+    int start()
+    {
+        if (g_signal) return interrupted_before_start();
+        try {
+            recorder_ = std::make_unique<afm::BusRecorder>(out_ + "/bus.lcmlog");
+            hb_->send(afm::RunState::starting, 0, 0, "recording the bus");
+            pump(0);
+            recorder_->settle(true);
+        } catch (const afm::LogError &e) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.what());
+            return 1;
+        }
+        const std::string bin = exe_dir();
+        const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
+        std::vector<std::string> sim_cmd = {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop",
+                                            std::to_string(o_.drop_p)};
+        log_window_ = o_.log_window >= 0 ? o_.log_window : afm::log_window_blocks(tap_->receive_buffer_bytes());
+        if (log_window_ > 0)
+            sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(log_window_)});
+        if (!o_.renderer) sim_cmd.push_back("--no-renderer");
+        std::vector<std::string> fw_cmd = {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block",
+                                           std::to_string(o_.crash_block)};
+        place();
+        std::vector<std::string> renderer_cmd = {bin + "/renderer", "--scene", scene_run_, "--out", out_};
+        if (placement_.on()) {
+            // the threads that publish aside (common/aside.hpp) and the frame
+            // writer (frame_writer.hpp) on any CPU of the run: the kernel puts
+            // them where there is room (the observers' CPU is the run's busiest)
+            for (auto *cmd : {&sim_cmd, &fw_cmd}) cmd->insert(cmd->end(), {"--aside-cpus", afm::cpu_list(placement_.all())});
+            renderer_cmd.insert(renderer_cmd.end(), {"--writer-cpus", afm::cpu_list(placement_.all())});
+        }
+        const std::map<std::string, std::vector<std::string>> cmds = {
+            {"sim_afm", sim_cmd},
+            {"fw_node", fw_cmd},
+            {"operator", {bin + "/operator", "--scene", scene_run_, "--out", out_}},
+            {"renderer", renderer_cmd},
+        };
+        for (auto &c : kids_)
+            c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice, placement_.cpus_for(c.name));
+        if (o_.spy)
+            spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
+                             {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR}, 0, placement_.cpus_for("lcm-spy"));
+        return -1;
+    }
+
+    // The lockstep's CPU and the observers' (common/placement.hpp); the
+    // launcher is an observer. Nothing pinned when placement is off or
+    // there is nowhere to place.
+    void place()
+    {
+        if (!o_.placement) return;
+        placement_ = afm::Placement(afm::allowed_cpus(), afm::Placement::kLockDir);
+        if (placement_.on() && !afm::pin_self(placement_.observers()))
+            std::fprintf(stderr, "afm_launch: cannot pin the launcher to CPUs %s: %s\n", afm::cpu_list(placement_.observers()).c_str(),
+                         std::strerror(errno));
+    }
+
+    nlohmann::json placement_json() const
+    {
+        if (!placement_.on()) return {{"on", false}, {"why", placement_.why()}};
+        return {{"on", true}, {"lockstep_cpus", afm::cpu_list(placement_.lockstep())},
+                {"observer_cpus", afm::cpu_list(placement_.observers())}};
+    }
+
+    // 5. Supervise until every process is done, or one fails or stalls.
+    void supervise()
+    {
+        bool started = false;
+        auto last_print = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+        auto last_check = last_print;
+        while (true) {
+            // a record with unwritten messages waits 1 ms for the next one: a
+            // quiet bus (the simulator waiting for the record) flushes it
+            const int got = pump(recorder_ && recorder_->unflushed() ? 1 : 20);
+            if (!record(got == 0)) break;
+            // then let a batch gather: a wake-up per datagram costs more
+            // than the datagram (docs/bus.md, "The latency model")
+            if (got > 0) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
+            // the processes' state at most every 5 ms (a message wakes this
+            // loop thousands of times a second)
+            if (std::chrono::steady_clock::now() - last_check < std::chrono::milliseconds(5)) continue;
+            last_check = std::chrono::steady_clock::now();
+            if (g_signal) {
+                interrupted_ = g_signal;
+                failure_ = std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM");
+                break;
+            }
+            for (auto &c : kids_) c.reap();
+            spy_.reap();
+            failure_ = dead_process();
+            if (!failure_.empty()) break;
+            if (std::all_of(kids_.begin(), kids_.end(), [](const Child &c) { return c.exited; })) {
+                finished_ = true;
+                break;
+            }
+            if (o_.kill_after >= 0 && wall_s() >= o_.kill_after) {
+                for (auto &c : kids_)
+                    if (c.name == o_.kill_name && !c.exited) kill(c.pid, SIGKILL);
+                o_.kill_after = -1;
+            }
+            // Start the run once every process is ready.
+            if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, afm::RunState::ready); })) {
+                started = true;
+                for (auto &c : kids_) c.cpus = afm::cpu_list(afm::cpus_of(c.pid));   // where each one really runs
+                for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
+            }
+            if (started && !prog_.is("sim_afm", afm::RunState::done)) hb_->maybe_send(afm::RunState::running, 0, 0, 200000);
+            failure_ = stalled_process();
+            if (!failure_.empty()) break;
+            const auto now = std::chrono::steady_clock::now();
+            if (!o_.quiet && now - last_print >= std::chrono::seconds(1)) {
+                last_print = now;
+                print_progress(started);
+            }
+        }
+        if (!o_.quiet) std::fprintf(stderr, "\n");
+    }
+
+    // 6. Stop: on failure, tell and then make everyone stop; the record last.
+    void stop()
+    {
+        auto signal_child = [](Child &c, int sig) {
+            if (!c.exited && c.pid > 0) kill(c.pid, sig);
+        };
+        if (!failure_.empty()) {
+            for (int i = 0; i < 3; ++i) {
+                hb_->send(afm::RunState::stop, 0, 0, failure_);
+                pump(20);
+            }
+            for (auto &c : kids_) signal_child(c, SIGTERM);
+        }
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        while (std::chrono::steady_clock::now() < deadline &&
+               !std::all_of(kids_.begin(), kids_.end(), [](const Child &c) { return c.exited; })) {
+            for (auto &c : kids_) c.reap();
+            record(pump(20) == 0);
+        }
+        for (auto &c : kids_) {
+            signal_child(c, SIGKILL);
+            c.reap(true);
+        }
+        // the messages still under way (kQuietMs), then the record is closed
+        const auto drain_end = std::chrono::steady_clock::now() + std::chrono::milliseconds(kDrainMs);
+        while (std::chrono::steady_clock::now() < drain_end) {
+            const int got = pump(kQuietMs);
+            if (!record(got == 0) || got == 0) break;
+        }
+        record(true);   // the rest to the file (a full disk fails the run here too)
+        if (recorder_) recorded_events_ = recorder_->events();
+        recorder_.reset();
+        // lcm-spy stays open for the person watching (the bus is quiet now);
+        // the run ends when they close it. On failure it is closed with the rest.
+        if (o_.spy && !spy_.exited) {
+            if (failure_.empty()) std::fprintf(stderr, "run: the run is over; close lcm-spy to finish\n");
+            else signal_child(spy_, SIGTERM);
+            spy_.reap(true);
+        }
+        wall_ = wall_s();
+    }
+
+    // 7. run.json, then the summary; the exit code.
+    int finish()
+    {
+        const nlohmann::json run = run_json();
+        if (!write_run_json(run)) return 1;
+        if (interrupted_) {
+            std::fprintf(stderr, "run: %s; every process stopped, the bus log and run.json (status: interrupted) are kept in %s\n",
+                         failure_.c_str(), out_.c_str());
+            return 128 + interrupted_;
+        }
+        if (!failure_.empty()) {
+            std::fprintf(stderr, "run: FAILED: %s\n", failure_.c_str());
+            for (const auto &c : kids_)
+                if (c.exit_code != 0)
+                    std::fprintf(stderr, "  %s exit code %d; last lines of its log:\n%s", c.name.c_str(), c.exit_code,
+                                 slurp_tail(out_ + "/logs/" + c.name + ".log", 5).c_str());
+            std::fprintf(stderr, "run: the bus log and run.json are kept in %s\n", out_.c_str());
+            return 1;
+        }
+        if (!finished_) return 1;
+        const double sim_s = run["sim_seconds"].get<double>();
+        std::printf("run: ok: %.2f simulated s in %.2f wall s (%.2f sim s per wall s), %d frames, %lld bus messages\n", sim_s, wall_,
+                    wall_ > 0 ? sim_s / wall_ : 0.0, run["frames"].get<int>(), static_cast<long long>(messages_));
+        if (run.contains("fidelity")) {
+            const auto &fj = run["fidelity"];
+            // null: an object the display shows was not found in the scan (an infinite error)
+            auto num = [&](const char *k) { return fj.contains(k) && fj[k].is_number() ? fj[k].get<double>() : -1.0; };
+            const double max_err = num("max_position_error_nm");
+            char err[64];
+            if (max_err >= 0) std::snprintf(err, sizeof err, "%.2f nm", max_err);
+            else std::snprintf(err, sizeof err, "(an object not found in the scan)");
+            std::printf("run: fidelity (display vs a fresh scan at frame %d): max object position error %s, RMS height "
+                        "difference %.2f nm (%s)\n",
+                        fj.value("frame", 0), err, num("rms_height_error_nm"), fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
+        }
+        print_plan(run);
+        std::printf("run: output in %s\n", out_.c_str());
+        return 0;
+    }
+
+private:
+    // run.json whole or not at all: written beside, then renamed over (a
+    // full disk leaves no half-written file that a reader could take for a
+    // finished run).
+    bool write_run_json(const nlohmann::json &run) const
+    {
+        const std::string path = out_ + "/run.json", tmp = path + ".partial";
+        {
+            std::ofstream f(tmp);
+            f << run.dump(2) << "\n";
+            f.flush();
+            if (!f) {
+                std::error_code ec;
+                fs::remove(tmp, ec);
+                std::fprintf(stderr, "afm_launch: cannot write %s: %s (status would have been '%s')\n", path.c_str(),
+                             std::strerror(errno ? errno : EIO), run.value("status", "?").c_str());
+                return false;
+            }
+        }
+        std::error_code ec;
+        fs::rename(tmp, path, ec);
+        if (ec) {
+            fs::remove(tmp, ec);
+            std::fprintf(stderr, "afm_launch: cannot write %s: %s\n", path.c_str(), ec.message().c_str());
+            return false;
+        }
+        return true;
+    }
+
+    // A signal before the run started: nothing ran.
+    int interrupted_before_start()
+    {
+        std::fprintf(stderr, "afm_launch: interrupted before the run started\n");
+        return 128 + g_signal;
+    }
+
+    Options o_;
+    afm::Scene scene_;
+    std::string out_, scene_abs_, scene_run_;
+    std::unique_ptr<lcm::LCM> lc_;
+    std::unique_ptr<afm::Inbox> inbox_;
+    std::unique_ptr<afm::Heartbeat> hb_;
+    Progress prog_;
+    std::chrono::steady_clock::time_point wall0_;
+    std::unique_ptr<afm::BusTap> tap_;   // the whole bus, without liblcm's receive thread
+    long long log_window_ = 0;           // the simulator's window on the record, blocks (0: none)
+    std::unique_ptr<afm::BusRecorder> recorder_;
+    std::string record_error_;   // a write into the record that failed inside pump()
+    int64_t recorded_events_ = 0;   // what the record held when it was closed
+    afm::Placement placement_;   // the lockstep's CPU and the observers' (place())
+    Child spy_{"lcm-spy"};
+    std::vector<Child> kids_ = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
+    std::string failure_;
+    bool finished_ = false;
+    int interrupted_ = 0;   // the signal that stopped the run (0: none)
+    double wall_ = 0;
+    int64_t messages_ = 0;
+
+    double wall_s() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count(); }
+
+    // A process that died before the simulator said done (or with an error).
+    std::string dead_process() const
+    {
+        for (const auto &c : kids_) {
+            if (!c.exited || (c.exit_code == 0 && (prog_.is("sim_afm", afm::RunState::done) || c.name == "sim_afm"))) continue;
+            // A clean exit: the process heard the simulator's "done", which
+            // this process may not have dispatched yet; given a moment.
+            if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(500)) continue;
+            return c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
+        }
+        return "";
+    }
+
+    // A live process whose heartbeats show no progress for --stall-s.
+    std::string stalled_process() const
+    {
+        const auto now = std::chrono::steady_clock::now();
+        for (const auto &c : kids_) {
+            auto it = prog_.progress_at.find(c.name);
+            const auto since = it == prog_.progress_at.end() ? wall0_ : it->second;
+            if (!c.exited && std::chrono::duration<double>(now - since).count() > o_.stall_s && !prog_.is(c.name, afm::RunState::done))
+                return c.name + " made no progress for " + std::to_string(static_cast<int>(o_.stall_s)) + " s (log: " + out_ + "/logs/" +
+                       c.name + ".log)";
+        }
+        return "";
+    }
+
+    void print_progress(bool started)
+    {
+        double t_sim = 0;
+        if (prog_.last.count("sim_afm")) t_sim = prog_.last["sim_afm"].sim_utime * 1e-6;
+        int frames = 0;
+        if (prog_.last.count("renderer") && prog_.last["renderer"].sim_utime > 0)
+            frames = afm::frames_due(scene_, prog_.last["renderer"].sim_utime);
+        if (started)
+            std::fprintf(stderr, "\rrun: sim %.2f / %.2f s   frames %d / %d   wall %.1f s   ", t_sim, scene_.duration_s, frames,
+                         scene_.total_frames(), wall_s());
+        else
+            std::fprintf(stderr, "\rrun: starting (scan, processes)   wall %.1f s   ", wall_s());
+        std::fflush(stderr);
+    }
+
+    static nlohmann::json process_json(const Child &c)
+    {
+        return {{"name", c.name}, {"exit_code", c.exit_code}, {"log", "logs/" + c.name + ".log"}, {"cpus", c.cpus},
+                {"cpu_user_s", c.cpu_user_s}, {"cpu_system_s", c.cpu_system_s}, {"max_rss_kb", c.max_rss_kb}};
+    }
+
+    // The launcher itself (run.json "launcher"): it records the bus
+    // (bus_recorder.hpp), so its share of the machine is part of a run's cost.
+    nlohmann::json launcher_json() const
+    {
+        struct rusage ru {};
+        getrusage(RUSAGE_SELF, &ru);
+        return {{"rejected", inbox_ ? inbox_->rejected().to_json() : nlohmann::json(nullptr)},
+                {"recorded_events", recorded_events_},
+                {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
+                {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
+                {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},
+                {"log_window_blocks", log_window_},
+                {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
+                {"cpu_system_s", ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6},
+                {"max_rss_kb", ru.ru_maxrss}};
+    }
+
+    // Waits up to timeout_ms for the bus, then takes everything it holds:
+    // every message into the record, and each to the launcher's inbox (the
+    // heartbeats). Returns the messages taken.
+    int pump(int timeout_ms)
+    {
+        if (!tap_->wait(timeout_ms)) return 0;
+        return tap_->drain([this](const std::string &channel, const unsigned char *data, std::size_t size, int64_t utime) {
+            if (recorder_ && record_error_.empty()) {
+                try {
+                    recorder_->take(channel, data, size, utime);
+                } catch (const afm::LogError &e) {
+                    record_error_ = e.what();   // record() fails the run with it
+                }
+            }
+            inbox_->deliver(channel, data, size);
+        });
+    }
+
+    // Settles the record after pump() (bus_quiet: the wait for a message
+    // timed out); false (failure_ set) when the record cannot be written.
+    bool record(bool bus_quiet)
+    {
+        if (!recorder_) return true;
+        try {
+            if (!record_error_.empty()) throw afm::LogError(record_error_);
+            recorder_->settle(bus_quiet);
+            return true;
+        } catch (const afm::LogError &e) {
+            if (failure_.empty()) failure_ = e.what();
+            recorder_.reset();
+            return false;
+        }
+    }
+
+    nlohmann::json run_json()
+    {
+        using nlohmann::json;
+        std::string log_err;
+        RecordedBlocks recorded;
+        const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &recorded);
+        for (const auto &kv : counts) messages_ += kv.second;
+        json run;
+        run["scene"] = scene_abs_;
+        run["scene_name"] = scene_.name;
+        run["seed"] = scene_.seed;
+        run["status"] = interrupted_ ? "interrupted" : failure_.empty() ? "ok" : "failed";
+        if (!failure_.empty()) run["error"] = failure_;
+        const char *ns_mode = std::getenv("AFM_NETNS_MODE");
+        run["netns"] = ns_mode ? ns_mode : "unknown";
+        run["bus_url"] = afm::kBusUrl;
+        run["time_mode"] = scene_.time_mode;
+        const double sim_s = prog_.last.count("sim_afm") ? prog_.last["sim_afm"].sim_utime * 1e-6 : 0.0;
+        run["sim_seconds"] = sim_s;
+        run["wall_seconds"] = wall_;
+        run["sim_seconds_per_wall_second"] = wall_ > 0 ? sim_s / wall_ : 0.0;
+        run["samples"] = std::llround(sim_s * scene_.sample_rate_hz);
+        int frames = 0;
+        for (const auto &e : fs::directory_iterator(out_ + "/frames"))
+            if (e.path().extension() == ".png") ++frames;
+        run["frames"] = frames;
+        run["frames_expected"] = scene_.total_frames();   // fewer when the planner finished early (the renderer's report)
+        json procs = json::array();
+        for (const auto &c : kids_) procs.push_back(process_json(c));
+        run["processes"] = procs;
+        run["log_bytes"] = fs::exists(out_ + "/bus.lcmlog") ? static_cast<int64_t>(fs::file_size(out_ + "/bus.lcmlog")) : 0;
+        run["channels"] = json::object();
+        for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
+        if (!log_err.empty()) run["log_error"] = log_err;
+        run["card"] = card_json();
+        run["launcher"] = launcher_json();
+        run["placement"] = placement_json();
+        merge_reports(&run);
+        if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
+        // Completeness of the record: distinct analog blocks and poses in the
+        // log against the blocks the simulator simulated (a recorder starved
+        // of CPU can lose datagrams; a block missing either input cannot be replayed).
+        if (run.contains("sim") && run["sim"].contains("blocks")) {
+            const int64_t sent = run["sim"]["blocks"].get<int64_t>();
+            // a block the simulator sent (a datagram with another seq is not one)
+            auto in_run = [&](const std::set<int64_t> &s) {
+                return static_cast<int64_t>(std::count_if(s.begin(), s.end(), [&](int64_t q) { return q >= 0 && q < sent; }));
+            };
+            const int64_t analog_seqs = in_run(recorded.analog), pose_seqs = in_run(recorded.pose);
+            const bool complete = analog_seqs == sent && pose_seqs == sent;
+            run["log"] = {{"analog_blocks_recorded", analog_seqs},
+                          {"pose_blocks_recorded", pose_seqs},
+                          {"analog_blocks_simulated", sent},
+                          {"complete", complete}};
+            if (!complete)
+                std::fprintf(stderr,
+                             "run: warning: the bus log holds %lld analog blocks and %lld poses of %lld blocks (the recorder was starved of CPU)\n",
+                             static_cast<long long>(analog_seqs), static_cast<long long>(pose_seqs), static_cast<long long>(sent));
+        }
+        json outs = {"bus.lcmlog", "run.json", "scene.yaml", "frames/"};
+        for (const char *v : {"video.mp4", "video.avi", "contact_sheet.png", "scan_initial.png", "scan_initial.gsf", "scan_final.gsf",
+                              "display_final.gsf", "fidelity.json", "fidelity_diff.png"})
+            if (fs::exists(out_ + "/" + v)) outs.push_back(v);
+        for (const auto &e : fs::directory_iterator(out_))
+            if (e.path().filename().string().rfind("scan_local_", 0) == 0) outs.push_back(e.path().filename().string());
+        run["outputs"] = outs;
+        return run;
+    }
+
+    // What the card ran with, in the firmware's units (fw_card_init on the
+    // scene's configuration, as fw_node has it): the displacement constants
+    // in use, the chain, the ADC.
+    nlohmann::json card_json() const
+    {
+        const afm::CardSetup setup(scene_);
+        fw_card_t card;
+        if (fw_card_init(&card, &setup.config(), &setup.storage(), nullptr) != FW_OK) return nullptr;
+        const fw_board_config_t &b = setup.config().board;
+        return {{"adc_bits", b.adc_bits},
+                {"word_bits", setup.config().word_bits == 0 ? 32 : setup.config().word_bits},
+                {"normal_gain_pn_per_v", b.normal_gain_pn_per_v},
+                {"lateral_gain_pn_per_v", b.lateral_gain_pn_per_v},
+                {"deflection_pm_per_v", b.deflection_pm_per_v},
+                {"disp_n_pm_per_v", fw_card_disp_n_pm_per_v(&card)},
+                {"disp_l_pm_per_v", fw_card_disp_l_pm_per_v(&card)},
+                {"scan_angle_mdeg", b.scan_angle_mdeg},
+                {"mu_ppm", b.mu_ppm},
+                {"adhesion_pn", b.adhesion_pn},
+                {"samples_per_block", scene_.samples_per_block()},
+                {"full_scale_pn", fw_guard_full_scale_pn(b.normal_gain_pn_per_v)}};
+    }
+
+    // The planner's account (operator_report.json) and its result in the
+    // fresh scan (fidelity.json "placement"), as run.json holds them.
+    static void print_plan(const nlohmann::json &run)
+    {
+        if (run.contains("operator") && run["operator"].contains("haptic")) {
+            const auto &h = run["operator"]["haptic"];
+            std::printf("run: haptic: gain %.3f N/nN, K_r %.0f N/m against the bound %.0f N/m (%s); the passivity controller acted in %ld "
+                        "blocks, %.3g J; %zu contacts felt\n",
+                        h.value("gain_N_per_nN", 0.0), h.value("rendered_stiffness_N_per_m", 0.0), h.value("passivity_bound_N_per_m", 0.0),
+                        h.value("passive", false) ? "inside" : "OUTSIDE", h.value("controller_blocks", 0L), h.value("controller_energy_J", 0.0),
+                        run["operator"].contains("contacts_felt") ? run["operator"]["contacts_felt"].size() : std::size_t{0});
+        }
+        if (!run.contains("operator") || !run["operator"].contains("plan")) return;
+        const auto &p = run["operator"]["plan"];
+        const double done_s = p["finished_sim_s"].is_number() ? p["finished_sim_s"].get<double>() : -1;
+        char when[128];
+        if (done_s >= 0) std::snprintf(when, sizeof when, "done at %.1f simulated s (%.1f wall s)", done_s, p.value("planner_wall_s", 0.0));
+        else std::snprintf(when, sizeof when, "NOT done when the run ended (give a longer duration_s)");
+        std::printf("run: plan: %d pushes (%d again after a miss), %d local scans, %d fixes; %s\n", p.value("pushes", 0),
+                    p.value("repushes", 0), p.value("local_scans", 0), p.value("fixes", 0), when);
+        if (!run.contains("fidelity") || !run["fidelity"].contains("placement")) return;
+        const auto &pl = run["fidelity"]["placement"];
+        if (pl.contains("particles")) {
+            const auto &q = pl["particles"];
+            std::printf("run: placement (a fresh scan): %d of %d sites hold a particle within %.0f nm (%d empty); worst %.1f nm, RMS %.1f nm\n",
+                        q.value("placed", 0), q.value("sites", 0), q.value("tolerance_nm", 0.0), q.value("missing", 0),
+                        q.value("worst_nm", 0.0), q.value("rms_nm", 0.0));
+        }
+        if (pl.contains("rods"))
+            for (const auto &r : pl["rods"]) {
+                char err[64] = "not found in the scan";
+                if (r["error_nm"].is_number()) std::snprintf(err, sizeof err, "ends within %.1f nm", r["error_nm"].get<double>());
+                std::printf("run: placement (a fresh scan): rod %d %s (tolerance %.0f nm), %s\n", r.value("id", 0),
+                            r.value("placed", false) ? "on its target" : "OFF its target", r.value("tolerance_nm", 0.0), err);
+            }
+    }
+
+    // Each process's own report, under its name.
+    void merge_reports(nlohmann::json *run) const
+    {
+        for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fw_report.json", "fidelity.json"}) {
+            std::ifstream f(out_ + "/" + rep);
+            if (!f) continue;
+            nlohmann::json j = nlohmann::json::parse(f, nullptr, false);
+            if (j.is_discarded()) {
+                (*run)["report_errors"].push_back(rep + ": not valid JSON");
+                continue;
+            }
+            const std::string key = rep.substr(0, rep.find_first_of("_."));
+            if (key == "sim" && j.contains("effects")) (*run)["effects"] = j["effects"];
+            (*run)[key] = j;
+        }
+    }
+};
+
+}  // namespace afm::launch
+
