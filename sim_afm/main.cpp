@@ -481,6 +481,7 @@ struct Loop {
                 {"scan_lines_sent", sim.scan_lines_sent},
                 {"piezo_clamped_samples", sim.world.piezo_clamped_samples()},
                 {"scan_points_clamped", sim.world.scan_points_clamped()},
+                {"wire_ridden_samples", sim.world.ridden_samples()},
                 {"aside", aside.report()},
                 {"rejected", inbox.rejected().to_json()}};
     }

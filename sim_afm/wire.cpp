@@ -417,12 +417,13 @@ void RigidWire::place(const Eigen::Vector2d &c, double angle)
     update_box();
 }
 
-bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
+bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k, double ride_nN)
 {
     double pen, u_from_a;
     Eigen::Vector2d n;
     in_contact = contact(q, r_tip, pen, n, u_from_a);
     squeezed = false;
+    ridden = false;
     if (!in_contact) return false;
     const Eigen::Vector2d t(std::cos(psi), std::sin(psi)), nr(-std::sin(psi), std::cos(psi));
     const Eigen::Vector2d p = -n;   // the tip pushes the wire away from itself
@@ -459,8 +460,11 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k)
     const double press = held ? 0.0 : mu * press_tan;
     const double a = press > 0 && f > 0 ? 1.0 - last.force_nN / (f * L_nm) * press : 1.0;
     squeezed = !(a > 0);
-    if (squeezed) return false;
-    const double D = last.force_nN / a;
+    // The tip lifts before the rod yields when the rod needs more than the
+    // tip can push (squeezed: no push is enough) and the contact got there.
+    const double D = squeezed ? std::numeric_limits<double>::infinity() : last.force_nN / a;
+    ridden = D > ride_nN && F > ride_nN;
+    if (squeezed || ridden) return false;
     if (F <= D) return false;   // inside the limit surface: static
     // Advance the contact point along p until the contact force is back on the
     // limit surface: (F - D) / k of travel.
@@ -849,7 +853,7 @@ bool FlexibleWire::follow(const Contact &c, double t_seg, double &phi)
     return true;
 }
 
-bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
+bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, double ride_nN)
 {
     Contact c;
     c.q = q;
@@ -862,7 +866,10 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc)
     double t_seg;
     const double dist = closest(q, c.seg, t_seg);
     in_contact = c.reach - dist > 0;
-    if (!in_contact) return false;
+    // The contact force past what the tip can push: it rides over (the
+    // chain's own friction is per node; the press is not modelled on it).
+    ridden = in_contact && kc * (c.reach - dist) > ride_nN;
+    if (!in_contact || ridden) return false;
     const Eigen::Vector2d ab = x[c.seg + 1] - x[c.seg], dv = q - (x[c.seg] + t_seg * ab);
     c.n0 = dist > 1e-12 ? Eigen::Vector2d(dv / dist) : Eigen::Vector2d(-ab.y(), ab.x()).normalized();
     const int nn = static_cast<int>(x.size());

@@ -46,6 +46,7 @@
 #include <Eigen/Dense>
 
 #include <functional>
+#include <limits>
 #include <vector>
 
 namespace afm::sim {
@@ -165,7 +166,12 @@ public:
     bool contact(const Eigen::Vector2d &q, double r_tip, double &pen, Eigen::Vector2d &n_out, double &u_out) const;
     // The tip at q pushes the wire with contact stiffness k (nN/nm): the wire
     // moves to quasi-static equilibrium. Returns true when it moved.
-    virtual bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) = 0;
+    // ride_nN: the most the tip can push before it leaves the substrate
+    // (World::ride_push_nN, the tip's vertical balance); when the wire needs
+    // more than that to move and the contact reaches it, the tip rides over:
+    // `ridden`, and the wire stays.
+    virtual bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
+                      double ride_nN = std::numeric_limits<double>::infinity()) = 0;
     // Distance from q to the wire's axis, nm.
     double axis_distance(const Eigen::Vector2d &q) const;
     TrenchTrap trap;              // empty unless lithography cuts trenches
@@ -177,6 +183,8 @@ public:
     double mu = 0;                // wire-substrate mu (0: no down force)
     double press_tan = 0;         // tan psi of this sample's push
     bool squeezed = false;        // the last push could not move it
+    bool ridden = false;          // the last push: the tip rode over it (push's ride_nN), and it stayed
+    bool pulled = false;          // the apex's balance took this wire's contact in this sweep (World::apex_pull)
 
 protected:
     std::vector<Eigen::Vector2d> x;   // nodes, nm
@@ -189,7 +197,8 @@ public:
     // the friction only where a trench holds the rod; uniform friction is
     // integrated exactly).
     RigidWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm, int K);
-    bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
+    bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
+              double ride_nN = std::numeric_limits<double>::infinity()) override;
     void place(const Eigen::Vector2d &centre, double psi);   // sets the pose and the nodes
 
     Eigen::Vector2d centre;       // nm
@@ -207,7 +216,8 @@ class FlexibleWire : public Wire {
 public:
     FlexibleWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm,
                  double E_GPa, int segments, int iterations);
-    bool push(const Eigen::Vector2d &q, double r_tip, double k_contact) override;
+    bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
+              double ride_nN = std::numeric_limits<double>::infinity()) override;
 
     double ds = 0;                    // rest segment length, nm
     double EI = 0;                    // nN nm^2

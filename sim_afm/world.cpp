@@ -169,10 +169,12 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, double 
     for (const auto &w : wires_) {
         double pen, u;
         Eigen::Vector2d n;
+        w->pulled = false;
         if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
-        if (rides_over(*w, k_contact_ * pen)) continue;
+        if (w->ridden) continue;   // the tip rode over it at the last push (push_wires)
         g += k_contact_ * pen * n;
         *kt += k_contact_;
+        w->pulled = true;
     }
     return g;
 }
@@ -235,10 +237,16 @@ void World::push_particles(const Eigen::Vector2d &as2, double rt, bool chains)
 void World::push_wires(const Eigen::Vector2d &as2, double rt)
 {
     for (auto &w : wires_) {
-        if (!w->near(as2, rt)) { w->in_contact = false; continue; }
+        if (!w->near(as2, rt)) { w->in_contact = false; w->ridden = false; continue; }
         const auto t0 = clock_start();
-        w->push(as2, rt, k_contact_);
+        // The contact's force is the tip's push once the apex's balance has
+        // taken it (pulled); the sweep in which the apex first steps into
+        // the wire, before that, overshoots by a penalty artefact, and is
+        // no lift-off (a ride already under way stays one).
+        const double ride = w->pulled || w->ridden ? ride_push_nN(*w) : std::numeric_limits<double>::infinity();
+        w->push(as2, rt, k_contact_, ride);
         clock_add(&t_wires_, t0);
+        if (w->ridden) ++ridden_samples_;
     }
 }
 
@@ -271,9 +279,9 @@ void World::relax_rigid()
         Eigen::Vector2d n;
         if (!w->near(as, rt)) { w->in_contact = false; continue; }
         const auto t0 = clock_start();
-        w->push(as, rt, k_contact_);
+        w->push(as, rt, k_contact_, ride_push_nN(*w));
         clock_add(&t_wires_, t0);
-        if (w->contact(as, rt, pen, n, u) && !rides_over(*w, k_contact_ * pen)) f += k_contact_ * pen * n;
+        if (w->contact(as, rt, pen, n, u) && !w->ridden) f += k_contact_ * pen * n;
     }
     near(as, rt + max_radius_ + 1.0, scratch_);
     for (int idx : scratch_) {
@@ -307,12 +315,18 @@ void World::press_wires()
     for (auto &w : wires_) w->press_tan = t;
 }
 
-bool World::rides_over(const Wire &w, double push_nN) const
+double World::ride_push_nN(const Wire &w) const
 {
-    // A squeezed wire stays; the cone's flank lifts the tip by H tan psi
-    // against the load and the tip's adhesion: past both (dF of eq. 30 above
-    // the set point) the tip rides up over the wire instead of pressing it.
-    return down_force_ && w.squeezed && push_nN * w.press_tan - tip_adhesion_nN_ > contact_load();
+    // The tip's own vertical balance (eq. 27-28): a push H on the cone's
+    // flank, at psi = gamma + theta_t from the horizontal, lifts the tip by
+    // H tan psi against its load and its adhesion; past both the apex leaves
+    // the substrate and climbs over the wire instead of pressing it, while
+    // the wire slides as well as once it is squeezed. So the tip can push at
+    // most (load + F_a,ts) / tan psi. Whether the wire needs more is its own
+    // friction's answer (Wire::push), never eq. 29-30's closed form.
+    // Without down_force the cone's flank is not modelled: no limit.
+    if (!down_force_ || !(w.press_tan > 0)) return std::numeric_limits<double>::infinity();
+    return std::max(0.0, contact_load() + tip_adhesion_nN_) / w.press_tan;
 }
 
 std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const

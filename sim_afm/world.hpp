@@ -160,6 +160,8 @@ public:
     int64_t piezo_clamped_samples() const { return clamped_samples_; }
     // Scan points whose position or z extension was clamped likewise.
     int64_t scan_points_clamped() const { return scan_clamped_; }
+    // Samples in which the tip rode over a wire it pushed (down_force; eq. 27-28).
+    long ridden_samples() const { return ridden_samples_; }
 
     // Imaged height at (x, y) in frame A, nm: the surface, dilated by the tip
     // when the scene lists tip_convolution.
@@ -208,7 +210,7 @@ private:
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     void press_wires();                                       // down_force: each wire's tan psi for this sample
-    bool rides_over(const Wire &w, double push_nN) const;     // the tip climbs a squeezed wire
+    double ride_push_nN(const Wire &w) const;                 // the most the tip can push before it lifts (down_force)
     // Horizontal force of the substrate on the tip, frame A, when it slides
     // along the horizontal direction m on a surface of unit normal n under the
     // vertical force fz; none when the slope is too steep to climb (the tip
@@ -265,6 +267,7 @@ private:
     mutable int64_t scan_clamped_ = 0;
     double tip_adhesion_nN_ = 0;
     double tip_mu_ = 0;
+    long ridden_samples_ = 0;      // samples the tip rode over a wire (down_force)
     bool down_force_ = false;      // the cone presses what it pushes (effect down_force)
     double gamma_rad_ = 0;         // the cone's half angle
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move

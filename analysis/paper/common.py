@@ -48,6 +48,14 @@ class Row:
     error: float = None
     ok: bool = True
 
+    @property
+    def verdict(self):
+        """'ok' or 'NO' for a row held to a tolerance; 'shown' for one that is
+        only shown (no tolerance: it can fail nothing, so it says no 'ok')."""
+        if self.bench is not None and self.tolerance is None:
+            return "shown"
+        return "ok" if self.ok else "NO"
+
     def judge(self):
         if self.bench is None:
             self.ok = False
@@ -77,7 +85,8 @@ class Result:
         return all(r.ok for r in self.rows)
 
     def as_dict(self):
-        return {"ok": self.ok, "rows": [asdict(r) for r in self.rows], "figures": self.figures, "notes": self.notes}
+        return {"ok": self.ok, "rows": [dict(asdict(r), verdict=r.verdict) for r in self.rows], "figures": self.figures,
+                "notes": self.notes}
 
 
 def load_scene(name):
@@ -140,6 +149,46 @@ def scan(run_dir, name):
     xs = x0 + (np.arange(nx) + 0.5) * xr / nx
     ys = y0 + yr - (np.arange(ny) + 0.5) * yr / ny   # row 0 at the top
     return h, xs, ys
+
+
+def scan_particles(h, xs, ys, min_height_nm):
+    """The particles a scan shows: (x, y) in nm of each local maximum at
+    least min_height_nm above the scan's median (the substrate), one per
+    blob (the highest pixel of each connected region above half that)."""
+    from scipy import ndimage
+    base = float(np.median(h))
+    labels, n = ndimage.label(h - base > 0.5 * min_height_nm)
+    out = []
+    for k in range(1, n + 1):
+        mask = labels == k
+        i = np.argmax(np.where(mask, h, -np.inf))
+        r, c = np.unravel_index(i, h.shape)
+        if h[r, c] - base >= min_height_nm:
+            out.append((float(xs[c]), float(ys[r])))
+    return out
+
+
+def moved_in_scans(run_dir, min_height_nm, moved_nm=30.0):
+    """How many particles of the first scan a later fresh scan finds moved,
+    from the run's own scans (scan_initial, scan_final): each particle of
+    the first scan is matched to the nearest of the last; the sample's drift
+    between the scans is the median of those displacements (most particles
+    must have stayed: not a measure for a run that pushed most of them); a
+    particle moved if it is more than moved_nm from where the drift alone
+    would put it. Returns (moved, particles in the first scan)."""
+    h0, x0, y0 = scan(run_dir, "scan_initial")
+    h1, x1, y1 = scan(run_dir, "scan_final")
+    first, last = scan_particles(h0, x0, y0, min_height_nm), scan_particles(h1, x1, y1, min_height_nm)
+    if not first or not last:
+        raise PaperError(f"{run_dir}: no particle found in scan_initial.gsf or scan_final.gsf")
+    L = np.asarray(last)
+
+    def nearest(p, off):
+        return L[np.argmin(np.hypot(L[:, 0] - off[0] - p[0], L[:, 1] - off[1] - p[1]))]
+    disp = np.array([nearest(p, (0.0, 0.0)) - p for p in first])
+    drift = np.median(disp, axis=0)
+    moved = sum(int(np.hypot(*(nearest(p, drift) - p - drift)) > moved_nm) for p in first)
+    return moved, len(first)
 
 
 def truth(run_dir):

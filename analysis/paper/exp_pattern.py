@@ -17,6 +17,10 @@ FIGURES = "fig. 10"
 
 SCENE = {"full": ("pattern.yaml", {}), "reduced": ("../pattern_ten.yaml", {"outputs.video": "none"})}
 PAPER_S = 1800   # "half an hour" by hand
+# The planner's simulated time, bounded by the time measured when the bound
+# was set (330.5 s full, 27.4 s reduced) plus 25 %: a planner that gets
+# slower fails, where the paper's half hour would let it take five times as long.
+TIME_BOUND_S = {"full": 1.25 * 330.5, "reduced": 1.25 * 27.4}
 
 
 def runs(size):
@@ -60,8 +64,8 @@ def analyse(dirs, exp_dir, size):
                    truth=float(np.sqrt(np.mean(truth_found ** 2))) if finite.size else None, tolerance=3.0,
                    note="over the sites with a particle found on the scan (the truth over the same sites)"),
         common.Row("worst placement error", "nm", bench=float(finite.max()) if finite.size else None, truth=float(truth_found.max()) if finite.size else None, tolerance=5.0),
-        common.Row("simulated time to assemble", "s", paper=PAPER_S, bench=plan["finished_sim_s"], tolerance=PAPER_S,
-                   note=f"the paper: by hand, about half an hour; here the planner: {pushes} pushes, "
+        common.Row("simulated time to assemble", "s", paper=PAPER_S, bench=plan["finished_sim_s"], tolerance=TIME_BOUND_S[size],
+                   note=f"bound: the measured time plus 25 %; the paper: by hand, about half an hour; here the planner: {pushes} pushes, "
                         f"{sum(i.get('scans', 0) for i in plan['items'])} local scans"),
         common.Row("display against a fresh scan: RMS height", "nm", bench=fid["rms_height_error_nm"], tolerance=fid["target_nm"],
                    note="the renderer's check at the last frame"),

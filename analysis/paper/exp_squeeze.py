@@ -4,10 +4,17 @@ what the tip pushes by H tan psi, the card models the same (fw_wire_update,
 fw_particles_down_threshold_pn) and flags SQUEEZE past psi_max.
 
 - A rod (1.3 um x 100 nm, f L = 26 nN, wire mu 0.5) pushed at an end by cones
-  of several half angles: the push measured from the card's force (FW_STATE,
-  less the tip's own friction measured in the same run before contact)
-  against the firmware's eq. 29 (afm_calc model squeeze) and the simulator;
-  dF = H tan psi - F_a,ts from the measured push against eq. 30.
+  of several half angles, pressed at 40 nN so that the tip stays down: the
+  push measured from the card's force (FW_STATE, less the tip's own friction
+  measured in the same run before contact) against the firmware's eq. 29
+  (afm_calc model squeeze) and the simulator; dF = H tan psi - F_a,ts from
+  the measured push against eq. 30.
+- The tip's lift-off (eq. 27-30) in the live loop: the same end push at 0.9
+  and 1.1 of eq. 30's least load dF (the firmware's solver), at two or three
+  cones. The simulator lifts the tip by its own contact balance (the push on
+  the cone's flank against load and adhesion); at 0.9 dF the tip rides over
+  and the rod stays (the run's scans; the card flags RIDE-OVER), at 1.1 dF
+  the rod is pushed (the card flags contact, the scans see it moved).
 - The same rod pushed near its middle with mu 1 and gamma 50 deg, past
   psi_max: it stays (scans and SIM_TRUTH). Pressed at 40 nN the card flags
   SQUEEZE; at 5 nN the tip rides up over it before the push gets that far.
@@ -28,6 +35,9 @@ TITLE = "Tip-substrate-wire squeeze and load-dependent friction"
 FIGURES = "figs. 16-17, eq. 23-24, 29-30"
 
 GAMMAS = {"full": [10, 20, 30, 40, 50], "reduced": [20, 45]}
+PRESSED_NN = 40.0       # the gamma runs' load: the tip stays down at every cone (eq. 30's dF is below it)
+RIDE_GAMMAS = {"full": [20, 35, 50], "reduced": [20, 35]}
+RIDE_LOADS = {"low": 0.9, "high": 1.1}   # of eq. 30's least load
 END_Q = 0.03            # the end push, as in the rod experiment
 MID_Q = 0.45            # near the middle: k = 0.909
 SQUEEZE_GAMMA, SQUEEZE_MU = 50, 1.0
@@ -41,10 +51,33 @@ def _path(q, sc):
     return [[x, p[1]] for p in sc["operator"]["path_nm"]]
 
 
+def _rod_constants(sc):
+    """(L, f L, wire mu, F_a,ts) of the squeeze scene's rod, nm and nN."""
+    w = sc["objects"]["wires"][0]
+    L = float(w["x1_nm"] - w["x0_nm"])
+    return (L, float(sc["sample"]["wire"]["friction_nN_per_um"]) * L * 1e-3, float(sc["sample"]["wire"]["mu"]),
+            float(sc["sample"]["tip_substrate"]["adhesion_nN"]))
+
+
+def ride_load(sc, gamma):
+    """Eq. 30's least load for the end push at cone half angle gamma (the
+    firmware's solver, no twist): the model under test, which picks the
+    ride-over runs' loads."""
+    L, fl, mu, fats = _rod_constants(sc)
+    return float(_solver(L, END_Q * L, gamma, mu, fl, fats)["df_nN"])
+
+
 def runs(size):
     sc = common.load_scene("squeeze.yaml")
     out = [common.Run(name=f"gamma_{g}", scene="squeeze.yaml", cost_s=4,
-                      settings={"probe.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc)}) for g in GAMMAS[size]]
+                      settings={"probe.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc),
+                                "operator.load_nN": PRESSED_NN}) for g in GAMMAS[size]]
+    for g in RIDE_GAMMAS[size]:
+        dF = ride_load(sc, g)
+        for tag, x in RIDE_LOADS.items():
+            out.append(common.Run(name=f"ride_{g}_{tag}", scene="squeeze.yaml", cost_s=4,
+                                  settings={"probe.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc),
+                                            "operator.load_nN": round(x * dF, 4)}))
     for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
         out.append(common.Run(name=name, scene="squeeze.yaml", cost_s=4,
                               settings={"probe.tip_half_angle_deg": SQUEEZE_GAMMA, "sample.wire.mu": SQUEEZE_MU,
@@ -106,10 +139,7 @@ def _solver(L, l, gamma, mu, fl, fats):
 def analyse(dirs, exp_dir, size):
     sc = common.truth(dirs[f"gamma_{GAMMAS[size][0]}"])
     w = sc["objects"]["wires"][0]
-    L = float(w["x1_nm"] - w["x0_nm"])
-    fl = float(sc["sample"]["wire"]["friction_nN_per_um"]) * L * 1e-3
-    mu = float(sc["sample"]["wire"]["mu"])
-    fats = float(sc["sample"]["tip_substrate"]["adhesion_nN"])
+    L, fl, mu, fats = _rod_constants(sc)
     k_end = common.calc("model", "wire", "--length-nm", f"{L:.1f}", "--diameter-nm", w["diameter_nm"],
                         "--push-at-nm", f"{END_Q * L:.1f}", "--f-nN-per-um", f"{fl / L * 1e3:.4f}")["min_force_nN"]
     pts = []
@@ -135,6 +165,7 @@ def analyse(dirs, exp_dir, size):
                    note="dF = H tan psi - F_a,ts; > 0: the load must exceed it to keep the apex down"),
     ]
     _squeeze_rows(res, dirs, L, fl, fats)
+    _ride_rows(res, dirs, sc, size)
     _particle_rows(res, dirs, sc)
     res.notes.append("per cone: " + "; ".join(f"gamma={p['g']} H_card={p['H_card']:.2f} H_sim={p['H_truth']:.2f} "
                                               f"H_eq29={p['H_fw']:.2f} dF={p['dF_card']:.2f} (eq. 30: {p['dF_fw']:.2f})"
@@ -170,6 +201,45 @@ def _squeeze_rows(res, dirs, L, fl, fats):
                                    truth=1.0, tolerance=0,
                                    note=f"the apex's last y {y_end:.0f} nm (the rod's far side: +60; the path ends at "
                                         f"+100); the stroke pushes on until the lift exceeds the load"))
+
+
+def _ride_flags(run_dir):
+    """Blocks the card flagged RIDE-OVER, and contact (FW_STATE)."""
+    from analysis import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
+    flag = afmlog.afm.fw_state_t
+    states = log.get("FW_STATE", [])
+    return sum(1 for m in states if m.flags & flag.FLAG_RIDEOVER), sum(1 for m in states if m.flags & flag.FLAG_CONTACT)
+
+
+def _ride_rows(res, dirs, sc, size):
+    """The end push at 0.9 and 1.1 of eq. 30's least load: ridden over (the
+    rod stays, the card flags it) or pushed, judged from the run's scans and
+    the card's flags; the truth columns from SIM_TRUTH and sim_report.json."""
+    for g in RIDE_GAMMAS[size]:
+        dF = ride_load(sc, g)
+        for tag, x in RIDE_LOADS.items():
+            d = dirs[f"ride_{g}_{tag}"]
+            moved_scan, moved_truth = _rod_moved(d)
+            ridden, contact = _ride_flags(d)
+            sim_ridden = common.run_json(d).get("sim", {}).get("wire_ridden_samples", 0)
+            load = x * dF
+            if tag == "low":
+                res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 0.9 dF = {load:.2f} nN: the rod's move", "nm",
+                                           bench=moved_scan, tolerance=5.0,
+                                           note=f"between the run's scans (5 nm: the scan's pixel is 7.8 nm); simulator "
+                                                f"{moved_truth:.2f} nm; eq. 30's dF = {dF:.2f} nN"))
+                res.rows.append(common.Row(f"ride-over, gamma {g} deg, 0.9 dF: the card flagged RIDE-OVER (1 yes)", "",
+                                           bench=float(ridden > 0), truth=float(sim_ridden > 0), tolerance=0,
+                                           note=f"{ridden} blocks flagged; the simulator's tip rode over in {sim_ridden} "
+                                                f"samples (truth column)"))
+            else:
+                pushed = float(contact >= 5 and moved_scan > 20.0)
+                res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 1.1 dF = {load:.2f} nN: pushed (1 yes)", "",
+                                           bench=pushed, truth=float(moved_truth > 20.0), tolerance=0,
+                                           note=f"the card flagged contact in {contact} blocks and RIDE-OVER in {ridden}; "
+                                                f"the scans see the rod moved {moved_scan:.0f} nm (simulator "
+                                                f"{moved_truth:.0f} nm)"))
 
 
 def _particle_rows(res, dirs, sc):

@@ -33,13 +33,13 @@ def _tol(r):
 
 def table(results):
     """The stdout table: one line per figure."""
-    head = f"{'experiment':10s} {'quantity':44s} {'paper':>10s} {'bench':>11s} {'truth':>11s} {'error':>10s} {'tol':>8s}  ok"
+    head = f"{'experiment':10s} {'quantity':44s} {'paper':>10s} {'bench':>11s} {'truth':>11s} {'error':>10s} {'tol':>8s}  verdict"
     lines = [head, "-" * len(head)]
     for name, (_, res, _) in results.items():
         for r in res.rows:
             q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
             lines.append(f"{name:10s} {q[:44]:44s} {fmt(r.paper):>10s} {fmt(r.bench):>11s} {fmt(r.truth):>11s} {_err(r):>10s} "
-                         f"{_tol(r):>8s}  {'ok' if r.ok else 'NO'}")
+                         f"{_tol(r):>8s}  {r.verdict}")
     return "\n".join(lines)
 
 
@@ -64,11 +64,11 @@ def write(out, results, size, wall_s):
           "firmware outputs by the firmware's own solvers; *truth* is the simulator's; *error* is bench - truth.", ""]
     for n, (e, res, w) in results.items():
         md += [f"## {e.TITLE} ({e.FIGURES}): {'within tolerance' if res.ok else 'OUTSIDE tolerance'}", "",
-               "| quantity | paper | bench | truth | error | tolerance | ok | note |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+               "| quantity | paper | bench | truth | error | tolerance | verdict | note |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
         for r in res.rows:
             q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
             md.append(f"| {q} | {fmt(r.paper)} | {fmt(r.bench)} | {fmt(r.truth)} | {_err(r)} | {_tol(r)} | "
-                      f"{'ok' if r.ok else 'NO'} | {r.note} |")
+                      f"{r.verdict} | {r.note} |")
         md += [""] + [f"- {t}" for t in res.notes] + [""]
         md += [f"![{cap}]({n}/{fn})" for cap, fn in res.figures] + [""]
     with open(os.path.join(out, "report.md"), "w") as f:
@@ -79,7 +79,7 @@ def write(out, results, size, wall_s):
     exps = []
     for n, (e, res, w) in results.items():
         figs = [(cap, _inline(os.path.join(out, n, fn))) for cap, fn in res.figures if os.path.exists(os.path.join(out, n, fn))]
-        rows = [dict(asdict(r), err=_err(r), tol=_tol(r)) for r in res.rows]
+        rows = [dict(asdict(r), err=_err(r), tol=_tol(r), verdict=r.verdict) for r in res.rows]
         exps.append({"name": n, "title": e.TITLE, "figs": e.FIGURES, "ok": res.ok, "rows": rows, "notes": res.notes,
                      "figures": figs, "wall_s": w, "what": e.__doc__ or ""})
     html = env.get_template("paper.html.j2").render(exps=exps, size=size, now=now, wall_s=wall_s,

@@ -123,5 +123,6 @@ typedef enum {
 #define FW_FLAG_SAT_POS         (1u << 7)  /* a position output was clamped to int32 */
 #define FW_FLAG_SQUEEZE         (1u << 8)  /* tip-wire contact past psi_max: the tip squeezes the wire */
 #define FW_FLAG_INTERLOCK       (1u << 9)  /* the force interlock is latched: the block's command retracts the tip (fw_guard.h) */
+#define FW_FLAG_RIDEOVER        (1u << 10) /* the tip rides over a wire it pushes (eq. 30: its load too small): the wire stays */
 
 #endif /* FW_TYPES_H */

@@ -46,7 +46,12 @@
  * rod's surface, fw_wire_contact). test_wire pins both edges. With the down
  * force, psi = gamma + theta_t at or past psi_max is the squeeze (section
  * 7): the rod stays and FW_WIRE_SQUEEZED is raised once the excess passes
- * half of k f L. A pushed rod moves along its normal until the apex sits on
+ * half of k f L. Below psi_max the tip still leaves the substrate when its
+ * load F_z cannot hold it down against the push (eq. 30: dF = F_r sin psi -
+ * F_a,ts above F_z): the tip rides over the rod, which stays, and
+ * FW_WIRE_RIDDEN is raised once the excess passes half of the most the tip
+ * can push before it lifts, H_ride = (F_z + F_a,ts) / tan psi (the tip's
+ * vertical balance, eq. 27-28). A pushed rod moves along its normal until the apex sits on
  * its surface, in steps of at most L/4 (fw_wire_push),
  * FW_WIRE_PUSH_STEPS_MAX of them at most.
  *
@@ -110,6 +115,7 @@
 /* fw_wire_t.flags */
 #define FW_WIRE_PUSHED   (1u << 0)   /* moved by the tip in the last update */
 #define FW_WIRE_SQUEEZED (1u << 1)   /* the tip squeezed it in the last update (section 7): it stayed */
+#define FW_WIRE_RIDDEN   (1u << 3)   /* the tip rode over it in the last update (eq. 30, the load too small): it stayed */
 #define FW_WIRE_SAT_POS  (1u << 2)   /* a move was clamped to int32 (sticky) */
 
 typedef enum {
@@ -303,14 +309,26 @@ int32_t fw_wire_friction_pn(const fw_wire_tip_t *tip, const fw_wire_t *w);
 /* One sample of the push rule (above): apex (frame A, pm), the contact
  * force excess_pn (fw_force_lateral_excess_pn) and the lever's twist
  * theta_t (radians in 2.30, sign ignored: it tilts the cone away from the
- * rod). Clears FW_WIRE_PUSHED and FW_WIRE_SQUEEZED, then raises the one
+ * rod), and the tip's load F_z (pN, the sample's measured normal force;
+ * INT32_MAX: a load that never lets the tip ride over). Clears
+ * FW_WIRE_PUSHED, FW_WIRE_SQUEEZED and FW_WIRE_RIDDEN, then raises the one
  * that happens. FW_ERR_ARG for a NULL pointer.
  * Scaling and overflow: fw_wire_contact, fw_wire_static_point,
  * fw_wire_push_threshold_pn (saturated; with the down force, push_pn of
  * fw_wire_squeeze_solve, saturated), psi = gamma + |theta_t| as a
  * binary angle (|theta_t| clamped to 90 deg), fw_wire_squeeze_solve,
- * fw_wire_push steps of at most L/4. */
+ * H_ride (fw_wire_ride_push_pn), fw_wire_push steps of at most L/4. */
 fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[2], int64_t excess_pn,
-                           q30_t twist_rad);
+                           q30_t twist_rad, int32_t load_pn);
+
+/* The most the tip can push horizontally through a contact at psi before
+ * it lifts off the substrate, H_ride = (F_z + F_a,ts) / tan psi, pN (the
+ * tip's vertical balance: the contact's vertical part H tan psi against
+ * the load and the adhesion). 0 when F_z + F_a,ts <= 0.
+ * Scaling and overflow: F_z + F_a,ts < 2^32 in 64 bits, times cos psi in
+ * 2.30 < 2^62, divided by sin psi (2.30, at least sin of the smallest
+ * psi the tip allows, gamma > 0), saturated to int32; psi in (0, 90 deg),
+ * INT32_MAX for psi at or below 0 (no flank to climb). */
+int32_t fw_wire_ride_push_pn(fw_bam_t psi, int32_t load_pn, int32_t adhesion_ts_pn);
 
 #endif /* FW_WIRE_H */

@@ -263,12 +263,15 @@ static void card_objects_sample(fw_card_t *c, fw_sample_out_t *o)
             if (c->cfg.litho) {
                 (void)fw_wire_hold(w, &c->wire_tip, c->litho.pts, c->litho.count);
             }
-            (void)fw_wire_update(w, &c->wire_tip, o->tip_pm, excess, twist);
+            (void)fw_wire_update(w, &c->wire_tip, o->tip_pm, excess, twist, o->force_pn[2]);
             if ((w->flags & FW_WIRE_PUSHED) != 0u) {
                 o->flags |= FW_FLAG_CONTACT;
             }
             if ((w->flags & FW_WIRE_SQUEEZED) != 0u) {
                 o->flags |= FW_FLAG_SQUEEZE;
+            }
+            if ((w->flags & FW_WIRE_RIDDEN) != 0u) {
+                o->flags |= FW_FLAG_RIDEOVER;
             }
         }
     }

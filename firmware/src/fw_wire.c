@@ -629,8 +629,64 @@ static fw_bam_t wire_contact_angle(const fw_wire_tip_t *tip, q30_t twist_rad)
     return tip->tip_half_angle + fw_math_bam_from_rad_q30((q30_t)t);
 }
 
+int32_t fw_wire_ride_push_pn(fw_bam_t psi, int32_t load_pn, int32_t adhesion_ts_pn)
+{
+    q30_t sn;
+    q30_t cs;
+    int64_t hold = (int64_t)load_pn + adhesion_ts_pn;
+    if (hold <= 0) {
+        return 0;
+    }
+    if (psi == 0 || psi >= FW_BAM_QUARTER_TURN) {
+        return psi == 0 ? INT32_MAX : 0;
+    }
+    fw_math_sincos_q30(psi, &sn, &cs);
+    if (sn <= 0) {
+        return INT32_MAX;
+    }
+    return fw_math_sat_i32(fw_math_div_round_i64(hold * cs, sn), NULL);
+}
+
+/* The push rule with the cone's down force (fw_wire.h) for a rod no trench
+ * holds: true when the rod stays this sample, with FW_WIRE_SQUEEZED or
+ * FW_WIRE_RIDDEN raised when that is why. psi at or past psi_max: the
+ * squeeze, once the excess passes half of k f L. Below it: eq. 30's dF
+ * above the load (equivalently eq. 29's push above H_ride) is a ride-over,
+ * once the excess passes half of H_ride; else the rod moves once the
+ * excess passes half of eq. 29's push. */
+static bool wire_pressed_stays(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_wire_static_t *st, int32_t fl,
+                               int64_t excess_pn, q30_t twist_rad, int32_t load_pn)
+{
+    bool sat = false;
+    const int64_t half_kfl = (int64_t)(fw_wire_push_threshold_pn(st->k, fl, &sat) >> 1);
+    fw_squeeze_t sq;
+    fw_status_t sqs = FW_ERR_DOMAIN;
+    int32_t ride;
+    fw_bam_t psi = wire_contact_angle(tip, twist_rad);
+    if (psi < FW_BAM_QUARTER_TURN) {
+        sqs = fw_wire_squeeze_solve(psi, st->k, tip->mu, fl, tip->adhesion_ts_pn, &sq);
+    }
+    if (sqs == FW_ERR_DOMAIN) {
+        if (excess_pn > half_kfl) {
+            w->flags |= FW_WIRE_SQUEEZED;
+        }
+        return true;
+    }
+    if (sqs != FW_OK) {   /* FW_ERR_ARG cannot happen (tip and k validated): then k f L stands */
+        return excess_pn <= half_kfl;
+    }
+    ride = fw_wire_ride_push_pn(psi, load_pn, tip->adhesion_ts_pn);
+    if (sq.push_pn > ride) {
+        if (excess_pn > (int64_t)(ride >> 1)) {
+            w->flags |= FW_WIRE_RIDDEN;
+        }
+        return true;
+    }
+    return excess_pn <= (int64_t)(sq.push_pn >> 1);
+}
+
 fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[2], int64_t excess_pn,
-                           q30_t twist_rad)
+                           q30_t twist_rad, int32_t load_pn)
 {
     bool touch;
     bool sat = false;
@@ -639,13 +695,11 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     int32_t fl;
     int32_t max_step;
     fw_wire_static_t st;
-    fw_squeeze_t sq;
-    fw_bam_t psi;
     int steps;
     if (w == NULL || tip == NULL || apex_pm == NULL) {
         return FW_ERR_ARG;
     }
-    w->flags &= ~(FW_WIRE_PUSHED | FW_WIRE_SQUEEZED);
+    w->flags &= ~(FW_WIRE_PUSHED | FW_WIRE_SQUEEZED | FW_WIRE_RIDDEN);
     if (fw_wire_contact(w, apex_pm, tip->tip_radius_pm + w->diameter_pm / 2, &touch, &l, &dn) != FW_OK || !touch) {
         return FW_OK;
     }
@@ -654,29 +708,19 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     }
     fl = fw_wire_friction_pn(tip, w);
     /* held: the whole push (fw_wire.h, "Trenches"), k_q16 <= 1000 * 2^16
-     * < 2^26 times f L < 2^31: < 2^57; else half of it, k in 2.30 as
+     * < 2^26 times f L < 2^31: < 2^57; pressed by the cone: eq. 29 and
+     * 30 (wire_pressed_stays); else half of k f L, k in 2.30 as
      * fw_wire_push_threshold_pn has it */
     if (w->held != 0u) {
         if (excess_pn <= fw_math_rshift_round_i64((int64_t)st.k_q16 * fl, 16)) {
             return FW_OK;
         }
+    } else if (tip->down_force) {
+        if (wire_pressed_stays(w, tip, &st, fl, excess_pn, twist_rad, load_pn)) {
+            return FW_OK;
+        }
     } else if (excess_pn <= (int64_t)(fw_wire_push_threshold_pn(st.k, fl, &sat) >> 1)) {
         return FW_OK;
-    }
-    if (tip->down_force && w->held == 0u) {
-        fw_status_t sqs = FW_ERR_DOMAIN;
-        psi = wire_contact_angle(tip, twist_rad);
-        if (psi < FW_BAM_QUARTER_TURN) {
-            sqs = fw_wire_squeeze_solve(psi, st.k, tip->mu, fl, tip->adhesion_ts_pn, &sq);
-        }
-        if (sqs == FW_ERR_DOMAIN) {
-            w->flags |= FW_WIRE_SQUEEZED;
-            return FW_OK;
-        }
-        /* FW_ERR_ARG cannot happen (tip and k validated): then k f L stands */
-        if (sqs == FW_OK && excess_pn <= (int64_t)(sq.push_pn >> 1)) {
-            return FW_OK;
-        }
     }
     /* first order: at most L/4, and a quarter of the lever (L/16 or more
      * on a held rod), so each step turns it by under a quarter radian */

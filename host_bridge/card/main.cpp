@@ -30,6 +30,7 @@ static_assert(FW_FLAG_THETA_UNKNOWN == afm::fw_state_t::FLAG_THETA_UNKNOWN, "fla
 static_assert(FW_FLAG_SAT_POS == afm::fw_state_t::FLAG_SAT_POS, "flag bits must match the firmware");
 static_assert(FW_FLAG_SQUEEZE == afm::fw_state_t::FLAG_SQUEEZE, "flag bits must match the firmware");
 static_assert(FW_FLAG_INTERLOCK == afm::fw_state_t::FLAG_INTERLOCK, "flag bits must match the firmware");
+static_assert(FW_FLAG_RIDEOVER == afm::fw_state_t::FLAG_RIDEOVER, "flag bits must match the firmware");
 
 namespace {
 

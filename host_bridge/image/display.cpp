@@ -469,6 +469,7 @@ cv::Mat Display::frame(const Overlay &o) const
     if (o.flags & (fw_state_t::FLAG_SAT_SN | fw_state_t::FLAG_SAT_SL)) flags += "SATURATED ";
     if (o.flags & fw_state_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
     if (o.flags & fw_state_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
+    if (o.flags & fw_state_t::FLAG_RIDEOVER) flags += "RIDE-OVER ";
     if (o.flags & fw_state_t::FLAG_INTERLOCK) flags += "INTERLOCK ";
     if (!flags.empty()) put_label(img, flags, cv::Point(4, 24), 0.8, kYellow);
     // The hand's gauge, bottom middle (right of the scale bar): a circle of

@@ -315,10 +315,10 @@ static void test_wire_rule_triggers_one_pn_past_half_of_k_f_l(void)
     fw_wire_t w;
     fw_wire_tip_t tip;
     rule_rod(&w, &tip, 20000, 300000, false);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13000, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13000, 0, INT32_MAX));
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & FW_WIRE_PUSHED);
     TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13001, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13001, 0, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
     TEST_ASSERT_EQUAL_INT32(10000, w.y_pm);   /* moved until the apex sits on its surface */
 }
@@ -335,14 +335,14 @@ static void test_wire_rule_with_down_force_uses_eq_29_push(void)
     rule_rod(&w, &tip, 20000, 300000, true);
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_squeeze_solve(tip.tip_half_angle, FW_Q30_ONE, tip.mu, 26000, 0, &sq));
     TEST_ASSERT_DOUBLE_WITHIN(2.0, ref, (double)sq.push_pn);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn >> 1, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn >> 1, 0, INT32_MAX));
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, (sq.push_pn >> 1) + 1, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, (sq.push_pn >> 1) + 1, 0, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
     /* a sliding rod's excess is the push plus noise: a third below still
      * moves the model (the reason for the midpoint) */
     rule_rod(&w, &tip, 20000, 300000, true);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn - sq.push_pn / 3, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn - sq.push_pn / 3, 0, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
 }
 
@@ -355,21 +355,76 @@ static void test_wire_rule_squeezes_past_psi_max_and_the_twist_counts(void)
     fw_wire_t w;
     fw_wire_tip_t tip;
     rule_rod(&w, &tip, 44000, 1000000, true);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
     rule_rod(&w, &tip, 44000, 1000000, true);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, two_deg));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, two_deg, INT32_MAX));
     TEST_ASSERT_EQUAL_UINT32(FW_WIRE_SQUEEZED, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
     TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, -two_deg));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, -two_deg, INT32_MAX));
     TEST_ASSERT_EQUAL_UINT32(FW_WIRE_SQUEEZED, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
     /* below half of k f L the tip merely touches: neither flag */
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13000, two_deg));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13000, two_deg, INT32_MAX));
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_SQUEEZED));
     /* without the down force nothing squeezes */
     rule_rod(&w, &tip, 44000, 1000000, false);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, two_deg));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, two_deg, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
+}
+
+static void test_wire_ride_push_is_the_load_over_tan_psi(void)
+{
+    /* psi 45 deg: tan 1, H_ride = F_z + F_a,ts; 20 deg: / tan 20 */
+    const fw_bam_t d45 = fw_math_bam_from_mdeg(45000), d20 = fw_math_bam_from_mdeg(20000);
+    TEST_ASSERT_INT32_WITHIN(2, 6000, fw_wire_ride_push_pn(d45, 5000, 1000));
+    TEST_ASSERT_DOUBLE_WITHIN(2.0, 5000.0 / tan(20.0 * TU_PI / 180.0), (double)fw_wire_ride_push_pn(d20, 5000, 0));
+    /* no load and no adhesion: the tip lifts at once; psi 0: no flank to climb */
+    TEST_ASSERT_EQUAL_INT32(0, fw_wire_ride_push_pn(d45, 0, 0));
+    TEST_ASSERT_EQUAL_INT32(0, fw_wire_ride_push_pn(d45, -3000, 1000));
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fw_wire_ride_push_pn(0, 5000, 0));
+    /* a huge load at a shallow angle saturates, it does not wrap */
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, fw_wire_ride_push_pn(fw_math_bam_from_mdeg(1), INT32_MAX, 1000));
+}
+
+static void test_wire_rides_over_below_eq_30s_load_and_pushes_above_it(void)
+{
+    /* gamma 20 deg, mu 0.3, no adhesion: eq. 29's push 29188 pN; eq. 30's
+     * least load dF = push tan psi = 10623 pN. At 0.9 dF the tip lifts
+     * once the excess passes half of H_ride = 0.9 dF / tan psi: the rod
+     * stays, RIDDEN; at 1.1 dF it is pushed at half of eq. 29's push. */
+    const int32_t apex[2] = { 0, -50000 };
+    fw_wire_t w;
+    fw_wire_tip_t tip;
+    fw_squeeze_t sq;
+    int32_t low;
+    int32_t high;
+    int32_t ride;
+    rule_rod(&w, &tip, 20000, 300000, true);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_squeeze_solve(tip.tip_half_angle, FW_Q30_ONE, tip.mu, 26000, 0, &sq));
+    TEST_ASSERT_DOUBLE_WITHIN(3.0, 26000.0 / (1.0 - 0.3 * tan(20.0 * TU_PI / 180.0)) * tan(20.0 * TU_PI / 180.0),
+                              (double)sq.df_pn);
+    low = (int32_t)lround(0.9 * sq.df_pn);
+    high = (int32_t)lround(1.1 * sq.df_pn);
+    ride = fw_wire_ride_push_pn(tip.tip_half_angle, low, 0);
+    TEST_ASSERT_TRUE(ride < sq.push_pn);
+    /* below half of H_ride: the tip merely touches */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, ride >> 1, 0, low));
+    TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED));
+    /* past it: ridden over, the rod stays, however large the excess */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, (ride >> 1) + 1, 0, low));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_RIDDEN, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0, low));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_RIDDEN, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED));
+    TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
+    /* the load above dF: pushed, as without any load limit */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn >> 1, 0, high));
+    TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, (sq.push_pn >> 1) + 1, 0, high));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_PUSHED, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN));
+    /* without the down force the load does not matter */
+    rule_rod(&w, &tip, 20000, 300000, false);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13001, 0, 0));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_PUSHED, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN));
 }
 
 int main(void)
@@ -391,5 +446,7 @@ int main(void)
     RUN_TEST(test_wire_rule_triggers_one_pn_past_half_of_k_f_l);
     RUN_TEST(test_wire_rule_with_down_force_uses_eq_29_push);
     RUN_TEST(test_wire_rule_squeezes_past_psi_max_and_the_twist_counts);
+    RUN_TEST(test_wire_ride_push_is_the_load_over_tan_psi);
+    RUN_TEST(test_wire_rides_over_below_eq_30s_load_and_pushes_above_it);
     return UNITY_END();
 }

@@ -424,14 +424,14 @@ static void test_trench_rule_a_held_rod_needs_hold_times_the_push(void)
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_static_point_held(L_PM, L_PM / 2, w.held, w.hold_q16, &st));
     whole = ((int64_t)st.k_q16 * 26000 + (1 << 15)) >> 16;
     TEST_ASSERT_DOUBLE_WITHIN(0.01 * whole, 26000 * ref_hold(20.0, 0.3), (double)whole);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, whole, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, whole, 0, INT32_MAX));
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & FW_WIRE_PUSHED);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, whole / 2 + 1, 0));   /* the midpoint: stuck */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, whole / 2 + 1, 0, INT32_MAX));   /* the midpoint: stuck */
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & FW_WIRE_PUSHED);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13001, 0));   /* a free rod's trigger */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, 13001, 0, INT32_MAX));   /* a free rod's trigger */
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & FW_WIRE_PUSHED);
     TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, whole + 1, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, whole + 1, 0, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
 }
 
@@ -486,7 +486,7 @@ static void test_trench_push_on_a_short_held_rod_stays_first_order(void)
     apex[1] = -50000;
     (void)p;
     w.hold_points = 0;   /* the mask set above stands (no trench given: the cache is kept) */
-    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0, INT32_MAX));
     TEST_ASSERT_TRUE((w.flags & FW_WIRE_PUSHED) != 0u);
     fw_wire_ends_pm(&w, a1, b1);
     /* turned by well under a half turn, either way */

@@ -58,14 +58,18 @@ sample:
 objects:
   wires:
     - {id: 4, x0_nm: -HALF, y0_nm: 0, x1_nm: HALF, y1_nm: 0, diameter_nm: 100}
+probe: {tip_half_angle_deg: GAMMA}
 operator:
-  load_nN: 5
+  load_nN: LOAD
   path_nm: [[0, -300]]
 )";
 
-afm::Scene wire_scene(double L, const std::string &extra = "", double friction = 20, int segments = 32, int sweeps = 8)
+afm::Scene wire_scene(double L, const std::string &extra = "", double friction = 20, int segments = 32, int sweeps = 8,
+                      double load_nN = 5, double gamma_deg = 20)
 {
     std::string t = with(kWireScene, "SWEEPS", std::to_string(sweeps));
+    t = with(t, "LOAD", std::to_string(load_nN));
+    t = with(t, "GAMMA", std::to_string(gamma_deg));
     t = with(t, "EXTRA", extra);
     t = with(t, "FRICTION", std::to_string(friction));
     t = with(t, "SEGMENTS", std::to_string(segments));
@@ -169,9 +173,9 @@ void test_rod_twist_balances_force_and_torque()
 // takes (lateral force on the tip less the tip's own friction) while sliding.
 struct PushResult { double s_nm, force_nN, dpsi; };
 
-PushResult push_world(double l, double L, const std::string &extra = "", int segments = 32, int sweeps = 8)
+PushResult push_world(double l, double L, const std::string &extra = "", int segments = 32, int sweeps = 8, double load_nN = 5)
 {
-    const afm::Scene s = wire_scene(L, extra, 20, segments, sweeps);
+    const afm::Scene s = wire_scene(L, extra, 20, segments, sweeps, load_nN);
     World w(s);
     const double cn_off = w.lever().normal_offset(s.op.load_nN).x();
     const double x = l - L / 2;
@@ -351,7 +355,7 @@ void test_long_flexible_wire_shape_does_not_depend_on_the_node_under_the_tip()
 void test_scenes_build_only_the_wire_model_they_need()
 {
     // No wire in the scene: no wire model, even with wire_flexibility listed.
-    std::string text = with(with(with(with(kWireScene, "SWEEPS", "8"), "EXTRA", ", wire_flexibility"), "FRICTION", "20"), "SEGMENTS", "32");
+    std::string text = with(with(with(with(with(with(kWireScene, "LOAD", "5"), "GAMMA", "20"), "SWEEPS", "8"), "EXTRA", ", wire_flexibility"), "FRICTION", "20"), "SEGMENTS", "32");
     text = with(text, "objects:\n  wires:\n    - {id: 4, x0_nm: -HALF, y0_nm: 0, x1_nm: HALF, y1_nm: 0, diameter_nm: 100}\n", "");
     const afm::Scene none = scene_from_text(text);
     World a(none);
@@ -370,9 +374,11 @@ void test_down_force_raises_the_push_as_eq_29_and_squeezes_past_psi_max()
     // down_force: the cone (gamma 20 deg, the default; wire mu 0.3) presses
     // the rod by H tan psi. At the middle (k = 1) the push that moves it is
     // f L / (1 - mu tan psi), psi = gamma + theta_t (eq. 29's horizontal part).
+    // The load (20 nN) holds the tip down against it (eq. 30's least load is
+    // about 8 nN here; at the other tests' 5 nN the tip rides over).
     const double L = 1000, fL = 20.0 * L / 1000;
-    const afm::Scene sc = wire_scene(L, ", down_force");
-    const PushResult m = push_world(L / 2, L, ", down_force");
+    const afm::Scene sc = wire_scene(L, ", down_force", 20, 32, 8, 20.0);
+    const PushResult m = push_world(L / 2, L, ", down_force", 32, 8, 20.0);
     World w(sc);
     const double psi = 20.0 * M_PI / 180.0 + std::fabs(w.lever().twist(m.force_nN));
     const double expect = 1.0 / (1.0 - sc.wire_model.mu * std::tan(psi));
@@ -401,6 +407,65 @@ void test_down_force_raises_the_push_as_eq_29_and_squeezes_past_psi_max()
     TEST_ASSERT_FALSE(z.squeezed);
 }
 
+
+// The rod's travel (nm, its middle's, along the push) when the tip, at
+// load_nN and cone half angle gamma, sweeps 65 nm across its middle
+// (down_force), and the samples the tip rode over it.
+std::pair<double, long> ride_sweep(double gamma_deg, double load_nN)
+{
+    const double L = 1000;
+    const afm::Scene s = wire_scene(L, ", down_force", 20, 32, 8, load_nN, gamma_deg);
+    World w(s);
+    w.set_relax_iterations(16);
+    const double cn_off = w.lever().normal_offset(load_nN).x();
+    double y = -70;
+    w.command(Eigen::Vector2d(-cn_off, y), load_nN, true);
+    for (int i = 0; i < 1000; ++i) w.step();
+    const double y0 = w.wires()[0]->nodes().front().y() + w.wires()[0]->nodes().back().y();
+    for (int i = 0; i <= 1300; ++i) {
+        y += 0.05;
+        w.command(Eigen::Vector2d(-cn_off, y), load_nN, true);
+        w.step();
+    }
+    const double y1 = w.wires()[0]->nodes().front().y() + w.wires()[0]->nodes().back().y();
+    return {0.5 * (y1 - y0), w.ridden_samples()};
+}
+
+// Eq. 30's least load for a push at the middle of the rod of ride_sweep
+// (k = 1, f L = 20 nN, wire mu 0.3, tip adhesion 1 nN): H = f L / (1 - mu
+// tan psi), psi = gamma + theta_t(H), dF = H tan psi - F_a,ts. The model
+// under test (a reference for the loads), not the simulator's rule.
+double eq30_least_load(double gamma_deg)
+{
+    const afm::Scene s = wire_scene(1000, ", down_force", 20, 32, 8, 5.0, gamma_deg);
+    World w(s);
+    const double fL = 20.0, mu = s.wire_model.mu;
+    double psi = gamma_deg * M_PI / 180.0, H = fL;
+    for (int i = 0; i < 50; ++i) {
+        H = fL / (1.0 - mu * std::tan(psi));
+        psi = gamma_deg * M_PI / 180.0 + std::fabs(w.lever().twist(H));
+    }
+    return H * std::tan(psi) - s.tip_substrate.adhesion_nN;
+}
+
+void test_the_tip_rides_over_a_sliding_rod_below_eq_30s_load_and_pushes_it_above()
+{
+    // The simulator finds lift-off from the tip's own balance (World::
+    // ride_push_nN against the wire's own friction), not from eq. 30; eq. 30 only picks the loads here. At
+    // 0.9 of its least load the rod moves less than 2 nm and the tip rides
+    // over it; at 1.1 the rod is pushed (tens of nm) and the tip stays
+    // down. Two cone angles, both below psi_max (no squeeze).
+    for (double gamma : {20.0, 35.0}) {
+        const double dF = eq30_least_load(gamma);
+        const auto low = ride_sweep(gamma, 0.9 * dF), high = ride_sweep(gamma, 1.1 * dF);
+        std::printf("gamma %.0f deg: eq. 30 least load %.2f nN; at 0.9x the rod moved %.3f nm (ridden %ld samples), "
+                    "at 1.1x %.2f nm (ridden %ld)\n", gamma, dF, low.first, low.second, high.first, high.second);
+        TEST_ASSERT_TRUE(std::fabs(low.first) < 2.0);
+        TEST_ASSERT_TRUE(low.second > 100);
+        TEST_ASSERT_TRUE(high.first > 20.0);
+        TEST_ASSERT_EQUAL(0, high.second);
+    }
+}
 
 // ---- The uniform rod's exact solver (rod_push_twist_uniform) and its hard cases ----
 
@@ -914,6 +979,7 @@ int main()
     RUN_TEST(test_long_flexible_wire_shape_does_not_depend_on_the_node_under_the_tip);
     RUN_TEST(test_scenes_build_only_the_wire_model_they_need);
     RUN_TEST(test_down_force_raises_the_push_as_eq_29_and_squeezes_past_psi_max);
+    RUN_TEST(test_the_tip_rides_over_a_sliding_rod_below_eq_30s_load_and_pushes_it_above);
     RUN_TEST(test_uniform_rod_side_push_is_eq_20_in_closed_form);
     RUN_TEST(test_uniform_rod_middle_push_translates_and_off_middle_turns_about_the_far_end);
     RUN_TEST(test_uniform_rod_oblique_push_balances_and_matches_4096_points);
