@@ -132,9 +132,13 @@ def plan(a):
             sources[k] = f"{a.target}: vary.{k}"
     else:
         scene_path, knobs = a.target, []
+    given = {}
     for v in a.vary:
         key, values = K.parse_vary(v)
-        knobs = [(k, vs) for k, vs in knobs if k != key] + [(key, values)]
+        if key in given:   # the last of two would win silently
+            raise SweepError(f"--vary {v}: {key} is already varied by --vary {given[key]}; give each knob once")
+        given[key] = v
+        knobs = [(k, vs) for k, vs in knobs if k != key] + [(key, values)]   # over the sweep file's
         sources[key] = f"--vary {v}"
     if not knobs:
         raise SweepError(f"{a.target}: nothing to vary (give --vary KEY=V1,V2 or a sweep file with vary:)")

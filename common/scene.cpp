@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sys/stat.h>
+
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -761,8 +763,29 @@ void read_outputs(const Reader &r, const YAML::Node &root, Scene &s)
 
 namespace {
 
+// A scene file, or a file it includes, is at most this large (a scene of
+// thousands of listed objects is well under it).
+constexpr long long kMaxSceneBytes = 4 << 20;
+
+// Refuses, by its type and before any read, what is not a regular file (a
+// directory aborted the reader; a FIFO hung it), and a file over the cap.
+void check_scene_file(const std::string &path, const std::string &what)
+{
+    struct stat st {};
+    if (stat(path.c_str(), &st) != 0) throw SceneError(path + ": cannot open " + what + " (no such file or not readable)");
+    if (!S_ISREG(st.st_mode)) {
+        const char *kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO"
+                           : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device" : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";
+        throw SceneError(path + ": cannot read " + what + ": it is " + kind + ", not a file");
+    }
+    if (st.st_size > kMaxSceneBytes)
+        throw SceneError(path + ": " + what + " of " + std::to_string(static_cast<long long>(st.st_size)) +
+                         " bytes is larger than a scene may be (" + std::to_string(kMaxSceneBytes) + " bytes)");
+}
+
 YAML::Node load_yaml(const std::string &path, const std::string &what)
 {
+    check_scene_file(path, what);
     {
         std::ifstream probe(path);
         if (!probe) throw SceneError(path + ": cannot open " + what + " (no such file or not readable)");
@@ -868,7 +891,9 @@ Scene load_scene(const std::string &path)
     s.duration_s = r.num(root, "", "duration_s", nullptr, 0, 3600, true);
     s.sample_rate_hz = r.num(root, "", "sample_rate_hz", &d.sample_rate_hz, 0, 1e7, true);
     s.block_hz = r.num(root, "", "block_hz", &d.block_hz, 0, 1e5, true);
-    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz, 0, 1000, true);
+    // [0.1, 1000]: the renderer's and the video writer's range (1e-300 passed
+    // and crashed the writer on an OpenCV assertion)
+    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz, 0.1, 1000);
     const std::string lockstep = "lockstep";
     s.time_mode = r.str(root, "", "time_mode", &lockstep, {"lockstep", "realtime"});
     const double spb = s.sample_rate_hz / s.block_hz;

@@ -108,6 +108,33 @@ class BadScenes(unittest.TestCase):
         self.assertIn(path, stderr)
         self.assertIn("empty", stderr)
 
+    def test_a_directory_a_fifo_and_an_oversized_file_are_refused_by_type(self):
+        tmp = benchtest.tmpdir("types")
+        self.addCleanup(benchtest.cleanup, tmp)
+        fifo = os.path.join(tmp, "scene.fifo")
+        os.mkfifo(fifo)
+        big = os.path.join(tmp, "big.yaml")
+        with open(big, "w") as f:
+            f.write("# " + "x" * (5 << 20) + "\n")
+        for path, words in ((tmp, "it is a directory"), (fifo, "it is a FIFO"), ("/dev/null", "it is a device"),
+                            (big, "larger than a scene may be")):
+            code, _, stderr, _ = benchtest.run(path, os.path.join(tmp, "out"), timeout=30)   # a FIFO used to hang
+            lines = [l for l in stderr.splitlines() if l.strip()]
+            self.assertEqual(code, 2, stderr)
+            self.assertEqual(len(lines), 1, stderr)
+            self.assertIn(path, lines[0])
+            self.assertIn(words, lines[0])
+        # an include that is a directory, named the same way
+        inc = benchtest.write_scene(open(benchtest.scene("short.yaml")).read() + f"include: {tmp}\n", "inc-dir")
+        self.addCleanup(benchtest.cleanup, os.path.dirname(inc))
+        code, _, stderr, _ = benchtest.run(inc, os.path.join(tmp, "out2"), timeout=30)
+        self.assertEqual(code, 2, stderr)
+        self.assertIn("it is a directory", stderr)
+
+    def test_a_frame_rate_the_writer_cannot_take_is_named(self):
+        text = open(benchtest.scene("short.yaml")).read().replace("frame_rate_hz: 25", "frame_rate_hz: 1e-300")
+        self.check_refused(text, "frame_rate_hz", "1e-300")
+
     def test_missing_file_named(self):
         path = "/nonexistent/afm/scene.yaml"
         code, _, stderr, _ = benchtest.run(path, benchtest.tmpdir("missing"))

@@ -370,6 +370,11 @@ class BadInput(unittest.TestCase):
         se = self.refused(SHORT, "--vary", "firmware.adc_bitz=10,12", needle="--vary firmware.adc_bitz=10,12")
         self.assertIn("firmware.adc_bitz: unknown key", se)
 
+    def test_the_same_knob_twice_is_refused(self):
+        se = self.refused(SHORT, "--vary", "firmware.adc_bits=10,12", "--vary", "firmware.adc_bits=14",
+                          needle="firmware.adc_bits is already varied by --vary firmware.adc_bits=10,12")
+        self.assertEqual(len(se.strip().splitlines()), 1, se)
+
     def test_empty_value_list(self):
         self.refused(SHORT, "--vary", "firmware.adc_bits=", needle="the list of values for firmware.adc_bits is empty")
 
