@@ -236,7 +236,6 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
         p.channel = g.channel;
         p.size = g.msg_size;
         p.skip = filtered_ && !accept_.count(g.channel);   // another process's message: followed, not copied
-        if (!p.skip) p.data.resize(g.msg_size);
         p.got.assign(g.fragments, false);
         p.missing = g.fragments;
         it = partial_.emplace(key, std::move(p)).first;
@@ -250,14 +249,27 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
         return 0;
     }
     if (p.got[g.fragment_no]) return 0;   // a fragment twice (a duplicated datagram): taken once
-    if (!p.skip) std::memcpy(p.data.data() + g.offset, d + g.payload_at, size);
+    if (!p.skip) {
+        p.frags.emplace_back(g.offset, std::vector<unsigned char>(d + g.payload_at, d + g.payload_at + size));
+        p.held += size;
+    }
     p.got[g.fragment_no] = true;
     if (--p.missing > 0) return 0;
     const Partial whole = std::move(p);
     partial_.erase(it);
     if (whole.skip) return 0;
-    sink(whole.channel, whole.data.data(), whole.data.size(), utime);
+    // Every fragment came: now the message's bytes are real, put together.
+    std::vector<unsigned char> data(whole.size);
+    for (const auto &[offset, bytes] : whole.frags) std::memcpy(data.data() + offset, bytes.data(), bytes.size());
+    sink(whole.channel, data.data(), data.size(), utime);
     return 1;
+}
+
+std::size_t BusTap::held_bytes() const
+{
+    std::size_t n = 0;
+    for (const auto &kv : partial_) n += kv.second.held;
+    return n;
 }
 
 }  // namespace afm

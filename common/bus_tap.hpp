@@ -22,7 +22,11 @@
 //     sender and message number, fragment 0 first (it names the channel),
 //     as liblcm gathers them; delivered once every fragment has come. A
 //     fragment repeated is taken once; a new message from the same sender
-//     abandons the one it had not finished (counted in abandoned()).
+//     abandons the one it had not finished (counted in abandoned()). The
+//     fragments are kept as they come, and the message is put together only
+//     when the last one has: what a message holds is what arrived, never the
+//     size its fragment 0 merely claims (a 40-byte datagram claiming 16 MiB
+//     made every tap allocate and zero 16 MiB).
 //   - anything else (garbage, a name over 63 bytes, a fragment without
 //     its fragment 0, a fragment past its message's size, a message over
 //     kMaxMessageBytes or larger than its fragments can carry) is dropped
@@ -90,6 +94,9 @@ public:
     int64_t dropped() const { return dropped_; }
     // Fragmented messages left unfinished (a fragment lost).
     int64_t abandoned() const { return abandoned_; }
+    // Bytes held now in unfinished fragmented messages: what their
+    // fragments carried, at most kMaxPartial messages of kMaxMessageBytes.
+    std::size_t held_bytes() const;
 
     // The largest message gathered from fragments: the largest the run's log
     // holds (LogReader::kMaxDataBytes, 16 MiB; the bench's largest, a scan
@@ -103,9 +110,10 @@ private:
     struct Partial {
         uint32_t seqno = 0;
         std::string channel;
-        std::size_t size = 0;             // the whole message's, bytes
-        bool skip = false;                // not on an accepted channel: data left empty
-        std::vector<unsigned char> data;
+        std::size_t size = 0;             // the whole message's, bytes (as fragment 0 claims it)
+        bool skip = false;                // not on an accepted channel: its fragments are not kept
+        std::vector<std::pair<std::size_t, std::vector<unsigned char>>> frags;   // (offset, bytes) as they came
+        std::size_t held = 0;             // bytes in frags
         std::vector<bool> got;   // per fragment
         uint32_t missing = 0;
     };

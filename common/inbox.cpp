@@ -121,6 +121,7 @@ struct Inbox::Batcher {
     std::deque<Msg> queue;
     std::atomic<bool> stop{false};
     std::atomic<int64_t> dropped{0};
+    std::atomic<int64_t> abandoned{0};
     std::exception_ptr failed;   // what ended the thread (under m)
     std::thread thread;
 
@@ -148,6 +149,7 @@ struct Inbox::Batcher {
             std::this_thread::sleep_for(std::chrono::microseconds(batch_us));
             tap.drain(take);
             dropped = tap.dropped();
+            abandoned = tap.abandoned();
             if (batch.empty()) continue;
             {
                 std::lock_guard<std::mutex> lock(m);
@@ -222,6 +224,20 @@ int64_t Inbox::bus_dropped() const
 {
     if (batcher_) return batcher_->dropped;
     return tap_ ? tap_->dropped() : 0;
+}
+
+int64_t Inbox::bus_abandoned() const
+{
+    if (batcher_) return batcher_->abandoned;
+    return tap_ ? tap_->abandoned() : 0;
+}
+
+nlohmann::json Inbox::report() const
+{
+    nlohmann::json j = rejected_.to_json();
+    j["bus_dropped"] = bus_dropped();
+    j["bus_abandoned"] = bus_abandoned();
+    return j;
 }
 
 void Inbox::Sub::on_raw(const lcm::ReceiveBuffer *rbuf, const std::string &)

@@ -160,6 +160,12 @@ public:
     // Datagrams the receiver dropped before any subscription: not LCM,
     // names liblcm refuses, fragments of a message never whole.
     int64_t bus_dropped() const;
+    // Fragmented messages the receiver left unfinished (a fragment lost, or
+    // a fragment 0 whose message never came: bus_tap.hpp).
+    int64_t bus_abandoned() const;
+    // What the inbox refused, for a process's report: rejected().to_json()
+    // with the receiver's bus_dropped and bus_abandoned beside it.
+    nlohmann::json report() const;
 
     // The batched receive thread's state (inbox.cpp).
     struct Batcher;

@@ -483,7 +483,7 @@ struct Loop {
                 {"scan_points_clamped", sim.world.scan_points_clamped()},
                 {"wire_ridden_samples", sim.world.ridden_samples()},
                 {"aside", aside.report()},
-                {"rejected", inbox.rejected().to_json()}};
+                {"rejected", inbox.report()}};
     }
 };
 

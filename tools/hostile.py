@@ -15,6 +15,9 @@ Kinds (each datagram is one of them):
   seq_past      a valid message of a block long gone (seq -5)
   seq_future    a valid message of a block far ahead (seq 10^12)
   flood         random bytes at the full rate for the whole time
+  fragment_claim  only this, at the full rate: a 40-odd-byte fragment 0 of a
+                message that claims 16 MiB in 300 fragments, whose other
+                fragments never come (each receiver must not hold 16 MiB for it)
 The first seven are sent once per channel every cycle, spread over the run;
 the flood fills the other half of the rate. Prints a JSON line with what was sent,
 by kind and by channel, on exit.
@@ -44,7 +47,8 @@ import yaml  # noqa: E402
 with open(os.path.join(HERE, "..", "lcmtypes", "channels.yaml")) as f:
     CHANNELS = {row["channel"]: row["type"] for row in yaml.safe_load(f)}
 
-KINDS = ["truncated", "fingerprint", "wrong_type", "array_length", "non_finite", "seq_past", "seq_future", "flood"]
+KINDS = ["truncated", "fingerprint", "wrong_type", "array_length", "non_finite", "seq_past", "seq_future", "flood",
+         "fragment_claim"]
 # Channels whose valid messages a process would act on (others only count).
 SEQ_FIELDS = ("seq", "ack_seq", "at_seq", "index", "fix_id")
 # Arrays of structs (the filler cannot read an element's type off the class).
@@ -153,7 +157,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=5.0, help="how long to send (wall seconds; default 5)")
     ap.add_argument("--rate", type=float, default=2000.0, help="datagrams per wall second in all (default 2000)")
-    ap.add_argument("--kinds", default=",".join(KINDS), help="comma-separated kinds (default: all)")
+    ap.add_argument("--kinds", default=",".join(k for k in KINDS if k != "fragment_claim"),
+                    help="comma-separated kinds (default: all but fragment_claim, which is sent alone)")
     ap.add_argument("--channels", default="", help="comma-separated channels (default: every channel)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--delay", type=float, default=0.0, help="wait this many wall seconds first")
@@ -167,6 +172,10 @@ def main():
     for k in kinds:
         if k not in KINDS:
             ap.error(f"--kinds: unknown kind '{k}' (known: {', '.join(KINDS)})")
+    if "fragment_claim" in kinds:
+        if kinds != ["fragment_claim"]:
+            ap.error("--kinds: fragment_claim is sent alone")
+        return fragment_claims(a)
     # A valid heartbeat with a process's name would be a spoof: the
     # hostile ones are named "hostile" (the launcher refuses the name).
     channels = [c for c in a.channels.split(",") if c] or [c for c in CHANNELS]
@@ -228,6 +237,36 @@ def echo(a):
     except KeyboardInterrupt:
         pass
     print(json.dumps({"seen": n[0], "echoed": n[1], "seconds": time.monotonic() - t0}), flush=True)
+    return 0
+
+
+def fragment_claims(a):
+    """Raw datagrams to the bus's group and port: each an LCM fragment 0
+    ("LC03", seq, a 16 MiB message size, offset 0, fragment 0 of 300,
+    channel FW_STATE, 10 bytes), a new message number each time."""
+    import socket
+    from urllib.parse import urlsplit
+    u = urlsplit(os.environ.get("LCM_DEFAULT_URL", BUS_URL))
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+    s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)
+    period = 1.0 / a.rate if a.rate > 0 else 0.01
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    time.sleep(a.delay)
+    t0 = next_t = time.monotonic()
+    n = 0
+    try:
+        while time.monotonic() - t0 < a.seconds:
+            d = struct.pack(">IIIIHH", 0x4C433033, 0x70000000 + n, 16 << 20, 0, 0, 300) + b"FW_STATE\0" + bytes(10)
+            s.sendto(d, (u.hostname, u.port))
+            n += 1
+            next_t += period
+            delay = next_t - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+    except KeyboardInterrupt:
+        pass
+    print(json.dumps({"sent": {"fragment_claim": {"raw": n}}, "total": n, "seconds": time.monotonic() - t0}), flush=True)
     return 0
 
 

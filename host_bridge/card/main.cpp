@@ -141,7 +141,7 @@ int main(int argc, char **argv)
             // the force interlock's trips (fw_guard.h; null when the scene turns it off)
             const fw_guard_t *guard = fw_card_guard(&node.card.card());
             afm::write_report(out_dir + "/fw_report.json",
-                              {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.rejected().to_json()},
+                              {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
                                {"aside", aside.report()},
                                {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}});
         }

@@ -98,7 +98,7 @@ int main(int argc, char **argv)
         if (plan_thread.joinable()) plan_thread.join();
         if (planner && bench.error()) std::rethrow_exception(bench.error());
         if (!out_dir.empty())
-            afm::write_report(out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.rejected()));
+            afm::write_report(out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));
         op.hb.send(afm::RunState::done, op.answered, 0);
         return afm::kExitOk;
       } catch (const afm::PlanError &e) {   // the scene asks the planner for what it cannot do

@@ -46,9 +46,9 @@ nlohmann::json plan_json(const Planner &p)
 
 }  // namespace
 
-nlohmann::json operator_report(const Operator &op, const Planner *planner, const Scene &scene, const Rejections &rejected)
+nlohmann::json operator_report(const Operator &op, const Planner *planner, const Scene &scene, const nlohmann::json &rejected)
 {
-    nlohmann::json rep = {{"poses", op.forces}, {"peak_haptic_force_N", op.peak_force_N}, {"rejected", rejected.to_json()}};
+    nlohmann::json rep = {{"poses", op.forces}, {"peak_haptic_force_N", op.peak_force_N}, {"rejected", rejected}};
     if (planner) {
         rep["plan"] = plan_json(*planner);
     } else {

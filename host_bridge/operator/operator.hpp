@@ -269,6 +269,6 @@ struct Operator {
 
 // operator_report.json: what the operator did (the hand's device and the
 // contacts it felt, or the planner's account).
-nlohmann::json operator_report(const Operator &op, const Planner *planner, const Scene &scene, const Rejections &rejected);
+nlohmann::json operator_report(const Operator &op, const Planner *planner, const Scene &scene, const nlohmann::json &rejected);
 
 }  // namespace afm

@@ -73,7 +73,7 @@ int main(int argc, char **argv)
             r.writer->finish();
         }
         write_contact_sheet(r, scene, out_dir);
-        afm::write_report(out_dir + "/renderer_report.json", report_json(r, scene, inbox.rejected()));
+        afm::write_report(out_dir + "/renderer_report.json", report_json(r, scene, inbox.report()));
         r.hb.send(afm::RunState::done, r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
         return static_cast<int>(afm::kExitOk);
     });

@@ -678,7 +678,7 @@ inline void write_contact_sheet(Renderer &r, const afm::Scene &scene, const std:
 }
 
 // renderer_report.json: the frames, what they cost, what the renderer refused.
-inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, const afm::Rejections &rejected)
+inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, const nlohmann::json &rejected)
 {
     return {{"frames", r.frames_written},
             {"objects_blocks_missed", r.objects_missed()},
@@ -692,7 +692,7 @@ inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, co
             {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
             {"pixels_updated", r.touched_px},
             {"local_scans", r.local_scans},
-            {"rejected", rejected.to_json()}};
+            {"rejected", rejected}};
 }
 
 

@@ -26,9 +26,10 @@ PROCESSES = ("sim", "fw", "operator", "renderer", "launcher")
 RATE = 2000
 
 
-def run_with_hostile(scene, out, rate=RATE):
+def run_with_hostile(scene, out, rate=RATE, kinds=None):
     """Runs the scene with tools/hostile.py sending from before the start to the end."""
-    script = ('"$PY" "$HOSTILE" --seconds 300 --rate "$RATE" > "$SENT" & h=$!; '
+    extra = f" --kinds {kinds}" if kinds else ""
+    script = ('"$PY" "$HOSTILE" --seconds 300 --rate "$RATE"' + extra + ' > "$SENT" & h=$!; '
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     sent_path = out.rstrip("/") + ".sent.json"
     env = dict(os.environ, PY=sys.executable, HOSTILE=HOSTILE, RATE=str(rate), OUT=out, SENT=sent_path, LAUNCH=benchtest.LAUNCH,
@@ -116,6 +117,28 @@ class HostileDatagrams(unittest.TestCase):
             differ = [q for q in calm if calm[q] != hostile[q]]
             self.assertEqual(differ, [], f"{ch}: blocks that differ from the undisturbed run: {differ[:5]}")
         self.assertGreater(sum(self.log.undecodable.values()), 0)   # the log holds the garbage too
+
+    def test_fragment_headers_claiming_16_mib_cost_no_memory(self):
+        # 2000 a second of 40-odd-byte fragment 0 headers claiming 16 MiB,
+        # whose fragments never come: every process counts them abandoned,
+        # none grows by the claims (each used to allocate 16 MiB: fw_node and
+        # the launcher reached about 270 MB), the trajectories stay
+        out = benchtest.tmpdir("claims")
+        self.addCleanup(benchtest.cleanup, out)
+        code, err, rj, sent = run_with_hostile(self.scene, out, kinds="fragment_claim")
+        self.assertEqual(code, 0, err)
+        self.assertGreater(sent["total"], 300, sent)
+        for p in ("sim", "fw", "operator", "renderer"):
+            self.assertGreater(rj[p]["rejected"]["bus_abandoned"], 100, (p, rj[p]["rejected"]))
+        rss = {p["name"]: p["max_rss_kb"] for p in rj["processes"]}
+        rss0 = {p["name"]: p["max_rss_kb"] for p in self.rj0["processes"]}
+        for name in ("fw_node", "sim_afm"):
+            self.assertLess(rss[name] - rss0[name], 50 * 1024, (name, rss[name], rss0[name]))
+        self.assertLess(rj["launcher"]["max_rss_kb"] - self.rj0["launcher"]["max_rss_kb"], 50 * 1024)
+        self.assertEqual(rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
+        log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH"])
+        blocks = self.rj0["sim"]["blocks"]
+        self.assertEqual(by_seq(log["SIM_TRUTH"], blocks), by_seq(self.log0["SIM_TRUTH"], blocks))
 
     def test_the_hostile_run_replays_bit_for_bit(self):
         p = subprocess.run([REPLAY, self.hostile], capture_output=True, text=True, timeout=300)

@@ -18,6 +18,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <lcm/lcm-cpp.hpp>
@@ -240,6 +241,36 @@ void test_a_new_message_abandons_an_unfinished_one()
     TEST_ASSERT_EQUAL_INT(1, static_cast<int>(got.size()));
     TEST_ASSERT_EQUAL_STRING("NEXT", got[0].channel.c_str());
     TEST_ASSERT_EQUAL_INT(1, static_cast<int>(tap->abandoned() - before));
+}
+
+// Fragment 0 headers that claim 16 MiB each (40-odd bytes a datagram): the
+// tap holds what arrived, not what was claimed; its peak memory does not
+// grow by the claims (before: each header allocated and zeroed 16 MiB).
+void test_claimed_sizes_cost_no_memory_until_the_fragments_come()
+{
+    struct rusage r0 {};
+    getrusage(RUSAGE_SELF, &r0);
+    const auto p = pattern(10, 11);
+    const int64_t abandoned0 = tap->abandoned();
+    for (uint32_t i = 0; i < 400; ++i) {
+        send_raw(fragment(1000 + i, 16u << 20, 0, 0, 300, "CLAIM", p));
+        if (i % 50 == 49) take(0);   // the tap reads them as the bus delivers them
+    }
+    take(0);
+    struct rusage r1 {};
+    getrusage(RUSAGE_SELF, &r1);
+    std::printf("400 headers claiming 16 MiB: held %zu bytes, peak RSS %ld -> %ld kB, %lld abandoned\n", tap->held_bytes(),
+                r0.ru_maxrss, r1.ru_maxrss, static_cast<long long>(tap->abandoned() - abandoned0));
+    TEST_ASSERT_TRUE(tap->held_bytes() <= afm::BusTap::kMaxPartial * 1500);
+    TEST_ASSERT_TRUE(r1.ru_maxrss - r0.ru_maxrss < 20 * 1024);   // < 20 MB (one claim used to be 16 MiB)
+    TEST_ASSERT_TRUE(tap->abandoned() - abandoned0 >= 399);       // each new one abandons the last (one sender)
+    // and a real fragmented message still comes whole after the flood
+    const auto a = pattern(3000, 12);
+    send_raw(fragment(5000, 3000, 0, 0, 2, "AFTER", {a.begin(), a.begin() + 1500}));
+    send_raw(fragment(5000, 3000, 1500, 1, 2, "AFTER", {a.begin() + 1500, a.end()}));
+    const auto got = take(1);
+    TEST_ASSERT_EQUAL_INT(1, static_cast<int>(got.size()));
+    TEST_ASSERT_TRUE(got[0].data == a);
 }
 
 // drain(max) reads at most max datagrams; the rest wait for the next drain.
@@ -523,6 +554,7 @@ int main()
     RUN_TEST(test_a_repeated_fragment_is_taken_once);
     RUN_TEST(test_what_lcm_would_drop_is_dropped_and_counted);
     RUN_TEST(test_a_new_message_abandons_an_unfinished_one);
+    RUN_TEST(test_claimed_sizes_cost_no_memory_until_the_fragments_come);
     RUN_TEST(test_drain_takes_at_most_max_datagrams);
     RUN_TEST(test_next_hands_one_message_at_a_time_and_waits_no_longer_than_asked);
     RUN_TEST(test_next_waits_in_the_read_for_as_long_as_each_call_asks);
