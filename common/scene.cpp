@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <sys/stat.h>
 
@@ -964,6 +965,18 @@ int frames_to_wait_for(const Scene &s, int64_t n, int64_t blocks)
         need = std::max(need, f + 1);
     }
     return need;
+}
+
+std::string scene_hash(const std::string &text)
+{
+    uint64_t h = 14695981039346656037ull;   // FNV-1a, 64 bits
+    for (unsigned char c : text) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+    return buf;
 }
 
 }  // namespace afm

@@ -288,6 +288,14 @@ Scene load_scene(const std::string &path);
 // a run keeps as its scene.yaml, standing alone.
 std::string resolved_scene_text(const std::string &path);
 
+// A run's scene, identified: "fnv1a64:" and 16 hex digits of the FNV-1a hash
+// of the scene's text as the run kept it (RUN/scene.yaml). An identity, not
+// a seal. The launcher records it in run.json (scene_hash) and in its
+// first heartbeat's detail, kScenePrefix + hash, so the log carries it;
+// replay refuses a log whose hash is not its scene's.
+std::string scene_hash(const std::string &text);
+constexpr const char *kScenePrefix = "scene ";
+
 // Simulated time (us) of frame k; the renderer and the simulator both use it.
 int64_t frame_utime(const Scene &s, int k);
 // Simulated time (us) at the end of block n (the state the block leaves).

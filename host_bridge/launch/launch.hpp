@@ -315,7 +315,9 @@ public:
             out_ = fs::canonical(dir).string();
             scene_abs_ = fs::canonical(o_.scene_path).string();
             scene_run_ = out_ + "/scene.yaml";
-            std::ofstream(scene_run_) << afm::resolved_scene_text(scene_abs_);   // includes merged: it stands alone
+            const std::string text = afm::resolved_scene_text(scene_abs_);   // includes merged: it stands alone
+            std::ofstream(scene_run_) << text;
+            scene_hash_ = afm::scene_hash(text);
         } catch (const fs::filesystem_error &e) {
             std::fprintf(stderr, "afm_launch: cannot prepare output folder %s: %s\n", o_.out_dir.c_str(), e.what());
             return 2;
@@ -357,7 +359,7 @@ public:
         if (g_signal) return interrupted_before_start();
         try {
             recorder_ = std::make_unique<afm::BusRecorder>(out_ + "/bus.lcmlog");
-            hb_->send(afm::RunState::starting, 0, 0, "recording the bus");
+            hb_->send(afm::RunState::starting, 0, 0, std::string("recording the bus; ") + afm::kScenePrefix + scene_hash_);
             pump(0);
             recorder_->settle(true);
         } catch (const afm::LogError &e) {
@@ -591,6 +593,7 @@ private:
     Options o_;
     afm::Scene scene_;
     std::string out_, scene_abs_, scene_run_;
+    std::string scene_hash_;   // afm::scene_hash of scene_run_'s text
     std::unique_ptr<lcm::LCM> lc_;
     std::unique_ptr<afm::Inbox> inbox_;
     std::unique_ptr<afm::Heartbeat> hb_;
@@ -720,6 +723,7 @@ private:
         for (const auto &kv : counts) messages_ += kv.second;
         json run;
         run["scene"] = scene_abs_;
+        run["scene_hash"] = scene_hash_;
         run["scene_name"] = scene_.name;
         run["seed"] = scene_.seed;
         run["status"] = interrupted_ ? "interrupted" : failure_.empty() ? "ok" : "failed";

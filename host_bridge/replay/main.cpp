@@ -32,6 +32,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "afm/heartbeat_t.hpp"
 #include "afm_channels.h"
 #include "card_node.hpp"
 #include "inbox.hpp"
@@ -677,6 +678,42 @@ bool parse_args(int argc, char **argv, Options *o, bool *help, std::string *err)
 
 }  // namespace
 
+// The scene hash the log's launcher recorded (its first heartbeat's detail,
+// afm::kScenePrefix), or "" for a log made before runs carried one.
+std::string recorded_scene_hash(const std::string &log_path)
+{
+    afm::LogReader log(log_path);
+    log.only({AFM_CH_AFM_HEARTBEAT});
+    afm::LogEvent ev;
+    for (int n = 0; n < 1000 && log.read(&ev); ++n) {
+        afm::heartbeat_t hb;
+        if (hb.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) < 0 || hb.name != "launcher") continue;
+        const auto at = hb.detail.find(afm::kScenePrefix);
+        return at == std::string::npos ? "" : hb.detail.substr(at + std::string(afm::kScenePrefix).size());
+    }
+    return "";
+}
+
+// A log replays against its own run's scene only: a log from another
+// scene's run (or a --scene that is not the run's) is refused, naming both
+// hashes; a log without one is replayed with a warning.
+bool scene_matches_log(const Options &o)
+{
+    std::ifstream f(o.scene);
+    std::stringstream text;
+    text << f.rdbuf();
+    const std::string have = afm::scene_hash(text.str()), want = recorded_scene_hash(o.log);
+    if (want.empty()) {
+        std::fprintf(stderr, "afm_replay: warning: %s was recorded before runs carried their scene's hash: the scene %s is "
+                     "taken as the run's without a check\n", o.log.c_str(), o.scene.c_str());
+        return true;
+    }
+    if (want == have) return true;
+    std::fprintf(stderr, "afm_replay: %s was recorded with the scene %s, but %s is %s: a log of another scene's run "
+                 "(give the run's own scene.yaml)\n", o.log.c_str(), want.c_str(), o.scene.c_str(), have.c_str());
+    return false;
+}
+
 int main(int argc, char **argv)
 {
     Options o;
@@ -696,6 +733,7 @@ int main(int argc, char **argv)
     const auto t0 = std::chrono::steady_clock::now();
     Outputs r;
     try {
+        if (!scene_matches_log(o)) return 2;
         r = run_replay(o);
     } catch (const std::exception &e) {   // a scene, log or writer error: named there
         std::fprintf(stderr, "afm_replay: %s\n", e.what());

@@ -5,6 +5,7 @@ diverges, and the block it names is the first one whose outputs differ in
 the new log it writes (compared here independently, from the two logs); a
 truncated or corrupt log is refused with the file and the byte offset."""
 import glob
+import json
 import os
 import shutil
 import struct
@@ -70,6 +71,38 @@ def outputs(path):
 # Long experiments, left to their own commands: scenes/pattern.yaml (114
 # particles, about 2 wall minutes); its small twin pattern_ten.yaml replays here.
 LONG = {"pattern.yaml"}
+
+
+class SceneHash(unittest.TestCase):
+    """A run records its scene's hash (run.json and its log); replay refuses
+    a log of another scene's run, in one line naming both hashes, and
+    replays a log recorded before hashes with a warning."""
+
+    def test_a_log_of_another_scenes_run_is_refused(self):
+        tmp = benchtest.tmpdir("hash")
+        self.addCleanup(benchtest.cleanup, tmp)
+        other = benchtest.write_scene(open(benchtest.scene("short.yaml")).read().replace("seed: 7", "seed: 8"), "hash-other")
+        self.addCleanup(benchtest.cleanup, os.path.dirname(other))
+        a, b = os.path.join(tmp, "a"), os.path.join(tmp, "b")
+        self.assertEqual(benchtest.run(benchtest.scene("short.yaml"), a)[0], 0)
+        self.assertEqual(benchtest.run(other, b)[0], 0)
+        ha, hb = (json.load(open(os.path.join(d, "run.json")))["scene_hash"] for d in (a, b))
+        self.assertRegex(ha, r"^fnv1a64:[0-9a-f]{16}$")
+        self.assertNotEqual(ha, hb)
+        code, so, se = replay(REPLAY, a, "--quiet")
+        self.assertEqual(code, 0, se)
+        code, so, se = replay(REPLAY, a, "--scene", os.path.join(b, "scene.yaml"), "--quiet")
+        self.assertEqual(code, 2, so + se)
+        lines = [l for l in se.splitlines() if l.strip()]
+        self.assertEqual(len(lines), 1, se)
+        self.assertIn(ha, lines[0])
+        self.assertIn(hb, lines[0])
+        self.assertIn("another scene's run", lines[0])
+        # b's log put into a's folder: a's scene is not b's
+        shutil.copy(os.path.join(b, "bus.lcmlog"), os.path.join(a, "bus.lcmlog"))
+        code, so, se = replay(REPLAY, a, "--quiet")
+        self.assertEqual(code, 2, so + se)
+        self.assertIn("another scene's run", se)
 
 
 class ReplayEveryScene(unittest.TestCase):
