@@ -11,6 +11,7 @@
 #include <fcntl.h>
 #include <spawn.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -302,11 +303,13 @@ public:
         }
         const fs::path dir = o_.out_dir;
         try {
-            if (fs::exists(dir) && !fs::is_empty(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
+            if (fs::exists(dir) && !only_a_lock(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
                 std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
                              o_.out_dir.c_str());
                 return 2;
             }
+            fs::create_directories(dir);
+            if (const int code = lock_out(dir); code >= 0) return code;
             for (const char *old : kRunOutputs) fs::remove_all(dir / old);
             fs::create_directories(dir / "logs");
             fs::create_directories(dir / "frames");
@@ -592,6 +595,43 @@ private:
 
     Options o_;
     afm::Scene scene_;
+    // --out is locked for the run's life (flock on OUT/.afm-run.lock, which
+    // names the run's pid): a second run into it is refused at once, naming
+    // the one that holds it. The lock goes with this process, however it ends.
+    static constexpr const char *kLockName = ".afm-run.lock";
+    int lock_fd_ = -1;
+
+    static bool only_a_lock(const fs::path &dir)
+    {
+        for (const auto &e : fs::directory_iterator(dir))
+            if (e.path().filename() != kLockName) return false;
+        return true;
+    }
+
+    // -1 when the folder is ours now; else the exit code, said.
+    int lock_out(const fs::path &dir)
+    {
+        const std::string path = (dir / kLockName).string();
+        lock_fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (lock_fd_ < 0) {
+            std::fprintf(stderr, "afm_launch: cannot lock the output folder %s: %s\n", o_.out_dir.c_str(), std::strerror(errno));
+            return 2;
+        }
+        if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+            char holder[64] = {0};
+            const ssize_t n = pread(lock_fd_, holder, sizeof holder - 1, 0);
+            std::string who(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
+            while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
+            std::fprintf(stderr, "afm_launch: output folder %s is in use by another run (%s; its lock %s); choose another --out\n",
+                         o_.out_dir.c_str(), who.empty() ? "pid unknown" : who.c_str(), path.c_str());
+            return 2;
+        }
+        const std::string me = "pid " + std::to_string(getpid()) + "\n";
+        if (ftruncate(lock_fd_, 0) != 0 || pwrite(lock_fd_, me.data(), me.size(), 0) != static_cast<ssize_t>(me.size()))
+            std::fprintf(stderr, "afm_launch: warning: cannot write the lock %s's pid: %s\n", path.c_str(), std::strerror(errno));
+        return -1;
+    }
+
     std::string out_, scene_abs_, scene_run_;
     std::string scene_hash_;   // afm::scene_hash of scene_run_'s text
     std::unique_ptr<lcm::LCM> lc_;

@@ -5,6 +5,8 @@ the value. A process that dies mid-run: the launcher stops the others, says
 which one died and its exit code, keeps the log and run.json, exits non-zero.
 And the bus never opens in a namespace whose multicast would leave the machine."""
 import os
+import time
+import json
 import subprocess
 import unittest
 
@@ -188,6 +190,42 @@ class ThroughTheAfmScript(unittest.TestCase):
                            capture_output=True, text=True, timeout=300)
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("is a valid scene", p.stdout)
+
+
+class OutputFolderLocked(unittest.TestCase):
+    """--out is locked for a run's life: a second run into it is refused at
+    once, naming the run (its pid) that holds it; the first completes; the
+    folder is free again afterwards."""
+
+    def test_a_second_run_into_the_same_folder_is_refused_at_once(self):
+        text = open(benchtest.scene("short.yaml")).read().replace("duration_s: 0.6", "duration_s: 2.0\ntime_mode: realtime")
+        scene = benchtest.write_scene(text, "lock")
+        out = os.path.join(os.path.dirname(scene), "out")
+        self.addCleanup(benchtest.cleanup, os.path.dirname(scene))
+        first = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", scene, "--out", out, "--quiet"],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            deadline = time.time() + 20
+            while not os.path.exists(os.path.join(out, "bus.lcmlog")) and time.time() < deadline:
+                time.sleep(0.05)
+            t0 = time.monotonic()
+            code, _, stderr, _ = benchtest.run(scene, out)
+            took = time.monotonic() - t0
+            lines = [l for l in stderr.splitlines() if l.strip()]
+            self.assertEqual(code, 2, stderr)
+            self.assertEqual(len(lines), 1, stderr)
+            self.assertIn("in use by another run", lines[0])
+            self.assertIn(f"pid ", lines[0])
+            self.assertLess(took, 5.0)
+            so, se = first.communicate(timeout=60)
+            self.assertEqual(first.returncode, 0, se)
+        finally:
+            if first.poll() is None:
+                first.kill()
+        with open(os.path.join(out, "run.json")) as f:
+            self.assertEqual(json.load(f)["status"], "ok")   # the second run changed nothing of the first's
+        code, _, stderr, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        self.assertEqual(code, 0, stderr)   # free again
 
 
 class ProcessDies(unittest.TestCase):
