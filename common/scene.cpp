@@ -64,13 +64,33 @@ public:
         return true;
     }
 
+    // A value as an error message quotes it: control characters escaped
+    // (\n, \t, \xNN: a scene must not write to the terminal), and at most
+    // kShowMax characters of it (a file included by mistake is not quoted).
+    static constexpr std::size_t kShowMax = 80;
     static std::string show(const YAML::Node &n)
     {
         if (!n.IsDefined() || n.IsNull()) return "null";
-        if (n.IsScalar()) return "'" + n.Scalar() + "'";
+        if (n.IsScalar()) return "'" + printable(n.Scalar()) + "'";
         YAML::Emitter e;
         e << YAML::Flow << n;
-        return e.c_str();
+        return printable(e.c_str());
+    }
+    static std::string printable(const std::string &t)
+    {
+        std::string out;
+        for (std::size_t i = 0; i < t.size() && out.size() < kShowMax; ++i) {
+            const unsigned char c = static_cast<unsigned char>(t[i]);
+            if (c == '\n') out += "\\n";
+            else if (c == '\t') out += "\\t";
+            else if (c < 0x20 || c == 0x7f) {
+                char b[8];
+                std::snprintf(b, sizeof b, "\\x%02x", c);
+                out += b;
+            } else out += static_cast<char>(c);
+        }
+        if (out.size() >= kShowMax && t.size() > kShowMax) out += "... (" + std::to_string(t.size()) + " characters)";
+        return out;
     }
 
     void only_keys(const YAML::Node &map, const std::string &path, std::set<std::string> allowed) const
@@ -353,6 +373,11 @@ void read_afm(const Reader &r, const YAML::Node &root, Scene &s)
 
 // objects.scatter: particles drawn at random, the bench's own generator
 // (xorshift64*), so every process and machine draws the same ones.
+// Listed objects, at most (scattered particles: objects.scatter.count <=
+// 5000, the placement's O(count^2)); a 50 MB scene listing 923k particles
+// took 3.9 GB before any answer.
+constexpr std::size_t kMaxListedParticles = 5000, kMaxListedWires = 1000, kMaxListedLandmarks = 1000;
+
 void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
 {
     if (!n.IsDefined() || n.IsNull()) return;
@@ -485,6 +510,9 @@ void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
         YAML::Node ps = obj["particles"];
         if (ps.IsDefined() && !ps.IsNull()) {
             if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
+            if (ps.size() > kMaxListedParticles)
+                r.fail("objects.particles", "lists " + std::to_string(ps.size()) + " particles; at most " +
+                                                std::to_string(kMaxListedParticles) + " (as objects.scatter.count)");
             const double half = s.field_nm / 2;
             for (std::size_t i = 0; i < ps.size(); ++i) {
                 const std::string p = "objects.particles[" + std::to_string(i) + "]";
@@ -504,6 +532,8 @@ void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
         YAML::Node ws = obj["wires"];
         if (ws.IsDefined() && !ws.IsNull()) {
             if (!ws.IsSequence()) r.fail("objects.wires", "must be a list, got " + Reader::show(ws));
+            if (ws.size() > kMaxListedWires)
+                r.fail("objects.wires", "lists " + std::to_string(ws.size()) + " wires; at most " + std::to_string(kMaxListedWires));
             const double half = s.field_nm / 2;
             const double cx = s.field_center_nm.x, cy = s.field_center_nm.y;
             for (std::size_t i = 0; i < ws.size(); ++i) {
@@ -529,6 +559,9 @@ void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
         YAML::Node ls = obj["landmarks"];
         if (ls.IsDefined() && !ls.IsNull()) {
             if (!ls.IsSequence()) r.fail("objects.landmarks", "must be a list, got " + Reader::show(ls));
+            if (ls.size() > kMaxListedLandmarks)
+                r.fail("objects.landmarks",
+                       "lists " + std::to_string(ls.size()) + " landmarks; at most " + std::to_string(kMaxListedLandmarks));
             const double half = s.field_nm / 2;
             for (std::size_t i = 0; i < ls.size(); ++i) {
                 const std::string p = "objects.landmarks[" + std::to_string(i) + "]";

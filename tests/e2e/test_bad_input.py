@@ -137,6 +137,24 @@ class BadScenes(unittest.TestCase):
         text = open(benchtest.scene("short.yaml")).read().replace("frame_rate_hz: 25", "frame_rate_hz: 1e-300")
         self.check_refused(text, "frame_rate_hz", "1e-300")
 
+    def test_control_characters_are_escaped_and_long_values_cut(self):
+        base = open(benchtest.scene("short.yaml")).read()
+        line = self.check_refused(base.replace("duration_s: 0.6", 'duration_s: "0.6\\e[31m\\nX"'), "duration_s",
+                                  "\\x1b[31m")
+        self.assertNotIn("\x1b", line)
+        self.assertIn("\\n", line)
+        line = self.check_refused(base.replace("substrate: glass", "substrate: " + "z" * 5000), "sample.substrate",
+                                  "(5000 characters)")
+        self.assertLess(len(line), 400, line)
+
+    def test_listed_objects_are_capped_as_scattered_ones(self):
+        base = open(benchtest.scene("short.yaml")).read()
+        many = "\n".join(f"    - {{id: {i}, x_nm: {(i % 100) * 15 - 750}, y_nm: {(i // 100) * 15 - 750}, radius_nm: 5}}"
+                         for i in range(1, 5002))
+        text = base.replace("""    - {id: 1, x_nm: 0, y_nm: -300, radius_nm: 50}
+    - {id: 2, x_nm: 500, y_nm: 300, radius_nm: 50}""", many)
+        self.check_refused(text, "objects.particles", "5001 particles; at most 5000")
+
     def test_missing_file_named(self):
         path = "/nonexistent/afm/scene.yaml"
         code, _, stderr, _ = benchtest.run(path, benchtest.tmpdir("missing"))
