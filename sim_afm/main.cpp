@@ -98,6 +98,19 @@ struct Sim {
 
     Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
 
+    // The scans this scene's own clients may ask for (the renderer's at the
+    // display's pitch, within the field; the planner's at its local scans'
+    // pitch, at most a few fields wide): a side at most 4 fields, a pitch at
+    // least half the finest of theirs. One request for 8192 x 8192 px over
+    // the field stalled a run 26 s and grew its log to 1.6 GB.
+    double max_scan_side_nm() const { return 4.0 * scene.field_nm; }
+    double min_scan_pitch_nm() const
+    {
+        double p = scene.field_nm / scene.out.image_px;
+        if (scene.op.plan.enabled) p = std::min(p, scene.op.plan.scan_size_nm / scene.op.plan.scan_px);
+        return 0.5 * p;
+    }
+
     // Waits (briefly sleeping) until the log holds block `seq` (its analog
     // block, pose and command: the card's inputs and answer, so a complete
     // log replays) and `lines` scan lines.
@@ -119,7 +132,12 @@ struct Sim {
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
         using afm::RunState;
-        if (afm::says(m, "operator", RunState::finished) && finished_seq < 0) finished_seq = m.seq;
+        // "finished" ends the run early only where a planner runs (a forged
+        // one cut a scene without one to 27 % of its length)
+        if (afm::says(m, "operator", RunState::finished)) {
+            if (!scene.op.plan.enabled) return afm::Reject::out_of_range;
+            if (finished_seq < 0) finished_seq = m.seq;
+        }
         if (m.state == afm::state_text(RunState::ready) || m.state == afm::state_text(RunState::running)) ready.insert(m.name);
         if (afm::says(m, "launcher", RunState::running)) go = true;
         if (afm::says(m, "launcher", RunState::stop)) abort = true;
@@ -156,6 +174,9 @@ struct Sim {
             std::fprintf(stderr, "sim_afm: ignoring scan request %d with bad size nx=%d ny=%d\n", m.req_id, m.nx, m.ny);
             return afm::Reject::out_of_range;
         }
+        if (m.width_nm > max_scan_side_nm() || m.height_nm > max_scan_side_nm() || m.width_nm / m.nx < min_scan_pitch_nm() ||
+            m.height_nm / m.ny < min_scan_pitch_nm())
+            return afm::Reject::out_of_range;   // beyond what the scene's clients ask (counted, not said: a flood would fill the log)
         // One for a later block waits until the simulator waits after it; a
         // client asks for the block its next pose answers, so more than one
         // block ahead (or more than kLaterScans waiting) is refused.

@@ -43,6 +43,17 @@ def run_with_hostile(scene, out, rate=RATE, kinds=None):
     return p.returncode, p.stderr, rj, sent
 
 
+def run_with_forger(scene, out, what):
+    """Runs the scene with tools/forge.py WHAT sending from before the start to the end."""
+    script = ('"$PY" "$FORGE" "$WHAT" --seconds 300 > /dev/null & h=$!; '
+              '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
+    env = dict(os.environ, PY=sys.executable, FORGE=os.path.join(benchtest.SRC, "tools", "forge.py"), WHAT=what, OUT=out,
+               LAUNCH=benchtest.LAUNCH, SCENE=scene)
+    p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
+    with open(os.path.join(out, "run.json")) as f:
+        return p.returncode, p.stderr, json.load(f)
+
+
 def by_seq(msgs, blocks, field="seq"):
     """{seq: encoded bytes} of a run's own messages (seq of one of its blocks;
     the pose answering the last block's force may or may not be sent as the
@@ -139,6 +150,28 @@ class HostileDatagrams(unittest.TestCase):
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH"])
         blocks = self.rj0["sim"]["blocks"]
         self.assertEqual(by_seq(log["SIM_TRUTH"], blocks), by_seq(self.log0["SIM_TRUTH"], blocks))
+
+    def test_a_forged_finished_does_not_end_a_run_without_a_planner(self):
+        # an 'operator finished' heartbeat (name, pid and seq forged) cut a
+        # scene with no planner to 27 % of its length, and it ended ok
+        out = benchtest.tmpdir("forged-finished")
+        self.addCleanup(benchtest.cleanup, out)
+        code, err, rj = run_with_forger(self.scene, out, "finished")
+        self.assertEqual(code, 0, err)
+        self.assertEqual(rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
+        self.assertEqual(rj["sim"]["ended_early_at_block"], -1)
+        self.assertGreater(rj["sim"]["rejected"]["by_channel"].get("AFM_HEARTBEAT", 0), 10, rj["sim"]["rejected"])
+        self.assertEqual(rj["renderer"]["frames_expected"], self.rj0["renderer"]["frames_expected"])
+
+    def test_a_scan_request_beyond_the_scenes_scans_is_refused(self):
+        # 8192 x 8192 px over the field: it stalled a run 26 s and grew its log to 1.6 GB
+        out = benchtest.tmpdir("forged-scan")
+        self.addCleanup(benchtest.cleanup, out)
+        code, err, rj = run_with_forger(self.scene, out, "bigscan")
+        self.assertEqual(code, 0, err)
+        self.assertGreater(rj["sim"]["rejected"]["by_channel"].get("AFM_SCAN_REQ", 0), 10, rj["sim"]["rejected"])
+        self.assertLess(os.path.getsize(os.path.join(out, "bus.lcmlog")), 3 * os.path.getsize(os.path.join(self.clean, "bus.lcmlog")))
+        self.assertEqual(rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
 
     def test_the_hostile_run_replays_bit_for_bit(self):
         p = subprocess.run([REPLAY, self.hostile], capture_output=True, text=True, timeout=300)
