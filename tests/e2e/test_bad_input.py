@@ -188,6 +188,18 @@ class BadScenes(unittest.TestCase):
 class ThroughTheAfmScript(unittest.TestCase):
     """The same contract through the README's entry point, ./afm."""
 
+    def test_help_of_each_command_needs_no_build(self):
+        # './afm run --help' and './afm check --help' built first, then
+        # failed ('--help: cannot open scene file', exit 2)
+        for cmd in ("run", "check", "demo", "test", "spy", "bench", "setup", "build", "replay", "calc"):
+            for flag in ("--help", "-h"):
+                t0 = time.monotonic()
+                p = subprocess.run([os.path.join(benchtest.SRC, "afm"), cmd, flag], capture_output=True, text=True, timeout=60)
+                self.assertEqual(p.returncode, 0, (cmd, flag, p.stderr))
+                self.assertIn("usage" if cmd in ("replay", "calc") else f"./afm {cmd}", p.stdout, (cmd, p.stdout))
+                self.assertNotIn("building", p.stderr, cmd)
+                self.assertLess(time.monotonic() - t0, 5.0, cmd)
+
     def test_afm_run_refuses_a_bad_scene_naming_file_key_value(self):
         path = benchtest.write_scene(GOOD.replace("radius_nm: 50", "radius_nm: -5", 1), "afm-bad")
         p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "run", path, "--out", os.path.join(os.path.dirname(path), "out")],
