@@ -11,7 +11,8 @@ Rows (design.md, "Reliability"):
                   time in the run: the run fails naming it; log and run.json kept
   stop:NAME       SIGSTOP for 2 s, then SIGCONT: the run completes, same trajectories
   launcher:SIG    SIGINT or SIGTERM to the launcher: every child stopped (checked
-                  by process group), run.json says interrupted, the log closed
+                  by process group), run.json says interrupted, the log closed,
+                  the video (if one was begun) closed so that it opens
   net:drop        10 % of the analog blocks' first sends dropped (sim_afm's
                   --inject-drop): resends, same trajectories
   net:dup         every message echoed once more, 0-5 ms later, by a process on
@@ -140,6 +141,20 @@ class Run:
         except (OSError, ValueError):
             pass
         return self
+
+
+def video_opens(out):
+    """(whether the run's video.mp4 opens, what afm_media said): an
+    interrupted run closes its video too (the renderer ends on SIGTERM as
+    when the run is over)."""
+    path = os.path.join(out, "video.mp4")
+    if not os.path.exists(path):
+        return True, "no video"
+    p = subprocess.run([os.path.join(BUILD, "host_bridge", "afm_media"), "frames", path], capture_output=True, text=True,
+                       timeout=60)
+    if p.returncode != 0:
+        return False, f"video.mp4 does not open ({os.path.getsize(path)} bytes)"
+    return True, f"video opens ({p.stdout.split()[0]} frames)"
 
 
 def trajectories(out, blocks):
@@ -310,9 +325,10 @@ class Matrix:
                               too_late=lambda r: r.code == 0 and (r.rj or {}).get("status") == "ok")
         left = alive_in_groups(set(kids.values()))
         kept, kt = self.kept(r, "interrupted")
-        ok = r.code == 128 + sig and kept and not left and len(kids) == len(PROCS)
+        opens, vt = video_opens(r.out)
+        ok = r.code == 128 + sig and kept and not left and len(kids) == len(PROCS) and opens
         self.add(f"launcher:{sig_name}", f"exit {r.code}", kept, kt, None,
-                 f"{len(kids)} children stopped" + (f", {len(left)} left" if left else ", none left"), ok)
+                 f"{len(kids)} children stopped" + (f", {len(left)} left" if left else ", none left") + f"; {vt}", ok)
 
     def net_drop(self):
         r = Run(self.scene, self.dir("net:drop"), extra=["--inject-drop", "0.1"]).finish()

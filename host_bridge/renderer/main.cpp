@@ -2,6 +2,7 @@
 // what it draws and when). Reads the command line, takes the first scan,
 // serves the bus until the run is over, and writes the contact sheet and
 // renderer_report.json.
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -20,6 +21,13 @@ const char *kUsage =
     "                      (host_bridge/frame_writer.hpp; the launcher passes every CPU of the run)\n";
 
 using namespace afm::render;
+
+// SIGTERM or SIGINT (the launcher stopping a run): the renderer ends its
+// loop as when the run is over, so that the video is closed and opens (an
+// interrupted run left a 44-byte mp4 without its moov atom) and the frames,
+// sheet and report written so far are kept.
+volatile sig_atomic_t g_stop = 0;
+extern "C" void on_stop(int) { g_stop = 1; }
 
 }  // namespace
 
@@ -50,16 +58,21 @@ int main(int argc, char **argv)
         inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return r.on_haptic(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return r.on_heartbeat(m); });
 
+        struct sigaction sa {};
+        sa.sa_handler = on_stop;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGTERM, &sa, nullptr);
+        sigaction(SIGINT, &sa, nullptr);
         // The full scan first.
         r.hb.send(afm::RunState::starting, -1, 0, "scanning");
         r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
         while (r.scan.busy()) {
             inbox.handle(50);
-            if (r.sim_done) return static_cast<int>(afm::kExitRunOverEarly);
+            if (r.sim_done || g_stop) return static_cast<int>(afm::kExitRunOverEarly);
             r.retry_scan();
         }
         r.begin();
-        while (!r.sim_done) {
+        while (!r.sim_done && !g_stop) {
             r.hb.maybe_send(r.last_seq < 0 ? afm::RunState::ready : afm::RunState::running, r.last_seq, 0);
             // what has come (the inbox's thread takes the bus in batches, kBatchUs apart)
             if (inbox.handle(r.last_seq < 0 ? afm::kReadyPeriodMs : 50) > 0)
