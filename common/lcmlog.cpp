@@ -133,7 +133,8 @@ void LogWriter::write(int64_t utime, const std::string &channel, const void *dat
     ev.data = const_cast<void *>(data);
     errno = 0;
     if (lcm_eventlog_write_event(log_, &ev) != 0)
-        throw LogError(path_ + ": cannot write event " + std::to_string(n_) + " (" + std::strerror(errno ? errno : EIO) + ")");
+        throw LogError(path_ + ": cannot write event " + std::to_string(n_) + " after " + std::to_string(bytes_) + " bytes (" +
+                       std::strerror(errno ? errno : EIO) + ")");
     ++n_;
     bytes_ += LogReader::kHeaderBytes + static_cast<int64_t>(channel.size()) + static_cast<int64_t>(size);
 }
@@ -142,7 +143,8 @@ void LogWriter::flush()
 {
     errno = 0;
     if (std::fflush(log_->f) != 0 || std::ferror(log_->f))
-        throw LogError(path_ + ": cannot write (" + std::strerror(errno ? errno : EIO) + ")");
+        throw LogError(path_ + ": cannot write, " + std::to_string(bytes_) + " bytes given to it (" +
+                       std::strerror(errno ? errno : EIO) + ")");
 }
 
 }  // namespace afm

@@ -571,8 +571,10 @@ private:
             if (!f) {
                 std::error_code ec;
                 fs::remove(tmp, ec);
-                std::fprintf(stderr, "afm_launch: cannot write %s: %s (status would have been '%s')\n", path.c_str(),
-                             std::strerror(errno ? errno : EIO), run.value("status", "?").c_str());
+                const int err = errno ? errno : EIO;
+                std::fprintf(stderr, "afm_launch: cannot write %s: %s (status would have been '%s'%s%s)\n", path.c_str(),
+                             std::strerror(err), run.value("status", "?").c_str(), run.contains("error") ? ": " : "",
+                             run.contains("error") ? run["error"].get<std::string>().c_str() : "");
                 return false;
             }
         }
