@@ -56,6 +56,10 @@ namespace fs = std::filesystem;
 
 namespace afm::launch {
 
+// run.json's layout: docs/design.md's table of keys is held to a run's
+// keys by tests/e2e/test_contract.py. 2: schema_version, provenance, scene_hash.
+constexpr int kRunSchemaVersion = 2;
+
 inline const char *kUsage =
     "usage: afm_launch --scene FILE --out DIR [options]\n"
     "  Runs one scene through sim_afm, fw_node, operator and renderer on a private\n"
@@ -561,6 +565,16 @@ private:
     // run.json whole or not at all: written beside, then renamed over (a
     // full disk leaves no half-written file that a reader could take for a
     // finished run).
+    // What made this build (build/main/provenance.json, written at every
+    // build: cmake/provenance.cmake); null where it cannot be read.
+    static nlohmann::json provenance()
+    {
+        std::ifstream f(fs::path(exe_dir()) / ".." / "provenance.json");
+        if (!f) return nullptr;
+        const auto j = nlohmann::json::parse(f, nullptr, false);
+        return j.is_discarded() ? nlohmann::json(nullptr) : j;
+    }
+
     bool write_run_json(const nlohmann::json &run) const
     {
         const std::string path = out_ + "/run.json", tmp = path + ".partial";
@@ -764,6 +778,8 @@ private:
         const auto counts = count_channels(out_ + "/bus.lcmlog", &log_err, &recorded);
         for (const auto &kv : counts) messages_ += kv.second;
         json run;
+        run["schema_version"] = kRunSchemaVersion;
+        run["provenance"] = provenance();
         run["scene"] = scene_abs_;
         run["scene_hash"] = scene_hash_;
         run["scene_name"] = scene_.name;

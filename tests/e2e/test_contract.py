@@ -88,6 +88,46 @@ class ChannelTable(unittest.TestCase):
         self.assertIn("./afm test", readme)
 
 
+class RunJsonKeys(unittest.TestCase):
+    """run.json's keys are documented in one place (docs/design.md, the
+    table under "What a run writes"): a run's keys are all there, and every
+    key there is one a run writes (those written only on failure said so in
+    their row); it carries its schema version and the build's provenance."""
+
+    def documented(self):
+        text = open(os.path.join(benchtest.SRC, "docs", "design.md")).read()
+        table = text[text.index("| key | meaning |"):]
+        table = table[:table.index("\n\n")]
+        keys, on_failure = set(), set()
+        for line in table.splitlines()[2:]:
+            first = line.split("|")[1]
+            names = re.findall(r"`([a-z_]+)`", first)
+            keys |= set(names)
+            if "only when something failed" in line:
+                on_failure |= set(names)
+        return keys, on_failure
+
+    def test_a_runs_keys_are_the_documented_ones(self):
+        out = benchtest.tmpdir("runjson")
+        self.addCleanup(benchtest.cleanup, out)
+        code, _, err, rj = benchtest.run(benchtest.scene("short.yaml"), out)
+        self.assertEqual(code, 0, err)
+        keys, on_failure = self.documented()
+        self.assertEqual(sorted(set(rj) - keys), [], "keys of run.json docs/design.md does not document")
+        self.assertEqual(sorted(keys - set(rj) - on_failure), [], "documented keys an ok run does not write")
+        self.assertEqual(rj["schema_version"], 2)
+        prov = rj["provenance"]
+        self.assertEqual(sorted(prov), ["build_type", "commit", "compilers", "dirty", "libraries"])
+        git = subprocess.run(["git", "-C", benchtest.SRC, "rev-parse", "HEAD"], capture_output=True, text=True)
+        if git.returncode == 0:   # a checkout: the build's commit is the checkout's (built by this ./afm test)
+            self.assertEqual(prov["commit"], git.stdout.strip())
+            self.assertIn(prov["dirty"], (True, False))
+        self.assertTrue(prov["build_type"])
+        self.assertRegex(prov["compilers"]["cxx"], r"\d+\.\d+")
+        for lib in ("opencv", "eigen", "lcm", "yaml_cpp", "nlohmann_json"):
+            self.assertRegex(prov["libraries"][lib], r"^\d+\.\d+", lib)
+
+
 # The shared libraries each program may need, by name without the version.
 _BASE = {"libstdc++", "libm", "libgcc_s", "libc"}
 _BUS = _BASE | {"libyaml-cpp", "libglib-2.0"}   # the scene (yaml-cpp) and LCM (GLib)
