@@ -251,11 +251,13 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
     }
     YAML::Node wm = smp["wire"];
     if (wm.IsDefined() && !wm.IsNull()) {
-        r.only_keys(wm, "sample.wire", {"friction_nN_per_um", "youngs_modulus_GPa", "segments", "friction_points", "relax_sweeps", "mu"});
+        r.only_keys(wm, "sample.wire",
+                    {"friction_nN_per_um", "youngs_modulus_GPa", "segments", "friction_points", "relax_sweeps", "mu", "solver"});
         const WireModelSpec wd;
         s.wire_model.friction_nN_per_um = r.num(wm, "sample.wire", "friction_nN_per_um", &wd.friction_nN_per_um, 0, 1e4, true);
         s.wire_model.youngs_modulus_GPa = r.num(wm, "sample.wire", "youngs_modulus_GPa", &wd.youngs_modulus_GPa, 0, 2000, true);
         s.wire_model.mu = r.num(wm, "sample.wire", "mu", &wd.mu, 0, 10, true);
+        s.wire_model.solver = r.str(wm, "sample.wire", "solver", &wd.solver, {"closed_form", "numeric"});
         auto whole = [&](const char *k, int dflt, double lo, double hi) {
             const double dv = dflt;
             const double v = r.num(wm, "sample.wire", k, &dv, lo, hi);

@@ -131,6 +131,13 @@ struct WireModelSpec {
     int friction_points = 64;           // K: points integrating a rigid rod's friction where a trench holds part of it (uniform friction: exact, K unused)
     int relax_sweeps = 8;               // Newton-IRLS iterations of a flexible wire's step per sample (>= 8)
     double mu = 0.3;                    // wire-substrate friction coefficient: how firmly a trench holds a rigid wire
+    // How the simulator moves a rigid rod of uniform friction: "closed_form"
+    // (eq. 20, integrated exactly: fast, and the card's own model) or
+    // "numeric" (the friction lumped on friction_points points along the rod
+    // and the least-dissipation balance solved by iteration: a truth
+    // independent of the card's closed forms). A trench always takes the
+    // numeric path.
+    std::string solver = "closed_form";
 };
 
 // Nanolithography on polycarbonate (physics.md section 9).

@@ -449,6 +449,8 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k, double ri
     const double u_p = u_from_a - 0.5 * L_nm;
     if (held)
         last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60, &metric_);
+    else if (numeric)   // independent of eq. 20 (sample.wire.solver: numeric)
+        last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60);
     else
         last = rod_push_twist_uniform(L_nm, f, u_p, p_rod, last);
     const double F = k * pen;

@@ -197,6 +197,8 @@ public:
     // the friction only where a trench holds the rod; uniform friction is
     // integrated exactly).
     RigidWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm, int K);
+    // Uniform friction by the lumped, iterative solver too (sample.wire.solver: numeric).
+    bool numeric = false;
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
               double ride_nN = std::numeric_limits<double>::infinity()) override;
     void place(const Eigen::Vector2d &centre, double psi);   // sets the pose and the nodes

@@ -67,7 +67,11 @@ World::World(const Scene &s)
             wires_.push_back(std::make_unique<FlexibleWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.youngs_modulus_GPa,
                                                             s.wire_model.segments, s.wire_model.relax_sweeps));
         else
-            wires_.push_back(std::make_unique<RigidWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.friction_points));
+        {
+            auto rod = std::make_unique<RigidWire>(w.id, a, b, w.diameter_nm, f_wire, s.wire_model.friction_points);
+            rod->numeric = s.wire_model.solver == "numeric";
+            wires_.push_back(std::move(rod));
+        }
     }
     if (down_force_)
         for (auto &w : wires_) w->mu = s.wire_model.mu;
@@ -746,7 +750,10 @@ std::vector<std::string> World::models_built() const
     std::vector<std::string> m = {"scanner", "lever", "substrate:" + scene_.substrate};
     if (rough_) m.push_back("roughness");
     if (!particles_.empty()) m.push_back("particles");
-    if (!wires_.empty()) m.push_back(scene_.has_effect("wire_flexibility") ? "wires:flexible_chain" : "wires:rigid_rod");
+    if (!wires_.empty())
+        m.push_back(scene_.has_effect("wire_flexibility")          ? "wires:flexible_chain"
+                    : scene_.wire_model.solver == "numeric" ? "wires:rigid_rod_numeric"
+                                                            : "wires:rigid_rod");
     m.push_back(scene_.has_effect("bending_offset") ? "mechanics:compliant_lever" : "mechanics:rigid_lever");
     m.push_back(scene_.has_effect("tip_convolution") ? "imaging:tip_convolution" : "imaging:true_topography");
     for (const auto &e : per_sample_) m.push_back(e->name());

@@ -191,6 +191,29 @@ def moved_in_scans(run_dir, min_height_nm, moved_nm=30.0):
     return moved, len(first)
 
 
+def push_excess(run_dir):
+    """The push the object takes (nN): the median lateral force across the
+    push while the card flags contact, less the tip's own sliding friction,
+    the median over the blocks of free sliding before the first contact
+    (their second half: the scanner at speed). From the card (FW_STATE) and
+    from the simulator (SIM_TRUTH); and the blocks the card flagged SQUEEZE."""
+    from analysis import afmlog
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
+    ff, tr = afmlog.by_seq(log.get("FW_STATE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
+    seqs = sorted(s for s in ff if s in tr)
+    flag = afmlog.afm.fw_state_t
+    contact = [s for s in seqs if ff[s].flags & flag.FLAG_CONTACT]
+    squeeze = sum(1 for s in seqs if ff[s].flags & flag.FLAG_SQUEEZE)
+    if len(contact) < 5:
+        return None, None, squeeze
+    free = [s for s in seqs if s < contact[0]]
+    free = free[len(free) // 2:]
+    if len(free) < 10:
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: only {len(free)} blocks of free sliding before contact")
+    med = lambda src, ss: float(np.median([abs(src[s].force_nN[1]) for s in ss]))
+    return med(ff, contact) - med(ff, free), med(tr, contact) - med(tr, free), squeeze
+
+
 def truth(run_dir):
     """The scene the run ran (its scene.yaml, includes merged): the
     simulator's truth, for the truth column only."""

@@ -90,29 +90,6 @@ def runs(size):
     return out
 
 
-def push_excess(run_dir):
-    """The push the object takes (nN): the median lateral force across the
-    push while the card flags contact, less the tip's own sliding friction,
-    the median over the blocks of free sliding before the first contact
-    (their second half: the scanner at speed). From the card (FW_STATE) and
-    from the simulator (SIM_TRUTH); and the blocks the card flagged SQUEEZE."""
-    from analysis import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
-    ff, tr = afmlog.by_seq(log.get("FW_STATE", [])), afmlog.by_seq(log.get("SIM_TRUTH", []))
-    seqs = sorted(s for s in ff if s in tr)
-    flag = afmlog.afm.fw_state_t
-    contact = [s for s in seqs if ff[s].flags & flag.FLAG_CONTACT]
-    squeeze = sum(1 for s in seqs if ff[s].flags & flag.FLAG_SQUEEZE)
-    if len(contact) < 5:
-        return None, None, squeeze
-    free = [s for s in seqs if s < contact[0]]
-    free = free[len(free) // 2:]
-    if len(free) < 10:
-        raise common.PaperError(f"{run_dir}/bus.lcmlog: only {len(free)} blocks of free sliding before contact")
-    med = lambda src, ss: float(np.median([abs(src[s].force_nN[1]) for s in ss]))
-    return med(ff, contact) - med(ff, free), med(tr, contact) - med(tr, free), squeeze
-
-
 def _rod_moved(run_dir):
     """How far the rod's centre moved (nm): between the run's scans, and in SIM_TRUTH."""
     c0, _, _ = rod_pose(run_dir, "scan_initial")
@@ -145,7 +122,7 @@ def analyse(dirs, exp_dir, size):
     pts = []
     for g in GAMMAS[size]:
         d = dirs[f"gamma_{g}"]
-        hb, ht, _ = push_excess(d)
+        hb, ht, _ = common.push_excess(d)
         if hb is None:
             raise common.PaperError(f"{d}: the card never flagged contact with the rod")
         m = _solver(L, END_Q * L, g, mu, fl, fats)
@@ -183,7 +160,7 @@ def _squeeze_rows(res, dirs, L, fl, fats):
     for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
         d = dirs[name]
         moved_scan, moved_truth = _rod_moved(d)
-        _, _, flagged = push_excess(d)
+        _, _, flagged = common.push_excess(d)
         y_end = _apex_final_y(d)
         ride = (load + fats) / math.tan(math.radians(SQUEEZE_GAMMA))
         res.rows.append(common.Row(f"{name}: the rod's move past psi_max ({SQUEEZE_GAMMA} > {psi_max:.1f} deg), load {load} nN",
@@ -248,7 +225,7 @@ def _particle_rows(res, dirs, sc):
     down = base / (1 - float(ps["mu"]) * math.tan(math.radians(PARTICLE_GAMMA)))
     got = {}
     for name, want, what in (("particle_down", down, "F_th(0) / (1 - mu_ps tan gamma)"), ("particle_flat", base, "F_th(0)")):
-        hb, ht, _ = push_excess(dirs[name])
+        hb, ht, _ = common.push_excess(dirs[name])
         if hb is None:
             raise common.PaperError(f"{dirs[name]}: the card never flagged contact with the particle")
         got[name] = hb

@@ -54,7 +54,7 @@ sample:
   substrate: glass
   field_nm: 8000
   tip_substrate: {mu: 0.1, adhesion_nN: 1.0}
-  wire: {friction_nN_per_um: FRICTION, segments: SEGMENTS, friction_points: 64, relax_sweeps: SWEEPS}
+  wire: {friction_nN_per_um: FRICTION, segments: SEGMENTS, friction_points: 64, relax_sweeps: SWEEPS, solver: SOLVER}
 objects:
   wires:
     - {id: 4, x0_nm: -HALF, y0_nm: 0, x1_nm: HALF, y1_nm: 0, diameter_nm: 100}
@@ -65,9 +65,10 @@ operator:
 )";
 
 afm::Scene wire_scene(double L, const std::string &extra = "", double friction = 20, int segments = 32, int sweeps = 8,
-                      double load_nN = 5, double gamma_deg = 20)
+                      double load_nN = 5, double gamma_deg = 20, const std::string &solver = "closed_form")
 {
     std::string t = with(kWireScene, "SWEEPS", std::to_string(sweeps));
+    t = with(t, "SOLVER", solver);
     t = with(t, "LOAD", std::to_string(load_nN));
     t = with(t, "GAMMA", std::to_string(gamma_deg));
     t = with(t, "EXTRA", extra);
@@ -173,9 +174,10 @@ void test_rod_twist_balances_force_and_torque()
 // takes (lateral force on the tip less the tip's own friction) while sliding.
 struct PushResult { double s_nm, force_nN, dpsi; };
 
-PushResult push_world(double l, double L, const std::string &extra = "", int segments = 32, int sweeps = 8, double load_nN = 5)
+PushResult push_world(double l, double L, const std::string &extra = "", int segments = 32, int sweeps = 8, double load_nN = 5,
+                      const std::string &solver = "closed_form")
 {
-    const afm::Scene s = wire_scene(L, extra, 20, segments, sweeps, load_nN);
+    const afm::Scene s = wire_scene(L, extra, 20, segments, sweeps, load_nN, 20, solver);
     World w(s);
     const double cn_off = w.lever().normal_offset(s.op.load_nN).x();
     const double x = l - L / 2;
@@ -218,6 +220,24 @@ PushResult push_world(double l, double L, const std::string &extra = "", int seg
     const double dyA = axis_y(-L / 2) - y0;
     // Normal displacement at distance s from end A: dyA + dpsi s; zero at s = -dyA / dpsi.
     return PushResult{std::fabs(dpsi) > 1e-12 ? -dyA / dpsi : INFINITY, -fsum / nf - friction, dpsi};
+}
+
+void test_the_numeric_rod_solver_agrees_with_the_closed_form()
+{
+    // sample.wire.solver numeric: the friction lumped on 64 points and the
+    // balance iterated, independent of eq. 20 (the card's model). The same
+    // pushes through the whole world: force within 2 % of f L and static
+    // point within 2 % of L of the closed-form path's, at three push points.
+    const double L = 1000, fL = 20.0 * L / 1000;
+    for (double l : {0.03 * L, L / 4, 0.45 * L}) {
+        const PushResult c = push_world(l, L), n = push_world(l, L, "", 32, 8, 5, "numeric");
+        std::printf("push at l = %.0f: F closed %.4f numeric %.4f f L; s closed %.4f numeric %.4f L\n", l, c.force_nN / fL,
+                    n.force_nN / fL, c.s_nm / L, n.s_nm / L);
+        TEST_ASSERT_DOUBLE_WITHIN(0.02, c.force_nN / fL, n.force_nN / fL);
+        TEST_ASSERT_DOUBLE_WITHIN(0.02, c.s_nm / L, n.s_nm / L);
+    }
+    World w(wire_scene(L, "", 20, 32, 8, 5, 20, "numeric"));
+    TEST_ASSERT_TRUE(has(w.models_built(), "wires:rigid_rod_numeric"));
 }
 
 void test_pushed_rod_in_the_world_moves_as_section_6_says()
@@ -355,7 +375,7 @@ void test_long_flexible_wire_shape_does_not_depend_on_the_node_under_the_tip()
 void test_scenes_build_only_the_wire_model_they_need()
 {
     // No wire in the scene: no wire model, even with wire_flexibility listed.
-    std::string text = with(with(with(with(with(with(kWireScene, "LOAD", "5"), "GAMMA", "20"), "SWEEPS", "8"), "EXTRA", ", wire_flexibility"), "FRICTION", "20"), "SEGMENTS", "32");
+    std::string text = with(with(with(with(with(with(with(kWireScene, "SOLVER", "closed_form"), "LOAD", "5"), "GAMMA", "20"), "SWEEPS", "8"), "EXTRA", ", wire_flexibility"), "FRICTION", "20"), "SEGMENTS", "32");
     text = with(text, "objects:\n  wires:\n    - {id: 4, x0_nm: -HALF, y0_nm: 0, x1_nm: HALF, y1_nm: 0, diameter_nm: 100}\n", "");
     const afm::Scene none = scene_from_text(text);
     World a(none);
@@ -980,6 +1000,7 @@ int main()
     RUN_TEST(test_scenes_build_only_the_wire_model_they_need);
     RUN_TEST(test_down_force_raises_the_push_as_eq_29_and_squeezes_past_psi_max);
     RUN_TEST(test_the_tip_rides_over_a_sliding_rod_below_eq_30s_load_and_pushes_it_above);
+    RUN_TEST(test_the_numeric_rod_solver_agrees_with_the_closed_form);
     RUN_TEST(test_uniform_rod_side_push_is_eq_20_in_closed_form);
     RUN_TEST(test_uniform_rod_middle_push_translates_and_off_middle_turns_about_the_far_end);
     RUN_TEST(test_uniform_rod_oblique_push_balances_and_matches_4096_points);
