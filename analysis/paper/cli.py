@@ -33,6 +33,11 @@ def parse_args(argv):
                    help="reduced: the smaller versions ./afm test runs (same figures, looser statistics)")
     p.add_argument("--workers", type=int, default=2, help="runs at once (default 2)")
     p.add_argument("--list", action="store_true", help="list the experiments and exit")
+    p.add_argument("--truth", choices=["paper", "seeded"], default="paper",
+                   help="paper (default): the simulated lever and surface have the paper's constants; seeded: the "
+                        "calibrations' hidden truth is drawn from --seed (tip-substrate mu, k_theta K_l / h, C_n), "
+                        "told only to the simulator; the card keeps the paper's values")
+    p.add_argument("--seed", type=int, default=1, help="the seeded truth's seed (default 1)")
     a = p.parse_args(argv)
     if a.only:
         bad = [n for n in a.only if n not in BY_NAME]
@@ -51,6 +56,31 @@ class Progress:
         self.done += 1
         sys.stderr.write(f"\rpaper: {self.done} / {self.total} runs ({what})   {time.monotonic() - self.t0:5.0f} s   ")
         sys.stderr.flush()
+
+
+# The seeded truth's ranges: realistic levers and surfaces (mu from 0.05 keeps
+# the friction loops' rho = r_u / r_d away from 1, where the calibration
+# carries no information).
+SEEDED_RANGES = {"mu": (0.05, 0.30), "lateral_nN_per_V": (20.0, 60.0), "cn_nm_per_V": (15.0, 40.0)}
+
+
+def seeded_truth(seed):
+    """{experiment: settings} of a drawn truth: the simulator's lever and
+    surface for the calibrations (tilted: mu and k_theta K_l / h; lines:
+    C_n). The card is told the paper's values, never the drawn ones."""
+    import random
+    rng = random.Random(seed)
+    d = {k: round(rng.uniform(*r), 4) for k, r in SEEDED_RANGES.items()}
+    paper = common.paper_probe()
+    return d, {"tilted": {"sample.tip_substrate.mu": d["mu"], "probe.lateral_nN_per_V": d["lateral_nN_per_V"],
+                          "firmware.lateral_nN_per_V": paper["lateral_nN_per_V"], "firmware.mu": paper["mu"]},
+               "lines": {"probe.cn_nm_per_V": d["cn_nm_per_V"]}}
+
+
+def _seed_jobs(jobs, by_exp):
+    for e, _, r in jobs:
+        if e.NAME in by_exp:
+            r.settings = {**(r.settings or {}), **by_exp[e.NAME]}
 
 
 def _one_run(job):
@@ -115,6 +145,11 @@ def main(argv):
         exp_dir = os.path.join(a.out, e.NAME)
         os.makedirs(exp_dir, exist_ok=True)
         jobs += [(e, exp_dir, r) for r in e.runs(a.size)]
+    seeded = None
+    if a.truth == "seeded":
+        drawn, seeded = seeded_truth(a.seed)
+        _seed_jobs(jobs, seeded)
+        sys.stderr.write(f"paper: seeded truth, seed {a.seed}: " + ", ".join(f"{k} {v}" for k, v in drawn.items()) + "\n")
     prog = Progress(len(jobs))
     t0 = time.monotonic()
     sys.stderr.write(f"paper: {len(exps)} experiments, {len(jobs)} runs, {a.size} size, {a.workers} at once, into {a.out}\n")
@@ -131,6 +166,8 @@ def main(argv):
                 later += [(e, exp_dir, r) for r in e.more_runs(a.size, {n: d for n, (d, _, _) in outcomes[e.NAME].items()}, exp_dir)]
             except common.PaperError as err:
                 outcomes[e.NAME]["(second round)"] = (None, False, str(err))
+    if later and seeded:
+        _seed_jobs(later, seeded)
     if later:
         prog.total += len(later)
         run_all(later, a.workers, prog, outcomes, walls)
