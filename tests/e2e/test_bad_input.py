@@ -199,6 +199,12 @@ class ThroughTheAfmScript(unittest.TestCase):
                 self.assertIn("usage" if cmd in ("replay", "calc") else f"./afm {cmd}", p.stdout, (cmd, p.stdout))
                 self.assertNotIn("building", p.stderr, cmd)
                 self.assertLess(time.monotonic() - t0, 5.0, cmd)
+        for b in ("firmware", "sim", "render", "bus", "sweep"):   # each bench's own text
+            p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "bench", b, "--help"], capture_output=True, text=True,
+                               timeout=60)
+            self.assertEqual(p.returncode, 0, (b, p.stderr))
+            self.assertIn(f"usage: ./afm bench {b}", p.stdout)
+            self.assertNotIn("building", p.stderr, b)
 
     def test_afm_run_refuses_a_bad_scene_naming_file_key_value(self):
         path = benchtest.write_scene(GOOD.replace("radius_nm: 50", "radius_nm: -5", 1), "afm-bad")
