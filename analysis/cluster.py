@@ -44,6 +44,7 @@ def write_certs(folder):
     for name, text in files.items():
         path = os.path.join(folder, name)
         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        os.fchmod(fd, 0o600)   # before writing: an existing file keeps its old mode through O_CREAT
         with os.fdopen(fd, "w") as f:
             f.write(text)
         os.chmod(path, 0o600)

@@ -14,10 +14,13 @@ the user who started them (root, on a bench set up as the README says). So:
 - No HTTP server listens: Dask's scheduler and workers open one even with
   the dashboard off (its health and metrics routes, port 8787 for the
   scheduler); QuietScheduler and QuietWorker open none.
-- Nothing received from the network is unpickled by the sweep's process: its
-  client deserializes with msgpack only (SAFE_DESERIALIZERS), a point's
+- The sweep's client unpickles nothing its peers send of their own accord:
+  it deserializes results with msgpack only (SAFE_DESERIALIZERS), a point's
   result comes back as JSON text (result_of), and anything else is refused;
-  the client's other unpickling paths are closed (harden_client).
+  the client's own unpickling of a task's type, a task's exception and warn
+  events is closed (harden_client). Dask's protocol layer still unpickles a
+  message's pickled sub-frames and an RPC's error reply; those can come
+  only from a peer that holds the cluster's TLS credentials.
   The one stated exception: workers unpickle the tasks that the
   credentialed client sends them.
 

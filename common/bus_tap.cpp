@@ -249,6 +249,12 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
         return 0;
     }
     if (p.got[g.fragment_no]) return 0;   // a fragment twice (a duplicated datagram): taken once
+    if (p.held + size > p.size) {   // more than the message claims (fragments overlapping): it cannot be whole
+        ++dropped_;
+        ++abandoned_;
+        partial_.erase(it);
+        return 0;
+    }
     if (!p.skip) {
         p.frags.emplace_back(g.offset, std::vector<unsigned char>(d + g.payload_at, d + g.payload_at + size));
         p.held += size;

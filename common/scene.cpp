@@ -79,7 +79,8 @@ public:
     static std::string printable(const std::string &t)
     {
         std::string out;
-        for (std::size_t i = 0; i < t.size() && out.size() < kShowMax; ++i) {
+        std::size_t i = 0;
+        for (; i < t.size() && out.size() < kShowMax; ++i) {
             const unsigned char c = static_cast<unsigned char>(t[i]);
             if (c == '\n') out += "\\n";
             else if (c == '\t') out += "\\t";
@@ -89,7 +90,7 @@ public:
                 out += b;
             } else out += static_cast<char>(c);
         }
-        if (out.size() >= kShowMax && t.size() > kShowMax) out += "... (" + std::to_string(t.size()) + " characters)";
+        if (i < t.size()) out += "... (" + std::to_string(t.size()) + " characters)";
         return out;
     }
 

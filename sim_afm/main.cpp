@@ -170,13 +170,11 @@ struct Sim {
     afm::Reject on_scan_req(const afm::scan_req_t &m)
     {
         if (m.nx < 1 || m.ny < 1 || m.nx > 8192 || m.ny > 8192 || m.first_line < 0 || m.n_lines < 0 || !(m.width_nm > 0) ||
-            !(m.height_nm > 0)) {
-            std::fprintf(stderr, "sim_afm: ignoring scan request %d with bad size nx=%d ny=%d\n", m.req_id, m.nx, m.ny);
-            return afm::Reject::out_of_range;
-        }
+            !(m.height_nm > 0))
+            return afm::Reject::out_of_range;   // counted, not said (a flood would fill the log)
         if (m.width_nm > max_scan_side_nm() || m.height_nm > max_scan_side_nm() || m.width_nm / m.nx < min_scan_pitch_nm() ||
             m.height_nm / m.ny < min_scan_pitch_nm())
-            return afm::Reject::out_of_range;   // beyond what the scene's clients ask (counted, not said: a flood would fill the log)
+            return afm::Reject::out_of_range;   // beyond what the scene's clients ask (counted, not said)
         // One for a later block waits until the simulator waits after it; a
         // client asks for the block its next pose answers, so more than one
         // block ahead (or more than kLaterScans waiting) is refused.

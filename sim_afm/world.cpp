@@ -153,6 +153,16 @@ void World::relax()
     }
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     lateral_force_ = -(K_ * (rest - apex_));
+    count_ridden();
+}
+
+void World::count_ridden()
+{
+    for (const auto &w : wires_)
+        if (w->ridden) {
+            ++ridden_samples_;   // a sample in which the tip rode over a wire (once, however many wires or sweeps)
+            return;
+        }
 }
 
 Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, double *kt)
@@ -250,7 +260,6 @@ void World::push_wires(const Eigen::Vector2d &as2, double rt)
         const double ride = w->pulled || w->ridden ? ride_push_nN(*w) : std::numeric_limits<double>::infinity();
         w->push(as2, rt, k_contact_, ride);
         clock_add(&t_wires_, t0);
-        if (w->ridden) ++ridden_samples_;
     }
 }
 
@@ -287,6 +296,7 @@ void World::relax_rigid()
         clock_add(&t_wires_, t0);
         if (w->contact(as, rt, pen, n, u) && !w->ridden) f += k_contact_ * pen * n;
     }
+    count_ridden();
     near(as, rt + max_radius_ + 1.0, scratch_);
     for (int idx : scratch_) {
         Particle &p = particles_[idx];

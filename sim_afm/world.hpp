@@ -211,6 +211,7 @@ private:
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     void press_wires();                                       // down_force: each wire's tan psi for this sample
     double ride_push_nN(const Wire &w) const;                 // the most the tip can push before it lifts (down_force)
+    void count_ridden();                                      // one of ridden_samples_ if a wire was ridden this sample
     // Horizontal force of the substrate on the tip, frame A, when it slides
     // along the horizontal direction m on a surface of unit normal n under the
     // vertical force fz; none when the slope is too steep to climb (the tip

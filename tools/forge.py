@@ -10,7 +10,8 @@ it beside afm_launch under one tools/in_netns.sh):
 
 Prints a JSON line with what it sent. What the bench does against these:
 sim_afm takes "finished" only where a planner runs, and scan requests only
-within the scene's field and pixel pitch (sim_afm/main.cpp)."""
+of at most four fields a side at no less than half the finest pitch of the
+scene's own scans (sim_afm/main.cpp)."""
 import argparse
 import json
 import os

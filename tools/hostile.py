@@ -39,13 +39,10 @@ from collections import defaultdict
 
 import lcm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.environ.get("AFM_LCMTYPES_PY", os.path.join(HERE, "..", "build", "main", "lcmtypes")))
-import afm  # noqa: E402  (generated at build time)
-import yaml  # noqa: E402
+from analysis import afmlog   # the generated types and the one table of channels, through the log reader
 
-with open(os.path.join(HERE, "..", "lcmtypes", "channels.yaml")) as f:
-    CHANNELS = {row["channel"]: row["type"] for row in yaml.safe_load(f)}
+afm = afmlog.afm
+CHANNELS = afmlog.CHANNELS
 
 KINDS = ["truncated", "fingerprint", "wrong_type", "array_length", "non_finite", "seq_past", "seq_future", "flood",
          "fragment_claim"]

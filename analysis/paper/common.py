@@ -209,7 +209,7 @@ def push_excess(run_dir):
     free = [s for s in seqs if s < contact[0]]
     free = free[len(free) // 2:]
     if len(free) < 10:
-        raise common.PaperError(f"{run_dir}/bus.lcmlog: only {len(free)} blocks of free sliding before contact")
+        raise PaperError(f"{run_dir}/bus.lcmlog: only {len(free)} blocks of free sliding before contact")
     med = lambda src, ss: float(np.median([abs(src[s].force_nN[1]) for s in ss]))
     return med(ff, contact) - med(ff, free), med(tr, contact) - med(tr, free), squeeze
 

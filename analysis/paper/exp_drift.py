@@ -97,8 +97,8 @@ def analyse(dirs, exp_dir, size):
         common.Row("registration error at the end, without local scans", "nm", bench=float(eo[-1]),
                    note="unmended, the models are off by the whole drift (shown, not judged)"),
         common.Row(f"pushes that met their particle, with local scans (of {n})", "", bench=mw, truth=mw_true, tolerance=0,
-                   note="bench: particles whose model the card moved over 30 nm while it flagged contact (its own "
-                        "outputs); truth: SIM_TRUTH's particles moved beyond the drift"),
+                   note="bench: particles whose model the card moved over 30 nm beyond its own drift estimate, "
+                        "first state to last (its own outputs); truth: SIM_TRUTH's particles moved beyond the drift"),
         common.Row(f"pushes that met their particle, without (of {n})", "", bench=mo, truth=mo_true, tolerance=0,
                    note=f"bench: particles the fresh scan at the end finds moved over 30 nm beyond the drift "
                         f"(the median displacement between the run's scans; of {n_scan} in the first scan): the "

@@ -326,9 +326,9 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
  * tip's vertical balance: the contact's vertical part H tan psi against
  * the load and the adhesion). 0 when F_z + F_a,ts <= 0.
  * Scaling and overflow: F_z + F_a,ts < 2^32 in 64 bits, times cos psi in
- * 2.30 < 2^62, divided by sin psi (2.30, at least sin of the smallest
- * psi the tip allows, gamma > 0), saturated to int32; psi in (0, 90 deg),
- * INT32_MAX for psi at or below 0 (no flank to climb). */
+ * 2.30 < 2^62, divided by sin psi (2.30), saturated to int32 (a small psi
+ * gives a large H_ride). psi is an unsigned binary angle: 0 gives
+ * INT32_MAX (no flank to climb), 90 deg or more gives 0. */
 int32_t fw_wire_ride_push_pn(fw_bam_t psi, int32_t load_pn, int32_t adhesion_ts_pn);
 
 #endif /* FW_WIRE_H */

@@ -307,13 +307,18 @@ public:
         }
         const fs::path dir = o_.out_dir;
         try {
+            // the lock first: a run under way is named as such, whatever it has written yet
+            if (fs::exists(dir) && fs::is_directory(dir)) {
+                if (const int code = lock_out(dir); code >= 0) return code;
+            }
             if (fs::exists(dir) && !only_a_lock(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
                 std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
                              o_.out_dir.c_str());
                 return 2;
             }
             fs::create_directories(dir);
-            if (const int code = lock_out(dir); code >= 0) return code;
+            if (lock_fd_ < 0)
+                if (const int code = lock_out(dir); code >= 0) return code;
             for (const char *old : kRunOutputs) fs::remove_all(dir / old);
             fs::create_directories(dir / "logs");
             fs::create_directories(dir / "frames");

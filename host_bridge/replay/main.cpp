@@ -699,6 +699,7 @@ std::string recorded_scene_hash(const std::string &log_path)
 // hashes; a log without one is replayed with a warning.
 bool scene_matches_log(const Options &o)
 {
+    (void)afm::load_scene(o.scene);   // a scene file that is not one is named first (a FIFO, a directory, a bad scene)
     std::ifstream f(o.scene);
     std::stringstream text;
     text << f.rdbuf();
