@@ -3,7 +3,8 @@ in its own network namespace, its errors against the simulator's truth and
 its costs measured from the run itself; a CSV, JSON, a table, Pareto plots
 and one report.html. Points run on Dask distributed: a LocalCluster by
 default, an existing cluster with --scheduler ADDRESS; both TLS with
-credentials (analysis/engine.py), and nothing from the network unpickled.
+credentials (analysis/engine.py); the client reads results as JSON, never
+pickled.
 
 A point is known by a hash of its scene (the base scene with the point's
 settings) and of the build (the run's programs): running the sweep again
