@@ -253,9 +253,21 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
     YAML::Node wm = smp["wire"];
     if (wm.IsDefined() && !wm.IsNull()) {
         r.only_keys(wm, "sample.wire",
-                    {"friction_nN_per_um", "youngs_modulus_GPa", "segments", "friction_points", "relax_sweeps", "mu", "solver"});
+                    {"friction_nN_per_um", "youngs_modulus_GPa", "segments", "friction_points", "relax_sweeps", "mu", "solver",
+                     "adhesion_nN_per_um", "shear_strength_MPa", "contact"});
         const WireModelSpec wd;
-        s.wire_model.friction_nN_per_um = r.num(wm, "sample.wire", "friction_nN_per_um", &wd.friction_nN_per_um, 0, 1e4, true);
+        if (wm["adhesion_nN_per_um"].IsDefined()) {
+            if (wm["friction_nN_per_um"].IsDefined())
+                r.fail("sample.wire.friction_nN_per_um", "give either friction_nN_per_um (f) or adhesion_nN_per_um (f derived by eq. 23-24), not both");
+            s.wire_model.adhesion_nN_per_um = r.num(wm, "sample.wire", "adhesion_nN_per_um", nullptr, 0, 1e5);
+            s.wire_model.shear_strength_MPa = r.num(wm, "sample.wire", "shear_strength_MPa", &wd.shear_strength_MPa, 0, 1e4);
+            s.wire_model.contact = r.str(wm, "sample.wire", "contact", &wd.contact, {"hertz_line", "none"});
+        } else {
+            for (const char *k : {"shear_strength_MPa", "contact"})
+                if (wm[k].IsDefined())
+                    r.fail(std::string("sample.wire.") + k, "belongs to load-dependent friction: give sample.wire.adhesion_nN_per_um too");
+            s.wire_model.friction_nN_per_um = r.num(wm, "sample.wire", "friction_nN_per_um", &wd.friction_nN_per_um, 0, 1e4, true);
+        }
         s.wire_model.youngs_modulus_GPa = r.num(wm, "sample.wire", "youngs_modulus_GPa", &wd.youngs_modulus_GPa, 0, 2000, true);
         s.wire_model.mu = r.num(wm, "sample.wire", "mu", &wd.mu, 0, 10, true);
         s.wire_model.solver = r.str(wm, "sample.wire", "solver", &wd.solver, {"closed_form", "numeric"});
@@ -706,8 +718,10 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
     YAML::Node op = root["operator"];
     if (!op.IsDefined()) r.fail("operator", "required value is missing");
     r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes", "mode",
-                                 "feel_threshold_N", "haptic", "hand", "plan", "scan_load_nN"});
+                                 "feel_threshold_N", "haptic", "hand", "plan", "scan_load_nN", "load_ramp_to_nN"});
     s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN, 0, 1000);
+    if (op["load_ramp_to_nN"].IsDefined() && !op["load_ramp_to_nN"].IsNull())
+        s.op.load_ramp_to_nN = r.num(op, "operator", "load_ramp_to_nN", nullptr, 0, 1000);
     if (op["scan_load_nN"].IsDefined() && !op["scan_load_nN"].IsNull())
         s.op.scan_load_nN = r.num(op, "operator", "scan_load_nN", nullptr, 0, 1000);
     s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
@@ -945,6 +959,12 @@ Scene load_scene(const std::string &path)
     read_firmware(r, root, s);
     read_afm(r, root, s);
     read_objects(r, root, s);
+    if (s.wire_contact_width_nm() > 0)
+        for (const auto &w : s.wires)
+            if (w.diameter_nm != s.wires.front().diameter_nm)
+                r.fail("sample.wire.contact", "hertz_line gives one friction per length for all wires (the card's model has one): wire " +
+                                                  std::to_string(w.id) + " is " + Reader::show(YAML::Node(w.diameter_nm)) +
+                                                  " nm across, the first " + Reader::show(YAML::Node(s.wires.front().diameter_nm)));
     read_operator(r, root, s);
     check_plan(r, s);
     read_outputs(r, root, s);
@@ -952,6 +972,43 @@ Scene load_scene(const std::string &path)
 }
 
 Vec2 Scene::start_nm() const { return op.path_nm.front(); }
+
+double Scene::load_at_nN(double t_s) const
+{
+    if (!op.load_ramp_to_nN) return op.load_nN;
+    const double a = std::clamp(t_s / duration_s, 0.0, 1.0);
+    return op.load_nN + a * (*op.load_ramp_to_nN - op.load_nN);
+}
+
+namespace {
+// Young's modulus (GPa) and Poisson's ratio of each substrate, and of the
+// wire (silver: the modulus is sample.wire.youngs_modulus_GPa).
+struct Elastic { double E_GPa, nu; };
+Elastic substrate_elastic(const std::string &substrate)
+{
+    if (substrate == "polycarbonate") return {2.4, 0.37};
+    return {70.0, 0.22};   // glass, tilted_glass
+}
+constexpr double kWirePoisson = 0.37;
+}  // namespace
+
+double Scene::wire_contact_width_nm() const
+{
+    if (!wire_model.adhesion_nN_per_um || wire_model.contact == "none" || wires.empty()) return 0.0;
+    const Elastic sub = substrate_elastic(substrate);
+    const double inv_E = (1 - kWirePoisson * kWirePoisson) / (wire_model.youngs_modulus_GPa * 1e9) +
+                         (1 - sub.nu * sub.nu) / (sub.E_GPa * 1e9);                    // 1 / E*, 1/Pa
+    const double P = *wire_model.adhesion_nN_per_um * 1e-3;                            // nN/um -> N/m
+    const double R = 0.5 * wires.front().diameter_nm * 1e-9;                           // m
+    return 2.0 * std::sqrt(4.0 * P * R * inv_E / M_PI) * 1e9;                          // 2 b, nm
+}
+
+double Scene::wire_friction_nN_per_um() const
+{
+    if (!wire_model.adhesion_nN_per_um) return wire_model.friction_nN_per_um;
+    // tau [MPa] * A per um [nm^2] = 1e6 N/m^2 * (w * 1000) 1e-18 m^2 = 1e-3 w nN.
+    return wire_model.mu * *wire_model.adhesion_nN_per_um + wire_model.shear_strength_MPa * wire_contact_width_nm();
+}
 
 bool Scene::start_engaged() const { return !op.plan.enabled; }
 

@@ -130,7 +130,17 @@ struct WireModelSpec {
     int segments = 32;                  // N: segments of a flexible wire (wire_flexibility)
     int friction_points = 64;           // K: points integrating a rigid rod's friction where a trench holds part of it (uniform friction: exact, K unused)
     int relax_sweeps = 8;               // Newton-IRLS iterations of a flexible wire's step per sample (>= 8)
-    double mu = 0.3;                    // wire-substrate friction coefficient: how firmly a trench holds a rigid wire
+    double mu = 0.3;                    // mu_os: wire-substrate friction coefficient (the down force's friction, eq. 23; how firmly a trench holds a rigid wire)
+    // Load-dependent friction (eq. 23-24): given adhesion_nN_per_um (F_a,os
+    // per length), f = mu_os F_a,os / L + tau_os A / L, with A the contact
+    // area from the wire's diameter by the named contact model (contact:
+    // hertz_line, a cylinder on a flat under its adhesion; none: A = 0), and
+    // friction_nN_per_um is derived (giving both is an error). The down
+    // force F_r adds mu_os F_r on top while the tip pushes (effect
+    // down_force). Scene::wire_friction_nN_per_um() is the one owner.
+    std::optional<double> adhesion_nN_per_um;
+    double shear_strength_MPa = 0.0;    // tau_os
+    std::string contact = "hertz_line"; // hertz_line or none
     // How the simulator moves a rigid rod of uniform friction: "closed_form"
     // (eq. 20, integrated exactly: fast, and the card's own model) or
     // "numeric" (the friction lumped on friction_points points along the rod
@@ -208,6 +218,9 @@ struct PlanSpec {
 
 struct OperatorSpec {
     double load_nN = 5.0;               // normal load while engaged
+    // A load ramp (script and feel modes): the load rises (or falls) linearly
+    // with simulated time from load_nN at 0 to this at duration_s; none: constant.
+    std::optional<double> load_ramp_to_nN;
     std::optional<double> scan_load_nN; // the load scans are taken at (none: load_nN); a lithography run pushes hard and images light
     double speed_nm_per_s = 1000.0;     // apex speed along the path
     std::vector<Vec2> path_nm;          // waypoints, AFM frame; first = start (plan: optional, the tip starts there lifted)
@@ -280,6 +293,18 @@ struct Scene {
     int total_frames() const;           // round(duration_s * frame_rate_hz)
     bool has_effect(const std::string &e) const;
     Vec2 start_nm() const;              // where the tip is at block 0: the path's first waypoint
+    double load_at_nN(double t_s) const;  // the scripted load at simulated time t (operator.load_ramp_to_nN)
+    // f, the wire-substrate friction per length without the down force, nN/um
+    // (eq. 23-24): sample.wire.friction_nN_per_um, or mu_os F_a,os + tau_os A
+    // per length when the scene gives adhesion_nN_per_um. The simulator and
+    // the card's configuration both take it from here.
+    double wire_friction_nN_per_um() const;
+    // The wire's contact width with the substrate, nm (A / L): Hertz's line
+    // contact of a cylinder of the first wire's diameter pressed by its
+    // adhesion per length, b = 2 sqrt(4 P' R / (pi E*)), with E* from the
+    // wire's and the substrate's moduli (substrate_modulus_GPa); 0 without
+    // load-dependent friction or with contact: none.
+    double wire_contact_width_nm() const;
     bool start_engaged() const;         // in contact at block 0 (not when the planner drives: it starts lifted)
 };
 

@@ -501,6 +501,8 @@ struct Loop {
                 {"piezo_clamped_samples", sim.world.piezo_clamped_samples()},
                 {"scan_points_clamped", sim.world.scan_points_clamped()},
                 {"wire_ridden_samples", sim.world.ridden_samples()},
+                {"wire_friction_nN_per_um", scene.wire_friction_nN_per_um()},
+                {"wire_contact_width_nm", scene.wire_contact_width_nm()},
                 {"aside", aside.report()},
                 {"rejected", inbox.report()}};
     }

@@ -60,7 +60,7 @@ World::World(const Scene &s)
 
     // Wires: built only when the scene has some; rigid rods unless
     // wire_flexibility is listed. f in nN/um -> nN/nm.
-    const double f_wire = s.wire_model.friction_nN_per_um * 1e-3;
+    const double f_wire = s.wire_friction_nN_per_um() * 1e-3;
     for (const auto &w : s.wires) {
         const Eigen::Vector2d a(w.x0_nm, w.y0_nm), b(w.x1_nm, w.y1_nm);
         if (s.has_effect("wire_flexibility"))
@@ -338,9 +338,25 @@ double World::ride_push_nN(const Wire &w) const
     // the wire slides as well as once it is squeezed. So the tip can push at
     // most (load + F_a,ts) / tan psi. Whether the wire needs more is its own
     // friction's answer (Wire::push), never eq. 29-30's closed form.
+    // The twist theta_t is the lever's under the push itself (plus the tip's
+    // own sliding friction, along the motion), not the last sample's force:
+    // a ride-over drops the push, and a twist that followed it would let the
+    // tip press again at once. H tan(gamma + |theta_t(H)|) = load + F_a,ts is
+    // solved by fixed-point iteration (theta_t grows with H, so it converges
+    // from below for the twists a lever can take).
     // Without down_force the cone's flank is not modelled: no limit.
     if (!down_force_ || !(w.press_tan > 0)) return std::numeric_limits<double>::infinity();
-    return std::max(0.0, contact_load() + tip_adhesion_nN_) / w.press_tan;
+    const double lift = std::max(0.0, contact_load() + tip_adhesion_nN_);
+    const double across = (lever_.R.transpose() * last_motion_).y();        // frame C's y per unit of push along the motion
+    const double friction = tip_mu_ * (contact_load() + tip_adhesion_nN_);
+    double H = lift / std::tan(gamma_rad_);
+    for (int i = 0; i < 12; ++i) {
+        const double psi = gamma_rad_ + std::fabs(lever_.twist((H + friction) * across));
+        const double next = psi < M_PI / 2 ? lift / std::tan(psi) : 0.0;
+        if (std::fabs(next - H) < 1e-9) break;
+        H = next;
+    }
+    return H;
 }
 
 std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const

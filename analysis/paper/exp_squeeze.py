@@ -27,7 +27,7 @@ import os
 
 import numpy as np
 
-from analysis.paper import common
+from analysis.paper import common, squeeze_figs
 from analysis.paper.exp_rod import rod_pose, truth_poses
 
 NAME = "squeeze"
@@ -87,7 +87,7 @@ def runs(size):
                               settings={"objects": PARTICLE, "effects.down_force": on,
                                         "probe.tip_half_angle_deg": PARTICLE_GAMMA,
                                         "operator.path_nm": [[0, -700], [0, 100]]}))
-    return out
+    return out + squeeze_figs.runs(size)
 
 
 def _rod_moved(run_dir):
@@ -144,13 +144,14 @@ def analyse(dirs, exp_dir, size):
     _squeeze_rows(res, dirs, L, fl, fats)
     _ride_rows(res, dirs, sc, size)
     _particle_rows(res, dirs, sc)
+    fig_pts = squeeze_figs.rows(res, dirs, size)
     res.notes.append("per cone: " + "; ".join(f"gamma={p['g']} H_card={p['H_card']:.2f} H_sim={p['H_truth']:.2f} "
                                               f"H_eq29={p['H_fw']:.2f} dF={p['dF_card']:.2f} (eq. 30: {p['dF_fw']:.2f})"
                                               for p in pts))
     res.figures = [("Push at an end against the cone's half angle: card, simulator, eq. 29 (firmware), and no down force",
                     _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats)),
-                   ("dF / F_a,ts against gamma, mu and l for F_a,os = 20 and 50 F_a,ts, mu 0.2 (figs. 16-17, firmware's solver)",
-                    _plot_figs_16_17(exp_dir, L))]
+                   ("Figs. 16-17 from runs: the least load dF / F_a,ts found by a load ramp in each run, against eq. 30 "
+                    "(the firmware's solver) with the lever's twist", squeeze_figs.plot(exp_dir, fig_pts))]
     return res
 
 
@@ -251,26 +252,3 @@ def _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats):
     ax.set_ylabel("push that moves the rod (nN)")
     ax.legend(fontsize=7)
     return common.save(fig, exp_dir, "push_vs_gamma.png")
-
-
-def _plot_figs_16_17(exp_dir, L):
-    """dF / F_a,ts with F_a,ts = 1 nN, F L = mu F_a,os (tau A = 0)."""
-    p = common.plt()
-    fig, axs = p.subplots(1, 3, figsize=(11, 3.4))
-    for ratio, style in ((20, "-"), (50, "--")):
-        def df(g=20, mu=0.2, l=0.0):
-            m = _solver(L, l, g, mu, mu * ratio, 1.0)
-            return np.nan if m["squeezed"] else m["df_nN"]
-        gs = np.linspace(2, 58, 29)
-        axs[0].plot(gs, [df(g=g) for g in gs], style, label=f"F_a,os = {ratio} F_a,ts, end push")
-        axs[0].plot(gs, [df(g=g, l=L / 2) for g in gs], style, lw=0.7, label=f"F_a,os = {ratio} F_a,ts, middle")
-        mus = np.linspace(0.02, 1.0, 25)
-        axs[1].plot(mus, [df(mu=m) for m in mus], style, label=f"F_a,os = {ratio} F_a,ts")
-        ls = np.linspace(0, L, 27)
-        axs[2].plot(ls, [df(l=x) for x in ls], style, label=f"F_a,os = {ratio} F_a,ts")
-    for ax, xl in zip(axs, ("gamma (deg), mu 0.2", "mu, gamma 20 deg, end push", "push point l (nm), gamma 20 deg, mu 0.2")):
-        ax.set_xlabel(xl)
-        ax.set_ylabel("dF / F_a,ts")
-        ax.legend(fontsize=6)
-    fig.tight_layout()
-    return common.save(fig, exp_dir, "df_figs_16_17.png")

@@ -70,7 +70,7 @@ CardSetup::CardSetup(const Scene &s)
     }
     cfg_.wires = wires_.data();
     cfg_.n_wires = static_cast<int32_t>(wires_.size());
-    cfg_.wire_friction_pn_per_um = fwu_pn_from_nn(s.wire_model.friction_nN_per_um);
+    cfg_.wire_friction_pn_per_um = fwu_pn_from_nn(s.wire_friction_nN_per_um());
     cfg_.wire_mu_ppm = fwu_ppm(s.wire_model.mu);
     cfg_.litho = s.has_effect("lithography");
     cfg_.litho_threshold_pn = fwu_pn_from_nn(s.litho.threshold_nN);
@@ -149,7 +149,7 @@ std::vector<std::pair<std::string, double>> rule_keys(const Scene &s, fw_rule_t 
                 {"sample.particle_substrate.shear_strength_MPa", s.particle_substrate.shear_strength_MPa},
                 {"sample.particle_substrate.contact_area_nm2", s.particle_substrate.contact_area_nm2}};
     case FW_RULE_WIRE_FRICTION:
-        return {{"sample.wire.friction_nN_per_um", s.wire_model.friction_nN_per_um}, {"sample.wire.mu", s.wire_model.mu}};
+        return {{"sample.wire.friction_nN_per_um", s.wire_friction_nN_per_um()}, {"sample.wire.mu", s.wire_model.mu}};
     case FW_RULE_LITHO:
         return {{"sample.lithography.threshold_nN", s.litho.threshold_nN}, {"sample.lithography.depth_nm_per_nN", s.litho.depth_nm_per_nN}};
     case FW_RULE_TIP_HALF_ANGLE: return {{"probe.tip_half_angle_deg", p.tip_half_angle_deg}};

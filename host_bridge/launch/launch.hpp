@@ -866,6 +866,9 @@ private:
                 {"scan_angle_mdeg", b.scan_angle_mdeg},
                 {"mu_ppm", b.mu_ppm},
                 {"adhesion_pn", b.adhesion_pn},
+                {"wire_friction_pn_per_um", setup.config().wire_friction_pn_per_um},
+                {"wire_mu_ppm", setup.config().wire_mu_ppm},
+                {"twist_urad_per_v", static_cast<double>(card.twist_rad_per_v) * 1e6 / static_cast<double>(1 << 30)},
                 {"samples_per_block", scene_.samples_per_block()},
                 {"full_scale_pn", fw_guard_full_scale_pn(b.normal_gain_pn_per_v)}};
     }

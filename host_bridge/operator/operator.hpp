@@ -145,7 +145,7 @@ struct Operator {
         last.joy[0] = std::clamp(joy.x, -1.0, 1.0);
         last.joy[1] = std::clamp(joy.y, -1.0, 1.0);
         last.joy[2] = 0;
-        last.load_nN = load_nN > 0 ? load_nN : scene.op.load_nN;
+        last.load_nN = load_nN > 0 ? load_nN : scene.load_at_nN(last.utime * 1e-6);
         last.engaged = engaged;
         answered = n;
         have_force = false;

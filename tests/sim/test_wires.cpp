@@ -984,9 +984,56 @@ void test_long_chain_pushed_as_table_4_follows_the_tip()
     TEST_ASSERT_TRUE(d > 50 && d < 61);
 }
 
+// kWireScene with its placeholders filled (a 1.3 um rod, gamma 20 deg).
+std::string filled(std::string t)
+{
+    for (const auto &[k, v] : std::vector<std::pair<std::string, std::string>>{
+             {"SWEEPS", "8"}, {"SOLVER", "closed_form"}, {"LOAD", "5"}, {"GAMMA", "20"}, {"EXTRA", ""}, {"FRICTION", "20"},
+             {"SEGMENTS", "32"}, {"-HALF", "-650"}, {"HALF", "650"}})
+        t = with(t, k, v);
+    return t;
+}
+
+void test_load_dependent_friction_is_eq_23_24_with_a_hertz_line_contact()
+{
+    // f = mu_os F_a,os / L + tau_os A / L; A / L = 2 b, Hertz's line contact
+    // b = sqrt(4 P' R / (pi E*)): silver (83 GPa, 0.37) on glass (70 GPa,
+    // 0.22), P' = 20 nN/um = 0.02 N/m, R = 50 nm, computed here by hand.
+    const std::string base = with(kWireScene, "friction_nN_per_um: FRICTION", "mu: 0.2, adhesion_nN_per_um: 20, shear_strength_MPa: 10");
+    const afm::Scene s = scene_from_text(filled(base));
+    const double Estar = 1.0 / ((1 - 0.37 * 0.37) / 83e9 + (1 - 0.22 * 0.22) / 70e9);
+    const double b_nm = std::sqrt(4 * 0.02 * 50e-9 / (M_PI * Estar)) * 1e9;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 2 * b_nm, s.wire_contact_width_nm());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.2 * 20 + 10 * 2 * b_nm, s.wire_friction_nN_per_um());
+    std::printf("Hertz line contact: width %.3f nm; f = %.3f nN/um (mu F_a %.1f + tau A %.3f)\n", 2 * b_nm,
+                s.wire_friction_nN_per_um(), 0.2 * 20, 10 * 2 * b_nm);
+    // contact: none drops tau A; without adhesion_nN_per_um f is the given one.
+    const afm::Scene n = scene_from_text(filled(with(base, "shear_strength_MPa: 10", "shear_strength_MPa: 10, contact: none")));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 4.0, n.wire_friction_nN_per_um());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 20.0, wire_scene(1300).wire_friction_nN_per_um());
+    // Both f and the adhesion, or tau without the adhesion: refused, named.
+    const std::string both = filled(with(kWireScene, "friction_nN_per_um: FRICTION", "friction_nN_per_um: 3, adhesion_nN_per_um: 20"));
+    TEST_ASSERT_TRUE(scene_error(both).find("sample.wire.friction_nN_per_um") != std::string::npos);
+    const std::string lone = filled(with(kWireScene, "friction_nN_per_um: FRICTION", "friction_nN_per_um: 3, shear_strength_MPa: 1"));
+    TEST_ASSERT_TRUE(scene_error(lone).find("sample.wire.shear_strength_MPa") != std::string::npos);
+}
+
+void test_a_load_ramp_rises_linearly_over_the_run()
+{
+    afm::Scene s = wire_scene(1300);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 5.0, s.load_at_nN(0.5));   // no ramp: constant
+    s.op.load_ramp_to_nN = 9.0;
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 5.0, s.load_at_nN(0.0));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 7.0, s.load_at_nN(0.5 * s.duration_s));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 9.0, s.load_at_nN(10 * s.duration_s));   // held past the end
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 5.0, s.load_at_nN(-1.0));
+}
+
 int main()
 {
     UNITY_BEGIN();
+    RUN_TEST(test_load_dependent_friction_is_eq_23_24_with_a_hertz_line_contact);
+    RUN_TEST(test_a_load_ramp_rises_linearly_over_the_run);
     RUN_TEST(test_rod_static_point_and_least_push_match_section_6);
     RUN_TEST(test_rod_end_push_is_sqrt2_minus_1_not_2_minus_sqrt2);
     RUN_TEST(test_rod_middle_push_translates_at_f_L);
