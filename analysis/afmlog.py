@@ -7,6 +7,10 @@ Python (the package is installed in .venv by the setup; no sys.path edits):
     from analysis import afmlog
     log = afmlog.load("runs/demo/bus.lcmlog")
     afmlog.whole_objects(log["FW_STATE"], lambda m: m.objects)[-1][1].particles[0].x_nm
+
+events() is the one pass over a log that everything here makes (load, and
+analysis.runs.open_run and the export, which also need each event's log
+timestamp); strict, it refuses a log that does not end on a whole event.
 """
 import ctypes
 import os
