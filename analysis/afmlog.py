@@ -7,6 +7,10 @@ Python (the package is installed in .venv by the setup; no sys.path edits):
     from analysis import afmlog
     log = afmlog.load("runs/demo/bus.lcmlog")
     afmlog.whole_objects(log["FW_STATE"], lambda m: m.objects)[-1][1].particles[0].x_nm
+
+events() is the one pass over a log that everything here makes (load, and
+analysis.runs.open_run and the export, which also need each event's log
+timestamp); strict, it refuses a log that does not end on a whole event.
 """
 import ctypes
 import os
@@ -39,31 +43,81 @@ with open(os.path.join(paths.ROOT, "lcmtypes", "channels.yaml")) as f:
 class Log(defaultdict):
     """{channel: [msg, ...]}, and .undecodable: {channel: count} of the
     datagrams on a known channel that do not decode as its type (a hostile
-    or broken sender: the bench's processes refused them too)."""
+    or broken sender: the bench's processes refused them too); .truncated_at:
+    None, or the byte offset where the log stops being whole events."""
 
     def __init__(self):
         super().__init__(list)
         self.undecodable = defaultdict(int)
+        self.truncated_at = None
+
+
+class LogError(ValueError):
+    """A log that does not read whole: truncated or corrupt (its message
+    names the file and the byte offset)."""
+
+
+EVENT_HEADER_BYTES = 28   # LCM's log framing: sync, event number, timestamp, channel and data lengths
+
+
+class Event:
+    """One event of a log: its recording time (timestamp, microseconds since
+    the epoch, the recorder's clock), channel, raw data, and msg: decoded as
+    the channel's type, the raw bytes for a channel not in channels.yaml,
+    or None when it does not decode."""
+    __slots__ = ("timestamp", "channel", "data", "msg")
+
+    def __init__(self, timestamp, channel, data, msg):
+        self.timestamp, self.channel, self.data, self.msg = timestamp, channel, data, msg
+
+
+def _decode(channel, data):
+    tname = CHANNELS.get(channel)
+    if tname is None:
+        return data
+    try:
+        return getattr(afm, tname).decode(data)
+    except (ValueError, struct.error, UnicodeDecodeError, MemoryError, OverflowError):
+        return None
+
+
+def events(path, channels=None, strict=True, on_end=None):
+    """The events of `path` in log order (Event), the one way this package
+    reads a log. strict: a log that does not end on a whole event raises
+    LogError naming the file and the offset after the last whole event;
+    otherwise on_end(offset or None) is told where it stopped. A missing
+    file raises FileNotFoundError (LCM's)."""
+    log = lcm.EventLog(path, "r")
+    size = os.path.getsize(path)
+    offset = 0
+    for ev in log:
+        offset += EVENT_HEADER_BYTES + len(ev.channel.encode()) + len(ev.data)
+        if channels and ev.channel not in channels:
+            continue
+        yield Event(ev.timestamp, ev.channel, ev.data, _decode(ev.channel, ev.data))
+    stopped = offset if offset != size else None
+    if stopped is not None and strict:
+        raise LogError(f"{path}: truncated or corrupt: whole events end at byte {offset} of {size}")
+    if on_end:
+        on_end(stopped)
 
 
 def load(path, channels=None):
     """All messages of `path`, decoded, as {channel: [msg, ...]} in log order.
     Channels not in channels.yaml (e.g. LCM_SELF_TEST) are counted under
     their name with raw bytes. A message that does not decode as its
-    channel's type is left out and counted in .undecodable."""
+    channel's type is left out and counted in .undecodable. A log cut short
+    reads up to its last whole event (.truncated_at says where it stopped)."""
     out = Log()
-    log = lcm.EventLog(path, "r")
-    for ev in log:
-        if channels and ev.channel not in channels:
-            continue
-        tname = CHANNELS.get(ev.channel)
-        if tname is None:
-            out[ev.channel].append(ev.data)
-            continue
-        try:
-            out[ev.channel].append(getattr(afm, tname).decode(ev.data))
-        except (ValueError, struct.error, UnicodeDecodeError, MemoryError, OverflowError):
+
+    def ended(at):
+        out.truncated_at = at
+
+    for ev in events(path, channels, strict=False, on_end=ended):
+        if ev.msg is None:
             out.undecodable[ev.channel] += 1
+        else:
+            out[ev.channel].append(ev.msg)
     return out
 
 

@@ -2,7 +2,8 @@
 # Installs what the bench needs and is missing, and nothing else:
 #   Debian packages (apt), the project's Python venv (.venv: LCM 1.5 from PyPI,
 #   numpy, matplotlib, PyYAML; Dask distributed with cryptography for its TLS,
-#   Jinja2 and SciPy for sweeps, reports and the planner; the project's own
+#   Jinja2 and SciPy for sweeps, reports and the planner; pandas, mcap and
+#   jsonschema for a run's data and its export; the project's own
 #   package, analysis/, installed editable) and Unity (from Debian's cjson source package,
 #   hash checked, unpacked into build/_deps/unity).
 # Idempotent: a second run checks and returns in well under a second.
@@ -43,7 +44,7 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1"
+py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0"
 stamp="$venv/.afm-reqs"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
   say "creating Python venv in .venv ($py_reqs)"

@@ -522,7 +522,7 @@ bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, con
 }
 
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const cv::Rect &region, const std::string &title,
-               std::string *err)
+               std::string *err, const GsfMeta &meta)
 {
     // Gwyddion Simple Field 1.0: a text header of "Key = value" lines, NUL
     // padding to a multiple of 4 bytes (at least one NUL), then XRes * YRes
@@ -530,11 +530,18 @@ bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, con
     char hdr[512];
     std::snprintf(hdr, sizeof hdr,
                   "Gwyddion Simple Field 1.0\nXRes = %d\nYRes = %d\nXReal = %.9g\nYReal = %.9g\nXOffset = %.9g\n"
-                  "YOffset = %.9g\nXYUnits = m\nZUnits = m\nTitle = %s\n",
+                  "YOffset = %.9g\nXYUnits = m\nZUnits = %s\nTitle = %s\n",
                   h_nm.cols, h_nm.rows, region.width * f.pitch() * 1e-9, region.height * f.pitch() * 1e-9,
                   (f.x0_nm + region.x * f.pitch()) * 1e-9, (f.y0_nm + (f.px - region.y - region.height) * f.pitch()) * 1e-9,
-                  title.c_str());
+                  meta.z_units.c_str(), title.c_str());
     std::string header(hdr);
+    for (const auto &[key, value] : meta.keys) {
+        if (key.empty() || key.find_first_of(" =\n\r\t") != std::string::npos || value.find_first_of("\n\r") != std::string::npos) {
+            if (err) *err = path + ": GSF header key '" + key + "' or its value cannot be written (space, '=' or a line break)";
+            return false;
+        }
+        header += key + " = " + value + "\n";
+    }
     const std::size_t pad = 4 - header.size() % 4;
     header.append(pad, '\0');
     std::ofstream out(path, std::ios::binary);
@@ -546,7 +553,7 @@ bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, con
     static_assert(sizeof(float) == 4, "GSF stores float32");
     for (int r = 0; r < h_nm.rows; ++r)
         for (int c = 0; c < h_nm.cols; ++c) {
-            const float v = static_cast<float>(h_nm.at<float>(r, c) * 1e-9);
+            const float v = static_cast<float>(h_nm.at<float>(r, c) * meta.scale);
             unsigned char b[4];
             std::memcpy(b, &v, 4);   // x86-64 and Cortex hosts are little-endian; GSF is little-endian
             out.write(reinterpret_cast<const char *>(b), 4);

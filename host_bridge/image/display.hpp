@@ -9,6 +9,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "profile.hpp"
@@ -139,13 +140,23 @@ private:
     bool trails_ = false;
 };
 
+// What a GSF file carries besides its grid: extra "Key = value" header lines
+// (the run's metadata; keys without spaces, '=' or line breaks, values
+// without line breaks), and the values' unit: heights in nm written in m
+// (scale 1e-9, "m"), or a signal as it is (the lateral S_l: 1, "V").
+struct GsfMeta {
+    std::vector<std::pair<std::string, std::string>> keys;
+    double scale = 1e-9;
+    std::string z_units = "m";
+};
+
 // Writes a Gwyddion Simple Field (.gsf) file: heights in nm -> metres, the
 // field's physical size, units m. Returns false (and sets *err) on failure.
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const std::string &title, std::string *err);
 // The same for a part of the field: `region` in the field's pixels (row 0 at
-// the top), h_nm its heights.
+// the top), h_nm its heights; `meta`: extra keys and the values' unit.
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const cv::Rect &region, const std::string &title,
-               std::string *err);
+               std::string *err, const GsfMeta &meta = GsfMeta{});
 
 // A grid of frames in one image (at most `cols` per row).
 cv::Mat contact_sheet(const std::vector<cv::Mat> &frames, int cols);

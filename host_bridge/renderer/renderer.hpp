@@ -29,6 +29,8 @@
 #include <set>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -137,6 +139,8 @@ struct Renderer {
     afm::Display display;
     afm::ScanClient scan;
     cv::Rect scan_px;            // the scan's region, in display pixels (same pitch)
+    cv::Mat scan_lateral;        // the scan's lateral signal S_l, V, row 0 at the top (its GSF: *_lateral.gsf)
+    int64_t scan_utime = 0;      // the simulated time of the scan's latest line, microseconds
     bool started = false;        // the initial scan is in and the display set up
 
     BySeq<afm::fw_state_t> states;
@@ -221,13 +225,65 @@ struct Renderer {
         r.height_nm = region.height * field.pitch();
         r.nx = region.width;
         r.ny = region.height;
+        scan_lateral = cv::Mat(region.height, region.width, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+        scan_utime = 0;
         scan.start(req, r);
+    }
+
+    // A line of the scan being taken: its lateral signal and time kept
+    // beside the heights the scan client keeps (same rows: line 0 at the bottom).
+    void keep_line(const afm::scan_line_t &m)
+    {
+        if (!scan.busy() || m.req_id != scan.id() || m.n != scan_lateral.cols || m.line < 0 || m.line >= scan_lateral.rows ||
+            static_cast<int>(m.lat_v.size()) != m.n)
+            return;
+        float *row = scan_lateral.ptr<float>(scan_lateral.rows - 1 - m.line);
+        for (int i = 0; i < m.n; ++i) row[i] = static_cast<float>(m.lat_v[static_cast<std::size_t>(i)]);
+        scan_utime = std::max(scan_utime, m.utime);
+    }
+
+    // The run's metadata a GSF file carries (docs/data.md): the scene, the
+    // loads, the scan angle, the simulated and wall-clock time, what it shows.
+    afm::GsfMeta gsf_meta(const std::string &channel, int64_t utime, const std::string &source, int source_id) const
+    {
+        char date[32];
+        const std::time_t now = std::time(nullptr);
+        std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+        auto num = [](double v) { char b[32]; std::snprintf(b, sizeof b, "%.9g", v); return std::string(b); };
+        afm::GsfMeta m;
+        m.keys = {{"Scene", scene.name},
+                  {"Load_nN", num(scene.op.load_nN)},
+                  {"SetPoint_nN", num(scene.op.scan_load_nN.value_or(scene.op.load_nN))},
+                  {"ScanAngle_deg", num(scene.probe.scan_angle_deg)},
+                  {"SimTime_s", num(utime * 1e-6)},
+                  {"Date", date},
+                  {"Channel", channel},
+                  {source, std::to_string(source_id)}};
+        if (channel == "Lateral") {
+            m.scale = 1.0;
+            m.z_units = "V";
+        }
+        return m;
+    }
+
+    // A scan's files: its heights, and its lateral signal where every line brought one.
+    void write_scan_gsf(const std::string &name, const cv::Rect &region)
+    {
+        std::string err;
+        if (!afm::write_gsf(out + "/" + name + ".gsf", scan.heights(), field, region, name, &err,
+                            gsf_meta("Height", scan_utime, "ScanRequest", scan.id())))
+            throw std::runtime_error(err);
+        if (cv::checkRange(scan_lateral, true, nullptr, -1e30, 1e30) &&
+            !afm::write_gsf(out + "/" + name + "_lateral.gsf", scan_lateral, field, region, name + " lateral", &err,
+                            gsf_meta("Lateral", scan_utime, "ScanRequest", scan.id())))
+            throw std::runtime_error(err);
     }
 
     void retry_scan() { scan.retry(kScanRetryMs); }
 
     afm::Reject on_line(const afm::scan_line_t &m)
     {
+        keep_line(m);
         if (!scan.on_line(m)) return afm::Reject::none;   // a line of another client's scan, or one already here
         if (scan.id() == kFinalScan && final_pending) finish_last_frame();
         else if (local_pending >= 0 && scan.id() == kLocalScanBase + local_pending) local_scan_done();
@@ -247,17 +303,20 @@ struct Renderer {
         return afm::Reject::none;
     }
 
-    void write_outputs_for_scan(const std::string &name, const cv::Mat &h)
+    // The display's heights at frame k as a GSF file.
+    void write_display_gsf(const std::string &name, const cv::Mat &h, int k)
     {
         std::string err;
-        if (!afm::write_gsf(out + "/" + name + ".gsf", h, field, name, &err)) throw std::runtime_error(err);
+        if (!afm::write_gsf(out + "/" + name + ".gsf", h, field, cv::Rect(0, 0, h.cols, h.rows), name, &err,
+                            gsf_meta("Height", afm::frame_utime(scene, k), "Frame", k)))
+            throw std::runtime_error(err);
     }
 
     void begin()
     {
         display.start(scan.heights(), model);
         afm::write_png(out + "/scan_initial.png", display.colourise(scan.heights()));
-        write_outputs_for_scan("scan_initial", scan.heights());
+        write_scan_gsf("scan_initial", cv::Rect(0, 0, field.px, field.px));
         writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, field.px, writer_cpus);
         started = true;
     }
@@ -491,9 +550,7 @@ struct Renderer {
     {
         const afm::LocalScanSpec &ls = scene.op.local_scans[local_pending];
         {
-            std::string err;
-            const std::string name = "scan_local_" + std::to_string(local_pending + 1) + (local_wide ? "_wide" : "");
-            if (!afm::write_gsf(out + "/" + name + ".gsf", scan.heights(), field, scan_px, name, &err)) throw std::runtime_error(err);
+            write_scan_gsf("scan_local_" + std::to_string(local_pending + 1) + (local_wide ? "_wide" : ""), scan_px);
         }
         // Locate the object in the scan (placed in a full-size image so the
         // display's geometry applies).
@@ -569,8 +626,8 @@ struct Renderer {
     void finish_last_frame()
     {
         const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.heights(), field, model, tip, kFidelitySearch_nm);
-        write_outputs_for_scan("scan_final", scan.heights());
-        write_outputs_for_scan("display_final", display.height());
+        write_scan_gsf("scan_final", cv::Rect(0, 0, field.px, field.px));
+        write_display_gsf("display_final", display.height(), frames_written);
         afm::write_png(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, (display.z_top() - display.z_bottom()) / 4)));
         using nlohmann::json;
         fidelity = json{{"max_position_error_nm", f.max_position_error_nm},
