@@ -50,6 +50,7 @@ SRC = os.path.dirname(HERE)
 BUILD = os.environ.get("AFM_BUILD", os.path.join(SRC, "build", "main"))
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(HERE, "in_netns.sh")
+DROP_CAPS = os.path.join(HERE, "drop_caps.sh")
 os.environ.setdefault("AFM_BUILD", BUILD)   # the log reader's generated types
 from analysis import afmlog  # noqa: E402
 
@@ -101,13 +102,16 @@ def alive_in_groups(pgids):
 class Run:
     """One afm_launch in its own namespace, with hooks while it runs."""
 
-    def __init__(self, scene, out, extra=(), wrap=None):
+    def __init__(self, scene, out, extra=(), wrap=None, keep_caps=None):
         self.out = out
         cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
         if wrap:
             cmd = wrap(cmd)
+        # keep_caps (afm_netfault's row alone): the namespace's command keeps
+        # those capabilities; beside() runs the launcher without them.
+        env = dict(os.environ, AFM_KEEP_CAPS=keep_caps) if keep_caps else None
         self.p = subprocess.Popen([IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                  start_new_session=True)
+                                  start_new_session=True, env=env)
         self.kids = {}
 
     def wait_kids(self, timeout=30):
@@ -182,7 +186,7 @@ def beside(helper, cmd, ready_log=None):
     stops the helper (SIGTERM) and waits for it; it exits with cmd's code.
     With `ready_log`, the helper's stderr goes there and cmd starts only once
     the helper has written "ready" to it (5 s at most, else exit NOT_READY)."""
-    q = " ".join(f"'{c}'" for c in cmd)
+    q = " ".join(f"'{c}'" for c in [DROP_CAPS, *cmd])   # the run itself without any capability the helper kept
     h = " ".join(f"'{c}'" for c in helper)
     if ready_log is None:
         start = f"{h} > /dev/null & h=$!; "
@@ -358,7 +362,8 @@ class Matrix:
               "--report", report]
         log = os.path.join(d, "netfault.log")
         # the run once the queue has its reader and its rules
-        r = Run(self.scene, os.path.join(d, "run"), wrap=lambda cmd: beside(nf, cmd, ready_log=log)).finish()
+        r = Run(self.scene, os.path.join(d, "run"), wrap=lambda cmd: beside(nf, cmd, ready_log=log),
+                keep_caps="net_admin,net_raw").finish()
         if r.code == NOT_READY:
             try:
                 with open(log) as f:

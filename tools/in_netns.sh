@@ -10,11 +10,15 @@ set -euo pipefail
 [ $# -ge 1 ] || { echo "usage: tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
 command -v unshare >/dev/null || { echo "in_netns: unshare not found (util-linux)" >&2; exit 2; }
 command -v ip >/dev/null || { echo "in_netns: ip not found (iproute2; run ./afm setup)" >&2; exit 2; }
-inner='ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$@"'
+# Once the namespace is set up, the command runs with no capabilities
+# (tools/drop_caps.sh): root, or root in the user namespace, keeps uid 0 but
+# loses every privilege that uid 0 would bring.
+drop="$(cd "$(dirname "$0")" && pwd)/drop_caps.sh"
+inner='ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$0" "$@"'
 if unshare -rn true 2>/dev/null; then
-  AFM_NETNS_MODE=rootless exec unshare -rn sh -c "$inner" sh "$@"
+  AFM_NETNS_MODE=rootless exec unshare -rn sh -c "$inner" "$drop" "$@"
 elif [ "$(id -u)" = 0 ] && unshare -n true 2>/dev/null; then
-  AFM_NETNS_MODE=root exec unshare -n sh -c "$inner" sh "$@"
+  AFM_NETNS_MODE=root exec unshare -n sh -c "$inner" "$drop" "$@"
 else
   echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
        "the bus must not run in the host's namespace" >&2
