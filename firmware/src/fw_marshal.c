@@ -1,7 +1,7 @@
 /*
  * fw_marshal.c - the card's structs as bytes (fw_marshal.h). This file is
  * the one place the link's layout is written down; the host (card_node's
- * board backend) and the board (firmware/pil) both build it.
+ * board backend) and the board (board/afm_board.c) both build it.
  *
  * Every int32_t and uint32_t: 4 bytes, little endian. Every bool: 1 byte,
  * 0 or 1. Arrays: their count first (int32), then the elements.

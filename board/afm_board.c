@@ -1,5 +1,5 @@
 /*
- * fw_pil_board.c - the card on its processor, in the loop (pil.md): a
+ * afm_board.c - the card on its processor, in the loop (pil.md): a
  * bare-metal program for the mps2-an386 board (Cortex-M4) under
  * qemu-system-arm, that runs the same firmware library the host build runs.
  *
