@@ -3,8 +3,10 @@
  * bare-metal program for the mps2-an386 board (Cortex-M4) under
  * qemu-system-arm, that runs the same firmware library the host build runs.
  *
- * Usage (semihosting command line): afm_board TO_BOARD FROM_BOARD, two
- * host FIFOs. Loop: read one request (fw_marshal.h: INIT, STEP, FIX), do
+ * Usage (semihosting command line): afm_board TO_BOARD FROM_BOARD
+ * [fault=KIND:N], two host FIFOs; fault injection for the tests (pil.md):
+ * at block N the board takes a HardFault (KIND hardfault: an undefined
+ * instruction) or hangs (KIND hang: a loop without end). Loop: read one request (fw_marshal.h: INIT, STEP, FIX), do
  * it with fw_card_*, answer with the result and the card's models
  * (fw_models_take). The board's CMSDK timer 0 (25 MHz, 40 ns a tick) is
  * read around fw_card_step_block; under qemu's -icount shift=0 one
@@ -15,6 +17,7 @@
  */
 #include <fcntl.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -51,6 +54,9 @@ static fw_models_wire_t model_wires[PIL_MAX_WIRES];
 static uint8_t request[PIL_REQUEST_BYTES];
 static uint8_t answer[PIL_ANSWER_BYTES];
 static bool running;
+static int32_t blocks;                /* blocks stepped */
+static int fault_kind;                /* 0 none, 1 hardfault, 2 hang */
+static int32_t fault_block = -1;
 /* the trench points the host holds, and the drift they were sent at */
 static int32_t trench_sent;
 static int32_t trench_sent_drift[2];
@@ -113,6 +119,7 @@ static void do_init(fw_marshal_cursor_t *r, fw_marshal_cursor_t *w)
                                   cap[2] > 0 ? trench_store : NULL, cap[2], scratch, PIL_SCRATCH};
     fw_rule_t rule = FW_RULE_OK;
     running = fw_card_init(&card, &cfg, &st, &rule) == FW_OK;
+    blocks = 0;
     trench_sent = 0;
     fw_marshal_put_i32_le(w, (int32_t)rule);
     put_models(w);
@@ -125,6 +132,12 @@ static void do_step(fw_marshal_cursor_t *r, fw_marshal_cursor_t *w, uint32_t t_r
     if (!fw_marshal_ok(r)) return;
     fw_card_out_t out;
     memset(&out, 0, sizeof out);
+    if (blocks++ == fault_block) {
+        fputs(fault_kind == 1 ? "afm_board: fault injection: a HardFault\n" : "afm_board: fault injection: hanging\n", stderr);
+        if (fault_kind == 1) __asm volatile(".short 0xde00");   /* udf #0 */
+        for (;;) {
+        }
+    }
     const uint32_t t0 = timer_now();
     const fw_status_t s = running ? fw_card_step_block(&card, &in, &out) : FW_ERR_STATE;
     const uint32_t t1 = timer_now();
@@ -195,9 +208,20 @@ static bool serve_one(int in_fd, int out_fd)
 
 int main(int argc, char **argv)
 {
-    if (argc != 3) {
-        fputs("afm_board: usage: afm_board TO_BOARD FROM_BOARD (semihosting arguments)\n", stderr);
+    if (argc != 3 && argc != 4) {
+        fputs("afm_board: usage: afm_board TO_BOARD FROM_BOARD [fault=hardfault:N|hang:N] (semihosting arguments)\n", stderr);
         return 2;
+    }
+    if (argc == 4) {
+        const char *f = argv[3];
+        long n = -1;
+        if (strncmp(f, "fault=hardfault:", 16) == 0) { fault_kind = 1; n = strtol(f + 16, NULL, 10); }
+        else if (strncmp(f, "fault=hang:", 11) == 0) { fault_kind = 2; n = strtol(f + 11, NULL, 10); }
+        if (n < 0) {
+            fprintf(stderr, "afm_board: unknown argument '%s' (fault=hardfault:N or fault=hang:N)\n", f);
+            return 2;
+        }
+        fault_block = (int32_t)n;
     }
     const int in_fd = open(argv[1], O_RDONLY);
     const int out_fd = open(argv[2], O_WRONLY | O_TRUNC);

@@ -140,8 +140,11 @@ void BoardCard::start()
     from_ = open(from.c_str(), O_RDWR | O_CLOEXEC);
     const int logfd = open(log_.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
     if (to_ < 0 || from_ < 0 || logfd < 0) throw BoardError("the card's board: cannot open its link or log " + log_ + ": " + std::strerror(errno));
+    // AFM_BOARD_FAULT=hardfault:N|hang:N: the board faults or hangs at block N (the tests' fault injection)
+    const char *fault = std::getenv("AFM_BOARD_FAULT");
+    const std::string fault_arg = fault && *fault ? std::string(",arg=fault=") + fault : "";
     const std::vector<std::string> args = {qemu_, "-M", "mps2-an386", "-nographic", "-monitor", "none", "-icount", "shift=0,sleep=off",
-                                           "-semihosting-config", "enable=on,target=native,arg=afm_board,arg=" + to + ",arg=" + from,
+                                           "-semihosting-config", "enable=on,target=native,arg=afm_board,arg=" + to + ",arg=" + from + fault_arg,
                                            "-kernel", elf_};
     pid_ = fork();
     if (pid_ == 0) {

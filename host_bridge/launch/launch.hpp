@@ -695,7 +695,11 @@ private:
             // A clean exit: the process heard the simulator's "done", which
             // this process may not have dispatched yet; given a moment.
             if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(500)) continue;
-            return c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
+            std::string why = c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
+            const std::string last = slurp_tail(out_ + "/logs/" + c.name + ".log", 1);   // the card's board names itself (pil.md)
+            const std::size_t a = last.find_first_not_of(" \n"), b = last.find_last_not_of(" \n");
+            if (last.find("the card's board") != std::string::npos) why += ": " + last.substr(a, b + 1 - a);
+            return why;
         }
         return "";
     }
