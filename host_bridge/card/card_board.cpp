@@ -350,6 +350,7 @@ nlohmann::json BoardCard::report() const
                         {"instructions_resolution", kTickNs},
                         {"board_instructions_per_request", board_insn_.json()},
                         {"round_trip_us", round_trip_us_.json()},
+                        {"first_round_trip_us", round_trip_us_.v.empty() ? nlohmann::json(nullptr) : nlohmann::json(round_trip_us_.v[0])},
                         {"start_ms", start_ms_},
                         {"bytes_to_board", bytes_to_.json()},
                         {"bytes_from_board", bytes_from_.json()}};
