@@ -140,6 +140,15 @@ class PilTest(unittest.TestCase):
                 if kind == "hardfault":
                     self.assertIn("FAULT: HardFault", rj["error"])
 
+    def test_the_fault_matrix_rows_of_the_board(self):
+        out = benchtest.tmpdir("faults")
+        p = subprocess.run([os.sys.executable, os.path.join(benchtest.SRC, "tools", "faults.py"), "--out", out, "--quiet",
+                            "--only", "board:killed", "board:hung"], capture_output=True, text=True, timeout=300)
+        with open(os.path.join(out, "faults.json")) as f:
+            rows = {r["fault"]: r for r in json.load(f)["rows"]}
+        for row in ("board:killed", "board:hung"):
+            self.assertTrue(rows[row]["ok"], f"{rows[row]}\n{p.stdout[-2000:]}")
+
 
 if __name__ == "__main__":
     benchtest.main()
