@@ -72,8 +72,10 @@ struct Stats {
         if (v.empty()) return nullptr;
         std::vector<double> s = v;
         std::sort(s.begin(), s.end());
+        double sum = 0;
+        for (double x : s) sum += x;
         return {{"median", s[s.size() / 2] * scale}, {"p99", s[std::min(s.size() - 1, s.size() * 99 / 100)] * scale},
-                {"worst", s.back() * scale}, {"n", s.size()}};
+                {"worst", s.back() * scale}, {"mean", sum / static_cast<double>(s.size()) * scale}, {"n", s.size()}};
     }
 };
 
