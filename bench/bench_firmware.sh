@@ -20,6 +20,8 @@ usage: ./afm bench firmware [-n SAMPLES] [-r REPEATS] [-c SAMPLES] [-b SAMPLES] 
   -a DEGREES  scan angles in degrees (default 270,300)
   --no-callgrind  skip the instruction counts
   --no-size   skip the Cortex-M4 build and its flash size per module
+  --no-board  skip the whole card per block on its board (scenes/short.yaml run with
+              --firmware qemu, docs/pil.md) against callgrind's x86-64 count of the same blocks
   -h, --help  this text
 
 Environment: AFM_BUILD (default <repo>/build/main) locates the bench binary
@@ -43,6 +45,7 @@ cg_n=50000
 angles=270,300
 do_cg=1
 do_size=1
+do_board=1
 block=20
 
 while [ $# -gt 0 ]; do
@@ -53,6 +56,7 @@ while [ $# -gt 0 ]; do
     -b) [ $# -ge 2 ] || { echo "bench_firmware: -b needs a number" >&2; exit 2; }; block=$2; shift 2 ;;
     -a) [ $# -ge 2 ] || { echo "bench_firmware: -a needs angles" >&2; exit 2; }; angles=$2; shift 2 ;;
     --no-callgrind) do_cg=0; shift ;;
+    --no-board) do_board=0; shift ;;
     --no-size) do_size=0; shift ;;
     -h|--help) usage; exit 0 ;;
     *) echo "bench_firmware: unknown option '$1' (see --help)" >&2; exit 2 ;;
@@ -196,5 +200,47 @@ if [ "$do_size" -eq 1 ]; then
     arm-none-eabi-size "$arm/firmware/libafm_firmware.a" | awk '
       NR > 1 { n = $6; sub(/\.c\.obj$/, "", n); printf "  %-14s %7d B text  %5d B data  %5d B bss\n", n, $1, $2, $3; t += $1; d += $2; b += $3 }
       END { printf "  %-14s %7d B text  %5d B data  %5d B bss\n", "total", t, d, b }'
+  fi
+fi
+
+# The whole card per block (fw_card_step_block), on its board in the loop
+# (Cortex-M4 instructions from the board's timer under -icount shift=0) and
+# on the host (x86-64 instructions by callgrind, replaying the same run's
+# blocks through the host build): docs/pil.md.
+if [ "$do_board" -eq 1 ]; then
+  echo
+  scene="$top/scenes/short.yaml"
+  echo "bench_firmware: $scene on the board (--firmware qemu), then its blocks under callgrind" >&2
+  if ! "$top/tools/in_netns.sh" "$build/host_bridge/afm_launch" --scene "$scene" --out "$tmp/pil" --quiet --firmware qemu \
+       >"$tmp/pil.log" 2>&1; then
+    tail -3 "$tmp/pil.log" >&2
+    echo "The whole card per block: the run on the board failed (above)"
+  else
+    py="$top/.venv/bin/python"; [ -x "$py" ] || py=python3
+    read -r blocks spb m4_med m4_worst m4_mean frac1 frac2 < <("$py" -c '
+import json, sys
+r = json.load(open(sys.argv[1]))
+b = r["card"]["board"]; i = b["instructions_per_block"]; g = b["budget"]
+print(b["blocks"], r["card"]["samples_per_block"], i["median"], i["worst"], i["mean"], g["fraction_worst_cpi1"], g["fraction_worst_cpi2"])' "$tmp/pil/run.json")
+    x86=""
+    if [ "$do_cg" -eq 1 ] && command -v valgrind >/dev/null 2>&1; then
+      valgrind --tool=callgrind --toggle-collect=fw_card_step_block --callgrind-out-file="$tmp/cg.card" \
+        "$build/host_bridge/afm_replay" "$tmp/pil" --quiet >"$tmp/cg.card.txt" 2>"$tmp/cg.card.log" \
+        && x86=$(sed -n 's/^totals: //p' "$tmp/cg.card")
+    fi
+    echo "The whole card per block (fw_card_step_block), $(basename "$scene"): $blocks blocks of $spb samples"
+    printf '%-34s | %12s | %12s | %12s | %12s\n' "instructions per block" "median" "worst" "mean" "mean/sample"
+    printf '%-34s-+-%12s-+-%12s-+-%12s-+-%12s\n' "----------------------------------" "------------" "------------" "------------" "------------"
+    printf '%-34s | %12.0f | %12.0f | %12.0f | %12.0f\n' "Cortex-M4, on the board" "$m4_med" "$m4_worst" "$m4_mean" "$(awk -v a="$m4_mean" -v n="$spb" 'BEGIN{print a/n}')"
+    if [ -n "$x86" ]; then
+      printf '%-34s | %12s | %12s | %12.0f | %12.0f\n' "x86-64, host build (callgrind)" "-" "-" "$(awk -v a="$x86" -v n="$blocks" 'BEGIN{print a/n}')" \
+        "$(awk -v a="$x86" -v n="$blocks" -v s="$spb" 'BEGIN{print a/n/s}')"
+    fi
+    echo "  - Cortex-M4: the board's timer around fw_card_step_block under qemu -icount shift=0 (to 40 instructions);"
+    echo "    the worst block is $(awk -v f="$frac1" 'BEGIN{printf "%.1f", 100*f}') % of a 168 MHz core's cycles per block at CPI 1, $(awk -v f="$frac2" 'BEGIN{printf "%.1f", 100*f}') % at CPI 2"
+    echo "    (icount counts instructions, not cycles; docs/pil.md)"
+    if [ -n "$x86" ]; then
+      echo "  - x86-64: the same blocks replayed through the host build (afm_replay), callgrind --toggle-collect=fw_card_step_block"
+    fi
   fi
 fi

@@ -32,6 +32,11 @@ Rows (design.md, "Reliability"):
                   the run reads its own copy; same trajectories
   two-runs        two runs of the scene at once in one checkout: both complete,
                   both with the undisturbed trajectories
+  board:killed    the card on its board (--firmware qemu, docs/pil.md), and
+                  qemu-system-arm SIGKILLed at a random time in the run: the run
+                  fails naming the card's board and the block; log and run.json kept
+  board:hung      the board hangs at the run's middle block (AFM_BOARD_FAULT=hang:N):
+                  the run fails within seconds naming the board as hung
 Exit status: 0 when every row is as expected, 1 otherwise.
 """
 import argparse
@@ -56,7 +61,7 @@ from analysis import afmlog  # noqa: E402
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
-        "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs"])
+        "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs", "board:killed", "board:hung"])
 # What a trajectory is: the simulator's truth and the card's answers, by block.
 TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq")]
 
@@ -102,14 +107,15 @@ def alive_in_groups(pgids):
 class Run:
     """One afm_launch in its own namespace, with hooks while it runs."""
 
-    def __init__(self, scene, out, extra=(), wrap=None, keep_caps=None):
+    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None):
         self.out = out
         cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
         if wrap:
             cmd = wrap(cmd)
         # keep_caps (afm_netfault's row alone): the namespace's command keeps
         # those capabilities; beside() runs the launcher without them.
-        env = dict(os.environ, AFM_KEEP_CAPS=keep_caps) if keep_caps else None
+        if keep_caps:
+            env = dict(env or os.environ, AFM_KEEP_CAPS=keep_caps)
         self.p = subprocess.Popen([IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                   start_new_session=True, env=env)
         self.kids = {}
@@ -443,6 +449,41 @@ class Matrix:
         self.add("two-runs", f"exits {a.code} and {b.code}", ka and kb, kta, sa and sb, sta if sa and sb else f"{sta} / {stb}",
                  a.code == 0 and b.code == 0 and ka and kb and sa and sb)
 
+    def board(self, how):
+        """The card on its board: QEMU killed, or the board hung at the middle block."""
+        name, env = f"board:{how}", dict(os.environ)
+        if how == "hung":
+            env["AFM_BOARD_FAULT"] = f"hang:{self.blocks // 2}"
+        for attempt in range(3):
+            t0 = time.monotonic()
+            r = Run(self.scene, self.dir(name), extra=("--firmware", "qemu"), env=env)
+            kids = r.wait_kids()
+            acted = how == "hung"
+            if how == "killed":   # a random time after the board has started (its log says so)
+                board_log = os.path.join(r.out, "logs", "board.log")
+                while r.p.poll() is None and "serving" not in (open(board_log).read() if os.path.exists(board_log) else ""):
+                    time.sleep(0.01)
+                time.sleep(self.at_random_time() * (attempt + 1))
+                qemu = children(kids["fw_node"]).get("qemu-system-arm") if "fw_node" in kids else None
+                try:
+                    if qemu and r.p.poll() is None:
+                        signal_live(qemu, signal.SIGKILL)
+                        acted = True
+                except ProcessLookupError:
+                    pass
+            r.finish()
+            took = time.monotonic() - t0
+            if acted and r.code != 0 and "at its start" not in (r.rj or {}).get("error", ""):
+                break
+        left = alive_in_groups(set(kids.values()))
+        err = (r.rj or {}).get("error", "")
+        kept, kt = self.kept(r, "failed")
+        words = "exited (signal 9) at " if how == "killed" else f"hung: no answer to block {self.blocks // 2} within 2 s"   # at block N, or a fix after it
+        named = "the card's board" in err and words in err
+        self.add(name, f"exit {r.code} after {took:.1f} s: {err[err.find('the card'):][:60]}", kept, kt, None,
+                 "fails naming the board" + ("" if named else " (NOT named)") + (f"; {len(left)} processes left" if left else "; none left"),
+                 r.code != 0 and kept and named and not left)
+
     def run(self, only):
         for row in only:
             kind, _, arg = row.partition(":")
@@ -466,6 +507,8 @@ class Matrix:
                 self.scene_changed()
             elif row == "two-runs":
                 self.two_runs()
+            elif kind == "board":
+                self.board(arg)
 
 
 def main():

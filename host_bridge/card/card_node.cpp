@@ -10,11 +10,20 @@ extern "C" {
 
 namespace afm {
 
-CardNode::CardNode(const Scene &s) : scene_(s), setup_(s)
+namespace {
+CardBackendOptions with_scene(CardBackendOptions o, const Scene &s)
 {
-    fw_rule_t rule = FW_RULE_OK;
-    if (fw_card_init(&card_, &setup_.config(), &setup_.storage(), &rule) != FW_OK)
-        throw std::runtime_error(card_refusal_text(s, setup_, rule));
+    o.block_hz = s.block_hz;
+    o.samples_per_block = s.samples_per_block();
+    return o;
+}
+}  // namespace
+
+CardNode::CardNode(const Scene &s, const CardBackendOptions &where)
+    : scene_(s), setup_(s), card_(make_card_backend(with_scene(where, s)))
+{
+    const fw_rule_t rule = card_->init(setup_.config(), setup_.storage());
+    if (rule != FW_RULE_OK) throw std::runtime_error(card_refusal_text(s, setup_, rule));
     haptic_.seq = -1;   // the zero force that asks for the first pose
     state_.seq = -1;    // before the first block (a fix answered then carries the objects of block -1)
     fill_objects();
@@ -76,8 +85,7 @@ Outbox CardNode::on_fix(const object_fix_t &f, std::string *note, Reject *why)
     if (f.fix_id == fix_id_ + 1) {
         const int32_t scan_pm[2] = {fwu_pm_from_nm(f.scan_x_nm), fwu_pm_from_nm(f.scan_y_nm)};
         fw_card_fix_out_t r{};
-        if (f.kind == object_fix_t::KIND_PLACE) fw_card_place(&card_, f.object_id, scan_pm, &r);
-        else fw_card_fix(&card_, f.object_id, scan_pm, &r);
+        card_->fix(f.kind == object_fix_t::KIND_PLACE, f.object_id, scan_pm, &r);
         if (r.result == FW_CARD_FIX_UNKNOWN_OBJECT) {
             *note = "local scan fix " + std::to_string(f.fix_id) + " names unknown object " + std::to_string(f.object_id) + "; ignored";
         } else if (r.result == FW_CARD_FIX_NOT_DRIFT) {
@@ -118,7 +126,7 @@ void CardNode::step(Outbox &box)
     in.pose.load_pn = fwu_pn_from_nn(p.load_nN);
     in.pose.engaged = p.engaged;
     fw_card_out_t out{};
-    fw_card_step_block(&card_, &in, &out);
+    card_->step_block(in, &out);
 
     const int64_t t_end = block_end_utime(scene_, b.seq);
     state_.utime = t_end;
@@ -181,38 +189,34 @@ void CardNode::post_state(Outbox &box) const
 
 void CardNode::fill_objects()
 {
-    const fw_particles_t *parts = fw_card_particles(&card_);
-    whole_.particles.resize(static_cast<std::size_t>(fw_particles_count(parts)));
-    for (int32_t i = 0; i < fw_particles_count(parts); ++i) {
-        const fw_particle_t *p = fw_particles_get(parts, i);
+    const fw_models_t &m = card_->models();   // the card's models after its last call (fw_models.h)
+    whole_.particles.resize(static_cast<std::size_t>(m.n_particles));
+    for (int32_t i = 0; i < m.n_particles; ++i) {
+        const fw_models_particle_t &p = m.particles[i];
         particle_t &q = whole_.particles[static_cast<std::size_t>(i)];
-        q.id = p->id;
-        q.x_nm = fwu_nm_from_pm(p->x_pm);
-        q.y_nm = fwu_nm_from_pm(p->y_pm);
-        q.radius_nm = fwu_nm_from_pm(p->radius_pm);
-        q.in_contact = (p->flags & FW_PARTICLE_PUSHED) != 0;
+        q.id = p.id;
+        q.x_nm = fwu_nm_from_pm(p.x_pm);
+        q.y_nm = fwu_nm_from_pm(p.y_pm);
+        q.radius_nm = fwu_nm_from_pm(p.radius_pm);
+        q.in_contact = (p.flags & FW_PARTICLE_PUSHED) != 0;
     }
     whole_.n_particles = static_cast<int32_t>(whole_.particles.size());
-    whole_.wires.resize(static_cast<std::size_t>(fw_card_wire_count(&card_)));
-    for (int32_t i = 0; i < fw_card_wire_count(&card_); ++i) {
-        const fw_wire_t *w = fw_card_wire(&card_, i);
-        int32_t a[2], b[2];
-        fw_wire_ends_pm(w, a, b);
+    whole_.wires.resize(static_cast<std::size_t>(m.n_wires));
+    for (int32_t i = 0; i < m.n_wires; ++i) {
+        const fw_models_wire_t &w = m.wires[i];
         wire_t &q = whole_.wires[static_cast<std::size_t>(i)];
-        q.id = fw_card_wire_id(&card_, i);
-        q.diameter_nm = fwu_nm_from_pm(w->diameter_pm);
+        q.id = w.id;
+        q.diameter_nm = fwu_nm_from_pm(w.diameter_pm);
         q.n = 2;
-        q.x_nm = {fwu_nm_from_pm(a[0]), fwu_nm_from_pm(b[0])};
-        q.y_nm = {fwu_nm_from_pm(a[1]), fwu_nm_from_pm(b[1])};
-        q.in_contact = (w->flags & FW_WIRE_PUSHED) != 0;
+        q.x_nm = {fwu_nm_from_pm(w.a_pm[0]), fwu_nm_from_pm(w.b_pm[0])};
+        q.y_nm = {fwu_nm_from_pm(w.a_pm[1]), fwu_nm_from_pm(w.b_pm[1])};
+        q.in_contact = (w.flags & FW_WIRE_PUSHED) != 0;
     }
     whole_.n_wires = static_cast<int32_t>(whole_.wires.size());
-    int32_t drift[2];
-    fw_card_drift_pm(&card_, drift);
-    fill_trenches(drift);
+    fill_trenches(m.drift_pm);
     whole_.n_trenches = static_cast<int32_t>(whole_.trenches.size());
-    whole_.drift_nm[0] = fwu_nm_from_pm(drift[0]);
-    whole_.drift_nm[1] = fwu_nm_from_pm(drift[1]);
+    whole_.drift_nm[0] = fwu_nm_from_pm(m.drift_pm[0]);
+    whole_.drift_nm[1] = fwu_nm_from_pm(m.drift_pm[1]);
     whole_.fix_id = fix_id_;
 }
 
@@ -221,16 +225,16 @@ void CardNode::fill_trenches(const int32_t drift_pm[2])
     // One trench per stroke: the points from one STROKE_START to the next.
     // The card's points only grow, unless a drift fix moves them all: then
     // the trenches are formed anew.
-    const fw_litho_t *litho = fw_card_litho(&card_);
-    if (!litho) return;
-    if (drift_pm[0] != trench_drift_pm_[0] || drift_pm[1] != trench_drift_pm_[1] || litho->count < trench_points_) {
+    const fw_models_t &m = card_->models();
+    if (!m.litho) return;
+    if (drift_pm[0] != trench_drift_pm_[0] || drift_pm[1] != trench_drift_pm_[1] || m.trench_count < trench_points_) {
         whole_.trenches.clear();
         trench_points_ = 0;
         trench_drift_pm_[0] = drift_pm[0];
         trench_drift_pm_[1] = drift_pm[1];
     }
-    for (int32_t i = trench_points_; i < litho->count; ++i) {
-        const fw_trench_point_t &p = litho->pts[i];
+    for (int32_t i = trench_points_; i < m.trench_count; ++i) {
+        const fw_trench_point_t &p = m.trench[i];
         if ((p.flags & FW_LITHO_STROKE_START) || whole_.trenches.empty()) {
             whole_.trenches.emplace_back();
             whole_.trenches.back().id = static_cast<int32_t>(whole_.trenches.size());
@@ -242,7 +246,7 @@ void CardNode::fill_trenches(const int32_t drift_pm[2])
         t.width_nm.push_back(fwu_nm_from_pm(p.width_pm));
         ++t.n;
     }
-    trench_points_ = litho->count;
+    trench_points_ = m.trench_count;
 }
 
 }  // namespace afm

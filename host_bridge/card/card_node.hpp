@@ -2,7 +2,9 @@
 // card's input messages into its input structs, steps the card (fw_card.h),
 // and turns its outputs into the messages to publish, in order. fw_node
 // wraps it with LCM; ./afm replay feeds it a recorded log. Only unit
-// conversion happens here (fw_units.h); every decision is the card's.
+// conversion happens here (fw_units.h); every decision is the card's. The
+// card runs where its backend says (card_backend.hpp: this process, or the
+// board under QEMU); this code is the same for both.
 //
 // The protocol (lockstep, one block of haptic latency, as a card's
 // double-buffered DMA has it):
@@ -36,6 +38,7 @@
 #include "afm/object_fix_t.hpp"
 #include "afm/objects_t.hpp"
 #include "afm/tip_cmd_t.hpp"
+#include "card_backend.hpp"
 #include "card_setup.hpp"
 #include "inbox.hpp"
 #include "objects_view.hpp"
@@ -63,8 +66,9 @@ void post(Outbox &box, const char *channel, const M &m, int64_t seq, int32_t fix
 
 class CardNode {
 public:
-    // Throws std::runtime_error naming the rule when the card refuses the scene.
-    explicit CardNode(const Scene &s);
+    // Throws std::runtime_error naming the rule when the card refuses the
+    // scene, BoardError when the board does not start (card_backend.hpp).
+    explicit CardNode(const Scene &s, const CardBackendOptions &where = {});
     CardNode(const CardNode &) = delete;
     CardNode &operator=(const CardNode &) = delete;
 
@@ -82,12 +86,12 @@ public:
 
     int64_t done() const { return done_; }              // last block stepped (-1: none)
     int64_t sim_utime_done() const;                     // simulated time at its end, us
-    const fw_card_t &card() const { return card_; }
+    const CardBackend &backend() const { return *card_; }
 
 private:
     const Scene &scene_;
     CardSetup setup_;
-    fw_card_t card_{};
+    std::unique_ptr<CardBackend> card_;
     int64_t done_ = -1;
     int32_t fix_id_ = 0;
     std::unique_ptr<analog_block_t> pending_;          // AFM_ANALOG done_ + 1, waiting for its pose

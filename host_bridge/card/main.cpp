@@ -35,8 +35,12 @@ static_assert(FW_FLAG_RIDEOVER == afm::fw_state_t::FLAG_RIDEOVER, "flag bits mus
 namespace {
 
 const char *kUsage =
-    "usage: fw_node --scene FILE [--out DIR] [--crash-at-block N] [--aside-cpus LIST]\n"
+    "usage: fw_node --scene FILE [--out DIR] [--firmware host|qemu] [--board-elf ELF] [--crash-at-block N] [--aside-cpus LIST]\n"
     "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
+    "  --firmware host     the card linked into this process (the default)\n"
+    "  --firmware qemu     the card built for its processor, on an emulated mps2-an386 board\n"
+    "                      (qemu-system-arm -icount shift=0; docs/pil.md); its output in DIR/logs/board.log\n"
+    "  --board-elf ELF     the board's image (default: the build's afm_board.elf)\n"
     "  --out DIR           write DIR/fw_report.json at the end (what the node refused, by reason)\n"
     "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n"
     "  --aside-cpus L      the CPUs (\"0-1\") the thread that publishes the observers' channels\n"
@@ -53,7 +57,8 @@ struct Node {
     int64_t crash_at = -1;
     bool sim_done = false;
 
-    Node(const afm::Scene &s, lcm::LCM &l, afm::Aside &a) : scene(s), lc(l), aside(a), card(s), hb(l, "fw_node") {}
+    Node(const afm::Scene &s, lcm::LCM &l, afm::Aside &a, const afm::CardBackendOptions &where)
+        : scene(s), lc(l), aside(a), card(s, where), hb(l, "fw_node") {}
 
     // In the card's order; a channel no process of the lockstep reads aside.
     void publish(const afm::Outbox &box)
@@ -106,11 +111,14 @@ int main(int argc, char **argv)
     std::string scene_path, out_dir;
     int64_t crash_at = -1;
     std::vector<int> aside_cpus;
+    afm::CardBackendOptions where;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
         else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
         else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
+        else if (a == "--firmware" && i + 1 < argc) where.firmware = argv[++i];
+        else if (a == "--board-elf" && i + 1 < argc) where.board_elf = argv[++i];
         else if (a == "--aside-cpus" && i + 1 < argc) {
             if (!afm::cpu_list_option("fw_node", a, argv[++i], &aside_cpus)) return 2;
         }
@@ -118,11 +126,16 @@ int main(int argc, char **argv)
         else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
     if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    if (where.firmware != "host" && where.firmware != "qemu") {
+        std::fprintf(stderr, "fw_node: --firmware wants host or qemu, got '%s'\n", where.firmware.c_str());
+        return afm::kExitInput;
+    }
+    if (!out_dir.empty() && where.firmware == "qemu") where.board_log = out_dir + "/logs/board.log";
     return afm::run_process("fw_node", [&] {
         const afm::Scene scene = afm::load_scene(scene_path);
         auto lc = afm::open_bus();
         afm::Aside aside(aside_cpus);
-        Node node(scene, *lc, aside);
+        Node node(scene, *lc, aside, where);
         node.crash_at = crash_at;
         afm::Inbox inbox(lc.get());
         inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &m) { return node.on_analog(m); });
@@ -139,11 +152,12 @@ int main(int argc, char **argv)
         node.hb.send(afm::RunState::done, node.card.done(), node.card.sim_utime_done());
         if (!out_dir.empty()) {
             // the force interlock's trips (fw_guard.h; null when the scene turns it off)
-            const fw_guard_t *guard = fw_card_guard(&node.card.card());
+            const fw_models_t &m = node.card.backend().models();
             afm::write_report(out_dir + "/fw_report.json",
                               {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
                                {"aside", aside.report()},
-                               {"interlock_trips", guard ? nlohmann::json(guard->trips) : nlohmann::json(nullptr)}});
+                               {"interlock_trips", m.interlock ? nlohmann::json(m.interlock_trips) : nlohmann::json(nullptr)},
+                               {"board", node.card.backend().report()}});
         }
         return afm::kExitOk;
     });

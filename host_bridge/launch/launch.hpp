@@ -73,6 +73,8 @@ inline const char *kUsage =
     "  --inject-drop P    sim_afm drops each analog block's first send with probability P\n"
     "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
+    "  --firmware host|qemu  where the card runs: linked into fw_node (host, the default) or\n"
+    "                     built for its processor on an emulated mps2-an386 board (docs/pil.md)\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
     "bench options (./afm bench bus):\n"
@@ -176,6 +178,7 @@ struct Options {
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
+    std::string firmware = "host";   // fw_node --firmware: host, or qemu (the card on its board, docs/pil.md)
     long long log_window = -1;  // sim_afm --log-window; 0: no --follow-log; -1: log_window_blocks() of the tap's buffer
     bool renderer = true;
     bool placement = true;      // common/placement.hpp; --placement off
@@ -199,6 +202,13 @@ inline int parse_args(int argc, char **argv, Options *o)
         else if (a == "--check") o->check_only = true;
         else if (a == "--quiet") o->quiet = true;
         else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
+        else if (a == "--firmware") {
+            o->firmware = val();
+            if (o->firmware != "host" && o->firmware != "qemu") {
+                std::fprintf(stderr, "afm_launch: --firmware wants host or qemu, got '%s'\n", o->firmware.c_str());
+                return 2;
+            }
+        }
         else if (a == "--stall-s") o->stall_s = std::atof(val().c_str());
         else if (a == "--log-window") {
             const std::string v = val();
@@ -387,7 +397,7 @@ public:
             sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(log_window_)});
         if (!o_.renderer) sim_cmd.push_back("--no-renderer");
         std::vector<std::string> fw_cmd = {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block",
-                                           std::to_string(o_.crash_block)};
+                                           std::to_string(o_.crash_block), "--firmware", o_.firmware};
         place();
         std::vector<std::string> renderer_cmd = {bin + "/renderer", "--scene", scene_run_, "--out", out_};
         if (placement_.on()) {
@@ -562,6 +572,7 @@ public:
                         fj.value("frame", 0), err, num("rms_height_error_nm"), fj.value("pass", false) ? "within target" : "OUTSIDE the 5 nm target");
         }
         print_plan(run);
+        print_board(run);
         std::printf("run: output in %s\n", out_.c_str());
         return 0;
     }
@@ -684,7 +695,11 @@ private:
             // A clean exit: the process heard the simulator's "done", which
             // this process may not have dispatched yet; given a moment.
             if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(500)) continue;
-            return c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
+            std::string why = c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out_ + "/logs/" + c.name + ".log)";
+            const std::string last = slurp_tail(out_ + "/logs/" + c.name + ".log", 1);   // the card's board names itself (pil.md)
+            const std::size_t a = last.find_first_not_of(" \n"), b = last.find_last_not_of(" \n");
+            if (last.find("the card's board") != std::string::npos) why += ": " + last.substr(a, b + 1 - a);
+            return why;
         }
         return "";
     }
@@ -816,6 +831,7 @@ private:
         run["launcher"] = launcher_json();
         run["placement"] = placement_json();
         merge_reports(&run);
+        if (run.contains("fw") && run["fw"].contains("board")) run["card"]["board"] = run["fw"]["board"];   // where the card ran
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
         // Completeness of the record: distinct analog blocks and poses in the
         // log against the blocks the simulator simulated (a recorder starved
@@ -871,6 +887,22 @@ private:
                 {"twist_urad_per_v", static_cast<double>(card.twist_rad_per_v) * 1e6 / static_cast<double>(1 << 30)},
                 {"samples_per_block", scene_.samples_per_block()},
                 {"full_scale_pn", fw_guard_full_scale_pn(b.normal_gain_pn_per_v)}};
+    }
+
+    // The card on its board (--firmware qemu): its instructions per block against a 168 MHz budget.
+    static void print_board(const nlohmann::json &run)
+    {
+        if (!run.contains("card") || !run["card"].is_object() || !run["card"].contains("board")) return;
+        const auto &b = run["card"]["board"];
+        if (b.value("firmware", "host") != "qemu" || !b.contains("budget")) return;
+        const auto &i = b["instructions_per_block"], &g = b["budget"];
+        std::printf("run: the card on its board (%s): %.0f instructions a block median, %.0f worst (%.0f, %.0f a sample); "
+                    "%.2f %% of a 168 MHz Cortex-M4's block at CPI 1 worst, %.2f %% at CPI 2 (icount counts instructions, not "
+                    "cycles); a round trip %.0f us median\n",
+                    b["machine"].get<std::string>().c_str(), i["median"].get<double>(), i["worst"].get<double>(),
+                    b["instructions_per_sample"]["median"].get<double>(), b["instructions_per_sample"]["worst"].get<double>(),
+                    100 * g["fraction_worst_cpi1"].get<double>(), 100 * g["fraction_worst_cpi2"].get<double>(),
+                    b["round_trip_us"]["median"].get<double>());
     }
 
     // The planner's account (operator_report.json) and its result in the

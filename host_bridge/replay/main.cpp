@@ -44,7 +44,7 @@ namespace fs = std::filesystem;
 namespace {
 
 const char *kUsage =
-    "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--quiet]\n"
+    "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--firmware host|qemu] [--quiet]\n"
     "  Feeds the card inputs recorded in RUN_DIR/bus.lcmlog (AFM_ANALOG, HAPTIC_POSE,\n"
     "  HOST_OBJECT_FIX) into the firmware card as built now and compares every output\n"
     "  (AFM_CMD, HAPTIC_FORCE, FW_STATE) with the recording.\n"
@@ -52,6 +52,10 @@ const char *kUsage =
     "  copy the run kept), or --scene FILE.\n"
     "  --write NEW_LOG  write the recorded inputs and the new outputs as an LCM log\n"
     "                   (lcm-logplayer, ./afm spy NEW_LOG)\n"
+    "  --firmware qemu  the card built for its processor, on an emulated mps2-an386 board\n"
+    "                   (qemu-system-arm -icount shift=0, docs/pil.md): record on the host,\n"
+    "                   check on the target; prints the board's instructions per block\n"
+    "  --board-elf ELF  the board's image (default: the build's afm_board.elf)\n"
     "  --quiet          only the verdict line\n"
     "exit: 0 identical, bit for bit; 1 the outputs differ (the first divergence is named);\n"
     "      2 a bad argument, or a log that is missing, truncated or corrupt (file and byte offset)\n";
@@ -251,6 +255,7 @@ bool compare(const std::string &ch, const std::vector<uint8_t> &rec, const std::
 
 struct Options {
     std::string log, scene, write;
+    afm::CardBackendOptions where;   // --firmware, --board-elf
     bool quiet = false;
     double run_wall_s = 0;
     bool log_complete = true;
@@ -318,6 +323,7 @@ struct Outputs {
     std::set<Key> inconsistent;         // their keys: the recording answers those blocks twice, differently
     int64_t before_fw_state = 0;        // recorded messages on FW_FORCE, FW_TIP and FW_OBJECTS (kBeforeFwState)
     bool predates_fw_state = false;     // a recording of an earlier bus: no FW_STATE of this build's type, and messages on those
+    nlohmann::json board;               // where the card ran, and on the board its cost (card_backend.hpp)
 };
 
 // Hashes an output on its length and at most 64 bytes at either end: equal
@@ -352,7 +358,8 @@ struct RecordedRaw {
 // order it got them in does not change its answers.
 class Feeder {
 public:
-    Feeder(const afm::Scene &scene, const std::string &write_path, Outputs *r) : node_(scene), out_(write_path), r_(r), inbox_(nullptr)
+    Feeder(const afm::Scene &scene, const afm::CardBackendOptions &where, const std::string &write_path, Outputs *r)
+        : node_(scene, where), out_(write_path), r_(r), inbox_(nullptr)
     {
         inbox_.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [this](const afm::analog_block_t &b) {
             if (!early(b.seq)) return analog(b);
@@ -412,6 +419,7 @@ public:
     }
 
     int64_t max_analog() const { return max_analog_; }           // the last analog block the card took
+    nlohmann::json board() const { return node_.backend().report(); }   // where the card ran, its cost
     int64_t done() const { return node_.done(); }                 // the last block the card stepped
     bool analog_seen(int64_t seq) const { return analog_seen_.count(seq) > 0; }
 
@@ -520,7 +528,7 @@ Outputs run_replay(const Options &o)
 {
     Outputs r;
     const afm::Scene scene = afm::load_scene(o.scene);
-    Feeder feed(scene, o.write, &r);
+    Feeder feed(scene, o.where, o.write, &r);
     std::vector<RecordedRaw> recorded_raw;
     afm::LogReader log(o.log);
     log.only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_HOST_OBJECT_FIX, AFM_CH_AFM_CMD, AFM_CH_HAPTIC_FORCE, AFM_CH_FW_STATE,
@@ -532,6 +540,7 @@ Outputs run_replay(const Options &o)
         else recorded_raw.push_back({ev.channel, std::move(ev.data), ev.offset});
     }
     feed.finish();
+    r.board = feed.board();
     r.events = log.events();
     key_recorded(recorded_raw, feed, &r);
     check_coverage(o.log, feed);
@@ -600,6 +609,14 @@ void report(const Options &o, const Outputs &r, const Verdict &v, double secs)
     std::printf("\n");
     if (!o.log_complete) std::printf("replay: warning: run.json says the log misses analog blocks (the recorder was starved)\n");
     for (const auto &n : r.notes) std::printf("replay: the card says: %s\n", n.c_str());
+    if (r.board.value("firmware", "host") == "qemu" && r.board["instructions_per_block"].is_object()) {
+        const auto &b = r.board;
+        std::printf("replay: the card ran on the board (%s): %.0f instructions a block median, %.0f worst (%.0f and %.0f a sample); "
+                    "a round trip %.0f us median\n",
+                    b["machine"].get<std::string>().c_str(), b["instructions_per_block"]["median"].get<double>(),
+                    b["instructions_per_block"]["worst"].get<double>(), b["instructions_per_sample"]["median"].get<double>(),
+                    b["instructions_per_sample"]["worst"].get<double>(), b["round_trip_us"]["median"].get<double>());
+    }
     if (r.predates_fw_state)
         std::printf("replay: the recording is of an earlier bus (%lld messages on FW_FORCE, FW_TIP and FW_OBJECTS, "
                     "the channels FW_STATE now holds): FW_STATE is not compared\n",
@@ -658,6 +675,11 @@ bool parse_args(int argc, char **argv, Options *o, bool *help, std::string *err)
         } else if (a == "--write" || a == "--scene") {
             if (i + 1 >= argc) return *err = a + " needs a file", false;
             (a == "--write" ? o->write : o->scene) = argv[++i];
+        } else if (a == "--firmware" || a == "--board-elf") {
+            if (i + 1 >= argc) return *err = a + " needs a value", false;
+            (a == "--firmware" ? o->where.firmware : o->where.board_elf) = argv[++i];
+            if (o->where.firmware != "host" && o->where.firmware != "qemu")
+                return *err = "--firmware wants host or qemu, got '" + o->where.firmware + "'", false;
         } else if (a == "--quiet") {
             o->quiet = true;
         } else if (!a.empty() && a[0] == '-') {
