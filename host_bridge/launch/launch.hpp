@@ -40,6 +40,7 @@ extern "C" {
 }
 #include "bus_recorder.hpp"
 #include "bus_tap.hpp"
+#include "senders.hpp"
 #include "lcmlog.hpp"
 #include "log_tail.hpp"
 #include "placement.hpp"
@@ -363,6 +364,12 @@ public:
         for (const auto &c : kids_) prog_.names.insert(c.name);
         try {
             tap_ = std::make_unique<afm::BusTap>(afm::bus_url());
+            // The record and the launcher's heartbeats take only what the
+            // run's own processes send on their channels (senders.hpp):
+            // anything else is foreign, counted in run.json, never logged.
+            senders_ = std::make_unique<afm::Senders>(afm::Senders::Scope::children);
+            afm::Senders *s = senders_.get();
+            tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
         } catch (const std::exception &e) {
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
@@ -672,6 +679,7 @@ private:
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
     std::unique_ptr<afm::BusTap> tap_;   // the whole bus, without liblcm's receive thread
+    std::unique_ptr<afm::Senders> senders_;   // the tap's admitter: the run's own processes on their channels
     long long log_window_ = 0;           // the simulator's window on the record, blocks (0: none)
     std::unique_ptr<afm::BusRecorder> recorder_;
     std::string record_error_;   // a write into the record that failed inside pump()
@@ -749,6 +757,8 @@ private:
                 {"recorded_events", recorded_events_},
                 {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
                 {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
+                {"foreign_datagrams", senders_ ? senders_->foreign_count() : 0},   // from no process that publishes their channel
+                {"foreign", senders_ ? senders_->foreign() : nlohmann::json::object()},
                 {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},
                 {"log_window_blocks", log_window_},
                 {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
