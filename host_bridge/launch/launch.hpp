@@ -52,6 +52,7 @@ extern "C" {
 #include "scene.hpp"
 
 #include "children.hpp"
+#include "verdict.hpp"
 
 namespace fs = std::filesystem;
 
@@ -78,6 +79,8 @@ inline const char *kUsage =
     "                     built for its processor on an emulated mps2-an386 board (docs/pil.md)\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
+    "  --no-verdict       exit 0 when the run completes but fails one of its own checks\n"
+    "                     (the verdict is still in run.json and the last line; else exit 4)\n"
     "bench options (./afm bench bus):\n"
     "  --log-window N     sim_afm runs at most N blocks ahead of what the record holds\n"
     "                     (default: as many as the record's receive buffer holds at\n"
@@ -175,7 +178,7 @@ inline std::map<std::string, int64_t> count_channels(const std::string &path, st
 // The command line.
 struct Options {
     std::string scene_path, out_dir;
-    bool spy = false, quiet = false, check_only = false;
+    bool spy = false, quiet = false, check_only = false, no_verdict = false;
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
@@ -221,6 +224,7 @@ inline int parse_args(int argc, char **argv, Options *o)
             }
         }
         else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--no-verdict") o->no_verdict = true;
         else if (a == "--placement") {
             const std::string v = val();
             if (v != "on" && v != "off") {
@@ -581,7 +585,8 @@ public:
         print_plan(run);
         print_board(run);
         std::printf("run: output in %s\n", out_.c_str());
-        return 0;
+        std::printf("%s\n", verdict_line(run["verdict"]).c_str());
+        return run["verdict"]["pass"].get<bool>() || o_.no_verdict ? afm::kExitOk : afm::kExitVerdict;
     }
 
 private:
@@ -843,6 +848,7 @@ private:
         merge_reports(&run);
         if (run.contains("fw") && run["fw"].contains("board")) run["card"]["board"] = run["fw"]["board"];   // where the card ran
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
+        run["verdict"] = afm::judge(run, scene_.expect);   // the run's own checks (verdict.hpp)
         // Completeness of the record: distinct analog blocks and poses in the
         // log against the blocks the simulator simulated (a recorder starved
         // of CPU can lose datagrams; a block missing either input cannot be replayed).
