@@ -162,8 +162,7 @@ void CardNode::step(Outbox &box)
     cmd_.engaged = out.engaged;
 
     fill_objects();
-    if ((out.flags & FW_FLAG_FX_UNOBSERVABLE) && (out.flags & FW_FLAG_CONTACT || touches_model(state_.tip_nm)))
-        ++tally_.unobservable_push_blocks;
+    if ((out.flags & FW_FLAG_FX_UNOBSERVABLE) && inside_model(state_.tip_nm)) ++tally_.unobservable_push_blocks;
     whole_.utime = t_end;
     whole_.seq = b.seq;
     objects_ = objects_diff_.next(whole_);
@@ -174,12 +173,14 @@ void CardNode::step(Outbox &box)
     post_block(box);
 }
 
-bool CardNode::touches_model(const double tip_nm[3]) const
+bool CardNode::inside_model(const double tip_nm[3]) const
 {
-    // The apex (a sphere of the probe's radius) within reach of an object as
-    // the card models it: a push the card may not see when F_x is
-    // unobservable (it then neither flags contact nor moves the model).
-    const double rt = scene_.probe.tip_radius_nm;
+    // The apex (a sphere of the probe's radius) deeper than kBlindDepth_nm
+    // inside an object as the card models it: a push the card did not see
+    // (F_x unobservable: it neither flagged contact nor moved the model out
+    // of the apex's way, as it does for a push it sees, which leaves the
+    // apex at contact distance).
+    const double rt = scene_.probe.tip_radius_nm - kBlindDepth_nm;
     for (const auto &p : whole_.particles)
         if (std::hypot(tip_nm[0] - p.x_nm, tip_nm[1] - p.y_nm) < p.radius_nm + rt) return true;
     for (const auto &w : whole_.wires)

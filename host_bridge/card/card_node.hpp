@@ -87,9 +87,10 @@ public:
     // What the card's own flags said over the run, for the run's verdict
     // (launch: run.json "verdict"): blocks in which F_x was (partly)
     // unobservable (FLAG_FX_UNOBSERVABLE: motion along the lever's axis)
-    // while the card pushed an object or its apex was within reach of one
-    // as it models it (a push it cannot see: it flags no contact then), and
-    // the samples with an ADC saturated (the card's own count).
+    // while its apex went more than kBlindDepth_nm inside an object as it
+    // models it (a push it cannot see: it flags no contact and leaves the
+    // model where it was), and the samples with an ADC saturated (the
+    // card's own count).
     struct Tally {
         int64_t unobservable_push_blocks = 0;
         int64_t saturated_samples = 0;
@@ -121,7 +122,8 @@ private:
     int32_t trench_points_ = 0;            // the card's trench points already in objects_
     int32_t trench_drift_pm_[2] = {0, 0};  // the drift they were converted at
     void fill_objects();
-    bool touches_model(const double tip_nm[3]) const;
+    bool inside_model(const double tip_nm[3]) const;
+    static constexpr double kBlindDepth_nm = 5.0;   // how deep inside a modelled object the apex goes unseen
     void fill_trenches(const int32_t drift_pm[2]);
     void post_block(Outbox &box) const;
     void post_state(Outbox &box) const;   // FW_STATE: state_ with objects_
