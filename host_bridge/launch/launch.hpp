@@ -53,6 +53,7 @@ extern "C" {
 
 #include "children.hpp"
 #include "verdict.hpp"
+#include "warnings.hpp"
 
 namespace fs = std::filesystem;
 
@@ -79,6 +80,7 @@ inline const char *kUsage =
     "                     built for its processor on an emulated mps2-an386 board (docs/pil.md)\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
+    "  --strict           a warning about the scene (host_bridge/launch/warnings.hpp) is an error\n"
     "  --no-verdict       exit 0 when the run completes but fails one of its own checks\n"
     "                     (the verdict is still in run.json and the last line; else exit 4)\n"
     "bench options (./afm bench bus):\n"
@@ -178,7 +180,7 @@ inline std::map<std::string, int64_t> count_channels(const std::string &path, st
 // The command line.
 struct Options {
     std::string scene_path, out_dir;
-    bool spy = false, quiet = false, check_only = false, no_verdict = false;
+    bool spy = false, quiet = false, check_only = false, no_verdict = false, strict = false;
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
@@ -225,6 +227,7 @@ inline int parse_args(int argc, char **argv, Options *o)
         }
         else if (a == "--no-renderer") o->renderer = false;
         else if (a == "--no-verdict") o->no_verdict = true;
+        else if (a == "--strict") o->strict = true;
         else if (a == "--placement") {
             const std::string v = val();
             if (v != "on" && v != "off") {
@@ -305,6 +308,11 @@ public:
                              "limit %.0f N/m) and operator.haptic.passivity_check is false: the device's passivity controller will clamp it\n",
                              o_.scene_path.c_str(), b.rendered_N_per_m, b.max_rendered_N_per_m, scene_.op.haptic.max_stiffness_N_per_m);
         }
+        const auto warnings = afm::scene_warnings(scene_, card.config());
+        if (!(o_.check_only && o_.quiet) || o_.strict)
+            for (const auto &w : warnings)
+                std::fprintf(stderr, "%s: %s%s\n", o_.scene_path.c_str(), o_.strict ? "" : "warning: ", w.c_str());
+        if (o_.strict && !warnings.empty()) return 2;
         if (scene_.op.plan.enabled) return check_targets(o_.scene_path);
         return -1;
     }

@@ -99,5 +99,60 @@ class TwoBodiesInOnePlace(unittest.TestCase):
         self.refused(cross, "objects.wires[1]", "touches or crosses objects.wires[0] (id 7)")
 
 
+def check(text, *extra):
+    """launcher --check on the scene text: (exit code, stderr lines)."""
+    import glob  # noqa: F401
+    import subprocess
+    path = benchtest.write_scene(text, "warn")
+    p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", path, *extra], capture_output=True, text=True, timeout=60)
+    benchtest.cleanup(os.path.dirname(path))
+    return p.returncode, [l for l in p.stderr.splitlines() if l.strip()]
+
+
+class CheckWarnings(unittest.TestCase):
+    """./afm check warns, naming the key and the reason, about what is valid
+    but likely unmeant; --strict makes those errors; expect: silences the
+    warning of a failure the scene expects."""
+
+    def warned(self, text, key, words):
+        code, lines = check(text)
+        self.assertEqual(code, 0, lines)
+        hits = [l for l in lines if f"warning: {key}" in l and words in l]
+        self.assertEqual(len(hits), 1, lines)
+        code, lines = check(text, "--strict")
+        self.assertEqual(code, 2, lines)
+        self.assertTrue(any(key in l and words in l and "warning" not in l for l in lines), lines)
+
+    def test_a_push_along_the_levers_axis(self):
+        text = SHORT.replace("    - [0, -700]\n    - [0, -90]\n    - [300, -90]\n", "    - [-700, -300]\n    - [300, -300]\n")
+        self.warned(text, "operator.path_nm[1]", "pushes particle 1 within 14.48 deg of the lever's axis")
+        self.assertEqual(check(text + "expect: [unobservable_push]\n", "--strict")[0], 0)
+
+    def test_particles_without_adhesion(self):
+        self.warned(SHORT.replace("[bending_offset, adhesion, ", "[bending_offset, "), "effects", "no adhesion effect")
+
+    def test_a_load_past_the_interlock_and_past_the_levers_range(self):
+        self.warned(SHORT.replace("  load_nN: 5\n", "  load_nN: 500\n"), "operator.load_nN", "beyond the card's interlock limit")
+        self.assertEqual(check(SHORT.replace("  load_nN: 5\n", "  load_nN: 500\n") + "expect: [interlock]\n", "--strict")[0], 0)
+        off = SHORT.replace("  load_nN: 5\n", "  load_nN: 500\n").replace("effects:", "firmware: {interlock: false}\neffects:")
+        self.warned(off, "operator.load_nN", "beyond the lever's range")
+
+    def test_a_path_off_the_scan_field_is_refused_outright(self):
+        code, lines = check(SHORT.replace("    - [0, -700]\n", "    - [0, -1500]\n"))
+        self.assertEqual(code, 2, lines)
+        self.assertIn("operator.path_nm[0]", lines[0])
+        self.assertIn("outside the joystick's reach", lines[0])
+
+    def test_every_committed_scene_passes_strict(self):
+        import glob
+        scenes = sorted(glob.glob(os.path.join(benchtest.SRC, "scenes", "*.yaml")) +
+                        glob.glob(os.path.join(benchtest.SRC, "scenes", "paper", "*.yaml")))
+        self.assertGreater(len(scenes), 20)
+        import subprocess
+        for path in scenes:
+            p = subprocess.run([benchtest.LAUNCH, "--check", "--strict", "--scene", path], capture_output=True, text=True, timeout=60)
+            self.assertEqual(p.returncode, 0, (path, p.stderr))
+
+
 if __name__ == "__main__":
     benchtest.main()
