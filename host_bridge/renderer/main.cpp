@@ -56,8 +56,9 @@ int main(int argc, char **argv)
         auto lc = afm::open_bus();
         Renderer r(scene, *lc, out_dir);
         r.writer_cpus = writer_cpus;
-        // the strip chart: about 250 samples a simulated second
-        if (view_frames) r.view = std::make_unique<afm::ViewFrames>(std::max(1, static_cast<int>(scene.block_hz / 250)), writer_cpus);
+        // the strip chart: about 250 samples a simulated second; the
+        // encoding on the renderer's own CPUs (the observers', view_frames.hpp)
+        if (view_frames) r.view = std::make_unique<afm::ViewFrames>(std::max(1, static_cast<int>(scene.block_hz / 250)), std::vector<int>{});
         afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
         inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &m) { return r.on_state(m); });

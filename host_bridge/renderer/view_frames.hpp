@@ -43,8 +43,11 @@ public:
     static constexpr int kQuality = 85, kLowestQuality = 30;
 
     // sample_every_blocks: one block in so many goes to the strip chart.
-    // cpus: where the thread may run (empty: the process's CPUs). The bus
-    // is opened here (a socket of its own; common/bus.hpp).
+    // cpus: where the thread may run (empty: the process's CPUs; the
+    // renderer passes none, so that the encoding stays on the observers'
+    // CPU: on every CPU of the run, as the frame writer, it cost the
+    // lockstep 19 % a block against 3 %, docs/view.md). The bus is opened
+    // here (a socket of its own; common/bus.hpp).
     ViewFrames(int sample_every_blocks, std::vector<int> cpus);
     ~ViewFrames();
     ViewFrames(const ViewFrames &) = delete;
