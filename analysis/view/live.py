@@ -25,6 +25,7 @@ from analysis.view import frames, server
 BRIDGE = os.path.join(paths.BUILD, "host_bridge", "afm_view_bridge")
 MAX_CHANNEL = 63            # LCM's longest channel name
 MAX_PAYLOAD = 1 << 20       # bytes: far above a view frame (under 64 kB)
+SERVER_NICE = 10            # once the run has started (main_async)
 # Inside the namespace: the bridge in the background on the pipe's end,
 # which the launcher then closes; the launcher in the shell's place (its
 # parent dies with it: the bridge ends, afm_view_bridge's PR_SET_PDEATHSIG).
@@ -126,6 +127,9 @@ async def main_async(run_cmd, out_dir, wait, port):
     rfd, wfd = os.pipe()
     proc = await start_run(run_cmd, wfd)
     os.close(wfd)
+    # the server below the launcher, at the run's processes' nice level
+    # (afm_launch's kBusProcessNice): serving a page never takes their CPU
+    os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), SERVER_NICE))
     loop = asyncio.get_running_loop()
     loop.add_signal_handler(signal.SIGINT, lambda: None)   # the launcher stops the run and says so
     reading = asyncio.ensure_future(read_records(rfd, lambda ch, d: source.on_record(view, ch, d)))

@@ -9,10 +9,14 @@ Contract:
   message that follows its "frame" message. What it takes from a page:
   JSON text only ({"type": "seek", "index": K} in a recorded run); nothing
   from the network is unpickled or evaluated.
-- A page gets the newest frame: a frame that comes while the page's
-  previous one is still being sent replaces the one waiting, and is counted
+- A page gets the newest frame, at most MAX_PAGE_FPS a second: a frame that
+  comes while the page's previous one is still being sent, or sooner than
+  that after it, replaces the one waiting, and is counted
   (`skipped_server`); the strip chart's samples of a skipped frame go with
-  the next one. No page ever slows a source down.
+  the next one. No page ever slows a source down. (A person sees no more;
+  a lockstep run makes frames ten times faster than real time, and a
+  browser that decoded and painted them all took the CPU the run's
+  lockstep needed: docs/view.md.)
 """
 import asyncio
 import hmac
@@ -26,6 +30,7 @@ STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "static")
 STATIC_FILES = {"/": ("index.html", "text/html"), "/view.js": ("view.js", "text/javascript"),
                 "/view.css": ("view.css", "text/css")}
 MAX_CLIENT_MESSAGE = 4096   # bytes: a page sends only small JSON messages
+MAX_PAGE_FPS = 30           # frames a second sent to one page, at most
 
 
 def new_token():
@@ -134,16 +139,23 @@ class ViewServer:
                 client.put_frame(*reply)
 
     async def _send_loop(self, client):
+        loop = asyncio.get_running_loop()
+        next_frame = 0.0   # the loop's time the page may have its next frame
         try:
             while not client.ws.closed:
                 await client.wake.wait()
                 client.wake.clear()
                 while client.messages:
                     await client.ws.send_str(json.dumps(client.messages.pop(0)))
-                if client.frame is not None:
-                    meta, image = client.take_frame()
-                    await client.ws.send_str(json.dumps(meta))
-                    await client.ws.send_bytes(image)
+                if client.frame is None:
+                    continue
+                if loop.time() < next_frame:   # too soon: the newest frame then
+                    loop.call_at(next_frame, client.wake.set)
+                    continue
+                next_frame = loop.time() + 1.0 / MAX_PAGE_FPS
+                meta, image = client.take_frame()
+                await client.ws.send_str(json.dumps(meta))
+                await client.ws.send_bytes(image)
         except (ConnectionResetError, RuntimeError):
             pass
 
