@@ -12,6 +12,7 @@
   const state = window.afmView = {
     connected: false, mode: "", framesShown: 0, lastIndex: -1, framesTotal: 0, skippedRenderer: 0,
     skippedServer: 0, skippedPage: 0, chartSamples: 0, chartT: [], ended: null, flags: {}, t: 0,
+    painted: [],                            // [block, wall ms] of each frame painted (./afm bench view)
   };
   const series = { t: [], fx: [], fy: [], fz: [], hx: [], hy: [], hz: [] };
   let meta = null, decoding = false, next = null, playing = false, lastMeta = null;
@@ -102,6 +103,8 @@
     drawFlags(m.flags);
     drawChart(m.t_s);
     state.framesShown += 1;
+    if (state.painted.length < 100000)
+      requestAnimationFrame(() => state.painted.push([m.seq, performance.timeOrigin + performance.now()]));
     state.lastIndex = m.index;
     state.framesTotal = m.frames_total;
     state.t = m.t_s;
