@@ -11,13 +11,23 @@ and writes them to a pipe this process reads. Nothing else crosses.
 Contract: the run starts at once, or (--wait) once a page with the token
 has opened its stream; Ctrl-C while waiting exits 130 before anything ran.
 The server stops when the run ends, and this exits with the run's code.
+
+In operator.mode browser (time_mode realtime) the page is also the hand:
+its pointer, wheel, keys and button reach the operator through a named
+pipe in a private folder ($AFM_HAND_FIFO), which the operator alone reads
+(host_bridge/operator/hand_input.hpp); the operator says on its heartbeat
+that it takes them ("hand: browser"), and the page then shows its controls.
+The page publishes nothing on the bus.
 """
 import asyncio
 import json
+import math
 import os
+import shutil
 import signal
 import struct
 import sys
+import tempfile
 
 from analysis import afmlog, paths
 from analysis.view import frames, server
@@ -40,12 +50,26 @@ class LiveSource:
         self.out_dir = out_dir
         self.processes = {}
         self.frames = 0
+        self.hand = None          # operator.mode browser: {"load_nN": the scene's load}
+        self.hand_fd = None       # the pipe to the operator (non-blocking write end)
+        self.hand_sent = self.hand_dropped = self.hand_refused = 0
 
     def hello(self):
-        return frames.hello("live", run_dir=os.path.abspath(self.out_dir))
+        return frames.hello("live", run_dir=os.path.abspath(self.out_dir), hand=self.hand)
 
     def on_message(self, msg):
-        return None   # a live page only watches
+        """A page's hand (operator.mode browser): to the operator's pipe."""
+        if msg.get("type") == "hand" and self.hand is not None and self.hand_fd is not None:
+            line = hand_line(msg)
+            if line is None:
+                self.hand_refused += 1
+                return None
+            try:
+                os.write(self.hand_fd, line)
+                self.hand_sent += 1
+            except (BlockingIOError, BrokenPipeError):
+                self.hand_dropped += 1   # the operator is not reading (yet): the next one will do
+        return None
 
     def on_record(self, view, channel, data):
         """A record from the bridge, to the pages."""
@@ -62,6 +86,34 @@ class LiveSource:
         elif channel == "AFM_HEARTBEAT":
             self.processes[m.name] = {"state": m.state, "sim_s": m.sim_utime * 1e-6, "seq": m.seq}
             view.broadcast({"type": "status", "processes": self.processes})
+            if m.name == "operator" and m.detail.startswith("hand: browser") and self.hand is None:
+                self.hand = {"load_nN": _load_of(m.detail)}
+                view.broadcast({"type": "hand", "hand": self.hand})
+
+
+def _load_of(detail):
+    """The load in the operator's "hand: browser load_nN=X" (None without one)."""
+    for word in detail.split():
+        if word.startswith("load_nN="):
+            try:
+                return float(word[8:])
+            except ValueError:
+                return None
+    return None
+
+
+def hand_line(msg):
+    """The operator's command line for a page's {"type": "hand", "x_nm",
+    "y_nm", "load_nN", "engaged"} (host_bridge/operator/hand_input.hpp), or
+    None when a field is missing or not a finite number (the operator
+    checks the ranges)."""
+    try:
+        x, y, load = (float(msg[k]) for k in ("x_nm", "y_nm", "load_nN"))
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not all(math.isfinite(v) for v in (x, y, load)) or not isinstance(msg.get("engaged"), bool):
+        return None
+    return f"HAND {x:.3f} {y:.3f} {load:.4f} {int(msg['engaged'])}\n".encode()
 
 
 async def read_records(fd, on_record):
@@ -108,10 +160,23 @@ async def wait_for_page(view):
     return view.connected.is_set()
 
 
-async def start_run(run_cmd, wfd):
-    """The run in its namespace, the bridge beside the launcher."""
+async def start_run(run_cmd, wfd, hand_fifo):
+    """The run in its namespace, the bridge beside the launcher; the hand's
+    named pipe is read by the operator in operator.mode browser
+    ($AFM_HAND_FIFO)."""
     cmd = [paths.IN_NETNS, "bash", "-c", WRAPPER, BRIDGE, str(wfd)] + run_cmd
-    return await asyncio.create_subprocess_exec(*cmd, pass_fds=(wfd,))
+    env = dict(os.environ, AFM_HAND_FIFO=hand_fifo)
+    return await asyncio.create_subprocess_exec(*cmd, pass_fds=(wfd,), env=env)
+
+
+def hand_pipe():
+    """(folder, path, write end) of the hand's named pipe: in a private
+    folder (0700), opened read-write so that it never waits for a reader
+    and never fails for want of one; written without waiting."""
+    folder = tempfile.mkdtemp(prefix="afm-view-hand-")
+    path = os.path.join(folder, "hand")
+    os.mkfifo(path, 0o600)
+    return folder, path, os.open(path, os.O_RDWR | os.O_NONBLOCK)
 
 
 async def main_async(run_cmd, out_dir, wait, port):
@@ -125,8 +190,10 @@ async def main_async(run_cmd, out_dir, wait, port):
         await view.stop(0)
         return 130
     rfd, wfd = os.pipe()
-    proc = await start_run(run_cmd, wfd)
+    hand_dir, hand_path, hand_w = hand_pipe()
+    proc = await start_run(run_cmd, wfd, hand_path)
     os.close(wfd)
+    source.hand_fd = hand_w
     # the server below the launcher, at the run's processes' nice level
     # (afm_launch's kBusProcessNice): serving a page never takes their CPU
     os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), SERVER_NICE))
@@ -136,7 +203,10 @@ async def main_async(run_cmd, out_dir, wait, port):
     code = await proc.wait()
     await asyncio.wait([reading], timeout=1.0)
     reading.cancel()
-    view.broadcast({"type": "end", "exit_code": code, "status": run_status(out_dir), "frames_received": source.frames})
+    view.broadcast({"type": "end", "exit_code": code, "status": run_status(out_dir), "frames_received": source.frames,
+                    "hand": {"sent": source.hand_sent, "dropped": source.hand_dropped, "refused": source.hand_refused}})
+    os.close(hand_w)
+    shutil.rmtree(hand_dir, ignore_errors=True)
     await view.stop()
     return code
 

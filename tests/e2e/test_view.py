@@ -11,6 +11,9 @@ network namespace, as a person's browser would be.
   server listens on 127.0.0.1 only.
 - ./afm view's page plays the recorded run with its scrubber.
 - --spy without DISPLAY is refused at once, naming DISPLAY.
+- operator.mode browser (realtime): the test drags the pointer over the
+  image with the tip engaged, and the particle in its way moves, in
+  SIM_TRUTH and on the page.
 """
 import json
 import os
@@ -190,6 +193,91 @@ class View(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertIn("DISPLAY", r.stderr)
         self.assertLess(time.time() - t0, 5)
+
+
+BROWSER_SCENE = """
+name: browser-test
+seed: 7
+duration_s: 6.0
+time_mode: realtime
+sample_rate_hz: 20000
+block_hz: 1000
+frame_rate_hz: 25
+effects: [bending_offset, adhesion, photodiode_noise, tip_convolution]
+sample:
+  substrate: glass
+  field_nm: 2000
+  tip_substrate: {mu: 0.0865, adhesion_nN: 1.0}
+  particle_substrate: {mu: 0.3, adhesion_nN: 3.0}
+objects:
+  particles:
+    - {id: 1, x_nm: 0, y_nm: -300, radius_nm: 50}
+operator:
+  mode: browser
+  load_nN: 5
+  path_nm: [[0, -700]]
+outputs:
+  image_px: 128
+  video: none
+"""
+
+
+def particle(ps, pid):
+    return next(p for p in ps if p[0] == pid)
+
+
+@unittest.skipUnless(CHROMIUM and DRIVER, "chromium or chromedriver missing (./afm setup installs them)")
+class BrowserHand(unittest.TestCase):
+    def test_dragging_the_pointer_pushes_a_particle(self):
+        from selenium.webdriver.common.action_chains import ActionChains
+        scene = benchtest.write_scene(BROWSER_SCENE, "browser")
+        out = os.path.join(benchtest.tmpdir("browser"), "run")
+        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", benchtest.LAUNCH, "--scene", scene,
+                                       "--out", out, "--view", "--quiet"])
+        d = browser()
+        try:
+            d.get(url)
+            s = wait_for(d, lambda s: s["hand"] and s["framesShown"] >= 1, 60, "the hand's controls and a frame")
+            start_y = particle(s["particles"], 1)[2]
+            canvas = d.find_element("id", "image")
+
+            def offset(x_nm, y_nm):   # from the canvas's centre, in CSS px
+                return d.execute_script(
+                    "const m = window.afmView.meta, c = document.getElementById('image'), r = c.getBoundingClientRect();"
+                    "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
+                    "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
+                    x_nm, y_nm)
+            d.find_element("id", "engage").click()
+            x, y = offset(0, -700)
+            drag = ActionChains(d, duration=50).move_to_element_with_offset(canvas, int(x), int(y)).click_and_hold()
+            steps = 40
+            for i in range(1, steps + 1):   # 600 nm in about 2 s, then held there
+                nx, ny = offset(0, -700 + 600 * i / steps)
+                drag.move_to_element_with_offset(canvas, int(nx), int(ny)).pause(0.05)
+            drag.pause(1.5).release().perform()
+            s = wait_for(d, lambda s: s["ended"] is not None, 60, "the run's end")
+            self.assertEqual(srv.wait(timeout=30), 0, srv.stderr.read()[-2000:])
+            self.assertEqual(s["ended"]["status"], "ok", s["ended"])
+            self.assertGreater(s["ended"]["hand"]["sent"], 10, s["ended"])
+            # on the page: the card's model of particle 1 moved along the push
+            end_y = particle(s["particles"], 1)[2]
+            self.assertGreater(end_y - start_y, 50, (start_y, end_y))
+            # in the truth
+            log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
+            whole = benchtest.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
+            y0 = next(p.y_nm for p in whole[0][1].particles if p.id == 1)
+            y1 = next(p.y_nm for p in whole[-1][1].particles if p.id == 1)
+            self.assertGreater(y1 - y0, 50, (y0, y1))
+            rep = json.load(open(os.path.join(out, "operator_report.json")))
+            self.assertGreater(rep["browser"]["commands"], 10, rep.get("browser"))
+            self.assertEqual(rep["browser"]["refused"], 0)
+            os.makedirs(SHOT_DIR, exist_ok=True)
+            d.save_screenshot(os.path.join(SHOT_DIR, "browser_hand.png"))
+        finally:
+            d.quit()
+            if srv.poll() is None:
+                srv.kill()
+                srv.wait()
 
 
 if __name__ == "__main__":

@@ -13,7 +13,9 @@
     connected: false, mode: "", framesShown: 0, lastIndex: -1, framesTotal: 0, skippedRenderer: 0,
     skippedServer: 0, skippedPage: 0, chartSamples: 0, chartT: [], ended: null, flags: {}, t: 0,
     painted: [],                            // [block, wall ms] of each frame painted (./afm bench view)
+    hand: null,                             // operator.mode browser: {target_nm, load_nN, engaged, sent}
   };
+  const HAND_SEND_MS = 20;                  // the pointer's commands, at most this often
   const series = { t: [], fx: [], fy: [], fz: [], hx: [], hy: [], hz: [] };
   let meta = null, decoding = false, next = null, playing = false, lastMeta = null;
 
@@ -29,10 +31,58 @@
     else if (m.type === "frame") meta = m;
     else if (m.type === "status") procs(m.processes);
     else if (m.type === "end") ended(m);
+    else if (m.type === "hand") enableHand(m.hand);
+  }
+
+  // operator.mode browser: the pointer sets the hand's target, the wheel and
+  // keys the load, the button (or space) engages and lifts; the operator's
+  // device model does the rest (docs/view.md).
+  function enableHand(h) {
+    if (state.hand || !h) return;
+    state.hand = { target_nm: null, load_nN: h.load_nN || 5, engaged: false, sent: 0, last: 0, timer: null };
+    $("hand").hidden = false;
+    showHand();
+    const c = $("image");
+    c.style.cursor = "crosshair";
+    c.addEventListener("pointerdown", (e) => { c.setPointerCapture(e.pointerId); aimAt(e); });
+    c.addEventListener("pointermove", (e) => { if (e.buttons & 1) aimAt(e); });
+    c.addEventListener("wheel", (e) => { e.preventDefault(); setLoad(e.deltaY < 0 ? 0.5 : -0.5); }, { passive: false });
+    $("engage").onclick = () => engage(!state.hand.engaged);
+    document.addEventListener("keydown", (e) => {
+      if (e.key === " ") { e.preventDefault(); engage(!state.hand.engaged); }
+      else if (e.key === "ArrowUp") setLoad(0.5);
+      else if (e.key === "ArrowDown") setLoad(-0.5);
+    });
+  }
+  function aimAt(e) {
+    if (!lastMeta || !lastMeta.field_nm) return;
+    const r = $("image").getBoundingClientRect(), k = $("image").width / lastMeta.width;
+    const [x0, y0, side] = lastMeta.field_nm, pitch = side / lastMeta.width;
+    const px = (e.clientX - r.left) * $("image").width / r.width, py = (e.clientY - r.top) * $("image").height / r.height;
+    state.hand.target_nm = [x0 + px / k * pitch, y0 + (lastMeta.height - py / k) * pitch];
+    sendHand();
+  }
+  function setLoad(d) { state.hand.load_nN = Math.max(0.5, Math.min(100, state.hand.load_nN + d)); showHand(); sendHand(); }
+  function engage(on) { state.hand.engaged = on; showHand(); sendHand(); }
+  function showHand() {
+    $("load").textContent = state.hand.load_nN.toFixed(1);
+    $("engage").textContent = state.hand.engaged ? "lift" : "engage";
+    $("engage").className = state.hand.engaged ? "on" : "";
+  }
+  function sendHand() {
+    const h = state.hand;
+    if (!h.target_nm && lastMeta) h.target_nm = [lastMeta.tip_nm[0], lastMeta.tip_nm[1]];
+    if (!h.target_nm || ws.readyState !== 1) return;
+    const wait = h.last + HAND_SEND_MS - performance.now();
+    if (wait > 0) { if (!h.timer) h.timer = setTimeout(() => { h.timer = null; sendHand(); }, wait); return; }
+    h.last = performance.now();
+    h.sent += 1;
+    ws.send(JSON.stringify({ type: "hand", x_nm: h.target_nm[0], y_nm: h.target_nm[1], load_nN: h.load_nN, engaged: h.engaged }));
   }
 
   function hello(m) {
     state.mode = m.mode;
+    if (m.hand) enableHand(m.hand);
     state.flags = m.flags;
     $("mode").textContent = m.mode === "live" ? "live" : "recorded: " + m.run_dir;
     $("flags").innerHTML = "";
@@ -102,6 +152,8 @@
     drawGlyph(m.force_nN);
     drawFlags(m.flags);
     drawChart(m.t_s);
+    state.particles = m.particles;
+    state.meta = { field_nm: m.field_nm, width: m.width, height: m.height };
     state.framesShown += 1;
     if (state.painted.length < 100000)
       requestAnimationFrame(() => state.painted.push([m.seq, performance.timeOrigin + performance.now()]));
@@ -140,6 +192,17 @@
     img.lineWidth = 1.5;
     img.beginPath(); img.arc(tx, ty, 7, 0, 2 * Math.PI); img.stroke();
     arrow(img, tx, ty, tx + m.force_nN[0] * 12, ty - m.force_nN[1] * 12, "#0ff");
+    if (state.hand && state.hand.target_nm) {   // the target, and the stylus's lag behind it
+      const [gx, gy] = toPx(m, k, state.hand.target_nm[0], state.hand.target_nm[1]);
+      img.strokeStyle = "#f6c"; img.lineWidth = 1;
+      img.beginPath(); img.moveTo(gx - 8, gy); img.lineTo(gx + 8, gy); img.moveTo(gx, gy - 8); img.lineTo(gx, gy + 8);
+      img.setLineDash([3, 3]); img.moveTo(tx, ty); img.lineTo(gx, gy); img.stroke(); img.setLineDash([]);
+    }
+    if (state.hand) {
+      const hn = Math.hypot(m.hand_N[0], m.hand_N[1]);
+      $("handN").textContent = hn.toFixed(3) + " N";
+      $("handfill").style.width = Math.min(100, hn / 0.1 * 100).toFixed(0) + "%";
+    }
   }
 
   function arrow(ctx, x0, y0, x1, y1, colour) {
@@ -186,7 +249,7 @@
   // The card's force (F_z, |F_lateral|, nN, left axis) and the hand's force
   // (|F|, N, right axis) over the CHART_S seconds up to t.
   function drawChart(t) {
-    const c = chart, W = c.canvas.width, H = c.canvas.height, L = 44, R = 50, T = 10, B = 22;
+    const c = chart, W = c.canvas.width, H = c.canvas.height, L = 44, R = 50, T = 22, B = 22;
     c.clearRect(0, 0, W, H);
     const lo = t - CHART_S;
     let i0 = 0, i1 = series.t.length;
@@ -214,9 +277,9 @@
       c.stroke();
     };
     line(card[0], ylo, yhi, "#4a8"); line(card[1], ylo, yhi, "#0ff"); line(hand, hlo, hhi, "#fc3");
-    c.fillStyle = "#4a8"; c.fillText("card F_z", L + 6, T + 12);
-    c.fillStyle = "#0ff"; c.fillText("card |F_lat|", L + 66, T + 12);
-    c.fillStyle = "#fc3"; c.fillText("hand |F|", L + 146, T + 12);
+    c.fillStyle = "#4a8"; c.fillText("card F_z", L + 6, 14);
+    c.fillStyle = "#0ff"; c.fillText("card |F_lat|", L + 66, 14);
+    c.fillStyle = "#fc3"; c.fillText("hand |F|", L + 146, 14);
   }
 
   function procs(p) {
