@@ -559,10 +559,16 @@ public:
         if (recorder_) recorded_events_ = recorder_->events();
         recorder_.reset();
         // lcm-spy stays open for the person watching (the bus is quiet now);
-        // the run ends when they close it. On failure it is closed with the rest.
+        // the run ends when they close it, or on SIGINT or SIGTERM (however
+        // soon it comes). On failure it is closed with the rest.
         if (o_.spy && !spy_.exited) {
             if (failure_.empty()) std::fprintf(stderr, "run: the run is over; close lcm-spy to finish\n");
             else signal_child(spy_, SIGTERM);
+            while (!spy_.exited && !g_signal) {
+                spy_.reap();
+                std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            }
+            if (!spy_.exited) signal_child(spy_, SIGTERM);
             spy_.reap(true);
         }
         wall_ = wall_s();
