@@ -208,6 +208,7 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
     }
     if (!g.fragment) {
         if (filtered_ && !accept_.count(g.channel)) return 0;   // the kernel let it by: a name past its filter's reach
+        if (admit_ && !admit_(g.channel, ntohs(from.sin_port))) return 0;
         sink(g.channel, d + g.payload_at, n - g.payload_at, utime);
         return 1;
     }
@@ -264,6 +265,7 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
     const Partial whole = std::move(p);
     partial_.erase(it);
     if (whole.skip) return 0;
+    if (admit_ && !admit_(whole.channel, ntohs(from.sin_port))) return 0;
     // Every fragment came: now the message's bytes are real, put together.
     std::vector<unsigned char> data(whole.size);
     for (const auto &[offset, bytes] : whole.frags) std::memcpy(data.data() + offset, bytes.data(), bytes.size());

@@ -75,6 +75,12 @@ public:
     // The channels accept_only() last named (empty before it).
     const std::set<std::string> &accepted() const { return accept_; }
 
+    // Who may send (issue 35): every whole message on an accepted channel is
+    // handed on only when admit(channel, source port) says so; the rest are
+    // the admitter's to count (Senders::admit). None set: every sender.
+    using Admit = std::function<bool(const std::string &channel, uint16_t source_port)>;
+    void admit_only(Admit admit) { admit_ = std::move(admit); }
+
     // Waits up to timeout_ms for a datagram; true when one is queued.
     bool wait(int timeout_ms);
     // Hands the next whole message to `sink`, waiting up to timeout_ms
@@ -134,6 +140,7 @@ private:
     bool filtered_ = false;            // accept_only() was called: only accept_ is handed on
     int timeout_ms_ = 0;               // the socket's SO_RCVTIMEO, ms (0: none set; next() sets it before a read waits)
     std::set<std::string> accept_;
+    Admit admit_;
 };
 
 }  // namespace afm

@@ -1,6 +1,7 @@
 #include "inbox.hpp"
 
 #include "bus_tap.hpp"
+#include "senders.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -168,6 +169,9 @@ Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
     if (lc_ && url.rfind("udpm://", 0) == 0) {
         tap_ = std::make_unique<BusTap>(url);
         tap_->accept_only({});   // nothing until a subscription
+        senders_ = std::make_unique<Senders>(Senders::Scope::siblings);
+        Senders *s = senders_.get();
+        tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
     }
 }
 
@@ -238,6 +242,8 @@ nlohmann::json Inbox::report() const
     nlohmann::json j = rejected_.to_json();
     j["bus_dropped"] = bus_dropped();
     j["bus_abandoned"] = bus_abandoned();
+    j["foreign_datagrams"] = senders_ ? senders_->foreign_count() : 0;
+    j["foreign"] = senders_ ? senders_->foreign() : nlohmann::json::object();
     return j;
 }
 

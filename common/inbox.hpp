@@ -54,6 +54,7 @@
 namespace afm {
 
 class BusTap;
+class Senders;
 
 enum class Reject : int {
     none = 0,
@@ -164,7 +165,9 @@ public:
     // a fragment 0 whose message never came: bus_tap.hpp).
     int64_t bus_abandoned() const;
     // What the inbox refused, for a process's report: rejected().to_json()
-    // with the receiver's bus_dropped and bus_abandoned beside it.
+    // with the receiver's bus_dropped and bus_abandoned beside it, and the
+    // datagrams of senders that do not publish their channel (senders.hpp):
+    // foreign_datagrams, and foreign {channel: {sender: count}}.
     nlohmann::json report() const;
 
     // The batched receive thread's state (inbox.cpp).
@@ -181,6 +184,7 @@ private:
 
     lcm::LCM *lc_;
     std::unique_ptr<BusTap> tap_;     // a udpm bus's receiver (nullptr: liblcm's, or none)
+    std::unique_ptr<Senders> senders_;   // who may send what (the tap's admitter)
     int batch_us_ = 0;
     std::unique_ptr<Batcher> batcher_;   // started by the first handle() when batch_us_ > 0
     std::vector<std::unique_ptr<Sub>> subs_;

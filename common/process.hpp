@@ -18,8 +18,9 @@ namespace afm {
 // pattern, a plan, its arguments) is wrong, said in one line; 3 the run was
 // over before the process could begin its part (the renderer's first scan);
 // 1 anything else. The launcher names a child that exits 2 as the scene's
-// fault.
-enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitInput = 2, kExitRunOverEarly = 3 };
+// fault. The launcher's own 4: the run completed but failed one of its own
+// checks (host_bridge/launch/verdict.hpp; --no-verdict answers 0).
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitInput = 2, kExitRunOverEarly = 3, kExitVerdict = 4 };
 
 // An error in the run's input: main answers it with kExitInput and its text,
 // as is. SceneError (scene.hpp), PatternError and PlanError are such errors.

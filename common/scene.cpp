@@ -877,7 +877,7 @@ void merge_missing(YAML::Node into, const YAML::Node &from)
 // The keys a scene may have at its top level.
 const std::set<std::string> kTopLevelKeys = {"name", "seed", "duration_s", "sample_rate_hz", "block_hz", "frame_rate_hz",
                                              "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
-                                             "outputs", "include", "afm"};
+                                             "outputs", "include", "afm", "expect"};
 
 YAML::Node resolved_yaml(const std::string &path)
 {
@@ -929,6 +929,92 @@ std::string resolved_scene_text(const std::string &path)
     return "# The scene this run ran: " + path + ", its includes merged in.\n" + std::string(e.c_str()) + "\n";
 }
 
+namespace {
+
+// Distance between segments [a, b] and [c, d], nm.
+double segment_gap(Vec2 a, Vec2 b, Vec2 c, Vec2 d)
+{
+    auto point_seg = [](Vec2 p, Vec2 u, Vec2 v) {
+        const double dx = v.x - u.x, dy = v.y - u.y, l2 = dx * dx + dy * dy;
+        const double t = l2 > 0 ? std::clamp(((p.x - u.x) * dx + (p.y - u.y) * dy) / l2, 0.0, 1.0) : 0.0;
+        return std::hypot(p.x - u.x - t * dx, p.y - u.y - t * dy);
+    };
+    auto cross = [](Vec2 o, Vec2 p, Vec2 q) { return (p.x - o.x) * (q.y - o.y) - (p.y - o.y) * (q.x - o.x); };
+    const double d1 = cross(a, b, c), d2 = cross(a, b, d), d3 = cross(c, d, a), d4 = cross(c, d, b);
+    if (((d1 > 0) != (d2 > 0)) && ((d3 > 0) != (d4 > 0))) return 0.0;   // they cross
+    return std::min({point_seg(a, c, d), point_seg(b, c, d), point_seg(c, a, b), point_seg(d, a, b)});
+}
+
+std::string particle_key(const Scene &s, std::size_t i)
+{
+    const std::size_t listed = s.particles.size() - static_cast<std::size_t>(s.scatter.count > 0 ? s.scatter.count : 0);
+    return i < listed ? "objects.particles[" + std::to_string(i) + "]"
+                      : "objects.scatter (particle id " + std::to_string(s.particles[i].id) + ")";
+}
+
+// Two bodies cannot start in one place: particles that overlap or coincide,
+// a particle on a wire or a landmark, wires that touch or cross. The
+// scattered particles keep their gaps by construction; listed ones are
+// checked here, pairwise (at most kMaxListedParticles of them).
+void check_overlaps(const Reader &r, const Scene &s)
+{
+    auto fmt = [](double v) { char b[32]; std::snprintf(b, sizeof b, "%.1f", v); return std::string(b); };
+    for (std::size_t i = 0; i < s.particles.size(); ++i) {
+        const ParticleSpec &p = s.particles[i];
+        for (std::size_t j = 0; j < i; ++j) {
+            const ParticleSpec &q = s.particles[j];
+            const double d = std::hypot(p.x_nm - q.x_nm, p.y_nm - q.y_nm);
+            if (d < p.radius_nm + q.radius_nm - 1e-9)
+                r.fail(particle_key(s, i), "overlaps " + particle_key(s, j) + " (id " + std::to_string(q.id) + "): centres " + fmt(d) +
+                                               " nm apart, radii " + fmt(p.radius_nm) + " + " + fmt(q.radius_nm) + " nm");
+        }
+        for (std::size_t k = 0; k < s.wires.size(); ++k) {
+            const WireSpec &w = s.wires[k];
+            const Vec2 c{p.x_nm, p.y_nm};
+            const double d = segment_gap(c, c, {w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm});
+            if (d < p.radius_nm + w.diameter_nm / 2 - 1e-9)
+                r.fail(particle_key(s, i), "lies on objects.wires[" + std::to_string(k) + "] (id " + std::to_string(w.id) + "): " + fmt(d) +
+                                               " nm from its axis, closer than " + fmt(p.radius_nm + w.diameter_nm / 2) + " nm");
+        }
+        for (std::size_t k = 0; k < s.landmarks.size(); ++k) {
+            const LandmarkSpec &m = s.landmarks[k];
+            const double dx = std::max(0.0, std::fabs(p.x_nm - m.x_nm) - m.side_nm / 2), dy = std::max(0.0, std::fabs(p.y_nm - m.y_nm) - m.side_nm / 2);
+            if (std::hypot(dx, dy) < p.radius_nm - 1e-9)
+                r.fail(particle_key(s, i), "lies on objects.landmarks[" + std::to_string(k) + "] (id " + std::to_string(m.id) + ")");
+        }
+    }
+    for (std::size_t i = 0; i < s.wires.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j) {
+            const WireSpec &a = s.wires[i], &b = s.wires[j];
+            const double d = segment_gap({a.x0_nm, a.y0_nm}, {a.x1_nm, a.y1_nm}, {b.x0_nm, b.y0_nm}, {b.x1_nm, b.y1_nm});
+            if (d < (a.diameter_nm + b.diameter_nm) / 2 - 1e-9)
+                r.fail("objects.wires[" + std::to_string(i) + "]", "touches or crosses objects.wires[" + std::to_string(j) + "] (id " +
+                                                                   std::to_string(b.id) + "): axes " + fmt(d) + " nm apart");
+        }
+}
+
+// expect: the checks of the run's verdict this scene fails on purpose.
+void read_expect(const Reader &r, const YAML::Node &root, Scene &s)
+{
+    const YAML::Node e = root["expect"];
+    if (!e.IsDefined() || e.IsNull()) return;
+    if (!e.IsSequence()) r.fail("expect", "must be a list of the run's checks, got " + Reader::show(e));
+    const auto &known = verdict_checks();
+    for (std::size_t i = 0; i < e.size(); ++i) {
+        const std::string k = "expect[" + std::to_string(i) + "]";
+        if (!e[i].IsScalar() || std::find(known.begin(), known.end(), e[i].Scalar()) == known.end()) {
+            std::string list;
+            for (const auto &n : known) list += (list.empty() ? "" : ", ") + n;
+            r.fail(k, "unknown check " + Reader::show(e[i]) + " (known: " + list + ")");
+        }
+        if (std::find(s.expect.begin(), s.expect.end(), e[i].Scalar()) != s.expect.end())
+            r.fail(k, "check " + Reader::show(e[i]) + " is listed twice");
+        s.expect.push_back(e[i].Scalar());
+    }
+}
+
+}  // namespace
+
 Scene load_scene(const std::string &path)
 {
     Reader r(path);
@@ -961,6 +1047,8 @@ Scene load_scene(const std::string &path)
     read_firmware(r, root, s);
     read_afm(r, root, s);
     read_objects(r, root, s);
+    check_overlaps(r, s);
+    read_expect(r, root, s);
     if (s.wire_contact_width_nm() > 0)
         for (const auto &w : s.wires)
             if (w.diameter_nm != s.wires.front().diameter_nm)

@@ -72,6 +72,14 @@ struct FirmwareCalibration {
     std::optional<double> interlock_normal_nN, interlock_lateral_nN;
 };
 
+// The checks of a run's verdict (host_bridge/launch/verdict.hpp), the names
+// a scene's expect: may give.
+inline const std::vector<std::string> &verdict_checks()
+{
+    static const std::vector<std::string> k{"fidelity", "placement", "interlock", "saturation", "unobservable_push"};
+    return k;
+}
+
 struct ContactSpec {                    // friction and adhesion of a material pair
     double mu = 0.1;                    // Coulomb friction coefficient
     double adhesion_nN = 0.0;           // pull-off (adhesion) force
@@ -258,6 +266,10 @@ struct Scene {
     // feedback, the force at the set point from the next sample on.
     double z_speed_nm_per_s = 0.0;
     std::vector<std::string> effects;   // effects the simulator builds
+    // The run's own checks this scene fails on purpose (expect:, names of
+    // kVerdictChecks): the interlock scene trips the interlock. Meeting an
+    // expectation passes; a check expected to fail that passes fails.
+    std::vector<std::string> expect;
     // sample
     std::string substrate = "glass";   // glass, tilted_glass or polycarbonate
     double slope_deg = 0.0;             // tilted_glass: surface height = -y tan(slope) (rises towards -y, frame A)

@@ -37,6 +37,12 @@ Rows (design.md, "Reliability"):
                   fails naming the card's board and the block; log and run.json kept
   board:hung      the board hangs at the run's middle block (AFM_BOARD_FAULT=hang:N):
                   the run fails within seconds naming the board as hung
+  spoof:stop      tools/forge.py from a fresh socket in the run's namespace: the
+  spoof:finished  launcher's "stop", the operator's "finished" (name, pid, seq
+  spoof:pose      forged), a pose for block n + 1 ahead of the operator's: each
+                  process takes them as foreign (the kernel's source port names
+                  no process of the run that publishes the channel); exit 0, same
+                  trajectories
 Exit status: 0 when every row is as expected, 1 otherwise.
 """
 import argparse
@@ -61,7 +67,8 @@ from analysis import afmlog  # noqa: E402
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
-        "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs", "board:killed", "board:hung"])
+        "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs", "board:killed", "board:hung",
+        "spoof:stop", "spoof:finished", "spoof:pose"])
 # What a trajectory is: the simulator's truth and the card's answers, by block.
 TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq")]
 
@@ -350,7 +357,10 @@ class Matrix:
     def net_dup(self):
         echo = os.path.join(HERE, "hostile.py")
 
-        r = Run(self.scene, self.dir("net:dup"), wrap=lambda cmd: beside([sys.executable, echo, "--echo", "1.0", "--seconds", "300"], cmd)).finish()
+        # the echo's socket is no process of the run's: admitted anyway
+        # (AFM_ADMIT_ANY_SENDER), so that the duplicates reach the inboxes
+        r = Run(self.scene, self.dir("net:dup"), wrap=lambda cmd: beside([sys.executable, echo, "--echo", "1.0", "--seconds", "300"], cmd),
+                env=dict(os.environ, AFM_ADMIT_ANY_SENDER="1")).finish()
         kept, kt = self.kept(r, "ok")
         same, st = self.same(r.out) if kept else (False, "-")
         self.add("net:dup", f"exit {r.code}, every message twice", kept, kt, same, st, r.code == 0 and kept and same)
@@ -484,6 +494,22 @@ class Matrix:
                  "fails naming the board" + ("" if named else " (NOT named)") + (f"; {len(left)} processes left" if left else "; none left"),
                  r.code != 0 and kept and named and not left)
 
+    def spoof(self, what):
+        """tools/forge.py WHAT from a fresh socket of the run's namespace, name,
+        pid and seq forged: every process takes it as foreign (senders.hpp),
+        the run ends ok with the undisturbed trajectories."""
+        name = f"spoof:{what}"
+        forge = [sys.executable, os.path.join(HERE, "forge.py"), what, "--seconds", "300"]
+        r = Run(self.scene, self.dir(name), wrap=lambda cmd: beside(forge, cmd)).finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        channel = {"stop": "AFM_HEARTBEAT", "finished": "AFM_HEARTBEAT", "pose": "HAPTIC_POSE"}[what]
+        rj = r.rj or {}
+        foreign = sum(sum(rj.get(p, {}).get("rejected", {}).get("foreign", {}).get(channel, {}).values())
+                      for p in ("sim", "fw", "operator", "renderer"))
+        self.add(name, f"exit {r.code}, {foreign} forged {channel} taken as foreign", kept, kt, same, st,
+                 r.code == 0 and kept and same and foreign > 0)
+
     def run(self, only):
         for row in only:
             kind, _, arg = row.partition(":")
@@ -509,6 +535,8 @@ class Matrix:
                 self.two_runs()
             elif kind == "board":
                 self.board(arg)
+            elif kind == "spoof":
+                self.spoof(arg)
 
 
 def main():

@@ -1,7 +1,20 @@
 #!/usr/bin/env python3
 """Generate afm_channels.h from lcmtypes/channels.yaml (the one definition of the bus's channels)."""
+import re
 import sys
+
 import yaml
+
+
+def publishers(text: str):
+    """channels.yaml's publisher field as program names: "renderer, operator
+    (planner)" -> renderer, operator; "every process" -> *."""
+    if text.strip() == "every process":
+        return ["*"]
+    out = [re.sub(r"\(.*?\)", "", p).strip() for p in text.split(",")]
+    if not all(re.fullmatch(r"[a-z_]+", p) for p in out):
+        raise SystemExit(f"channels.yaml: publisher {text!r} is not a list of program names")
+    return out
 
 
 def main(src: str, dst: str) -> int:
@@ -18,6 +31,10 @@ def main(src: str, dst: str) -> int:
     lines.append("#define AFM_CHANNEL_LIST { %s }" % ", ".join(f'"{r["channel"]}"' for r in rows))
     lines.append("/* X(CHANNEL, type) for every channel: the type each one carries. */")
     lines.append("#define AFM_CHANNEL_TYPES(X) %s" % " ".join(f'X({r["channel"]}, {r["type"]})' for r in rows))
+    lines.append("/* X(\"CHANNEL\", \"program\") for each program that publishes a channel (\"*\": every")
+    lines.append("   process of the run): the senders a receiver admits (common/senders.hpp). */")
+    lines.append("#define AFM_CHANNEL_PUBLISHERS(X) %s" % " ".join(f'X("{r["channel"]}", "{p}")' for r in rows
+                                                             for p in publishers(r["publisher"])))
     lines += ["", "#endif", ""]
     with open(dst, "w") as f:
         f.write("\n".join(lines))

@@ -84,6 +84,19 @@ public:
     // refused as more than drift (empty otherwise).
     Outbox on_fix(const object_fix_t &f, std::string *note, Reject *why = nullptr);
 
+    // What the card's own flags said over the run, for the run's verdict
+    // (launch: run.json "verdict"): blocks in which F_x was (partly)
+    // unobservable (FLAG_FX_UNOBSERVABLE: motion along the lever's axis)
+    // while its apex went more than kBlindDepth_nm inside an object as it
+    // models it (a push it cannot see: it flags no contact and leaves the
+    // model where it was), and the samples with an ADC saturated (the
+    // card's own count).
+    struct Tally {
+        int64_t unobservable_push_blocks = 0;
+        int64_t saturated_samples = 0;
+    };
+    const Tally &tally() const { return tally_; }
+
     int64_t done() const { return done_; }              // last block stepped (-1: none)
     int64_t sim_utime_done() const;                     // simulated time at its end, us
     const CardBackend &backend() const { return *card_; }
@@ -93,6 +106,7 @@ private:
     CardSetup setup_;
     std::unique_ptr<CardBackend> card_;
     int64_t done_ = -1;
+    Tally tally_;
     int32_t fix_id_ = 0;
     std::unique_ptr<analog_block_t> pending_;          // AFM_ANALOG done_ + 1, waiting for its pose
     std::map<int64_t, haptic_pose_t> poses_;           // poses for blocks > done_
@@ -108,6 +122,8 @@ private:
     int32_t trench_points_ = 0;            // the card's trench points already in objects_
     int32_t trench_drift_pm_[2] = {0, 0};  // the drift they were converted at
     void fill_objects();
+    bool inside_model(const double tip_nm[3]) const;
+    static constexpr double kBlindDepth_nm = 5.0;   // how deep inside a modelled object the apex goes unseen
     void fill_trenches(const int32_t drift_pm[2]);
     void post_block(Outbox &box) const;
     void post_state(Outbox &box) const;   // FW_STATE: state_ with objects_

@@ -157,6 +157,8 @@ int main(int argc, char **argv)
                               {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
                                {"aside", aside.report()},
                                {"interlock_trips", m.interlock ? nlohmann::json(m.interlock_trips) : nlohmann::json(nullptr)},
+                               {"unobservable_push_blocks", node.card.tally().unobservable_push_blocks},
+                               {"saturated_samples", node.card.tally().saturated_samples},
                                {"board", node.card.backend().report()}});
         }
         return afm::kExitOk;

@@ -40,6 +40,7 @@ extern "C" {
 }
 #include "bus_recorder.hpp"
 #include "bus_tap.hpp"
+#include "senders.hpp"
 #include "lcmlog.hpp"
 #include "log_tail.hpp"
 #include "placement.hpp"
@@ -51,6 +52,7 @@ extern "C" {
 #include "scene.hpp"
 
 #include "children.hpp"
+#include "verdict.hpp"
 
 namespace fs = std::filesystem;
 
@@ -80,6 +82,8 @@ inline const char *kUsage =
     "                     built for its processor on an emulated mps2-an386 board (docs/pil.md)\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
+    "  --no-verdict       exit 0 when the run completes but fails one of its own checks\n"
+    "                     (the verdict is still in run.json and the last line; else exit 4)\n"
     "bench options (./afm bench bus):\n"
     "  --log-window N     sim_afm runs at most N blocks ahead of what the record holds\n"
     "                     (default: as many as the record's receive buffer holds at\n"
@@ -178,7 +182,7 @@ inline std::map<std::string, int64_t> count_channels(const std::string &path, st
 // The command line.
 struct Options {
     std::string scene_path, out_dir;
-    bool spy = false, quiet = false, check_only = false;
+    bool spy = false, quiet = false, check_only = false, no_verdict = false;
     bool view = false;          // the renderer publishes VIEW_FRAME (docs/view.md)
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
@@ -226,6 +230,7 @@ inline int parse_args(int argc, char **argv, Options *o)
             }
         }
         else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--no-verdict") o->no_verdict = true;
         else if (a == "--placement") {
             const std::string v = val();
             if (v != "on" && v != "off") {
@@ -373,6 +378,12 @@ public:
         for (const auto &c : kids_) prog_.names.insert(c.name);
         try {
             tap_ = std::make_unique<afm::BusTap>(afm::bus_url());
+            // The record and the launcher's heartbeats take only what the
+            // run's own processes send on their channels (senders.hpp):
+            // anything else is foreign, counted in run.json, never logged.
+            senders_ = std::make_unique<afm::Senders>(afm::Senders::Scope::children);
+            afm::Senders *s = senders_.get();
+            tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
         } catch (const std::exception &e) {
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
@@ -612,7 +623,8 @@ public:
         print_plan(run);
         print_board(run);
         std::printf("run: output in %s\n", out_.c_str());
-        return 0;
+        std::printf("%s\n", verdict_line(run["verdict"]).c_str());
+        return run["verdict"]["pass"].get<bool>() || o_.no_verdict ? afm::kExitOk : afm::kExitVerdict;
     }
 
 private:
@@ -710,6 +722,7 @@ private:
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
     std::unique_ptr<afm::BusTap> tap_;   // the whole bus, without liblcm's receive thread
+    std::unique_ptr<afm::Senders> senders_;   // the tap's admitter: the run's own processes on their channels
     long long log_window_ = 0;           // the simulator's window on the record, blocks (0: none)
     std::unique_ptr<afm::BusRecorder> recorder_;
     std::string record_error_;   // a write into the record that failed inside pump()
@@ -787,6 +800,8 @@ private:
                 {"recorded_events", recorded_events_},
                 {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
                 {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
+                {"foreign_datagrams", senders_ ? senders_->foreign_count() : 0},   // from no process that publishes their channel
+                {"foreign", senders_ ? senders_->foreign() : nlohmann::json::object()},
                 {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},
                 {"log_window_blocks", log_window_},
                 {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
@@ -871,6 +886,7 @@ private:
         merge_reports(&run);
         if (run.contains("fw") && run["fw"].contains("board")) run["card"]["board"] = run["fw"]["board"];   // where the card ran
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
+        run["verdict"] = afm::judge(run, scene_.expect);   // the run's own checks (verdict.hpp)
         // Completeness of the record: distinct analog blocks and poses in the
         // log against the blocks the simulator simulated (a recorder starved
         // of CPU can lose datagrams; a block missing either input cannot be replayed).

@@ -10,6 +10,8 @@
 //     little-endian), the channel, the payload's length (u32, little-endian),
 //     the payload (the LCM message as published; the server decodes it with
 //     the generated types, nothing else).
+//   - It takes a message only from the run's own process that publishes its
+//     channel (common/senders.hpp), as every process of the run does.
 //   - It publishes nothing: an observer the run never waits for. When the
 //     pipe is full it blocks, and its socket's buffer overflows instead of
 //     anything of the run slowing down.
@@ -31,6 +33,7 @@
 #include "afm_channels.h"
 #include "bus.hpp"
 #include "bus_tap.hpp"
+#include "senders.hpp"
 
 namespace {
 
@@ -105,6 +108,10 @@ int main(int argc, char **argv)
     try {
         afm::BusTap tap(afm::bus_url());
         tap.accept_only({AFM_CH_VIEW_FRAME, AFM_CH_AFM_HEARTBEAT});
+        // only the run's own processes on their channels (senders.hpp): the
+        // bridge's parent is the launcher, as the run's processes' is
+        afm::Senders senders(afm::Senders::Scope::siblings);
+        tap.admit_only([&senders](const std::string &channel, uint16_t port) { return senders.admit(channel, port); });
         bool open = true;
         const afm::BusTap::Sink sink = [&](const std::string &channel, const unsigned char *data, std::size_t size, int64_t) {
             open = open && write_u32(fd, channel.size()) && write_all(fd, channel.data(), channel.size()) && write_u32(fd, size) &&

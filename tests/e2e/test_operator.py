@@ -62,7 +62,9 @@ class FeelContact(unittest.TestCase):
         cls.feel_run = benchtest.run(FEEL, cls.feel)
         cls.script = benchtest.tmpdir("feel-script")
         path = benchtest.write_scene(scene_text(FEEL).replace("mode: feel", "mode: script"), "feel-script-scene")
-        cls.script_run = benchtest.run(path, cls.script)
+        # the scripted hand overshoots: its display is off the fresh scan
+        # (a verdict the test does not judge; the distances are its point)
+        cls.script_run = benchtest.run(path, cls.script, "--no-verdict")
 
     @classmethod
     def tearDownClass(cls):

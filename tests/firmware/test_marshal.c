@@ -205,7 +205,7 @@ static void test_errors_name_the_field_and_value(void)
     fw_marshal_get_fix_le(&r, &f);
     TEST_ASSERT_EQUAL_STRING("fix.scan_pm[1]", r.bad_field);
     TEST_ASSERT_EQUAL_INT32(2, r.bad_value);   /* two bytes missing */
-    fw_sample_in_t s[1];
+    fw_sample_in_t s[2] = {{0}};   /* two written (n = 2), room for one when read back */
     fw_card_in_t in = {s, 2, {{0, 0}, 0, false}};
     fw_marshal_writer_init(&w, buf, sizeof buf);
     fw_marshal_put_in_le(&w, &in);

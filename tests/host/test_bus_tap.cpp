@@ -12,6 +12,7 @@
 // the bus is real udpm multicast on its loopback.
 #include "inbox.hpp"   // (with log_tail.hpp) before unity.h, whose isnan macro breaks nlohmann/json
 #include "log_tail.hpp"
+#include "senders.hpp"
 
 #include <unity.h>
 
@@ -485,6 +486,7 @@ void test_a_batched_inbox_loses_nothing_while_its_caller_is_busy()
     // twice what the socket holds, at the kernel's 8448 bytes for a 6200-byte datagram
     const int n = static_cast<int>(2 * tap->receive_buffer_bytes() / 8448) + 1;
     int on_call = 0, batched = 0;
+    setenv("AFM_ADMIT_ANY_SENDER", "1", 1);   // this test program publishes no scan lines in a run (senders.hpp)
     afm::Inbox slow(pub.get());
     slow.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &) { return afm::Reject::none; });
     afm::Inbox busy(pub.get(), 500);
@@ -506,6 +508,36 @@ void test_a_batched_inbox_loses_nothing_while_its_caller_is_busy()
     TEST_ASSERT_EQUAL_INT(n, static_cast<int>(busy.rejected().total()));
     TEST_ASSERT_TRUE_MESSAGE(on_call < n, "the socket held more than its buffer");
     TEST_ASSERT_EQUAL_INT(0, static_cast<int>(busy.bus_dropped()));
+    unsetenv("AFM_ADMIT_ANY_SENDER");
+}
+
+// Who may send (senders.hpp): the kernel names the sender by its socket. A
+// scan line from this program, which publishes none in a run, is foreign,
+// counted under its port, program and pid, and never handed on; its
+// heartbeat (every process publishes them) is taken.
+void test_a_message_from_a_process_that_does_not_publish_its_channel_is_foreign()
+{
+    afm::Inbox inbox(pub.get());
+    int lines = 0, beats = 0;
+    inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &) { ++lines; return afm::Reject::none; });
+    inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &) { ++beats; return afm::Reject::none; });
+    afm::Heartbeat hb(*pub, "test_bus_tap");
+    hb.maybe_send(afm::RunState::ready, -1, 0, 1000000);
+    publish_paced(AFM_CH_AFM_SCAN_LINE, 5, 100);
+    while (inbox.handle(100) > 0) {}
+    TEST_ASSERT_EQUAL_INT(1, beats);
+    TEST_ASSERT_EQUAL_INT(0, lines);
+    const nlohmann::json rep = inbox.report();
+    TEST_ASSERT_EQUAL_INT(5, rep["foreign_datagrams"].get<int>());
+    const std::string who = rep["foreign"][AFM_CH_AFM_SCAN_LINE].begin().key();
+    std::printf("foreign: %s\n", who.c_str());
+    TEST_ASSERT_TRUE(who.find("test_bus_tap, pid " + std::to_string(getpid())) != std::string::npos);
+    TEST_ASSERT_FALSE(afm::Senders::publishes("test_bus_tap", AFM_CH_AFM_SCAN_LINE));
+    TEST_ASSERT_TRUE(afm::Senders::publishes("sim_afm", AFM_CH_AFM_SCAN_LINE));
+    TEST_ASSERT_TRUE(afm::Senders::publishes("operator", AFM_CH_AFM_SCAN_REQ));
+    TEST_ASSERT_TRUE(afm::Senders::publishes("renderer", AFM_CH_AFM_SCAN_REQ));
+    TEST_ASSERT_FALSE(afm::Senders::publishes("fw_node", AFM_CH_HAPTIC_POSE));
+    TEST_ASSERT_TRUE(afm::Senders::publishes("anything", AFM_CH_AFM_HEARTBEAT));
 }
 
 // The simulator's window on the record, from the recorder's receive buffer.
@@ -562,6 +594,7 @@ int main()
     RUN_TEST(test_an_inbox_on_the_bus_reads_its_own_socket_on_the_callers_thread);
     RUN_TEST(test_a_heartbeat_repeats_ready_at_its_own_period);
     RUN_TEST(test_a_batched_inbox_loses_nothing_while_its_caller_is_busy);
+    RUN_TEST(test_a_message_from_a_process_that_does_not_publish_its_channel_is_foreign);
     RUN_TEST(test_the_log_window_follows_the_receive_buffer_within_its_bounds);
     RUN_TEST(test_a_url_it_cannot_use_is_refused_by_name);
     const int r = UNITY_END();

@@ -1,0 +1,209 @@
+"""report.html for one run folder: one self-contained page (every image and
+the video inline, no file beside it, nothing fetched) that a person opens
+first.
+
+    python -m analysis.run_report RUN_DIR [--out FILE]
+
+`./afm run` writes it into every run folder it makes. What it shows, all
+from the run's own files (run.json and bus.lcmlog through open_run, the
+package's one reader; contact_sheet.png, fidelity_diff.png, video.*):
+  - the verdict (run.json "verdict"), and the run's status and error;
+  - the video and the contact sheet;
+  - the card's force against the simulator's truth (FW_STATE against
+    SIM_TRUTH, x, y, z), the apex the card compensated against the true one,
+    and each object's position as the card modelled it against the truth
+    (at most MAX_OBJECTS particles, those that moved most);
+  - the fidelity check with its image;
+  - the card's configuration (run.json "card"), the planner's or the hand's
+    account (run.json "operator"), and the costs (wall and CPU time per
+    process).
+A run that failed still gets a page with what it left.
+"""
+import argparse
+import base64
+import html
+import json
+import os
+import sys
+
+import numpy as np
+
+MAX_OBJECTS = 6
+VIDEO_MAX_BYTES = 40 << 20
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as p
+    return p
+
+
+def _png(fig):
+    import io
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="png", dpi=100)
+    _plt().close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def _file_uri(path, mime):
+    with open(path, "rb") as f:
+        return f"data:{mime};base64," + base64.b64encode(f.read()).decode()
+
+
+def _force_and_apex(run):
+    """Two figures (data URIs): force and apex, card against truth, over time."""
+    p = _plt()
+    out = []
+    if "FW_STATE" not in run or "SIM_TRUTH" not in run:
+        return out
+    fw, tr = run["FW_STATE"].drop_duplicates("seq"), run["SIM_TRUTH"].drop_duplicates("seq")
+    t_fw, t_tr = fw["utime_us"] * 1e-6, tr["utime_us"] * 1e-6
+    fig, axs = p.subplots(3, 1, figsize=(9, 6), sharex=True)
+    for ax, c in zip(axs, "xyz"):
+        ax.plot(t_tr, tr[f"force_nN_{c}"], lw=0.8, color="0.5", label="truth (SIM_TRUTH)")
+        ax.plot(t_fw, fw[f"force_nN_{c}"], lw=0.8, label="card (FW_STATE)")
+        ax.set_ylabel(f"F_{c} (nN)")
+    axs[0].legend(fontsize=8, loc="upper right")
+    axs[-1].set_xlabel("simulated time (s)")
+    out.append(("Force of the sample on the tip: the card's against the truth", _png(fig)))
+    fig, axs = p.subplots(1, 2, figsize=(9, 3.2))
+    for ax, c in zip(axs, "xy"):
+        ax.plot(t_tr, tr[f"tip_nm_{c}"], lw=0.8, color="0.5", label="truth")
+        ax.plot(t_fw, fw[f"tip_nm_{c}"], lw=0.8, label="card (compensated apex)")
+        ax.set_xlabel("simulated time (s)")
+        ax.set_ylabel(f"apex {c} (nm)")
+    axs[0].legend(fontsize=8)
+    out.append(("The apex: the card's compensated position against the truth", _png(fig)))
+    return out
+
+
+def _objects(run):
+    """A figure (data URI) of the particles that moved most: model against truth."""
+    try:
+        model, truth = run.particles("FW_STATE"), run.particles("SIM_TRUTH")
+    except Exception:
+        return None
+    if model.empty or truth.empty:
+        return None
+    span = truth.groupby("id").agg(dx=("x_nm", lambda s: s.max() - s.min()), dy=("y_nm", lambda s: s.max() - s.min()))
+    ids = list((span["dx"] + span["dy"]).sort_values(ascending=False).index[:MAX_OBJECTS])
+    p = _plt()
+    fig, axs = p.subplots(1, 2, figsize=(9, 3.4))
+    for i in ids:
+        m, t = model[model["id"] == i], truth[truth["id"] == i]
+        for ax, c in zip(axs, "xy"):
+            line, = ax.plot(t["utime_us"] * 1e-6, t[f"{c}_nm"], lw=1.6, alpha=0.35)
+            ax.plot(m["utime_us"] * 1e-6, m[f"{c}_nm"], lw=0.8, color=line.get_color(), label=f"id {i}")
+    for ax, c in zip(axs, "xy"):
+        ax.set_xlabel("simulated time (s)")
+        ax.set_ylabel(f"{c} (nm)")
+    axs[0].legend(fontsize=7, title="thin: card, wide: truth", title_fontsize=7)
+    return (f"Objects (the {len(ids)} that moved most): the card's model against the truth", _png(fig))
+
+
+def _table(d):
+    if not isinstance(d, dict) or not d:
+        return "<p>(none)</p>"
+    rows = []
+    for k, v in d.items():
+        if isinstance(v, (dict, list)):
+            v = json.dumps(v)[:300]
+        rows.append(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>")
+    return "<table>" + "".join(rows) + "</table>"
+
+
+def _verdict_html(info):
+    v = info.get("verdict")
+    status = info.get("status", "?")
+    if status != "ok":
+        return (f'<p class="bad">The run {html.escape(status)}: {html.escape(str(info.get("error", "")))}</p>')
+    if not v:
+        return "<p>No verdict in run.json (a run made before verdicts).</p>"
+    met = ", ".join(v.get("met", []))
+    if v["pass"]:
+        return '<p class="good">Verdict: pass' + (f" (failed as the scene expects: {html.escape(met)})" if met else "") + "</p>"
+    items = "".join(f"<li><b>{html.escape(f['check'])}</b>: {html.escape(f['detail'])}</li>" for f in v["failed"])
+    return f'<p class="bad">Verdict: FAILED</p><ul>{items}</ul>'
+
+
+def _costs(info):
+    rows = {"wall_seconds": info.get("wall_seconds"), "simulated seconds": info.get("sim_seconds"),
+            "simulated s per wall s": info.get("sim_seconds_per_wall_second")}
+    for p in info.get("processes", []):
+        rows[f"{p.get('name')} CPU (s)"] = round((p.get("cpu_user_s") or 0) + (p.get("cpu_system_s") or 0), 3)
+    return rows
+
+
+def _media(run_dir):
+    parts = []
+    for name, mime in (("video.mp4", "video/mp4"), ("video.webm", "video/webm"), ("video.avi", "video/x-msvideo")):
+        path = os.path.join(run_dir, name)
+        if os.path.exists(path) and 0 < os.path.getsize(path) <= VIDEO_MAX_BYTES:
+            parts.append(f'<h2>Video</h2><video controls width="512" src="{_file_uri(path, mime)}"></video>'
+                         f'<p class="note">{html.escape(name)}; a browser plays H.264 and VP9, not OpenCV\'s mp4v.</p>')
+            break
+    sheet = os.path.join(run_dir, "contact_sheet.png")
+    if os.path.exists(sheet):
+        parts.append(f'<h2>Contact sheet</h2><img alt="contact sheet" src="{_file_uri(sheet, "image/png")}">')
+    return "".join(parts)
+
+
+CSS = """body { font: 15px/1.45 sans-serif; max-width: 1000px; margin: 1.5em auto; padding: 0 1em; color: #222; }
+h1 { font-size: 24px; } h2 { font-size: 19px; margin-top: 1.6em; }
+table { border-collapse: collapse; font-size: 14px; } th, td { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
+.good { color: #176b1e; font-weight: bold; font-size: 18px; } .bad { color: #b00020; font-weight: bold; font-size: 18px; }
+.note { color: #555; font-size: 13px; } img { max-width: 100%; }"""
+
+
+def render(run_dir):
+    """The page's HTML text."""
+    from analysis.runs import open_run, read_info
+    try:
+        run = open_run(run_dir)
+        info = run.info
+    except Exception as e:   # a run cut short: what run.json says, and why there is no more
+        run, info = None, read_info(run_dir)
+        info.setdefault("error", f"its log does not read: {e}")
+    figs = (_force_and_apex(run) + [f for f in [_objects(run)] if f]) if run else []
+    fid = info.get("fidelity") or {}
+    diff = os.path.join(run_dir, "fidelity_diff.png")
+    body = [f"<h1>Run {html.escape(str(info.get('scene_name', os.path.basename(run_dir))))}</h1>",
+            f'<p class="note">{html.escape(os.path.abspath(run_dir))}; scene {html.escape(str(info.get("scene", "")))}</p>',
+            _verdict_html(info), _media(run_dir)]
+    body += [f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="{uri}">' for t, uri in figs]
+    body.append("<h2>Fidelity: the display against a fresh scan</h2>" + _table({k: v for k, v in fid.items() if k != "objects"}))
+    if os.path.exists(diff):
+        body.append(f'<img alt="fidelity difference" src="{_file_uri(diff, "image/png")}">')
+    body.append("<h2>The card's configuration</h2>" + _table(info.get("card")))
+    body.append("<h2>The planner's or the hand's account</h2>" + _table(info.get("operator")))
+    body.append("<h2>Costs</h2>" + _table(_costs(info)))
+    return ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>run report</title>"
+            f"<style>{CSS}</style></head><body>" + "\n".join(body) + "</body></html>")
+
+
+def write(run_dir, out=None):
+    out = out or os.path.join(run_dir, "report.html")
+    text = render(run_dir)
+    with open(out + ".tmp", "w") as f:
+        f.write(text)
+    os.replace(out + ".tmp", out)
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python -m analysis.run_report", description=__doc__.split("\n\n")[0])
+    ap.add_argument("run_dir", help="a run folder (with run.json)")
+    ap.add_argument("--out", help="the page (default RUN_DIR/report.html)")
+    a = ap.parse_args(argv)
+    if not os.path.isfile(os.path.join(a.run_dir, "run.json")):
+        print(f"run_report: {a.run_dir}: no run.json (not a run folder)", file=sys.stderr)
+        return 2
+    print(f"run: report in {write(a.run_dir, a.out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,191 @@
+#include "senders.hpp"
+
+#include <dirent.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <vector>
+
+#include "afm_channels.h"
+
+namespace afm {
+
+namespace {
+
+int64_t now_us()
+{
+    return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Local port -> socket inode of every UDP socket of this namespace
+// (/proc/self/net/udp and udp6: "sl local_address rem_address st ... inode").
+std::map<unsigned long, uint16_t> udp_inodes()
+{
+    std::map<unsigned long, uint16_t> out;
+    for (const char *path : {"/proc/self/net/udp", "/proc/self/net/udp6"}) {
+        std::ifstream f(path);
+        std::string line;
+        std::getline(f, line);   // the header
+        while (std::getline(f, line)) {
+            std::istringstream in(line);
+            std::string sl, local, remote, st, queues, timer, retr, uid, timeout;
+            unsigned long inode = 0;
+            if (!(in >> sl >> local >> remote >> st >> queues >> timer >> retr >> uid >> timeout >> inode)) continue;
+            const auto colon = local.rfind(':');
+            if (colon == std::string::npos || inode == 0) continue;
+            out[inode] = static_cast<uint16_t>(std::strtoul(local.c_str() + colon + 1, nullptr, 16));
+        }
+    }
+    return out;
+}
+
+// The parent pid of `pid` (/proc/PID/stat's fourth field), or -1.
+int parent_of(int pid)
+{
+    std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+    std::string s((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const auto close = s.rfind(')');
+    if (close == std::string::npos) return -1;
+    std::istringstream in(s.substr(close + 1));
+    std::string state;
+    int ppid = -1;
+    in >> state >> ppid;
+    return ppid;
+}
+
+std::vector<int> children_of(int parent)
+{
+    std::vector<int> out;
+    DIR *d = opendir("/proc");
+    if (!d) return out;
+    while (dirent *e = readdir(d)) {
+        char *end = nullptr;
+        const long pid = std::strtol(e->d_name, &end, 10);
+        if (*end == '\0' && pid > 0 && parent_of(static_cast<int>(pid)) == parent) out.push_back(static_cast<int>(pid));
+    }
+    closedir(d);
+    return out;
+}
+
+std::string program_of(int pid)
+{
+    char buf[4096];
+    const ssize_t n = readlink(("/proc/" + std::to_string(pid) + "/exe").c_str(), buf, sizeof buf - 1);
+    if (n <= 0) return "";
+    std::string exe(buf, static_cast<std::size_t>(n));
+    const std::string deleted = " (deleted)";   // rebuilt while it runs: still the same program
+    if (exe.size() > deleted.size() && exe.compare(exe.size() - deleted.size(), deleted.size(), deleted) == 0)
+        exe.resize(exe.size() - deleted.size());
+    return exe.substr(exe.rfind('/') + 1);
+}
+
+// Socket inodes held by `pid` (its /proc/PID/fd links "socket:[N]").
+std::vector<unsigned long> sockets_of(int pid)
+{
+    std::vector<unsigned long> out;
+    const std::string dir = "/proc/" + std::to_string(pid) + "/fd";
+    DIR *d = opendir(dir.c_str());
+    if (!d) return out;
+    char buf[64];
+    while (dirent *e = readdir(d)) {
+        const ssize_t n = readlink((dir + "/" + e->d_name).c_str(), buf, sizeof buf - 1);
+        if (n <= 8) continue;
+        buf[n] = '\0';
+        unsigned long inode = 0;
+        if (std::sscanf(buf, "socket:[%lu]", &inode) == 1) out.push_back(inode);
+    }
+    closedir(d);
+    return out;
+}
+
+}  // namespace
+
+Senders::Senders(Scope scope) : scope_(scope)
+{
+    const char *any = std::getenv("AFM_ADMIT_ANY_SENDER");
+    any_ = any && std::string(any) == "1";
+}
+
+bool Senders::publishes(const std::string &program, const std::string &channel)
+{
+    bool ok = false;
+#define AFM_SENDER_RULE(CH, WHO) \
+    if (channel == CH && (std::string(WHO) == "*" || program == WHO)) ok = true;
+    AFM_CHANNEL_PUBLISHERS(AFM_SENDER_RULE)
+#undef AFM_SENDER_RULE
+    return ok;
+}
+
+void Senders::rescan()
+{
+    std::set<int> run;
+    if (scope_ == Scope::children) {
+        run.insert(getpid());
+        for (int c : children_of(getpid())) run.insert(c);
+    } else {
+        const int parent = getppid();
+        run.insert(parent);
+        for (int c : children_of(parent)) run.insert(c);
+    }
+    const auto ports = udp_inodes();
+    for (int pid : run)
+        for (unsigned long inode : sockets_of(pid)) {
+            auto it = ports.find(inode);
+            if (it == ports.end() || it->second == 0) continue;
+            owners_[it->second] = Owner{program_of(pid), pid};
+        }
+}
+
+bool Senders::admit(const std::string &channel, uint16_t port)
+{
+    if (any_) return true;
+    std::lock_guard<std::mutex> lock(m_);
+    auto it = owners_.find(port);
+    if (it == owners_.end()) {
+        const int64_t second = now_us() / 1000000;
+        if (second != scan_second_) {
+            scan_second_ = second;
+            scans_ = 0;
+        }
+        if (scans_ < kMaxScansPerSecond) {
+            ++scans_;
+            rescan();
+            it = owners_.find(port);
+            if (it == owners_.end()) it = owners_.emplace(port, Owner{}).first;   // no process of the run: remembered
+        }
+    }
+    if (it != owners_.end() && !it->second.program.empty() && publishes(it->second.program, channel)) return true;
+    ++foreign_[channel][describe(port)];
+    ++foreign_total_;
+    return false;
+}
+
+std::string Senders::describe(uint16_t port) const
+{
+    auto it = owners_.find(port);
+    if (it == owners_.end() || it->second.program.empty())
+        return "port " + std::to_string(port) + " (no process of the run)";
+    return "port " + std::to_string(port) + " (" + it->second.program + ", pid " + std::to_string(it->second.pid) + ")";
+}
+
+nlohmann::json Senders::foreign() const
+{
+    std::lock_guard<std::mutex> lock(m_);
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto &[ch, by] : foreign_)
+        for (const auto &[who, n] : by) j[ch][who] = n;
+    return j;
+}
+
+int64_t Senders::foreign_count() const
+{
+    std::lock_guard<std::mutex> lock(m_);
+    return foreign_total_;
+}
+
+}  // namespace afm
