@@ -28,6 +28,7 @@
 #include "afm/scan_req_t.hpp"
 #include "afm/sim_truth_t.hpp"
 #include "afm/tip_cmd_t.hpp"
+#include "afm/view_frame_t.hpp"
 
 namespace afm {
 

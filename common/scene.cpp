@@ -726,7 +726,9 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
         s.op.scan_load_nN = r.num(op, "operator", "scan_load_nN", nullptr, 0, 1000);
     s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
     s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa, 0, 1, true);
-    s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel"});
+    s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel", "browser"});
+    if (s.op.mode == "browser" && s.time_mode != "realtime")
+        r.fail("operator.mode", "browser: a person's hand is paced by the wall clock: give time_mode: realtime");
     s.op.feel_threshold_N = r.num(op, "operator", "feel_threshold_N", &d.op.feel_threshold_N, 0, 100, true);
     read_haptic(r, op, s);
     read_plan(r, op, s);

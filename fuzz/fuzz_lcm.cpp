@@ -39,6 +39,7 @@
 #include "afm/scan_line_t.hpp"
 #include "afm/scan_req_t.hpp"
 #include "afm/sim_truth_t.hpp"
+#include "afm/view_frame_t.hpp"
 #include "card_node.hpp"
 #include "fuzz_files.hpp"
 #include "inbox.hpp"

@@ -175,6 +175,17 @@ def bus_messages(afm):
     truth.objects = objects(1, False)
     frame = afm.render_frame_t()
     frame.utime, frame.index, frame.seq = 40000, 1, 39
+    view = afm.view_frame_t()
+    view.utime, view.index, view.frames_total, view.seq, view.skipped, view.width, view.height = 40000, 1, 15, 39, 0, 2, 2
+    view.field_nm, view.tip_nm, view.force_nN, view.hand_N, view.flags = [-2500.0, -2500.0, 5000.0], [0.0, -699.0], [1.0, -2.0, 5.0], [0.0, 0.1, 0.0], 32
+    view.particles = [particle(1, 0.0, -300.0)]
+    view.n_particles = 1
+    view.sample_utime = [39000, 40000]
+    view.sample_fx_nN, view.sample_fy_nN, view.sample_fz_nN = [1.0] * 2, [-2.0] * 2, [5.0] * 2
+    view.sample_hand_x_N, view.sample_hand_y_N, view.sample_hand_z_N = [0.0] * 2, [0.1] * 2, [0.0] * 2
+    view.n_samples = 2
+    view.jpeg = b"\xff\xd8\xff\xd9"
+    view.n_jpeg = len(view.jpeg)
     hb = afm.heartbeat_t()
     hb.utime, hb.name, hb.pid, hb.state, hb.seq, hb.sim_utime, hb.detail = 1700000000000000, "fw_node", 42, "running", 3, 4000, "ok"
     return [
@@ -183,6 +194,7 @@ def bus_messages(afm):
         ("FW_STATE", state), ("FW_STATE", state1),
         ("HAPTIC_POSE", pose(0, [0.0, -0.1, 0.0])), ("HAPTIC_POSE", pose(0, [0.5, 0.5, 0.0])),
         ("HAPTIC_FORCE", hf), ("SIM_TRUTH", truth), ("RENDER_FRAME", frame), ("AFM_HEARTBEAT", hb),
+        ("VIEW_FRAME", view),
         ("HOST_OBJECT_FIX", fix(1, 0)), ("HOST_OBJECT_FIX", fix(1, 1)),
     ]
 

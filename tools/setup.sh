@@ -3,7 +3,8 @@
 #   Debian packages (apt), the project's Python venv (.venv: LCM 1.5 from PyPI,
 #   numpy, matplotlib, PyYAML; Dask distributed with cryptography for its TLS,
 #   Jinja2 and SciPy for sweeps, reports and the planner; pandas, mcap and
-#   jsonschema for a run's data and its export; the project's own
+#   jsonschema for a run's data and its export; aiohttp for the live view's
+#   server and Selenium to test it in Debian's chromium; the project's own
 #   package, analysis/, installed editable) and Unity (from Debian's cjson source package,
 #   hash checked, unpacked into build/_deps/unity).
 # Idempotent: a second run checks and returns in well under a second.
@@ -20,7 +21,7 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           libyaml-cpp-dev xvfb valgrind gcc-arm-none-eabi libnewlib-arm-none-eabi
           qemu-system-arm nlohmann-json3-dev gwyddion libdlib-dev
           clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev
-          libisal-dev zlib1g-dev)
+          libisal-dev zlib1g-dev chromium chromium-driver)
 missing=()
 for p in "${apt_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
@@ -44,7 +45,7 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0"
+py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0 aiohttp==3.14.5 selenium==4.51.0"
 stamp="$venv/.afm-reqs"
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
   say "creating Python venv in .venv ($py_reqs)"

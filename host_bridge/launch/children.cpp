@@ -8,11 +8,31 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include "placement.hpp"
 
 namespace afm::launch {
+
+int udp_sockets_on_port(int port)
+{
+    // each line after the header: "sl local_address(HEX_IP:HEX_PORT) rem_address ..."
+    int n = 0;
+    for (const char *path : {"/proc/net/udp", "/proc/net/udp6"}) {
+        std::ifstream in(path);
+        std::string line;
+        std::getline(in, line);
+        while (std::getline(in, line)) {
+            std::istringstream row(line);
+            std::string slot, local;
+            row >> slot >> local;
+            const auto colon = local.rfind(':');
+            if (colon != std::string::npos && std::strtol(local.c_str() + colon + 1, nullptr, 16) == port) ++n;
+        }
+    }
+    return n;
+}
 
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
             int nice_level, const std::vector<int> &cpus)

@@ -75,6 +75,10 @@ struct Progress {
     }
 };
 
+// UDP sockets bound to local `port` in this network namespace (IPv4 and
+// IPv6: /proc/net/udp, /proc/net/udp6); 0 when neither reads.
+int udp_sockets_on_port(int port);
+
 // The last max_lines lines of a file, each indented by four spaces.
 std::string slurp_tail(const std::string &path, std::size_t max_lines);
 

@@ -71,8 +71,11 @@ inline const char *kUsage =
     "  multicast route.\n"
     "options:\n"
     "  --check            validate the scene and exit (0: valid, 2: not)\n"
-    "  --spy              also start lcm-spy on the run's bus (needs a display); the run\n"
-    "                     ends when lcm-spy is closed (time_mode: realtime to watch at pace)\n"
+    "  --spy              also start lcm-spy on the run's bus (needs DISPLAY); the run\n"
+    "                     starts once lcm-spy listens on the bus (10 s at most) and ends\n"
+    "                     when lcm-spy is closed (time_mode: realtime to watch at pace)\n"
+    "  --view             the renderer also publishes its frames on VIEW_FRAME for a page\n"
+    "                     (./afm run --view serves it; docs/view.md)\n"
     "  --inject-drop P    sim_afm drops each analog block's first send with probability P\n"
     "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
@@ -117,6 +120,7 @@ constexpr int kBatchUs = 500;
 // a quarter of the demo's wall time.)
 constexpr int kQuietMs = 20;
 constexpr int kDrainMs = 150;
+constexpr double kSpyWaitS = 10.0;   // --spy: the longest the run waits for lcm-spy to listen
 
 inline std::string exe_dir()
 {
@@ -181,6 +185,7 @@ inline std::map<std::string, int64_t> count_channels(const std::string &path, st
 struct Options {
     std::string scene_path, out_dir;
     bool spy = false, quiet = false, check_only = false, no_verdict = false, strict = false;
+    bool view = false;          // the renderer publishes VIEW_FRAME (docs/view.md)
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
@@ -205,6 +210,7 @@ inline int parse_args(int argc, char **argv, Options *o)
         if (a == "--scene") o->scene_path = val();
         else if (a == "--out") o->out_dir = val();
         else if (a == "--spy") o->spy = true;
+        else if (a == "--view") o->view = true;
         else if (a == "--check") o->check_only = true;
         else if (a == "--quiet") o->quiet = true;
         else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
@@ -262,6 +268,10 @@ inline int parse_args(int argc, char **argv, Options *o)
     }
     if (o->scene_path.empty() || (o->out_dir.empty() && !o->check_only)) {
         std::fputs(kUsage, stderr);
+        return 2;
+    }
+    if (o->spy && !o->check_only && !std::getenv("DISPLAY")) {
+        std::fprintf(stderr, "afm_launch: --spy needs a display and DISPLAY is not set (lcm-spy is a window)\n");
         return 2;
     }
     if (!(o->drop_p >= 0 && o->drop_p < 1)) {
@@ -419,6 +429,7 @@ public:
                                            std::to_string(o_.crash_block), "--firmware", o_.firmware};
         place();
         std::vector<std::string> renderer_cmd = {bin + "/renderer", "--scene", scene_run_, "--out", out_};
+        if (o_.view) renderer_cmd.push_back("--view-frames");
         if (placement_.on()) {
             // the threads that publish aside (common/aside.hpp) and the frame
             // writer (frame_writer.hpp) on any CPU of the run: the kernel puts
@@ -432,12 +443,33 @@ public:
             {"operator", {bin + "/operator", "--scene", scene_run_, "--out", out_}},
             {"renderer", renderer_cmd},
         };
+        if (o_.spy) start_spy(url_env);
         for (auto &c : kids_)
             c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice, placement_.cpus_for(c.name));
-        if (o_.spy)
-            spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
-                             {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR}, 0, placement_.cpus_for("lcm-spy"));
         return -1;
+    }
+
+    // lcm-spy, before the run's processes: an LCM subscription sends
+    // nothing, so the run holds its start until lcm-spy's socket is bound
+    // on the bus's port in this namespace (a new one in /proc/net/udp*), or
+    // kSpyWaitS at most; a lockstep run would otherwise end before it listens.
+    void start_spy(const std::string &url_env)
+    {
+        const int before = udp_sockets_on_port(afm::kBusPort);
+        spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
+                         {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR}, 0, placement_.cpus_for("lcm-spy"));
+        const auto t0 = std::chrono::steady_clock::now();
+        while (udp_sockets_on_port(afm::kBusPort) <= before && !g_signal) {
+            spy_.reap();
+            const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            if (spy_.exited || waited >= kSpyWaitS) {
+                std::fprintf(stderr, "afm_launch: lcm-spy %s; the run starts without it listening (logs/lcm-spy.log)\n",
+                             spy_.exited ? "ended" : "did not bind the bus's port within 10 s");
+                return;
+            }
+            pump(20);   // the record goes on meanwhile
+        }
+        if (!o_.quiet) std::fprintf(stderr, "afm_launch: lcm-spy listens on the bus; the run starts\n");
     }
 
     // The lockstep's CPU and the observers' (common/placement.hpp); the
@@ -546,10 +578,16 @@ public:
         if (recorder_) recorded_events_ = recorder_->events();
         recorder_.reset();
         // lcm-spy stays open for the person watching (the bus is quiet now);
-        // the run ends when they close it. On failure it is closed with the rest.
+        // the run ends when they close it, or on SIGINT or SIGTERM (however
+        // soon it comes). On failure it is closed with the rest.
         if (o_.spy && !spy_.exited) {
             if (failure_.empty()) std::fprintf(stderr, "run: the run is over; close lcm-spy to finish\n");
             else signal_child(spy_, SIGTERM);
+            while (!spy_.exited && !g_signal) {
+                spy_.reap();
+                std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            }
+            if (!spy_.exited) signal_child(spy_, SIGTERM);
             spy_.reap(true);
         }
         wall_ = wall_s();

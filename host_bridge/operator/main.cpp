@@ -53,6 +53,10 @@ int main(int argc, char **argv)
         if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
         auto lc = afm::open_bus();
         afm::Operator op(scene, *lc);
+        if (scene.op.mode == "browser") {   // the hand from the page (docs/view.md); the page's server hears this
+            op.page = std::make_unique<afm::HandInput>(scene, afm::HandInput::open_from_env());
+            op.hb.send(afm::RunState::starting, op.answered, 0, "hand: browser load_nN=" + std::to_string(scene.op.load_nN));
+        }
         afm::Inbox inbox(lc.get());
         op.inbox = &inbox;
         inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });

@@ -7,7 +7,10 @@
 // stylus of a haptic device (haptic.hpp): it pulls the stylus towards the
 // script's aim (hand_script.hpp) while the device pushes back with the force
 // the card renders, the force of block n - 1 held over block n (the force of
-// block n arrives at its end). With operator.plan the planner
+// block n arrives at its end). With operator.mode browser (time_mode
+// realtime) the hand pulls the stylus towards the target a person sets on
+// the page (hand_input.hpp) instead of a script's aim, with the load and
+// the stylus button the page sets. With operator.plan the planner
 // (planner.hpp) drives the pose itself, runs in its own thread in strict
 // turns with this one, and takes its local scans and fixes through it.
 #pragma once
@@ -17,6 +20,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include <nlohmann/json_fwd.hpp>
@@ -29,6 +33,7 @@
 #include "afm/objects_t.hpp"
 #include "afm/scan_line_t.hpp"
 #include "bus.hpp"
+#include "hand_input.hpp"
 #include "hand_script.hpp"
 #include "haptic.hpp"
 #include "inbox.hpp"
@@ -61,6 +66,7 @@ struct Operator {
     int64_t forces = 0;
     // the script's hand on the device
     HandScript script;
+    std::unique_ptr<HandInput> page;   // operator.mode browser: the person's hand (main makes it)
     HapticLoop device;
     Vec2 held_N;                 // the force the device renders over the block being integrated
     double reach_nm;                  // apex travel for the joystick's +-1
@@ -164,12 +170,14 @@ struct Operator {
     void answer_by_hand()
     {
         count_force();
-        const Vec2 aim_nm = script.advance(1.0 / scene.block_hz, held_N);
+        if (page) page->poll();
+        const Vec2 aim_nm = page ? page->command().aim_nm : script.advance(1.0 / scene.block_hz, held_N);
         device.step(to_stylus(scene, aim_nm), held_N);
         held_N = {force.force_N[0], force.force_N[1]};
         const Vec2 x = device.position_m(), v = device.velocity_m_per_s();
         peak_speed_m_per_s = std::max(peak_speed_m_per_s, std::hypot(v.x, v.y));
-        publish_pose({x.x / half_range_m, x.y / half_range_m}, true);
+        if (page) publish_pose({x.x / half_range_m, x.y / half_range_m}, page->command().engaged, page->command().load_nN);
+        else publish_pose({x.x / half_range_m, x.y / half_range_m}, true);
     }
 
     // The joystick for an apex target in frame A: the card moves the

@@ -15,10 +15,12 @@
 namespace {
 
 const char *kUsage =
-    "usage: renderer --scene FILE --out DIR [--writer-cpus LIST]\n"
+    "usage: renderer --scene FILE --out DIR [--writer-cpus LIST] [--view-frames]\n"
     "  The videolized display; normally started by ./afm run inside the run's namespace.\n"
     "  --writer-cpus LIST  the CPUs (\"0-1\") the frame writer's thread may use\n"
-    "                      (host_bridge/frame_writer.hpp; the launcher passes every CPU of the run)\n";
+    "                      (host_bridge/frame_writer.hpp; the launcher passes every CPU of the run)\n"
+    "  --view-frames       also publish each frame for a page on VIEW_FRAME (view_frames.hpp;\n"
+    "                      the launcher passes it with --view)\n";
 
 using namespace afm::render;
 
@@ -35,6 +37,7 @@ int main(int argc, char **argv)
 {
     std::string scene_path, out_dir;
     std::vector<int> writer_cpus;
+    bool view_frames = false;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
@@ -42,6 +45,7 @@ int main(int argc, char **argv)
         else if (a == "--writer-cpus" && i + 1 < argc) {
             if (!afm::cpu_list_option("renderer", a, argv[++i], &writer_cpus)) return 2;
         }
+        else if (a == "--view-frames") view_frames = true;
         else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
         else { std::fprintf(stderr, "renderer: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
     }
@@ -52,6 +56,9 @@ int main(int argc, char **argv)
         auto lc = afm::open_bus();
         Renderer r(scene, *lc, out_dir);
         r.writer_cpus = writer_cpus;
+        // the strip chart: about 250 samples a simulated second; the
+        // encoding on the renderer's own CPUs (the observers', view_frames.hpp)
+        if (view_frames) r.view = std::make_unique<afm::ViewFrames>(std::max(1, static_cast<int>(scene.block_hz / 250)), std::vector<int>{});
         afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
         inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &m) { return r.on_state(m); });
@@ -85,6 +92,7 @@ int main(int argc, char **argv)
             r.write_composed();
             r.writer->finish();
         }
+        if (r.view) r.view->finish();
         write_contact_sheet(r, scene, out_dir);
         afm::write_report(out_dir + "/renderer_report.json", report_json(r, scene, inbox.report()));
         r.hb.send(afm::RunState::done, r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);

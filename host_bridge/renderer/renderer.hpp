@@ -6,7 +6,8 @@
 // of its own: frame_writer.hpp), and announces each frame
 // on RENDER_FRAME (the simulator runs at most 2 frames ahead of
 // it, and waits for it at the frames where it asks for a scan:
-// afm::frames_to_wait_for).
+// afm::frames_to_wait_for). With --view-frames it also offers each frame
+// to a person watching (view_frames.hpp: VIEW_FRAME, never waited for).
 //
 // At the last frame it asks the simulator for a fresh full scan and compares
 // it with what it displays (fidelity.hpp), the paper's check, before
@@ -49,6 +50,7 @@
 #include "display.hpp"
 #include "fidelity.hpp"
 #include "frame_writer.hpp"
+#include "view_frames.hpp"
 #include "objects_view.hpp"
 #include "pattern.hpp"
 #include "process.hpp"
@@ -180,6 +182,7 @@ struct Renderer {
     nlohmann::json local_scans = nlohmann::json::array();
     std::vector<int> writer_cpus;            // --writer-cpus
     std::unique_ptr<afm::FrameWriter> writer;   // the frames' files (begin())
+    std::unique_ptr<afm::ViewFrames> view;      // the frames for a page (--view-frames), or none
     int64_t objects_seq = -1;    // the latest block whose FW_STATE came
     // blocks whose FW_STATE never came (lost on the bus): those skipped over
     // and not come since (kept up to kMaxGaps; past that, only counted)
@@ -341,9 +344,40 @@ struct Renderer {
             o.hand_scale_N = std::min(kHandGaugeThresholds * scene.op.feel_threshold_N, scene.op.haptic.max_force_N);
         }
         const cv::Mat frame = display.frame(o);
+        if (view) view->offer(frame, view_state(k, state, o));
         composed.emplace_back(k, frame);
         if (std::find(sheet_at.begin(), sheet_at.end(), k) != sheet_at.end()) sheet[k] = frame;
         compose_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+
+    // What the page draws over frame k (view_frame_t), from the state and
+    // overlay the frame was composed with.
+    afm::view_frame_t view_state(int k, const afm::fw_state_t &state, const afm::Overlay &o) const
+    {
+        afm::view_frame_t m{};
+        m.utime = afm::frame_utime(scene, k);
+        m.index = k;
+        m.frames_total = total_frames;
+        m.seq = shown_seq;
+        m.width = m.height = field.px;
+        m.field_nm[0] = field.x0_nm;
+        m.field_nm[1] = field.y0_nm;
+        m.field_nm[2] = field.size_nm;
+        for (int i = 0; i < 2; ++i) m.tip_nm[i] = o.tip_nm[i];
+        for (int i = 0; i < 3; ++i) m.force_nN[i] = o.force_nN[i];
+        m.hand_N[0] = o.hand_N[0];
+        m.hand_N[1] = o.hand_N[1];
+        m.flags = state.flags;
+        for (const auto &p : model.particles) {
+            afm::particle_t q{};
+            q.id = p.id;
+            q.x_nm = p.x_nm;
+            q.y_nm = p.y_nm;
+            q.radius_nm = p.radius_nm;
+            m.particles.push_back(q);
+        }
+        m.n_particles = static_cast<int32_t>(m.particles.size());
+        return m;
     }
 
     // The frames composed and announced, to the writer (their files: PNG and
@@ -379,7 +413,9 @@ struct Renderer {
     afm::Reject on_haptic(const afm::haptic_force_t &m)
     {
         if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
-        return hands.put(m);
+        const afm::Reject r = hands.put(m);
+        if (view && r == afm::Reject::none) view->sample(m);
+        return r;
     }
 
     void set_model(const afm::objects_t &m)
@@ -749,6 +785,7 @@ inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, co
             {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
             {"pixels_updated", r.touched_px},
             {"local_scans", r.local_scans},
+            {"view", r.view ? r.view->report() : nlohmann::json(nullptr)},
             {"rejected", rejected}};
 }
 

@@ -1,7 +1,9 @@
 """lcm-spy, headless under Xvfb, inside a run's namespace: it must find every
 type of the project (one per lcmtypes/*.lcm) on the types jar, and a recorded
-log must replay into it with lcm-logplayer (./afm spy)."""
+log must replay into it with lcm-logplayer (./afm spy); ./afm run --spy holds
+a lockstep run's start until lcm-spy listens."""
 import glob
+import json
 import os
 import re
 import shutil
@@ -49,6 +51,31 @@ class Spy(unittest.TestCase):
         self.assertIsNotNone(m, text[-2000:])
         self.assertEqual(int(m.group(1)), self.n_types)
         self.assertIn("replay of", text)
+        benchtest.cleanup(out)
+
+
+    def test_spy_holds_a_lockstep_run_until_it_listens(self):
+        # --spy: the run starts only once lcm-spy's socket is bound on the
+        # bus's port in the run's namespace (10 s at most), so a lockstep run
+        # is not over before lcm-spy subscribes
+        out = os.path.join(benchtest.tmpdir("spy-live"), "run")
+        env = dict(os.environ, DISPLAY=f":{self.display}")
+        p = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out,
+                              "--spy"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        lines = []
+        try:
+            for line in p.stderr:
+                lines.append(line)
+                if "close lcm-spy to finish" in line:
+                    break
+        finally:
+            p.send_signal(2)   # SIGINT: the launcher closes lcm-spy and ends
+            p.wait(timeout=60)
+        text = "".join(lines)
+        self.assertIn("lcm-spy listens on the bus; the run starts", text)
+        self.assertLess(text.index("lcm-spy listens"), text.index("close lcm-spy to finish"), text)
+        with open(os.path.join(out, "run.json")) as f:
+            self.assertEqual(json.load(f)["status"], "ok")
         benchtest.cleanup(out)
 
 

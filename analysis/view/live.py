@@ -1,0 +1,219 @@
+"""A viewed run (./afm run SCENE --view [--wait]; docs/view.md).
+
+The page's browser is in the caller's network namespace and cannot reach
+the run's, so this process stays in the caller's: it opens the listening
+socket (127.0.0.1, a port it prints, a random token) and serves the page
+from here. The run goes into its own namespace as always
+(tools/in_netns.sh), with one more process inside: afm_view_bridge
+(host_bridge/view), which takes VIEW_FRAME and AFM_HEARTBEAT off the bus
+and writes them to a pipe this process reads. Nothing else crosses.
+
+Contract: the run starts at once, or (--wait) once a page with the token
+has opened its stream; Ctrl-C while waiting exits 130 before anything ran.
+The server stops when the run ends, and this exits with the run's code.
+
+In operator.mode browser (time_mode realtime) the page is also the hand:
+its pointer, wheel, keys and button reach the operator through a named
+pipe in a private folder ($AFM_HAND_FIFO), which the operator alone reads
+(host_bridge/operator/hand_input.hpp); the operator says on its heartbeat
+that it takes them ("hand: browser"), and the page then shows its controls.
+The page publishes nothing on the bus.
+"""
+import asyncio
+import json
+import math
+import os
+import shutil
+import signal
+import struct
+import sys
+import tempfile
+
+from analysis import afmlog, paths
+from analysis.view import frames, server
+
+BRIDGE = os.path.join(paths.BUILD, "host_bridge", "afm_view_bridge")
+MAX_CHANNEL = 63            # LCM's longest channel name
+MAX_PAYLOAD = 1 << 20       # bytes: far above a view frame (under 64 kB)
+SERVER_NICE = 10            # once the run has started (main_async)
+# Inside the namespace: the bridge in the background on the pipe's end,
+# which the launcher then closes; the launcher in the shell's place (its
+# parent dies with it: the bridge ends, afm_view_bridge's PR_SET_PDEATHSIG).
+# bash, not sh: dash's redirections take only the file descriptors 0-9.
+WRAPPER = 'fd=$1; shift; "$0" --fd "$fd" & eval "exec $fd>&-"; exec "$@"'
+
+
+class LiveSource:
+    """What the page is told about a live run: frames and heartbeats."""
+
+    def __init__(self, out_dir):
+        self.out_dir = out_dir
+        self.processes = {}
+        self.frames = 0
+        self.hand = None          # operator.mode browser: {"load_nN": the scene's load}
+        self.hand_fd = None       # the pipe to the operator (non-blocking write end)
+        self.hand_sent = self.hand_dropped = self.hand_refused = 0
+
+    def hello(self):
+        return frames.hello("live", run_dir=os.path.abspath(self.out_dir), hand=self.hand)
+
+    def on_message(self, msg):
+        """A page's hand (operator.mode browser): to the operator's pipe."""
+        if msg.get("type") == "hand" and self.hand is not None and self.hand_fd is not None:
+            line = hand_line(msg)
+            if line is None:
+                self.hand_refused += 1
+                return None
+            try:
+                os.write(self.hand_fd, line)
+                self.hand_sent += 1
+            except (BlockingIOError, BrokenPipeError):
+                self.hand_dropped += 1   # the operator is not reading (yet): the next one will do
+        return None
+
+    def on_record(self, view, channel, data):
+        """A record from the bridge, to the pages."""
+        tname = afmlog.CHANNELS.get(channel)
+        try:
+            m = getattr(afmlog.afm, tname).decode(data) if tname else None
+        except (ValueError, struct.error, UnicodeDecodeError, MemoryError, OverflowError):
+            m = None
+        if m is None:
+            return
+        if channel == "VIEW_FRAME":
+            self.frames += 1
+            view.broadcast_frame(*frames.from_view_frame(m))
+        elif channel == "AFM_HEARTBEAT":
+            self.processes[m.name] = {"state": m.state, "sim_s": m.sim_utime * 1e-6, "seq": m.seq}
+            view.broadcast({"type": "status", "processes": self.processes})
+            if m.name == "operator" and m.detail.startswith("hand: browser") and self.hand is None:
+                self.hand = {"load_nN": _load_of(m.detail)}
+                view.broadcast({"type": "hand", "hand": self.hand})
+
+
+def _load_of(detail):
+    """The load in the operator's "hand: browser load_nN=X" (None without one)."""
+    for word in detail.split():
+        if word.startswith("load_nN="):
+            try:
+                return float(word[8:])
+            except ValueError:
+                return None
+    return None
+
+
+def hand_line(msg):
+    """The operator's command line for a page's {"type": "hand", "x_nm",
+    "y_nm", "load_nN", "engaged"} (host_bridge/operator/hand_input.hpp), or
+    None when a field is missing or not a finite number (the operator
+    checks the ranges)."""
+    try:
+        x, y, load = (float(msg[k]) for k in ("x_nm", "y_nm", "load_nN"))
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not all(math.isfinite(v) for v in (x, y, load)) or not isinstance(msg.get("engaged"), bool):
+        return None
+    return f"HAND {x:.3f} {y:.3f} {load:.4f} {int(msg['engaged'])}\n".encode()
+
+
+async def read_records(fd, on_record):
+    """The bridge's records (afm_view_bridge: u32 channel length, channel,
+    u32 payload length, payload) until the pipe closes or a record is
+    malformed."""
+    loop = asyncio.get_running_loop()
+    reader = asyncio.StreamReader(limit=MAX_PAYLOAD + 1024)
+    await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), os.fdopen(fd, "rb", buffering=0))
+    try:
+        while True:
+            (n,) = struct.unpack("<I", await reader.readexactly(4))
+            if not 0 < n <= MAX_CHANNEL:
+                break
+            channel = (await reader.readexactly(n)).decode("ascii", "replace")
+            (size,) = struct.unpack("<I", await reader.readexactly(4))
+            if size > MAX_PAYLOAD:
+                break
+            on_record(channel, await reader.readexactly(size))
+    except asyncio.IncompleteReadError:
+        pass
+
+
+def run_status(out_dir):
+    """run.json's status, or None."""
+    try:
+        with open(os.path.join(out_dir, "run.json")) as f:
+            return json.load(f).get("status")
+    except (OSError, ValueError):
+        return None
+
+
+async def wait_for_page(view):
+    """--wait: until a page opens its stream; False on Ctrl-C."""
+    print("view: waiting for the page to connect (--wait); Ctrl-C stops", file=sys.stderr, flush=True)
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    loop.add_signal_handler(signal.SIGINT, stop.set)
+    waits = [asyncio.ensure_future(view.connected.wait()), asyncio.ensure_future(stop.wait())]
+    await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
+    for w in waits:
+        w.cancel()
+    loop.remove_signal_handler(signal.SIGINT)
+    return view.connected.is_set()
+
+
+async def start_run(run_cmd, wfd, hand_fifo):
+    """The run in its namespace, the bridge beside the launcher; the hand's
+    named pipe is read by the operator in operator.mode browser
+    ($AFM_HAND_FIFO)."""
+    cmd = [paths.IN_NETNS, "bash", "-c", WRAPPER, BRIDGE, str(wfd)] + run_cmd
+    env = dict(os.environ, AFM_HAND_FIFO=hand_fifo)
+    return await asyncio.create_subprocess_exec(*cmd, pass_fds=(wfd,), env=env)
+
+
+def hand_pipe():
+    """(folder, path, write end) of the hand's named pipe: in a private
+    folder (0700), opened read-write so that it never waits for a reader
+    and never fails for want of one; written without waiting."""
+    folder = tempfile.mkdtemp(prefix="afm-view-hand-")
+    path = os.path.join(folder, "hand")
+    os.mkfifo(path, 0o600)
+    return folder, path, os.open(path, os.O_RDWR | os.O_NONBLOCK)
+
+
+async def main_async(run_cmd, out_dir, wait, port):
+    sock = server.listen(port)
+    token = server.new_token()
+    source = LiveSource(out_dir)
+    view = server.ViewServer(token, source)
+    await view.start(sock)
+    print(f"view: {server.url(sock, token)}", file=sys.stderr, flush=True)
+    if wait and not await wait_for_page(view):
+        await view.stop(0)
+        return 130
+    rfd, wfd = os.pipe()
+    hand_dir, hand_path, hand_w = hand_pipe()
+    proc = await start_run(run_cmd, wfd, hand_path)
+    os.close(wfd)
+    source.hand_fd = hand_w
+    # the server below the launcher, at the run's processes' nice level
+    # (afm_launch's kBusProcessNice): serving a page never takes their CPU
+    os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), SERVER_NICE))
+    loop = asyncio.get_running_loop()
+    loop.add_signal_handler(signal.SIGINT, lambda: None)   # the launcher stops the run and says so
+    reading = asyncio.ensure_future(read_records(rfd, lambda ch, d: source.on_record(view, ch, d)))
+    code = await proc.wait()
+    await asyncio.wait([reading], timeout=1.0)
+    reading.cancel()
+    view.broadcast({"type": "end", "exit_code": code, "status": run_status(out_dir), "frames_received": source.frames,
+                    "hand": {"sent": source.hand_sent, "dropped": source.hand_dropped, "refused": source.hand_refused}})
+    os.close(hand_w)
+    shutil.rmtree(hand_dir, ignore_errors=True)
+    await view.stop()
+    return code
+
+
+def main(run_cmd, out_dir, wait=False, port=0):
+    """Runs `run_cmd` (afm_launch and its arguments, --view among them) in its
+    namespace with the page served; returns its exit code."""
+    if not os.access(BRIDGE, os.X_OK):
+        sys.exit(f"view: {BRIDGE} is missing: build the bench first (./afm build)")
+    return asyncio.run(main_async(run_cmd, out_dir, wait, port))

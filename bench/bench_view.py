@@ -1,0 +1,123 @@
+"""./afm bench view: the live view's latency, from a block's FW_STATE on the
+bus to the frame that shows it painted in a browser (docs/view.md).
+
+A scene (default: the demo's, scenes/default.yaml) is run with --view --wait
+twice: in lockstep (as fast as the machine allows) and paced by the wall
+clock (time_mode: realtime, the scene's frame rate). Debian's chromium,
+headless, driven by Selenium, opens the page; the page records, for each
+frame it paints, the block the frame shows and the wall-clock time of the
+animation frame after it was drawn (performance.timeOrigin + now(): the
+pixels are on screen then). The block's FW_STATE time is its receive time in
+the run's bus.lcmlog (the launcher's record, the same clock). Printed per
+mode: frames the renderer composed, painted by the page, skipped on the way
+(renderer, server, page), the latency's median, p99 and worst, and the
+renderer's JPEG encoding per frame. It asserts nothing.
+"""
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+from analysis import afmlog, paths
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(paths.ROOT, "tests", "e2e"))
+
+
+def realtime_scene(scene, out):
+    """The scene as written, paced by the wall clock (time_mode: realtime)."""
+    text = open(scene).read()
+    if "time_mode:" in text:
+        raise SystemExit(f"bench view: {scene}: has its own time_mode; give a lockstep scene")
+    path = os.path.join(out, "realtime.yaml")
+    with open(path, "w") as f:
+        f.write(text.rstrip("\n") + "\ntime_mode: realtime\n")
+    return path
+
+
+def fw_state_times(log):
+    """{seq: the first FW_STATE of the block's receive time, us since the epoch}."""
+    out = {}
+    for ev in afmlog.events(log, channels={"FW_STATE"}):
+        if ev.msg is not None:
+            out.setdefault(ev.msg.seq, ev.timestamp)
+    return out
+
+
+def p99(xs):
+    """The 99th percentile of sorted xs (nearest rank), or None."""
+    return xs[min(len(xs) - 1, int(0.99 * len(xs)))] if xs else None
+
+
+def one_run(scene, out, driver):
+    import test_view   # the browser and the server's start, as the test makes them
+    srv, url, _, _ = test_view.start_server(["run", "--out", out, "--wait", "--", paths.LAUNCH, "--scene", scene,
+                                             "--out", out, "--view", "--quiet"])
+    driver.get(url)
+    deadline = time.time() + 600
+    while time.time() < deadline:
+        s = driver.execute_script("return window.afmView")
+        if s and s["ended"]:
+            break
+        time.sleep(0.2)
+    code = srv.wait(timeout=60)
+    if code:
+        raise SystemExit(f"bench view: the run failed ({code}): {srv.stderr.read()[-2000:]}")
+    s = driver.execute_script("return window.afmView")
+    times = fw_state_times(os.path.join(out, "bus.lcmlog"))
+    per_frame = [[seq, ms - times[seq] / 1e3] for seq, ms in s["painted"] if seq in times]
+    with open(os.path.join(out, "latency.json"), "w") as f:   # [block, ms] per frame painted
+        json.dump(per_frame, f)
+    lat = sorted(x for _, x in per_frame)
+    # the last frame waits for the display check's fresh full scan (docs/design.md)
+    last = max((b for b, _ in per_frame), default=None)
+    but_last = sorted(x for b, x in per_frame if b != last)
+    run = json.load(open(os.path.join(out, "run.json")))
+    view = run["renderer"]["view"]
+    return {"frames": run["frames"], "painted": len(s["painted"]), "skipped_renderer": view["skipped"],
+            "skipped_server": s["skippedServer"], "skipped_page": s["skippedPage"],
+            "median_ms": statistics.median(lat) if lat else None,
+            "p99_ms": p99(lat), "worst_ms": lat[-1] if lat else None, "p99_but_last_ms": p99(but_last),
+            "encode_ms": view["encode_ms_per_frame"], "sim_s_per_wall_s": run["sim_seconds_per_wall_second"]}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="./afm bench view", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scene", default=os.path.join(paths.ROOT, "scenes", "default.yaml"),
+                    help="a lockstep scene (default scenes/default.yaml)")
+    ap.add_argument("--out", help="keep the runs in this folder (default: a temporary one, removed)")
+    a = ap.parse_args(argv)
+    os.environ.setdefault("AFM_SOURCE", paths.ROOT)
+    os.environ.setdefault("AFM_BUILD", paths.BUILD)
+    import test_view
+    if not (test_view.CHROMIUM and test_view.DRIVER):
+        raise SystemExit("bench view: chromium or chromedriver missing (./afm setup installs them)")
+    out = a.out or tempfile.mkdtemp(prefix="afm-bench-view-")
+    os.makedirs(out, exist_ok=True)
+    driver = test_view.browser()
+    rows = []
+    try:
+        for mode, scene in (("lockstep", a.scene), ("realtime", realtime_scene(a.scene, out))):
+            rows.append((mode, one_run(scene, os.path.join(out, mode), driver)))
+    finally:
+        driver.quit()
+        if not a.out:
+            shutil.rmtree(out, ignore_errors=True)
+    print(f"the page's latency, FW_STATE on the bus -> the frame painted (headless chromium), {os.path.basename(a.scene)}")
+    print("(p99 but last: without the last frame, which waits for the display check's full scan)")
+    print(f"{'mode':9s} {'frames':>6s} {'painted':>7s} {'skipped r/s/p':>14s} {'median ms':>9s} {'p99 ms':>7s} "
+          f"{'p99 but last':>12s} {'worst ms':>8s} {'encode ms':>9s} {'sim s/s':>7s}")
+    for mode, r in rows:
+        sk = f"{r['skipped_renderer']}/{r['skipped_server']}/{r['skipped_page']}"
+        print(f"{mode:9s} {r['frames']:6d} {r['painted']:7d} {sk:>14s} {r['median_ms']:9.1f} {r['p99_ms']:7.1f} "
+              f"{r['p99_but_last_ms']:12.1f} {r['worst_ms']:8.1f} {r['encode_ms']:9.2f} {r['sim_s_per_wall_s']:7.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,62 @@
+// What a person at the page means to do with the stylus (operator.mode:
+// browser, time_mode: realtime; docs/view.md): the hand's target, the load
+// and the stylus button, as the page's server (analysis/view/live.py)
+// writes them to a named pipe, $AFM_HAND_FIFO (a file crosses the run's
+// network namespace; the launcher passes its children no descriptor). The hand (haptic.hpp) pulls the stylus towards the target
+// as it pulls it towards a script's aim: the device model, its stability
+// bound and its passivity controller stay; the page publishes nothing.
+//
+// Contract:
+//   - A line a command: "HAND X_NM Y_NM LOAD_NN ENGAGED\n", the target in
+//     frame A (nm), the load (nN), ENGAGED 0 or 1. poll() reads what is
+//     there without waiting and keeps the newest valid command; a line that
+//     is not one (a number not finite, a target outside the field, a load
+//     outside (0, kMaxLoad_nN], a line over kMaxLine bytes) is refused and
+//     counted, and changes nothing.
+//   - Until the first command: the scene's start (operator.path_nm's first
+//     point), its load, the tip lifted (engaged false).
+//   - A pipe closed by the server leaves the last command in force.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "scene.hpp"
+
+namespace afm {
+
+class HandInput {
+public:
+    static constexpr double kMaxLoad_nN = 1000;   // the scene's operator.load_nN range
+    static constexpr std::size_t kMaxLine = 200;
+
+    struct Command {
+        Vec2 aim_nm;
+        double load_nN;
+        bool engaged;
+    };
+
+    // fd: the pipe's read end (made non-blocking here).
+    HandInput(const Scene &s, int fd);
+    // $AFM_HAND_FIFO opened to read, without waiting; throws InputError
+    // naming the variable when it is unset or does not open.
+    static int open_from_env();
+
+    // Takes the commands that came since the last call.
+    void poll();
+    const Command &command() const { return cmd_; }
+    int64_t taken() const { return taken_; }
+    int64_t refused() const { return refused_; }
+
+private:
+    bool parse(const std::string &line, Command *c) const;
+
+    const Scene &scene_;
+    int fd_;
+    std::string partial_;
+    Command cmd_;
+    int64_t taken_ = 0, refused_ = 0;
+};
+
+}  // namespace afm

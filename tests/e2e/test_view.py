@@ -1,0 +1,284 @@
+"""The live view in a real browser (docs/view.md): Debian's chromium,
+headless, driven by Selenium through chromium-driver, from the caller's
+network namespace, as a person's browser would be.
+
+- A short lockstep scene run with --view --wait (held until the page
+  connects): frames arrive on the page, the force chart moves, the last
+  frame the page shows is the run's last file, and a screenshot is kept.
+- The page loads with no network: every resource comes from the server, and
+  with every host name but 127.0.0.1 unresolvable it still works.
+- A wrong token is refused (the page, a static file, the stream), and the
+  server listens on 127.0.0.1 only.
+- ./afm view's page plays the recorded run with its scrubber.
+- --spy without DISPLAY is refused at once, naming DISPLAY.
+- operator.mode browser (realtime): the test drags the pointer over the
+  image with the tip engaged, and the particle in its way moves, in
+  SIM_TRUTH and on the page.
+"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+import unittest
+import urllib.error
+import urllib.request
+
+import benchtest
+
+CHROMIUM = shutil.which("chromium")
+DRIVER = shutil.which("chromedriver")
+PY = sys.executable
+# Kept after the test (the runs' folder is removed when every test passes).
+SHOT_DIR = os.path.join(benchtest.BUILD, "test-output", "view")
+
+
+def browser(block_network=False):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,900",
+              "--no-first-run", "--disable-background-networking", "--disable-component-update"):
+        opts.add_argument(a)
+    if block_network:   # no name resolves but the page's own address
+        opts.add_argument("--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1")
+    return webdriver.Chrome(service=Service(DRIVER), options=opts)
+
+
+def start_server(args):
+    """A `python -m analysis.view` process and the page's URL it prints."""
+    p = subprocess.Popen([PY, "-m", "analysis.view"] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines = []
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        line = p.stderr.readline()
+        if not line:
+            break
+        lines.append(line)
+        m = re.match(r"view: (http://127\.0\.0\.1:(\d+)/\?token=(\S+))", line)
+        if m:
+            return p, m.group(1), int(m.group(2)), m.group(3)
+    p.kill()
+    raise AssertionError("no page address printed: " + "".join(lines) + p.stderr.read())
+
+
+def page_state(driver):
+    return driver.execute_script("return window.afmView")
+
+
+def wait_for(driver, cond, timeout, what):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        s = page_state(driver)
+        if s and cond(s):
+            return s
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}: {page_state(driver)}")
+
+
+def http_status(url):
+    try:
+        with urllib.request.urlopen(url, timeout=5) as r:
+            return r.status
+    except urllib.error.HTTPError as e:
+        return e.code
+
+
+def listening_on_loopback_only(port):
+    """/proc/net/tcp: every socket listening (state 0A) on `port` is bound to 127.0.0.1."""
+    found = []
+    for path in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(path) as f:
+            for line in f.readlines()[1:]:
+                local, state = line.split()[1], line.split()[3]
+                ip, p = local.rsplit(":", 1)
+                if int(p, 16) == port and state == "0A":
+                    found.append(ip)
+    return found == ["0100007F"], found
+
+
+@unittest.skipUnless(CHROMIUM and DRIVER, "chromium or chromedriver missing (./afm setup installs them)")
+class View(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.out = os.path.join(benchtest.tmpdir("view"), "run")
+        cls.server, cls.url, cls.port, cls.token = start_server(
+            ["run", "--out", cls.out, "--wait", "--", benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"),
+             "--out", cls.out, "--view", "--quiet"])
+        cls.driver = browser(block_network=True)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.driver.quit()
+        if cls.server.poll() is None:
+            cls.server.kill()
+            cls.server.wait()
+
+    def test_1_wrong_token_refused_and_loopback_only(self):
+        ok, found = listening_on_loopback_only(self.port)
+        self.assertTrue(ok, f"listening on {found}")
+        base = f"http://127.0.0.1:{self.port}"
+        self.assertEqual(http_status(f"{base}/?token=wrong"), 403)
+        self.assertEqual(http_status(f"{base}/view.js"), 403)
+        self.assertEqual(http_status(f"{base}/ws?token={self.token}x"), 403)
+        self.assertEqual(self.server.poll(), None, "a refused request must not start the run (--wait)")
+        self.assertFalse(os.path.exists(os.path.join(self.out, "run.json")))
+
+    def test_2_live_frames_and_chart(self):
+        d = self.driver
+        d.get(self.url)
+        first = wait_for(d, lambda s: s["framesShown"] >= 1 or s["ended"], 60, "a first frame")
+        self.assertIsNone(first["ended"], f"the run ended before a frame: {first}")
+        ends = {tuple(first["chartT"])}
+        s = first
+        deadline = time.time() + 60
+        while s["ended"] is None and time.time() < deadline:
+            s = page_state(d)
+            if s["chartT"][1] is not None:
+                ends.add(tuple(s["chartT"]))
+            time.sleep(0.02)
+        s = wait_for(d, lambda s: s["ended"] is not None, 30, "the run's end")
+        self.assertEqual(self.server.wait(timeout=30), 0, self.server.stderr.read()[-2000:])
+        self.assertEqual(s["ended"]["exit_code"], 0, s)
+        run = json.load(open(os.path.join(self.out, "run.json")))
+        self.assertEqual(run["status"], "ok")
+        self.assertEqual(s["ended"]["status"], "ok")
+        # frames came from the renderer: the last one the page shows is the run's last
+        self.assertGreaterEqual(s["framesShown"], 2, s)
+        self.assertEqual(s["lastIndex"], run["frames"] - 1, s)
+        self.assertTrue(os.path.exists(os.path.join(self.out, "frames", "frame_%05d.png" % s["lastIndex"])))
+        view = run["renderer"]["view"]
+        self.assertEqual(view["published"] + view["skipped"] + view["too_large"], run["frames"], view)
+        self.assertEqual(view["too_large"], 0, view)
+        # the force chart moves: samples came and its window advanced
+        self.assertGreater(s["chartSamples"], 50, s)
+        self.assertGreaterEqual(len({e[1] for e in ends if e[1] is not None}), 2, ends)
+        # nothing came from anywhere but the server (and nothing else resolves)
+        hosts = d.execute_script("return performance.getEntriesByType('resource').map(e => new URL(e.name).host)")
+        self.assertTrue(hosts and all(h == f"127.0.0.1:{self.port}" for h in hosts), hosts)
+        os.makedirs(SHOT_DIR, exist_ok=True)
+        shot = os.path.join(SHOT_DIR, "live.png")
+        d.save_screenshot(shot)
+        print(f"test_view: screenshot of the live page: {shot}", file=sys.stderr)
+        self.assertGreater(os.path.getsize(shot), 10000)
+
+    def test_3_recorded_run_with_scrubber(self):
+        if not os.path.exists(os.path.join(self.out, "run.json")):
+            self.skipTest("the live run did not finish")
+        p, url, _, _ = start_server(["play", self.out])
+        try:
+            d = self.driver
+            d.get(url)
+            s = wait_for(d, lambda s: s["framesShown"] >= 1 and s["mode"] == "recorded", 30, "the recorded run's first frame")
+            self.assertEqual(s["lastIndex"], 0)
+            total = s["framesTotal"]
+            d.execute_script("const r = document.getElementById('pos'); r.value = arguments[0];"
+                             "r.dispatchEvent(new Event('input'));", total - 1)
+            s = wait_for(d, lambda s: s["lastIndex"] == total - 1, 20, "the scrubber's last frame")
+            self.assertGreater(s["chartT"][2], 0, s)
+            d.save_screenshot(os.path.join(SHOT_DIR, "recorded.png"))
+        finally:
+            p.terminate()
+            p.wait(timeout=10)
+
+    def test_4_spy_without_display_refused(self):
+        env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+        t0 = time.time()
+        r = subprocess.run([benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out",
+                            os.path.join(benchtest.tmpdir("spy"), "run"), "--spy"], env=env, capture_output=True,
+                           text=True, timeout=30)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("DISPLAY", r.stderr)
+        self.assertLess(time.time() - t0, 5)
+
+
+BROWSER_SCENE = """
+name: browser-test
+seed: 7
+duration_s: 6.0
+time_mode: realtime
+sample_rate_hz: 20000
+block_hz: 1000
+frame_rate_hz: 25
+effects: [bending_offset, adhesion, photodiode_noise, tip_convolution]
+sample:
+  substrate: glass
+  field_nm: 2000
+  tip_substrate: {mu: 0.0865, adhesion_nN: 1.0}
+  particle_substrate: {mu: 0.3, adhesion_nN: 3.0}
+objects:
+  particles:
+    - {id: 1, x_nm: 0, y_nm: -300, radius_nm: 50}
+operator:
+  mode: browser
+  load_nN: 5
+  path_nm: [[0, -700]]
+outputs:
+  image_px: 128
+  video: none
+"""
+
+
+def particle(ps, pid):
+    return next(p for p in ps if p[0] == pid)
+
+
+@unittest.skipUnless(CHROMIUM and DRIVER, "chromium or chromedriver missing (./afm setup installs them)")
+class BrowserHand(unittest.TestCase):
+    def test_dragging_the_pointer_pushes_a_particle(self):
+        from selenium.webdriver.common.action_chains import ActionChains
+        scene = benchtest.write_scene(BROWSER_SCENE, "browser")
+        out = os.path.join(benchtest.tmpdir("browser"), "run")
+        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", benchtest.LAUNCH, "--scene", scene,
+                                       "--out", out, "--view", "--quiet"])
+        d = browser()
+        try:
+            d.get(url)
+            s = wait_for(d, lambda s: s["hand"] and s["framesShown"] >= 1, 60, "the hand's controls and a frame")
+            start_y = particle(s["particles"], 1)[2]
+            canvas = d.find_element("id", "image")
+
+            def offset(x_nm, y_nm):   # from the canvas's centre, in CSS px
+                return d.execute_script(
+                    "const m = window.afmView.meta, c = document.getElementById('image'), r = c.getBoundingClientRect();"
+                    "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
+                    "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
+                    x_nm, y_nm)
+            d.find_element("id", "engage").click()
+            x, y = offset(0, -700)
+            drag = ActionChains(d, duration=50).move_to_element_with_offset(canvas, int(x), int(y)).click_and_hold()
+            steps = 40
+            for i in range(1, steps + 1):   # 600 nm in about 2 s, then held there
+                nx, ny = offset(0, -700 + 600 * i / steps)
+                drag.move_to_element_with_offset(canvas, int(nx), int(ny)).pause(0.05)
+            drag.pause(1.5).release().perform()
+            s = wait_for(d, lambda s: s["ended"] is not None, 60, "the run's end")
+            self.assertEqual(srv.wait(timeout=30), 0, srv.stderr.read()[-2000:])
+            self.assertEqual(s["ended"]["status"], "ok", s["ended"])
+            self.assertGreater(s["ended"]["hand"]["sent"], 10, s["ended"])
+            # on the page: the card's model of particle 1 moved along the push
+            end_y = particle(s["particles"], 1)[2]
+            self.assertGreater(end_y - start_y, 50, (start_y, end_y))
+            # in the truth
+            log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
+            whole = benchtest.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
+            y0 = next(p.y_nm for p in whole[0][1].particles if p.id == 1)
+            y1 = next(p.y_nm for p in whole[-1][1].particles if p.id == 1)
+            self.assertGreater(y1 - y0, 50, (y0, y1))
+            rep = json.load(open(os.path.join(out, "operator_report.json")))
+            self.assertGreater(rep["browser"]["commands"], 10, rep.get("browser"))
+            self.assertEqual(rep["browser"]["refused"], 0)
+            os.makedirs(SHOT_DIR, exist_ok=True)
+            d.save_screenshot(os.path.join(SHOT_DIR, "browser_hand.png"))
+        finally:
+            d.quit()
+            if srv.poll() is None:
+                srv.kill()
+                srv.wait()
+
+
+if __name__ == "__main__":
+    benchtest.main()
