@@ -228,6 +228,8 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
             ++dropped_;
             return 0;
         }
+        // a sender that may not send on this channel: not even its fragments are kept
+        if (!(filtered_ && !accept_.count(g.channel)) && admit_ && !admit_(g.channel, ntohs(from.sin_port))) return 0;
         if (partial_.size() >= kMaxPartial) {
             ++abandoned_;
             partial_.erase(partial_.begin());

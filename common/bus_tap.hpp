@@ -77,7 +77,10 @@ public:
 
     // Who may send (issue 35): every whole message on an accepted channel is
     // handed on only when admit(channel, source port) says so; the rest are
-    // the admitter's to count (Senders::admit). None set: every sender.
+    // the admitter's to count (Senders::admit). A fragmented message is
+    // judged at its fragment 0: a foreign one is not gathered at all (its
+    // later fragments, without their fragment 0, are dropped). None set:
+    // every sender.
     using Admit = std::function<bool(const std::string &channel, uint16_t source_port)>;
     void admit_only(Admit admit) { admit_ = std::move(admit); }
 
