@@ -517,33 +517,38 @@ void read_wire_targets(const Reader &r, const YAML::Node &n, Scene &s)
 }
 
 // objects: particles, wires and landmarks, inside the field.
+// objects.particles: listed particles, their ids unique, inside the field.
+void read_particles(const Reader &r, const YAML::Node &ps, Scene &s)
+{
+    if (ps.IsDefined() && !ps.IsNull()) {
+        if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
+        if (ps.size() > kMaxListedParticles)
+            r.fail("objects.particles", "lists " + std::to_string(ps.size()) + " particles; at most " +
+                                            std::to_string(kMaxListedParticles) + " (as objects.scatter.count)");
+        const double half = s.field_nm / 2;
+        for (std::size_t i = 0; i < ps.size(); ++i) {
+            const std::string p = "objects.particles[" + std::to_string(i) + "]";
+            r.only_keys(ps[i], p, {"id", "x_nm", "y_nm", "radius_nm"});
+            ParticleSpec q;
+            const double id = r.num(ps[i], p, "id", nullptr, 0, 1e6);
+            if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ps[i]["id"]));
+            q.id = static_cast<int>(id);
+            q.x_nm = r.num(ps[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
+            q.y_nm = r.num(ps[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
+            q.radius_nm = r.num(ps[i], p, "radius_nm", nullptr, 0, 5000, true);
+            for (const auto &o : s.particles)
+                if (o.id == q.id) r.fail(p + ".id", "duplicate particle id " + Reader::show(ps[i]["id"]));
+            s.particles.push_back(q);
+        }
+    }
+}
+
 void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
 {
     YAML::Node obj = root["objects"];
     if (obj.IsDefined() && !obj.IsNull()) {
         r.only_keys(obj, "objects", {"particles", "wires", "landmarks", "scatter", "targets", "wire_targets"});
-        YAML::Node ps = obj["particles"];
-        if (ps.IsDefined() && !ps.IsNull()) {
-            if (!ps.IsSequence()) r.fail("objects.particles", "must be a list, got " + Reader::show(ps));
-            if (ps.size() > kMaxListedParticles)
-                r.fail("objects.particles", "lists " + std::to_string(ps.size()) + " particles; at most " +
-                                                std::to_string(kMaxListedParticles) + " (as objects.scatter.count)");
-            const double half = s.field_nm / 2;
-            for (std::size_t i = 0; i < ps.size(); ++i) {
-                const std::string p = "objects.particles[" + std::to_string(i) + "]";
-                r.only_keys(ps[i], p, {"id", "x_nm", "y_nm", "radius_nm"});
-                ParticleSpec q;
-                const double id = r.num(ps[i], p, "id", nullptr, 0, 1e6);
-                if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ps[i]["id"]));
-                q.id = static_cast<int>(id);
-                q.x_nm = r.num(ps[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
-                q.y_nm = r.num(ps[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
-                q.radius_nm = r.num(ps[i], p, "radius_nm", nullptr, 0, 5000, true);
-                for (const auto &o : s.particles)
-                    if (o.id == q.id) r.fail(p + ".id", "duplicate particle id " + Reader::show(ps[i]["id"]));
-                s.particles.push_back(q);
-            }
-        }
+        read_particles(r, obj["particles"], s);
         YAML::Node ws = obj["wires"];
         if (ws.IsDefined() && !ws.IsNull()) {
             if (!ws.IsSequence()) r.fail("objects.wires", "must be a list, got " + Reader::show(ws));

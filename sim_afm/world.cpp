@@ -58,6 +58,32 @@ World::World(const Scene &s)
     landmarks_ = s.landmarks;
     for (std::size_t i = 0; i < particles_.size(); ++i) grid_.insert(static_cast<int>(i), particles_[i].c);
 
+    build_wires(s);
+    if (s.substrate == "tilted_glass") {
+        tan_slope_ = std::tan(s.slope_deg * M_PI / 180.0);
+        normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y
+    }
+    trench_grid_ = Grid(50.0);
+    if (s.has_effect("roughness")) {
+        rough_ = std::make_unique<RoughSurface>(s.roughness_rms_nm, s.roughness_corr_nm, s.seed);
+        base_ = &World::base_rough;
+        normal_at_ = &World::normal_rough;
+    } else {
+        base_ = &World::base_plane;
+        normal_at_ = &World::normal_plane;
+    }
+
+    const Vec2 start = s.start_nm();
+    piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
+    apex_ = piezo_;
+
+    mechanics_ = s.has_effect("bending_offset") ? &World::relax : &World::relax_rigid;
+    imaging_ = s.has_effect("tip_convolution") ? &World::height_convolved : &World::height_true;
+    per_sample_ = build_sample_effects(s, lever_);
+}
+
+void World::build_wires(const Scene &s)
+{
     // Wires: built only when the scene has some; rigid rods unless
     // wire_flexibility is listed. f in nN/um -> nN/nm.
     const double f_wire = s.wire_friction_nN_per_um() * 1e-3;
@@ -81,27 +107,6 @@ World::World(const Scene &s)
                 return trench_hold(p, d, along, hold);
             };
     }
-    if (s.substrate == "tilted_glass") {
-        tan_slope_ = std::tan(s.slope_deg * M_PI / 180.0);
-        normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y
-    }
-    trench_grid_ = Grid(50.0);
-    if (s.has_effect("roughness")) {
-        rough_ = std::make_unique<RoughSurface>(s.roughness_rms_nm, s.roughness_corr_nm, s.seed);
-        base_ = &World::base_rough;
-        normal_at_ = &World::normal_rough;
-    } else {
-        base_ = &World::base_plane;
-        normal_at_ = &World::normal_plane;
-    }
-
-    const Vec2 start = s.start_nm();
-    piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
-    apex_ = piezo_;
-
-    mechanics_ = s.has_effect("bending_offset") ? &World::relax : &World::relax_rigid;
-    imaging_ = s.has_effect("tip_convolution") ? &World::height_convolved : &World::height_true;
-    per_sample_ = build_sample_effects(s, lever_);
 }
 
 void World::near(const Eigen::Vector2d &p, double radius, std::vector<int> &out) const

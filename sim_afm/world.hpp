@@ -210,6 +210,7 @@ private:
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     void press_wires();                                       // down_force: each wire's tan psi for this sample
+    void build_wires(const Scene &s);                         // the scene's wires, as its effects model them (constructor)
     double ride_push_nN(const Wire &w) const;                 // the most the tip can push before it lifts (down_force)
     void count_ridden();                                      // one of ridden_samples_ if a wire was ridden this sample
     // Horizontal force of the substrate on the tip, frame A, when it slides

@@ -196,6 +196,36 @@ struct Options {
 };
 
 // Parses argv into o; returns -1 to go on, or the exit code.
+// A flag without a value (--spy, --view, ...): sets it and says so.
+inline bool set_flag(const std::string &a, Options *o)
+{
+    static const std::map<std::string, bool Options::*> flags = {
+        {"--spy", &Options::spy},           {"--view", &Options::view},          {"--check", &Options::check_only},
+        {"--quiet", &Options::quiet},       {"--no-verdict", &Options::no_verdict}, {"--strict", &Options::strict}};
+    const auto it = flags.find(a);
+    if (it == flags.end()) return false;
+    o->*(it->second) = true;
+    return true;
+}
+
+// What the options say together (-1: go on, else the exit code).
+inline int check_args(const Options *o)
+{
+    if (o->scene_path.empty() || (o->out_dir.empty() && !o->check_only)) {
+        std::fputs(kUsage, stderr);
+        return 2;
+    }
+    if (o->spy && !o->check_only && !std::getenv("DISPLAY")) {
+        std::fprintf(stderr, "afm_launch: --spy needs a display and DISPLAY is not set (lcm-spy is a window)\n");
+        return 2;
+    }
+    if (!(o->drop_p >= 0 && o->drop_p < 1)) {
+        std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
+        return 2;
+    }
+    return -1;
+}
+
 inline int parse_args(int argc, char **argv, Options *o)
 {
     for (int i = 1; i < argc; ++i) {
@@ -207,12 +237,9 @@ inline int parse_args(int argc, char **argv, Options *o)
             }
             return argv[++i];
         };
+        if (set_flag(a, o)) continue;
         if (a == "--scene") o->scene_path = val();
         else if (a == "--out") o->out_dir = val();
-        else if (a == "--spy") o->spy = true;
-        else if (a == "--view") o->view = true;
-        else if (a == "--check") o->check_only = true;
-        else if (a == "--quiet") o->quiet = true;
         else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
         else if (a == "--firmware") {
             o->firmware = val();
@@ -232,8 +259,6 @@ inline int parse_args(int argc, char **argv, Options *o)
             }
         }
         else if (a == "--no-renderer") o->renderer = false;
-        else if (a == "--no-verdict") o->no_verdict = true;
-        else if (a == "--strict") o->strict = true;
         else if (a == "--placement") {
             const std::string v = val();
             if (v != "on" && v != "off") {
@@ -266,19 +291,7 @@ inline int parse_args(int argc, char **argv, Options *o)
             return 2;
         }
     }
-    if (o->scene_path.empty() || (o->out_dir.empty() && !o->check_only)) {
-        std::fputs(kUsage, stderr);
-        return 2;
-    }
-    if (o->spy && !o->check_only && !std::getenv("DISPLAY")) {
-        std::fprintf(stderr, "afm_launch: --spy needs a display and DISPLAY is not set (lcm-spy is a window)\n");
-        return 2;
-    }
-    if (!(o->drop_p >= 0 && o->drop_p < 1)) {
-        std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
-        return 2;
-    }
-    return -1;
+    return check_args(o);
 }
 
 // The files an earlier run left in a folder that this run replaces.

@@ -28,6 +28,21 @@ const char *kUsage =
 
 }  // namespace
 
+// The planner on a thread of its own, turn by turn with the bus (TurnBench):
+// its end, or its error, is the bench's to say.
+static std::thread start_planner(afm::Planner &planner, afm::TurnBench &bench)
+{
+    return std::thread([&planner, &bench] {
+        try {
+            planner.run(bench);
+            bench.finish(nullptr);
+        } catch (const afm::PlanStopped &) {
+        } catch (...) {
+            bench.finish(std::current_exception());
+        }
+    });
+}
+
 int main(int argc, char **argv)
 {
     std::string scene_path, out_dir;
@@ -78,17 +93,7 @@ int main(int argc, char **argv)
             op.hold_pose = {scene.start_nm(), false};
         }
         afm::check_lockstep_reads(scene, inbox.channels(), "operator");
-        if (planner) {
-            plan_thread = std::thread([&] {
-                try {
-                    planner->run(bench);
-                    bench.finish(nullptr);
-                } catch (const afm::PlanStopped &) {
-                } catch (...) {
-                    bench.finish(std::current_exception());
-                }
-            });
-        }
+        if (planner) plan_thread = start_planner(*planner, bench);
         while (!op.sim_done) {
             op.hb.maybe_send(op.answered < -1 ? afm::RunState::ready : afm::RunState::running, op.answered, 0);
             op.repeat_finished();
