@@ -111,9 +111,25 @@ def analyse(exp, exp_dir, size, outcomes):
         except common.PaperError as e:
             res = common.Result(notes=[str(e)])
             res.rows.append(common.Row(quantity="analysis", unit="", bench=None, note=str(e)))
+    res.notes += _verdict_notes(outcomes)
     for r in res.rows:
         r.judge()
     return res
+
+
+def _verdict_notes(outcomes):
+    """The runs' own verdicts (run.json "verdict"), as data: a note naming
+    each run that failed one of its checks (the paper's runs may, on
+    purpose: a squeeze that rides over, a soft lever's fidelity)."""
+    failed = []
+    for name, (run_dir, _, _) in sorted(outcomes.items()):
+        try:
+            v = common.run_json(run_dir).get("verdict") or {}
+        except (OSError, ValueError):
+            continue
+        if v and not v.get("pass", True):
+            failed.append(f"{name} ({', '.join(f['check'] for f in v.get('failed', []))})")
+    return [f"runs whose own verdict failed (kept as data, docs: README 'The verdict'): {'; '.join(failed)}"] if failed else []
 
 
 def run_all(jobs, workers, prog, outcomes, walls):

@@ -3,12 +3,15 @@ that keeps the tip on the substrate while it pushes a rod (eq. 30), measured
 by a load ramp within one run (scenes/paper/ride.yaml).
 
 The tip crosses the rod near the push point again and again while the load
-rises linearly over the run. Below dF a crossing rides over the rod: the
-card flags RIDE-OVER from its own signals and the rod stays. The first
-crossing above dF pushes it: the card flags contact. The measured dF is the
-mean of the card's normal force (FW_STATE F_z) at the last ridden crossing
-and at the first pushed one; half their difference is the ramp's step, the
-measurement's resolution. Nothing here reads SIM_TRUTH: the simulator lifts
+rises linearly over the run. Below dF a stroke rides over the rod and the
+card's lateral force falls back to the tip's own friction once the tip is
+past; the first stroke above dF pushes the rod on in front of the tip, and
+the card's lateral force stays up to the stroke's end. The measured dF is
+the mean of the card's normal force (FW_STATE F_z where its lateral force
+peaks: the contact) in the last ridden stroke and the first pushed one; half their difference
+is the ramp's step, the measurement's resolution. The card's own contact
+flag is reported beside it: where it comes earlier, the card's ride-over
+rule took a ride-over for a push. Nothing here reads SIM_TRUTH: the simulator lifts
 the tip by its own contact balance (sim_afm World::ride_push_nN), never by
 eq. 30, which is the model under test.
 
@@ -38,7 +41,7 @@ STROKE, SPEED = 300, 3000  # nm either side of the rod's axis, nm/s: 0.2 s a cro
 CROSSINGS = 24            # the zigzag's crossings of the rod (the path has CROSSINGS + 1 points)
 RAMP = (0.4, 1.6)         # the ramp's ends, as fractions of eq. 30's dF without twist
 TOLERANCE = 0.10          # of dF, fixed before running
-SOFT_LEVER = {"probe.lever_length_um": 20, "probe.deflection_nm_per_V": 116, "probe.lateral_nN_per_V": 0.8,
+SOFT_LEVER = {"probe.lever_length_um": 20, "probe.deflection_nm_per_V": 174, "probe.lateral_nN_per_V": 1.2,
               "probe.tip_height_um": 3}   # a short tip: theta of degrees, the apex only h theta = 0.2 um aside
 
 # (name, figure, gamma deg, push point as a fraction of L, F_a,os / F_a,ts, soft lever)
@@ -87,41 +90,53 @@ def runs(size):
     return out
 
 
-def crossings(run_dir, gap_blocks=20):
-    """The run's crossings of the rod, from the card alone (FW_STATE): runs of
-    blocks flagged RIDE-OVER or contact, split where gap_blocks pass without
-    either. Each: (first seq, pushed: any contact block, ridden: any
-    RIDE-OVER block, the card's F_z (nN) at its first flagged block)."""
+def strokes(run_dir):
+    """The run's strokes across the rod, from the card's outputs alone
+    (FW_STATE): split where the apex target's y turns. Each: (first seq,
+    the card's F_z where its |F_y| peaks (nN: the load at the contact), the
+    card's median |F_y| over its
+    last fifth (nN): the rod still in front of the tip there, or not, and
+    whether the card flagged contact in it)."""
     from analysis import afmlog
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
     flag = afmlog.afm.fw_state_t
-    states = sorted(afmlog.by_seq(log.get("FW_STATE", [])).values(), key=lambda m: m.seq)
-    out, last = [], None
-    for m in states:
-        ride, contact = bool(m.flags & flag.FLAG_RIDEOVER), bool(m.flags & flag.FLAG_CONTACT)
-        if not (ride or contact):
+    st = sorted(afmlog.by_seq(log.get("FW_STATE", [])).values(), key=lambda m: m.seq)
+    cy = np.array([m.cmd_nm[1] for m in st])
+    v = np.sign(np.diff(cy))
+    turns = [0] + [i + 1 for i in range(1, len(v)) if v[i] != 0 and v[i - 1] != 0 and v[i] != v[i - 1]] + [len(st)]
+    out = []
+    for a, b in zip(turns[:-1], turns[1:]):
+        if b - a < 20:
             continue
-        if last is None or m.seq - last > gap_blocks:
-            out.append({"seq": m.seq, "pushed": False, "ridden": False, "load_nN": float(m.force_nN[2])})
-        out[-1]["pushed"] |= contact
-        out[-1]["ridden"] |= ride
-        last = m.seq
+        seg = st[a:b]
+        at = max(seg, key=lambda m: abs(m.force_nN[1]))   # the contact: where the push peaks
+        out.append({"seq": seg[0].seq, "load_nN": float(at.force_nN[2]),
+                    "tail_nN": float(np.median([abs(m.force_nN[1]) for m in seg[int(0.8 * len(seg)):]])),
+                    "contact": any(m.flags & flag.FLAG_CONTACT for m in seg)})
     return out
 
 
 def measure(run_dir):
-    """The measured dF (nN) and its resolution (half the step between the
-    last ridden crossing and the first pushed one), or an error naming what
-    the run lacks."""
-    xs = crossings(run_dir)
-    first = next((i for i, c in enumerate(xs) if c["pushed"]), None)
-    if first is None:
-        raise common.PaperError(f"{run_dir}: no crossing pushed the rod ({len(xs)} crossings, all ridden over): "
-                                "the ramp ends below dF")
-    if first == 0 or not xs[first - 1]["ridden"]:
-        raise common.PaperError(f"{run_dir}: the first crossing already pushed the rod: the ramp starts above dF")
+    """The measured dF (nN), its resolution (half the load step between the
+    last ridden stroke and the first pushed one) and that stroke's index,
+    and the stroke the card first flagged contact in. A stroke pushed the
+    rod when the card's lateral force stays up to its end (the rod goes on
+    in front of the tip); ridden over, it falls back to the tip's own
+    friction once the tip is past: the card's measured force, not its
+    model of the ride-over, decides."""
+    xs = strokes(run_dir)
+    if len(xs) < 3:
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: {len(xs)} strokes across the rod (the path has {CROSSINGS})")
+    tails = np.array([x["tail_nN"] for x in xs])
+    friction, top = float(np.median(tails)), float(tails.max())
+    if top < 3 * friction:
+        raise common.PaperError(f"{run_dir}: no stroke pushed the rod (the lateral force never stayed up: the ramp ends below dF)")
+    first = int(np.argmax(tails > friction + 0.5 * (top - friction)))
+    if first == 0:
+        raise common.PaperError(f"{run_dir}: the first stroke already pushed the rod: the ramp starts above dF")
     lo, hi = xs[first - 1]["load_nN"], xs[first]["load_nN"]
-    return 0.5 * (lo + hi), 0.5 * abs(hi - lo), first
+    card = next((i for i, x in enumerate(xs) if x["contact"]), None)
+    return 0.5 * (lo + hi), 0.5 * abs(hi - lo), first, card
 
 
 def rad_per_nN(run_dir):
@@ -136,15 +151,22 @@ def rows(res, dirs, size):
     pts = []
     for name, fig, gamma, q, ratio, soft in POINTS[size]:
         d = dirs[name]
-        df, half_step, n = measure(d)
+        df, half_step, n, card = measure(d)
         want, twist = model_df(gamma, q, ratio, rad_per_nN(d))
         pts.append(dict(name=name, fig=fig, gamma=gamma, q=q, ratio=ratio, soft=soft, df=df, want=want, twist=twist))
         lever = "soft lever" if soft else "paper's lever"
         res.rows.append(common.Row(
             f"fig. {fig}: dF, gamma {gamma} deg, l = {q:.2f} L, F_a,os = {ratio} F_a,ts, {lever} (theta {twist:.2f} deg)",
             "nN", bench=df, truth=want, tolerance=TOLERANCE, relative=True,
-            note=f"the load ramp's first push at crossing {n + 1} of {CROSSINGS}, +- {half_step:.2f} nN (half the ramp's step); "
-                 f"truth column: eq. 30 by the firmware's solver, the model under test; dF / F_a,ts = {df / F_A_TS:.2f}"))
+            note=f"the load ramp's first push at stroke {n + 1} of {CROSSINGS} (the card's lateral force stays up to the "
+                 f"stroke's end), +- {half_step:.2f} nN (half the ramp's step); truth column: eq. 30 by the firmware's "
+                 f"solver, the model under test; dF / F_a,ts = {df / F_A_TS:.2f}"))
+        res.rows.append(common.Row(
+            f"fig. {fig}, gamma {gamma} deg, {lever}: the card's first contact flag at the first push (1 yes)", "",
+            bench=float(card == n), truth=1.0, tolerance=0,
+            note=f"the card flagged contact first in stroke {None if card is None else card + 1}, the rod was first pushed in "
+                 f"stroke {n + 1}: earlier means the card's ride-over rule (fw_wire, its twist estimate) took a ride-over "
+                 f"for a push"))
     return pts
 
 

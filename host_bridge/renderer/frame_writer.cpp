@@ -28,6 +28,7 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
     if (video != "none") {
         const bool mp4 = video == "mp4";
         const std::string path = out_ + (mp4 ? "/video.mp4" : "/video.avi");
+        video_path_ = path;
         video_.open(path, mp4 ? cv::VideoWriter::fourcc('m', 'p', '4', 'v') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps,
                     cv::Size(px, px));
         if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
@@ -45,6 +46,10 @@ FrameWriter::~FrameWriter()
     work_.notify_one();
     room_.notify_all();
     if (thread_.joinable()) thread_.join();
+    // Stopped before its first frame (a run interrupted at its start): a
+    // video without a frame does not open, so none is left that claims one.
+    video_.release();
+    if (!video_path_.empty() && written_ == 0) std::remove(video_path_.c_str());
 }
 
 void FrameWriter::write(int k, cv::Mat frame)

@@ -71,6 +71,7 @@ private:
     const bool png_;
     const std::size_t max_pending_;
     cv::VideoWriter video_;
+    std::string video_path_;          // "" without a video
     mutable std::mutex m_;
     std::condition_variable work_, room_;
     std::deque<std::pair<int, cv::Mat>> queue_;
