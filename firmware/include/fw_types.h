@@ -124,5 +124,6 @@ typedef enum {
 #define FW_FLAG_SQUEEZE         (1u << 8)  /* tip-wire contact past psi_max: the tip squeezes the wire */
 #define FW_FLAG_INTERLOCK       (1u << 9)  /* the force interlock is latched: the block's command retracts the tip (fw_guard.h) */
 #define FW_FLAG_RIDEOVER        (1u << 10) /* the tip rides over a wire it pushes (eq. 30: its load too small): the wire stays */
+#define FW_FLAG_BLIND_PUSH      (1u << 11) /* F_x unobservable with the block's last apex more than FW_CARD_BLIND_DEPTH_PM inside a modelled object: a push the card cannot see (fw_card.h) */
 
 #endif /* FW_TYPES_H */

@@ -347,6 +347,61 @@ static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t
     }
 }
 
+/* |q - (a + t (b - a))| < reach for some t in [0, 1] (pm), a segment of
+ * length 0 being a point. Scaling and overflow: coordinate differences of
+ * 2^30 pm or more are far (false); the rest in 64 bits: products < 2^61,
+ * the cross product over the length (isqrt of < 2^61), squares of the end
+ * distances < 2^61. */
+static bool card_within(const int32_t q[2], const int32_t a[2], const int32_t b[2], int64_t reach)
+{
+    const int64_t far = (int64_t)1 << 30;
+    const int64_t ux = (int64_t)b[0] - a[0], uy = (int64_t)b[1] - a[1];
+    const int64_t vx = (int64_t)q[0] - a[0], vy = (int64_t)q[1] - a[1];
+    const int64_t wx = (int64_t)q[0] - b[0], wy = (int64_t)q[1] - b[1];
+    int64_t dot, len2, len, cross;
+    if (reach <= 0 || ux >= far || ux <= -far || uy >= far || uy <= -far || vx >= far || vx <= -far || vy >= far || vy <= -far
+        || wx >= far || wx <= -far || wy >= far || wy <= -far) {
+        return false;
+    }
+    dot = ux * vx + uy * vy;
+    len2 = ux * ux + uy * uy;
+    if (len2 == 0 || dot <= 0) {
+        return vx * vx + vy * vy < reach * reach;
+    }
+    if (dot >= len2) {
+        return wx * wx + wy * wy < reach * reach;
+    }
+    len = (int64_t)fw_math_isqrt_round_u64((uint64_t)len2);
+    cross = ux * vy - uy * vx;
+    return (cross < 0 ? -cross : cross) < reach * len;   /* reach * len < 2^31 2^31 */
+}
+
+/* The block's last apex more than FW_CARD_BLIND_DEPTH_PM inside a particle
+ * or a rod as the card models it (its own frame): with F_x unobservable,
+ * a push the card does not see (it neither flags contact nor moves the
+ * model out of the apex's way, as it does for a push it sees, which leaves
+ * the apex at contact distance). */
+static bool card_apex_inside_model(const fw_card_t *c)
+{
+    const int64_t rt = (int64_t)c->cfg.tip_radius_pm - FW_CARD_BLIND_DEPTH_PM;
+    int32_t a[2], b[2];
+    int32_t i;
+    for (i = 0; i < c->parts.count; i++) {
+        const fw_particle_t *p = fw_particles_get(&c->parts, i);
+        const int32_t at[2] = { p->x_pm, p->y_pm };
+        if (card_within(c->last_tip_pm, at, at, p->radius_pm + rt)) {
+            return true;
+        }
+    }
+    for (i = 0; i < c->n_wires; i++) {
+        fw_wire_ends_pm(&c->st.wires[i], a, b);
+        if (card_within(c->last_tip_pm, a, b, c->st.wires[i].diameter_pm / 2 + rt)) {
+            return true;
+        }
+    }
+    return false;
+}
+
 fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out_t *out)
 {
     int64_t sum[3] = { 0, 0, 0 };
@@ -396,6 +451,9 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
     for (i = 0; i < 3; i++) {
         out->force_pn[i] = (in->n > 0) ? card_mean_pn(sum[i], in->n) : 0;
         out->tip_pm[i] = c->last_tip_pm[i];
+    }
+    if ((flags & FW_FLAG_FX_UNOBSERVABLE) != 0u && card_apex_inside_model(c)) {
+        flags |= FW_FLAG_BLIND_PUSH;
     }
     out->flags = flags;
     out->code_n = c->last_code_n;

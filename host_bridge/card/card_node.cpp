@@ -162,7 +162,7 @@ void CardNode::step(Outbox &box)
     cmd_.engaged = out.engaged;
 
     fill_objects();
-    if ((out.flags & FW_FLAG_FX_UNOBSERVABLE) && inside_model(state_.tip_nm)) ++tally_.unobservable_push_blocks;
+    if (out.flags & FW_FLAG_BLIND_PUSH) ++tally_.unobservable_push_blocks;
     whole_.utime = t_end;
     whole_.seq = b.seq;
     objects_ = objects_diff_.next(whole_);
@@ -171,26 +171,6 @@ void CardNode::step(Outbox &box)
     pending_.reset();
     poses_.erase(poses_.begin(), poses_.upper_bound(done_));
     post_block(box);
-}
-
-bool CardNode::inside_model(const double tip_nm[3]) const
-{
-    // The apex (a sphere of the probe's radius) deeper than kBlindDepth_nm
-    // inside an object as the card models it: a push the card did not see
-    // (F_x unobservable: it neither flagged contact nor moved the model out
-    // of the apex's way, as it does for a push it sees, which leaves the
-    // apex at contact distance).
-    const double rt = scene_.probe.tip_radius_nm - kBlindDepth_nm;
-    for (const auto &p : whole_.particles)
-        if (std::hypot(tip_nm[0] - p.x_nm, tip_nm[1] - p.y_nm) < p.radius_nm + rt) return true;
-    for (const auto &w : whole_.wires)
-        for (std::size_t i = 0; i + 1 < w.x_nm.size(); ++i) {
-            const double ax = w.x_nm[i], ay = w.y_nm[i], bx = w.x_nm[i + 1] - ax, by = w.y_nm[i + 1] - ay;
-            const double l2 = bx * bx + by * by;
-            const double t = l2 > 0 ? std::clamp(((tip_nm[0] - ax) * bx + (tip_nm[1] - ay) * by) / l2, 0.0, 1.0) : 0.0;
-            if (std::hypot(tip_nm[0] - ax - t * bx, tip_nm[1] - ay - t * by) < 0.5 * w.diameter_nm + rt) return true;
-        }
-    return false;
 }
 
 void CardNode::post_block(Outbox &box) const

@@ -86,10 +86,9 @@ public:
 
     // What the card's own flags said over the run, for the run's verdict
     // (launch: run.json "verdict"): blocks in which F_x was (partly)
-    // unobservable (FLAG_FX_UNOBSERVABLE: motion along the lever's axis)
-    // while its apex went more than kBlindDepth_nm inside an object as it
-    // models it (a push it cannot see: it flags no contact and leaves the
-    // model where it was), and the samples with an ADC saturated (the
+    // unobservable while its apex went more than FW_CARD_BLIND_DEPTH_PM
+    // inside an object as it models it (the card's own FW_FLAG_BLIND_PUSH:
+    // a push it cannot see), and the samples with an ADC saturated (the
     // card's own count).
     struct Tally {
         int64_t unobservable_push_blocks = 0;
@@ -122,8 +121,6 @@ private:
     int32_t trench_points_ = 0;            // the card's trench points already in objects_
     int32_t trench_drift_pm_[2] = {0, 0};  // the drift they were converted at
     void fill_objects();
-    bool inside_model(const double tip_nm[3]) const;
-    static constexpr double kBlindDepth_nm = 5.0;   // how deep inside a modelled object the apex goes unseen
     void fill_trenches(const int32_t drift_pm[2]);
     void post_block(Outbox &box) const;
     void post_state(Outbox &box) const;   // FW_STATE: state_ with objects_

@@ -31,6 +31,7 @@ static_assert(FW_FLAG_SAT_POS == afm::fw_state_t::FLAG_SAT_POS, "flag bits must 
 static_assert(FW_FLAG_SQUEEZE == afm::fw_state_t::FLAG_SQUEEZE, "flag bits must match the firmware");
 static_assert(FW_FLAG_INTERLOCK == afm::fw_state_t::FLAG_INTERLOCK, "flag bits must match the firmware");
 static_assert(FW_FLAG_RIDEOVER == afm::fw_state_t::FLAG_RIDEOVER, "flag bits must match the firmware");
+static_assert(FW_FLAG_BLIND_PUSH == afm::fw_state_t::FLAG_BLIND_PUSH, "flag bits must match the firmware");
 
 namespace {
 
