@@ -934,16 +934,19 @@ std::string resolved_scene_text(const std::string &path)
     return "# The scene this run ran: " + path + ", its includes merged in.\n" + std::string(e.c_str()) + "\n";
 }
 
+double point_segment_distance(Vec2 p, Vec2 a, Vec2 b)
+{
+    const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
+    const double t = l2 > 0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
+    return std::hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
+}
+
 namespace {
 
 // Distance between segments [a, b] and [c, d], nm.
 double segment_gap(Vec2 a, Vec2 b, Vec2 c, Vec2 d)
 {
-    auto point_seg = [](Vec2 p, Vec2 u, Vec2 v) {
-        const double dx = v.x - u.x, dy = v.y - u.y, l2 = dx * dx + dy * dy;
-        const double t = l2 > 0 ? std::clamp(((p.x - u.x) * dx + (p.y - u.y) * dy) / l2, 0.0, 1.0) : 0.0;
-        return std::hypot(p.x - u.x - t * dx, p.y - u.y - t * dy);
-    };
+    const auto point_seg = point_segment_distance;
     auto cross = [](Vec2 o, Vec2 p, Vec2 q) { return (p.x - o.x) * (q.y - o.y) - (p.y - o.y) * (q.x - o.x); };
     const double d1 = cross(a, b, c), d2 = cross(a, b, d), d3 = cross(c, d, a), d4 = cross(c, d, b);
     if (((d1 > 0) != (d2 > 0)) && ((d3 > 0) != (d4 > 0))) return 0.0;   // they cross

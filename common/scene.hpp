@@ -28,6 +28,9 @@ public:
 
 struct Vec2 { double x = 0, y = 0; };
 
+// Distance from p to the segment [a, b] (a point when a == b), in the units given.
+double point_segment_distance(Vec2 p, Vec2 a, Vec2 b);
+
 // The scanner's range (physics.md section 12: 90 um x 90 um, 5 um in z),
 // about its centre, the origin of frame A. The validator keeps the field
 // inside it; the simulator clamps set points to it.

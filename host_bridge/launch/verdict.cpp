@@ -39,9 +39,8 @@ std::map<std::string, std::string> failures(const json &run)
     if (pl.contains("particles")) {
         const json &q = pl["particles"];
         if (num(q, "placed") < num(q, "sites") || num(q, "missing") > 0)
-            place = f1(num(q, "placed")).substr(0, f1(num(q, "placed")).size() - 2) + " of " +
-                    f1(num(q, "sites")).substr(0, f1(num(q, "sites")).size() - 2) + " sites hold a particle within " +
-                    f1(num(q, "tolerance_nm")) + " nm";
+            place = std::to_string(q.value("placed", 0)) + " of " + std::to_string(q.value("sites", 0)) +
+                    " sites hold a particle within " + f1(num(q, "tolerance_nm")) + " nm";
     }
     if (pl.contains("rods"))
         for (const auto &r : pl["rods"])

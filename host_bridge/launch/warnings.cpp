@@ -31,14 +31,6 @@ double unobservable_sin()
     return static_cast<double>(FW_FORCE_SIN_LO_Q30 + (static_cast<int64_t>(1) << FW_FORCE_BLEND_SPAN_LOG2_Q30)) / static_cast<double>(1 << 30);
 }
 
-// Distance from p to the segment [a, b].
-double seg_dist(Vec2 p, Vec2 a, Vec2 b)
-{
-    const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
-    const double t = l2 > 0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
-    return std::hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
-}
-
 void unobservable_pushes(const Scene &s, std::vector<std::string> *out)
 {
     if (s.op.plan.enabled || expects(s, "unobservable_push")) return;   // the planner keeps its pushes off the axis itself
@@ -50,7 +42,7 @@ void unobservable_pushes(const Scene &s, std::vector<std::string> *out)
         const double dx = p[i].x - p[i - 1].x, dy = p[i].y - p[i - 1].y, len = std::hypot(dx, dy);
         if (len <= 0 || std::fabs(ax * dy - ay * dx) / len >= unobservable_sin()) continue;
         for (const auto &q : s.particles)
-            if (seg_dist({q.x_nm, q.y_nm}, p[i - 1], p[i]) < q.radius_nm + s.probe.tip_radius_nm) {
+            if (point_segment_distance({q.x_nm, q.y_nm}, p[i - 1], p[i]) < q.radius_nm + s.probe.tip_radius_nm) {
                 out->push_back("operator.path_nm[" + std::to_string(i) + "]: pushes particle " + std::to_string(q.id) +
                                " within " + num(std::asin(unobservable_sin()) * 180 / M_PI) +
                                " deg of the lever's axis, where the card cannot see F_x (its model stays behind)");
