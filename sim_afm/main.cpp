@@ -503,6 +503,7 @@ struct Loop {
                 {"wire_ridden_samples", sim.world.ridden_samples()},
                 {"wire_friction_nN_per_um", scene.wire_friction_nN_per_um()},
                 {"wire_contact_width_nm", scene.wire_contact_width_nm()},
+                {"wire_axis_heights_nm", sim.world.wire_axis_heights_nm()},
                 {"aside", aside.report()},
                 {"rejected", inbox.report()}};
     }

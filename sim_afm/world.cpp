@@ -434,6 +434,7 @@ Sample World::step()
     timed_samples_ += timed_;
     auto t0 = clock_start();
     (this->*mechanics_)();
+    if (!trench_points_.empty()) settle_rods();
     clock_add(&t_mech_, t0);
 
     // z feedback (ideal) holds the normal force at the set point while the
@@ -519,10 +520,11 @@ double World::height_true(double x, double y) const
         const double w2 = (q - p.c).squaredNorm();
         if (w2 < p.r * p.r) z = std::max(z, p.r + std::sqrt(p.r * p.r - w2));
     }
-    for (const auto &w : wires_) {
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        const auto &w = wires_[i];
         if (!w->near(q, 0.0)) continue;
         const double r = 0.5 * w->d_nm, d = w->axis_distance(q);
-        if (d < r) z = std::max(z, r + std::sqrt(r * r - d * d));
+        if (d < r) z = std::max(z, wire_axis_height_nm(i) + std::sqrt(r * r - d * d));
     }
     return base + std::max(z, landmark_height(q, false));
 }
@@ -593,14 +595,88 @@ double World::height_convolved(double x, double y) const
         const double b = bump_convolved((q - p.c).norm(), p.r);
         if (b > 0) z = std::max(z, b);
     }
-    for (const auto &w : wires_) {
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        const auto &w = wires_[i];
         const double r = 0.5 * w->d_nm;
         if (!w->near(q, r + 2 * r * std::tan(g) + scene_.probe.tip_radius_nm)) continue;
         const double b = bump_convolved(w->axis_distance(q), r);
-        if (b > 0) z = std::max(z, b);
+        if (b > 0) z = std::max(z, b + wire_axis_height_nm(i) - r);   // a rod sunk into a groove: lower by its seat
     }
     z = std::max(z, landmark_height(q, true));
     return base_height(q) + z;
+}
+
+double World::wire_axis_height_nm(std::size_t i) const
+{
+    return i < rod_axis_z_.size() ? rod_axis_z_[i] : 0.5 * wires_[i]->d_nm;
+}
+
+std::vector<double> World::wire_axis_heights_nm() const
+{
+    std::vector<double> out;
+    for (std::size_t i = 0; i < wires_.size(); ++i) out.push_back(wire_axis_height_nm(i));
+    return out;
+}
+
+bool World::trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *to_centre, double *depth) const
+{
+    // The V at least as wide as the wire, and the wire's axis over its
+    // opening (within half its width of the path: its weight and adhesion
+    // then take it down the wall); the way to the groove's path (across it)
+    // and the groove's depth there.
+    const double tg = std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    scratch3_.clear();
+    trench_grid_.query(q, trench_reach_nm_ + trench_step_nm_, scratch3_);
+    for (int k : scratch3_) {
+        const auto &[ti, pi] = trench_points_[k];
+        if (pi == 0) continue;
+        const Trench &t = trenches_[ti];
+        const double a = segment_param(t.p[pi - 1], t.p[pi], q);
+        const Eigen::Vector2d c = t.p[pi - 1] + a * (t.p[pi] - t.p[pi - 1]);
+        const double D = (1 - a) * t.depth_nm[pi - 1] + a * t.depth_nm[pi];
+        if (2 * tg * D < d_nm || (q - c).norm() >= tg * D) continue;
+        const Eigen::Vector2d along = (t.p[pi] - t.p[pi - 1]).normalized();
+        *to_centre = (c - q) - (c - q).dot(along) * along;   // across the groove only: it does not slide along it
+        *depth = D;
+        return true;
+    }
+    return false;
+}
+
+void World::settle_rods()
+{
+    constexpr int kPoints = 17;
+    const double g = scene_.probe.tip_half_angle_deg * M_PI / 180.0;
+    if (rod_axis_z_.size() != wires_.size()) {
+        rod_axis_z_.clear();
+        for (const auto &w : wires_) rod_axis_z_.push_back(0.5 * w->d_nm);
+    }
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        auto *rod = dynamic_cast<RigidWire *>(wires_[i].get());
+        if (!rod) continue;
+        const double R = 0.5 * rod->d_nm;
+        const Eigen::Vector2d a = rod->nodes().front(), b = rod->nodes().back();
+        Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+        double depth = 0;
+        int held = 0;
+        for (int k = 0; k < kPoints; ++k) {
+            Eigen::Vector2d to;
+            double D;
+            if (!trench_seat(a + (k + 0.5) / kPoints * (b - a), rod->d_nm, &to, &D)) continue;
+            shift += to;
+            depth += D;
+            ++held;
+        }
+        if (2 * held < kPoints) {
+            rod_axis_z_[i] = R;
+            continue;
+        }
+        shift /= held;
+        depth /= held;
+        if (shift.norm() > 1e-9) rod->place(rod->centre + shift, rod->psi);
+        const double half = depth * std::tan(g);
+        rod_axis_z_[i] = half >= R * std::cos(g) ? -depth + R / std::sin(g) : std::sqrt(std::max(0.0, R * R - half * half));
+    }
 }
 
 bool World::trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const

@@ -207,6 +207,23 @@ private:
     Eigen::Vector3d normal_plane(const Eigen::Vector2d &) const { return normal_; }
     Eigen::Vector3d normal_rough(const Eigen::Vector2d &q) const;
     double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
+    // Rods sink into trenches (physics.md section 9): a rigid rod whose axis
+    // lies, over at least half its length, in a V-groove at least as wide as
+    // it settles to the groove's centreline (it slides down the walls; the
+    // lateral move is the mean of its points' offsets across the groove)
+    // and rests on both walls, its axis at -D + R / sin gamma below the
+    // substrate (D: the groove's mean depth under it) when the walls meet it
+    // below the surface (D tan gamma >= R cos gamma), else on the rims at
+    // sqrt(R^2 - (D tan gamma)^2). After each sample's mechanics, with
+    // trenches only. rod_axis_z_: each wire's axis height above the
+    // substrate plane (R on the flat), for the images.
+    void settle_rods();
+    bool trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *to_centre, double *depth) const;
+    std::vector<double> rod_axis_z_;
+public:
+    double wire_axis_height_nm(std::size_t i) const;   // wire i's axis above the substrate plane (R unless sunk), nm
+    std::vector<double> wire_axis_heights_nm() const;  // every wire's, in the scene's order
+private:
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     void press_wires();                                       // down_force: each wire's tan psi for this sample

@@ -302,6 +302,23 @@ fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t 
  * segment in 2.30. */
 fw_status_t fw_wire_hold(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n);
 
+/* A rod settles into a trench (physics.md section 9, "rods sink into
+ * trenches", the simulator's World::settle_rods): when at least half of
+ * FW_WIRE_SETTLE_POINTS points along its axis lie over a V at least as wide
+ * as the rod (within half the recorded width of a piece of the trench's
+ * path, projected inside that piece), it slides down the walls onto the
+ * path: its centre moves across the trench by the mean of those points'
+ * offsets (their perpendicular distance to the path; never along it).
+ * pts, n: fw_litho's record as fw_wire_hold takes it. Returns true when it
+ * moved the rod. The card calls it after a sample that pushed the rod.
+ * Scaling and overflow: pieces with a coordinate difference from the rod's
+ * centre or a length of 2^30 pm or more are skipped (as fw_wire_hold);
+ * the point's cross product with a piece < 2^62, divided by the piece's
+ * length (isqrt of < 2^61); the normal in 2.30 (< 2^30 |u| / |u|); the
+ * mean offset fits int32 (each < 2^30). */
+#define FW_WIRE_SETTLE_POINTS 17
+bool fw_wire_settle(fw_wire_t *w, const fw_trench_point_t *pts, int32_t n);
+
 /* The rod's friction f L (pN): f (pN/um) L (pm) / 10^6, rounded.
  * Scaling and overflow: f < 2^31, L <= 2^30: the product < 2^61. */
 int32_t fw_wire_friction_pn(const fw_wire_tip_t *tip, const fw_wire_t *w);

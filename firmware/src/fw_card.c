@@ -266,6 +266,9 @@ static void card_objects_sample(fw_card_t *c, fw_sample_out_t *o)
             (void)fw_wire_update(w, &c->wire_tip, o->tip_pm, excess, twist, o->force_pn[2]);
             if ((w->flags & FW_WIRE_PUSHED) != 0u) {
                 o->flags |= FW_FLAG_CONTACT;
+                if (c->cfg.litho) {
+                    (void)fw_wire_settle(w, c->litho.pts, c->litho.count);   /* pushed over a groove: it slides in */
+                }
             }
             if ((w->flags & FW_WIRE_SQUEEZED) != 0u) {
                 o->flags |= FW_FLAG_SQUEEZE;

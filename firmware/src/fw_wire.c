@@ -488,6 +488,66 @@ fw_status_t fw_wire_hold(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench
     return FW_OK;
 }
 
+/* The offset (pm, across the piece a -> b) that takes point q onto the
+ * piece's path when q lies over its V (within half its mean width, its
+ * projection inside the piece) and the V is at least d wide; false else. */
+static bool wire_settle_offset(const int32_t q[2], const fw_trench_point_t *a, const fw_trench_point_t *b, int32_t d_pm,
+                               int64_t off[2])
+{
+    const int64_t huge = (int64_t)1 << 30;
+    const int64_t ux = (int64_t)b->x_pm - a->x_pm, uy = (int64_t)b->y_pm - a->y_pm;
+    const int64_t vx = (int64_t)q[0] - a->x_pm, vy = (int64_t)q[1] - a->y_pm;
+    const int64_t half_w = ((int64_t)a->width_pm + b->width_pm) / 4;
+    int64_t dot, len2, len, e, nx, ny;
+    if (ux >= huge || ux <= -huge || uy >= huge || uy <= -huge || vx >= huge || vx <= -huge || vy >= huge || vy <= -huge) {
+        return false;
+    }
+    dot = ux * vx + uy * vy;   /* each product < 2^60 */
+    len2 = ux * ux + uy * uy;
+    if (len2 == 0 || dot <= 0 || dot >= len2 || 2 * half_w < d_pm) {
+        return false;
+    }
+    len = (int64_t)fw_math_isqrt_round_u64((uint64_t)len2);
+    e = (ux * vy - uy * vx) / len;                   /* signed distance of q to the path, left of a -> b positive */
+    if (e >= half_w || e <= -half_w) {
+        return false;
+    }
+    nx = (-uy << FW_Q30_FRAC) / len;                 /* unit normal (left), 2.30 */
+    ny = (ux << FW_Q30_FRAC) / len;
+    off[0] = fw_math_rshift_round_i64(-e * nx, FW_Q30_FRAC);
+    off[1] = fw_math_rshift_round_i64(-e * ny, FW_Q30_FRAC);
+    return true;
+}
+
+bool fw_wire_settle(fw_wire_t *w, const fw_trench_point_t *pts, int32_t n)
+{
+    int32_t a[2], b[2], q[2];
+    int64_t sum[2] = {0, 0}, off[2];
+    int32_t k, i, held = 0;
+    if (w == NULL || pts == NULL || n < 2) {
+        return false;
+    }
+    fw_wire_ends_pm(w, a, b);
+    for (k = 0; k < FW_WIRE_SETTLE_POINTS; k++) {
+        /* the point at (k + 1/2) / K from A */
+        q[0] = a[0] + (int32_t)((((int64_t)b[0] - a[0]) * (2 * k + 1)) / (2 * FW_WIRE_SETTLE_POINTS));
+        q[1] = a[1] + (int32_t)((((int64_t)b[1] - a[1]) * (2 * k + 1)) / (2 * FW_WIRE_SETTLE_POINTS));
+        for (i = 1; i < n; i++) {
+            if ((pts[i].flags & FW_LITHO_STROKE_START) == 0u && wire_settle_offset(q, &pts[i - 1], &pts[i], w->diameter_pm, off)) {
+                sum[0] += off[0];
+                sum[1] += off[1];
+                held++;
+                break;
+            }
+        }
+    }
+    if (2 * held < FW_WIRE_SETTLE_POINTS || (sum[0] == 0 && sum[1] == 0)) {
+        return false;
+    }
+    fw_wire_shift(w, (int32_t)(sum[0] / held), (int32_t)(sum[1] / held));
+    return true;
+}
+
 void fw_wire_shift(fw_wire_t *w, int32_t dx_pm, int32_t dy_pm)
 {
     bool sat = false;
