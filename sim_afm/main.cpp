@@ -280,6 +280,7 @@ afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int6
         }
         q.n = static_cast<int32_t>(q.x_nm.size());
         q.in_contact = wire->in_contact;
+        q.axis_z_nm = w.wire_axis_height_nm(o.wires.size());
         o.wires.push_back(q);
     }
     o.n_wires = static_cast<int32_t>(o.wires.size());

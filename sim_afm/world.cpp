@@ -656,26 +656,38 @@ void World::settle_rods()
         if (!rod) continue;
         const double R = 0.5 * rod->d_nm;
         const Eigen::Vector2d a = rod->nodes().front(), b = rod->nodes().back();
-        Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+        // Each point's target, moved across the groove onto its path; the
+        // rod turns to the targets' line (their regression on the place
+        // along the rod) and its centre moves to its foot on that line.
+        std::vector<std::pair<double, Eigen::Vector2d>> targets;
         double depth = 0;
-        int held = 0;
         for (int k = 0; k < kPoints; ++k) {
             Eigen::Vector2d to;
             double D;
-            if (!trench_seat(a + (k + 0.5) / kPoints * (b - a), rod->d_nm, &to, &D)) continue;
-            shift += to;
+            const double t = (k + 0.5) / kPoints;
+            const Eigen::Vector2d q = a + t * (b - a);
+            if (!trench_seat(q, rod->d_nm, &to, &D)) continue;
+            targets.emplace_back(t, q + to);
             depth += D;
-            ++held;
         }
-        if (2 * held < kPoints) {
+        if (2 * targets.size() < kPoints) {
             rod_axis_z_[i] = R;
             continue;
         }
-        shift /= held;
-        depth /= held;
-        if (shift.norm() > 1e-9) rod->place(rod->centre + shift, rod->psi);
-        const double half = depth * std::tan(g);
-        rod_axis_z_[i] = half >= R * std::cos(g) ? -depth + R / std::sin(g) : std::sqrt(std::max(0.0, R * R - half * half));
+        depth /= targets.size();
+        double tbar = 0;
+        Eigen::Vector2d Tbar = Eigen::Vector2d::Zero(), v = Eigen::Vector2d::Zero();
+        for (const auto &[t, T] : targets) tbar += t, Tbar += T;
+        tbar /= targets.size();
+        Tbar /= targets.size();
+        for (const auto &[t, T] : targets) v += (t - tbar) * (T - Tbar);
+        const double psi = v.squaredNorm() > 0 ? std::atan2(v.y(), v.x()) : rod->psi;
+        const Eigen::Vector2d dir(std::cos(psi), std::sin(psi));
+        const Eigen::Vector2d c = Tbar + (rod->centre - Tbar).dot(dir) * dir;
+        if ((c - rod->centre).norm() > 1e-9 || std::fabs(psi - rod->psi) > 1e-12) rod->place(c, psi);
+        // On both walls (they touch it below the surface when the V's half
+        // width D tan gamma >= R cos gamma; trench_seat asks for >= R).
+        rod_axis_z_[i] = -depth + R / std::sin(g);
     }
 }
 

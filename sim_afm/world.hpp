@@ -209,12 +209,14 @@ private:
     double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
     // Rods sink into trenches (physics.md section 9): a rigid rod whose axis
     // lies, over at least half its length, in a V-groove at least as wide as
-    // it settles to the groove's centreline (it slides down the walls; the
-    // lateral move is the mean of its points' offsets across the groove)
-    // and rests on both walls, its axis at -D + R / sin gamma below the
-    // substrate (D: the groove's mean depth under it) when the walls meet it
-    // below the surface (D tan gamma >= R cos gamma), else on the rims at
-    // sqrt(R^2 - (D tan gamma)^2). After each sample's mechanics, with
+    // it settles onto the groove's path (it slides down the walls: each of
+    // 17 points along it has its target across the groove on the path; the
+    // rod turns to the targets' line, their regression on the place along
+    // the rod, and its centre moves to its foot on that line, never along
+    // the groove) and rests on both walls, its axis at z = -D + R / sin gamma
+    // (negative: below the substrate; D: the groove's mean depth under it; the walls meet it
+    // below the surface, as D tan gamma >= R cos gamma holds in any groove
+    // as wide as the rod). After each sample's mechanics, with
     // trenches only. rod_axis_z_: each wire's axis height above the
     // substrate plane (R on the flat), for the images.
     void settle_rods();

@@ -81,7 +81,8 @@ def from_scan(run_dir):
         raise common.PaperError(f"{run_dir}/scan_final.gsf: no rod over its middle")
     ridge = np.array(ridge)
     return {"width": y1 - y0, "path_y": 0.5 * (y0 + y1), "rod_y": float(np.median(ridge[:, 0])),
-            "rod_top": float(np.median(ridge[:, 1])), "profile": (ys, prof, level)}
+            "rod_top": float(np.median(ridge[:, 1])), "profile": (ys, prof, level),
+            "rod_profile": np.median(h[:, rod_cols], axis=1) - level}
 
 
 def from_truth(run_dir, w):
@@ -117,7 +118,14 @@ def analyse(dirs, exp_dir, size):
     sc, tr = from_scan(d), from_truth(d, states[-1][2])
     t, fw, truth = rod_tracks(states)
     model_err = float(np.max(np.hypot(*(fw[-1] - truth[-1]).T)))
-    worst = float(np.max(np.hypot(*(fw - truth).transpose(2, 0, 1))))
+    err = np.hypot(*(fw - truth).transpose(2, 0, 1)).max(axis=1)   # per block, the larger end distance
+    # The settle into the groove is a jump within one sample: the card and
+    # the simulator may take it one block apart, so each block is also held
+    # against the simulator's neighbouring blocks.
+    near = np.minimum(err, np.minimum(np.r_[np.hypot(*(fw[:-1] - truth[1:]).transpose(2, 0, 1)).max(axis=1), np.inf],
+                                      np.r_[np.inf, np.hypot(*(fw[1:] - truth[:-1]).transpose(2, 0, 1)).max(axis=1)]))
+    worst, apart = float(np.max(near)), int(np.sum(err > 40.0))
+    card_top = states[-1][1].wires[0].axis_z_nm + states[-1][1].wires[0].diameter_nm / 2
     item = plan["items"][0]
     target_deg = float(item.get("target_angle_deg", 0.0))
     rods = fid.get("placement", {}).get("rods", [{}])
@@ -144,16 +152,22 @@ def analyse(dirs, exp_dir, size):
                    note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
         common.Row("the card's rod against the simulator's, at the end", "nm", bench=model_err, tolerance=10.0,
                    note="largest end distance (FW_STATE, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
-        common.Row("the same, worst over the run", "nm", bench=worst, tolerance=40.0,
-                   note="a lag while an end a trench holds is pushed: the card moves a held rod only past its whole "
-                        "threshold (fw_wire.h), and catches up when the apex reaches it"),
+        common.Row("the same, worst over the run (within a block)", "nm", bench=worst, tolerance=40.0,
+                   note="each block against the simulator's same or neighbouring block: a lag while an end a trench "
+                        "holds is pushed (the card moves a held rod only past its whole threshold, fw_wire.h)"),
+        common.Row("blocks where they differ by more than 40 nm", "", bench=apart, tolerance=2,
+                   note="the settle into the groove is a jump: the card (fw_wire_settle) and the simulator "
+                        "(World::settle_rods) may take it a block apart"),
+        common.Row("the card's rod top against the fresh scan's", "nm", bench=card_top - sc["rod_top"], tolerance=10.0,
+                   note=f"the card's seated model (FW_STATE axis_z_nm + d/2: {card_top:.1f} nm) and the scan's "
+                        f"{sc['rod_top']:.1f} nm"),
         common.Row("display against a fresh scan: worst object", "nm", bench=fid["max_position_error_nm"], tolerance=fid["target_nm"],
                    note="the renderer's check at the last frame"),
     ]
     res.notes.append(f"placement by the renderer's scan: {'placed' if rods[0].get('placed') else 'NOT placed'} "
                      f"within {rods[0].get('tolerance_nm')} nm of the trench's path")
     res.figures = [("The final fresh scan: the trench and the rod in it, with the rod's ends over time", plot(exp_dir, d, t, fw, truth)),
-                   ("The trench's profile beyond the rod (scan)", plot_profile(exp_dir, sc))]
+                   ("The fresh scan across the trench: beyond the rod, and over its middle (the rod seated below the surface)", plot_profile(exp_dir, sc))]
     return res
 
 
@@ -180,9 +194,13 @@ def plot_profile(exp_dir, sc):
     p = common.plt()
     ys, prof, level = sc["profile"]
     fig, ax = p.subplots(figsize=(6.0, 3.5))
-    ax.plot(ys, prof - level, lw=1)
+    ax.plot(ys, prof - level, lw=1, label="beyond the rod: the groove")
+    ax.plot(ys, sc["rod_profile"], lw=1.2, label="over the rod's middle: the rod in the groove")
+    ax.axhline(sc["rod_top"], color="C1", lw=0.6, ls=":")
     ax.axvline(sc["path_y"] - sc["width"] / 2, color="gray", lw=0.6)
     ax.axvline(sc["path_y"] + sc["width"] / 2, color="gray", lw=0.6)
+    ax.set_xlim(sc["path_y"] - 1.5 * sc["width"], sc["path_y"] + 1.5 * sc["width"])
     ax.set_xlabel("y (nm)")
     ax.set_ylabel("height (nm)")
+    ax.legend(fontsize=8, loc="lower left")
     return common.save(fig, exp_dir, "trench_profile.png")

@@ -7,7 +7,8 @@
  * (fw_models_take on the host build) or on the board (the board takes it
  * and sends it with every answer, fw_marshal.h). What it holds:
  *   - each particle: id, position, radius, flags (not its threshold);
- *   - each wire: id, ends A and B (fw_wire_ends_pm), diameter, flags;
+ *   - each wire: id, ends A and B (fw_wire_ends_pm), diameter, flags, and
+ *     its axis's height (fw_wire_t.axis_z_pm: lower when seated in a groove);
  *   - the trench points the card has recorded (fw_litho), by pointer: into
  *     the card on the host build, into the host's copy on the board build;
  *   - the accumulated drift, and the interlock's trips (when it is on).
@@ -20,7 +21,7 @@
 #include "fw_card.h"
 
 typedef struct { int32_t id; int32_t x_pm; int32_t y_pm; int32_t radius_pm; uint32_t flags; } fw_models_particle_t;
-typedef struct { int32_t id; int32_t a_pm[2]; int32_t b_pm[2]; int32_t diameter_pm; uint32_t flags; } fw_models_wire_t;
+typedef struct { int32_t id; int32_t a_pm[2]; int32_t b_pm[2]; int32_t diameter_pm; uint32_t flags; int32_t axis_z_pm; } fw_models_wire_t;
 
 typedef struct {
     fw_models_particle_t *particles;   /* caller's storage */

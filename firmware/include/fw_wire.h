@@ -186,6 +186,8 @@ typedef struct {
     int32_t hold_at_pm[2];
     fw_bam_t hold_at_psi;
     int32_t hold_points;     /* trench points seen; -1: never computed */
+    int32_t axis_z_pm;       /* the axis's height above the substrate plane: d/2 on the flat, less (negative
+                              * below the surface) once settled in a groove (fw_wire_settle) */
 } fw_wire_t;
 
 /* The first rule a rod breaks: length outside (0, 2^30] pm, diameter
@@ -303,21 +305,40 @@ fw_status_t fw_wire_tip_init(fw_wire_tip_t *tip, int32_t tip_radius_pm, int32_t 
 fw_status_t fw_wire_hold(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n);
 
 /* A rod settles into a trench (physics.md section 9, "rods sink into
- * trenches", the simulator's World::settle_rods): when at least half of
- * FW_WIRE_SETTLE_POINTS points along its axis lie over a V at least as wide
- * as the rod (within half the recorded width of a piece of the trench's
- * path, projected inside that piece), it slides down the walls onto the
- * path: its centre moves across the trench by the mean of those points'
- * offsets (their perpendicular distance to the path; never along it).
- * pts, n: fw_litho's record as fw_wire_hold takes it. Returns true when it
- * moved the rod. The card calls it after a sample that pushed the rod.
+ * trenches"; the simulator's World::settle_rods is the truth it is judged
+ * against): when at least half of FW_WIRE_SETTLE_POINTS points along its
+ * axis lie over a V at least as wide as the rod (within half the recorded
+ * width of a piece of the trench's path, projected inside that piece), it
+ * slides down the walls onto the path. Each such point k (u_k = 2k + 1 - K
+ * along the rod) has its target T_k, the point moved across the groove
+ * onto the path; the rod turns to the direction of the targets' line (the
+ * regression of T on u: H sum u T - sum u sum T, fw_math_atan2_bam) and its
+ * centre moves to its foot on that line through the targets' mean
+ * (it never slides along the groove). It then rests on both walls: with
+ * h = w/2 the V's half width at the surface under it (the recorded widths'
+ * mean over the points), its axis lies at (R - h cos gamma) / sin gamma
+ * above the substrate plane (negative: below it; that is -D + R / sin gamma
+ * with D = h / tan gamma; w->axis_z_pm). The walls touch it below the
+ * surface when h >= R cos gamma, which a groove that holds it (h >= R)
+ * always meets. A rod not over a groove gets d/2 back.
+ * pts, n: fw_litho's record as fw_wire_hold takes it; tip: gamma. Returns
+ * true when the rod is seated in a groove. The card calls it after a sample
+ * that pushed the rod.
  * Scaling and overflow: pieces with a coordinate difference from the rod's
  * centre or a length of 2^30 pm or more are skipped (as fw_wire_hold);
  * the point's cross product with a piece < 2^62, divided by the piece's
- * length (isqrt of < 2^61); the normal in 2.30 (< 2^30 |u| / |u|); the
- * mean offset fits int32 (each < 2^30). */
+ * length (isqrt of < 2^61); the normal in 2.30 (< 2^30 |u| / |u|); each
+ * target < 2^31 pm, so the sums over 17 points < 2^36, sum u T < 2^40
+ * (|u_k| <= 16) and the direction's parts < 2^46; they are shifted right
+ * together until both fit int32 for atan2; the centre's foot: a difference
+ * < 2^32 times 2.30 < 2^62. A shift that would leave int32 saturates
+ * (fw_wire_shift).
+ * The seat: h < 2^30, R < 2^30, products with 2.30 cosines < 2^61; the
+ * quotient by sin gamma (2.30), -D + R / sin gamma, is saturated to int32
+ * (it fits while D and R / sin gamma stay under 2^30 pm, a millimetre);
+ * a sin gamma of 0 (gamma = 0) leaves the axis at R. */
 #define FW_WIRE_SETTLE_POINTS 17
-bool fw_wire_settle(fw_wire_t *w, const fw_trench_point_t *pts, int32_t n);
+bool fw_wire_settle(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n);
 
 /* The rod's friction f L (pN): f (pN/um) L (pm) / 10^6, rounded.
  * Scaling and overflow: f < 2^31, L <= 2^30: the product < 2^61. */

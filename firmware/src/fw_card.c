@@ -267,7 +267,7 @@ static void card_objects_sample(fw_card_t *c, fw_sample_out_t *o)
             if ((w->flags & FW_WIRE_PUSHED) != 0u) {
                 o->flags |= FW_FLAG_CONTACT;
                 if (c->cfg.litho) {
-                    (void)fw_wire_settle(w, c->litho.pts, c->litho.count);   /* pushed over a groove: it slides in */
+                    (void)fw_wire_settle(w, &c->wire_tip, c->litho.pts, c->litho.count);   /* pushed over a groove: it slides in */
                 }
             }
             if ((w->flags & FW_WIRE_SQUEEZED) != 0u) {

@@ -30,7 +30,7 @@
  *   fix        place (bool), object_id, scan_pm[2]
  *   fix_out    result (int32), landmark (bool), model_pm[2], delta_pm[2]
  *   models     n_particles, each {id, x_pm, y_pm, radius_pm, flags};
- *              n_wires, each {id, a_pm[2], b_pm[2], diameter_pm, flags};
+ *              n_wires, each {id, a_pm[2], b_pm[2], diameter_pm, flags, axis_z_pm};
  *              drift_pm[2], litho (bool), trench_count, trench_from, each point
  *              from trench_from {x_pm, y_pm, depth_pm, width_pm, flags};
  *              interlock (bool), interlock_trips
@@ -464,6 +464,7 @@ void fw_marshal_put_models_le(fw_marshal_cursor_t *cur, const fw_models_t *m, in
         const fw_models_wire_t *w = &m->wires[i];
         PUT(w->id); PUT(w->a_pm[0]); PUT(w->a_pm[1]); PUT(w->b_pm[0]); PUT(w->b_pm[1]); PUT(w->diameter_pm);
         fw_marshal_put_u32_le(cur, w->flags);
+        PUT(w->axis_z_pm);
     }
     PUT(m->drift_pm[0]);
     PUT(m->drift_pm[1]);
@@ -489,6 +490,7 @@ void fw_marshal_get_models_le(fw_marshal_cursor_t *cur, fw_models_t *m, fw_trenc
         GET(w->a_pm[0], "models.wires.a_pm[0]"); GET(w->a_pm[1], "models.wires.a_pm[1]");
         GET(w->b_pm[0], "models.wires.b_pm[0]"); GET(w->b_pm[1], "models.wires.b_pm[1]");
         GET(w->diameter_pm, "models.wires.diameter_pm"); GETU(w->flags, "models.wires.flags");
+        GET(w->axis_z_pm, "models.wires.axis_z_pm");
     }
     GET(m->drift_pm[0], "models.drift_pm[0]");
     GET(m->drift_pm[1], "models.drift_pm[1]");

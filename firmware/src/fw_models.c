@@ -30,6 +30,7 @@ fw_status_t fw_models_take(const fw_card_t *c, fw_models_t *m)
         fw_wire_ends_pm(w, q->a_pm, q->b_pm);
         q->diameter_pm = w->diameter_pm;
         q->flags = w->flags;
+        q->axis_z_pm = w->axis_z_pm;
     }
     m->n_particles = np;
     m->n_wires = nw;

@@ -236,6 +236,7 @@ fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
     w->hold_at_pm[1] = 0;
     w->hold_at_psi = 0;
     w->hold_points = -1;
+    w->axis_z_pm = diameter_pm / 2;
     return FW_OK;
 }
 
@@ -519,32 +520,90 @@ static bool wire_settle_offset(const int32_t q[2], const fw_trench_point_t *a, c
     return true;
 }
 
-bool fw_wire_settle(fw_wire_t *w, const fw_trench_point_t *pts, int32_t n)
+/* The seat of a rod of radius r_pm in a V of half width h_pm at the
+ * surface (fw_wire_settle's header): its axis's height above the substrate
+ * plane, pm. */
+static int32_t wire_seat_pm(int32_t r_pm, int64_t h_pm, fw_bam_t gamma)
+{
+    q30_t sg, cg;
+    fw_math_sincos_q30(gamma, &sg, &cg);
+    if (sg <= 0) {
+        return r_pm;
+    }
+    bool sat = false;
+    return fw_math_sat_i32((((int64_t)r_pm << FW_Q30_FRAC) - h_pm * cg) / sg, &sat);
+}
+
+/* Sums over the points of a rod that lie over a groove (fw_wire_settle):
+ * each point's target T_k (the point moved onto the groove's path) and its
+ * place along the rod u_k = 2k + 1 - K. */
+typedef struct {
+    int64_t t[2];            /* sum of T_k, pm */
+    int64_t ut[2];           /* sum of u_k T_k */
+    int64_t u;               /* sum of u_k */
+    int64_t half_w;          /* sum of the V's half widths, pm */
+    int32_t held;
+} wire_settle_sums_t;
+
+static void wire_settle_gather(const fw_wire_t *w, const fw_trench_point_t *pts, int32_t n, wire_settle_sums_t *m)
 {
     int32_t a[2], b[2], q[2];
-    int64_t sum[2] = {0, 0}, off[2];
-    int32_t k, i, held = 0;
-    if (w == NULL || pts == NULL || n < 2) {
-        return false;
-    }
+    int64_t off[2];
+    int32_t k, i, u;
     fw_wire_ends_pm(w, a, b);
     for (k = 0; k < FW_WIRE_SETTLE_POINTS; k++) {
         /* the point at (k + 1/2) / K from A */
+        u = 2 * k + 1 - FW_WIRE_SETTLE_POINTS;
         q[0] = a[0] + (int32_t)((((int64_t)b[0] - a[0]) * (2 * k + 1)) / (2 * FW_WIRE_SETTLE_POINTS));
         q[1] = a[1] + (int32_t)((((int64_t)b[1] - a[1]) * (2 * k + 1)) / (2 * FW_WIRE_SETTLE_POINTS));
         for (i = 1; i < n; i++) {
             if ((pts[i].flags & FW_LITHO_STROKE_START) == 0u && wire_settle_offset(q, &pts[i - 1], &pts[i], w->diameter_pm, off)) {
-                sum[0] += off[0];
-                sum[1] += off[1];
-                held++;
+                m->t[0] += q[0] + off[0];
+                m->t[1] += q[1] + off[1];
+                m->ut[0] += u * (q[0] + off[0]);
+                m->ut[1] += u * (q[1] + off[1]);
+                m->u += u;
+                m->half_w += ((int64_t)pts[i - 1].width_pm + pts[i].width_pm) / 4;
+                m->held++;
                 break;
             }
         }
     }
-    if (2 * held < FW_WIRE_SETTLE_POINTS || (sum[0] == 0 && sum[1] == 0)) {
+}
+
+bool fw_wire_settle(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_point_t *pts, int32_t n)
+{
+    wire_settle_sums_t m = {{0, 0}, {0, 0}, 0, 0, 0};
+    int64_t v[2], tbar[2], along;
+    q30_t sn, cs;
+    if (w == NULL || tip == NULL) {
         return false;
     }
-    fw_wire_shift(w, (int32_t)(sum[0] / held), (int32_t)(sum[1] / held));
+    if (pts != NULL && n >= 2) {
+        wire_settle_gather(w, pts, n, &m);
+    }
+    if (2 * m.held < FW_WIRE_SETTLE_POINTS) {
+        w->axis_z_pm = w->diameter_pm / 2;
+        return false;
+    }
+    /* the targets' line: direction H sum u T - sum u sum T (the regression of T on u), through their mean */
+    v[0] = m.held * m.ut[0] - m.u * m.t[0];
+    v[1] = m.held * m.ut[1] - m.u * m.t[1];
+    while (v[0] > INT32_MAX || v[0] < -INT32_MAX || v[1] > INT32_MAX || v[1] < -INT32_MAX) {
+        v[0] = fw_math_asr_i64(v[0], 1);
+        v[1] = fw_math_asr_i64(v[1], 1);
+    }
+    if (v[0] != 0 || v[1] != 0) {
+        w->psi = fw_math_atan2_bam((int32_t)v[1], (int32_t)v[0]);
+    }
+    fw_math_sincos_q30(w->psi, &sn, &cs);
+    tbar[0] = m.t[0] / m.held;
+    tbar[1] = m.t[1] / m.held;
+    /* the centre's foot on that line: it slides across the groove, not along it */
+    along = fw_math_rshift_round_i64(((int64_t)w->x_pm - tbar[0]) * cs + ((int64_t)w->y_pm - tbar[1]) * sn, FW_Q30_FRAC);
+    fw_wire_shift(w, (int32_t)(tbar[0] + fw_math_rshift_round_i64(along * cs, FW_Q30_FRAC) - w->x_pm),
+                  (int32_t)(tbar[1] + fw_math_rshift_round_i64(along * sn, FW_Q30_FRAC) - w->y_pm));
+    w->axis_z_pm = wire_seat_pm(w->diameter_pm / 2, m.half_w / m.held, tip->tip_half_angle);
     return true;
 }
 

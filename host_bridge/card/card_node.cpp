@@ -213,6 +213,7 @@ void CardNode::fill_objects()
         q.x_nm = {fwu_nm_from_pm(w.a_pm[0]), fwu_nm_from_pm(w.b_pm[0])};
         q.y_nm = {fwu_nm_from_pm(w.a_pm[1]), fwu_nm_from_pm(w.b_pm[1])};
         q.in_contact = (w.flags & FW_WIRE_PUSHED) != 0;
+        q.axis_z_nm = fwu_nm_from_pm(w.axis_z_pm);
     }
     whole_.n_wires = static_cast<int32_t>(whole_.wires.size());
     fill_trenches(m.drift_pm);

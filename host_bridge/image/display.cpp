@@ -94,7 +94,7 @@ cv::Point2d centroid(const std::vector<cv::Point2d> &pts)
 
 bool same_wire(const DisplayWire &a, const DisplayWire &b)
 {
-    return a.diameter_nm == b.diameter_nm && a.nodes_nm == b.nodes_nm;
+    return a.diameter_nm == b.diameter_nm && a.nodes_nm == b.nodes_nm && a.sink_nm == b.sink_nm;
 }
 
 // Index of the first point where two versions of a trench differ (the
@@ -241,7 +241,7 @@ void Display::draw(cv::Mat &img, const DisplayWire &w, const cv::Rect &clip) con
             const double y = f_.y_of(row);
             for (int col = r.x; col < r.x + r.width; ++col) {
                 const double z = wire_profile_nm(R, segment_distance(a, b, {f_.x_of(col), y}, nullptr), tip_);
-                if (z > 0 && z > dst[col]) dst[col] = static_cast<float>(z);
+                if (z > 0 && z - w.sink_nm > dst[col]) dst[col] = static_cast<float>(z - w.sink_nm);   // a sunk rod over its groove
             }
         }
     }

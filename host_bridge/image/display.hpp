@@ -25,6 +25,7 @@ struct DisplayWire {          // a wire: a cylinder of diameter d lying along a 
     int id;
     double diameter_nm;
     std::vector<cv::Point2d> nodes_nm;   // frame A, nm
+    double sink_nm = 0;                  // how far its axis lies below d/2 (seated in a groove: the card's axis_z), nm
 };
 
 struct TrenchPoint {          // a point of a trench's path (frame A, nm)

@@ -121,6 +121,24 @@ double polyline_distance(const std::vector<cv::Point2d> &nodes, const cv::Point2
     return best;
 }
 
+// A ridge's rise above the ground around it, over the pixels r: the image
+// less its morphological opening by a disc of radius band_nm (the white
+// top-hat). The opening removes what is narrower than the disc (a wire's
+// image, whose footprint the band holds) and keeps what is wider or hollow
+// (the flat substrate, a V-groove), so a rod seated in a groove, its top
+// below the substrate, rises above the groove's walls as a rod on the flat
+// rises above 0. Computed on r widened by the disc, so r's edges see their
+// ground.
+cv::Mat ridge_rise(const cv::Mat &h_nm, const Field &f, const cv::Rect &r, double band_nm)
+{
+    const int rad = std::max(1, static_cast<int>(std::ceil(band_nm / f.pitch())));
+    const cv::Rect wide = cv::Rect(r.x - rad, r.y - rad, r.width + 2 * rad, r.height + 2 * rad) & cv::Rect(0, 0, h_nm.cols, h_nm.rows);
+    cv::Mat open;
+    cv::morphologyEx(h_nm(wide), open, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * rad + 1, 2 * rad + 1}));
+    cv::Mat rise = h_nm(wide) - open;
+    return rise(cv::Rect(r.x - wide.x, r.y - wide.y, r.width, r.height)).clone();
+}
+
 double polyline_length(const std::vector<cv::Point2d> &nodes)
 {
     double L = 0;
@@ -146,6 +164,7 @@ bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Poi
                                 cv::Point(static_cast<int>(std::ceil(hi.x)) + 1, static_cast<int>(std::ceil(hi.y)) + 1)) &
                        cv::Rect(0, 0, h_nm.cols, h_nm.rows);
     if (r.area() == 0) return false;
+    const cv::Mat rise = ridge_rise(h_nm, f, r, band_nm);
     // The band: pixels within band_nm of the polyline.
     cv::Mat in_band(r.size(), CV_8U, cv::Scalar(0));
     double peak = 0;
@@ -153,14 +172,14 @@ bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Poi
         for (int col = r.x; col < r.x + r.width; ++col)
             if (polyline_distance(nodes_nm, {f.x_of(col), f.y_of(row)}) <= band_nm) {
                 in_band.at<uchar>(row - r.y, col - r.x) = 1;
-                peak = std::max(peak, static_cast<double>(h_nm.at<float>(row, col)));
+                peak = std::max(peak, static_cast<double>(rise.at<float>(row - r.y, col - r.x)));
             }
     if (peak <= 1e-6) return false;
     const double floor_nm = 0.5 * peak;
     double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
     for (int row = r.y; row < r.y + r.height; ++row)
         for (int col = r.x; col < r.x + r.width; ++col) {
-            const double w = h_nm.at<float>(row, col) - floor_nm;
+            const double w = rise.at<float>(row - r.y, col - r.x) - floor_nm;
             if (w <= 0 || !in_band.at<uchar>(row - r.y, col - r.x)) continue;
             const double x = f.x_of(col), y = f.y_of(row);
             sw += w;

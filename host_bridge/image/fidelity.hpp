@@ -91,9 +91,13 @@ struct RodCheck {
 };
 RodCheck check_rod(const cv::Mat &scan_nm, const Field &f, cv::Point2d centre_nm, double angle_deg, double length_nm, double band_nm);
 
-// Locates a ridge (a wire) within band_nm of a polyline: the height-weighted
+// Locates a ridge (a wire) within band_nm of a polyline: the rise-weighted
 // centroid and principal axis (radians from +x, in [0, pi)) of the pixels of
-// that band above half its peak. Returns false if the band holds no ridge.
+// that band whose rise is above half its peak. The rise is a pixel's height
+// above the ground around it (the image less its opening by a disc of
+// radius band_nm: 0 on the flat substrate and on a groove's walls, so a
+// wire lying on the flat and one seated in a groove below the surface are
+// found alike). Returns false if the band holds no ridge.
 bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Point2d> &nodes_nm, double band_nm,
                   double *cx, double *cy, double *angle_rad);
 

@@ -119,7 +119,7 @@ private:
 // The firmware's wires and trenches as the display draws them.
 inline afm::DisplayWire display_wire(const afm::wire_t &w)
 {
-    afm::DisplayWire d{w.id, w.diameter_nm, {}};
+    afm::DisplayWire d{w.id, w.diameter_nm, {}, 0.5 * w.diameter_nm - w.axis_z_nm};
     for (int i = 0; i < w.n; ++i) d.nodes_nm.emplace_back(w.x_nm[i], w.y_nm[i]);
     return d;
 }

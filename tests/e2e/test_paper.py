@@ -123,12 +123,16 @@ class Reduced(unittest.TestCase):
                                delta=0.1 * 2.5 * t / (1 - t))
 
     def test_trench_holds_the_rod_and_the_cards_model_knows_it(self):
-        # fig. 18: cut, then pushed in by a zigzag; the simulator holds a rod
-        # whose axis is within (w - d) / 2 of the path; the card's rod stays
-        # with the simulator's because it feels the trench it cut.
-        self.assertGreater(self.row("trench", "rod's axis inside the trench's room")["bench"], -6.0)
-        self.assertLess(self.row("trench", "rod's axis from the trench's path")["bench"],
-                        self.row("trench", "room in the trench")["bench"] + 6.0)
+        # fig. 18: cut, then pushed in by a zigzag; the rod sinks into the
+        # groove (its top below the surface in the fresh scan, on the
+        # trench's path); the card's rod stays with the simulator's because
+        # it feels the trench it cut and settles into it too.
+        top = self.row("trench", "the rod's top against the substrate")
+        self.assertLess(top["bench"], -100.0, "the rod's top lies well below the surface")
+        self.assertAlmostEqual(top["bench"], top["truth"], delta=10.0)
+        self.assertEqual(self.row("trench", "the rod lies below the substrate")["bench"], 1.0)
+        self.assertLess(self.row("trench", "rod's axis from the trench's path")["bench"], 6.0)
+        self.assertLess(abs(self.row("trench", "the card's rod top against the fresh scan's")["bench"]), 10.0)
         self.assertGreater(self.row("trench", "end pushes")["bench"], 4, "a zigzag, not one push")
         self.assertLess(self.row("trench", "the card's rod against the simulator's, at the end")["bench"], 10.0)
         self.assertAlmostEqual(self.row("trench", "trench width")["bench"], 2 * 350 * math.tan(math.radians(20)), delta=20)

@@ -144,7 +144,7 @@ static void test_models_round_trip_and_trench_points_arrive_incrementally(void)
     memset(t, 0, sizeof t); memset(t_back, 0, sizeof t_back);
     for (int i = 0; i < 2; ++i) { p[i].id = draw(); p[i].x_pm = draw(); p[i].y_pm = draw(); p[i].radius_pm = draw(); p[i].flags = (uint32_t)draw(); }
     wr[0].id = draw(); wr[0].a_pm[0] = draw(); wr[0].a_pm[1] = draw(); wr[0].b_pm[0] = draw(); wr[0].b_pm[1] = draw();
-    wr[0].diameter_pm = draw(); wr[0].flags = (uint32_t)draw();
+    wr[0].diameter_pm = draw(); wr[0].flags = (uint32_t)draw(); wr[0].axis_z_pm = draw();
     for (int i = 0; i < 4; ++i) { t[i].x_pm = draw(); t[i].y_pm = draw(); t[i].depth_pm = draw(); t[i].width_pm = draw(); t[i].flags = (uint32_t)draw(); }
     fw_models_t m, back;
     memset(&m, 0, sizeof m);

@@ -178,14 +178,17 @@ void test_lithography_cuts_a_v_trench_seen_by_later_scans()
     for (double wdt : w.trenches()[0].width_nm) TEST_ASSERT_DOUBLE_WITHIN(1e-9, 2 * half, wdt);
 }
 
-void test_wire_pushed_into_a_trench_is_held_by_it()
+void test_wire_pushed_into_a_trench_sinks_into_it_and_is_held()
 {
     // Cut a trench along y = 0 (load 120 nN: 200 nm deep, 146 nm wide, wider
     // than the 100 nm wire), then push a 1 um wire lying parallel at y = -300
-    // by its middle (pure translation at f L) into it. Once its axis is within
-    // (146 - 100) / 2 = 22.8 nm of the trench's line it is held: crossing
-    // needs tan(70 + 16.7 deg) / 0.3 = 58 times its friction, more than the
-    // lever can push here, so it stays put while the tip keeps pushing.
+    // by its middle (pure translation at f L) into it. Once its axis is over
+    // the V's opening (within 73 nm of the trench's line) it slides down the
+    // walls onto the line and rests on both walls (World::settle_rods), its
+    // axis at -D + R / sin gamma, its top below the surface; it is held
+    // there: crossing needs tan(70 + 16.7 deg) / 0.3 = 58 times its
+    // friction, more than the lever can push here, so it stays put while
+    // the tip keeps pushing.
     const afm::Scene s = scene_from_text(with(with(kPoly, "effects: [lithography]",
         "effects: [bending_offset, lithography]"), "operator:",
         "  wire: {friction_nN_per_um: 20, mu: 0.3}\nobjects:\n  wires:\n"
@@ -210,7 +213,7 @@ void test_wire_pushed_into_a_trench_is_held_by_it()
     for (int i = 0; i < 6000; ++i) {   // 0.1 nm per sample up to y = +100
         y += 0.1;
         go(0, y, 5, 1);
-        if (y > -200 && y < -100) f_free += -w.tip_force().y() - friction, ++n_free;
+        if (y > -200 && w.wires()[0]->nodes().front().y() < -90) f_free += -w.tip_force().y() - friction, ++n_free;   // before the groove
     }
     f_free /= n_free;
     const auto &n = w.wires()[0]->nodes();
@@ -218,8 +221,16 @@ void test_wire_pushed_into_a_trench_is_held_by_it()
     std::printf("wire ends at y = %.3f, %.3f nm; free push %.3f f L, held against %.3f f L\n", n.front().y(), n.back().y(),
                 f_free / fL, held_force / fL);
     TEST_ASSERT_DOUBLE_WITHIN(0.02, 1.0, f_free / fL);        // translation before the trench (2%, as test_wires)
-    for (const auto &p : n) TEST_ASSERT_TRUE(p.y() > -23.0 && p.y() < -20.0);   // in the trench's reach
+    for (const auto &p : n) TEST_ASSERT_DOUBLE_WITHIN(0.5, 0.0, p.y());   // on the trench's line
     TEST_ASSERT_TRUE(held_force > 3 * fL);
+    double D = 0;
+    for (double d : w.trenches()[0].depth_nm) D += d / w.trenches()[0].depth_nm.size();
+    const double g = s.probe.tip_half_angle_deg * M_PI / 180, seat = -D + 50.0 / std::sin(g);
+    std::printf("seated: axis %.3f nm (-D + R / sin gamma = %.3f), top in the image %.3f nm\n", w.wire_axis_height_nm(0), seat,
+                w.image_height(0, 0));
+    TEST_ASSERT_DOUBLE_WITHIN(2.0, seat, w.wire_axis_height_nm(0));   // the depth varies a little along the cut
+    TEST_ASSERT_TRUE(w.wire_axis_height_nm(0) + 50 < -3);              // its top below the surface (by 3.8 nm here)
+    TEST_ASSERT_DOUBLE_WITHIN(2.0, w.wire_axis_height_nm(0) + 50, w.image_height(0, 0));
 }
 
 void test_lithography_is_refused_off_polycarbonate()
@@ -417,7 +428,7 @@ int main()
     UNITY_BEGIN();
     RUN_TEST(test_friction_loop_slopes_on_a_tilted_plane_match_eq_16_17);
     RUN_TEST(test_lithography_cuts_a_v_trench_seen_by_later_scans);
-    RUN_TEST(test_wire_pushed_into_a_trench_is_held_by_it);
+    RUN_TEST(test_wire_pushed_into_a_trench_sinks_into_it_and_is_held);
     RUN_TEST(test_lithography_is_refused_off_polycarbonate);
     RUN_TEST(test_scan_line_on_tilted_glass_reads_what_the_tip_sliding_there_reads);
     RUN_TEST(test_scan_line_on_flat_glass_reads_friction_and_the_set_point);
