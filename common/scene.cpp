@@ -1104,7 +1104,7 @@ double Scene::wire_contact_width_nm() const
 double Scene::wire_friction_nN_per_um() const
 {
     if (!wire_model.adhesion_nN_per_um) return wire_model.friction_nN_per_um;
-    // tau [MPa] * A per um [nm^2] = 1e6 N/m^2 * (w * 1000) 1e-18 m^2 = 1e-3 w nN.
+    // tau [MPa] * A per um = 1e6 N/m^2 * (w [nm] 1e-9 m * 1e-6 m) = w 1e-9 N: tau w nN per um.
     return wire_model.mu * *wire_model.adhesion_nN_per_um + wire_model.shear_strength_MPa * wire_contact_width_nm();
 }
 

@@ -95,7 +95,9 @@ def analyse(dirs, exp_dir, size):
     sc = common.truth(next(iter(dirs.values())))
     w = sc["objects"]["wires"][0]
     L = float(w["x1_nm"] - w["x0_nm"])
-    f = float(sc["sample"]["wire"]["friction_nN_per_um"]) * 1e-3   # nN/nm
+    # f: the card's configured friction per length (run.json card), which a
+    # scene gives directly or through eq. 23-24 (mu_os F_a,os + tau_os A)
+    f = float(common.run_json(next(iter(dirs.values())))["card"]["wire_friction_pn_per_um"]) * 1e-6   # nN/nm
     pts = []
     for q in POINTS[size]:
         d = dirs[f"l_{q:.2f}L"]
