@@ -112,6 +112,15 @@ def calc(*args):
     return json.loads(p.stdout)
 
 
+def squeeze_model(L, l, gamma, mu, fl, fats, twist_deg=0.0):
+    """The firmware's squeeze solver (eq. 25-30: afm_calc model squeeze) for
+    a rod of length L (nm) pushed at l (nm) by a cone of half angle gamma
+    (deg), wire mu, friction f L and tip adhesion F_a,ts (nN), with the
+    lever twisted by twist_deg: its answer (push_nN, df_nN, ...)."""
+    return calc("model", "squeeze", "--length-nm", f"{L:.1f}", "--push-at-nm", f"{l:.1f}", "--gamma-deg", gamma,
+                "--mu", mu, "--fl-nN", f"{fl:.4f}", "--fa-ts-nN", f"{fats:.4f}", "--twist-deg", f"{twist_deg:.5f}")
+
+
 def run_json(run_dir):
     with open(os.path.join(run_dir, "run.json")) as f:
         return json.load(f)
@@ -253,21 +262,6 @@ def plt():
     matplotlib.use("Agg")
     import matplotlib.pyplot as p
     return p
-
-
-def apex_error(run_dir, min_load_nN=1.0):
-    """The card's apex (FW_STATE) against the simulator's (SIM_TRUTH), block
-    by block where the card reads a load above min_load_nN: arrays of the
-    error (nm, x and y, frame A) and of the simulated time (s)."""
-    from analysis import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
-    tip, truth = (afmlog.by_seq(log.get(c, [])) for c in ("FW_STATE", "SIM_TRUTH"))
-    seqs = sorted(s for s in tip if s in truth and tip[s].force_nN[2] > min_load_nN)
-    if not seqs:
-        raise PaperError(f"{run_dir}/bus.lcmlog: no block with the tip on the surface (FW_STATE, SIM_TRUTH)")
-    err = np.array([[tip[s].tip_nm[i] - truth[s].tip_nm[i] for i in (0, 1)] for s in seqs])
-    t = np.array([tip[s].utime * 1e-6 for s in seqs])
-    return err, t
 
 
 def model_states(run_dir):

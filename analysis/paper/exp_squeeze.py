@@ -64,7 +64,7 @@ def ride_load(sc, gamma):
     firmware's solver, no twist): the model under test, which picks the
     ride-over runs' loads."""
     L, fl, mu, fats = _rod_constants(sc)
-    return float(_solver(L, END_Q * L, gamma, mu, fl, fats)["df_nN"])
+    return float(common.squeeze_model(L, END_Q * L, gamma, mu, fl, fats)["df_nN"])
 
 
 def runs(size):
@@ -108,11 +108,6 @@ def _apex_final_y(run_dir):
     return float(tips[-1].tip_nm[1])
 
 
-def _solver(L, l, gamma, mu, fl, fats):
-    return common.calc("model", "squeeze", "--length-nm", f"{L:.1f}", "--push-at-nm", f"{l:.1f}", "--gamma-deg", gamma,
-                       "--mu", mu, "--fl-nN", f"{fl:.4f}", "--fa-ts-nN", f"{fats:.4f}")
-
-
 def analyse(dirs, exp_dir, size):
     sc = common.truth(dirs[f"gamma_{GAMMAS[size][0]}"])
     w = sc["objects"]["wires"][0]
@@ -125,7 +120,7 @@ def analyse(dirs, exp_dir, size):
         hb, ht, _ = common.push_excess(d)
         if hb is None:
             raise common.PaperError(f"{d}: the card never flagged contact with the rod")
-        m = _solver(L, END_Q * L, g, mu, fl, fats)
+        m = common.squeeze_model(L, END_Q * L, g, mu, fl, fats)
         pts.append(dict(g=g, H_card=hb, H_truth=ht, H_fw=m["push_nN"], dF_fw=m["df_nN"],
                         dF_card=hb * math.tan(math.radians(g)) - fats))
     res = common.Result()
@@ -156,7 +151,7 @@ def analyse(dirs, exp_dir, size):
 
 
 def _squeeze_rows(res, dirs, L, fl, fats):
-    m = _solver(L, MID_Q * L, SQUEEZE_GAMMA, SQUEEZE_MU, fl, fats)   # the firmware's k(l) and psi_max
+    m = common.squeeze_model(L, MID_Q * L, SQUEEZE_GAMMA, SQUEEZE_MU, fl, fats)   # the firmware's k(l) and psi_max
     k, psi_max = m["k"], m["psi_max_deg"]
     for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
         d = dirs[name]
@@ -243,7 +238,7 @@ def _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats):
     p = common.plt()
     fig, ax = p.subplots(figsize=(6.4, 4.0))
     gs = np.linspace(1, 60, 60)
-    ax.plot(gs, [_solver(L, END_Q * L, g, mu, fl, fats)["push_nN"] for g in gs], "-", lw=0.8,
+    ax.plot(gs, [common.squeeze_model(L, END_Q * L, g, mu, fl, fats)["push_nN"] for g in gs], "-", lw=0.8,
             label="eq. 29 (firmware's solver)")
     ax.axhline(k_end, ls=":", color="grey", lw=0.8, label="without the down force: k f L")
     ax.plot([q["g"] for q in pts], [q["H_card"] for q in pts], "o", label="bench (card's force)")

@@ -56,9 +56,8 @@ POINTS = {
 
 
 def _model(gamma, q, ratio, twist_deg=0.0):
-    return common.calc("model", "squeeze", "--length-nm", f"{ROD_L:.1f}", "--push-at-nm", f"{q * ROD_L:.1f}",
-                       "--gamma-deg", gamma, "--mu", MU_OS, "--fl-nN", f"{MU_OS * ratio * F_A_TS:.4f}",
-                       "--fa-ts-nN", F_A_TS, "--twist-deg", f"{twist_deg:.5f}")
+    """Eq. 30's model at a figure's point: the rod, mu_os and F_a,ts of these figures."""
+    return common.squeeze_model(ROD_L, q * ROD_L, gamma, MU_OS, MU_OS * ratio * F_A_TS, F_A_TS, twist_deg)
 
 
 def model_df(gamma, q, ratio, rad_per_nN=0.0):
