@@ -37,17 +37,17 @@ World::World(const Scene &s)
     const double ps_adh = adhesion ? ps.adhesion_nN : 0.0;
     // Section 5: F_th = mu_ps (F_adh,ps + F_down) + tau_ps A_c. tau [MPa] *
     // A [nm^2] = 1e6 N/m^2 * 1e-18 m^2 = 1e-12 N = 1e-3 nN. Pushed sideways
-    // F_down = 0; with down_force the cone's flank (at gamma from the
-    // horizontal) presses the particle by H tan gamma, so the push H that
-    // moves it is F_th(0) / (1 - mu_ps tan gamma), and none does past
-    // psi_max = atan(1 / mu_ps) (the cone squeezes it).
+    // F_down = 0 (each particle's threshold_nN, F_th(0)); with down_force
+    // the cone's flank presses the particle the tip pushes (press_cone):
+    // at psi = gamma + theta_t from the horizontal (theta_t the lever's
+    // twist under the last sample's lateral force) by H tan psi, so the
+    // push H that moves it is F_th(0) / (1 - mu_ps tan psi), and none does
+    // past psi_max = atan(1 / mu_ps) (the cone squeezes it). A particle
+    // pushed by another is not pressed: F_th(0).
     down_force_ = s.has_effect("down_force");
     gamma_rad_ = s.probe.tip_half_angle_deg * M_PI / 180.0;
-    double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
-    if (down_force_) {
-        const double den = 1.0 - ps.mu * std::tan(gamma_rad_);
-        threshold = den > 0 ? threshold / den : std::numeric_limits<double>::infinity();
-    }
+    particle_mu_ = ps.mu;
+    const double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
     for (const auto &p : s.particles) {
         particles_.push_back(Particle{p.id, Eigen::Vector2d(p.x_nm, p.y_nm), p.radius_nm, threshold});
         max_radius_ = std::max(max_radius_, p.radius_nm);
@@ -143,7 +143,7 @@ void World::relax()
     const bool chains = scene_.has_effect("particle_contacts");
     const Eigen::Vector2d apex0 = apex_;
     const double fz = contact_load();
-    press_wires();
+    press_cone();
     const Eigen::Vector3d normal = (this->*normal_at_)(apex_ - drift_);   // the substrate's, at the apex
     // Candidates: particles that can touch the apex during this sample.
     near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
@@ -246,8 +246,9 @@ void World::push_particles(const Eigen::Vector2d &as2, double rt, bool chains)
             }
         }
         const double gpn = gp.norm();
-        if (kp > 0 && gpn > p.threshold_nN) {
-            p.c += (gpn - p.threshold_nN) / kp * (gp / gpn);
+        const double th = p.threshold_nN * (dn < rt + p.r ? cone_factor_ : 1.0);   // the tip's cone presses it (down_force)
+        if (kp > 0 && gpn > th) {
+            p.c += (gpn - th) / kp * (gp / gpn);
             grid_.update(i, p.c);
         }
     }
@@ -282,7 +283,7 @@ void World::relax_rigid()
     }
     const double rt = scene_.probe.tip_radius_nm;
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
-    press_wires();
+    press_cone();
     Eigen::Vector2d f = Eigen::Vector2d::Zero();
     const Eigen::Vector2d as = apex_ - drift_;
     if ((apex_ - apex0).norm() > 1e-12) {
@@ -311,10 +312,11 @@ void World::relax_rigid()
         if (!p.in_contact) continue;
         const Eigen::Vector2d n = unit_or(d, last_motion_);
         const double pen = reach - d.norm();
-        if (k_contact_ * pen > p.threshold_nN) {
-            p.c += (pen - p.threshold_nN / k_contact_) * n;
+        const double th = p.threshold_nN * cone_factor_;   // pressed by the cone (down_force)
+        if (k_contact_ * pen > th) {
+            p.c += (pen - th / k_contact_) * n;
             grid_.update(idx, p.c);
-            f -= p.threshold_nN * n;
+            f -= th * n;
         } else {
             f -= k_contact_ * pen * n;
         }
@@ -322,16 +324,19 @@ void World::relax_rigid()
     lateral_force_ = f;
 }
 
-void World::press_wires()
+void World::press_cone()
 {
-    // down_force: the contact normal of the cone with a wire is psi = gamma +
-    // theta_t from the horizontal (physics.md 7), theta_t = F_y h / k_theta
-    // the lever's twist under the lateral force of the last sample.
-    if (!down_force_ || wires_.empty()) return;
+    // down_force: the contact normal of the cone with a wire or a particle
+    // is psi = gamma + theta_t from the horizontal (physics.md 5 and 7),
+    // theta_t = F_y h / k_theta the lever's twist under the lateral force of
+    // the last sample.
+    if (!down_force_) return;
     const Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
     const double psi = gamma_rad_ + std::fabs(lever_.twist(fC.y()));
     const double t = psi < M_PI / 2 ? std::tan(psi) : std::numeric_limits<double>::infinity();
     for (auto &w : wires_) w->press_tan = t;
+    const double den = 1.0 - particle_mu_ * t;
+    cone_factor_ = den > 0 ? 1.0 / den : std::numeric_limits<double>::infinity();
 }
 
 double World::ride_push_nN(const Wire &w) const

@@ -60,7 +60,7 @@ struct Particle {
     int id;
     Eigen::Vector2d c;     // centre, sample frame, nm
     double r;              // radius, nm
-    double threshold_nN;   // static friction capacity against a lateral push
+    double threshold_nN;   // static friction capacity against a lateral push, F_th(0) (without the cone's down force)
     bool in_contact = false;
 };
 
@@ -228,7 +228,7 @@ public:
 private:
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
-    void press_wires();                                       // down_force: each wire's tan psi for this sample
+    void press_cone();                                        // down_force: each wire's tan psi and the pushed particle's factor for this sample
     void build_wires(const Scene &s);                         // the scene's wires, as its effects model them (constructor)
     double ride_push_nN(const Wire &w) const;                 // the most the tip can push before it lifts (down_force)
     void count_ridden();                                      // one of ridden_samples_ if a wire was ridden this sample
@@ -291,6 +291,8 @@ private:
     long ridden_samples_ = 0;      // samples the tip rode over a wire (down_force)
     bool down_force_ = false;      // the cone presses what it pushes (effect down_force)
     double gamma_rad_ = 0;         // the cone's half angle
+    double particle_mu_ = 0;       // mu_ps
+    double cone_factor_ = 1;       // down_force: 1 / (1 - mu_ps tan psi) on the threshold of the particle the tip pushes
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
     Eigen::Vector2d lateral_force_{0.0, 0.0};  // sample on tip, frame A, nN
     std::vector<Particle> particles_;

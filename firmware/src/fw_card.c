@@ -27,7 +27,8 @@ static fw_status_t card_board_config(const fw_card_config_t *cfg, fw_board_confi
 
 /* Every particle's push threshold (section 5): F_down = 0, or with the
  * cone's down force at psi = gamma (the lever's twist, mrad, neglected:
- * the threshold is fixed at init). Scaling: fw_particles_threshold_pn,
+ * the threshold is fixed at init; the simulator adds the twist, so ./afm
+ * paper squeeze's particle rows measure the neglect). Scaling: fw_particles_threshold_pn,
  * fw_particles_down_threshold_pn (saturated). */
 static int32_t card_particle_threshold_pn(const fw_card_config_t *cfg)
 {
