@@ -616,7 +616,7 @@ void read_haptic(const Reader &r, const YAML::Node &op, Scene &s)
     if (h.IsDefined() && !h.IsNull()) {
         const std::string k = "operator.haptic";
         r.only_keys(h, k, {"half_range_mm", "max_force_N", "max_stiffness_N_per_m", "force_gain_N_per_nN", "damping_Ns_per_m",
-                           "passivity_check"});
+                           "passivity_check", "load_span_nN"});
         s.op.haptic.half_range_mm = r.num(h, k, "half_range_mm", &dh.half_range_mm, 1, 1000);
         s.op.haptic.max_force_N = r.num(h, k, "max_force_N", &dh.max_force_N, 0, 100);
         s.op.haptic.max_stiffness_N_per_m = r.num(h, k, "max_stiffness_N_per_m", &dh.max_stiffness_N_per_m, 0, 1e6, true);
@@ -626,6 +626,7 @@ void read_haptic(const Reader &r, const YAML::Node &op, Scene &s)
             s.op.haptic.force_gain_N_per_nN = r.num(h, k, "force_gain_N_per_nN", nullptr, 0, 100);
         s.op.haptic.damping_Ns_per_m = r.num(h, k, "damping_Ns_per_m", &dh.damping_Ns_per_m, 0, 1e4);
         s.op.haptic.passivity_check = r.boolean(h, k, "passivity_check", true);
+        s.op.haptic.load_span_nN = r.num(h, k, "load_span_nN", &dh.load_span_nN, 0, 1000);
     }
     const HandSpec dd;
     YAML::Node hand = op["hand"];
@@ -704,6 +705,11 @@ void check_plan(const Reader &r, const Scene &s)
     if (!s.op.plan.enabled) {
         if (s.targets.any()) r.fail("objects.targets", "targets are for the planner: give operator.plan as well");
         if (!s.wire_targets.empty()) r.fail("objects.wire_targets", "targets are for the planner: give operator.plan as well");
+        const double most = std::max(s.op.load_nN, s.op.load_ramp_to_nN.value_or(0.0));
+        if (s.op.haptic.load_span_nN > 0 && most > s.op.haptic.load_span_nN)
+            r.fail("operator.haptic.load_span_nN", "the hand presses the stylus to at most its stop, " +
+                                                       Reader::show(YAML::Node(s.op.haptic.load_span_nN)) +
+                                                       " nN, but the script asks for " + Reader::show(YAML::Node(most)) + " nN");
         return;
     }
     if (!s.targets.any() && s.wire_targets.empty() && s.op.plan.cuts.empty())
@@ -712,6 +718,8 @@ void check_plan(const Reader &r, const Scene &s)
         r.fail("operator.local_scans", "the planner takes its own local scans: drop operator.local_scans with operator.plan");
     if (!s.op.cantilever_changes.empty())
         r.fail("operator.cantilever_changes", "not supported with operator.plan");
+    if (s.op.haptic.load_span_nN > 0)
+        r.fail("operator.haptic.load_span_nN", "the planner sets the load itself: drop the stylus's z axis with operator.plan");
     if (s.op.mode != "script") r.fail("operator.mode", "the planner drives the hand: drop operator.mode with operator.plan");
 }
 

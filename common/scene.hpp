@@ -190,6 +190,11 @@ struct HapticSpec {
     std::optional<double> force_gain_N_per_nN;
     double damping_Ns_per_m = 3.0;      // the device's damping (mechanism and servo), N s/m
     bool passivity_check = true;        // refuse a scene outside the passivity bound (false: run, the controller clamps)
+    // The stylus's third axis: the hand presses it down to set the load, the
+    // load the pose asks for being load_span_nN x (depth / half_range) (0 at
+    // the centre and above, load_span_nN at the stop), and feels F_z; 0: off
+    // (the script or the page sets the load, z is not integrated).
+    double load_span_nN = 0;
 };
 
 // The hand that holds the stylus (operator.hand): a spring-damper pulling it

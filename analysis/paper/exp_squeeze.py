@@ -27,7 +27,7 @@ import os
 
 import numpy as np
 
-from analysis.paper import common, squeeze_figs
+from analysis.paper import common, squeeze_figs, squeeze_hand
 from analysis.paper.exp_rod import rod_pose, truth_poses
 
 NAME = "squeeze"
@@ -87,7 +87,7 @@ def runs(size):
                               settings={"objects": PARTICLE, "effects.down_force": on,
                                         "probe.tip_half_angle_deg": PARTICLE_GAMMA,
                                         "operator.path_nm": [[0, -700], [0, 100]]}))
-    return out + squeeze_figs.runs(size)
+    return out + squeeze_figs.runs(size) + squeeze_hand.runs(size)
 
 
 def _rod_moved(run_dir):
@@ -140,13 +140,16 @@ def analyse(dirs, exp_dir, size):
     _ride_rows(res, dirs, sc, size)
     _particle_rows(res, dirs, sc)
     fig_pts = squeeze_figs.rows(res, dirs, size)
+    hand_fig = squeeze_hand.rows(res, dirs, exp_dir)
     res.notes.append("per cone: " + "; ".join(f"gamma={p['g']} H_card={p['H_card']:.2f} H_sim={p['H_truth']:.2f} "
                                               f"H_eq29={p['H_fw']:.2f} dF={p['dF_card']:.2f} (eq. 30: {p['dF_fw']:.2f})"
                                               for p in pts))
     res.figures = [("Push at an end against the cone's half angle: card, simulator, eq. 29 (firmware), and no down force",
                     _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats)),
                    ("Figs. 16-17 from runs: the least load dF / F_a,ts found by a load ramp in each run, against eq. 30 "
-                    "(the firmware's solver) with the lever's twist", squeeze_figs.plot(exp_dir, fig_pts))]
+                    "(the firmware's solver) with the lever's twist", squeeze_figs.plot(exp_dir, fig_pts)),
+                   ("By hand through the haptic device, the stylus pressed to set the load: the force the hand feels over "
+                    "a ride-over and over a push", hand_fig)]
     return res
 
 

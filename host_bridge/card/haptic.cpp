@@ -48,13 +48,16 @@ HapticBound haptic_bound(const Scene &s, const fw_card_config_t &card)
     h.gain_N_per_N = fwu_n_per_nn_from_un_per_pn(card.haptic_un_per_pn) * 1e9;   // as the card renders it
     h.scale = stylus_scale(s);
     h.rendered_N_per_m = h.gain_N_per_N * h.lever_N_per_m * h.scale;
+    h.rendered_z_N_per_m = h.gain_N_per_N * s.op.haptic.load_span_nN * 1e-9 / (s.op.haptic.half_range_mm * 1e-3);
+    const double stiffest = std::max(h.rendered_N_per_m, h.rendered_z_N_per_m);
     h.period_s = 1.0 / s.block_hz;
     h.max_rendered_N_per_m = bound_N_per_m(s, h.period_s, h.delay_blocks);
     const double limit = std::min(h.max_rendered_N_per_m, s.op.haptic.max_stiffness_N_per_m);
-    // The largest whole 0.001 N/nN strictly inside.
-    h.max_gain_N_per_nN = (std::ceil(limit / (h.lever_N_per_m * h.scale) * 1e-9 * 1e3) - 1) * 1e-3;
-    h.passive = h.rendered_N_per_m < h.max_rendered_N_per_m;
-    h.within_device = h.rendered_N_per_m <= s.op.haptic.max_stiffness_N_per_m;
+    // The largest whole 0.001 N/nN strictly inside, for the stiffer axis.
+    const double per_gain = std::max(h.lever_N_per_m * h.scale, s.op.haptic.load_span_nN * 1e-9 / (s.op.haptic.half_range_mm * 1e-3));
+    h.max_gain_N_per_nN = (std::ceil(limit / per_gain * 1e-9 * 1e3) - 1) * 1e-3;
+    h.passive = stiffest < h.max_rendered_N_per_m;
+    h.within_device = stiffest <= s.op.haptic.max_stiffness_N_per_m;
     return h;
 }
 
@@ -64,7 +67,8 @@ int32_t haptic_auto_gain_un_per_pn(const Scene &s, const fw_board_config_t &b)
     if (k <= 0) return 1;
     const HapticBound h;
     const double limit = std::min(bound_N_per_m(s, 1.0 / s.block_hz, h.delay_blocks), s.op.haptic.max_stiffness_N_per_m);
-    const double g_N_per_nN = kAutoGainFraction * limit / (k * stylus_scale(s)) * 1e-9;
+    const double per_gain = std::max(k * stylus_scale(s), s.op.haptic.load_span_nN * 1e-9 / (s.op.haptic.half_range_mm * 1e-3));
+    const double g_N_per_nN = kAutoGainFraction * limit / per_gain * 1e-9;
     return std::max<int32_t>(1, static_cast<int32_t>(std::floor(g_N_per_nN * 1e3)));
 }
 
@@ -79,7 +83,11 @@ std::string haptic_refusal(const Scene &s, const fw_card_config_t &card)
       << h.rendered_N_per_m << " N/m on the stylus (gain " << fwu_n_per_nn_from_un_per_pn(card.haptic_un_per_pn)
       << " N/nN, the lever's in-plane stiffness k_c " << h.lever_N_per_m << " N/m, s = operator.kappa " << s.op.kappa
       << " x sample.field_nm / 2 " << s.field_nm / 2 << " nm / operator.haptic.half_range_mm " << s.op.haptic.half_range_mm << " = "
-      << h.scale << "), ";
+      << h.scale << ")";
+    if (h.rendered_z_N_per_m > 0)
+        m << " and K_z = g operator.haptic.load_span_nN " << s.op.haptic.load_span_nN << " nN / half_range = " << h.rendered_z_N_per_m
+          << " N/m on its z axis";
+    m << ", ";
     if (!h.passive)
         m << "not below the passivity bound K_max = b / (T (1/2 + d)) = " << h.max_rendered_N_per_m << " N/m (operator.haptic.damping_Ns_per_m "
           << s.op.haptic.damping_Ns_per_m << ", T = 1 / block_hz = " << h.period_s << " s, d = 2 blocks)";
@@ -96,18 +104,27 @@ HapticLoop::HapticLoop(const HapticSpec &device, const HandSpec &hand, double bl
 {
 }
 
-void HapticLoop::step(Vec2 aim, Vec2 f)
+double HapticLoop::load_nN() const
+{
+    const double reach = dev_.half_range_mm * 1e-3;
+    return dev_.load_span_nN * std::clamp(-z_ / reach, 0.0, 1.0);
+}
+
+void HapticLoop::step(Vec2 aim, Vec2 f, double aim_z, double fz)
 {
     const double m = hand_.mass_kg, K = hand_.stiffness_N_per_m, B = hand_.damping_Ns_per_m, b = dev_.damping_Ns_per_m;
     const double dt = T_ / kSubsteps;
     const double reach = dev_.half_range_mm * 1e-3;
+    const bool has_z = dev_.load_span_nN > 0;
+    if (!has_z) aim_z = fz = 0;
     const Vec2 va{(aim.x - aim_.x) / T_, (aim.y - aim_.y) / T_};
+    const double vaz = (aim_z - aim_z_) / T_;
     // The passivity controller: when the device has given the stylus more
     // energy than it took, the damping that takes the excess back over this
     // block at the present speed.
     double alpha = 0;
     if (controller_on_ && observed_J_ < 0) {
-        const double v2 = std::max(v_.x * v_.x + v_.y * v_.y, kSlowest_m_per_s * kSlowest_m_per_s);
+        const double v2 = std::max(v_.x * v_.x + v_.y * v_.y + vz_ * vz_, kSlowest_m_per_s * kSlowest_m_per_s);
         alpha = std::min(kControllerMax_Ns_per_m, -observed_J_ / (T_ * v2));
         ++controller_blocks_;
     }
@@ -127,12 +144,14 @@ void HapticLoop::step(Vec2 aim, Vec2 f)
         };
         axis(x_.x, v_.x, a.x, va.x, f.x);
         axis(x_.y, v_.y, a.y, va.y, f.y);
-        const double v2 = v_.x * v_.x + v_.y * v_.y;
-        observed_J_ += ((b + alpha) * v2 - (f.x * v_.x + f.y * v_.y)) * dt;
+        if (has_z) axis(z_, vz_, aim_z_ + (aim_z - aim_z_) * w, vaz, fz);
+        const double v2 = v_.x * v_.x + v_.y * v_.y + vz_ * vz_;
+        observed_J_ += ((b + alpha) * v2 - (f.x * v_.x + f.y * v_.y + fz * vz_)) * dt;
         controller_J_ += alpha * v2 * dt;
     }
     if (edge) ++edge_blocks_;
     aim_ = aim;
+    aim_z_ = aim_z;
 }
 
 }  // namespace afm

@@ -35,8 +35,18 @@
 // damping that dissipates the excess. The loop cannot grow an oscillation;
 // the report says how much the controller took out.
 //
+// The third axis (operator.haptic.load_span_nN > 0). The hand presses the
+// stylus down to set the load: the pose asks for load_span x depth /
+// half_range (depth below the centre, 0 above it), and the card renders
+// g F_z upwards on it. Through the z servo the load follows the pose, so
+// the stylus meets a spring K_z = g load_span / half_range behind the same
+// delay; haptic_bound() holds it to the same K_max (it is usually far
+// softer than the in-plane one: a load span of tens of nN against the
+// lever's in-plane stiffness over the field). Without it z is not
+// integrated and the load comes from the script or the page.
+//
 // Units: stylus metres, seconds, newtons; tip nm. Axes: frame A's (the
-// joystick's x, y; z, the load, the hand holds and is not integrated).
+// joystick's x, y; z up).
 #pragma once
 
 extern "C" {
@@ -55,12 +65,13 @@ struct HapticBound {
     double gain_N_per_N = 0;         // g, as the card renders it (whole uN/pN)
     double scale = 0;                // s: apex metres per stylus metre
     double rendered_N_per_m = 0;     // K_r = g k_c s
+    double rendered_z_N_per_m = 0;   // K_z = g load_span / half_range (0: no z axis)
     double period_s = 0;             // T: one block
     double delay_blocks = 2;         // d
     double max_rendered_N_per_m = 0; // K_max = b / (T (1/2 + d))
     double max_gain_N_per_nN = 0;    // the largest gain inside both limits
-    bool passive = false;            // K_r < K_max
-    bool within_device = false;      // K_r <= max_stiffness_N_per_m
+    bool passive = false;            // K_r and K_z < K_max
+    bool within_device = false;      // K_r and K_z <= max_stiffness_N_per_m
 };
 
 // k_c: the lever's in-plane stiffness as the card knows it (the larger of
@@ -84,11 +95,16 @@ public:
 
     // One block: the hand's aim moves linearly to `aim_m` over the block
     // (the stylus position the operator means), the device renders
-    // `force_N` (HAPTIC_FORCE, held over the block).
-    void step(Vec2 aim_m, Vec2 force_N);
+    // `force_N` (HAPTIC_FORCE, held over the block); with the z axis, the
+    // same for aim_z_m (the press) and force_z_N (g F_z, up).
+    void step(Vec2 aim_m, Vec2 force_N, double aim_z_m = 0, double force_z_N = 0);
 
     Vec2 position_m() const { return x_; }
     Vec2 velocity_m_per_s() const { return v_; }
+    double z_m() const { return z_; }                  // 0 without the z axis
+    void place_z(double z_m) { z_ = aim_z_ = z_m; vz_ = 0; }   // the stylus held at rest at this depth (the start)
+    // The load the stylus asks for (z axis): load_span x depth / half_range, nN.
+    double load_nN() const;
     // Energy the stylus has given the device (its damping, the rendered
     // force and the controller), J: never below 0 once the controller acts.
     double observed_energy_J() const { return observed_J_; }
@@ -103,6 +119,7 @@ private:
     HandSpec hand_;
     double T_;
     Vec2 x_, v_, aim_;
+    double z_ = 0, vz_ = 0, aim_z_ = 0;   // the third axis (dev_.load_span_nN > 0)
     double observed_J_ = 0, controller_J_ = 0;
     long controller_blocks_ = 0, edge_blocks_ = 0;
     bool controller_on_ = true;

@@ -64,6 +64,12 @@ nlohmann::json operator_report(const Operator &op, const Planner *planner, const
                          {"controller_blocks", op.device.controller_blocks()},
                          {"observed_energy_J", op.device.observed_energy_J()},
                          {"workspace_edge_blocks", op.device.edge_blocks()},
+                         {"z_axis", scene.op.haptic.load_span_nN > 0
+                                        ? nlohmann::json{{"load_span_nN", scene.op.haptic.load_span_nN},
+                                                         {"rendered_stiffness_N_per_m", b.rendered_z_N_per_m},
+                                                         {"peak_force_z_N", op.peak_force_z_N},
+                                                         {"final_load_nN", op.device.load_nN()}}
+                                        : nlohmann::json(nullptr)},
                          {"peak_stylus_speed_m_per_s", op.peak_speed_m_per_s},
                          {"device_damping_Ns_per_m", scene.op.haptic.damping_Ns_per_m},
                          {"hand", {{"stiffness_N_per_m", scene.op.hand.stiffness_N_per_m},

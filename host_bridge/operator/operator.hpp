@@ -69,6 +69,8 @@ struct Operator {
     std::unique_ptr<HandInput> page;   // operator.mode browser: the person's hand (main makes it)
     HapticLoop device;
     Vec2 held_N;                 // the force the device renders over the block being integrated
+    double held_z_N = 0;         // its z part (the stylus's z axis: operator.haptic.load_span_nN)
+    double peak_force_z_N = 0;
     double reach_nm;                  // apex travel for the joystick's +-1
     double half_range_m;
     double peak_speed_m_per_s = 0;
@@ -87,6 +89,7 @@ struct Operator {
           device(s.op.haptic, s.op.hand, 1.0 / s.block_hz, to_stylus(s, s.start_nm())), reach_nm(s.op.kappa * s.field_nm / 2),
           half_range_m(s.op.haptic.half_range_mm * 1e-3), scan(l)
     {
+        if (s.op.haptic.load_span_nN > 0) device.place_z(press_for(s.load_at_nN(0)));   // the hand already pressing
     }
 
     static Vec2 to_stylus(const Scene &s, Vec2 p_nm)
@@ -143,14 +146,14 @@ struct Operator {
         finished_sent = std::chrono::steady_clock::now();
     }
 
-    void publish_pose(Vec2 joy, bool engaged, double load_nN = 0)
+    void publish_pose(Vec2 joy, bool engaged, double load_nN = 0, double joy_z = 0)
     {
         const int64_t n = force.seq;
         last.utime = block_end_utime(scene, n);
         last.seq = n + 1;
         last.joy[0] = std::clamp(joy.x, -1.0, 1.0);
         last.joy[1] = std::clamp(joy.y, -1.0, 1.0);
-        last.joy[2] = 0;
+        last.joy[2] = std::clamp(joy_z, -1.0, 1.0);
         last.load_nN = load_nN > 0 ? load_nN : scene.load_at_nN(last.utime * 1e-6);
         last.engaged = engaged;
         answered = n;
@@ -162,7 +165,15 @@ struct Operator {
     void count_force()
     {
         peak_force_N = std::max(peak_force_N, std::hypot(force.force_N[0], force.force_N[1]));
+        peak_force_z_N = std::max(peak_force_z_N, std::fabs(force.force_N[2]));
         ++forces;
+    }
+
+    // The stylus's z axis: where the hand presses it for a load (nN): the
+    // depth below the centre at which the stylus asks for that load.
+    double press_for(double load_nN) const
+    {
+        return -std::clamp(load_nN / scene.op.haptic.load_span_nN, 0.0, 1.0) * half_range_m;
     }
 
     // The hand on the device: block n integrated with the force of block
@@ -172,12 +183,24 @@ struct Operator {
         count_force();
         if (page) page->poll();
         const Vec2 aim_nm = page ? page->command().aim_nm : script.advance(1.0 / scene.block_hz, held_N);
-        device.step(to_stylus(scene, aim_nm), held_N);
+        // The load the hand means: the page's, or the script's at the pose's time.
+        const double want_nN = page ? page->command().load_nN : scene.load_at_nN(block_end_utime(scene, force.seq) * 1e-6);
+        const bool has_z = scene.op.haptic.load_span_nN > 0;
+        device.step(to_stylus(scene, aim_nm), held_N, has_z ? press_for(want_nN) : 0.0, held_z_N);
         held_N = {force.force_N[0], force.force_N[1]};
+        held_z_N = force.force_N[2];
         const Vec2 x = device.position_m(), v = device.velocity_m_per_s();
         peak_speed_m_per_s = std::max(peak_speed_m_per_s, std::hypot(v.x, v.y));
-        if (page) publish_pose({x.x / half_range_m, x.y / half_range_m}, page->command().engaged, page->command().load_nN);
-        else publish_pose({x.x / half_range_m, x.y / half_range_m}, true);
+        const Vec2 joy{x.x / half_range_m, x.y / half_range_m};
+        const bool button = page ? page->command().engaged : true;
+        if (has_z) {   // the stylus's depth sets the load; lifted to the centre, the tip leaves the surface
+            const double load = device.load_nN();
+            publish_pose(joy, button && load > 0, load > 0 ? load : scene.op.load_nN, device.z_m() / half_range_m);
+        } else if (page) {
+            publish_pose(joy, button, page->command().load_nN);
+        } else {
+            publish_pose(joy, true);
+        }
     }
 
     // The joystick for an apex target in frame A: the card moves the

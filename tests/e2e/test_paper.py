@@ -124,6 +124,13 @@ class Reduced(unittest.TestCase):
         self.assertAlmostEqual(self.row("squeeze", "particle: what the down force adds")["bench"], 2.5 * t / (1 - t),
                                delta=0.1 * 2.5 * t / (1 - t))
 
+    def test_a_hand_on_the_device_feels_the_ride_over_and_the_push(self):
+        # the stylus's z axis sets the load; what the device renders tells a ride-over from a push
+        for frac in (0.8, 1.25):
+            self.assertEqual(self.row("squeeze", f"by hand, load {frac} x eq. 30's dF: the hand felt")["bench"], 1.0)
+            load = self.row("squeeze", f"by hand, load {frac} x dF: the load the stylus")
+            self.assertAlmostEqual(load["bench"], load["truth"], delta=0.08 * load["truth"])
+
     def test_trench_holds_the_rod_and_the_cards_model_knows_it(self):
         # fig. 18: cut, then pushed in by a zigzag; the rod sinks into the
         # groove (its top below the surface in the fresh scan, on the

@@ -243,10 +243,101 @@ void test_feel_ends_the_stroke_script_does_not()
     TEST_ASSERT_EQUAL(1, static_cast<int>(h.contacts().size()));
 }
 
+// ---- the stylus's third axis (operator.haptic.load_span_nN) ----
+
+// free_stylus on z: the hand has let go, the stylus starts at z0 (below the
+// centre, pressing), the device's z force answers the depth three blocks
+// back through a spring of stiffness K (the load's spring, g span / range).
+double free_stylus_z(double K, bool controller, double seconds = 20)
+{
+    // Energy at the end over the energy at the start (the spring's, about
+    // its rest depth z_r; the stylus starts 5 mm off it, at rest).
+    afm::HapticSpec dev;
+    dev.load_span_nN = 20;
+    afm::HandSpec hand;
+    hand.stiffness_N_per_m = 0;
+    hand.damping_Ns_per_m = 0;
+    afm::HapticLoop loop(dev, hand, kT, {0, 0});
+    loop.set_controller(controller);
+    const double z_r = -0.02, z0 = z_r + 0.005;
+    loop.place_z(z0);
+    std::deque<double> z_end(3, z0);
+    for (long k = 0; k < static_cast<long>(seconds / kT); ++k) {
+        const double f = -K * (z_end.front() - z_r);
+        z_end.pop_front();
+        loop.step({0, 0}, {0, 0}, z0, f);   // the aim does not pull: the hand's spring is 0
+        z_end.push_back(loop.z_m());
+    }
+    const double dz = loop.z_m() - z_r;
+    return dz * dz / (0.005 * 0.005);   // the potential energy's ratio (the stylus's speed is 0 at its turns)
+}
+
+void test_z_axis_sets_the_load_and_feels_f_z()
+{
+    afm::HapticSpec dev;
+    dev.load_span_nN = 20;
+    afm::HandSpec hand;
+    const double reach = dev.half_range_mm * 1e-3;
+    afm::HapticLoop loop(dev, hand, kT, {0, 0});
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 0.0, loop.load_nN());   // at the centre: no load
+    for (int k = 0; k < 3000; ++k) loop.step({0, 0}, {0, 0}, -0.5 * reach, 0);
+    TEST_ASSERT_DOUBLE_WITHIN(0.01, 10.0, loop.load_nN());   // pressed half way: half the span
+    // Felt: a constant F_z of 0.3 N up lifts the stylus by F / K_hand.
+    for (int k = 0; k < 3000; ++k) loop.step({0, 0}, {0, 0}, -0.5 * reach, 0.3);
+    const double lift_m = 0.3 / hand.stiffness_N_per_m;
+    TEST_ASSERT_DOUBLE_WITHIN(0.01, 20.0 * (0.5 * reach - lift_m) / reach, loop.load_nN());
+    // Lifted above the centre: no load, not a negative one; past the stop: the span.
+    for (int k = 0; k < 3000; ++k) loop.step({0, 0}, {0, 0}, 0.3 * reach, 0);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 0.0, loop.load_nN());
+    for (int k = 0; k < 3000; ++k) loop.step({0, 0}, {0, 0}, -2 * reach, 0);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 20.0, loop.load_nN());
+    TEST_ASSERT_TRUE(loop.edge_blocks() > 0);
+    // Without the axis z is not integrated, whatever the force.
+    afm::HapticLoop flat(afm::HapticSpec{}, hand, kT, {0, 0});
+    for (int k = 0; k < 100; ++k) flat.step({0, 0}, {0, 0}, -0.5 * reach, 1.0);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-15, 0.0, flat.z_m());
+}
+
+void test_z_axis_is_held_to_the_same_bound()
+{
+    const double Kmax = bound_of_defaults();
+    const double in = free_stylus_z(0.9 * Kmax, false), out = free_stylus_z(1.3 * Kmax, false);
+    const double clamped = free_stylus_z(1.3 * Kmax, true);
+    std::printf("z axis: energy ratio at 0.9 K_max %.3g, at 1.3 K_max %.3g (with the controller %.3g)\n", in, out, clamped);
+    TEST_ASSERT_TRUE(in < 0.01);
+    TEST_ASSERT_TRUE(out > 100);
+    TEST_ASSERT_TRUE(clamped < 1);
+}
+
+void test_z_axis_enters_the_bound_and_the_scene_rules()
+{
+    const afm::Scene s = scene_from_text(std::string(kScene) + "  load_nN: 5\n  haptic: {force_gain_N_per_nN: 0.02, load_span_nN: 20}\n");
+    const afm::HapticBound b = afm::haptic_bound(s, afm::CardSetup(s).config());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.02 * 20 / 0.08, b.rendered_z_N_per_m);   // g span / half range: 5 N/m
+    // A span and gain that put z outside the bound: refused, the refusal names the z axis's key.
+    const afm::Scene big = scene_from_text(std::string(kScene) + "  load_nN: 5\n  haptic: {force_gain_N_per_nN: 0.1, load_span_nN: 1000}\n");
+    const afm::HapticBound bb = afm::haptic_bound(big, afm::CardSetup(big).config());
+    std::printf("span 1000 nN, gain 0.1: K_z %.1f N/m against K_max %.1f\n", bb.rendered_z_N_per_m, bb.max_rendered_N_per_m);
+    TEST_ASSERT_TRUE(bb.rendered_z_N_per_m > bb.max_rendered_N_per_m);
+    TEST_ASSERT_FALSE(bb.passive);
+    TEST_ASSERT_TRUE(afm::haptic_refusal(big, afm::CardSetup(big).config()).find("load_span_nN 1000") != std::string::npos);
+    // The script asks for more than the stylus's stop gives: refused, naming both.
+    bool refused = false;
+    try {
+        (void)scene_from_text(std::string(kScene) + "  load_nN: 30\n  haptic: {load_span_nN: 20}\n");
+    } catch (const std::exception &e) {
+        refused = std::string(e.what()).find("operator.haptic.load_span_nN") != std::string::npos;
+    }
+    TEST_ASSERT_TRUE(refused);
+}
+
 int main()
 {
     UNITY_BEGIN();
     RUN_TEST(test_bound_figures_for_a_scene);
+    RUN_TEST(test_z_axis_sets_the_load_and_feels_f_z);
+    RUN_TEST(test_z_axis_is_held_to_the_same_bound);
+    RUN_TEST(test_z_axis_enters_the_bound_and_the_scene_rules);
     RUN_TEST(test_refusal_names_keys_and_the_largest_gain);
     RUN_TEST(test_auto_gain_is_four_fifths_of_the_largest);
     RUN_TEST(test_inside_the_bound_the_free_stylus_settles);
