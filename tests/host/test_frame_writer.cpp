@@ -4,6 +4,8 @@
 // in the video in order, however small its queue; a file it cannot write
 // fails the next write() or finish() with the file's name; a video it
 // cannot open is refused at once.
+// frame_writer.hpp (nlohmann/json) before unity.h, whose isnan macro breaks it
+#include "frame_writer.hpp"
 #include <unity.h>
 
 #include <opencv2/core.hpp>
@@ -20,7 +22,6 @@
 #include <string>
 #include <vector>
 
-#include "frame_writer.hpp"
 #include "png_file.hpp"
 
 namespace fs = std::filesystem;
