@@ -201,7 +201,7 @@ void draw_lever(Canvas &c, cv::Point tip, const Overlay &o, const LeverView &lev
     const cv::Size sz = text_size("lever", c.text.scale);
     const cv::Point b = base + roi.tl();
     const cv::Point org(std::clamp(b.x - sz.width / 2, 2, N - sz.width - 2), std::clamp(b.y + (uy > 0 ? -6 : sz.height + 6), sz.height + 2, N - 4));
-    put_label(c.img, "lever", org, c.text.scale, kFaint);
+    c.label("lever", org, kFaint);
 }
 
 // The tip, the lateral force as an arrow from it and F_z as a bar beside it.
