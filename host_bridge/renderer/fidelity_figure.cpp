@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "frame_overlay.hpp"
@@ -16,6 +17,7 @@ namespace {
 
 const cv::Scalar kBlack(0, 0, 0), kGrey(90, 90, 90);
 constexpr int kMinSidePx = 512;
+constexpr std::size_t kMaxLabelled = 12;   // errors written beside at most this many objects: the unfound, then the worst
 // The colour scale: the 95th percentile of the pixels that differ by more
 // than kDiffFloor_nm (most pixels do not differ at all), at least kMinRange_nm.
 constexpr double kDiffFloor_nm = 0.01, kDiffQuantile = 0.95, kMinRange_nm = 0.5;
@@ -81,23 +83,38 @@ std::string error_label(const Fidelity &fid, const std::string &kind, int id)
 }
 
 // A label beside a mark of radius r at c, in the first place around it
-// that no earlier label holds (taken), inside the image.
+// that no earlier label or mark holds (taken), inside the image; none if
+// every place is held.
 void place_label(cv::Mat &img, const std::string &s, cv::Point c, int r, const FrameText &t, std::vector<cv::Rect> *taken)
 {
     int base = 0;
     const cv::Size sz = cv::getTextSize(s, cv::FONT_HERSHEY_PLAIN, t.scale, 1, &base);
     const cv::Point tries[] = {{r + 3, -r / 2}, {r + 3, r + sz.height}, {-r - 3 - sz.width, -r / 2}, {-r - 3 - sz.width, r + sz.height},
                                {-sz.width / 2, r + sz.height + 4}, {-sz.width / 2, -r - 4}};
-    cv::Rect chosen;
     for (const cv::Point &d : tries) {
         const cv::Rect box(c.x + d.x - 2, c.y + d.y - sz.height - 2, sz.width + 4, sz.height + 6);
-        chosen = box;
-        if ((box & cv::Rect(0, 0, img.cols, img.rows)) == box &&
-            std::none_of(taken->begin(), taken->end(), [&](const cv::Rect &o) { return (o & box).area() > 0; }))
-            break;
+        if ((box & cv::Rect(0, 0, img.cols, img.rows)) != box ||
+            std::any_of(taken->begin(), taken->end(), [&](const cv::Rect &o) { return (o & box).area() > 0; }))
+            continue;
+        taken->push_back(box);
+        text(img, s, cv::Point(box.x + 2, box.y + sz.height + 2), t.scale);
+        return;
     }
-    taken->push_back(chosen);
-    text(img, s, cv::Point(chosen.x + 2, chosen.y + sz.height + 2), t.scale);
+}
+
+// The objects whose errors are written: those not found, then the worst,
+// kMaxLabelled in all (fid.objects's kind and id).
+std::vector<std::pair<std::string, int>> labelled(const Fidelity &fid)
+{
+    std::vector<const ObjectFidelity *> v;
+    for (const auto &o : fid.objects) v.push_back(&o);
+    std::stable_sort(v.begin(), v.end(), [](const ObjectFidelity *a, const ObjectFidelity *b) {
+        if (a->found != b->found) return !a->found;
+        return a->error_nm > b->error_nm;
+    });
+    std::vector<std::pair<std::string, int>> out;
+    for (std::size_t i = 0; i < v.size() && i < kMaxLabelled; ++i) out.emplace_back(v[i]->kind, v[i]->id);
+    return out;
 }
 
 // Each object outlined where the model has it (k: the enlargement), its error beside it.
@@ -108,6 +125,8 @@ void outline_objects(cv::Mat &img, const Fidelity &fid, const Field &f, const Di
         return cv::Point(cvRound((q.x + 0.5) * k), cvRound((q.y + 0.5) * k));
     };
     std::vector<cv::Rect> taken;
+    const std::vector<std::pair<std::string, int>> named = labelled(fid);
+    auto is_named = [&](const char *kind, int id) { return std::find(named.begin(), named.end(), std::make_pair(std::string(kind), id)) != named.end(); };
     for (const auto &p : model.particles) {
         const cv::Point c = at(p.x_nm, p.y_nm);
         const int r = std::max(cvRound(p.radius_nm / f.pitch() * k) + 2, kMinMarkerPx / 2 * k);
@@ -115,6 +134,7 @@ void outline_objects(cv::Mat &img, const Fidelity &fid, const Field &f, const Di
         taken.push_back(cv::Rect(c.x - r, c.y - r, 2 * r + 1, 2 * r + 1));
     }
     for (const auto &p : model.particles) {
+        if (!is_named("particle", p.id)) continue;
         const int r = std::max(cvRound(p.radius_nm / f.pitch() * k) + 2, kMinMarkerPx / 2 * k);
         place_label(img, "p" + std::to_string(p.id) + " " + error_label(fid, "particle", p.id), at(p.x_nm, p.y_nm), r, t, &taken);
     }
@@ -124,7 +144,8 @@ void outline_objects(cv::Mat &img, const Fidelity &fid, const Field &f, const Di
         if (pts.empty()) continue;
         cv::polylines(img, pts, false, kBlack, 1, cv::LINE_AA);
         const int off = cvRound(w.diameter_nm / f.pitch() * k / 2) + 4;
-        place_label(img, "w" + std::to_string(w.id) + " " + error_label(fid, "wire", w.id), pts[pts.size() / 2], off, t, &taken);
+        if (is_named("wire", w.id))
+            place_label(img, "w" + std::to_string(w.id) + " " + error_label(fid, "wire", w.id), pts[pts.size() / 2], off, t, &taken);
     }
     for (const auto &tr : model.trenches) {
         std::vector<cv::Point> pts;
@@ -164,7 +185,10 @@ cv::Mat fidelity_figure(const Fidelity &fid, const Field &f, const DisplayModel 
     int base = 0, label_w = 0;
     for (double v : {range / 2, range}) label_w = std::max(label_w, cv::getTextSize(fmt("%+g", v), cv::FONT_HERSHEY_PLAIN, t.scale, 1, &base).width);
     const std::string title = fmt("display - fresh scan: worst object %.2f nm", fid.max_position_error_nm) + fmt(" (target %g nm)", target_nm);
-    const int title_w = cv::getTextSize(title, cv::FONT_HERSHEY_PLAIN, t.scale, 1, &base).width;
+    std::string second = fmt("rms height %.2f nm; colour saturates past ", fid.rms_height_error_nm) + fmt("+-%g nm", range);
+    if (fid.objects.size() > kMaxLabelled) second += fmt("; errors of the %.0f worst", static_cast<double>(kMaxLabelled));
+    const int title_w = std::max(cv::getTextSize(title, cv::FONT_HERSHEY_PLAIN, t.scale, 1, &base).width,
+                                 cv::getTextSize(second, cv::FONT_HERSHEY_PLAIN, t.scale, 1, &base).width);
     const int bw = 2 * t.line_px, top = 3 * t.line_px, right = 2 * t.line_px + bw + 12 + label_w + 8;
     cv::Mat img(side + top + t.line_px, std::max(side + right, title_w + 12), CV_8UC3, cv::Scalar(255, 255, 255));
     cv::Mat diff(fid.diff_nm.size(), CV_8UC3);
@@ -177,8 +201,7 @@ cv::Mat fidelity_figure(const Fidelity &fid, const Field &f, const DisplayModel 
     outline_objects(area, fid, f, model, k, t);
     cv::rectangle(img, cv::Rect(0, top, side, side), kBlack, 1);
     text(img, title, cv::Point(4, t.line_px), t.scale);
-    text(img, fmt("rms height %.2f nm; colour saturates past ", fid.rms_height_error_nm) + fmt("+-%g nm", range),
-         cv::Point(4, 2 * t.line_px), t.scale);
+    text(img, second, cv::Point(4, 2 * t.line_px), t.scale);
     colour_bar(img, cv::Rect(side + 2 * t.line_px, top + 2 * t.line_px, bw, side - 4 * t.line_px), range, t);
     return img;
 }

@@ -5,7 +5,8 @@
 // of |difference| over the pixels that differ at all, rounded up to 1, 2
 // or 5 x 10^n, at least 0.5 nm; beyond it the colour saturates), enlarged by a whole factor to at least 512 px;
 // each object of the model outlined where the display has it, with its
-// position error beside it (or "not found"); a colour bar in nm; a title
+// position error beside it (or "not found": those first, then the worst,
+// at most 12, where there is room); a colour bar in nm; a title
 // with the check's figures against its target. Only drawn from the check's
 // own numbers: nothing here feeds back into fidelity.json.
 #pragma once

@@ -145,28 +145,54 @@ void draw_axes(Canvas &c, const Field &f)
     }
 }
 
-// Each object's marker and id: particles ringed (at least kMinMarkerPx
-// across), wires and trenches named at their middle and start.
-void draw_markers(Canvas &c, const Field &f, const DisplayModel &m)
+// A label beside a box (an object's mark), in the first place round it
+// that nothing else holds; none where every place is held (a dense pattern
+// keeps its rings, and names what it can).
+void label_beside(Canvas &c, const std::string &s, const cv::Rect &mark, const cv::Scalar &colour)
 {
+    const cv::Size sz = text_size(s, c.text.scale);
+    const cv::Point tries[] = {{mark.br().x + 2, mark.y + sz.height / 2}, {mark.x - sz.width - 3, mark.y + sz.height / 2},
+                               {mark.x + mark.width / 2 - sz.width / 2, mark.y - 4},
+                               {mark.x + mark.width / 2 - sz.width / 2, mark.br().y + sz.height + 3}};
+    for (const cv::Point &org : tries)
+        if (c.free(c.box_of(s, org))) {
+            c.label(s, org, colour);
+            return;
+        }
+}
+
+// Each particle ringed (at least kMinMarkerPx across); the rings' boxes,
+// which the labels keep off.
+std::vector<cv::Rect> draw_rings(Canvas &c, const Field &f, const DisplayModel &m)
+{
+    std::vector<cv::Rect> rings;
     for (const auto &p : m.particles) {
         const cv::Point2d q = f.to_px(p.x_nm, p.y_nm);
-        const double r = std::max(p.radius_nm / f.pitch() + 1.5, kMinMarkerPx / 2.0);
+        const int r = cvRound(std::max(p.radius_nm / f.pitch() + 1.5, kMinMarkerPx / 2.0));
         const cv::Point ctr(cvRound(q.x), cvRound(q.y));
-        cv::circle(c.img, ctr, cvRound(r), kMarker, 1, cv::LINE_AA);
-        put_label(c.img, "p" + std::to_string(p.id), ctr + cv::Point(cvRound(r * 0.8) + 1, -cvRound(r * 0.8) - 1), c.text.scale, kMarker);
+        cv::circle(c.img, ctr, r, kMarker, 1, cv::LINE_AA);
+        rings.emplace_back(ctr.x - r, ctr.y - r, 2 * r + 1, 2 * r + 1);
     }
+    return rings;
+}
+
+// The objects' ids where there is room: particles (p<id>) beside their
+// rings, wires (w<id>) at their middle, trenches (t<id>) at their start.
+void draw_ids(Canvas &c, const Field &f, const DisplayModel &m, const std::vector<cv::Rect> &rings)
+{
+    c.taken.insert(c.taken.end(), rings.begin(), rings.end());
+    for (std::size_t i = 0; i < m.particles.size(); ++i) label_beside(c, "p" + std::to_string(m.particles[i].id), rings[i], kMarker);
     for (const auto &w : m.wires) {
         if (w.nodes_nm.empty()) continue;
         const cv::Point2d &a = w.nodes_nm.front(), &b = w.nodes_nm.back();
         const cv::Point2d q = f.to_px((a.x + b.x) / 2, (a.y + b.y) / 2);
-        const int off = cvRound(w.diameter_nm / f.pitch() / 2) + 4;
-        put_label(c.img, "w" + std::to_string(w.id), cv::Point(cvRound(q.x) + off, cvRound(q.y) - off), c.text.scale, kMarker);
+        const int off = cvRound(w.diameter_nm / f.pitch() / 2) + 2;
+        label_beside(c, "w" + std::to_string(w.id), cv::Rect(cvRound(q.x) - off, cvRound(q.y) - off, 2 * off, 2 * off), kMarker);
     }
     for (const auto &t : m.trenches) {
         if (t.points.empty()) continue;
         const cv::Point2d q = f.to_px(t.points.front().x_nm, t.points.front().y_nm);
-        put_label(c.img, "t" + std::to_string(t.id), cv::Point(cvRound(q.x) + 4, cvRound(q.y) + c.text.cap_px + 4), c.text.scale, kMarker);
+        label_beside(c, "t" + std::to_string(t.id), cv::Rect(cvRound(q.x) - 3, cvRound(q.y) - 3, 6, 6), kMarker);
     }
 }
 
@@ -342,12 +368,14 @@ cv::Mat compose_frame(const Display &d, const DisplayModel &model, const Overlay
     for (const auto &p : d.trail_points()) cv::circle(c.img, cv::Point(cvRound(p.x), cvRound(p.y)), 1, cv::Scalar(120, 120, 120), cv::FILLED);
     const cv::Point2d tp = f.to_px(o.tip_nm[0], o.tip_nm[1]);
     const cv::Point tip(cvRound(tp.x), cvRound(tp.y));
+    // the rings and glyphs first; then the text, each label where no other is
     draw_lever(c, tip, o, lever);
-    draw_markers(c, f, model);
+    const std::vector<cv::Rect> rings = draw_rings(c, f, model);
     draw_force_glyph(c, tip, o);
     draw_status(c, o);
     draw_colour_bar(c, d);
     draw_legend(c, o);
+    draw_ids(c, f, model, rings);
     draw_axes(c, f);
     if (o.flags & fw_state_t::FLAG_INTERLOCK) draw_interlock(c);
     return c.img;

@@ -7,8 +7,9 @@
 // What the overlay shows (docs/design.md "What a run writes"):
 //   - axes along the left and bottom edges, ticks and labels in um (frame A);
 //   - each particle ringed by a marker at least kMinMarkerPx across (its
-//     image may be 5 px at 256 px), with its id (p<id>); wires (w<id>) and
-//     trenches (t<id>) labelled;
+//     image may be 5 px at 256 px), with its id (p<id>) beside it where no
+//     other label or ring is (a dense pattern keeps its rings and names
+//     what it can); wires (w<id>) and trenches (t<id>) named likewise;
 //   - the lever: a faint line from the tip back along its axis towards its
 //     base, and, while the tip pushes (FLAG_CONTACT), the faint cones about
 //     the axis within which the card cannot see F_x (half angle
