@@ -317,7 +317,7 @@ void draw_colour_bar(Canvas &c, const Display &d)
     cv::rectangle(c.img, cv::Rect(bx - 1, top - 1, bw + 2, h.rows + 2), kWhite);
     c.label(fmt("%.0f", d.z_top()), cv::Point(bx + bw + 3, top + c.text.cap_px / 2), kWhite);
     c.label(fmt("%.0f", std::round(d.z_bottom()) + 0.0), cv::Point(bx + bw + 3, bottom + c.text.cap_px / 2), kWhite);
-    c.label("nm", cv::Point(bx - 2, top - 5), kWhite);
+    c.label("nm", cv::Point(bx - text_size("nm", c.text.scale).width - 5, top + c.text.cap_px / 2), kWhite);
     c.taken.push_back(cv::Rect(bx - 2, top, N - bx + 2, h.rows));
 }
 
