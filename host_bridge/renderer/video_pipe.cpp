@@ -23,6 +23,10 @@ constexpr const char *kEncoder = "libx264";
 
 // Starts argv with stdin from in_fd (or /dev/null when -1) and stdout into
 // out_fd (or our stderr when -1); the child's pid, or -1 (errno set).
+// The child runs in a process group of its own: a signal sent to the
+// renderer's group (a Ctrl-C, the launcher stopping a run) does not stop
+// the encoder mid-file; it ends when its input does (close(), or the
+// renderer's death), and finishes the file then.
 pid_t spawn(const std::vector<std::string> &argv, int in_fd, int out_fd, int close_fd)
 {
     std::vector<char *> args;
@@ -34,8 +38,13 @@ pid_t spawn(const std::vector<std::string> &argv, int in_fd, int out_fd, int clo
     else posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
     posix_spawn_file_actions_adddup2(&fa, out_fd >= 0 ? out_fd : STDERR_FILENO, STDOUT_FILENO);
     if (close_fd >= 0) posix_spawn_file_actions_addclose(&fa, close_fd);
+    posix_spawnattr_t at;
+    posix_spawnattr_init(&at);
+    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&at, 0);
     pid_t pid = -1;
-    const int rc = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
+    const int rc = posix_spawnp(&pid, args[0], &fa, &at, args.data(), environ);
+    posix_spawnattr_destroy(&at);
     posix_spawn_file_actions_destroy(&fa);
     if (rc != 0) {
         errno = rc;

@@ -12,7 +12,9 @@
 //     started. Nothing is written then.
 //   - ffmpeg inherits the CPUs of the thread that calls open() (the frame
 //     writer's: every CPU of the run) and writes its errors to our stderr
-//     (the renderer's log).
+//     (the renderer's log). It runs in a process group of its own, so a
+//     signal to the renderer's group does not cut the file short: it ends
+//     when its input ends (close(), or the renderer's death).
 //   - write() sends one frame (CV_8UC3, the size given to open()); false when
 //     ffmpeg is gone. SIGPIPE is blocked on the calling thread first, so a
 //     dead encoder is an error, not a signal.
