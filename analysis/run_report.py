@@ -8,7 +8,9 @@ first.
 from the run's own files (run.json and bus.lcmlog through open_run, the
 package's one reader; contact_sheet.png, fidelity_diff.png, video.*):
   - the verdict (run.json "verdict"), and the run's status and error;
-  - the video and the contact sheet;
+  - the video (H.264 when the renderer had ffmpeg: run.json
+    renderer.video says which writer ran; shown at video_width_px) and the
+    contact sheet;
   - the card's force against the simulator's truth (FW_STATE against
     SIM_TRUTH, x, y, z), the apex the card compensated against the true one,
     and each object's position as the card modelled it against the truth
@@ -36,6 +38,8 @@ def _plt():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as p
+    # at dpi 100, 9 pt is 12.5 px: no text in a figure under 12 px at 100 %
+    p.rcParams.update({"font.size": 10, "legend.fontsize": 9, "legend.title_fontsize": 9})
     return p
 
 
@@ -66,7 +70,7 @@ def _force_and_apex(run):
         ax.plot(t_tr, tr[f"force_nN_{c}"], lw=0.8, color="0.5", label="truth (SIM_TRUTH)")
         ax.plot(t_fw, fw[f"force_nN_{c}"], lw=0.8, label="card (FW_STATE)")
         ax.set_ylabel(f"F_{c} (nN)")
-    axs[0].legend(fontsize=8, loc="upper right")
+    axs[0].legend(loc="upper right")
     axs[-1].set_xlabel("simulated time (s)")
     out.append(("Force of the sample on the tip: the card's against the truth", _png(fig)))
     fig, axs = p.subplots(1, 2, figsize=(9, 3.2))
@@ -75,7 +79,7 @@ def _force_and_apex(run):
         ax.plot(t_fw, fw[f"tip_nm_{c}"], lw=0.8, label="card (compensated apex)")
         ax.set_xlabel("simulated time (s)")
         ax.set_ylabel(f"apex {c} (nm)")
-    axs[0].legend(fontsize=8)
+    axs[0].legend()
     out.append(("The apex: the card's compensated position against the truth", _png(fig)))
     return out
 
@@ -100,7 +104,7 @@ def _objects(run):
     for ax, c in zip(axs, "xy"):
         ax.set_xlabel("simulated time (s)")
         ax.set_ylabel(f"{c} (nm)")
-    axs[0].legend(fontsize=7, title="thin: card, wide: truth", title_fontsize=7)
+    axs[0].legend(title="thin: card, wide: truth")
     return (f"Objects (the {len(ids)} that moved most): the card's model against the truth", _png(fig))
 
 
@@ -137,17 +141,50 @@ def _costs(info):
     return rows
 
 
-def _media(run_dir):
+# Text in an image reads at least 12 px when its capitals are at least this
+# high as shown: a 12 px sans-serif font's capitals measure 0.73 em
+# (DejaVu Sans). The page shows each image with text (the video, the
+# contact sheet, fidelity_diff.png) at a size that keeps the renderer's
+# labels there (run.json renderer.label_cap_px, fidelity_label_cap_px).
+MIN_CAP_PX = 9
+
+
+def video_width_px(image_px, label_cap_px):
+    """The width (CSS px) the page shows the video at: its labels' capitals
+    MIN_CAP_PX or more, at least 512, at most 960 (a 256 px frame twice
+    over)."""
+    px = int(image_px or 512)
+    least = px * MIN_CAP_PX / max(1, int(label_cap_px or MIN_CAP_PX))
+    return int(max(512, min(960, max(px, least))))
+
+
+def _video_note(info, name):
+    v = (info.get("renderer") or {}).get("video") or {}
+    if v.get("codec") == "h264":
+        return f"{name}: H.264 ({v.get('encoder', '')})"
+    if v.get("codec") == "mp4v":
+        return (f"{name}: OpenCV's mp4v, which browsers do not play (no H.264: {v.get('fallback_why', '')}); "
+                "open the file with a desktop player")
+    return f"{name}: {v.get('codec', 'codec not recorded')}"
+
+
+def _media(run_dir, info):
     parts = []
+    ren = info.get("renderer") or {}
+    cap = ren.get("label_cap_px")
+    width = video_width_px(ren.get("image_px"), cap)
+    cap_attr = f' data-label-cap-px="{int(cap)}"' if cap else ""
     for name, mime in (("video.mp4", "video/mp4"), ("video.webm", "video/webm"), ("video.avi", "video/x-msvideo")):
         path = os.path.join(run_dir, name)
         if os.path.exists(path) and 0 < os.path.getsize(path) <= VIDEO_MAX_BYTES:
-            parts.append(f'<h2>Video</h2><video controls width="512" src="{_file_uri(path, mime)}"></video>'
-                         f'<p class="note">{html.escape(name)}; a browser plays H.264 and VP9, not OpenCV\'s mp4v.</p>')
+            parts.append(f'<h2>Video</h2><video id="run-video" controls muted playsinline preload="auto" width="{width}"{cap_attr} '
+                         f'src="{_file_uri(path, mime)}"></video>'
+                         f'<p class="note">{html.escape(_video_note(info, name))}</p>')
             break
     sheet = os.path.join(run_dir, "contact_sheet.png")
-    if os.path.exists(sheet):
-        parts.append(f'<h2>Contact sheet</h2><img alt="contact sheet" src="{_file_uri(sheet, "image/png")}">')
+    if os.path.exists(sheet):   # at its own size (scrolled if wider than the page): its frames' labels as drawn
+        parts.append(f'<h2>Contact sheet</h2><div class="wide"><img class="natural" alt="contact sheet"{cap_attr} '
+                     f'src="{_file_uri(sheet, "image/png")}"></div>')
     return "".join(parts)
 
 
@@ -155,7 +192,9 @@ CSS = """body { font: 15px/1.45 sans-serif; max-width: 1000px; margin: 1.5em aut
 h1 { font-size: 24px; } h2 { font-size: 19px; margin-top: 1.6em; }
 table { border-collapse: collapse; font-size: 14px; } th, td { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
 .good { color: #176b1e; font-weight: bold; font-size: 18px; } .bad { color: #b00020; font-weight: bold; font-size: 18px; }
-.note { color: #555; font-size: 13px; } img { max-width: 100%; }"""
+.note { color: #555; font-size: 13px; } img { max-width: 100%; }
+video { image-rendering: pixelated; background: #000; }
+.wide { overflow-x: auto; } img.natural { max-width: none; }"""
 
 
 def render(run_dir):
@@ -172,11 +211,13 @@ def render(run_dir):
     diff = os.path.join(run_dir, "fidelity_diff.png")
     body = [f"<h1>Run {html.escape(str(info.get('scene_name', os.path.basename(run_dir))))}</h1>",
             f'<p class="note">{html.escape(os.path.abspath(run_dir))}; scene {html.escape(str(info.get("scene", "")))}</p>',
-            _verdict_html(info), _media(run_dir)]
+            _verdict_html(info), _media(run_dir, info)]
     body += [f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="{uri}">' for t, uri in figs]
     body.append("<h2>Fidelity: the display against a fresh scan</h2>" + _table({k: v for k, v in fid.items() if k != "objects"}))
     if os.path.exists(diff):
-        body.append(f'<img alt="fidelity difference" src="{_file_uri(diff, "image/png")}">')
+        fcap = (info.get("renderer") or {}).get("fidelity_label_cap_px")
+        attr = f' data-label-cap-px="{int(fcap)}"' if fcap else ""
+        body.append(f'<div class="wide"><img class="natural" alt="fidelity difference"{attr} src="{_file_uri(diff, "image/png")}"></div>')
     body.append("<h2>The card's configuration</h2>" + _table(info.get("card")))
     body.append("<h2>The planner's or the hand's account</h2>" + _table(info.get("operator")))
     body.append("<h2>Costs</h2>" + _table(_costs(info)))

@@ -21,7 +21,7 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           libyaml-cpp-dev xvfb valgrind gcc-arm-none-eabi libnewlib-arm-none-eabi
           qemu-system-arm nlohmann-json3-dev gwyddion libdlib-dev
           clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev
-          libisal-dev zlib1g-dev chromium chromium-driver)
+          libisal-dev zlib1g-dev chromium chromium-driver ffmpeg)
 missing=()
 for p in "${apt_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

@@ -3,9 +3,14 @@
 // table and asserts nothing.
 //
 // Scene: the default 5 um field with 20 latex particles (100 nm); per frame
-// one particle moves by 2 nm (a push) and the frame is composed (colour bar,
-// scale bar, tip, force). Encoding (PNG, video) is timed separately: the
-// run's PNG file (png_file.hpp) and, beside it, OpenCV's imwrite.
+// one particle moves by 2 nm (a push) and the frame is composed as the
+// renderer composes it (renderer/frame_overlay.hpp: axes, markers and ids,
+// the lever and F_x's blind cones, the force glyph and legend, the hand's
+// gauge, the colour bar), and, beside it, Display::frame's plainer one.
+// Encoding (PNG, video) is timed separately: the run's PNG file
+// (png_file.hpp) beside OpenCV's imwrite; the run's H.264 (ffmpeg through
+// video_pipe.hpp: the pipe's cost to the writer, and ffmpeg's own CPU)
+// beside OpenCV's mp4v.
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
@@ -17,8 +22,11 @@
 #include <string>
 #include <vector>
 
+#include "afm/fw_state_t.hpp"
 #include "display.hpp"
+#include "frame_overlay.hpp"
 #include "png_file.hpp"
+#include "video_pipe.hpp"
 
 namespace {
 
@@ -27,7 +35,20 @@ double ms_since(std::chrono::steady_clock::time_point t0)
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-struct Row { int px; double local_ms, full_ms, compose_ms, png_ms, imwrite_ms, video_ms; };
+struct Row { int px; double local_ms, full_ms, compose_ms, plain_ms, png_ms, imwrite_ms, video_ms, h264_ms, h264_cpu_ms; };
+
+// The H.264 pipe: ms per frame to hand it over, and ffmpeg's CPU ms per frame (-1: no ffmpeg).
+void measure_h264(const cv::Mat &frame, int n, const std::string &path, Row *r)
+{
+    afm::VideoPipe pipe;
+    std::string why;
+    r->h264_ms = r->h264_cpu_ms = -1;
+    if (!pipe.open(path, frame.cols, frame.rows, 25, &why)) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < n; ++k) pipe.write(frame);
+    r->h264_ms = ms_since(t0) / n;
+    if (pipe.close(&why)) r->h264_cpu_ms = 1e3 * pipe.child_cpu_seconds() / n;
+}
 
 Row measure(int px, int frames)
 {
@@ -44,8 +65,17 @@ Row measure(int px, int frames)
     afm::Display local(f, tip), full(f, tip);
     local.start(scan, objs);
     full.start(scan, objs);
-    afm::Overlay o;
-    Row r{px, 0, 0, 0, 0, 0, 0};
+    afm::Overlay o;   // pushing, with a hand: every part of the overlay drawn
+    o.tip_nm[1] = -1900;
+    o.force_nN[0] = 0.3;
+    o.force_nN[1] = 1.5;
+    o.force_nN[2] = 5;
+    o.flags = afm::fw_state_t::FLAG_CONTACT;
+    o.hand_N[1] = 0.03;
+    o.hand_scale_N = 0.08;
+    const afm::LeverView lever = afm::lever_view(270);
+    afm::DisplayModel model{objs, {}, {}};
+    Row r{px, 0, 0, 0, 0, 0, 0, 0, 0, 0};
     auto t0 = std::chrono::steady_clock::now();
     for (int k = 0; k < frames; ++k) {
         objs[k % objs.size()].y_nm += 2;
@@ -60,8 +90,14 @@ Row measure(int px, int frames)
     r.full_ms = ms_since(t0) / frames;
     t0 = std::chrono::steady_clock::now();
     cv::Mat frame;
-    for (int k = 0; k < frames; ++k) frame = local.frame(o);
+    for (int k = 0; k < frames; ++k) {
+        o.t_s = k * 0.04;
+        frame = afm::compose_frame(local, model, o, lever);
+    }
     r.compose_ms = ms_since(t0) / frames;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < frames; ++k) (void)local.frame(o);
+    r.plain_ms = ms_since(t0) / frames;
     const std::string tmp = "/tmp/afm-bench-render";
     const int enc = std::max(5, frames / 10);
     t0 = std::chrono::steady_clock::now();
@@ -75,6 +111,8 @@ Row measure(int px, int frames)
     for (int k = 0; k < enc; ++k) vw.write(frame);
     vw.release();
     r.video_ms = ms_since(t0) / enc;
+    measure_h264(frame, enc, tmp + "-h264.mp4", &r);
+    std::remove((tmp + "-h264.mp4").c_str());
     std::remove((tmp + ".png").c_str());
     std::remove((tmp + ".mp4").c_str());
     return r;
@@ -91,14 +129,17 @@ int main(int argc, char **argv)
     }
     if (argc == 2) frames = std::max(10, std::atoi(argv[1]));
     std::printf("display cost per frame, 20 particles in 5 um, one moved per frame (%d frames per size)\n\n", frames);
-    std::printf("| px   | local update ms | full redraw ms | full/local | compose ms | frames/s (local+compose) | PNG ms | imwrite PNG ms | mp4v ms |\n");
-    std::printf("|------|-----------------|----------------|------------|------------|--------------------------|--------|----------------|---------|\n");
+    std::printf("| px   | local update ms | full redraw ms | full/local | compose ms | plain compose ms | frames/s (local+compose) | PNG ms | imwrite PNG ms | mp4v ms | H.264 pipe ms | ffmpeg CPU ms |\n");
+    std::printf("|------|-----------------|----------------|------------|------------|------------------|--------------------------|--------|----------------|---------|---------------|---------------|\n");
     for (int px : {256, 512, 1024}) {
         const Row r = measure(px, frames);
-        std::printf("| %4d | %15.4f | %14.3f | %10.1f | %10.3f | %24.0f | %6.2f | %14.2f | %7.2f |\n", r.px, r.local_ms, r.full_ms,
-                    r.full_ms / r.local_ms, r.compose_ms, 1e3 / (r.local_ms + r.compose_ms), r.png_ms, r.imwrite_ms, r.video_ms);
+        std::printf("| %4d | %15.4f | %14.3f | %10.1f | %10.3f | %16.3f | %24.0f | %6.2f | %14.2f | %7.2f | %13.2f | %13.2f |\n", r.px,
+                    r.local_ms, r.full_ms, r.full_ms / r.local_ms, r.compose_ms, r.plain_ms, 1e3 / (r.local_ms + r.compose_ms), r.png_ms,
+                    r.imwrite_ms, r.video_ms, r.h264_ms, r.h264_cpu_ms);
     }
-    std::printf("\nPNG: the run's frame file (host_bridge/png_file.hpp, ISA-L's deflate); imwrite PNG: OpenCV's, for comparison\n");
+    std::printf("\ncompose: the renderer's frame (frame_overlay.hpp); plain: Display::frame's, without axes, ids, lever or legend\n");
+    std::printf("H.264: the writer's cost to hand a frame to ffmpeg, and ffmpeg's CPU per frame (-1: no ffmpeg with libx264)\n");
+    std::printf("PNG: the run's frame file (host_bridge/png_file.hpp, ISA-L's deflate); imwrite PNG: OpenCV's, for comparison\n");
     std::printf("targets: local update >= 10x cheaper than full redraw; >= 300 frames/s at 512 px\n");
     return 0;
 }

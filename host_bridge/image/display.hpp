@@ -99,6 +99,8 @@ public:
 
     // Trails: past positions drawn as faint markers (the paper's fig. 18d).
     void set_trails(bool on) { trails_ = on; }
+    // The trails' points (display pixels), for a frame composed elsewhere (renderer/frame_overlay.hpp).
+    const std::vector<cv::Point2d> &trail_points() const { return trail_pts_; }
 
     const cv::Mat &height() const { return height_; }     // nm, CV_32F
     double z_top() const { return z_top_; }               // colour scale: heights at the top and

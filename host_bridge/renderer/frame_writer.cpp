@@ -3,6 +3,7 @@
 #include <time.h>
 
 #include <cstdio>
+#include <fstream>
 #include <stdexcept>
 
 #include "placement.hpp"
@@ -23,17 +24,57 @@ double thread_cpu_seconds()
 
 FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video, double fps, int px, std::vector<int> cpus,
                          std::size_t max_pending)
-    : out_(std::move(out_dir)), png_(png), max_pending_(max_pending > 0 ? max_pending : 1)
+    : out_(std::move(out_dir)), png_(png), max_pending_(max_pending > 0 ? max_pending : 1), fps_(fps)
 {
     if (video != "none") {
         const bool mp4 = video == "mp4";
         const std::string path = out_ + (mp4 ? "/video.mp4" : "/video.avi");
         video_path_ = path;
-        video_.open(path, mp4 ? cv::VideoWriter::fourcc('m', 'p', '4', 'v') : cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps,
-                    cv::Size(px, px));
-        if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
+        if (mp4) {
+            // H.264 is tried at the first frame, on the writer's thread; a
+            // file that cannot be made is refused now, as OpenCV's would be.
+            if (!std::ofstream(path, std::ios::binary)) throw std::runtime_error("cannot open a video writer for " + path);
+            h264_wanted_ = true;
+        } else {
+            video_.open(path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, cv::Size(px, px));
+            if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
+            video_tried_ = true;
+            video_info_ = {{"file", "video.avi"}, {"codec", "mjpeg"}, {"encoder", "opencv"}, {"fallback_why", nullptr}};
+        }
     }
     thread_ = start_pinned(std::move(cpus), "renderer: the frame writer", [this] { run(); });
+}
+
+// At the first frame: H.264 through ffmpeg, or OpenCV's mp4v with the reason.
+void FrameWriter::open_video_once(int px)
+{
+    if (video_tried_ || !h264_wanted_) return;
+    video_tried_ = true;
+    std::string why;
+    if (pipe_.open(video_path_, px, px, fps_, &why)) {
+        std::lock_guard<std::mutex> l(m_);
+        video_info_ = {{"file", "video.mp4"}, {"codec", "h264"}, {"encoder", "ffmpeg libx264"}, {"fallback_why", nullptr}};
+        return;
+    }
+    std::fprintf(stderr, "renderer: video.mp4 as OpenCV's mp4v, which browsers do not play: %s\n", why.c_str());
+    video_.open(video_path_, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), fps_, cv::Size(px, px));
+    if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + video_path_);
+    std::lock_guard<std::mutex> l(m_);
+    video_info_ = {{"file", "video.mp4"}, {"codec", "mp4v"}, {"encoder", "opencv"}, {"fallback_why", why}};
+}
+
+// Closes the video; with `throwing`, an encoder that failed is an error.
+void FrameWriter::close_video(bool throwing)
+{
+    video_.release();
+    if (!pipe_.is_open()) return;
+    std::string why;
+    const bool ok = pipe_.close(&why);
+    {
+        std::lock_guard<std::mutex> l(m_);
+        video_info_["encoder_cpu_s"] = pipe_.child_cpu_seconds();
+    }
+    if (!ok && throwing) throw std::runtime_error(video_path_ + ": " + why);
 }
 
 FrameWriter::~FrameWriter()
@@ -48,7 +89,7 @@ FrameWriter::~FrameWriter()
     if (thread_.joinable()) thread_.join();
     // Stopped before its first frame (a run interrupted at its start): a
     // video without a frame does not open, so none is left that claims one.
-    video_.release();
+    close_video(false);
     if (!video_path_.empty() && written_ == 0) std::remove(video_path_.c_str());
 }
 
@@ -67,7 +108,13 @@ void FrameWriter::finish()
     room_.wait(l, [&] { return (queue_.empty() && !busy_) || error_; });
     if (error_) std::rethrow_exception(error_);
     l.unlock();
-    video_.release();
+    close_video(true);
+}
+
+nlohmann::json FrameWriter::video() const
+{
+    std::lock_guard<std::mutex> l(m_);
+    return video_info_;
 }
 
 int FrameWriter::written() const
@@ -88,6 +135,12 @@ void FrameWriter::write_one(int k, const cv::Mat &frame)
         char name[64];
         std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
         write_png(out_ + name, frame);
+    }
+    open_video_once(frame.cols);
+    if (pipe_.is_open() && !pipe_.write(frame)) {
+        std::string why;
+        pipe_.close(&why);
+        throw std::runtime_error(video_path_ + ": the encoder took no more frames (" + why + ")");
     }
     if (video_.isOpened()) video_.write(frame);
 }

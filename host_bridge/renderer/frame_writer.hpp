@@ -20,9 +20,18 @@
 // and so the simulator within its frame window, slows down to the writer's
 // pace). An error (a file that cannot be written) stops the writer and is
 // thrown by the next write() or finish(), naming the file.
+//
+// The video: "mp4" is H.264 through Debian's ffmpeg (video_pipe.hpp), which
+// browsers play; the pipe is opened by the writer's thread at the first
+// frame (so that the encoder runs where the writer may run). Where ffmpeg
+// or its libx264 is missing, OpenCV's mp4v writer (which browsers do not
+// play) writes video.mp4 instead; video() says which ran and why
+// (renderer_report.json "video", so run.json's renderer.video). "avi" is
+// OpenCV's MJPG.
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <nlohmann/json.hpp>
 #include <opencv2/videoio.hpp>
 
 #include <condition_variable>
@@ -35,6 +44,8 @@
 #include <utility>
 #include <vector>
 
+#include "video_pipe.hpp"
+
 namespace afm {
 
 class FrameWriter {
@@ -45,7 +56,8 @@ public:
     // frames/frame_NNNNN.png. video: "mp4", "avi" or "none" (the scene's
     // outputs.video), opened here at fps for px x px frames. cpus: where the
     // thread may run (empty: the process's CPUs). Throws
-    // std::runtime_error when the video cannot be opened.
+    // std::runtime_error when the video cannot be opened (for "mp4": not
+    // even with the fallback, tried at once).
     FrameWriter(std::string out_dir, bool png, const std::string &video, double fps, int px, std::vector<int> cpus,
                 std::size_t max_pending = kMaxPending);
     // Stops the thread; what is still queued is not written (finish() writes it).
@@ -62,16 +74,27 @@ public:
     // Frames written, and the writer thread's CPU time (s) in writing them.
     int written() const;
     double cpu_seconds() const;
+    // The video as written: file, codec ("h264", "mp4v", "mjpeg"), encoder
+    // ("ffmpeg libx264", "opencv"), fallback_why (why not H.264, or null),
+    // encoder_cpu_s (ffmpeg's CPU, after finish()); null without a video.
+    nlohmann::json video() const;
 
 private:
     void run();
     void write_one(int k, const cv::Mat &frame);
+    void open_video_once(int px);
+    void close_video(bool throwing);
 
     const std::string out_;
     const bool png_;
     const std::size_t max_pending_;
     cv::VideoWriter video_;
     std::string video_path_;          // "" without a video
+    double fps_ = 0;
+    bool h264_wanted_ = false;        // "mp4": the pipe is tried at the first frame
+    bool video_tried_ = false;
+    VideoPipe pipe_;
+    nlohmann::json video_info_;       // video()
     mutable std::mutex m_;
     std::condition_variable work_, room_;
     std::deque<std::pair<int, cv::Mat>> queue_;

@@ -49,6 +49,8 @@
 #include "inbox.hpp"
 #include "display.hpp"
 #include "fidelity.hpp"
+#include "fidelity_figure.hpp"
+#include "frame_overlay.hpp"
 #include "frame_writer.hpp"
 #include "view_frames.hpp"
 #include "objects_view.hpp"
@@ -149,6 +151,7 @@ struct Renderer {
     BySeq<afm::haptic_force_t> hands;
     afm::ObjectsView objects;           // FW_STATE's objects, whole
     afm::DisplayModel model;
+    const afm::LeverView lever = afm::lever_view(scene.probe.scan_angle_deg);
     int frames_written = 0;
     int64_t last_seq = -1;       // the latest block whose objects the renderer took
     int64_t shown_seq = -1;      // the block whose objects, force, tip and hand the frames show
@@ -343,7 +346,8 @@ struct Renderer {
             o.hand_N[1] = hand.force_N[1];
             o.hand_scale_N = std::min(kHandGaugeThresholds * scene.op.feel_threshold_N, scene.op.haptic.max_force_N);
         }
-        const cv::Mat frame = display.frame(o);
+        // the overlay on a copy: display.height() stays the physical image (frame_overlay.hpp)
+        const cv::Mat frame = afm::compose_frame(display, model, o, lever);
         if (view) view->offer(frame, view_state(k, state, o));
         composed.emplace_back(k, frame);
         if (std::find(sheet_at.begin(), sheet_at.end(), k) != sheet_at.end()) sheet[k] = frame;
@@ -664,7 +668,7 @@ struct Renderer {
         const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.heights(), field, model, tip, kFidelitySearch_nm);
         write_scan_gsf("scan_final", cv::Rect(0, 0, field.px, field.px));
         write_display_gsf("display_final", display.height(), frames_written);
-        afm::write_png(out + "/fidelity_diff.png", afm::diff_image(f.diff_nm, std::max(1.0, (display.z_top() - display.z_bottom()) / 4)));
+        afm::write_png(out + "/fidelity_diff.png", afm::fidelity_figure(f, field, model, kFidelityTarget_nm));
         using nlohmann::json;
         fidelity = json{{"max_position_error_nm", f.max_position_error_nm},
                         {"max_angle_error_deg", f.max_angle_error_deg},
@@ -783,6 +787,12 @@ inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, co
             {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
             // the writer thread's CPU time (frame_writer.hpp), not its wall time
             {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
+            // which video ran: H.264 through ffmpeg, or OpenCV's fallback and why (frame_writer.hpp)
+            {"video", r.writer ? r.writer->video() : nlohmann::json(nullptr)},
+            // a capital's height in the frames' labels and in fidelity_diff.png, pixels
+            // (the report shows them so that it reads 9 px or more: analysis/run_report.py)
+            {"label_cap_px", afm::frame_text(scene.out.image_px).cap_px},
+            {"fidelity_label_cap_px", afm::fidelity_figure_text().cap_px},
             {"pixels_updated", r.touched_px},
             {"local_scans", r.local_scans},
             {"view", r.view ? r.view->report() : nlohmann::json(nullptr)},

@@ -2,17 +2,74 @@
 the verdict, the contact sheet, the force, apex and objects against the
 truth, the fidelity check, the card's configuration, the planner's or hand's
 account and the costs; opened in a real browser (Debian's chromium,
-headless), whose screenshot is kept in the test's output."""
+headless), whose screenshot is kept in the test's output. The video is
+H.264 (ffprobe) with its index first, or run.json says the fallback ran and
+why; it plays in Chromium (no MEDIA_ERR, its time advances); at 1280 x 800
+every text on the page is 12 px or more, the frames' labels included at the
+size the page shows them."""
+import json
 import os
 import re
 import shutil
+import struct
 import subprocess
 import sys
+import time
 import unittest
 
 import benchtest
 
 PY = sys.executable
+CHROMIUM = shutil.which("chromium")
+DRIVER = shutil.which("chromedriver")
+SHOT_DIR = os.path.join(benchtest.BUILD, "test-output", "run_report")
+
+
+def browser():
+    """Debian's chromium under Selenium, 1280 x 800 at 100 %."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1280,800", "--force-device-scale-factor=1",
+              "--autoplay-policy=no-user-gesture-required", "--no-first-run", "--disable-background-networking"):
+        opts.add_argument(a)
+    return webdriver.Chrome(service=Service(DRIVER), options=opts)
+
+
+def top_level_boxes(path):
+    """The MP4 file's top-level box types, in order."""
+    out = []
+    with open(path, "rb") as f:
+        while True:
+            head = f.read(8)
+            if len(head) < 8:
+                return out
+            size, kind = struct.unpack(">I4s", head)
+            if size == 1:
+                size = struct.unpack(">Q", f.read(8))[0] - 8
+            out.append(kind.decode("latin-1"))
+            if size < 8:
+                return out
+            f.seek(size - 8, os.SEEK_CUR)
+
+
+# Every element's own text, its computed font size; every image with text
+# (data-label-cap-px), the capitals' height as shown.
+SIZES_JS = """
+const small = [];
+for (const el of document.querySelectorAll('body *')) {
+  const own = [...el.childNodes].some(n => n.nodeType === 3 && n.textContent.trim());
+  if (own) { const fs = parseFloat(getComputedStyle(el).fontSize); if (fs < 12) small.push(el.tagName + ' ' + fs + 'px: ' + el.textContent.trim().slice(0, 40)); }
+}
+const images = [];
+for (const el of document.querySelectorAll('[data-label-cap-px]')) {
+  const natural = el.videoWidth || el.naturalWidth;
+  const shown = el.getBoundingClientRect().width;
+  images.push([el.tagName, parseFloat(el.dataset.labelCapPx) * shown / natural, natural, shown]);
+}
+return [small, images];
+"""
 
 
 class RunReport(unittest.TestCase):
@@ -76,6 +133,88 @@ class RunReport(unittest.TestCase):
         lo, hi = im.getextrema()
         self.assertLess(lo, 100, "the page shows text, not a blank")
         print(f"screenshot: {shot}")
+
+
+    def test_the_video_is_h264_or_the_fallback_is_recorded(self):
+        v = self.rj["renderer"]["video"]
+        path = os.path.join(self.out, v["file"])
+        print(f"video: {json.dumps(v)}")
+        if v["codec"] == "h264":
+            self.assertIsNone(v["fallback_why"])
+            p = subprocess.run(["ffprobe", "-v", "error", "-select_streams", "v:0", "-show_entries", "stream=codec_name,pix_fmt,nb_frames",
+                                "-of", "json", path], capture_output=True, text=True, timeout=60)
+            self.assertEqual(p.returncode, 0, p.stderr)
+            st = json.loads(p.stdout)["streams"][0]
+            self.assertEqual((st["codec_name"], st["pix_fmt"]), ("h264", "yuv420p"))
+            self.assertEqual(int(st["nb_frames"]), self.rj["frames"])
+            boxes = top_level_boxes(path)
+            self.assertLess(boxes.index("moov"), boxes.index("mdat"), f"no faststart: {boxes}")
+        else:   # no ffmpeg with libx264 here: OpenCV's writer, and why
+            self.assertEqual(v["codec"], "mp4v")
+            self.assertTrue(v["fallback_why"])
+            self.assertIn("do not play", self.html)
+
+    def test_the_video_plays_in_chromium(self):
+        self.assertTrue(CHROMIUM and DRIVER, "chromium and chromium-driver are installed by ./afm setup")
+        d = browser()
+        try:
+            d.get("file://" + os.path.join(self.out, "report.html"))
+            deadline = time.time() + 30
+            while True:
+                state = d.execute_script("const v = document.getElementById('run-video');"
+                                         "return [v.readyState, v.error ? v.error.code : null, v.duration];")
+                if state[0] >= 2 or state[1] or time.time() > deadline:
+                    break
+                time.sleep(0.2)
+            print(f"video in Chromium: readyState {state[0]}, error {state[1]}, duration {state[2]} s")
+            if self.rj["renderer"]["video"]["codec"] != "h264":   # the fallback does not play, as the page says
+                self.assertEqual(state[1], 4, "MEDIA_ERR_SRC_NOT_SUPPORTED")
+                return
+            self.assertIsNone(state[1], "MEDIA_ERR")
+            self.assertGreaterEqual(state[0], 2, "HAVE_CURRENT_DATA")
+            import yaml
+            with open(os.path.join(self.out, "scene.yaml")) as f:
+                fps = yaml.safe_load(f)["frame_rate_hz"]
+            self.assertAlmostEqual(state[2], self.rj["frames"] / fps, delta=1.5 / fps)
+            played = d.execute_async_script(
+                "const done = arguments[arguments.length - 1]; const v = document.getElementById('run-video');"
+                "v.play().then(() => setTimeout(() => done([v.currentTime, v.paused, v.error ? v.error.code : null]), 600))"
+                ".catch(e => done(['play() refused: ' + e]));")
+            print(f"after play(): {played}")
+            self.assertEqual(len(played), 3, played)
+            self.assertGreater(played[0], 0.1, "the video's time advances")
+            self.assertIsNone(played[2])
+        finally:
+            d.quit()
+
+    def test_text_is_at_least_12_px_at_1280_by_800(self):
+        self.assertTrue(CHROMIUM and DRIVER, "chromium and chromium-driver are installed by ./afm setup")
+        d = browser()
+        try:
+            d.get("file://" + os.path.join(self.out, "report.html"))
+            deadline = time.time() + 30
+            while d.execute_script("const v = document.getElementById('run-video'); return v.readyState < 1 && !v.error;") \
+                    and time.time() < deadline:
+                time.sleep(0.2)
+            small, images = d.execute_script(SIZES_JS)
+            os.makedirs(SHOT_DIR, exist_ok=True)
+            d.save_screenshot(os.path.join(SHOT_DIR, "report_selenium.png"))
+        finally:
+            d.quit()
+        from analysis import run_report
+        print(f"images with text (tag, capitals as shown px, natural width, shown width): {images}")
+        self.assertEqual(small, [], "text under 12 px")
+        self.assertGreaterEqual(len(images), 3, "the video, the contact sheet, the fidelity figure")
+        for tag, cap, natural, shown in images:
+            self.assertGreaterEqual(cap, run_report.MIN_CAP_PX, f"{tag}: labels {cap:.1f} px high as shown ({natural} -> {shown} px)")
+        # the figures' text: 9 pt at 100 dpi is 12.5 px
+        p = run_report._plt()
+        for key in ("font.size", "legend.fontsize", "legend.title_fontsize", "xtick.labelsize", "ytick.labelsize", "axes.labelsize"):
+            pts = p.rcParams[key]
+            if not isinstance(pts, (int, float)):   # "small", "medium": relative to font.size
+                from matplotlib.font_manager import FontProperties
+                pts = FontProperties(size=pts).get_size_in_points()
+            self.assertGreaterEqual(pts * 100 / 72, 12, key)
 
 
 if __name__ == "__main__":

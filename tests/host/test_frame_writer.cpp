@@ -3,7 +3,10 @@
 // makes (png_file.hpp; its own tests read them back pixel for pixel), and
 // in the video in order, however small its queue; a file it cannot write
 // fails the next write() or finish() with the file's name; a video it
-// cannot open is refused at once.
+// cannot open is refused at once. "mp4" is H.264 through ffmpeg where it
+// is (read back, in order), else OpenCV's mp4v with the reason recorded.
+// frame_writer.hpp (nlohmann/json) before unity.h, whose isnan macro breaks it
+#include "frame_writer.hpp"
 #include <unity.h>
 
 #include <opencv2/core.hpp>
@@ -20,7 +23,6 @@
 #include <string>
 #include <vector>
 
-#include "frame_writer.hpp"
 #include "png_file.hpp"
 
 namespace fs = std::filesystem;
@@ -145,6 +147,66 @@ void test_a_writer_dropped_unfinished_stops()
     TEST_ASSERT_TRUE(fs::exists(dir + "/frames"));
 }
 
+// mp4 frames read back by OpenCV: as many as written, each nearest its own source.
+void check_mp4_frames(int n)
+{
+    cv::VideoCapture cap(dir + "/video.mp4");
+    TEST_ASSERT_TRUE(cap.isOpened());
+    cv::Mat f;
+    int got = 0;
+    while (cap.read(f)) {
+        double best = 1e18;
+        int best_k = -1;
+        for (int k = 0; k < n; ++k) {
+            const double d = cv::norm(f, frame_of(k), cv::NORM_L1);
+            if (d < best) best = d, best_k = k;
+        }
+        TEST_ASSERT_EQUAL_INT(got, best_k);
+        ++got;
+    }
+    TEST_ASSERT_EQUAL_INT(n, got);
+}
+
+// With ffmpeg (./afm setup installs it): H.264, the index (moov) before the data.
+void test_mp4_is_h264_through_ffmpeg_with_its_index_first()
+{
+    unsetenv("AFM_FFMPEG");
+    const int n = 10;
+    nlohmann::json v;
+    {
+        afm::FrameWriter w(dir, false, "mp4", 25.0, 64, {});
+        for (int k = 0; k < n; ++k) w.write(k, frame_of(k));
+        w.finish();
+        v = w.video();
+    }
+    TEST_ASSERT_EQUAL_STRING_MESSAGE("h264", v.value("codec", "").c_str(), v.dump().c_str());
+    TEST_ASSERT_TRUE(v["fallback_why"].is_null());
+    TEST_ASSERT_TRUE(v.value("encoder_cpu_s", 0.0) > 0);
+    const std::vector<char> b = bytes_of(dir + "/video.mp4");
+    const std::string head(b.begin(), b.end());
+    TEST_ASSERT_EQUAL_STRING("ftyp", head.substr(4, 4).c_str());
+    TEST_ASSERT_TRUE(head.find("moov") != std::string::npos && head.find("moov") < head.find("mdat"));
+    check_mp4_frames(n);
+}
+
+// Without ffmpeg: OpenCV's mp4v, and the reason, naming what was missing.
+void test_without_ffmpeg_mp4v_runs_and_says_why()
+{
+    setenv("AFM_FFMPEG", "/nonexistent/ffmpeg", 1);
+    const int n = 6;
+    nlohmann::json v;
+    {
+        afm::FrameWriter w(dir, false, "mp4", 25.0, 64, {});
+        for (int k = 0; k < n; ++k) w.write(k, frame_of(k));
+        w.finish();
+        v = w.video();
+    }
+    unsetenv("AFM_FFMPEG");
+    TEST_ASSERT_EQUAL_STRING("mp4v", v.value("codec", "").c_str());
+    TEST_ASSERT_NOT_EQUAL(std::string::npos, v.value("fallback_why", "").find("/nonexistent/ffmpeg"));
+    check_mp4_frames(n);
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -153,5 +215,7 @@ int main()
     RUN_TEST(test_a_file_it_cannot_write_is_named_by_the_next_call);
     RUN_TEST(test_a_video_it_cannot_open_is_refused_by_name);
     RUN_TEST(test_a_writer_dropped_unfinished_stops);
+    RUN_TEST(test_mp4_is_h264_through_ffmpeg_with_its_index_first);
+    RUN_TEST(test_without_ffmpeg_mp4v_runs_and_says_why);
     return UNITY_END();
 }
