@@ -111,9 +111,12 @@ static inline int64_t fw_force_fallback_pn(const fw_force_t *f, int32_t n_pn, in
 #define FW_FORCE_COS_A2 402635780
 #define FW_FORCE_COS_A3 (-334225590)
 #define FW_FORCE_COS_A4 261126907
-/* S_LO = 1/8 and the blend span S_HI - S_LO = 1/8 in 2.30 */
+/* S_LO = 1/8 and the blend span S_HI - S_LO = 1/8 in 2.30; S_HI = 1/4, the
+ * |sin| of the angle to the lever's axis below which F_x is not wholly
+ * observed (the host's check warnings and the frame's cone read it here). */
 #define FW_FORCE_SIN_LO_Q30 ((int64_t)1 << 27)
 #define FW_FORCE_BLEND_SPAN_LOG2_Q30 27
+#define FW_FORCE_SIN_HI_Q30 (FW_FORCE_SIN_LO_Q30 + ((int64_t)1 << FW_FORCE_BLEND_SPAN_LOG2_Q30))
 #define FW_FORCE_BLEND_SPLIT 24
 
 /* u = y^2 / x^2 in 2.30, truncated, from the squares x2 = x^2 > 0 and

@@ -28,7 +28,7 @@ std::string num(double v)
 // the firmware's S_HI (fw_force.h: S_LO plus the blend's span, 2.30).
 double unobservable_sin()
 {
-    return static_cast<double>(FW_FORCE_SIN_LO_Q30 + (static_cast<int64_t>(1) << FW_FORCE_BLEND_SPAN_LOG2_Q30)) / static_cast<double>(1 << 30);
+    return static_cast<double>(FW_FORCE_SIN_HI_Q30) / static_cast<double>(1 << 30);
 }
 
 void unobservable_pushes(const Scene &s, std::vector<std::string> *out)

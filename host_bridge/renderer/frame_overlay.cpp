@@ -345,9 +345,8 @@ LeverView lever_view(double scan_angle_deg)
     fw_board_lever_axis_q30(fwu_mdeg_from_deg(scan_angle_deg), axis);
     v.axis[0] = fwu_from_q30(axis[0]);
     v.axis[1] = fwu_from_q30(axis[1]);
-    // S_HI = S_LO + the blend's span (fw_force.h, 2.30): |sin| of the angle below which F_x is unobservable.
-    const double s_hi = static_cast<double>(FW_FORCE_SIN_LO_Q30 + (static_cast<int64_t>(1) << FW_FORCE_BLEND_SPAN_LOG2_Q30)) /
-                        static_cast<double>(static_cast<int64_t>(1) << FW_Q30_FRAC);
+    // S_HI (fw_force.h, 2.30): |sin| of the angle below which F_x is unobservable.
+    const double s_hi = static_cast<double>(FW_FORCE_SIN_HI_Q30) / static_cast<double>(static_cast<int64_t>(1) << FW_Q30_FRAC);
     v.blind_half_angle_deg = std::asin(s_hi) * 180 / M_PI;
     return v;
 }

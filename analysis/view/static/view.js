@@ -179,13 +179,7 @@
 
   function overlay(m, k) {
     if (!m.field_nm) return;
-    img.font = "12px sans-serif";
-    img.textAlign = "center";
-    for (const [id, x, y, r] of m.particles) {
-      const [px, py] = toPx(m, k, x, y), rad = r / (m.field_nm[2] / m.width) * k;
-      img.fillStyle = "#9ef";
-      img.fillText(String(id), px, py - rad - 4);
-    }
+    // the objects' ids, axes and the force glyph are in the frame itself (the renderer's overlay)
     const [tx, ty] = toPx(m, k, m.tip_nm[0], m.tip_nm[1]);
     if (!isFinite(tx)) return;
     img.strokeStyle = "#0ff";
