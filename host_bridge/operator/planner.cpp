@@ -13,6 +13,7 @@ extern "C" {
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
+#include <deque>
 #include <sstream>
 
 #include "card_setup.hpp"
@@ -54,8 +55,9 @@ constexpr double kStrayLow_nm = 5.0, kStrayHigh_nm = 15.0;
 constexpr int kMaxStrokes = 60;           // per particle
 constexpr double kModelMoved_nm = 0.5;    // a model that moved this much during another's push is checked by a scan
 constexpr int kStallBlocks = 40;          // the tip at its aim and the model still this long: the particle has gone
-// The model still this long (s) after contact was made ends a stroke: the
-// particle has slipped off the tip (pushed, the model moves every block). The card's model would otherwise creep on after it,
+// The model still in more than half of the blocks of this long (s) after
+// contact was made ends a stroke: the particle has slipped off the tip
+// (pushed, the model moves every block). The card's model would otherwise creep on after it,
 // a few nm at each contact the card feels now and then with the tip
 // pressed into the model, and end further from the particle than a place
 // fix may move it (the card's drift limit, 200 nm).
@@ -151,6 +153,33 @@ std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vec
     std::vector<int> out(sites.size(), -1);
     for (long i = 0; i < n; ++i)
         if (a[i] < static_cast<long>(sites.size())) out[a[i]] = static_cast<int>(i);
+    return out;
+}
+
+std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites, const std::vector<int> &pinned)
+{
+    if (pinned.empty()) return assign_sites(particles, sites);
+    if (pinned.size() != sites.size()) throw PlanError("pinned sites: one entry per site, got " + std::to_string(pinned.size()));
+    if (particles.size() < sites.size())
+        return assign_sites(particles, sites);   // refused there, with both counts
+    std::vector<int> out(sites.size(), -1), free_p, free_s;
+    std::vector<bool> taken(particles.size(), false);
+    for (std::size_t j = 0; j < sites.size(); ++j) {
+        const int i = pinned[j];
+        if (i < 0) continue;
+        if (i >= static_cast<int>(particles.size())) throw PlanError("site " + std::to_string(j) + " is pinned to no particle");
+        if (taken[static_cast<std::size_t>(i)]) throw PlanError("a particle is pinned to two sites (site " + std::to_string(j) + ")");
+        taken[static_cast<std::size_t>(i)] = true;
+        out[j] = i;
+    }
+    std::vector<Vec2> ps, ss;
+    for (std::size_t i = 0; i < particles.size(); ++i)
+        if (!taken[i]) free_p.push_back(static_cast<int>(i)), ps.push_back(particles[i]);
+    for (std::size_t j = 0; j < sites.size(); ++j)
+        if (out[j] < 0) free_s.push_back(static_cast<int>(j)), ss.push_back(sites[j]);
+    if (ss.empty()) return out;
+    const std::vector<int> rest = assign_sites(ps, ss);
+    for (std::size_t k = 0; k < rest.size(); ++k) out[static_cast<std::size_t>(free_s[k])] = free_p[static_cast<std::size_t>(rest[k])];
     return out;
 }
 
@@ -492,6 +521,7 @@ bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
     bool touched = false, ok = false;
     Vec2 last_P = P;
     int still = 0;
+    std::deque<bool> moved;   // since contact: whether the model moved, a block each, the last apart_max
     const int apart_max = std::max(3, static_cast<int>(std::lround(kApart_s * s_.block_hz)));
     for (long k = 0; k < max_blocks; ++k) {
         p = particle(id);
@@ -508,7 +538,15 @@ bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
         if (d > 20) u = unit(rem, u);
         const Vec2 c = P - tip_;
         touched = touched || p->in_contact;
-        if (touched && still > apart_max) break;   // slipped off: what the card still feels now and then is not it
+        // Slipped off: the model moved in fewer than half of the last
+        // apart_max blocks (pushed, it moves every block; what the card
+        // still feels now and then, with the tip pressed into the model,
+        // is not the particle).
+        if (touched) {
+            moved.push_back(still == 0);
+            if (static_cast<int>(moved.size()) > apart_max) moved.pop_front();
+            if (static_cast<int>(moved.size()) == apart_max && 2 * std::count(moved.begin(), moved.end(), true) < apart_max) break;
+        }
         if (touched) {
             const double cosang = dot(unit(c, u), u);
             if (cosang < std::cos(kLostAngle_deg * kPi / 180) || norm(c) > R + ps.approach_nm + 30) break;   // lost
@@ -674,7 +712,14 @@ void Planner::run_particles()
         pos.push_back(Vec2{p.x_nm, p.y_nm} - drift());
         ids.push_back(p.id);
     }
-    const std::vector<int> who = assign_sites(pos, sites_);
+    // A pinned site (objects.targets[j].particle) by the particle's index here.
+    std::vector<int> pinned;
+    for (int id : s_.targets.pinned) {
+        const auto at = std::find(ids.begin(), ids.end(), id);
+        if (id >= 0 && at == ids.end()) throw PlanError("objects.targets: particle " + std::to_string(id) + " is pinned to a site but not in the firmware's model");
+        pinned.push_back(id < 0 ? -1 : static_cast<int>(at - ids.begin()));
+    }
+    const std::vector<int> who = assign_sites(pos, sites_, pinned);
     std::vector<int> assigned;
     for (int i : who) assigned.push_back(ids[static_cast<std::size_t>(i)]);
     clear_blockers(assigned);

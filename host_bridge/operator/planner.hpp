@@ -1,7 +1,8 @@
 // The automatic planner (operator.plan): pushes particles onto target sites
 // and rods to target poses, closed loop on the firmware's models.
 //
-// 1. Assignment: particles to sites at minimum total travel (dlib's
+// 1. Assignment: a pinned site (objects.targets[j].particle) gets its
+//    particle; the rest, particles to sites at minimum total travel (dlib's
 //    max_cost_assignment, the Hungarian method; costs in 0.1 nm). More
 //    sites than particles is an error; spare particles stay where they are,
 //    but one that lies on a site another particle is coming to (closer
@@ -93,6 +94,11 @@ struct PlanStopped {};
 // index for site j. Throws PlanError when there are more sites than
 // particles (or none of either).
 std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites);
+// The same with pinned sites (objects.targets[j].particle): pinned[j] is
+// the particle index that must go to site j, or -1; the other sites get
+// the other particles at minimum total travel. pinned may be empty (none).
+// Throws PlanError for a pinned index out of range or given twice.
+std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites, const std::vector<int> &pinned);
 
 // A disc in the plane: something a push must keep clear of.
 struct Disc { Vec2 c; double r = 0; int id = 0; };
