@@ -75,14 +75,8 @@ Vec2 unit(Vec2 a, Vec2 fallback = {1, 0})
 }
 Vec2 perp(Vec2 a) { return {-a.y, a.x}; }
 
-// Distance from q to the segment a-b.
-double seg_dist(Vec2 q, Vec2 a, Vec2 b)
-{
-    const Vec2 ab = b - a;
-    const double l2 = dot(ab, ab);
-    const double t = l2 > 0 ? std::clamp(dot(q - a, ab) / l2, 0.0, 1.0) : 0.0;
-    return norm(q - (a + t * ab));
-}
+// Distance from q to the segment a-b (common/scene's, the one copy).
+double seg_dist(Vec2 q, Vec2 a, Vec2 b) { return point_segment_distance(q, a, b); }
 
 // A leg a -> b is free when the particle's sweep and the tip's (from its
 // landing point behind a to its place behind b) keep clear of every disc,
