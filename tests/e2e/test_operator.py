@@ -239,14 +239,15 @@ class PatternLever(unittest.TestCase):
         self.assertTrue(self.rj["verdict"]["pass"], self.rj["verdict"])
 
     def test_no_particle_pushed_into_another(self):
-        # Paths keep clearance_nm (40) between surfaces: centres 2 r + 40 =
-        # 140 nm apart; a scan's error (a few nm) aside, never below 2 r +
-        # clearance / 2. The spares sit 170 nm off the pushes' lines.
+        # Paths keep operator.plan.clearance_nm (40 by default) between
+        # surfaces: centres 2 r + 40 = 140 nm apart, less a scan's error
+        # (5 nm). The spares sit 170 nm off the pushes' straight lines.
         spec = yaml.safe_load(scene_text(benchtest.scene("pattern_lever.yaml")))
         r = spec["objects"]["particles"][0]["radius_nm"]
+        clearance = spec["operator"]["plan"].get("clearance_nm", 40)
         d, pair = closest_pair_nm(self.log)
         print(f"pattern-lever: closest two particles {d:.1f} nm apart (centres), {pair}")
-        self.assertGreaterEqual(d, 2 * r + 40 / 2)
+        self.assertGreaterEqual(d, 2 * r + clearance - 5)
 
 
 class PinnedSite(unittest.TestCase):
