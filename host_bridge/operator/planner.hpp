@@ -31,8 +31,10 @@
 //    stroke is at most 180 nm (stroke_length): a pushed sphere that turns
 //    off the line and slips off the tip must not reach its neighbour. A
 //    lifted move never runs along the lever's axis (lifted_route). Contact lost (the line of
-//    centres more than 60 deg off the push, the particle out of reach, or
-//    the tip at its aim while the model stays still) ends the stroke.
+//    centres more than 60 deg off the push, the particle out of reach, the
+//    tip at its aim while the model stays still, or the model moving in
+//    fewer than half of the last 20 ms of blocks: the particle slipped off
+//    and the card feels a contact only now and then) ends the stroke.
 // 4. Rods (objects.wire_targets): a zigzag of end pushes perpendicular to
 //    the axis, as the paper advises (never the middle: the bifurcation).
 //    An end push at l = L/10 turns the rod about its static point s(l)
