@@ -457,8 +457,26 @@ void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
     }
 }
 
-// objects.targets: a list of [x, y] sites, or {text | png, pitch_nm,
-// height_nm, center_nm} (rasterised by host_bridge/pattern.hpp).
+// objects.targets[i].particle: a particle of the scene (listed or
+// scattered), pinned to one site only.
+int read_pin(const Reader &r, const YAML::Node &n, const std::string &key, const Scene &s)
+{
+    if (!n.IsDefined()) r.fail(key, "missing: a site given as a mapping names the particle that must go there");
+    if (!n.IsScalar()) r.fail(key, "must be a particle id, got " + Reader::show(n));
+    const double v = r.check_num(n, key, 0, 1e6, false);
+    if (v != std::floor(v)) r.fail(key, "must be an integer particle id, got " + Reader::show(n));
+    const int id = static_cast<int>(v);
+    if (std::none_of(s.particles.begin(), s.particles.end(), [&](const ParticleSpec &p) { return p.id == id; }))
+        r.fail(key, "names no particle of the scene (objects.particles, objects.scatter), got " + Reader::show(n));
+    for (std::size_t j = 0; j < s.targets.pinned.size(); ++j)
+        if (s.targets.pinned[j] == id)
+            r.fail(key, "particle " + std::to_string(id) + " is pinned to objects.targets[" + std::to_string(j) + "] already: one site per particle");
+    return id;
+}
+
+// objects.targets: a list of sites ([x, y], or {x_nm, y_nm, particle}), or
+// {text | png, pitch_nm, height_nm, center_nm} (rasterised by
+// host_bridge/pattern.hpp).
 void read_targets(const Reader &r, const YAML::Node &n, Scene &s)
 {
     if (!n.IsDefined() || n.IsNull()) return;
@@ -468,10 +486,14 @@ void read_targets(const Reader &r, const YAML::Node &n, Scene &s)
     if (n.IsSequence()) {
         for (std::size_t i = 0; i < n.size(); ++i) {
             const std::string key = k + "[" + std::to_string(i) + "]";
-            const Vec2 v = r.vec2(n[i], key, -1e6, 1e6);
+            const bool pin = n[i].IsMap();
+            if (pin) r.only_keys(n[i], key, {"x_nm", "y_nm", "particle"});
+            const Vec2 v = pin ? Vec2{r.num(n[i], key, "x_nm", nullptr, -1e6, 1e6), r.num(n[i], key, "y_nm", nullptr, -1e6, 1e6)}
+                               : r.vec2(n[i], key, -1e6, 1e6);
             if (std::fabs(v.x - s.field_center_nm.x) > half || std::fabs(v.y - s.field_center_nm.y) > half)
                 r.fail(key, "target " + Reader::show(n[i]) + " is outside the field");
             t.sites_nm.push_back(v);
+            t.pinned.push_back(pin ? read_pin(r, n[i]["particle"], key + ".particle", s) : -1);
         }
         if (t.sites_nm.empty()) r.fail(k, "the list of targets is empty");
         return;

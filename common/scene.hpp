@@ -105,11 +105,13 @@ struct ScatterSpec {
     uint64_t seed = 1;
 };
 
-// Where the planner puts particles (objects.targets): a list of sites, or
+// Where the planner puts particles (objects.targets): a list of sites (each
+// [x, y], or {x_nm, y_nm, particle} pinned to that particle), or
 // a text or a PNG mask rasterised into sites at pitch_nm
 // (host_bridge/pattern.hpp).
 struct TargetSpec {
     std::vector<Vec2> sites_nm;
+    std::vector<int> pinned;            // per listed site: the particle id that must go there, -1: any (same length as sites_nm)
     std::string text;                   // rasterised with a Hershey font (OpenCV)
     std::string png;                    // a mask: dark pixels are the pattern (path relative to the scene)
     double pitch_nm = 300;              // spacing of the sites

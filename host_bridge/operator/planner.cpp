@@ -13,6 +13,7 @@ extern "C" {
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
+#include <deque>
 #include <sstream>
 
 #include "card_setup.hpp"
@@ -39,7 +40,10 @@ constexpr double kEndAt = 0.1;            // a rod's end push is at L/10 from th
 constexpr double kTurnTol_deg = 20.0;     // a rod is carried while its normal is within this of the way
 constexpr double kStuck_nm = 1.0;         // a rod's end push that moved its model's ends less than this did nothing
 constexpr double kCarryUntil = 3.0;       // a rod is carried until its centre is this many tolerances from the target
-constexpr double kMinLeverAngle_deg = 25.0;   // pushes keep this far off the lever's axis (F_x: fw_force.h's S_HI is 14.5 deg)
+constexpr double kMinLeverAngle_deg = 25.0;   // pushes and lifted moves keep this far off the lever's axis (F_x: fw_force.h's S_HI is 14.5 deg)
+constexpr double kCornerAngle_deg = 35.0;     // a lifted move along the axis turns aside this far (lifted_route)
+constexpr double kLiftedStraight_nm = 2.0;    // a lifted move shorter than this goes straight (the card's direction needs 1 nm)
+constexpr double kStrokeNear_nm = 180.0;      // the longest stroke near another particle (stroke_length)
 // Strokes: a pushed sphere drifts off the line of centres exponentially
 // with the distance pushed (length r_tip + r_p), the real one and the
 // model alike, from different starts: the model is trusted for a stroke,
@@ -51,6 +55,13 @@ constexpr double kStrayLow_nm = 5.0, kStrayHigh_nm = 15.0;
 constexpr int kMaxStrokes = 60;           // per particle
 constexpr double kModelMoved_nm = 0.5;    // a model that moved this much during another's push is checked by a scan
 constexpr int kStallBlocks = 40;          // the tip at its aim and the model still this long: the particle has gone
+// The model still in more than half of the blocks of this long (s) after
+// contact was made ends a stroke: the particle has slipped off the tip
+// (pushed, the model moves every block). The card's model would otherwise creep on after it,
+// a few nm at each contact the card feels now and then with the tip
+// pressed into the model, and end further from the particle than a place
+// fix may move it (the card's drift limit, 200 nm).
+constexpr double kApart_s = 0.02;
 
 Vec2 operator+(Vec2 a, Vec2 b) { return {a.x + b.x, a.y + b.y}; }
 Vec2 operator-(Vec2 a, Vec2 b) { return {a.x - b.x, a.y - b.y}; }
@@ -64,18 +75,14 @@ Vec2 unit(Vec2 a, Vec2 fallback = {1, 0})
 }
 Vec2 perp(Vec2 a) { return {-a.y, a.x}; }
 
-// Distance from q to the segment a-b.
-double seg_dist(Vec2 q, Vec2 a, Vec2 b)
-{
-    const Vec2 ab = b - a;
-    const double l2 = dot(ab, ab);
-    const double t = l2 > 0 ? std::clamp(dot(q - a, ab) / l2, 0.0, 1.0) : 0.0;
-    return norm(q - (a + t * ab));
-}
+// Distance from q to the segment a-b (common/scene's, the one copy).
+double seg_dist(Vec2 q, Vec2 a, Vec2 b) { return point_segment_distance(q, a, b); }
 
 // A leg a -> b is free when the particle's sweep and the tip's (from its
 // landing point behind a to its place behind b) keep clear of every disc,
 // and it does not run along the lever's axis.
+// A particle that starts closer than that to another (a push that went
+// astray left it there) may still leave: its leg must not bring it closer.
 bool leg_free(Vec2 a, Vec2 b, const PushGeometry &g, const std::vector<Disc> &obs)
 {
     const Vec2 d = b - a;
@@ -85,10 +92,17 @@ bool leg_free(Vec2 a, Vec2 b, const PushGeometry &g, const std::vector<Disc> &ob
     const double R = g.r + g.tip_r;
     const Vec2 land = a - (R + g.approach_nm) * u, tip_end = b - R * u;
     for (const Disc &c : obs) {
-        if (seg_dist(c.c, a, b) < g.r + c.r + g.clearance_nm) return false;
+        const double need = g.r + c.r + g.clearance_nm;
+        if (seg_dist(c.c, a, b) < std::min(need, norm(c.c - a) - 1e-6)) return false;
         if (seg_dist(c.c, land, tip_end) < g.tip_r + c.r + g.clearance_nm) return false;
     }
     return true;
+}
+
+// Within the cone of min_lever_angle_deg about the lever's axis (either way).
+bool along_lever(Vec2 d, const PushGeometry &g)
+{
+    return std::fabs(dot(unit(d), unit(g.lever_axis))) > std::cos(g.min_lever_angle_deg * kPi / 180);
 }
 
 Vec2 rotate(Vec2 v, double deg)
@@ -136,6 +150,33 @@ std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vec
     return out;
 }
 
+std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites, const std::vector<int> &pinned)
+{
+    if (pinned.empty()) return assign_sites(particles, sites);
+    if (pinned.size() != sites.size()) throw PlanError("pinned sites: one entry per site, got " + std::to_string(pinned.size()));
+    if (particles.size() < sites.size())
+        return assign_sites(particles, sites);   // refused there, with both counts
+    std::vector<int> out(sites.size(), -1), free_p, free_s;
+    std::vector<bool> taken(particles.size(), false);
+    for (std::size_t j = 0; j < sites.size(); ++j) {
+        const int i = pinned[j];
+        if (i < 0) continue;
+        if (i >= static_cast<int>(particles.size())) throw PlanError("site " + std::to_string(j) + " is pinned to no particle");
+        if (taken[static_cast<std::size_t>(i)]) throw PlanError("a particle is pinned to two sites (site " + std::to_string(j) + ")");
+        taken[static_cast<std::size_t>(i)] = true;
+        out[j] = i;
+    }
+    std::vector<Vec2> ps, ss;
+    for (std::size_t i = 0; i < particles.size(); ++i)
+        if (!taken[i]) free_p.push_back(static_cast<int>(i)), ps.push_back(particles[i]);
+    for (std::size_t j = 0; j < sites.size(); ++j)
+        if (out[j] < 0) free_s.push_back(static_cast<int>(j)), ss.push_back(sites[j]);
+    if (ss.empty()) return out;
+    const std::vector<int> rest = assign_sites(ps, ss);
+    for (std::size_t k = 0; k < rest.size(); ++k) out[static_cast<std::size_t>(free_s[k])] = free_p[static_cast<std::size_t>(rest[k])];
+    return out;
+}
+
 PushPath plan_push(Vec2 from, Vec2 to, const PushGeometry &g, const std::vector<Disc> &obstacles)
 {
     PushPath best;
@@ -178,6 +219,38 @@ PushPath plan_push(Vec2 from, Vec2 to, const PushGeometry &g, const std::vector<
         }
     }
     return best;
+}
+
+std::vector<Vec2> lifted_route(Vec2 from, Vec2 to, const PushGeometry &g, Vec2 centre)
+{
+    const Vec2 d = to - from;
+    if (norm(d) < kLiftedStraight_nm || !along_lever(d, g)) return {to};
+    // d = x a + y n along the axis a (the way d goes) and its normal n; the
+    // corner sits x / 2 along a and h off the line's middle, h making both
+    // legs at least kCornerAngle_deg off the axis; on the side nearer the
+    // field's centre (the joystick's reach).
+    const Vec2 a = dot(d, g.lever_axis) >= 0 ? unit(g.lever_axis) : -1.0 * unit(g.lever_axis), n = perp(a);
+    const double x = dot(d, a), y = dot(d, n);
+    const double h = 0.5 * x * std::tan(kCornerAngle_deg * kPi / 180) + 0.5 * std::fabs(y);
+    const Vec2 mid = from + (0.5 * x) * a + (0.5 * y) * n;
+    const Vec2 c1 = mid + h * n, c2 = mid - h * n;
+    return {norm(c1 - centre) <= norm(c2 - centre) ? c1 : c2, to};
+}
+
+double stroke_length(Vec2 from, Vec2 leg_end, double stroke_nm, double near_nm, const PushGeometry &g,
+                     const std::vector<Disc> &obstacles)
+{
+    const double len = norm(leg_end - from);
+    double limit = stroke_nm;
+    if (limit > near_nm) {
+        // Long only where a particle that turns off the tip's line (at most
+        // r + tip_r aside before it slips off) still keeps the clearance.
+        const Vec2 end = from + std::min(len, 1.5 * limit) * unit(leg_end - from);
+        const double aside = g.r + g.tip_r;
+        for (const Disc &c : obstacles)
+            if (seg_dist(c.c, from, end) < g.r + c.r + g.clearance_nm + aside) limit = near_nm;
+    }
+    return len > 1.5 * limit ? limit : len;
 }
 
 std::vector<int> assembly_order(const std::vector<Vec2> &sites, const PushGeometry &g)
@@ -339,11 +412,22 @@ void Planner::travel(Vec2 to, bool engaged, double speed)
         engaged_ = engaged;
         hold(kLandBlocks);
     }
+    // Lifted, never along the lever's axis: the card flags a blind push
+    // (FW_FLAG_BLIND_PUSH) whenever its direction of motion lies in that
+    // cone and the apex is over an object it models, lifted or not, and a
+    // local scan holds the tip over its particle with the direction of
+    // the move that brought it there. At a corner the tip stops a block,
+    // so that the card's direction turns from one leg to the next without
+    // passing through the axis.
+    const std::vector<Vec2> route = engaged_ ? std::vector<Vec2>{to} : lifted_route(tip_, to, geometry(0), s_.field_center_nm);
     const double step = speed / s_.block_hz;
-    while (norm(to - tip_) > 1e-9) {
-        const Vec2 d = to - tip_;
-        tip_ = norm(d) <= step ? to : tip_ + step * unit(d);
-        model_ = &bench_->block({tip_, engaged_, load_nN_});
+    for (std::size_t k = 0; k < route.size(); ++k) {
+        if (k > 0) hold(1);
+        while (norm(route[k] - tip_) > 1e-9) {
+            const Vec2 d = route[k] - tip_;
+            tip_ = norm(d) <= step ? route[k] : tip_ + step * unit(d);
+            model_ = &bench_->block({tip_, engaged_, load_nN_});
+        }
     }
 }
 
@@ -431,6 +515,8 @@ bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
     bool touched = false, ok = false;
     Vec2 last_P = P;
     int still = 0;
+    std::deque<bool> moved;   // since contact: whether the model moved, a block each, the last apart_max
+    const int apart_max = std::max(3, static_cast<int>(std::lround(kApart_s * s_.block_hz)));
     for (long k = 0; k < max_blocks; ++k) {
         p = particle(id);
         if (!p) break;
@@ -446,6 +532,15 @@ bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
         if (d > 20) u = unit(rem, u);
         const Vec2 c = P - tip_;
         touched = touched || p->in_contact;
+        // Slipped off: the model moved in fewer than half of the last
+        // apart_max blocks (pushed, it moves every block; what the card
+        // still feels now and then, with the tip pressed into the model,
+        // is not the particle).
+        if (touched) {
+            moved.push_back(still == 0);
+            if (static_cast<int>(moved.size()) > apart_max) moved.pop_front();
+            if (static_cast<int>(moved.size()) == apart_max && 2 * std::count(moved.begin(), moved.end(), true) < apart_max) break;
+        }
         if (touched) {
             const double cosang = dot(unit(c, u), u);
             if (cosang < std::cos(kLostAngle_deg * kPi / 180) || norm(c) > R + ps.approach_nm + 30) break;   // lost
@@ -457,6 +552,8 @@ bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
         tip_ = norm(to) <= v * T ? aim : tip_ + (v * T) * unit(to);
         model_ = &bench_->block({tip_, true});
     }
+    // Back off from the particle's model (the way it came, if the tip is on its centre).
+    if (const particle_t *q = particle(id)) u = unit(Vec2{q->x_nm, q->y_nm} - tip_, u);
     travel(tip_ - kBackOff_nm * u, true, ps.speed_nm_per_s);
     travel(tip_, false, ps.travel_speed_nm_per_s);   // lift
     return ok;
@@ -514,8 +611,9 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
         // trusted to follow the particle.
         Vec2 end = path.legs[1];
         bool at_site = path.legs.size() == 2;
-        if (norm(end - from) > 1.5 * stroke_nm_) {
-            end = from + stroke_nm_ * unit(end - from);
+        const double len = stroke_length(from, end, stroke_nm_, kStrokeNear_nm, geometry(p->radius_nm), obstacles(item.id));
+        if (len < norm(end - from)) {
+            end = from + len * unit(end - from);
             at_site = false;
         }
         ++item.pushes;
@@ -539,7 +637,7 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
         // How far the model strayed over this stroke sets the next one's length.
         const double strayed = norm(at - model);
         if (std::getenv("AFM_PLAN_TRACE"))
-            std::fprintf(stderr, "plan: t %.2f particle %d stroke %.0f nm at_site %d model (%.1f, %.1f) at (%.1f, %.1f) strayed %.1f nm\n", bench_->time_s(), item.id, stroke_nm_, at_site, model.x, model.y, at.x, at.y, strayed);
+            std::fprintf(stderr, "plan: t %.2f particle %d stroke %.0f nm (limit %.0f) at_site %d model (%.1f, %.1f) at (%.1f, %.1f) strayed %.1f nm\n", bench_->time_s(), item.id, norm(end - from), stroke_nm_, at_site, model.x, model.y, at.x, at.y, strayed);
         if (strayed < kStrayLow_nm) stroke_nm_ = std::min(kStrokeMax_nm, stroke_nm_ * 1.5);
         else if (strayed > kStrayHigh_nm) stroke_nm_ = std::max(kStrokeMin_nm, stroke_nm_ * 0.5);
         if (!at_site) continue;
@@ -608,7 +706,14 @@ void Planner::run_particles()
         pos.push_back(Vec2{p.x_nm, p.y_nm} - drift());
         ids.push_back(p.id);
     }
-    const std::vector<int> who = assign_sites(pos, sites_);
+    // A pinned site (objects.targets[j].particle) by the particle's index here.
+    std::vector<int> pinned;
+    for (int id : s_.targets.pinned) {
+        const auto at = std::find(ids.begin(), ids.end(), id);
+        if (id >= 0 && at == ids.end()) throw PlanError("objects.targets: particle " + std::to_string(id) + " is pinned to a site but not in the firmware's model");
+        pinned.push_back(id < 0 ? -1 : static_cast<int>(at - ids.begin()));
+    }
+    const std::vector<int> who = assign_sites(pos, sites_, pinned);
     std::vector<int> assigned;
     for (int i : who) assigned.push_back(ids[static_cast<std::size_t>(i)]);
     clear_blockers(assigned);

@@ -1,7 +1,8 @@
 // The automatic planner (operator.plan): pushes particles onto target sites
 // and rods to target poses, closed loop on the firmware's models.
 //
-// 1. Assignment: particles to sites at minimum total travel (dlib's
+// 1. Assignment: a pinned site (objects.targets[j].particle) gets its
+//    particle; the rest, particles to sites at minimum total travel (dlib's
 //    max_cost_assignment, the Hungarian method; costs in 0.1 nm). More
 //    sites than particles is an error; spare particles stay where they are,
 //    but one that lies on a site another particle is coming to (closer
@@ -10,7 +11,8 @@
 //    pattern taken apart from outside in, reversed, so each site can still
 //    be reached when its turn comes); at each step the first particle in
 //    that order with a free push (plan_push: straight or two legs, clear of
-//    every other particle, never along the lever's axis). A particle with
+//    every other particle, never along the lever's axis; a particle already
+//    closer than the clearance to another may move, but not closer). A particle with
 //    no free push waits for a later round; when none of the rest has one,
 //    they are reported unplaced ("no free path").
 // 3. Each push, closed loop, in strokes: travel lifted to the particle; a
@@ -25,9 +27,14 @@
 //    grows while the model stays within 5 nm of the scan and halves when it
 //    strays past 15. Onto the site, a particle more than half the
 //    tolerance off is pushed again (on the last of max_pushes attempts the
-//    tolerance itself is taken), then reported. Contact lost (the line of
-//    centres more than 60 deg off the push, the particle out of reach, or
-//    the tip at its aim while the model stays still) ends the stroke.
+//    tolerance itself is taken), then reported. Near another particle a
+//    stroke is at most 180 nm (stroke_length): a pushed sphere that turns
+//    off the line and slips off the tip must not reach its neighbour. A
+//    lifted move never runs along the lever's axis (lifted_route). Contact lost (the line of
+//    centres more than 60 deg off the push, the particle out of reach, the
+//    tip at its aim while the model stays still, or the model moving in
+//    fewer than half of the last 20 ms of blocks: the particle slipped off
+//    and the card feels a contact only now and then) ends the stroke.
 // 4. Rods (objects.wire_targets): a zigzag of end pushes perpendicular to
 //    the axis, as the paper advises (never the middle: the bifurcation).
 //    An end push at l = L/10 turns the rod about its static point s(l)
@@ -89,6 +96,11 @@ struct PlanStopped {};
 // index for site j. Throws PlanError when there are more sites than
 // particles (or none of either).
 std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites);
+// The same with pinned sites (objects.targets[j].particle): pinned[j] is
+// the particle index that must go to site j, or -1; the other sites get
+// the other particles at minimum total travel. pinned may be empty (none).
+// Throws PlanError for a pinned index out of range or given twice.
+std::vector<int> assign_sites(const std::vector<Vec2> &particles, const std::vector<Vec2> &sites, const std::vector<int> &pinned);
 
 // A disc in the plane: something a push must keep clear of.
 struct Disc { Vec2 c; double r = 0; int id = 0; };
@@ -118,6 +130,25 @@ struct PushPath {
     bool ok() const { return legs.size() >= 2; }
 };
 PushPath plan_push(Vec2 from, Vec2 to, const PushGeometry &g, const std::vector<Disc> &obstacles);
+
+// How far one stroke pushes from `from` along a leg ending at leg_end
+// (sample coordinates, nm): the whole leg when it is at most 1.5 limit,
+// else limit. limit is stroke_nm, or near_nm (if shorter) when a particle
+// pushed that far could come within clearance_nm of another: a sphere
+// pushed by a sphere turns off the line of centres (the real one and the
+// card's model alike, from starts a scan's error apart), up to r + tip_r
+// aside before it slips off the tip; a short stroke leaves it no time to.
+double stroke_length(Vec2 from, Vec2 leg_end, double stroke_nm, double near_nm, const PushGeometry &g,
+                     const std::vector<Disc> &obstacles);
+
+// The lifted tip's way from `from` to `to` (frame A, nm): the points it
+// goes through after `from`, the last `to`. Straight, unless the line runs
+// within min_lever_angle_deg of the lever's axis: then through one corner
+// that turns both legs 35 deg or more off the axis, on the side nearer
+// `centre`. (The card flags a blind push whenever its direction of motion
+// lies within 14.5 deg of the axis with the apex over an object it
+// models, lifted or not: fw_card.c.)
+std::vector<Vec2> lifted_route(Vec2 from, Vec2 to, const PushGeometry &g, Vec2 centre);
 
 // Sites in an order that keeps each reachable: assembly as disassembly
 // reversed. From the whole pattern, the site that can be reached last

@@ -12,7 +12,12 @@ passivity_check false it runs, the controller standing by.
 
 The planner: scenes/pattern_ten.yaml assembles ten particles into a cross;
 a fresh scan at the end finds every site filled within the tolerance; the
-run replays bit for bit; bad targets are named.
+run replays bit for bit; bad targets are named. scenes/pattern_lever.yaml
+(particles straight along the lever's axis from their sites, spares beside
+the pushes) passes its verdict (no blind push: nothing moved within the
+unobservable cone near a particle) and, by the simulator's truth, no two
+particles ever come closer than the clearance allows. A pinned site gets
+the particle it names, by the truth.
 """
 import json
 import math
@@ -199,6 +204,81 @@ class Pattern(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
 
 
+def closest_pair_nm(log):
+    """The least centre distance between two particles over the run, by the
+    simulator's truth (every 10th block), and the pair."""
+    best = (math.inf, None)
+    for k, (m, o) in enumerate(afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)):
+        if k % 10:
+            continue
+        ps = o.particles
+        for i in range(len(ps)):
+            for j in range(i + 1, len(ps)):
+                d = math.hypot(ps[i].x_nm - ps[j].x_nm, ps[i].y_nm - ps[j].y_nm)
+                if d < best[0]:
+                    best = (d, (ps[i].id, ps[j].id, m.utime * 1e-6))
+    return best
+
+
+class PatternLever(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("pattern_lever.yaml", "pattern-lever", ["SIM_TRUTH"])
+
+    @classmethod
+    def tearDownClass(cls):
+        benchtest.cleanup(cls.out)
+
+    def test_every_site_filled_and_no_push_within_the_unobservable_cone(self):
+        self.assertEqual(self.code, 0, self.err)
+        placement = self.rj["fidelity"]["placement"]["particles"]
+        print(f"pattern-lever: {placement['placed']}/{placement['sites']} sites, worst {placement['worst_nm']:.1f} nm; "
+              f"blind-push blocks {self.rj['fw']['unobservable_push_blocks']}; verdict {self.rj['verdict']['pass']}")
+        self.assertEqual((placement["placed"], placement["missing"]), (5, 0))
+        self.assertEqual(self.rj["fw"]["unobservable_push_blocks"], 0)
+        self.assertTrue(self.rj["verdict"]["pass"], self.rj["verdict"])
+
+    def test_no_particle_pushed_into_another(self):
+        # Paths keep operator.plan.clearance_nm (40 by default) between
+        # surfaces: centres 2 r + 40 = 140 nm apart, less a scan's error
+        # (5 nm). The spares sit 170 nm off the pushes' straight lines.
+        spec = yaml.safe_load(scene_text(benchtest.scene("pattern_lever.yaml")))
+        r = spec["objects"]["particles"][0]["radius_nm"]
+        clearance = spec["operator"]["plan"].get("clearance_nm", 40)
+        d, pair = closest_pair_nm(self.log)
+        print(f"pattern-lever: closest two particles {d:.1f} nm apart (centres), {pair}")
+        self.assertGreaterEqual(d, 2 * r + clearance - 5)
+
+
+class PinnedSite(unittest.TestCase):
+    # Site A is pinned to particle 2, the farther of the two below it (least
+    # travel would give it particle 1); site B takes the nearest of the rest.
+    SCENE = ("name: pinned\nseed: 2\nduration_s: 30\nsample_rate_hz: 20000\nblock_hz: 1000\nframe_rate_hz: 5\n"
+             "effects: [bending_offset, adhesion, photodiode_noise, tip_convolution]\n"
+             "sample:\n  substrate: glass\n  field_nm: 4000\n  tip_substrate: {mu: 0.0865, adhesion_nN: 1.0}\n"
+             "  particle_substrate: {mu: 0.3, adhesion_nN: 3.0}\n"
+             "objects:\n  particles:\n    - {id: 1, x_nm: -600, y_nm: -600, radius_nm: 50}\n"
+             "    - {id: 2, x_nm: 600, y_nm: -600, radius_nm: 50}\n    - {id: 3, x_nm: 0, y_nm: 900, radius_nm: 50}\n"
+             "  targets:\n    - {x_nm: -600, y_nm: 0, particle: 2}\n    - [600, 0]\n"
+             "operator:\n  load_nN: 5\n  plan: {tolerance_nm: 25}\noutputs:\n  image_px: 128\n  video: none\n")
+
+    def test_the_pinned_particle_goes_to_its_site(self):
+        out = benchtest.tmpdir("pinned")
+        code, _, err, rj = benchtest.run(benchtest.write_scene(self.SCENE, "pinned"), out)
+        self.assertEqual(code, 0, err)
+        truth = afmlog.whole_objects(afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH"])["SIM_TRUTH"],
+                                     lambda m: m.objects)[-1][1]
+        at = {p.id: (p.x_nm, p.y_nm) for p in truth.particles}
+        off = {i: math.hypot(at[i][0] - x, at[i][1] - y) for i, (x, y) in {2: (-600, 0), 3: (600, 0), 1: (-600, -600)}.items()}
+        print(f"pinned: particle 2 {off[2]:.1f} nm from its pinned site, particle 3 {off[3]:.1f} nm from the other, "
+              f"particle 1 moved {off[1]:.1f} nm")
+        self.assertLessEqual(off[2], 25)
+        self.assertLessEqual(off[3], 25)
+        self.assertLess(off[1], 1)   # the nearer particle stays
+        self.assertTrue(rj["verdict"]["pass"], rj["verdict"])
+        benchtest.cleanup(out)
+
+
 class BadTargets(unittest.TestCase):
     BASE = ("name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 4000}\n"
             "objects:\n  particles:\n    - {id: 1, x_nm: 0, y_nm: 0, radius_nm: 50}\n")
@@ -244,6 +324,10 @@ class BadTargets(unittest.TestCase):
         p = subprocess.run([os.path.join(alone, "afm_launch"), "--check", "--scene", ok], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("cannot check the planner's targets: cannot execute " + os.path.join(alone, "operator"), p.stderr)
+
+    def test_a_pinned_site_naming_no_particle(self):
+        self.named(self.BASE + "  targets: [{x_nm: 0, y_nm: 300, particle: 5}]\noperator:\n  plan: {}\n",
+                   "objects.targets[0].particle: names no particle of the scene", "scene.yaml")
 
     def test_a_gain_that_is_not_a_number(self):
         self.named(self.BASE + "operator:\n  path_nm: [[0, -500]]\n  haptic: {force_gain_N_per_nN: lots}\n",

@@ -69,7 +69,8 @@ def outputs(path):
 
 
 # Long experiments, left to their own commands: scenes/pattern.yaml (114
-# particles, about 2 wall minutes); its small twin pattern_ten.yaml replays here.
+# particles, about half a wall minute); its small twins pattern_ten.yaml and
+# pattern_lever.yaml replay here.
 LONG = {"pattern.yaml"}
 
 

@@ -1,7 +1,8 @@
 // Unity tests of the planner's pure parts (host_bridge/planner, pattern):
 // the assignment against brute force on small cases, more sites than
-// particles and the reverse, free and blocked pushes, a site walled in,
-// text rasterised into sites.
+// particles and the reverse, pinned sites (and their scene key), free and
+// blocked pushes, a site walled in, text rasterised into sites, strokes
+// kept short near another particle, lifted moves off the lever's axis.
 #include <unity.h>
 
 #include "../scene_text.hpp"
@@ -235,6 +236,118 @@ void test_text_is_rasterised_into_rows_of_sites()
                      std::string::npos);
 }
 
+void test_a_pinned_site_gets_its_particle_the_rest_the_least_travel()
+{
+    // Unpinned, site 0 takes particle 1 (test_assignment_is_not_greedy).
+    const std::vector<afm::Vec2> parts = {{1, 0}, {-2, 0}, {9, 0}};
+    const std::vector<afm::Vec2> sites = {{0, 0}, {4, 0}};
+    TEST_ASSERT_EQUAL_INT(1, afm::assign_sites(parts, sites)[0]);
+    // Site 1 pinned to particle 1 (6 nm off): site 0 takes the nearest of the rest, particle 0.
+    const std::vector<int> a = afm::assign_sites(parts, sites, {-1, 1});
+    TEST_ASSERT_EQUAL_INT(0, a[0]);
+    TEST_ASSERT_EQUAL_INT(1, a[1]);
+    // Pinned to the farthest particle: it goes there all the same.
+    const std::vector<int> b = afm::assign_sites(parts, sites, {2, -1});
+    TEST_ASSERT_EQUAL_INT(2, b[0]);
+    TEST_ASSERT_EQUAL_INT(0, b[1]);
+    // No pins: the plain assignment.
+    TEST_ASSERT_EQUAL_INT(1, afm::assign_sites(parts, sites, {-1, -1})[0]);
+    try {
+        afm::assign_sites(parts, sites, {2, 2});
+        TEST_FAIL_MESSAGE("one particle pinned to two sites must be refused");
+    } catch (const afm::PlanError &) {
+    }
+}
+
+void test_a_pinned_site_is_read_and_its_mistakes_named()
+{
+    const std::string base = "name: t\nseed: 1\nduration_s: 1\nsample: {substrate: glass, field_nm: 4000}\n"
+                             "objects:\n  particles:\n    - {id: 4, x_nm: 0, y_nm: 0, radius_nm: 50}\n"
+                             "    - {id: 7, x_nm: 600, y_nm: 0, radius_nm: 50}\n  targets:\n";
+    const std::string plan = "operator:\n  plan: {}\n";
+    const afm::Scene s = scene_from_text(base + "    - [0, 300]\n    - {x_nm: 300, y_nm: 300, particle: 7}\n" + plan);
+    TEST_ASSERT_EQUAL(2u, s.targets.pinned.size());
+    TEST_ASSERT_EQUAL_INT(-1, s.targets.pinned[0]);
+    TEST_ASSERT_EQUAL_INT(7, s.targets.pinned[1]);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 300, s.targets.sites_nm[1].x);
+    const struct { const char *site, *says; int line; } bad[] = {
+        {"    - {x_nm: 0, y_nm: 300, particle: 9}\n", "objects.targets[0].particle: names no particle of the scene", __LINE__},
+        {"    - {x_nm: 0, y_nm: 300, particle: 4.5}\n", "objects.targets[0].particle: must be an integer particle id, got '4.5'", __LINE__},
+        {"    - {x_nm: 0, y_nm: 300}\n", "objects.targets[0].particle: missing", __LINE__},
+        {"    - {x_nm: 0, y_nm: 300, particle: 4}\n    - {x_nm: 0, y_nm: -300, particle: 4}\n",
+         "objects.targets[1].particle: particle 4 is pinned to objects.targets[0] already", __LINE__},
+        {"    - {x_nm: 0, y_nm: 300, id: 4}\n", "objects.targets[0]", __LINE__},
+        {"    - {x_nm: 9000, y_nm: 300, particle: 4}\n", "objects.targets[0]: target", __LINE__},
+    };
+    for (const auto &b : bad) {
+        const std::string why = scene_error(base + b.site + plan);
+        UnityAssertEqualNumber(1, why.find(b.says) != std::string::npos, why.c_str(), static_cast<UNITY_UINT>(b.line), UNITY_DISPLAY_STYLE_INT);
+        TEST_ASSERT_TRUE(why.find("afm-test-scene") != std::string::npos);   // the file named
+    }
+}
+
+void test_a_stroke_near_another_particle_is_short()
+{
+    // 100 nm particles, a 10 nm tip, 40 nm clearance: a pushed particle
+    // may turn r + tip_r = 60 nm off the line before it slips off.
+    const afm::PushGeometry g{};
+    const afm::Vec2 from{0, 0}, to{2000, 0};
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 600, afm::stroke_length(from, to, 600, 180, g, {}));
+    // A particle 170 nm off the line: clear of a straight push (140 nm)
+    // but not of one turned 60 nm aside (200 nm): the stroke is short.
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 180, afm::stroke_length(from, to, 600, 180, g, {{{400, 170}, 50, 2}}));
+    // 210 nm off: long.
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 600, afm::stroke_length(from, to, 600, 180, g, {{{400, 210}, 50, 2}}));
+    // Beyond the stroke's reach it does not count; a leg within 1.5 strokes is taken whole.
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 600, afm::stroke_length(from, to, 600, 180, g, {{{1400, 100}, 50, 2}}));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 250, afm::stroke_length(from, {250, 0}, 180, 180, g, {{{100, 150}, 50, 2}}));
+}
+
+void test_a_particle_inside_the_clearance_may_leave_but_not_come_closer()
+{
+    // A particle 120 nm from another (less than 100 + 40): pushed away
+    // (the tip landing clear of the other) it goes straight; pushed past
+    // the other, it never comes closer than it was.
+    const std::vector<afm::Disc> other = {{{120, 0}, 50, 2}};
+    TEST_ASSERT_EQUAL(2u, afm::plan_push({0, 0}, {-300, -1000}, kG, other).legs.size());
+    const afm::PushPath past = afm::plan_push({0, 0}, {1000, 0}, kG, other);
+    for (std::size_t k = 1; k < past.legs.size(); ++k)
+        for (int i = 0; i <= 100; ++i) {
+            const afm::Vec2 a = past.legs[k - 1], b = past.legs[k];
+            const afm::Vec2 q{a.x + (b.x - a.x) * i / 100.0, a.y + (b.y - a.y) * i / 100.0};
+            TEST_ASSERT_TRUE(dist(q, other[0].c) >= 120 - 1e-6);
+        }
+}
+
+void test_lifted_moves_never_run_along_the_lever()
+{
+    // Lever along x (and turned 30 deg): every leg of a lifted move keeps
+    // 25 deg off the axis; a move across it stays straight.
+    afm::PushGeometry g;
+    g.min_lever_angle_deg = 25;
+    Rng r(7);
+    for (int turn = 0; turn < 2; ++turn) {
+        g.lever_axis = turn ? afm::Vec2{std::cos(M_PI / 6), std::sin(M_PI / 6)} : afm::Vec2{1, 0};
+        int bent = 0;
+        for (int trial = 0; trial < 400; ++trial) {
+            const afm::Vec2 from{4000 * r() - 2000, 4000 * r() - 2000}, to{4000 * r() - 2000, 4000 * r() - 2000};
+            const std::vector<afm::Vec2> route = afm::lifted_route(from, to, g, {0, 0});
+            TEST_ASSERT_TRUE(route.size() == 1 || route.size() == 2);
+            TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0, dist(route.back(), to));
+            bent += route.size() == 2;
+            afm::Vec2 at = from;
+            for (const afm::Vec2 &next : route) {
+                const double dx = next.x - at.x, dy = next.y - at.y;
+                const double c = std::fabs(dx * g.lever_axis.x + dy * g.lever_axis.y) / std::hypot(dx, dy);
+                TEST_ASSERT_TRUE(c <= std::cos(25 * M_PI / 180) + 1e-12);
+                at = next;
+            }
+        }
+        TEST_ASSERT_TRUE(bent > 0);   // some moves needed the corner (about 28 %)
+    }
+    TEST_ASSERT_EQUAL(1u, afm::lifted_route({0, 0}, {100, 1000}, g, {0, 0}).size());
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -247,5 +360,10 @@ int main()
     RUN_TEST(test_no_leg_runs_along_the_lever);
     RUN_TEST(test_assembly_order_keeps_every_site_reachable);
     RUN_TEST(test_text_is_rasterised_into_rows_of_sites);
+    RUN_TEST(test_a_pinned_site_gets_its_particle_the_rest_the_least_travel);
+    RUN_TEST(test_a_pinned_site_is_read_and_its_mistakes_named);
+    RUN_TEST(test_a_stroke_near_another_particle_is_short);
+    RUN_TEST(test_a_particle_inside_the_clearance_may_leave_but_not_come_closer);
+    RUN_TEST(test_lifted_moves_never_run_along_the_lever);
     return UNITY_END();
 }
