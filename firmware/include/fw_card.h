@@ -70,8 +70,9 @@
 #define FW_CARD_DISP_ESTIMATE (-1)
 /* Trench points are recorded every 5 nm of tip path (litho_step_pm 0). */
 /* How deep inside an object it models the block's last apex must be, with
- * F_x unobservable, for the card to flag FW_FLAG_BLIND_PUSH (pm): a push it
- * sees keeps the apex at contact distance. */
+ * F_x unobservable and the tip engaged (a lifted tip over an object pushes
+ * nothing), for the card to flag FW_FLAG_BLIND_PUSH (pm): a push it sees
+ * keeps the apex at contact distance. */
 #define FW_CARD_BLIND_DEPTH_PM 5000
 #define FW_CARD_LITHO_STEP_DEFAULT_PM 5000
 /* The operator's hand: 0.1 N per nN of tip force (100 uN/pN), at most 3 N

@@ -456,7 +456,7 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
         out->force_pn[i] = (in->n > 0) ? card_mean_pn(sum[i], in->n) : 0;
         out->tip_pm[i] = c->last_tip_pm[i];
     }
-    if ((flags & FW_FLAG_FX_UNOBSERVABLE) != 0u && card_apex_inside_model(c)) {
+    if (c->down && (flags & FW_FLAG_FX_UNOBSERVABLE) != 0u && card_apex_inside_model(c)) {   /* a lifted tip pushes nothing */
         flags |= FW_FLAG_BLIND_PUSH;
     }
     out->flags = flags;

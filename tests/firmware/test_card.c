@@ -729,6 +729,41 @@ static void test_card_tiny_rod_refused_or_bounded(void)
     TEST_ASSERT_NOT_NULL(fw_card_wire(&card, 0));
 }
 
+/* FW_FLAG_BLIND_PUSH: the apex run along the lever's axis (F_x
+ * unobservable) through particle 2's model, the signals showing no push:
+ * flagged while the tip is engaged; the same path with the tip lifted
+ * (the previous block's pose not engaged) is not a push at all. */
+static uint32_t blind_run(bool engaged)
+{
+    fw_sample_in_t in[20];
+    fw_card_pose_t pose = pose0;
+    fw_card_out_t out;
+    q30_t axis[2];
+    uint32_t seen = 0;
+    int b;
+    default_config();
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
+    fw_board_lever_axis_q30(cfg.board.scan_angle_mdeg, axis);
+    pose.engaged = engaged;
+    /* 12 blocks of 20 samples, 1 nm a sample along the axis, from 120 nm before
+     * particle 2's centre (0, -200 nm) to 120 nm past it */
+    for (b = 0; b < 12; b++) {
+        int32_t d0 = -120000 + b * 20000;
+        samples(in, 20, 300000, 0, (int32_t)(((int64_t)d0 * axis[0]) >> 30), -200000 + (int32_t)(((int64_t)d0 * axis[1]) >> 30),
+                (int32_t)((1000 * (int64_t)axis[0]) >> 30), (int32_t)((1000 * (int64_t)axis[1]) >> 30));
+        out = step(in, 20, &pose);
+        seen |= out.flags;
+    }
+    TEST_ASSERT_TRUE((seen & FW_FLAG_FX_UNOBSERVABLE) != 0u);   /* the path runs along the axis */
+    return seen & FW_FLAG_BLIND_PUSH;
+}
+
+static void test_card_blind_push_needs_the_tip_down(void)
+{
+    TEST_ASSERT_EQUAL_UINT32(FW_FLAG_BLIND_PUSH, blind_run(true));
+    TEST_ASSERT_EQUAL_UINT32(0u, blind_run(false));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -748,5 +783,6 @@ int main(void)
     RUN_TEST(test_card_place_moves_one_model_within_the_limit);
     RUN_TEST(test_card_is_a_pure_function_of_its_inputs);
     RUN_TEST(test_card_tiny_rod_refused_or_bounded);
+    RUN_TEST(test_card_blind_push_needs_the_tip_down);
     return UNITY_END();
 }
