@@ -594,8 +594,9 @@ class Matrix:
         rj = r.rj or {}
         foreign = {p: sum(rj.get(p, {}).get("rejected", {}).get("foreign", {}).get(channel, {}).values())
                    for p in ("sim", "fw", "operator", "renderer")}
-        # the forger's datagrams reach both namespaces: the simulator (afm) and the card (host) both take them as foreign
-        both = foreign["sim"] > 0 and foreign["fw"] > 0
+        # the forger's datagrams reach both namespaces: a heartbeat is taken as foreign by the simulator (afm) and the
+        # card (host) alike; a pose by the card, its one reader
+        both = foreign["fw"] > 0 and (foreign["sim"] > 0 or channel == "HAPTIC_POSE")
         self.add(name, f"exit {r.code}, forged {channel} foreign: " + ", ".join(f"{p} {n}" for p, n in foreign.items()), kept, kt, same,
                  st, r.code == 0 and kept and same and both)
 

@@ -115,11 +115,11 @@ class TwoHostsTest(unittest.TestCase):
         self.assertEqual(names(afm), ["lo", "vafm"])
 
     def test_the_launcher_refuses_a_link_that_could_leave_the_pair(self):
-        # a namespace of our own: the link's end is no veth (a dummy), or a
+        # a namespace of our own: the link's end is no veth (a bridge), or a
         # veth beside another interface: the bus would not stay on the pair
         out = benchtest.tmpdir("guard")
         setups = {
-            "names no veth": "ip link add vhost type dummy",
+            "names no veth": "ip link add vhost type bridge",
             "also holds": "ip link add vhost type veth peer name vother",
         }
         for why, setup in setups.items():
