@@ -4,11 +4,12 @@
 // shapers and its probe, then runs the launcher in the first ("host") with
 // no privilege. This module reads what it exported, says where each process
 // runs (sim_afm in "afm"; the card's node, the operator, the renderer and
-// the launcher with its record in "host"), starts a process of the afm host
-// there (spawn's enter_ns_pid: the launcher's uid owns the afm namespace's
-// user namespace, so entering it needs no privilege; the process then drops
-// what that gives through tools/drop_caps.sh), stops the shapers at the end
-// so that they write their counts, and writes run.json's "hosts".
+// the launcher with its record in "host"). The launcher starts every
+// process in the afm namespace's user namespace (spawn's Entry: the
+// launcher's uid owns it, so entering needs no privilege; each process then
+// drops what that gives through tools/drop_caps.sh), sim_afm in its network
+// namespace too. It stops the shapers at the end so that they write their
+// counts, and writes run.json's "hosts".
 #pragma once
 
 #include <sys/types.h>
