@@ -58,7 +58,8 @@ nonzero() { awk -v x="$1" 'BEGIN { exit !(x > 0) }'; }
 
 ip link set lo up
 # The afm namespace, held while CMD (this shell's pid, after exec) lives.
-unshare -rn tail --pid=$$ -s 0.1 -f /dev/null </dev/null >/dev/null 2>&1 &
+# The holder needs no privilege to hold them: it drops all it has.
+unshare -rn "$drop" tail --pid=$$ -s 0.1 -f /dev/null </dev/null >/dev/null 2>&1 &
 afm=$!
 for _ in $(seq 200); do
   [ "$(readlink /proc/$afm/ns/net 2>/dev/null)" != "$(readlink /proc/$$/ns/net)" ] && break
@@ -88,7 +89,7 @@ fi
 
 # The link as it is, by LCM round trips.
 export AFM_BUS_LINK=vhost
-AFM_BUS_LINK=vafm in_afm "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
+AFM_BUS_LINK=vafm nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
 echo_pid=$!
 for _ in $(seq 200); do grep -q ready "$dir/echo.log" 2>/dev/null && break; sleep 0.01; done
 "$drop" "$build/host_bridge/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \

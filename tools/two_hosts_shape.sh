@@ -30,7 +30,8 @@ else
       --while-pid $$)
     local log="$dir/netfault-to-$side.log"
     # never the caller's stdout: a shaper that outlived the run would hold its pipe open
-    if [ "$side" = afm ]; then in_afm "${q[@]}" 2>"$log" </dev/null >/dev/null &
+    # (nsenter itself in the background, not the in_afm function: a subshell would stay, privileged, for the run's life)
+    if [ "$side" = afm ]; then nsenter -t "$afm" -U -n --preserve-credentials "${q[@]}" 2>"$log" </dev/null >/dev/null &
     else "${q[@]}" 2>"$log" </dev/null >/dev/null & fi
     local started=$!
     for _ in $(seq 300); do
