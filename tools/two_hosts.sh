@@ -87,6 +87,12 @@ if nonzero "$delay" || nonzero "$jitter" || nonzero "$loss" || nonzero "$dup" ||
   . "$here/two_hosts_shape.sh"
 fi
 
+# Both ends up before anything crosses (a veth's carrier comes a moment after
+# "ip link set up": what is sent before is lost, and the probe would count it).
+for _ in $(seq 200); do
+  ip -o link show vhost | grep -q "state UP" && in_afm ip -o link show vafm | grep -q "state UP" && break
+  sleep 0.01
+done
 # The link as it is, by LCM round trips.
 export AFM_BUS_LINK=vhost
 AFM_BUS_LINK=vafm nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
