@@ -674,7 +674,9 @@ public:
         }
         print_plan(run);
         print_board(run);
-        if (hosts_.count == 2) std::printf("%s\n", hosts_.summary().c_str());
+        if (hosts_.count == 2)
+            std::printf("%s; the simulator resent %lld blocks\n", hosts_.summary().c_str(),
+                        static_cast<long long>(run.contains("sim") ? run["sim"].value("resends", 0L) : 0L));
         std::printf("run: output in %s\n", out_.c_str());
         std::printf("%s\n", verdict_line(run["verdict"]).c_str());
         return run["verdict"]["pass"].get<bool>() || o_.no_verdict ? afm::kExitOk : afm::kExitVerdict;

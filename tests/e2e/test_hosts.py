@@ -107,7 +107,7 @@ class TwoHostsTest(unittest.TestCase):
     def test_each_namespace_holds_lo_and_its_end_of_the_pair_only(self):
         show = "cat /proc/net/dev; echo ==; nsenter -t $AFM_HOSTS_AFM_PID -U -n --preserve-credentials cat /proc/net/dev"
         p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", show], capture_output=True, text=True, timeout=60,
-                           env=two_hosts_env(""))
+                           env=dict(two_hosts_env(""), AFM_LINK_DIR=benchtest.tmpdir("link")))   # the probe's files in the test's folder
         self.assertEqual(p.returncode, 0, p.stderr)
         host, afm = p.stdout.split("==")
         names = lambda t: sorted(line.split(":")[0].strip() for line in t.splitlines() if ":" in line)
