@@ -100,8 +100,10 @@ def link_latency(sizes, count, link, out):
     the link of two hosts (afm_linkprobe, run by tools/two_hosts.sh), and the probe's JSON."""
     d = os.path.join(out, "link-" + (link.replace("=", "-").replace(",", "-") or "plain"))
     os.makedirs(d, exist_ok=True)
+    # pings every 100 us: the path kept warm, as the lockstep keeps it (a ping a
+    # millisecond measures the wake-up of an idle CPU as well)
     env = dict(os.environ, AFM_HOSTS="2", AFM_LINK=link, AFM_LINK_DIR=d, AFM_BUILD=BUILD, AFM_LINK_PINGS=str(count),
-               AFM_LINK_PROBE_SIZES=",".join(str(b) for b in sorted(set(sizes.values()))))
+               AFM_LINK_PROBE_SIZES=",".join(str(b) for b in sorted(set(sizes.values()))), AFM_LINK_PROBE_INTERVAL_US="100")
     p = subprocess.run([IN_NETNS, "true"], capture_output=True, text=True, env=env)
     if p.returncode:
         sys.exit(f"bench bus: the link's probe failed ({p.returncode}): {p.stderr.strip()}")
@@ -312,11 +314,12 @@ def main(argv=None):
                                              placement=f"both ends on CPU {cpu}, as a run places the lockstep, {how}",
                                              latency=list(lat1.values()), receive=receive)
     two = []
-    local = raw_latency(sizes, a.count, out, receive="tap")   # the host's own loopback: the operator path
     for (label, link), runs in zip(TWO_HOSTS, two_of):
         print(f"bench bus: LCM across the link of two hosts ({label}), {a.count} pings ...", file=sys.stderr)
         link_lat, probe = link_latency(sizes, a.count, link, out)
-        placed2 = all(r["placement"].get("on") for r in runs)
+        placed2 = all(r["placement"].get("on") for r in runs) and "placed" in floors
+        # the operator path on the host's loopback, as the one-namespace floor of the same placement measured it
+        local = {x["bytes"]: x for x in floors["placed" if placed2 else "kernel"]["latency"]}
         fl = floor_two_hosts(link_lat, local, sizes, serial=placed2)
         med = statistics.median(r["us_per_block"] for r in runs)
         two.append({"arrangement": label, "link": link, "us_per_block": med, "runs_us_per_block": [r["us_per_block"] for r in runs],

@@ -24,6 +24,7 @@
 // error; 1 when the link carries nothing (no ping answered).
 #include <lcm/lcm-cpp.hpp>
 
+#include <poll.h>
 #include <signal.h>
 #include <time.h>
 
@@ -220,7 +221,11 @@ int ping(const PingOptions &o)
         std::memcpy(msg.data(), &s, kStampBytes);
         lc.publish("LINK_PING", msg.data(), static_cast<unsigned>(msg.size()));
         const int64_t next = t0 + static_cast<int64_t>(k + 1) * o.interval_us * 1000;
-        while (now_ns() < next) lc.handleTimeout(std::max<int>(0, static_cast<int>((next - now_ns()) / 1000000)));
+        for (int64_t left = next - now_ns(); left > 0; left = next - now_ns()) {   // answers until the next ping, to the microsecond
+            pollfd p{lc.getFileno(), POLLIN, 0};
+            const timespec ts{static_cast<time_t>(left / 1000000000), static_cast<long>(left % 1000000000)};
+            if (ppoll(&p, 1, &ts, nullptr) > 0) lc.handle();
+        }
     }
     const int64_t end = now_ns() + static_cast<int64_t>(o.wait_ms) * 1000000;
     while (now_ns() < end && static_cast<int>(back.size()) < o.count) lc.handleTimeout(10);

@@ -19,7 +19,8 @@
 # NFQUEUE verdicts on what each side receives from the other (loss on the
 # lockstep's channels, which the simulator's resend repairs; docs/hosts.md).
 # Then afm_linkprobe measures the link by LCM round trips (DIR/probe.json;
-# AFM_LINK_PINGS pings, default 400, of AFM_LINK_PROBE_SIZES bytes, default 64,4000).
+# AFM_LINK_PINGS pings, default 400, of AFM_LINK_PROBE_SIZES bytes, default
+# 64,4000, every AFM_LINK_PROBE_INTERVAL_US, default 1000).
 #
 # Exports to CMD: AFM_BUS_LINK=vhost, AFM_HOSTS_AFM_PID (the holder of the
 # afm namespace: /proc/PID/ns/{user,net}), AFM_LINK_DIR, AFM_LINK_SHAPER
@@ -98,7 +99,7 @@ export AFM_BUS_LINK=vhost
 AFM_BUS_LINK=vafm nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
 echo_pid=$!
 for _ in $(seq 200); do grep -q ready "$dir/echo.log" 2>/dev/null && break; sleep 0.01; done
-"$drop" "$build/host_bridge/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \
+"$drop" "$build/host_bridge/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --interval-us "${AFM_LINK_PROBE_INTERVAL_US:-1000}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \
   2>"$dir/probe.log" >/dev/null </dev/null &
 probe=$!
 # the echo writes its count when the pinger says it is done (or on SIGTERM)
