@@ -100,10 +100,10 @@ def link_latency(sizes, count, link, out):
     the link of two hosts (afm_linkprobe, run by tools/two_hosts.sh), and the probe's JSON."""
     d = os.path.join(out, "link-" + (link.replace("=", "-").replace(",", "-") or "plain"))
     os.makedirs(d, exist_ok=True)
-    # pings every 100 us: the path kept warm, as the lockstep keeps it (a ping a
-    # millisecond measures the wake-up of an idle CPU as well)
+    # ping-pong, each ping once the last is answered: the path kept warm, as the
+    # lockstep keeps it (a ping a millisecond measures an idle CPU's wake-up too)
     env = dict(os.environ, AFM_HOSTS="2", AFM_LINK=link, AFM_LINK_DIR=d, AFM_BUILD=BUILD, AFM_LINK_PINGS=str(count),
-               AFM_LINK_PROBE_SIZES=",".join(str(b) for b in sorted(set(sizes.values()))), AFM_LINK_PROBE_INTERVAL_US="100")
+               AFM_LINK_PROBE_SIZES=",".join(str(b) for b in sorted(set(sizes.values()))), AFM_LINK_PROBE_INTERVAL_US="0")
     p = subprocess.run([IN_NETNS, "true"], capture_output=True, text=True, env=env)
     if p.returncode:
         sys.exit(f"bench bus: the link's probe failed ({p.returncode}): {p.stderr.strip()}")

@@ -54,7 +54,7 @@ const char *kUsage =
     "  LCM round trips across the link of two hosts (docs/hosts.md): --echo in the\n"
     "  afm namespace answers until SIGTERM and writes what it received to FILE;\n"
     "  --ping sends N pings of the given sizes (default 64,4000 bytes) every US\n"
-    "  (default 1000), waits MS (default 300) for the last answers, reads the echo's\n"
+    "  (default 1000; 0: each once the last is answered, ping-pong), waits MS (default 300) for the last answers, reads the echo's\n"
     "  count from --echoed and writes the one-way delays and message losses.\n";
 
 volatile sig_atomic_t g_stop = 0;
@@ -220,8 +220,9 @@ int ping(const PingOptions &o)
         s.sent = now_ns();
         std::memcpy(msg.data(), &s, kStampBytes);
         lc.publish("LINK_PING", msg.data(), static_cast<unsigned>(msg.size()));
-        const int64_t next = t0 + static_cast<int64_t>(k + 1) * o.interval_us * 1000;
-        for (int64_t left = next - now_ns(); left > 0; left = next - now_ns()) {   // answers until the next ping, to the microsecond
+        // --interval-us 0: ping-pong, the next once this one is answered (20 ms at most), as the lockstep goes
+        const int64_t next = o.interval_us > 0 ? t0 + static_cast<int64_t>(k + 1) * o.interval_us * 1000 : now_ns() + 20000000;
+        for (int64_t left = next - now_ns(); left > 0 && !(o.interval_us == 0 && back.count(k)); left = next - now_ns()) {
             pollfd p{lc.getFileno(), POLLIN, 0};
             const timespec ts{static_cast<time_t>(left / 1000000000), static_cast<long>(left % 1000000000)};
             if (ppoll(&p, 1, &ts, nullptr) > 0) lc.handle();
@@ -268,7 +269,7 @@ int main(int argc, char **argv)
         const char *v = argv[++i];
         bool ok = true;
         if (a == "--ping") ok = positive("--ping", v, &o.count);
-        else if (a == "--interval-us") ok = positive("--interval-us", v, &o.interval_us);
+        else if (a == "--interval-us") ok = std::string(v) == "0" || positive("--interval-us", v, &o.interval_us), o.interval_us = std::atoi(v);
         else if (a == "--wait-ms") ok = positive("--wait-ms", v, &o.wait_ms);
         else if (a == "--echoed") o.echoed = v;
         else if (a == "--json") o.json = v;
