@@ -262,6 +262,7 @@ class Matrix:
             sys.exit(f"faults: the undisturbed run failed (exit {r.code}): {r.stderr.strip()[-400:]}")
         self.blocks = r.rj["sim"]["blocks"]
         self.wall = r.rj["wall_seconds"]
+        self.loop_wall = r.rj["sim"].get("loop_wall_seconds", 0.5 * self.wall)   # the lockstep's part of it
         self.base, _ = trajectories(r.out, self.blocks)
         return r
 
@@ -571,13 +572,18 @@ class Matrix:
         self.add(name, f"exit {r.code}: {said}" + ("" if did else " (the link did NOT act)"), kept, kt, same, st, ok)
 
     def link_down(self):
-        # mid-run: half the undisturbed run's wall time after the launcher starts
-        at = max(0.3, 0.5 * self.wall)
+        # mid-run: a fifth into the lockstep of the same run on two hosts, timed
+        # undisturbed first (the lockstep starts at the launcher's wall time less
+        # the loop's; before it, the first scan, slower across the link)
+        t = Run(self.scene, self.dir("link:down-timing"), link=LINKS["link:down"]).finish()
+        sim = (t.rj or {}).get("sim", {})
+        wall, loop = (t.rj or {}).get("wall_seconds", self.wall), sim.get("loop_wall_seconds", self.loop_wall)
+        at = max(0.3, wall - loop + 0.2 * loop)
         env = dict(os.environ, AFM_LINK_DOWN=f"{at:.2f}:0.5")
 
-        def acted(r, rep):
+        def acted(r, rep):   # down and up again (or the run failed meanwhile), and the lockstep felt it
             down = (r.rj or {}).get("hosts", {}).get("link", {}).get("down", "")
-            return "down" in down and (r.code != 0 or "up" in down)
+            return "down" in down and (r.code != 0 or ("up" in down and (r.rj or {}).get("sim", {}).get("resends", 0) >= 10))
         self.link_row("link:down", env=env, acted=acted)
 
     def link_spoof(self, what, side):
