@@ -33,7 +33,15 @@
    its namespace, from start to exit) and its simulated seconds per second,
    and the CPU the renderer's frame writer spent on a frame's files (its
    PNG and video: renderer_report.json write_ms_per_frame).
-4. The disk's state, before the runs: how long creating a frame-sized
+4. Two hosts (docs/hosts.md): the floor and the lockstep's cost per block
+   with sim_afm in its own namespace across a veth pair, with no shaping and
+   with 0.2 ms delay each way (afm_netfault, or netem where the kernel has
+   it), each as a ratio to its own floor: the simulator path's two hops
+   across the link (AFM_CMD to the afm host, AFM_ANALOG back), one-way
+   medians by LCM round trips at those messages' sizes (afm_linkprobe), and
+   the operator path on the host's own loopback, as above. In the same
+   rounds as the one-namespace arrangements.
+5. The disk's state, before the runs: how long creating a frame-sized
    file in the runs' folder takes. On ext4 without a journal it is ten
    times more in the seconds after many files were deleted (docs/bus.md, "The
    lockstep's cost per block"), and the frames' files cost the run as much more.
@@ -81,6 +89,39 @@ ARRANGEMENTS = [
     ("renderer off", ["--no-renderer"], None),
     ("both off", ["--log-window", "0", "--no-renderer"], None),
 ]
+
+
+# Two hosts: (label, --link SPEC); each run as a user runs it (placed, window, renderer).
+TWO_HOSTS = [("two hosts", ""), ("two hosts, 0.2 ms each way", "delay=0.2")]
+
+
+def link_latency(sizes, count, link, out):
+    """{"to_afm": {bytes: us}, "to_host": {bytes: us}}: one-way medians across
+    the link of two hosts (afm_linkprobe, run by tools/two_hosts.sh), and the probe's JSON."""
+    d = os.path.join(out, "link-" + (link.replace("=", "-").replace(",", "-") or "plain"))
+    os.makedirs(d, exist_ok=True)
+    # ping-pong, each ping once the last is answered: the path kept warm, as the
+    # lockstep keeps it (a ping a millisecond measures an idle CPU's wake-up too)
+    env = dict(os.environ, AFM_HOSTS="2", AFM_LINK=link, AFM_LINK_DIR=d, AFM_BUILD=BUILD, AFM_LINK_PINGS=str(count),
+               AFM_LINK_PROBE_SIZES=",".join(str(b) for b in sorted(set(sizes.values()))), AFM_LINK_PROBE_INTERVAL_US="0")
+    p = subprocess.run([IN_NETNS, "true"], capture_output=True, text=True, env=env)
+    if p.returncode:
+        sys.exit(f"bench bus: the link's probe failed ({p.returncode}): {p.stderr.strip()}")
+    with open(os.path.join(d, "probe.json")) as f:
+        probe = json.load(f)
+    return {k: {int(b): v[k]["median_us"] for b, v in probe["by_size"].items()} for k in ("to_afm", "to_host")}, probe
+
+
+def floor_two_hosts(link_lat, local_lat, sizes, serial):
+    """The floor of one block on two hosts: the simulator path across the
+    link (AFM_CMD to the afm host, AFM_ANALOG back), the operator path on
+    the host's loopback (floor_of's rule: in parallel, or one after the other)."""
+    paths = {"simulator": link_lat["to_afm"][sizes["AFM_CMD"]] + link_lat["to_host"][sizes["AFM_ANALOG"]],
+             "operator": sum(local_lat[sizes[ch]]["one_way_median_us"] for ch, _ in FLOOR_PATHS["operator"])}
+    if serial:
+        return {"floor_us": sum(paths.values()), "path": "both, one after the other", "paths_us": paths}
+    worst = max(paths, key=paths.get)
+    return {"floor_us": paths[worst], "path": f"the {worst} path", "paths_us": paths}
 
 
 def scene_with_outputs(scene, outputs, out):
@@ -154,10 +195,15 @@ def disk_probe(folder, files=100, size=12000):
     return {"folder": folder, "files": files, "bytes": size, "median_ms": statistics.median(ms), "max_ms": max(ms)}
 
 
-def one_run(scene, args, out):
+def one_run(scene, args, out, link=None):
+    """One run (link: on two hosts over that --link SPEC)."""
     exe = os.path.join(BUILD, "host_bridge", "afm_launch")
+    env = None
+    if link is not None:
+        args = [*args, "--hosts", "2"]
+        env = dict(os.environ, AFM_HOSTS="2", AFM_LINK=link, AFM_BUILD=BUILD)
     t0 = time.monotonic()
-    p = subprocess.run([IN_NETNS, exe, "--scene", scene, "--out", out, "--quiet", *args], capture_output=True, text=True)
+    p = subprocess.run([IN_NETNS, exe, "--scene", scene, "--out", out, "--quiet", *args], capture_output=True, text=True, env=env)
     run_s = time.monotonic() - t0   # the whole command: namespace, start, loop, end
     if p.returncode:
         sys.exit(f"bench bus: the run {' '.join(args) or '(as run)'} failed ({p.returncode}): {p.stderr.strip()[-2000:]}")
@@ -220,10 +266,14 @@ def main(argv=None):
     # falls on every arrangement alike, not on the first one run.
     scenes = [a.scene if outputs is None else scene_with_outputs(a.scene, outputs, out) for _, _, outputs in ARRANGEMENTS]
     runs_of = [[] for _ in ARRANGEMENTS]
+    two_of = [[] for _ in TWO_HOSTS]
     for i in range(a.repeat):
         for k, (label, args, _) in enumerate(ARRANGEMENTS):
             print(f"bench bus: round {i + 1} of {a.repeat}: {label} ...", file=sys.stderr)
             runs_of[k].append(one_run(scenes[k], args, os.path.join(out, f"run-{k}-{i}")))
+        for k, (label, link) in enumerate(TWO_HOSTS):
+            print(f"bench bus: round {i + 1} of {a.repeat}: {label} ...", file=sys.stderr)
+            two_of[k].append(one_run(a.scene, [], os.path.join(out, f"two-{k}-{i}"), link=link))
     rows = []
     for (label, args, outputs), runs in zip(ARRANGEMENTS, runs_of):
         med = statistics.median(r["us_per_block"] for r in runs)
@@ -263,12 +313,27 @@ def main(argv=None):
             floors["placed" + suffix] = dict(floor_of(lat1, sizes, serial=True),
                                              placement=f"both ends on CPU {cpu}, as a run places the lockstep, {how}",
                                              latency=list(lat1.values()), receive=receive)
+    two = []
+    for (label, link), runs in zip(TWO_HOSTS, two_of):
+        print(f"bench bus: LCM across the link of two hosts ({label}), {a.count} pings ...", file=sys.stderr)
+        link_lat, probe = link_latency(sizes, a.count, link, out)
+        placed2 = all(r["placement"].get("on") for r in runs) and "placed" in floors
+        # the operator path on the host's loopback, as the one-namespace floor of the same placement measured it
+        local = {x["bytes"]: x for x in floors["placed" if placed2 else "kernel"]["latency"]}
+        fl = floor_two_hosts(link_lat, local, sizes, serial=placed2)
+        med = statistics.median(r["us_per_block"] for r in runs)
+        two.append({"arrangement": label, "link": link, "us_per_block": med, "runs_us_per_block": [r["us_per_block"] for r in runs],
+                    "floor": fl, "ratio_to_floor": med / fl["floor_us"], "placed": placed2,
+                    "log_complete": all(r["complete"] for r in runs),
+                    "link_one_way_us": {"to_afm": probe["to_afm"], "to_host": probe["to_host"]},
+                    "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs)
+                                         for n in sorted({n for r in runs for n in r["cpu_us_per_block"]})}})
     for row in rows:
         row["floor"] = "placed" if row["placed"] and "placed" in floors else "kernel"
         row["ratio_to_floor"] = row["us_per_block"] / floors[row["floor"]]["floor_us"]
         row["ratio_to_liblcm_floor"] = row["us_per_block"] / floors[row["floor"] + " liblcm"]["floor_us"]
         row["loop_ratio_to_floor"] = row["loop_us_per_block"] / floors[row["floor"]]["floor_us"]
-    report = {"sizes": sizes, "floors": floors, "lockstep": rows, "scene": a.scene, "repeat": a.repeat, "disk": disk}
+    report = {"sizes": sizes, "floors": floors, "lockstep": rows, "two_hosts": two, "scene": a.scene, "repeat": a.repeat, "disk": disk}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)
     if a.json:
@@ -314,6 +379,18 @@ def print_tables(r):
     print("waits, log ms: the simulator's waits for the record (the log window) and their wall time; frames ms: the wall "
           "time blocks waited for the renderer's frames after the card had answered (the frame window)")
     print("files ms: the CPU the renderer's frame writer spent on a frame's files (its PNG and video)")
+    print(f"\nTwo hosts (docs/hosts.md): sim_afm in its own namespace across a veth pair; the floor's simulator path crosses the link")
+    print(f"{'arrangement':34s} {'us/block':>9s} {'floor us':>9s} {'x floor':>8s} {'sim path':>9s} {'op path':>8s} {'link ms one-way':>16s} "
+          f"{'log':>9s}  CPU us/block")
+    for x in r.get("two_hosts", []):
+        fl, lk = x["floor"], x["link_one_way_us"]
+        cpu = ", ".join(f"{n} {v:.0f}" for n, v in x["cpu_us_per_block"].items())
+        print(f"{x['arrangement']:34s} {x['us_per_block']:9.1f} {fl['floor_us']:9.1f} {x['ratio_to_floor']:8.2f} "
+              f"{fl['paths_us']['simulator']:9.1f} {fl['paths_us']['operator']:8.1f} "
+              f"{lk['to_afm']['median_us'] / 1e3:7.3f}/{lk['to_host']['median_us'] / 1e3:.3f}  "
+              f"{'complete' if x['log_complete'] else 'GAPS':>9s}  {cpu}")
+    print("x floor: against its own floor (the simulator path's two hops across the link, by LCM round trips at the messages' "
+          "sizes, and the operator path on the host's loopback; in series when placed); link ms: median one-way, to afm / to host")
     d = r["disk"]
     print(f"the disk, before the runs: creating a {d['bytes'] // 1000} kB file in {d['folder']} took a median {d['median_ms']:.3f} ms "
           f"({d['files']} files, the slowest {d['max_ms']:.3f} ms); ext4 without a journal takes about ten times more in the "

@@ -1,10 +1,16 @@
 #include "bus.hpp"
 
 #include <arpa/inet.h>
+#include <linux/ethtool.h>
+#include <linux/sockios.h>
+#include <net/if.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
 #include <poll.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -12,44 +18,101 @@
 
 namespace afm {
 
-bool multicast_routed_on_loopback(std::string *why)
+namespace {
+
+// The interface that carries an unbound send to the bus's group: the most
+// specific route of /proc/net/route that covers it, the lowest metric among
+// equals (as the kernel picks); "" when none does.
+std::string multicast_route_interface(std::string *why)
 {
     // /proc/net/route: Iface Destination Gateway Flags RefCnt Use Metric Mask ...
-    // (addresses little-endian hex). Pick the most specific route that covers
-    // the group, as the kernel would for an unbound multicast send.
+    // (addresses little-endian hex)
     std::ifstream f("/proc/net/route");
     if (!f) {
         if (why) *why = "cannot read /proc/net/route";
-        return false;
+        return "";
     }
     in_addr group{};
     inet_pton(AF_INET, kBusGroup, &group);
     const uint32_t g = group.s_addr;
     std::string line, best_if;
     int best_len = -1;
+    long best_metric = 0;
     std::getline(f, line);  // header
     while (std::getline(f, line)) {
         std::istringstream in(line);
-        std::string iface, dst_hex, gw_hex, flags, ref, use, metric, mask_hex;
+        std::string iface, dst_hex, gw_hex, flags, ref, use, mask_hex;
+        long metric = 0;
         if (!(in >> iface >> dst_hex >> gw_hex >> flags >> ref >> use >> metric >> mask_hex)) continue;
         const uint32_t dst = static_cast<uint32_t>(std::stoul(dst_hex, nullptr, 16));
         const uint32_t mask = static_cast<uint32_t>(std::stoul(mask_hex, nullptr, 16));
         if ((g & mask) != dst) continue;
         const int len = __builtin_popcount(mask);
-        if (len > best_len) {
+        if (len > best_len || (len == best_len && metric < best_metric)) {
             best_len = len;
+            best_metric = metric;
             best_if = iface;
         }
     }
-    if (best_len < 0) {
-        if (why) *why = "no route to the multicast group " + std::string(kBusGroup);
-        return false;
+    if (best_len < 0 && why) *why = "no route to the multicast group " + std::string(kBusGroup);
+    return best_if;
+}
+
+}  // namespace
+
+std::vector<std::string> namespace_interfaces()
+{
+    // /proc/net/dev: two header lines, then "  NAME: counters..."
+    std::vector<std::string> out;
+    std::ifstream f("/proc/net/dev");
+    std::string line;
+    for (int skip = 0; skip < 2 && std::getline(f, line); ++skip) {}
+    while (std::getline(f, line)) {
+        const auto colon = line.find(':');
+        if (colon == std::string::npos) continue;
+        std::istringstream name(line.substr(0, colon));
+        std::string n;
+        if (name >> n) out.push_back(n);
     }
-    if (best_if != "lo") {
-        if (why) *why = "multicast to " + std::string(kBusGroup) + " would leave through '" + best_if +
+    return out;
+}
+
+bool is_veth(const std::string &iface)
+{
+    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    if (fd < 0) return false;
+    ethtool_drvinfo info{};
+    info.cmd = ETHTOOL_GDRVINFO;
+    ifreq req{};
+    std::snprintf(req.ifr_name, sizeof req.ifr_name, "%s", iface.c_str());
+    req.ifr_data = reinterpret_cast<char *>(&info);
+    const bool ok = ioctl(fd, SIOCETHTOOL, &req) == 0 && std::string(info.driver) == "veth";
+    close(fd);
+    return ok;
+}
+
+bool multicast_stays_in_run(std::string *why, std::string *via)
+{
+    const std::string iface = multicast_route_interface(why);
+    if (via) *via = iface;
+    if (iface.empty()) return false;
+    if (iface == "lo") return true;
+    const char *link = std::getenv(kBusLinkEnv);
+    if (!link || iface != link) {
+        if (why) *why = "multicast to " + std::string(kBusGroup) + " would leave through '" + iface +
                         "' (run inside the run's network namespace: ./afm run)";
         return false;
     }
+    // two hosts: the group goes through the link, which must join the run's two namespaces and nothing else
+    if (!is_veth(iface)) {
+        if (why) *why = std::string(kBusLinkEnv) + "=" + iface + " names no veth end: multicast to " + kBusGroup + " would leave through it";
+        return false;
+    }
+    for (const auto &other : namespace_interfaces())
+        if (other != "lo" && other != iface) {
+            if (why) *why = "the namespace of the link " + iface + " also holds '" + other + "': the bus could leave through it";
+            return false;
+        }
     return true;
 }
 
@@ -64,9 +127,12 @@ std::unique_ptr<lcm::LCM> open_bus()
     const std::string url = bus_url();
     if (url.rfind("udpm://", 0) == 0 || url.find("://") == std::string::npos) {
         std::string why;
-        if (!multicast_routed_on_loopback(&why)) throw std::runtime_error("refusing to open the bus " + url + ": " + why);
-        if (url.find("ttl=0") == std::string::npos)
-            throw std::runtime_error("refusing to open the bus " + url + ": udpm URLs must carry ttl=0");
+        std::string via;
+        if (!multicast_stays_in_run(&why, &via)) throw std::runtime_error("refusing to open the bus " + url + ": " + why);
+        const bool linked = via != "lo";   // two hosts: one hop across the link
+        if (url.find("ttl=0") == std::string::npos && !(linked && url.find("ttl=1") != std::string::npos))
+            throw std::runtime_error("refusing to open the bus " + url + ": udpm URLs must carry ttl=0" +
+                                     (linked ? std::string(" (or ttl=1 across the link ") + via + ")" : std::string()));
     }
     auto lc = std::make_unique<lcm::LCM>(url);
     if (!lc->good()) throw std::runtime_error("cannot open the LCM bus " + url);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "afm/heartbeat_t.hpp"
 #include "afm_channels.h"
@@ -16,6 +17,13 @@ namespace afm {
 
 // udpm on loopback only: ttl=0, a 4 MB receive buffer (design.md, "The bus").
 constexpr const char *kBusUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
+// Two hosts (docs/hosts.md): the same group and port with ttl=1 (one hop:
+// no router forwards it), across the veth pair that joins the run's two
+// namespaces.
+constexpr const char *kLinkBusUrl = "udpm://239.255.76.67:7667?ttl=1&recv_buf_size=4194304";
+// The environment variable that names this namespace's end of that pair
+// (tools/two_hosts.sh sets it); unset: one namespace, the bus on loopback.
+constexpr const char *kBusLinkEnv = "AFM_BUS_LINK";
 constexpr const char *kBusGroup = "239.255.76.67";
 
 // The UDP port of a udpm URL ("udpm://GROUP:PORT?..."), at compile time; -1
@@ -36,16 +44,25 @@ static_assert(kBusPort > 0 && kBusPort < 65536, "kBusUrl names no UDP port");
 // a process starved of CPU for a few ms exceeds).
 constexpr int kQueueCapacity = 10000;
 
-// True when datagrams to the bus's multicast group are routed through the
-// loopback interface only (the run's private namespace). `why` says what was
-// found otherwise.
-bool multicast_routed_on_loopback(std::string *why);
+// True when datagrams to the bus's multicast group stay inside the run: routed
+// through the loopback interface (the run's private namespace), or, with
+// $AFM_BUS_LINK set (two hosts), through that interface when it is a veth
+// and the namespace holds no interface but it and lo (the pair joins the
+// run's two namespaces and nothing else). `why` says what was found
+// otherwise; `via` (if given) the interface the group is routed through.
+bool multicast_stays_in_run(std::string *why, std::string *via = nullptr);
+
+// The interfaces of this network namespace (/proc/net/dev), and whether one
+// is a veth (its driver, as ethtool reports it).
+std::vector<std::string> namespace_interfaces();
+bool is_veth(const std::string &iface);
 
 // The bus's URL: $LCM_DEFAULT_URL, or kBusUrl.
 std::string bus_url();
 
 // Opens the bus. A udpm URL (from $LCM_DEFAULT_URL or kBusUrl) is refused
-// unless multicast_routed_on_loopback(); memq:// and file:// are always allowed.
+// unless multicast_stays_in_run(), and unless it carries ttl=0 (ttl=1 when
+// routed through the link of two hosts); memq:// and file:// are always allowed.
 // Throws std::runtime_error with the reason.
 std::unique_ptr<lcm::LCM> open_bus();
 

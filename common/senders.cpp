@@ -22,12 +22,14 @@ int64_t now_us()
     return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// Local port -> socket inode of every UDP socket of this namespace
-// (/proc/self/net/udp and udp6: "sl local_address rem_address st ... inode").
-std::map<unsigned long, uint16_t> udp_inodes()
+// Socket inode -> local port of every UDP socket of the network namespace
+// `pid` is in (/proc/PID/net/udp and udp6: "sl local_address rem_address st
+// ... inode"): a run of two hosts has its processes in two namespaces.
+std::map<unsigned long, uint16_t> udp_inodes(int pid)
 {
     std::map<unsigned long, uint16_t> out;
-    for (const char *path : {"/proc/self/net/udp", "/proc/self/net/udp6"}) {
+    const std::string net = "/proc/" + std::to_string(pid) + "/net/";
+    for (const std::string &path : {net + "udp", net + "udp6"}) {
         std::ifstream f(path);
         std::string line;
         std::getline(f, line);   // the header
@@ -132,13 +134,44 @@ void Senders::rescan()
         run.insert(parent);
         for (int c : children_of(parent)) run.insert(c);
     }
-    const auto ports = udp_inodes();
-    for (int pid : run)
+    std::map<std::string, std::map<unsigned long, uint16_t>> by_netns;   // one read per namespace
+    // The launcher of a two-host run is in the user namespace that holds the
+    // run's: its file descriptors are closed to its children, so it names its
+    // own ports in their environment (kParentPortsEnv); the parent's word,
+    // like its pid.
+    if (scope_ == Scope::siblings && sockets_of(getppid()).empty())
+        if (const char *said = std::getenv(kParentPortsEnv)) {   // "PROGRAM:P,P,..."
+            const std::string text = said;
+            const auto colon = text.find(':');
+            std::stringstream ss(colon == std::string::npos ? "" : text.substr(colon + 1));
+            std::string p;
+            while (std::getline(ss, p, ','))
+                if (std::atoi(p.c_str()) > 0) owners_[static_cast<uint16_t>(std::atoi(p.c_str()))] = Owner{text.substr(0, colon), getppid()};
+        }
+    for (int pid : run) {
+        char link[64] = "";
+        const ssize_t n = readlink(("/proc/" + std::to_string(pid) + "/ns/net").c_str(), link, sizeof link - 1);
+        const std::string ns = n > 0 ? std::string(link, static_cast<std::size_t>(n)) : std::to_string(pid);
+        if (!by_netns.count(ns)) by_netns[ns] = udp_inodes(pid);
+        const auto &ports = by_netns[ns];
         for (unsigned long inode : sockets_of(pid)) {
             auto it = ports.find(inode);
             if (it == ports.end() || it->second == 0) continue;
             owners_[it->second] = Owner{program_of(pid), pid};
         }
+    }
+}
+
+std::string Senders::own_ports()
+{
+    const auto ports = udp_inodes(getpid());
+    std::string out;
+    const std::string program = program_of(getpid()) + ":";
+    for (unsigned long inode : sockets_of(getpid())) {
+        auto it = ports.find(inode);
+        if (it != ports.end() && it->second != 0) out += (out.empty() ? "" : ",") + std::to_string(it->second);
+    }
+    return program + out;
 }
 
 bool Senders::admit(const std::string &channel, uint16_t port)

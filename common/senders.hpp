@@ -4,8 +4,8 @@
 // Every process of a run receives through a BusTap, which sees each
 // datagram's source address and port. Senders maps a source port to the
 // run's process that owns the UDP socket bound to it: the socket's inode in
-// /proc/net/udp (the run's own namespace: every process of the run is in it)
-// and that inode among the file descriptors of the run's processes
+// /proc/PID/net/udp (that process's namespace: the run's one, or either of
+// the two of a run on two hosts, docs/hosts.md) and that inode among the file descriptors of the run's processes
 // (/proc/PID/fd). Which processes are the run's: for a child of the launcher
 // (Scope::siblings), its parent and its parent's children; for the launcher
 // (Scope::children), itself and its own children. A process is named by its
@@ -52,6 +52,14 @@ public:
     // (program, pid N)" or "port P (no process of the run)".
     nlohmann::json foreign() const;
     int64_t foreign_count() const;
+
+    // This process's program and UDP ports, "PROGRAM:P,P,...": a launcher whose children cannot
+    // read its file descriptors (a two-host run: they are in a user
+    // namespace below its own, docs/hosts.md) puts them in their environment
+    // as kParentPortsEnv, and a child takes those ports as its parent's
+    // (when it cannot read them itself: the parent's word, like its pid).
+    static std::string own_ports();
+    static constexpr const char *kParentPortsEnv = "AFM_PARENT_UDP_PORTS";
 
     // The channel's publishers from channels.yaml; "*" for every process.
     static bool publishes(const std::string &program, const std::string &channel);

@@ -43,6 +43,19 @@ Rows (design.md, "Reliability"):
                   process takes them as foreign (the kernel's source port names
                   no process of the run that publishes the channel); exit 0, same
                   trajectories
+  link:clean      two hosts (--hosts 2, docs/hosts.md) over the link of
+                  ./afm run's example, delay 0.2 ms and 2 % loss each way: same
+                  trajectories as the undisturbed run on one namespace, and the
+                  replay of its log identical
+  link:down       two hosts, the link down for 0.5 s mid-run (ip link set vafm
+                  down, then up with its route back): completes with the same
+                  trajectories, or fails naming the link
+  link:loss       two hosts, 10 % of the lockstep's datagrams lost each way on the
+                  link: resends, same trajectories (or fails naming the link)
+  link:reorder    two hosts, 0.2 ms delay with 0.3 ms jitter and 10 % held back
+                  1 ms more: datagrams pass one another; same trajectories
+  link:spoof:WHAT@SIDE  the spoof rows on two hosts, the forger in the host or
+                  the afm namespace (WHAT: stop, finished, pose)
 Exit status: 0 when every row is as expected, 1 otherwise.
 """
 import argparse
@@ -68,7 +81,12 @@ from analysis import afmlog  # noqa: E402
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
         "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs", "board:killed", "board:hung",
-        "spoof:stop", "spoof:finished", "spoof:pose"])
+        "spoof:stop", "spoof:finished", "spoof:pose", "link:clean", "link:down", "link:loss", "link:reorder"]
+        + [f"link:spoof:{w}@{side}" for w in ("stop", "finished", "pose") for side in ("host", "afm")])
+# The link rows (docs/hosts.md): --link of each, and of the spoof rows on two hosts.
+LINKS = {"link:clean": "delay=0.2,loss=0.02", "link:down": "delay=0.2", "link:loss": "delay=0.2,loss=0.1",
+         "link:reorder": "delay=0.2,jitter=0.3,reorder=0.1", "spoof": "delay=0.2"}
+LINK_BUS_URL = "udpm://239.255.76.67:7667?ttl=1"   # the bus across the link (common/bus.hpp kLinkBusUrl)
 # What a trajectory is: the simulator's truth and the card's answers, by block.
 TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq")]
 
@@ -114,9 +132,12 @@ def alive_in_groups(pgids):
 class Run:
     """One afm_launch in its own namespace, with hooks while it runs."""
 
-    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None):
+    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None, link=None):
         self.out = out
         cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
+        if link is not None:   # two hosts (tools/two_hosts.sh): the namespaces, the link, then the launcher
+            cmd += ["--hosts", "2"]
+            env = dict(env or os.environ, AFM_HOSTS="2", AFM_LINK=link, AFM_BUILD=BUILD)
         if wrap:
             cmd = wrap(cmd)
         # keep_caps (afm_netfault's row alone): the namespace's command keeps
@@ -241,6 +262,7 @@ class Matrix:
             sys.exit(f"faults: the undisturbed run failed (exit {r.code}): {r.stderr.strip()[-400:]}")
         self.blocks = r.rj["sim"]["blocks"]
         self.wall = r.rj["wall_seconds"]
+        self.loop_wall = r.rj["sim"].get("loop_wall_seconds", 0.5 * self.wall)   # the lockstep's part of it
         self.base, _ = trajectories(r.out, self.blocks)
         return r
 
@@ -511,6 +533,79 @@ class Matrix:
         self.add(name, f"exit {r.code}, {foreign} forged {channel} taken as foreign", kept, kt, same, st,
                  r.code == 0 and kept and same and foreign > 0)
 
+    # ---- two hosts (docs/hosts.md) ---------------------------------------
+    def link_said(self, r):
+        """What run.json says of the link: shaper, delay achieved, datagrams lost, resends."""
+        rj = r.rj or {}
+        link = rj.get("hosts", {}).get("link", {})
+        ach = link.get("achieved", {})
+        rep = link.get("shaper_reports", {})
+        lost = sum(v.get("dropped", 0) for v in rep.values())
+        seen = sum(v.get("seen", 0) for v in rep.values())
+        med = [ach.get(d, {}).get("median_us") for d in ("to_afm", "to_host")]
+        delay = "/".join("?" if m is None else f"{m:.0f}" for m in med)
+        return (f"{link.get('shaper', '?')}, {delay} us one-way, {lost} of {seen} datagrams lost, "
+                f"{rj.get('sim', {}).get('resends', '?')} resends"), rep
+
+    def names_link(self, r):
+        err = (r.rj or {}).get("error", "") or r.stderr
+        return "link" in err
+
+    def link_row(self, name, env=None, acted=lambda r, rep: True, replay=False):
+        """A run on two hosts over LINKS[name]: as expected when it completes with
+        the undisturbed (one-namespace) trajectories, or fails naming the link;
+        acted(run, shaper reports) says the link did what the row is about."""
+        r = Run(self.scene, self.dir(name), env=env, link=LINKS[name]).finish()
+        said, rep = self.link_said(r)
+        did = acted(r, rep)
+        if r.code == 0:
+            kept, kt = self.kept(r, "ok")
+            same, st = self.same(r.out) if kept else (False, "-")
+            if replay and same:
+                p = subprocess.run([os.path.join(BUILD, "host_bridge", "afm_replay"), r.out], capture_output=True, text=True)
+                same, st = p.returncode == 0, st + ("; replay identical" if p.returncode == 0 else f"; replay exit {p.returncode}")
+            ok = kept and same and did
+        else:
+            kept, kt = self.kept(r, "failed")
+            same, st = None, "fails naming the link" if self.names_link(r) else "fails WITHOUT naming the link"
+            ok = kept and self.names_link(r) and did
+        self.add(name, f"exit {r.code}: {said}" + ("" if did else " (the link did NOT act)"), kept, kt, same, st, ok)
+
+    def link_down(self):
+        # mid-run: a fifth into the lockstep of the same run on two hosts, timed
+        # undisturbed first (the lockstep starts at the launcher's wall time less
+        # the loop's; before it, the first scan, slower across the link)
+        t = Run(self.scene, self.dir("link:down-timing"), link=LINKS["link:down"]).finish()
+        sim = (t.rj or {}).get("sim", {})
+        wall, loop = (t.rj or {}).get("wall_seconds", self.wall), sim.get("loop_wall_seconds", self.loop_wall)
+        at = max(0.3, wall - loop + 0.2 * loop)
+        env = dict(os.environ, AFM_LINK_DOWN=f"{at:.2f}:0.5")
+
+        def acted(r, rep):   # down and up again (or the run failed meanwhile), and the lockstep felt it
+            down = (r.rj or {}).get("hosts", {}).get("link", {}).get("down", "")
+            return "down" in down and (r.code != 0 or ("up" in down and (r.rj or {}).get("sim", {}).get("resends", 0) >= 10))
+        self.link_row("link:down", env=env, acted=acted)
+
+    def link_spoof(self, what, side):
+        """spoof:WHAT on two hosts, the forger in the host or the afm namespace."""
+        name = f"link:spoof:{what}@{side}"
+        forge = ["env", f"LCM_DEFAULT_URL={LINK_BUS_URL}", f"AFM_BUS_LINK=v{side}", DROP_CAPS, sys.executable,
+                 os.path.join(HERE, "forge.py"), what, "--seconds", "300"]
+        if side == "afm":   # entered without privilege: the run's uid owns the afm namespace (docs/hosts.md)
+            forge = ["sh", "-c", 'exec nsenter -t "$AFM_HOSTS_AFM_PID" -U -n --preserve-credentials "$@"', "forge", *forge]
+        r = Run(self.scene, self.dir(name), wrap=lambda cmd: beside(forge, cmd), link=LINKS["spoof"]).finish()
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        channel = {"stop": "AFM_HEARTBEAT", "finished": "AFM_HEARTBEAT", "pose": "HAPTIC_POSE"}[what]
+        rj = r.rj or {}
+        foreign = {p: sum(rj.get(p, {}).get("rejected", {}).get("foreign", {}).get(channel, {}).values())
+                   for p in ("sim", "fw", "operator", "renderer")}
+        # the forger's datagrams reach both namespaces: a heartbeat is taken as foreign by the simulator (afm) and the
+        # card (host) alike; a pose by the card, its one reader
+        both = foreign["fw"] > 0 and (foreign["sim"] > 0 or channel == "HAPTIC_POSE")
+        self.add(name, f"exit {r.code}, forged {channel} foreign: " + ", ".join(f"{p} {n}" for p, n in foreign.items()), kept, kt, same,
+                 st, r.code == 0 and kept and same and both)
+
     def run(self, only):
         for row in only:
             kind, _, arg = row.partition(":")
@@ -538,6 +633,17 @@ class Matrix:
                 self.board(arg)
             elif kind == "spoof":
                 self.spoof(arg)
+            elif row == "link:clean":
+                self.link_row(row, acted=lambda r, rep: sum(v.get("delayed", 0) for v in rep.values()) > 0, replay=True)
+            elif row == "link:down":
+                self.link_down()
+            elif row == "link:loss":
+                self.link_row(row, acted=lambda r, rep: sum(v.get("dropped", 0) for v in rep.values()) > 0)
+            elif row == "link:reorder":
+                self.link_row(row, acted=lambda r, rep: sum(v.get("passed_earlier", 0) for v in rep.values()) > 0)
+            elif row.startswith("link:spoof:"):
+                what, _, side = row[len("link:spoof:"):].partition("@")
+                self.link_spoof(what, side)
 
 
 def main():

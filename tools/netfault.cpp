@@ -14,16 +14,33 @@
 // Everything else is accepted at once, in order. It runs until SIGTERM or
 // SIGINT, then writes --report (JSON: counts, per channel) and exits 0.
 //
+// The link of two hosts (docs/hosts.md, tools/two_hosts.sh) runs one in each
+// of the run's two namespaces, on what arrives through the veth end from the
+// other (--link-in IFACE --peer ADDR): one direction each. There it also
+//   delays     holds every datagram for --delay-us, plus a uniform draw in
+//              [-jitter, +jitter] (--jitter-us), then accepts it: a later
+//              datagram with a shorter draw passes an earlier one (reordering,
+//              as netem's jitter does); a --reorder draw adds --hold-us
+//   drops      per IP packet: a fragment of a message larger than the link's
+//              MTU is dropped alone (the receiver then loses the whole
+//              message); a later fragment's channel is its first fragment's
+//              (by IP id and source)
+//   duplicates through a raw socket bound to lo (--dup-dev lo): the copy is
+//              delivered in this namespace and never crosses back
+//
 //   afm_netfault --queue N [--drop P] [--dup P] [--reorder P] [--hold-us US]
 //                [--drop-channels A,B,...] [--mark M] [--seed S] [--iptables]
-//                --report FILE
+//                [--link-in IFACE --peer ADDR] [--delay-us US] [--jitter-us US]
+//                [--dup-dev DEV] [--while-pid PID] --report FILE
 //
 // Inside the run's namespace (tools/in_netns.sh), before the run. With
 // --iptables it adds, once its queue is open, the two rules that feed it
 // (the bus's port from afm::kBusUrl):
 //   iptables -t mangle -A OUTPUT -m mark --mark M -j ACCEPT
 //   iptables -t mangle -A OUTPUT -p udp --dport PORT -j NFQUEUE --queue-num N
-// and prints "ready" on stderr; a datagram queued with no reader would be
+// (with --link-in, the one rule
+//   iptables -t mangle -A PREROUTING -i IFACE -s ADDR -j NFQUEUE --queue-num N
+// instead) and prints "ready" on stderr; a datagram queued with no reader would be
 // dropped. Needs CAP_NET_ADMIN and CAP_NET_RAW in the namespace, which
 // unshare -rn gives.
 //
@@ -35,6 +52,7 @@
 #include <libnetfilter_queue/libnetfilter_queue.h>
 #include <linux/netfilter.h>
 #include <poll.h>
+#include <sys/prctl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -49,6 +67,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
+#include <iterator>
 #include <fstream>
 #include <map>
 #include <random>
@@ -74,7 +94,12 @@ const char *kUsage =
     "  behind the next (at most --hold-us, default 1000) with probability P\n"
     "  (--reorder). Runs until SIGTERM or SIGINT, then writes the counts to FILE.\n"
     "  Inside the run's namespace, behind an iptables NFQUEUE rule on the bus's\n"
-    "  port, which --iptables adds (tools/faults.py, row net:kernel).\n";
+    "  port, which --iptables adds (tools/faults.py, row net:kernel).\n"
+    "  The link of two hosts (tools/two_hosts.sh, docs/hosts.md): --link-in IFACE\n"
+    "  --peer ADDR queues what arrives through IFACE from ADDR instead (--iptables adds\n"
+    "  that rule); --delay-us and --jitter-us hold each datagram that long (uniform\n"
+    "  jitter); --dup-dev lo sends duplicates through lo, in this namespace;\n"
+    "  --while-pid PID ends it (its report written) once PID has ended.\n";
 
 volatile sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
@@ -88,13 +113,18 @@ struct Options {
     uint64_t seed = 1;
     std::string report;
     bool iptables = false;
+    std::string link_in, peer;   // the link of two hosts: what arrives through link_in from peer
+    int delay_us = 0, jitter_us = 0;
+    std::string dup_dev;         // SO_BINDTODEVICE of the duplicates' raw socket ("" : none)
+    int while_pid = -1;          // ends (writing its report) once this process has ended, as on SIGTERM
+    bool delaying() const { return delay_us > 0 || jitter_us > 0; }
 };
 
-// Runs iptables with `args`; "" or what failed.
-std::string iptables(const std::vector<std::string> &args)
+// Runs iptables -t mangle -A CHAIN with `args`; "" or what failed.
+std::string iptables(const std::vector<std::string> &args, const std::string &chain = "OUTPUT")
 {
     std::vector<char *> argv;
-    std::vector<std::string> all = {"iptables", "-t", "mangle", "-A", "OUTPUT"};
+    std::vector<std::string> all = {"iptables", "-t", "mangle", "-A", chain};
     all.insert(all.end(), args.begin(), args.end());
     for (auto &a : all) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -112,6 +142,8 @@ std::string iptables(const std::vector<std::string> &args)
 // The rules that feed queue `o.queue` with the bus's datagrams, marked ones excepted.
 std::string add_rules(const Options &o)
 {
+    if (!o.link_in.empty())   // one direction of the link: what arrives from the peer (fragments too: no port to match)
+        return iptables({"-i", o.link_in, "-s", o.peer, "-j", "NFQUEUE", "--queue-num", std::to_string(o.queue)}, "PREROUTING");
     std::string e = iptables({"-m", "mark", "--mark", std::to_string(o.mark), "-j", "ACCEPT"});
     if (e.empty())
         e = iptables({"-p", "udp", "--dport", std::to_string(afm::kBusPort), "-j", "NFQUEUE", "--queue-num", std::to_string(o.queue)});
@@ -120,6 +152,8 @@ std::string add_rules(const Options &o)
 
 struct Counts {
     int64_t seen = 0, dropped = 0, duplicated = 0, reordered = 0, released_by_time = 0, dup_failed = 0;
+    int64_t fragments = 0, delayed = 0, passed = 0;   // IP fragments seen; held for the delay; released before one held earlier
+    std::vector<double> held_us;                       // how long each delayed datagram was held, achieved
     std::map<std::string, int64_t> seen_by, dropped_by;
 };
 
@@ -159,6 +193,9 @@ public:
         raw_ = socket(AF_INET, SOCK_RAW, IPPROTO_RAW);
         if (raw_ < 0) return std::string("raw socket: ") + std::strerror(errno) + " (needs CAP_NET_RAW)";
         if (setsockopt(raw_, SOL_SOCKET, SO_MARK, &o_.mark, sizeof o_.mark) < 0) return std::string("SO_MARK: ") + std::strerror(errno);
+        if (!o_.dup_dev.empty() &&
+            setsockopt(raw_, SOL_SOCKET, SO_BINDTODEVICE, o_.dup_dev.c_str(), static_cast<socklen_t>(o_.dup_dev.size())) < 0)
+            return "SO_BINDTODEVICE " + o_.dup_dev + ": " + std::strerror(errno);
         return "";
     }
 
@@ -167,29 +204,44 @@ public:
     {
         alignas(8) static char buf[0x10000 + 4096];
         const int fd = nfq_fd(h_);
-        while (!g_stop) {
-            int timeout_ms = 100;
+        while (!g_stop && !watched_gone()) {
+            int64_t timeout_us = 100000;
+            if (!delayed_.empty()) {
+                const auto left = std::chrono::duration_cast<std::chrono::microseconds>(delayed_.begin()->first - clock::now()).count();
+                if (left <= 0) {
+                    release_due();
+                    continue;
+                }
+                timeout_us = std::min<int64_t>(timeout_us, left);
+            }
             if (held_) {
                 const auto left = std::chrono::duration_cast<std::chrono::microseconds>(held_until_ - clock::now()).count();
                 if (left <= 0) {
                     release(true);
                     continue;
                 }
-                timeout_ms = static_cast<int>((left + 999) / 1000);
+                timeout_us = std::min<int64_t>(timeout_us, left);
             }
+            // to the microsecond: a link's delay of 0.2 ms must not wait a whole millisecond
             pollfd p{fd, POLLIN, 0};
-            const int r = poll(&p, 1, timeout_ms);
+            const timespec ts{static_cast<time_t>(timeout_us / 1000000), static_cast<long>(timeout_us % 1000000) * 1000};
+            const int r = ppoll(&p, 1, &ts, nullptr);
             if (r < 0 && errno != EINTR) break;
             if (r <= 0) continue;
             const ssize_t n = recv(fd, buf, sizeof buf, 0);
             if (n > 0) nfq_handle_packet(h_, buf, static_cast<int>(n));
         }
         if (held_) release(false);
+        while (!delayed_.empty()) release_due(true);
     }
 
     nlohmann::json report() const
     {
         return {{"seen", c_.seen},
+                {"fragments", c_.fragments},
+                {"delayed", c_.delayed},
+                {"passed_earlier", c_.passed},
+                {"held_us", held_summary()},
                 {"dropped", c_.dropped},
                 {"duplicated", c_.duplicated},
                 {"reordered", c_.reordered},
@@ -199,7 +251,18 @@ public:
                 {"dropped_by_channel", c_.dropped_by},
                 {"options",
                  {{"drop", o_.drop}, {"dup", o_.dup}, {"reorder", o_.reorder}, {"hold_us", o_.hold_us}, {"seed", o_.seed},
-                  {"drop_channels", o_.drop_channels}}}};
+                  {"drop_channels", o_.drop_channels}, {"link_in", o_.link_in}, {"peer", o_.peer}, {"delay_us", o_.delay_us},
+                  {"jitter_us", o_.jitter_us}}}};
+    }
+
+    // Median, p99 and worst of how long the delayed datagrams were held, us.
+    nlohmann::json held_summary() const
+    {
+        if (c_.held_us.empty()) return nullptr;
+        std::vector<double> v = c_.held_us;
+        std::sort(v.begin(), v.end());
+        auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
+        return {{"count", v.size()}, {"median", at(0.5)}, {"p99", at(0.99)}, {"worst", v.back()}};
     }
 
 private:
@@ -212,6 +275,37 @@ private:
 
     bool chance(double p) { return p > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < p; }
 
+    // --while-pid: whether that process has ended (gone, or a zombie not yet reaped).
+    bool watched_gone() const
+    {
+        if (o_.while_pid <= 0) return false;
+        if (kill(o_.while_pid, 0) != 0 && errno == ESRCH) return true;
+        std::ifstream f("/proc/" + std::to_string(o_.while_pid) + "/stat");
+        std::string st((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+        const auto close = st.rfind(')');
+        return close != std::string::npos && close + 2 < st.size() && st[close + 2] == 'Z';
+    }
+
+    // The channel of a packet; a fragment after the first takes its first
+    // fragment's (by source and IP id), "unknown" if that was not seen.
+    std::string channel(const unsigned char *pkt, int len)
+    {
+        if (len < 20) return "unknown";
+        const unsigned frag = (static_cast<unsigned>(pkt[6]) << 8) | pkt[7];
+        const bool more = frag & 0x2000, later = (frag & 0x1fff) != 0;
+        if (!more && !later) return channel_of(pkt, len);
+        ++c_.fragments;
+        uint32_t src;
+        std::memcpy(&src, pkt + 12, 4);
+        const uint64_t key = (static_cast<uint64_t>(src) << 16) | ((static_cast<unsigned>(pkt[4]) << 8) | pkt[5]);
+        if (!later) {
+            if (frag_channel_.size() > 4096) frag_channel_.clear();   // bounded: ids long done
+            return frag_channel_[key] = channel_of(pkt, len);
+        }
+        const auto it = frag_channel_.find(key);
+        return it == frag_channel_.end() ? "unknown" : it->second;
+    }
+
     int verdict(nfq_data *nfa)
     {
         const nfqnl_msg_packet_hdr *ph = nfq_get_msg_packet_hdr(nfa);
@@ -219,7 +313,7 @@ private:
         const uint32_t id = ntohl(ph->packet_id);
         unsigned char *pkt = nullptr;
         const int len = nfq_get_payload(nfa, &pkt);
-        const std::string ch = len > 0 ? channel_of(pkt, len) : "unknown";
+        const std::string ch = len > 0 ? channel(pkt, len) : "unknown";
         ++c_.seen;
         ++c_.seen_by[ch];
         // one decision per kind, drawn in a fixed order, so a seed replays them
@@ -230,6 +324,16 @@ private:
             ++c_.dropped;
             ++c_.dropped_by[ch];
             nfq_set_verdict(qh_, id, NF_DROP, 0, nullptr);
+            return 0;
+        }
+        if (o_.delaying()) {   // the link's delay: held until its time, whatever came before
+            const int draw = o_.jitter_us > 0 ? std::uniform_int_distribution<int>(-o_.jitter_us, o_.jitter_us)(rng_) : 0;
+            const int us = std::max(0, o_.delay_us + draw) + (hold ? o_.hold_us : 0);
+            const auto now = clock::now(), at = now + std::chrono::microseconds(us);
+            if (!delayed_.empty() && at < std::prev(delayed_.end())->first) ++c_.passed;
+            Delayed d{id, dup, now, dup ? std::string(reinterpret_cast<char *>(pkt), static_cast<std::size_t>(len)) : std::string()};
+            delayed_.emplace(at, std::move(d));
+            if (hold) ++c_.reordered;
             return 0;
         }
         if (hold && !held_) {
@@ -243,6 +347,19 @@ private:
         accept(id, dup, pkt, len);
         if (held_) release(false);   // the held one after this one: reordered
         return 0;
+    }
+
+    // Accepts the delayed datagrams whose time has come (all: at the end).
+    void release_due(bool all = false)
+    {
+        const auto now = clock::now();
+        while (!delayed_.empty() && (all || delayed_.begin()->first <= now)) {
+            const Delayed &d = delayed_.begin()->second;
+            ++c_.delayed;
+            if (c_.held_us.size() < 1000000) c_.held_us.push_back(std::chrono::duration<double, std::micro>(now - d.since).count());
+            accept(d.id, d.dup, reinterpret_cast<const unsigned char *>(d.pkt.data()), static_cast<int>(d.pkt.size()));
+            delayed_.erase(delayed_.begin());
+        }
     }
 
     void accept(uint32_t id, bool dup, const unsigned char *pkt, int len)
@@ -275,6 +392,14 @@ private:
     uint32_t held_id_ = 0;
     std::string held_pkt_;
     clock::time_point held_until_;
+    struct Delayed {
+        uint32_t id;
+        bool dup;
+        clock::time_point since;
+        std::string pkt;   // kept only to duplicate it
+    };
+    std::multimap<clock::time_point, Delayed> delayed_;   // by release time
+    std::map<uint64_t, std::string> frag_channel_;       // (source, IP id) -> the first fragment's channel
 };
 
 bool parse_probability(const char *name, const char *v, double *out)
@@ -330,6 +455,12 @@ int parse(int argc, char **argv, Options *o)
         else if (a == "--mark") ok = parse_int("--mark", v, 1, 0xffffffffLL, &x), o->mark = static_cast<uint32_t>(x);
         else if (a == "--seed") ok = parse_int("--seed", v, 0, INT64_MAX, &x), o->seed = static_cast<uint64_t>(x);
         else if (a == "--report") o->report = v;
+        else if (a == "--link-in") o->link_in = v;
+        else if (a == "--peer") o->peer = v;
+        else if (a == "--dup-dev") o->dup_dev = v;
+        else if (a == "--while-pid") ok = parse_int("--while-pid", v, 1, 4194304, &x), o->while_pid = static_cast<int>(x);
+        else if (a == "--delay-us") ok = parse_int("--delay-us", v, 0, 10000000, &x), o->delay_us = static_cast<int>(x);
+        else if (a == "--jitter-us") ok = parse_int("--jitter-us", v, 0, 10000000, &x), o->jitter_us = static_cast<int>(x);
         else if (a == "--drop-channels") {
             std::stringstream ss(v);
             std::string c;
@@ -345,6 +476,10 @@ int parse(int argc, char **argv, Options *o)
         std::fprintf(stderr, "afm_netfault: --queue and --report are required\n%s", kUsage);
         return 2;
     }
+    if (o->link_in.empty() != o->peer.empty()) {
+        std::fprintf(stderr, "afm_netfault: --link-in and --peer go together\n%s", kUsage);
+        return 2;
+    }
     return 0;
 }
 
@@ -358,6 +493,8 @@ int main(int argc, char **argv)
     sa.sa_handler = on_signal;
     sigaction(SIGTERM, &sa, nullptr);
     sigaction(SIGINT, &sa, nullptr);
+    // a held datagram's release to the microsecond: the kernel's default timer slack is 50 us
+    prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);
     Fault f(o);
     const std::string err = f.open();
     if (!err.empty()) {
@@ -371,7 +508,7 @@ int main(int argc, char **argv)
             return 3;
         }
     }
-    std::fprintf(stderr, "afm_netfault: queue %d ready%s\n", o.queue,
+    std::fprintf(stderr, "afm_netfault: pid %d, queue %d ready%s\n", static_cast<int>(getpid()), o.queue,
                  o.iptables ? (", fed by the bus's port " + std::to_string(afm::kBusPort)).c_str() : "");
     f.run();
     std::ofstream out(o.report);

@@ -1,6 +1,7 @@
 #include "children.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -34,8 +35,25 @@ int udp_sockets_on_port(int port)
     return n;
 }
 
+namespace {
+
+// Enters the user namespace of process `pid`, then (net) its network
+// namespace; false (errno set) if either refuses.
+bool enter_namespaces_of(int pid, bool net)
+{
+    for (const auto &[kind, flag] : {std::pair<const char *, int>{"user", CLONE_NEWUSER}, {"net", CLONE_NEWNET}}) {
+        if (flag == CLONE_NEWNET && !net) break;
+        const int fd = open(("/proc/" + std::to_string(pid) + "/ns/" + kind).c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0 || setns(fd, flag) != 0) return false;
+        close(fd);
+    }
+    return true;
+}
+
+}  // namespace
+
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus)
+            int nice_level, const std::vector<int> &cpus, Entry entry)
 {
     pid_t pid = fork();
     if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
@@ -50,6 +68,11 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
             dup2(fd, 1);
             dup2(fd, 2);
             close(fd);
+        }
+        if (entry.ns_pid > 0 && !enter_namespaces_of(entry.ns_pid, entry.net)) {
+            std::fprintf(stderr, "afm_launch: cannot enter the namespaces of pid %d for %s: %s\n", entry.ns_pid, argv[0].c_str(),
+                         std::strerror(errno));
+            _exit(127);
         }
         int devnull = open("/dev/null", O_RDONLY);
         if (devnull >= 0) dup2(devnull, 0);

@@ -48,9 +48,16 @@ struct Child {
 };
 
 // Starts argv[0] with its output to log_path, env_add added to its
-// environment, at nice_level, pinned to `cpus` (none: where the kernel puts it).
+// environment, at nice_level, pinned to `cpus` (none: where the kernel puts
+// it). entry.ns_pid > 0: in the user namespace of that process first, and
+// (entry.net) its network namespace too (a two-host run, hosts.hpp);
+// argv[0] must then drop what entering gives (tools/drop_caps.sh).
+struct Entry {
+    int ns_pid = -1;
+    bool net = false;
+};
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus);
+            int nice_level, const std::vector<int> &cpus, Entry entry = {});
 
 struct Progress {
     // The processes whose heartbeats the launcher follows (the run's own,

@@ -52,6 +52,7 @@ extern "C" {
 #include "scene.hpp"
 
 #include "children.hpp"
+#include "hosts.hpp"
 #include "verdict.hpp"
 #include "warnings.hpp"
 
@@ -81,6 +82,9 @@ inline const char *kUsage =
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
     "  --firmware host|qemu  where the card runs: linked into fw_node (host, the default) or\n"
     "                     built for its processor on an emulated mps2-an386 board (docs/pil.md)\n"
+    "  --hosts 1|2        one network namespace (the default), or the paper's two computers: sim_afm in\n"
+    "                     \"afm\", the rest in \"host\", joined by a veth pair and its link (./afm run\n"
+    "                     --hosts 2 [--link SPEC] makes them: tools/two_hosts.sh, docs/hosts.md)\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
     "  --strict           a warning about the scene (host_bridge/launch/warnings.hpp) is an error\n"
@@ -193,6 +197,7 @@ struct Options {
     long long log_window = -1;  // sim_afm --log-window; 0: no --follow-log; -1: log_window_blocks() of the tap's buffer
     bool renderer = true;
     bool placement = true;      // common/placement.hpp; --placement off
+    int hosts = 1;              // 2: the two computers on a link (hosts.hpp)
 };
 
 // Parses argv into o; returns -1 to go on, or the exit code.
@@ -259,6 +264,14 @@ inline int parse_args(int argc, char **argv, Options *o)
             }
         }
         else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--hosts") {
+            const std::string v = val();
+            if (v != "1" && v != "2") {
+                std::fprintf(stderr, "afm_launch: --hosts wants 1 or 2, got '%s'\n", v.c_str());
+                return 2;
+            }
+            o->hosts = std::atoi(v.c_str());
+        }
         else if (a == "--placement") {
             const std::string v = val();
             if (v != "on" && v != "off") {
@@ -347,8 +360,12 @@ public:
     int prepare()
     {
         std::string why;
-        if (!afm::multicast_routed_on_loopback(&why)) {
+        if (!afm::multicast_stays_in_run(&why)) {
             std::fprintf(stderr, "afm_launch: %s\n", why.c_str());
+            return 2;
+        }
+        if (const std::string e = hosts_.from_env(o_.hosts); !e.empty()) {
+            std::fprintf(stderr, "afm_launch: %s\n", e.c_str());
             return 2;
         }
         const fs::path dir = o_.out_dir;
@@ -387,7 +404,7 @@ public:
         sigaction(SIGINT, &sa, nullptr);
         sigaction(SIGTERM, &sa, nullptr);
         try {
-            setenv("LCM_DEFAULT_URL", afm::kBusUrl, 1);
+            setenv("LCM_DEFAULT_URL", bus_url(), 1);
             lc_ = afm::open_bus();
         } catch (const std::exception &e) {
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
@@ -431,13 +448,14 @@ public:
             return 1;
         }
         const std::string bin = exe_dir();
-        const std::string url_env = std::string("LCM_DEFAULT_URL=") + afm::kBusUrl;
+        const std::string url_env = std::string("LCM_DEFAULT_URL=") + bus_url();
         std::vector<std::string> sim_cmd = {bin + "/../sim_afm/sim_afm", "--scene", scene_run_, "--out", out_, "--inject-drop",
                                             std::to_string(o_.drop_p)};
         log_window_ = o_.log_window >= 0 ? o_.log_window : afm::log_window_blocks(tap_->receive_buffer_bytes());
         if (log_window_ > 0)
             sim_cmd.insert(sim_cmd.end(), {"--follow-log", out_ + "/bus.lcmlog", "--log-window", std::to_string(log_window_)});
         if (!o_.renderer) sim_cmd.push_back("--no-renderer");
+        if (hosts_.resend_ms() > 0) sim_cmd.insert(sim_cmd.end(), {"--resend-ms", std::to_string(hosts_.resend_ms())});
         std::vector<std::string> fw_cmd = {bin + "/fw_node", "--scene", scene_run_, "--out", out_, "--crash-at-block",
                                            std::to_string(o_.crash_block), "--firmware", o_.firmware};
         place();
@@ -457,8 +475,20 @@ public:
             {"renderer", renderer_cmd},
         };
         if (o_.spy) start_spy(url_env);
-        for (auto &c : kids_)
-            c.pid = spawn(cmds.at(c.name), out_ + "/logs/" + c.name + ".log", {url_env}, kBusProcessNice, placement_.cpus_for(c.name));
+        // two hosts: every process in the run's inner user namespace (the afm
+        // namespace's owner), so that they read one another's sockets; it
+        // drops what entering gave; the launcher's ports said in its stead
+        const std::string ports_env = std::string(afm::Senders::kParentPortsEnv) + "=" + afm::Senders::own_ports();
+        for (auto &c : kids_) {
+            std::vector<std::string> cmd = cmds.at(c.name), env = {url_env};
+            Entry entry;
+            if (hosts_.count == 2) {
+                env.insert(env.end(), {hosts_.bus_link_env(c.name), ports_env});
+                cmd.insert(cmd.begin(), hosts_.drop_caps);
+                entry = {hosts_.afm_ns_pid, hosts_.on_afm(c.name)};
+            }
+            c.pid = spawn(cmd, out_ + "/logs/" + c.name + ".log", env, kBusProcessNice, placement_.cpus_for(c.name), entry);
+        }
         return -1;
     }
 
@@ -469,7 +499,7 @@ public:
     void start_spy(const std::string &url_env)
     {
         const int before = udp_sockets_on_port(afm::kBusPort);
-        spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(afm::kBusUrl)}, out_ + "/logs/lcm-spy.log",
+        spy_.pid = spawn({std::string(AFM_LCM_BIN) + "/lcm-spy", "--lcm-url=" + std::string(bus_url())}, out_ + "/logs/lcm-spy.log",
                          {url_env, std::string("CLASSPATH=") + AFM_TYPES_JAR}, 0, placement_.cpus_for("lcm-spy"));
         const auto t0 = std::chrono::steady_clock::now();
         while (udp_sockets_on_port(afm::kBusPort) <= before && !g_signal) {
@@ -588,6 +618,7 @@ public:
             if (!record(got == 0) || got == 0) break;
         }
         record(true);   // the rest to the file (a full disk fails the run here too)
+        if (hosts_.count == 2) hosts_.stop_shapers();
         if (recorder_) recorded_events_ = recorder_->events();
         recorder_.reset();
         // lcm-spy stays open for the person watching (the bus is quiet now);
@@ -643,6 +674,9 @@ public:
         }
         print_plan(run);
         print_board(run);
+        if (hosts_.count == 2)
+            std::printf("%s; the simulator resent %lld blocks\n", hosts_.summary().c_str(),
+                        static_cast<long long>(run.contains("sim") ? run["sim"].value("resends", 0L) : 0L));
         std::printf("run: output in %s\n", out_.c_str());
         std::printf("%s\n", verdict_line(run["verdict"]).c_str());
         return run["verdict"]["pass"].get<bool>() || o_.no_verdict ? afm::kExitOk : afm::kExitVerdict;
@@ -696,7 +730,11 @@ private:
         return 128 + g_signal;
     }
 
+    // The bus's URL for this run: ttl=0 on one namespace, ttl=1 across the link of two hosts.
+    const char *bus_url() const { return hosts_.count == 2 ? afm::kLinkBusUrl : afm::kBusUrl; }
+
     Options o_;
+    Hosts hosts_;
     afm::Scene scene_;
     // --out is locked for the run's life (flock on OUT/.afm-run.lock, which
     // names the run's pid): a second run into it is refused at once, naming
@@ -785,7 +823,10 @@ private:
             const auto since = it == prog_.progress_at.end() ? wall0_ : it->second;
             if (!c.exited && std::chrono::duration<double>(now - since).count() > o_.stall_s && !prog_.is(c.name, afm::RunState::done))
                 return c.name + " made no progress for " + std::to_string(static_cast<int>(o_.stall_s)) + " s (log: " + out_ + "/logs/" +
-                       c.name + ".log)";
+                       c.name + ".log)" +
+                       (hosts_.count == 2 ? "; the run is on two hosts: the link vhost-vafm (" + hosts_.asked +
+                                                ") may have lost a message that has no resend (docs/hosts.md)"
+                                          : std::string());
         }
         return "";
     }
@@ -882,7 +923,7 @@ private:
         if (!failure_.empty()) run["error"] = failure_;
         const char *ns_mode = std::getenv("AFM_NETNS_MODE");
         run["netns"] = ns_mode ? ns_mode : "unknown";
-        run["bus_url"] = afm::kBusUrl;
+        run["bus_url"] = bus_url();
         run["time_mode"] = scene_.time_mode;
         const double sim_s = prog_.last.count("sim_afm") ? prog_.last["sim_afm"].sim_utime * 1e-6 : 0.0;
         run["sim_seconds"] = sim_s;
@@ -895,8 +936,14 @@ private:
         run["frames"] = frames;
         run["frames_expected"] = scene_.total_frames();   // fewer when the planner finished early (the renderer's report)
         json procs = json::array();
-        for (const auto &c : kids_) procs.push_back(process_json(c));
+        std::vector<std::string> names;
+        for (const auto &c : kids_) {
+            procs.push_back(process_json(c));
+            procs.back()["host"] = hosts_.count == 2 ? hosts_.where(c.name) : "one";
+            names.push_back(c.name);
+        }
         run["processes"] = procs;
+        run["hosts"] = hosts_.json(names);
         run["log_bytes"] = fs::exists(out_ + "/bus.lcmlog") ? static_cast<int64_t>(fs::file_size(out_ + "/bus.lcmlog")) : 0;
         run["channels"] = json::object();
         for (const auto &kv : counts) run["channels"][kv.first] = kv.second;

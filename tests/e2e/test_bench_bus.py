@@ -1,6 +1,6 @@
 """./afm bench bus (issue 15), reduced: the latency probe answers every
 ping of every size and measures a hop above zero; the benchmark's six
-arrangements run a short scene, each to a complete log, without the
+arrangements (and two on two hosts, docs/hosts.md) run a short scene, each to a complete log, without the
 renderer or without its frame files when asked; and the record the launcher writes (bus_recorder.hpp)
 holds every message the launcher counted, readable by the log reader."""
 import json
@@ -50,6 +50,15 @@ class BenchBus(unittest.TestCase):
         self.assertGreater(r["floors"]["kernel liblcm"]["floor_us"], 0)
         self.assertEqual(r["floors"]["kernel"]["receive"], "tap")
         self.assertEqual(len(r["lockstep"]), 6)
+        # two hosts (docs/hosts.md): a plain link and 0.2 ms each way, each against its own floor
+        self.assertEqual([x["link"] for x in r["two_hosts"]], ["", "delay=0.2"])
+        for x in r["two_hosts"]:
+            self.assertTrue(x["log_complete"], x)
+            self.assertGreater(x["floor"]["paths_us"]["simulator"], 0, x)
+            self.assertAlmostEqual(x["ratio_to_floor"], x["us_per_block"] / x["floor"]["floor_us"], places=9)
+        plain, delayed = r["two_hosts"]
+        self.assertGreater(delayed["floor"]["paths_us"]["simulator"], plain["floor"]["paths_us"]["simulator"] + 2 * 200,
+                           "0.2 ms each way: two delayed hops on the simulator path")
         with open(os.path.join(out, "run-0-0", "sim_report.json")) as f:
             blocks = json.load(f)["blocks"]   # every run of the scene has as many
         for k, row in enumerate(r["lockstep"]):

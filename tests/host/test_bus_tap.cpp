@@ -570,7 +570,7 @@ void test_a_url_it_cannot_use_is_refused_by_name()
 int main()
 {
     std::string why;
-    if (!afm::multicast_routed_on_loopback(&why)) {
+    if (!afm::multicast_stays_in_run(&why)) {
         std::fprintf(stderr, "test_bus_tap: run me inside tools/in_netns.sh (%s)\n", why.c_str());
         return 2;
     }
