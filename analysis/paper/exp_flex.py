@@ -1,13 +1,14 @@
 """Long flexible wires pushed with the card's rigid model (fig. 11): a
 silver wire 100 nm thick at aspect ratios (length / diameter) 13, 25 and
-50, pushed in its middle across its axis (scenes/paper/flex.yaml). The
+50, pushed across its axis 0.4 L from its middle, near one end as in
+fig. 11 (scenes/paper/flex.yaml). The
 simulator bends it (wire_flexibility); the card models it as a rigid rod,
 and the display draws what the card models. From the run's own images: the
 wire's ridge, column by column along it, in the fresh scan (scan_final.gsf)
 and in the display's last image (display_final.gsf); the display's error is
 the largest distance of the scan's ridge across the display's rod (the
-principal axis of its ridge) over the wire's length less END_CUT_NM at each end, and the bow is
-how far the scan's ridge departs from the straight line through its ends.
+principal axis of its ridge) over the wire's length less END_CUT_NM at
+each end, and the bow is how far the scan's ridge departs from the straight line through its ends.
 The renderer's own check (fidelity.json, the wire's error_nm) is shown
 beside it. The truth column: the simulator's chain (SIM_TRUTH) against the
 card's rod (FW_STATE) at the end, its nodes' largest distance across the
@@ -85,7 +86,7 @@ def seg_distance(p, a, b):
     return float(np.hypot(*(p - a - t * d)))
 
 
-def truth_error(run_dir):
+def truth_error(run_dir, half_nm):
     """The simulator's chain against the card's rod at the last block both
     logged: the largest distance across the rod's line of the chain's nodes
     within the columns the images read (nm), and the chain's bow (its nodes
@@ -97,7 +98,7 @@ def truth_error(run_dir):
         raise common.PaperError(f"{run_dir}/bus.lcmlog: wire 1 missing in FW_STATE or SIM_TRUTH")
     a, b = np.array([rod.x_nm[0], rod.y_nm[0]]), np.array([rod.x_nm[rod.n - 1], rod.y_nm[rod.n - 1]])
     nodes = [np.array([chain.x_nm[i], chain.y_nm[i]]) for i in range(chain.n)]
-    inner = [p for p in nodes if abs(p[0]) < 0.5 * abs(a[0] - b[0]) - END_CUT_NM]   # the columns the images read
+    inner = [p for p in nodes if abs(p[0]) < half_nm - END_CUT_NM]   # the columns the images read
     err = float(line_distance(np.array([p[0] for p in inner]), np.array([p[1] for p in inner]), a, b).max())
     bow_t = max(seg_distance(p, nodes[0], nodes[-1]) for p in nodes)
     return err, bow_t
@@ -131,7 +132,7 @@ def measure(run_dir, ratio):
         fid = json.load(f)
     wire = next((o for o in fid.get("objects", []) if o.get("kind") == "wire"), None)
     found = bool(wire and wire.get("found"))
-    err_t, bow_t = truth_error(run_dir)
+    err_t, bow_t = truth_error(run_dir, half)
     return {"error": float(max(dist)), "bow": bow(xs_r, ys_r), "display_bow": bow(xd_r, yd_r),
             "fidelity": wire["error_nm"] if found else None, "angle": wire["angle_error_deg"] if found else None,
             "truth": err_t, "bow_truth": bow_t, "scan": (hs, xs, ys, xs_r, ys_r), "display": (hd, xd, yd, xd_r, yd_r),
@@ -168,6 +169,7 @@ def analyse(dirs, exp_dir, size):
     res.figures.append(("The display's error along the wire against the aspect ratio", plot_errors(exp_dir, m)))
     res.notes.append("display's error (nm) at ratios " + ", ".join(f"{r}: {m[r]['error']:.1f}" for r in RATIOS) +
                      "; bow in the fresh scan: " + ", ".join(f"{m[r]['bow']:.1f}" for r in RATIOS) +
+                     "; in the display (a rod): " + ", ".join(f"{m[r]['display_bow']:.1f}" for r in RATIOS) +
                      f"; the push at {PUSH_AT:.1f} L from the middle, 5 nN")
     return res
 
