@@ -147,9 +147,8 @@ def analyse(dirs, exp_dir, size):
         tol = max(10.0, px)
         res.rows += [
             common.Row(f"bow of the wire in the fresh scan, ratio {r}", "nm", bench=m[r]["bow"], truth=m[r]["bow_truth"],
-                       tolerance=tol, note=f"the scan's ridge from the line through its ends; truth: the simulator's "
-                                           f"chain (SIM_TRUTH); {tol:.0f} nm: a pixel of the scan ({px:.0f} nm), "
-                                           "at least 10"),
+                       tolerance=tol, note="the scan's ridge from the line through its ends; truth: the simulator's "
+                                           "chain (SIM_TRUTH); the tolerance: a pixel of the scan, at least 10 nm"),
             common.Row(f"display's error along the wire, ratio {r}", "nm", bench=m[r]["error"], truth=m[r]["truth"],
                        tolerance=tol, note="largest distance of the fresh scan's ridge across the display's rod (its "
                                            "ridge's axis); truth: the simulator's chain across the card's rod (FW_STATE)"),

@@ -220,7 +220,7 @@ def frames(dirs, exp_dir, cal, cn_t):
                        truth=sign * cn_t * 500 / cal["Kn"], tolerance=0.03, relative=True,
                        note=f"signed: the lever's +x_C lies along {'+' if sign > 0 else '-'}{ax}_A here (eq. 2); "
                             "fitted over the lines' places in their final scans against dz from the z piezo"),
-            common.Row(f"C_n, scan angle {angle}", "nm/V", paper=23.1, bench=sol["cn_nm_per_V"], truth=cn_t,
+            common.Row(f"scan angle {angle}: C_n from these lines", "nm/V", paper=23.1, bench=sol["cn_nm_per_V"], truth=cn_t,
                        tolerance=0.01, relative=True, note="fw_calib_lines_cn on these lines' offsets along +x_C"),
             common.Row(f"lines at scan angle {angle} against the 270 deg lines turned by eq. 2", "nm",
                        bench=float(np.abs(pos - np.array(turned)).max()), tolerance=3.0,

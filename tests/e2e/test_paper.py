@@ -90,7 +90,7 @@ class Reduced(unittest.TestCase):
         self.assertGreater(shift["truth"], 100.0)
         self.assertGreater(shift["bench"], 100.0, "the shift's sign is the frame convention's")
         self.assertAlmostEqual(shift["bench"], shift["truth"], delta=0.03 * shift["truth"])
-        cn = self.row("lines", "C_n, scan angle 0")
+        cn = self.row("lines", "scan angle 0: C_n")
         self.assertAlmostEqual(cn["bench"], cn["truth"], delta=0.01 * cn["truth"])
         self.assertLess(self.row("lines", "lines at scan angle 0 against the 270 deg lines")["bench"], 3.0)
         self.assertTrue(any("quarter turn" in n for n in self.data["experiments"]["lines"]["notes"]))
