@@ -175,7 +175,7 @@ def analyse(dirs, exp_dir, size):
 
 def plot_pair(exp_dir, ratio, mm):
     p = common.plt()
-    fig, axes = p.subplots(1, 2, figsize=(9.0, 3.6))
+    fig, axes = p.subplots(1, 2, figsize=(9.0, 2.8))
     for ax, (h, x, y, rx, ry), title in ((axes[0], mm["scan"], "fresh scan"), (axes[1], mm["display"], "display")):
         ext = [x[0], x[-1], y[-1], y[0]]
         ax.imshow(h, cmap="afmhot", extent=ext, aspect="equal", vmin=np.median(h), vmax=np.median(h) + 1.2 * DIAMETER_NM)
