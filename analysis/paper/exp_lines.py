@@ -22,12 +22,38 @@ FIGURES = "fig. 8"
 DEPTHS_UM = [0.5, 1.0, 1.5, 2.0]      # the paper's dz
 CUT_HALF_NM = 200                     # the middle of the 600 nm line
 INCLUDE = "calibrated_lever.yaml"
+# Fig. 8's frame: the same lines at other scan angles, the scene turned with
+# the lever (path and field rotated by scan angle - 270 about z, eq. 2), so
+# that in frame C every run is the 270 deg run. 0 deg: the paper's setting;
+# 90 deg: where frame A is a half turn from frame C (the paper's claim for 0).
+ANGLES = {"full": {0: DEPTHS_UM, 90: DEPTHS_UM}, "reduced": {0: [0.5, 2.0]}}
 
 
 def runs(size):
     kn = common.paper_probe()["spring_N_per_m"]   # the scene's lever: the paper's k_n
-    return [common.Run(name=f"dz_{d:.1f}um", scene="lines.yaml", settings={"operator.load_nN": round(kn * d * 1000, 3)}, cost_s=4)
-            for d in DEPTHS_UM]
+    out = [common.Run(name=f"dz_{d:.1f}um", scene="lines.yaml", settings={"operator.load_nN": round(kn * d * 1000, 3)}, cost_s=4)
+           for d in DEPTHS_UM]
+    scene = common.load_scene("lines.yaml")
+    for angle, depths in ANGLES[size].items():
+        rot = lambda p: [round(float(v), 3) for v in lever_to_A(angle) @ np.asarray(p, float)]
+        turned = {"probe.scan_angle_deg": angle, "operator.path_nm": [rot(p) for p in scene["operator"]["path_nm"]],
+                  "sample.field_center_nm": rot(scene["sample"]["field_center_nm"])}
+        out += [common.Run(name=angle_run(angle, d), scene="lines.yaml", cost_s=4,
+                           settings={**turned, "operator.load_nN": round(kn * d * 1000, 3)}) for d in depths]
+    return out
+
+
+def angle_run(angle, d):
+    return f"a{angle}_dz_{d:.1f}um"
+
+
+def lever_to_A(angle):
+    """R(alpha) of eq. 2, alpha = scan angle - 270 deg, rounded (a quarter
+    turn's multiple): frame A of the 270 deg run into frame A at this angle."""
+    if angle % 90:
+        raise common.PaperError(f"scan angle {angle}: the lines' frame check takes multiples of 90 deg")
+    a = np.radians(angle - 270)
+    return np.round(np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]))
 
 
 def more_runs(size, dirs, exp_dir):
@@ -37,24 +63,40 @@ def more_runs(size, dirs, exp_dir):
 
 
 def line_x(run_dir):
-    """The line's x (nm, frame A) in the run's final scan: the depth-weighted
-    centre of the groove in the mean profile across the cut's middle."""
+    """The line's x (nm, frame A) in the run's final scan at 270 deg: see line_at."""
+    return line_at(run_dir, 270)
+
+
+def line_at(run_dir, angle):
+    """The line in the run's final scan, cut at this scan angle: the
+    depth-weighted centre of the groove in the mean profile across the
+    cut's middle, along the frame-A axis the lever's x_C lies on (x at 270
+    and 90 deg, y at 0 and 180). Returns (the centre's coordinate on that
+    axis, nm, frame A; the axis's coordinates; the profile)."""
+    R = lever_to_A(angle)
+    u, w = R @ np.array([1.0, 0.0]), R @ np.array([0.0, 1.0])   # the lever's x_C and the cut's direction, frame A
     h, xs, ys = common.scan(run_dir, "scan_final")
-    prof = h[np.abs(ys) < CUT_HALF_NM].mean(axis=0)
+    if abs(u[0]) > 0.5:
+        coord, prof = xs, h[np.abs(ys * w[1]) < CUT_HALF_NM].mean(axis=0)
+    else:
+        coord, prof = ys, h[:, np.abs(xs * w[0]) < CUT_HALF_NM].mean(axis=1)
     i = int(prof.argmin())
     if prof[i] > -0.5:
         raise common.PaperError(f"{run_dir}/scan_final.gsf: no groove deeper than 0.5 nm")
-    near = (np.abs(xs - xs[i]) < 40) & (prof < 0)
-    w = -prof[near]
-    return float((xs[near] * w).sum() / w.sum()), xs, prof
+    near = (np.abs(coord - coord[i]) < 40) & (prof < 0)
+    wt = -prof[near]
+    return float((coord[near] * wt).sum() / wt.sum()), coord, prof
 
 
-def push_depth(run_dir):
-    """dz (nm): the surface (initial scan, mean) above the z piezo, mid-cut."""
+def push_depth(run_dir, angle=270):
+    """dz (nm): the surface (initial scan, mean) above the z piezo, mid-cut
+    (the cut runs along the lever's y_C, turned into frame A by the scan angle)."""
     a, fs = common.analog(run_dir)
     h0, _, _ = common.scan(run_dir, "scan_initial")
-    v = np.gradient(a["y_nm"]) * fs
-    mid = (np.abs(a["y_nm"]) < CUT_HALF_NM) & (v > 1000)
+    w = lever_to_A(angle) @ np.array([0.0, 1.0])
+    along = a["x_nm"] * w[0] + a["y_nm"] * w[1]
+    v = np.gradient(along) * fs
+    mid = (np.abs(along) < CUT_HALF_NM) & (v > 1000)
     if mid.sum() < 100:
         raise common.PaperError(f"{run_dir}: too few samples mid-cut ({mid.sum()})")
     return float(h0.mean() - np.median(a["z_nm"][mid])), float(np.mean(a["sn_v"][mid]))
@@ -131,10 +173,79 @@ def analyse(dirs, exp_dir, size):
                      plot_cuts(exp_dir, cuts)))
     else:
         res.notes.append("the cuts with and without the calibration did not run (the lines' runs failed)")
+    frame_rows, frame_fig = frames(dirs, exp_dir, cal, cn_t)
+    res.rows += frame_rows
+    if frame_fig:
+        figs.append(("The lines at each scan angle in frame A: the profile across them, along the axis the lever "
+                     "lies on (fig. 8 is the 0 deg run as the paper read it)", frame_fig))
+        res.notes.append(FRAME_NOTE)
     res.notes.append("lines at x = " + ", ".join(f"{x:.1f}" for x in cal["x"]) + " nm; dz = " +
                      ", ".join(f"{d:.1f}" for d in cal["dz"]) + f" nm; fit residual {cal['sol']['residual_nm']:.2f} nm")
     res.figures = figs
     return res
+
+
+FRAME_NOTE = (
+    "Frame convention (physics.md 0 and 3): frames A and C coincide at scan angle 270 deg; at angle a frame A holds "
+    "frame C turned by a - 270 about z (eq. 2). The lever's x_C runs from its base to its tip, and a deeper cut swings "
+    "the apex forward along +x_C by C_n S_n', so the line shifts along +x_A at 270, +y_A at 0 and -x_A at 90 deg. "
+    "The paper (section II-E) says that at scan angle 0 frame A is a half turn from frame C and that fig. 8's lines "
+    "shift along -x_A (2.0 um leftmost); with its own 270 deg overlap (section II-B) a rotation by the scan angle makes "
+    "0 deg a quarter turn, not a half: the two statements cannot both hold. Fig. 8's picture is the bench's at 90 deg; "
+    "at 0 deg the bench's lines run across x_A and shift along +y_A.")
+
+
+def frames(dirs, exp_dir, cal, cn_t):
+    """The lines at the other scan angles (ANGLES): rows of their shift along
+    the frame-A axis the lever lies on (signed, per 500 nm of dz), of C_n
+    fitted from them, and of their place against the 270 deg lines turned
+    by eq. 2; a figure. All from the runs' scans and z piezo."""
+    rows, found = [], {270: (DEPTHS_UM, cal["x"], cal["profiles"])}
+    angles = sorted({int(n.split("_")[0][1:]) for n in dirs if n.startswith("a") and "_dz_" in n})
+    for angle in angles:
+        depths = [d for d in DEPTHS_UM if angle_run(angle, d) in dirs]
+        rd = [dirs[angle_run(angle, d)] for d in depths]
+        hits = [line_at(r, angle) for r in rd]
+        pos = np.array([h[0] for h in hits])
+        dz = np.array([push_depth(r, angle)[0] for r in rd])
+        u = lever_to_A(angle) @ np.array([1.0, 0.0])
+        ax, sign = ("x", u[0]) if abs(u[0]) > 0.5 else ("y", u[1])
+        slope = float(np.polyfit(dz, pos, 1)[0])
+        sol = common.calc("calib", "lines", "--depths-nm", ",".join(f"{d:.3f}" for d in dz),
+                          "--offsets-nm", ",".join(f"{sign * (p - pos[0]):.3f}" for p in pos),
+                          "--deflection-nm-per-V", f"{cal['Kn']:.4f}")
+        turned = [sign * cal["x"][DEPTHS_UM.index(d)] for d in depths]   # the 270 deg lines, turned
+        rows += [
+            common.Row(f"line shift per 500 nm of dz at scan angle {angle}, along +{ax}_A", "nm", bench=500 * slope,
+                       truth=sign * cn_t * 500 / cal["Kn"], tolerance=0.03, relative=True,
+                       note=f"signed: the lever's +x_C lies along {'+' if sign > 0 else '-'}{ax}_A here (eq. 2); "
+                            "fitted over the lines' places in their final scans against dz from the z piezo"),
+            common.Row(f"scan angle {angle}: C_n from these lines", "nm/V", paper=23.1, bench=sol["cn_nm_per_V"], truth=cn_t,
+                       tolerance=0.01, relative=True, note="fw_calib_lines_cn on these lines' offsets along +x_C"),
+            common.Row(f"lines at scan angle {angle} against the 270 deg lines turned by eq. 2", "nm",
+                       bench=float(np.abs(pos - np.array(turned)).max()), tolerance=3.0,
+                       note=f"a limit: the largest distance at the same depth, {ax}_A here against "
+                            f"{'+' if sign > 0 else '-'}x_A at 270; 3 nm: the scan's 2 nm pixels"),
+        ]
+        found[angle] = (depths, list(pos), [(h[1], h[2]) for h in hits])
+    return rows, (plot_frames(exp_dir, found) if angles else None)
+
+
+def plot_frames(exp_dir, found):
+    p = common.plt()
+    fig, axes = p.subplots(1, len(found), figsize=(4.2 * len(found), 3.4), squeeze=False)
+    for ax, (angle, (depths, pos, profs)) in zip(axes[0], sorted(found.items())):
+        u = lever_to_A(angle) @ np.array([1.0, 0.0])
+        axis = "x" if abs(u[0]) > 0.5 else "y"
+        for d, x, (c, prof) in zip(depths, pos, profs):
+            ax.plot(c, prof, lw=0.8, label=f"dz {d} um")
+            ax.axvline(x, lw=0.4, ls=":", color="k")
+        ax.set_xlim(min(pos) - 80, max(pos) + 80)
+        ax.set_xlabel(f"{axis}_A (nm); the lever's +x_C: {'+' if (u[0] + u[1]) > 0 else '-'}{axis}_A")
+        ax.set_title(f"scan angle {angle} deg", fontsize=9)
+        ax.legend(fontsize=7)
+    axes[0][0].set_ylabel("height (nm)")
+    return common.save(fig, exp_dir, "lines_frames.png")
 
 
 def cut_apex(run_dir):

@@ -82,6 +82,34 @@ class Reduced(unittest.TestCase):
         with open(inc) as f:
             self.assertIn("disp_n_nm_per_V", f.read())
 
+    def test_lines_at_scan_angle_0_shift_along_plus_y_a_as_eq_2_turns_the_lever(self):
+        # fig. 8's frame: at 0 deg frame A holds frame C a quarter turn on
+        # (eq. 2, the frames overlapping at 270), so a deeper line lies
+        # further along +y_A; the lines sit where the 270 deg ones, turned, do.
+        shift = self.row("lines", "line shift per 500 nm of dz at scan angle 0, along +y_A")
+        self.assertGreater(shift["truth"], 100.0)
+        self.assertGreater(shift["bench"], 100.0, "the shift's sign is the frame convention's")
+        self.assertAlmostEqual(shift["bench"], shift["truth"], delta=0.03 * shift["truth"])
+        cn = self.row("lines", "scan angle 0: C_n")
+        self.assertAlmostEqual(cn["bench"], cn["truth"], delta=0.01 * cn["truth"])
+        self.assertLess(self.row("lines", "lines at scan angle 0 against the 270 deg lines")["bench"], 3.0)
+        self.assertTrue(any("quarter turn" in n for n in self.data["experiments"]["lines"]["notes"]))
+
+    def test_flex_the_long_wire_bends_where_the_cards_rod_cannot(self):
+        # fig. 11: the bow in the fresh scan grows with the aspect ratio (the
+        # bending length is about 2.7 um); the display's rod misses it.
+        bows = [self.row("flex", f"bow of the wire in the fresh scan, ratio {r}")["bench"] for r in (13, 25, 50)]
+        self.assertLess(bows[0], 5.0)
+        self.assertLess(bows[0], bows[1])
+        self.assertGreater(bows[2], 100.0)
+        err50 = self.row("flex", "display's error along the wire, ratio 50")
+        self.assertGreater(err50["bench"], 50.0, "the rigid display misses the bend")
+        self.assertAlmostEqual(err50["bench"], err50["truth"], delta=err50["tolerance"])
+        figs = [f for _, f in self.data["experiments"]["flex"]["figures"]]
+        for r in (13, 25, 50):
+            self.assertIn(f"flex_{r}.png", figs)
+            self.assertTrue(os.path.exists(os.path.join(self.out, "flex", f"flex_{r}.png")))
+
     def test_rod_static_point_and_push_follow_the_closed_form(self):
         L = 1300.0
         from analysis.paper import exp_rod
