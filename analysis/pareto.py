@@ -42,9 +42,33 @@ def front(points, ek, ck):
     return sorted(out, key=lambda p: p["costs"][ck])
 
 
+# A figure varies over a sweep when its spread over the points (largest less
+# smallest) exceeds both twice its repeat noise (the largest spread of one
+# point's repeats) and this fraction of its median: 539 against 543 pN is
+# not a result.
+MIN_RELATIVE_SPREAD = 0.05
+
+
+def repeat_values(p, group, key):
+    """The figure's value in each of the point's runs (one with no repeats)."""
+    runs = p.get("runs") or []
+    vals = [r.get(group, {}).get(key) for r in runs]
+    vals = [v for v in vals if v is not None]
+    return vals or ([p[group][key]] if p[group].get(key) is not None else [])
+
+
+def noise(points, group, key):
+    """The figure's repeat noise: the largest spread among one point's runs (0 without repeats)."""
+    return max((max(v) - min(v) for v in (repeat_values(p, group, key) for p in points) if len(v) > 1), default=0.0)
+
+
 def varies(points, group, key):
-    vals = {p[group].get(key) for p in points if p[group].get(key) is not None}
-    return len(vals) > 1
+    """True when the figure's spread over the points is beyond its noise (above)."""
+    vals = sorted(p[group][key] for p in points if p[group].get(key) is not None)
+    if len(vals) < 2:
+        return False
+    spread, mid = vals[-1] - vals[0], abs(vals[len(vals) // 2])
+    return spread > 2 * noise(points, group, key) and spread > MIN_RELATIVE_SPREAD * mid
 
 
 def plot(points, ek, ck, out_base):
@@ -57,6 +81,13 @@ def plot(points, ek, ck, out_base):
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     ax.scatter([p["costs"][ck] for p in pts], [p["errors"][ek] for p in pts], s=28, color="#9aa7b5", label="points",
                zorder=2)
+    # repeated points: their runs' range on each axis
+    for p in pts:
+        xs, ys = repeat_values(p, "costs", ck), repeat_values(p, "errors", ek)
+        if len(xs) > 1 or len(ys) > 1:
+            x, y = p["costs"][ck], p["errors"][ek]
+            ax.errorbar([x], [y], xerr=[[x - min(xs)], [max(xs) - x]], yerr=[[y - min(ys)], [max(ys) - y]],
+                        fmt="none", ecolor="#6b7785", elinewidth=0.8, capsize=2, zorder=2)
     if fr:
         ax.step([p["costs"][ck] for p in fr], [p["errors"][ek] for p in fr], where="post", color="#c0392b", lw=1.2,
                 zorder=3)
@@ -69,6 +100,10 @@ def plot(points, ek, ck, out_base):
     ax.set_ylabel(f"{el[1]} ({el[2]})")
     if all(p["errors"][ek] > 0 for p in pts) and max(p["errors"][ek] for p in pts) > 20 * min(p["errors"][ek] for p in pts):
         ax.set_yscale("log")
+    elif all(p["errors"][ek] >= 0 for p in pts):
+        ax.set_ylim(bottom=0)   # from 0: a small difference looks small
+    if all(p["costs"][ck] >= 0 for p in pts) and max(p["costs"][ck] for p in pts) <= 20 * max(min(p["costs"][ck] for p in pts), 1e-300):
+        ax.set_xlim(left=0)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     ax.set_title(f"{el[1]} against {cl[1]}", fontsize=9)

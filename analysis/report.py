@@ -146,6 +146,40 @@ def best_buy(effects):
     return best
 
 
+def conclusion(points, knobs, effects, best):
+    """The sweep's finding in words, for the top of the report: which knob
+    changes which figure beyond its noise, and by what factor; the figures
+    that did not move; the points that failed."""
+    ok = [p for p in points if p["status"] == "ok"]
+    failed = len(points) - len(ok)
+    out = []
+    if not ok:
+        return [f"No point was measured: all {len(points)} failed (the table says why)."]
+    moving = [(k, l) for k, l, _ in pareto.ERRORS if pareto.varies(ok, "errors", k)]
+    still = [l for k, l, _ in pareto.ERRORS if not pareto.varies(ok, "errors", k) and any(p["errors"].get(k) is not None for p in ok)]
+    for e in effects:
+        parts = []
+        for k, label in moving:
+            f = e.get(k)
+            if f is not None and abs(math.log(f)) > math.log(1 + pareto.MIN_RELATIVE_SPREAD):
+                parts.append(f"{label} x{fmt(f)}")
+        costs = [f"{l} x{fmt(e.get(k))}" for k, l, _ in pareto.COSTS
+                 if pareto.varies(ok, "costs", k) and e.get(k) is not None]
+        what = "; ".join(parts) if parts else "no error figure beyond its noise"
+        out.append(f"{e['knob']} from {e['from']} to {e['to']}: {what}" + (f"; costs {', '.join(costs)}" if costs else "") +
+                   f" (median over {e['pairs']} pair(s)).")
+    if not moving:
+        out.append("No error figure varies over this sweep beyond its repeat noise and "
+                   f"{pareto.MIN_RELATIVE_SPREAD:.0%} of its value: within these knobs the accuracy does not depend on them.")
+    if still:
+        out.append("Unchanged beyond noise: " + ", ".join(still) + ".")
+    if best:
+        out.append(f"Best buy: {best[0]['knob']} (the most accuracy per unit of CPU time).")
+    if failed:
+        out.append(f"{failed} of {len(points)} points failed (the table says why).")
+    return out
+
+
 def _plot_one(args):
     ok, ek, ck, base = args
     return ek, ck, base, [p["label"] for p in pareto.plot(ok, ek, ck, base)]
@@ -176,6 +210,7 @@ def write_html(out, meta, points, knobs, plots, effects, best):
         svgs[(ek, ck)] = svg[svg.index("<svg"):]
     html = env.get_template("sweep.html.j2").render(
         meta=meta, points=points, knobs=knobs, plots=plots, svgs=svgs, effects=effects, best=best,
+        conclusion=conclusion(points, knobs, effects, best), min_spread=pareto.MIN_RELATIVE_SPREAD,
         errors=pareto.ERRORS, costs=pareto.COSTS, table_errors=TABLE, table_costs=TABLE_COSTS,
         now=datetime.datetime.now().isoformat(timespec="seconds"))
     with open(os.path.join(out, "report.html"), "w") as f:
