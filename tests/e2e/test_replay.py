@@ -10,6 +10,7 @@ import os
 import shutil
 import struct
 import subprocess
+import sys
 import unittest
 
 import benchtest
@@ -24,6 +25,12 @@ SYNC = 0xEDA1DA01
 def replay(exe, *args):
     p = subprocess.run([exe, *args], capture_output=True, text=True, timeout=120)
     return p.returncode, p.stdout, p.stderr
+
+
+def compare(recorded, replayed, out):
+    """./afm replay --compare's table (analysis.replay_compare)."""
+    return subprocess.run([sys.executable, "-m", "analysis.replay_compare", recorded, replayed, "--out", out],
+                          capture_output=True, text=True, timeout=300)
 
 
 def events(path):
@@ -182,6 +189,21 @@ class ReplayEveryScene(unittest.TestCase):
         rc, so, se = replay(REPLAY, out, "--write", same_log)
         self.assertEqual(rc, 0, so + se)
         self.assertEqual(outputs(same_log), recorded)
+        # --compare's A/B view (analysis.replay_compare): over the whole run, how
+        # much the perturbed card's outputs differ; none before the first divergence
+        cmp_dir = os.path.join(out, "compare")
+        p = compare(os.path.join(out, "bus.lcmlog"), new_log, cmp_dir)
+        self.assertEqual(p.returncode, 1, p.stdout + p.stderr)
+        rows = [l.split("|")[1:-1] for l in p.stdout.splitlines() if l.startswith("| ") and "quantity" not in l]
+        firsts = [int(r[3]) for r in rows if r[3].strip() != "-"]
+        self.assertTrue(firsts, p.stdout)
+        self.assertGreaterEqual(min(firsts), named, "a difference before the first divergence replay named")
+        self.assertTrue(any(float(r[4]) > 0 for r in rows), p.stdout)
+        for f in ("compare.md", "compare.png"):
+            self.assertTrue(os.path.exists(os.path.join(cmp_dir, f)), f)
+        p = compare(os.path.join(out, "bus.lcmlog"), same_log, os.path.join(out, "compare_same"))
+        self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+        self.assertNotIn("| 1 |", p.stdout)
 
     def _broken_copy(self, tag, edit):
         src = self.runs["short.yaml"][0]
