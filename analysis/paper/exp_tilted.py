@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 
+from analysis import loops
 from analysis.paper import common
 
 NAME = "tilted"
@@ -52,8 +53,8 @@ def analyse(dirs, exp_dir, size):
     for L in loads:
         means[L], signals[L] = loop_means(dirs[f"load_{L}nN"])
     snu, slu, snd, sld = (np.array([means[L][i] for L in loads]) for i in range(4))
-    ru, bu = np.polyfit(snu, slu, 1)
-    rd, bd = np.polyfit(snd, sld, 1)
+    fit = loops.fit_slopes([means[L][:4] for L in loads])   # the one slope fit (./afm calib tilted --loops)
+    (ru, bu, _), (rd, bd, _) = fit["up"], fit["down"]
     first = dirs[f"load_{loads[0]}nN"]
     phi = slope_deg(first)
     card = common.run_json(first)["card"]
