@@ -180,6 +180,23 @@ class View(unittest.TestCase):
             s = wait_for(d, lambda s: s["lastIndex"] == total - 1, 20, "the scrubber's last frame")
             self.assertGreater(s["chartT"][2], 0, s)
             d.save_screenshot(os.path.join(SHOT_DIR, "recorded.png"))
+            # the gamepad's mapping (view.js padStep, rumble), fed a fake pad:
+            # no pad exists headless, and a real one's rumble is checked by hand
+            a, b, dead, r = d.execute_script(
+                "const v = window.afmView, h = {target_nm: [0, 0], load_nN: 5, engaged: false, padA: false};"
+                "const pad = {axes: [1, -1], buttons: [{pressed: true, value: 1}, {}, {}, {}, {}, {}, {value: 0}, {value: 1}]};"
+                "const a = v.padStep(h, pad, 0.1, null);"
+                "const b = v.padStep(Object.assign({}, h, a, {padA: a.a}), pad, 0.1, null);"
+                "const dead = v.padStep(h, {axes: [0.05, -0.05], buttons: []}, 0.1, null);"
+                "return [a, b, dead, [v.rumble([0.1, 0]), v.rumble([1, 1]), v.rumble([0, 0])]];")
+            self.assertAlmostEqual(a["target_nm"][0], 80.0)    # full right stick, 0.1 s at 800 nm/s
+            self.assertAlmostEqual(a["target_nm"][1], 80.0)    # stick up: +y
+            self.assertAlmostEqual(a["load_nN"], 5.5)          # right trigger: 5 nN/s
+            self.assertTrue(a["engaged"])                      # A pressed: engaged
+            self.assertTrue(b["engaged"], "A held down must not toggle again")
+            self.assertAlmostEqual(b["target_nm"][0], 160.0)
+            self.assertFalse(dead["moved"], "inside the dead zone the target stays")
+            self.assertEqual(r, [0.5, 1, 0])
         finally:
             p.terminate()
             p.wait(timeout=10)

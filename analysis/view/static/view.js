@@ -48,11 +48,55 @@
     c.addEventListener("pointermove", (e) => { if (e.buttons & 1) aimAt(e); });
     c.addEventListener("wheel", (e) => { e.preventDefault(); setLoad(e.deltaY < 0 ? 0.5 : -0.5); }, { passive: false });
     $("engage").onclick = () => engage(!state.hand.engaged);
+    requestAnimationFrame(padLoop);
     document.addEventListener("keydown", (e) => {
       if (e.key === " ") { e.preventDefault(); engage(!state.hand.engaged); }
       else if (e.key === "ArrowUp") setLoad(0.5);
       else if (e.key === "ArrowDown") setLoad(-0.5);
     });
+  }
+  // A gamepad (the browser's Gamepad API, polled every animation frame): the
+  // left stick moves the hand's target at up to PAD_NM_PER_S, the right and
+  // left triggers raise and lower the load at PAD_LOAD_NN_PER_S, button 0
+  // (A) engages and lifts; a pad with a vibration actuator rumbles with the
+  // force the hand feels, full at PAD_RUMBLE_FULL_N. padStep and rumble are
+  // pure (window.afmView holds them for the test, which feeds a fake pad).
+  const PAD_NM_PER_S = 800, PAD_DEAD = 0.12, PAD_LOAD_NN_PER_S = 5, PAD_RUMBLE_FULL_N = 0.2;
+  function padStep(h, pad, dt, tip) {
+    const out = { target_nm: h.target_nm ? h.target_nm.slice() : (tip ? tip.slice() : null), load_nN: h.load_nN,
+                  engaged: h.engaged, a: !!(pad.buttons[0] && pad.buttons[0].pressed), moved: false };
+    const axis = (v) => (Math.abs(v || 0) > PAD_DEAD ? v : 0);
+    const ax = axis(pad.axes[0]), ay = axis(pad.axes[1]);
+    if (out.target_nm && (ax || ay)) {   // stick up (axis 1 negative) is +y, as on the image
+      out.target_nm[0] += ax * PAD_NM_PER_S * dt;
+      out.target_nm[1] -= ay * PAD_NM_PER_S * dt;
+      out.moved = true;
+    }
+    const up = (pad.buttons[7] && pad.buttons[7].value) || 0, down = (pad.buttons[6] && pad.buttons[6].value) || 0;
+    out.load_nN = Math.max(0.5, Math.min(100, h.load_nN + (up - down) * PAD_LOAD_NN_PER_S * dt));
+    if (out.a && !h.padA) out.engaged = !h.engaged;   // on the press, not while held
+    return out;
+  }
+  function rumble(handN) { return Math.min(1, Math.hypot(handN[0], handN[1]) / PAD_RUMBLE_FULL_N); }
+  state.padStep = padStep;
+  state.rumble = rumble;
+  function firstPad() {
+    const pads = navigator.getGamepads ? navigator.getGamepads() : [];
+    for (const p of pads || []) if (p && p.connected !== false) return p;
+    return null;
+  }
+  function padLoop(now) {
+    const h = state.hand, pad = firstPad();
+    if (pad && h) {
+      const dt = h.padT ? Math.min(0.1, (now - h.padT) / 1000) : 0;
+      const n = padStep(h, pad, dt, lastMeta ? lastMeta.tip_nm : null);
+      const changed = n.moved || n.load_nN !== h.load_nN || n.engaged !== h.engaged;
+      h.target_nm = n.target_nm; h.load_nN = n.load_nN; h.engaged = n.engaged; h.padA = n.a;
+      state.pad = pad.id || "gamepad";
+      if (changed) { showHand(); sendHand(); }
+    }
+    if (h) h.padT = now;
+    requestAnimationFrame(padLoop);
   }
   function aimAt(e) {
     if (!lastMeta || !lastMeta.field_nm) return;
@@ -195,6 +239,11 @@
     if (state.hand) {
       const hn = Math.hypot(m.hand_N[0], m.hand_N[1]);
       $("handN").textContent = hn.toFixed(3) + " N";
+      const pad = firstPad();
+      if (pad && pad.vibrationActuator && pad.vibrationActuator.playEffect) {
+        const g = rumble(m.hand_N);
+        pad.vibrationActuator.playEffect("dual-rumble", { duration: 80, strongMagnitude: g, weakMagnitude: g }).catch(() => {});
+      }
       $("handfill").style.width = Math.min(100, hn / 0.1 * 100).toFixed(0) + "%";
     }
   }
