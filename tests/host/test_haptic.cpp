@@ -331,11 +331,74 @@ void test_z_axis_enters_the_bound_and_the_scene_rules()
     TEST_ASSERT_TRUE(refused);
 }
 
+// ---- the step test: the stylus's lag behind the hand, and the bound ----
+
+// The closed form of the free stylus pulled by the hand towards a step of
+// size a (no rendered force): m x'' + c x' + K_h x = K_h a + B_h a' with
+// c = B_h + b. The hand's damper pulls along with the aim's own motion, so
+// the step gives the stylus v0 = B_h a / m at once; from x = 0 then,
+// underdamped (zeta < 1 for the default hand), x / a = 1 - e^(-s t)
+// (cos(w t) - (v0 / a - s) / w sin(w t)), s = c / 2m, w = sqrt(K/m - s^2).
+// The time it first reaches 90 % of a.
+double t90_closed_form(const afm::HandSpec &hand, double b)
+{
+    const double m = hand.mass_kg, K = hand.stiffness_N_per_m, c = hand.damping_Ns_per_m + b;
+    const double sg = c / (2 * m), w2 = K / m - sg * sg, v0 = hand.damping_Ns_per_m / m;
+    TEST_ASSERT_TRUE(w2 > 0);
+    const double w = std::sqrt(w2);
+    auto x = [&](double t) { return 1 - std::exp(-sg * t) * (std::cos(w * t) - (v0 - sg) / w * std::sin(w * t)); };
+    double lo = 0, hi = 0;
+    while (x(hi) < 0.9) hi += 1e-4;   // the first crossing, then bisected
+    lo = hi - 1e-4;
+    for (int i = 0; i < 40; ++i) (x(0.5 * (lo + hi)) < 0.9 ? lo : hi) = 0.5 * (lo + hi);
+    return hi;
+}
+
+void test_step_lag_matches_the_closed_form_and_stays_bounded_against_a_wall()
+{
+    // A 10 mm step of the hand's aim (the pointer jumping): the stylus
+    // follows with the lag of the hand's spring, damper and mass (what the
+    // page draws as the dashed line from the target to the tip).
+    afm::HapticSpec dev;
+    afm::HandSpec hand;
+    afm::HapticLoop loop(dev, hand, kT, {0, 0});
+    const double a = 0.01;
+    double t90 = -1;
+    for (int k = 1; k <= 2000 && t90 < 0; ++k) {
+        loop.step({a, 0}, {0, 0});
+        if (loop.position_m().x >= 0.9 * a) t90 = k * kT;
+    }
+    const double want = t90_closed_form(hand, dev.damping_Ns_per_m);
+    std::printf("step 10 mm: the stylus reaches 90 %% in %.1f ms (closed form %.1f ms; blocks of 1 ms)\n", t90 * 1e3, want * 1e3);
+    TEST_ASSERT_TRUE(t90 > 0);
+    TEST_ASSERT_DOUBLE_WITHIN(kT + 0.03 * want, want, t90);   // within a block and 3 %
+    // The same step into a wall the card renders at 0.9 K_max behind the
+    // loop's delay: the stylus stops at the balance of the hand's spring and
+    // the wall, K_h a = (K_h + K_w) x, without a growing oscillation.
+    const double Kw = 0.9 * bound_of_defaults();
+    afm::HapticLoop wall(dev, hand, kT, {0, 0});
+    std::deque<double> x_end(3, 0.0);
+    double peak = 0;
+    for (int k = 0; k < 5000; ++k) {
+        const double f = x_end.front() > 0 ? -Kw * x_end.front() : 0.0;
+        x_end.pop_front();
+        wall.step({a, 0}, {f, 0});
+        x_end.push_back(wall.position_m().x);
+        peak = std::max(peak, wall.position_m().x);
+    }
+    const double rest = hand.stiffness_N_per_m * a / (hand.stiffness_N_per_m + Kw);
+    std::printf("into a wall of %.0f N/m (0.9 K_max): rests at %.3f mm (balance %.3f mm), peak %.3f mm\n", Kw, wall.position_m().x * 1e3,
+                rest * 1e3, peak * 1e3);
+    TEST_ASSERT_DOUBLE_WITHIN(0.01 * rest, rest, wall.position_m().x);
+    TEST_ASSERT_TRUE(peak < a);   // the wall holds it short of the aim all along
+}
+
 int main()
 {
     UNITY_BEGIN();
     RUN_TEST(test_bound_figures_for_a_scene);
     RUN_TEST(test_z_axis_sets_the_load_and_feels_f_z);
+    RUN_TEST(test_step_lag_matches_the_closed_form_and_stays_bounded_against_a_wall);
     RUN_TEST(test_z_axis_is_held_to_the_same_bound);
     RUN_TEST(test_z_axis_enters_the_bound_and_the_scene_rules);
     RUN_TEST(test_refusal_names_keys_and_the_largest_gain);
