@@ -95,6 +95,11 @@ BusTap::~BusTap()
 void BusTap::accept_only(const std::set<std::string> &channels)
 {
     if (!bus_filter_attach(fd_, channels)) throw std::runtime_error(std::string("bus tap: SO_ATTACH_FILTER: ") + std::strerror(errno));
+    gather_.accept_only(channels);
+}
+
+void BusGather::accept_only(const std::set<std::string> &channels)
+{
     filtered_ = true;
     accept_ = channels;
 }
@@ -154,10 +159,11 @@ int BusTap::receive(const Sink &sink, int max, int *read, bool wait)
         if (got <= 0) break;   // nothing queued (EAGAIN), the timeout, a signal, or a socket error, now taken
         for (int i = 0; i < got; ++i) {
             if (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) {
-                ++dropped_;
+                gather_.drop();   // larger than any datagram LCM sends
                 continue;
             }
-            messages += take(static_cast<const unsigned char *>(iov[i].iov_base), msgs[i].msg_len, from[i], stamp_of(msgs[i].msg_hdr), sink);
+            messages += gather_.take(static_cast<const unsigned char *>(iov[i].iov_base), msgs[i].msg_len, ntohl(from[i].sin_addr.s_addr),
+                                     ntohs(from[i].sin_port), stamp_of(msgs[i].msg_hdr), sink);
         }
         *read += got;
         if (got < want) break;
@@ -199,7 +205,7 @@ int BusTap::next(const Sink &sink, int timeout_ms)
     }
 }
 
-int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink)
+int BusGather::take(const unsigned char *d, std::size_t n, uint32_t addr, uint16_t port, int64_t utime, const Sink &sink)
 {
     LcmDatagram g;
     if (!lcm_datagram(d, n, &g)) {
@@ -208,11 +214,11 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
     }
     if (!g.fragment) {
         if (filtered_ && !accept_.count(g.channel)) return 0;   // the kernel let it by: a name past its filter's reach
-        if (admit_ && !admit_(g.channel, ntohs(from.sin_port))) return 0;
+        if (admit_ && !admit_(g.channel, port)) return 0;
         sink(g.channel, d + g.payload_at, n - g.payload_at, utime);
         return 1;
     }
-    const uint64_t key = (static_cast<uint64_t>(ntohl(from.sin_addr.s_addr)) << 16) | ntohs(from.sin_port);
+    const uint64_t key = (static_cast<uint64_t>(addr) << 16) | port;
     auto it = partial_.find(key);
     if (it != partial_.end() &&
         (it->second.seqno != g.seqno || it->second.size != g.msg_size || it->second.got.size() != g.fragments)) {
@@ -229,7 +235,7 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
             return 0;
         }
         // a sender that may not send on this channel: not even its fragments are kept
-        if (!(filtered_ && !accept_.count(g.channel)) && admit_ && !admit_(g.channel, ntohs(from.sin_port))) return 0;
+        if (!(filtered_ && !accept_.count(g.channel)) && admit_ && !admit_(g.channel, port)) return 0;
         if (partial_.size() >= kMaxPartial) {
             ++abandoned_;
             partial_.erase(partial_.begin());
@@ -267,15 +273,16 @@ int BusTap::take(const unsigned char *d, std::size_t n, const sockaddr_in &from,
     const Partial whole = std::move(p);
     partial_.erase(it);
     if (whole.skip) return 0;
-    if (admit_ && !admit_(whole.channel, ntohs(from.sin_port))) return 0;
+    if (admit_ && !admit_(whole.channel, port)) return 0;
     // Every fragment came: now the message's bytes are real, put together.
     std::vector<unsigned char> data(whole.size);
-    for (const auto &[offset, bytes] : whole.frags) std::memcpy(data.data() + offset, bytes.data(), bytes.size());
+    for (const auto &[offset, bytes] : whole.frags)
+        if (!bytes.empty()) std::memcpy(data.data() + offset, bytes.data(), bytes.size());   // an empty fragment has no bytes to point at (memcpy from null is undefined)
     sink(whole.channel, data.data(), data.size(), utime);
     return 1;
 }
 
-std::size_t BusTap::held_bytes() const
+std::size_t BusGather::held_bytes() const
 {
     std::size_t n = 0;
     for (const auto &kv : partial_) n += kv.second.held;

@@ -52,10 +52,54 @@
 
 namespace afm {
 
-class BusTap {
+// What the tap does with each datagram it reads, without the socket: the
+// rules above, per sender (its IPv4 address and port). BusTap owns one; the
+// bus fuzzer (fuzz/fuzz_bus.cpp) feeds one datagrams directly.
+class BusGather {
 public:
     // A whole message: channel, payload, the kernel's receive time (us).
     using Sink = std::function<void(const std::string &channel, const unsigned char *data, std::size_t size, int64_t recv_utime)>;
+    using Admit = std::function<bool(const std::string &channel, uint16_t source_port)>;
+
+    // Only messages on `channels` are handed on (BusTap adds the kernel's filter).
+    void accept_only(const std::set<std::string> &channels);
+    const std::set<std::string> &accepted() const { return accept_; }
+    void admit_only(Admit admit) { admit_ = std::move(admit); }
+    // One datagram of n bytes from (addr, port), host byte order; returns
+    // the messages it completed and handed to `sink` (0 or 1).
+    int take(const unsigned char *d, std::size_t n, uint32_t addr, uint16_t port, int64_t utime, const Sink &sink);
+    int64_t dropped() const { return dropped_; }
+    void drop() { ++dropped_; }   // a datagram the socket cut short, counted with the rest
+    int64_t abandoned() const { return abandoned_; }
+    std::size_t held_bytes() const;
+    // Unfinished messages held now (at most kMaxPartial).
+    std::size_t partial() const { return partial_.size(); }
+
+    static constexpr std::size_t kMaxMessageBytes = 16u << 20;
+    static constexpr std::size_t kMaxPartial = 16;
+
+private:
+    struct Partial {
+        uint32_t seqno = 0;
+        std::string channel;
+        std::size_t size = 0;             // the whole message's, bytes (as fragment 0 claims it)
+        bool skip = false;                // not on an accepted channel: its fragments are not kept
+        std::vector<std::pair<std::size_t, std::vector<unsigned char>>> frags;   // (offset, bytes) as they came
+        std::size_t held = 0;             // bytes in frags
+        std::vector<bool> got;   // per fragment
+        uint32_t missing = 0;
+    };
+    std::map<uint64_t, Partial> partial_;   // by sender (address, port)
+    int64_t dropped_ = 0, abandoned_ = 0;
+    bool filtered_ = false;
+    std::set<std::string> accept_;
+    Admit admit_;
+};
+
+class BusTap {
+public:
+    // A whole message: channel, payload, the kernel's receive time (us).
+    using Sink = BusGather::Sink;
 
     // Joins the group of `url` (udpm://GROUP:PORT?...; recv_buf_size is
     // honoured) on a socket of its own. Throws std::runtime_error naming the
@@ -73,7 +117,7 @@ public:
     // filter.
     void accept_only(const std::set<std::string> &channels);
     // The channels accept_only() last named (empty before it).
-    const std::set<std::string> &accepted() const { return accept_; }
+    const std::set<std::string> &accepted() const { return gather_.accepted(); }
 
     // Who may send (issue 35): every whole message on an accepted channel is
     // handed on only when admit(channel, source port) says so; the rest are
@@ -81,8 +125,8 @@ public:
     // judged at its fragment 0: a foreign one is not gathered at all (its
     // later fragments, without their fragment 0, are dropped). None set:
     // every sender.
-    using Admit = std::function<bool(const std::string &channel, uint16_t source_port)>;
-    void admit_only(Admit admit) { admit_ = std::move(admit); }
+    using Admit = BusGather::Admit;
+    void admit_only(Admit admit) { gather_.admit_only(std::move(admit)); }
 
     // Waits up to timeout_ms for a datagram; true when one is queued.
     bool wait(int timeout_ms);
@@ -100,33 +144,22 @@ public:
     int64_t receive_buffer_bytes() const;
 
     // Datagrams that are not part of any message LCM would deliver.
-    int64_t dropped() const { return dropped_; }
+    int64_t dropped() const { return gather_.dropped(); }
     // Fragmented messages left unfinished (a fragment lost).
-    int64_t abandoned() const { return abandoned_; }
+    int64_t abandoned() const { return gather_.abandoned(); }
     // Bytes held now in unfinished fragmented messages: what their
     // fragments carried, at most kMaxPartial messages of kMaxMessageBytes.
-    std::size_t held_bytes() const;
+    std::size_t held_bytes() const { return gather_.held_bytes(); }
 
     // The largest message gathered from fragments: the largest the run's log
     // holds (LogReader::kMaxDataBytes, 16 MiB; the bench's largest, a scan
     // line of 8192 points, is 200 kB). liblcm's own limit is larger.
-    static constexpr std::size_t kMaxMessageBytes = 16u << 20;
+    static constexpr std::size_t kMaxMessageBytes = BusGather::kMaxMessageBytes;
     // Fragmented messages held unfinished at once, over every sender (as
     // liblcm's store, beyond it one is abandoned).
-    static constexpr std::size_t kMaxPartial = 16;
+    static constexpr std::size_t kMaxPartial = BusGather::kMaxPartial;
 
 private:
-    struct Partial {
-        uint32_t seqno = 0;
-        std::string channel;
-        std::size_t size = 0;             // the whole message's, bytes (as fragment 0 claims it)
-        bool skip = false;                // not on an accepted channel: its fragments are not kept
-        std::vector<std::pair<std::size_t, std::vector<unsigned char>>> frags;   // (offset, bytes) as they came
-        std::size_t held = 0;             // bytes in frags
-        std::vector<bool> got;   // per fragment
-        uint32_t missing = 0;
-    };
-    int take(const unsigned char *d, std::size_t n, const sockaddr_in &from, int64_t utime, const Sink &sink);
     // Reads up to `max` datagrams already queued (*read: how many), handing
     // each message they complete to `sink`; returns the messages handed.
     // wait: the first read waits for a datagram, up to the socket's
@@ -137,13 +170,9 @@ private:
     bool set_timeout(int ms);
 
     int fd_ = -1;
-    std::map<uint64_t, Partial> partial_;   // by sender (address, port)
-    int64_t dropped_ = 0, abandoned_ = 0;
+    BusGather gather_;
     std::vector<unsigned char> bufs_, ctl_;   // receive()'s datagrams and their control data
-    bool filtered_ = false;            // accept_only() was called: only accept_ is handed on
     int timeout_ms_ = 0;               // the socket's SO_RCVTIMEO, ms (0: none set; next() sets it before a read waits)
-    std::set<std::string> accept_;
-    Admit admit_;
 };
 
 }  // namespace afm

@@ -10,6 +10,9 @@ lcm:    valid messages of every channel, the channel's name and a NUL
         inputs fit the harness's scene (4 samples per block).
 calc:   the calculator's command lines from its --help texts and its test
         (host_bridge/calc/test_afm_calc.cmake), one argument per line.
+bus:    datagrams for the bus's gatherer: whole fragmented messages,
+        fragment-0 headers that claim 16 MiB, repeats, overlaps, fragments
+        out of order or without their fragment 0, two senders at once.
 lcmlog: small LCM logs written with the lcm package's EventLog: a few events
         of the bus, one cut inside its last event, and the first events of a
         recorded run (--log, when given), each below 20 KB.
@@ -199,6 +202,42 @@ def bus_messages(afm):
     ]
 
 
+def bus_seeds():
+    """Datagrams for the bus's gatherer (fuzz/fuzz_bus.cpp): an options
+    byte, then [sender][length, 2 bytes BE][datagram] records."""
+    import struct
+    fresh("bus")
+
+    def short(seq, ch, payload):
+        return struct.pack(">II", 0x4C433032, seq) + ch.encode() + b"\0" + payload
+
+    def frag(seq, size, offset, no, count, ch, payload):
+        head = struct.pack(">IIIIHH", 0x4C433033, seq, size, offset, no, count)
+        return head + ((ch.encode() + b"\0") if no == 0 else b"") + payload
+
+    def rec(sender, d):
+        return bytes([sender]) + struct.pack(">H", len(d)) + d
+
+    msg = bytes(range(256)) * 12   # 3072 bytes in 3 fragments of 1024
+    parts = [frag(7, len(msg), k * 1024, k, 3, "FW_STATE", msg[k * 1024:(k + 1) * 1024]) for k in range(3)]
+    whole = b"".join(rec(2, p) for p in parts)
+    write("bus", "short_messages", b"\x03" + rec(2, short(1, "AFM_CMD", b"\1" * 40)) + rec(3, short(2, "AFM_CMD", b"\2" * 8)))
+    write("bus", "fragmented_whole", b"\x01" + whole)
+    write("bus", "fragmented_out_of_order", b"\x00" + rec(2, parts[0]) + rec(2, parts[2]) + rec(2, parts[1]))
+    write("bus", "fragment_repeated", b"\x00" + rec(2, parts[0]) + rec(2, parts[1]) + rec(2, parts[1]) + rec(2, parts[2]))
+    write("bus", "two_senders_interleaved", b"\x02" + b"".join(rec(2, p) + rec(4, p) for p in parts))
+    claim = frag(9, 16 << 20, 0, 0, 300, "SIM_TRUTH", b"\0" * 8)   # a 40-byte header that claims 16 MiB
+    write("bus", "header_claims_16MiB", b"\x01" + b"".join(rec(k, claim) for k in range(8)))
+    write("bus", "header_claims_too_much", b"\x00" + rec(1, frag(9, (16 << 20) + 1, 0, 0, 300, "SIM_TRUTH", b"")))
+    over = frag(7, 100, 90, 1, 2, "", b"x" * 20)   # past the message's end
+    write("bus", "fragment_past_its_end", b"\x00" + rec(2, frag(7, 100, 0, 0, 2, "FW_STATE", b"a" * 50)) + rec(2, over))
+    write("bus", "fragment_without_its_zero", b"\x00" + rec(2, parts[1]) + rec(2, parts[2]))
+    write("bus", "overlapping", b"\x00" + rec(2, frag(7, 100, 0, 0, 2, "FW_STATE", b"a" * 60)) +
+          rec(2, frag(7, 100, 30, 1, 2, "", b"b" * 60)))
+    write("bus", "many_partials", b"\x00" + b"".join(rec(k % 8, frag(k, 5000, 0, 0, 5, "FW_STATE", b"z" * 100))
+                                                  for k in range(40)))
+
+
 def lcm_seeds(afm, channels):
     fresh("lcm")
     count = {}
@@ -257,6 +296,7 @@ def main():
     calc_seeds()
     lcm_seeds(afm, channels)
     lcmlog_seeds(afm, a.log)
+    bus_seeds()
     print(f"make_seeds: wrote {CORPUS}")
 
 
