@@ -27,6 +27,7 @@ Errors (a missing folder, a folder without bus.lcmlog, a log cut short or
 corrupt, a file that cannot be written) are one line on stderr naming the
 file and what is wrong; exit 2."""
 import argparse
+import textwrap
 import base64
 import contextlib
 import glob
@@ -258,10 +259,12 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parse(argv):
-    p = _Parser(prog="./afm export", description="Export a run's folder: its bus as CSV files (one per channel) "
+    from analysis import helptext
+    p = _Parser(prog="./afm export", formatter_class=argparse.RawDescriptionHelpFormatter,
+                description=helptext.text("export") + "\n\n" + textwrap.fill("Export a run's folder: its bus as CSV files (one per channel) "
                 "or as one MCAP file (JSON messages with JSON Schemas from lcmtypes/*.lcm, the frames as "
                 "foxglove.CompressedImage, the scans as foxglove.Grid) for Foxglove Studio and PlotJuggler. "
-                "From Python: from analysis import open_run (docs/data.md).",
+                "From Python: from analysis import open_run (docs/data.md).", 79),
                 epilog="Exit 0 when written; 2 with one line naming the file and what is wrong.")
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run's folder (./afm run's --out): bus.lcmlog, run.json, frames/, *.gsf")
     p.add_argument("--csv", metavar="DIR", help="write DIR/CHANNEL.csv for every channel of the log")

@@ -119,7 +119,9 @@ def calibrate(calc, files, phi, kn, Kn, write=None):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="./afm calib tilted --loops", description=__doc__.split("\n\n")[0],
+    from analysis import helptext
+    ap = argparse.ArgumentParser(prog="./afm calib tilted --loops", formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 description=helptext.text("calib") + "\n\n" + __doc__.split("\n\n")[0],
                                  epilog="the file format: docs/data.md, 'Friction loops in'")
     ap.add_argument("--loops", nargs="+", required=True, metavar="FILE", help="one CSV friction loop per set point")
     ap.add_argument("--angle-deg", type=float, required=True, help="the facet's slope phi, degrees")

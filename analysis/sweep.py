@@ -85,7 +85,8 @@ def parse_args(argv):
     p.add_argument("-h", "--help", action="store_true")
     a, rest = p.parse_known_args(argv)
     if a.help:
-        print(USAGE, end="")
+        from analysis import helptext
+        print(helptext.text("sweep") + "\n\n" + USAGE, end="")
         sys.exit(0)
     if rest:
         raise SweepError(f"unknown argument {rest[0]!r} (see ./afm sweep --help)")

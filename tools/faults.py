@@ -647,7 +647,9 @@ class Matrix:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog="\n\n".join(__doc__.split("\n\n")[1:]),
+    from analysis import helptext
+    ap = argparse.ArgumentParser(prog="./afm faults", description=helptext.text("faults") + "\n\n" + __doc__.split("\n\n")[0],
+                                 epilog="\n\n".join(__doc__.split("\n\n")[1:]),
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", nargs="+", metavar="ROW", help="rows to run (default: all; see --list)")
     ap.add_argument("--scene", default=os.path.join(SRC, "scenes", "short.yaml"), help="the scene (default scenes/short.yaml)")

@@ -11,6 +11,7 @@ cc=${AFM_FUZZ_CC:-clang-14}
 cxx=${AFM_FUZZ_CXX:-clang++-14}
 
 usage() {
+  cat "$top/docs/help/fuzz.txt"; echo   # ./afm's text for the command, then this script's own
   cat <<'TXT'
 usage: tools/fuzz.sh [TARGET...] [--seconds N] [--merge]
        tools/fuzz.sh --smoke

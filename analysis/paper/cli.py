@@ -2,6 +2,7 @@
 the runs' own data, side by side with the paper's values and the
 simulator's truth. See docs/paper.md."""
 import argparse
+import textwrap
 import concurrent.futures
 import json
 import os
@@ -10,6 +11,7 @@ import time
 
 from analysis import paths, point
 from analysis.paper import common, report
+from analysis import helptext
 from analysis.paper import exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze, exp_tilted, exp_trench
 
 EXPERIMENTS = [exp_tilted, exp_lines, exp_rod, exp_squeeze, exp_trench, exp_flex, exp_drift, exp_landmark, exp_pattern]
@@ -20,12 +22,12 @@ USAGE_EPILOG = "experiments: " + ", ".join(f"{e.NAME} ({e.FIGURES})" for e in EX
 
 def parse_args(argv):
     p = argparse.ArgumentParser(
-        prog="./afm paper",
-        description="Runs each of the paper's experiments as scenes under scenes/paper/, analyses the runs' own "
+        prog="./afm paper", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=helptext.text("paper") + "\n\n" + textwrap.fill("Runs each of the paper's experiments as scenes under scenes/paper/, analyses the runs' own "
                     "signals, scans and firmware outputs with the firmware's own solvers, and writes report.html, "
                     "report.md and paper.json into --out, one folder per experiment with its runs and figures. "
                     "A table on stdout; exit 1 if any figure is outside its stated tolerance, 2 on bad arguments "
-                    "or a run that failed.",
+                    "or a run that failed.", 79),
         epilog=USAGE_EPILOG)
     p.add_argument("--only", nargs="+", metavar="NAME", help="run these experiments only")
     p.add_argument("--out", default=os.path.join(paths.ROOT, "runs", "paper"), help="output folder (default runs/paper)")

@@ -12,6 +12,7 @@
 // difference per channel. Replay is open loop: the recorded signals are fed
 // as recorded, so past a divergence the outputs show what the new firmware
 // computes from the old run's signals, not what a new run would do.
+#include "help_replay.h"
 #include <lcm/eventlog.h>
 
 #include <algorithm>
@@ -750,6 +751,7 @@ int main(int argc, char **argv)
         return 2;
     }
     if (help) {
+        std::printf("%s\n\nThe program behind it (--compare is ./afm's, around it):\n", kAfmHelpReplay);
         std::fputs(kUsage, stdout);
         return 0;
     }

@@ -334,6 +334,33 @@ class Commands(unittest.TestCase):
         table = readme_table_commands(open(os.path.join(SRC, "README.md")).read())
         self.assertEqual(sorted(listed - table), [], "commands ./afm --help lists that README's commands table does not")
 
+    def test_one_help_file_per_command_read_by_afm_and_the_program(self):
+        # docs/help/COMMAND.txt is what ./afm COMMAND --help prints (before
+        # anything is built) and what the command's own program prints at
+        # the head of its --help; ./afm --help is afm.txt with every
+        # "@COMMAND" line replaced by that file
+        afm = os.path.join(SRC, "afm")
+        help_dir = os.path.join(SRC, "docs", "help")
+        files = sorted(f[:-4] for f in os.listdir(help_dir) if f.endswith(".txt") and f != "afm.txt")
+        overview = open(os.path.join(help_dir, "afm.txt")).read()
+        self.assertEqual(sorted(l[1:] for l in overview.splitlines() if l.startswith("@")), files,
+                         "afm.txt names each command's file once")
+        whole = subprocess.run([afm, "--help"], capture_output=True, text=True, timeout=60).stdout
+        for c in files:
+            text = open(os.path.join(help_dir, c + ".txt")).read().rstrip("\n")
+            self.assertIn(text, whole, c)
+        for c in ("demo", "test", "run", "check", "view", "spy", "setup", "build"):
+            p = subprocess.run([afm, c, "--help"], capture_output=True, text=True, timeout=60)
+            self.assertEqual(p.returncode, 0, (c, p.stderr))
+            self.assertEqual(p.stdout.rstrip("\n"), open(os.path.join(help_dir, c + ".txt")).read().rstrip("\n"), c)
+        # the programs: the Python commands' argparse and afm_replay read the same file
+        progs = {"sweep": [afm, "sweep", "--help"], "paper": [afm, "paper", "--help"], "export": [afm, "export", "--help"],
+                 "faults": [afm, "faults", "--help"], "fuzz": [afm, "fuzz", "--help"], "replay": [os.path.join(benchtest.BUILD, "host_bridge", "afm_replay"), "--help"]}
+        for c, argv in progs.items():
+            p = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+            self.assertEqual(p.returncode, 0, (c, p.stderr))
+            self.assertIn(open(os.path.join(help_dir, c + ".txt")).read().rstrip("\n"), p.stdout, c)
+
     def test_readme_keeps_the_contract(self):
         readme = open(os.path.join(SRC, "README.md")).read()
         self.assertIn("./afm demo", readme)
