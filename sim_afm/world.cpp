@@ -623,13 +623,11 @@ std::vector<double> World::wire_axis_heights_nm() const
     return out;
 }
 
-bool World::trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *to_centre, double *depth) const
+template <class F> bool World::first_trench_piece(const Eigen::Vector2d &q, F accept) const
 {
-    // The V at least as wide as the wire, and the wire's axis over its
-    // opening (within half its width of the path: its weight and adhesion
-    // then take it down the wall); the way to the groove's path (across it)
-    // and the groove's depth there.
-    const double tg = std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    // The pieces of every trench's path near q (the trench grid), each as
+    // the point c of its path nearest q, the groove's depth D there and its
+    // direction; the first that `accept(c, D, along)` takes ends the search.
     scratch3_.clear();
     trench_grid_.query(q, trench_reach_nm_ + trench_step_nm_, scratch3_);
     for (int k : scratch3_) {
@@ -639,13 +637,24 @@ bool World::trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *
         const double a = segment_param(t.p[pi - 1], t.p[pi], q);
         const Eigen::Vector2d c = t.p[pi - 1] + a * (t.p[pi] - t.p[pi - 1]);
         const double D = (1 - a) * t.depth_nm[pi - 1] + a * t.depth_nm[pi];
-        if (2 * tg * D < d_nm || (q - c).norm() >= tg * D) continue;
-        const Eigen::Vector2d along = (t.p[pi] - t.p[pi - 1]).normalized();
+        if (accept(c, D, Eigen::Vector2d((t.p[pi] - t.p[pi - 1]).normalized()))) return true;
+    }
+    return false;
+}
+
+bool World::trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *to_centre, double *depth) const
+{
+    // The V at least as wide as the wire, and the wire's axis over its
+    // opening (within half its width of the path: its weight and adhesion
+    // then take it down the wall); the way to the groove's path (across it)
+    // and the groove's depth there.
+    const double tg = std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    return first_trench_piece(q, [&](const Eigen::Vector2d &c, double D, const Eigen::Vector2d &along) {
+        if (2 * tg * D < d_nm || (q - c).norm() >= tg * D) return false;
         *to_centre = (c - q) - (c - q).dot(along) * along;   // across the groove only: it does not slide along it
         *depth = D;
         return true;
-    }
-    return false;
+    });
 }
 
 void World::settle_rods()
@@ -706,23 +715,15 @@ bool World::trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &
     // tan(beta) (capped at 1000 when theta + beta reaches 90 deg).
     if (trench_points_.empty()) return false;
     const double tg = std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
-    scratch3_.clear();
-    trench_grid_.query(q, trench_reach_nm_ + trench_step_nm_, scratch3_);
-    for (int k : scratch3_) {
-        const auto &[ti, pi] = trench_points_[k];
-        if (pi == 0) continue;
-        const Trench &t = trenches_[ti];
-        const double a = segment_param(t.p[pi - 1], t.p[pi], q);
-        const Eigen::Vector2d c = t.p[pi - 1] + a * (t.p[pi] - t.p[pi - 1]);
-        const double width = 2 * tg * ((1 - a) * t.depth_nm[pi - 1] + a * t.depth_nm[pi]);
-        if (width < d_nm || (q - c).norm() > 0.5 * (width - d_nm)) continue;
-        along = (t.p[pi] - t.p[pi - 1]).normalized();
+    return first_trench_piece(q, [&](const Eigen::Vector2d &c, double D, const Eigen::Vector2d &dir) {
+        const double width = 2 * tg * D;
+        if (width < d_nm || (q - c).norm() > 0.5 * (width - d_nm)) return false;
+        along = dir;
         const double theta = M_PI / 2 - std::atan(tg), beta = std::atan(scene_.wire_model.mu);
         hold = theta + beta < M_PI / 2 - 1e-3 ? std::tan(theta + beta) / std::tan(beta) : 1000.0;
         hold = std::min(hold, 1000.0);
         return true;
-    }
-    return false;
+    });
 }
 
 void World::engrave()

@@ -221,6 +221,8 @@ private:
     // substrate plane (R on the flat), for the images.
     void settle_rods();
     bool trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *to_centre, double *depth) const;
+    // The trench pieces near q, nearest point, depth and direction, until accept() takes one (trench_seat, trench_hold).
+    template <class F> bool first_trench_piece(const Eigen::Vector2d &q, F accept) const;
     std::vector<double> rod_axis_z_;
 public:
     double wire_axis_height_nm(std::size_t i) const;   // wire i's axis above the substrate plane (R unless sunk), nm

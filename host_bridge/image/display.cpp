@@ -213,6 +213,18 @@ cv::Rect Display::trench_changed_box(const DisplayTrench &t, std::size_t from) c
 
 cv::Rect Display::footprint(const DisplayTrench &t) const { return trench_changed_box(t, 0); }
 
+std::string flag_words(int flags)
+{
+    std::string w;
+    if (flags & fw_state_t::FLAG_CONTACT) w += "PUSH ";
+    if (flags & (fw_state_t::FLAG_SAT_SN | fw_state_t::FLAG_SAT_SL)) w += "SATURATED ";
+    if (flags & fw_state_t::FLAG_FX_UNOBSERVABLE) w += "Fx-FALLBACK ";
+    if (flags & fw_state_t::FLAG_SQUEEZE) w += "SQUEEZE ";
+    if (flags & fw_state_t::FLAG_RIDEOVER) w += "RIDE-OVER ";
+    if (flags & fw_state_t::FLAG_INTERLOCK) w += "INTERLOCK ";
+    return w;
+}
+
 void Display::draw(cv::Mat &img, const DisplayObject &p, const cv::Rect &clip) const
 {
     const cv::Rect r = footprint(p) & clip;
@@ -464,13 +476,7 @@ cv::Mat Display::frame(const Overlay &o) const
     char text[128];
     std::snprintf(text, sizeof text, "t %.2f s  |F| %.2f nN", o.t_s, std::hypot(o.force_nN[0], o.force_nN[1]));
     put_label(img, text, cv::Point(4, 12), 0.8, kWhite);
-    std::string flags;
-    if (o.flags & fw_state_t::FLAG_CONTACT) flags += "PUSH ";
-    if (o.flags & (fw_state_t::FLAG_SAT_SN | fw_state_t::FLAG_SAT_SL)) flags += "SATURATED ";
-    if (o.flags & fw_state_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
-    if (o.flags & fw_state_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
-    if (o.flags & fw_state_t::FLAG_RIDEOVER) flags += "RIDE-OVER ";
-    if (o.flags & fw_state_t::FLAG_INTERLOCK) flags += "INTERLOCK ";
+    const std::string flags = flag_words(o.flags);
     if (!flags.empty()) put_label(img, flags, cv::Point(4, 24), 0.8, kYellow);
     // The hand's gauge, bottom middle (right of the scale bar): a circle of
     // hand_scale_N, an arrow for the force on the stylus (at most twice out).

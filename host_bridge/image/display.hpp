@@ -59,6 +59,11 @@ struct Field {                // the imaged square
     double y_of(int row) const { return y0_nm + (px - 1 - row + 0.5) * pitch(); }
 };
 
+// The words a frame writes for a block's flags (fw_state_t FLAG_*), each
+// followed by a space ("" for none): the one list, for the display's frame
+// and the renderer's overlay.
+std::string flag_words(int flags);
+
 struct Overlay {              // what is drawn over the image in one frame
     double t_s = 0;
     double tip_nm[2] = {0, 0};

@@ -292,13 +292,7 @@ void draw_legend(Canvas &c, const Overlay &o)
 void draw_status(Canvas &c, const Overlay &o)
 {
     c.label(fmt("t %.2f s", o.t_s), cv::Point(4, c.text.cap_px + 5), kWhite);
-    std::string flags;
-    if (o.flags & fw_state_t::FLAG_CONTACT) flags += "PUSH ";
-    if (o.flags & (fw_state_t::FLAG_SAT_SN | fw_state_t::FLAG_SAT_SL)) flags += "SATURATED ";
-    if (o.flags & fw_state_t::FLAG_FX_UNOBSERVABLE) flags += "Fx-FALLBACK ";
-    if (o.flags & fw_state_t::FLAG_SQUEEZE) flags += "SQUEEZE ";
-    if (o.flags & fw_state_t::FLAG_RIDEOVER) flags += "RIDE-OVER ";
-    if (o.flags & fw_state_t::FLAG_INTERLOCK) flags += "INTERLOCK ";
+    const std::string flags = flag_words(o.flags);   // the display's one list
     if (!flags.empty()) c.label(flags, cv::Point(4, c.text.cap_px + 5 + c.text.line_px), kYellow);
 }
 
