@@ -62,12 +62,12 @@ def more_runs(size, dirs, exp_dir):
             common.Run(name="push_calibrated", scene="lines_push.yaml", settings={"include": cal["include"]}, cost_s=3)]
 
 
-def line_x(run_dir):
+def line_x(run_dir, min_depth_nm=0.5):
     """The line's x (nm, frame A) in the run's final scan at 270 deg: see line_at."""
-    return line_at(run_dir, 270)
+    return line_at(run_dir, 270, min_depth_nm)
 
 
-def line_at(run_dir, angle):
+def line_at(run_dir, angle, min_depth_nm=0.5):
     """The line in the run's final scan, cut at this scan angle: the
     depth-weighted centre of the groove in the mean profile across the
     cut's middle, along the frame-A axis the lever's x_C lies on (x at 270
@@ -81,8 +81,8 @@ def line_at(run_dir, angle):
     else:
         coord, prof = ys, h[:, np.abs(xs * w[0]) < CUT_HALF_NM].mean(axis=1)
     i = int(prof.argmin())
-    if prof[i] > -0.5:
-        raise common.PaperError(f"{run_dir}/scan_final.gsf: no groove deeper than 0.5 nm")
+    if prof[i] > -min_depth_nm:
+        raise common.PaperError(f"{run_dir}/scan_final.gsf: no groove deeper than {min_depth_nm} nm")
     near = (np.abs(coord - coord[i]) < 40) & (prof < 0)
     wt = -prof[near]
     return float((coord[near] * wt).sum() / wt.sum()), coord, prof
@@ -159,8 +159,9 @@ def analyse(dirs, exp_dir, size):
                             "middle; truth: the simulator's apex against the card's (SIM_TRUTH); 3 nm: the scan's "
                             "2 nm pixels"),
             common.Row("the same, predicted from the lines: |C_n(lines) - estimate| S_n", "nm", bench=predicted,
-                       truth=cuts["push_estimate"]["truth"], tolerance=0.15, relative=True,
-                       note=f"C_n as the lines gave it, S_n = {sn:.2f} V the card's photodiode while cutting"),
+                       truth=cuts["push_estimate"]["truth"], tolerance=2.0,
+                       note=f"C_n as the lines gave it, S_n = {sn:.2f} V the card's photodiode while cutting; 2 nm: "
+                            "the lines' C_n is good to about 1 %, which is S_n x 0.3 nm/V here, and a scan pixel"),
             common.Row("apex error on a cut, C_n calibrated", "nm", bench=cuts["push_calibrated"]["bench"],
                        truth=cuts["push_calibrated"]["truth"], tolerance=3.0,
                        note=f"the same cut with include: {INCLUDE} (written by afm_calc calib lines --write)"),
@@ -254,7 +255,7 @@ def cut_apex(run_dir):
     (SIM_TRUTH, the same blocks). bench: |line - card|; truth: |simulator -
     card|; sn: the card's median S_n (V) there."""
     from analysis import afmlog
-    x_line, xs, prof = line_x(run_dir)
+    x_line, xs, prof = line_x(run_dir, min_depth_nm=0.2)   # a light cut: a flat substrate shows 0.2 nm clearly
     log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE", "SIM_TRUTH"})
     tip, truth = (afmlog.by_seq(log.get(c, [])) for c in ("FW_STATE", "SIM_TRUTH"))
     seqs = [s for s in sorted(tip) if s in truth and tip[s].force_nN[2] > 10.0 and abs(tip[s].tip_nm[1]) < CUT_HALF_NM]
