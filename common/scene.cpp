@@ -234,6 +234,52 @@ void read_effects(const Reader &r, const YAML::Node &root, Scene &s)
     }
 }
 
+// sample.substrate: a name, or a measured map {gsf: FILE, material:
+// glass|polycarbonate (default glass)}; FILE was made absolute against the
+// scene's directory by resolved_yaml.
+void read_substrate(const Reader &r, const YAML::Node &smp, Scene &s)
+{
+    const YAML::Node sub = smp["substrate"];
+    if (!sub.IsDefined() || !sub.IsMap()) {
+        s.substrate = r.str(smp, "sample", "substrate", nullptr, {"glass", "tilted_glass", "polycarbonate"});
+        return;
+    }
+    r.only_keys(sub, "sample.substrate", {"gsf", "material"});
+    const std::string glass = "glass";
+    s.substrate = r.str(sub, "sample.substrate", "material", &glass, {"glass", "polycarbonate"});
+    s.substrate_gsf = r.str(sub, "sample.substrate", "gsf", nullptr);
+    if (s.substrate_gsf.empty()) r.fail("sample.substrate.gsf", "must name a GSF file, got ''");
+    try {
+        s.substrate_map = std::make_shared<const GsfGrid>(read_gsf(s.substrate_gsf));
+    } catch (const std::runtime_error &e) {
+        r.fail("sample.substrate.gsf", e.what());
+    }
+    // A height the scanner's z range could not follow is not a substrate.
+    for (const float v : s.substrate_map->values)
+        if (!(std::fabs(v) * 1e9 <= kScannerRangeZ_nm / 2)) {
+            char b[64];
+            std::snprintf(b, sizeof b, "%.6g m", static_cast<double>(v));
+            r.fail("sample.substrate.gsf", s.substrate_gsf + ": a height of " + b + " is outside the scanner's z range, +-" +
+                                               std::to_string(static_cast<int>(kScannerRangeZ_nm / 2)) + " nm");
+        }
+}
+
+// The map must cover the field (frame A, nm); outside the map the tip meets
+// its nearest edge's heights (World::base_measured).
+void check_map_covers_field(const Reader &r, const Scene &s)
+{
+    const GsfGrid &g = *s.substrate_map;
+    const double x0 = g.xoff_m * 1e9, y0 = g.yoff_m * 1e9, x1 = x0 + g.xreal_m * 1e9, y1 = y0 + g.yreal_m * 1e9;
+    const double h = s.field_nm / 2, cx = s.field_center_nm.x, cy = s.field_center_nm.y;
+    const double tol = 1e-6 * s.field_nm;   // the header's 9 significant digits
+    if (x0 > cx - h + tol || x1 < cx + h - tol || y0 > cy - h + tol || y1 < cy + h - tol) {
+        char b[256];
+        std::snprintf(b, sizeof b, "%s covers x [%.6g, %.6g] nm, y [%.6g, %.6g] nm; the field is x [%.6g, %.6g], y [%.6g, %.6g] nm",
+                      s.substrate_gsf.c_str(), x0, x1, y0, y1, cx - h, cx + h, cy - h, cy + h);
+        r.fail("sample.substrate.gsf", std::string(b) + ": the map must cover the field");
+    }
+}
+
 // sample: substrate, field, contacts, drift, roughness, wires, lithography.
 void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
 {
@@ -244,7 +290,7 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
                                 "contact_stiffness_N_per_m", "photodiode_noise_V", "temperature_K",
                                 "drift_nm_per_min", "drift_walk_nm_per_sqrt_min", "slope_deg", "wire",
                                 "lithography", "roughness_rms_nm", "roughness_corr_nm"});
-    s.substrate = r.str(smp, "sample", "substrate", nullptr, {"glass", "tilted_glass", "polycarbonate"});
+    read_substrate(r, smp, s);
     if (s.substrate == "tilted_glass") {
         s.slope_deg = r.num(smp, "sample", "slope_deg", nullptr, 0, 45, true);
     } else if (smp["slope_deg"].IsDefined()) {
@@ -301,6 +347,7 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
             r.fail("sample.field_center_nm", "the field (field_nm " + Reader::show(smp["field_nm"]) + " around " +
                                                  Reader::show(smp["field_center_nm"]) + ") must lie inside the scanner's range, +-45000 nm");
     }
+    if (s.substrate_map) check_map_covers_field(r, s);
     s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0});
     s.particle_substrate = read_contact(r, smp["particle_substrate"], "sample.particle_substrate", ContactSpec{0.3, 3.0, 0, 0});
     s.particle_contact_stiffness_N_per_m = r.num(smp, "sample", "contact_stiffness_N_per_m", &d.particle_contact_stiffness_N_per_m, 0, 1e4, true);
@@ -942,6 +989,14 @@ YAML::Node resolved_yaml(const std::string &path)
             }
         }
         root.remove("include");
+    }
+    // sample.substrate.gsf, like the includes, relative to the scene
+    const YAML::Node sample = root["sample"];
+    if (sample.IsDefined() && sample.IsMap() && sample["substrate"].IsDefined() && sample["substrate"].IsMap()) {
+        YAML::Node sub = root["sample"]["substrate"];
+        const YAML::Node gsf = sub["gsf"];
+        if (gsf.IsDefined() && gsf.IsScalar() && !gsf.Scalar().empty() && gsf.Scalar()[0] != '/')
+            sub["gsf"] = dir_of(path) + "/" + gsf.Scalar();
     }
     // (Indexing a node by a key turns a sequence into a mapping: look first.)
     const YAML::Node objects = root["objects"];

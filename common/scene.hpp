@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -15,6 +16,7 @@ extern "C" {
 #include "fw_paper_probe.h"
 }
 
+#include "gsf.hpp"
 #include "process.hpp"
 
 namespace afm {
@@ -282,6 +284,12 @@ struct Scene {
     std::vector<std::string> expect;
     // sample
     std::string substrate = "glass";   // glass, tilted_glass or polycarbonate
+    // A measured substrate (sample.substrate: {gsf: FILE, material: ...}):
+    // the file's absolute path and its heights (m, read and checked once by
+    // load_scene: finite, at most kGsfMaxRes square, covering the field);
+    // empty / null for a named substrate. `substrate` is then the material.
+    std::string substrate_gsf;
+    std::shared_ptr<const GsfGrid> substrate_map;
     double slope_deg = 0.0;             // tilted_glass: surface height = -y tan(slope) (rises towards -y, frame A)
     double field_nm = 5000.0;           // square field side, centred on field_center_nm
     Vec2 field_center_nm;

@@ -72,6 +72,11 @@ World::World(const Scene &s)
         base_ = &World::base_plane;
         normal_at_ = &World::normal_plane;
     }
+    if (s.substrate_map) {
+        measured_ = std::make_unique<MeasuredSurface>(*s.substrate_map);
+        base_ = &World::base_measured;
+        normal_at_ = &World::normal_measured;
+    }
 
     const Vec2 start = s.start_nm();
     piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
@@ -817,6 +822,57 @@ Eigen::Vector3d World::normal_rough(const Eigen::Vector2d &q) const
     return Eigen::Vector3d(-g.x(), tan_slope_ - g.y(), 1.0).normalized();   // height -y tan + r(q)
 }
 
+Eigen::Vector3d World::normal_measured(const Eigen::Vector2d &q) const
+{
+    Eigen::Vector2d g = measured_->gradient(q);
+    if (rough_) g += rough_->gradient(q);
+    return Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
+}
+
+MeasuredSurface::MeasuredSurface(const GsfGrid &g)
+    : nx_(g.xres), ny_(g.yres), dx_nm_(g.xreal_m * 1e9 / g.xres), dy_nm_(g.yreal_m * 1e9 / g.yres)
+{
+    x0_nm_ = g.xoff_m * 1e9 + 0.5 * dx_nm_;
+    ytop_nm_ = (g.yoff_m + g.yreal_m) * 1e9 - 0.5 * dy_nm_;
+    h_nm_.reserve(g.values.size());
+    for (const float v : g.values) h_nm_.push_back(static_cast<double>(v) * 1e9);   // m -> nm
+}
+
+void MeasuredSurface::cell(const Eigen::Vector2d &q, int *i, int *j, double *t, double *u, bool *out_x, bool *out_y) const
+{
+    double fx = (q.x() - x0_nm_) / dx_nm_, fy = (ytop_nm_ - q.y()) / dy_nm_;
+    *out_x = !(fx >= 0 && fx <= nx_ - 1);
+    *out_y = !(fy >= 0 && fy <= ny_ - 1);
+    fx = std::clamp(fx, 0.0, nx_ - 1.0);
+    fy = std::clamp(fy, 0.0, ny_ - 1.0);
+    *i = std::min(static_cast<int>(fx), nx_ - 2);
+    *j = std::min(static_cast<int>(fy), ny_ - 2);
+    *t = fx - *i;
+    *u = fy - *j;
+}
+
+double MeasuredSurface::height(const Eigen::Vector2d &q) const
+{
+    int i, j;
+    double t, u;
+    bool ox, oy;
+    cell(q, &i, &j, &t, &u, &ox, &oy);
+    const double *r0 = &h_nm_[static_cast<std::size_t>(j) * nx_ + i], *r1 = r0 + nx_;
+    return (1 - u) * ((1 - t) * r0[0] + t * r0[1]) + u * ((1 - t) * r1[0] + t * r1[1]);
+}
+
+Eigen::Vector2d MeasuredSurface::gradient(const Eigen::Vector2d &q) const
+{
+    int i, j;
+    double t, u;
+    bool ox, oy;
+    cell(q, &i, &j, &t, &u, &ox, &oy);
+    const double *r0 = &h_nm_[static_cast<std::size_t>(j) * nx_ + i], *r1 = r0 + nx_;
+    const double dhdx = ((1 - u) * (r0[1] - r0[0]) + u * (r1[1] - r1[0])) / dx_nm_;
+    const double dhdy = -((1 - t) * (r1[0] - r0[0]) + t * (r1[1] - r0[1])) / dy_nm_;   // rows run down y
+    return Eigen::Vector2d(ox ? 0.0 : dhdx, oy ? 0.0 : dhdy);
+}
+
 RoughSurface::RoughSurface(double rms_nm, double corr_nm, uint64_t seed)
 {
     // Its own stream, derived from the scene seed ("rough" in ASCII).
@@ -873,6 +929,7 @@ std::vector<EffectClock> World::clocks() const
 std::vector<std::string> World::models_built() const
 {
     std::vector<std::string> m = {"scanner", "lever", "substrate:" + scene_.substrate};
+    if (measured_) m.push_back("substrate_map");
     if (rough_) m.push_back("roughness");
     if (!particles_.empty()) m.push_back("particles");
     if (!wires_.empty())

@@ -102,6 +102,28 @@ private:
     double amp_ = 0;                   // rms sqrt(2 / kWaves), nm
 };
 
+// A measured substrate (sample.substrate: {gsf: FILE}): the map's heights
+// (m -> nm) interpolated bilinearly between its pixel centres (the GSF's
+// grid: common/gsf.hpp), in the sample frame; beyond the outermost pixel
+// centres (the scene reader makes the map cover the field, not the whole
+// scanner range) the nearest edge's heights continue, flat across it.
+class MeasuredSurface {
+public:
+    explicit MeasuredSurface(const GsfGrid &g);
+    double height(const Eigen::Vector2d &q) const;          // nm, sample frame
+    Eigen::Vector2d gradient(const Eigen::Vector2d &q) const;   // of height(), 0 across an edge
+
+private:
+    // The cell of q: column i, row j (row 0 at the top, the largest y), the
+    // fractions t (along x) and u (down the rows) in it, and whether q lies
+    // beyond the map in x / in y.
+    void cell(const Eigen::Vector2d &q, int *i, int *j, double *t, double *u, bool *out_x, bool *out_y) const;
+    int nx_ = 0, ny_ = 0;
+    double x0_nm_ = 0, ytop_nm_ = 0;   // centre of the top-left pixel, nm
+    double dx_nm_ = 1, dy_nm_ = 1;     // pixel pitch, nm
+    std::vector<double> h_nm_;         // ny_ rows of nx_, row 0 at the top, nm
+};
+
 // Wall time spent in one named effect (or core stage) of the simulator.
 struct EffectClock {
     std::string name;
@@ -203,9 +225,12 @@ private:
     double base_height(const Eigen::Vector2d &q) const { return (this->*base_)(q); }   // sample frame
     double base_plane(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_; }
     double base_rough(const Eigen::Vector2d &q) const { return -q.y() * tan_slope_ + rough_->height(q); }
+    // a measured substrate (never tilted), roughness added when listed
+    double base_measured(const Eigen::Vector2d &q) const { return measured_->height(q) + (rough_ ? rough_->height(q) : 0.0); }
     // Unit normal of the substrate (without objects) at q, sample frame.
     Eigen::Vector3d normal_plane(const Eigen::Vector2d &) const { return normal_; }
     Eigen::Vector3d normal_rough(const Eigen::Vector2d &q) const;
+    Eigen::Vector3d normal_measured(const Eigen::Vector2d &q) const;
     double groove_depth(const Eigen::Vector2d &q) const;    // lithography, sample frame
     // Rods sink into trenches (physics.md section 9): a rigid rod whose axis
     // lies, over at least half its length, in a V-groove at least as wide as
@@ -318,6 +343,7 @@ private:
     double (World::*base_)(const Eigen::Vector2d &) const;
     Eigen::Vector3d (World::*normal_at_)(const Eigen::Vector2d &) const;
     std::unique_ptr<RoughSurface> rough_;   // only when the scene lists roughness
+    std::unique_ptr<MeasuredSurface> measured_;   // only on a measured substrate
     std::vector<std::unique_ptr<SampleEffect>> per_sample_;
     std::mt19937_64 rng_;
     // The clocks (clocks()): sums over the timed samples only.

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "afm/fw_state_t.hpp"
+#include "gsf.hpp"
 
 namespace afm {
 
@@ -530,45 +531,22 @@ bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, con
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const cv::Rect &region, const std::string &title,
                std::string *err, const GsfMeta &meta)
 {
-    // Gwyddion Simple Field 1.0: a text header of "Key = value" lines, NUL
-    // padding to a multiple of 4 bytes (at least one NUL), then XRes * YRes
-    // little-endian float32 values, row by row from the top.
-    char hdr[512];
-    std::snprintf(hdr, sizeof hdr,
-                  "Gwyddion Simple Field 1.0\nXRes = %d\nYRes = %d\nXReal = %.9g\nYReal = %.9g\nXOffset = %.9g\n"
-                  "YOffset = %.9g\nXYUnits = m\nZUnits = %s\nTitle = %s\n",
-                  h_nm.cols, h_nm.rows, region.width * f.pitch() * 1e-9, region.height * f.pitch() * 1e-9,
-                  (f.x0_nm + region.x * f.pitch()) * 1e-9, (f.y0_nm + (f.px - region.y - region.height) * f.pitch()) * 1e-9,
-                  meta.z_units.c_str(), title.c_str());
-    std::string header(hdr);
-    for (const auto &[key, value] : meta.keys) {
-        if (key.empty() || key.find_first_of(" =\n\r\t") != std::string::npos || value.find_first_of("\n\r") != std::string::npos) {
-            if (err) *err = path + ": GSF header key '" + key + "' or its value cannot be written (space, '=' or a line break)";
-            return false;
-        }
-        header += key + " = " + value + "\n";
-    }
-    const std::size_t pad = 4 - header.size() % 4;
-    header.append(pad, '\0');
-    std::ofstream out(path, std::ios::binary);
-    if (!out) {
-        if (err) *err = "cannot open " + path + " for writing";
-        return false;
-    }
-    out.write(header.data(), static_cast<std::streamsize>(header.size()));
-    static_assert(sizeof(float) == 4, "GSF stores float32");
+    // The format is common/gsf.hpp's: here only the grid, its place in the
+    // field (row 0 at the top) and the values' unit.
+    GsfGrid g;
+    g.xres = h_nm.cols;
+    g.yres = h_nm.rows;
+    g.xreal_m = region.width * f.pitch() * 1e-9;
+    g.yreal_m = region.height * f.pitch() * 1e-9;
+    g.xoff_m = (f.x0_nm + region.x * f.pitch()) * 1e-9;
+    g.yoff_m = (f.y0_nm + (f.px - region.y - region.height) * f.pitch()) * 1e-9;
+    g.z_units = meta.z_units;
+    g.title = title;
+    g.keys = meta.keys;
+    g.values.reserve(static_cast<std::size_t>(h_nm.rows) * static_cast<std::size_t>(h_nm.cols));
     for (int r = 0; r < h_nm.rows; ++r)
-        for (int c = 0; c < h_nm.cols; ++c) {
-            const float v = static_cast<float>(h_nm.at<float>(r, c) * meta.scale);
-            unsigned char b[4];
-            std::memcpy(b, &v, 4);   // x86-64 and Cortex hosts are little-endian; GSF is little-endian
-            out.write(reinterpret_cast<const char *>(b), 4);
-        }
-    if (!out) {
-        if (err) *err = "write failed on " + path;
-        return false;
-    }
-    return true;
+        for (int c = 0; c < h_nm.cols; ++c) g.values.push_back(static_cast<float>(h_nm.at<float>(r, c) * meta.scale));
+    return write_gsf_grid(path, g, err);
 }
 
 cv::Mat contact_sheet(const std::vector<cv::Mat> &frames, int cols)

@@ -158,7 +158,7 @@ struct GsfMeta {
     std::string z_units = "m";
 };
 
-// Writes a Gwyddion Simple Field (.gsf) file: heights in nm -> metres, the
+// Writes a Gwyddion Simple Field (.gsf) file (the format: common/gsf.hpp): heights in nm -> metres, the
 // field's physical size, units m. Returns false (and sets *err) on failure.
 bool write_gsf(const std::string &path, const cv::Mat &h_nm, const Field &f, const std::string &title, std::string *err);
 // The same for a part of the field: `region` in the field's pixels (row 0 at

@@ -11,6 +11,7 @@ import re
 import subprocess
 import unittest
 
+import numpy as np
 import yaml
 from PIL import Image
 
@@ -19,6 +20,7 @@ from analysis import afmlog
 from analysis import gsf
 
 TOL_NM = 5.0
+TOL_MAP_NM = 0.1   # a fresh scan of a smooth measured substrate against the map
 
 
 def trajectories(log):
@@ -278,6 +280,56 @@ class FromANotebook(unittest.TestCase):
         self.assertEqual(three, "3")
         self.assertEqual(n, n_seq)
         self.assertEqual(module, "numpy")
+
+
+class MeasuredSubstrate(unittest.TestCase):
+    """A scene on a measured substrate (sample.substrate: {gsf: FILE}): the
+    fresh scan at the run's end reproduces the map. The map is smooth (a
+    10 nm hill 400 nm wide on a gentle slope), so the tip's dilation and the
+    bilinear interpolation between its 37.5 nm pixels stay far below the
+    tolerance."""
+
+    @staticmethod
+    def hill_nm(x, y):
+        return 10.0 * np.exp(-(x ** 2 + (y - 200.0) ** 2) / (2 * 400.0 ** 2)) + 0.002 * x
+
+    def write_map(self, path, n=65, side_nm=2400.0):
+        # a GSF written from the format's description (not the bench's writer)
+        pitch = side_nm / n
+        xs = -side_nm / 2 + (np.arange(n) + 0.5) * pitch
+        ys = side_nm / 2 - (np.arange(n) + 0.5) * pitch          # row 0 at the top
+        z = self.hill_nm(xs[None, :], ys[:, None]) * 1e-9
+        head = (f"Gwyddion Simple Field 1.0\nXRes = {n}\nYRes = {n}\nXReal = {side_nm * 1e-9!r}\nYReal = {side_nm * 1e-9!r}\n"
+                f"XOffset = {-side_nm / 2 * 1e-9!r}\nYOffset = {-side_nm / 2 * 1e-9!r}\nXYUnits = m\nZUnits = m\n").encode()
+        head += b"\0" * (4 - len(head) % 4)
+        with open(path, "wb") as f:
+            f.write(head + z.astype("<f4").tobytes())
+
+    def test_fresh_scan_reproduces_the_map(self):
+        text = open(benchtest.scene("short.yaml")).read()
+        spec = yaml.safe_load(text)
+        spec["name"] = "measured-substrate"
+        spec["duration_s"] = 0.2
+        spec["sample"]["substrate"] = {"gsf": "hill.gsf"}           # beside the scene: relative to it
+        spec["effects"] = ["adhesion", "tip_convolution"]
+        spec["objects"] = {"particles": []}
+        spec["operator"] = {"load_nN": 5, "speed_nm_per_s": 2000, "path_nm": [[0, -700], [0, -300]]}
+        spec["outputs"] = {"image_px": 64}
+        path = benchtest.write_scene(yaml.safe_dump(spec), "measured")
+        self.write_map(os.path.join(os.path.dirname(path), "hill.gsf"))
+        out = os.path.join(os.path.dirname(path), "out")
+        code, _, err, rj = benchtest.run(path, out, "--no-verdict")
+        self.assertEqual(code, 0, err)
+        self.assertIn("substrate_map", rj["sim"]["models_built"])
+        header, z = gsf.read(os.path.join(out, "scan_final.gsf"))
+        xs, ys = gsf.axes(header)
+        want = self.hill_nm(xs[None, :] * 1e9, ys[:, None] * 1e9)
+        err_nm = np.abs(z * 1e9 - want)
+        print(f"measured substrate: scan_final vs the map: max {err_nm.max():.3f} nm, rms "
+              f"{np.sqrt(np.mean(err_nm ** 2)):.3f} nm over {z.size} pixels (map 0..{want.max():.2f} nm)")
+        self.assertGreater(np.ptp(z) * 1e9, 9.0)     # the hill is imaged, not a flat plane
+        self.assertLess(err_nm.max(), TOL_MAP_NM)
+        benchtest.cleanup(os.path.dirname(path))
 
 
 class RealTime(unittest.TestCase):
