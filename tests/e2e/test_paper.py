@@ -125,8 +125,14 @@ class Reduced(unittest.TestCase):
     def test_squeeze_figs_16_17_are_measured_ride_over_loads_within_10_percent(self):
         # one point per figure at reduced size: the load ramp's dF against
         # eq. 30 (the firmware's solver), and the ramp bracketed it
-        rows = [r for r in self.data["experiments"]["squeeze"]["rows"] if r["quantity"].startswith("fig. 1") and r["unit"] == "nN"]
+        rows = [r for r in self.data["experiments"]["squeeze"]["rows"] if r["quantity"].startswith("fig. 1") and ": dF," in r["quantity"]]
         self.assertEqual(sorted(r["quantity"][:7] for r in rows), ["fig. 16", "fig. 17"])
+        # the card's push judgement beside each: its first contact's load against the measured dF, within 10 %
+        judged = [r for r in self.data["experiments"]["squeeze"]["rows"] if "the card's push judgement" in r["quantity"]]
+        self.assertEqual(len(judged), 2, judged)
+        for r in judged:
+            self.assertIsNotNone(r["bench"], r)
+            self.assertLessEqual(abs(r["bench"]), r["tolerance"], r)
         for r in rows:
             self.assertGreater(r["truth"], 0.5, r)
             self.assertLess(abs(r["bench"] - r["truth"]), 0.1 * r["truth"], r)
