@@ -60,11 +60,13 @@ def run_with_forger(scene, out, what):
 def refused_beyond_resends(rj, p):
     """What process p refused of the run's own messages, less the
     duplicates a resend explains: when sim_afm resends a block (its resend
-    timer, under load), the card answers it again and sim_afm refuses that
-    second command as seq_past (sim_afm/main.cpp). Any other refusal, or
-    more seq_past than resends, is counted."""
+    timer, under load), the card answers it again (sim_afm refuses the
+    second command as seq_past), the operator answers the card's repeated
+    force with its pose again (the card refuses that as seq_past), and so
+    on down the lockstep. At most one seq_past per resend in each process
+    is explained; any other refusal is counted."""
     rej = rj[p]["rejected"]
-    explained = min(rej["by_reason"].get("seq_past", 0), rj["sim"].get("resends", 0)) if p == "sim" else 0
+    explained = min(rej["by_reason"].get("seq_past", 0), rj["sim"].get("resends", 0))
     return rej["total"] - explained
 
 

@@ -215,7 +215,7 @@ class View(unittest.TestCase):
 BROWSER_SCENE = """
 name: browser-test
 seed: 7
-duration_s: 6.0
+duration_s: 10.0   # realtime: the page's first frame, the click and a 3.5 s drag must fit (a loaded CI machine ended a 6 s run mid-drag)
 time_mode: realtime
 sample_rate_hz: 20000
 block_hz: 1000
