@@ -13,7 +13,8 @@ has opened its stream; Ctrl-C while waiting exits 130 before anything ran.
 The server stops when the run ends, and this exits with the run's code.
 
 In operator.mode browser (time_mode realtime) the page is also the hand:
-its pointer, wheel, keys and button reach the operator through a named
+its pointer, wheel, keys and buttons (the hand, and a local scan it asks
+for) reach the operator through a named
 pipe in a private folder ($AFM_HAND_FIFO), which the operator alone reads
 (host_bridge/operator/hand_input.hpp); the operator says on its heartbeat
 that it takes them ("hand: browser"), and the page then shows its controls.
@@ -59,8 +60,8 @@ class LiveSource:
 
     def on_message(self, msg):
         """A page's hand (operator.mode browser): to the operator's pipe."""
-        if msg.get("type") == "hand" and self.hand is not None and self.hand_fd is not None:
-            line = hand_line(msg)
+        if msg.get("type") in ("hand", "scan") and self.hand is not None and self.hand_fd is not None:
+            line = hand_line(msg) if msg["type"] == "hand" else scan_line(msg)
             if line is None:
                 self.hand_refused += 1
                 return None
@@ -114,6 +115,20 @@ def hand_line(msg):
     if not all(math.isfinite(v) for v in (x, y, load)) or not isinstance(msg.get("engaged"), bool):
         return None
     return f"HAND {x:.3f} {y:.3f} {load:.4f} {int(msg['engaged'])}\n".encode()
+
+
+def scan_line(msg):
+    """The operator's command line for a page's {"type": "scan", "x_nm",
+    "y_nm", "size_nm"}: a local scan around (x, y), size_nm on a side
+    (host_bridge/operator/hand_input.hpp), or None when a field is missing
+    or not a finite number (the operator checks the ranges)."""
+    try:
+        x, y, size = (float(msg[k]) for k in ("x_nm", "y_nm", "size_nm"))
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not all(math.isfinite(v) for v in (x, y, size)):
+        return None
+    return f"SCAN {x:.3f} {y:.3f} {size:.3f}\n".encode()
 
 
 async def read_records(fd, on_record):

@@ -14,6 +14,12 @@
 
 namespace afm {
 
+// The req_ids of the local scans a person asks for on the page
+// (operator.mode browser): the operator asks for them (kPageScanReqBase +
+// its count), at the display's pitch and on its pixels, and the renderer
+// pastes each, once whole, into the display's background.
+constexpr int kPageScanReqBase = 20000;
+
 // A scan's rectangle: frame A, nm; nx pixels per line, ny lines.
 struct ScanRegion {
     double x0_nm = 0, y0_nm = 0;        // lower-left corner

@@ -40,13 +40,7 @@ void HandInput::poll()
         partial_.append(buf, static_cast<std::size_t>(n));
         std::size_t nl;
         while ((nl = partial_.find('\n')) != std::string::npos) {
-            Command c;
-            if (nl <= kMaxLine && parse(partial_.substr(0, nl), &c)) {
-                cmd_ = c;
-                ++taken_;
-            } else {
-                ++refused_;
-            }
+            if (nl > kMaxLine || !take_line(partial_.substr(0, nl))) ++refused_;
             partial_.erase(0, nl + 1);
         }
         if (partial_.size() > kMaxLine) {   // a line too long: dropped up to its end
@@ -56,15 +50,55 @@ void HandInput::poll()
     }
 }
 
+bool HandInput::take_line(const std::string &line)
+{
+    Command c;
+    ScanAsk a;
+    if (parse(line, &c)) {
+        cmd_ = c;
+        ++taken_;
+        return true;
+    }
+    if (parse_scan(line, &a)) {
+        scan_ = a;
+        scan_pending_ = true;
+        ++scans_asked_;
+        return true;
+    }
+    return false;
+}
+
+bool HandInput::take_scan(ScanAsk *s)
+{
+    if (!scan_pending_) return false;
+    *s = scan_;
+    scan_pending_ = false;
+    return true;
+}
+
+bool HandInput::in_field(Vec2 p_nm) const
+{
+    const double half = scene_.field_nm / 2;
+    return std::isfinite(p_nm.x) && std::isfinite(p_nm.y) && std::fabs(p_nm.x - scene_.field_center_nm.x) <= half &&
+           std::fabs(p_nm.y - scene_.field_center_nm.y) <= half;
+}
+
+bool HandInput::parse_scan(const std::string &line, ScanAsk *s) const
+{
+    std::istringstream in(line);
+    std::string word, rest;
+    if (!(in >> word >> s->center_nm.x >> s->center_nm.y >> s->size_nm) || word != "SCAN" || (in >> rest)) return false;
+    const double min_nm = kMinScanPx * scene_.field_nm / scene_.out.image_px;
+    return in_field(s->center_nm) && std::isfinite(s->size_nm) && s->size_nm >= min_nm && s->size_nm <= scene_.field_nm;
+}
+
 bool HandInput::parse(const std::string &line, Command *c) const
 {
     std::istringstream in(line);
     std::string word, rest;
     int engaged = -1;
     if (!(in >> word >> c->aim_nm.x >> c->aim_nm.y >> c->load_nN >> engaged) || word != "HAND" || (in >> rest)) return false;
-    const double half = scene_.field_nm / 2;
-    if (!std::isfinite(c->aim_nm.x) || !std::isfinite(c->aim_nm.y) || !std::isfinite(c->load_nN)) return false;
-    if (std::fabs(c->aim_nm.x - scene_.field_center_nm.x) > half || std::fabs(c->aim_nm.y - scene_.field_center_nm.y) > half) return false;
+    if (!in_field(c->aim_nm) || !std::isfinite(c->load_nN)) return false;
     if (!(c->load_nN > 0 && c->load_nN <= kMaxLoad_nN) || (engaged != 0 && engaged != 1)) return false;
     c->engaged = engaged == 1;
     return true;

@@ -13,6 +13,11 @@
 //     is not one (a number not finite, a target outside the field, a load
 //     outside (0, kMaxLoad_nN], a line over kMaxLine bytes) is refused and
 //     counted, and changes nothing.
+//   - A second command: "SCAN X_NM Y_NM SIZE_NM\n", a local scan the person
+//     asks for, centred at (X, Y) in frame A (nm), SIZE_NM on a side: the
+//     centre inside the field and the side in [kMinScanPx display pixels,
+//     the field's side], else refused and counted. The newest one not yet
+//     taken waits (take_scan()); counted in scans_asked().
 //   - Until the first command: the scene's start (operator.path_nm's first
 //     point), its load, the tip lifted (engaged false).
 //   - A pipe closed by the server leaves the last command in force.
@@ -37,6 +42,12 @@ public:
         bool engaged;
     };
 
+    struct ScanAsk {
+        Vec2 center_nm;
+        double size_nm;
+    };
+    static constexpr int kMinScanPx = 4;
+
     // fd: the pipe's read end (made non-blocking here).
     HandInput(const Scene &s, int fd);
     // $AFM_HAND_FIFO opened to read, without waiting; throws InputError
@@ -48,15 +59,23 @@ public:
     const Command &command() const { return cmd_; }
     int64_t taken() const { return taken_; }
     int64_t refused() const { return refused_; }
+    int64_t scans_asked() const { return scans_asked_; }
+    // The scan asked for and not yet taken, once (false: none).
+    bool take_scan(ScanAsk *s);
 
 private:
+    bool take_line(const std::string &line);
     bool parse(const std::string &line, Command *c) const;
+    bool parse_scan(const std::string &line, ScanAsk *s) const;
+    bool in_field(Vec2 p_nm) const;
 
     const Scene &scene_;
     int fd_;
     std::string partial_;
     Command cmd_;
-    int64_t taken_ = 0, refused_ = 0;
+    ScanAsk scan_{};
+    bool scan_pending_ = false;
+    int64_t taken_ = 0, refused_ = 0, scans_asked_ = 0;
 };
 
 }  // namespace afm

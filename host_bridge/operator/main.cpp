@@ -92,6 +92,8 @@ int main(int argc, char **argv)
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
             op.hold_pose = {scene.start_nm(), false};
         }
+        if (op.page)   // the local scans the person asks for (Operator::page_scan)
+            inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
         afm::check_lockstep_reads(scene, inbox.channels(), "operator");
         if (planner) plan_thread = start_planner(*planner, bench);
         while (!op.sim_done) {

@@ -79,7 +79,8 @@ nlohmann::json operator_report(const Operator &op, const Planner *planner, const
         for (const auto &c : op.script.contacts())
             contacts.push_back({{"t_s", c.t_s}, {"aim_nm", {c.aim_nm.x, c.aim_nm.y}}, {"force_N", c.force_N}, {"stroke", c.stroke}});
         rep["contacts_felt"] = contacts;
-        if (op.page) rep["browser"] = {{"commands", op.page->taken()}, {"refused", op.page->refused()}};
+        if (op.page) rep["browser"] = {{"commands", op.page->taken()}, {"refused", op.page->refused()},
+                                        {"scans_asked", op.page->scans_asked()}, {"scans", op.scans}};
     }
     return rep;
 }

@@ -176,12 +176,37 @@ struct Operator {
         return -std::clamp(load_nN / scene.op.haptic.load_span_nN, 0.0, 1.0) * half_range_m;
     }
 
+    // operator.mode browser: the local scan the person asked for, at the
+    // display's pitch and on its pixels, inside the field, asked at once
+    // (realtime); the renderer pastes it into the display (kPageScanReqBase).
+    // One at a time: a newer ask waits for the one under way.
+    void page_scan()
+    {
+        if (scan.busy()) {
+            scan.retry(kScanRetryMs);
+            return;
+        }
+        HandInput::ScanAsk a;
+        if (!page->take_scan(&a)) return;
+        const int px = scene.out.image_px;
+        const double pitch = scene.field_nm / px;
+        const double x0 = scene.field_center_nm.x - scene.field_nm / 2, y0 = scene.field_center_nm.y - scene.field_nm / 2;
+        const int n = std::clamp(static_cast<int>(std::lround(a.size_nm / pitch)), HandInput::kMinScanPx, px);
+        const int c0 = std::clamp(static_cast<int>(std::lround((a.center_nm.x - x0) / pitch - n / 2.0)), 0, px - n);
+        const int r0 = std::clamp(static_cast<int>(std::lround((a.center_nm.y - y0) / pitch - n / 2.0)), 0, px - n);
+        const ScanRegion reg{x0 + c0 * pitch, y0 + r0 * pitch, n * pitch, n * pitch, n, n};
+        scan.start(kPageScanReqBase + ++scans, reg);
+    }
+
     // The hand on the device: block n integrated with the force of block
     // n - 1, the pose for n + 1 is where the stylus ends.
     void answer_by_hand()
     {
         count_force();
-        if (page) page->poll();
+        if (page) {
+            page->poll();
+            page_scan();
+        }
         const Vec2 aim_nm = page ? page->command().aim_nm : script.advance(1.0 / scene.block_hz, held_N);
         // The load the hand means: the page's, or the script's at the pose's time.
         const double want_nN = page ? page->command().load_nN : scene.load_at_nN(block_end_utime(scene, force.seq) * 1e-6);

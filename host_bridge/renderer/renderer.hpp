@@ -287,8 +287,53 @@ struct Renderer {
 
     void retry_scan() { scan.retry(kScanRetryMs); }
 
+    // A local scan a person asked for (operator.mode browser; the operator
+    // asks, kPageScanReqBase and up): its lines kept, the scan pasted into
+    // the display once whole (its rectangle from its first line, on the
+    // display's pixels; a line of another geometry is refused).
+    struct PageScan {
+        cv::Rect where;
+        cv::Mat heights;
+        std::vector<bool> got;
+        int left = 0;
+    };
+    static constexpr std::size_t kPageScansOpen = 4;
+    std::map<int, PageScan> page_open;
+    int page_pasted = 0;
+
+    afm::Reject page_line(const afm::scan_line_t &m)
+    {
+        const double pitch = field.pitch();
+        if (!started || m.n < 1 || m.n_lines < 1 || m.n > field.px || m.n_lines > field.px || m.line < 0 || m.line >= m.n_lines ||
+            static_cast<int>(m.height_nm.size()) != m.n || std::fabs(m.dx_nm - pitch) > 1e-6 * pitch)
+            return afm::Reject::out_of_range;
+        const int col = static_cast<int>(std::lround((m.x0_nm - field.x0_nm) / pitch - 0.5));
+        const int top = static_cast<int>(std::lround(field.px - 1 - ((m.y_nm - field.y0_nm) / pitch - 0.5))) - (m.n_lines - 1 - m.line);
+        const cv::Rect where(col, top, m.n, m.n_lines);
+        if ((where & cv::Rect(0, 0, field.px, field.px)) != where) return afm::Reject::out_of_range;
+        auto it = page_open.find(m.req_id);
+        if (it == page_open.end()) {
+            if (page_open.size() >= kPageScansOpen) page_open.erase(page_open.begin());
+            PageScan p{where, cv::Mat(m.n_lines, m.n, CV_32F, cv::Scalar(0)), std::vector<bool>(static_cast<std::size_t>(m.n_lines)), m.n_lines};
+            it = page_open.emplace(m.req_id, std::move(p)).first;
+        }
+        PageScan &p = it->second;
+        if (p.where != where) return afm::Reject::out_of_range;
+        if (p.got[static_cast<std::size_t>(m.line)]) return afm::Reject::none;   // sent again
+        p.got[static_cast<std::size_t>(m.line)] = true;
+        float *row = p.heights.ptr<float>(m.n_lines - 1 - m.line);
+        for (int i = 0; i < m.n; ++i) row[i] = static_cast<float>(m.height_nm[static_cast<std::size_t>(i)]);
+        if (--p.left == 0) {
+            display.paste_scan(p.heights, p.where);
+            ++page_pasted;
+            page_open.erase(it);
+        }
+        return afm::Reject::none;
+    }
+
     afm::Reject on_line(const afm::scan_line_t &m)
     {
+        if (m.req_id >= afm::kPageScanReqBase) return page_line(m);
         keep_line(m);
         if (!scan.on_line(m)) return afm::Reject::none;   // a line of another client's scan, or one already here
         if (scan.id() == kFinalScan && final_pending) finish_last_frame();
@@ -795,6 +840,7 @@ inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, co
             {"fidelity_label_cap_px", afm::fidelity_figure_text().cap_px},
             {"pixels_updated", r.touched_px},
             {"local_scans", r.local_scans},
+            {"page_scans_pasted", r.page_pasted},   // a person's local scans (operator.mode browser)
             {"view", r.view ? r.view->report() : nlohmann::json(nullptr)},
             {"rejected", rejected}};
 }

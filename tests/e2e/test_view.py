@@ -266,6 +266,12 @@ class BrowserHand(unittest.TestCase):
                     "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
                     "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
                     x_nm, y_nm)
+            # two local scans the person asks for: a right-click on particle 1
+            # (around it), then the button (around the tip)
+            p1 = particle(s["particles"], 1)
+            px, py = offset(p1[1], p1[2])
+            ActionChains(d).move_to_element_with_offset(canvas, int(px), int(py)).context_click().perform()
+            d.find_element("id", "scan").click()
             d.find_element("id", "engage").click()
             x, y = offset(0, -700)
             drag = ActionChains(d, duration=50).move_to_element_with_offset(canvas, int(x), int(y)).click_and_hold()
@@ -290,6 +296,7 @@ class BrowserHand(unittest.TestCase):
             rep = json.load(open(os.path.join(out, "operator_report.json")))
             self.assertGreater(rep["browser"]["commands"], 10, rep.get("browser"))
             self.assertEqual(rep["browser"]["refused"], 0)
+            self.check_page_scans(out, rep, p1, s)
             os.makedirs(SHOT_DIR, exist_ok=True)
             d.save_screenshot(os.path.join(SHOT_DIR, "browser_hand.png"))
         finally:
@@ -297,6 +304,24 @@ class BrowserHand(unittest.TestCase):
             if srv.poll() is None:
                 srv.kill()
                 srv.wait()
+
+    def check_page_scans(self, out, rep, p1, s):
+        """The person's two local scans: asked by the operator (its req_ids,
+        kPageScanReqBase 20000 and up), served, and pasted by the renderer."""
+        self.assertEqual((rep["browser"]["scans_asked"], rep["browser"]["scans"]), (2, 2), rep["browser"])
+        log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"AFM_SCAN_REQ", "AFM_SCAN_LINE"})
+        reqs = {m.req_id: m for m in log["AFM_SCAN_REQ"] if m.req_id >= 20000}
+        self.assertEqual(sorted(reqs), [20001, 20002])
+        pitch = 2000 / 128
+        first = reqs[20001]   # around particle 1, where the page showed it
+        self.assertLessEqual(abs(first.x0_nm + first.width_nm / 2 - p1[1]), pitch, (first, p1))
+        self.assertLessEqual(abs(first.y0_nm + first.height_nm / 2 - p1[2]), pitch, (first, p1))
+        self.assertEqual((first.nx, first.ny), (32, 32))   # 500 nm at the display's pitch
+        lines = {(m.req_id, m.line) for m in log["AFM_SCAN_LINE"] if m.req_id >= 20000}
+        self.assertEqual(len(lines), 64)
+        ren = json.load(open(os.path.join(out, "renderer_report.json")))
+        self.assertEqual(ren["page_scans_pasted"], 2)
+        self.assertEqual(s["ended"]["hand"]["refused"], 0)
 
 
 if __name__ == "__main__":

@@ -44,15 +44,18 @@
     showHand();
     const c = $("image");
     c.style.cursor = "crosshair";
-    c.addEventListener("pointerdown", (e) => { c.setPointerCapture(e.pointerId); aimAt(e); });
+    c.addEventListener("pointerdown", (e) => { if (e.button !== 0) return; c.setPointerCapture(e.pointerId); aimAt(e); });
     c.addEventListener("pointermove", (e) => { if (e.buttons & 1) aimAt(e); });
     c.addEventListener("wheel", (e) => { e.preventDefault(); setLoad(e.deltaY < 0 ? 0.5 : -0.5); }, { passive: false });
     $("engage").onclick = () => engage(!state.hand.engaged);
+    $("scan").onclick = () => { if (lastMeta) askScan(lastMeta.tip_nm); };
+    c.addEventListener("contextmenu", (e) => { e.preventDefault(); const p = nmAt(e); if (p) askScan(particleAt(p) || p); });
     requestAnimationFrame(padLoop);
     document.addEventListener("keydown", (e) => {
       if (e.key === " ") { e.preventDefault(); engage(!state.hand.engaged); }
       else if (e.key === "ArrowUp") setLoad(0.5);
       else if (e.key === "ArrowDown") setLoad(-0.5);
+      else if (e.key === "s" || e.key === "S") { if (lastMeta) askScan(lastMeta.tip_nm); }
     });
   }
   // A gamepad (the browser's Gamepad API, polled every animation frame): the
@@ -98,13 +101,33 @@
     if (h) h.padT = now;
     requestAnimationFrame(padLoop);
   }
-  function aimAt(e) {
-    if (!lastMeta || !lastMeta.field_nm) return;
+  // The pointer's place in the field (nm), or null before a frame.
+  function nmAt(e) {
+    if (!lastMeta || !lastMeta.field_nm) return null;
     const r = $("image").getBoundingClientRect(), k = $("image").width / lastMeta.width;
     const [x0, y0, side] = lastMeta.field_nm, pitch = side / lastMeta.width;
     const px = (e.clientX - r.left) * $("image").width / r.width, py = (e.clientY - r.top) * $("image").height / r.height;
-    state.hand.target_nm = [x0 + px / k * pitch, y0 + (lastMeta.height - py / k) * pitch];
+    return [x0 + px / k * pitch, y0 + (lastMeta.height - py / k) * pitch];
+  }
+  function aimAt(e) {
+    const p = nmAt(e);
+    if (!p) return;
+    state.hand.target_nm = p;
     sendHand();
+  }
+  // The card's particle (as the frame shows it) whose disc holds p, or null.
+  function particleAt(p) {
+    for (const [, x, y, r] of (lastMeta && lastMeta.particles) || [])   // [id, x_nm, y_nm, radius_nm]
+      if (Math.hypot(x - p[0], y - p[1]) <= r) return [x, y];
+    return null;
+  }
+  // A local scan around c (nm), SCAN_FRACTION of the field on a side: the
+  // operator asks for it and the renderer pastes it into the image.
+  const SCAN_FRACTION = 0.25;
+  function askScan(c) {
+    if (!lastMeta || !lastMeta.field_nm || ws.readyState !== 1) return;
+    state.hand.scans = (state.hand.scans || 0) + 1;
+    ws.send(JSON.stringify({ type: "scan", x_nm: c[0], y_nm: c[1], size_nm: lastMeta.field_nm[2] * SCAN_FRACTION }));
   }
   function setLoad(d) { state.hand.load_nN = Math.max(0.5, Math.min(100, state.hand.load_nN + d)); showHand(); sendHand(); }
   function engage(on) { state.hand.engaged = on; showHand(); sendHand(); }
