@@ -286,5 +286,34 @@ def send(a, kinds, channels, cycle, rng, lc, sent, t0):
             time.sleep(delay)
 
 
+
+def run_beside(launch, scene, out, rate=2000.0, kinds=None, admit_any=False, python=sys.executable):
+    """Runs `launch --scene SCENE --out OUT --quiet` in a fresh namespace
+    (tools/in_netns.sh) with this script sending beside it from before the
+    start to the end. admit_any: every process admits every sender
+    (AFM_ADMIT_ANY_SENDER=1), so that the inboxes' own checks meet the
+    datagrams; else they are foreign (common/senders.hpp). Returns
+    (exit code, stderr, run.json, what was sent); the one runner of
+    tests/e2e/test_hostile.py and ./afm bench hostile."""
+    import subprocess
+    here = os.path.dirname(os.path.abspath(__file__))
+    extra = f" --kinds {kinds}" if kinds else ""
+    script = ('"$PY" "$HOSTILE" --seconds 300 --rate "$RATE"' + extra + ' > "$SENT" & h=$!; '
+              '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
+    sent_path = out.rstrip("/") + ".sent.json"
+    env = dict(os.environ, PY=python, HOSTILE=os.path.abspath(__file__), RATE=str(rate), OUT=out, SENT=sent_path,
+               LAUNCH=launch, SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0")
+    p = subprocess.run([os.path.join(here, "in_netns.sh"), "sh", "-c", script], capture_output=True, text=True,
+                       timeout=400, env=env)
+    try:
+        with open(os.path.join(out, "run.json")) as f:
+            rj = json.load(f)
+    except OSError as e:
+        raise RuntimeError(f"hostile: the run wrote no run.json in {out} (exit {p.returncode}): {p.stderr[-1500:]}") from e
+    with open(sent_path) as f:
+        sent = json.load(f)
+    os.remove(sent_path)
+    return p.returncode, p.stderr, rj, sent
+
 if __name__ == "__main__":
     sys.exit(main())

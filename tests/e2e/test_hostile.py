@@ -14,7 +14,9 @@ import unittest
 import benchtest
 from analysis import afmlog
 
-HOSTILE = os.path.join(benchtest.SRC, "tools", "hostile.py")
+sys.path.insert(0, os.path.join(benchtest.SRC, "tools"))
+import hostile  # noqa: E402  (tools/hostile.py: the hostile sender and its runner)
+
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 PROCESSES = ("sim", "fw", "operator", "renderer", "launcher")
 
@@ -27,23 +29,8 @@ RATE = 2000
 
 
 def run_with_hostile(scene, out, rate=RATE, kinds=None, admit_any=False):
-    """Runs the scene with tools/hostile.py sending from before the start to
-    the end. admit_any: every process admits every sender
-    (AFM_ADMIT_ANY_SENDER=1), so that the inboxes' own checks meet the
-    hostile datagrams; else they are foreign (common/senders.hpp)."""
-    extra = f" --kinds {kinds}" if kinds else ""
-    script = ('"$PY" "$HOSTILE" --seconds 300 --rate "$RATE"' + extra + ' > "$SENT" & h=$!; '
-              '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
-    sent_path = out.rstrip("/") + ".sent.json"
-    env = dict(os.environ, PY=sys.executable, HOSTILE=HOSTILE, RATE=str(rate), OUT=out, SENT=sent_path, LAUNCH=benchtest.LAUNCH,
-               SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0")
-    p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
-    with open(os.path.join(out, "run.json")) as f:
-        rj = json.load(f)
-    with open(sent_path) as f:
-        sent = json.load(f)
-    os.remove(sent_path)
-    return p.returncode, p.stderr, rj, sent
+    """tools/hostile.py beside the run, from before its start to its end (hostile.run_beside)."""
+    return hostile.run_beside(benchtest.LAUNCH, scene, out, rate=rate, kinds=kinds, admit_any=admit_any)
 
 
 def run_with_forger(scene, out, what):
