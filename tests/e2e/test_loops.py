@@ -46,6 +46,56 @@ def write_loops(folder, loads_v, noise_v, seed=3):
     return paths
 
 
+def loop_images(rng, sn, noise_v, up_pass, rows=32, cols=64):
+    """S_n and the lateral trace and retrace of one loop, volts, rows x cols:
+    S_l = r S_n + offset + noise (the pass up_pass climbs the facet, slope
+    RU), the turnarounds (the outer 5 % of each line) 0.5 V off."""
+    n_img = sn + rng.normal(0, noise_v, (rows, cols))
+    out = []
+    for climbs in (up_pass == "trace", up_pass == "retrace"):
+        r, b = (RU, 0.011) if climbs else (RD, -0.004)
+        sl = r * n_img + b + rng.normal(0, noise_v, (rows, cols))
+        sl[:, :3] += 0.5
+        sl[:, -3:] += 0.5
+        out.append(sl)
+    return n_img, out[0], out[1]
+
+
+def nanoscope_bytes(channels, rows, cols, lsb_V=1e-4):
+    """A Nanoscope (v5, binary) file of channels [(title, Trace|Retrace,
+    values V)], 16 bits a sample, as Gwyddion's importer reads it: the
+    header's sections (file, scan, scanner, one image list per channel)
+    then the data; the titles carry no pass, the Line direction does (as in
+    Bruker's own files)."""
+    head_B, data_B = 8192, rows * cols * 2
+    lines = ["\\*File list", "\\Version: 0x05120005", f"\\Data length: {head_B}", "\\*Ciao scan list",
+             f"\\Samps/line: {cols}", f"\\Lines: {rows}", "\\Scan Size: 2000 1000 nm", "\\*Scanner list",
+             "\\@Sens. Volts: V 1 "]
+    for i, (title, direction, _) in enumerate(channels):
+        lines += ["\\*Ciao image list", f"\\Data offset: {head_B + i * data_B}", f"\\Data length: {data_B}",
+                  "\\Bytes/pixel: 2", f"\\Samps/line: {cols}", f"\\Number of lines: {rows}",
+                  "\\Scan Size: 2000 1000 nm", f"\\Line direction: {direction}", f'\\@2:Image Data: S [{title}] "{title}"',
+                  f"\\@2:Z scale: V [Sens. Volts] ({lsb_V} V/LSB) {lsb_V * 65536:.6f} V"]
+    head = ("\r\n".join(lines + ["\\*File list end"]) + "\r\n").encode()
+    body = b"".join(np.round(v / lsb_V).astype("<i2").tobytes() for _, _, v in channels)
+    return head + b"\x1a" * (head_B - len(head)) + body
+
+
+def write_nanoscope_loops(folder, loads_v, noise_v, up_pass="trace", seed=7):
+    """One Nanoscope file per set point (loop_K.000), the loops of loop_images."""
+    rng = np.random.default_rng(seed)
+    paths = []
+    for k, sn in enumerate(loads_v):
+        n_img, trace, retrace = loop_images(rng, sn, noise_v, up_pass)
+        chans = [("Height", "Trace", np.zeros_like(n_img)), ("Friction", "Trace", trace), ("Friction", "Retrace", retrace),
+                 ("Deflection", "Trace", n_img), ("Deflection", "Retrace", n_img)]
+        path = os.path.join(folder, f"loop_{k}.000")
+        with open(path, "wb") as f:
+            f.write(nanoscope_bytes(chans, *n_img.shape))
+        paths.append(path)
+    return paths
+
+
 def write_gwy_loops(folder, loads_v, noise_v, up_pass="trace", normal="Vertical deflection", lateral_unit="V",
                     extra=(), seed=5):
     """One .gwy per set point: a 32 x 64 image per channel, the lateral trace
@@ -62,15 +112,11 @@ def write_gwy_loops(folder, loads_v, noise_v, up_pass="trace", normal="Vertical 
         def add(n, title, data, unit="V"):
             c[f"/{n}/data/title"] = title
             c[f"/{n}/data"] = g.GwyDataField(data, xreal=2e-6, yreal=1e-6, si_unit_xy="m", si_unit_z=unit)
-        rows, cols = 32, 64
-        n_img = sn + rng.normal(0, noise_v, (rows, cols))
+        n_img, trace, retrace = loop_images(rng, sn, noise_v, up_pass)
+        rows, cols = n_img.shape
         add(0, "Height", np.tile(np.linspace(0, 3e-7, cols), (rows, 1)), unit="m")
-        for n, title, climbs in ((1, "Friction (trace)", up_pass == "trace"), (2, "Friction (retrace)", up_pass == "retrace")):
-            r, b = (RU, 0.011) if climbs else (RD, -0.004)
-            sl = r * n_img + b + rng.normal(0, noise_v, (rows, cols))
-            sl[:, :3] += 0.5
-            sl[:, -3:] += 0.5
-            add(n, title, sl, unit=lateral_unit)
+        add(1, "Friction (trace)", trace, unit=lateral_unit)
+        add(2, "Friction (retrace)", retrace, unit=lateral_unit)
         if normal:
             add(3, normal, n_img)
         for i, (title, value) in enumerate(extra):
@@ -185,6 +231,23 @@ class GwyLoops(unittest.TestCase):
         files = write_gwy_loops(sub, self.LOADS, noise_v=0.002, up_pass="retrace", seed=6)
         self.assert_calibration(self.run_json(files, "--up-pass", "retrace", "--lateral-trace", "1",
                                               "--lateral-retrace", "friction (RETRACE)", "--normal", "3"), "named")
+
+    def test_nanoscope_loops_through_gwyddion_give_the_known_calibration(self):
+        # the pass from each channel's Line direction (Gwyddion keeps it as metadata), not its title
+        files = write_nanoscope_loops(self.dir, self.LOADS, noise_v=0.002, up_pass="retrace")
+        self.assert_calibration(self.run_json(files, "--up-pass", "retrace"), "Nanoscope")
+        # Gwyddion reads no such format: the file is named with what Gwyddion said
+        odd = os.path.join(self.dir, "loop.txt")
+        with open(odd, "w") as f:
+            f.write("s_n_V,s_l_V,direction\n1,0.1,up\n")
+        p = loops_cli("--loops", odd, *files[:2], *flags(), "--up-pass", "retrace")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{odd}: not .csv nor .gwy, and Gwyddion does not read it (gwyddion:", p.stderr)
+        # two friction channels of one pass: named with both titles and passes listed
+        p = loops_cli("--loops", files[0], *files[1:3], *flags(), "--up-pass", "retrace", "--normal", "Deflection")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{files[0]}: --normal 'Deflection': 2 channel(s) of that title or number (channels: 0 'Height', "
+                      "1 'Friction', 2 'Friction' (retrace), 3 'Deflection', 4 'Deflection' (retrace))", p.stderr)
 
     def test_set_points_given_per_file_instead_of_a_normal_channel(self):
         files = write_gwy_loops(self.dir, self.LOADS, noise_v=0.0005, normal=None, extra=[("Deflection Error", 0.3)])
