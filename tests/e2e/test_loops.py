@@ -185,6 +185,9 @@ class Loops(unittest.TestCase):
         p = loops_cli("--loops", self.dir, good[1], good[2], *flags())
         self.assertEqual(p.returncode, 2)
         self.assertIn("not a file", p.stderr)
+        p = loops_cli("--loops", *good, *flags(), "--s-n-V", "0.5", "1.0", "1.5")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{good[0]}: --s-n-V is for image files; a CSV loop has its own s_n_V column", p.stderr)
 
     def test_the_afm_entry_point_routes_loops(self):
         files = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
