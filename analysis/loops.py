@@ -44,8 +44,10 @@ import numpy as np
 
 MIN_LOOPS = 3
 # A Gwyddion channel's title (case-insensitive) names its signal by one of
-# these words, and its pass by a retrace word (else it is the trace).
-# A normal title with "error" is a feedback error signal, not S_n: never taken.
+# these words, and its pass by a retrace word (or its metadata does; else it
+# is the trace). A normal title with "error" is a feedback error signal, not
+# S_n, and one with a lateral word ("Lateral deflection") is S_l: neither is
+# taken for S_n.
 LATERAL_WORDS = ("lateral", "friction", "lfm", "torsion")
 NORMAL_WORDS = ("deflection", "normal", "vertical")
 RETRACE_WORDS = ("retrace", "backward", "bwd", "reverse")
@@ -183,7 +185,9 @@ def channel_list(fields):
 def titled(title, words):
     """Whether a channel's title names a signal of words (LATERAL_WORDS or NORMAL_WORDS)."""
     t = title.lower()
-    return any(w in t for w in words) and not (words is NORMAL_WORDS and "error" in t)
+    if words is NORMAL_WORDS and ("error" in t or titled(t, LATERAL_WORDS)):
+        return False
+    return any(w in t for w in words)
 
 
 def pick_channel(path, fields, named, words, retrace, option):

@@ -97,12 +97,13 @@ def write_nanoscope_loops(folder, loads_v, noise_v, up_pass="trace", seed=7):
 
 
 def write_gwy_loops(folder, loads_v, noise_v, up_pass="trace", normal="Vertical deflection", lateral_unit="V",
-                    extra=(), seed=5):
+                    extra=(), seed=5, lateral="Friction"):
     """One .gwy per set point: a 32 x 64 image per channel, the lateral trace
     and retrace S_l = r S_n + offset + noise (the pass up_pass climbs the
     facet, slope RU), the turnarounds (the outer 5 % of each line) 0.5 V off;
-    a height channel, the normal channel titled normal (None: none) and the
-    extra (title, value V) channels."""
+    a height channel, the lateral ones titled lateral (trace) and (retrace),
+    the normal channel titled normal (None: none) and the extra (title,
+    value V) channels."""
     import gwyfile.objects as g
     rng = np.random.default_rng(seed)
     paths = []
@@ -115,8 +116,8 @@ def write_gwy_loops(folder, loads_v, noise_v, up_pass="trace", normal="Vertical 
         n_img, trace, retrace = loop_images(rng, sn, noise_v, up_pass)
         rows, cols = n_img.shape
         add(0, "Height", np.tile(np.linspace(0, 3e-7, cols), (rows, 1)), unit="m")
-        add(1, "Friction (trace)", trace, unit=lateral_unit)
-        add(2, "Friction (retrace)", retrace, unit=lateral_unit)
+        add(1, f"{lateral} (trace)", trace, unit=lateral_unit)
+        add(2, f"{lateral} (retrace)", retrace, unit=lateral_unit)
         if normal:
             add(3, normal, n_img)
         for i, (title, value) in enumerate(extra):
@@ -223,7 +224,8 @@ class GwyLoops(unittest.TestCase):
         return json.loads(p.stdout)
 
     def test_gwyddion_loops_give_the_known_calibration(self):
-        files = write_gwy_loops(self.dir, self.LOADS, noise_v=0.002)
+        # "Lateral deflection" is S_l, not S_n, though it says deflection
+        files = write_gwy_loops(self.dir, self.LOADS, noise_v=0.002, lateral="Lateral deflection")
         self.assert_calibration(self.run_json(files, "--up-pass", "trace"), "found by titles")
         # the turnarounds matter: kept in, they pull the fit off the known slopes
         r = self.run_json(files, "--up-pass", "trace", "--edge-fraction", "0")
