@@ -1,6 +1,7 @@
 #include "world.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -678,7 +679,9 @@ void World::settle_rods()
         // Each point's target, moved across the groove onto its path; the
         // rod turns to the targets' line (their regression on the place
         // along the rod) and its centre moves to its foot on that line.
-        std::vector<std::pair<double, Eigen::Vector2d>> targets;
+        // A fixed array: settle_rods runs every step, and allocates nothing.
+        std::array<std::pair<double, Eigen::Vector2d>, kPoints> targets;
+        std::size_t n_targets = 0;
         double depth = 0;
         for (int k = 0; k < kPoints; ++k) {
             Eigen::Vector2d to;
@@ -686,20 +689,20 @@ void World::settle_rods()
             const double t = (k + 0.5) / kPoints;
             const Eigen::Vector2d q = a + t * (b - a);
             if (!trench_seat(q, rod->d_nm, &to, &D)) continue;
-            targets.emplace_back(t, q + to);
+            targets[n_targets++] = {t, q + to};
             depth += D;
         }
-        if (2 * targets.size() < kPoints) {
+        if (2 * n_targets < kPoints) {
             rod_axis_z_[i] = R;
             continue;
         }
-        depth /= targets.size();
+        depth /= n_targets;
         double tbar = 0;
         Eigen::Vector2d Tbar = Eigen::Vector2d::Zero(), v = Eigen::Vector2d::Zero();
-        for (const auto &[t, T] : targets) tbar += t, Tbar += T;
-        tbar /= targets.size();
-        Tbar /= targets.size();
-        for (const auto &[t, T] : targets) v += (t - tbar) * (T - Tbar);
+        for (std::size_t k = 0; k < n_targets; ++k) tbar += targets[k].first, Tbar += targets[k].second;
+        tbar /= n_targets;
+        Tbar /= n_targets;
+        for (std::size_t k = 0; k < n_targets; ++k) v += (targets[k].first - tbar) * (targets[k].second - Tbar);
         const double psi = v.squaredNorm() > 0 ? std::atan2(v.y(), v.x()) : rod->psi;
         const Eigen::Vector2d dir(std::cos(psi), std::sin(psi));
         const Eigen::Vector2d c = Tbar + (rod->centre - Tbar).dot(dir) * dir;

@@ -242,7 +242,7 @@ private:
     // (negative: below the substrate; D: the groove's mean depth under it; the walls meet it
     // below the surface, as D tan gamma >= R cos gamma holds in any groove
     // as wide as the rod). After each sample's mechanics, with
-    // trenches only. rod_axis_z_: each wire's axis height above the
+    // trenches only, with no allocation. rod_axis_z_: each wire's axis height above the
     // substrate plane (R on the flat), for the images.
     void settle_rods();
     bool trench_seat(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d *to_centre, double *depth) const;

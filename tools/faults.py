@@ -76,7 +76,7 @@ LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(HERE, "in_netns.sh")
 DROP_CAPS = os.path.join(HERE, "drop_caps.sh")
 os.environ.setdefault("AFM_BUILD", BUILD)   # the log reader's generated types
-from analysis import afmlog  # noqa: E402
+from analysis import afmlog, trajectory  # noqa: E402
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
@@ -87,8 +87,6 @@ ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher
 LINKS = {"link:clean": "delay=0.2,loss=0.02", "link:down": "delay=0.2", "link:loss": "delay=0.2,loss=0.1",
          "link:reorder": "delay=0.2,jitter=0.3,reorder=0.1", "spoof": "delay=0.2"}
 LINK_BUS_URL = "udpm://239.255.76.67:7667?ttl=1"   # the bus across the link (common/bus.hpp kLinkBusUrl)
-# What a trajectory is: the simulator's truth and the card's answers, by block.
-TRAJ = [("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq")]
 
 
 def processes():
@@ -196,20 +194,11 @@ def video_opens(out):
 
 
 def trajectories(out, blocks):
-    """{channel: {seq: bytes}} of the run's blocks, or None if the log does not read."""
+    """(analysis.trajectory.read of the run, ""), or (None, why) if the log does not read."""
     try:
-        log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=[c for c, _ in TRAJ])
+        return trajectory.read(out, blocks), ""
     except Exception as e:  # a log that does not read is a finding, not a crash
         return None, str(e)
-    traj = {}
-    for ch, field in TRAJ:
-        d = {}
-        for m in log[ch]:
-            q = getattr(m, field)
-            if 0 <= q < blocks:
-                d.setdefault(q, m.encode())
-        traj[ch] = d
-    return traj, ""
 
 
 NOT_READY = 97   # beside(): the helper never said it was ready
@@ -275,7 +264,7 @@ class Matrix:
         if traj is None:
             return False, "log does not read: " + err
         missing = 0
-        for ch, _ in TRAJ:
+        for ch, _ in trajectory.CHANNELS:
             common = set(traj[ch]) & set(self.base[ch])
             missing = max(missing, len(set(self.base[ch]) - common), len(set(traj[ch]) - common))
             differ = sorted(q for q in common if traj[ch][q] != self.base[ch][q])

@@ -3,7 +3,10 @@ researcher's own CSV files to mu and k_theta K_l / h with their
 uncertainty, through the firmware's own solver. Loops drawn from eq. 16-17
 with the paper's constants and a known noise: the slopes and the
 calibration come back within their stated errors; bad files are named by
-file, line and column."""
+file, line and column. The same loops as Gwyddion files (.gwy, written here
+with gwyfile): channels found by their titles or named by the user, the
+turnarounds left out, S_n from a channel or per file; a damaged or
+ambiguous file is named with its channel and value."""
 import json
 import math
 import os
@@ -40,6 +43,88 @@ def write_loops(folder, loads_v, noise_v, seed=3):
                     n = sn + rng.normal(0, noise_v)
                     f.write(f"{i},{n:.6f},{r * n + b + rng.normal(0, noise_v):.6f},{d}\n")
         paths.append(p)
+    return paths
+
+
+def loop_images(rng, sn, noise_v, up_pass, rows=32, cols=64):
+    """S_n and the lateral trace and retrace of one loop, volts, rows x cols:
+    S_l = r S_n + offset + noise (the pass up_pass climbs the facet, slope
+    RU), the turnarounds (the outer 5 % of each line) 0.5 V off."""
+    n_img = sn + rng.normal(0, noise_v, (rows, cols))
+    out = []
+    for climbs in (up_pass == "trace", up_pass == "retrace"):
+        r, b = (RU, 0.011) if climbs else (RD, -0.004)
+        sl = r * n_img + b + rng.normal(0, noise_v, (rows, cols))
+        sl[:, :3] += 0.5
+        sl[:, -3:] += 0.5
+        out.append(sl)
+    return n_img, out[0], out[1]
+
+
+def nanoscope_bytes(channels, rows, cols, lsb_V=1e-4):
+    """A Nanoscope (v5, binary) file of channels [(title, Trace|Retrace,
+    values V)], 16 bits a sample, as Gwyddion's importer reads it: the
+    header's sections (file, scan, scanner, one image list per channel)
+    then the data; the titles carry no pass, the Line direction does (as in
+    Bruker's own files)."""
+    head_B, data_B = 8192, rows * cols * 2
+    lines = ["\\*File list", "\\Version: 0x05120005", f"\\Data length: {head_B}", "\\*Ciao scan list",
+             f"\\Samps/line: {cols}", f"\\Lines: {rows}", "\\Scan Size: 2000 1000 nm", "\\*Scanner list",
+             "\\@Sens. Volts: V 1 "]
+    for i, (title, direction, _) in enumerate(channels):
+        lines += ["\\*Ciao image list", f"\\Data offset: {head_B + i * data_B}", f"\\Data length: {data_B}",
+                  "\\Bytes/pixel: 2", f"\\Samps/line: {cols}", f"\\Number of lines: {rows}",
+                  "\\Scan Size: 2000 1000 nm", f"\\Line direction: {direction}", f'\\@2:Image Data: S [{title}] "{title}"',
+                  f"\\@2:Z scale: V [Sens. Volts] ({lsb_V} V/LSB) {lsb_V * 65536:.6f} V"]
+    head = ("\r\n".join(lines + ["\\*File list end"]) + "\r\n").encode()
+    body = b"".join(np.round(v / lsb_V).astype("<i2").tobytes() for _, _, v in channels)
+    return head + b"\x1a" * (head_B - len(head)) + body
+
+
+def write_nanoscope_loops(folder, loads_v, noise_v, up_pass="trace", seed=7):
+    """One Nanoscope file per set point (loop_K.000), the loops of loop_images."""
+    rng = np.random.default_rng(seed)
+    paths = []
+    for k, sn in enumerate(loads_v):
+        n_img, trace, retrace = loop_images(rng, sn, noise_v, up_pass)
+        chans = [("Height", "Trace", np.zeros_like(n_img)), ("Friction", "Trace", trace), ("Friction", "Retrace", retrace),
+                 ("Deflection", "Trace", n_img), ("Deflection", "Retrace", n_img)]
+        path = os.path.join(folder, f"loop_{k}.000")
+        with open(path, "wb") as f:
+            f.write(nanoscope_bytes(chans, *n_img.shape))
+        paths.append(path)
+    return paths
+
+
+def write_gwy_loops(folder, loads_v, noise_v, up_pass="trace", normal="Vertical deflection", lateral_unit="V",
+                    extra=(), seed=5, lateral="Friction"):
+    """One .gwy per set point: a 32 x 64 image per channel, the lateral trace
+    and retrace S_l = r S_n + offset + noise (the pass up_pass climbs the
+    facet, slope RU), the turnarounds (the outer 5 % of each line) 0.5 V off;
+    a height channel, the lateral ones titled lateral (trace) and (retrace),
+    the normal channel titled normal (None: none) and the extra (title,
+    value V) channels."""
+    import gwyfile.objects as g
+    rng = np.random.default_rng(seed)
+    paths = []
+    for k, sn in enumerate(loads_v):
+        c = g.GwyContainer()
+
+        def add(n, title, data, unit="V"):
+            c[f"/{n}/data/title"] = title
+            c[f"/{n}/data"] = g.GwyDataField(data, xreal=2e-6, yreal=1e-6, si_unit_xy="m", si_unit_z=unit)
+        n_img, trace, retrace = loop_images(rng, sn, noise_v, up_pass)
+        rows, cols = n_img.shape
+        add(0, "Height", np.tile(np.linspace(0, 3e-7, cols), (rows, 1)), unit="m")
+        add(1, f"{lateral} (trace)", trace, unit=lateral_unit)
+        add(2, f"{lateral} (retrace)", retrace, unit=lateral_unit)
+        if normal:
+            add(3, normal, n_img)
+        for i, (title, value) in enumerate(extra):
+            add(4 + i, title, np.full((rows, cols), value))
+        path = os.path.join(folder, f"loop_{k}.gwy")
+        c.tofile(path)
+        paths.append(path)
     return paths
 
 
@@ -101,6 +186,9 @@ class Loops(unittest.TestCase):
         p = loops_cli("--loops", self.dir, good[1], good[2], *flags())
         self.assertEqual(p.returncode, 2)
         self.assertIn("not a file", p.stderr)
+        p = loops_cli("--loops", *good, *flags(), "--s-n-V", "0.5", "1.0", "1.5")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{good[0]}: --s-n-V is for image files; a CSV loop has its own s_n_V column", p.stderr)
 
     def test_the_afm_entry_point_routes_loops(self):
         files = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
@@ -109,6 +197,114 @@ class Loops(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("mu = 0.08", p.stdout)
         self.assertIn("+-", p.stdout)
+
+
+class GwyLoops(unittest.TestCase):
+    LOADS = [0.5, 1.0, 1.5, 2.0, 2.5]
+
+    def setUp(self):
+        self.dir = benchtest.tmpdir("loops_gwy")
+        self.addCleanup(benchtest.cleanup, self.dir)
+        self.exact = json.loads(subprocess.run([CALC, "calib", "tilted", "--up", str(RU), "--down", str(RD), "--angle-deg", "9",
+                                                "--spring-N-per-m", "0.12", "--deflection-nm-per-V", "89", "--json"],
+                                               capture_output=True, text=True, check=True).stdout)
+
+    def assert_calibration(self, r, label):
+        print(f"loops gwy {label}: r_u {r['r_u']:.5f} +- {r['r_u_se']:.5f}, r_d {r['r_d']:.5f} +- {r['r_d_se']:.5f}, "
+              f"mu {r['mu']:.5f} +- {r['mu_se']:.5f} (exact {self.exact['mu']:.5f}), lateral {r['lateral_nN_per_V']:.3f} "
+              f"+- {r['lateral_nN_per_V_se']:.3f} (exact {self.exact['lateral_nN_per_V']:.3f})")
+        for key, want in (("r_u", RU), ("r_d", RD), ("mu", self.exact["mu"]),
+                          ("lateral_nN_per_V", self.exact["lateral_nN_per_V"])):
+            self.assertGreater(r[key + "_se"], 0, (label, key))
+            self.assertLess(abs(r[key] - want), 4 * r[key + "_se"], (label, key))
+
+    def run_json(self, files, *extra):
+        p = loops_cli("--loops", *files, *flags(), "--json", *extra)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        return json.loads(p.stdout)
+
+    def test_gwyddion_loops_give_the_known_calibration(self):
+        # "Lateral deflection" is S_l, not S_n, though it says deflection
+        files = write_gwy_loops(self.dir, self.LOADS, noise_v=0.002, lateral="Lateral deflection")
+        self.assert_calibration(self.run_json(files, "--up-pass", "trace"), "found by titles")
+        # the turnarounds matter: kept in, they pull the fit off the known slopes
+        r = self.run_json(files, "--up-pass", "trace", "--edge-fraction", "0")
+        self.assertGreater(abs(r["r_u"] - RU) + abs(r["intercept_up_V"] - 0.011), 0.02)
+        # the retrace climbing, channels named by number and by title
+        sub = os.path.join(self.dir, "retrace")
+        os.makedirs(sub)
+        files = write_gwy_loops(sub, self.LOADS, noise_v=0.002, up_pass="retrace", seed=6)
+        self.assert_calibration(self.run_json(files, "--up-pass", "retrace", "--lateral-trace", "1",
+                                              "--lateral-retrace", "friction (RETRACE)", "--normal", "3"), "named")
+
+    def test_nanoscope_loops_through_gwyddion_give_the_known_calibration(self):
+        # the pass from each channel's Line direction (Gwyddion keeps it as metadata), not its title
+        files = write_nanoscope_loops(self.dir, self.LOADS, noise_v=0.002, up_pass="retrace")
+        self.assert_calibration(self.run_json(files, "--up-pass", "retrace"), "Nanoscope")
+        # Gwyddion reads no such format: the file is named with what Gwyddion said
+        odd = os.path.join(self.dir, "loop.txt")
+        with open(odd, "w") as f:
+            f.write("s_n_V,s_l_V,direction\n1,0.1,up\n")
+        p = loops_cli("--loops", odd, *files[:2], *flags(), "--up-pass", "retrace")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{odd}: not .csv nor .gwy, and Gwyddion does not read it (gwyddion:", p.stderr)
+        # two friction channels of one pass: named with both titles and passes listed
+        p = loops_cli("--loops", files[0], *files[1:3], *flags(), "--up-pass", "retrace", "--normal", "Deflection")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{files[0]}: --normal 'Deflection': 2 channel(s) of that title or number (channels: 0 'Height', "
+                      "1 'Friction', 2 'Friction' (retrace), 3 'Deflection', 4 'Deflection' (retrace))", p.stderr)
+
+    def test_set_points_given_per_file_instead_of_a_normal_channel(self):
+        files = write_gwy_loops(self.dir, self.LOADS, noise_v=0.0005, normal=None, extra=[("Deflection Error", 0.3)])
+        p = loops_cli("--loops", *files, *flags(), "--up-pass", "trace")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("no channel titled as deflection/normal/vertical for S_n (an error signal is not S_n)", p.stderr)
+        self.assertIn("4 'Deflection Error'", p.stderr)
+        self.assert_calibration(self.run_json(files, "--up-pass", "trace", "--s-n-V", *map(str, self.LOADS)), "--s-n-V")
+        p = loops_cli("--loops", *files, *flags(), "--up-pass", "trace", "--s-n-V", "0.5", "1.0")
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("--s-n-V: 2 value(s) for 5 loop file(s)", p.stderr)
+
+    def test_bad_gwyddion_files_are_named_with_channel_and_value(self):
+        good = write_gwy_loops(self.dir, [0.5, 1.0], noise_v=0.002)
+        odd = os.path.join(self.dir, "odd")
+        os.makedirs(odd)
+        cases = []
+
+        def case(name, want, *opts, write=None, **kw):
+            folder = os.path.join(odd, name)
+            os.makedirs(folder)
+            path = write(folder) if write else write_gwy_loops(folder, [1.5], noise_v=0.002, **kw)[0]
+            cases.append((name, path, opts, want))
+
+        def text_file(folder):
+            path = os.path.join(folder, "scan.gwy")
+            with open(path, "w") as f:
+                f.write("this is a CSV\n")
+            return path
+
+        def truncated(folder):
+            path = write_gwy_loops(folder, [1.5], noise_v=0.002)[0]
+            with open(path, "rb") as f:
+                data = f.read()
+            with open(path, "wb") as f:
+                f.write(data[:len(data) // 2])
+            return path
+        case("text", "not a Gwyddion file: it starts with b'this'", write=text_file)
+        case("truncated", "cannot be read as a Gwyddion file", write=truncated)
+        case("no_up_pass", "which pass climbs the facet? name it with --up-pass")
+        case("metres", "channel 1 'Friction (trace)': unit 'm', the loop needs volts", lateral_unit="m")
+        case("two_traces", "2 channel(s) titled as lateral/friction/lfm/torsion (trace); name it with --lateral-trace",
+             extra=[("Lateral force", 0.1)])
+        case("named_wrong", "--lateral-trace 'Torsion': no channel(s) of that title or number", "--lateral-trace", "Torsion")
+        for name, path, opts, want in cases:
+            up = [] if name == "no_up_pass" else ["--up-pass", "trace"]
+            p = loops_cli("--loops", path, *good, *flags(), *up, *opts)   # the odd file first: it is the one named
+            self.assertEqual(p.returncode, 2, (name, p.stderr))
+            self.assertIn(path, p.stderr, name)
+            self.assertIn(want, p.stderr, name)
+        self.assertIn("(channels: 0 'Height', 1 'Friction (trace)', 2 'Friction (retrace)', 3 'Vertical deflection', "
+                      "4 'Lateral force')", loops_cli("--loops", *good, cases[4][1], *flags(), "--up-pass", "trace").stderr)
 
 
 if __name__ == "__main__":
