@@ -5,31 +5,102 @@
 #   tools/in_netns.sh CMD [ARGS...]
 # AFM_HOSTS=2: two namespaces joined by a veth pair instead, the bus across
 # it (tools/two_hosts.sh, docs/hosts.md); it needs user namespaces.
-# Tries a user namespace first (unshare -rn, no root needed); as root where
-# user namespaces are refused (a chroot), falls back to unshare -n. Exports
-# AFM_NETNS_MODE=rootless|root so the run can say which it used.
+#
+# A run's processes need no root (design.md, "Least privilege"). Once the
+# namespace is set up, the command runs through tools/drop_caps.sh: no
+# capabilities, and, started as root, as the run's user
+# (tools/run_user.sh: nobody unless AFM_RUN_USER says otherwise).
+# - Not root: a user namespace (unshare -rn) mapping the caller to root, who
+#   sets up the loopback; the command runs as the caller.
+# - Root: a user namespace mapping root and the run's user each to itself
+#   (written here: unshare's own --map-users needs newuidmap); where user
+#   namespaces are refused (a chroot), unshare -n. Root in it sets up the
+#   loopback, then the command runs as the run's user. Before, the folders
+#   the run writes are handed to that user (tools/run_user.sh give): each
+#   `--out DIR` among the arguments, the folders in AFM_RUN_WRITES
+#   (colon-separated: for commands that name them otherwise) and
+#   AFM_LINK_DIR; after, whatever the outcome (a signal too, which is passed
+#   on to the command), they are given back to root. If the run's user
+#   cannot reach them or CMD, the run keeps uid 0 (still without
+#   capabilities) and says why on stderr.
+# Exports AFM_NETNS_MODE (run.json "netns"): rootless (not root); user:UID
+# or root:UID (root, in a user namespace or not, the run as uid UID).
 set -euo pipefail
 [ $# -ge 1 ] || { echo "usage: tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
 command -v unshare >/dev/null || { echo "in_netns: unshare not found (util-linux)" >&2; exit 2; }
 command -v ip >/dev/null || { echo "in_netns: ip not found (iproute2; run ./afm setup)" >&2; exit 2; }
-# Once the namespace is set up, the command runs with no capabilities
-# (tools/drop_caps.sh): root, or root in the user namespace, keeps uid 0 but
-# loses every privilege that uid 0 would bring.
-drop="$(cd "$(dirname "$0")" && pwd)/drop_caps.sh"
+here=$(cd "$(dirname "$0")" && pwd)
+drop="$here/drop_caps.sh"
 inner='ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$0" "$@"'
 case "${AFM_HOSTS:-1}" in
   1) ;;
-  2) drop="$(cd "$(dirname "$0")" && pwd)/two_hosts.sh"   # it drops the privilege itself
+  2) drop="$here/two_hosts.sh"   # it drops the privilege itself
      inner='exec "$0" "$@"'
      unshare -rn true 2>/dev/null || { echo "in_netns: two hosts need user namespaces (unshare -rn refused here)" >&2; exit 2; } ;;
   *) echo "in_netns: AFM_HOSTS must be 1 or 2, not '$AFM_HOSTS'" >&2; exit 2 ;;
 esac
-if unshare -rn true 2>/dev/null; then
+
+if [ "$(id -u)" != 0 ]; then
+  unshare -rn true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
+                                         "the bus must not run in the host's namespace" >&2; exit 2; }
   AFM_NETNS_MODE=rootless exec unshare -rn sh -c "$inner" "$drop" "$@"
-elif [ "$(id -u)" = 0 ] && unshare -n true 2>/dev/null; then
-  AFM_NETNS_MODE=root exec unshare -n sh -c "$inner" "$drop" "$@"
-else
-  echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
-       "the bus must not run in the host's namespace" >&2
-  exit 2
 fi
+unshare -n true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -n refused as root)" >&2; exit 2; }
+
+# The folders the run writes.
+writes=() prev=""
+for a in "$@"; do
+  [ "$prev" = --out ] && writes+=("$a")
+  case "$a" in --out=*) writes+=("${a#--out=}") ;; esac
+  prev=$a
+done
+IFS=: read -r -a extra <<< "${AFM_RUN_WRITES:-}"
+for d in "${extra[@]}" "${AFM_LINK_DIR:-}"; do [ -z "$d" ] || writes+=("$d"); done
+unset AFM_RUN_WRITES
+
+read -r uid gid < <("$here/run_user.sh" id)
+if [ "$uid" != 0 ]; then
+  reach=()
+  [[ $1 != */* ]] || reach+=("$1")
+  if ! why=$("$here/run_user.sh" reach "${reach[@]}" "$here/drop_caps.sh" 2>&1) \
+     || ! why=$("$here/run_user.sh" give "${writes[@]}" 2>&1); then
+    echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where uid $uid reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
+    "$here/run_user.sh" take "${writes[@]}"
+    uid=0 gid=0
+  fi
+fi
+export AFM_RUN_UID=$uid AFM_RUN_GID=$gid
+
+# The command, in its namespace, with signals passed on; then the folders
+# given back.
+child=""
+pass_on() { [ -z "$child" ] || kill -s "$1" "$child" 2>/dev/null || true; }
+for sig in INT TERM HUP; do trap "pass_on $sig" "$sig"; done
+if unshare -U true 2>/dev/null; then
+  # The namespace's root waits on a pipe until its maps are written.
+  go=$(mktemp -d "${TMPDIR:-/tmp}/afm-netns-XXXXXX")
+  mkfifo -m 0600 "$go/go"
+  exec 3<>"$go/go"
+  AFM_NETNS_MODE=user:$uid unshare -U -n sh -c "read -r _ <&3 && exec 3<&- && $inner" "$drop" "$@" &
+  child=$!
+  rm -rf "$go"
+  for _ in $(seq 400); do
+    [ "$(readlink /proc/$child/ns/user 2>/dev/null)" != "$(readlink /proc/self/ns/user)" ] && break
+    sleep 0.005
+  done
+  # one write() each, as the kernel wants (printf writes line by line)
+  maps() { local m="0 0 1"; [ "$2" = 0 ] || m+=$'\n'"$2 $2 1"; cat <<< "$m" > "/proc/$child/$1_map"; }
+  maps uid "$uid" && maps gid "$gid" || echo "in_netns: cannot write the user namespace's maps of pid $child" >&2
+  echo go >&3
+  exec 3>&-
+else
+  AFM_NETNS_MODE=root:$uid unshare -n sh -c "$inner" "$drop" "$@" &
+  child=$!
+fi
+rc=0
+while :; do
+  wait "$child" && rc=0 || rc=$?
+  kill -0 "$child" 2>/dev/null || break   # a signal ended wait, not the command
+done
+"$here/run_user.sh" take "${writes[@]}"
+exit "$rc"
