@@ -144,6 +144,9 @@ class Run:
         # those capabilities; beside() runs the launcher without them.
         if keep_caps:
             env = dict(env or os.environ, AFM_KEEP_CAPS=keep_caps)
+        # the run's folder, for in_netns.sh to hand to the run's user when
+        # started as root (a wrapped command names it inside a shell's text)
+        env = dict(env or os.environ, AFM_RUN_WRITES=out)
         self.p = subprocess.Popen([IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                   start_new_session=True, env=env)
         self.kids = {}

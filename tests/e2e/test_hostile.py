@@ -36,7 +36,8 @@ def run_with_hostile(scene, out, rate=RATE, kinds=None, admit_any=False):
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     sent_path = out.rstrip("/") + ".sent.json"
     env = dict(os.environ, PY=sys.executable, HOSTILE=HOSTILE, RATE=str(rate), OUT=out, SENT=sent_path, LAUNCH=benchtest.LAUNCH,
-               SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0")
+               SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0",
+               AFM_RUN_WRITES=os.path.dirname(sent_path))   # the folders the script writes, for the run's user (in_netns.sh)
     p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
     with open(os.path.join(out, "run.json")) as f:
         rj = json.load(f)
@@ -51,7 +52,7 @@ def run_with_forger(scene, out, what):
     script = ('"$PY" "$FORGE" "$WHAT" --seconds 300 > /dev/null & h=$!; '
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     env = dict(os.environ, PY=sys.executable, FORGE=os.path.join(benchtest.SRC, "tools", "forge.py"), WHAT=what, OUT=out,
-               LAUNCH=benchtest.LAUNCH, SCENE=scene)
+               LAUNCH=benchtest.LAUNCH, SCENE=scene, AFM_RUN_WRITES=out)   # the run's folder, for the run's user (in_netns.sh)
     p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
     with open(os.path.join(out, "run.json")) as f:
         return p.returncode, p.stderr, json.load(f)
