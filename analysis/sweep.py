@@ -218,7 +218,8 @@ def as_run_user(a, argv):
     """Started as root, the sweep runs again as the run's user, without
     privilege (tools/run_user.sh, tools/drop_caps.sh; docs/design.md, "Least
     privilege"): its client, its local cluster's scheduler and workers, and
-    so every point's run. Here, as root: the Cortex-M4 sizes are measured
+    so every point's run (with --scheduler the workers are the remote
+    cluster's, and the sweep stays as it is). Here, as root: the Cortex-M4 sizes are measured
     (they build into the checkout), `out` and a scratch folder (the
     sweep's HOME and Dask's temporary-directory) are handed to that user,
     and given back after, whatever the outcome; SIGTERM and SIGHUP are
@@ -231,7 +232,8 @@ def as_run_user(a, argv):
     uid, gid = (int(v) for v in p.stdout.split())
     if uid == 0:
         return None
-    out = plan(a)[3]
+    scene_path, scene, knobs, out, _, sources = plan(a)
+    validate(scene_path, scene, K.grid(knobs), sources)   # bad input named before anything is made
     os.makedirs(out, exist_ok=True)
     scratch = tempfile.mkdtemp(prefix="afm-sweep-")
     os.chmod(scratch, 0o755)
@@ -354,7 +356,7 @@ def main(argv):
     started = None
     try:
         a = parse_args(argv)
-        if os.geteuid() == 0:
+        if os.geteuid() == 0 and not a.scheduler:   # a local cluster's workers (a remote cluster's are its own)
             code = as_run_user(a, argv)
             if code is not None:
                 return code
