@@ -47,7 +47,10 @@ options:
   --repeat N            runs per point (default 1): costs as the median and
                         the spread; errors must repeat exactly
   --workers N           a local Dask cluster of N workers (default: one per core),
-                        on 127.0.0.1, TLS with credentials made for this sweep
+                        on 127.0.0.1, TLS with credentials made for this sweep;
+                        started as root, the sweep and its workers run as the
+                        run's user (nobody, or AFM_RUN_USER) without capabilities,
+                        --out theirs for the sweep (docs/sweeps.md)
   --scheduler ADDRESS   an existing Dask cluster (tls://HOST:PORT) whose
                         workers have this checkout, built, at the same path
                         (docs/sweeps.md: python -m analysis.cluster)
