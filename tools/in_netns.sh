@@ -20,9 +20,10 @@
 #   `--out DIR` among the arguments, the folders in AFM_RUN_WRITES
 #   (colon-separated: for commands that name them otherwise) and
 #   AFM_LINK_DIR; after, whatever the outcome (a signal too, which is passed
-#   on to the command), they are given back to root. If the run's user
-#   cannot reach them or CMD, the run keeps uid 0 (still without
-#   capabilities) and says why on stderr.
+#   on to the command), they are given back to root (by the last run that
+#   holds them), and those made for the run and left empty are removed. If
+#   the run's user cannot reach them or CMD, the run keeps uid 0 (still
+#   without capabilities) and says why on stderr.
 # Exports AFM_NETNS_MODE (run.json "netns"): rootless (not root); user:UID
 # or root:UID (root, in a user namespace or not, the run as uid UID).
 set -euo pipefail
@@ -58,6 +59,17 @@ IFS=: read -r -a extra <<< "${AFM_RUN_WRITES:-}"
 for d in "${extra[@]}" "${AFM_LINK_DIR:-}"; do [ -z "$d" ] || writes+=("$d"); done
 unset AFM_RUN_WRITES
 
+# Those that do not exist yet are made for the run to write in; what of
+# them is still empty after it is removed again (a refused scene leaves
+# nothing): "LEAF|TOP", TOP the highest folder made for it.
+made=()
+for d in "${writes[@]}"; do
+  [ ! -e "$d" ] || continue
+  top=$d
+  while [ ! -e "$(dirname "$top")" ]; do top=$(dirname "$top"); done
+  made+=("$d|$top")
+done
+
 read -r uid gid < <("$here/run_user.sh" id)
 if [ "$uid" != 0 ]; then
   reach=()
@@ -70,6 +82,13 @@ if [ "$uid" != 0 ]; then
   fi
 fi
 export AFM_RUN_UID=$uid AFM_RUN_GID=$gid
+# Each folder held (a shared lock) for the run's life: two runs given one
+# folder (the second one refused by the launcher's own lock) give it back
+# once, when the last of them ends, never under the other's feet.
+locks=()
+for d in "${writes[@]}"; do
+  if [ -d "$d" ]; then exec {fd}<"$d"; flock -s "$fd"; locks+=("$fd"); else locks+=(""); fi   # (not made: uid 0 keeps it)
+done
 
 # The command, in its namespace, with signals passed on; then the folders
 # given back.
@@ -102,5 +121,11 @@ while :; do
   wait "$child" && rc=0 || rc=$?
   kill -0 "$child" 2>/dev/null || break   # a signal ended wait, not the command
 done
-"$here/run_user.sh" take "${writes[@]}"
+for i in "${!writes[@]}"; do
+  if [ -n "${locks[$i]}" ] && flock -n -x "${locks[$i]}"; then "$here/run_user.sh" take "${writes[$i]}"; fi
+done
+for m in "${made[@]}"; do
+  leaf=${m%|*} top=${m#*|}
+  while rmdir "$leaf" 2>/dev/null && [ "$leaf" != "$top" ]; do leaf=$(dirname "$leaf"); done
+done
 exit "$rc"
