@@ -41,6 +41,7 @@ case "${AFM_HOSTS:-1}" in
   *) echo "in_netns: AFM_HOSTS must be 1 or 2, not '$AFM_HOSTS'" >&2; exit 2 ;;
 esac
 
+unset AFM_RUN_UID AFM_RUN_GID   # this script alone names the run's user to drop_caps.sh
 if [ "$(id -u)" != 0 ]; then
   unshare -rn true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
                                          "the bus must not run in the host's namespace" >&2; exit 2; }
@@ -95,12 +96,15 @@ done
 child=""
 pass_on() { [ -z "$child" ] || kill -s "$1" "$child" 2>/dev/null || true; }
 for sig in INT TERM HUP; do trap "pass_on $sig" "$sig"; done
+# in the background so that this shell may pass signals on, yet as if in the
+# foreground: SIGINT and SIGQUIT not ignored, stdin the caller's
+fg="env --default-signal=INT,QUIT"
 if unshare -U true 2>/dev/null; then
   # The namespace's root waits on a pipe until its maps are written.
   go=$(mktemp -d "${TMPDIR:-/tmp}/afm-netns-XXXXXX")
   mkfifo -m 0600 "$go/go"
   exec 3<>"$go/go"
-  AFM_NETNS_MODE=user:$uid unshare -U -n sh -c "read -r _ <&3 && exec 3<&- && $inner" "$drop" "$@" &
+  AFM_NETNS_MODE=user:$uid $fg unshare -U -n sh -c "read -r _ <&3 && exec 3<&- && $inner" "$drop" "$@" <&0 &
   child=$!
   rm -rf "$go"
   for _ in $(seq 400); do
@@ -113,7 +117,7 @@ if unshare -U true 2>/dev/null; then
   echo go >&3
   exec 3>&-
 else
-  AFM_NETNS_MODE=root:$uid unshare -n sh -c "$inner" "$drop" "$@" &
+  AFM_NETNS_MODE=root:$uid $fg unshare -n sh -c "$inner" "$drop" "$@" <&0 &
   child=$!
 fi
 rc=0
