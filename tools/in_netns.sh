@@ -47,7 +47,6 @@ if [ "$(id -u)" != 0 ]; then
                                          "the bus must not run in the host's namespace" >&2; exit 2; }
   AFM_NETNS_MODE=rootless exec unshare -rn sh -c "$inner" "$drop" "$@"
 fi
-unshare -n true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -n refused as root)" >&2; exit 2; }
 
 # The folders the run writes.
 writes=() prev=""
@@ -71,17 +70,16 @@ for d in "${writes[@]}"; do
   made+=("$d|$top")
 done
 
-read -r uid gid < <("$here/run_user.sh" id)
-if [ "$uid" != 0 ]; then
-  reach=()
-  [[ $1 != */* ]] || reach+=("$1")
-  if ! why=$("$here/run_user.sh" reach "${reach[@]}" "$here/drop_caps.sh" 2>&1) \
-     || ! why=$("$here/run_user.sh" give "${writes[@]}" 2>&1); then
-    echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where uid $uid reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
-    "$here/run_user.sh" take "${writes[@]}"
-    uid=0 gid=0
-  fi
+# The run's user must reach CMD (a path) and drop_caps.sh, and each folder.
+reach=(--reach "$here/drop_caps.sh")
+[[ $1 != */* ]] || reach+=(--reach "$1")
+if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
+  why=$ids
+  echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
+  "$here/run_user.sh" take "${writes[@]}"
+  ids="0 0"
 fi
+read -r uid gid <<< "$ids"
 export AFM_RUN_UID=$uid AFM_RUN_GID=$gid
 # Each folder held (a shared lock) for the run's life: two runs given one
 # folder (the second one refused by the launcher's own lock) give it back
@@ -100,23 +98,20 @@ for sig in INT TERM HUP; do trap "pass_on $sig" "$sig"; done
 # foreground: SIGINT and SIGQUIT not ignored, stdin the caller's
 fg="env --default-signal=INT,QUIT"
 if unshare -U true 2>/dev/null; then
-  # The namespace's root waits on a pipe until its maps are written.
-  go=$(mktemp -d "${TMPDIR:-/tmp}/afm-netns-XXXXXX")
-  mkfifo -m 0600 "$go/go"
-  exec 3<>"$go/go"
-  AFM_NETNS_MODE=user:$uid $fg unshare -U -n sh -c "read -r _ <&3 && exec 3<&- && $inner" "$drop" "$@" <&0 &
+  # Its root says it is in (fd 4), then waits (fd 3) until its maps are written.
+  pipes=$(mktemp -d "${TMPDIR:-/tmp}/afm-netns-XXXXXX")
+  mkfifo -m 0600 "$pipes/in" "$pipes/go"
+  exec 3<>"$pipes/go" 4<>"$pipes/in"
+  rm -rf "$pipes"
+  AFM_NETNS_MODE=user:$uid $fg unshare -U -n sh -c "echo >&4 && read -r _ <&3 && exec 3<&- 4>&- && $inner" "$drop" "$@" <&0 &
   child=$!
-  rm -rf "$go"
-  for _ in $(seq 400); do
-    [ "$(readlink /proc/$child/ns/user 2>/dev/null)" != "$(readlink /proc/self/ns/user)" ] && break
-    sleep 0.005
-  done
   # one write() each, as the kernel wants (printf writes line by line)
   maps() { local m="0 0 1"; [ "$2" = 0 ] || m+=$'\n'"$2 $2 1"; cat <<< "$m" > "/proc/$child/$1_map"; }
-  maps uid "$uid" && maps gid "$gid" || echo "in_netns: cannot write the user namespace's maps of pid $child" >&2
+  { read -r -t 10 _ <&4 && maps uid "$uid" && maps gid "$gid"; } || echo "in_netns: cannot write the user namespace's maps of pid $child" >&2
   echo go >&3
-  exec 3>&-
+  exec 3>&- 4>&-
 else
+  unshare -n true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -n refused as root)" >&2; exit 2; }
   AFM_NETNS_MODE=root:$uid $fg unshare -n sh -c "$inner" "$drop" "$@" <&0 &
   child=$!
 fi
