@@ -222,13 +222,14 @@ def as_run_user(a, argv):
     privilege (tools/run_user.sh, tools/drop_caps.sh; docs/design.md, "Least
     privilege"): its client, its local cluster's scheduler and workers, and
     so every point's run (with --scheduler the workers are the remote
-    cluster's, and the sweep stays as it is). Here, as root: the Cortex-M4 sizes are measured
-    (they build into the checkout), `out` and a scratch folder (the
-    sweep's HOME and Dask's temporary-directory) are handed to that user,
-    and given back after, whatever the outcome; SIGTERM and SIGHUP are
-    passed on (Ctrl-C reaches both processes from the terminal). Returns
-    the sweep's exit code, or None when it goes on as root: the run's user
-    is root, or cannot reach the checkout or `out` (said on stderr)."""
+    cluster's, and the sweep stays as it is). Here, as root: the input is
+    validated, the Cortex-M4 sizes are measured (they build into the
+    checkout), `out` and a scratch folder (the sweep's HOME and Dask's
+    temporary-directory) are handed to that user, and given back after,
+    whatever the outcome; SIGTERM and SIGHUP are passed on (Ctrl-C reaches
+    both processes from the terminal). Returns the sweep's exit code, or
+    None when it goes on as root: the run's user is root, or cannot reach
+    the checkout or `out` (said on stderr)."""
     p = subprocess.run([paths.RUN_USER, "id"], capture_output=True, text=True)
     if p.returncode != 0:
         raise SweepError(p.stderr.strip())
