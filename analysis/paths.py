@@ -6,6 +6,8 @@ BUILD = os.environ.get("AFM_BUILD") or os.path.join(ROOT, "build", "main")
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 REPLAY = os.path.join(BUILD, "host_bridge", "afm_replay")
 IN_NETNS = os.path.join(ROOT, "tools", "in_netns.sh")
+RUN_USER = os.path.join(ROOT, "tools", "run_user.sh")   # who a run is when started as root
+DROP_CAPS = os.path.join(ROOT, "tools", "drop_caps.sh")  # the one place a process becomes that user
 ARM_BUILD = os.path.join(ROOT, "build", "arm")
 # The programs a run is made of: their contents identify the build a sweep
 # point was measured with (resume reruns a point when any of them changed).

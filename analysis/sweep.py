@@ -14,6 +14,7 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -46,7 +47,10 @@ options:
   --repeat N            runs per point (default 1): costs as the median and
                         the spread; errors must repeat exactly
   --workers N           a local Dask cluster of N workers (default: one per core),
-                        on 127.0.0.1, TLS with credentials made for this sweep
+                        on 127.0.0.1, TLS with credentials made for this sweep;
+                        started as root, the sweep and its workers run as the
+                        run's user (nobody, or AFM_RUN_USER) without capabilities,
+                        --out theirs for the sweep (docs/sweeps.md)
   --scheduler ADDRESS   an existing Dask cluster (tls://HOST:PORT) whose
                         workers have this checkout, built, at the same path
                         (docs/sweeps.md: python -m analysis.cluster)
@@ -213,6 +217,50 @@ def arm_sizes():
     return sizes
 
 
+def as_run_user(a, argv):
+    """Started as root, the sweep runs again as the run's user, without
+    privilege (tools/run_user.sh, tools/drop_caps.sh; docs/design.md, "Least
+    privilege"): its client, its local cluster's scheduler and workers, and
+    so every point's run (with --scheduler the workers are the remote
+    cluster's, and the sweep stays as it is). Here, as root: the input is
+    validated, the Cortex-M4 sizes are measured (they build into the
+    checkout), `out` and a scratch folder (the sweep's HOME and Dask's
+    temporary-directory) are handed to that user, and given back after,
+    whatever the outcome; SIGTERM and SIGHUP are passed on (Ctrl-C reaches
+    both processes from the terminal). Returns the sweep's exit code, or
+    None when it goes on as root: the run's user is root, or cannot reach
+    the checkout or `out` (said on stderr)."""
+    p = subprocess.run([paths.RUN_USER, "id"], capture_output=True, text=True)
+    if p.returncode != 0:
+        raise SweepError(p.stderr.strip())
+    uid, gid = (int(v) for v in p.stdout.split())
+    if uid == 0:
+        return None
+    scene_path, scene, knobs, out, _, sources = plan(a)
+    validate(scene_path, scene, K.grid(knobs), sources)   # bad input named before anything is made
+    os.makedirs(out, exist_ok=True)
+    scratch = tempfile.mkdtemp(prefix="afm-sweep-")
+    os.chmod(scratch, 0o755)
+    try:
+        p = subprocess.run([paths.RUN_USER, "reach", paths.ROOT, os.getcwd(), sys.executable], capture_output=True, text=True)
+        if p.returncode == 0:
+            p = subprocess.run([paths.RUN_USER, "give", out, scratch], capture_output=True, text=True)
+        if p.returncode != 0:
+            print(f"sweep: warning: the sweep and its workers stay root: {p.stderr.strip().removeprefix('run_user: ')}",
+                  file=sys.stderr)
+            return None
+        env = dict(os.environ, AFM_RUN_UID=str(uid), AFM_RUN_GID=str(gid), HOME=scratch, DASK_TEMPORARY_DIRECTORY=scratch,
+                   AFM_SWEEP_ARM_SIZES=json.dumps(arm_sizes()))
+        child = subprocess.Popen([paths.DROP_CAPS, sys.executable, "-m", "analysis.sweep", *argv], env=env)
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, lambda s, _f: child.send_signal(s))
+        signal.signal(signal.SIGINT, lambda _s, _f: None)
+        return child.wait()
+    finally:
+        subprocess.run([paths.RUN_USER, "take", out], capture_output=True)
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
 def load_done(path, build):
     try:
         with open(path) as f:
@@ -312,6 +360,10 @@ def main(argv):
     started = None
     try:
         a = parse_args(argv)
+        if os.geteuid() == 0 and not a.scheduler:   # a local cluster's workers (a remote cluster's are its own)
+            code = as_run_user(a, argv)
+            if code is not None:
+                return code
         if a.scheduler:   # a cluster that cannot be used is named before anything else starts
             started = start_engine(a)
         scene_path, scene, knobs, out, repeat, sources = plan(a)
@@ -326,7 +378,8 @@ def main(argv):
     duration = float(scene.get("duration_s", 1.0))
     timeout = a.timeout_s or 60.0 + 40.0 * duration
     os.makedirs(os.path.join(out, "points"), exist_ok=True)
-    sizes = arm_sizes()
+    # measured by the sweep's root parent, when it runs as the run's user (as_run_user)
+    sizes = json.loads(os.environ["AFM_SWEEP_ARM_SIZES"]) if "AFM_SWEEP_ARM_SIZES" in os.environ else arm_sizes()
     tasks, done = [], []
     for settings in settings_list:
         s = K.apply(scene, settings)

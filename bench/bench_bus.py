@@ -157,7 +157,7 @@ def raw_latency(sizes, count, out, cpu=None, receive="tap"):
     exe = os.path.join(BUILD, "bench", "host", "bench_bus")
     pin = [] if cpu is None else ["taskset", "-c", str(cpu)]
     p = subprocess.run([IN_NETNS, *pin, exe, "--sizes", sizes, "--count", str(count), "--receive", receive, "--json", path],
-                       capture_output=True, text=True)
+                       capture_output=True, text=True, env=dict(os.environ, AFM_RUN_WRITES=out))   # where the probe writes
     if p.returncode:
         sys.exit(f"bench bus: {exe} failed ({p.returncode}): {p.stderr.strip()}")
     with open(path) as f:
@@ -257,6 +257,7 @@ def main(argv=None):
         ap.error(f"--scene: {a.scene}: no such file")
     keep = a.out is not None
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
+    os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
     os.makedirs(out, exist_ok=True)
     disk = disk_probe(out)
 

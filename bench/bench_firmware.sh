@@ -71,6 +71,7 @@ if [ ! -x "$bin" ]; then
 fi
 
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/bench_fw.XXXXXX")
+chmod 755 "$tmp"   # started as root, its run is the run's user (tools/run_user.sh), who must reach it
 trap 'rm -rf "$tmp"' EXIT
 
 echo "bench_firmware: timing and errors ($n samples per angle, $repeats repeats)" >&2

@@ -79,6 +79,7 @@ def main(argv):
         sys.exit(f"bench hostile: --rate must be above 0, not {a.rate}")
     launch = paths.LAUNCH
     tmp = tempfile.mkdtemp(prefix="afm-bench-hostile-")
+    os.chmod(tmp, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
     calm, flood = [], []
     try:
         print(f"bench hostile: {os.path.basename(a.scene)}, {a.rounds} calm and {a.rounds} flooded runs "

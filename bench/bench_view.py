@@ -98,6 +98,7 @@ def main(argv=None):
     if not (test_view.CHROMIUM and test_view.DRIVER):
         raise SystemExit("bench view: chromium or chromedriver missing (./afm setup installs them)")
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-view-")
+    os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
     os.makedirs(out, exist_ok=True)
     driver = test_view.browser()
     rows = []

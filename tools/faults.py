@@ -130,7 +130,7 @@ def alive_in_groups(pgids):
 class Run:
     """One afm_launch in its own namespace, with hooks while it runs."""
 
-    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None, link=None):
+    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None, link=None, writes=None):
         self.out = out
         cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
         if link is not None:   # two hosts (tools/two_hosts.sh): the namespaces, the link, then the launcher
@@ -142,6 +142,10 @@ class Run:
         # those capabilities; beside() runs the launcher without them.
         if keep_caps:
             env = dict(env or os.environ, AFM_KEEP_CAPS=keep_caps)
+        # the run's folder (or `writes`, the folder that holds what its
+        # helper writes too), for in_netns.sh to hand to the run's user when
+        # started as root (a wrapped command names it inside a shell's text)
+        env = dict(env or os.environ, AFM_RUN_WRITES=writes or out)
         self.p = subprocess.Popen([IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                   start_new_session=True, env=env)
         self.kids = {}
@@ -390,7 +394,7 @@ class Matrix:
         log = os.path.join(d, "netfault.log")
         # the run once the queue has its reader and its rules
         r = Run(self.scene, os.path.join(d, "run"), wrap=lambda cmd: beside(nf, cmd, ready_log=log),
-                keep_caps="net_admin,net_raw").finish()
+                keep_caps="net_admin,net_raw", writes=d).finish()
         if r.code == NOT_READY:
             try:
                 with open(log) as f:

@@ -302,7 +302,8 @@ def run_beside(launch, scene, out, rate=2000.0, kinds=None, admit_any=False, pyt
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     sent_path = out.rstrip("/") + ".sent.json"
     env = dict(os.environ, PY=python, HOSTILE=os.path.abspath(__file__), RATE=str(rate), OUT=out, SENT=sent_path,
-               LAUNCH=launch, SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0")
+               LAUNCH=launch, SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0",
+               AFM_RUN_WRITES=os.path.dirname(sent_path))   # the folders the script writes, for the run's user (in_netns.sh)
     p = subprocess.run([os.path.join(here, "in_netns.sh"), "sh", "-c", script], capture_output=True, text=True,
                        timeout=400, env=env)
     try:

@@ -5,31 +5,126 @@
 #   tools/in_netns.sh CMD [ARGS...]
 # AFM_HOSTS=2: two namespaces joined by a veth pair instead, the bus across
 # it (tools/two_hosts.sh, docs/hosts.md); it needs user namespaces.
-# Tries a user namespace first (unshare -rn, no root needed); as root where
-# user namespaces are refused (a chroot), falls back to unshare -n. Exports
-# AFM_NETNS_MODE=rootless|root so the run can say which it used.
+#
+# A run's processes need no root (design.md, "Least privilege"). Once the
+# namespace is set up, the command runs through tools/drop_caps.sh: no
+# capabilities, and, started as root, as the run's user
+# (tools/run_user.sh: nobody unless AFM_RUN_USER says otherwise).
+# - Not root: a user namespace (unshare -rn) mapping the caller to root, who
+#   sets up the loopback; the command runs as the caller.
+# - Root: a user namespace mapping root and the run's user each to itself
+#   (written here: unshare's own --map-users needs newuidmap); where user
+#   namespaces are refused (a chroot), unshare -n. Root in it sets up the
+#   loopback, then the command runs as the run's user. Before, the folders
+#   the run writes are handed to that user (tools/run_user.sh give): each
+#   `--out DIR` among the arguments, the folders in AFM_RUN_WRITES
+#   (colon-separated: for commands that name them otherwise) and
+#   AFM_LINK_DIR; after, whatever the outcome (a signal too, which is passed
+#   on to the command), they are given back to root (by the last run that
+#   holds them), and those made for the run and left empty are removed. If
+#   the run's user cannot reach them or CMD, the run keeps uid 0 (still
+#   without capabilities) and says why on stderr.
+# Exports AFM_NETNS_MODE (run.json "netns"): rootless (not root); user:UID
+# or root:UID (root, in a user namespace or not, the run as uid UID).
 set -euo pipefail
 [ $# -ge 1 ] || { echo "usage: tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
 command -v unshare >/dev/null || { echo "in_netns: unshare not found (util-linux)" >&2; exit 2; }
 command -v ip >/dev/null || { echo "in_netns: ip not found (iproute2; run ./afm setup)" >&2; exit 2; }
-# Once the namespace is set up, the command runs with no capabilities
-# (tools/drop_caps.sh): root, or root in the user namespace, keeps uid 0 but
-# loses every privilege that uid 0 would bring.
-drop="$(cd "$(dirname "$0")" && pwd)/drop_caps.sh"
+here=$(cd "$(dirname "$0")" && pwd)
+drop="$here/drop_caps.sh"
 inner='ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$0" "$@"'
 case "${AFM_HOSTS:-1}" in
   1) ;;
-  2) drop="$(cd "$(dirname "$0")" && pwd)/two_hosts.sh"   # it drops the privilege itself
+  2) drop="$here/two_hosts.sh"   # it drops the privilege itself
      inner='exec "$0" "$@"'
      unshare -rn true 2>/dev/null || { echo "in_netns: two hosts need user namespaces (unshare -rn refused here)" >&2; exit 2; } ;;
   *) echo "in_netns: AFM_HOSTS must be 1 or 2, not '$AFM_HOSTS'" >&2; exit 2 ;;
 esac
-if unshare -rn true 2>/dev/null; then
+
+unset AFM_RUN_UID AFM_RUN_GID   # this script alone names the run's user to drop_caps.sh
+if [ "$(id -u)" != 0 ]; then
+  unshare -rn true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
+                                         "the bus must not run in the host's namespace" >&2; exit 2; }
   AFM_NETNS_MODE=rootless exec unshare -rn sh -c "$inner" "$drop" "$@"
-elif [ "$(id -u)" = 0 ] && unshare -n true 2>/dev/null; then
-  AFM_NETNS_MODE=root exec unshare -n sh -c "$inner" "$drop" "$@"
-else
-  echo "in_netns: cannot create a network namespace here (unshare -rn refused and not root);" \
-       "the bus must not run in the host's namespace" >&2
-  exit 2
 fi
+
+# The folders the run writes.
+writes=() prev=""
+for a in "$@"; do
+  [ "$prev" = --out ] && writes+=("$a")
+  case "$a" in --out=*) writes+=("${a#--out=}") ;; esac
+  prev=$a
+done
+IFS=: read -r -a extra <<< "${AFM_RUN_WRITES:-}"
+for d in "${extra[@]}" "${AFM_LINK_DIR:-}"; do [ -z "$d" ] || writes+=("$d"); done
+unset AFM_RUN_WRITES
+
+# Those that do not exist yet are made for the run to write in; what of
+# them is still empty after it is removed again (a refused scene leaves
+# nothing): "LEAF|TOP", TOP the highest folder made for it.
+made=()
+for d in "${writes[@]}"; do
+  [ ! -e "$d" ] || continue
+  top=$d
+  while [ ! -e "$(dirname "$top")" ]; do top=$(dirname "$top"); done
+  made+=("$d|$top")
+done
+
+# The run's user must reach CMD (a path) and drop_caps.sh, and each folder.
+reach=(--reach "$here/drop_caps.sh")
+[[ $1 != */* ]] || reach+=(--reach "$1")
+if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
+  why=$ids
+  echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
+  "$here/run_user.sh" take "${writes[@]}"
+  ids="0 0"
+fi
+read -r uid gid <<< "$ids"
+export AFM_RUN_UID=$uid AFM_RUN_GID=$gid
+# Each folder held (a shared lock) for the run's life: two runs given one
+# folder (the second one refused by the launcher's own lock) give it back
+# once, when the last of them ends, never under the other's feet.
+locks=()
+for d in "${writes[@]}"; do
+  if [ -d "$d" ]; then exec {fd}<"$d"; flock -s "$fd"; locks+=("$fd"); else locks+=(""); fi   # (not made: uid 0 keeps it)
+done
+
+# The command, in its namespace, with signals passed on; then the folders
+# given back.
+child=""
+pass_on() { [ -z "$child" ] || kill -s "$1" "$child" 2>/dev/null || true; }
+for sig in INT TERM HUP; do trap "pass_on $sig" "$sig"; done
+# in the background so that this shell may pass signals on, yet as if in the
+# foreground: SIGINT and SIGQUIT not ignored, stdin the caller's
+fg="env --default-signal=INT,QUIT"
+if unshare -U true 2>/dev/null; then
+  # Its root says it is in (fd 4), then waits (fd 3) until its maps are written.
+  pipes=$(mktemp -d "${TMPDIR:-/tmp}/afm-netns-XXXXXX")
+  mkfifo -m 0600 "$pipes/in" "$pipes/go"
+  exec 3<>"$pipes/go" 4<>"$pipes/in"
+  rm -rf "$pipes"
+  AFM_NETNS_MODE=user:$uid $fg unshare -U -n sh -c "echo >&4 && read -r _ <&3 && exec 3<&- 4>&- && $inner" "$drop" "$@" <&0 &
+  child=$!
+  # one write() each, as the kernel wants (printf writes line by line)
+  maps() { local m="0 0 1"; [ "$2" = 0 ] || m+=$'\n'"$2 $2 1"; cat <<< "$m" > "/proc/$child/$1_map"; }
+  { read -r -t 10 _ <&4 && maps uid "$uid" && maps gid "$gid"; } || echo "in_netns: cannot write the user namespace's maps of pid $child" >&2
+  echo go >&3
+  exec 3>&- 4>&-
+else
+  unshare -n true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -n refused as root)" >&2; exit 2; }
+  AFM_NETNS_MODE=root:$uid $fg unshare -n sh -c "$inner" "$drop" "$@" <&0 &
+  child=$!
+fi
+rc=0
+while :; do
+  wait "$child" && rc=0 || rc=$?
+  kill -0 "$child" 2>/dev/null || break   # a signal ended wait, not the command
+done
+for i in "${!writes[@]}"; do
+  if [ -n "${locks[$i]}" ] && flock -n -x "${locks[$i]}"; then "$here/run_user.sh" take "${writes[$i]}"; fi
+done
+for m in "${made[@]}"; do
+  leaf=${m%|*} top=${m#*|}
+  while rmdir "$leaf" 2>/dev/null && [ "$leaf" != "$top" ]; do leaf=$(dirname "$leaf"); done
+done
+exit "$rc"

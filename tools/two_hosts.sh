@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The paper's two computers on a link, inside the run's own namespace
 # (docs/hosts.md). tools/in_netns.sh runs this, with the privilege of the new
-# namespace, when AFM_HOSTS=2; it then runs CMD without any (drop_caps.sh).
+# namespace, when AFM_HOSTS=2; it then runs CMD without any (drop_caps.sh),
+# as the run's user when it was started as root (AFM_RUN_UID): that user
+# makes the afm namespace, so that the launcher, as that user, may enter it.
 #   AFM_HOSTS=2 [AFM_LINK=SPEC] [AFM_LINK_DIR=DIR] tools/in_netns.sh CMD [ARGS...]
 #
 # The namespace in_netns.sh made is "host" (the card's node, the operator,
@@ -36,7 +38,7 @@ drop="$here/drop_caps.sh"
 die() { echo "two_hosts: $*" >&2; exit 2; }
 temporary=0
 [ -n "${AFM_LINK_DIR:-}" ] || temporary=1
-dir=${AFM_LINK_DIR:-$(mktemp -d "${TMPDIR:-/tmp}/afm-link-XXXXXX")}
+dir=${AFM_LINK_DIR:-$("$drop" mktemp -d "${TMPDIR:-/tmp}/afm-link-XXXXXX")}   # the run's user writes in it
 mkdir -p "$dir"
 
 delay=0 jitter=0 loss=0 dup=0 reorder=0 rate=0
@@ -59,8 +61,9 @@ nonzero() { awk -v x="$1" 'BEGIN { exit !(x > 0) }'; }
 
 ip link set lo up
 # The afm namespace, held while CMD (this shell's pid, after exec) lives.
-# The holder needs no privilege to hold them: it drops all it has.
-unshare -rn "$drop" tail --pid=$$ -s 0.1 -f /dev/null </dev/null >/dev/null 2>&1 &
+# The run's user makes it (its owner), and the holder needs no privilege to
+# hold them: it drops all it has.
+"$drop" unshare -rn "$drop" tail --pid=$$ -s 0.1 -f /dev/null </dev/null >/dev/null 2>&1 &
 afm=$!
 for _ in $(seq 200); do
   [ "$(readlink /proc/$afm/ns/net 2>/dev/null)" != "$(readlink /proc/$$/ns/net)" ] && break
@@ -68,7 +71,7 @@ for _ in $(seq 200); do
 done
 [ "$(readlink /proc/$afm/ns/net 2>/dev/null)" != "$(readlink /proc/$$/ns/net)" ] \
   || die "cannot make the afm namespace (unshare -rn inside the run's: user namespaces nested?)"
-in_afm() { nsenter -t "$afm" -U -n --preserve-credentials "$@"; }
+in_afm() { nsenter -t "$afm" -U -n "$@"; }   # as its root: the run's user, its owner, in the run's namespace
 ip link add vhost type veth peer name vafm netns "$afm"
 ip addr add 169.254.76.1/30 dev vhost
 ip link set vhost up
@@ -96,7 +99,7 @@ for _ in $(seq 200); do
 done
 # The link as it is, by LCM round trips.
 export AFM_BUS_LINK=vhost
-AFM_BUS_LINK=vafm nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
+AFM_BUS_LINK=vafm "$drop" nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
 echo_pid=$!
 for _ in $(seq 200); do grep -q ready "$dir/echo.log" 2>/dev/null && break; sleep 0.01; done
 "$drop" "$build/host_bridge/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --interval-us "${AFM_LINK_PROBE_INTERVAL_US:-1000}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \

@@ -31,7 +31,9 @@ else
     local log="$dir/netfault-to-$side.log"
     # never the caller's stdout: a shaper that outlived the run would hold its pipe open
     # (nsenter itself in the background, not the in_afm function: a subshell would stay, privileged, for the run's life)
-    if [ "$side" = afm ]; then nsenter -t "$afm" -U -n --preserve-credentials "${q[@]}" 2>"$log" </dev/null >/dev/null &
+    # (in the afm namespace: entered as the run's user, its owner, as the launcher enters it)
+    if [ "$side" = afm ]; then env AFM_KEEP_CAPS=net_admin,net_raw "$drop" nsenter -t "$afm" -U -n --preserve-credentials "${q[@]}" \
+                                 2>"$log" </dev/null >/dev/null &
     else "${q[@]}" 2>"$log" </dev/null >/dev/null & fi
     local started=$!
     for _ in $(seq 300); do

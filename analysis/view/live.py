@@ -180,7 +180,8 @@ async def start_run(run_cmd, wfd, hand_fifo):
     named pipe is read by the operator in operator.mode browser
     ($AFM_HAND_FIFO)."""
     cmd = [paths.IN_NETNS, "bash", "-c", WRAPPER, BRIDGE, str(wfd)] + run_cmd
-    env = dict(os.environ, AFM_HAND_FIFO=hand_fifo)
+    # the hand's folder is the run's to read (in_netns.sh hands it to the run's user when started as root)
+    env = dict(os.environ, AFM_HAND_FIFO=hand_fifo, AFM_RUN_WRITES=os.path.dirname(hand_fifo))
     return await asyncio.create_subprocess_exec(*cmd, pass_fds=(wfd,), env=env)
 
 

@@ -29,7 +29,10 @@ def tmpdir(tag):
     if _root is None:
         script = os.path.splitext(os.path.basename(sys.argv[0]))[0] or "e2e"
         _root = tempfile.mkdtemp(prefix=f"afm-{script}-", dir=os.environ.get("AFM_TEST_TMP"))
-    return tempfile.mkdtemp(prefix=f"{tag}-", dir=_root)
+        os.chmod(_root, 0o755)   # started as root, a run is the run's user (tools/run_user.sh), who must reach it
+    d = tempfile.mkdtemp(prefix=f"{tag}-", dir=_root)
+    os.chmod(d, 0o755)
+    return d
 
 
 _result = None   # the running tests' result (main()): once it has a failure, cleanup() keeps what it is given

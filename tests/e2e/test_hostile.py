@@ -38,7 +38,7 @@ def run_with_forger(scene, out, what):
     script = ('"$PY" "$FORGE" "$WHAT" --seconds 300 > /dev/null & h=$!; '
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     env = dict(os.environ, PY=sys.executable, FORGE=os.path.join(benchtest.SRC, "tools", "forge.py"), WHAT=what, OUT=out,
-               LAUNCH=benchtest.LAUNCH, SCENE=scene)
+               LAUNCH=benchtest.LAUNCH, SCENE=scene, AFM_RUN_WRITES=out)   # the run's folder, for the run's user (in_netns.sh)
     p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
     with open(os.path.join(out, "run.json")) as f:
         return p.returncode, p.stderr, json.load(f)

@@ -1,14 +1,20 @@
-"""Least privilege (issue 35): a run's processes hold no capability once
-their namespace exists (tools/in_netns.sh runs the command through
-tools/drop_caps.sh): /proc/PID/status shows CapEff, CapPrm and CapBnd 0 and
-NoNewPrivs 1 for the launcher and each of its children, whether the run
-started as root or not. The link and fault helper alone keeps CAP_NET_ADMIN
-and CAP_NET_RAW (AFM_KEEP_CAPS), and a command it starts through
-drop_caps.sh again has none. Started as root the uid stays 0 (root without
-privileges: the run writes into folders root owns), which the test states
-rather than hides."""
+"""Least privilege (issue 35): a run's processes need no root. Once their
+namespace exists (tools/in_netns.sh) they run through tools/drop_caps.sh:
+/proc/PID/status shows CapEff, CapPrm, CapBnd and CapAmb 0 and NoNewPrivs 1
+for the launcher and each of its children (the card's board under QEMU and
+the renderer's ffmpeg too), and a non-zero uid: started as root, the run's
+user (tools/run_user.sh, nobody unless AFM_RUN_USER says otherwise), else
+the caller's own. Started as root, the run's folder is handed to that user
+for the run and given back after: every file ends owned by the caller. A
+sweep's Dask workers drop to the same user. The link and fault helper alone
+keeps CAP_NET_ADMIN and CAP_NET_RAW (AFM_KEEP_CAPS), and a command it starts
+through drop_caps.sh again has none. A run whose folder the run's user cannot
+reach keeps uid 0, still without capabilities, and says why."""
+import json
 import os
+import shutil
 import subprocess
+import sys
 import time
 import unittest
 
@@ -17,6 +23,8 @@ import benchtest
 DROP = os.path.join(benchtest.SRC, "tools", "drop_caps.sh")
 NET_ADMIN_RAW = (1 << 12) | (1 << 13)
 RUN = {"afm_launch", "sim_afm", "fw_node", "operator", "renderer"}
+CAPS = ("CapEff", "CapPrm", "CapBnd", "CapAmb")
+ROOT = os.geteuid() == 0
 
 
 def status(pid):
@@ -47,38 +55,129 @@ def descendants(pid):
     return out
 
 
+def watch(p, names, want, timeout_s=120):
+    """{name: status} of the processes under Popen `p` whose Name is in
+    `names` (the last status seen of each), polled until `want` of them have
+    been seen or `p` ends."""
+    seen = {}
+    t0 = time.monotonic()
+    while p.poll() is None and time.monotonic() - t0 < timeout_s and not want <= set(seen):
+        for pid in [p.pid, *descendants(p.pid)]:   # p.pid: the launcher itself when in_netns.sh exec'd it (not root)
+            try:
+                st = status(pid)
+            except OSError:
+                continue
+            if st["Name"] in names:   # not in_netns.sh's shell, which stays root (started as root) to give the folder back
+                seen[st["Name"]] = st
+        time.sleep(0.05)
+    return seen
+
+
+def not_the_callers(folder):
+    """The files under `folder` that the caller does not own."""
+    me = os.getuid(), os.getgid()
+    bad = []
+    for top, dirs, files in os.walk(folder):
+        for n in [top] + [os.path.join(top, f) for f in dirs + files]:
+            st = os.lstat(n)
+            if (st.st_uid, st.st_gid) != me:
+                bad.append(f"{n} {st.st_uid}:{st.st_gid}")
+    return bad
+
+
 class LeastPrivilege(unittest.TestCase):
-    def test_a_runs_processes_hold_no_capability(self):
-        out = os.path.join(benchtest.tmpdir("privilege"), "run")
+    def unprivileged(self, seen, caps=CAPS, no_new_privs=True):
+        for name, st in seen.items():
+            for cap in caps:
+                self.assertEqual(int(st[cap], 16), 0, f"{name}: {cap} {st[cap]}")
+            if no_new_privs:
+                self.assertEqual(st["NoNewPrivs"], "1", name)
+            uids = st["Uid"].split()
+            self.assertNotIn("0", uids, f"{name}: Uid {st['Uid']} (real, effective, saved, fs)")
+            self.assertNotIn("0", st["Gid"].split(), f"{name}: Gid {st['Gid']}")
+            print(f"{name}: Uid {uids[0]}, Gid {st['Gid'].split()[0]}, CapEff {st['CapEff']}, CapBnd {st['CapBnd']}, "
+                  f"NoNewPrivs {st['NoNewPrivs']}")
+
+    def run_watched(self, tag, names, want, *extra):
+        out = os.path.join(benchtest.tmpdir(tag), "run")
         p = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out,
-                              "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                              "--quiet", *extra], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        seen = watch(p, names, want)
+        _, err = p.communicate(timeout=180)
+        self.assertEqual(p.returncode, 0, err)
+        self.assertNotIn("keeps uid 0", err)
+        self.assertEqual(set(seen) & RUN, RUN, seen.keys())
+        self.unprivileged(seen)
+        self.assertEqual(not_the_callers(out), [], "every file of the run ends the caller's")
+        return out, seen
+
+    def test_a_runs_processes_hold_no_capability_and_no_root(self):
+        # ffmpeg when the renderer writes its video through it (run.json renderer.video says which)
+        out, seen = self.run_watched("privilege", RUN | {"ffmpeg"}, RUN | ({"ffmpeg"} if shutil.which("ffmpeg") else set()))
+        with open(os.path.join(out, "run.json")) as f:
+            video = json.load(f)["renderer"]["video"]
+        if video["encoder"].startswith("ffmpeg"):
+            self.assertIn("ffmpeg", seen, video)
+
+    def test_the_cards_board_under_qemu_holds_none_either(self):
+        _, seen = self.run_watched("privilege-qemu", RUN | {"qemu-system-arm"}, RUN | {"qemu-system-arm"}, "--firmware", "qemu")
+        self.assertIn("qemu-system-arm", seen)
+
+    def test_a_sweeps_workers_hold_none_either(self):
+        out = os.path.join(benchtest.tmpdir("privilege-sweep"), "sweep")
+        p = subprocess.Popen([sys.executable, "-m", "analysis.sweep", benchtest.scene("short.yaml"), "--vary", "firmware.adc_bits=12",
+                              "--workers", "1", "--no-callgrind", "--out", out], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             text=True, cwd=benchtest.SRC, env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
+        # started as root, the sweep runs again as the run's user (its client
+        # and scheduler), whose workers are Python processes it spawns (multiprocessing)
         seen = {}
         t0 = time.monotonic()
-        while p.poll() is None and time.monotonic() - t0 < 60 and len(seen) < 5:
-            for pid in [p.pid, *descendants(p.pid)]:
+        while p.poll() is None and time.monotonic() - t0 < 180 and "worker" not in seen:
+            for pid in descendants(p.pid):
                 try:
+                    with open(f"/proc/{pid}/cmdline", "rb") as f:
+                        cmd = f.read()
                     st = status(pid)
                 except OSError:
                     continue
-                if st["Name"] in RUN:   # not in_netns.sh's own shell before it makes the namespace
-                    seen[st["Name"]] = st
-            time.sleep(0.05)
-        _, err = p.communicate(timeout=120)
+                if b"spawn_main" in cmd and b"resource_tracker" not in cmd:
+                    seen["worker"] = st
+                elif b"analysis.sweep" in cmd and ROOT:
+                    seen["sweep"] = st
+            time.sleep(0.1)
+        _, err = p.communicate(timeout=300)
         self.assertEqual(p.returncode, 0, err)
-        self.assertEqual(set(seen), RUN, seen.keys())
-        for name, st in seen.items():
-            for cap in ("CapEff", "CapPrm", "CapBnd", "CapAmb"):
-                self.assertEqual(int(st[cap], 16), 0, f"{name}: {cap} {st[cap]}")
-            self.assertEqual(st["NoNewPrivs"], "1", name)
-            print(f"{name}: Uid {st['Uid'].split()[0]}, CapEff {st['CapEff']}, CapBnd {st['CapBnd']}, NoNewPrivs 1")
+        self.assertNotIn("stay root", err)
+        self.assertEqual(set(seen), {"worker", "sweep"} if ROOT else {"worker"}, "the sweep as the run's user, its Dask worker")
+        # not root, the sweep is the caller's own (its runs drop all through in_netns.sh)
+        self.unprivileged(seen, CAPS if ROOT else ("CapEff", "CapPrm"), no_new_privs=ROOT)
+        self.assertEqual(not_the_callers(out), [], "every file of the sweep ends the caller's")
+
+    @unittest.skipUnless(ROOT, "the run's user differs from the caller only when started as root")
+    def test_a_folder_the_runs_user_cannot_reach_keeps_uid_0_and_says_why(self):
+        closed = benchtest.tmpdir("closed")
+        os.chmod(closed, 0o700)
+        out = os.path.join(closed, "run")
+        p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", "id -u; grep CapEff /proc/self/status", "sh", "--out", out],
+                           capture_output=True, text=True, timeout=30)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        uid, eff = p.stdout.split()[0], int(p.stdout.split()[2], 16)
+        self.assertEqual((uid, eff), ("0", 0), p.stdout)
+        self.assertIn(f"cannot reach {out}: {closed} is mode 700", p.stderr)
+        self.assertEqual(not_the_callers(closed), [])
 
     def test_the_fault_helper_alone_keeps_net_admin_and_net_raw(self):
-        cmd = [benchtest.IN_NETNS, "sh", "-c", f"grep CapEff /proc/self/status; '{DROP}' grep CapEff /proc/self/status"]
+        cmd = [benchtest.IN_NETNS, "sh", "-c",
+               f"id -u; grep CapEff /proc/self/status; '{DROP}' sh -c 'id -u; grep CapEff /proc/self/status'"]
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=30, env=dict(os.environ, AFM_KEEP_CAPS="net_admin,net_raw"))
         self.assertEqual(p.returncode, 0, p.stderr)
-        helper, after = [int(l.split()[1], 16) for l in p.stdout.splitlines()]
+        words = p.stdout.split()
+        helper_uid, helper, after_uid, after = words[0], int(words[2], 16), words[3], int(words[5], 16)
         self.assertEqual(helper, NET_ADMIN_RAW)
         self.assertEqual(after, 0)
+        if ROOT:   # the helper is the run's user too: its capabilities are its only privilege
+            self.assertNotEqual(helper_uid, "0")
+            self.assertEqual(after_uid, helper_uid)
         p = subprocess.run([benchtest.IN_NETNS, "grep", "CapEff", "/proc/self/status"], capture_output=True, text=True, timeout=30)
         self.assertEqual(int(p.stdout.split()[1], 16), 0, "without AFM_KEEP_CAPS nothing is kept")
 
