@@ -31,6 +31,7 @@ import signal
 import struct
 import sys
 import tempfile
+import time
 
 from analysis import afmlog, paths
 from analysis.view import frames, server
@@ -85,7 +86,9 @@ class LiveSource:
             return
         if channel == "VIEW_FRAME":
             self.frames += 1
-            view.broadcast_frame(*frames.from_view_frame(m))
+            meta, image = frames.from_view_frame(m)
+            meta["t_rx_ms"] = time.time() * 1e3   # ./afm bench view's stages: the server has it
+            view.broadcast_frame(meta, image)
         elif channel == "AFM_HEARTBEAT":
             self.processes[m.name] = {"state": m.state, "sim_s": m.sim_utime * 1e-6, "seq": m.seq}
             view.broadcast({"type": "status", "processes": self.processes})

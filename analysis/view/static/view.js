@@ -12,7 +12,8 @@
   const state = window.afmView = {
     connected: false, mode: "", framesShown: 0, lastIndex: -1, framesTotal: 0, skippedRenderer: 0,
     skippedServer: 0, skippedPage: 0, chartSamples: 0, chartT: [], ended: null, flags: {}, t: 0,
-    painted: [],                            // [block, wall ms] of each frame painted (./afm bench view)
+    painted: [],                            // per frame painted (./afm bench view), wall ms: [block, painted,
+                                            //  server had it, server sent it, page had it, page drew it]
     hand: null,                             // operator.mode browser: {target_nm, load_nN, engaged, sent}
   };
   const HAND_SEND_MS = 20;                  // the pointer's commands, at most this often
@@ -238,6 +239,7 @@
   function onImage(buf) {
     if (!meta) return;
     const m = meta;
+    m.t_page_ms = performance.timeOrigin + performance.now();
     meta = null;
     if (m.samples) addSamples(m.samples);
     state.skippedRenderer += m.skipped;
@@ -277,8 +279,11 @@
     state.particles = m.particles;
     state.meta = { field_nm: m.field_nm, width: m.width, height: m.height };
     state.framesShown += 1;
-    if (state.painted.length < 100000)
-      requestAnimationFrame(() => state.painted.push([m.seq, performance.timeOrigin + performance.now()]));
+    if (state.painted.length < 100000) {
+      const drawn = performance.timeOrigin + performance.now();
+      requestAnimationFrame(() => state.painted.push([m.seq, performance.timeOrigin + performance.now(), m.t_rx_ms, m.t_tx_ms,
+                                                      m.t_page_ms, drawn]));
+    }
     state.lastIndex = m.index;
     state.framesTotal = m.frames_total;
     state.t = m.t_s;
