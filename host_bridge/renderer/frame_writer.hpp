@@ -26,8 +26,8 @@
 // thrown by the next write() or finish(), naming the file.
 //
 // The video: "mp4" is H.264 through Debian's ffmpeg (video_pipe.hpp), which
-// browsers play; the pipe is opened by the writer's thread at the first
-// frame (so that the encoder runs where the writer may run). Where ffmpeg
+// browsers play; the pipe is opened by the writer's thread as it starts
+// (so that the encoder runs where the writer may run). Where ffmpeg
 // or its libx264 is missing, OpenCV's mp4v writer (which browsers do not
 // play) writes video.mp4 instead; video() says which ran and why
 // (renderer_report.json "video", so run.json's renderer.video). "avi" is
