@@ -26,8 +26,11 @@ std::string stroke_news(const char *what, const HandInput::PushAsk &a, const Pla
     std::string out = head;
     if (!item) return out;
     char tail[120];
-    std::snprintf(tail, sizeof tail, " placed=%d error_nm=%.1f pushes=%d scans=%d", item->placed ? 1 : 0, item->error_nm, item->pushes,
-                  item->scans);
+    if (std::string(what) == "progress")   // so far: no outcome yet
+        std::snprintf(tail, sizeof tail, " pushes=%d scans=%d", item->pushes, item->scans);
+    else
+        std::snprintf(tail, sizeof tail, " placed=%d error_nm=%.1f pushes=%d scans=%d", item->placed ? 1 : 0, item->error_nm,
+                      item->pushes, item->scans);
     out += tail;
     if (!item->why.empty()) out += " why=" + item->why;
     return out;
@@ -103,6 +106,9 @@ void Operator::start_stroke(const HandInput::PushAsk &a)
     stroke = std::make_unique<Stroke>();
     stroke->ask = a;
     stroke->started_s = block_end_utime(scene, force.seq) * 1e-6;
+    stroke->pushes0 = stroke_planner->report().pushes;
+    stroke->scans0 = stroke_planner->report().local_scans;
+    stroke->told = std::chrono::steady_clock::now();
     page->yield(true);
     Stroke *st = stroke.get();
     Planner *pl = stroke_planner.get();
@@ -139,6 +145,15 @@ void Operator::serve_stroke()
                 has_z ? press_for(page->command().load_nN) : 0.0, 0);
     held_N = {0, 0};
     held_z_N = 0;
+    // its progress, for the page; the planner's thread waits for this block's model meanwhile (TurnBench)
+    if (std::chrono::steady_clock::now() - stroke->told >= std::chrono::milliseconds(kStrokeNewsMs)) {
+        PlanItem so_far;
+        so_far.id = stroke->ask.id;
+        so_far.pushes = stroke_planner->report().pushes - stroke->pushes0;
+        so_far.scans = stroke_planner->report().local_scans - stroke->scans0;
+        hb.send(RunState::running, force.seq, block_end_utime(scene, force.seq), stroke_news("progress", stroke->ask, &so_far));
+        stroke->told = std::chrono::steady_clock::now();
+    }
 }
 
 void Operator::end_stroke()

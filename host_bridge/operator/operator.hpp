@@ -54,6 +54,7 @@ constexpr int kScanReqBase = 10000;   // the planner's scans (the renderer's are
 constexpr int kFixRetryMs = 200;
 constexpr int kScanRetryMs = 300;
 constexpr int kFinishedRepeatMs = 200;
+constexpr int kStrokeNewsMs = 500;      // a stroke's progress on the heartbeat, at most this often (wall)
 constexpr double kPm_nm = 0.0015;       // the card holds positions in whole pm: a position it set is the asked one within this
 
 // operator.mode browser: one planner stroke the page asked for (PUSH), the
@@ -66,6 +67,8 @@ struct Stroke {
     PlanItem item;              // the planner's account, once it has finished
     bool served_block = false;  // the pose of the block being answered came from the planner
     double started_s = 0;       // simulated time
+    int pushes0 = 0, scans0 = 0;   // the planner's totals at its start
+    std::chrono::steady_clock::time_point told;   // the page last told of its progress
     ~Stroke()
     {
         bench.stop();

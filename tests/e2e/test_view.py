@@ -362,8 +362,13 @@ class BrowserStroke(unittest.TestCase):
             click_at(*STROKE_TARGET_NM)
             s = wait_for(d, lambda s: any(n["phase"] == "end" for n in s["stroke"]["news"]) or s["ended"], 60, "the stroke's end")
             news = s["stroke"]["news"]
-            self.assertEqual([n["phase"] for n in news], ["start", "end"], news)
-            end = news[1]
+            phases = [n["phase"] for n in news]
+            self.assertEqual((phases[0], phases[-1]), ("start", "end"), news)
+            progress = [n for n in news[1:-1] if n["phase"] == "progress"]
+            self.assertEqual(len(progress), len(news) - 2, news)
+            self.assertGreaterEqual(len(progress), 1, news)   # 3 scans of 0.3 s at least: over 0.5 s
+            self.assertEqual([n["pushes"] for n in progress], sorted(n["pushes"] for n in progress), news)
+            end = news[-1]
             self.assertEqual((end["id"], end["placed"]), (1, 1), end)
             self.assertIn("placed", d.find_element("id", "strokemsg").text)
             s = wait_for(d, lambda s: s["ended"] is not None, 60, "the run's end")

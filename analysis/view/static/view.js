@@ -102,7 +102,12 @@
   function pushNews(m) {
     pick.news.push(m);
     const to = `particle ${m.id} to (${m.x_nm.toFixed(0)}, ${m.y_nm.toFixed(0)}) nm`;
-    if (m.phase === "start") { pick.busy = true; showStroke(`${to}: the planner pushes it (from ${m.sim_s.toFixed(2)} s)`); return; }
+    if (m.phase === "start") { pick.busy = true; pick.since = m.sim_s; showStroke(`${to}: the planner pushes it (from ${m.sim_s.toFixed(2)} s)`); return; }
+    if (m.phase === "progress") {
+      showStroke(`${to}: the planner pushes it: ${m.pushes} push(es), ${m.scans} scan(s) so far, ` +
+                 `${(m.sim_s - (pick.since || 0)).toFixed(1)} s`);
+      return;
+    }
     pick.busy = false;
     pick.id = null;
     pick.target_nm = null;
