@@ -11,7 +11,12 @@ pixels are on screen then). The block's FW_STATE time is its receive time in
 the run's bus.lcmlog (the launcher's record, the same clock). Printed per
 mode: frames the renderer composed, painted by the page, skipped on the way
 (renderer, server, page), the latency's median, p99 and worst, and the
-renderer's JPEG encoding per frame. It asserts nothing.
+renderer's JPEG encoding per frame; then where the time went, per stage
+(median and p99 over the frames painted): the renderer (FW_STATE to its
+VIEW_FRAME, both as the record received them), the bridge and the pipe (to
+the server's reading it), the server (its queue and the rate it keeps), the
+WebSocket (to the page's having it), the page's decoding and drawing, and
+the wait for the animation frame. It asserts nothing.
 """
 import argparse
 import json
@@ -40,13 +45,25 @@ def realtime_scene(scene, out):
     return path
 
 
-def fw_state_times(log):
-    """{seq: the first FW_STATE of the block's receive time, us since the epoch}."""
-    out = {}
-    for ev in afmlog.events(log, channels={"FW_STATE"}):
+def bus_times(log):
+    """({seq: the block's first FW_STATE receive time}, {seq: its VIEW_FRAME's}), us since the epoch."""
+    fw, vf = {}, {}
+    for ev in afmlog.events(log, channels={"FW_STATE", "VIEW_FRAME"}):
         if ev.msg is not None:
-            out.setdefault(ev.msg.seq, ev.timestamp)
-    return out
+            (fw if ev.channel == "FW_STATE" else vf).setdefault(ev.msg.seq, ev.timestamp)
+    return fw, vf
+
+
+STAGES = ("renderer", "bridge+pipe", "server", "websocket", "decode+draw", "to paint")
+
+
+def stages(entry, fw_us, vf_us):
+    """A painted frame's stages, ms (view.js state.painted: block, painted,
+    server had it, sent it, page had it, drew it; wall ms), or None."""
+    _, paint, rx, tx, page, drawn = (list(entry) + [None] * 6)[:6]
+    if None in (vf_us, rx, tx, page, drawn):
+        return None
+    return [vf_us / 1e3 - fw_us / 1e3, rx - vf_us / 1e3, tx - rx, page - tx, drawn - page, paint - drawn]
 
 
 def p99(xs):
@@ -69,21 +86,21 @@ def one_run(scene, out, driver):
     if code:
         raise SystemExit(f"bench view: the run failed ({code}): {srv.stderr.read()[-2000:]}")
     s = driver.execute_script("return window.afmView")
-    times = fw_state_times(os.path.join(out, "bus.lcmlog"))
-    per_frame = [[seq, ms - times[seq] / 1e3] for seq, ms in s["painted"] if seq in times]
+    times, view_times = bus_times(os.path.join(out, "bus.lcmlog"))
+    per_frame = [[e[0], e[1] - times[e[0]] / 1e3] for e in s["painted"] if e[0] in times]
+    split = [st for st in (stages(e, times[e[0]], view_times.get(e[0])) for e in s["painted"] if e[0] in times) if st]
     with open(os.path.join(out, "latency.json"), "w") as f:   # [block, ms] per frame painted
         json.dump(per_frame, f)
     lat = sorted(x for _, x in per_frame)
-    # the last frame waits for the display check's fresh full scan (docs/design.md)
-    last = max((b for b, _ in per_frame), default=None)
-    but_last = sorted(x for b, x in per_frame if b != last)
     run = json.load(open(os.path.join(out, "run.json")))
     view = run["renderer"]["view"]
     return {"frames": run["frames"], "painted": len(s["painted"]), "skipped_renderer": view["skipped"],
             "skipped_server": s["skippedServer"], "skipped_page": s["skippedPage"],
             "median_ms": statistics.median(lat) if lat else None,
-            "p99_ms": p99(lat), "worst_ms": lat[-1] if lat else None, "p99_but_last_ms": p99(but_last),
-            "encode_ms": view["encode_ms_per_frame"], "sim_s_per_wall_s": run["sim_seconds_per_wall_second"]}
+            "p99_ms": p99(lat), "worst_ms": lat[-1] if lat else None,
+            "encode_ms": view["encode_ms_per_frame"], "sim_s_per_wall_s": run["sim_seconds_per_wall_second"],
+            "writer_waits": (run["renderer"].get("writer_waits"), run["renderer"].get("writer_wait_s")),
+            "stages": [(statistics.median(sorted(c)), p99(sorted(c))) for c in zip(*split)] if split else []}
 
 
 def main(argv=None):
@@ -110,13 +127,20 @@ def main(argv=None):
         if not a.out:
             shutil.rmtree(out, ignore_errors=True)
     print(f"the page's latency, FW_STATE on the bus -> the frame painted (headless chromium), {os.path.basename(a.scene)}")
-    print("(p99 but last: without the last frame, which waits for the display check's full scan)")
     print(f"{'mode':9s} {'frames':>6s} {'painted':>7s} {'skipped r/s/p':>14s} {'median ms':>9s} {'p99 ms':>7s} "
-          f"{'p99 but last':>12s} {'worst ms':>8s} {'encode ms':>9s} {'sim s/s':>7s}")
+          f"{'worst ms':>8s} {'encode ms':>9s} {'sim s/s':>7s}")
     for mode, r in rows:
         sk = f"{r['skipped_renderer']}/{r['skipped_server']}/{r['skipped_page']}"
         print(f"{mode:9s} {r['frames']:6d} {r['painted']:7d} {sk:>14s} {r['median_ms']:9.1f} {r['p99_ms']:7.1f} "
-              f"{r['p99_but_last_ms']:12.1f} {r['worst_ms']:8.1f} {r['encode_ms']:9.2f} {r['sim_s_per_wall_s']:7.2f}")
+              f"{r['worst_ms']:8.1f} {r['encode_ms']:9.2f} {r['sim_s_per_wall_s']:7.2f}")
+    print("where it went, ms, median / p99 of the frames painted:")
+    print(f"{'mode':9s} " + " ".join(f"{n:>13s}" for n in STAGES))
+    for mode, r in rows:
+        print(f"{mode:9s} " + " ".join(f"{f'{m:.1f} / {p:.1f}':>13s}" for m, p in r["stages"]))
+    for mode, r in rows:   # a renderer held by its frame writer (PNG, H.264) holds the frame after it
+        n, w = r["writer_waits"]
+        if n is not None:
+            print(f"{mode}: the renderer waited for its frame writer {n} times, {1e3 * w:.0f} ms in all")
     return 0
 
 

@@ -51,7 +51,9 @@ namespace afm {
 // (AFM_ANALOG, AFM_CMD, HAPTIC_FORCE, HAPTIC_POSE), a scan's (AFM_SCAN_REQ,
 // AFM_SCAN_LINE), a fix (HOST_OBJECT_FIX), a frame (RENDER_FRAME), a
 // heartbeat; and FW_STATE when the scene's operator plans
-// (op.plan.enabled: the planner reads the card's objects every block). A
+// (op.plan.enabled: the planner reads the card's objects every block) or
+// takes the page's hand (op.mode browser: a planner stroke the page asks
+// for reads them the same way). A
 // channel it does not name is published aside (Aside) by a process of the
 // lockstep.
 bool lockstep_reads(const Scene &s, const std::string &channel);

@@ -13,11 +13,13 @@ has opened its stream; Ctrl-C while waiting exits 130 before anything ran.
 The server stops when the run ends, and this exits with the run's code.
 
 In operator.mode browser (time_mode realtime) the page is also the hand:
-its pointer, wheel, keys and buttons (the hand, and a local scan it asks
-for) reach the operator through a named
+its pointer, wheel, keys and buttons (the hand, a local scan and a planner
+stroke it asks for) reach the operator through a named
 pipe in a private folder ($AFM_HAND_FIFO), which the operator alone reads
 (host_bridge/operator/hand_input.hpp); the operator says on its heartbeat
-that it takes them ("hand: browser"), and the page then shows its controls.
+that it takes them ("hand: browser"), and the page then shows its controls;
+it says there too when a stroke starts and ends ("push: start ...", "push:
+end ..."), which the page is told as {"type": "push", ...}.
 The page publishes nothing on the bus.
 """
 import asyncio
@@ -29,6 +31,7 @@ import signal
 import struct
 import sys
 import tempfile
+import time
 
 from analysis import afmlog, paths
 from analysis.view import frames, server
@@ -60,8 +63,8 @@ class LiveSource:
 
     def on_message(self, msg):
         """A page's hand (operator.mode browser): to the operator's pipe."""
-        if msg.get("type") in ("hand", "scan") and self.hand is not None and self.hand_fd is not None:
-            line = hand_line(msg) if msg["type"] == "hand" else scan_line(msg)
+        if msg.get("type") in LINES and self.hand is not None and self.hand_fd is not None:
+            line = LINES[msg["type"]](msg)
             if line is None:
                 self.hand_refused += 1
                 return None
@@ -83,13 +86,17 @@ class LiveSource:
             return
         if channel == "VIEW_FRAME":
             self.frames += 1
-            view.broadcast_frame(*frames.from_view_frame(m))
+            meta, image = frames.from_view_frame(m)
+            meta["t_rx_ms"] = time.time() * 1e3   # ./afm bench view's stages: the server has it
+            view.broadcast_frame(meta, image)
         elif channel == "AFM_HEARTBEAT":
             self.processes[m.name] = {"state": m.state, "sim_s": m.sim_utime * 1e-6, "seq": m.seq}
             view.broadcast({"type": "status", "processes": self.processes})
             if m.name == "operator" and m.detail.startswith("hand: browser") and self.hand is None:
                 self.hand = {"load_nN": _load_of(m.detail)}
                 view.broadcast({"type": "hand", "hand": self.hand})
+            elif m.name == "operator" and m.detail.startswith("push: "):
+                view.broadcast(dict(push_news(m.detail), type="push", sim_s=m.sim_utime * 1e-6))
 
 
 def _load_of(detail):
@@ -129,6 +136,44 @@ def scan_line(msg):
     if not all(math.isfinite(v) for v in (x, y, size)):
         return None
     return f"SCAN {x:.3f} {y:.3f} {size:.3f}\n".encode()
+
+
+def push_line(msg):
+    """The operator's command line for a page's {"type": "push", "id", "x_nm",
+    "y_nm"}: a planner stroke of particle id to (x, y) (hand_input.hpp), or
+    None when the id is not a whole number >= 0 or a coordinate not a
+    finite number (the operator checks the id and the ranges)."""
+    pid = msg.get("id")
+    if not isinstance(pid, int) or isinstance(pid, bool) or not 0 <= pid < 10 ** 9:
+        return None
+    try:
+        x, y = (float(msg[k]) for k in ("x_nm", "y_nm"))
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not all(math.isfinite(v) for v in (x, y)):
+        return None
+    return f"PUSH {pid} {x:.3f} {y:.3f}\n".encode()
+
+
+LINES = {"hand": hand_line, "scan": scan_line, "push": push_line}
+
+
+def push_news(detail):
+    """The operator's "push: start|end id=.. x_nm=.. y_nm=.. [placed=..
+    error_nm=.. pushes=.. scans=.. why=...]" as a dict (numbers as numbers;
+    why: the rest of the line)."""
+    words = detail.split()
+    out = {"phase": words[1] if len(words) > 1 else ""}
+    for i, w in enumerate(words[2:], 2):
+        k, _, v = w.partition("=")
+        if k == "why":
+            out["why"] = " ".join([v] + words[i + 1:])
+            break
+        try:
+            out[k] = int(v) if k in ("id", "placed", "pushes", "scans") else float(v)
+        except ValueError:
+            out[k] = v
+    return out
 
 
 async def read_records(fd, on_record):

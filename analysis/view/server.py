@@ -9,11 +9,12 @@ Contract:
   message that follows its "frame" message. What it takes from a page:
   JSON text only ({"type": "seek", "index": K} in a recorded run); nothing
   from the network is unpickled or evaluated.
-- A page gets the newest frame, at most MAX_PAGE_FPS a second: a frame that
-  comes while the page's previous one is still being sent, or sooner than
-  that after it, replaces the one waiting, and is counted
-  (`skipped_server`); the strip chart's samples of a skipped frame go with
-  the next one. No page ever slows a source down. (A person sees no more;
+- A page gets the newest frame, at most MAX_PAGE_FPS a second on average
+  (a token bucket of PAGE_BURST frames: a frame that comes early after a
+  late one, the wall clock's jitter, goes at once): a frame that comes
+  while the page's previous one is still being sent, or while the bucket is
+  empty, replaces the one waiting, and is counted (`skipped_server`); the
+  strip chart's samples of a skipped frame go with the next one. No page ever slows a source down. (A person sees no more;
   a lockstep run makes frames ten times faster than real time, and a
   browser that decoded and painted them all took the CPU the run's
   lockstep needed: docs/view.md.)
@@ -23,6 +24,7 @@ import hmac
 import json
 import os
 import secrets
+import time
 
 from aiohttp import WSMsgType, web
 
@@ -30,7 +32,8 @@ STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "static")
 STATIC_FILES = {"/": ("index.html", "text/html"), "/view.js": ("view.js", "text/javascript"),
                 "/view.css": ("view.css", "text/css")}
 MAX_CLIENT_MESSAGE = 4096   # bytes: a page sends only small JSON messages
-MAX_PAGE_FPS = 30           # frames a second sent to one page, at most
+MAX_PAGE_FPS = 30           # frames a second sent to one page, at most (on average)
+PAGE_BURST = 2              # frames the rate may run ahead by (_send_loop's bucket)
 
 
 def new_token():
@@ -140,7 +143,7 @@ class ViewServer:
 
     async def _send_loop(self, client):
         loop = asyncio.get_running_loop()
-        next_frame = 0.0   # the loop's time the page may have its next frame
+        credit, credit_t = float(PAGE_BURST), loop.time()   # the frames the page may have now, and when counted
         try:
             while not client.ws.closed:
                 await client.wake.wait()
@@ -149,11 +152,14 @@ class ViewServer:
                     await client.ws.send_str(json.dumps(client.messages.pop(0)))
                 if client.frame is None:
                     continue
-                if loop.time() < next_frame:   # too soon: the newest frame then
-                    loop.call_at(next_frame, client.wake.set)
+                now = loop.time()
+                credit, credit_t = min(float(PAGE_BURST), credit + (now - credit_t) * MAX_PAGE_FPS), now
+                if credit < 1:   # too soon: the newest frame when the bucket has one
+                    loop.call_at(now + (1 - credit) / MAX_PAGE_FPS, client.wake.set)
                     continue
-                next_frame = loop.time() + 1.0 / MAX_PAGE_FPS
+                credit -= 1
                 meta, image = client.take_frame()
+                meta["t_tx_ms"] = time.time() * 1e3   # ./afm bench view's stages: sent
                 await client.ws.send_str(json.dumps(meta))
                 await client.ws.send_bytes(image)
         except (ConnectionResetError, RuntimeError):

@@ -70,6 +70,7 @@ int main(int argc, char **argv)
         afm::Operator op(scene, *lc);
         if (scene.op.mode == "browser") {   // the hand from the page (docs/view.md); the page's server hears this
             op.page = std::make_unique<afm::HandInput>(scene, afm::HandInput::open_from_env());
+            op.stroke_planner = std::make_unique<afm::Planner>(scene);   // the strokes the page asks for (PUSH)
             op.hb.send(afm::RunState::starting, op.answered, 0, "hand: browser load_nN=" + std::to_string(scene.op.load_nN));
         }
         afm::Inbox inbox(lc.get());
@@ -92,8 +93,10 @@ int main(int argc, char **argv)
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
             op.hold_pose = {scene.start_nm(), false};
         }
-        if (op.page)   // the local scans the person asks for (Operator::page_scan)
+        if (op.page) {   // the local scans the person asks for (Operator::page_scan), the strokes' model and scans
+            inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
+        }
         afm::check_lockstep_reads(scene, inbox.channels(), "operator");
         if (planner) plan_thread = start_planner(*planner, bench);
         while (!op.sim_done) {
@@ -107,6 +110,7 @@ int main(int argc, char **argv)
         }
         bench.stop();
         if (plan_thread.joinable()) plan_thread.join();
+        if (op.stroke) op.stroke->bench.stop();   // a stroke under way ends with the run (joined when op goes)
         if (planner && bench.error()) std::rethrow_exception(bench.error());
         if (!out_dir.empty())
             afm::write_report(out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));

@@ -10,7 +10,9 @@
 // block n arrives at its end). With operator.mode browser (time_mode
 // realtime) the hand pulls the stylus towards the target a person sets on
 // the page (hand_input.hpp) instead of a script's aim, with the load and
-// the stylus button the page sets. With operator.plan the planner
+// the stylus button the page sets; a planner stroke the page asks for
+// (PUSH, hand_input.hpp) takes the tip from the hand while it runs
+// (Stroke, below). With operator.plan the planner
 // (planner.hpp) drives the pose itself, runs in its own thread in strict
 // turns with this one, and takes its local scans and fixes through it.
 #pragma once
@@ -22,6 +24,8 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -50,7 +54,33 @@ constexpr int kScanReqBase = 10000;   // the planner's scans (the renderer's are
 constexpr int kFixRetryMs = 200;
 constexpr int kScanRetryMs = 300;
 constexpr int kFinishedRepeatMs = 200;
+constexpr int kStrokeNewsMs = 500;      // a stroke's progress on the heartbeat, at most this often (wall)
 constexpr double kPm_nm = 0.0015;       // the card holds positions in whole pm: a position it set is the asked one within this
+
+// operator.mode browser: one planner stroke the page asked for (PUSH), the
+// planner on a thread of its own in turns with the bus (TurnBench), as a
+// planning run's; ended (stopped and joined) with this.
+struct Stroke {
+    HandInput::PushAsk ask{};
+    TurnBench bench;
+    std::thread thread;
+    PlanItem item;              // the planner's account, once it has finished
+    bool served_block = false;  // the pose of the block being answered came from the planner
+    double started_s = 0;       // simulated time
+    int pushes0 = 0, scans0 = 0;   // the planner's totals at its start
+    std::chrono::steady_clock::time_point told;   // the page last told of its progress
+    ~Stroke()
+    {
+        bench.stop();
+        if (thread.joinable()) thread.join();
+    }
+};
+
+struct StrokeDone {             // a stroke's account, for operator_report.json
+    PlanItem item;
+    Vec2 asked_nm;              // the target the page asked for (frame A)
+    double started_s = 0, ended_s = 0;
+};
 
 struct Operator {
     const Scene &scene;
@@ -67,6 +97,10 @@ struct Operator {
     // the script's hand on the device
     HandScript script;
     std::unique_ptr<HandInput> page;   // operator.mode browser: the person's hand (main makes it)
+    std::unique_ptr<Planner> stroke_planner;   // ... and the planner its strokes run on (main makes it)
+    std::unique_ptr<Stroke> stroke;            // the stroke under way
+    std::vector<StrokeDone> strokes_done;
+    int page_scans = 0;
     HapticLoop device;
     Vec2 held_N;                 // the force the device renders over the block being integrated
     double held_z_N = 0;         // its z part (the stylus's z axis: operator.haptic.load_span_nN)
@@ -195,7 +229,7 @@ struct Operator {
         const int c0 = std::clamp(static_cast<int>(std::lround((a.center_nm.x - x0) / pitch - n / 2.0)), 0, px - n);
         const int r0 = std::clamp(static_cast<int>(std::lround((a.center_nm.y - y0) / pitch - n / 2.0)), 0, px - n);
         const ScanRegion reg{x0 + c0 * pitch, y0 + r0 * pitch, n * pitch, n * pitch, n, n};
-        scan.start(kPageScanReqBase + ++scans, reg);
+        scan.start(kPageScanReqBase + ++page_scans, reg);
     }
 
     // The hand on the device: block n integrated with the force of block
@@ -206,6 +240,12 @@ struct Operator {
         if (page) {
             page->poll();
             page_scan();
+            HandInput::PushAsk a;
+            if (!scan.busy() && page->take_push(&a)) start_stroke(a);   // a page scan under way first
+            if (stroke) {
+                serve_stroke();
+                return;
+            }
         }
         const Vec2 aim_nm = page ? page->command().aim_nm : script.advance(1.0 / scene.block_hz, held_N);
         // The load the hand means: the page's, or the script's at the pose's time.
@@ -250,46 +290,69 @@ struct Operator {
 
     void retry_scan() { scan.retry(kScanRetryMs); }
 
-    // Serves the planner until it hands over the pose for block n + 1.
-    void answer_by_planner(TurnBench &bench)
+    enum class Turn { pose, ended, run_over };
+    // Serves the planner's requests for block n's force (its scans, its
+    // fixes) until it hands over the pose for block n + 1 (published:
+    // pose), finishes (ended) or the run ends (run_over). answer_block: the
+    // pose of block n was the planner's, which waits for the model after it.
+    Turn serve_planner(TurnBench &bench, bool answer_block)
     {
-        count_force();
         const int64_t n = force.seq;
-        if (n >= 0 && !plan_done) {
-            if (!pump_until([&] { return view.ready() && view.whole().seq >= n; })) return;
+        if (answer_block) {
+            if (!pump_until([&] { return view.ready() && view.whole().seq >= n; })) return Turn::run_over;
             bench.answer(view.whole(), block_end_utime(scene, n) * 1e-6);
         }
-        while (!plan_done) {
+        while (true) {
             const TurnBench::Req r = bench.next(50);
             if (r == TurnBench::Req::None) {
                 while (inbox->handle(0) > 0) {}   // all that came: the socket is the only queue
-                if (sim_done) return;
+                if (sim_done) return Turn::run_over;
                 continue;
             }
             if (r == TurnBench::Req::Block) {
                 hold_pose = bench.pose();
                 publish_pose(joy_of(hold_pose.tip_nm), hold_pose.engaged, hold_pose.load_nN);
-                return;
+                return Turn::pose;
             }
             if (r == TurnBench::Req::Scan) {
                 const Field f = bench.field();
                 ScanRegion reg{f.x0_nm, f.y0_nm, f.size_nm, f.size_nm, f.px, f.px};
                 scan.start(kScanReqBase + ++scans, reg, n + 1);   // the sample as the simulator holds it after block n + 1
-                if (!pump_until([&] { return !scan.busy(); }, &Operator::retry_scan)) return;
+                if (!pump_until([&] { return !scan.busy(); }, &Operator::retry_scan)) return Turn::run_over;
                 bench.answer(view.whole(), block_end_utime(scene, n) * 1e-6, &scan.heights());
                 continue;
             }
             if (r == TurnBench::Req::Fix) {
-                if (!send_fix(bench)) return;
+                if (!send_fix(bench)) return Turn::run_over;
                 continue;
             }
-            plan_done = true;   // Done or Failed
+            return Turn::ended;   // Done or Failed
+        }
+    }
+
+    // Serves the planner until it hands over the pose for block n + 1.
+    void answer_by_planner(TurnBench &bench)
+    {
+        count_force();
+        const int64_t n = force.seq;
+        if (!plan_done) {
+            if (serve_planner(bench, n >= 0) != Turn::ended) return;
+            plan_done = true;
             finished_seq = n;
             hb.send(RunState::finished, n, block_end_utime(scene, n));   // the simulator ends the run soon after (before the pose)
             finished_sent = std::chrono::steady_clock::now();
         }
         publish_pose(joy_of(hold_pose.tip_nm), false);
     }
+
+    // operator.mode browser, a stroke (operator.cpp): started from where
+    // the hand holds the tip, lifted; served block by block (the stylus
+    // carried along with the tip, the device rendering nothing meanwhile);
+    // at its end the hand's target is where the planner left the tip,
+    // lifted, and the page is told on the heartbeat ("push: ...").
+    void start_stroke(const HandInput::PushAsk &a);
+    void serve_stroke();
+    void end_stroke();
 
     // A fix, until the card acknowledges it; the note says if it refused.
     bool send_fix(TurnBench &bench)

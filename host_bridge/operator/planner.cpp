@@ -963,6 +963,26 @@ void Planner::check_rod_by_scan(PlanItem &item, const WireTargetSpec &t)
     }
 }
 
+PlanItem Planner::push_particle(PlanBench &bench, int id, Vec2 target_nm, Vec2 tip_nm)
+{
+    const auto wall0 = std::chrono::steady_clock::now();
+    bench_ = &bench;
+    tip_ = tip_nm;
+    engaged_ = false;
+    load_nN_ = 0;
+    model_ = &bench.block({tip_, false});
+    PlanItem item;
+    item.kind = "particle";
+    item.id = id;
+    item.target_nm = target_nm - drift();
+    if (particle(id)) place_particle(item, item.target_nm);
+    else item.why = "not in the firmware's model";
+    rep_.items.push_back(item);
+    rep_.finished_s = bench.time_s();
+    rep_.wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    return item;
+}
+
 void Planner::run(PlanBench &bench)
 {
     const auto wall0 = std::chrono::steady_clock::now();

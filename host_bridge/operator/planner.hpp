@@ -210,6 +210,17 @@ public:
     // The whole plan, block by block through `bench`; returns when done.
     // Throws PlanStopped if the bench stops it.
     void run(PlanBench &bench);
+    // One particle pushed to one place, as run() pushes each to its site
+    // (place_particle: the scan before, the strokes, the scan after each,
+    // the fixes; pushed again up to max_pushes while more than half the
+    // tolerance off): the tip starts lifted at tip_nm (frame A), the target
+    // is in frame A as the display shows it (the planner aims at it; its
+    // site is the target less the firmware's drift). Returns the
+    // particle's account, also appended to report().items. The scene need
+    // not plan (operator.mode browser asks for these one at a time: PUSH,
+    // hand_input.hpp); operator.plan's settings apply, their defaults if
+    // it is not given. Throws PlanStopped if the bench stops it.
+    PlanItem push_particle(PlanBench &bench, int id, Vec2 target_nm, Vec2 tip_nm);
     const PlanReport &report() const { return rep_; }
     const std::vector<Vec2> &sites() const { return sites_; }
 

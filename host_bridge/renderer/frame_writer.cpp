@@ -2,6 +2,8 @@
 
 #include <time.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -24,17 +26,18 @@ double thread_cpu_seconds()
 
 FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video, double fps, int px, std::vector<int> cpus,
                          std::size_t max_pending)
-    : out_(std::move(out_dir)), png_(png), max_pending_(max_pending > 0 ? max_pending : 1), fps_(fps)
+    : out_(std::move(out_dir)), png_(png), max_pending_(max_pending > 0 ? max_pending : 1), fps_(fps), px_(px)
 {
     if (video != "none") {
         const bool mp4 = video == "mp4";
         const std::string path = out_ + (mp4 ? "/video.mp4" : "/video.avi");
         video_path_ = path;
         if (mp4) {
-            // H.264 is tried at the first frame, on the writer's thread; a
+            // H.264 is tried at the thread's start, on the writer's thread; a
             // file that cannot be made is refused now, as OpenCV's would be.
             if (!std::ofstream(path, std::ios::binary)) throw std::runtime_error("cannot open a video writer for " + path);
             h264_wanted_ = true;
+            opening_ = true;
         } else {
             video_.open(path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, cv::Size(px, px));
             if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
@@ -45,7 +48,7 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
     thread_ = start_pinned(std::move(cpus), "renderer: the frame writer", [this] { run(); });
 }
 
-// At the first frame: H.264 through ffmpeg, or OpenCV's mp4v with the reason.
+// At the thread's start: H.264 through ffmpeg, or OpenCV's mp4v with the reason.
 void FrameWriter::open_video_once(int px)
 {
     if (video_tried_ || !h264_wanted_) return;
@@ -95,8 +98,15 @@ FrameWriter::~FrameWriter()
 
 void FrameWriter::write(int k, cv::Mat frame)
 {
+    const std::size_t bytes = std::max<std::size_t>(1, frame.total() * frame.elemSize());
     std::unique_lock<std::mutex> l(m_);
-    room_.wait(l, [&] { return queue_.size() < max_pending_ || error_; });
+    const auto room = [&] { return queue_.size() < (opening_ ? std::max(max_pending_, kOpeningBytes / bytes) : max_pending_) || error_; };
+    if (!room()) {
+        const auto t0 = std::chrono::steady_clock::now();
+        room_.wait(l, room);
+        ++waits_;
+        wait_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
     if (error_) std::rethrow_exception(error_);
     queue_.emplace_back(k, std::move(frame));
     work_.notify_one();
@@ -123,6 +133,18 @@ int FrameWriter::written() const
     return written_;
 }
 
+int FrameWriter::waits() const
+{
+    std::lock_guard<std::mutex> l(m_);
+    return waits_;
+}
+
+double FrameWriter::wait_seconds() const
+{
+    std::lock_guard<std::mutex> l(m_);
+    return wait_s_;
+}
+
 double FrameWriter::cpu_seconds() const
 {
     std::lock_guard<std::mutex> l(m_);
@@ -136,7 +158,6 @@ void FrameWriter::write_one(int k, const cv::Mat &frame)
         std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
         write_png(out_ + name, frame);
     }
-    open_video_once(frame.cols);
     if (pipe_.is_open() && !pipe_.write(frame)) {
         std::string why;
         pipe_.close(&why);
@@ -147,7 +168,19 @@ void FrameWriter::write_one(int k, const cv::Mat &frame)
 
 void FrameWriter::run()
 {
+    std::exception_ptr open_err;
+    try {
+        open_video_once(px_);   // the encoder starts while the run does, not at the first frame
+    } catch (...) {
+        open_err = std::current_exception();
+    }
     std::unique_lock<std::mutex> l(m_);
+    opening_ = false;
+    room_.notify_all();
+    if (open_err) {
+        error_ = open_err;
+        return;
+    }
     while (true) {
         work_.wait(l, [&] { return stop_ || !queue_.empty(); });
         if (stop_) return;

@@ -18,12 +18,16 @@
 // files are written. Nothing is dropped: write() waits while kMaxPending
 // frames wait to be written (on a machine with no idle CPU the renderer,
 // and so the simulator within its frame window, slows down to the writer's
-// pace). An error (a file that cannot be written) stops the writer and is
+// pace). While the video's encoder starts (ffmpeg and its probe: 0.1-0.4 s
+// on a busy machine, at the writer thread's start) up to kOpeningBytes of
+// frames may wait instead: a renderer blocked on the writer then held the
+// frame about 10 in (./afm bench view: 33 ms realtime, 140-220 ms in
+// lockstep, on the page too). An error (a file that cannot be written) stops the writer and is
 // thrown by the next write() or finish(), naming the file.
 //
 // The video: "mp4" is H.264 through Debian's ffmpeg (video_pipe.hpp), which
-// browsers play; the pipe is opened by the writer's thread at the first
-// frame (so that the encoder runs where the writer may run). Where ffmpeg
+// browsers play; the pipe is opened by the writer's thread as it starts
+// (so that the encoder runs where the writer may run). Where ffmpeg
 // or its libx264 is missing, OpenCV's mp4v writer (which browsers do not
 // play) writes video.mp4 instead; video() says which ran and why
 // (renderer_report.json "video", so run.json's renderer.video). "avi" is
@@ -51,6 +55,7 @@ namespace afm {
 class FrameWriter {
 public:
     static constexpr std::size_t kMaxPending = 8;
+    static constexpr std::size_t kOpeningBytes = 32u << 20;   // frames waiting while the video opens, at most
 
     // out_dir: the run's folder (frames/ in it exists). png: write
     // frames/frame_NNNNN.png. video: "mp4", "avi" or "none" (the scene's
@@ -66,7 +71,8 @@ public:
     FrameWriter &operator=(const FrameWriter &) = delete;
 
     // Queues frame k (its pixels are shared, not copied: the caller does not
-    // draw on it again). Waits while kMaxPending frames are queued.
+    // draw on it again). Waits while kMaxPending frames are queued (while
+    // the video opens: kOpeningBytes of frames).
     void write(int k, cv::Mat frame);
     // Writes what is queued, closes the video; rethrows the writer's error.
     void finish();
@@ -74,6 +80,10 @@ public:
     // Frames written, and the writer thread's CPU time (s) in writing them.
     int written() const;
     double cpu_seconds() const;
+    // The writes that waited for room, and the wall time (s) they waited:
+    // the renderer held while the writer caught up.
+    int waits() const;
+    double wait_seconds() const;
     // The video as written: file, codec ("h264", "mp4v", "mjpeg"), encoder
     // ("ffmpeg libx264", "opencv"), fallback_why (why not H.264, or null),
     // encoder_cpu_s (ffmpeg's CPU, after finish()); null without a video.
@@ -91,8 +101,10 @@ private:
     cv::VideoWriter video_;
     std::string video_path_;          // "" without a video
     double fps_ = 0;
-    bool h264_wanted_ = false;        // "mp4": the pipe is tried at the first frame
+    bool h264_wanted_ = false;        // "mp4": the pipe is tried at the thread's start
     bool video_tried_ = false;
+    bool opening_ = false;            // the thread is opening the video (m_)
+    int px_ = 0;
     VideoPipe pipe_;
     nlohmann::json video_info_;       // video()
     mutable std::mutex m_;
@@ -101,6 +113,8 @@ private:
     bool busy_ = false, stop_ = false;
     int written_ = 0;
     double cpu_s_ = 0;
+    int waits_ = 0;
+    double wait_s_ = 0;
     std::exception_ptr error_;
     std::thread thread_;
 };

@@ -89,7 +89,7 @@ int main(int argc, char **argv)
             r.draw_ready();   // frames queued while a scan paused them
         }
         if (r.writer) {
-            r.write_composed();
+            r.write_composed(r.frames_written - 1);   // a last frame whose check never came is not written
             r.writer->finish();
         }
         if (r.view) r.view->finish();

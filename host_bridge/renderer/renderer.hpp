@@ -11,7 +11,9 @@
 //
 // At the last frame it asks the simulator for a fresh full scan and compares
 // it with what it displays (fidelity.hpp), the paper's check, before
-// announcing that frame; the simulator serves the scan while it waits.
+// announcing that frame; the simulator serves the scan while it waits. The
+// frame itself is composed (and offered to the page) before the scan: the
+// scan changes nothing it shows.
 // Writes: frames/*.png, video.mp4|avi, contact_sheet.png, scan_initial.png,
 // *.gsf (Gwyddion Simple Field) of the scans and the final display,
 // fidelity_diff.png, fidelity.json, renderer_report.json.
@@ -429,12 +431,14 @@ struct Renderer {
         return m;
     }
 
-    // The frames composed and announced, to the writer (their files: PNG and
-    // video, in order).
-    void write_composed()
+    // The frames composed and announced up to frame `upto`, to the writer
+    // (their files: PNG and video, in order).
+    void write_composed(int upto)
     {
-        for (auto &[k, frame] : composed) writer->write(k, std::move(frame));
-        composed.clear();
+        while (!composed.empty() && composed.front().first <= upto) {   // the last frame waits for its check (continue_frames)
+            writer->write(composed.front().first, std::move(composed.front().second));
+            composed.erase(composed.begin());
+        }
     }
 
     void announce(int k, int64_t seq)
@@ -444,7 +448,7 @@ struct Renderer {
         m.index = k;
         m.seq = seq;
         lc.publish(AFM_CH_RENDER_FRAME, &m);
-        write_composed();
+        write_composed(k);
     }
 
     // The card's state of a block: its force and tip kept by block, its
@@ -583,6 +587,7 @@ struct Renderer {
             }
             if (frames_written == total - 1) {
                 final_pending = true;
+                write_frame(frames_written);   // announced (and counted) once the check is done: finish_last_frame
                 start_scan(kFinalScan, cv::Rect(0, 0, field.px, field.px));
                 return;
             }
@@ -737,7 +742,7 @@ struct Renderer {
         if (scene.op.plan.enabled) fidelity["placement"] = placement_json();
         afm::write_report(out + "/fidelity.json", fidelity);
         final_pending = false;
-        write_frame(frames_written++);
+        ++frames_written;   // composed before the scan (continue_frames)
         announce(frames_written - 1, shown_seq);
     }
 
@@ -832,6 +837,8 @@ inline nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, co
             {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
             // the writer thread's CPU time (frame_writer.hpp), not its wall time
             {"write_ms_per_frame", r.writer && r.writer->written() ? 1e3 * r.writer->cpu_seconds() / r.writer->written() : 0.0},
+            {"writer_waits", r.writer ? r.writer->waits() : 0},
+            {"writer_wait_s", r.writer ? r.writer->wait_seconds() : 0.0},
             // which video ran: H.264 through ffmpeg, or OpenCV's fallback and why (frame_writer.hpp)
             {"video", r.writer ? r.writer->video() : nlohmann::json(nullptr)},
             // a capital's height in the frames' labels and in fidelity_diff.png, pixels

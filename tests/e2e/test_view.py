@@ -14,6 +14,9 @@ network namespace, as a person's browser would be.
 - operator.mode browser (realtime): the test drags the pointer over the
   image with the tip engaged, and the particle in its way moves, in
   SIM_TRUTH and on the page.
+- A planner stroke from the page: the stroke button, a click on a particle,
+  a click on its target; the particle ends within the planner's tolerance
+  of the target in SIM_TRUTH, and the page shows the stroke's outcome.
 """
 import json
 import os
@@ -322,6 +325,79 @@ class BrowserHand(unittest.TestCase):
         ren = json.load(open(os.path.join(out, "renderer_report.json")))
         self.assertEqual(ren["page_scans_pasted"], 2)
         self.assertEqual(s["ended"]["hand"]["refused"], 0)
+
+
+STROKE_SCENE = BROWSER_SCENE.replace("name: browser-test", "name: browser-stroke").replace(
+    "duration_s: 10.0   #", "duration_s: 9.0   # the stroke (about 3 simulated s) after the first frame;")
+STROKE_TARGET_NM = (0.0, 150.0)   # 450 nm along +y from particle 1, across the lever's axis (x)
+PLAN_TOLERANCE_NM = 25.0          # operator.plan.tolerance_nm's default (common/scene.hpp), which a stroke takes
+
+
+@unittest.skipUnless(CHROMIUM and DRIVER, "chromium or chromedriver missing (./afm setup installs them)")
+class BrowserStroke(unittest.TestCase):
+    def test_click_particle_then_target_places_it(self):
+        from selenium.webdriver.common.action_chains import ActionChains
+        scene = benchtest.write_scene(STROKE_SCENE, "stroke")
+        out = os.path.join(benchtest.tmpdir("stroke"), "run")
+        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", benchtest.LAUNCH, "--scene", scene,
+                                       "--out", out, "--view", "--quiet", "--no-verdict"])
+        d = browser()
+        try:
+            d.get(url)
+            s = wait_for(d, lambda s: s["hand"] and s["framesShown"] >= 1, 60, "the hand's controls and a frame")
+            canvas = d.find_element("id", "image")
+
+            def click_at(x_nm, y_nm):
+                x, y = d.execute_script(
+                    "const m = window.afmView.meta, c = document.getElementById('image'), r = c.getBoundingClientRect();"
+                    "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
+                    "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
+                    x_nm, y_nm)
+                ActionChains(d).move_to_element_with_offset(canvas, int(x), int(y)).click().perform()
+            p1 = particle(s["particles"], 1)
+            d.find_element("id", "stroke").click()
+            click_at(p1[1], p1[2])
+            self.assertEqual(page_state(d)["stroke"]["phase"], "target")
+            self.assertEqual(page_state(d)["stroke"]["id"], 1)   # the pending selection
+            click_at(*STROKE_TARGET_NM)
+            s = wait_for(d, lambda s: any(n["phase"] == "end" for n in s["stroke"]["news"]) or s["ended"], 60, "the stroke's end")
+            news = s["stroke"]["news"]
+            phases = [n["phase"] for n in news]
+            self.assertEqual((phases[0], phases[-1]), ("start", "end"), news)
+            progress = [n for n in news[1:-1] if n["phase"] == "progress"]
+            self.assertEqual(len(progress), len(news) - 2, news)
+            self.assertGreaterEqual(len(progress), 1, news)   # 3 scans of 0.3 s at least: over 0.5 s
+            self.assertEqual([n["pushes"] for n in progress], sorted(n["pushes"] for n in progress), news)
+            end = news[-1]
+            self.assertEqual((end["id"], end["placed"]), (1, 1), end)
+            self.assertIn("placed", d.find_element("id", "strokemsg").text)
+            s = wait_for(d, lambda s: s["ended"] is not None, 60, "the run's end")
+            self.assertEqual(srv.wait(timeout=30), 0, srv.stderr.read()[-2000:])
+            self.assertEqual(s["ended"]["status"], "ok", s["ended"])
+            # the target the page sent is the one clicked, within a CSS pixel's rounding
+            pitch = 2000 / 128
+            self.assertLessEqual(abs(end["x_nm"] - STROKE_TARGET_NM[0]), pitch, end)
+            self.assertLessEqual(abs(end["y_nm"] - STROKE_TARGET_NM[1]), pitch, end)
+            # in the truth: within the planner's tolerance of the target the page sent
+            log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
+            whole = benchtest.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
+            t = next(p for p in whole[-1][1].particles if p.id == 1)
+            miss = ((t.x_nm - end["x_nm"]) ** 2 + (t.y_nm - end["y_nm"]) ** 2) ** 0.5
+            self.assertLessEqual(miss, PLAN_TOLERANCE_NM, (t.x_nm, t.y_nm, end))
+            rep = json.load(open(os.path.join(out, "operator_report.json")))["browser"]
+            self.assertEqual((rep["pushes_asked"], rep["refused"], len(rep["strokes"])), (1, 0, 1), rep)
+            self.assertTrue(rep["strokes"][0]["placed"], rep)
+            self.assertGreaterEqual(rep["stroke_planner"]["local_scans"], 2, rep)
+            print(f"test_view: stroke: particle 1 {miss:.1f} nm from the clicked target in SIM_TRUTH, "
+                  f"{rep['strokes'][0]['pushes']} pushes, {rep['strokes'][0]['ended_sim_s'] - rep['strokes'][0]['started_sim_s']:.2f} "
+                  f"simulated s", file=sys.stderr)
+            os.makedirs(SHOT_DIR, exist_ok=True)
+            d.save_screenshot(os.path.join(SHOT_DIR, "browser_stroke.png"))
+        finally:
+            d.quit()
+            if srv.poll() is None:
+                srv.kill()
+                srv.wait()
 
 
 if __name__ == "__main__":

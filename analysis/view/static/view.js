@@ -12,7 +12,8 @@
   const state = window.afmView = {
     connected: false, mode: "", framesShown: 0, lastIndex: -1, framesTotal: 0, skippedRenderer: 0,
     skippedServer: 0, skippedPage: 0, chartSamples: 0, chartT: [], ended: null, flags: {}, t: 0,
-    painted: [],                            // [block, wall ms] of each frame painted (./afm bench view)
+    painted: [],                            // per frame painted (./afm bench view), wall ms: [block, painted,
+                                            //  server had it, server sent it, page had it, page drew it]
     hand: null,                             // operator.mode browser: {target_nm, load_nN, engaged, sent}
   };
   const HAND_SEND_MS = 20;                  // the pointer's commands, at most this often
@@ -32,6 +33,7 @@
     else if (m.type === "status") procs(m.processes);
     else if (m.type === "end") ended(m);
     else if (m.type === "hand") enableHand(m.hand);
+    else if (m.type === "push") pushNews(m);
   }
 
   // operator.mode browser: the pointer sets the hand's target, the wheel and
@@ -44,8 +46,14 @@
     showHand();
     const c = $("image");
     c.style.cursor = "crosshair";
-    c.addEventListener("pointerdown", (e) => { if (e.button !== 0) return; c.setPointerCapture(e.pointerId); aimAt(e); });
-    c.addEventListener("pointermove", (e) => { if (e.buttons & 1) aimAt(e); });
+    c.addEventListener("pointerdown", (e) => {
+      if (e.button !== 0) return;
+      if (pick.phase) { pickAt(e); return; }   // a stroke being asked for: the clicks are its particle and target
+      if (pick.busy) return;                    // a stroke drives the tip: the hand waits
+      c.setPointerCapture(e.pointerId); aimAt(e);
+    });
+    c.addEventListener("pointermove", (e) => { pick.pointer = nmAt(e); if ((e.buttons & 1) && !pick.phase && !pick.busy) aimAt(e); });
+    $("stroke").onclick = () => armStroke(!pick.phase);
     c.addEventListener("wheel", (e) => { e.preventDefault(); setLoad(e.deltaY < 0 ? 0.5 : -0.5); }, { passive: false });
     $("engage").onclick = () => engage(!state.hand.engaged);
     $("scan").onclick = () => { if (lastMeta) askScan(lastMeta.tip_nm); };
@@ -56,7 +64,60 @@
       else if (e.key === "ArrowUp") setLoad(0.5);
       else if (e.key === "ArrowDown") setLoad(-0.5);
       else if (e.key === "s" || e.key === "S") { if (lastMeta) askScan(lastMeta.tip_nm); }
+      else if (e.key === "p" || e.key === "P") armStroke(!pick.phase);
+      else if (e.key === "Escape") armStroke(false);
     });
+  }
+  // A planner stroke (docs/view.md): the stroke button (or P) arms it, a
+  // click on a particle (its disc in the card's model, as the frame shows
+  // it) picks it, a click elsewhere then is its target; the operator's
+  // planner pushes it there, the hand yielding meanwhile, and the
+  // operator's heartbeat says how it went (pushNews). window.afmView.stroke
+  // holds the page's side: {phase, id, target_nm, news: [...]}.
+  const pick = state.stroke = { phase: null, id: null, target_nm: null, busy: false, pointer: null, news: [] };
+  function armStroke(on) {
+    if (on && pick.busy) return;
+    pick.phase = on ? "particle" : null;
+    pick.id = null;
+    pick.target_nm = null;
+    showStroke(on ? "click the particle to push" : "");
+  }
+  function pickAt(e) {
+    const p = nmAt(e);
+    if (!p) return;
+    if (pick.phase === "particle") {
+      const hit = particleAt(p);
+      if (!hit) { showStroke("no particle there: click one (Esc cancels)"); return; }
+      pick.id = hit[2];
+      pick.phase = "target";
+      showStroke(`particle ${pick.id}: click its target`);
+      return;
+    }
+    pick.target_nm = p;
+    pick.phase = null;
+    pick.busy = true;
+    ws.send(JSON.stringify({ type: "push", id: pick.id, x_nm: p[0], y_nm: p[1] }));
+    showStroke(`particle ${pick.id} to (${p[0].toFixed(0)}, ${p[1].toFixed(0)}) nm: asked`);
+  }
+  function pushNews(m) {
+    pick.news.push(m);
+    const to = `particle ${m.id} to (${m.x_nm.toFixed(0)}, ${m.y_nm.toFixed(0)}) nm`;
+    if (m.phase === "start") { pick.busy = true; pick.since = m.sim_s; showStroke(`${to}: the planner pushes it (from ${m.sim_s.toFixed(2)} s)`); return; }
+    if (m.phase === "progress") {
+      showStroke(`${to}: the planner pushes it: ${m.pushes} push(es), ${m.scans} scan(s) so far, ` +
+                 `${(m.sim_s - (pick.since || 0)).toFixed(1)} s`);
+      return;
+    }
+    pick.busy = false;
+    pick.id = null;
+    pick.target_nm = null;
+    if (state.hand) { state.hand.engaged = false; state.hand.target_nm = null; showHand(); }   // lifted where the stroke left it
+    showStroke(`${to}: ` + (m.placed ? `placed, ${m.error_nm.toFixed(1)} nm off` : `not placed (${m.why || "?"})`) +
+               ` after ${m.pushes} push(es), ${m.scans} scan(s), at ${m.sim_s.toFixed(2)} s`);
+  }
+  function showStroke(text) {
+    $("strokemsg").textContent = text;
+    $("stroke").className = pick.phase || pick.busy ? "on" : "";
   }
   // A gamepad (the browser's Gamepad API, polled every animation frame): the
   // left stick moves the hand's target at up to PAD_NM_PER_S, the right and
@@ -117,8 +178,8 @@
   }
   // The card's particle (as the frame shows it) whose disc holds p, or null.
   function particleAt(p) {
-    for (const [, x, y, r] of (lastMeta && lastMeta.particles) || [])   // [id, x_nm, y_nm, radius_nm]
-      if (Math.hypot(x - p[0], y - p[1]) <= r) return [x, y];
+    for (const [id, x, y, r] of (lastMeta && lastMeta.particles) || [])   // [id, x_nm, y_nm, radius_nm]
+      if (Math.hypot(x - p[0], y - p[1]) <= r) return [x, y, id];
     return null;
   }
   // A local scan around c (nm), SCAN_FRACTION of the field on a side: the
@@ -129,8 +190,8 @@
     state.hand.scans = (state.hand.scans || 0) + 1;
     ws.send(JSON.stringify({ type: "scan", x_nm: c[0], y_nm: c[1], size_nm: lastMeta.field_nm[2] * SCAN_FRACTION }));
   }
-  function setLoad(d) { state.hand.load_nN = Math.max(0.5, Math.min(100, state.hand.load_nN + d)); showHand(); sendHand(); }
-  function engage(on) { state.hand.engaged = on; showHand(); sendHand(); }
+  function setLoad(d) { if (pick.busy) return; state.hand.load_nN = Math.max(0.5, Math.min(100, state.hand.load_nN + d)); showHand(); sendHand(); }
+  function engage(on) { if (pick.busy) return; state.hand.engaged = on; showHand(); sendHand(); }
   function showHand() {
     $("load").textContent = state.hand.load_nN.toFixed(1);
     $("engage").textContent = state.hand.engaged ? "lift" : "engage";
@@ -139,7 +200,7 @@
   function sendHand() {
     const h = state.hand;
     if (!h.target_nm && lastMeta) h.target_nm = [lastMeta.tip_nm[0], lastMeta.tip_nm[1]];
-    if (!h.target_nm || ws.readyState !== 1) return;
+    if (!h.target_nm || ws.readyState !== 1 || pick.busy) return;   // a stroke drives the tip: nothing sent
     const wait = h.last + HAND_SEND_MS - performance.now();
     if (wait > 0) { if (!h.timer) h.timer = setTimeout(() => { h.timer = null; sendHand(); }, wait); return; }
     h.last = performance.now();
@@ -183,6 +244,7 @@
   function onImage(buf) {
     if (!meta) return;
     const m = meta;
+    m.t_page_ms = performance.timeOrigin + performance.now();
     meta = null;
     if (m.samples) addSamples(m.samples);
     state.skippedRenderer += m.skipped;
@@ -222,8 +284,11 @@
     state.particles = m.particles;
     state.meta = { field_nm: m.field_nm, width: m.width, height: m.height };
     state.framesShown += 1;
-    if (state.painted.length < 100000)
-      requestAnimationFrame(() => state.painted.push([m.seq, performance.timeOrigin + performance.now()]));
+    if (state.painted.length < 100000) {
+      const drawn = performance.timeOrigin + performance.now();
+      requestAnimationFrame(() => state.painted.push([m.seq, performance.timeOrigin + performance.now(), m.t_rx_ms, m.t_tx_ms,
+                                                      m.t_page_ms, drawn]));
+    }
     state.lastIndex = m.index;
     state.framesTotal = m.frames_total;
     state.t = m.t_s;
@@ -258,6 +323,19 @@
       img.strokeStyle = "#f6c"; img.lineWidth = 1;
       img.beginPath(); img.moveTo(gx - 8, gy); img.lineTo(gx + 8, gy); img.moveTo(gx, gy - 8); img.lineTo(gx, gy + 8);
       img.setLineDash([3, 3]); img.moveTo(tx, ty); img.lineTo(gx, gy); img.stroke(); img.setLineDash([]);
+    }
+    if (state.hand && (pick.id !== null)) {   // the stroke asked for: its particle ringed, a line to its target (or the pointer)
+      const q = (m.particles || []).find((x) => x[0] === pick.id);
+      if (q) {
+        const [qx, qy] = toPx(m, k, q[1], q[2]), to = pick.target_nm || pick.pointer;
+        img.strokeStyle = "#7f7"; img.lineWidth = 2;
+        img.beginPath(); img.arc(qx, qy, q[3] / (m.field_nm[2] / m.width) * k + 4, 0, 2 * Math.PI); img.stroke();
+        if (to) {
+          const [ux, uy] = toPx(m, k, to[0], to[1]);
+          img.setLineDash([6, 4]); img.beginPath(); img.moveTo(qx, qy); img.lineTo(ux, uy); img.stroke(); img.setLineDash([]);
+          img.beginPath(); img.arc(ux, uy, 5, 0, 2 * Math.PI); img.stroke();
+        }
+      }
     }
     if (state.hand) {
       const hn = Math.hypot(m.hand_N[0], m.hand_N[1]);
