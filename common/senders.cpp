@@ -1,7 +1,10 @@
 #include "senders.hpp"
 
 #include <dirent.h>
+#include <fcntl.h>
 #include <unistd.h>
+
+#include <cerrno>
 
 #include <chrono>
 #include <cstdio>
@@ -46,11 +49,30 @@ std::map<unsigned long, uint16_t> udp_inodes(int pid)
     return out;
 }
 
+// The text of a small /proc file, or "" when it cannot be read. A process
+// that exits while its file is read makes read() fail with ESRCH, which
+// libstdc++'s istreambuf_iterator turns into an uncaught std::ios_failure
+// (a sweep's run aborted so, exit 134): plain read(), errors taken as "".
+std::string read_proc(const std::string &path)
+{
+    std::string out;
+    const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return out;
+    char buf[4096];
+    for (;;) {
+        const ssize_t n = read(fd, buf, sizeof buf);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) break;
+        out.append(buf, static_cast<std::size_t>(n));
+    }
+    ::close(fd);
+    return out;
+}
+
 // The parent pid of `pid` (/proc/PID/stat's fourth field), or -1.
 int parent_of(int pid)
 {
-    std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
-    std::string s((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const std::string s = read_proc("/proc/" + std::to_string(pid) + "/stat");
     const auto close = s.rfind(')');
     if (close == std::string::npos) return -1;
     std::istringstream in(s.substr(close + 1));
@@ -160,6 +182,11 @@ void Senders::rescan()
             owners_[it->second] = Owner{program_of(pid), pid};
         }
     }
+}
+
+int Senders::parent_pid(int pid)
+{
+    return parent_of(pid);
 }
 
 std::string Senders::own_ports()

@@ -64,6 +64,11 @@ public:
     // The channel's publishers from channels.yaml; "*" for every process.
     static bool publishes(const std::string &program, const std::string &channel);
 
+    // The parent pid of `pid` from /proc/PID/stat, or -1 when it has none
+    // to show: gone, or going while its file is read (read() then fails
+    // with ESRCH; this never throws).
+    static int parent_pid(int pid);
+
     static constexpr int kMaxScansPerSecond = 200;
 
 private:

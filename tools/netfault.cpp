@@ -280,8 +280,11 @@ private:
     {
         if (o_.while_pid <= 0) return false;
         if (kill(o_.while_pid, 0) != 0 && errno == ESRCH) return true;
+        // getline, not istreambuf_iterator: a read that fails as the process
+        // goes (ESRCH) sets the stream's badbit instead of throwing
         std::ifstream f("/proc/" + std::to_string(o_.while_pid) + "/stat");
-        std::string st((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+        std::string st;
+        std::getline(f, st);
         const auto close = st.rfind(')');
         return close != std::string::npos && close + 2 < st.size() && st[close + 2] == 'Z';
     }

@@ -20,6 +20,7 @@
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <lcm/lcm-cpp.hpp>
@@ -567,6 +568,29 @@ void test_a_url_it_cannot_use_is_refused_by_name()
     }
 }
 
+// A process that goes while its /proc/PID/stat is read made read() fail with
+// ESRCH, which libstdc++'s istreambuf_iterator threw as std::ios_failure:
+// the launcher of a paper run aborted (exit 134). Children exit at once and
+// are reaped by a second thread while this one reads their parent: nothing
+// throws (an exception ends this test as a crash). The answers are not
+// held: once reaped, a pid may be some other task's (the reaper thread's
+// own id among them).
+void test_the_parent_of_a_process_that_goes_is_minus_1_never_an_exception()
+{
+    TEST_ASSERT_EQUAL_INT(getppid(), afm::Senders::parent_pid(getpid()));
+    const pid_t gone = fork();
+    if (gone == 0) _exit(0);
+    waitpid(gone, nullptr, 0);
+    TEST_ASSERT_EQUAL_INT(-1, afm::Senders::parent_pid(gone));
+    for (int i = 0; i < 300; ++i) {
+        const pid_t kid = fork();
+        if (kid == 0) _exit(0);
+        std::thread reaper([kid] { waitpid(kid, nullptr, 0); });
+        for (int k = 0; k < 20; ++k) (void)afm::Senders::parent_pid(kid);
+        reaper.join();
+    }
+}
+
 int main()
 {
     std::string why;
@@ -597,6 +621,7 @@ int main()
     RUN_TEST(test_a_message_from_a_process_that_does_not_publish_its_channel_is_foreign);
     RUN_TEST(test_the_log_window_follows_the_receive_buffer_within_its_bounds);
     RUN_TEST(test_a_url_it_cannot_use_is_refused_by_name);
+    RUN_TEST(test_the_parent_of_a_process_that_goes_is_minus_1_never_an_exception);
     const int r = UNITY_END();
     close(raw);
     return r;
