@@ -1,9 +1,10 @@
 """./afm bench pil: the speed of a run with the card on its board (--firmware qemu) against the host build.
 
 1. A scene (default: the demo's, scenes/default.yaml) run as a user runs
-   it, in its own namespace, with --firmware host and --firmware qemu in
-   turn, --repeat rounds (so that a slow spell of the machine falls on
-   both alike). For each: the whole command (tools/in_netns.sh and
+   it, in its own namespace, with --firmware host and --firmware qemu, and
+   both again with the renderer off (--no-renderer: what the display costs
+   the loop), in turn, --repeat rounds (so that a slow spell of the machine
+   falls on all alike). For each: the whole command (tools/in_netns.sh and
    afm_launch, start to exit), the run's own figures (run.json timing: the
    loop from the first block to the last, its us a block and its factor
    against real time; the rest of the run), what the loop waited for (the
@@ -13,7 +14,10 @@
    run replayed through the board (./afm replay --firmware qemu: the
    exchange and the card), through the board answering without the card
    (AFM_BOARD_MODE=exchange: the link alone, its marshalling and QEMU's
-   exits for the semihosting calls), and through the host build.
+   exits for the semihosting calls), and through the host build; each
+   replay pinned to one CPU, as a run places the lockstep and its board
+   (docs/bus.md, placement: unpinned, the wake-ups across CPUs of this
+   virtual machine cost more than the board's work).
    QEMU's translation shows in the first block's round trip and in QEMU's
    start (card.board first_round_trip_us, start_ms).
 3. The machine's load (/proc/loadavg) before each run: other work on the
@@ -46,12 +50,22 @@ def load1():
         return float(f.read().split()[0])
 
 
-def run_once(scene, firmware, out):
+# (label, launcher arguments): the columns of the first table
+ARRANGEMENTS = [("host", ["--firmware", "host"]), ("qemu", ["--firmware", "qemu"]),
+                ("host, no renderer", ["--firmware", "host", "--no-renderer"]), ("qemu, no renderer", ["--firmware", "qemu", "--no-renderer"])]
+
+
+def one_cpu():
+    """The first CPU this process may use, as a set (the replays' placement)."""
+    return {min(os.sched_getaffinity(0))}
+
+
+def run_once(scene, args, out):
     """One run as a user runs it; its figures."""
+    firmware = args[1]
     load = load1()
     t0 = time.monotonic()
-    p = subprocess.run([IN_NETNS, LAUNCH, "--scene", scene, "--out", out, "--quiet", "--firmware", firmware],
-                       capture_output=True, text=True)
+    p = subprocess.run([IN_NETNS, LAUNCH, "--scene", scene, "--out", out, "--quiet", *args], capture_output=True, text=True)
     whole_cmd_s = time.monotonic() - t0
     if p.returncode not in (0, 4):   # 4: the run completed and failed one of its own checks
         sys.exit(f"bench pil: the run --firmware {firmware} failed ({p.returncode}): {p.stderr.strip()[-2000:]}")
@@ -64,6 +78,7 @@ def run_once(scene, firmware, out):
             "loop_us": t["loop_us_per_block"], "loop_x": t["loop_realtime_factor"], "rest_s": t["outside_loop_seconds"],
             "command_x": t["loop_simulated_seconds"] / whole_cmd_s,
             "frame_wait_us": sim["frame_window_wait_seconds"] / t["loop_blocks"] * 1e6,
+            "cpu_us": {q["name"]: (q["cpu_user_s"] + q["cpu_system_s"]) / t["loop_blocks"] * 1e6 for q in run["processes"]},
             "log_wait_us": sim["log_window_wait_seconds"] / t["loop_blocks"] * 1e6,
             "loop_scan_ms": sim["loop_scan_wall_seconds"] * 1e3, "start_scan_ms": sim["start_scan_wall_seconds"] * 1e3,
             "round_trip_us": rt.get("median"), "round_trip_p99_us": rt.get("p99"),
@@ -77,7 +92,8 @@ def replay_once(run_dir, firmware, mode=None):
     env.pop("AFM_BOARD_MODE", None)
     if mode:
         env["AFM_BOARD_MODE"] = mode
-    p = subprocess.run([REPLAY, run_dir, "--firmware", firmware], capture_output=True, text=True, env=env)
+    p = subprocess.run([REPLAY, run_dir, "--firmware", firmware], capture_output=True, text=True, env=env,
+                       preexec_fn=lambda: os.sched_setaffinity(0, one_cpu()))
     secs = re.search(r"through the card as built now in ([0-9.]+) s", p.stdout)
     rt = re.search(r"a round trip ([0-9.]+) us median", p.stdout)
     identical = p.returncode == 0
@@ -114,9 +130,12 @@ ROWS = [("load (1 min) before the run", "load", "{:.2f}"),
 
 def print_tables(scene, runs, replays):
     print(f"\nPIL speed: {os.path.relpath(scene, TOP)}, {len(runs['host'])} rounds; median (smallest-largest)\n")
-    print(f"{'':46s} {'--firmware host':>24s} {'--firmware qemu':>24s}")
+    print(f"{'':44s}" + "".join(f" {label:>23s}" for label, _ in ARRANGEMENTS))
     for label, key, fmt in ROWS:
-        print(f"{label:46s} {spread([r[key] for r in runs['host']], fmt):>24s} {spread([r[key] for r in runs['qemu']], fmt):>24s}")
+        print(f"{label:44s}" + "".join(f" {spread([r[key] for r in runs[a]], fmt):>23s}" for a, _ in ARRANGEMENTS))
+    for name in ("sim_afm", "fw_node", "operator", "renderer"):
+        print(f"{'CPU us a block, ' + name + (' (QEMU in it)' if name == 'fw_node' else ''):44s}" +
+              "".join(f" {spread([r['cpu_us'].get(name) for r in runs[a]], '{:.0f}'):>23s}" for a, _ in ARRANGEMENTS))
     blocks = replays["blocks"]
     print(f"\nA block apart from the bus: the first host run replayed ({blocks} blocks), median (smallest-largest)\n")
     print(f"{'':46s} {'replay s':>20s} {'round trip us':>22s}")
@@ -149,12 +168,12 @@ def main(argv=None):
     keep = a.out is not None
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-pil-")
     os.makedirs(out, exist_ok=True)
-    runs = {"host": [], "qemu": []}
+    runs = {label: [] for label, _ in ARRANGEMENTS}
     for k in range(a.repeat):
-        for fw in ("host", "qemu"):
-            print(f"bench pil: round {k + 1} of {a.repeat}, --firmware {fw}", file=sys.stderr)
-            runs[fw].append(run_once(scene, fw, os.path.join(out, f"{fw}-{k}")))
-    first = os.path.join(out, "host-0")
+        for i, (label, args) in enumerate(ARRANGEMENTS):
+            print(f"bench pil: round {k + 1} of {a.repeat}, {label}", file=sys.stderr)
+            runs[label].append(run_once(scene, args, os.path.join(out, f"{i}-{k}")))
+    first = os.path.join(out, "0-0")
     replays = {"host": [], "qemu": [], "exchange": []}
     for k in range(a.repeat):
         print(f"bench pil: replays, round {k + 1} of {a.repeat}", file=sys.stderr)
