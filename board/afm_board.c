@@ -4,15 +4,20 @@
  * qemu-system-arm, that runs the same firmware library the host build runs.
  *
  * Usage (semihosting command line): afm_board TO_BOARD FROM_BOARD
- * [fault=KIND:N], two host FIFOs; fault injection for the tests (pil.md):
- * at block N the board takes a HardFault (KIND hardfault: an undefined
- * instruction) or hangs (KIND hang: a loop without end). Loop: read one request (fw_marshal.h: INIT, STEP, FIX), do
- * it with fw_card_*, answer with the result and the card's models
+ * [fault=KIND:N] [mode=exchange], two host FIFOs; fault injection for the
+ * tests (pil.md): at block N the board takes a HardFault (KIND hardfault:
+ * an undefined instruction) or hangs (KIND hang: a loop without end);
+ * mode=exchange (./afm bench pil: the link's cost alone) answers every
+ * STEP with FW_ERR_STATE and the models, without stepping the card.
+ * Loop: read one request (fw_marshal.h: INIT, STEP, FIX), do it with
+ * fw_card_*, answer with the result and the card's models
  * (fw_models_take). The board's CMSDK timer 0 (25 MHz, 40 ns a tick) is
  * read around fw_card_step_block; under qemu's -icount shift=0 one
  * instruction is one virtual ns, so ticks x 40 are instructions, to a
- * tick. A request the board cannot read is answered with ERROR naming the
- * field and value, and the board exits 2; a fault exits 1 (startup.c).
+ * tick. A request arrives in one semihosting read where it fits
+ * PIL_FIRST_READ (every block's does), its answer leaves in one write.
+ * A request the board cannot read is answered with ERROR naming the field
+ * and value, and the board exits 2; a fault exits 1 (startup.c).
  * No heap: every buffer below is static.
  */
 #include <fcntl.h>
@@ -32,6 +37,7 @@
 #define PIL_MAX_SAMPLES 8192
 #define PIL_SCRATCH 256
 #define PIL_REQUEST_BYTES (64u * 1024u + 24u * PIL_MAX_SAMPLES)
+#define PIL_FIRST_READ 4096u   /* a block's request in one read (429 bytes at 20 samples) */
 #define PIL_ANSWER_BYTES (64u * 1024u + 20u * PIL_MAX_TRENCH + 32u * (PIL_MAX_PARTICLES + PIL_MAX_WIRES))
 
 /* CMSDK APB timer 0 of the mps2-an386: counts down at 25 MHz. */
@@ -57,6 +63,7 @@ static bool running;
 static int32_t blocks;                /* blocks stepped */
 static int fault_kind;                /* 0 none, 1 hardfault, 2 hang */
 static int32_t fault_block = -1;
+static bool exchange_only;            /* mode=exchange: STEP answered without the card (./afm bench pil) */
 /* the trench points the host holds, and the drift they were sent at */
 static int32_t trench_sent;
 static int32_t trench_sent_drift[2];
@@ -70,6 +77,20 @@ static bool read_all(int fd, uint8_t *p, uint32_t n)
         if (got <= 0) return false;
         p += got;
         n -= (uint32_t)got;
+    }
+    return true;
+}
+
+/* At least `least` bytes, at most `most`, into p: one semihosting read
+ * when the host wrote the whole request at once (it does: one write, and a
+ * request of a block is under the FIFO's atomic size); the count in *got. */
+static bool read_some(int fd, uint8_t *p, uint32_t least, uint32_t most, uint32_t *got)
+{
+    *got = 0u;
+    while (*got < least) {
+        const int n = read(fd, p + *got, most - *got);
+        if (n <= 0) return false;
+        *got += (uint32_t)n;
     }
     return true;
 }
@@ -139,7 +160,7 @@ static void do_step(fw_marshal_cursor_t *r, fw_marshal_cursor_t *w, uint32_t t_r
         }
     }
     const uint32_t t0 = timer_now();
-    const fw_status_t s = running ? fw_card_step_block(&card, &in, &out) : FW_ERR_STATE;
+    const fw_status_t s = running && !exchange_only ? fw_card_step_block(&card, &in, &out) : FW_ERR_STATE;
     const uint32_t t1 = timer_now();
     fw_marshal_put_i32_le(w, (int32_t)s);
     fw_marshal_put_out_le(w, &out);
@@ -173,16 +194,26 @@ static bool serve_one(int in_fd, int out_fd)
 {
     fw_marshal_cursor_t r, w;
     uint32_t kind = 0, len = 0;
-    if (!read_all(in_fd, request, FW_MARSHAL_HEADER_BYTES)) return false;
+    /* the host sends one request and waits for its answer: nothing follows
+     * a request in the FIFO, so reading up to PIL_FIRST_READ cannot take
+     * the next one's bytes */
+    uint32_t got = 0u;
+    if (!read_some(in_fd, request, FW_MARSHAL_HEADER_BYTES, PIL_FIRST_READ, &got)) return false;
     const uint32_t t_request = timer_now();
     fw_marshal_reader_init(&r, request, FW_MARSHAL_HEADER_BYTES);
     fw_marshal_get_header_le(&r, &kind, &len);
-    if (fw_marshal_ok(&r) && len > PIL_REQUEST_BYTES) {
+    if (fw_marshal_ok(&r) && len > PIL_REQUEST_BYTES - FW_MARSHAL_HEADER_BYTES) {
         r.bad_field = "header.payload_bytes (above the board's buffer)";
         r.bad_value = (int32_t)len;
     }
-    if (fw_marshal_ok(&r) && !read_all(in_fd, request, len)) return false;
-    if (fw_marshal_ok(&r)) fw_marshal_reader_init(&r, request, len);
+    if (fw_marshal_ok(&r) && got > FW_MARSHAL_HEADER_BYTES + len) {
+        r.bad_field = "header.payload_bytes (more bytes came than the header says)";
+        r.bad_value = (int32_t)len;
+    }
+    if (fw_marshal_ok(&r) && got < FW_MARSHAL_HEADER_BYTES + len &&
+        !read_all(in_fd, request + got, FW_MARSHAL_HEADER_BYTES + len - got))
+        return false;
+    if (fw_marshal_ok(&r)) fw_marshal_reader_init(&r, request + FW_MARSHAL_HEADER_BYTES, len);
     fw_marshal_writer_init(&w, answer, PIL_ANSWER_BYTES);
     fw_marshal_put_header_le(&w, kind, 0u);
     if (fw_marshal_ok(&r)) {
@@ -206,23 +237,33 @@ static bool serve_one(int in_fd, int out_fd)
     return write_all(out_fd, answer, w.at) && ok;
 }
 
+/* One optional argument: fault=hardfault:N, fault=hang:N or
+ * mode=exchange; false (and a line on stderr) for anything else. */
+static bool take_option(const char *f)
+{
+    long n = -1;
+    if (strcmp(f, "mode=exchange") == 0) {
+        exchange_only = true;
+        return true;
+    }
+    if (strncmp(f, "fault=hardfault:", 16) == 0) { fault_kind = 1; n = strtol(f + 16, NULL, 10); }
+    else if (strncmp(f, "fault=hang:", 11) == 0) { fault_kind = 2; n = strtol(f + 11, NULL, 10); }
+    if (n < 0) {
+        fprintf(stderr, "afm_board: unknown argument '%s' (fault=hardfault:N, fault=hang:N or mode=exchange)\n", f);
+        return false;
+    }
+    fault_block = (int32_t)n;
+    return true;
+}
+
 int main(int argc, char **argv)
 {
-    if (argc != 3 && argc != 4) {
-        fputs("afm_board: usage: afm_board TO_BOARD FROM_BOARD [fault=hardfault:N|hang:N] (semihosting arguments)\n", stderr);
+    if (argc < 3 || argc > 5) {
+        fputs("afm_board: usage: afm_board TO_BOARD FROM_BOARD [fault=hardfault:N|hang:N] [mode=exchange] (semihosting arguments)\n", stderr);
         return 2;
     }
-    if (argc == 4) {
-        const char *f = argv[3];
-        long n = -1;
-        if (strncmp(f, "fault=hardfault:", 16) == 0) { fault_kind = 1; n = strtol(f + 16, NULL, 10); }
-        else if (strncmp(f, "fault=hang:", 11) == 0) { fault_kind = 2; n = strtol(f + 11, NULL, 10); }
-        if (n < 0) {
-            fprintf(stderr, "afm_board: unknown argument '%s' (fault=hardfault:N or fault=hang:N)\n", f);
-            return 2;
-        }
-        fault_block = (int32_t)n;
-    }
+    for (int i = 3; i < argc; ++i)
+        if (!take_option(argv[i])) return 2;
     const int in_fd = open(argv[1], O_RDONLY);
     const int out_fd = open(argv[2], O_WRONLY | O_TRUNC);
     if (in_fd < 0 || out_fd < 0) {

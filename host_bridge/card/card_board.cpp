@@ -38,6 +38,7 @@ constexpr double kStartSeconds = 20;   // qemu's start and the first answer (a l
 constexpr double kHangSeconds = 2;     // then each answer
 constexpr int kTickNs = 40;            // CMSDK timer 0 at 25 MHz; -icount shift=0: 1 instruction = 1 ns
 constexpr double kBudgetHz = 168e6;    // the Cortex-M4 the budget is stated for
+constexpr std::size_t kFirstReadBytes = 4096;   // an answer's first read, bytes (a block's: 191 with two particles)
 
 std::string qemu_binary()
 {
@@ -103,6 +104,7 @@ private:
     std::vector<fw_trench_point_t> trench_;
     Stats step_insn_, board_insn_, round_trip_us_, bytes_to_, bytes_from_;   // per block
     double start_ms_ = 0;   // from qemu's start to the answer to INIT
+    bool exchange_only_ = false;   // AFM_BOARD_MODE=exchange: blocks answered without the card
 
     void start();
     void stop();
@@ -144,7 +146,14 @@ void BoardCard::start()
     if (to_ < 0 || from_ < 0 || logfd < 0) throw BoardError("the card's board: cannot open its link or log " + log_ + ": " + std::strerror(errno));
     // AFM_BOARD_FAULT=hardfault:N|hang:N: the board faults or hangs at block N (the tests' fault injection)
     const char *fault = std::getenv("AFM_BOARD_FAULT");
-    const std::string fault_arg = fault && *fault ? std::string(",arg=fault=") + fault : "";
+    std::string fault_arg = fault && *fault ? std::string(",arg=fault=") + fault : "";
+    // AFM_BOARD_MODE=exchange: the board answers each block without stepping the card (./afm bench pil: the link alone)
+    const char *mode = std::getenv("AFM_BOARD_MODE");
+    if (mode && *mode) {
+        if (std::string(mode) != "exchange") throw BoardError("the card's board: AFM_BOARD_MODE='" + std::string(mode) + "': only 'exchange' is known");
+        fault_arg += ",arg=mode=exchange";
+        exchange_only_ = true;
+    }
     const std::vector<std::string> args = {qemu_, "-M", "mps2-an386", "-nographic", "-monitor", "none", "-icount", "shift=0,sleep=off",
                                            "-semihosting-config", "enable=on,target=native,arg=afm_board,arg=" + to + ",arg=" + from + fault_arg,
                                            "-kernel", elf_};
@@ -205,14 +214,16 @@ void BoardCard::exchange(uint32_t kind, double deadline_s, fw_marshal_cursor_t *
         if (n <= 0) fail("could not be sent " + at + ": " + std::strerror(errno));
         put += static_cast<std::size_t>(n);
     }
-    ans_.resize(FW_MARSHAL_HEADER_BYTES);
+    // The board writes an answer whole and nothing after it (one request
+    // at a time): read as much as has come, usually all of it at once.
     std::size_t got = 0, want = FW_MARSHAL_HEADER_BYTES;
+    ans_.resize(std::max<std::size_t>(ans_.size(), kFirstReadBytes));
     bool header = true;
     while (got < want) {
         pollfd p{from_, POLLIN, 0};
         const int r = poll(&p, 1, 50);
         if (r > 0) {
-            const ssize_t n = read(from_, ans_.data() + got, want - got);
+            const ssize_t n = read(from_, ans_.data() + got, ans_.size() - got);
             if (n > 0) got += static_cast<std::size_t>(n);
         }
         int st = 0;
@@ -226,7 +237,7 @@ void BoardCard::exchange(uint32_t kind, double deadline_s, fw_marshal_cursor_t *
             kill(pid_, SIGKILL);
             fail("hung: no answer to " + at + " within " + std::to_string(static_cast<int>(deadline_s)) + " s");
         }
-        if (header && got == want) {
+        if (header && got >= want) {
             fw_marshal_cursor_t h;
             uint32_t k = 0, len = 0;
             fw_marshal_reader_init(&h, ans_.data(), FW_MARSHAL_HEADER_BYTES);
@@ -235,10 +246,12 @@ void BoardCard::exchange(uint32_t kind, double deadline_s, fw_marshal_cursor_t *
                 fail("answered " + at + " with a bad header (" + std::string(h.bad_field ? h.bad_field : "header.kind") + ")");
             header = false;
             want += len;
-            ans_.resize(want);
+            if (ans_.size() < want) ans_.resize(want);
             if (k == FW_MARSHAL_ERROR) kind = FW_MARSHAL_ERROR;
         }
     }
+    if (got > want) fail("answered " + at + " with " + std::to_string(got - want) + " bytes more than its header says");
+    ans_.resize(want);
     const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
     if (kind == FW_MARSHAL_INIT) start_ms_ = us * 1e-3;   // qemu's start with it
     if (kind == FW_MARSHAL_STEP) {
@@ -346,6 +359,7 @@ nlohmann::json BoardCard::report() const
     nlohmann::json j = {{"firmware", "qemu"},
                         {"machine", "mps2-an386 (Cortex-M4), qemu-system-arm -icount shift=0,sleep=off"},
                         {"elf", elf_},
+                        {"mode", exchange_only_ ? "exchange (AFM_BOARD_MODE: the card not stepped, the link's cost alone)" : "card"},
                         {"blocks", blocks_},
                         {"instructions_per_block", step_insn_.json()},
                         {"instructions_per_sample", step_insn_.json(1.0 / spb)},

@@ -660,6 +660,10 @@ public:
         const double sim_s = run["sim_seconds"].get<double>();
         std::printf("run: ok: %.2f simulated s in %.2f wall s (%.2f sim s per wall s), %d frames, %lld bus messages\n", sim_s, wall_,
                     wall_ > 0 ? sim_s / wall_ : 0.0, run["frames"].get<int>(), static_cast<long long>(messages_));
+        if (run["timing"]["loop_realtime_factor"].is_number())
+            std::printf("run: the loop, first block to last: %.2f wall s, %.1f us a block, %.2f x real time (the rest of the run: %.2f s)\n",
+                        run["timing"]["loop_seconds"].get<double>(), run["timing"]["loop_us_per_block"].get<double>(),
+                        run["timing"]["loop_realtime_factor"].get<double>(), run["timing"]["outside_loop_seconds"].get<double>());
         if (run.contains("fidelity")) {
             const auto &fj = run["fidelity"];
             // null: an object the display shows was not found in the scan (an infinite error)
@@ -952,6 +956,7 @@ private:
         run["launcher"] = launcher_json();
         run["placement"] = placement_json();
         merge_reports(&run);
+        run["timing"] = timing_json(run);
         if (run.contains("fw") && run["fw"].contains("board")) run["card"]["board"] = run["fw"]["board"];   // where the card ran
         if (run.contains("renderer") && run["renderer"].contains("frames_expected")) run["frames_expected"] = run["renderer"]["frames_expected"];
         run["verdict"] = afm::judge(run, scene_.expect);   // the run's own checks (verdict.hpp)
@@ -1065,6 +1070,30 @@ private:
     }
 
     // Each process's own report, under its name.
+    // The run's speed "as a run is made" (docs/design.md, run.json timing):
+    // the loop, from the simulator's first block to the card's answer to
+    // its last (sim_report.json loop_wall_seconds, the one owner of that
+    // figure: scans served and waits for frames and the record included),
+    // against the blocks' simulated time; beside it the whole run, the
+    // launcher's start to the end of the run (wall_seconds). Null figures
+    // when the simulator wrote no report.
+    nlohmann::json timing_json(const nlohmann::json &run) const
+    {
+        nlohmann::json t = {{"whole_seconds", wall_}, {"whole_realtime_factor", run["sim_seconds_per_wall_second"]}};
+        const bool have = run.contains("sim") && run["sim"].is_object() && run["sim"].contains("loop_wall_seconds") && run["sim"].contains("blocks");
+        const double loop_s = have ? run["sim"]["loop_wall_seconds"].get<double>() : 0.0;
+        const int64_t blocks = have ? run["sim"]["blocks"].get<int64_t>() : 0;
+        const double loop_sim_s = static_cast<double>(blocks) / scene_.block_hz;
+        const bool ok = have && loop_s > 0 && blocks > 0;
+        t["loop_seconds"] = ok ? nlohmann::json(loop_s) : nlohmann::json(nullptr);
+        t["loop_blocks"] = blocks;
+        t["loop_simulated_seconds"] = loop_sim_s;
+        t["loop_us_per_block"] = ok ? nlohmann::json(loop_s / static_cast<double>(blocks) * 1e6) : nlohmann::json(nullptr);
+        t["loop_realtime_factor"] = ok ? nlohmann::json(loop_sim_s / loop_s) : nlohmann::json(nullptr);
+        t["outside_loop_seconds"] = ok ? nlohmann::json(wall_ - loop_s) : nlohmann::json(nullptr);
+        return t;
+    }
+
     void merge_reports(nlohmann::json *run) const
     {
         for (const std::string rep : {"sim_report.json", "renderer_report.json", "operator_report.json", "fw_report.json", "fidelity.json"}) {

@@ -62,6 +62,20 @@ class EndToEnd(unittest.TestCase):
             self.assertIn(key, rj)
         self.assertAlmostEqual(rj["sim_seconds"], self.spec["duration_s"], places=6)
 
+    def test_run_json_timing_is_the_loops_first_block_to_last(self):
+        _, out, _, rj = self.r1
+        t, sim = rj["timing"], rj["sim"]
+        self.assertEqual(t["loop_seconds"], sim["loop_wall_seconds"])
+        self.assertEqual(t["loop_blocks"], sim["blocks"])
+        self.assertAlmostEqual(t["loop_simulated_seconds"], sim["blocks"] / self.spec["block_hz"], places=9)
+        self.assertAlmostEqual(t["loop_realtime_factor"], t["loop_simulated_seconds"] / t["loop_seconds"], places=9)
+        self.assertAlmostEqual(t["loop_us_per_block"], t["loop_seconds"] / sim["blocks"] * 1e6, places=6)
+        self.assertGreater(t["outside_loop_seconds"], 0)   # the processes' start and the first scan come before the loop
+        self.assertAlmostEqual(t["whole_seconds"], rj["wall_seconds"], places=9)
+        self.assertEqual(t["whole_realtime_factor"], rj["sim_seconds_per_wall_second"])
+        self.assertLess(t["whole_realtime_factor"], t["loop_realtime_factor"])
+        self.assertIn("run: the loop, first block to last:", out)
+
     def test_every_channel_is_in_the_log(self):
         for ch in afmlog.CHANNELS:
             if ch in VIEWED_ONLY:
@@ -345,6 +359,7 @@ class RealTime(unittest.TestCase):
         print(f"realtime: {rj['sim_seconds']:.2f} simulated s in a {loop:.2f} s loop")
         self.assertGreaterEqual(loop, rj["sim_seconds"] * 0.99)
         self.assertLess(loop, rj["sim_seconds"] + 2.0)
+        self.assertLessEqual(rj["timing"]["loop_realtime_factor"], 1.01)   # paced: never ahead of real time
         benchtest.cleanup(os.path.dirname(path))
 
 

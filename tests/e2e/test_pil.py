@@ -121,6 +121,18 @@ class PilTest(unittest.TestCase):
         self.assertNotEqual(p.returncode, 0)
         self.assertIn("the card's board cannot start: qemu-system-arm", p.stderr)
 
+    def test_the_link_alone_answers_without_the_card(self):
+        # AFM_BOARD_MODE=exchange (./afm bench pil): the board answers every
+        # block without stepping the card, so the replay diverges at block 0
+        out = self.runs[("short", "host")][0]
+        code, text, err = replay(out, "--firmware", "qemu", env=dict(os.environ, AFM_BOARD_MODE="exchange"))
+        self.assertEqual(code, 1, text + err)
+        self.assertIn("first at block 0", text + err)
+        self.assertRegex(text, r"a round trip [0-9]+ us median")
+        code, text, err = replay(out, "--firmware", "qemu", env=dict(os.environ, AFM_BOARD_MODE="fast"))
+        self.assertEqual(code, 2, text + err)
+        self.assertIn("AFM_BOARD_MODE='fast': only 'exchange' is known", err)
+
     def test_a_board_that_faults_or_hangs_ends_the_run_naming_it(self):
         for kind, words in (("hardfault", "exited (status 1) at block 120"), ("hang", "hung: no answer to block 120 within 2 s")):
             with self.subTest(kind=kind):
