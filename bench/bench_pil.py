@@ -37,11 +37,9 @@ import sys
 import tempfile
 import time
 
-TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BUILD = os.environ.get("AFM_BUILD", os.path.join(TOP, "build", "main"))
-IN_NETNS = os.path.join(TOP, "tools", "in_netns.sh")
-LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
-REPLAY = os.path.join(BUILD, "host_bridge", "afm_replay")
+from analysis import paths
+
+TOP, BUILD, IN_NETNS, LAUNCH, REPLAY = paths.ROOT, paths.BUILD, paths.IN_NETNS, paths.LAUNCH, paths.REPLAY
 GOAL_X = 5.0   # issue 36: --firmware qemu at no less than 5x real time on the default scene
 
 
@@ -168,6 +166,8 @@ def main(argv=None):
     keep = a.out is not None
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-pil-")
     os.makedirs(out, exist_ok=True)
+    if not keep:
+        os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
     runs = {label: [] for label, _ in ARRANGEMENTS}
     for k in range(a.repeat):
         for i, (label, args) in enumerate(ARRANGEMENTS):
