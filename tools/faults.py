@@ -130,7 +130,7 @@ def alive_in_groups(pgids):
 class Run:
     """One afm_launch in its own namespace, with hooks while it runs."""
 
-    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None, link=None, writes=None):
+    def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None, link=None, writes=None, outer=()):
         self.out = out
         cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
         if link is not None:   # two hosts (tools/two_hosts.sh): the namespaces, the link, then the launcher
@@ -146,7 +146,9 @@ class Run:
         # helper writes too), for in_netns.sh to hand to the run's user when
         # started as root (a wrapped command names it inside a shell's text)
         env = dict(env or os.environ, AFM_RUN_WRITES=writes or out)
-        self.p = subprocess.Popen([IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        # outer: a command around the namespace's (disk:full's mount
+        # namespace: the run's own privilege could not mount there)
+        self.p = subprocess.Popen([*outer, IN_NETNS, *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                   start_new_session=True, env=env)
         self.kids = {}
 
@@ -436,17 +438,20 @@ class Matrix:
     def disk_full(self):
         d = self.dir("disk:full")
         os.makedirs(d, exist_ok=True)
-
-        def wrap(cmd):
-            q = " ".join(f"'{c}'" for c in cmd)
-            return ["unshare", "-m", "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs '{d}' && {q}"]
-        r = Run(self.scene, os.path.join(d, "run"), wrap=wrap).finish()
+        # the tmpfs is mounted before the run's namespace drops its privilege
+        # (inside it, with no capability, mount is refused), in a mount
+        # namespace of its own (a user namespace too when not root)
+        outer = ["unshare", "-m" if os.geteuid() == 0 else "-rm", "sh", "-c",
+                 f"mount -t tmpfs -o size=1m tmpfs '{d}' && exec \"$@\"", "sh"]
+        r = Run(self.scene, os.path.join(d, "run"), outer=outer).finish()
         # the tmpfs is gone with the mount namespace: what the run left is what
-        # it printed, and whether it claimed success
+        # it printed, and whether it claimed success; the error must name
+        # what it could not write (a refused mount would fail for another reason)
         err = r.stderr.strip().splitlines()
-        said = err[-1][:90] if err else "(nothing on stderr)"
+        said = err[-1][:110] if err else "(nothing on stderr)"
         claimed = "run: ok" in r.stdout
-        ok = r.code != 0 and not claimed and bool(err)
+        named = any(("No space left" in e or "cannot write" in e) and "/" in e for e in err)
+        ok = r.code != 0 and not claimed and named
         self.add("disk:full", f"exit {r.code}: {said}", not claimed, "no success claimed" if not claimed else "CLAIMED SUCCESS", None,
                  "-", ok)
 
