@@ -73,10 +73,24 @@ done
 # The run's user must reach CMD (a path) and drop_caps.sh, and each folder.
 reach=(--reach "$here/drop_caps.sh")
 [[ $1 != */* ]] || reach+=(--reach "$1")
+# If it cannot, the run is made as it is made without root (unshare -rn: root
+# in a user namespace of its own, no capabilities once drop_caps.sh has run),
+# run.json's netns says "rootless:kept-uid-0", and the reason goes to stderr
+# when that is a terminal (or AFM_PRIVILEGE_WARNINGS=1): the command's own
+# errors stay one line for the scripts that read them.
 if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
   why=$ids
-  echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
-  "$here/run_user.sh" take "${writes[@]}"
+  if [ -t 2 ] || [ "${AFM_PRIVILEGE_WARNINGS:-0}" = 1 ]; then
+    echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
+  fi
+  "$here/run_user.sh" take "${writes[@]}" 2>/dev/null || true
+  for m in "${made[@]}"; do
+    leaf=${m%|*} top=${m#*|}
+    while rmdir "$leaf" 2>/dev/null && [ "$leaf" != "$top" ]; do leaf=$(dirname "$leaf"); done
+  done
+  if unshare -rn true 2>/dev/null; then
+    AFM_NETNS_MODE=rootless:kept-uid-0 exec unshare -rn sh -c "$inner" "$drop" "$@"
+  fi
   ids="0 0"
 fi
 read -r uid gid <<< "$ids"
