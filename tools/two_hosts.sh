@@ -63,7 +63,12 @@ ip link set lo up
 # The afm namespace, held while CMD (this shell's pid, after exec) lives.
 # The run's user makes it (its owner), and the holder needs no privilege to
 # hold them: it drops all it has.
-"$drop" unshare -rn "$drop" tail --pid=$$ -s 0.1 -f /dev/null </dev/null >/dev/null 2>&1 &
+# Not started as root (or root kept: tools/in_netns.sh), this shell is root
+# of the run's user namespace and makes it itself: once stripped of its
+# capabilities it could not write the new namespace's maps.
+maker=()
+[ "${AFM_RUN_UID:-0}" = 0 ] || maker=("$drop")
+"${maker[@]}" unshare -rn "$drop" tail --pid=$$ -s 0.1 -f /dev/null </dev/null >/dev/null 2>&1 &
 afm=$!
 for _ in $(seq 200); do
   [ "$(readlink /proc/$afm/ns/net 2>/dev/null)" != "$(readlink /proc/$$/ns/net)" ] && break
@@ -71,7 +76,11 @@ for _ in $(seq 200); do
 done
 [ "$(readlink /proc/$afm/ns/net 2>/dev/null)" != "$(readlink /proc/$$/ns/net)" ] \
   || die "cannot make the afm namespace (unshare -rn inside the run's: user namespaces nested?)"
-in_afm() { nsenter -t "$afm" -U -n "$@"; }   # as its root: the run's user, its owner, in the run's namespace
+if [ ${#maker[@]} -gt 0 ]; then
+  in_afm() { nsenter -t "$afm" -U -n "$@"; }   # as its root: the run's user, its owner, in the run's namespace
+else
+  in_afm() { nsenter -t "$afm" -U -n --preserve-credentials "$@"; }   # this shell made it: its own credentials
+fi
 ip link add vhost type veth peer name vafm netns "$afm"
 ip addr add 169.254.76.1/30 dev vhost
 ip link set vhost up
@@ -99,7 +108,7 @@ for _ in $(seq 200); do
 done
 # The link as it is, by LCM round trips.
 export AFM_BUS_LINK=vhost
-AFM_BUS_LINK=vafm "$drop" nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
+AFM_BUS_LINK=vafm "${maker[@]}" nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
 echo_pid=$!
 for _ in $(seq 200); do grep -q ready "$dir/echo.log" 2>/dev/null && break; sleep 0.01; done
 "$drop" "$build/host_bridge/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --interval-us "${AFM_LINK_PROBE_INTERVAL_US:-1000}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \
