@@ -36,9 +36,9 @@ def peaks_mb(rj):
 
 
 def cpu_s(rj):
-    """CPU seconds (user + system) of the run's processes, the launcher's included."""
-    return sum(p["cpu_user_s"] + p["cpu_system_s"] for p in rj["processes"]) + \
-        rj["launcher"].get("cpu_user_s", 0.0) + rj["launcher"].get("cpu_system_s", 0.0)
+    """CPU seconds (user + system) of the run's four bus processes (run.json
+    holds no CPU figure of the launcher's own: children_cpu_s covers it)."""
+    return sum(p["cpu_user_s"] + p["cpu_system_s"] for p in rj["processes"])
 
 
 def children_cpu_s():

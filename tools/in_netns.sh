@@ -69,6 +69,13 @@ for d in "${writes[@]}"; do
   while [ ! -e "$(dirname "$top")" ]; do top=$(dirname "$top"); done
   made+=("$d|$top")
 done
+remove_made_empty() {   # what was made for the run and is still empty, up to the highest folder made
+  local m leaf top
+  for m in "${made[@]}"; do
+    leaf=${m%|*} top=${m#*|}
+    while rmdir "$leaf" 2>/dev/null && [ "$leaf" != "$top" ]; do leaf=$(dirname "$leaf"); done
+  done
+}
 
 # The run's user must reach CMD (a path) and drop_caps.sh, and each folder.
 reach=(--reach "$here/drop_caps.sh")
@@ -84,10 +91,7 @@ if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
     echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
   fi
   "$here/run_user.sh" take "${writes[@]}" 2>/dev/null || true
-  for m in "${made[@]}"; do
-    leaf=${m%|*} top=${m#*|}
-    while rmdir "$leaf" 2>/dev/null && [ "$leaf" != "$top" ]; do leaf=$(dirname "$leaf"); done
-  done
+  remove_made_empty
   if unshare -rn true 2>/dev/null; then
     AFM_NETNS_MODE=rootless:kept-uid-0 exec unshare -rn sh -c "$inner" "$drop" "$@"
   fi
@@ -137,8 +141,5 @@ done
 for i in "${!writes[@]}"; do
   if [ -n "${locks[$i]}" ] && flock -n -x "${locks[$i]}"; then "$here/run_user.sh" take "${writes[$i]}"; fi
 done
-for m in "${made[@]}"; do
-  leaf=${m%|*} top=${m#*|}
-  while rmdir "$leaf" 2>/dev/null && [ "$leaf" != "$top" ]; do leaf=$(dirname "$leaf"); done
-done
+remove_made_empty
 exit "$rc"

@@ -242,6 +242,16 @@ outputs:
 """
 
 
+def canvas_offset(d, x_nm, y_nm):
+    """Where the point (x_nm, y_nm) of the field is drawn on the page's image,
+    from the canvas's centre in CSS px (the page's own meta: field and size)."""
+    return d.execute_script(
+        "const m = window.afmView.meta, c = document.getElementById('image'), r = c.getBoundingClientRect();"
+        "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
+        "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
+        x_nm, y_nm)
+
+
 def particle(ps, pid):
     return next(p for p in ps if p[0] == pid)
 
@@ -263,12 +273,8 @@ class BrowserHand(unittest.TestCase):
             start_y = particle(s["particles"], 1)[2]
             canvas = d.find_element("id", "image")
 
-            def offset(x_nm, y_nm):   # from the canvas's centre, in CSS px
-                return d.execute_script(
-                    "const m = window.afmView.meta, c = document.getElementById('image'), r = c.getBoundingClientRect();"
-                    "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
-                    "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
-                    x_nm, y_nm)
+            def offset(x_nm, y_nm):
+                return canvas_offset(d, x_nm, y_nm)
             # two local scans the person asks for: a right-click on particle 1
             # (around it), then the button (around the tip)
             p1 = particle(s["particles"], 1)
@@ -348,11 +354,7 @@ class BrowserStroke(unittest.TestCase):
             canvas = d.find_element("id", "image")
 
             def click_at(x_nm, y_nm):
-                x, y = d.execute_script(
-                    "const m = window.afmView.meta, c = document.getElementById('image'), r = c.getBoundingClientRect();"
-                    "const [x0, y0, side] = m.field_nm, pitch = side / m.width, k = r.width / m.width;"
-                    "return [(arguments[0] - x0) / pitch * k - r.width / 2, (m.height - (arguments[1] - y0) / pitch) * k - r.height / 2];",
-                    x_nm, y_nm)
+                x, y = canvas_offset(d, x_nm, y_nm)
                 ActionChains(d).move_to_element_with_offset(canvas, int(x), int(y)).click().perform()
             p1 = particle(s["particles"], 1)
             d.find_element("id", "stroke").click()
