@@ -78,6 +78,8 @@ struct Sim {
     double log_wait_s = 0;             // the wall time it waited for the logger
     int64_t frame_waits = 0;           // blocks whose card answer came before the renderer's frames
     double frame_wait_s = 0;           // the wall time those blocks waited for the frames after the answer
+    double frame_wait_worst_s = 0;     // the longest of those waits, and its block
+    int64_t frame_wait_worst_block = -1;
     bool abort = false;
     int64_t acked = -1;                // last acknowledged block
     int frames_done = 0;               // frames the renderer has written
@@ -442,8 +444,13 @@ struct Loop {
             sim.hb.maybe_send(afm::RunState::running, n, blk.utime, kHeartbeatPeriodUs);
         }
         if (answered != std::chrono::steady_clock::time_point{}) {
+            const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - answered).count();
             ++sim.frame_waits;
-            sim.frame_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - answered).count();
+            sim.frame_wait_s += waited;
+            if (waited > sim.frame_wait_worst_s) {
+                sim.frame_wait_worst_s = waited;
+                sim.frame_wait_worst_block = n;
+            }
         }
         return true;
     }
@@ -494,6 +501,8 @@ struct Loop {
                 {"log_window_wait_seconds", sim.log_wait_s},
                 {"frame_window_waits", sim.frame_waits},
                 {"frame_window_wait_seconds", sim.frame_wait_s},
+                {"frame_window_worst_wait_seconds", sim.frame_wait_worst_s},
+                {"frame_window_worst_wait_block", sim.frame_wait_worst_block},
                 {"injected_drops", dropped},
                 {"loop_wall_seconds", wall_s},
                 {"loop_scan_wall_seconds", sim.loop_scan_s},

@@ -47,6 +47,9 @@ World::World(const Scene &s)
     // pushed by another is not pressed: F_th(0).
     down_force_ = s.has_effect("down_force");
     gamma_rad_ = s.probe.tip_half_angle_deg * M_PI / 180.0;
+    cos_gamma_ = std::cos(gamma_rad_);
+    sin_gamma_ = std::sin(gamma_rad_);
+    tan_gamma_ = std::tan(gamma_rad_);
     particle_mu_ = ps.mu;
     const double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
     for (const auto &p : s.particles) {
@@ -503,7 +506,7 @@ double World::groove_depth(const Eigen::Vector2d &q) const
     // 2 depth tan(gamma) wide at the surface (a V-groove), the depth linear
     // between path points.
     if (trench_points_.empty()) return 0.0;
-    const double cot = 1.0 / std::tan(scene_.probe.tip_half_angle_deg * M_PI / 180.0);
+    const double cot = 1.0 / tan_gamma_;
     double z = 0.0;
     scratch3_.clear();
     trench_grid_.query(q, trench_reach_nm_ + trench_step_nm_, scratch3_);
@@ -563,10 +566,9 @@ double World::tip_profile(double u) const
 {
     // Spherical apex of radius r_t, tangent to a cone of half angle gamma.
     const double rt = scene_.probe.tip_radius_nm;
-    const double g = scene_.probe.tip_half_angle_deg * M_PI / 180.0;
-    const double u0 = rt * std::cos(g);
+    const double u0 = rt * cos_gamma_;
     if (u <= u0) return rt - std::sqrt(rt * rt - u * u);
-    return rt - rt * std::sin(g) + (u - u0) / std::tan(g);
+    return rt - rt * sin_gamma_ + (u - u0) / tan_gamma_;
 }
 
 double World::bump_convolved(double rho, double r) const
@@ -597,8 +599,7 @@ double World::height_convolved(double x, double y) const
     double z = -groove_depth(q);
     // The tip's flank reaches sideways by at most its profile at the height
     // of the tallest object.
-    const double g = scene_.probe.tip_half_angle_deg * M_PI / 180.0;
-    near(q, max_radius_ + 2 * max_radius_ * std::tan(g) + scene_.probe.tip_radius_nm, scratch2_);
+    near(q, max_radius_ + 2 * max_radius_ * tan_gamma_ + scene_.probe.tip_radius_nm, scratch2_);
     // An object the tip does not touch here (dilation 0) must not fill a
     // groove beside it: only a positive dilation competes with the groove.
     for (int idx : scratch2_) {
@@ -609,7 +610,7 @@ double World::height_convolved(double x, double y) const
     for (std::size_t i = 0; i < wires_.size(); ++i) {
         const auto &w = wires_[i];
         const double r = 0.5 * w->d_nm;
-        if (!w->near(q, r + 2 * r * std::tan(g) + scene_.probe.tip_radius_nm)) continue;
+        if (!w->near(q, r + 2 * r * tan_gamma_ + scene_.probe.tip_radius_nm)) continue;
         const double b = bump_convolved(w->axis_distance(q), r);
         if (b > 0) z = std::max(z, b + wire_axis_height_nm(i) - r);   // a rod sunk into a groove: lower by its seat
     }

@@ -318,6 +318,7 @@ private:
     long ridden_samples_ = 0;      // samples the tip rode over a wire (down_force)
     bool down_force_ = false;      // the cone presses what it pushes (effect down_force)
     double gamma_rad_ = 0;         // the cone's half angle
+    double cos_gamma_ = 1, sin_gamma_ = 0, tan_gamma_ = 0;   // of gamma_rad_, once (tip_profile runs ~10^6 times a scan)
     double particle_mu_ = 0;       // mu_ps
     double cone_factor_ = 1;       // down_force: 1 / (1 - mu_ps tan psi) on the threshold of the particle the tip pushes
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move

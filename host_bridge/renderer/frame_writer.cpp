@@ -112,6 +112,13 @@ void FrameWriter::write(int k, cv::Mat frame)
     work_.notify_one();
 }
 
+void FrameWriter::wait_open()
+{
+    std::unique_lock<std::mutex> l(m_);
+    room_.wait(l, [&] { return !opening_ || error_; });
+    if (error_) std::rethrow_exception(error_);
+}
+
 void FrameWriter::finish()
 {
     std::unique_lock<std::mutex> l(m_);

@@ -54,7 +54,7 @@ namespace afm {
 
 class FrameWriter {
 public:
-    static constexpr std::size_t kMaxPending = 8;
+    static constexpr std::size_t kMaxPending = 64;
     static constexpr std::size_t kOpeningBytes = 32u << 20;   // frames waiting while the video opens, at most
 
     // out_dir: the run's folder (frames/ in it exists). png: write
@@ -74,6 +74,12 @@ public:
     // draw on it again). Waits while kMaxPending frames are queued (while
     // the video opens: kOpeningBytes of frames).
     void write(int k, cv::Mat frame);
+    // Waits until the video is open (ffmpeg started, or the fallback chosen);
+    // rethrows the error when it could not be. The renderer calls it before
+    // it says it is ready, so that the encoder's start (two ffmpeg
+    // processes, 0.1-0.4 s of CPU on a busy machine) falls before the
+    // loop's first block and not in it.
+    void wait_open();
     // Writes what is queued, closes the video; rethrows the writer's error.
     void finish();
 

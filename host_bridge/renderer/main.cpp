@@ -70,7 +70,8 @@ int main(int argc, char **argv)
         sigemptyset(&sa.sa_mask);
         sigaction(SIGTERM, &sa, nullptr);
         sigaction(SIGINT, &sa, nullptr);
-        // The full scan first.
+        // The full scan first, while the frames' video encoder starts.
+        r.open_writer();
         r.hb.send(afm::RunState::starting, -1, 0, "scanning");
         r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
         while (r.scan.busy()) {

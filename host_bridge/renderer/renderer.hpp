@@ -365,12 +365,20 @@ struct Renderer {
             throw std::runtime_error(err);
     }
 
+    // The frames' writer, its video encoder starting on the writer's thread
+    // while the full scan runs (main.cpp opens it before the scan).
+    void open_writer()
+    {
+        writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, field.px, writer_cpus);
+    }
+
     void begin()
     {
         display.start(scan.heights(), model);
         afm::write_png(out + "/scan_initial.png", display.colourise(scan.heights()));
         write_scan_gsf("scan_initial", cv::Rect(0, 0, field.px, field.px));
-        writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, field.px, writer_cpus);
+        if (!writer) open_writer();
+        writer->wait_open();   // the encoder up before the first block (frame_writer.hpp)
         started = true;
     }
 
@@ -713,11 +721,17 @@ struct Renderer {
         if (fix_awaited > 0 && std::chrono::steady_clock::now() - fix_sent > std::chrono::milliseconds(kFixRetryMs)) send_fix();
     }
 
+    // The final scan is in: the last frame (composed before it) is announced
+    // at once, so that the simulator runs its last blocks while the display
+    // is compared with the scan and the files are written.
     void finish_last_frame()
     {
+        final_pending = false;
+        const int last = frames_written++;   // composed before the scan (continue_frames)
+        announce(last, shown_seq);
         const afm::Fidelity f = afm::compare_with_scan(display.height(), scan.heights(), field, model, tip, kFidelitySearch_nm);
         write_scan_gsf("scan_final", cv::Rect(0, 0, field.px, field.px));
-        write_display_gsf("display_final", display.height(), frames_written);
+        write_display_gsf("display_final", display.height(), last);
         afm::write_png(out + "/fidelity_diff.png", afm::fidelity_figure(f, field, model, kFidelityTarget_nm));
         using nlohmann::json;
         fidelity = json{{"max_position_error_nm", f.max_position_error_nm},
@@ -726,7 +740,7 @@ struct Renderer {
                         {"trenches", model.trenches.size()},
                         {"target_nm", kFidelityTarget_nm},
                         {"pass", f.max_position_error_nm <= kFidelityTarget_nm},
-                        {"frame", frames_written},
+                        {"frame", last},
                         {"objects", json::array()}};
         for (const auto &o : f.objects) {
             json rec = {{"kind", o.kind}, {"id", o.id}, {"found", o.found}, {"error_nm", o.found ? json(o.error_nm) : json(nullptr)},
@@ -741,9 +755,6 @@ struct Renderer {
         }
         if (scene.op.plan.enabled) fidelity["placement"] = placement_json();
         afm::write_report(out + "/fidelity.json", fidelity);
-        final_pending = false;
-        ++frames_written;   // composed before the scan (continue_frames)
-        announce(frames_written - 1, shown_seq);
     }
 
     // The planner's result in the fresh scan: each target site (sample
