@@ -735,7 +735,10 @@ void read_plan_cuts(const Reader &r, const YAML::Node &n, Scene &s)
     }
 }
 
-// operator.plan: the automatic planner's settings (its presence turns it on).
+// operator.plan: the automatic planner's settings (its presence turns it
+// on). With operator.mode: browser it only sets the strokes a person asks
+// for on the page (tolerance, speeds, scans, pushes): the planner is not
+// turned on, and cuts, which only the automatic planner makes, are refused.
 void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
 {
     YAML::Node n = op["plan"];
@@ -743,8 +746,11 @@ void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
     const std::string k = "operator.plan";
     PlanSpec &p = s.op.plan;
     const PlanSpec d;
-    p.enabled = true;
+    const bool browser = s.op.mode == "browser";
+    p.enabled = !browser;
     if (n.IsNull()) return;
+    if (browser && n.IsMap() && n["cuts"].IsDefined())
+        r.fail(k + ".cuts", "the automatic planner's: with operator.mode: browser operator.plan sets only the page's strokes");
     r.only_keys(n, k, {"tolerance_nm", "speed_nm_per_s", "travel_speed_nm_per_s", "scan_size_nm", "scan_px", "scan_s",
                        "max_pushes", "clearance_nm", "push_depth_nm", "approach_nm", "wire_tolerance_nm", "wire_step_nm",
                        "cuts"});

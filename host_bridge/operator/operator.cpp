@@ -94,6 +94,10 @@ static nlohmann::json browser_json(const Operator &op)
         const PlanReport &r = op.stroke_planner->report();
         j["stroke_planner"] = {{"pushes", r.pushes}, {"repushes", r.repushes}, {"local_scans", r.local_scans},
                                {"fixes", r.fixes}, {"fixes_refused", r.fixes_refused}, {"disturbed", r.disturbed}};
+        const PlanSpec &ps = op.scene.op.plan;   // the strokes' settings (operator.plan, else its defaults)
+        j["stroke_planner"]["settings"] = {{"tolerance_nm", ps.tolerance_nm}, {"speed_nm_per_s", ps.speed_nm_per_s},
+                                           {"travel_speed_nm_per_s", ps.travel_speed_nm_per_s},
+                                           {"scan_size_nm", ps.scan_size_nm}, {"max_pushes", ps.max_pushes}};
     }
     return j;
 }

@@ -103,6 +103,13 @@ class BadScenes(unittest.TestCase):
         self.check_refused(trench.replace("load_nN: 55}", "load_nN: 55, depth_nm: 3}"), "operator.plan.cuts[0].depth_nm",
                            "unknown key")
 
+    def test_browser_plan_takes_settings_but_no_cuts(self):
+        browser = GOOD.replace("operator:\n", "time_mode: realtime\noperator:\n  mode: browser\n", 1)
+        self.check_refused(browser.replace("  mode: browser\n", "  mode: browser\n  plan: {tolerance_nm: 15, cuts: []}\n"),
+                           "operator.plan.cuts", "only the page's strokes")
+        self.check_refused(browser.replace("  mode: browser\n", "  mode: browser\n  plan: {tolerance_nm: -3}\n"),
+                           "operator.plan.tolerance_nm", "'-3'")
+
     def test_empty_file_refused(self):
         path = benchtest.write_scene("", "empty")
         code, _, stderr, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"))

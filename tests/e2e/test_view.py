@@ -333,10 +333,11 @@ class BrowserHand(unittest.TestCase):
         self.assertEqual(s["ended"]["hand"]["refused"], 0)
 
 
+PLAN_TOLERANCE_NM = 15.0          # the scene's operator.plan.tolerance_nm (the default is 25), which a stroke takes
 STROKE_SCENE = BROWSER_SCENE.replace("name: browser-test", "name: browser-stroke").replace(
-    "duration_s: 10.0   #", "duration_s: 9.0   # the stroke (about 3 simulated s) after the first frame;")
+    "duration_s: 10.0   #", "duration_s: 9.0   # the stroke (about 3 simulated s) after the first frame;").replace(
+    "  path_nm: [[0, -700]]\n", f"  path_nm: [[0, -700]]\n  plan: {{tolerance_nm: {PLAN_TOLERANCE_NM}, speed_nm_per_s: 2500}}\n")
 STROKE_TARGET_NM = (0.0, 150.0)   # 450 nm along +y from particle 1, across the lever's axis (x)
-PLAN_TOLERANCE_NM = 25.0          # operator.plan.tolerance_nm's default (common/scene.hpp), which a stroke takes
 
 
 @unittest.skipUnless(CHROMIUM and DRIVER, "chromium or chromedriver missing (./afm setup installs them)")
@@ -390,6 +391,9 @@ class BrowserStroke(unittest.TestCase):
             self.assertEqual((rep["pushes_asked"], rep["refused"], len(rep["strokes"])), (1, 0, 1), rep)
             self.assertTrue(rep["strokes"][0]["placed"], rep)
             self.assertGreaterEqual(rep["stroke_planner"]["local_scans"], 2, rep)
+            settings = rep["stroke_planner"]["settings"]   # the scene's, not the defaults
+            self.assertEqual((settings["tolerance_nm"], settings["speed_nm_per_s"]), (PLAN_TOLERANCE_NM, 2500), settings)
+            self.assertNotIn("plan", json.load(open(os.path.join(out, "operator_report.json"))))   # no automatic plan ran
             print(f"test_view: stroke: particle 1 {miss:.1f} nm from the clicked target in SIM_TRUTH, "
                   f"{rep['strokes'][0]['pushes']} pushes, {rep['strokes'][0]['ended_sim_s'] - rep['strokes'][0]['started_sim_s']:.2f} "
                   f"simulated s", file=sys.stderr)
