@@ -108,6 +108,9 @@ public:
     const std::vector<cv::Point2d> &trail_points() const { return trail_pts_; }
 
     const cv::Mat &height() const { return height_; }     // nm, CV_32F
+    // height() colourised (colourise), kept pixel for pixel as height() changes:
+    // every write to the heights recolours its rectangle, a rescale the whole.
+    const cv::Mat &colour() const { return colour_; }     // CV_8UC3, BGR
     double z_top() const { return z_top_; }               // colour scale: heights at the top and
     double z_bottom() const { return z_bot_; }            // the bottom of the colour bar, nm
     // The frame: colourised heights, colour bar, scale bar, tip, force, flags.

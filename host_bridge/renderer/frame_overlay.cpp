@@ -61,6 +61,10 @@ void put_label(cv::Mat &img, const std::string &text, cv::Point org, double scal
     const cv::Rect box(org + m.offset, m.text_a.size());
     const cv::Rect on = box & cv::Rect(0, 0, img.cols, img.rows);
     if (on.empty()) return;
+    // label_blend for whole colours (all the overlay's), else the same in doubles
+    const bool whole = colour[0] == std::floor(colour[0]) && colour[1] == std::floor(colour[1]) && colour[2] == std::floor(colour[2]) &&
+                       colour[0] >= 0 && colour[1] >= 0 && colour[2] >= 0 && colour[0] <= 255 && colour[1] <= 255 && colour[2] <= 255;
+    const int c[3] = {static_cast<int>(colour[0]), static_cast<int>(colour[1]), static_cast<int>(colour[2])};
     for (int y = on.y; y < on.br().y; ++y) {
         cv::Vec3b *px = img.ptr<cv::Vec3b>(y) + on.x;
         const uchar *t = m.text_a.ptr<uchar>(y - box.y) + (on.x - box.x);
@@ -68,8 +72,12 @@ void put_label(cv::Mat &img, const std::string &text, cv::Point org, double scal
         for (int x = 0; x < on.width; ++x) {
             if (!o[x]) continue;
             for (int k = 0; k < 3; ++k) {
-                const double under = px[x][k] * (255 - o[x]) / 255.0;
-                px[x][k] = cv::saturate_cast<uchar>(under + (colour[k] - under) * t[x] / 255.0);
+                if (whole) {
+                    px[x][k] = label_blend(px[x][k], o[x], t[x], c[k]);
+                } else {
+                    const double under = px[x][k] * (255 - o[x]) / 255.0;
+                    px[x][k] = cv::saturate_cast<uchar>(under + (colour[k] - under) * t[x] / 255.0);
+                }
             }
         }
     }
@@ -357,7 +365,9 @@ FrameText frame_text(int px)
 cv::Mat compose_frame(const Display &d, const DisplayModel &model, const Overlay &o, const LeverView &lever)
 {
     const Field &f = d.field();
-    Canvas c{d.colourise(d.height()), frame_text(f.px), {}};
+    // the display's own colourised heights (kept as they change), copied:
+    // colourising the whole map again cost a third of composing a frame
+    Canvas c{d.colour().empty() ? d.colourise(d.height()) : d.colour().clone(), frame_text(f.px), {}};
     for (const auto &p : d.trail_points()) cv::circle(c.img, cv::Point(cvRound(p.x), cvRound(p.y)), 1, cv::Scalar(120, 120, 120), cv::FILLED);
     const cv::Point2d tp = f.to_px(o.tip_nm[0], o.tip_nm[1]);
     const cv::Point tip(cvRound(tp.x), cvRound(tp.y));

@@ -50,6 +50,17 @@ struct FrameText {
 };
 FrameText frame_text(int px);
 
+// A label's pixel: the channel p under an outline of opacity o (0-255)
+// darkened to p (255 - o) / 255, then text of opacity t in colour c (a whole
+// 0-255 value) over it, rounded to the nearest byte. Exactly
+// (p (255 - o) (255 - t) + 255 c t) / 65025, which is never a tie (65025
+// is odd): the bytes of the same formula evaluated in doubles, in integers.
+inline unsigned char label_blend(int p, int o, int t, int c)
+{
+    const int n = p * (255 - o) * (255 - t) + 255 * c * t;
+    return static_cast<unsigned char>((2 * n + 65025) / 130050);
+}
+
 // The frame: the display's colourised heights and the overlay above.
 cv::Mat compose_frame(const Display &d, const DisplayModel &model, const Overlay &o, const LeverView &lever);
 

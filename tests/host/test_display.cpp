@@ -95,6 +95,22 @@ void test_local_update_equals_full_redraw()
     cv::Mat fa = a.frame(o), fb = b.frame(o), d8;
     cv::absdiff(fa, fb, d8);
     TEST_ASSERT_EQUAL_INT(0, cv::countNonZero(d8.reshape(1)));
+    // the colours kept (colour(), which compose_frame copies) are the heights
+    // colourised afresh: after local updates, after a rescale (a tall object
+    // widens the colour scale) and after a local scan pasted
+    const auto same_colours = [](const afm::Display &d) {
+        cv::Mat dc;
+        cv::absdiff(d.colour(), d.colourise(d.height()), dc);
+        return cv::countNonZero(dc.reshape(1));
+    };
+    TEST_ASSERT_EQUAL_INT(0, same_colours(a));
+    const double top = a.z_top();
+    objs.push_back({4, 0, 400, 400});
+    a.update(objs);
+    TEST_ASSERT_TRUE(a.z_top() > top);
+    TEST_ASSERT_EQUAL_INT(0, same_colours(a));
+    a.paste_scan(cv::Mat(20, 20, CV_32F, cv::Scalar(7.5f)), cv::Rect(10, 10, 20, 20));
+    TEST_ASSERT_EQUAL_INT(0, same_colours(a));
 }
 
 void test_the_hands_force_is_drawn_and_points_its_way()

@@ -153,6 +153,23 @@ void test_the_fidelity_figure_is_white_at_zero_and_scales_to_the_differences()
     TEST_ASSERT_GREATER_THAN_INT(256 * 256, white);
 }
 
+// The label blend in integers gives, for every pixel, outline and text
+// opacity and the colours' channels in use (0, 255 and two between), the
+// byte the formula in doubles gives (the overlay's labels as they were).
+void test_the_label_blend_in_integers_is_the_formula_in_doubles()
+{
+    long differ = 0;
+    for (int c : {0, 60, 200, 255})
+        for (int p = 0; p < 256; ++p)
+            for (int o = 0; o < 256; ++o)
+                for (int t = 0; t < 256; ++t) {
+                    const double under = p * (255 - o) / 255.0;
+                    const unsigned char want = cv::saturate_cast<uchar>(under + (c - under) * t / 255.0);
+                    differ += afm::label_blend(p, o, t, c) != want;
+                }
+    TEST_ASSERT_EQUAL_INT(0, differ);
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -160,6 +177,7 @@ int main()
     RUN_TEST(test_a_small_particle_is_marked_at_least_9_px_across);
     RUN_TEST(test_labels_are_a_capital_9_px_high_at_256_px_and_grow_with_the_frame);
     RUN_TEST(test_the_lever_cone_is_the_firmwares_threshold);
+    RUN_TEST(test_the_label_blend_in_integers_is_the_formula_in_doubles);
     RUN_TEST(test_the_fidelity_figure_is_white_at_zero_and_scales_to_the_differences);
     return UNITY_END();
 }
