@@ -76,7 +76,7 @@ def run_once(scene, args, out):
             "loop_us": t["loop_us_per_block"], "loop_x": t["loop_realtime_factor"], "rest_s": t["outside_loop_seconds"],
             "command_x": t["loop_simulated_seconds"] / whole_cmd_s,
             "frame_wait_us": sim["frame_window_wait_seconds"] / t["loop_blocks"] * 1e6,
-            "cpu_us": {q["name"]: (q["cpu_user_s"] + q["cpu_system_s"]) / t["loop_blocks"] * 1e6 for q in run["processes"]},
+            "cpu_us": t.get("loop_cpu_us_per_block") or {},
             "log_wait_us": sim["log_window_wait_seconds"] / t["loop_blocks"] * 1e6,
             "loop_scan_ms": sim["loop_scan_wall_seconds"] * 1e3, "start_scan_ms": sim["start_scan_wall_seconds"] * 1e3,
             "round_trip_us": rt.get("median"), "round_trip_p99_us": rt.get("p99"),
@@ -131,8 +131,11 @@ def print_tables(scene, runs, replays):
     print(f"{'':44s}" + "".join(f" {label:>23s}" for label, _ in ARRANGEMENTS))
     for label, key, fmt in ROWS:
         print(f"{label:44s}" + "".join(f" {spread([r[key] for r in runs[a]], fmt):>23s}" for a, _ in ARRANGEMENTS))
-    for name in ("sim_afm", "fw_node", "operator", "renderer"):
-        print(f"{'CPU us a block, ' + name + (' (QEMU in it)' if name == 'fw_node' else ''):44s}" +
+    # in the loop (run.json timing.loop_cpu_us_per_block): a process with its children, then the children alone
+    for name, label in (("sim_afm", "sim_afm"), ("fw_node", "fw_node and QEMU"), ("fw_node (its children)", "  of it QEMU"),
+                        ("operator", "operator"), ("renderer", "renderer and ffmpeg"), ("renderer (its children)", "  of it ffmpeg"),
+                        ("afm_launch", "afm_launch (the record)")):
+        print(f"{'loop CPU us a block, ' + label:44s}" +
               "".join(f" {spread([r['cpu_us'].get(name) for r in runs[a]], '{:.0f}'):>23s}" for a, _ in ARRANGEMENTS))
     blocks = replays["blocks"]
     print(f"\nA block apart from the bus: the first host run replayed ({blocks} blocks), median (smallest-largest)\n")

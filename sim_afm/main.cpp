@@ -549,6 +549,8 @@ int main(int argc, char **argv)
         }
         Loop loop(sim, *lc, inbox, aside, opt);
         if (!loop.run()) return static_cast<int>(afm::kExitRunOverEarly);
+        // at once: the launcher reads each process's CPU at the loop's end (run.json timing)
+        sim.hb.send(afm::RunState::running, loop.blocks - 1, afm::block_end_utime(scene, loop.blocks - 1), "loop over");
         aside.flush();   // the record holds every block before "done", and the report counts them all
         afm::write_report(opt.out_dir + "/sim_report.json", loop.report());
         for (int i = 0; i < 3; ++i) {

@@ -4,6 +4,8 @@
 #include <sched.h>
 #include <unistd.h>
 
+#include <dirent.h>
+
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -13,6 +15,7 @@
 #include <stdexcept>
 
 #include "placement.hpp"
+#include "senders.hpp"
 
 namespace afm::launch {
 
@@ -33,6 +36,57 @@ int udp_sockets_on_port(int port)
         }
     }
     return n;
+}
+
+namespace {
+
+// CPU time (ns) of every thread of process pid (/proc/PID/task/*/schedstat).
+long long threads_cpu_ns(int pid)
+{
+    const std::string dir = "/proc/" + std::to_string(pid) + "/task";
+    DIR *d = opendir(dir.c_str());
+    if (!d) return -1;
+    long long ns = 0;
+    while (const dirent *e = readdir(d)) {
+        if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+        std::ifstream f(dir + "/" + e->d_name + "/schedstat");
+        long long on_cpu = 0;
+        if (f >> on_cpu) ns += on_cpu;
+    }
+    closedir(d);
+    return ns;
+}
+
+}  // namespace
+
+double tree_cpu_seconds(pid_t root, double *descendants_s)
+{
+    // every process's parent (Senders::parent_pid, the one reader of /proc/PID/stat's ppid)
+    std::multimap<int, int> kids;
+    if (DIR *d = opendir("/proc")) {
+        while (const dirent *e = readdir(d)) {
+            char *end = nullptr;
+            const long pid = std::strtol(e->d_name, &end, 10);
+            if (*end || pid <= 0) continue;
+            const int ppid = afm::Senders::parent_pid(static_cast<int>(pid));
+            if (ppid > 0) kids.emplace(ppid, static_cast<int>(pid));
+        }
+        closedir(d);
+    }
+    const long long own = threads_cpu_ns(root);
+    if (own < 0) return -1;
+    long long ns = own;
+    std::vector<int> todo;
+    for (auto [it, last] = kids.equal_range(root); it != last; ++it) todo.push_back(it->second);
+    while (!todo.empty()) {
+        const int pid = todo.back();
+        todo.pop_back();
+        const long long t = threads_cpu_ns(pid);
+        if (t > 0) ns += t;
+        for (auto [it, last] = kids.equal_range(pid); it != last; ++it) todo.push_back(it->second);
+    }
+    if (descendants_s) *descendants_s = (ns - own) * 1e-9;
+    return ns * 1e-9;
 }
 
 namespace {

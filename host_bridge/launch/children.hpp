@@ -82,6 +82,13 @@ struct Progress {
     }
 };
 
+// CPU time (s) on a CPU so far of process `root` and of every descendant
+// alive now (QEMU under fw_node, ffmpeg under the renderer), all threads:
+// the sum of /proc/PID/task/TID/schedstat's first field (ns, exact, unlike
+// the ticks of /proc/PID/stat). -1 when root is gone. descendants_s (if
+// given): the descendants' part.
+double tree_cpu_seconds(pid_t root, double *descendants_s = nullptr);
+
 // UDP sockets bound to local `port` in this network namespace (IPv4 and
 // IPv6: /proc/net/udp, /proc/net/udp6); 0 when neither reads.
 int udp_sockets_on_port(int port);

@@ -548,6 +548,7 @@ public:
             // then let a batch gather: a wake-up per datagram costs more
             // than the datagram (docs/bus.md, "The latency model")
             if (got > 0) std::this_thread::sleep_for(std::chrono::microseconds(kBatchUs));
+            if (started && loop_cpu_taken_ == 1 && sim_loop_over()) take_loop_cpu();
             // the processes' state at most every 5 ms (a message wakes this
             // loop thousands of times a second)
             if (std::chrono::steady_clock::now() - last_check < std::chrono::milliseconds(5)) continue;
@@ -575,6 +576,7 @@ public:
                 started = true;
                 for (auto &c : kids_) c.cpus = afm::cpu_list(afm::cpus_of(c.pid));   // where each one really runs
                 for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
+                take_loop_cpu();
             }
             if (started && !prog_.is("sim_afm", afm::RunState::done)) hb_->maybe_send(afm::RunState::running, 0, 0, 200000);
             failure_ = stalled_process();
@@ -797,6 +799,31 @@ private:
     bool finished_ = false;
     int interrupted_ = 0;   // the signal that stopped the run (0: none)
     double wall_ = 0;
+    // Each process's CPU (s, its descendants included) and the launcher's
+    // own when the run started and when the simulator said it was done:
+    // what the loop cost each (run.json timing.loop_cpu_us_per_block).
+    std::map<std::string, double> loop_cpu_[2];
+    int loop_cpu_taken_ = 0;
+    // The simulator's loop is over: its heartbeat for the last block (sent
+    // at once when the loop ends), or "done" (a run that ended early).
+    bool sim_loop_over() const
+    {
+        const auto it = prog_.last.find("sim_afm");
+        if (it == prog_.last.end()) return false;
+        return it->second.state == afm::state_text(afm::RunState::done) || it->second.seq >= scene_.total_blocks() - 1;
+    }
+    void take_loop_cpu()
+    {
+        auto &m = loop_cpu_[loop_cpu_taken_++];
+        for (const auto &c : kids_) {
+            double below = 0;
+            m[c.name] = c.exited ? c.cpu_user_s + c.cpu_system_s : tree_cpu_seconds(c.pid, &below);
+            if (!c.exited && below > 0) m[c.name + " (its children)"] = below;
+        }
+        timespec ts{};
+        clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+        m["afm_launch"] = ts.tv_sec + ts.tv_nsec * 1e-9;
+    }
     int64_t messages_ = 0;
 
     double wall_s() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0_).count(); }
@@ -1091,6 +1118,21 @@ private:
         t["loop_us_per_block"] = ok ? nlohmann::json(loop_s / static_cast<double>(blocks) * 1e6) : nlohmann::json(nullptr);
         t["loop_realtime_factor"] = ok ? nlohmann::json(loop_sim_s / loop_s) : nlohmann::json(nullptr);
         t["outside_loop_seconds"] = ok ? nlohmann::json(wall_ - loop_s) : nlohmann::json(nullptr);
+        // CPU a block in the loop, per process (from the run's start, within
+        // the launcher's 5 ms checks, to the simulator's heartbeat for its
+        // last block, within a batch of the record: about the loop), with its descendants, and of that "NAME (its children)":
+        // QEMU under fw_node, ffmpeg under the renderer; afm_launch is the
+        // record and the heartbeats
+        nlohmann::json cpu = nullptr;
+        if (ok && loop_cpu_taken_ == 2) {
+            cpu = nlohmann::json::object();
+            for (const auto &[name, end] : loop_cpu_[1]) {
+                const auto it = loop_cpu_[0].find(name);
+                if (it != loop_cpu_[0].end() && it->second >= 0 && end >= it->second)
+                    cpu[name] = (end - it->second) / static_cast<double>(blocks) * 1e6;
+            }
+        }
+        t["loop_cpu_us_per_block"] = cpu;
         return t;
     }
 

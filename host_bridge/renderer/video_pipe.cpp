@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -11,6 +12,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <chrono>
+#include <fstream>
+#include <thread>
 #include <vector>
 
 extern char **environ;
@@ -107,6 +111,32 @@ VideoPipe::~VideoPipe()
     if (is_open()) close(&ignored);
 }
 
+namespace {
+
+// Waits (at most `limit`) until process pid blocks in read() on its stdin
+// (/proc/PID/syscall: "NR_read 0x0 ..."): ffmpeg has loaded its 200-odd
+// libraries and waits for the first frame. False if it ended or the file
+// cannot be read (another kernel): the caller goes on regardless.
+bool wait_until_reading_stdin(pid_t pid, std::chrono::milliseconds limit)
+{
+    const std::string want = std::to_string(SYS_read) + " 0x0 ";
+    const std::string file = "/proc/" + std::to_string(pid) + "/syscall";
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < end) {
+        std::ifstream f(file);
+        std::string line;
+        if (!f || !std::getline(f, line)) return false;
+        if (line.compare(0, want.size(), want) == 0) return true;
+        siginfo_t info{};
+        if (waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) != 0 || info.si_pid != 0)
+            return false;   // it ended (left for close() to reap, with its status)
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    return false;
+}
+
+}  // namespace
+
 bool VideoPipe::open(const std::string &path, int width_px, int height_px, double fps, std::string *why)
 {
     const std::string ffmpeg = program();
@@ -140,6 +170,7 @@ bool VideoPipe::open(const std::string &path, int width_px, int height_px, doubl
     fd_ = p[1];
     width_ = width_px;
     height_ = height_px;
+    wait_until_reading_stdin(pid_, std::chrono::milliseconds(2000));
     return true;
 }
 

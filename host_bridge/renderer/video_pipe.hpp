@@ -10,6 +10,10 @@
 //     first whether it has libx264 (`-h encoder=libx264`) and returns false,
 //     with the reason, when it is absent, lacks the encoder or cannot be
 //     started. Nothing is written then.
+//   - open() returns once ffmpeg waits for its first frame (blocked reading
+//     its stdin, /proc/PID/syscall; at most 2 s), so that its start (0.1 s
+//     of CPU loading its libraries) is over before the renderer says it is
+//     ready and not in the loop's first blocks.
 //   - ffmpeg inherits the CPUs of the thread that calls open() (the frame
 //     writer's: every CPU of the run) and writes its errors to our stderr
 //     (the renderer's log). It runs in a process group of its own, so a
