@@ -1126,10 +1126,19 @@ private:
         nlohmann::json cpu = nullptr;
         if (ok && loop_cpu_taken_ == 2) {
             cpu = nlohmann::json::object();
+            // a figure is given only where both readings are whole: a process
+            // whose descendants were fewer, or had used less, at the end (one
+            // ending between the readings) gets none, rather than a short one
+            const auto whole = [&](const std::string &name) {
+                const auto a = loop_cpu_[0].find(name), b = loop_cpu_[1].find(name);
+                return a != loop_cpu_[0].end() && b != loop_cpu_[1].end() && a->second >= 0 && b->second >= a->second;
+            };
             for (const auto &[name, end] : loop_cpu_[1]) {
-                const auto it = loop_cpu_[0].find(name);
-                if (it != loop_cpu_[0].end() && it->second >= 0 && end >= it->second)
-                    cpu[name] = (end - it->second) / static_cast<double>(blocks) * 1e6;
+                const std::string kids = name + " (its children)";
+                const bool had_kids = loop_cpu_[0].count(kids) > 0;
+                if (name.find(" (its children)") == std::string::npos && had_kids && !whole(kids)) continue;
+                if (name.find(" (its children)") != std::string::npos && !whole(name.substr(0, name.find(" (its children)")))) continue;
+                if (whole(name)) cpu[name] = (end - loop_cpu_[0].at(name)) / static_cast<double>(blocks) * 1e6;
             }
         }
         t["loop_cpu_us_per_block"] = cpu;
