@@ -98,9 +98,8 @@ FrameWriter::~FrameWriter()
 
 void FrameWriter::write(int k, cv::Mat frame)
 {
-    const std::size_t bytes = std::max<std::size_t>(1, frame.total() * frame.elemSize());
     std::unique_lock<std::mutex> l(m_);
-    const auto room = [&] { return queue_.size() < (opening_ ? std::max(max_pending_, kOpeningBytes / bytes) : max_pending_) || error_; };
+    const auto room = [&] { return queue_.size() < max_pending_ || error_; };
     if (!room()) {
         const auto t0 = std::chrono::steady_clock::now();
         room_.wait(l, room);

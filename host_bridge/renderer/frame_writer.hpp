@@ -3,27 +3,24 @@
 // of the run. The PNG files are png_file.hpp's (ISA-L's deflate).
 //
 // Why (docs/bus.md "The latency model"; ./afm bench bus measures it): a
-// frame's PNG and video cost about 0.6-1.2 ms of CPU with OpenCV's PNG,
-// five times composing it (0.3-0.5 ms since the PNG is png_file.hpp's). On the renderer's thread, pinned with the observers, they kept the
-// renderer from taking the bus while they were encoded, and the observers'
-// CPU (the record, the datagrams published aside) was the run's bottleneck
-// while the lockstep's CPU waited for frames. On a thread of its own that
+// frame's PNG and video cost about 0.5 ms of CPU, the H.264 encoding about
+// 1.5 ms more in ffmpeg. On the renderer's thread they kept the renderer
+// from taking the bus while they were encoded; on a thread of its own that
 // may run on any CPU of the run, the kernel puts the encoding where there
-// is room. (Tried and measured: the same thread at SCHED_IDLE, on every CPU
-// or on the lockstep's alone, was slower: the lockstep's CPU is idle in
-// slivers of microseconds, too short for a frame.)
+// is room. (Measured: the thread and ffmpeg on the observers' CPU only, or
+// at SCHED_IDLE, were no faster or slower.)
 //
-// What stays as it was: the frames' pixels and their order; the
-// renderer announces a frame (RENDER_FRAME) when it is composed, before its
-// files are written. Nothing is dropped: write() waits while kMaxPending
-// frames wait to be written (on a machine with no idle CPU the renderer,
-// and so the simulator within its frame window, slows down to the writer's
-// pace). While the video's encoder starts (ffmpeg and its probe: 0.1-0.4 s
-// on a busy machine, at the writer thread's start) up to kOpeningBytes of
-// frames may wait instead: a renderer blocked on the writer then held the
-// frame about 10 in (./afm bench view: 33 ms realtime, 140-220 ms in
-// lockstep, on the page too). An error (a file that cannot be written) stops the writer and is
-// thrown by the next write() or finish(), naming the file.
+// What stays as it was: the frames' pixels and their order; the renderer
+// announces a frame (RENDER_FRAME) when it is composed, before its files
+// are written. Nothing is dropped: write() waits while kMaxPending frames
+// (64: 12 MB at 256 px) wait to be written (on a machine with no idle CPU
+// the renderer, and so the simulator within its frame window, slows down
+// to the writer's pace; with 8, the writer's slow spells held the
+// renderer 3-5 times a run). The video's encoder starts as the thread
+// does, and the renderer waits for it (wait_open()) before it says it is
+// ready, so that its start is not in the loop. An error (a file that
+// cannot be written) stops the writer and is thrown by the next write()
+// or finish(), naming the file.
 //
 // The video: "mp4" is H.264 through Debian's ffmpeg (video_pipe.hpp), which
 // browsers play; the pipe is opened by the writer's thread as it starts
@@ -55,7 +52,6 @@ namespace afm {
 class FrameWriter {
 public:
     static constexpr std::size_t kMaxPending = 64;
-    static constexpr std::size_t kOpeningBytes = 32u << 20;   // frames waiting while the video opens, at most
 
     // out_dir: the run's folder (frames/ in it exists). png: write
     // frames/frame_NNNNN.png. video: "mp4", "avi" or "none" (the scene's
@@ -71,8 +67,7 @@ public:
     FrameWriter &operator=(const FrameWriter &) = delete;
 
     // Queues frame k (its pixels are shared, not copied: the caller does not
-    // draw on it again). Waits while kMaxPending frames are queued (while
-    // the video opens: kOpeningBytes of frames).
+    // draw on it again). Waits while kMaxPending frames are queued.
     void write(int k, cv::Mat frame);
     // Waits until the video is open (ffmpeg started, or the fallback chosen);
     // rethrows the error when it could not be. The renderer calls it before
