@@ -26,7 +26,7 @@
    blocks' wall time less the scans the simulator serves between blocks
    (the display check's final scan, local scans: sim_report.json
    loop_scan_wall_seconds), which are shown apart; with the CPU each process
-   spent per block (the kernel's accounting), how long the simulator waited
+   spent per block in the loop (run.json timing.loop_cpu_us_per_block), how long the simulator waited
    for the record (the log window) and for the renderer's frames (the frame
    window) after the card had answered, and whether the log holds every
    block. Beside them, the whole command as a user runs it (afm_launch in
@@ -212,10 +212,9 @@ def one_run(scene, args, out, link=None):
     with open(os.path.join(out, "sim_report.json")) as f:
         sim = json.load(f)
     blocks = sim["blocks"]
-    cpu = {q["name"]: (q["cpu_user_s"] + q["cpu_system_s"]) / blocks * 1e6 for q in run["processes"]}
-    own = run.get("launcher", {})
-    if "cpu_user_s" in own:   # the launcher records the bus itself (bus_recorder.hpp)
-        cpu["afm_launch"] = (own["cpu_user_s"] + own["cpu_system_s"]) / blocks * 1e6
+    # each process's CPU in the loop, with its descendants (run.json timing;
+    # afm_launch records the bus itself, bus_recorder.hpp)
+    cpu = {n: v for n, v in (run["timing"].get("loop_cpu_us_per_block") or {}).items() if "(its children)" not in n}
     # the scans the simulator serves between blocks (the display check's
     # final scan, a local scan) are a cost of their own, not the lockstep's
     scan_s = sim.get("loop_scan_wall_seconds", 0.0)
@@ -257,8 +256,8 @@ def main(argv=None):
         ap.error(f"--scene: {a.scene}: no such file")
     keep = a.out is not None
     out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
-    os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
     os.makedirs(out, exist_ok=True)
+    os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
     disk = disk_probe(out)
 
     # The arrangements in turn, a run of each per round: what slows the
@@ -361,7 +360,7 @@ def print_tables(r):
         for name, hops in FLOOR_PATHS.items():
             print(f"  {name:9s} path: " + " + ".join(f"{ch} ({who})" for ch, who in hops) + f" = {fl['paths_us'][name]:.1f} us")
         print(f"  floor {fl['floor_us']:.1f} us per block ({fl['path']}), {1e6 / fl['floor_us'] / 1000:.1f} x real time at 1 kHz blocks\n")
-    print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: the kernel's accounting per block)")
+    print(f"\nThe lockstep on {os.path.basename(r['scene'])} (median of {r['repeat']} runs; CPU: each process's in the loop, a block, run.json timing)")
     print(f"{'arrangement':34s} {'us/block':>9s} {'x floor':>8s} {'of':>7s} {'x liblcm':>9s} {'scans ms':>9s} {'with scans':>11s} "
           f"{'x real time':>12s} {'run s':>6s} {'run x real':>11s} {'log':>9s} {'window':>7s} {'waits':>7s} {'log ms':>7s} {'frames ms':>10s} "
           f"{'files ms':>9s}  CPU us/block")

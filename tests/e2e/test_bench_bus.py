@@ -38,8 +38,9 @@ class BenchBus(unittest.TestCase):
             self.assertIn("bench_bus:", p.stderr)
 
     def test_six_arrangements_each_with_a_complete_log(self):
-        out = benchtest.tmpdir("bench-bus")
-        self.addCleanup(benchtest.cleanup, out)
+        top = benchtest.tmpdir("bench-bus")
+        self.addCleanup(benchtest.cleanup, top)
+        out = os.path.join(top, "new", "runs")   # --out a folder not there yet: made, as a user would expect
         p = subprocess.run([sys.executable, BENCH, "--scene", benchtest.scene("short.yaml"), "--repeat", "1", "--count", "50",
                             "--out", out], capture_output=True, text=True, timeout=600,
                            env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
