@@ -1,13 +1,16 @@
 """A recorded run in the page (./afm view RUN_DIR; docs/view.md): its
 bus.lcmlog read through the package's one log reader (analysis.afmlog) and
-its frames (frames/frame_NNNNN.png, as the renderer wrote them).
+its frames (frames/frame_NNNNN.png, as the renderer wrote them; in a run
+without them, outputs.png: false, the JPEG frames a run made with --view
+published on the bus, VIEW_FRAME, which the record keeps).
 
 Contract: a frame k is what RENDER_FRAME k announced: the card's state
 (FW_STATE) of the block it shows, the objects made whole by afmlog's
-reader, the file frames/frame_k.png; the strip chart is every block's
+reader, the file frames/frame_k.png (or VIEW_FRAME k's JPEG: the frames
+the page was sent, not every frame); the strip chart is every block's
 HAPTIC_FORCE (the card's tip force, the hand's force), about 250 samples
-a simulated second. A run folder without bus.lcmlog or without frame files
-is refused with one line naming what is missing.
+a simulated second. A run folder without bus.lcmlog, or with neither frame
+files nor VIEW_FRAMEs, is refused with one line naming what is missing.
 """
 import math
 import os
@@ -55,11 +58,16 @@ class RecordedSource:
         log = os.path.join(self.run_dir, "bus.lcmlog")
         if not os.path.isfile(log):
             raise RunError(f"view: {log}: no such file (not a run folder?)")
-        msgs = afmlog.load(log, channels={"RENDER_FRAME", "FW_STATE", "HAPTIC_FORCE", "AFM_ANALOG"})
+        msgs = afmlog.load(log, channels={"RENDER_FRAME", "FW_STATE", "HAPTIC_FORCE", "AFM_ANALOG", "VIEW_FRAME"})
         self.frames = [f for f in _frame_list(msgs["RENDER_FRAME"]) if os.path.isfile(self._png(f[0]))]
+        self.jpegs = {}   # index -> VIEW_FRAME, where the frames are the bus's
+        if not self.frames:
+            for m in msgs["VIEW_FRAME"]:
+                self.jpegs.setdefault(m.index, m)
+            self.frames = [(k, self.jpegs[k].utime, self.jpegs[k].seq) for k in sorted(self.jpegs)]
         if not self.frames:
             raise RunError(f"view: {self.run_dir}/frames: no frame files of the frames the log announces "
-                           "(outputs.png: false?)")
+                           "(outputs.png: false?), and no VIEW_FRAME in bus.lcmlog (a run made with --view has them)")
         self.states = afmlog.by_seq(msgs["FW_STATE"])
         self.objects = afmlog.whole_by_seq(msgs["FW_STATE"], lambda m: m.objects)
         hands = afmlog.by_seq(msgs["HAPTIC_FORCE"])
@@ -67,8 +75,13 @@ class RecordedSource:
         analog = msgs["AFM_ANALOG"]
         block_hz = 1e6 / (analog[1].utime - analog[0].utime) if len(analog) > 1 and analog[1].utime > analog[0].utime else 0
         self.chart = _chart(sorted(hands.values(), key=lambda m: m.seq), block_hz)
-        self.size = self._png_size(self._png(self.frames[0][0]))
-        self.field = self._field()
+        if self.jpegs:
+            first = self.jpegs[self.frames[0][0]]
+            self.size = (first.width, first.height)
+            self.field = self._field() or list(first.field_nm)
+        else:
+            self.size = self._png_size(self._png(self.frames[0][0]))
+            self.field = self._field()
 
     def _png(self, k):
         return os.path.join(self.run_dir, "frames", f"frame_{k:05d}.png")
@@ -88,23 +101,26 @@ class RecordedSource:
         return self.objects[max(keys)] if keys else None
 
     def frame(self, pos):
-        """(meta, png bytes) of the pos-th frame the log announced."""
+        """(meta, image bytes) of the pos-th frame: PNG, or the bus's JPEG."""
         index, utime, seq = self.frames[pos]
         st = self.states.get(seq)
         hand = self.hands.get(seq)
         objs = self._objects_at(seq)
         width, height = self.size
         field = self.field
-        with open(self._png(index), "rb") as f:
-            png = f.read()
+        if self.jpegs:
+            image, mime = bytes(self.jpegs[index].jpeg), "image/jpeg"
+        else:
+            with open(self._png(index), "rb") as f:
+                image, mime = f.read(), "image/png"
         meta = frames.frame_meta(
             index=index, utime=utime, seq=seq, frames_total=len(self.frames), width=width, height=height,
             field_nm=field, tip_nm=list(st.tip_nm[:2]) if st else [math.nan, math.nan],
             force_nN=list(st.force_nN) if st else [0, 0, 0], hand_N=list(hand.force_N) if hand else [0, 0, 0],
             flags=st.flags if st else 0,
-            particles=[(p.id, p.x_nm, p.y_nm, p.radius_nm) for p in objs.particles] if objs else [], image="image/png")
+            particles=[(p.id, p.x_nm, p.y_nm, p.radius_nm) for p in objs.particles] if objs else [], image=mime)
         meta["position"] = pos
-        return meta, png
+        return meta, image
 
     def _field(self):
         """The field the frames show: the first scan's, whole (scan_initial.gsf,

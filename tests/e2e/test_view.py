@@ -204,6 +204,37 @@ class View(unittest.TestCase):
             p.terminate()
             p.wait(timeout=10)
 
+    def test_3b_recorded_run_without_frame_files_plays_the_bus_frames(self):
+        # outputs.png: false leaves no frames/*.png; a run made with --view
+        # still has the JPEGs the page was sent (VIEW_FRAME) in its record
+        if not os.path.exists(os.path.join(self.out, "run.json")):
+            self.skipTest("the live run did not finish")
+        bare = os.path.join(os.path.dirname(self.out), "no-frame-files")
+        shutil.copytree(self.out, bare, ignore=shutil.ignore_patterns("frame_*.png"))
+        sent = json.load(open(os.path.join(self.out, "run.json")))["renderer"]["view"]["published"]
+        p, url, _, _ = start_server(["play", bare])
+        try:
+            d = self.driver
+            d.get(url)
+            s = wait_for(d, lambda s: s["framesShown"] >= 1 and s["mode"] == "recorded", 30, "the bus's first frame")
+            self.assertEqual(s["framesTotal"], sent, s)
+            d.execute_script("const r = document.getElementById('pos'); r.value = arguments[0];"
+                             "r.dispatchEvent(new Event('input'));", sent - 1)
+            s = wait_for(d, lambda s: s["framesShown"] >= 2, 20, "the scrubber's last frame")
+            self.assertGreater(s["lastIndex"], 0, s)
+        finally:
+            p.terminate()
+            p.wait(timeout=10)
+        # neither frame files nor VIEW_FRAMEs (an empty record): refused, naming both
+        empty = os.path.join(os.path.dirname(self.out), "empty-run")
+        os.makedirs(os.path.join(empty, "frames"))
+        open(os.path.join(empty, "bus.lcmlog"), "wb").close()
+        from analysis.view import recorded
+        with self.assertRaises(recorded.RunError) as e:
+            recorded.RecordedSource(empty)
+        self.assertIn("no frame files", str(e.exception))
+        self.assertIn("no VIEW_FRAME", str(e.exception))
+
     def test_4_spy_without_display_refused(self):
         env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
         t0 = time.time()
