@@ -111,7 +111,12 @@ static inline int64_t fw_math_rshift_round_i64(int64_t v, int n)
 }
 
 /* round(num / den) for 64-bit operands, half away from zero. den == 0
- * returns 0 (callers check den first; this keeps the function total). */
+ * returns 0 (callers check den first; this keeps the function total).
+ * Cost: a power-of-two |den| is a shift, operands that fit 32 bits a
+ * 32-bit division (one UDIV on the Cortex-M4), others the 64-bit library
+ * division (__aeabi_uldivmod, hundreds of instructions); the result is
+ * the same whichever path. Out of range: INT64_MIN / -1 saturates to
+ * INT64_MAX. */
 int64_t fw_math_div_round_i64(int64_t num, int64_t den);
 
 /* Number of leading zero bits of a nonzero uint64 (v = 0 is a caller bug:

@@ -83,9 +83,27 @@ int64_t fw_math_div_round_i64(int64_t num, int64_t den)
     neg = (num < 0) != (den < 0);
     un = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
     ud = (den < 0) ? (uint64_t)0 - (uint64_t)den : (uint64_t)den;
-    q = un / ud;
-    if ((un % ud) >= ud - (un % ud)) {
-        q++;
+    if ((ud & (ud - 1u)) == 0u) {
+        /* a power of two: (un + ud/2) >> log2(ud), the same quotient and
+         * rounding as below without a division (un + ud/2 cannot wrap:
+         * un <= 2^63 and ud/2 <= 2^62) */
+        const int k = 63 - fw_math_clz_u64(ud);
+        q = (k == 0) ? un : (un + (ud >> 1)) >> k;
+    } else if ((un >> 32) == 0u && (ud >> 32) == 0u) {
+        /* both fit 32 bits: the hardware's 32-bit division (the Cortex-M4
+         * has one, its 64-bit division is a library call), exact alike */
+        uint32_t n32 = (uint32_t)un;
+        uint32_t d32 = (uint32_t)ud;
+        uint32_t r32 = n32 % d32;
+        q = n32 / d32;
+        if (r32 >= d32 - r32) {
+            q++;
+        }
+    } else {
+        q = un / ud;
+        if ((un % ud) >= ud - (un % ud)) {
+            q++;
+        }
     }
     if (q > (uint64_t)INT64_MAX) {
         return neg ? INT64_MIN : INT64_MAX;
@@ -131,10 +149,29 @@ int32_t fw_math_shift_i32(int32_t x, int32_t n, bool *sat)
 uint32_t fw_math_isqrt_u64(uint64_t v)
 {
     uint64_t res = 0;
-    uint64_t bit = (uint64_t)1 << 62;
-    while (bit > v) {
-        bit >>= 2;
+    uint64_t bit;
+    if (v == 0u) {
+        return 0u;
     }
+    if ((v >> 32) == 0u) {
+        /* the same digit-by-digit root in 32-bit words (one instruction an
+         * operation on the Cortex-M4, not two or three) */
+        uint32_t v32 = (uint32_t)v;
+        uint32_t r32 = 0u;
+        uint32_t b32 = (uint32_t)1 << ((31 - (fw_math_clz_u64(v) - 32)) & ~1);
+        while (b32 != 0u) {
+            if (v32 >= r32 + b32) {
+                v32 -= r32 + b32;
+                r32 = (r32 >> 1) + b32;
+            } else {
+                r32 >>= 1;
+            }
+            b32 >>= 2;
+        }
+        return r32;
+    }
+    /* the highest power of four not above v, from its leading zeros */
+    bit = (uint64_t)1 << ((63 - fw_math_clz_u64(v)) & ~1);
     while (bit != 0) {
         if (v >= res + bit) {
             v -= res + bit;

@@ -102,6 +102,71 @@ static void test_math_div_round_half_away_and_zero_den(void)
     TEST_ASSERT_EQUAL_INT64(INT64_MAX, fw_math_div_round_i64(INT64_MIN, -1));
 }
 
+/* The division as it was written first (64-bit only): the reference the
+ * fast paths (a power-of-two den, 32-bit operands) must equal everywhere. */
+static int64_t div_round_reference(int64_t num, int64_t den)
+{
+    uint64_t un, ud, q;
+    bool neg;
+    if (den == 0) {
+        return 0;
+    }
+    neg = (num < 0) != (den < 0);
+    un = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
+    ud = (den < 0) ? (uint64_t)0 - (uint64_t)den : (uint64_t)den;
+    q = un / ud;
+    if ((un % ud) >= ud - (un % ud)) {
+        q++;
+    }
+    if (q > (uint64_t)INT64_MAX) {
+        return neg ? INT64_MIN : INT64_MAX;
+    }
+    return neg ? -(int64_t)q : (int64_t)q;
+}
+
+static void test_math_div_round_fast_paths_equal_the_64_bit_division(void)
+{
+    static const int64_t edge[] = {0, 1, -1, 2, -2, 3, 7, 8, 9, 15, 16, 17, 1023, 1024, 1025,
+                                   INT32_MAX, INT32_MIN, (int64_t)INT32_MAX + 1, (int64_t)UINT32_MAX,
+                                   (int64_t)UINT32_MAX + 1, -(int64_t)UINT32_MAX, -(int64_t)UINT32_MAX - 1,
+                                   (int64_t)1 << 62, -((int64_t)1 << 62), INT64_MAX, INT64_MIN, INT64_MAX - 1,
+                                   INT64_MIN + 1};
+    uint64_t x = 0x9E3779B97F4A7C15u;
+    size_t i, j;
+    int k;
+    for (i = 0; i < sizeof edge / sizeof edge[0]; i++) {
+        for (j = 0; j < sizeof edge / sizeof edge[0]; j++) {
+            TEST_ASSERT_EQUAL_INT64(div_round_reference(edge[i], edge[j]), fw_math_div_round_i64(edge[i], edge[j]));
+        }
+        for (k = 0; k < 63; k++) {   /* every power of two, both signs, and one off */
+            int64_t p = (int64_t)1 << k;
+            TEST_ASSERT_EQUAL_INT64(div_round_reference(edge[i], p), fw_math_div_round_i64(edge[i], p));
+            TEST_ASSERT_EQUAL_INT64(div_round_reference(edge[i], -p), fw_math_div_round_i64(edge[i], -p));
+            TEST_ASSERT_EQUAL_INT64(div_round_reference(edge[i], p + 1), fw_math_div_round_i64(edge[i], p + 1));
+            TEST_ASSERT_EQUAL_INT64(div_round_reference(p + p / 2, p), fw_math_div_round_i64(p + p / 2, p));   /* ties */
+            TEST_ASSERT_EQUAL_INT64(div_round_reference(-(p + p / 2), p), fw_math_div_round_i64(-(p + p / 2), p));
+        }
+    }
+    for (i = 0; i < 200000u; i++) {   /* random operands of every width */
+        int64_t n, d;
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        n = (int64_t)(x >> (x % 64u));
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        d = (int64_t)(x >> (x % 64u));
+        if (x & 1u) {
+            n = -n;
+        }
+        if (x & 2u) {
+            d = -d;
+        }
+        TEST_ASSERT_EQUAL_INT64(div_round_reference(n, d), fw_math_div_round_i64(n, d));
+    }
+}
+
 static void test_math_asr_floors_negative_values(void)
 {
     TEST_ASSERT_EQUAL_INT64(-1, fw_math_asr_i64(-1, 5));
@@ -132,6 +197,17 @@ static void test_math_isqrt_exact_at_edges_and_random(void)
     check_isqrt(UINT64_MAX);
     check_isqrt((uint64_t)UINT32_MAX * UINT32_MAX);
     check_isqrt((uint64_t)UINT32_MAX * UINT32_MAX - 1u);
+    /* both sides of the 32-bit path's edge, and squares at it */
+    check_isqrt((uint64_t)UINT32_MAX);
+    check_isqrt((uint64_t)UINT32_MAX + 1u);
+    check_isqrt((uint64_t)UINT32_MAX + 2u);
+    check_isqrt((uint64_t)65535u * 65535u);
+    check_isqrt((uint64_t)65535u * 65535u - 1u);
+    check_isqrt((uint64_t)65536u * 65536u);
+    for (i = 0; i < 64; i++) {   /* every power of two, and one below */
+        check_isqrt((uint64_t)1 << i);
+        check_isqrt(((uint64_t)1 << i) - 1u);
+    }
     TEST_ASSERT_EQUAL_UINT32(UINT32_MAX, fw_math_isqrt_u64(UINT64_MAX));
     TEST_ASSERT_EQUAL_UINT32(UINT32_MAX, fw_math_isqrt_round_u64(UINT64_MAX));
     TEST_ASSERT_EQUAL_UINT32(2, fw_math_isqrt_round_u64(5));  /* 2.236 */
@@ -348,6 +424,7 @@ int main(void)
     RUN_TEST(test_math_mul_minus_one_squared_saturates_to_maxpos);
     RUN_TEST(test_math_scale_and_shift_saturate_q24_q23_q16);
     RUN_TEST(test_math_div_round_half_away_and_zero_den);
+    RUN_TEST(test_math_div_round_fast_paths_equal_the_64_bit_division);
     RUN_TEST(test_math_asr_floors_negative_values);
     RUN_TEST(test_math_isqrt_exact_at_edges_and_random);
     RUN_TEST(test_math_bam_mdeg_round_trip);
