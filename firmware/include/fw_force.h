@@ -155,7 +155,7 @@ static inline int64_t fw_force_abs_sin_q30(int32_t x, int32_t y, int64_t abs_c)
 {
     int64_t ax = (x < 0) ? -(int64_t)x : x;
     int64_t ay = (y < 0) ? -(int64_t)y : y;
-    return ay * abs_c / ax;
+    return fw_math_div_trunc_i64_by_small(ay * abs_c, (int32_t)ax);
 }
 
 /* The blend of F_x,fb and F_x,cot for S_LO <= |sin theta| < S_HI (pN), the
@@ -217,7 +217,7 @@ static FW_ALWAYS_INLINE int64_t fw_force_fx_pn(const fw_force_t *f, int64_t n8, 
     int64_t c;
     int64_t mc;
     if (FW_LIKELY(15 * y2 > x2)) {
-        return fw_math_rshift_round_i64(fy8 * x / y, FW_FORCE_XFRAC);
+        return fw_math_rshift_round_i64(fw_math_div_trunc_i64_by_small(fy8 * x, y), FW_FORCE_XFRAC);
     }
     if (x2 == 0) {
         return 0;
@@ -229,7 +229,7 @@ static FW_ALWAYS_INLINE int64_t fw_force_fx_pn(const fw_force_t *f, int64_t n8, 
     if (63 * y2 < x2) {
         return fw_force_fallback_pn(f, n, mc);
     }
-    return fw_force_blend_pn(f, n, fy8 * x / y, mc, fw_force_abs_sin_q30(x, y, c));
+    return fw_force_blend_pn(f, n, fw_math_div_trunc_i64_by_small(fy8 * x, y), mc, fw_force_abs_sin_q30(x, y, c));
 }
 
 /* F_z with 8 fraction bits from N (8 fraction bits) and the clamped F_x

@@ -119,6 +119,48 @@ static inline int64_t fw_math_rshift_round_i64(int64_t v, int n)
  * INT64_MAX. */
 int64_t fw_math_div_round_i64(int64_t num, int64_t den);
 
+/* num / den truncated toward zero, as C99's `/` on int64, for a divisor
+ * that fits 16 bits (0 < |den| < 2^16): three 32-bit divisions of 16-bit
+ * digits (the Cortex-M4's UDIV) instead of the 64-bit library division.
+ * Scaling and overflow: |num| <= 2^63; each partial dividend (remainder <
+ * |den| < 2^16, shifted up 16 bits, plus a 16-bit digit) is below 2^32;
+ * the quotient's magnitude is at most |num|. Out of range: den == 0
+ * returns 0, INT64_MIN / -1 saturates to INT64_MAX; a wider |den| takes
+ * C's 64-bit division (the same result). */
+static inline int64_t fw_math_div_trunc_i64_by_small(int64_t num, int32_t den)
+{
+    uint64_t un;
+    uint32_t d;
+    uint32_t hi;
+    uint32_t lo;
+    uint32_t r;
+    uint32_t t;
+    uint64_t q;
+    bool neg;
+    if (den == 0) {
+        return 0;
+    }
+    if (den >= 65536 || den <= -65536) {
+        return num / den;
+    }
+    neg = (num < 0) != (den < 0);
+    un = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
+    d = (den < 0) ? (uint32_t)(-(int64_t)den) : (uint32_t)den;
+    hi = (uint32_t)(un >> 32);
+    lo = (uint32_t)un;
+    q = (uint64_t)(hi / d) << 32;
+    r = hi % d;
+    t = (r << 16) | (lo >> 16);
+    q |= (uint64_t)(t / d) << 16;
+    r = t % d;
+    t = (r << 16) | (lo & 0xFFFFu);
+    q |= t / d;
+    if (q > (uint64_t)INT64_MAX) {
+        return neg ? INT64_MIN : INT64_MAX;
+    }
+    return neg ? -(int64_t)q : (int64_t)q;
+}
+
 /* Number of leading zero bits of a nonzero uint64 (v = 0 is a caller bug:
  * the result is 64). One instruction where the compiler has the builtin
  * (GCC, Clang: x86 BSR/LZCNT, Cortex-M CLZ twice); a loop elsewhere. */

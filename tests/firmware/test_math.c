@@ -167,6 +167,52 @@ static void test_math_div_round_fast_paths_equal_the_64_bit_division(void)
     }
 }
 
+/* The 16-bit-divisor division equals C's 64-bit `/` (truncation toward
+ * zero) for every divisor width around its limit, both signs, and 64-bit
+ * dividends of every width; den 0 gives 0 and INT64_MIN / -1 saturates. */
+static void test_math_div_trunc_by_small_equals_c_division(void)
+{
+    static const int32_t dens[] = {1, -1, 2, -2, 3, 7, -7, 255, 256, 32767, -32768, 32768, 65535, -65535,
+                                   65536, -65536, 65537, 1000003, INT32_MAX, INT32_MIN};
+    static const int64_t nums[] = {0, 1, -1, 65535, 65536, -65536, INT32_MAX, INT32_MIN, (int64_t)UINT32_MAX,
+                                   (int64_t)1 << 47, -((int64_t)1 << 47), (int64_t)1 << 62, INT64_MAX,
+                                   INT64_MIN + 1, INT64_MIN};
+    uint64_t x = 0xD1B54A32D192ED03u;
+    size_t i, j;
+    for (i = 0; i < sizeof nums / sizeof nums[0]; i++) {
+        for (j = 0; j < sizeof dens / sizeof dens[0]; j++) {
+            if (nums[i] == INT64_MIN && dens[j] == -1) {
+                continue;   /* undefined in C; below */
+            }
+            TEST_ASSERT_EQUAL_INT64(nums[i] / dens[j], fw_math_div_trunc_i64_by_small(nums[i], dens[j]));
+        }
+    }
+    TEST_ASSERT_EQUAL_INT64(0, fw_math_div_trunc_i64_by_small(12345, 0));
+    TEST_ASSERT_EQUAL_INT64(INT64_MAX, fw_math_div_trunc_i64_by_small(INT64_MIN, -1));
+    for (i = 0; i < 200000u; i++) {
+        int64_t n;
+        int32_t d;
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        n = (int64_t)(x >> (x % 64u));
+        if (x & 1u) {
+            n = -n;
+        }
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        d = (int32_t)(x >> (48u + x % 16u));   /* 0 to 2^16 - 1 */
+        if (x & 2u) {
+            d = -d;
+        }
+        if (d == 0) {
+            continue;
+        }
+        TEST_ASSERT_EQUAL_INT64(n / d, fw_math_div_trunc_i64_by_small(n, d));
+    }
+}
+
 static void test_math_asr_floors_negative_values(void)
 {
     TEST_ASSERT_EQUAL_INT64(-1, fw_math_asr_i64(-1, 5));
@@ -425,6 +471,7 @@ int main(void)
     RUN_TEST(test_math_scale_and_shift_saturate_q24_q23_q16);
     RUN_TEST(test_math_div_round_half_away_and_zero_den);
     RUN_TEST(test_math_div_round_fast_paths_equal_the_64_bit_division);
+    RUN_TEST(test_math_div_trunc_by_small_equals_c_division);
     RUN_TEST(test_math_asr_floors_negative_values);
     RUN_TEST(test_math_isqrt_exact_at_edges_and_random);
     RUN_TEST(test_math_bam_mdeg_round_trip);
