@@ -119,9 +119,11 @@ static inline int64_t fw_math_rshift_round_i64(int64_t v, int n)
  * INT64_MAX. */
 int64_t fw_math_div_round_i64(int64_t num, int64_t den);
 
-/* num / den truncated toward zero, as C99's `/` on int64, for a divisor
- * that fits 16 bits (0 < |den| < 2^16): three 32-bit divisions of 16-bit
- * digits (the Cortex-M4's UDIV) instead of the 64-bit library division.
+/* num / den truncated toward zero, as C99's `/` on int64. On a 32-bit
+ * machine, for a divisor that fits 16 bits (0 < |den| < 2^16): three
+ * 32-bit divisions of 16-bit digits (the Cortex-M4's UDIV) instead of the
+ * 64-bit library division; a 64-bit machine uses its own division (the
+ * unit tests run both, on the host and on the emulated Cortex-M4).
  * Scaling and overflow: |num| <= 2^63; each partial dividend (remainder <
  * |den| < 2^16, shifted up 16 bits, plus a 16-bit digit) is below 2^32;
  * the quotient's magnitude is at most |num|. Out of range: den == 0
@@ -129,6 +131,15 @@ int64_t fw_math_div_round_i64(int64_t num, int64_t den);
  * C's 64-bit division (the same result). */
 static inline int64_t fw_math_div_trunc_i64_by_small(int64_t num, int32_t den)
 {
+    if (den == 0) {
+        return 0;
+    }
+    if (num == INT64_MIN && den == -1) {
+        return INT64_MAX;
+    }
+#if UINTPTR_MAX > 0xFFFFFFFFu
+    return num / den;   /* a 64-bit machine divides 64-bit integers in one instruction */
+#else
     uint64_t un;
     uint32_t d;
     uint32_t hi;
@@ -137,9 +148,6 @@ static inline int64_t fw_math_div_trunc_i64_by_small(int64_t num, int32_t den)
     uint32_t t;
     uint64_t q;
     bool neg;
-    if (den == 0) {
-        return 0;
-    }
     if (den >= 65536 || den <= -65536) {
         return num / den;
     }
@@ -159,6 +167,7 @@ static inline int64_t fw_math_div_trunc_i64_by_small(int64_t num, int32_t den)
         return neg ? INT64_MIN : INT64_MAX;
     }
     return neg ? -(int64_t)q : (int64_t)q;
+#endif
 }
 
 /* Number of leading zero bits of a nonzero uint64 (v = 0 is a caller bug:
