@@ -87,8 +87,7 @@ int64_t fw_math_div_round_i64(int64_t num, int64_t den)
         /* a power of two: (un + ud/2) >> log2(ud), the same quotient and
          * rounding as below without a division (un + ud/2 cannot wrap:
          * un <= 2^63 and ud/2 <= 2^62) */
-        const int k = 63 - fw_math_clz_u64(ud);
-        q = (k == 0) ? un : (un + (ud >> 1)) >> k;
+        q = (un + (ud >> 1)) >> (63 - fw_math_clz_u64(ud));
     } else if ((un >> 32) == 0u && (ud >> 32) == 0u) {
         /* both fit 32 bits: the hardware's 32-bit division (the Cortex-M4
          * has one, its 64-bit division is a library call), exact alike */

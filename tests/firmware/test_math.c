@@ -102,6 +102,14 @@ static void test_math_div_round_half_away_and_zero_den(void)
     TEST_ASSERT_EQUAL_INT64(INT64_MAX, fw_math_div_round_i64(INT64_MIN, -1));
 }
 
+/* A signed value of random width (0 to 63 bits) and sign: every path of
+ * the divisions below (the extremes are among their fixed cases). */
+static int64_t random_width_i64(tu_rng_t *rng)
+{
+    const int64_t v = (int64_t)(tu_rng_u64(rng) >> (1u + tu_rng_u32(rng) % 63u));
+    return (tu_rng_u32(rng) & 1u) ? -v : v;
+}
+
 /* The division as it was written first (64-bit only): the reference the
  * fast paths (a power-of-two den, 32-bit operands) must equal everywhere. */
 static int64_t div_round_reference(int64_t num, int64_t den)
@@ -131,7 +139,7 @@ static void test_math_div_round_fast_paths_equal_the_64_bit_division(void)
                                    (int64_t)UINT32_MAX + 1, -(int64_t)UINT32_MAX, -(int64_t)UINT32_MAX - 1,
                                    (int64_t)1 << 62, -((int64_t)1 << 62), INT64_MAX, INT64_MIN, INT64_MAX - 1,
                                    INT64_MIN + 1};
-    uint64_t x = 0x9E3779B97F4A7C15u;
+    tu_rng_t rng;
     size_t i, j;
     int k;
     for (i = 0; i < sizeof edge / sizeof edge[0]; i++) {
@@ -147,22 +155,10 @@ static void test_math_div_round_fast_paths_equal_the_64_bit_division(void)
             TEST_ASSERT_EQUAL_INT64(div_round_reference(-(p + p / 2), p), fw_math_div_round_i64(-(p + p / 2), p));
         }
     }
+    tu_rng_seed(&rng, 17);
     for (i = 0; i < 200000u; i++) {   /* random operands of every width */
-        int64_t n, d;
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        n = (int64_t)(x >> (x % 64u));
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        d = (int64_t)(x >> (x % 64u));
-        if (x & 1u) {
-            n = -n;
-        }
-        if (x & 2u) {
-            d = -d;
-        }
+        const int64_t n = random_width_i64(&rng);
+        const int64_t d = random_width_i64(&rng);
         TEST_ASSERT_EQUAL_INT64(div_round_reference(n, d), fw_math_div_round_i64(n, d));
     }
 }
@@ -177,7 +173,7 @@ static void test_math_div_trunc_by_small_equals_c_division(void)
     static const int64_t nums[] = {0, 1, -1, 65535, 65536, -65536, INT32_MAX, INT32_MIN, (int64_t)UINT32_MAX,
                                    (int64_t)1 << 47, -((int64_t)1 << 47), (int64_t)1 << 62, INT64_MAX,
                                    INT64_MIN + 1, INT64_MIN};
-    uint64_t x = 0xD1B54A32D192ED03u;
+    tu_rng_t rng;
     size_t i, j;
     for (i = 0; i < sizeof nums / sizeof nums[0]; i++) {
         for (j = 0; j < sizeof dens / sizeof dens[0]; j++) {
@@ -189,23 +185,11 @@ static void test_math_div_trunc_by_small_equals_c_division(void)
     }
     TEST_ASSERT_EQUAL_INT64(0, fw_math_div_trunc_i64_by_small(12345, 0));
     TEST_ASSERT_EQUAL_INT64(INT64_MAX, fw_math_div_trunc_i64_by_small(INT64_MIN, -1));
+    tu_rng_seed(&rng, 19);
     for (i = 0; i < 200000u; i++) {
-        int64_t n;
-        int32_t d;
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        n = (int64_t)(x >> (x % 64u));
-        if (x & 1u) {
-            n = -n;
-        }
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        d = (int32_t)(x >> (48u + x % 16u));   /* 0 to 2^16 - 1 */
-        if (x & 2u) {
-            d = -d;
-        }
+        const int64_t n = random_width_i64(&rng);
+        const int32_t m = (int32_t)(tu_rng_u32(&rng) >> (16u + tu_rng_u32(&rng) % 16u));   /* 0 to 2^16 - 1, of every width */
+        const int32_t d = (tu_rng_u32(&rng) & 1u) ? -m : m;
         if (d == 0) {
             continue;
         }
