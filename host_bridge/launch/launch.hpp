@@ -799,10 +799,14 @@ private:
     bool finished_ = false;
     int interrupted_ = 0;   // the signal that stopped the run (0: none)
     double wall_ = 0;
-    // Each process's CPU (s, its descendants included) and the launcher's
-    // own when the run started and when the simulator said it was done:
-    // what the loop cost each (run.json timing.loop_cpu_us_per_block).
-    std::map<std::string, double> loop_cpu_[2];
+    // Each process's CPU (s) with its descendants, and theirs apart (-1:
+    // none alive), and the launcher's own, when the run started and when
+    // the simulator's loop was over: what the loop cost each (run.json
+    // timing.loop_cpu_us_per_block).
+    struct LoopCpu {
+        double total = -1, children = -1;
+    };
+    std::map<std::string, LoopCpu> loop_cpu_[2];
     int loop_cpu_taken_ = 0;
     // The simulator's loop is over: its heartbeat for the last block (sent
     // at once when the loop ends), or "done" (a run that ended early).
@@ -817,12 +821,13 @@ private:
         auto &m = loop_cpu_[loop_cpu_taken_++];
         for (const auto &c : kids_) {
             double below = 0;
-            m[c.name] = c.exited ? c.cpu_user_s + c.cpu_system_s : tree_cpu_seconds(c.pid, &below);
-            if (!c.exited && below > 0) m[c.name + " (its children)"] = below;
+            LoopCpu &x = m[c.name];
+            x.total = c.exited ? c.cpu_user_s + c.cpu_system_s : tree_cpu_seconds(c.pid, &below);
+            if (!c.exited && below > 0) x.children = below;
         }
         timespec ts{};
         clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-        m["afm_launch"] = ts.tv_sec + ts.tv_nsec * 1e-9;
+        m["afm_launch"].total = ts.tv_sec + ts.tv_nsec * 1e-9;
     }
     int64_t messages_ = 0;
 
@@ -1129,16 +1134,15 @@ private:
             // a figure is given only where both readings are whole: a process
             // whose descendants were fewer, or had used less, at the end (one
             // ending between the readings) gets none, rather than a short one
-            const auto whole = [&](const std::string &name) {
-                const auto a = loop_cpu_[0].find(name), b = loop_cpu_[1].find(name);
-                return a != loop_cpu_[0].end() && b != loop_cpu_[1].end() && a->second >= 0 && b->second >= a->second;
-            };
+            const auto per_block = [&](double a, double b) { return (b - a) / static_cast<double>(blocks) * 1e6; };
             for (const auto &[name, end] : loop_cpu_[1]) {
-                const std::string kids = name + " (its children)";
-                const bool had_kids = loop_cpu_[0].count(kids) > 0;
-                if (name.find(" (its children)") == std::string::npos && had_kids && !whole(kids)) continue;
-                if (name.find(" (its children)") != std::string::npos && !whole(name.substr(0, name.find(" (its children)")))) continue;
-                if (whole(name)) cpu[name] = (end - loop_cpu_[0].at(name)) / static_cast<double>(blocks) * 1e6;
+                const auto it = loop_cpu_[0].find(name);
+                if (it == loop_cpu_[0].end()) continue;
+                const LoopCpu &start = it->second;
+                if (start.total < 0 || end.total < start.total) continue;
+                if (start.children >= 0 && end.children < start.children) continue;
+                cpu[name] = per_block(start.total, end.total);
+                if (start.children >= 0) cpu[name + " (its children)"] = per_block(start.children, end.children);
             }
         }
         t["loop_cpu_us_per_block"] = cpu;
