@@ -1,5 +1,6 @@
 """Where the checkout, its build and its programs are."""
 import os
+import tempfile
 
 ROOT = os.environ.get("AFM_SOURCE") or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = os.environ.get("AFM_BUILD") or os.path.join(ROOT, "build", "main")
@@ -19,3 +20,14 @@ RUN_PROGRAMS = [
     LAUNCH,
     REPLAY,
 ]
+
+
+def bench_folder(out, prefix):
+    """A benchmark's folder for its runs: `out`, made if it is not there, or
+    else a new temporary one; (path, kept: whether `out` was given). Open to
+    the run's user (0755): a run started as root is that user's
+    (tools/run_user.sh), who must reach it."""
+    path = out or tempfile.mkdtemp(prefix=prefix)
+    os.makedirs(path, exist_ok=True)
+    os.chmod(path, 0o755)
+    return path, out is not None

@@ -55,15 +55,14 @@ import os
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 
 import lcm
 import yaml
 
-TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BUILD = os.environ.get("AFM_BUILD", os.path.join(TOP, "build", "main"))
-IN_NETNS = os.path.join(TOP, "tools", "in_netns.sh")
+from analysis import paths
+
+TOP, BUILD, IN_NETNS = paths.ROOT, paths.BUILD, paths.IN_NETNS
 
 # The messages whose latency is measured: those of the floor's paths, and
 # the largest the simulator sends. Their sizes are read from the first run's
@@ -254,10 +253,7 @@ def main(argv=None):
         ap.error("--repeat must be at least 1")
     if not os.path.exists(a.scene):
         ap.error(f"--scene: {a.scene}: no such file")
-    keep = a.out is not None
-    out = a.out or tempfile.mkdtemp(prefix="afm-bench-bus-")
-    os.makedirs(out, exist_ok=True)
-    os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
+    out, keep = paths.bench_folder(a.out, "afm-bench-bus-")
     disk = disk_probe(out)
 
     # The arrangements in turn, a run of each per round: what slows the

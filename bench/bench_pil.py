@@ -34,7 +34,6 @@ import re
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 
 from analysis import paths
@@ -166,11 +165,7 @@ def main(argv=None):
     if not os.path.exists(a.scene):
         ap.error(f"--scene: {a.scene}: no such file")
     scene = os.path.abspath(a.scene)
-    keep = a.out is not None
-    out = a.out or tempfile.mkdtemp(prefix="afm-bench-pil-")
-    os.makedirs(out, exist_ok=True)
-    if not keep:
-        os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
+    out, keep = paths.bench_folder(a.out, "afm-bench-pil-")
     runs = {label: [] for label, _ in ARRANGEMENTS}
     for k in range(a.repeat):
         for i, (label, args) in enumerate(ARRANGEMENTS):

@@ -28,7 +28,6 @@ import shutil
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 
 from analysis import afmlog, paths
@@ -149,9 +148,7 @@ def main(argv=None):
     import test_view
     if not (test_view.CHROMIUM and test_view.DRIVER):
         raise SystemExit("bench view: chromium or chromedriver missing (./afm setup installs them)")
-    out = a.out or tempfile.mkdtemp(prefix="afm-bench-view-")
-    os.makedirs(out, exist_ok=True)
-    os.chmod(out, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
+    out, _ = paths.bench_folder(a.out, "afm-bench-view-")
     driver = test_view.browser()
     runs = {"lockstep": [], "realtime": []}
     try:
