@@ -60,6 +60,7 @@ import time
 import lcm
 import yaml
 
+import benchargs
 from analysis import paths
 
 TOP, BUILD, IN_NETNS = paths.ROOT, paths.BUILD, paths.IN_NETNS
@@ -249,10 +250,7 @@ def main(argv=None):
     ap.add_argument("--out", help="folder for bench_bus.json and the runs (default: a temporary one, removed)")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON instead of tables")
     a = ap.parse_args(argv)
-    if a.repeat < 1:
-        ap.error("--repeat must be at least 1")
-    if not os.path.exists(a.scene):
-        ap.error(f"--scene: {a.scene}: no such file")
+    a.scene = benchargs.checked_scene(ap, a)
     out, keep = paths.bench_folder(a.out, "afm-bench-bus-")
     disk = disk_probe(out)
 

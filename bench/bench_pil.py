@@ -36,6 +36,7 @@ import subprocess
 import sys
 import time
 
+import benchargs
 from analysis import paths
 
 TOP, BUILD, IN_NETNS, LAUNCH, REPLAY = paths.ROOT, paths.BUILD, paths.IN_NETNS, paths.LAUNCH, paths.REPLAY
@@ -160,11 +161,7 @@ def main(argv=None):
     ap.add_argument("--out", help="folder for bench_pil.json and the runs (default: a temporary one, removed)")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON instead of tables")
     a = ap.parse_args(argv)
-    if a.repeat < 1:
-        ap.error("--repeat must be at least 1")
-    if not os.path.exists(a.scene):
-        ap.error(f"--scene: {a.scene}: no such file")
-    scene = os.path.abspath(a.scene)
+    scene = benchargs.checked_scene(ap, a)
     out, keep = paths.bench_folder(a.out, "afm-bench-pil-")
     runs = {label: [] for label, _ in ARRANGEMENTS}
     for k in range(a.repeat):

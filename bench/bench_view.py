@@ -30,6 +30,7 @@ import subprocess
 import sys
 import time
 
+import benchargs
 from analysis import afmlog, paths
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -141,8 +142,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3, help="runs of each mode, in turn (default 3)")
     ap.add_argument("--out", help="keep the runs in this folder (default: a temporary one, removed)")
     a = ap.parse_args(argv)
-    if a.repeat < 1:
-        ap.error(f"--repeat: {a.repeat}: give 1 or more")
+    a.scene = benchargs.checked_scene(ap, a)
     os.environ.setdefault("AFM_SOURCE", paths.ROOT)
     os.environ.setdefault("AFM_BUILD", paths.BUILD)
     import test_view

@@ -37,6 +37,17 @@ class BenchBus(unittest.TestCase):
             self.assertEqual(p.returncode, 2, args)
             self.assertIn("bench_bus:", p.stderr)
 
+    def test_benches_refuse_a_missing_scene_and_no_rounds_naming_them(self):
+        # bench view read a missing scene with a traceback; the three share benchargs.checked_scene
+        for name in ("bench_bus.py", "bench_pil.py", "bench_view.py"):
+            bench = os.path.join(benchtest.SRC, "bench", name)
+            for args, named in ((["--scene", "/nonexistent/scene.yaml"], "--scene: /nonexistent/scene.yaml: no such file"),
+                                (["--repeat", "0"], "--repeat: 0: give 1 or more")):
+                p = subprocess.run([sys.executable, bench, *args], capture_output=True, text=True, timeout=60)
+                self.assertEqual(p.returncode, 2, (name, args, p.stderr))
+                self.assertIn(named, p.stderr, name)
+                self.assertNotIn("Traceback", p.stderr, name)
+
     def test_six_arrangements_each_with_a_complete_log(self):
         top = benchtest.tmpdir("bench-bus")
         self.addCleanup(benchtest.cleanup, top)
