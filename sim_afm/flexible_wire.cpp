@@ -1,0 +1,375 @@
+// The flexible wire (wire.hpp: FlexibleWire): N segments with bending and
+// stretching, Coulomb friction per node, relaxed by Newton steps each push.
+
+#include "wire.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "wire_internal.hpp"
+
+namespace afm::sim {
+
+namespace {
+// The flexible wire's step: regularisation length of the nodes' Coulomb
+// friction (nm); a node that ends within stuck_nm of its start sticks (nm);
+// the solve stops when every node's force residual is
+// below kResidual of its friction c_i (plus kResidualFloor_nN).
+constexpr double kSlipRegularisation_nm = 1e-6;
+// Stuck: the regularised friction c_i |dx| / sqrt(|dx|^2 + eps^2) is below
+// 0.999 c_i, |dx| < 22.3 eps.
+constexpr double stuck_nm = 22.3 * kSlipRegularisation_nm;
+constexpr double kResidual = 1e-5;
+constexpr double kResidualFloor_nN = 1e-7;
+// When the flexible wire's Newton system does not factor
+// (BlockPentadiagonal::kPivot: singular, as a wire without friction, whose
+// rigid motions cost nothing) the step is solved with H + shift I, shift =
+// kShift times the largest block trace, raised 1000-fold up to kMaxShifts
+// times.
+constexpr double kShift = 1e-12;
+constexpr int kMaxShifts = 6;
+// FlexibleWire::follow scales the last increment only when the contact
+// point moved by more than this in it (nm): below, the ratio means nothing.
+constexpr double kFollowFloor_nm = 1e-9;
+}  // namespace
+
+using detail::closest_segment;
+using detail::kArmijo;
+using detail::kMaxHalvings;
+
+FlexibleWire::FlexibleWire(int id_, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d, double f_, double E_GPa,
+                           int N, int iters)
+    : f(f_), max_iterations(iters)
+{
+    id = id_;
+    d_nm = d;
+    L_nm = (b - a).norm();
+    ds = L_nm / N;
+    for (int i = 0; i <= N; ++i) x.push_back(a + (b - a) * (static_cast<double>(i) / N));
+    update_box();
+    // 1 GPa = 1 nN/nm^2.
+    EI = E_GPa * M_PI * std::pow(d, 4) / 64.0;
+    ks = E_GPa * M_PI * d * d / 4.0 / ds;
+    const std::size_t nn = x.size();
+    for (auto *v : {&start_, &base_, &dir_}) v->assign(nn, Eigen::Vector2d::Zero());
+    H_.resize(static_cast<int>(nn));
+    for (Eval *ev : {&now_, &trial_}) {
+        ev->g.assign(nn, Eigen::Vector2d::Zero());
+        ev->seg_dir.assign(nn, Eigen::Vector2d::Zero());
+        ev->node_dir.assign(nn, Eigen::Vector2d::Zero());
+        ev->node_w.assign(nn, 0.0);
+    }
+}
+
+double FlexibleWire::closest(const Eigen::Vector2d &q, int &seg, double &t) const
+{
+    seg = static_cast<int>(closest_segment(x, q, t));
+    return (q - (x[seg] + t * (x[seg + 1] - x[seg]))).norm();
+}
+
+double FlexibleWire::node_friction(int i) const
+{
+    const int last_node = static_cast<int>(x.size()) - 1;
+    return f * ds * ((i == 0 || i == last_node) ? 0.5 : 1.0);
+}
+
+// The tip's contact at the point of segment c.seg closest to the apex: its
+// energy, nN nm, and the forces *fa, *fb on that segment's nodes (ev's
+// contact fields set).
+double FlexibleWire::contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev, Eigen::Vector2d *fa, Eigen::Vector2d *fb)
+{
+    const int i = c.seg;
+    ev.contact_t = segment_param(xs[i], xs[i + 1], c.q);
+    const Eigen::Vector2d dv = c.q - (xs[i] + ev.contact_t * (xs[i + 1] - xs[i]));
+    const double dn = dv.norm(), pen = c.reach - dn;
+    ev.touching = pen > 0;
+    if (!ev.touching) return 0;
+    ev.contact_n = dn > 1e-12 ? Eigen::Vector2d(dv / dn) : c.n0;
+    *fa = c.kc * pen * (1 - ev.contact_t) * ev.contact_n;
+    *fb = c.kc * pen * ev.contact_t * ev.contact_n;
+    return 0.5 * c.kc * pen * pen;
+}
+
+double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
+{
+    // Energy, nN nm; ev at x (see Eval). One pass over the nodes: node i's
+    // force gathers the springs of segments i - 1 and i, the bending of the
+    // triples centred on i - 1, i and i + 1 (b_j = x_{j-1} - 2 x_j + x_{j+1},
+    // zero where the triple does not exist), the tip's contact and its
+    // friction. Plain pointers: the arrays do not alias, and the compiler
+    // cannot know it through ev. at_start: x is start_ (every increment is
+    // zero), which spares the friction's roots.
+    const int nn = static_cast<int>(x.size());
+    const double kb = EI / (ds * ds * ds);
+    const double eps = kSlipRegularisation_nm;
+    const Eigen::Vector2d *xs = x.data(), *x0 = start_.data();
+    Eigen::Vector2d *g = ev.g.data(), *seg_dir = ev.seg_dir.data(), *node_dir = ev.node_dir.data();
+    double *node_w = ev.node_w.data();
+    Eigen::Vector2d fa = Eigen::Vector2d::Zero(), fb = Eigen::Vector2d::Zero();
+    const double e = contact_energy(c, xs, ev, &fa, &fb);
+    // Coulomb friction c_i |dx_i|, regularised as c_i (sqrt(|dx_i|^2 +
+    // eps^2) - eps). A node is in balance when stuck (within stuck_nm of its
+    // start) with an elastic and contact force of at most c_i (the Coulomb
+    // law itself), or sliding with that force and its (regularised)
+    // friction cancelling, both to its tolerance kResidual c_i (+ floor).
+    // ev.residual: the worst node's imbalance as a ratio of squares, below 1
+    // exactly when every node is in balance.
+    const double c_in = f * ds, c_end = 0.5 * f * ds;
+    const double tol_in = kResidual * c_in + kResidualFloor_nN, tol_end = kResidual * c_end + kResidualFloor_nN;
+    auto inv_sq = [](double v) { return 1.0 / (v * v); };
+    const double stuck_in = inv_sq(c_in + tol_in), stuck_end = inv_sq(c_end + tol_end);
+    const double slide_in = inv_sq(tol_in), slide_end = inv_sq(tol_end);
+    const double eps_root = std::sqrt(eps * eps), inv_eps_root = 1.0 / eps_root;
+    double e_stretch = 0, e_bend = 0, e_friction = 0, worst = 0;
+    Eigen::Vector2d fs_before = Eigen::Vector2d::Zero();   // spring force of segment i - 1 on node i
+    Eigen::Vector2d b_before = Eigen::Vector2d::Zero();    // b_{i-1}
+    Eigen::Vector2d b_here = Eigen::Vector2d::Zero();      // b_i
+    for (int i = 0; i < nn; ++i) {
+        Eigen::Vector2d fs = Eigen::Vector2d::Zero();
+        if (i + 1 < nn) {   // segment i: ks / 2 (|x_{i+1} - x_i| - ds)^2
+            const Eigen::Vector2d ed = xs[i + 1] - xs[i];
+            const double len = ed.norm(), dl = len - ds;
+            e_stretch += dl * dl;
+            seg_dir[i] = ed * (1.0 / len);
+            fs = (ks * dl) * seg_dir[i];
+        }
+        const Eigen::Vector2d b_after = i + 2 < nn ? Eigen::Vector2d(xs[i] - 2 * xs[i + 1] + xs[i + 2]) : Eigen::Vector2d::Zero();
+        e_bend += b_after.squaredNorm();
+        Eigen::Vector2d gi = fs_before - fs + kb * (b_before - 2 * b_here + b_after);
+        if (i == c.seg) gi += fa;
+        if (i == c.seg + 1) gi += fb;
+        fs_before = fs;
+        b_before = b_here;
+        b_here = b_after;
+        const bool end = i == 0 || i == nn - 1;
+        const double ci = end ? c_end : c_in;
+        if (at_start) {   // |dx| = 0: s = eps, no friction force, every node stuck
+            node_w[i] = ci / eps;
+            node_dir[i].setZero();
+            worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in));
+            g[i] = gi;
+            continue;
+        }
+        const Eigen::Vector2d dx = xs[i] - x0[i];
+        const double d2 = dx.squaredNorm();
+        // A node still at its start (most of a long chain's, on a first
+        // guess) needs no root.
+        const double sr = d2 == 0 ? eps_root : std::sqrt(d2 + eps * eps), inv = d2 == 0 ? inv_eps_root : 1.0 / sr;
+        e_friction += ci * (sr - eps);
+        node_w[i] = ci * inv;
+        node_dir[i] = dx * inv;
+        const bool stuck = d2 < stuck_nm * stuck_nm;
+        if (stuck) worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in));
+        gi += node_w[i] * dx;
+        if (!stuck) worst = std::max(worst, gi.squaredNorm() * (end ? slide_end : slide_in));
+        g[i] = gi;
+    }
+    ev.residual = worst;
+    return e + 0.5 * ks * e_stretch + 0.5 * kb * e_bend + e_friction;
+}
+
+double FlexibleWire::elastic_curvature(const Contact &c, const Eval &ev, const std::vector<Eigen::Vector2d> &d) const
+{
+    // d^T H d for the elastic and contact parts of H at the point ev was
+    // evaluated at (nN nm per nm^2 of d).
+    const int nn = static_cast<int>(x.size());
+    const double kb = EI / (ds * ds * ds);
+    double q = 0;
+    for (int i = 1; i + 1 < nn; ++i) q += kb * (d[i - 1] - 2 * d[i] + d[i + 1]).squaredNorm();
+    for (int i = 0; i + 1 < nn; ++i) {
+        const double a = ev.seg_dir[i].dot(d[i + 1] - d[i]);
+        q += ks * a * a;
+    }
+    if (ev.touching) {
+        const double a = ev.contact_n.dot((1 - ev.contact_t) * d[c.seg] + ev.contact_t * d[c.seg + 1]);
+        q += c.kc * a * a;
+    }
+    return q;
+}
+
+void FlexibleWire::assemble_hessian(const Contact &c, const Eval &ev)
+{
+    // Blocks of H (nN/nm) at the point ev was evaluated at: H_.diag[i] = H(i,
+    // i), H_.sub1[i] = H(i, i - 1), H_.sub2[i] = H(i, i - 2). One
+    // pass over the nodes: bending kb w w^T on each triple (i-1, i, i+1), w =
+    // (1, -2, 1) (exact: its weights per block counted below), stretch ks e
+    // e^T of the segments either side (Gauss-Newton), friction c_i / s (I -
+    // dx dx^T / s^2) (exact); then the tip's contact.
+    const int nn = static_cast<int>(x.size());
+    const double kb = EI / (ds * ds * ds);
+    const Eigen::Matrix2d I = Eigen::Matrix2d::Identity();
+    Eigen::Matrix2d before = Eigen::Matrix2d::Zero();   // the stretch block of segment i - 1
+    for (int i = 0; i < nn; ++i) {
+        // Triples holding node i as a side, as the middle, and the pairs
+        // (i, i-1) and (i, i-2) they couple.
+        const double sides = (i >= 2) + (i + 2 < nn), middle = (i >= 1 && i + 1 < nn);
+        const double pairs1 = (i >= 1 && i + 1 < nn) + (i >= 2);
+        const Eigen::Vector2d u = i + 1 < nn ? ev.seg_dir[i] : Eigen::Vector2d::Zero();
+        const Eigen::Matrix2d after = ks * u * u.transpose();
+        H_.diag[i] = (kb * (sides + 4 * middle)) * I + before + after +
+                     ev.node_w[i] * (I - ev.node_dir[i] * ev.node_dir[i].transpose());
+        H_.sub1[i] = (-2 * kb * pairs1) * I - before;
+        H_.sub2[i] = (i >= 2 ? kb : 0.0) * I;
+        before = after;
+    }
+    if (ev.touching) {   // tip contact (Gauss-Newton: kc n n^T, shared as (1 - t, t))
+        const int i = c.seg;
+        const double t = ev.contact_t;
+        const Eigen::Matrix2d B = c.kc * ev.contact_n * ev.contact_n.transpose();
+        H_.diag[i] += (1 - t) * (1 - t) * B;
+        H_.diag[i + 1] += t * t * B;
+        H_.sub1[i + 1] += t * (1 - t) * B;
+    }
+}
+
+
+void FlexibleWire::newton_direction()
+{
+    double shift = 0, biggest = 0;
+    for (const auto &b : H_.diag) biggest = std::max(biggest, b.trace());
+    factored_ = H_.factor(0.0);
+    for (int k = 0; !factored_ && k < kMaxShifts; ++k) {
+        shift = shift == 0 ? kShift * biggest : 1e3 * shift;
+        factored_ = H_.factor(shift);
+    }
+    if (shift > 0) ++regularised;
+    for (std::size_t i = 0; i < dir_.size(); ++i) dir_[i] = -now_.g[i];
+    if (factored_) H_.solve(dir_);
+    else   // not even H + shift I factors (no stiffness at all): a gradient step
+        for (auto &di : dir_) di /= std::max(biggest, 1.0);
+}
+
+bool FlexibleWire::try_step(const Contact &c, double &phi, double alpha)
+{
+    double slope = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) slope += now_.g[i].dot(dir_[i]);
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = base_[i] + alpha * dir_[i];
+    const double phi_t = evaluate(c, trial_);
+    if (!(slope < 0) || !(phi_t <= phi + kArmijo * alpha * slope)) return false;
+    phi = phi_t;
+    std::swap(now_, trial_);
+    return true;
+}
+
+void FlexibleWire::newton_step(const Contact &c, double &phi)
+{
+    assemble_hessian(c, now_);
+    newton_direction();
+    // Backtracking (Armijo) on the step's energy; when rounding hides the
+    // decrease (at the solution's doorstep), the whole step.
+    base_ = x;
+    double alpha = 1;
+    for (int ls = 0; ls < kMaxHalvings; ++ls, alpha *= 0.5)
+        if (try_step(c, phi, alpha)) return;
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = base_[i] + dir_[i];
+    phi = evaluate(c, now_);
+}
+
+void FlexibleWire::chord_step(const Contact &c, double &phi)
+{
+    // The last factorisation (an earlier step's H) stands in for this
+    // point's: a steady push changes H little from step to step. The whole
+    // step, kept only if it passes Armijo's test; otherwise x is unchanged.
+    if (!factored_) return;
+    for (std::size_t i = 0; i < dir_.size(); ++i) dir_[i] = -now_.g[i];
+    H_.solve(dir_);
+    base_ = x;
+    if (!try_step(c, phi, 1.0)) x = base_;
+}
+
+void FlexibleWire::warm_start(const Contact &c, double &phi)
+{
+    // The last step's increment d, scaled: a steady push moves the wire alike
+    // from step to step, but by different amounts. Along start + a d the
+    // energy's slope is g0 . d + sum_i c_i |d_i| (the friction of the nodes d
+    // slides, once past the regularisation) and its curvature the elastic and
+    // contact d^T H d: its minimum is at a = -slope / curvature. Kept only if
+    // it lowers the step's energy.
+    const int nn = static_cast<int>(x.size());
+    const auto &d = last_dx_;
+    double slope = 0;
+    for (int i = 0; i < nn; ++i) slope += now_.g[i].dot(d[i]) + node_friction(i) * d[i].norm();
+    const double curvature = elastic_curvature(c, now_, d);
+    if (!(slope < 0) || !(curvature > 0)) return;
+    const double a = -slope / curvature;
+    for (int i = 0; i < nn; ++i) x[i] = start_[i] + a * d[i];
+    const double phi_w = evaluate(c, trial_);
+    if (phi_w < phi) {
+        phi = phi_w;
+        std::swap(now_, trial_);
+    } else {
+        x = start_;
+    }
+}
+
+bool FlexibleWire::follow(const Contact &c, double t_seg, double &phi)
+{
+    // A wire that slid on the last push and reached balance, pushed further
+    // along the contact's normal: it slides again, and a steady slide keeps
+    // the contact force, so its contact point advances as far as the apex
+    // did. The last increment scaled to that advance is the first guess; no
+    // balance test at the start is needed (the step's Newton iteration has
+    // the last word either way).
+    if (!last_converged || last_dx_.size() != x.size()) return false;   // sized by a push that set last_q_
+    const Eigen::Vector2d moved = (1 - t_seg) * last_dx_[c.seg] + t_seg * last_dx_[c.seg + 1];
+    const double wire_advance = -moved.dot(c.n0), apex_advance = -(c.q - last_q_).dot(c.n0);
+    if (!(wire_advance > kFollowFloor_nm) || !(apex_advance > 0)) return false;
+    const double a = apex_advance / wire_advance;
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = start_[i] + a * last_dx_[i];
+    phi = evaluate(c, now_);
+    return true;
+}
+
+bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, double ride_nN)
+{
+    Contact c;
+    c.q = q;
+    c.reach = r_tip + 0.5 * d_nm;
+    c.kc = kc;
+    // The tip touches the segment closest to it at the start of the step,
+    // and only it, for the whole step: the distance to one segment is
+    // continuously differentiable in the nodes, the minimum over segments is
+    // not (a kink wherever the apex faces a node), which would stall Newton.
+    double t_seg;
+    const double dist = closest(q, c.seg, t_seg);
+    in_contact = c.reach - dist > 0;
+    // The contact force past what the tip can push: it rides over (the
+    // chain's own friction is per node; the press is not modelled on it).
+    ridden = in_contact && kc * (c.reach - dist) > ride_nN;
+    if (!in_contact || ridden) return false;
+    const Eigen::Vector2d ab = x[c.seg + 1] - x[c.seg], dv = q - (x[c.seg] + t_seg * ab);
+    c.n0 = dist > 1e-12 ? Eigen::Vector2d(dv / dist) : Eigen::Vector2d(-ab.y(), ab.x()).normalized();
+    const int nn = static_cast<int>(x.size());
+    start_ = x;
+    double phi = 0;
+    const bool followed = follow(c, t_seg, phi);
+    last_q_ = q;
+    if (!followed) {   // a wire in balance where it is does not move: one evaluation decides
+        phi = evaluate(c, now_, true);
+        if (now_.residual >= 1 && last_dx_.size() == start_.size()) warm_start(c, phi);
+    }
+    last_iterations = 1;
+    last_converged = now_.residual < 1;
+    if (!last_converged) chord_step(c, phi);
+    for (int it = 0; it < max_iterations && !last_converged; ++it) {
+        last_iterations = it + 1;
+        if (now_.residual < 1) {
+            last_converged = true;
+            break;
+        }
+        newton_step(c, phi);
+    }
+    if (!last_converged) ++unconverged;
+    // Stuck nodes go back to their start: no creep under a load below c_i,
+    // however many steps.
+    last_dx_.resize(nn);
+    for (int i = 0; i < nn; ++i) {
+        if ((x[i] - start_[i]).squaredNorm() < stuck_nm * stuck_nm) x[i] = start_[i];
+        last_dx_[i] = x[i] - start_[i];
+    }
+    update_box();
+    return true;
+}
+
+}  // namespace afm::sim
