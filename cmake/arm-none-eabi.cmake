@@ -10,8 +10,12 @@ set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
 set(AFM_ARM_CPU_FLAGS "-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16")
 set(CMAKE_C_FLAGS_INIT "${AFM_ARM_CPU_FLAGS} -ffunction-sections -fdata-sections")
 set(CMAKE_CXX_FLAGS_INIT "${AFM_ARM_CPU_FLAGS} -ffunction-sections -fdata-sections")
-set(CMAKE_EXE_LINKER_FLAGS_INIT
-    "${AFM_ARM_CPU_FLAGS} --specs=rdimon.specs -T${CMAKE_CURRENT_LIST_DIR}/../tests/firmware/arm/mps2_an386.ld -Wl,--gc-sections")
+# The board's startup and linker script are in board/ (startup.c,
+# mps2_an386.ld). Set in the cache at every configure, not only the first,
+# so that a build tree made before the script moved there links with it.
+set(CMAKE_EXE_LINKER_FLAGS
+    "${AFM_ARM_CPU_FLAGS} --specs=rdimon.specs -T${CMAKE_CURRENT_LIST_DIR}/../board/mps2_an386.ld -Wl,--gc-sections"
+    CACHE STRING "Cortex-M4 link: rdimon semihosting, board/mps2_an386.ld" FORCE)
 
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
 set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY ONLY)

@@ -1,7 +1,8 @@
 /*
- * startup.c - vector table and reset handler for the Cortex-M4 test images
- * (mps2-an386 under QEMU, newlib + rdimon semihosting). Not part of the
- * firmware library: the tests link it on the cross build only.
+ * startup.c - vector table and reset handler for the Cortex-M4 images: the
+ * board (afm_board.elf) and the firmware's unit tests on the cross build
+ * (mps2-an386 under QEMU, newlib + rdimon semihosting; the linker script is
+ * mps2_an386.ld beside it). Not part of the firmware library.
  *
  * Reset_Handler copies .data from flash, enables the FPU (CP10/CP11 full
  * access) when built hard-float, and jumps to newlib's _start, which zeroes
