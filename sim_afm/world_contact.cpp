@@ -1,0 +1,275 @@
+// The tip's contacts (world.hpp): relaxing particles and wires against the
+// apex each sample, riding over, pressing with the cone, sliding friction.
+
+#include "world.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "world_internal.hpp"
+
+namespace afm::sim {
+
+void World::relax()
+{
+    // Apex held by the lever (stiffness K_ about its loaded rest position) and
+    // by contacts; particles by contacts and their friction threshold. Contact
+    // geometry in the sample's frame (apex - drift).
+    const Eigen::Vector2d rest = piezo_ + lever_.normal_offset(contact_load());
+    if (!touching()) {
+        apex_ = rest;
+        lateral_force_.setZero();
+        for (auto &p : particles_) p.in_contact = false;
+        for (auto &w : wires_) w->in_contact = false;
+        return;
+    }
+    const double rt = scene_.probe.tip_radius_nm;
+    const bool chains = scene_.has_effect("particle_contacts");
+    const Eigen::Vector2d apex0 = apex_;
+    const double fz = contact_load();
+    press_cone();
+    const Eigen::Vector3d normal = (this->*normal_at_)(apex_ - drift_);   // the substrate's, at the apex
+    // Candidates: particles that can touch the apex during this sample.
+    near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
+    for (int idx : scratch_) particles_[idx].in_contact = false;
+    for (int it = 0; it < relax_iterations_; ++it) {
+        double kt = k_lever_max_;
+        const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
+        slide_apex(g, fz, normal, kt);
+        const Eigen::Vector2d as2 = apex_ - drift_;
+        push_particles(as2, rt, chains);
+        push_wires(as2, rt);
+    }
+    last_motion_ = unit_or(apex_ - apex0, last_motion_);
+    lateral_force_ = -(K_ * (rest - apex_));
+    count_ridden();
+}
+
+void World::count_ridden()
+{
+    for (const auto &w : wires_)
+        if (w->ridden) {
+            ++ridden_samples_;   // a sample in which the tip rode over a wire (once, however many wires or sweeps)
+            return;
+        }
+}
+
+Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, double *kt)
+{
+    // The force on the apex from the lever and from every contact, and the
+    // stiffness it meets (*kt, from the lever's).
+    const Eigen::Vector2d as = apex_ - drift_;
+    Eigen::Vector2d g = K_ * (rest - apex_);
+    for (int idx : scratch_) {
+        const Particle &p = particles_[idx];
+        const Eigen::Vector2d d = as - p.c;
+        const double reach = rt + p.r;
+        const double dn = d.norm();
+        if (dn >= reach) continue;
+        g += k_contact_ * (reach - dn) * unit_or(d, -last_motion_);
+        *kt += k_contact_;
+    }
+    for (const auto &w : wires_) {
+        double pen, u;
+        Eigen::Vector2d n;
+        w->pulled = false;
+        if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
+        if (w->ridden) continue;   // the tip rode over it at the last push (push_wires)
+        g += k_contact_ * pen * n;
+        *kt += k_contact_;
+        w->pulled = true;
+    }
+    return g;
+}
+
+void World::slide_apex(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal, double kt)
+{
+    // Substrate: the tip stays while the force it must supply, S = (-g,
+    // F_z) (lever and contacts horizontal, the set point vertical), lies in
+    // its friction cone about the surface normal n: |S_t| <= mu (S . n +
+    // F_adh). Otherwise it slides along the surface, against S_t.
+    const Eigen::Vector3d S(-g.x(), -g.y(), fz);
+    const double sn = S.dot(normal);
+    const Eigen::Vector3d St = S - sn * normal;
+    const double capacity = tip_mu_ * std::max(0.0, sn + tip_adhesion_nN_);
+    const double stn = St.norm();
+    if (stn > capacity) {
+        const Eigen::Vector2d mh = -St.head<2>();
+        const double mhn = mh.norm();
+        if (mhn > 1e-12) apex_ += (stn - capacity) / kt * (mh / mhn);
+    }
+}
+
+void World::push_particles(const Eigen::Vector2d &as2, double rt, bool chains)
+{
+    // Particles touching the apex, then (particle_contacts) those they touch.
+    for (std::size_t q = 0; q < scratch_.size(); ++q) {
+        const int i = scratch_[q];
+        Particle &p = particles_[i];
+        Eigen::Vector2d gp = Eigen::Vector2d::Zero();
+        double kp = 0;
+        const Eigen::Vector2d d = p.c - as2;
+        const double dn = d.norm();
+        if (dn < rt + p.r) {
+            p.in_contact = true;
+            gp += k_contact_ * (rt + p.r - dn) * unit_or(d, last_motion_);
+            kp += k_contact_;
+        }
+        if (chains) {
+            near(p.c, p.r + max_radius_, scratch2_);
+            for (int j : scratch2_) {
+                if (j == i) continue;
+                const Eigen::Vector2d e = p.c - particles_[j].c;
+                const double en = e.norm();
+                const double reach = p.r + particles_[j].r;
+                if (en >= reach) continue;
+                gp += k_contact_ * (reach - en) * unit_or(e, last_motion_);
+                kp += k_contact_;
+                // A neighbour being pushed joins the sweep.
+                if (std::find(scratch_.begin(), scratch_.end(), j) == scratch_.end()) scratch_.push_back(j);
+            }
+        }
+        const double gpn = gp.norm();
+        const double th = p.threshold_nN * (dn < rt + p.r ? cone_factor_ : 1.0);   // the tip's cone presses it (down_force)
+        if (kp > 0 && gpn > th) {
+            p.c += (gpn - th) / kp * (gp / gpn);
+            grid_.update(i, p.c);
+        }
+    }
+}
+
+void World::push_wires(const Eigen::Vector2d &as2, double rt)
+{
+    for (auto &w : wires_) {
+        if (!w->near(as2, rt)) { w->in_contact = false; w->ridden = false; continue; }
+        const auto t0 = clock_start();
+        // The contact's force is the tip's push once the apex's balance has
+        // taken it (pulled); the sweep in which the apex first steps into
+        // the wire, before that, overshoots by a penalty artefact, and is
+        // no lift-off (a ride already under way stays one).
+        const double ride = w->pulled || w->ridden ? ride_push_nN(*w) : std::numeric_limits<double>::infinity();
+        w->push(as2, rt, k_contact_, ride);
+        clock_add(&t_wires_, t0);
+    }
+}
+
+void World::relax_rigid()
+{
+    // Without bending_offset the lever is laterally rigid: the apex is the
+    // piezo; particles in reach are pushed out to contact distance.
+    const Eigen::Vector2d apex0 = apex_;
+    apex_ = piezo_;
+    jammed_ = false;
+    if (!touching()) {
+        lateral_force_.setZero();
+        for (auto &w : wires_) w->in_contact = false;
+        return;
+    }
+    const double rt = scene_.probe.tip_radius_nm;
+    last_motion_ = unit_or(apex_ - apex0, last_motion_);
+    press_cone();
+    Eigen::Vector2d f = Eigen::Vector2d::Zero();
+    const Eigen::Vector2d as = apex_ - drift_;
+    if ((apex_ - apex0).norm() > 1e-12) {
+        // A rigid lever forces the tip on even up a slope it cannot climb:
+        // then the force is unbounded and step() saturates the outputs.
+        const auto fr = sliding_friction(last_motion_, (this->*normal_at_)(as), contact_load());
+        jammed_ = !fr;
+        if (fr) f = *fr;
+    }
+    for (auto &w : wires_) {
+        double pen, u;
+        Eigen::Vector2d n;
+        if (!w->near(as, rt)) { w->in_contact = false; continue; }
+        const auto t0 = clock_start();
+        w->push(as, rt, k_contact_, ride_push_nN(*w));
+        clock_add(&t_wires_, t0);
+        if (w->contact(as, rt, pen, n, u) && !w->ridden) f += k_contact_ * pen * n;
+    }
+    count_ridden();
+    near(as, rt + max_radius_ + 1.0, scratch_);
+    for (int idx : scratch_) {
+        Particle &p = particles_[idx];
+        const Eigen::Vector2d d = p.c - as;
+        const double reach = rt + p.r;
+        p.in_contact = d.norm() < reach;
+        if (!p.in_contact) continue;
+        const Eigen::Vector2d n = unit_or(d, last_motion_);
+        const double pen = reach - d.norm();
+        const double th = p.threshold_nN * cone_factor_;   // pressed by the cone (down_force)
+        if (k_contact_ * pen > th) {
+            p.c += (pen - th / k_contact_) * n;
+            grid_.update(idx, p.c);
+            f -= th * n;
+        } else {
+            f -= k_contact_ * pen * n;
+        }
+    }
+    lateral_force_ = f;
+}
+
+void World::press_cone()
+{
+    // down_force: the contact normal of the cone with a wire or a particle
+    // is psi = gamma + theta_t from the horizontal (physics.md 5 and 7),
+    // theta_t = F_y h / k_theta the lever's twist under the lateral force of
+    // the last sample.
+    if (!down_force_) return;
+    const Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
+    const double psi = gamma_rad_ + std::fabs(lever_.twist(fC.y()));
+    const double t = psi < M_PI / 2 ? std::tan(psi) : std::numeric_limits<double>::infinity();
+    for (auto &w : wires_) w->press_tan = t;
+    const double den = 1.0 - particle_mu_ * t;
+    cone_factor_ = den > 0 ? 1.0 / den : std::numeric_limits<double>::infinity();
+}
+
+double World::ride_push_nN(const Wire &w) const
+{
+    // The tip's own vertical balance (eq. 27-28): a push H on the cone's
+    // flank, at psi = gamma + theta_t from the horizontal, lifts the tip by
+    // H tan psi against its load and its adhesion; past both the apex leaves
+    // the substrate and climbs over the wire instead of pressing it, while
+    // the wire slides as well as once it is squeezed. So the tip can push at
+    // most (load + F_a,ts) / tan psi. Whether the wire needs more is its own
+    // friction's answer (Wire::push), never eq. 29-30's closed form.
+    // The twist theta_t is the lever's under the push itself (plus the tip's
+    // own sliding friction, along the motion), not the last sample's force:
+    // a ride-over drops the push, and a twist that followed it would let the
+    // tip press again at once. H tan(gamma + |theta_t(H)|) = load + F_a,ts is
+    // solved by fixed-point iteration (theta_t grows with H, so it converges
+    // from below for the twists a lever can take).
+    // Without down_force the cone's flank is not modelled: no limit.
+    if (!down_force_ || !(w.press_tan > 0)) return std::numeric_limits<double>::infinity();
+    const double lift = std::max(0.0, contact_load() + tip_adhesion_nN_);
+    const double across = (lever_.R.transpose() * last_motion_).y();        // frame C's y per unit of push along the motion
+    const double friction = tip_mu_ * (contact_load() + tip_adhesion_nN_);
+    double H = lift / std::tan(gamma_rad_);
+    for (int i = 0; i < 12; ++i) {
+        const double psi = gamma_rad_ + std::fabs(lever_.twist((H + friction) * across));
+        const double next = psi < M_PI / 2 ? lift / std::tan(psi) : 0.0;
+        if (std::fabs(next - H) < 1e-9) break;
+        H = next;
+    }
+    return H;
+}
+
+std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const
+{
+    // Slip along the surface in the direction whose horizontal part is m:
+    // tangent t; contact normal force N from the vertical force F_z,
+    // (N - F_adh) n_z - mu N t_z = F_z; the substrate's force is
+    // (N - F_adh) n - mu N t. Uphill steeper than 90 deg - atan(mu)
+    // (n_z <= mu t_z) no N solves it: the tip jams.
+    const Eigen::Vector3d &up = n;
+    Eigen::Vector3d t(m.x(), m.y(), -(up.x() * m.x() + up.y() * m.y()) / up.z());
+    t.normalize();
+    const double den = up.z() - tip_mu_ * t.z();
+    if (!(den > 0)) return std::nullopt;
+    const double N = (fz + tip_adhesion_nN_ * up.z()) / den;
+    const Eigen::Vector3d S = (N - tip_adhesion_nN_) * up - tip_mu_ * N * t;
+    return Eigen::Vector2d(S.head<2>());
+}
+
+}  // namespace afm::sim
