@@ -88,7 +88,7 @@ RodTwist rod_push_twist(const std::vector<double> &u_nm, double w_nN, double u_p
 // - otherwise (an end cap's contact): Newton's method on the exact friction
 //   power over the plane of twists that advance the contact point by one,
 //   from `warm` (or the side push's twist, or the translation along p; see
-//   wire.cpp), with a backtracking line search (the projected gradient's
+//   rod.cpp), with a backtracking line search (the projected gradient's
 //   when Newton's direction fails it); stops when force and torque balance
 //   hold to `tol` relative to the push, or after max_iter iterations (the
 //   best iterate is returned).

@@ -234,7 +234,7 @@ private:
     Vec2 tip_;                  // the apex target last given
     bool engaged_ = false;
     double load_nN_ = 0;        // the load the tip is held at (0: operator.load_nN)
-    double stroke_nm_;          // the next stroke's length (planner.cpp: kStroke*)
+    double stroke_nm_;          // the next stroke's length (planner_internal.hpp: kStroke*)
     fw_wire_tip_t wire_tip_{};  // the card's (CardSetup): what a rod's model is pushed with
 
     Vec2 drift() const;
