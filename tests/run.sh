@@ -9,12 +9,14 @@
 #                simulator's and the host's unit tests, the calculator's,
 #                pytest's on the analysis package): no scene runs
 # The tiers, labels and time limits: tests/timeouts.cmake, tests/timeouts.json.
-# Everything printed goes to build/test-results.txt too. The last line is
+# The build tested is build/main, or the one AFM_BUILD names (as for the
+# analysis package). Everything printed goes to test-results.txt beside it
+# (build/test-results.txt) too. The last line is
 # "tests: N passed, M failed" over every ctest run above; the exit status is
 # 0 when everything passed, else 2 ("afm: tests failed"), 2 on bad usage.
 set -euo pipefail
 top=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build="$top/build/main"
+build=${AFM_BUILD:-$top/build/main}
 jobs=${AFM_JOBS:-$(nproc 2>/dev/null || echo 2)}
 
 die() { echo "afm: $*" >&2; exit 2; }
@@ -29,7 +31,7 @@ for a in "$@"; do
 done
 [ -f "$build/CTestTestfile.cmake" ] || die "test: no build in $build (./afm build first, or ./afm test)"
 
-results="$top/build/test-results.txt"
+results="$(dirname "$build")/test-results.txt"
 : > "$results"
 status=0
 # One step: its heading on stderr, its output also into the results file.
@@ -44,9 +46,9 @@ step() {
 }
 
 if [ "$fast" = 1 ]; then
-  step "running the unit tier (ctest -L unit, build/main)" ctest --test-dir "$build" --output-on-failure -j "$jobs" -L unit
+  step "running the unit tier (ctest -L unit, $build)" ctest --test-dir "$build" --output-on-failure -j "$jobs" -L unit
 else
-  step "running ctest (build/main)" ctest --test-dir "$build" --output-on-failure -j "$jobs"
+  step "running ctest ($build)" ctest --test-dir "$build" --output-on-failure -j "$jobs"
   step "firmware on the Cortex-M4 (QEMU) and under ASan/UBSan" "$top/tools/fw_targets.sh"
   step "a short fuzz run (libFuzzer, ASan/UBSan; every committed crash input replayed)" "$top/tools/fuzz.sh" --smoke
 fi

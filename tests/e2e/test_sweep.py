@@ -24,9 +24,9 @@ ENV = dict(os.environ, PYTHONPATH=f"{benchtest.SRC}:{os.path.join(benchtest.SRC,
 SHORT = benchtest.scene("short.yaml")
 
 
-def sweep(*args, timeout=600):
-    p = subprocess.run([PY, "-m", "analysis.sweep", *args], capture_output=True, text=True, timeout=timeout, env=ENV,
-                       cwd=benchtest.SRC)
+def sweep(*args, timeout=300):
+    p = subprocess.run([PY, "-m", "analysis.sweep", *args], capture_output=True, text=True, timeout=benchtest.limit(timeout),
+                       env=ENV, cwd=benchtest.SRC)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -250,7 +250,7 @@ class LocalEngineIsClosed(unittest.TestCase):
                 self.assertEqual(host, "127.0.0.1", (host, port))
                 if p.poll() is None:
                     self.assertTrue(plain_client_refused(port), f"port {port} answered a plain client")
-            so, se = p.communicate(timeout=600)
+            so, se = p.communicate(timeout=benchtest.limit(300))
         finally:
             if p.poll() is None:
                 p.kill()
