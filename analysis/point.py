@@ -81,7 +81,7 @@ def failure_of(code, err, rj, run_dir):
 
 
 def costs_of(rj):
-    """The run's costs (README, "Sweeps"): per simulated second, from run.json."""
+    """The run's costs (docs/sweeps.md, "Running a sweep"): per simulated second, from run.json."""
     sim_s = rj.get("sim_seconds") or 0.0
     c = {"wall_s_per_sim_s": rj["wall_seconds"] / sim_s if sim_s else None, "log_bytes": rj.get("log_bytes")}
     total = 0.0

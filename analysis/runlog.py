@@ -1,7 +1,7 @@
 """A run's errors against the simulator's truth, block by block, from its
 own bus.lcmlog. SIM_TRUTH is read here, for evaluation only.
 
-Definitions (README, "Sweeps: what each point measures"):
+Definitions (docs/sweeps.md, "Running a sweep": what each point measures):
   tip force   |F_firmware - F_true| per block: FW_STATE (the block's mean)
               against SIM_TRUTH's force (the block's mean too), pN; RMS and
               worst over the blocks; also in % of the card's full scale

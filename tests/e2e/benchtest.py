@@ -1,17 +1,36 @@
-"""Shared helpers of the bench's end-to-end tests: where things are, and how
-to run a scene the way ./afm run does (in a fresh network namespace)."""
+"""Shared helpers of the bench's end-to-end tests: where things are, how
+to run a scene the way ./afm run does (in a fresh network namespace), and
+how long a test may still wait (limit: within the budget ctest gives the
+test file, AFM_TEST_BUDGET_S, from tests/timeouts.json)."""
 import json
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
+import time
 
 SRC = os.environ["AFM_SOURCE"]
 BUILD = os.environ["AFM_BUILD"]
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 IN_NETNS = os.path.join(SRC, "tools", "in_netns.sh")
 from analysis import afmlog  # noqa: E402,F401  (the project's package, installed in the venv)
+
+
+# The seconds this test file's own waits must end within (ctest's limit less
+# a margin, tests/timeouts.cmake), counted from its start; None when it is
+# run by hand, outside ctest, where nothing kills it.
+BUDGET_S = float(os.environ["AFM_TEST_BUDGET_S"]) if os.environ.get("AFM_TEST_BUDGET_S") else None
+_started = time.monotonic()
+
+
+def limit(seconds):
+    """`seconds`, or what is left of the file's budget if that is less (at
+    least 1 s): a wait given this ends, naming what it waited for, before
+    ctest kills the file."""
+    if BUDGET_S is None:
+        return seconds
+    return max(1.0, min(seconds, BUDGET_S - (time.monotonic() - _started)))
 
 
 def scene(name):
@@ -62,9 +81,10 @@ def main():
 
 
 def run(scene_path, out, *extra, timeout=300):
-    """Runs a scene like ./afm run; returns (exit code, stdout, stderr, run.json or None)."""
+    """Runs a scene like ./afm run, waiting `timeout` seconds at most (within
+    the budget, limit()); returns (exit code, stdout, stderr, run.json or None)."""
     cmd = [IN_NETNS, LAUNCH, "--scene", scene_path, "--out", out, "--quiet", *extra]
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=limit(timeout))
     rj = None
     path = os.path.join(out, "run.json")
     if os.path.exists(path):

@@ -53,7 +53,7 @@ class BenchBus(unittest.TestCase):
         self.addCleanup(benchtest.cleanup, top)
         out = os.path.join(top, "new", "runs")   # --out a folder not there yet: made, as a user would expect
         p = subprocess.run([sys.executable, BENCH, "--scene", benchtest.scene("short.yaml"), "--repeat", "1", "--count", "50",
-                            "--out", out], capture_output=True, text=True, timeout=600,
+                            "--out", out], capture_output=True, text=True, timeout=benchtest.limit(300),
                            env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         with open(os.path.join(out, "bench_bus.json")) as f:

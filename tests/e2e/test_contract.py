@@ -1,7 +1,7 @@
 """The bus contract is kept in one place and documented (issue 2, style.md):
 one message per .lcm file, lower_snake_t, utime first, a comment with the unit
-on every field, an explicit count on every variable array; README's channel
-table equals lcmtypes/channels.yaml; .ci/run runs ./afm test; the lcm fuzz
+on every field, an explicit count on every variable array; the channel table of
+docs/bus.md (section "## Channels") equals lcmtypes/channels.yaml; .ci/run runs ./afm test; the lcm fuzz
 target's committed inputs name a channel of the bus and carry its type.
 
 Each program links what it uses and nothing more (issue 33): the shared
@@ -66,11 +66,12 @@ class FuzzInputs(unittest.TestCase):
 
 
 class ChannelTable(unittest.TestCase):
-    def test_readme_table_equals_channels_yaml(self):
+    def test_bus_md_table_equals_channels_yaml(self):
         rows = yaml.safe_load(open(os.path.join(LCM_DIR, "channels.yaml")))
-        readme = open(os.path.join(benchtest.SRC, "README.md")).read()
+        text = open(os.path.join(benchtest.SRC, "docs", "bus.md")).read()
+        section = text.split("\n## Channels\n", 1)[1].split("\n## ", 1)[0]
         table = {}
-        for line in readme.splitlines():
+        for line in section.splitlines():
             m = re.match(r"\|\s*`([A-Z_]+)`\s*\|\s*`(\w+)`\s*\|\s*([^|]+?)\s*\|\s*([^|]+?)\s*\|", line)
             if m:
                 table[m.group(1)] = (m.group(2), m.group(3), m.group(4))

@@ -1,7 +1,9 @@
 """The docs say what the code does (issue 33): README.md and docs/*.md link
 only to files that exist; docs/scenes.md lists exactly the scene keys the
-validator accepts; README's commands table names every command `./afm --help`
-lists.
+validator accepts; the commands table of docs/commands.md names every
+command `./afm --help` lists; the README is read in five minutes (at most
+1,200 words, issue 45); docs/layout.md names folders that exist, and its
+move map says which moves are made.
 
 The format these tests read (docs/scenes.md says it too):
 
@@ -17,9 +19,14 @@ The format these tests read (docs/scenes.md says it too):
   (`sample.wire`, `objects.particles`). Rows elsewhere are not keys.
 - docs/scenes.md, section "## Effects": every table row whose first cell is
   one name in backticks is an effect.
-- README.md, section "## Commands": the commands are the backticked spans of
-  the table's first column; `\\|` in a span is an alternative
+- docs/commands.md, section "# Commands": the commands are the backticked
+  spans of the table's first column; `\\|` in a span is an alternative
   (`./afm bench firmware\\|sim` is `bench firmware` and `bench sim`).
+- README.md: its words are what `wc -w` counts (runs of non-blank characters).
+- docs/layout.md, section "## Folders": the first cell of each row is one
+  folder in backticks, from the checkout's top; section "## Planned moves":
+  each row is | from | to | status | why |, the backticked paths of "from"
+  are files or folders of the checkout, the status `planned` or `done`.
 
 The accepted keys come from the validator itself (common/scene.cpp,
 only_keys): a scene with a bogus key in a mapping is refused with
@@ -251,9 +258,9 @@ def help_commands():
     return cmds
 
 
-def readme_table_commands(readme_text):
+def table_commands(text):
     cmds = set()
-    for line in section(readme_text, "## Commands"):
+    for line in section(text, "# Commands"):
         if not line.startswith("|"):
             continue
         cells = re.split(r"(?<!\\)\|", line)
@@ -327,12 +334,13 @@ class SceneKeys(unittest.TestCase):
 
 
 class Commands(unittest.TestCase):
-    def test_readme_table_names_every_command_of_help(self):
+    def test_the_commands_table_names_every_command_of_help(self):
         listed = help_commands()
         for c in ("demo", "test", "run", "bench bus", "calib tilted", "--help"):
             self.assertIn(c, listed, "the usage text's parse")
-        table = readme_table_commands(open(os.path.join(SRC, "README.md")).read())
-        self.assertEqual(sorted(listed - table), [], "commands ./afm --help lists that README's commands table does not")
+        table = table_commands(open(os.path.join(SRC, "docs", "commands.md")).read())
+        self.assertIn("bench pil", table, "the table's parse")
+        self.assertEqual(sorted(listed - table), [], "commands ./afm --help lists that docs/commands.md's table does not")
 
     def test_one_help_file_per_command_read_by_afm_and_the_program(self):
         # docs/help/COMMAND.txt is what ./afm COMMAND --help prints (before
@@ -365,6 +373,61 @@ class Commands(unittest.TestCase):
         readme = open(os.path.join(SRC, "README.md")).read()
         self.assertIn("./afm demo", readme)
         self.assertIn("./afm test", readme)
+
+
+README_MAX_WORDS = 1200   # issue 45: a newcomer reads it in five minutes
+
+
+class Readme(unittest.TestCase):
+    def test_the_readme_is_at_most_1200_words(self):
+        words = len(open(os.path.join(SRC, "README.md")).read().split())
+        self.assertGreater(words, 300, "the README says what the bench is, the two commands, what a run writes")
+        self.assertLessEqual(words, README_MAX_WORDS,
+                             f"README.md: {words} words; move the detail into docs/ (docs/layout.md lists the pages)")
+
+    def test_it_links_to_the_pages_a_newcomer_needs(self):
+        readme = open(os.path.join(SRC, "README.md")).read()
+        for page in ("docs/commands.md", "docs/design.md", "docs/layout.md"):
+            self.assertIn(f"]({page}", readme, page)
+
+
+def layout_rows(heading):
+    """The rows of a table in docs/layout.md's section `heading`, as lists of cells."""
+    with open(os.path.join(SRC, "docs", "layout.md")) as f:
+        lines = section(f.read(), heading)
+    rows = [[c.strip() for c in l.strip().strip("|").split("|")] for l in lines if l.startswith("| ")]
+    return [r for r in rows if not set(r[0]) <= set("- ")][1:]   # the header row and the rule left out
+
+
+class Layout(unittest.TestCase):
+    def test_every_folder_named_exists(self):
+        rows = layout_rows("## Folders")
+        self.assertGreater(len(rows), 15, "the folder table's parse")
+        for row in rows:
+            m = re.fullmatch(r"`([^`]+/)`", row[0])
+            self.assertIsNotNone(m, f"docs/layout.md: a folder row's first cell is one folder in backticks: {row[0]!r}")
+            self.assertTrue(os.path.isdir(os.path.join(SRC, m.group(1))), f"docs/layout.md names {m.group(1)}, not a folder")
+        named = {re.fullmatch(r"`([^`]+)/`", r[0]).group(1) for r in rows}
+        tracked = subprocess.run(["git", "-C", SRC, "ls-files"], capture_output=True, text=True, timeout=60)
+        if tracked.returncode == 0:   # a checkout: every top-level folder of it has its row
+            tops = {p.split("/")[0] for p in tracked.stdout.splitlines() if "/" in p and not p.startswith(".")}
+            self.assertEqual(sorted(tops - named), [], "top-level folders docs/layout.md does not name")
+
+    def test_the_move_map_says_which_moves_are_made(self):
+        rows = layout_rows("## Planned moves")
+        self.assertGreater(len(rows), 5, "the move map's parse")
+        for row in rows:
+            self.assertEqual(len(row), 4, f"docs/layout.md: a move is | from | to | status | why |: {row}")
+            sources = re.findall(r"`([^`]+)`", row[0])
+            self.assertTrue(sources, f"docs/layout.md: a move names its source in backticks: {row[0]!r}")
+            self.assertIn(row[2], ("planned", "done"), row)
+            if row[2] == "planned":
+                for src in sources:
+                    self.assertTrue(os.path.exists(os.path.join(SRC, src)),
+                                    f"docs/layout.md: {src} is gone: the move is made, mark it done (and its target)")
+            else:
+                for dst in re.findall(r"`([^`]+)`", row[1]):
+                    self.assertTrue(os.path.exists(os.path.join(SRC, dst)), f"docs/layout.md: a done move's {dst} is not there")
 
 
 if __name__ == "__main__":

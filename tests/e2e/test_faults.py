@@ -20,7 +20,7 @@ class FaultMatrix(unittest.TestCase):
     def setUpClass(cls):
         cls.out = benchtest.tmpdir("faults")
         cls.p = subprocess.run([sys.executable, FAULTS, "--out", cls.out, "--quiet", "--only", *FAST], capture_output=True, text=True,
-                               timeout=900)
+                               timeout=benchtest.limit(600))
         path = os.path.join(cls.out, "faults.json")
         if not os.path.exists(path):
             raise AssertionError(f"tools/faults.py wrote no faults.json (exit {cls.p.returncode}):\n{cls.p.stdout}\n{cls.p.stderr}")

@@ -193,7 +193,7 @@ class Loops(unittest.TestCase):
     def test_the_afm_entry_point_routes_loops(self):
         files = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
         p = subprocess.run([AFM, "calib", "tilted", "--loops", *files, *map(str, flags())], capture_output=True, text=True,
-                           timeout=600)
+                           timeout=benchtest.limit(300))
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("mu = 0.08", p.stdout)
         self.assertIn("+-", p.stdout)

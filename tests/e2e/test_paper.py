@@ -19,9 +19,9 @@ ENV = dict(os.environ)
 from analysis.paper import cli, common  # noqa: E402
 
 
-def paper(*args, timeout=1200):
-    p = subprocess.run([PY, "-m", "analysis.paper", *args], capture_output=True, text=True, timeout=timeout, env=ENV,
-                       cwd=benchtest.SRC)
+def paper(*args, timeout=480):
+    p = subprocess.run([PY, "-m", "analysis.paper", *args], capture_output=True, text=True, timeout=benchtest.limit(timeout),
+                       env=ENV, cwd=benchtest.SRC)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -223,7 +223,7 @@ class SeededTruth(unittest.TestCase):
         out = benchtest.tmpdir("paper-seeded")
         self.addCleanup(benchtest.cleanup, out)
         p = subprocess.run([PY, "-m", "analysis.paper", "--only", "tilted", "--size", "reduced", "--truth", "seeded",
-                            "--seed", "3", "--out", out], capture_output=True, text=True, timeout=600, env=ENV,
+                            "--seed", "3", "--out", out], capture_output=True, text=True, timeout=benchtest.limit(300), env=ENV,
                            cwd=benchtest.SRC)
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         self.assertIn("seeded truth, seed 3", p.stderr)

@@ -6,6 +6,7 @@ import glob
 import json
 import os
 import re
+import select
 import shutil
 import subprocess
 import time
@@ -14,11 +15,28 @@ import unittest
 import benchtest
 
 
-def free_display():
-    for n in range(90, 140):
-        if not os.path.exists(f"/tmp/.X11-unix/X{n}") and not os.path.exists(f"/tmp/.X{n}-lock"):
-            return n
-    raise RuntimeError("no free X display number")
+def start_xvfb(wait_s=30):
+    """Xvfb on a free display: (process, display number), once it accepts
+    clients. -displayfd: Xvfb picks the display and writes its number on
+    the pipe when it is ready, which is the readiness this waits for."""
+    r, w = os.pipe()
+    p = subprocess.Popen(["Xvfb", "-displayfd", str(w), "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
+                         pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(w)
+    text, deadline = b"", time.monotonic() + benchtest.limit(wait_s)
+    try:
+        while not text.endswith(b"\n") and time.monotonic() < deadline:
+            if select.select([r], [], [], 0.5)[0]:
+                chunk = os.read(r, 64)
+                if not chunk:   # Xvfb ended without a display
+                    break
+                text += chunk
+    finally:
+        os.close(r)
+    if not text.endswith(b"\n"):
+        p.kill()
+        raise RuntimeError(f"Xvfb gave no display within {wait_s} s (exit {p.wait()})")
+    return p, int(text)
 
 
 class Spy(unittest.TestCase):
@@ -26,10 +44,7 @@ class Spy(unittest.TestCase):
     def setUpClass(cls):
         if not shutil.which("Xvfb"):
             raise unittest.SkipTest("Xvfb missing (./afm setup installs it)")
-        cls.display = free_display()
-        cls.xvfb = subprocess.Popen(["Xvfb", f":{cls.display}", "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(1.0)
+        cls.xvfb, cls.display = start_xvfb()
         cls.n_types = len(glob.glob(os.path.join(benchtest.SRC, "lcmtypes", "*.lcm")))
 
     @classmethod
@@ -44,7 +59,8 @@ class Spy(unittest.TestCase):
         env = dict(os.environ, DISPLAY=f":{self.display}", AFM_SPY_EXIT_AFTER_REPLAY="1",
                    AFM_TYPES_JAR=os.path.join(benchtest.BUILD, "lcmtypes", "afm_types.jar"))
         p = subprocess.run([benchtest.IN_NETNS, os.path.join(benchtest.SRC, "tools", "spy_replay.sh"),
-                            os.path.join(out, "bus.lcmlog"), "5"], env=env, capture_output=True, text=True, timeout=180)
+                            os.path.join(out, "bus.lcmlog"), "5"], env=env, capture_output=True, text=True,
+                           timeout=benchtest.limit(180))
         text = p.stdout + p.stderr
         self.assertEqual(p.returncode, 0, text[-2000:])
         m = re.search(r"Found (\d+) LCM types", text)
@@ -70,7 +86,7 @@ class Spy(unittest.TestCase):
                     break
         finally:
             p.send_signal(2)   # SIGINT: the launcher closes lcm-spy and ends
-            p.wait(timeout=60)
+            p.wait(timeout=benchtest.limit(60))
         text = "".join(lines)
         self.assertIn("lcm-spy listens on the bus; the run starts", text)
         self.assertLess(text.index("lcm-spy listens"), text.index("close lcm-spy to finish"), text)
