@@ -104,57 +104,66 @@ def calc_seeds():
     write("calc", "force_probe", "\n".join(CALC_PROBE) + "\n@probe\n" + probe)
 
 
-def bus_messages(afm):
-    """(channel, message) pairs: valid messages of every channel."""
-    n = 4   # samples per block of the lcm harness's scene
+N_SAMPLES = 4   # samples per block of the lcm harness's scene
 
-    def block(seq, y):
-        b = afm.analog_block_t()
-        b.utime, b.seq, b.fs_hz, b.n = seq * 1000, seq, 4000.0, n
-        b.sn_v = [0.5 + 0.01 * i for i in range(n)]
-        b.sl_v = [0.1] * n
-        b.piezo_x_nm = [0.0] * n
-        b.piezo_y_nm = [y + 0.5 * i for i in range(n)]
-        b.piezo_z_nm = [-20.0] * n
-        return b
 
-    def pose(seq, joy):
-        p = afm.haptic_pose_t()
-        p.utime, p.seq, p.joy, p.load_nN, p.engaged = seq * 1000, seq, joy, 5.0, True
-        return p
+def _block(afm, seq, y):
+    b = afm.analog_block_t()
+    n = N_SAMPLES
+    b.utime, b.seq, b.fs_hz, b.n = seq * 1000, seq, 4000.0, n
+    b.sn_v = [0.5 + 0.01 * i for i in range(n)]
+    b.sl_v = [0.1] * n
+    b.piezo_x_nm = [0.0] * n
+    b.piezo_y_nm = [y + 0.5 * i for i in range(n)]
+    b.piezo_z_nm = [-20.0] * n
+    return b
 
-    def particle(i, x, y):
-        p = afm.particle_t()
-        p.id, p.x_nm, p.y_nm, p.radius_nm, p.in_contact = i, x, y, 50.0, False
-        return p
 
-    def wire(i):
-        w = afm.wire_t()
-        w.id, w.n, w.x_nm, w.y_nm, w.diameter_nm, w.in_contact = i, 2, [-650.0, 650.0], [400.0, 400.0], 100.0, False
-        return w
+def _pose(afm, seq, joy):
+    p = afm.haptic_pose_t()
+    p.utime, p.seq, p.joy, p.load_nN, p.engaged = seq * 1000, seq, joy, 5.0, True
+    return p
 
-    def trench():
-        t = afm.trench_t()
-        t.id, t.n = 1, 3
-        t.x_nm, t.y_nm, t.depth_nm, t.width_nm = [0.0, 10.0, 20.0], [5.0] * 3, [40.0] * 3, [29.0] * 3
-        return t
 
-    def objects(seq, complete, with_trench=False):
-        o = afm.objects_t()
-        o.utime, o.seq, o.complete, o.base_seq, o.base_fix_id = seq * 1000, seq, complete, max(seq - 1, 0), 0
-        o.particles = [particle(1, 0.0, -300.0 + seq)]
-        o.wires = [wire(2)] if complete else []
-        o.trenches = [trench()] if with_trench else []
-        o.n_particles, o.n_wires, o.n_trenches = len(o.particles), len(o.wires), len(o.trenches)
-        o.drift_nm = [0.0, 0.0]
-        o.fix_id = 0
-        return o
+def _particle(afm, i, x, y):
+    p = afm.particle_t()
+    p.id, p.x_nm, p.y_nm, p.radius_nm, p.in_contact = i, x, y, 50.0, False
+    return p
 
-    def fix(fix_id, kind):
-        f = afm.object_fix_t()
-        f.utime, f.fix_id, f.object_id, f.scan_x_nm, f.scan_y_nm, f.kind = 40000, fix_id, 1, 20.0, -310.0, kind
-        return f
 
+def _wire(afm, i):
+    w = afm.wire_t()
+    w.id, w.n, w.x_nm, w.y_nm, w.diameter_nm, w.in_contact = i, 2, [-650.0, 650.0], [400.0, 400.0], 100.0, False
+    return w
+
+
+def _trench(afm):
+    t = afm.trench_t()
+    t.id, t.n = 1, 3
+    t.x_nm, t.y_nm, t.depth_nm, t.width_nm = [0.0, 10.0, 20.0], [5.0] * 3, [40.0] * 3, [29.0] * 3
+    return t
+
+
+def _objects(afm, seq, complete, with_trench=False):
+    o = afm.objects_t()
+    o.utime, o.seq, o.complete, o.base_seq, o.base_fix_id = seq * 1000, seq, complete, max(seq - 1, 0), 0
+    o.particles = [_particle(afm, 1, 0.0, -300.0 + seq)]
+    o.wires = [_wire(afm, 2)] if complete else []
+    o.trenches = [_trench(afm)] if with_trench else []
+    o.n_particles, o.n_wires, o.n_trenches = len(o.particles), len(o.wires), len(o.trenches)
+    o.drift_nm = [0.0, 0.0]
+    o.fix_id = 0
+    return o
+
+
+def _fix(afm, fix_id, kind):
+    f = afm.object_fix_t()
+    f.utime, f.fix_id, f.object_id, f.scan_x_nm, f.scan_y_nm, f.kind = 40000, fix_id, 1, 20.0, -310.0, kind
+    return f
+
+
+def _scan_messages(afm):
+    """The card's command, a scan request and one of its lines."""
     cmd = afm.tip_cmd_t()
     cmd.utime, cmd.ack_seq, cmd.piezo_x_nm, cmd.piezo_y_nm, cmd.load_nN, cmd.engaged = 1000, 0, 0.0, -698.0, 5.0, True
     req = afm.scan_req_t()
@@ -165,23 +174,30 @@ def bus_messages(afm):
     line.height_nm = [0.1 * i for i in range(8)]
     line.defl_v = [0.0] * 8
     line.lat_v = [0.01] * 8
+    return cmd, req, line
+
+
+def _state_messages(afm):
+    """Two FW_STATEs (whole objects, then changes with a trench), HAPTIC_FORCE and SIM_TRUTH."""
     state = afm.fw_state_t()
     state.utime, state.seq, state.force_nN, state.flags, state.sn_code, state.sl_code, state.sat_count = 1000, 0, [1.0, -2.0, 5.0], 32, 1200, -40, 0
     state.tip_nm, state.piezo_nm, state.cmd_nm = [0.0, -699.0, -20.0], [0.0, -698.0, -20.0], [0.0, -698.0]
-    state.objects = objects(0, True)
+    state.objects = _objects(afm, 0, True)
     state1 = copy.deepcopy(state)
-    state1.utime, state1.seq, state1.objects = 1000, 1, objects(1, False, True)
+    state1.utime, state1.seq, state1.objects = 1000, 1, _objects(afm, 1, False, True)
     hf = afm.haptic_force_t()
     hf.utime, hf.seq, hf.force_N, hf.tip_force_nN, hf.flags = 1000, 0, [0.0, 0.1, 0.0], [1.0, -2.0, 5.0], 0
     truth = afm.sim_truth_t()
     truth.utime, truth.seq, truth.tip_nm, truth.piezo_nm, truth.force_nN = 1000, 1, [0.0, -699.0, -20.0], [0.0, -698.0, -20.0], [1.0, 0.0, 5.0]
-    truth.objects = objects(1, False)
-    frame = afm.render_frame_t()
-    frame.utime, frame.index, frame.seq = 40000, 1, 39
+    truth.objects = _objects(afm, 1, False)
+    return state, state1, hf, truth
+
+
+def _view_frame(afm):
     view = afm.view_frame_t()
     view.utime, view.index, view.frames_total, view.seq, view.skipped, view.width, view.height = 40000, 1, 15, 39, 0, 2, 2
     view.field_nm, view.tip_nm, view.force_nN, view.hand_N, view.flags = [-2500.0, -2500.0, 5000.0], [0.0, -699.0], [1.0, -2.0, 5.0], [0.0, 0.1, 0.0], 32
-    view.particles = [particle(1, 0.0, -300.0)]
+    view.particles = [_particle(afm, 1, 0.0, -300.0)]
     view.n_particles = 1
     view.sample_utime = [39000, 40000]
     view.sample_fx_nN, view.sample_fy_nN, view.sample_fz_nN = [1.0] * 2, [-2.0] * 2, [5.0] * 2
@@ -189,16 +205,25 @@ def bus_messages(afm):
     view.n_samples = 2
     view.jpeg = b"\xff\xd8\xff\xd9"
     view.n_jpeg = len(view.jpeg)
+    return view
+
+
+def bus_messages(afm):
+    """(channel, message) pairs: valid messages of every channel."""
+    cmd, req, line = _scan_messages(afm)
+    state, state1, hf, truth = _state_messages(afm)
+    frame = afm.render_frame_t()
+    frame.utime, frame.index, frame.seq = 40000, 1, 39
     hb = afm.heartbeat_t()
     hb.utime, hb.name, hb.pid, hb.state, hb.seq, hb.sim_utime, hb.detail = 1700000000000000, "fw_node", 42, "running", 3, 4000, "ok"
     return [
-        ("AFM_ANALOG", block(0, -700.0)), ("AFM_ANALOG", block(1, -698.0)),
+        ("AFM_ANALOG", _block(afm, 0, -700.0)), ("AFM_ANALOG", _block(afm, 1, -698.0)),
         ("AFM_CMD", cmd), ("AFM_SCAN_REQ", req), ("AFM_SCAN_LINE", line),
         ("FW_STATE", state), ("FW_STATE", state1),
-        ("HAPTIC_POSE", pose(0, [0.0, -0.1, 0.0])), ("HAPTIC_POSE", pose(0, [0.5, 0.5, 0.0])),
+        ("HAPTIC_POSE", _pose(afm, 0, [0.0, -0.1, 0.0])), ("HAPTIC_POSE", _pose(afm, 0, [0.5, 0.5, 0.0])),
         ("HAPTIC_FORCE", hf), ("SIM_TRUTH", truth), ("RENDER_FRAME", frame), ("AFM_HEARTBEAT", hb),
-        ("VIEW_FRAME", view),
-        ("HOST_OBJECT_FIX", fix(1, 0)), ("HOST_OBJECT_FIX", fix(1, 1)),
+        ("VIEW_FRAME", _view_frame(afm)),
+        ("HOST_OBJECT_FIX", _fix(afm, 1, 0)), ("HOST_OBJECT_FIX", _fix(afm, 1, 1)),
     ]
 
 
