@@ -21,9 +21,14 @@
 #   (colon-separated: for commands that name them otherwise) and
 #   AFM_LINK_DIR; after, whatever the outcome (a signal too, which is passed
 #   on to the command), they are given back to root (by the last run that
-#   holds them), and those made for the run and left empty are removed. If
-#   the run's user cannot reach them or CMD, the run keeps uid 0 (still
-#   without capabilities) and says why on stderr.
+#   holds them; run_user.sh take removes and names every link, pipe, device
+#   and hard link left in them), and those made for the run and left empty
+#   are removed. When the command is afm_launch (or holds it among its
+#   arguments), it is first asked (--check) whether it takes --out DIR: a
+#   folder it refuses is never handed over. If the run's user cannot reach
+#   the folders or CMD, the run is refused with one line on stderr (exit 2),
+#   unless AFM_ALLOW_UID_0=1 (./afm run --allow-uid-0): then it keeps uid 0
+#   (still without capabilities).
 # Exports AFM_NETNS_MODE (run.json "netns"): rootless (not root); user:UID
 # or root:UID (root, in a user namespace or not, the run as uid UID).
 set -euo pipefail
@@ -77,21 +82,39 @@ remove_made_empty() {   # what was made for the run and is still empty, up to th
   done
 }
 
+# A launcher is asked first whether it takes its --out (a folder that holds
+# something not a run's is refused before anything changes hands).
+for i in $(seq 1 $#); do
+  if [ "$(basename -- "${!i}")" = afm_launch ]; then
+    "${@:i}" --check --quiet || exit $?
+    break
+  fi
+done
+
 # The run's user must reach CMD (a path) and drop_caps.sh, and each folder.
 reach=(--reach "$here/drop_caps.sh")
 [[ $1 != */* ]] || reach+=(--reach "$1")
-# If it cannot, the run is made as it is made without root (unshare -rn: root
+# If it cannot (give exits 3), the run is refused in one line, whatever
+# stderr is, as when give refuses a folder (exit 2); with
+# AFM_ALLOW_UID_0=1 it is made as it is made without root (unshare -rn: root
 # in a user namespace of its own, no capabilities once drop_caps.sh has run),
 # run.json's netns says "rootless:kept-uid-0", and the reason goes to stderr
-# when that is a terminal (or AFM_PRIVILEGE_WARNINGS=1): the command's own
-# errors stay one line for the scripts that read them.
-if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
-  why=$ids
-  if [ -t 2 ] || [ "${AFM_PRIVILEGE_WARNINGS:-0}" = 1 ]; then
-    echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
-  fi
-  "$here/run_user.sh" take "${writes[@]}" 2>/dev/null || true
+# when that is a terminal (or AFM_PRIVILEGE_WARNINGS=1). Nothing was handed
+# over (give checks before it chowns), so nothing is taken back.
+gave=0
+ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1) || gave=$?
+if [ "$gave" != 0 ]; then
+  why=${ids#run_user: }
+  why=${why//$'\n'/; }
   remove_made_empty
+  [ "$gave" = 3 ] || { echo "in_netns: refused: $why" >&2; exit 2; }   # not a question of reach: no uid 0 either
+  if [ "${AFM_ALLOW_UID_0:-0}" != 1 ]; then
+    echo "in_netns: refused: the run would keep uid 0: $why; put the checkout and the run's folders where the run's user reaches them, or allow it (./afm run --allow-uid-0, AFM_ALLOW_UID_0=1; docs/design.md, \"Least privilege\")" >&2
+    exit 2
+  fi
+  if [ -t 2 ] || [ "${AFM_PRIVILEGE_WARNINGS:-0}" = 1 ]; then
+    echo "in_netns: warning: the run keeps uid 0 (without capabilities, as AFM_ALLOW_UID_0=1 allows): $why (docs/design.md, \"Least privilege\")" >&2
+  fi
   if unshare -rn true 2>/dev/null; then
     AFM_NETNS_MODE=rootless:kept-uid-0 exec unshare -rn sh -c "$inner" "$drop" "$@"
   fi

@@ -318,6 +318,23 @@ class Launch {
 public:
     explicit Launch(Options o) : o_(std::move(o)) {}
 
+    // -1 when --out is a folder a run may take (none, a run's, or new); else
+    // 2, said. --check with --out asks only this of the folder, before
+    // tools/in_netns.sh hands it to the run's user (issue 46).
+    int check_out() const
+    {
+        const fs::path dir = o_.out_dir;
+        std::error_code ec;
+        if (dir.empty() || !fs::exists(dir, ec)) return -1;
+        if (!fs::is_directory(fs::symlink_status(dir, ec)) ||
+            (!only_a_lock(dir) && !fs::exists(dir / "run.json", ec) && !fs::exists(dir / "bus.lcmlog", ec))) {
+            std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
+                         o_.out_dir.c_str());
+            return 2;
+        }
+        return -1;
+    }
+
     // 1. The scene and the card's acceptance, before anything starts.
     int check_scene()
     {
@@ -374,11 +391,7 @@ public:
             if (fs::exists(dir) && fs::is_directory(dir)) {
                 if (const int code = lock_out(dir); code >= 0) return code;
             }
-            if (fs::exists(dir) && !only_a_lock(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
-                std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
-                             o_.out_dir.c_str());
-                return 2;
-            }
+            if (const int code = check_out(); code >= 0) return code;
             fs::create_directories(dir);
             if (lock_fd_ < 0)
                 if (const int code = lock_out(dir); code >= 0) return code;
