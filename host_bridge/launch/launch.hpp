@@ -332,7 +332,18 @@ public:
                          o_.out_dir.c_str());
             return 2;
         }
-        return -1;
+        // a run under way in it (its lock held): named here too (--check),
+        // the lock opened read-only, no link followed, never created; not
+        // when this run holds it already (prepare)
+        if (lock_fd_ >= 0) return -1;
+        const std::string path = (dir / kLockName).string();
+        const int fd = open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+        if (fd < 0) return -1;
+        struct stat st {};
+        const bool busy = fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && flock(fd, LOCK_SH | LOCK_NB) != 0;
+        if (busy) say_in_use(fd, path);
+        close(fd);
+        return busy ? 2 : -1;
     }
 
     // 1. The scene and the card's acceptance, before anything starts.
@@ -768,6 +779,17 @@ private:
         return true;
     }
 
+    // "in use by another run", naming the pid its lock (fd, at path) holds.
+    void say_in_use(int fd, const std::string &path) const
+    {
+        char holder[64] = {0};
+        const ssize_t n = pread(fd, holder, sizeof holder - 1, 0);
+        std::string who(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
+        while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
+        std::fprintf(stderr, "afm_launch: output folder %s is in use by another run (%s; its lock %s); choose another --out\n",
+                     o_.out_dir.c_str(), who.empty() ? "pid unknown" : who.c_str(), path.c_str());
+    }
+
     // -1 when the folder is ours now; else the exit code, said.
     int lock_out(const fs::path &dir)
     {
@@ -778,12 +800,7 @@ private:
             return 2;
         }
         if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
-            char holder[64] = {0};
-            const ssize_t n = pread(lock_fd_, holder, sizeof holder - 1, 0);
-            std::string who(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
-            while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
-            std::fprintf(stderr, "afm_launch: output folder %s is in use by another run (%s; its lock %s); choose another --out\n",
-                         o_.out_dir.c_str(), who.empty() ? "pid unknown" : who.c_str(), path.c_str());
+            say_in_use(lock_fd_, path);
             return 2;
         }
         const std::string me = "pid " + std::to_string(getpid()) + "\n";
