@@ -30,6 +30,15 @@ with the folder afterwards goes through here:
                             is removed (each named in the returned list),
                             every other file made the caller's, without
                             group or other write, setuid or setgid bits.
+  write_digests(dfd)        digests.json in the folder: the SHA-256 of every
+                            regular file under it (report.html, being
+                            rewritten, and digests.json aside), computed once
+                            it is given back (./afm run), so that a file
+                            altered since is found (issue 46, item 9)
+  check_digests(dfd, rels)  Refused, naming the file and both digests, when
+                            one of `rels` differs from what digests.json
+                            recorded; None when it holds none of them (a run
+                            made before), else the number checked
 
 Started as root, a folder on the way (the run folder and each one under it)
 must be root's and closed to others' writes, and a file must have no other
@@ -40,8 +49,12 @@ to lose). A Refused is a ValueError with a one-line message.
     python -m analysis.safefs take DIR...          give_back, one line per removal (stderr)
     python -m analysis.safefs check DIR FILE...    exit 2 with one line unless each FILE under DIR passes open_file
     python -m analysis.safefs mkdir DIR SUB        make_dir; exit 2 with one line when refused
+    python -m analysis.safefs digest DIR           write_digests
+    python -m analysis.safefs verify DIR FILE...   check_digests; exit 2 with one line when one was altered
 """
 import errno
+import hashlib
+import json
 import os
 import stat
 import sys
@@ -281,6 +294,61 @@ def give_back(path, uid=None, gid=None):
     return removed
 
 
+DIGESTS = "digests.json"
+UNDIGESTED = {DIGESTS, "report.html"}
+
+
+def _sha256(dfd, rel, shown):
+    h = hashlib.sha256()
+    with os.fdopen(open_file(dfd, rel, shown), "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _files(dfd, prefix=""):
+    """The relative paths of the regular files under `dfd` (links and the rest left out)."""
+    out = []
+    for e in os.scandir(dfd):
+        rel = prefix + e.name
+        if e.is_dir(follow_symlinks=False):
+            sub = os.open(e.name, _DIR, dir_fd=dfd)
+            try:
+                out += _files(sub, rel + "/")
+            finally:
+                os.close(sub)
+        elif e.is_file(follow_symlinks=False) and not (prefix == "" and (e.name in UNDIGESTED or e.name.startswith("."))):
+            out.append(rel)
+    return out
+
+
+def write_digests(dfd, shown=""):
+    """digests.json (see the module's contract); the number of files."""
+    sums = {rel: _sha256(dfd, rel, shown) for rel in sorted(_files(dfd))}
+    write_atomic(dfd, DIGESTS, json.dumps({"sha256": sums}, indent=1) + "\n", shown)
+    return len(sums)
+
+
+def check_digests(dfd, rels, shown=""):
+    """See the module's contract."""
+    if not is_file(dfd, DIGESTS):
+        return None
+    try:
+        sums = json.loads(read_bytes(dfd, DIGESTS, shown))["sha256"]
+    except (ValueError, KeyError, TypeError) as e:
+        raise Refused(f"{os.path.join(shown, DIGESTS)}: unreadable ({e}): the run's record cannot be checked") from None
+    n = 0
+    for rel in rels:
+        if rel not in sums:
+            continue
+        have = _sha256(dfd, rel, shown) if is_file(dfd, rel) else "missing"
+        if have != sums[rel]:
+            raise Refused(f"{os.path.join(shown, rel)}: altered since the run: sha256 {have}, "
+                          f"{DIGESTS} recorded {sums[rel]}")
+        n += 1
+    return n
+
+
 def _say(msg):
     print(msg.replace("\n", " "), file=sys.stderr)
 
@@ -300,13 +368,20 @@ def main(argv=None):
                 if is_file(fd, rel):
                     os.close(open_file(fd, rel, argv[1]))
             return 0
+        if argv[:1] == ["digest"] and len(argv) == 2:
+            write_digests(open_dir(argv[1]), argv[1])
+            return 0
+        if argv[:1] == ["verify"] and len(argv) >= 3:
+            if check_digests(open_dir(argv[1]), argv[2:], argv[1]) is None:
+                _say(f"safefs: {argv[1]}: no {DIGESTS} (a run made before digests): not checked")
+            return 0
         if argv[:1] == ["mkdir"] and len(argv) == 3:
             os.close(make_dir(open_dir(argv[1]), argv[2], argv[1]))
             return 0
     except (Refused, OSError) as e:
         _say(f"safefs: {e}")
         return 2
-    _say("usage: python -m analysis.safefs take DIR... | check DIR FILE... | mkdir DIR SUB")
+    _say("usage: python -m analysis.safefs take DIR... | check DIR FILE... | mkdir DIR SUB | digest DIR | verify DIR FILE...")
     return 2
 
 
