@@ -14,14 +14,21 @@ Writes DIR/compare.md (a table: blocks compared, blocks that differ, the
 first, the largest and the RMS difference, per quantity) and
 DIR/compare.png (the differences over simulated time), and prints the
 table. Exit 0 when nothing differs, 1 when something does, 2 when a log
-cannot be read or holds no FW_STATE."""
+cannot be read or holds no FW_STATE.
+
+Every file is opened, and each output written, through analysis/safefs.py
+(no link followed, no pipe waited on, outputs through a temporary file of
+its own): started as root, the run folder holds what a run's user wrote. A
+refused file is named in one line, exit 2."""
 import argparse
 import os
 import sys
 
+import io
+
 import numpy as np
 
-from analysis import afmlog
+from analysis import afmlog, safefs
 
 
 def states(path):
@@ -82,7 +89,7 @@ def render(rows):
     return head + "".join(f"| {n} | {b} | {k} | {'-' if f is None else f} | {m:.6g} | {r:.6g} |\n" for n, b, k, f, m, r in rows)
 
 
-def plot(out, seqs, diffs, block_hz):
+def plot(out, out_fd, seqs, diffs, block_hz):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -105,10 +112,26 @@ def plot(out, seqs, diffs, block_hz):
     axs[1].legend(fontsize=7)
     axs[0].set_title("The firmware as built now against the recording, block by block", fontsize=10)
     fig.tight_layout()
-    path = os.path.join(out, "compare.png")
-    fig.savefig(path, dpi=110)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
-    return path
+    safefs.write_atomic(out_fd, "compare.png", buf.getvalue(), out)
+    return os.path.join(out, "compare.png")
+
+
+def _checked(path):
+    """A log's path once safefs passed it: (its folder's descriptor, the path to read)."""
+    d = os.path.dirname(os.path.abspath(path))
+    fd = safefs.open_dir(d)
+    return fd, safefs.checked(fd, os.path.basename(path), d)
+
+
+def _block_hz(rec_fd):
+    """The block rate of the run's scene.yaml beside the recording (1000 without one)."""
+    if not safefs.is_file(rec_fd, "scene.yaml"):
+        return 1000.0
+    import yaml
+    return float((yaml.safe_load(safefs.read_bytes(rec_fd, "scene.yaml")) or {}).get("block_hz", 1000.0))
 
 
 def main(argv=None):
@@ -119,24 +142,25 @@ def main(argv=None):
     ap.add_argument("--block-hz", type=float, default=None,
                     help="the scene's block rate, for the time axis (default: the run's scene.yaml beside the recording, else 1000)")
     a = ap.parse_args(argv)
-    if a.block_hz is None:
-        a.block_hz = 1000.0
-        scene = os.path.join(os.path.dirname(os.path.abspath(a.recorded)), "scene.yaml")
-        if os.path.exists(scene):
-            import yaml
-            with open(scene) as f:
-                a.block_hz = float((yaml.safe_load(f) or {}).get("block_hz", 1000.0))
-    try:
-        seqs, diffs = differences(states(a.recorded), states(a.replayed))
+    names = {}   # the paths read -> the paths given, for messages
+    try:   # safefs.Refused is a ValueError
+        (rec_fd, recorded), (_, replayed) = _checked(a.recorded), _checked(a.replayed)
+        names = {recorded: a.recorded, replayed: a.replayed}
+        if a.block_hz is None:
+            a.block_hz = _block_hz(rec_fd)
+        seqs, diffs = differences(states(recorded), states(replayed))
+        os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
+        out_fd = safefs.make_dir(safefs.open_dir(os.path.dirname(os.path.abspath(a.out))), os.path.basename(os.path.abspath(a.out)), a.out)
+        rows = table(seqs, diffs)
+        text = render(rows)
+        safefs.write_atomic(out_fd, "compare.md", f"# Replay against the recording\n\nrecorded: `{a.recorded}`\nreplayed: `{a.replayed}`\n\n{text}", a.out)
+        png = plot(a.out, out_fd, seqs, diffs, a.block_hz)
     except (ValueError, OSError) as e:
-        print(f"compare: {e}", file=sys.stderr)
+        msg = str(e)
+        for path, given in names.items():
+            msg = msg.replace(path, given)
+        print(f"compare: {msg}", file=sys.stderr)
         return 2
-    os.makedirs(a.out, exist_ok=True)
-    rows = table(seqs, diffs)
-    text = render(rows)
-    with open(os.path.join(a.out, "compare.md"), "w") as f:
-        f.write(f"# Replay against the recording\n\nrecorded: `{a.recorded}`\nreplayed: `{a.replayed}`\n\n{text}")
-    png = plot(a.out, seqs, diffs, a.block_hz)
     print(text, end="")
     print(f"compare: {os.path.join(a.out, 'compare.md')}, {png}")
     return 1 if any(r[2] for r in rows) else 0

@@ -20,6 +20,13 @@ package's one reader; contact_sheet.png, fidelity_diff.png, video.*):
     account (run.json "operator"), and the costs (wall and CPU time per
     process).
 A run that failed still gets a page with what it left.
+
+Every file of the run folder is read, and the page written, through
+analysis/safefs.py (the folder opened once; no link followed at any level,
+no pipe waited on, the page written through a temporary file of its own):
+started as root, this reads what a run's user wrote. A file refused there
+(a link, a pipe, a device, a file with another hard link) is left out and
+named on the page, under "Refused".
 """
 import argparse
 import base64
@@ -29,6 +36,8 @@ import os
 import sys
 
 import numpy as np
+
+from analysis import safefs
 
 MAX_OBJECTS = 6
 VIDEO_MAX_BYTES = 40 << 20
@@ -52,9 +61,37 @@ def _png(fig):
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
 
 
-def _file_uri(path, mime):
-    with open(path, "rb") as f:
-        return f"data:{mime};base64," + base64.b64encode(f.read()).decode()
+class Folder:
+    """The run folder as opened once (safefs.open_dir), and what of it was refused."""
+
+    def __init__(self, path):
+        self.path, self.fd, self.refused = path, safefs.open_dir(path), []
+
+    def read(self, name, limit=None):
+        """A file's bytes, or None when it is missing, refused (named in
+        self.refused) or larger than `limit`."""
+        if not safefs.is_file(self.fd, name):
+            return None
+        try:
+            data = safefs.read_bytes(self.fd, name, self.path, None if limit is None else limit + 1)
+        except (safefs.Refused, OSError) as e:
+            self.refused.append(str(e))
+            return None
+        return data if limit is None or len(data) <= limit else None
+
+    def checked(self, name):
+        """The path of a file for a reader that takes one (safefs.checked), or None."""
+        if not safefs.is_file(self.fd, name):
+            return None
+        try:
+            return safefs.checked(self.fd, name, self.path)
+        except (safefs.Refused, OSError) as e:
+            self.refused.append(str(e))
+            return None
+
+
+def _file_uri(data, mime):
+    return f"data:{mime};base64," + base64.b64encode(data).decode()
 
 
 def _force_and_apex(run):
@@ -168,21 +205,21 @@ def _video_note(info, name):
     return f"{name}: {v.get('codec', 'codec not recorded')}"
 
 
-def _media(run_dir, info):
+def _media(folder, info):
     parts = []
     ren = info.get("renderer") or {}
     cap = ren.get("label_cap_px")
     width = video_width_px(ren.get("image_px"), cap)
     cap_attr = f' data-label-cap-px="{int(cap)}"' if cap else ""
     for name, mime in (("video.mp4", "video/mp4"), ("video.webm", "video/webm"), ("video.avi", "video/x-msvideo")):
-        path = os.path.join(run_dir, name)
-        if os.path.exists(path) and 0 < os.path.getsize(path) <= VIDEO_MAX_BYTES:
+        data = folder.read(name, VIDEO_MAX_BYTES)
+        if data:
             parts.append(f'<h2>Video</h2><video id="run-video" controls muted playsinline preload="auto" width="{width}"{cap_attr} '
-                         f'src="{_file_uri(path, mime)}"></video>'
+                         f'src="{_file_uri(data, mime)}"></video>'
                          f'<p class="note">{html.escape(_video_note(info, name))}</p>')
             break
-    sheet = os.path.join(run_dir, "contact_sheet.png")
-    if os.path.exists(sheet):   # at its own size (scrolled if wider than the page): its frames' labels as drawn
+    sheet = folder.read("contact_sheet.png")
+    if sheet is not None:   # at its own size (scrolled if wider than the page): its frames' labels as drawn
         parts.append(f'<h2>Contact sheet</h2><div class="wide"><img class="natural" alt="contact sheet"{cap_attr} '
                      f'src="{_file_uri(sheet, "image/png")}"></div>')
     return "".join(parts)
@@ -197,41 +234,62 @@ video { image-rendering: pixelated; background: #000; }
 .wide { overflow-x: auto; } img.natural { max-width: none; }"""
 
 
-def render(run_dir):
-    """The page's HTML text."""
-    from analysis.runs import open_run, read_info
+def _open(folder):
+    """(Run or None, run.json as a dict): the log and run.json read through
+    paths safefs checked first."""
+    from analysis.runs import open_run
+    info_text = folder.read("run.json")
     try:
-        run = open_run(run_dir)
-        info = run.info
+        info = json.loads(info_text) if info_text is not None else {}
+    except ValueError as e:
+        info = {"status": "unreadable", "error": f"run.json is not JSON: {e}"}
+    if folder.checked("bus.lcmlog") is None:
+        info.setdefault("error", "its log is missing or was refused")
+        return None, info
+    try:
+        run = open_run(f"/proc/self/fd/{folder.fd}")
+        return run, run.info
     except Exception as e:   # a run cut short: what run.json says, and why there is no more
-        run, info = None, read_info(run_dir)
         info.setdefault("error", f"its log does not read: {e}")
+        return None, info
+
+
+def render(run_dir, folder=None):
+    """The page's HTML text."""
+    folder = folder or Folder(run_dir)
+    run, info = _open(folder)
     figs = (_force_and_apex(run) + [f for f in [_objects(run)] if f]) if run else []
     fid = info.get("fidelity") or {}
-    diff = os.path.join(run_dir, "fidelity_diff.png")
-    body = [f"<h1>Run {html.escape(str(info.get('scene_name', os.path.basename(run_dir))))}</h1>",
+    diff = folder.read("fidelity_diff.png")
+    body = [f"<h1>Run {html.escape(str(info.get('scene_name', os.path.basename(os.path.abspath(run_dir)))))}</h1>",
             f'<p class="note">{html.escape(os.path.abspath(run_dir))}; scene {html.escape(str(info.get("scene", "")))}</p>',
-            _verdict_html(info), _media(run_dir, info)]
+            _verdict_html(info), _media(folder, info)]
     body += [f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="{uri}">' for t, uri in figs]
     body.append("<h2>Fidelity: the display against a fresh scan</h2>" + _table({k: v for k, v in fid.items() if k != "objects"}))
-    if os.path.exists(diff):
+    if diff is not None:
         fcap = (info.get("renderer") or {}).get("fidelity_label_cap_px")
         attr = f' data-label-cap-px="{int(fcap)}"' if fcap else ""
         body.append(f'<div class="wide"><img class="natural" alt="fidelity difference"{attr} src="{_file_uri(diff, "image/png")}"></div>')
     body.append("<h2>The card's configuration</h2>" + _table(info.get("card")))
     body.append("<h2>The planner's or the hand's account</h2>" + _table(info.get("operator")))
     body.append("<h2>Costs</h2>" + _table(_costs(info)))
+    if folder.refused:
+        body.append('<h2>Refused</h2><ul class="bad">' + "".join(f"<li>{html.escape(r)}</li>" for r in folder.refused) + "</ul>")
     return ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>run report</title>"
             f"<style>{CSS}</style></head><body>" + "\n".join(body) + "</body></html>")
 
 
 def write(run_dir, out=None):
-    out = out or os.path.join(run_dir, "report.html")
-    text = render(run_dir)
-    with open(out + ".tmp", "w") as f:
-        f.write(text)
-    os.replace(out + ".tmp", out)
-    return out
+    """The page into `out` (default RUN_DIR/report.html), through
+    safefs.write_atomic; the path, and what was refused."""
+    folder = Folder(run_dir)
+    text = render(run_dir, folder)
+    if out is None:
+        out, dfd = os.path.join(run_dir, "report.html"), folder.fd
+    else:
+        dfd = safefs.open_dir(os.path.dirname(os.path.abspath(out)))
+    safefs.write_atomic(dfd, os.path.basename(out), text, os.path.dirname(out))
+    return out, folder.refused
 
 
 def main(argv=None):
@@ -239,10 +297,17 @@ def main(argv=None):
     ap.add_argument("run_dir", help="a run folder (with run.json)")
     ap.add_argument("--out", help="the page (default RUN_DIR/report.html)")
     a = ap.parse_args(argv)
-    if not os.path.isfile(os.path.join(a.run_dir, "run.json")):
-        print(f"run_report: {a.run_dir}: no run.json (not a run folder)", file=sys.stderr)
+    try:
+        if not safefs.is_file(safefs.open_dir(a.run_dir), "run.json"):
+            print(f"run_report: {a.run_dir}: no run.json (not a run folder)", file=sys.stderr)
+            return 2
+        out, refused = write(a.run_dir, a.out)
+    except (safefs.Refused, OSError) as e:
+        print(f"run_report: {e}", file=sys.stderr)
         return 2
-    print(f"run: report in {write(a.run_dir, a.out)}")
+    for r in refused:
+        print(f"run_report: {r}", file=sys.stderr)
+    print(f"run: report in {out}")
     return 0
 
 

@@ -11,14 +11,21 @@
 # and gid with no supplementary groups, unless it is that uid already. Both
 # are removed from CMD's environment, so a command CMD starts through this
 # script again only drops capabilities.
+# Every command runs under rlimits (prlimit): at most LIMIT_NPROC processes
+# of its uid, files of at most LIMIT_FSIZE bytes, LIMIT_DATA bytes of data
+# segment per process; tools/drop_caps.sh --limits prints them as run.json's
+# netns names them ("nproc=N,fsize=B,data=B").
 # AFM_KEEP_CAPS=net_admin,net_raw keeps those as ambient capabilities, for
 # the link and fault helper (afm_netfault) alone: ./afm faults sets it for
 # that row and runs the launcher beside it through this script again,
 # without it.
 set -eu
+LIMIT_NPROC=4096 LIMIT_FSIZE=$((16 << 30)) LIMIT_DATA=$((16 << 30))
+[ "${1:-}" != --limits ] || { echo "nproc=$LIMIT_NPROC,fsize=$LIMIT_FSIZE,data=$LIMIT_DATA"; exit 0; }
 [ $# -ge 1 ] || { echo "usage: tools/drop_caps.sh CMD [ARGS...]" >&2; exit 2; }
 command -v setpriv >/dev/null || { echo "drop_caps: setpriv not found (util-linux)" >&2; exit 2; }
 keep=${AFM_KEEP_CAPS:-}
+limits="prlimit --nproc=$LIMIT_NPROC --fsize=$LIMIT_FSIZE --data=$LIMIT_DATA --"
 uid=${AFM_RUN_UID:-} gid=${AFM_RUN_GID:-}
 unset AFM_KEEP_CAPS AFM_RUN_UID AFM_RUN_GID
 user=""
@@ -33,7 +40,7 @@ eff=$(awk '/^CapEff/ {print $2}' /proc/self/status)
 sec=""
 [ $(( 0x$eff >> 8 & 1 )) = 1 ] && sec="--securebits=+noroot,+noroot_locked,+no_setuid_fixup,+no_setuid_fixup_locked"
 if [ -z "$keep" ]; then
-  exec setpriv $user --no-new-privs $sec --inh-caps=-all --ambient-caps=-all --bounding-set=-all -- "$@"
+  exec setpriv $user --no-new-privs $sec --inh-caps=-all --ambient-caps=-all --bounding-set=-all -- $limits "$@"
 fi
 caps="-all,+$(echo "$keep" | sed 's/,/,+/g')"
-exec setpriv $user $sec --inh-caps="$caps" --ambient-caps="$caps" --bounding-set="$caps" -- "$@"
+exec setpriv $user $sec --inh-caps="$caps" --ambient-caps="$caps" --bounding-set="$caps" -- $limits "$@"

@@ -21,11 +21,22 @@
 #   (colon-separated: for commands that name them otherwise) and
 #   AFM_LINK_DIR; after, whatever the outcome (a signal too, which is passed
 #   on to the command), they are given back to root (by the last run that
-#   holds them), and those made for the run and left empty are removed. If
-#   the run's user cannot reach them or CMD, the run keeps uid 0 (still
-#   without capabilities) and says why on stderr.
+#   holds them; run_user.sh take removes and names every link, pipe, device
+#   and hard link left in them), and those made for the run and left empty
+#   are removed. When the command is afm_launch (or holds it among its
+#   arguments), it is first asked (--check) whether it takes --out DIR: a
+#   folder it refuses is never handed over. If the run's user cannot reach
+#   the folders or CMD, the run is refused with one line on stderr (exit 2),
+#   unless AFM_ALLOW_UID_0=1 (./afm run --allow-uid-0): then it keeps uid 0
+#   (still without capabilities).
+#   Started as root without AFM_RUN_USER, the run's user is a uid leased for
+#   the run's life from the range tools/run_uid.sh names (below); files the
+#   run reads that root made (AFM_RUN_FILES, colon-separated: the live
+#   view's hand pipe) are that user's for the run's life.
 # Exports AFM_NETNS_MODE (run.json "netns"): rootless (not root); user:UID
-# or root:UID (root, in a user namespace or not, the run as uid UID).
+# or root:UID (root, in a user namespace or not, the run as uid UID), then
+# " lease:FIRST:COUNT" when UID was leased and " limits:..." (the rlimits,
+# tools/drop_caps.sh --limits).
 set -euo pipefail
 [ $# -ge 1 ] || { echo "usage: tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
 command -v unshare >/dev/null || { echo "in_netns: unshare not found (util-linux)" >&2; exit 2; }
@@ -77,21 +88,64 @@ remove_made_empty() {   # what was made for the run and is still empty, up to th
   done
 }
 
+# A launcher is asked first whether it takes its --out (a folder that holds
+# something not a run's is refused before anything changes hands).
+for i in $(seq 1 $#); do
+  if [ "$(basename -- "${!i}")" = afm_launch ]; then
+    "${@:i}" --check --quiet || exit $?
+    break
+  fi
+done
+
+# A user of its own (issue 46, item 2): started as root without
+# AFM_RUN_USER, the run leases a uid (and the same gid) of the range
+# tools/run_uid.sh names, one no process holds and that owns no file where a
+# run writes: a lock on /run/afm/uid-UID.lock, held until the folders are
+# given back. Without a range reserved (tools/setup.sh reserves it), the
+# run's user is nobody, the documented fallback (AFM_RUN_USER=nobody).
+# A leased user is in no /etc/passwd: HOME (and MPLCONFIGDIR, XDG_CACHE_HOME)
+# are a scratch folder of the run's, handed over with the others and
+# removed after.
+lease="" home=""
+if [ -z "${AFM_RUN_USER:-}" ] && "$here/run_uid.sh" range >/dev/null 2>&1; then
+  state=$("$here/run_uid.sh" state-dir) || exit 2
+  for n in $("$here/run_uid.sh" free 16); do
+    : >> "$state/uid-$n.lock"
+    exec {lease_fd}<"$state/uid-$n.lock"
+    if flock -n "$lease_fd"; then lease=$n; break; fi
+    exec {lease_fd}<&-
+  done
+  [ -n "$lease" ] || { echo "in_netns: refused: no free uid in the range for runs ($("$here/run_uid.sh" range)): every one is leased, held by a process or owns a file in /tmp, /var/tmp or /dev/shm" >&2; exit 2; }
+  export AFM_RUN_USER=$lease:$lease
+  home=$(mktemp -d "${TMPDIR:-/tmp}/afm-run-home-XXXXXX")
+  writes+=("$home")
+fi
+
 # The run's user must reach CMD (a path) and drop_caps.sh, and each folder.
 reach=(--reach "$here/drop_caps.sh")
 [[ $1 != */* ]] || reach+=(--reach "$1")
-# If it cannot, the run is made as it is made without root (unshare -rn: root
+# If it cannot (give exits 3), the run is refused in one line, whatever
+# stderr is, as when give refuses a folder (exit 2); with
+# AFM_ALLOW_UID_0=1 it is made as it is made without root (unshare -rn: root
 # in a user namespace of its own, no capabilities once drop_caps.sh has run),
 # run.json's netns says "rootless:kept-uid-0", and the reason goes to stderr
-# when that is a terminal (or AFM_PRIVILEGE_WARNINGS=1): the command's own
-# errors stay one line for the scripts that read them.
-if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
-  why=$ids
-  if [ -t 2 ] || [ "${AFM_PRIVILEGE_WARNINGS:-0}" = 1 ]; then
-    echo "in_netns: warning: the run keeps uid 0 (without capabilities): ${why#run_user: }; put the checkout and the run's folders where the run's user reaches them, or set AFM_RUN_USER (docs/design.md, \"Least privilege\")" >&2
-  fi
-  "$here/run_user.sh" take "${writes[@]}" 2>/dev/null || true
+# when that is a terminal (or AFM_PRIVILEGE_WARNINGS=1). Nothing was handed
+# over (give checks before it chowns), so nothing is taken back.
+gave=0
+ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1) || gave=$?
+if [ "$gave" != 0 ]; then
+  why=${ids#run_user: }
+  why=${why//$'\n'/; }
   remove_made_empty
+  [ -z "$home" ] || rm -rf -- "$home"
+  [ "$gave" = 3 ] || { echo "in_netns: refused: $why" >&2; exit 2; }   # not a question of reach: no uid 0 either
+  if [ "${AFM_ALLOW_UID_0:-0}" != 1 ]; then
+    echo "in_netns: refused: the run would keep uid 0: $why; put the checkout and the run's folders where the run's user reaches them, or allow it (./afm run --allow-uid-0, AFM_ALLOW_UID_0=1; docs/design.md, \"Least privilege\")" >&2
+    exit 2
+  fi
+  if [ -t 2 ] || [ "${AFM_PRIVILEGE_WARNINGS:-0}" = 1 ]; then
+    echo "in_netns: warning: the run keeps uid 0 (without capabilities, as AFM_ALLOW_UID_0=1 allows): $why (docs/design.md, \"Least privilege\")" >&2
+  fi
   if unshare -rn true 2>/dev/null; then
     AFM_NETNS_MODE=rootless:kept-uid-0 exec unshare -rn sh -c "$inner" "$drop" "$@"
   fi
@@ -99,6 +153,15 @@ if ! ids=$("$here/run_user.sh" give "${reach[@]}" "${writes[@]}" 2>&1); then
 fi
 read -r uid gid <<< "$ids"
 export AFM_RUN_UID=$uid AFM_RUN_GID=$gid
+[ -z "$home" ] || export HOME=$home MPLCONFIGDIR=$home/.matplotlib XDG_CACHE_HOME=$home/.cache USER=afm-run-$lease LOGNAME=afm-run-$lease
+# Files (not folders) the run reads that root made (AFM_RUN_FILES,
+# colon-separated: the live view's hand pipe), the run's user's for its life.
+IFS=: read -r -a files <<< "${AFM_RUN_FILES:-}"
+unset AFM_RUN_FILES
+for f in "${files[@]}"; do [ -z "$f" ] || chown -h -- "$uid:$gid" "$f"; done
+# run.json "netns": the uid, the lease, the limits (tools/drop_caps.sh --limits)
+mode_tail=" limits:$("$here/drop_caps.sh" --limits)"
+[ -z "$lease" ] || mode_tail=" lease:$("$here/run_uid.sh" range | tr ' ' ':')$mode_tail"
 # Each folder held (a shared lock) for the run's life: two runs given one
 # folder (the second one refused by the launcher's own lock) give it back
 # once, when the last of them ends, never under the other's feet.
@@ -121,7 +184,7 @@ if unshare -U true 2>/dev/null; then
   mkfifo -m 0600 "$pipes/in" "$pipes/go"
   exec 3<>"$pipes/go" 4<>"$pipes/in"
   rm -rf "$pipes"
-  AFM_NETNS_MODE=user:$uid $fg unshare -U -n sh -c "echo >&4 && read -r _ <&3 && exec 3<&- 4>&- && $inner" "$drop" "$@" <&0 &
+  AFM_NETNS_MODE="user:$uid$mode_tail" $fg unshare -U -n sh -c "echo >&4 && read -r _ <&3 && exec 3<&- 4>&- && $inner" "$drop" "$@" <&0 &
   child=$!
   # one write() each, as the kernel wants (printf writes line by line)
   maps() { local m="0 0 1"; [ "$2" = 0 ] || m+=$'\n'"$2 $2 1"; cat <<< "$m" > "/proc/$child/$1_map"; }
@@ -130,7 +193,7 @@ if unshare -U true 2>/dev/null; then
   exec 3>&- 4>&-
 else
   unshare -n true 2>/dev/null || { echo "in_netns: cannot create a network namespace here (unshare -n refused as root)" >&2; exit 2; }
-  AFM_NETNS_MODE=root:$uid $fg unshare -n sh -c "$inner" "$drop" "$@" <&0 &
+  AFM_NETNS_MODE="root:$uid$mode_tail" $fg unshare -n sh -c "$inner" "$drop" "$@" <&0 &
   child=$!
 fi
 rc=0
@@ -141,5 +204,7 @@ done
 for i in "${!writes[@]}"; do
   if [ -n "${locks[$i]}" ] && flock -n -x "${locks[$i]}"; then "$here/run_user.sh" take "${writes[$i]}"; fi
 done
+for f in "${files[@]}"; do [ -z "$f" ] || chown -h -- "$(id -u):$(id -g)" "$f" 2>/dev/null || true; done
+[ -z "$home" ] || rm -rf -- "$home"
 remove_made_empty
 exit "$rc"

@@ -9,12 +9,24 @@
 #                                    it); else 3 and one line naming the folder
 #   tools/run_user.sh give [--reach PATH]... DIR...
 #                                    (root) makes each DIR, checks the run's
-#                                    user reaches it and each PATH, hands DIR
-#                                    and all it holds to the run's user, and
-#                                    prints "UID GID" of that user (with
-#                                    AFM_RUN_USER=root: nothing to do, "0 0")
+#                                    user reaches each PATH and the folders
+#                                    above each DIR (DIR itself becomes
+#                                    theirs), and that an existing DIR holds
+#                                    nothing of a third user's; then hands
+#                                    DIR and all it holds to the run's user
+#                                    (chown -R -P: no link followed, a link
+#                                    itself changed), and prints "UID GID"
+#                                    of that user (with AFM_RUN_USER=root:
+#                                    nothing to do, "0 0"). Refused: nothing
+#                                    has changed hands.
 #   tools/run_user.sh take DIR...    gives each DIR and all it holds back to
-#                                    whoever runs this (uid and gid)
+#                                    whoever runs this (uid and gid), through
+#                                    analysis/safefs.py (take): folder by
+#                                    folder from the top, none followed if a
+#                                    link; every link, pipe, socket, device
+#                                    and hard-linked file the run's user
+#                                    left is removed and named on stderr,
+#                                    group and other write taken away
 # AFM_RUN_USER=NAME|UID[:GID] names the run's user; default nobody. The run's
 # user must own nothing else of value: for the run's life it owns the run's
 # folders. AFM_RUN_USER=root keeps uid 0 (still without capabilities).
@@ -38,17 +50,20 @@ read -r uid gid < <(run_ids)
 as_run_user() { setpriv --reuid="$uid" --regid="$gid" --clear-groups -- "$@"; }
 
 # Silent and 0 when the run's user reaches each PATH (searches every folder
-# above it and reads it); else 3 and one line naming the first folder (or
-# PATH) it cannot. One setpriv for them all.
+# above it and reads it; given as above:PATH, only searches the folders
+# above it); else 3 and one line naming the first folder (or PATH) it
+# cannot. One setpriv for them all.
 reach() {
-  local checks=() p d
+  local checks=() p d above
   for p in "$@"; do
+    above=0; [[ $p != above:* ]] || { above=1; p=${p#above:}; }
     [ -e "$p" ] || die "reach: no such file or folder: $p"
     p=$(realpath -- "$p")
     local up=()
     d=$p
     while [ -n "$d" ]; do d=${d%/*}; up=("${d:-/}" "${up[@]}"); done
-    checks+=("${up[@]/#/x:}" "r:$p")
+    checks+=("${up[@]/#/x:}")
+    [ $above = 1 ] || checks+=("r:$p")
   done
   local miss
   miss=$(as_run_user sh -c 'for c do case $c in x:*) [ -x "${c#x:}" ] ;; r:*) [ -r "${c#r:}" ] ;; esac || { echo "$c"; exit; }; done' \
@@ -56,7 +71,7 @@ reach() {
   [ -z "$miss" ] && return 0
   miss=${miss#?:}
   for p in "$@"; do   # the path it stops
-    p=$(realpath -- "$p")
+    p=$(realpath -- "${p#above:}")
     [[ $p == "$miss" || $p == "${miss%/}"/* ]] && break
   done
   echo "run_user: the run's user (uid $uid) cannot reach $p: $miss is mode $(stat -c %a "$miss"), owned by $(stat -c %U "$miss")" >&2
@@ -75,19 +90,19 @@ give() {
     mkdir -p -- "$d"
     d=$(realpath -- "$d")
     case "$d" in /|/root|/home|/tmp|/usr|/etc|/var|/proc|/sys|/dev|"$HOME") die "give: will not hand '$d' to the run's user (a run's folder, not a system one)" ;; esac
-    paths+=("$d")
+    local other
+    other=$(find -P "$d" ! -uid 0 ! -uid "$uid" -print -quit)
+    [ -z "$other" ] || die "give: will not hand $d to the run's user: $other is uid $(stat -c %u -- "$other")'s (neither root's nor the run's)"
+    paths+=("above:$d")
   done
   [ ${#paths[@]} = 0 ] || reach "${paths[@]}" || return 3
-  [ ${#dirs[@]} = 0 ] || chown -R -- "$uid:$gid" "${dirs[@]}"
+  [ ${#dirs[@]} = 0 ] || chown -R -P -- "$uid:$gid" "${dirs[@]}"
   echo "$uid $gid"
 }
 
+# take DIR...: see the header (stdlib Python alone: no venv needed).
 take() {
-  local d
-  for d in "$@"; do
-    [ -e "$d" ] && chown -R -- "$(id -u):$(id -g)" "$d"
-  done
-  return 0
+  [ $# = 0 ] || python3 "$(dirname "$0")/../analysis/safefs.py" take "$@"
 }
 
 case "$1" in

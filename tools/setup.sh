@@ -64,6 +64,13 @@ if [ "$(cat "$pkg_stamp" 2>/dev/null)" != "$pkg_want" ]; then
   echo "$pkg_want" > "$pkg_stamp"
 fi
 
+# ---- A range of uids for the runs (issue 46; tools/run_uid.sh) -------------------
+# Started as root, each run takes a uid of its own from afm-runs in
+# /etc/subuid and /etc/subgid (65536 ids no user, group or other range holds).
+if [ "$(id -u)" = 0 ] && ! "$top/tools/run_uid.sh" range >/dev/null 2>&1; then
+  say "reserving uids for the runs: afm-runs $("$top/tools/run_uid.sh" reserve | tr ' ' ':') in /etc/subuid and /etc/subgid"
+fi
+
 # ---- Unity 2.4.3 from Debian's cjson source package ---------------------------
 unity_dir="$top/build/_deps/unity"
 cjson_sha=5308fd4bd90cef7aa060558514de6a1a4a0819974a26e6ed13973c5f624c24b2

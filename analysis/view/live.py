@@ -15,7 +15,11 @@ The server stops when the run ends, and this exits with the run's code.
 In operator.mode browser (time_mode realtime) the page is also the hand:
 its pointer, wheel, keys and buttons (the hand, a local scan and a planner
 stroke it asks for) reach the operator through a named
-pipe in a private folder ($AFM_HAND_FIFO), which the operator alone reads
+pipe in a private folder ($AFM_HAND_FIFO: the folder this process's, 0711,
+not handed to the run's user; the pipe, 0600, the run's user's for the
+run's life (AFM_RUN_FILES), so that started as root the run drops to its
+user like any other: issue 46), which
+the operator alone reads
 (host_bridge/operator/hand_input.hpp); the operator says on its heartbeat
 that it takes them ("hand: browser"), and the page then shows its controls;
 it says there too when a stroke starts and ends ("push: start ...", "push:
@@ -225,19 +229,23 @@ async def start_run(run_cmd, wfd, hand_fifo):
     named pipe is read by the operator in operator.mode browser
     ($AFM_HAND_FIFO)."""
     cmd = [paths.IN_NETNS, "bash", "-c", WRAPPER, BRIDGE, str(wfd)] + run_cmd
-    # the hand's folder is the run's to read (in_netns.sh hands it to the run's user when started as root)
-    env = dict(os.environ, AFM_HAND_FIFO=hand_fifo, AFM_RUN_WRITES=os.path.dirname(hand_fifo))
+    # the pipe the run's user's for the run's life (in_netns.sh, AFM_RUN_FILES), this process's before and after
+    env = dict(os.environ, AFM_HAND_FIFO=hand_fifo, AFM_RUN_FILES=hand_fifo)
     return await asyncio.create_subprocess_exec(*cmd, pass_fds=(wfd,), env=env)
 
 
 def hand_pipe():
-    """(folder, path, write end) of the hand's named pipe: in a private
-    folder (0700), opened read-write so that it never waits for a reader
-    and never fails for want of one; written without waiting."""
+    """(folder, path, write end) of the hand's named pipe: in a folder of
+    this process's that others may pass through but not list or write
+    (0711, a random name), the pipe 0600 (the run's user's for the run's
+    life: tools/in_netns.sh, AFM_RUN_FILES); opened
+    read-write here so that it never waits for a reader and never fails for
+    want of one; written without waiting."""
     folder = tempfile.mkdtemp(prefix="afm-view-hand-")
+    os.chmod(folder, 0o711)
     path = os.path.join(folder, "hand")
     os.mkfifo(path, 0o600)
-    return folder, path, os.open(path, os.O_RDWR | os.O_NONBLOCK)
+    return folder, path, os.open(path, os.O_RDWR | os.O_NONBLOCK | os.O_NOFOLLOW)
 
 
 async def main_async(run_cmd, out_dir, wait, port):

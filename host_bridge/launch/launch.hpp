@@ -318,6 +318,34 @@ class Launch {
 public:
     explicit Launch(Options o) : o_(std::move(o)) {}
 
+    // -1 when --out is a folder a run may take (none, a run's, or new); else
+    // 2, said. --check with --out asks only this of the folder, before
+    // tools/in_netns.sh hands it to the run's user (issue 46).
+    int check_out() const
+    {
+        const fs::path dir = o_.out_dir;
+        std::error_code ec;
+        if (dir.empty() || !fs::exists(dir, ec)) return -1;
+        if (!fs::is_directory(fs::symlink_status(dir, ec)) ||
+            (!only_a_lock(dir) && !fs::exists(dir / "run.json", ec) && !fs::exists(dir / "bus.lcmlog", ec))) {
+            std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
+                         o_.out_dir.c_str());
+            return 2;
+        }
+        // a run under way in it (its lock held): named here too (--check),
+        // the lock opened read-only, no link followed, never created; not
+        // when this run holds it already (prepare)
+        if (lock_fd_ >= 0) return -1;
+        const std::string path = (dir / kLockName).string();
+        const int fd = open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+        if (fd < 0) return -1;
+        struct stat st {};
+        const bool busy = fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && flock(fd, LOCK_SH | LOCK_NB) != 0;
+        if (busy) say_in_use(fd, path);
+        close(fd);
+        return busy ? 2 : -1;
+    }
+
     // 1. The scene and the card's acceptance, before anything starts.
     int check_scene()
     {
@@ -374,11 +402,7 @@ public:
             if (fs::exists(dir) && fs::is_directory(dir)) {
                 if (const int code = lock_out(dir); code >= 0) return code;
             }
-            if (fs::exists(dir) && !only_a_lock(dir) && !fs::exists(dir / "run.json") && !fs::exists(dir / "bus.lcmlog")) {
-                std::fprintf(stderr, "afm_launch: output folder %s exists and holds something that is not a run; choose another --out\n",
-                             o_.out_dir.c_str());
-                return 2;
-            }
+            if (const int code = check_out(); code >= 0) return code;
             fs::create_directories(dir);
             if (lock_fd_ < 0)
                 if (const int code = lock_out(dir); code >= 0) return code;
@@ -755,6 +779,17 @@ private:
         return true;
     }
 
+    // "in use by another run", naming the pid its lock (fd, at path) holds.
+    void say_in_use(int fd, const std::string &path) const
+    {
+        char holder[64] = {0};
+        const ssize_t n = pread(fd, holder, sizeof holder - 1, 0);
+        std::string who(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
+        while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
+        std::fprintf(stderr, "afm_launch: output folder %s is in use by another run (%s; its lock %s); choose another --out\n",
+                     o_.out_dir.c_str(), who.empty() ? "pid unknown" : who.c_str(), path.c_str());
+    }
+
     // -1 when the folder is ours now; else the exit code, said.
     int lock_out(const fs::path &dir)
     {
@@ -765,12 +800,7 @@ private:
             return 2;
         }
         if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
-            char holder[64] = {0};
-            const ssize_t n = pread(lock_fd_, holder, sizeof holder - 1, 0);
-            std::string who(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
-            while (!who.empty() && (who.back() == '\n' || who.back() == ' ')) who.pop_back();
-            std::fprintf(stderr, "afm_launch: output folder %s is in use by another run (%s; its lock %s); choose another --out\n",
-                         o_.out_dir.c_str(), who.empty() ? "pid unknown" : who.c_str(), path.c_str());
+            say_in_use(lock_fd_, path);
             return 2;
         }
         const std::string me = "pid " + std::to_string(getpid()) + "\n";

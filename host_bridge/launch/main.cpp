@@ -10,7 +10,7 @@ int main(int argc, char **argv)
     if (const int code = parse_args(argc, argv, &o); code >= 0) return code;
     Launch run(o);
     if (const int code = run.check_scene(); code >= 0) return code;
-    if (o.check_only) return 0;
+    if (o.check_only) return run.check_out() < 0 ? 0 : 2;   // with --out: may a run take it
     if (const int code = run.prepare(); code >= 0) return code;
     if (const int code = run.start(); code >= 0) return code;
     run.supervise();

@@ -33,6 +33,24 @@ def limit(seconds):
     return max(1.0, min(seconds, BUDGET_S - (time.monotonic() - _started)))
 
 
+def _closed_ancestor(path):
+    """The first folder above `path` that others cannot traverse, or None."""
+    d = os.path.dirname(os.path.abspath(path))
+    while d != "/":
+        if not os.stat(d).st_mode & 0o001:
+            return d
+        d = os.path.dirname(d)
+    return None
+
+
+# Started as root from a checkout the run's user cannot reach (a clone in
+# /root, mode 700, as CI makes), a run is refused unless uid 0 is allowed
+# (tools/in_netns.sh): the suite allows it there, as before issue 46;
+# test_privilege.py checks the refusal itself.
+if os.geteuid() == 0 and _closed_ancestor(BUILD):
+    os.environ.setdefault("AFM_ALLOW_UID_0", "1")
+
+
 def scene(name):
     return os.path.join(SRC, "scenes", name)
 

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# A user of its own for every run (issue 46, item 2; docs/design.md, "Least
+# privilege"): the range of uids (and gids, the same numbers) the machine
+# reserves for the bench's runs, and which of them are free.
+#   tools/run_uid.sh state-dir   (root) /run/afm, made 0755 and root's if
+#                                missing; refused (exit 2, one line) if it
+#                                is a link, not a folder, not root's or open
+#                                to others' writes. The build lock and the
+#                                runs' leases live there.
+#   tools/run_uid.sh range       "FIRST COUNT" of the range: the afm-runs
+#                                line of /etc/subuid (and the same of
+#                                /etc/subgid); exit 3 when none is reserved
+#   tools/run_uid.sh reserve     (root; tools/setup.sh) reserves the range
+#                                when none is: the first block of COUNT ids
+#                                from FIRST_TRY up that no other line of
+#                                /etc/subuid or /etc/subgid, no user and no
+#                                group holds
+#   tools/run_uid.sh free [N]    up to N (8) uids of the range, from a random
+#                                start, that no process holds (real,
+#                                effective, saved or filesystem uid or gid,
+#                                /proc) and that own no file in the places a
+#                                run writes (/tmp, /var/tmp, /dev/shm)
+# tools/in_netns.sh leases one of them for a run's life (a lock on
+# /run/afm/uid-UID.lock, held until the folders are given back).
+set -euo pipefail
+NAME=afm-runs
+COUNT=65536
+FIRST_TRY=1879048192   # 0x70000000: far above the ids of users and of the usual subordinate ranges
+die() { echo "run_uid: $*" >&2; exit 2; }
+
+state_dir() {
+  local d=/run/afm
+  [ "$(id -u)" = 0 ] || die "state-dir: root's alone"
+  [ -e "$d" ] || [ -L "$d" ] || mkdir -m 0755 "$d"
+  [ ! -L "$d" ] && [ -d "$d" ] || die "$d is not a folder (a link?): remove it"
+  [ "$(stat -c %u -- "$d")" = 0 ] || die "$d is uid $(stat -c %u -- "$d")'s, not root's: remove it"
+  (( (8#$(stat -c %a -- "$d") & 8#022) == 0 )) || die "$d is mode $(stat -c %a -- "$d"): others may write in it"
+  echo "$d"
+}
+
+range() {
+  local line
+  line=$(grep -m1 "^$NAME:" /etc/subuid 2>/dev/null) || return 3
+  IFS=: read -r _ first count <<< "$line"
+  grep -qx "$NAME:$first:$count" /etc/subgid 2>/dev/null || die "/etc/subgid: no line '$NAME:$first:$count' to match /etc/subuid's"
+  echo "$first $count"
+}
+
+# 0 when [first, first+count) meets none of the ids already taken.
+overlaps_none() {
+  local first=$1 count=$2
+  awk -F: -v a="$first" -v b="$((first + count))" -v me="$NAME" '
+    FILENAME ~ /sub[ug]id$/ && $1 != me && $2 < b && $2 + $3 > a { bad = 1 }
+    FILENAME ~ /(passwd|group)$/ && $3 >= a && $3 < b { bad = 1 }
+    END { exit bad }' /etc/subuid /etc/subgid /etc/passwd /etc/group 2>/dev/null
+}
+
+reserve() {
+  [ "$(id -u)" = 0 ] || die "reserve: root's alone"
+  range >/dev/null 2>&1 && return 0
+  touch /etc/subuid /etc/subgid
+  local first=$FIRST_TRY
+  while ! overlaps_none "$first" "$COUNT"; do
+    first=$((first + COUNT))
+    [ "$first" -lt 4026531840 ] || die "reserve: no free block of $COUNT ids found"
+  done
+  echo "$NAME:$first:$COUNT" >> /etc/subuid
+  echo "$NAME:$first:$COUNT" >> /etc/subgid
+  echo "$first $COUNT"
+}
+
+free() {
+  local want=${1:-8} first count held start
+  read -r first count < <(range) || { echo "run_uid: no range reserved (tools/setup.sh reserves $NAME in /etc/subuid)" >&2; exit 3; }
+  held=$( { awk '/^(Uid|Gid):/ { for (i = 2; i <= 5; i++) print $i }' /proc/[0-9]*/status 2>/dev/null || true
+            find /tmp /var/tmp /dev/shm -xdev -printf '%U\n%G\n' 2>/dev/null || true; } \
+          | awk -v a="$first" -v b="$((first + count))" '$1 >= a && $1 < b' | sort -un)
+  start=$(( $(od -An -N4 -tu4 /dev/urandom) % count ))
+  printf '%s\n' "$held" | awk -v a="$first" -v c="$count" -v s="$start" -v w="$want" '
+    NF { h[$1] = 1 }
+    END { for (i = 0; i < c && n < w; i++) { u = a + (s + i) % c; if (!(u in h)) { print u; n++ } } }'
+}
+
+case "${1:-}" in
+  state-dir) state_dir ;;
+  range) range ;;
+  reserve) reserve ;;
+  free) shift; free "$@" ;;
+  *) die "usage: tools/run_uid.sh state-dir|range|reserve|free [N]" ;;
+esac
