@@ -2,6 +2,7 @@
 
 #include "bus_tap.hpp"
 #include "senders.hpp"
+#include "text.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -93,8 +94,9 @@ void Rejections::count(Reject r, const std::string &channel)
     if (r == Reject::none || r == Reject::count_) return;
     ++total_;
     ++by_reason_[static_cast<std::size_t>(r)];
-    // Channels are the bus's own (a subscription's name), so the map stays small.
-    ++by_channel_[channel];
+    // Channels are the bus's own (a subscription's name), so the map stays
+    // small; escaped all the same (text.hpp): deliver() takes any name.
+    ++by_channel_[printable(channel)];
 }
 
 nlohmann::json Rejections::to_json() const

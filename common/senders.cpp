@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "afm_channels.h"
+#include "text.hpp"
 
 namespace afm {
 
@@ -220,9 +221,21 @@ bool Senders::admit(const std::string &channel, uint16_t port)
         }
     }
     if (it != owners_.end() && !it->second.program.empty() && publishes(it->second.program, channel)) return true;
-    ++foreign_[channel][describe(port)];
-    ++foreign_total_;
+    count_foreign_locked(channel, port);
     return false;
+}
+
+void Senders::count_foreign(const std::string &channel, uint16_t port)
+{
+    std::lock_guard<std::mutex> lock(m_);
+    count_foreign_locked(channel, port);
+}
+
+void Senders::count_foreign_locked(const std::string &channel, uint16_t port)
+{
+    // a datagram names its channel with any bytes: kept as run.json shows it (text.hpp)
+    ++foreign_[printable(channel)][describe(port)];
+    ++foreign_total_;
 }
 
 std::string Senders::describe(uint16_t port) const

@@ -48,8 +48,14 @@ public:
     // process of the run that publishes it; otherwise counts it as foreign.
     bool admit(const std::string &channel, uint16_t port);
 
+    // Counts one datagram on `channel` from source `port` as foreign (what
+    // admit() does with one it refuses; the recorder's fuzz target calls it).
+    void count_foreign(const std::string &channel, uint16_t port);
+
     // Foreign datagrams: {"CHANNEL": {"SENDER": count}} with SENDER "port P
-    // (program, pid N)" or "port P (no process of the run)".
+    // (program, pid N)" or "port P (no process of the run)". CHANNEL is the
+    // datagram's name as afm::printable shows it (text.hpp): a name is any
+    // bytes a sender chose, and run.json holds only valid UTF-8.
     nlohmann::json foreign() const;
     int64_t foreign_count() const;
 
@@ -77,6 +83,7 @@ private:
         int pid = 0;
     };
     void rescan();
+    void count_foreign_locked(const std::string &channel, uint16_t port);
     std::string describe(uint16_t port) const;
 
     Scope scope_;

@@ -981,8 +981,7 @@ private:
         run["processes"] = procs;
         run["hosts"] = hosts_.json(names);
         run["log_bytes"] = fs::exists(out_ + "/bus.lcmlog") ? static_cast<int64_t>(fs::file_size(out_ + "/bus.lcmlog")) : 0;
-        run["channels"] = json::object();
-        for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
+        run["channels"] = afm::channels_json(counts);
         if (!log_err.empty()) run["log_error"] = log_err;
         run["card"] = card_json();
         run["launcher"] = launcher_json();
