@@ -109,6 +109,8 @@ bool enter_namespaces_of(int pid, bool net)
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
             int nice_level, const std::vector<int> &cpus, Entry entry)
 {
+    const pid_t launcher = getpid();
+    const std::string launcher_env = std::string(kLauncherPidEnv) + "=" + std::to_string(launcher);
     pid_t pid = fork();
     if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
     if (pid == 0) {
@@ -134,6 +136,10 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
         if (close_range(3, ~0u, 0) != 0)
             for (int k = 3, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
         for (const auto &e : env_add) putenv(const_cast<char *>(e.c_str()));
+        putenv(const_cast<char *>(launcher_env.c_str()));   // the child binds itself again after drop_caps.sh (process.hpp)
+        // the run dies with the launcher: bound after entering the namespaces
+        // (a change of credentials clears the binding), just before exec
+        if (!bind_to_parent(launcher)) _exit(127);
         std::vector<char *> a;
         for (const auto &s : argv) a.push_back(const_cast<char *>(s.c_str()));
         a.push_back(nullptr);

@@ -52,6 +52,9 @@ struct Child {
 // it). entry.ns_pid > 0: in the user namespace of that process first, and
 // (entry.net) its network namespace too (a two-host run, hosts.hpp);
 // argv[0] must then drop what entering gives (tools/drop_caps.sh).
+// The child is bound to the launcher (process.hpp, bind_to_parent: SIGKILL
+// when the launcher ends, however it ends) and finds the launcher's pid in
+// kLauncherPidEnv, to bind itself again after drop_caps.sh.
 struct Entry {
     int ns_pid = -1;
     bool net = false;

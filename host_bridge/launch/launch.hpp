@@ -317,6 +317,9 @@ const char *const kRunOutputs[] = {"frames", "logs", "bus.lcmlog", "run.json", "
 class Launch {
 public:
     explicit Launch(Options o) : o_(std::move(o)) {}
+    ~Launch() { mark_ended(); }
+    Launch(const Launch &) = delete;
+    Launch &operator=(const Launch &) = delete;
 
     // 1. The scene and the card's acceptance, before anything starts.
     int check_scene()
@@ -744,7 +747,10 @@ private:
     afm::Scene scene_;
     // --out is locked for the run's life (flock on OUT/.afm-run.lock, which
     // names the run's pid): a second run into it is refused at once, naming
-    // the one that holds it. The lock goes with this process, however it ends.
+    // the one that holds it. The lock goes with this process, however it ends;
+    // its record says "ended, pid N" once the launcher ended (~Launch), so a
+    // "pid N" found by the next launcher is a run whose launcher was killed
+    // (its processes went with it: children.hpp), said in one line.
     static constexpr const char *kLockName = ".afm-run.lock";
     int lock_fd_ = -1;
 
@@ -773,10 +779,29 @@ private:
                          o_.out_dir.c_str(), who.empty() ? "pid unknown" : who.c_str(), path.c_str());
             return 2;
         }
+        // the record of the last run in this folder: "pid N" while it ran,
+        // "ended, pid N" once its launcher ended (~Launch); a "pid N" left
+        // behind is a launcher that never ended (SIGKILL, a crash), and the
+        // lock, now ours, says it is gone
+        char last[64] = {0};
+        const ssize_t got = pread(lock_fd_, last, sizeof last - 1, 0);
+        const std::string was(last, got > 0 ? static_cast<std::size_t>(got) : 0);
+        if (was.rfind("pid ", 0) == 0)
+            std::fprintf(stderr, "afm_launch: the last run in %s was interrupted: its launcher (%s) ended without finishing it%s; this run replaces it\n",
+                         o_.out_dir.c_str(), was.substr(0, was.find('\n')).c_str(),
+                         fs::exists(dir / "run.json") ? "" : " and left no run.json");
         const std::string me = "pid " + std::to_string(getpid()) + "\n";
         if (ftruncate(lock_fd_, 0) != 0 || pwrite(lock_fd_, me.data(), me.size(), 0) != static_cast<ssize_t>(me.size()))
             std::fprintf(stderr, "afm_launch: warning: cannot write the lock %s's pid: %s\n", path.c_str(), std::strerror(errno));
         return -1;
+    }
+
+    // The lock's record says the run's launcher ended (however the run did).
+    void mark_ended()
+    {
+        if (lock_fd_ < 0) return;
+        const std::string rec = "ended, pid " + std::to_string(getpid()) + "\n";
+        if (ftruncate(lock_fd_, 0) != 0 || pwrite(lock_fd_, rec.data(), rec.size(), 0) != static_cast<ssize_t>(rec.size())) {}
     }
 
     std::string out_, scene_abs_, scene_run_;
