@@ -174,6 +174,7 @@ Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
         senders_ = std::make_unique<Senders>(Senders::Scope::siblings);
         Senders *s = senders_.get();
         tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
+        tap_->vet_with([s](const std::string &ch, const unsigned char *d, std::size_t n, uint16_t port) { return s->vet(ch, d, n, port); });
     }
 }
 
@@ -244,6 +245,8 @@ nlohmann::json Inbox::report() const
     nlohmann::json j = rejected_.to_json();
     j["bus_dropped"] = bus_dropped();
     j["bus_abandoned"] = bus_abandoned();
+    j["unproven"] = tap_ ? tap_->unproven().to_json() : ProofCounts().to_json();   // bus_key.hpp
+    j["proof_cost"] = proof_cost().to_json();
     j["foreign_datagrams"] = senders_ ? senders_->foreign_count() : 0;
     j["foreign"] = senders_ ? senders_->foreign() : nlohmann::json::object();
     return j;

@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bus_key.hpp"
+
 #include <sys/prctl.h>
 #include <signal.h>
 #include <unistd.h>
@@ -78,6 +80,7 @@ int run_process(const char *name, const std::function<int()> &body)
         return kExitFailure;
     }
     try {
+        run_key();   // the run's bus key, read once and its descriptor closed (bus_key.hpp)
         return body();
     } catch (const InputError &e) {
         std::fprintf(stderr, "%s\n", e.what());

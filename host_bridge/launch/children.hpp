@@ -59,8 +59,11 @@ struct Entry {
     int ns_pid = -1;
     bool net = false;
 };
+// key_fd >= 0: the run's bus key (bus_key.hpp), found by the child at
+// kBusKeyFd and named by kBusKeyFdEnv; nothing else of the launcher's is
+// inherited.
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus, Entry entry = {});
+            int nice_level, const std::vector<int> &cpus, Entry entry = {}, int key_fd = -1);
 
 struct Progress {
     // The processes whose heartbeats the launcher follows (the run's own,

@@ -38,6 +38,7 @@
 extern "C" {
 #include "fw_guard.h"
 }
+#include "bus_key.hpp"
 #include "bus_recorder.hpp"
 #include "bus_tap.hpp"
 #include "senders.hpp"
@@ -417,7 +418,24 @@ public:
             kids_.erase(std::remove_if(kids_.begin(), kids_.end(), [](const Child &c) { return c.name == "renderer"; }), kids_.end());
         prog_.names = {"launcher"};
         for (const auto &c : kids_) prog_.names.insert(c.name);
+        if (const int code = open_tap(); code >= 0) return code;
+        inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
+        inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
+        hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
+        wall0_ = std::chrono::steady_clock::now();
+        return -1;
+    }
+
+    // The run's bus key (bus_key.hpp: AFM_BUS_MAC=off, none), before the
+    // tap that proves with it and the processes that inherit it; then the
+    // tap, admitting the run's own senders. -1, or the exit code, said.
+    int open_tap()
+    {
         try {
+            if (!afm::bus_mac_off()) {
+                afm::set_run_key(afm::BusKey::make());
+                key_fd_ = afm::run_key()->memfd();
+            }
             tap_ = std::make_unique<afm::BusTap>(afm::bus_url());
             // The record and the launcher's heartbeats take only what the
             // run's own processes send on their channels (senders.hpp):
@@ -425,14 +443,11 @@ public:
             senders_ = std::make_unique<afm::Senders>(afm::Senders::Scope::children);
             afm::Senders *s = senders_.get();
             tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
+            tap_->vet_with([s](const std::string &ch, const unsigned char *d, std::size_t n, uint16_t port) { return s->vet(ch, d, n, port); });
         } catch (const std::exception &e) {
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
         }
-        inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
-        inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
-        hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
-        wall0_ = std::chrono::steady_clock::now();
         return -1;
     }
 
@@ -490,7 +505,7 @@ public:
                 cmd.insert(cmd.begin(), hosts_.drop_caps);
                 entry = {hosts_.afm_ns_pid, hosts_.on_afm(c.name)};
             }
-            c.pid = spawn(cmd, out_ + "/logs/" + c.name + ".log", env, kBusProcessNice, placement_.cpus_for(c.name), entry);
+            c.pid = spawn(cmd, out_ + "/logs/" + c.name + ".log", env, kBusProcessNice, placement_.cpus_for(c.name), entry, key_fd_);
         }
         return -1;
     }
@@ -753,6 +768,7 @@ private:
     // (its processes went with it: children.hpp), said in one line.
     static constexpr const char *kLockName = ".afm-run.lock";
     int lock_fd_ = -1;
+    int key_fd_ = -1;   // the run's bus key in a memfd, for the children (bus_key.hpp); -1: AFM_BUS_MAC=off
 
     static bool only_a_lock(const fs::path &dir)
     {
@@ -923,6 +939,9 @@ private:
                 {"recorded_events", recorded_events_},
                 {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
                 {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
+                {"unproven", tap_ ? tap_->unproven().to_json() : afm::ProofCounts().to_json()},   // without the run's proof (bus_key.hpp)
+                {"proof_cost", afm::proof_cost().to_json()},
+                {"bus_mac", key_fd_ >= 0},
                 {"foreign_datagrams", senders_ ? senders_->foreign_count() : 0},   // from no process that publishes their channel
                 {"foreign", senders_ ? senders_->foreign() : nlohmann::json::object()},
                 {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},

@@ -455,7 +455,7 @@ struct Renderer {
         m.utime = afm::frame_utime(scene, k);
         m.index = k;
         m.seq = seq;
-        lc.publish(AFM_CH_RENDER_FRAME, &m);
+        afm::publish(lc, AFM_CH_RENDER_FRAME, m);
         write_composed(k);
     }
 
@@ -712,7 +712,7 @@ struct Renderer {
 
     void send_fix()
     {
-        lc.publish(AFM_CH_HOST_OBJECT_FIX, &fix_msg);
+        afm::publish(lc, AFM_CH_HOST_OBJECT_FIX, fix_msg);
         fix_sent = std::chrono::steady_clock::now();
     }
 
