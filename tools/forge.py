@@ -124,20 +124,24 @@ def main():
     afm = afmlog.afm
     lc = lcm.LCM(os.environ.get("LCM_DEFAULT_URL", BUS_URL))
     out = Spoofer(a.spoof) if a.spoof else Plain(lc)
-    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    # SIGTERM (the runner, once the run is over) ends the loop where it
+    # stands, never inside a callback of liblcm's
+    signal.signal(signal.SIGTERM, lambda *_: STOP.append(1))
+    signal.signal(signal.SIGINT, lambda *_: STOP.append(1))
     n, t0 = 0, time.monotonic()
     if a.what == "pose":
-        return forge_poses(lc, out, afm, a.seconds)
-    try:
-        while time.monotonic() - t0 < a.seconds:
+        n = forge_poses(lc, out, afm, a.seconds)
+    else:
+        while time.monotonic() - t0 < a.seconds and not STOP:
             channel, m = forgery(afm, a.what, n)
             n += out.publish(channel, m.encode())
             time.sleep(0.04 if a.what == "view" else 0.02)
-    except KeyboardInterrupt:
-        pass
     print(json.dumps({"sent": {a.what: n}, "total": n, "seconds": time.monotonic() - t0,
                       "spoofed_port": getattr(out, "port", None)}), flush=True)
     return 0
+
+
+STOP = []   # set by SIGTERM or SIGINT
 
 
 def forgery(afm, what, n):
@@ -186,13 +190,12 @@ def forge_poses(lc, out, afm, seconds):
 
     lc.subscribe("AFM_ANALOG", on_analog)
     t0 = time.monotonic()
-    try:
-        while time.monotonic() - t0 < seconds:
+    while time.monotonic() - t0 < seconds and not STOP:
+        try:
             lc.handle_timeout(50)
-    except KeyboardInterrupt:
-        pass
-    print(json.dumps({"sent": {"pose": sent["n"]}, "total": sent["n"], "seconds": time.monotonic() - t0}), flush=True)
-    return 0
+        except OSError:   # a signal during the wait (STOP says whether to end)
+            pass
+    return sent["n"]
 
 
 if __name__ == "__main__":
