@@ -18,8 +18,8 @@ namespace afm {
 namespace {
 
 constexpr unsigned char kMagic[4] = {'A', 'F', 'M', 'K'};
-static_assert(crypto_generichash_KEYBYTES == BusKey::kKeyBytes, "the key is BLAKE2b's default key size");
-static_assert(BusKey::kTagBytes >= crypto_generichash_BYTES_MIN, "a tag BLAKE2b can give");
+static_assert(crypto_shorthash_siphashx24_KEYBYTES == BusKey::kKeyBytes, "SipHash's key");
+static_assert(crypto_shorthash_siphashx24_BYTES == BusKey::kTagBytes, "SipHash-x24's output is the tag");
 
 void put_be64(uint64_t v, unsigned char *out)
 {
@@ -97,12 +97,13 @@ int BusKey::memfd() const
 
 void BusKey::tag(const std::string &channel, const unsigned char *seq_be, const unsigned char *d, std::size_t n, unsigned char *out) const
 {
-    crypto_generichash_state st;
-    crypto_generichash_init(&st, key_.data(), key_.size(), kTagBytes);
-    crypto_generichash_update(&st, reinterpret_cast<const unsigned char *>(channel.c_str()), channel.size() + 1);   // with its NUL
-    crypto_generichash_update(&st, seq_be, 8);
-    crypto_generichash_update(&st, d, n);
-    crypto_generichash_final(&st, out, kTagBytes);
+    // SipHash takes one buffer: the channel with its NUL, the sequence, the message
+    thread_local std::vector<unsigned char> in;
+    in.resize(channel.size() + 1 + 8 + n);
+    std::memcpy(in.data(), channel.c_str(), channel.size() + 1);
+    std::memcpy(in.data() + channel.size() + 1, seq_be, 8);
+    if (n) std::memcpy(in.data() + channel.size() + 9, d, n);
+    crypto_shorthash_siphashx24(out, in.data(), in.size(), key_.data());
 }
 
 void BusKey::sign(const std::string &channel, uint64_t seq, std::vector<unsigned char> *msg) const
