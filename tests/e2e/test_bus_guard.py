@@ -130,10 +130,9 @@ class TheRunDiesWithItsLauncher(unittest.TestCase):
                     launcher = found[0]
                     kids = [q for q in descendants(launcher) if exe_of(q) in RUN_PROGRAMS]
                     names = {exe_of(q) for q in kids}
-                    # the loop runs: every process up, the record growing
-                    log = os.path.join(out, "bus.lcmlog")
-                    if {"sim_afm", "fw_node", "operator", "renderer"} <= names and os.path.exists(log) \
-                            and os.path.getsize(log) > 200000:
+                    # every process up, the renderer's encoder too (it starts
+                    # after the renderer's first scan, before the loop)
+                    if {"sim_afm", "fw_node", "operator", "renderer", "ffmpeg"} <= names:
                         break
                 time.sleep(0.1)
             self.assertIsNotNone(launcher, "no afm_launch under in_netns.sh")
