@@ -212,6 +212,7 @@ def one_run(scene, args, out, link=None):
     with open(os.path.join(out, "sim_report.json")) as f:
         sim = json.load(f)
     blocks = sim["blocks"]
+    mac = mac_cost(run, blocks)
     # each process's CPU in the loop, with its descendants (run.json timing;
     # afm_launch records the bus itself, bus_recorder.hpp)
     cpu = {n: v for n, v in (run["timing"].get("loop_cpu_us_per_block") or {}).items() if "(its children)" not in n}
@@ -238,7 +239,30 @@ def one_run(scene, args, out, link=None):
         "frame_wait_ms": sim.get("frame_window_wait_seconds", 0.0) * 1e3,
         "log_window_blocks": run.get("launcher", {}).get("log_window_blocks"),
         "cpu_us_per_block": cpu,
+        "mac": mac,
     }
+
+
+def mac_cost(run, blocks):
+    """The bus's MAC (common/bus_key.hpp) a block: what every process of the
+    run spent signing what it published and checking what it received, from
+    clock reads around that work alone (run.json: each process's
+    rejected.proof_cost, the launcher's proof_cost), over the whole run, by
+    the blocks simulated. None when the run had no key."""
+    if not run.get("launcher", {}).get("bus_mac"):
+        return None
+    costs = {"afm_launch": run["launcher"].get("proof_cost", {})}
+    for p in ("sim", "fw", "operator", "renderer"):
+        c = run.get(p, {}).get("rejected", {}).get("proof_cost")
+        if c:
+            costs[p] = c
+    sign = sum(c.get("sign_us", 0.0) for c in costs.values())
+    check = sum(c.get("check_us", 0.0) for c in costs.values())
+    # the lockstep's own part (sim_afm, fw_node, operator: the chain a block waits for)
+    chain = sum(costs[p].get("sign_us", 0.0) + costs[p].get("check_us", 0.0) for p in ("sim", "fw", "operator") if p in costs)
+    return {"us_per_block": (sign + check) / blocks, "lockstep_us_per_block": chain / blocks, "sign_us_per_block": sign / blocks, "check_us_per_block": check / blocks,
+            "signed_per_block": sum(c.get("signed", 0) for c in costs.values()) / blocks,
+            "checked_per_block": sum(c.get("checked", 0) for c in costs.values()) / blocks}
 
 
 def main(argv=None):
@@ -290,6 +314,8 @@ def main(argv=None):
             "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
             "placement": runs[0]["placement"],
             "placed": all(r["placement"].get("on") for r in runs),
+            "mac": ({k: statistics.median(r["mac"][k] for r in runs) for k in runs[0]["mac"]}
+                    if all(r["mac"] for r in runs) else None),
         })
     sizes = sizes_of(os.path.join(out, "run-0-0", "bus.lcmlog"))
     floors = {}
@@ -373,6 +399,17 @@ def print_tables(r):
     print("waits, log ms: the simulator's waits for the record (the log window) and their wall time; frames ms: the wall "
           "time blocks waited for the renderer's frames after the card had answered (the frame window)")
     print("files ms: the CPU the renderer's frame writer spent on a frame's files (its PNG and video)")
+    print("\nThe bus's MAC (common/bus_key.hpp: every datagram signed by its sender and checked by each receiver), apart from the "
+          "floor: the time every process of the run spent on it, a block, against the block's cost (target: at most 10 %)")
+    for x in r["lockstep"]:
+        m = x.get("mac")
+        if m:
+            print(f"  {x['arrangement']:34s} {m['us_per_block']:6.2f} us a block ({m['sign_us_per_block']:.2f} signing "
+                  f"{m['signed_per_block']:.1f} messages, {m['check_us_per_block']:.2f} checking {m['checked_per_block']:.1f}), "
+                  f"{100 * m['us_per_block'] / x['us_per_block']:.1f} % of {x['us_per_block']:.1f} us; the lockstep's processes' part "
+                  f"{m['lockstep_us_per_block']:.2f} us, {100 * m['lockstep_us_per_block'] / x['us_per_block']:.1f} %")
+        else:
+            print(f"  {x['arrangement']:34s} no key (AFM_BUS_MAC=off)")
     print(f"\nTwo hosts (docs/hosts.md): sim_afm in its own namespace across a veth pair; the floor's simulator path crosses the link")
     print(f"{'arrangement':34s} {'us/block':>9s} {'floor us':>9s} {'x floor':>8s} {'sim path':>9s} {'op path':>8s} {'link ms one-way':>16s} "
           f"{'log':>9s}  CPU us/block")

@@ -111,7 +111,7 @@ void Aside::run()
         l.unlock();
         int64_t ok = 0, bad = 0;
         for (const auto &m : batch) {
-            if (lc_->publish(m.channel, m.data.data(), static_cast<unsigned>(m.data.size())) == 0) ++ok;
+            if (publish_raw(*lc_, m.channel, m.data.data(), m.data.size()) == 0) ++ok;
             else ++bad;
         }
         batch.clear();

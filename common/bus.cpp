@@ -9,6 +9,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -16,7 +17,21 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "bus_key.hpp"
+
 namespace afm {
+
+int publish_raw(lcm::LCM &lc, const std::string &channel, const void *data, std::size_t size)
+{
+    const BusKey *key = run_key();
+    if (!key) return lc.publish(channel, data, static_cast<unsigned>(size));
+    // one counter for the process: increasing on each of its sockets (a
+    // receiver keeps a window per sender and channel: bus_key.hpp)
+    static std::atomic<uint64_t> seq{0};
+    std::vector<unsigned char> msg(static_cast<const unsigned char *>(data), static_cast<const unsigned char *>(data) + size);
+    key->sign(channel, ++seq, &msg);
+    return lc.publish(channel, msg.data(), static_cast<unsigned>(msg.size()));
+}
 
 namespace {
 
@@ -157,7 +172,7 @@ void Heartbeat::send(RunState state, int64_t seq, int64_t sim_utime, const std::
     hb.seq = seq;
     hb.sim_utime = sim_utime;
     hb.detail = detail;
-    lc_.publish(AFM_CH_AFM_HEARTBEAT, &hb);
+    publish(lc_, AFM_CH_AFM_HEARTBEAT, hb);
     last_state_ = state;
     sent_ = true;
     last_us_ = hb.utime;

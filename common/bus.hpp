@@ -68,6 +68,19 @@ std::unique_ptr<lcm::LCM> open_bus();
 
 int64_t wall_utime();
 
+// Publishes one encoded message on `channel`: the one place a process of
+// the run publishes (every publish site calls this or publish()). With the
+// run's key (bus_key.hpp) the message goes with its trailer (its proof);
+// without one, as it is. Returns liblcm's answer (0: sent).
+int publish_raw(lcm::LCM &lc, const std::string &channel, const void *data, std::size_t size);
+template <class M>
+int publish(lcm::LCM &lc, const std::string &channel, const M &m)
+{
+    std::vector<unsigned char> buf(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    return publish_raw(lc, channel, buf.data(), buf.size());
+}
+
 // While a process waits for the run to start, it says "ready" this often
 // (and waits for the bus no longer than that between two): the simulator
 // starts the loop once it has heard every peer say so, and a peer that

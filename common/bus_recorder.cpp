@@ -1,6 +1,15 @@
 #include "bus_recorder.hpp"
 
+#include "text.hpp"
+
 namespace afm {
+
+nlohmann::json channels_json(const std::map<std::string, int64_t> &counts)
+{
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto &[channel, n] : counts) j[printable(channel)] = n;
+    return j;
+}
 
 BusRecorder::BusRecorder(const std::string &path) : log_(path) {}
 

@@ -17,11 +17,22 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "lcmlog.hpp"
 
 namespace afm {
+
+// run.json "channels": messages per channel of a record, each channel's
+// name as afm::printable shows it (text.hpp). The record keeps a name as it
+// came (LCM's format: any bytes but NUL); run.json holds only valid UTF-8,
+// and nlohmann's dump throws on anything else (one datagram on a channel
+// named "\xffX" aborted the launcher at the end of its run, exit 134, no
+// run.json). Names that differ stay apart (the escaping is reversible).
+nlohmann::json channels_json(const std::map<std::string, int64_t> &counts);
 
 class BusRecorder {
 public:

@@ -15,6 +15,7 @@
 #include "bus.hpp"
 #include "bus_filter.hpp"
 #include "lcmlog.hpp"
+#include "senders.hpp"
 
 namespace afm {
 
@@ -85,6 +86,7 @@ BusTap::BusTap(const std::string &url)
     m.imr_multiaddr = u.group;
     m.imr_interface.s_addr = htonl(INADDR_ANY);
     if (setsockopt(fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &m, sizeof m) != 0) throw fail("IP_ADD_MEMBERSHIP");
+    gather_.prove_with(run_key(), !Senders::admit_any());
 }
 
 BusTap::~BusTap()
@@ -215,8 +217,7 @@ int BusGather::take(const unsigned char *d, std::size_t n, uint32_t addr, uint16
     if (!g.fragment) {
         if (filtered_ && !accept_.count(g.channel)) return 0;   // the kernel let it by: a name past its filter's reach
         if (admit_ && !admit_(g.channel, port)) return 0;
-        sink(g.channel, d + g.payload_at, n - g.payload_at, utime);
-        return 1;
+        return hand_on(g.channel, d + g.payload_at, n - g.payload_at, port, utime, sink);
     }
     const uint64_t key = (static_cast<uint64_t>(addr) << 16) | port;
     auto it = partial_.find(key);
@@ -278,8 +279,33 @@ int BusGather::take(const unsigned char *d, std::size_t n, uint32_t addr, uint16
     std::vector<unsigned char> data(whole.size);
     for (const auto &[offset, bytes] : whole.frags)
         if (!bytes.empty()) std::memcpy(data.data() + offset, bytes.data(), bytes.size());   // an empty fragment has no bytes to point at (memcpy from null is undefined)
-    sink(whole.channel, data.data(), data.size(), utime);
+    return hand_on(whole.channel, data.data(), data.size(), port, utime, sink);
+}
+
+int BusGather::hand_on(const std::string &channel, const unsigned char *d, std::size_t n, uint16_t port, int64_t utime, const Sink &sink)
+{
+    if (!proven(channel, d, &n, port)) return 0;
+    if (vet_ && !vet_(channel, d, n, port)) return 0;
+    sink(channel, d, n, utime);
     return 1;
+}
+
+bool BusGather::proven(const std::string &channel, const unsigned char *d, std::size_t *n, uint16_t port)
+{
+    if (!key_) return true;
+    uint64_t seq = 0;
+    const BusKey::Check c = key_->verify(channel, d, *n, &seq);
+    if (c == BusKey::Check::ok) {
+        if (window_.take(port, channel, seq) || !enforce_) {
+            *n -= BusKey::kTrailerBytes;
+            return true;
+        }
+        unproven_.count("replayed", channel);
+        return false;
+    }
+    if (!enforce_) return true;
+    unproven_.count(check_name(c), channel);
+    return false;
 }
 
 std::size_t BusGather::held_bytes() const

@@ -50,6 +50,8 @@
 #include <string>
 #include <vector>
 
+#include "bus_key.hpp"
+
 namespace afm {
 
 // What the tap does with each datagram it reads, without the socket: the
@@ -65,12 +67,31 @@ public:
     void accept_only(const std::set<std::string> &channels);
     const std::set<std::string> &accepted() const { return accept_; }
     void admit_only(Admit admit) { admit_ = std::move(admit); }
+    // A whole message, proven, is handed on only when vet(channel, bytes,
+    // size, source port) says so (Senders::vet: a heartbeat's name must be
+    // that of the program behind its source port).
+    using Vet = std::function<bool(const std::string &channel, const unsigned char *data, std::size_t size, uint16_t source_port)>;
+    void vet_with(Vet vet) { vet_ = std::move(vet); }
     // One datagram of n bytes from (addr, port), host byte order; returns
     // the messages it completed and handed to `sink` (0 or 1).
     int take(const unsigned char *d, std::size_t n, uint32_t addr, uint16_t port, int64_t utime, const Sink &sink);
     int64_t dropped() const { return dropped_; }
     void drop() { ++dropped_; }   // a datagram the socket cut short, counted with the rest
     int64_t abandoned() const { return abandoned_; }
+    // The run's proof (bus_key.hpp): with a key, a whole message from an
+    // admitted sender must carry its trailer, signed with that key, with a
+    // sequence not taken before from that sender on that channel; the
+    // trailer is stripped before the message is handed on, and a message
+    // without one is refused and counted (unproven()). enforce false
+    // (AFM_ADMIT_ANY_SENDER=1, for the tests that reach the inboxes' own
+    // checks): a trailer that verifies is stripped, and anything else is
+    // handed on as it came. No key: every message as it came.
+    void prove_with(const BusKey *key, bool enforce)
+    {
+        key_ = key;
+        enforce_ = enforce;
+    }
+    const ProofCounts &unproven() const { return unproven_; }
     std::size_t held_bytes() const;
     // Unfinished messages held now (at most kMaxPartial).
     std::size_t partial() const { return partial_.size(); }
@@ -89,11 +110,22 @@ private:
         std::vector<bool> got;   // per fragment
         uint32_t missing = 0;
     };
+    // Whether the n bytes at d on `channel` from `port` carry their proof;
+    // true: hand them on, *n less the trailer.
+    bool proven(const std::string &channel, const unsigned char *d, std::size_t *n, uint16_t port);
+    // A whole message from an admitted sender: proven, vetted, then to the
+    // sink (1), or refused (0).
+    int hand_on(const std::string &channel, const unsigned char *d, std::size_t n, uint16_t port, int64_t utime, const Sink &sink);
     std::map<uint64_t, Partial> partial_;   // by sender (address, port)
+    const BusKey *key_ = nullptr;
+    bool enforce_ = true;
+    ReplayWindow window_;
+    ProofCounts unproven_;
     int64_t dropped_ = 0, abandoned_ = 0;
     bool filtered_ = false;
     std::set<std::string> accept_;
     Admit admit_;
+    Vet vet_;
 };
 
 class BusTap {
@@ -127,6 +159,8 @@ public:
     // every sender.
     using Admit = BusGather::Admit;
     void admit_only(Admit admit) { gather_.admit_only(std::move(admit)); }
+    using Vet = BusGather::Vet;
+    void vet_with(Vet vet) { gather_.vet_with(std::move(vet)); }
 
     // Waits up to timeout_ms for a datagram; true when one is queued.
     bool wait(int timeout_ms);
@@ -143,6 +177,10 @@ public:
     // its accounting of a datagram's memory); 0 if it cannot say.
     int64_t receive_buffer_bytes() const;
 
+    // Messages refused for want of the run's proof (BusGather::prove_with:
+    // the tap proves with the run's key, run_key(), unless every sender is
+    // admitted, Senders::admit_any()).
+    const ProofCounts &unproven() const { return gather_.unproven(); }
     // Datagrams that are not part of any message LCM would deliver.
     int64_t dropped() const { return gather_.dropped(); }
     // Fragmented messages left unfinished (a fragment lost).

@@ -2,6 +2,7 @@
 
 #include "bus_tap.hpp"
 #include "senders.hpp"
+#include "text.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -93,8 +94,9 @@ void Rejections::count(Reject r, const std::string &channel)
     if (r == Reject::none || r == Reject::count_) return;
     ++total_;
     ++by_reason_[static_cast<std::size_t>(r)];
-    // Channels are the bus's own (a subscription's name), so the map stays small.
-    ++by_channel_[channel];
+    // Channels are the bus's own (a subscription's name), so the map stays
+    // small; escaped all the same (text.hpp): deliver() takes any name.
+    ++by_channel_[printable(channel)];
 }
 
 nlohmann::json Rejections::to_json() const
@@ -172,6 +174,7 @@ Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
         senders_ = std::make_unique<Senders>(Senders::Scope::siblings);
         Senders *s = senders_.get();
         tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
+        tap_->vet_with([s](const std::string &ch, const unsigned char *d, std::size_t n, uint16_t port) { return s->vet(ch, d, n, port); });
     }
 }
 
@@ -242,6 +245,8 @@ nlohmann::json Inbox::report() const
     nlohmann::json j = rejected_.to_json();
     j["bus_dropped"] = bus_dropped();
     j["bus_abandoned"] = bus_abandoned();
+    j["unproven"] = tap_ ? tap_->unproven().to_json() : ProofCounts().to_json();   // bus_key.hpp
+    j["proof_cost"] = proof_cost().to_json();
     j["foreign_datagrams"] = senders_ ? senders_->foreign_count() : 0;
     j["foreign"] = senders_ ? senders_->foreign() : nlohmann::json::object();
     return j;

@@ -2,8 +2,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bus_key.hpp"
+
+#include <sys/prctl.h>
+#include <signal.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 
@@ -47,9 +54,33 @@ void write_report(const std::string &path, const nlohmann::json &j)
     }
 }
 
+bool bind_to_parent(pid_t parent)
+{
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    return getppid() == parent;   // after the bind: a parent gone before it is seen here
+}
+
+bool bind_to_launcher(pid_t *parent)
+{
+    if (parent) *parent = 0;
+    const char *env = std::getenv(kLauncherPidEnv);
+    if (!env || !*env) return true;
+    char *end = nullptr;
+    const long pid = std::strtol(env, &end, 10);
+    if (*end || pid <= 1) return true;   // not a pid the launcher wrote: nothing to bind to
+    if (parent) *parent = static_cast<pid_t>(pid);
+    return bind_to_parent(static_cast<pid_t>(pid));
+}
+
 int run_process(const char *name, const std::function<int()> &body)
 {
+    pid_t launcher = 0;
+    if (!bind_to_launcher(&launcher)) {
+        std::fprintf(stderr, "%s: its launcher (pid %d) is gone: the run is over\n", name, static_cast<int>(launcher));
+        return kExitFailure;
+    }
     try {
+        run_key();   // the run's bus key, read once and its descriptor closed (bus_key.hpp)
         return body();
     } catch (const InputError &e) {
         std::fprintf(stderr, "%s\n", e.what());

@@ -4,6 +4,8 @@
 // peer, the report a process leaves in the run's folder, and main's catch.
 #pragma once
 
+#include <sys/types.h>
+
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -58,9 +60,30 @@ bool run_over(const heartbeat_t &m);
 // system's reason when it cannot be written whole.
 void write_report(const std::string &path, const nlohmann::json &j);
 
+// The run dies with its launcher (issue 46, item 7). The launcher names
+// its pid in its children's environment (kLauncherPidEnv); each child, and
+// each process a child starts (QEMU under fw_node), is bound to its parent
+// with PR_SET_PDEATHSIG (SIGKILL): a launcher killed outright (SIGKILL,
+// nothing to catch) takes its processes with it, and theirs with them.
+// A change of uid clears that signal (tools/drop_caps.sh on two hosts
+// changes it between the launcher's fork and the process's main), so each
+// process binds itself again at its start (run_process), after any such
+// change; and since its parent may have ended before the bind, it then
+// checks that its parent is still the one it was started by.
+constexpr const char *kLauncherPidEnv = "AFM_LAUNCHER_PID";
+// Binds the calling process to `parent` (above). False when its parent is
+// no longer `parent` (it ended first): the caller exits at once.
+bool bind_to_parent(pid_t parent);
+// bind_to_parent($AFM_LAUNCHER_PID) when that is set (a process the
+// launcher started); true when it is not set (a process started by hand).
+// `parent` (if given) is set to the launcher's pid, or 0.
+bool bind_to_launcher(pid_t *parent = nullptr);
+
 // Runs a process's body under the exit-code contract: an InputError is
 // printed as is and answered kExitInput; another exception is printed as
 // "NAME: what" and answered kExitFailure; otherwise the body's own code.
+// First binds the process to its launcher (bind_to_launcher): a process
+// whose launcher is already gone says so and answers kExitFailure.
 int run_process(const char *name, const std::function<int()> &body);
 
 }  // namespace afm

@@ -14,7 +14,9 @@
 #include <sstream>
 #include <vector>
 
+#include "afm/heartbeat_t.hpp"
 #include "afm_channels.h"
+#include "text.hpp"
 
 namespace afm {
 
@@ -129,10 +131,12 @@ std::vector<unsigned long> sockets_of(int pid)
 
 }  // namespace
 
-Senders::Senders(Scope scope) : scope_(scope)
+Senders::Senders(Scope scope) : scope_(scope), any_(admit_any()) {}
+
+bool Senders::admit_any()
 {
     const char *any = std::getenv("AFM_ADMIT_ANY_SENDER");
-    any_ = any && std::string(any) == "1";
+    return any && std::string(any) == "1";
 }
 
 bool Senders::publishes(const std::string &program, const std::string &channel)
@@ -220,9 +224,35 @@ bool Senders::admit(const std::string &channel, uint16_t port)
         }
     }
     if (it != owners_.end() && !it->second.program.empty() && publishes(it->second.program, channel)) return true;
-    ++foreign_[channel][describe(port)];
+    count_foreign_locked(channel, port);
+    return false;
+}
+
+bool Senders::vet(const std::string &channel, const unsigned char *data, std::size_t size, uint16_t port)
+{
+    if (any_ || channel != AFM_CH_AFM_HEARTBEAT || size > static_cast<std::size_t>(INT32_MAX)) return true;
+    heartbeat_t hb;
+    if (hb.decode(data, 0, static_cast<int>(size)) < 0) return true;
+    const std::string program = hb.name == "launcher" ? "afm_launch" : hb.name;
+    std::lock_guard<std::mutex> lock(m_);
+    const auto it = owners_.find(port);
+    if (it != owners_.end() && it->second.program == program) return true;
+    ++foreign_[printable(channel)][describe(port) + " naming itself " + printable(hb.name)];
     ++foreign_total_;
     return false;
+}
+
+void Senders::count_foreign(const std::string &channel, uint16_t port)
+{
+    std::lock_guard<std::mutex> lock(m_);
+    count_foreign_locked(channel, port);
+}
+
+void Senders::count_foreign_locked(const std::string &channel, uint16_t port)
+{
+    // a datagram names its channel with any bytes: kept as run.json shows it (text.hpp)
+    ++foreign_[printable(channel)][describe(port)];
+    ++foreign_total_;
 }
 
 std::string Senders::describe(uint16_t port) const

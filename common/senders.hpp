@@ -48,8 +48,21 @@ public:
     // process of the run that publishes it; otherwise counts it as foreign.
     bool admit(const std::string &channel, uint16_t port);
 
+    // False (and the datagram counted foreign, its sender "port P (PROGRAM,
+    // pid N) naming itself NAME") when a heartbeat names a process other
+    // than the program behind its source port ("launcher" is afm_launch;
+    // every other name is its program's); true for anything else (a
+    // message that does not decode is the inbox's to refuse).
+    bool vet(const std::string &channel, const unsigned char *data, std::size_t size, uint16_t port);
+
+    // Counts one datagram on `channel` from source `port` as foreign (what
+    // admit() does with one it refuses; the recorder's fuzz target calls it).
+    void count_foreign(const std::string &channel, uint16_t port);
+
     // Foreign datagrams: {"CHANNEL": {"SENDER": count}} with SENDER "port P
-    // (program, pid N)" or "port P (no process of the run)".
+    // (program, pid N)" or "port P (no process of the run)". CHANNEL is the
+    // datagram's name as afm::printable shows it (text.hpp): a name is any
+    // bytes a sender chose, and run.json holds only valid UTF-8.
     nlohmann::json foreign() const;
     int64_t foreign_count() const;
 
@@ -60,6 +73,9 @@ public:
     // (when it cannot read them itself: the parent's word, like its pid).
     static std::string own_ports();
     static constexpr const char *kParentPortsEnv = "AFM_PARENT_UDP_PORTS";
+
+    // AFM_ADMIT_ANY_SENDER=1 (above): the one reader of it.
+    static bool admit_any();
 
     // The channel's publishers from channels.yaml; "*" for every process.
     static bool publishes(const std::string &program, const std::string &channel);
@@ -77,6 +93,7 @@ private:
         int pid = 0;
     };
     void rescan();
+    void count_foreign_locked(const std::string &channel, uint16_t port);
     std::string describe(uint16_t port) const;
 
     Scope scope_;

@@ -247,7 +247,7 @@ struct Sim {
                 line.lat_v[i] = p.sl_v;
             }
             wait_for_log(-1, scan_lines_sent - kLogWindowLines);
-            lc.publish(AFM_CH_AFM_SCAN_LINE, &line);
+            afm::publish(lc, AFM_CH_AFM_SCAN_LINE, line);
             ++scan_lines_sent;
         }
         (in_loop ? loop_scan_s : start_scan_s) += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -437,7 +437,7 @@ struct Loop {
             sim.serve_due_scans();
             if (sim.abort) return false;
             if (std::chrono::steady_clock::now() - last_send >= std::chrono::milliseconds(opt.resend_ms)) {
-                lc.publish(AFM_CH_AFM_ANALOG, &blk);
+                afm::publish(lc, AFM_CH_AFM_ANALOG, blk);
                 ++resends;
                 last_send = std::chrono::steady_clock::now();
             }
@@ -469,7 +469,7 @@ struct Loop {
             apply_cantilever_changes(n);
             simulate_block(n);
             if (drop(drop_rng)) ++dropped;
-            else lc.publish(AFM_CH_AFM_ANALOG, &blk);
+            else afm::publish(lc, AFM_CH_AFM_ANALOG, blk);
             if (scene.time_mode == "realtime")
                 std::this_thread::sleep_until(wall0 + std::chrono::microseconds(afm::block_end_utime(scene, n)));
             if (!wait_for_answer(n)) return false;

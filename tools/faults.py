@@ -13,6 +13,11 @@ Rows (design.md, "Reliability"):
   launcher:SIG    SIGINT or SIGTERM to the launcher: every child stopped (checked
                   by process group), run.json says interrupted, the log closed,
                   the video (if one was begun) closed so that it opens
+  launcher:SIGKILL  SIGKILL of the launcher (nothing to catch): every process of
+                  the run goes with it (bound to it, PR_SET_PDEATHSIG: none left
+                  by pid, process group or network namespace), no run.json; the
+                  next launcher on that folder says in one line that the run there
+                  was interrupted, and completes
   net:drop        10 % of the analog blocks' first sends dropped (sim_afm's
                   --inject-drop): resends, same trajectories
   net:dup         every message echoed once more, 0-5 ms later, by a process on
@@ -43,6 +48,18 @@ Rows (design.md, "Reliability"):
                   process takes them as foreign (the kernel's source port names
                   no process of the run that publishes the channel); exit 0, same
                   trajectories
+  spoof-port:stop  tools/forge.py --spoof from a raw socket in the run's namespace
+  spoof-port:pose  (CAP_NET_RAW kept for the forger alone), with the source port
+  spoof-port:fix   of the process that publishes the channel: the launcher's
+                  "stop" from afm_launch's port, a pose for block n + 1 from the
+                  operator's, a HOST_OBJECT_FIX of particle 1 from the renderer's.
+                  The check of senders admits them; the bus's MAC (the run's key,
+                  common/bus_key.hpp) does not: each is counted unproven; exit 0,
+                  same trajectories
+  spoof-port:WHAT:nokey  the same on a run without a key (AFM_BUS_MAC=off): what
+                  the MAC holds off. Expected: the forgery is not refused (none
+                  counted unproven), and the stop ends the run; the pose or the fix
+                  may or may not change it (the row says which)
   link:clean      two hosts (--hosts 2, docs/hosts.md) over the link of
                   ./afm run's example, delay 0.2 ms and 2 % loss each way: same
                   trajectories as the undisturbed run on one namespace, and the
@@ -79,9 +96,15 @@ os.environ.setdefault("AFM_BUILD", BUILD)   # the log reader's generated types
 from analysis import afmlog, trajectory  # noqa: E402
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
-ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "net:drop", "net:dup",
+# tools/forge.py --spoof: each forgery from the source port of the run's
+# process that publishes its channel (through a raw socket): the program
+# whose port it takes, and the channel
+SPOOF_PORT = {"stop": ("afm_launch", "AFM_HEARTBEAT"), "pose": ("operator", "HAPTIC_POSE"), "fix": ("renderer", "HOST_OBJECT_FIX")}
+ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher:SIGINT", "launcher:SIGTERM", "launcher:SIGKILL",
+                                                                        "net:drop", "net:dup",
         "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs", "board:killed", "board:hung",
-        "spoof:stop", "spoof:finished", "spoof:pose", "link:clean", "link:down", "link:loss", "link:reorder"]
+        "spoof:stop", "spoof:finished", "spoof:pose"]
+        + [f"spoof-port:{w}" for w in SPOOF_PORT] + [f"spoof-port:{w}:nokey" for w in SPOOF_PORT] + ["link:clean", "link:down", "link:loss", "link:reorder"]
         + [f"link:spoof:{w}@{side}" for w in ("stop", "finished", "pose") for side in ("host", "afm")])
 # The link rows (docs/hosts.md): --link of each, and of the spoof rows on two hosts.
 LINKS = {"link:clean": "delay=0.2,loss=0.02", "link:down": "delay=0.2", "link:loss": "delay=0.2,loss=0.1",
@@ -120,6 +143,14 @@ def signal_live(pid, sig):
     if st[st.rindex(")") + 2:].split()[0] == "Z":
         raise ProcessLookupError(pid)
     os.kill(pid, sig)
+
+
+def netns_of(pid):
+    """The network namespace of `pid` ("net:[N]"), or "" when it is gone."""
+    try:
+        return os.readlink(f"/proc/{pid}/ns/net")
+    except OSError:
+        return ""
 
 
 def alive_in_groups(pgids):
@@ -364,6 +395,31 @@ class Matrix:
         self.add(f"launcher:{sig_name}", f"exit {r.code}", kept, kt, None,
                  f"{len(kids)} children stopped" + (f", {len(left)} left" if left else ", none left") + f"; {vt}", ok)
 
+    def launcher_killed(self):
+        """SIGKILL of the launcher: nothing of the run may outlive it, and
+        the next run on its folder says the last one there was interrupted."""
+        ns = {}
+
+        def kill(r, kids):
+            pid = r.launcher_pid()
+            ns["net"] = os.readlink(f"/proc/{pid}/ns/net")
+            signal_live(pid, signal.SIGKILL)
+        r, kids = self.during("launcher:SIGKILL", kill, too_late=lambda r: (r.rj or {}).get("status") == "ok")
+        left, deadline = [], time.monotonic() + 10
+        while time.monotonic() < deadline:   # ffmpeg finishes its file once its input ends: a moment
+            left = alive_in_groups(set(kids.values())) + [p for p, _, state, _, _ in processes()
+                                                           if state != "Z" and ns.get("net") and netns_of(p) == ns["net"]]
+            if not left:
+                break
+            time.sleep(0.1)
+        again = Run(self.scene, r.out).finish()
+        said = [line for line in again.stderr.splitlines() if "interrupted" in line]
+        ok = r.rj is None and not left and len(kids) == len(PROCS) and len(said) == 1 and again.code == 0
+        self.add("launcher:SIGKILL", f"exit {r.code}, " + ("no run.json" if r.rj is None else "a run.json (status "
+                                                               f"{r.rj.get('status')!r})"), r.rj is None,
+                 "the next run: " + (said[0].split(": ", 1)[-1][:60] if said else "said nothing of it") + f", exit {again.code}",
+                 None, f"{len(kids)} children" + (f", {len(left)} left" if left else ", none left"), ok)
+
     def net_drop(self):
         r = Run(self.scene, self.dir("net:drop"), extra=["--inject-drop", "0.1"]).finish()
         kept, kt = self.kept(r, "ok")
@@ -531,6 +587,33 @@ class Matrix:
         self.add(name, f"exit {r.code}, {foreign} forged {channel} taken as foreign", kept, kt, same, st,
                  r.code == 0 and kept and same and foreign > 0)
 
+    def spoof_port(self, what, key):
+        """tools/forge.py WHAT --spoof PROGRAM: the source port of the run's
+        own publisher, from a raw socket (CAP_NET_RAW kept for the forger:
+        beside() runs the launcher without it). With the key: refused and
+        counted unproven, the undisturbed trajectories. Without
+        (AFM_BUS_MAC=off): nothing refuses it."""
+        program, channel = SPOOF_PORT[what]
+        name = f"spoof-port:{what}" + ("" if key else ":nokey")
+        forge = [sys.executable, os.path.join(HERE, "forge.py"), what, "--spoof", program, "--seconds", "300"]
+        env = None if key else dict(os.environ, AFM_BUS_MAC="off")
+        r = Run(self.scene, self.dir(name), wrap=lambda cmd: beside(forge, cmd), keep_caps="net_raw", env=env).finish()
+        rj = r.rj or {}
+        counted = sum(rj.get(p, {}).get("rejected", {}).get("unproven", {}).get("by_channel", {}).get(channel, 0)
+                      for p in ("sim", "fw", "operator", "renderer"))
+        counted += rj.get("launcher", {}).get("unproven", {}).get("by_channel", {}).get(channel, 0)
+        if key:
+            kept, kt = self.kept(r, "ok")
+            same, st = self.same(r.out) if kept else (False, "-")
+            self.add(name, f"exit {r.code}, {counted} forged {channel} refused (no proof)", kept, kt, same, st,
+                     r.code == 0 and kept and same and counted > 0)
+            return
+        status = rj.get("status", "no run.json")
+        same, st = self.same(r.out) if rj else (False, "no run.json")
+        took = r.code != 0 if what == "stop" else True
+        self.add(name, f"exit {r.code}, status {status}, {counted} refused without a key", bool(rj), "run.json " + str(status),
+                 same, st + ("" if same else " (the forgery acted)"), counted == 0 and took and rj.get("launcher", {}).get("bus_mac") is False)
+
     # ---- two hosts (docs/hosts.md) ---------------------------------------
     def link_said(self, r):
         """What run.json says of the link: shaper, delay achieved, datagrams lost, resends."""
@@ -611,6 +694,8 @@ class Matrix:
                 self.kill(arg)
             elif kind == "stop":
                 self.stop(arg)
+            elif row == "launcher:SIGKILL":
+                self.launcher_killed()
             elif kind == "launcher":
                 self.launcher(arg)
             elif row == "net:drop":
@@ -631,6 +716,9 @@ class Matrix:
                 self.board(arg)
             elif kind == "spoof":
                 self.spoof(arg)
+            elif kind == "spoof-port":
+                what, _, nokey = arg.partition(":")
+                self.spoof_port(what, key=not nokey)
             elif row == "link:clean":
                 self.link_row(row, acted=lambda r, rep: sum(v.get("delayed", 0) for v in rep.values()) > 0, replay=True)
             elif row == "link:down":

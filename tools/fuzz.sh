@@ -4,7 +4,7 @@
 set -euo pipefail
 
 top=$(cd "$(dirname "$0")/.." && pwd)
-all_targets=(scene lcm calc lcmlog bus)
+all_targets=(scene lcm calc lcmlog bus record)
 bdir="$top/build/fuzz"
 jobs=${AFM_JOBS:-$(nproc 2>/dev/null || echo 2)}
 cc=${AFM_FUZZ_CC:-clang-14}
@@ -25,6 +25,7 @@ built incrementally first). Targets (default: all of them):
   calc    the lever calculator: ./afm calc|calib|model's arguments and solvers
   lcmlog  the LCM log reader (LogReader, LogTail)
   bus     the bus's gathering of datagrams into messages (BusGather: fragments, their headers' claims, senders)
+  record  the launcher's path from the bus to run.json with channel names of any bytes (BusGather, BusRecorder, LogReader, the counts' JSON)
 
   --seconds N  fuzz each target N seconds (default 60)
   --merge      afterwards, merge what the run found into the committed seed

@@ -10,6 +10,7 @@
 extern "C" {
 #include "fw_marshal.h"
 }
+#include "process.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -157,9 +158,10 @@ void BoardCard::start()
     const std::vector<std::string> args = {qemu_, "-M", "mps2-an386", "-nographic", "-monitor", "none", "-icount", "shift=0,sleep=off",
                                            "-semihosting-config", "enable=on,target=native,arg=afm_board,arg=" + to + ",arg=" + from + fault_arg,
                                            "-kernel", elf_};
+    const pid_t node = getpid();
     pid_ = fork();
     if (pid_ == 0) {
-        prctl(PR_SET_PDEATHSIG, SIGKILL);   // the board goes when its node goes
+        if (!afm::bind_to_parent(node)) _exit(127);   // the board goes when its node goes (process.hpp), and never outlives one already gone
         const int devnull = open("/dev/null", O_RDONLY);
         dup2(devnull, 0);
         dup2(logfd, 1);

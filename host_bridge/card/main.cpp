@@ -65,7 +65,7 @@ struct Node {
     void publish(const afm::Outbox &box)
     {
         for (const auto &o : box) {
-            if (afm::lockstep_reads(scene, o.channel)) lc.publish(o.channel, o.data.data(), static_cast<unsigned>(o.data.size()));
+            if (afm::lockstep_reads(scene, o.channel)) afm::publish_raw(lc, o.channel, o.data.data(), o.data.size());
             else aside.post(o.channel, o.data.data(), o.data.size());
         }
     }

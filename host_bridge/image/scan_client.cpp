@@ -31,7 +31,7 @@ void ScanClient::request(int first, int n)
     q.first_line = first;
     q.n_lines = n;
     q.at_seq = at_seq_;
-    lc_.publish(AFM_CH_AFM_SCAN_REQ, &q);
+    afm::publish(lc_, AFM_CH_AFM_SCAN_REQ, q);
     asked_ = std::chrono::steady_clock::now();
 }
 

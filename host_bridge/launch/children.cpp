@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "bus_key.hpp"
 #include "placement.hpp"
 #include "senders.hpp"
 
@@ -107,8 +108,11 @@ bool enter_namespaces_of(int pid, bool net)
 }  // namespace
 
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus, Entry entry)
+            int nice_level, const std::vector<int> &cpus, Entry entry, int key_fd)
 {
+    const std::string key_env = std::string(kBusKeyFdEnv) + "=" + std::to_string(kBusKeyFd);
+    const pid_t launcher = getpid();
+    const std::string launcher_env = std::string(kLauncherPidEnv) + "=" + std::to_string(launcher);
     pid_t pid = fork();
     if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
     if (pid == 0) {
@@ -130,10 +134,26 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
         }
         int devnull = open("/dev/null", O_RDONLY);
         if (devnull >= 0) dup2(devnull, 0);
-        // nothing of the launcher's: its bus socket, its log
-        if (close_range(3, ~0u, 0) != 0)
-            for (int k = 3, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
+        // the run's key at kBusKeyFd (dup2 clears close-on-exec; a key
+        // already there keeps its flag, cleared by hand)
+        int keep = 3;
+        if (key_fd >= 0) {
+            const bool there = key_fd == kBusKeyFd ? fcntl(kBusKeyFd, F_SETFD, 0) == 0 : dup2(key_fd, kBusKeyFd) == kBusKeyFd;
+            if (!there) {
+                std::fprintf(stderr, "afm_launch: cannot hand the bus key to %s: %s\n", argv[0].c_str(), std::strerror(errno));
+                _exit(127);
+            }
+            putenv(const_cast<char *>(key_env.c_str()));
+            keep = kBusKeyFd + 1;
+        }
+        // nothing else of the launcher's: its bus socket, its log
+        if (close_range(static_cast<unsigned>(keep), ~0u, 0) != 0)
+            for (int k = keep, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);
         for (const auto &e : env_add) putenv(const_cast<char *>(e.c_str()));
+        putenv(const_cast<char *>(launcher_env.c_str()));   // the child binds itself again after drop_caps.sh (process.hpp)
+        // the run dies with the launcher: bound after entering the namespaces
+        // (a change of credentials clears the binding), just before exec
+        if (!bind_to_parent(launcher)) _exit(127);
         std::vector<char *> a;
         for (const auto &s : argv) a.push_back(const_cast<char *>(s.c_str()));
         a.push_back(nullptr);

@@ -52,12 +52,18 @@ struct Child {
 // it). entry.ns_pid > 0: in the user namespace of that process first, and
 // (entry.net) its network namespace too (a two-host run, hosts.hpp);
 // argv[0] must then drop what entering gives (tools/drop_caps.sh).
+// The child is bound to the launcher (process.hpp, bind_to_parent: SIGKILL
+// when the launcher ends, however it ends) and finds the launcher's pid in
+// kLauncherPidEnv, to bind itself again after drop_caps.sh.
 struct Entry {
     int ns_pid = -1;
     bool net = false;
 };
+// key_fd >= 0: the run's bus key (bus_key.hpp), found by the child at
+// kBusKeyFd and named by kBusKeyFdEnv; nothing else of the launcher's is
+// inherited.
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus, Entry entry = {});
+            int nice_level, const std::vector<int> &cpus, Entry entry = {}, int key_fd = -1);
 
 struct Progress {
     // The processes whose heartbeats the launcher follows (the run's own,

@@ -38,6 +38,7 @@
 extern "C" {
 #include "fw_guard.h"
 }
+#include "bus_key.hpp"
 #include "bus_recorder.hpp"
 #include "bus_tap.hpp"
 #include "senders.hpp"
@@ -317,6 +318,9 @@ const char *const kRunOutputs[] = {"frames", "logs", "bus.lcmlog", "run.json", "
 class Launch {
 public:
     explicit Launch(Options o) : o_(std::move(o)) {}
+    ~Launch() { mark_ended(); }
+    Launch(const Launch &) = delete;
+    Launch &operator=(const Launch &) = delete;
 
     // -1 when --out is a folder a run may take (none, a run's, or new); else
     // 2, said. --check with --out asks only this of the folder, before
@@ -438,7 +442,24 @@ public:
             kids_.erase(std::remove_if(kids_.begin(), kids_.end(), [](const Child &c) { return c.name == "renderer"; }), kids_.end());
         prog_.names = {"launcher"};
         for (const auto &c : kids_) prog_.names.insert(c.name);
+        if (const int code = open_tap(); code >= 0) return code;
+        inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
+        inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
+        hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
+        wall0_ = std::chrono::steady_clock::now();
+        return -1;
+    }
+
+    // The run's bus key (bus_key.hpp: AFM_BUS_MAC=off, none), before the
+    // tap that proves with it and the processes that inherit it; then the
+    // tap, admitting the run's own senders. -1, or the exit code, said.
+    int open_tap()
+    {
         try {
+            if (!afm::bus_mac_off()) {
+                afm::set_run_key(afm::BusKey::make());
+                key_fd_ = afm::run_key()->memfd();
+            }
             tap_ = std::make_unique<afm::BusTap>(afm::bus_url());
             // The record and the launcher's heartbeats take only what the
             // run's own processes send on their channels (senders.hpp):
@@ -446,14 +467,11 @@ public:
             senders_ = std::make_unique<afm::Senders>(afm::Senders::Scope::children);
             afm::Senders *s = senders_.get();
             tap_->admit_only([s](const std::string &channel, uint16_t port) { return s->admit(channel, port); });
+            tap_->vet_with([s](const std::string &ch, const unsigned char *d, std::size_t n, uint16_t port) { return s->vet(ch, d, n, port); });
         } catch (const std::exception &e) {
             std::fprintf(stderr, "afm_launch: %s\n", e.what());
             return 2;
         }
-        inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
-        inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
-        hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
-        wall0_ = std::chrono::steady_clock::now();
         return -1;
     }
 
@@ -511,7 +529,7 @@ public:
                 cmd.insert(cmd.begin(), hosts_.drop_caps);
                 entry = {hosts_.afm_ns_pid, hosts_.on_afm(c.name)};
             }
-            c.pid = spawn(cmd, out_ + "/logs/" + c.name + ".log", env, kBusProcessNice, placement_.cpus_for(c.name), entry);
+            c.pid = spawn(cmd, out_ + "/logs/" + c.name + ".log", env, kBusProcessNice, placement_.cpus_for(c.name), entry, key_fd_);
         }
         return -1;
     }
@@ -768,9 +786,13 @@ private:
     afm::Scene scene_;
     // --out is locked for the run's life (flock on OUT/.afm-run.lock, which
     // names the run's pid): a second run into it is refused at once, naming
-    // the one that holds it. The lock goes with this process, however it ends.
+    // the one that holds it. The lock goes with this process, however it ends;
+    // its record says "ended, pid N" once the launcher ended (~Launch), so a
+    // "pid N" found by the next launcher is a run whose launcher was killed
+    // (its processes went with it: children.hpp), said in one line.
     static constexpr const char *kLockName = ".afm-run.lock";
     int lock_fd_ = -1;
+    int key_fd_ = -1;   // the run's bus key in a memfd, for the children (bus_key.hpp); -1: AFM_BUS_MAC=off
 
     static bool only_a_lock(const fs::path &dir)
     {
@@ -803,10 +825,29 @@ private:
             say_in_use(lock_fd_, path);
             return 2;
         }
+        // the record of the last run in this folder: "pid N" while it ran,
+        // "ended, pid N" once its launcher ended (~Launch); a "pid N" left
+        // behind is a launcher that never ended (SIGKILL, a crash), and the
+        // lock, now ours, says it is gone
+        char last[64] = {0};
+        const ssize_t got = pread(lock_fd_, last, sizeof last - 1, 0);
+        const std::string was(last, got > 0 ? static_cast<std::size_t>(got) : 0);
+        if (was.rfind("pid ", 0) == 0)
+            std::fprintf(stderr, "afm_launch: the last run in %s was interrupted: its launcher (%s) ended without finishing it%s; this run replaces it\n",
+                         o_.out_dir.c_str(), was.substr(0, was.find('\n')).c_str(),
+                         fs::exists(dir / "run.json") ? "" : " and left no run.json");
         const std::string me = "pid " + std::to_string(getpid()) + "\n";
         if (ftruncate(lock_fd_, 0) != 0 || pwrite(lock_fd_, me.data(), me.size(), 0) != static_cast<ssize_t>(me.size()))
             std::fprintf(stderr, "afm_launch: warning: cannot write the lock %s's pid: %s\n", path.c_str(), std::strerror(errno));
         return -1;
+    }
+
+    // The lock's record says the run's launcher ended (however the run did).
+    void mark_ended()
+    {
+        if (lock_fd_ < 0) return;
+        const std::string rec = "ended, pid " + std::to_string(getpid()) + "\n";
+        if (ftruncate(lock_fd_, 0) != 0 || pwrite(lock_fd_, rec.data(), rec.size(), 0) != static_cast<ssize_t>(rec.size())) {}
     }
 
     std::string out_, scene_abs_, scene_run_;
@@ -928,6 +969,9 @@ private:
                 {"recorded_events", recorded_events_},
                 {"tap_dropped", tap_ ? tap_->dropped() : 0},   // datagrams no LCM message (bus_tap.hpp)
                 {"tap_abandoned", tap_ ? tap_->abandoned() : 0},   // fragmented messages left unfinished
+                {"unproven", tap_ ? tap_->unproven().to_json() : afm::ProofCounts().to_json()},   // without the run's proof (bus_key.hpp)
+                {"proof_cost", afm::proof_cost().to_json()},
+                {"bus_mac", key_fd_ >= 0},
                 {"foreign_datagrams", senders_ ? senders_->foreign_count() : 0},   // from no process that publishes their channel
                 {"foreign", senders_ ? senders_->foreign() : nlohmann::json::object()},
                 {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},
@@ -1011,8 +1055,7 @@ private:
         run["processes"] = procs;
         run["hosts"] = hosts_.json(names);
         run["log_bytes"] = fs::exists(out_ + "/bus.lcmlog") ? static_cast<int64_t>(fs::file_size(out_ + "/bus.lcmlog")) : 0;
-        run["channels"] = json::object();
-        for (const auto &kv : counts) run["channels"][kv.first] = kv.second;
+        run["channels"] = afm::channels_json(counts);
         if (!log_err.empty()) run["log_error"] = log_err;
         run["card"] = card_json();
         run["launcher"] = launcher_json();

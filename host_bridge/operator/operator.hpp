@@ -135,7 +135,7 @@ struct Operator {
     Reject on_force(const haptic_force_t &f)
     {
         if (f.seq == answered) {      // resent force: our pose was lost
-            lc.publish(AFM_CH_HAPTIC_POSE, &last);
+            afm::publish(lc, AFM_CH_HAPTIC_POSE, last);
             return Reject::none;
         }
         if (f.seq < answered) return Reject::seq_past;
@@ -192,7 +192,7 @@ struct Operator {
         last.engaged = engaged;
         answered = n;
         have_force = false;
-        lc.publish(AFM_CH_HAPTIC_POSE, &last);
+        afm::publish(lc, AFM_CH_HAPTIC_POSE, last);
         hb.maybe_send(RunState::running, n, last.utime);
     }
 
@@ -365,11 +365,11 @@ struct Operator {
         f.scan_y_nm = bench.fix_at().y;
         f.kind = bench.fix_place() ? object_fix_t::KIND_PLACE : object_fix_t::KIND_DRIFT;
         auto sent = std::chrono::steady_clock::now();
-        lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
+        afm::publish(lc, AFM_CH_HOST_OBJECT_FIX, f);
         const bool ok = pump_until([&] {
             if (view.whole().fix_id >= f.fix_id) return true;
             if (std::chrono::steady_clock::now() - sent > std::chrono::milliseconds(kFixRetryMs)) {
-                lc.publish(AFM_CH_HOST_OBJECT_FIX, &f);
+                afm::publish(lc, AFM_CH_HOST_OBJECT_FIX, f);
                 sent = std::chrono::steady_clock::now();
             }
             return false;

@@ -106,7 +106,7 @@ void Renderer::announce(int k, int64_t seq)
     m.utime = afm::frame_utime(scene, k);
     m.index = k;
     m.seq = seq;
-    lc.publish(AFM_CH_RENDER_FRAME, &m);
+    afm::publish(lc, AFM_CH_RENDER_FRAME, m);
     write_composed(k);
 }
 

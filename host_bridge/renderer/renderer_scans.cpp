@@ -212,7 +212,7 @@ void Renderer::local_scan_done()
 
 void Renderer::send_fix()
 {
-    lc.publish(AFM_CH_HOST_OBJECT_FIX, &fix_msg);
+    afm::publish(lc, AFM_CH_HOST_OBJECT_FIX, fix_msg);
     fix_sent = std::chrono::steady_clock::now();
 }
 

@@ -121,7 +121,7 @@ void ViewFrames::publish(Offer o, std::vector<haptic_force_t> samples, int skipp
         ++too_large_;
         return;
     }
-    lc_->publish(AFM_CH_VIEW_FRAME, &m);
+    afm::publish(*lc_, AFM_CH_VIEW_FRAME, m);
     std::lock_guard<std::mutex> l(m_);
     ++published_;
     bytes_ += m.getEncodedSize();

@@ -56,6 +56,7 @@ class BenchBus(unittest.TestCase):
                             "--out", out], capture_output=True, text=True, timeout=benchtest.limit(300),
                            env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+        self.assertIn("The bus's MAC", p.stdout)
         with open(os.path.join(out, "bench_bus.json")) as f:
             r = json.load(f)
         self.assertGreater(r["floors"]["kernel"]["floor_us"], 0)
@@ -103,6 +104,14 @@ class BenchBus(unittest.TestCase):
             else:
                 self.assertGreater(row["scan_ms"], 0, row)
             self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")
+            # the bus's MAC, apart from the floor: signed and checked a block,
+            # its time a small part of the block's (bus_key.hpp)
+            mac = row["mac"]
+            self.assertIsNotNone(mac, row)
+            self.assertGreater(mac["signed_per_block"], 3, mac)   # the lockstep's four hops at least
+            self.assertGreater(mac["checked_per_block"], mac["signed_per_block"], mac)   # the launcher checks them all, and their readers
+            self.assertGreater(mac["us_per_block"], 0, mac)
+            self.assertAlmostEqual(mac["us_per_block"], mac["sign_us_per_block"] + mac["check_us_per_block"], places=6)
             # the whole command holds the loop and more (the start, the first scan, the files)
             self.assertGreater(row["run_s"], row["loop_us_per_block"] * blocks * 1e-6, row)
             with open(os.path.join(out, f"run-{k}-0", "run.json")) as f:

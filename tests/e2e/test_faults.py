@@ -11,7 +11,8 @@ import unittest
 import benchtest
 
 FAULTS = os.path.join(benchtest.SRC, "tools", "faults.py")
-FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "net:dup", "net:kernel", "disk:full", "scene:changed"]
+FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "launcher:SIGKILL", "net:dup", "net:kernel", "disk:full", "scene:changed",
+        "spoof-port:pose", "spoof-port:pose:nokey"]
 NETFAULT = os.path.join(benchtest.BUILD, "host_bridge", "afm_netfault")
 
 
@@ -81,6 +82,19 @@ class FaultMatrix(unittest.TestCase):
 
     def test_a_scene_changed_while_the_run_starts_does_not_change_the_run(self):
         self.check("scene:changed")
+
+    def test_a_launcher_killed_outright_takes_its_processes_and_the_next_run_says_so(self):
+        # issue 46: SIGKILL of afm_launch left its four children running
+        self.check("launcher:SIGKILL")
+        self.assertIn("none left", self.rows["launcher:SIGKILL"]["match_text"])
+
+    def test_a_pose_from_the_operators_port_is_refused_with_the_key_and_acts_without(self):
+        # issue 46: a pose for block n + 1 from the operator's port (a raw
+        # socket) made the run diverge from block 7605 under status ok
+        self.check("spoof-port:pose")
+        self.assertTrue(self.rows["spoof-port:pose"]["match"])
+        self.check("spoof-port:pose:nokey")
+        self.assertFalse(self.rows["spoof-port:pose:nokey"]["match"], "without the key the forgery acts: the row shows what the key holds off")
 
     def test_the_matrix_prints_one_row_per_fault(self):
         self.assertEqual(self.p.returncode, 0, self.p.stdout + self.p.stderr)
