@@ -15,7 +15,7 @@ AFM = os.path.join(benchtest.SRC, "afm")
 
 
 def build(**env):
-    return subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=600, env=dict(os.environ, **env))
+    return subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=benchtest.limit(540), env=dict(os.environ, **env))
 
 
 class BuildLock(unittest.TestCase):
@@ -61,7 +61,7 @@ class BuildLock(unittest.TestCase):
         if os.geteuid() != 0:
             return
         env = {k: v for k, v in os.environ.items() if k != "AFM_BUILD_LOCK"}
-        p = subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=600, env=env)
+        p = subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=benchtest.limit(540), env=env)
         self.assertEqual(p.returncode, 0, p.stderr)
         st = os.lstat("/run/afm")
         self.assertTrue(stat.S_ISDIR(st.st_mode))

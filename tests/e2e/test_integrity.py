@@ -18,11 +18,11 @@ class Integrity(unittest.TestCase):
     def setUpClass(cls):
         cls.out = os.path.join(benchtest.tmpdir("integrity"), "run")
         p = subprocess.run([AFM, "run", benchtest.scene("short.yaml"), "--out", cls.out, "--quiet"],
-                           capture_output=True, text=True, timeout=600)
+                           capture_output=True, text=True, timeout=benchtest.limit(540))
         assert p.returncode == 0, p.stderr
 
     def replay(self):
-        return subprocess.run([AFM, "replay", self.out, "--quiet"], capture_output=True, text=True, timeout=600)
+        return subprocess.run([AFM, "replay", self.out, "--quiet"], capture_output=True, text=True, timeout=benchtest.limit(540))
 
     def test_1_the_digests_are_roots_and_cover_the_log(self):
         path = os.path.join(self.out, "digests.json")
@@ -53,7 +53,7 @@ class Integrity(unittest.TestCase):
         d = os.path.join(benchtest.tmpdir("integrity-old"), "run")
         code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), d)
         self.assertEqual(code, 0, err)
-        p = subprocess.run([AFM, "replay", d, "--quiet"], capture_output=True, text=True, timeout=600)
+        p = subprocess.run([AFM, "replay", d, "--quiet"], capture_output=True, text=True, timeout=benchtest.limit(540))
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("no digests.json (a run made before digests): not checked", p.stderr)
 

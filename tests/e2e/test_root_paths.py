@@ -160,7 +160,7 @@ class RootFollowsNothing(unittest.TestCase):
         self.assertFalse(os.path.islink(os.path.join(d, "report.html")))
         # ./afm replay --compare with compare/ a link into a root-only folder
         os.symlink(self.rootdir, os.path.join(d, "compare"))
-        p = subprocess.run([AFM, "replay", d, "--compare"], capture_output=True, text=True, timeout=600)
+        p = subprocess.run([AFM, "replay", d, "--compare"], capture_output=True, text=True, timeout=benchtest.limit(540))
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn(f"{d}/compare: refused: a symbolic link", p.stderr)
         self.untouched()
@@ -173,7 +173,7 @@ class RootFollowsNothing(unittest.TestCase):
         os.chown(d, 0, 0)
 
     def test_4_replay_compare_writes_in_a_compare_folder_of_its_own(self):
-        p = subprocess.run([AFM, "replay", self.out, "--compare"], capture_output=True, text=True, timeout=600)
+        p = subprocess.run([AFM, "replay", self.out, "--compare"], capture_output=True, text=True, timeout=benchtest.limit(540))
         self.assertIn(p.returncode, (0, 1), p.stderr)
         cmp = os.path.join(self.out, "compare")
         self.assertFalse(os.path.islink(cmp))
