@@ -265,7 +265,7 @@ def mac_cost(run, blocks):
             "checked_per_block": sum(c.get("checked", 0) for c in costs.values()) / blocks}
 
 
-def main(argv=None):
+def parse_args(argv):
     ap = argparse.ArgumentParser(prog="./afm bench bus", description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default=os.path.join(TOP, "scenes", "default.yaml"), help="scene of the lockstep runs (default: the demo's)")
@@ -275,13 +275,15 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true", help="print the figures as JSON instead of tables")
     a = ap.parse_args(argv)
     a.scene = benchargs.checked_scene(ap, a)
-    out, keep = paths.bench_folder(a.out, "afm-bench-bus-")
-    disk = disk_probe(out)
+    return a
 
-    # The arrangements in turn, a run of each per round: what slows the
-    # machine for a while (another job; creating files on ext4 without a
-    # journal just after many were deleted, docs/bus.md, "The lockstep's cost per block")
-    # falls on every arrangement alike, not on the first one run.
+
+def run_rounds(a, out):
+    """The arrangements in turn, a run of each per round: what slows the
+    machine for a while (another job; creating files on ext4 without a
+    journal just after many were deleted, docs/bus.md, "The lockstep's cost
+    per block") falls on every arrangement alike, not on the first one run.
+    Returns each arrangement's runs and each two-host link's."""
     scenes = [a.scene if outputs is None else scene_with_outputs(a.scene, outputs, out) for _, _, outputs in ARRANGEMENTS]
     runs_of = [[] for _ in ARRANGEMENTS]
     two_of = [[] for _ in TWO_HOSTS]
@@ -292,51 +294,65 @@ def main(argv=None):
         for k, (label, link) in enumerate(TWO_HOSTS):
             print(f"bench bus: round {i + 1} of {a.repeat}: {label} ...", file=sys.stderr)
             two_of[k].append(one_run(a.scene, [], os.path.join(out, f"two-{k}-{i}"), link=link))
-    rows = []
-    for (label, args, outputs), runs in zip(ARRANGEMENTS, runs_of):
-        med = statistics.median(r["us_per_block"] for r in runs)
-        names = sorted({n for r in runs for n in r["cpu_us_per_block"]})
-        rows.append({
-            "arrangement": label, "args": args, "outputs": outputs, "us_per_block": med,
-            "runs_us_per_block": [r["us_per_block"] for r in runs],
-            "loop_us_per_block": statistics.median(r["loop_us_per_block"] for r in runs),
-            "scan_ms": statistics.median(r["scan_ms"] for r in runs),
-            "sim_s_per_wall_s": statistics.median(r["sim_s_per_wall_s"] for r in runs),
-            "run_s": statistics.median(r["run_s"] for r in runs),
-            "run_sim_s_per_wall_s": statistics.median(r["run_sim_s_per_wall_s"] for r in runs),
-            "log_complete": all(r["complete"] for r in runs),
-            "log_waits": statistics.median(r["log_waits"] for r in runs),
-            "log_wait_ms": statistics.median(r["log_wait_ms"] for r in runs),
-            "frame_wait_ms": statistics.median(r["frame_wait_ms"] for r in runs),
-            "frame_files_cpu_ms": (statistics.median(r["frame_files_cpu_ms"] for r in runs)
-                                   if all(r["frame_files_cpu_ms"] for r in runs) else None),
-            "log_window_blocks": runs[0]["log_window_blocks"],
-            "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs) for n in names},
-            "placement": runs[0]["placement"],
-            "placed": all(r["placement"].get("on") for r in runs),
-            "mac": ({k: statistics.median(r["mac"][k] for r in runs) for k in runs[0]["mac"]}
-                    if all(r["mac"] for r in runs) else None),
-        })
-    sizes = sizes_of(os.path.join(out, "run-0-0", "bus.lcmlog"))
+    return runs_of, two_of
+
+
+def median_cpu(runs):
+    """Each process's CPU in the loop, us a block, the median over runs."""
+    return {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs)
+            for n in sorted({n for r in runs for n in r["cpu_us_per_block"]})}
+
+
+def lockstep_row(label, args, outputs, runs):
+    """One arrangement's figures: the median over its runs."""
+    def med(key):
+        return statistics.median(r[key] for r in runs)
+    return {
+        "arrangement": label, "args": args, "outputs": outputs, "us_per_block": med("us_per_block"),
+        "runs_us_per_block": [r["us_per_block"] for r in runs],
+        "loop_us_per_block": med("loop_us_per_block"), "scan_ms": med("scan_ms"),
+        "sim_s_per_wall_s": med("sim_s_per_wall_s"), "run_s": med("run_s"),
+        "run_sim_s_per_wall_s": med("run_sim_s_per_wall_s"),
+        "log_complete": all(r["complete"] for r in runs),
+        "log_waits": med("log_waits"), "log_wait_ms": med("log_wait_ms"), "frame_wait_ms": med("frame_wait_ms"),
+        "frame_files_cpu_ms": med("frame_files_cpu_ms") if all(r["frame_files_cpu_ms"] for r in runs) else None,
+        "log_window_blocks": runs[0]["log_window_blocks"],
+        "cpu_us_per_block": median_cpu(runs),
+        "placement": runs[0]["placement"],
+        "placed": all(r["placement"].get("on") for r in runs),
+        "mac": ({k: statistics.median(r["mac"][k] for r in runs) for k in runs[0]["mac"]}
+                if all(r["mac"] for r in runs) else None),
+    }
+
+
+def floors_of(rows, sizes, count, out):
+    """The floor of a block, from LCM's latency per message size: as the
+    kernel places the two ends, and (when a run was placed) both on the
+    lockstep's CPU; each as the processes receive and through liblcm's thread."""
     floors = {}
     placed = next((x["placement"] for x in rows if x["placed"]), None)
     cpu = int(placed["lockstep_cpus"].split(",")[0].split("-")[0]) if placed else None
     for receive, how in (("tap", "received as the processes receive"), ("liblcm", "received through liblcm's thread")):
         suffix = "" if receive == "tap" else " liblcm"
-        print(f"bench bus: LCM latency, {how}, {a.count} pings per size ...", file=sys.stderr)
-        lat = raw_latency(sizes, a.count, out, receive=receive)
+        print(f"bench bus: LCM latency, {how}, {count} pings per size ...", file=sys.stderr)
+        lat = raw_latency(sizes, count, out, receive=receive)
         floors["kernel" + suffix] = dict(floor_of(lat, sizes, serial=False), placement=f"as the kernel places them (unpinned), {how}",
                                          latency=list(lat.values()), receive=receive)
         if placed:
-            print(f"bench bus: LCM latency on CPU {cpu} (the lockstep's), {how}, {a.count} pings per size ...", file=sys.stderr)
-            lat1 = raw_latency(sizes, a.count, out, cpu, receive=receive)
+            print(f"bench bus: LCM latency on CPU {cpu} (the lockstep's), {how}, {count} pings per size ...", file=sys.stderr)
+            lat1 = raw_latency(sizes, count, out, cpu, receive=receive)
             floors["placed" + suffix] = dict(floor_of(lat1, sizes, serial=True),
                                              placement=f"both ends on CPU {cpu}, as a run places the lockstep, {how}",
                                              latency=list(lat1.values()), receive=receive)
+    return floors
+
+
+def two_hosts_rows(two_of, floors, sizes, count, out):
+    """Each two-host link's runs against the floor of its link."""
     two = []
     for (label, link), runs in zip(TWO_HOSTS, two_of):
-        print(f"bench bus: LCM across the link of two hosts ({label}), {a.count} pings ...", file=sys.stderr)
-        link_lat, probe = link_latency(sizes, a.count, link, out)
+        print(f"bench bus: LCM across the link of two hosts ({label}), {count} pings ...", file=sys.stderr)
+        link_lat, probe = link_latency(sizes, count, link, out)
         placed2 = all(r["placement"].get("on") for r in runs) and "placed" in floors
         # the operator path on the host's loopback, as the one-namespace floor of the same placement measured it
         local = {x["bytes"]: x for x in floors["placed" if placed2 else "kernel"]["latency"]}
@@ -346,13 +362,29 @@ def main(argv=None):
                     "floor": fl, "ratio_to_floor": med / fl["floor_us"], "placed": placed2,
                     "log_complete": all(r["complete"] for r in runs),
                     "link_one_way_us": {"to_afm": probe["to_afm"], "to_host": probe["to_host"]},
-                    "cpu_us_per_block": {n: statistics.median(r["cpu_us_per_block"].get(n, 0) for r in runs)
-                                         for n in sorted({n for r in runs for n in r["cpu_us_per_block"]})}})
+                    "cpu_us_per_block": median_cpu(runs)})
+    return two
+
+
+def against_floors(rows, floors):
+    """Each arrangement's block against the floor of its placement."""
     for row in rows:
         row["floor"] = "placed" if row["placed"] and "placed" in floors else "kernel"
         row["ratio_to_floor"] = row["us_per_block"] / floors[row["floor"]]["floor_us"]
         row["ratio_to_liblcm_floor"] = row["us_per_block"] / floors[row["floor"] + " liblcm"]["floor_us"]
         row["loop_ratio_to_floor"] = row["loop_us_per_block"] / floors[row["floor"]]["floor_us"]
+
+
+def main(argv=None):
+    a = parse_args(argv)
+    out, keep = paths.bench_folder(a.out, "afm-bench-bus-")
+    disk = disk_probe(out)
+    runs_of, two_of = run_rounds(a, out)
+    rows = [lockstep_row(label, args, outputs, runs) for (label, args, outputs), runs in zip(ARRANGEMENTS, runs_of)]
+    sizes = sizes_of(os.path.join(out, "run-0-0", "bus.lcmlog"))
+    floors = floors_of(rows, sizes, a.count, out)
+    two = two_hosts_rows(two_of, floors, sizes, a.count, out)
+    against_floors(rows, floors)
     report = {"sizes": sizes, "floors": floors, "lockstep": rows, "two_hosts": two, "scene": a.scene, "repeat": a.repeat, "disk": disk}
     with open(os.path.join(out, "bench_bus.json"), "w") as f:
         json.dump(report, f, indent=1)

@@ -63,6 +63,14 @@ class BenchBus(unittest.TestCase):
         self.assertGreater(r["floors"]["kernel liblcm"]["floor_us"], 0)
         self.assertEqual(r["floors"]["kernel"]["receive"], "tap")
         self.assertEqual(len(r["lockstep"]), 6)
+        self.check_two_hosts(r)
+        with open(os.path.join(out, "run-0-0", "sim_report.json")) as f:
+            blocks = json.load(f)["blocks"]   # every run of the scene has as many
+        for k, row in enumerate(r["lockstep"]):
+            self.check_arrangement(r, k, row, out, blocks)
+        self.check_record(os.path.join(out, "run-0-0"))
+
+    def check_two_hosts(self, r):
         # two hosts (docs/hosts.md): a plain link and 0.2 ms each way, each against its own floor
         self.assertEqual([x["link"] for x in r["two_hosts"]], ["", "delay=0.2"])
         for x in r["two_hosts"]:
@@ -72,59 +80,60 @@ class BenchBus(unittest.TestCase):
         plain, delayed = r["two_hosts"]
         self.assertGreater(delayed["floor"]["paths_us"]["simulator"], plain["floor"]["paths_us"]["simulator"] + 2 * 200,
                            "0.2 ms each way: two delayed hops on the simulator path")
-        with open(os.path.join(out, "run-0-0", "sim_report.json")) as f:
-            blocks = json.load(f)["blocks"]   # every run of the scene has as many
-        for k, row in enumerate(r["lockstep"]):
-            frames = os.listdir(os.path.join(out, f"run-{k}-0", "frames")) if os.path.isdir(os.path.join(out, f"run-{k}-0", "frames")) else []
-            if row["outputs"]:   # the renderer draws, announces and checks, but writes no frame file
-                self.assertEqual(row["outputs"], {"png": False, "video": "none"})
-                self.assertEqual(frames, [], row)
-                self.assertFalse([n for n in os.listdir(os.path.join(out, f"run-{k}-0")) if n.startswith("video")], row)
-                self.assertIn("renderer", row["cpu_us_per_block"])
-            elif "--no-renderer" not in row["args"]:
-                self.assertTrue(frames, row)
-            self.assertGreaterEqual(row["frame_wait_ms"], 0)
-            if "--no-renderer" in row["args"]:
-                self.assertEqual(row["frame_wait_ms"], 0, "no renderer, no frame to wait for")
-            # a placed run is held to the floor of one CPU (the four hops in
-            # series, pinned), an unplaced one to the kernel's (two paths in parallel)
-            self.assertEqual(row["floor"], "placed" if row["placed"] else "kernel", row)
-            self.assertGreater(r["floors"][row["floor"]]["floor_us"], 0)
-            self.assertGreater(r["floors"][row["floor"] + " liblcm"]["floor_us"], 0)
-            self.assertGreater(row["ratio_to_liblcm_floor"], 0)
-            if "--placement" in row["args"]:
-                self.assertFalse(row["placed"], row)
-            self.assertTrue(row["log_complete"], row)
-            self.assertGreater(row["us_per_block"], 0)
-            # the scans served between blocks are taken out of the lockstep's
-            # cost: the renderer's display check asks for a final one
-            self.assertAlmostEqual(row["loop_us_per_block"] - row["us_per_block"], row["scan_ms"] * 1e3 / blocks, delta=0.5)
-            if "--no-renderer" in row["args"]:
-                self.assertEqual(row["scan_ms"], 0, row)
-            else:
-                self.assertGreater(row["scan_ms"], 0, row)
-            self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")
-            # the bus's MAC, apart from the floor: signed and checked a block,
-            # its time a small part of the block's (bus_key.hpp)
-            mac = row["mac"]
-            self.assertIsNotNone(mac, row)
-            self.assertGreater(mac["signed_per_block"], 3, mac)   # the lockstep's four hops at least
-            self.assertGreater(mac["checked_per_block"], mac["signed_per_block"], mac)   # the launcher checks them all, and their readers
-            self.assertGreater(mac["us_per_block"], 0, mac)
-            self.assertAlmostEqual(mac["us_per_block"], mac["sign_us_per_block"] + mac["check_us_per_block"], places=6)
-            # the whole command holds the loop and more (the start, the first scan, the files)
-            self.assertGreater(row["run_s"], row["loop_us_per_block"] * blocks * 1e-6, row)
-            with open(os.path.join(out, f"run-{k}-0", "run.json")) as f:
-                sim_s = json.load(f)["sim_seconds"]
-            self.assertAlmostEqual(row["run_sim_s_per_wall_s"] * row["run_s"], sim_s, places=6)
-            self.assertEqual("renderer" in row["cpu_us_per_block"], "--no-renderer" not in row["args"], row)
-            if "--log-window" in row["args"]:
-                self.assertEqual(row["log_waits"], 0, "no window, no wait")
-                self.assertEqual(row["log_window_blocks"], 0, row)
-            else:   # the launcher's window: from its receive buffer, 8 to 64 blocks
-                self.assertTrue(8 <= row["log_window_blocks"] <= 64, row)
-        # the record of a run: every event the launcher wrote reads back
-        run = os.path.join(out, "run-0-0")
+
+    def check_arrangement(self, r, k, row, out, blocks):
+        """One arrangement's row: its frames, floor, scans, MAC, run and log window."""
+        frames = os.listdir(os.path.join(out, f"run-{k}-0", "frames")) if os.path.isdir(os.path.join(out, f"run-{k}-0", "frames")) else []
+        if row["outputs"]:   # the renderer draws, announces and checks, but writes no frame file
+            self.assertEqual(row["outputs"], {"png": False, "video": "none"})
+            self.assertEqual(frames, [], row)
+            self.assertFalse([n for n in os.listdir(os.path.join(out, f"run-{k}-0")) if n.startswith("video")], row)
+            self.assertIn("renderer", row["cpu_us_per_block"])
+        elif "--no-renderer" not in row["args"]:
+            self.assertTrue(frames, row)
+        self.assertGreaterEqual(row["frame_wait_ms"], 0)
+        if "--no-renderer" in row["args"]:
+            self.assertEqual(row["frame_wait_ms"], 0, "no renderer, no frame to wait for")
+        # a placed run is held to the floor of one CPU (the four hops in
+        # series, pinned), an unplaced one to the kernel's (two paths in parallel)
+        self.assertEqual(row["floor"], "placed" if row["placed"] else "kernel", row)
+        self.assertGreater(r["floors"][row["floor"]]["floor_us"], 0)
+        self.assertGreater(r["floors"][row["floor"] + " liblcm"]["floor_us"], 0)
+        self.assertGreater(row["ratio_to_liblcm_floor"], 0)
+        if "--placement" in row["args"]:
+            self.assertFalse(row["placed"], row)
+        self.assertTrue(row["log_complete"], row)
+        self.assertGreater(row["us_per_block"], 0)
+        # the scans served between blocks are taken out of the lockstep's
+        # cost: the renderer's display check asks for a final one
+        self.assertAlmostEqual(row["loop_us_per_block"] - row["us_per_block"], row["scan_ms"] * 1e3 / blocks, delta=0.5)
+        if "--no-renderer" in row["args"]:
+            self.assertEqual(row["scan_ms"], 0, row)
+        else:
+            self.assertGreater(row["scan_ms"], 0, row)
+        self.assertIn("afm_launch", row["cpu_us_per_block"], "the recorder's CPU is counted")
+        # the bus's MAC, apart from the floor: signed and checked a block,
+        # its time a small part of the block's (bus_key.hpp)
+        mac = row["mac"]
+        self.assertIsNotNone(mac, row)
+        self.assertGreater(mac["signed_per_block"], 3, mac)   # the lockstep's four hops at least
+        self.assertGreater(mac["checked_per_block"], mac["signed_per_block"], mac)   # the launcher checks them all, and their readers
+        self.assertGreater(mac["us_per_block"], 0, mac)
+        self.assertAlmostEqual(mac["us_per_block"], mac["sign_us_per_block"] + mac["check_us_per_block"], places=6)
+        # the whole command holds the loop and more (the start, the first scan, the files)
+        self.assertGreater(row["run_s"], row["loop_us_per_block"] * blocks * 1e-6, row)
+        with open(os.path.join(out, f"run-{k}-0", "run.json")) as f:
+            sim_s = json.load(f)["sim_seconds"]
+        self.assertAlmostEqual(row["run_sim_s_per_wall_s"] * row["run_s"], sim_s, places=6)
+        self.assertEqual("renderer" in row["cpu_us_per_block"], "--no-renderer" not in row["args"], row)
+        if "--log-window" in row["args"]:
+            self.assertEqual(row["log_waits"], 0, "no window, no wait")
+            self.assertEqual(row["log_window_blocks"], 0, row)
+        else:   # the launcher's window: from its receive buffer, 8 to 64 blocks
+            self.assertTrue(8 <= row["log_window_blocks"] <= 64, row)
+
+    def check_record(self, run):
+        """The record of a run: every event the launcher wrote reads back."""
         with open(os.path.join(run, "run.json")) as f:
             rj = json.load(f)
         log = afmlog_events(os.path.join(run, "bus.lcmlog"))
