@@ -27,8 +27,13 @@ missing=()
 for p in "${apt_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
 done
-# A JDK (javac + jar) for the lcm-spy types jar; any JDK 17+ already present will do.
-if ! command -v javac >/dev/null || ! command -v jar >/dev/null; then missing+=(default-jdk-headless); fi
+# A JDK (javac + jar) for the lcm-spy types jar, and a JRE with AWT for
+# lcm-spy's window (a headless JRE has no libawt_xawt.so: lcm-spy then fails
+# with java.awt.HeadlessException even under Xvfb); any JDK 17+ already
+# present will do if it has both.
+if ! command -v javac >/dev/null || ! command -v jar >/dev/null; then missing+=(default-jdk); fi
+java_home=$(dirname "$(dirname "$(readlink -f "$(command -v java 2>/dev/null || echo /nonexistent/bin/java)")")")
+[ -e "$java_home/lib/libawt_xawt.so" ] || missing+=(default-jre)
 apt_updated=0
 apt_update_once() {
   [ $apt_updated = 1 ] && return 0
