@@ -1,8 +1,8 @@
 """A recording altered after its run is found (issue 46, item 9): ./afm run
 writes digests.json (analysis/safefs.py: the SHA-256 of each of the run's
 files) once the folder is root's again, and ./afm replay checks bus.lcmlog,
-run.json and scene.yaml against it first, naming the file and both digests
-in one line (exit 2). A run made before digests replays, said so."""
+run.json and scene.yaml against it first, and ./afm export bus.lcmlog and
+run.json, naming the file and both digests in one line (exit 2). A run made before digests replays, said so."""
 import json
 import os
 import subprocess
@@ -48,6 +48,14 @@ class Integrity(unittest.TestCase):
         self.assertEqual(p.stdout, "", "nothing replayed")
         said = [l for l in p.stderr.splitlines() if l.strip() and not l.startswith("afm: building")]   # ./afm's own build line aside
         self.assertEqual(len(said), 1, p.stderr)
+
+    def test_2b_an_altered_log_is_not_exported(self):
+        # (test_2 altered the log) ./afm export checks it as replay does, before it reads a byte of it
+        csv = os.path.join(benchtest.tmpdir("integrity-csv"), "csv")
+        p = subprocess.run([AFM, "export", self.out, "--csv", csv], capture_output=True, text=True, timeout=benchtest.limit(300))
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn(f"{self.out}/bus.lcmlog: altered since the run: sha256 ", p.stderr)
+        self.assertFalse(os.path.exists(csv), "nothing exported")
 
     def test_3_a_run_without_digests_replays_and_says_so(self):
         d = os.path.join(benchtest.tmpdir("integrity-old"), "run")
