@@ -194,5 +194,94 @@ class ThePagesPort(unittest.TestCase):
             self.assertNotIn("Traceback", p.stderr)
 
 
+# The page's server alone (analysis/view/server.py) with a source that says
+# hello and nothing else, in its own process: its stderr is what a person sees.
+SERVE = """
+import asyncio, sys
+from analysis.view import server
+class Source:
+    def hello(self): return {"type": "hello"}
+    def on_message(self, m): return None
+async def main():
+    sock = server.listen(0)
+    view = server.ViewServer("tok", Source())
+    await view.start(sock)
+    print(sock.getsockname()[1], flush=True)
+    await asyncio.sleep(600)
+asyncio.run(main())
+"""
+WS_UPGRADE = {"Upgrade": "websocket", "Connection": "Upgrade", "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==",
+              "Sec-WebSocket-Version": "13"}
+
+
+class ThePage(unittest.TestCase):
+    """The page checks Host (loopback names with its port) and Origin (its
+    own) as well as the token, on HTTP and the WebSocket (issue 46 item 10);
+    malformed HTTP is aiohttp's 400 and one escaped line, not a traceback."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.p = subprocess.Popen([sys.executable, "-c", SERVE], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        cls.port = int(cls.p.stdout.readline())
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.p.kill()
+        cls.p.wait()
+        cls.p.stdout.close()
+        cls.p.stderr.close()
+
+    def status(self, path, headers):
+        """The status of GET path with exactly these headers (Host too)."""
+        import http.client
+        c = http.client.HTTPConnection("127.0.0.1", self.port, timeout=5)
+        c.putrequest("GET", path, skip_host=True, skip_accept_encoding=True)
+        for k, v in headers.items():
+            c.putheader(k, v)
+        c.endheaders()
+        status = c.getresponse().status
+        c.close()
+        return status
+
+    def test_host_and_origin_are_checked_with_the_token_right(self):
+        own = [f"127.0.0.1:{self.port}", f"localhost:{self.port}", f"[::1]:{self.port}", f"LOCALHOST:{self.port}"]
+        for host in own:
+            self.assertEqual(self.status("/?token=tok", {"Host": host}), 200, host)
+            self.assertEqual(self.status("/view.js?token=tok", {"Host": host, "Origin": f"http://{host}"}), 200, host)
+        wrong_hosts = [None, "", "127.0.0.1", f"127.0.0.1:{self.port + 1}", f"evil.example:{self.port}",
+                       f"127.0.0.1.evil.example:{self.port}", f"localhost.:{self.port}", f"0.0.0.0:{self.port}",
+                       f"127.0.0.2:{self.port}", f"[::ffff:127.0.0.1]:{self.port}", "evil.example"]
+        for host in wrong_hosts:
+            headers = {} if host is None else {"Host": host}
+            refused = (400, 403) if host is None else (403,)   # no Host at all: aiohttp's own 400 comes first
+            self.assertIn(self.status("/?token=tok", headers), refused, host)
+            self.assertIn(self.status("/ws?token=tok", dict(headers, **WS_UPGRADE)), refused, host)
+        host = f"127.0.0.1:{self.port}"
+        for origin in ("null", "http://evil.example", f"http://evil.example:{self.port}", f"https://{host}",
+                       f"http://localhost:{self.port}", f"http://{host}.evil.example", f"http://{host}/x"):
+            self.assertEqual(self.status("/?token=tok", {"Host": host, "Origin": origin}), 403, origin)
+            self.assertEqual(self.status("/ws?token=tok", dict({"Host": host, "Origin": origin}, **WS_UPGRADE)), 403, origin)
+        self.assertEqual(self.status("/?token=bad", {"Host": host}), 403)
+
+    def test_malformed_http_is_one_escaped_line_each(self):
+        bad = [b"GET / HTTP/1.1\r\nHost: x\r\nContent-Length: -5\r\n\r\n", b"GET /\x1b[2J\xc2\x9b HTTP/1.1\r\n\r\n",
+               b"GET / HTTP/1.1\r\nHost: " + b"a" * 100000 + b"\r\n\r\n", b"\x16\x03\x01\x02\x00\x01" + b"\0" * 60,
+               b"GET / HTTP/1.1\r\nX\x1b[31m: y\r\n\r\n"]
+        for raw in bad:
+            with socket.create_connection(("127.0.0.1", self.port), timeout=5) as c:
+                c.sendall(raw)
+                self.assertTrue(c.recv(100).startswith(b"HTTP/1."), raw[:40])
+        time.sleep(0.5)
+        self.p.kill()
+        err = self.p.stderr.read()
+        lines = err.splitlines()
+        self.assertGreaterEqual(len(lines), 4, err)
+        self.assertNotIn(b"Traceback", err)
+        for line in lines:
+            self.assertTrue(line.startswith(b"view: "), line)
+            self.assertIsNone(RAW_CONTROL.search(line), line)
+        self.assertIn(b"\\\\x1b[2J\\\\xc2\\\\x9b", err)   # aiohttp quotes the bytes as repr does (\\x1b); escaped once more
+
+
 if __name__ == "__main__":
     benchtest.main()
