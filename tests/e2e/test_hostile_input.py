@@ -194,6 +194,47 @@ class ThePagesPort(unittest.TestCase):
             self.assertNotIn("Traceback", p.stderr)
 
 
+class CorruptLog(TestCase):
+    """./afm export of a bit-flipped log: a channel name no longer UTF-8
+    (LCM's reader raised UnicodeDecodeError: 4 tracebacks in 80 random
+    flips of a run's log) or a negative timestamp (MCAP's writer raised
+    struct.error) is one line, exit 2; and any flip is either read or that."""
+    LOG = os.path.join(benchtest.SRC, "fuzz", "corpus", "lcmlog", "run_start.lcmlog")   # a real run's start
+
+    def export(self, data, mode):
+        run = os.path.join(self.dir, "run")
+        os.makedirs(run, exist_ok=True)
+        with open(os.path.join(run, "bus.lcmlog"), "wb") as f:
+            f.write(data)
+        target = os.path.join(run, "out.mcap" if mode == "--mcap" else "csv")
+        p = subprocess.run([sys.executable, "-m", "analysis.export", run, mode, target], capture_output=True, timeout=120)
+        return p.returncode, p.stderr
+
+    def test_a_flipped_bit_is_read_or_one_line(self):
+        with open(self.LOG, "rb") as f:
+            raw = f.read()
+        self.assertEqual(raw[28:41], b"AFM_HEARTBEAT")   # the first event's channel (LCM's event header is 28 bytes)
+        name = bytearray(raw)
+        name[28] = 0xC1
+        code, err = self.export(bytes(name), "--csv")
+        self.assert_one_escaped_line(code, err, b"bus.lcmlog: corrupt: an event's channel name is not UTF-8 text")
+        when = bytearray(raw)
+        when[12] |= 0x80   # the first event's timestamp (int64, big-endian) negative
+        code, err = self.export(bytes(when), "--mcap")
+        self.assert_one_escaped_line(code, err, b"log time", b"outside MCAP's range")
+        import random
+        rng = random.Random(46)
+        for k in range(16):
+            b = bytearray(raw)
+            for _ in range(rng.choice((1, 8))):
+                i = rng.randrange(len(b))
+                b[i] ^= 1 << rng.randrange(8)
+            code, err = self.export(bytes(b), ("--csv", "--mcap")[k % 2])
+            self.assertNotIn(b"Traceback", err, k)
+            if code != 0:
+                self.assert_one_escaped_line(code, err)
+
+
 # The page's server alone (analysis/view/server.py) with a source that says
 # hello and nothing else, in its own process: its stderr is what a person sees.
 SERVE = """
