@@ -12,6 +12,7 @@ import asyncio
 import signal
 import sys
 
+from analysis.text import printable
 from analysis.view import live, recorded, server
 
 
@@ -61,7 +62,7 @@ def _main(argv):
         source = recorded.RecordedSource(a.run_dir)
     except recorded.RunError as e:
         sock.close()
-        print(e, file=sys.stderr)
+        print(printable(str(e)), file=sys.stderr)   # the folder's name, escaped
         return 2
     asyncio.run(_play(source, sock))
     return 0
