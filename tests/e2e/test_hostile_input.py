@@ -144,6 +144,12 @@ class ControlCharacters(TestCase):
             code, err = check(self.scene(SHORT.replace("duration_s: 0.6", f'duration_s: "0{e}6"')))
             self.assert_one_escaped_line(code, err, b"duration_s: must be a number, got '0" + escaped(raw) + b"6'")
 
+    def test_in_a_scene_string_that_run_json_and_the_report_would_carry(self):
+        # text a run writes into run.json (JSON) and report.html (HTML) must be printable UTF-8: refused, not quoted
+        for raw in CONTROLS:
+            code, err = check(self.scene(SHORT.replace("name: short-push", f'name: "a{yaml_escape(raw)}b"')))
+            self.assert_one_escaped_line(code, err, b"name: must be printable UTF-8 text")
+
     def test_in_a_gsf_header_line(self):
         for raw in CONTROLS:
             if raw == b"\n":
