@@ -36,6 +36,9 @@ import os
 import re
 import sys
 
+from analysis.text import printable
+
+MAX_LOG_TIME_US = 2 ** 64 // 1000   # MCAP's log time: nanoseconds, unsigned 64-bit
 FOXGLOVE_TIME = {
     "type": "object", "properties": {"sec": {"type": "integer", "minimum": 0}, "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}},
     "required": ["sec", "nsec"],
@@ -101,6 +104,8 @@ def open_checked(run_dir):
         raise ExportError(str(e))
     except OSError as e:
         raise ExportError(f"{e.filename or run_dir}: {e.strerror}")
+    except UnicodeDecodeError:   # LCM's Python reader decodes each channel name; a flipped bit made one not UTF-8
+        raise ExportError(f"{os.path.join(run_dir, 'bus.lcmlog')}: corrupt: an event's channel name is not UTF-8 text") from None
 
 
 # ---- CSV ----------------------------------------------------------------------------
@@ -142,7 +147,14 @@ def _write_bus(writer, run):
     for ch in ids:
         tname = afmlog.CHANNELS[ch]
         for t, m in zip(run[ch]["log_time_us"].tolist(), run.messages(ch)):
-            data = json.dumps(lcmschema.to_json(m, tname), allow_nan=False).encode()
+            if not 0 <= t < MAX_LOG_TIME_US:   # a flipped bit in a timestamp made one negative (MCAP's are unsigned)
+                raise ExportError(f"{run.dir}/bus.lcmlog: {ch} message {counts[ch]}: log time {t} us is outside MCAP's "
+                                  f"range (a corrupt log?)")
+            try:
+                data = json.dumps(lcmschema.to_json(m, tname), allow_nan=False).encode()
+            except ValueError:   # NaN or infinity: JSON has none (a corrupt log's flipped bit, or a run's fault)
+                raise ExportError(f"{run.dir}/bus.lcmlog: {ch} message {counts[ch]} (log time {t} us) holds a value that is not "
+                                  f"finite, which JSON cannot carry") from None
             writer.add_message(ids[ch], log_time=t * 1000, data=data, publish_time=t * 1000, sequence=counts[ch])
             counts[ch] += 1
     return counts
@@ -286,7 +298,7 @@ def main(argv=None):
             counts, frames, grids = write_mcap(run, a.mcap)
             print(f"export: {len(counts)} channels, {sum(counts.values())} messages, {frames} frames, {grids} scans -> {a.mcap}")
     except ExportError as e:
-        print(f"export: {e}", file=sys.stderr)
+        print(f"export: {printable(str(e))}", file=sys.stderr)   # names from the folder and the log, escaped
         return 2
     return 0
 

@@ -42,6 +42,8 @@ import tempfile
 
 import numpy as np
 
+from analysis.text import printable
+
 MIN_LOOPS = 3
 # A Gwyddion channel's title (case-insensitive) names its signal by one of
 # these words, and its pass by a retrace word (or its metadata does; else it
@@ -111,30 +113,44 @@ def convert_to_gwy(path, out):
 
 
 def read_csv_loop(path):
-    """read_loop of a CSV loop file (the module's header says its columns)."""
+    """read_loop of a CSV loop file (the module's header says its columns):
+    UTF-8 text, with or without the byte-order mark Excel writes first."""
     acc = {"up": [], "down": []}
-    with open(path, newline="") as f:
-        rows = csv.DictReader(f)
-        missing = [c for c in ("s_n_V", "s_l_V", "direction") if c not in (rows.fieldnames or [])]
-        if missing:
-            raise LoopError(f"{path}: line 1: missing column(s) {', '.join(missing)} (have: {', '.join(rows.fieldnames or [])})")
-        for i, r in enumerate(rows, start=2):
-            d = (r["direction"] or "").strip()
-            if d not in acc:
-                raise LoopError(f"{path}: line {i}: direction must be up or down, got {d[:20]!r}")
-            try:
-                sn, sl = float(r["s_n_V"]), float(r["s_l_V"])
-            except (TypeError, ValueError):
-                raise LoopError(f"{path}: line {i}: s_n_V and s_l_V must be numbers, got {str(r['s_n_V'])[:20]!r}, "
-                                f"{str(r['s_l_V'])[:20]!r}") from None
-            if not (math.isfinite(sn) and math.isfinite(sl)):
-                raise LoopError(f"{path}: line {i}: not finite: s_n_V {sn}, s_l_V {sl}")
-            acc[d].append((sn, sl))
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            rows = csv.DictReader(f)
+            missing = [c for c in ("s_n_V", "s_l_V", "direction") if c not in (rows.fieldnames or [])]
+            if missing:
+                raise LoopError(f"{path}: line 1: missing column(s) {', '.join(missing)} (have: {', '.join(rows.fieldnames or [])})")
+            for i, r in enumerate(rows, start=2):
+                read_csv_row(path, i, r, acc)
+    except UnicodeDecodeError as e:
+        raise LoopError(f"{path}: not UTF-8 text (it has byte 0x{e.object[e.start]:02x} where UTF-8 "
+                        f"does not allow it): a CSV loop file is text") from None
+    except OSError as e:
+        raise LoopError(f"{path}: cannot read ({e.strerror})") from None
+    except csv.Error as e:   # a NUL byte, a field over the csv module's limit (131 072 characters)
+        raise LoopError(f"{path}: line {rows.line_num + 1}: not a CSV loop file ({e})") from None
     for d, v in acc.items():
         if len(v) < 2:
             raise LoopError(f"{path}: {len(v)} sample(s) going {d}: a loop needs both passes")
     up, down = np.array(acc["up"]), np.array(acc["down"])
     return up[:, 0].mean(), up[:, 1].mean(), down[:, 0].mean(), down[:, 1].mean()
+
+
+def read_csv_row(path, i, r, acc):
+    """Row i of a CSV loop file into acc {direction: [(S_n, S_l)]}."""
+    d = (r["direction"] or "").strip()
+    if d not in acc:
+        raise LoopError(f"{path}: line {i}: direction must be up or down, got '{d[:20]}'")
+    try:
+        sn, sl = float(r["s_n_V"]), float(r["s_l_V"])
+    except (TypeError, ValueError):
+        raise LoopError(f"{path}: line {i}: s_n_V and s_l_V must be numbers, got '{str(r['s_n_V'])[:20]}', "
+                        f"'{str(r['s_l_V'])[:20]}'") from None
+    if not (math.isfinite(sn) and math.isfinite(sl)):
+        raise LoopError(f"{path}: line {i}: not finite: s_n_V {sn}, s_l_V {sl}")
+    acc[d].append((sn, sl))
 
 
 def gwy_fields(path, gwy_path):
@@ -178,7 +194,7 @@ def gwy_fields(path, gwy_path):
 def channel_list(fields):
     """The channels as an error names them: number, title, and (retrace) where
     only the metadata says so."""
-    return ", ".join(f"{n} {c.title!r}" + (" (retrace)" if c.retrace and "retrace" not in c.title.lower() else "")
+    return ", ".join(f"{n} '{c.title}'" + (" (retrace)" if c.retrace and "retrace" not in c.title.lower() else "")
                      for n, c in sorted(fields.items()))
 
 
@@ -196,7 +212,7 @@ def pick_channel(path, fields, named, words, retrace, option):
     if named is not None:
         hits = [n for n, c in fields.items() if (named.isdigit() and n == int(named)) or c.title.lower() == named.lower()]
         if len(hits) != 1:
-            raise LoopError(f"{path}: {option} {named!r}: {'no' if not hits else len(hits)} channel(s) of that title or "
+            raise LoopError(f"{path}: {option} '{named}': {'no' if not hits else len(hits)} channel(s) of that title or "
                             f"number (channels: {channel_list(fields)})")
         return hits[0]
     hits = [n for n, c in fields.items() if titled(c.title, words) and c.retrace == retrace]
@@ -212,16 +228,16 @@ def channel_mean_V(path, fields, n, edge_fraction):
     title, field, data, _ = fields[n]
     unit = field.si_unit_z.unitstr if field.si_unit_z is not None else ""
     if unit != "V":
-        raise LoopError(f"{path}: channel {n} {title!r}: unit {unit!r}, the loop needs volts (V); set it in Gwyddion "
+        raise LoopError(f"{path}: channel {n} '{title}': unit '{unit}', the loop needs volts (V); set it in Gwyddion "
                         f"(Dimensions and Units) or name another channel")
     cut = int(edge_fraction * data.shape[1])
     middle = data[:, cut:data.shape[1] - cut]
     if middle.size == 0:
-        raise LoopError(f"{path}: channel {n} {title!r}: {data.shape[1]} sample(s) a line, none left with "
+        raise LoopError(f"{path}: channel {n} '{title}': {data.shape[1]} sample(s) a line, none left with "
                         f"--edge-fraction {edge_fraction}")
     bad = int(np.count_nonzero(~np.isfinite(middle)))
     if bad:
-        raise LoopError(f"{path}: channel {n} {title!r}: {bad} value(s) not finite")
+        raise LoopError(f"{path}: channel {n} '{title}': {bad} value(s) not finite")
     return float(middle.mean())
 
 
@@ -353,7 +369,7 @@ def main(argv=None):
                         normal=a.normal, edge_fraction=a.edge_fraction)
         r = calibrate(a.calc, a.loops, a.angle_deg, a.spring_N_per_m, a.deflection_nm_per_V, a.write, gwy, a.s_n_V)
     except LoopError as e:
-        print(f"calib tilted --loops: {e}", file=sys.stderr)
+        print(f"calib tilted --loops: {printable(str(e))}", file=sys.stderr)   # names and values from the files, escaped
         return 2
     if a.json:
         print(json.dumps(r, indent=1))

@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import tempfile
@@ -24,6 +25,7 @@ import yaml
 
 from analysis import knobs as K
 from analysis import engine, paths, point, report
+from analysis.text import printable
 
 USAGE = """usage: ./afm sweep SCENE --vary KEY=V1,V2,... [--vary ...] [options]
        ./afm sweep SWEEP.yaml [options]
@@ -115,13 +117,51 @@ def parse_args(argv):
     return a
 
 
-def is_sweep_file(path):
+MAX_INPUT_BYTES = 4 << 20   # a scene or sweep file larger than this is refused (the scene reader's own cap)
+
+
+def read_yaml(path, what):
+    """The YAML of `path`, a scene or sweep file (what: which), or SweepError
+    in one line: not a regular file, over MAX_INPUT_BYTES, not UTF-8, not
+    YAML, or nested deeper than the parser's stack (a file 5 000 levels deep
+    raised RecursionError from PyYAML's composer)."""
     try:
-        with open(path) as f:
-            d = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError):
-        return False
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise SweepError(f"{path}: the {what} is not a regular file")
+        if st.st_size > MAX_INPUT_BYTES:
+            raise SweepError(f"{path}: the {what} is {st.st_size} bytes, more than a {what} may be ({MAX_INPUT_BYTES})")
+        with open(path, encoding="utf-8") as f:
+            return yaml.safe_load(f)
+    except OSError as e:
+        raise SweepError(f"{path}: cannot read the {what} ({e.strerror})") from None
+    except UnicodeDecodeError:
+        raise SweepError(f"{path}: the {what} is not UTF-8 text") from None
+    except yaml.YAMLError as e:
+        raise SweepError(f"{path}: the {what} is not YAML ({' '.join(str(e).split())[:200]})") from None
+    except RecursionError:
+        raise SweepError(f"{path}: the {what} is nested too deep to read") from None
+
+
+def is_sweep_file(path):
+    d = read_yaml(path, "scene or sweep file")
     return isinstance(d, dict) and "vary" in d
+
+
+def check_distinct(knobs, scene, sources):
+    """Refuses a knob given the same value twice (equal numbers, or two
+    values that make the same scene: effects.X=on,yes): its points would
+    run the same scene again (a sweep of four knobs each given 10 six times
+    ran 1 296 identical points)."""
+    for key, values in knobs:
+        seen = {}
+        for v in values:
+            number = isinstance(v, (int, float)) and not isinstance(v, bool)
+            same = ("number", float(v)) if number else ("scene", yaml.safe_dump(K.apply(scene or {}, {key: v}), sort_keys=True))
+            if same in seen:
+                raise SweepError(f"{sources.get(key, key)}: {key} has the value {seen[same]!r} and {v!r}, the same point twice; "
+                                 f"give each value once")
+            seen[same] = v
 
 
 def plan(a):
@@ -148,9 +188,11 @@ def plan(a):
         sources[key] = f"--vary {v}"
     if not knobs:
         raise SweepError(f"{a.target}: nothing to vary (give --vary KEY=V1,V2 or a sweep file with vary:)")
-    with open(scene_path) as f:
-        scene = yaml.safe_load(f)
-    name = (scene or {}).get("name") or os.path.splitext(os.path.basename(scene_path))[0]
+    scene = read_yaml(scene_path, "scene")
+    if not isinstance(scene, dict):
+        raise SweepError(f"{scene_path}: a scene is a mapping of keys (name, sample, ...)")
+    check_distinct(knobs, scene, sources)
+    name = scene.get("name") or os.path.splitext(os.path.basename(scene_path))[0]
     out = os.path.abspath(out or os.path.join(paths.ROOT, "runs", f"sweep-{name}"))
     return os.path.abspath(scene_path), scene, knobs, out, repeat or 1, sources
 
@@ -371,7 +413,7 @@ def main(argv):
         validate(scene_path, scene, settings_list, sources)
         build = build_id()
     except (SweepError, K.KnobError, engine.EngineError) as e:
-        print(f"sweep: {e}", file=sys.stderr)
+        print(f"sweep: {printable(str(e))}", file=sys.stderr)   # keys, values and the validator's words, escaped
         if started:
             started[0].close()
         return 2

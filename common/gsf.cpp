@@ -1,11 +1,15 @@
 #include "gsf.hpp"
 
+#include "text.hpp"
+
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -22,23 +26,32 @@ std::string fmt(double v)
     return b;
 }
 
+// `what` quotes the file's own text through printable(); the path is escaped here.
 [[noreturn]] void refuse(const std::string &path, const std::string &what)
 {
-    throw std::runtime_error(path + ": " + what);
+    throw std::runtime_error(printable(path) + ": " + what);
 }
 
-double header_num(const std::string &path, const std::vector<std::pair<std::string, std::string>> &h, const std::string &key,
-                  const double *dflt)
+// A header value as a message quotes it: escaped, at most 80 bytes.
+std::string quoted(const std::string &v)
+{
+    return "'" + printable(v.substr(0, 80)) + (v.size() > 80 ? "...'" : "'");
+}
+
+// The field `r.key` as a number in its range (0 when missing and not required).
+double header_num(const std::string &path, const std::vector<std::pair<std::string, std::string>> &h, const GsfRange &r)
 {
     for (const auto &[k, v] : h) {
-        if (k != key) continue;
+        if (k != r.key) continue;
         char *end = nullptr;
         const double x = std::strtod(v.c_str(), &end);
-        if (v.empty() || *end != '\0' || !std::isfinite(x)) refuse(path, "GSF header " + key + " must be a finite number, got '" + v + "'");
+        if (v.empty() || *end != '\0' || !std::isfinite(x) || (r.integer && x != std::floor(x)) || !(x >= r.lo && x <= r.hi))
+            refuse(path, std::string("GSF header ") + r.key + " must be " + (r.integer ? "a whole number" : "a number") + " in [" +
+                             fmt(r.lo) + ", " + fmt(r.hi) + "], got " + quoted(v));
         return x;
     }
-    if (!dflt) refuse(path, "GSF header " + key + " is missing");
-    return *dflt;
+    if (r.required) refuse(path, std::string("GSF header ") + r.key + " is missing");
+    return 0;
 }
 
 std::string header_str(const std::vector<std::pair<std::string, std::string>> &h, const std::string &key, const std::string &dflt)
@@ -59,16 +72,19 @@ std::vector<std::pair<std::string, std::string>> parse_header(const std::string 
     for (std::size_t i = nul; i < *data_start; ++i)
         if (raw[i] != '\0') refuse(path, "the GSF header's padding is not NULs");
     std::vector<std::pair<std::string, std::string>> h;
+    std::set<std::string> seen;
     std::istringstream lines(raw.substr(sizeof kMagic - 1, nul - (sizeof kMagic - 1)));
     for (std::string line; std::getline(lines, line);) {
         if (line.empty()) continue;
         const std::size_t eq = line.find('=');
-        if (eq == std::string::npos) refuse(path, "GSF header line without '=': '" + line.substr(0, 80) + "'");
+        if (eq == std::string::npos) refuse(path, "GSF header line without '=': " + quoted(line));
         auto trim = [](std::string s) {
             const std::size_t a = s.find_first_not_of(" \t\r"), b = s.find_last_not_of(" \t\r");
             return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
         };
-        h.emplace_back(trim(line.substr(0, eq)), trim(line.substr(eq + 1)));
+        std::string key = trim(line.substr(0, eq));
+        if (!seen.insert(key).second) refuse(path, "GSF header " + quoted(key) + " given twice");   // which would a reader take?
+        h.emplace_back(std::move(key), trim(line.substr(eq + 1)));
     }
     return h;
 }
@@ -119,30 +135,24 @@ GsfGrid read_gsf(const std::string &path, bool require_metres)
     std::size_t start = 0;
     const auto h = parse_header(path, raw, &start);
     GsfGrid g;
-    for (const char *k : {"XRes", "YRes"}) {
-        const double v = header_num(path, h, k, nullptr);
-        if (v != std::floor(v) || v < 2 || v > kGsfMaxRes)
-            refuse(path, std::string("GSF header ") + k + " must be an integer in [2, " + std::to_string(kGsfMaxRes) + "], got '" +
-                             header_str(h, k, "") + "'");
-        (k[0] == 'X' ? g.xres : g.yres) = static_cast<int>(v);
-    }
-    for (const char *k : {"XReal", "YReal"}) {
-        const double v = header_num(path, h, k, nullptr);
-        if (!(v > 0)) refuse(path, std::string("GSF header ") + k + " must be positive, got '" + header_str(h, k, "") + "'");
-        (k[0] == 'X' ? g.xreal_m : g.yreal_m) = v;
-    }
-    const double zero = 0;
-    g.xoff_m = header_num(path, h, "XOffset", &zero);
-    g.yoff_m = header_num(path, h, "YOffset", &zero);
+    double v[std::size(kGsfRanges)];
+    for (std::size_t i = 0; i < std::size(kGsfRanges); ++i) v[i] = header_num(path, h, kGsfRanges[i]);
+    // kGsfRanges' order: XRes, YRes, XReal, YReal, XOffset, YOffset
+    g.xres = static_cast<int>(v[0]);
+    g.yres = static_cast<int>(v[1]);
+    g.xreal_m = v[2];
+    g.yreal_m = v[3];
+    g.xoff_m = v[4];
+    g.yoff_m = v[5];
     g.xy_units = header_str(h, "XYUnits", "m");
     g.z_units = header_str(h, "ZUnits", "");
     g.title = header_str(h, "Title", "");
-    if (require_metres && g.xy_units != "m") refuse(path, "GSF header XYUnits must be m, got '" + g.xy_units + "'");
-    if (require_metres && g.z_units != "m") refuse(path, "GSF header ZUnits must be m (heights), got '" + g.z_units + "'");
-    for (const auto &kv : h)
-        if (kv.first != "XRes" && kv.first != "YRes" && kv.first != "XReal" && kv.first != "YReal" && kv.first != "XOffset" &&
-            kv.first != "YOffset" && kv.first != "XYUnits" && kv.first != "ZUnits" && kv.first != "Title")
-            g.keys.push_back(kv);
+    if (require_metres && g.xy_units != "m") refuse(path, "GSF header XYUnits must be m, got " + quoted(g.xy_units));
+    if (require_metres && g.z_units != "m") refuse(path, "GSF header ZUnits must be m (heights), got " + quoted(g.z_units));
+    for (const auto &kv : h) {
+        const bool numeric = std::any_of(std::begin(kGsfRanges), std::end(kGsfRanges), [&](const GsfRange &r) { return kv.first == r.key; });
+        if (!numeric && kv.first != "XYUnits" && kv.first != "ZUnits" && kv.first != "Title") g.keys.push_back(kv);
+    }
     const std::size_t n = static_cast<std::size_t>(g.xres) * static_cast<std::size_t>(g.yres);
     if (raw.size() - start != 4 * n)
         refuse(path, std::to_string(raw.size() - start) + " data bytes for XRes " + std::to_string(g.xres) + " x YRes " +

@@ -1,4 +1,5 @@
 #include "scene.hpp"
+#include "text.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -32,66 +33,68 @@ const std::vector<EffectInfo> &known_effects()
 
 namespace {
 
+// The nodes the includes brought into the scene this thread reads
+// (merge_missing adds them; resolved_yaml starts the list afresh): an error
+// never quotes them, as an included file is never quoted.
+thread_local std::vector<YAML::Node> t_included;
+
+// Whether n is tree or inside it (by identity, keys too).
+bool within(const YAML::Node &tree, const YAML::Node &n)
+{
+    if (tree.is(n)) return true;
+    if (tree.IsMap()) {
+        for (auto it = tree.begin(); it != tree.end(); ++it)
+            if (within(it->first, n) || within(it->second, n)) return true;
+    } else if (tree.IsSequence()) {
+        for (const auto &e : tree)
+            if (within(e, n)) return true;
+    }
+    return false;
+}
+
+bool from_include(const YAML::Node &n)
+{
+    return std::any_of(t_included.begin(), t_included.end(), [&](const YAML::Node &t) { return within(t, n); });
+}
+
 // Walks a YAML tree, remembering the key path, so every error names file and key.
 class Reader {
 public:
     explicit Reader(std::string file) : file_(std::move(file)) {}
 
+    // `what` is the message's own text with values quoted by show(); the
+    // file and the key (a scene's key may be any bytes) are escaped here.
     [[noreturn]] void fail(const std::string &key, const std::string &what) const
     {
-        throw SceneError(file_ + ": " + key + ": " + what);
+        throw SceneError(afm::printable(file_) + ": " + afm::printable(key) + ": " + what);
     }
 
-    // Valid UTF-8 (no overlong forms, surrogates or code points past
-    // U+10FFFF) without control characters.
-    static bool printable_utf8(const std::string &t)
+    // Text a run can write into run.json and a terminal as it is: valid
+    // UTF-8 without C0 or C1 control characters (text.hpp's escaper leaves
+    // it unchanged but for its backslashes, which are allowed).
+    static bool printable_utf8(std::string t)
     {
-        for (std::size_t i = 0; i < t.size();) {
-            const unsigned char c = static_cast<unsigned char>(t[i]);
-            if (c < 0x20 || c == 0x7f) return false;
-            if (c < 0x80) { ++i; continue; }
-            const int n = c >= 0xf0 ? 3 : c >= 0xe0 ? 2 : c >= 0xc2 ? 1 : -1;
-            if (n < 0 || c > 0xf4 || i + static_cast<std::size_t>(n) >= t.size()) return false;
-            uint32_t cp = c & (0x3f >> n);
-            for (int k = 1; k <= n; ++k) {
-                const unsigned char d = static_cast<unsigned char>(t[i + static_cast<std::size_t>(k)]);
-                if ((d & 0xc0) != 0x80) return false;
-                cp = (cp << 6) | (d & 0x3f);
-            }
-            if ((n == 2 && cp < 0x800) || (n == 3 && (cp < 0x10000 || cp > 0x10ffff)) || (cp >= 0xd800 && cp <= 0xdfff)) return false;
-            i += static_cast<std::size_t>(n) + 1;
-        }
-        return true;
+        t.erase(std::remove(t.begin(), t.end(), '\\'), t.end());
+        return afm::printable(t) == t;
     }
 
-    // A value as an error message quotes it: control characters escaped
-    // (\n, \t, \xNN: a scene must not write to the terminal), and at most
-    // kShowMax characters of it (a file included by mistake is not quoted).
+    // A value as an error message quotes it: escaped (text.hpp: a scene
+    // must not write to the terminal), and at most kShowMax bytes of it (a
+    // file included by mistake is not quoted).
     static constexpr std::size_t kShowMax = 80;
     static std::string show(const YAML::Node &n)
     {
         if (!n.IsDefined() || n.IsNull()) return "null";
-        if (n.IsScalar()) return "'" + printable(n.Scalar()) + "'";
+        if (from_include(n)) return "(a value of an included file: not quoted)";
+        if (n.IsScalar()) return "'" + shortened(n.Scalar()) + "'";
         YAML::Emitter e;
         e << YAML::Flow << n;
-        return printable(e.c_str());
+        return shortened(e.c_str());
     }
-    static std::string printable(const std::string &t)
+    static std::string shortened(const std::string &t)
     {
-        std::string out;
-        std::size_t i = 0;
-        for (; i < t.size() && out.size() < kShowMax; ++i) {
-            const unsigned char c = static_cast<unsigned char>(t[i]);
-            if (c == '\n') out += "\\n";
-            else if (c == '\t') out += "\\t";
-            else if (c < 0x20 || c == 0x7f) {
-                char b[8];
-                std::snprintf(b, sizeof b, "\\x%02x", c);
-                out += b;
-            } else out += static_cast<char>(c);
-        }
-        if (i < t.size()) out += "... (" + std::to_string(t.size()) + " characters)";
-        return out;
+        if (t.size() <= kShowMax) return afm::printable(t);
+        return afm::printable(t.substr(0, kShowMax)) + "... (" + std::to_string(t.size()) + " characters)";
     }
 
     void only_keys(const YAML::Node &map, const std::string &path, std::set<std::string> allowed) const
@@ -103,6 +106,8 @@ public:
             const std::string k = it->first.Scalar();
             // yaml-cpp keeps both copies of a key given twice; the reader would see only the first
             if (!seen.insert(k).second) fail(join(path, k), "given twice");
+            if (!allowed.count(k) && from_include(it->first))
+                fail(path.empty() ? "(top level)" : path, "an included file has a key not known here (not quoted: an included file)");
             if (!allowed.count(k)) {
                 std::string list;
                 for (const auto &a : allowed) list += (list.empty() ? "" : ", ") + a;
@@ -913,14 +918,14 @@ constexpr long long kMaxSceneBytes = 4 << 20;
 void check_scene_file(const std::string &path, const std::string &what)
 {
     struct stat st {};
-    if (stat(path.c_str(), &st) != 0) throw SceneError(path + ": cannot open " + what + " (no such file or not readable)");
+    if (stat(path.c_str(), &st) != 0) throw SceneError(afm::printable(path) + ": cannot open " + what + " (no such file or not readable)");
     if (!S_ISREG(st.st_mode)) {
         const char *kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO"
                            : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device" : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";
-        throw SceneError(path + ": cannot read " + what + ": it is " + kind + ", not a file");
+        throw SceneError(afm::printable(path) + ": cannot read " + what + ": it is " + kind + ", not a file");
     }
     if (st.st_size > kMaxSceneBytes)
-        throw SceneError(path + ": " + what + " of " + std::to_string(static_cast<long long>(st.st_size)) +
+        throw SceneError(afm::printable(path) + ": " + what + " of " + std::to_string(static_cast<long long>(st.st_size)) +
                          " bytes is larger than a scene may be (" + std::to_string(kMaxSceneBytes) + " bytes)");
 }
 
@@ -929,15 +934,15 @@ YAML::Node load_yaml(const std::string &path, const std::string &what)
     check_scene_file(path, what);
     {
         std::ifstream probe(path);
-        if (!probe) throw SceneError(path + ": cannot open " + what + " (no such file or not readable)");
+        if (!probe) throw SceneError(afm::printable(path) + ": cannot open " + what + " (no such file or not readable)");
     }
     YAML::Node n;
     try {
         n = YAML::LoadFile(path);
     } catch (const YAML::ParserException &e) {
-        throw SceneError(path + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+        throw SceneError(afm::printable(path) + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " + afm::printable(e.msg));
     }
-    if (!n.IsDefined() || n.IsNull()) throw SceneError(path + ": the " + what + " is empty");
+    if (!n.IsDefined() || n.IsNull()) throw SceneError(afm::printable(path) + ": the " + what + " is empty");
     return n;
 }
 
@@ -953,7 +958,10 @@ void merge_missing(YAML::Node into, const YAML::Node &from)
 {
     for (auto it = from.begin(); it != from.end(); ++it) {
         const std::string k = it->first.as<std::string>();
-        if (!into[k].IsDefined() || into[k].IsNull()) into[k] = YAML::Clone(it->second);
+        if (!into[k].IsDefined() || into[k].IsNull()) {
+            into[k] = YAML::Clone(it->second);
+            t_included.push_back(into[k]);
+        }
         else if (into[k].IsMap() && it->second.IsMap()) merge_missing(into[k], it->second);
     }
 }
@@ -967,8 +975,31 @@ const std::set<std::string> kTopLevelKeys = {"name", "seed", "duration_s", "samp
                                              "time_mode", "effects", "sample", "probe", "firmware", "objects", "operator",
                                              "outputs", "include", "afm", "expect"};
 
+// An included file holds probe, firmware and sample only. Its refusals
+// name the file and the line but never quote it: an include may name a
+// file the scene's author could not read (include: /etc/shadow printed
+// root's hash as the value that was not a mapping).
+void check_include_keys(const std::string &fp, const YAML::Node &part)
+{
+    const std::string file = afm::printable(fp);
+    if (!part.IsMap())
+        throw SceneError(file + ": an included file must be a mapping of probe, firmware and sample (not quoted here: it is "
+                                "an included file)");
+    std::set<std::string> seen;
+    for (auto it = part.begin(); it != part.end(); ++it) {
+        const std::string line = std::to_string(it->first.Mark().line + 1);
+        const bool known = it->first.IsScalar() && (it->first.Scalar() == "probe" || it->first.Scalar() == "firmware" ||
+                                                    it->first.Scalar() == "sample");
+        if (!known)
+            throw SceneError(file + ": line " + line + ": a key other than probe, firmware or sample (not quoted here: it is "
+                                    "an included file)");
+        if (!seen.insert(it->first.Scalar()).second) throw SceneError(file + ": line " + line + ": " + it->first.Scalar() + " given twice");
+    }
+}
+
 YAML::Node resolved_yaml(const std::string &path)
 {
+    t_included.clear();
     YAML::Node root = load_yaml(path, "scene file");
     const Reader r(path);
     // before the includes are merged (and the include key removed): a key
@@ -986,8 +1017,8 @@ YAML::Node resolved_yaml(const std::string &path)
         else r.fail("include", "must be a file name or a list of them, got " + Reader::show(inc));
         for (const std::string &f : files) {
             const std::string fp = f.empty() || f[0] == '/' ? f : dir_of(path) + "/" + f;
-            const YAML::Node part = load_yaml(fp, "included file (include: of " + path + ")");
-            Reader(fp).only_keys(part, "", {"probe", "firmware", "sample"});
+            const YAML::Node part = load_yaml(fp, "included file (include: of " + afm::printable(path) + ")");
+            check_include_keys(fp, part);
             try {
                 merge_missing(root, part);
             } catch (const YAML::Exception &e) {   // a nested key that is not a name

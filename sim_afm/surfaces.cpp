@@ -17,6 +17,10 @@ MeasuredSurface::MeasuredSurface(const GsfGrid &g)
 {
     x0_nm_ = g.xoff_m * 1e9 + 0.5 * dx_nm_;
     ytop_nm_ = (g.yoff_m + g.yreal_m) * 1e9 - 0.5 * dy_nm_;
+    // read_gsf keeps every field in gsf.hpp's kGsfRanges; a grid made some other way is held to the same
+    if (nx_ < 2 || ny_ < 2 || !(dx_nm_ > 0 && dy_nm_ > 0 && std::isfinite(dx_nm_) && std::isfinite(dy_nm_) && std::isfinite(x0_nm_) &&
+                                std::isfinite(ytop_nm_)) || g.values.size() != static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_))
+        throw InputError("a measured substrate needs at least 2 x 2 pixels, a finite positive pitch and a finite corner");
     h_nm_.reserve(g.values.size());
     for (const float v : g.values) h_nm_.push_back(static_cast<double>(v) * 1e9);   // m -> nm
 }
@@ -26,8 +30,8 @@ void MeasuredSurface::cell(const Eigen::Vector2d &q, int *i, int *j, double *t, 
     double fx = (q.x() - x0_nm_) / dx_nm_, fy = (ytop_nm_ - q.y()) / dy_nm_;
     *out_x = !(fx >= 0 && fx <= nx_ - 1);
     *out_y = !(fy >= 0 && fy <= ny_ - 1);
-    fx = std::clamp(fx, 0.0, nx_ - 1.0);
-    fy = std::clamp(fy, 0.0, ny_ - 1.0);
+    fx = fx >= 0 ? std::min(fx, nx_ - 1.0) : 0.0;   // NaN to 0 too: the cell stays inside the map whatever q is
+    fy = fy >= 0 ? std::min(fy, ny_ - 1.0) : 0.0;
     *i = std::min(static_cast<int>(fx), nx_ - 2);
     *j = std::min(static_cast<int>(fy), ny_ - 2);
     *t = fx - *i;

@@ -12,6 +12,7 @@ import asyncio
 import signal
 import sys
 
+from analysis.text import printable
 from analysis.view import live, recorded, server
 
 
@@ -29,8 +30,7 @@ def _parser():
     return ap
 
 
-async def _play(source, port):
-    sock = server.listen(port)
+async def _play(source, sock):
     view = server.ViewServer(server.new_token(), source)
     await view.start(sock)
     print(f"view: {server.url(sock, view.token)}", file=sys.stderr)
@@ -43,18 +43,28 @@ async def _play(source, port):
 
 
 def main(argv=None):
+    try:
+        return _main(argv)
+    except server.ListenError as e:   # --port 99999, or a port another process holds: one line
+        print(e, file=sys.stderr)
+        return 2
+
+
+def _main(argv):
     a = _parser().parse_args(argv)
     if a.cmd == "run":
         cmd = a.launch[1:] if a.launch[:1] == ["--"] else a.launch
         if not cmd:
             sys.exit("view: run: no command after --")
         return live.main(cmd, a.out, wait=a.wait, port=a.port)
+    sock = server.listen(a.port)   # a port that cannot be had is named before the record is read
     try:
         source = recorded.RecordedSource(a.run_dir)
     except recorded.RunError as e:
-        print(e, file=sys.stderr)
+        sock.close()
+        print(printable(str(e)), file=sys.stderr)   # the folder's name, escaped
         return 2
-    asyncio.run(_play(source, a.port))
+    asyncio.run(_play(source, sock))
     return 0
 
 

@@ -3,8 +3,15 @@ static/ folder, and one WebSocket (/ws) per page, all behind a random token.
 
 Contract:
 - It listens only on the socket it is given (127.0.0.1; the caller opened
-  it: live.py, __main__.py) and answers 403 to any request without the
-  token (query `token`, compared in constant time).
+  it with listen(): live.py, __main__.py; a port that cannot be had is a
+  ListenError in one line) and answers 403 to any request, HTTP or the
+  WebSocket's, without the token (query `token`, compared in constant
+  time), whose Host is not a loopback name with the page's port
+  (127.0.0.1, localhost, [::1]: a DNS-rebound name is refused), or whose
+  Origin, when it has one, is not the page's own (http:// and its Host):
+  another site open in the same browser cannot reach the page.
+- A malformed request gets aiohttp's 400 and one line on stderr, escaped
+  (analysis/text.py), never a traceback.
 - What it sends a page: JSON text messages, each frame's image as the binary
   message that follows its "frame" message. What it takes from a page:
   JSON text only ({"type": "seek", "index": K} in a recorded run); nothing
@@ -20,13 +27,19 @@ Contract:
   lockstep needed: docs/view.md.)
 """
 import asyncio
+import errno
 import hmac
 import json
+import logging
 import os
 import secrets
+import socket
+import sys
 import time
 
 from aiohttp import WSMsgType, web
+
+from analysis.text import printable
 
 STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "static")
 STATIC_FILES = {"/": ("index.html", "text/html"), "/view.js": ("view.js", "text/javascript"),
@@ -34,6 +47,30 @@ STATIC_FILES = {"/": ("index.html", "text/html"), "/view.js": ("view.js", "text/
 MAX_CLIENT_MESSAGE = 4096   # bytes: a page sends only small JSON messages
 MAX_PAGE_FPS = 30           # frames a second sent to one page, at most (on average)
 PAGE_BURST = 2              # frames the rate may run ahead by (_send_loop's bucket)
+LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")   # the Host names a page may use, with the page's port
+
+
+class ListenError(OSError):
+    """The page's port cannot be had (its message, one line, says why)."""
+
+
+class _OneLine(logging.Handler):
+    """aiohttp's server log (a malformed request: a traceback with the
+    request's own bytes) as one escaped line on stderr."""
+
+    def emit(self, record):
+        what = record.getMessage()
+        if record.exc_info and record.exc_info[1] is not None:
+            what += ": " + " ".join(str(record.exc_info[1]).split())
+        print(f"view: {printable(what)[:300]}", file=sys.stderr, flush=True)
+
+
+def _server_log():
+    log = logging.getLogger("afm.view.server")
+    if not log.handlers:
+        log.addHandler(_OneLine())
+        log.propagate = False
+    return log
 
 
 def new_token():
@@ -89,6 +126,7 @@ class ViewServer:
     def __init__(self, token, source):
         self.token = token
         self.source = source
+        self.port = None                   # the page's port, once start() has its socket
         self.clients = set()
         self.connected = asyncio.Event()   # a page with the right token opened its stream
         self.app = web.Application(middlewares=[self._check_token])
@@ -99,10 +137,22 @@ class ViewServer:
 
     @web.middleware
     async def _check_token(self, request, handler):
-        given = request.query.get("token", "")
-        if not hmac.compare_digest(given.encode(), self.token.encode()):
-            return web.Response(status=403, text="afm view: wrong or missing token\n")
+        refused = self.refusal(request.headers.get("Host"), request.headers.get("Origin"), request.query.get("token", ""))
+        if refused:
+            return web.Response(status=403, text=f"afm view: {refused}\n")
         return await handler(request)
+
+    def refusal(self, host, origin, token):
+        """Why a request with these Host, Origin (None: none) and token is
+        refused, or None (the module's contract)."""
+        if not hmac.compare_digest(token.encode(), self.token.encode()):
+            return "wrong or missing token"
+        own = {f"{name}:{self.port}" for name in LOOPBACK_NAMES}
+        if host is None or host.lower() not in own:
+            return "wrong Host (the page answers to 127.0.0.1, localhost or [::1] with its port)"
+        if origin is not None and origin.lower() != "http://" + host.lower():
+            return "wrong Origin (only the page itself may ask)"
+        return None
 
     async def _static(self, request):
         name, ctype = STATIC_FILES[request.path]
@@ -175,7 +225,8 @@ class ViewServer:
 
     async def start(self, sock):
         """Serves on the listening socket `sock` (already bound)."""
-        self.runner = web.AppRunner(self.app, access_log=None, handle_signals=False)
+        self.port = sock.getsockname()[1]
+        self.runner = web.AppRunner(self.app, access_log=None, handle_signals=False, logger=_server_log())
         await self.runner.setup()
         await web.SockSite(self.runner, sock).start()
 
@@ -191,12 +242,20 @@ class ViewServer:
 
 
 def listen(port=0):
-    """A TCP socket listening on 127.0.0.1:port (0: any free port)."""
-    import socket
+    """A TCP socket listening on 127.0.0.1:port (0: any free port);
+    ListenError, one line, when that port cannot be had (not a port number,
+    held by another process, or below 1024 without the right)."""
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise ListenError(f"view: --port {printable(str(port))}: a port is a whole number from 0 (any free one) to 65535")
     s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    s.bind(("127.0.0.1", port))
-    s.listen(16)
+    try:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        s.bind(("127.0.0.1", port))
+        s.listen(16)
+    except OSError as e:
+        s.close()
+        held = " (another process, perhaps another user's, listens there)" if e.errno == errno.EADDRINUSE else ""
+        raise ListenError(f"view: --port {port}: cannot listen on 127.0.0.1:{port}: {e.strerror}{held}") from None
     s.setblocking(False)
     return s
 

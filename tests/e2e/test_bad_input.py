@@ -147,9 +147,9 @@ class BadScenes(unittest.TestCase):
     def test_control_characters_are_escaped_and_long_values_cut(self):
         base = open(benchtest.scene("short.yaml")).read()
         line = self.check_refused(base.replace("duration_s: 0.6", 'duration_s: "0.6\\e[31m\\nX"'), "duration_s",
-                                  "\\x1b[31m")
+                                  "\\x1B[31m")   # common/text.hpp's escapes (every control byte: test_hostile_input)
         self.assertNotIn("\x1b", line)
-        self.assertIn("\\n", line)
+        self.assertIn("\\x0AX", line)
         line = self.check_refused(base.replace("substrate: glass", "substrate: " + "z" * 5000), "sample.substrate",
                                   "(5000 characters)")
         self.assertLess(len(line), 400, line)

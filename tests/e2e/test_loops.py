@@ -10,6 +10,7 @@ ambiguous file is named with its channel and value."""
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import unittest
@@ -197,6 +198,63 @@ class Loops(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("mu = 0.08", p.stdout)
         self.assertIn("+-", p.stdout)
+
+
+class HostileLoops(unittest.TestCase):
+    """Files that raised a traceback or were refused for nothing (issue 46):
+    a binary file and a 50 MB field are one line and exit 2; a UTF-8
+    byte-order mark (Excel's CSV) is read; every C0 and C1 control byte in a
+    value or a file name comes out escaped (analysis/text.py)."""
+
+    def setUp(self):
+        self.dir = benchtest.tmpdir("loops-hostile")
+        self.addCleanup(benchtest.cleanup, self.dir)
+        self.good = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
+
+    def write(self, name, data):
+        path = os.path.join(os.fsencode(self.dir), os.fsencode(name))
+        with open(path, "wb") as f:
+            f.write(data)
+        return os.fsdecode(path)
+
+    def test_a_binary_file_and_a_huge_field_are_one_line(self):
+        rng = np.random.default_rng(46)
+        for name, data, want in (
+                ("binary.csv", rng.integers(0, 256, 3000, dtype=np.uint8).tobytes(), "not UTF-8 text"),
+                ("huge.csv", b"s_n_V,s_l_V,direction\n1,0.1,up\n1," + b"9" * (50 << 20) + b",up\n", "line 3: not a CSV loop file"),
+                ("nul.csv", b"s_n_V,s_l_V,direction\n1,0.1,up\n\0,\0,up\n", "line 3")):
+            path = self.write(name, data)
+            p = loops_cli("--loops", path, *self.good[1:], self.good[0], *flags())
+            self.assertEqual(p.returncode, 2, (name, p.stderr[-500:]))
+            self.assertEqual(len(p.stderr.strip().splitlines()), 1, (name, p.stderr[-500:]))
+            self.assertIn(want, p.stderr, name)
+            self.assertNotIn("Traceback", p.stderr, name)
+
+    def test_a_byte_order_mark_is_read(self):
+        boms = []
+        for k, path in enumerate(self.good):
+            with open(path, "rb") as f:
+                boms.append(self.write(f"bom_{k}.csv", b"\xef\xbb\xbf" + f.read()))
+        plain = json.loads(loops_cli("--loops", *self.good, *flags(), "--json").stdout)
+        p = loops_cli("--loops", *boms, *flags(), "--json")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertEqual(json.loads(p.stdout)["mu"], plain["mu"])
+
+    def test_every_control_byte_comes_out_escaped(self):
+        import contextlib
+        import io
+        from analysis import loops
+        controls = [bytes([b]) for b in range(1, 0x20)] + [b"\x7f"] + [bytes([0xC2, c]) for c in range(0x80, 0xA0)]
+        for raw in controls:
+            esc = "".join("\\x%02X" % c for c in raw)
+            for path, want in ((self.write("v.csv", b's_n_V,s_l_V,direction\n1,0.1,"u' + raw + b'p"\n'), f"got 'u{esc}p'"),
+                               (self.write(b"name" + raw + b".csv", b"s_n_V,s_l_V\n"), f"name{esc}.csv: line 1")):
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err):
+                    code = loops.main(["--loops", path, *map(str, self.good), *map(str, flags()), "--calc", CALC])
+                self.assertEqual(code, 2, err.getvalue())
+                self.assertIn(want, err.getvalue())
+                self.assertIsNone(re.search("[\x00-\x09\x0b-\x1f\x7f-\x9f]", err.getvalue()), err.getvalue())
 
 
 class GwyLoops(unittest.TestCase):

@@ -402,5 +402,29 @@ class BadInput(unittest.TestCase):
         self.refused(path, needle=f"{path}: unknown key 'workers'")
 
 
+    def test_the_same_value_twice_is_refused(self):
+        # four knobs each given 10 six times ran 1 296 identical points (issue 46)
+        se = self.refused(SHORT, *[a for k in ("adc_bits", "dac_bits", "word_bits", "pid_ki") for a in
+                                   ("--vary", f"firmware.{k}=10,10,10,10,10,10")], needle="the same point twice")
+        self.assertIn("firmware.adc_bits has the value 10 and 10", se)
+        self.assertEqual(len(se.strip().splitlines()), 1, se)
+        self.refused(SHORT, "--vary", "firmware.adc_bits=12,12.0", needle="the value 12 and 12.0")
+        self.refused(SHORT, "--vary", "effects.drift=on,yes", needle="effects.drift has the value")
+        path = benchtest.write_scene(f"scene: {SHORT}\nvary: {{firmware.adc_bits: [12, 14, 12]}}\n", "sweep-dup")
+        self.addCleanup(benchtest.cleanup, os.path.dirname(path))
+        self.refused(path, needle=f"{path}: vary.firmware.adc_bits: firmware.adc_bits has the value 12 and 12")
+
+    def test_a_file_nested_5000_deep_is_one_line(self):
+        deep = "[" * 5000 + "]" * 5000
+        for text, what in ((f"scene: {SHORT}\nvary: {{firmware.adc_bits: {deep}}}\n", "scene or sweep file"),
+                           (open(SHORT).read() + f"objects_extra: {deep}\n", "scene or sweep file")):
+            path = benchtest.write_scene(text, "sweep-deep")
+            self.addCleanup(benchtest.cleanup, os.path.dirname(path))
+            se = self.refused(path, *([] if "vary" in text else ["--vary", "firmware.adc_bits=12,14"]),
+                              needle=f"{path}: the {what} is nested too deep to read")
+            self.assertEqual(len(se.strip().splitlines()), 1, se)
+            self.assertNotIn("Traceback", se)
+
+
 if __name__ == "__main__":
     benchtest.main()

@@ -7,8 +7,9 @@ network namespace, as a person's browser would be.
   frame the page shows is the run's last file, and a screenshot is kept.
 - The page loads with no network: every resource comes from the server, and
   with every host name but 127.0.0.1 unresolvable it still works.
-- A wrong token is refused (the page, a static file, the stream), and the
-  server listens on 127.0.0.1 only.
+- A wrong token is refused (the page, a static file, the stream), and so is
+  another site's Host or Origin with the token right; the server listens on
+  127.0.0.1 only.
 - ./afm view's page plays the recorded run with its scrubber.
 - --spy without DISPLAY is refused at once, naming DISPLAY.
 - operator.mode browser (realtime): the test drags the pointer over the
@@ -90,6 +91,20 @@ def http_status(url):
         return e.code
 
 
+def status_with(port, path, headers):
+    """The status of GET path on the page with exactly these headers (Host included)."""
+    import http.client
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=5)
+    c.putrequest("GET", path, skip_host=True, skip_accept_encoding=True)
+    for k, v in headers.items():
+        c.putheader(k, v)
+    c.endheaders()
+    try:
+        return c.getresponse().status
+    finally:
+        c.close()
+
+
 def listening_on_loopback_only(port):
     """/proc/net/tcp: every socket listening (state 0A) on `port` is bound to 127.0.0.1."""
     found = []
@@ -127,6 +142,14 @@ class View(unittest.TestCase):
         self.assertEqual(http_status(f"{base}/?token=wrong"), 403)
         self.assertEqual(http_status(f"{base}/view.js"), 403)
         self.assertEqual(http_status(f"{base}/ws?token={self.token}x"), 403)
+        # the token right, but another site's Host (DNS rebinding) or Origin: refused too (issue 46 item 10;
+        # every case: test_hostile_input's ThePage)
+        for path in ("/", "/ws"):
+            for headers in ({"Host": f"evil.example:{self.port}"},
+                            {"Host": f"127.0.0.1:{self.port}", "Origin": "http://evil.example"}):
+                self.assertEqual(status_with(self.port, f"{path}?token={self.token}", headers), 403, (path, headers))
+        self.assertEqual(status_with(self.port, f"/view.js?token={self.token}",
+                                     {"Host": f"localhost:{self.port}", "Origin": f"http://localhost:{self.port}"}), 200)
         self.assertEqual(self.server.poll(), None, "a refused request must not start the run (--wait)")
         self.assertFalse(os.path.exists(os.path.join(self.out, "run.json")))
 
