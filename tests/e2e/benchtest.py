@@ -33,21 +33,37 @@ def limit(seconds):
     return max(1.0, min(seconds, BUDGET_S - (time.monotonic() - _started)))
 
 
-def _closed_ancestor(path):
-    """The first folder above `path` that others cannot traverse, or None."""
+def closed_ancestor(path):
+    """The first folder above `path` that others cannot traverse (no o+x),
+    or None: started as root, a checkout under such a folder (a clone in
+    /root, mode 700) cannot be reached by the run's user, and the run is
+    refused unless uid 0 is allowed."""
     d = os.path.dirname(os.path.abspath(path))
-    while d != "/":
+    while True:
         if not os.stat(d).st_mode & 0o001:
             return d
+        if d == "/":
+            return None
         d = os.path.dirname(d)
-    return None
+
+
+def encoded_by_seq(msgs, blocks, field="seq"):
+    """{seq: encoded bytes} of a run's own messages (seq of one of its blocks,
+    the first message of each; the pose answering the last block's force may
+    or may not be sent as the run stops): two runs' compared byte for byte."""
+    out = {}
+    for m in msgs:
+        q = getattr(m, field)
+        if 0 <= q < blocks:
+            out.setdefault(q, m.encode())
+    return out
 
 
 # Started as root from a checkout the run's user cannot reach (a clone in
 # /root, mode 700, as CI makes), a run is refused unless uid 0 is allowed
 # (tools/in_netns.sh): the suite allows it there, as before issue 46;
 # test_privilege.py checks the refusal itself.
-if os.geteuid() == 0 and _closed_ancestor(BUILD):
+if os.geteuid() == 0 and closed_ancestor(BUILD):
     os.environ.setdefault("AFM_ALLOW_UID_0", "1")
 
 

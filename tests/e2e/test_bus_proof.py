@@ -60,15 +60,6 @@ def unproven(rj, channel):
     return out
 
 
-def by_seq(msgs, blocks, field="seq"):
-    out = {}
-    for m in msgs:
-        q = getattr(m, field)
-        if 0 <= q < blocks:
-            out.setdefault(q, m.encode())
-    return out
-
-
 class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
     # the one owner of the trailer is the bus layer (afm::publish_raw): a
     # process that called liblcm's publish itself would send without proof
@@ -113,7 +104,7 @@ class BusProof(unittest.TestCase):
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=CHANNELS)
         for ch, field in (("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq"),
                           ("HAPTIC_FORCE", "seq")):
-            calm, now = by_seq(self.log0[ch], self.blocks, field), by_seq(log[ch], self.blocks, field)
+            calm, now = benchtest.encoded_by_seq(self.log0[ch], self.blocks, field), benchtest.encoded_by_seq(log[ch], self.blocks, field)
             self.assertEqual(sorted(calm), sorted(now), ch)
             differ = [q for q in calm if calm[q] != now[q]]
             self.assertEqual(differ, [], f"{ch}: blocks that differ from the undisturbed run: {differ[:5]}")

@@ -65,18 +65,6 @@ def foreign_of(rj, p):
     return sec["foreign_datagrams"], sec["foreign"]
 
 
-def by_seq(msgs, blocks, field="seq"):
-    """{seq: encoded bytes} of a run's own messages (seq of one of its blocks;
-    the pose answering the last block's force may or may not be sent as the
-    run stops)."""
-    out = {}
-    for m in msgs:
-        q = getattr(m, field)
-        if 0 <= q < blocks:
-            out.setdefault(q, m.encode())
-    return out
-
-
 class HostileDatagrams(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -143,7 +131,7 @@ class HostileDatagrams(unittest.TestCase):
         log = afmlog.load(os.path.join(self.guarded, "bus.lcmlog"), channels=["SIM_TRUTH"])
         self.assertEqual(sum(log.undecodable.values()), 0, log.undecodable)
         blocks = self.rj0["sim"]["blocks"]
-        self.assertEqual(by_seq(log["SIM_TRUTH"], blocks), by_seq(self.log0["SIM_TRUTH"], blocks))
+        self.assertEqual(benchtest.encoded_by_seq(log["SIM_TRUTH"], blocks), benchtest.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
         for p in PROCESSES:
             self.assertEqual(foreign_of(self.rj0, p)[0], 0, (p, foreign_of(self.rj0, p)))
 
@@ -172,8 +160,8 @@ class HostileDatagrams(unittest.TestCase):
         self.assertGreater(foreign, 0.5 * self.rj0["sim"]["blocks"], rj["fw"]["rejected"])
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH", "HAPTIC_POSE"])
         blocks = self.rj0["sim"]["blocks"]
-        self.assertEqual(by_seq(log["SIM_TRUTH"], blocks), by_seq(self.log0["SIM_TRUTH"], blocks))
-        self.assertEqual(by_seq(log["HAPTIC_POSE"], blocks), by_seq(self.log0["HAPTIC_POSE"], blocks))
+        self.assertEqual(benchtest.encoded_by_seq(log["SIM_TRUTH"], blocks), benchtest.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
+        self.assertEqual(benchtest.encoded_by_seq(log["HAPTIC_POSE"], blocks), benchtest.encoded_by_seq(self.log0["HAPTIC_POSE"], blocks))
 
     def test_an_undisturbed_run_refuses_nothing(self):
         for p in PROCESSES:
@@ -184,7 +172,7 @@ class HostileDatagrams(unittest.TestCase):
         for ch, field in (("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq"),
                           ("HAPTIC_FORCE", "seq")):
             blocks = self.rj0["sim"]["blocks"]
-            calm, hostile = by_seq(self.log0[ch], blocks, field), by_seq(self.log[ch], blocks, field)
+            calm, hostile = benchtest.encoded_by_seq(self.log0[ch], blocks, field), benchtest.encoded_by_seq(self.log[ch], blocks, field)
             self.assertEqual(sorted(calm), sorted(hostile), ch)
             differ = [q for q in calm if calm[q] != hostile[q]]
             self.assertEqual(differ, [], f"{ch}: blocks that differ from the undisturbed run: {differ[:5]}")
@@ -215,7 +203,7 @@ class HostileDatagrams(unittest.TestCase):
         self.assertEqual(rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH"])
         blocks = self.rj0["sim"]["blocks"]
-        self.assertEqual(by_seq(log["SIM_TRUTH"], blocks), by_seq(self.log0["SIM_TRUTH"], blocks))
+        self.assertEqual(benchtest.encoded_by_seq(log["SIM_TRUTH"], blocks), benchtest.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
 
     def test_a_forged_finished_does_not_end_a_run_without_a_planner(self):
         # an 'operator finished' heartbeat (name, pid and seq forged) cut a

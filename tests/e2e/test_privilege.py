@@ -57,21 +57,6 @@ def descendants(pid):
     return out
 
 
-def closed_ancestor(path):
-    """The first folder above `path` that a user other than its owner cannot
-    traverse (no o+x), or None: started as root, a checkout under such a
-    folder (a clone in /root, mode 700) cannot be reached by the run's user,
-    and the run is refused unless uid 0 is allowed (tested below; the suite
-    allows it there, benchtest.py)."""
-    d = os.path.dirname(os.path.abspath(path))
-    while True:
-        if not os.stat(d).st_mode & 0o001:
-            return d
-        if d == "/":
-            return None
-        d = os.path.dirname(d)
-
-
 def watch(p, names, want, timeout_s=120):
     """{name: status} of the processes under Popen `p` whose Name is in
     `names` (the last status seen of each), polled until `want` of them have
@@ -116,7 +101,7 @@ class LeastPrivilege(unittest.TestCase):
                   f"NoNewPrivs {st['NoNewPrivs']}")
 
     def run_watched(self, tag, names, want, *extra):
-        closed = closed_ancestor(benchtest.BUILD) if ROOT else None
+        closed = benchtest.closed_ancestor(benchtest.BUILD) if ROOT else None
         if closed:
             self.skipTest(f"the checkout's build {benchtest.BUILD} is under {closed} (mode "
                           f"{oct(os.stat(closed).st_mode & 0o777)}), which the run's user cannot traverse: the run keeps "
@@ -146,7 +131,7 @@ class LeastPrivilege(unittest.TestCase):
         self.assertIn("qemu-system-arm", seen)
 
     def test_a_sweeps_workers_hold_none_either(self):
-        closed = closed_ancestor(benchtest.BUILD) if ROOT else None
+        closed = benchtest.closed_ancestor(benchtest.BUILD) if ROOT else None
         if closed:
             self.skipTest(f"the checkout's build is under {closed}, which the run's user cannot traverse")
         out = os.path.join(benchtest.tmpdir("privilege-sweep"), "sweep")
@@ -183,8 +168,8 @@ class LeastPrivilege(unittest.TestCase):
         closed = benchtest.tmpdir("closed")
         os.chmod(closed, 0o700)
         out = os.path.join(closed, "run")
-        if closed_ancestor(DROP):
-            self.skipTest(f"the checkout itself is under {closed_ancestor(DROP)}: the run's user is stopped there first")
+        if benchtest.closed_ancestor(DROP):
+            self.skipTest(f"the checkout itself is under {benchtest.closed_ancestor(DROP)}: the run's user is stopped there first")
         cmd = [benchtest.IN_NETNS, "sh", "-c", "id -u; grep CapEff /proc/self/status", "sh", "--out", out]
         env = {k: v for k, v in os.environ.items() if k not in ("AFM_ALLOW_UID_0", "AFM_PRIVILEGE_WARNINGS")}
         # not allowed: refused in one line on any stderr (a pipe here), nothing run, nothing left
@@ -210,7 +195,7 @@ class LeastPrivilege(unittest.TestCase):
 
     @unittest.skipUnless(ROOT, "the run's user differs from the caller only when started as root")
     def test_a_viewed_run_drops_to_the_runs_user_too(self):
-        closed = closed_ancestor(benchtest.BUILD)
+        closed = benchtest.closed_ancestor(benchtest.BUILD)
         if closed:
             self.skipTest(f"the checkout's build is under {closed}, which the run's user cannot traverse")
         out = os.path.join(benchtest.tmpdir("privilege-view"), "run")
@@ -231,8 +216,8 @@ class LeastPrivilege(unittest.TestCase):
         if p.returncode == 3:
             self.skipTest("no range of uids reserved for the runs (tools/setup.sh reserves afm-runs in /etc/subuid)")
         first, count = (int(x) for x in p.stdout.split())
-        if closed_ancestor(DROP):
-            self.skipTest(f"the checkout is under {closed_ancestor(DROP)}: the run's user cannot reach it")
+        if benchtest.closed_ancestor(DROP):
+            self.skipTest(f"the checkout is under {benchtest.closed_ancestor(DROP)}: the run's user cannot reach it")
         # never a uid a process holds or that owns a file where a run writes
         held_file = f"/tmp/afm-test-held-{os.getpid()}"
         open(held_file, "w").close()
@@ -279,7 +264,7 @@ class LeastPrivilege(unittest.TestCase):
         helper_uid, helper, after_uid, after = words[0], int(words[2], 16), words[3], int(words[5], 16)
         self.assertEqual(helper, NET_ADMIN_RAW)
         self.assertEqual(after, 0)
-        if ROOT and not closed_ancestor(DROP):   # the helper is the run's user too: its capabilities are its only privilege
+        if ROOT and not benchtest.closed_ancestor(DROP):   # the helper is the run's user too: its capabilities are its only privilege
             self.assertNotEqual(helper_uid, "0")
             self.assertEqual(after_uid, helper_uid)
         p = subprocess.run([benchtest.IN_NETNS, "grep", "CapEff", "/proc/self/status"], capture_output=True, text=True, timeout=30)

@@ -27,18 +27,6 @@ ROOT = os.geteuid() == 0
 SECRET = "root:$6$stand-in-for-shadow$not-a-real-hash:19000:0:99999:7:::\n"
 
 
-def closed_ancestor(path):
-    """The first folder above `path` others cannot traverse, or None (a
-    clone in /root, mode 700: the run's user cannot reach the build)."""
-    d = os.path.dirname(os.path.abspath(path))
-    while True:
-        if not os.stat(d).st_mode & 0o001:
-            return d
-        if d == "/":
-            return None
-        d = os.path.dirname(d)
-
-
 def snapshot(top):
     """{path: (uid, gid, mode, bytes)} of everything under `top` (links not followed)."""
     out = {}
@@ -86,7 +74,7 @@ ln "$OWN" hard.txt
 class RootFollowsNothing(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        closed = closed_ancestor(benchtest.BUILD)
+        closed = benchtest.closed_ancestor(benchtest.BUILD)
         if closed:
             raise unittest.SkipTest(f"the build is under {closed}, which the run's user cannot traverse: no run drops to it")
         cls.top = benchtest.tmpdir("root-paths")
