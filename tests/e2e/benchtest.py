@@ -144,6 +144,14 @@ def write_scene(text, tag="scene"):
     return path
 
 
+def short_scene_2s(tag):
+    """scenes/short.yaml for 2 simulated s (several cycles of every message
+    reach every process once it listens), written under `tag`."""
+    with open(scene("short.yaml")) as f:
+        text = f.read().replace("duration_s: 0.6", "duration_s: 2.0")
+    return write_scene(text, tag)
+
+
 def cleanup(*dirs):
     """Removes runs as soon as their tests are done, unless a test of this
     file has failed (main() then keeps them all) or AFM_KEEP_TEST_RUNS is set."""

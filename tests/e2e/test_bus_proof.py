@@ -88,9 +88,7 @@ class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
 class BusProof(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        with open(benchtest.scene("short.yaml")) as f:
-            text = f.read().replace("duration_s: 0.6", "duration_s: 2.0")
-        cls.scene = benchtest.write_scene(text, "proof-scene")
+        cls.scene = benchtest.short_scene_2s("proof-scene")
         cls.clean = benchtest.tmpdir("calm")
         cls.code0, _, cls.err0, cls.rj0 = benchtest.run(cls.scene, cls.clean)
         cls.log0 = afmlog.load(os.path.join(cls.clean, "bus.lcmlog"), channels=CHANNELS)

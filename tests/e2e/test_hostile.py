@@ -68,11 +68,7 @@ def foreign_of(rj, p):
 class HostileDatagrams(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        # the short scene, 2 simulated s: several cycles of every kind reach
-        # every process once it listens
-        with open(benchtest.scene("short.yaml")) as f:
-            text = f.read().replace("duration_s: 0.6", "duration_s: 2.0")
-        cls.scene = benchtest.write_scene(text, "hostile-scene")
+        cls.scene = benchtest.short_scene_2s("hostile-scene")
         cls.clean = benchtest.tmpdir("calm")
         cls.code0, _, cls.err0, cls.rj0 = benchtest.run(cls.scene, cls.clean)
         cls.hostile = benchtest.tmpdir("hostile")
