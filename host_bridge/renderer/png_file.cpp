@@ -17,7 +17,8 @@ namespace {
 
 constexpr std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
 constexpr std::uint8_t kFilterSub = 1;   // each byte less the byte of the pixel to its left
-constexpr int kMaxSide = 65535;          // far above any display (scene.cpp: image_px <= 4096)
+constexpr int kMaxSide = 65535;
+constexpr std::size_t kInputPad = 64;    // zero bytes after the rows, for ISA-L's loads (deflate_zlib)          // far above any display (scene.cpp: image_px <= 4096)
 
 void put_u32(std::vector<std::uint8_t> &out, std::uint32_t v)
 {
@@ -45,8 +46,8 @@ void put_chunk(std::vector<std::uint8_t> &out, const char type[4], const std::ui
 // The scanlines as PNG filters them: a filter-type byte, then each row's
 // samples in PNG's order (RGB, RGBA: OpenCV's cvtColor turns BGR(A) into
 // it) less those of the pixel to the left (modulo 256: the Sub filter),
-// into raw (resized to fit). The subtraction runs over contiguous bytes,
-// which the compiler vectorizes.
+// into raw (resized to fit, and followed by kInputPad zero bytes). The
+// subtraction runs over contiguous bytes, which the compiler vectorizes.
 void filter_rows(const cv::Mat &img, std::vector<std::uint8_t> &raw)
 {
     thread_local cv::Mat rgb;
@@ -57,7 +58,9 @@ void filter_rows(const cv::Mat &img, std::vector<std::uint8_t> &raw)
         src = &rgb;
     }
     const std::size_t row = static_cast<std::size_t>(img.cols) * ch;
-    raw.resize((row + 1) * img.rows);
+    const std::size_t n = (row + 1) * img.rows;
+    raw.resize(n + kInputPad);
+    std::memset(raw.data() + n, 0, kInputPad);
     for (int y = 0; y < img.rows; ++y) {
         const std::uint8_t *p = src->ptr<std::uint8_t>(y);
         std::uint8_t *o = raw.data() + (row + 1) * y;
@@ -67,15 +70,29 @@ void filter_rows(const cv::Mat &img, std::vector<std::uint8_t> &raw)
     }
 }
 
-// The zlib stream of `raw` (RFC 1950 around RFC 1951), ISA-L's level 1 in
-// one call, into out (resized to fit). Its output is at most the input
-// plus stored blocks' headers (igzip_lib.h: isal_deflate_stateless),
-// bounded here with room to spare.
-void deflate_zlib(const std::vector<std::uint8_t> &raw, std::vector<std::uint8_t> &out)
+// The zlib stream of the first n bytes of `raw` (RFC 1950 around RFC
+// 1951), ISA-L's level 1 in one call, into out (resized to fit). Its
+// output is at most the input plus stored blocks' headers (igzip_lib.h:
+// isal_deflate_stateless), bounded here with room to spare.
+//
+// The same image gives the same bytes whatever ran before (frames are
+// compared byte for byte with encode_png, and runs replay bit for bit):
+// isal_deflate_stateless_init leaves most of the stream's internal state
+// as it found it, so the stream starts zeroed; the level buffer's header
+// and hash table (its first ISAL_DEF_LVL1_REQ bytes; the token buffer
+// after them is written before it is read) are zeroed, which is what
+// ISA-L's own reset writes at total_in 0; and the input is followed by
+// kInputPad zero bytes of raw, so a vector load past its end reads
+// zeros, not the previous image. On the 2-core CI machine, whose CPU
+// takes another of ISA-L's code paths than the development machine's,
+// two encodings of one 4 x 4 image once differed with these reused.
+
+void deflate_zlib(const std::vector<std::uint8_t> &raw, std::size_t n, std::vector<std::uint8_t> &out)
 {
     thread_local std::vector<std::uint8_t> level_buf(ISAL_DEF_LVL1_DEFAULT);
-    out.resize(raw.size() + 5 * (raw.size() / 16383 + 1) + ISAL_DEF_MAX_HDR_SIZE + 64);
-    isal_zstream s;
+    std::memset(level_buf.data(), 0, ISAL_DEF_LVL1_REQ);
+    out.resize(n + 5 * (n / 16383 + 1) + ISAL_DEF_MAX_HDR_SIZE + 64);
+    isal_zstream s{};
     isal_deflate_stateless_init(&s);
     s.level = 1;
     s.level_buf = level_buf.data();
@@ -84,12 +101,11 @@ void deflate_zlib(const std::vector<std::uint8_t> &raw, std::vector<std::uint8_t
     s.end_of_stream = 1;
     s.flush = NO_FLUSH;
     s.next_in = const_cast<std::uint8_t *>(raw.data());
-    s.avail_in = static_cast<std::uint32_t>(raw.size());
+    s.avail_in = static_cast<std::uint32_t>(n);
     s.next_out = out.data();
     s.avail_out = static_cast<std::uint32_t>(out.size());
     if (const int r = isal_deflate_stateless(&s); r != COMP_OK)
-        throw std::runtime_error("PNG: ISA-L's deflate failed (code " + std::to_string(r) + ") on " + std::to_string(raw.size()) +
-                                 " bytes");
+        throw std::runtime_error("PNG: ISA-L's deflate failed (code " + std::to_string(r) + ") on " + std::to_string(n) + " bytes");
     out.resize(s.total_out);
 }
 
@@ -109,7 +125,7 @@ std::vector<std::uint8_t> encode_png(const cv::Mat &img)
     // (above glibc's mmap threshold, each would cost page faults)
     thread_local std::vector<std::uint8_t> raw, idat;
     filter_rows(img, raw);
-    deflate_zlib(raw, idat);
+    deflate_zlib(raw, raw.size() - kInputPad, idat);
 
     std::vector<std::uint8_t> out(kSignature, kSignature + 8);
     out.reserve(8 + 25 + 12 + idat.size() + 12);

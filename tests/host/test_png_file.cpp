@@ -149,6 +149,28 @@ void test_the_same_image_gives_the_same_bytes_after_a_larger_one()
     TEST_ASSERT_TRUE(a == afm::encode_png(small));
 }
 
+// ... and whatever was encoded before it, at any size and content: the
+// tiny, repetitive images (a 4 x 4 of one colour) where the deflate's
+// tables shrink, after images of every size from 1 px to 300 px of noise
+// and of flat colour (a run's first scan, then its frames; on CI's CPU
+// the thread's reused state once changed a 4 x 4 image's bytes).
+void test_the_same_bytes_whatever_came_before()
+{
+    const cv::Mat tiny[] = {cv::Mat(4, 4, CV_8UC3, cv::Scalar(255, 0, 0)), cv::Mat(1, 3, CV_8UC1, cv::Scalar(0)), frame_like(16)};
+    std::vector<std::vector<std::uint8_t>> first;
+    for (const cv::Mat &t : tiny) first.push_back(afm::encode_png(t));
+    for (int side = 1; side <= 300; side += 13) {
+        const cv::Mat before[] = {noise(side, side + 3, CV_8UC4, 100 + side), cv::Mat(side, side, CV_8UC3, cv::Scalar(side % 256, 7, 0))};
+        for (const cv::Mat &b : before) {
+            (void)afm::encode_png(b);
+            for (std::size_t k = 0; k < first.size(); ++k)
+                TEST_ASSERT_TRUE_MESSAGE(first[k] == afm::encode_png(tiny[k]), ("image " + std::to_string(k) + " after " +
+                                                                                 std::to_string(b.cols) + " x " + std::to_string(b.rows))
+                                                                                    .c_str());
+        }
+    }
+}
+
 void test_what_it_does_not_take_is_refused_by_name()
 {
     const struct {
@@ -224,6 +246,7 @@ int main()
     RUN_TEST(test_a_view_into_a_larger_image);
     RUN_TEST(test_noise_that_does_not_compress);
     RUN_TEST(test_the_same_image_gives_the_same_bytes_after_a_larger_one);
+    RUN_TEST(test_the_same_bytes_whatever_came_before);
     RUN_TEST(test_what_it_does_not_take_is_refused_by_name);
     RUN_TEST(test_a_folder_that_is_not_there_is_named);
     RUN_TEST(test_a_file_cut_short_is_named_and_removed);
