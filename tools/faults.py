@@ -60,6 +60,13 @@ Rows (design.md, "Reliability"):
                   the MAC holds off. Expected: the forgery is not refused (none
                   counted unproven), and the stop ends the run; the pose or the fix
                   may or may not change it (the row says which)
+  planted:link    started as root, the run's user plants in its folder, once
+                  the launcher is done (tools/plant.py): links to a root-only file
+                  as outputs, a link to a stand-in for /etc/shadow as the report's
+                  video, folder links, named pipes, a hard link; then root writes
+                  the run's report: the targets are untouched, the give-back
+                  removes and names each, the report holds no secret, same
+                  trajectories (skipped, with the reason, when not root)
   link:clean      two hosts (--hosts 2, docs/hosts.md) over the link of
                   ./afm run's example, delay 0.2 ms and 2 % loss each way: same
                   trajectories as the undisturbed run on one namespace, and the
@@ -94,6 +101,7 @@ IN_NETNS = os.path.join(HERE, "in_netns.sh")
 DROP_CAPS = os.path.join(HERE, "drop_caps.sh")
 os.environ.setdefault("AFM_BUILD", BUILD)   # the log reader's generated types
 from analysis import afmlog, trajectory  # noqa: E402
+import plant  # noqa: E402  (tools/plant.py, beside this file)
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
 # tools/forge.py --spoof: each forgery from the source port of the run's
@@ -104,7 +112,7 @@ ROWS = ([f"kill:{p}" for p in PROCS] + [f"stop:{p}" for p in PROCS] + ["launcher
                                                                         "net:drop", "net:dup",
         "net:kernel", "net:netem", "disk:full", "scene:changed", "two-runs", "board:killed", "board:hung",
         "spoof:stop", "spoof:finished", "spoof:pose"]
-        + [f"spoof-port:{w}" for w in SPOOF_PORT] + [f"spoof-port:{w}:nokey" for w in SPOOF_PORT] + ["link:clean", "link:down", "link:loss", "link:reorder"]
+        + [f"spoof-port:{w}" for w in SPOOF_PORT] + [f"spoof-port:{w}:nokey" for w in SPOOF_PORT] + ["planted:link", "link:clean", "link:down", "link:loss", "link:reorder"]
         + [f"link:spoof:{w}@{side}" for w in ("stop", "finished", "pose") for side in ("host", "afm")])
 # The link rows (docs/hosts.md): --link of each, and of the spoof rows on two hosts.
 LINKS = {"link:clean": "delay=0.2,loss=0.02", "link:down": "delay=0.2", "link:loss": "delay=0.2,loss=0.1",
@@ -614,6 +622,36 @@ class Matrix:
         self.add(name, f"exit {r.code}, status {status}, {counted} refused without a key", bool(rj), "run.json " + str(status),
                  same, st + ("" if same else " (the forgery acted)"), counted == 0 and took and rj.get("launcher", {}).get("bus_mac") is False)
 
+    def planted_link(self):
+        """tools/plant.py's links, pipes and hard link in the run's folder,
+        planted by the run's user; root's give-back and report follow none."""
+        name = "planted:link"
+        if os.geteuid() != 0:
+            self.add(name, "skipped: not root (the run's user is the caller's own)", True, "-", None, "-", True)
+            return
+        top = self.dir("planted-targets")
+        os.makedirs(top, mode=0o700, exist_ok=True)
+        t = plant.targets(tempfile.mkdtemp(dir=top))
+        out = self.dir(name)
+        try:
+            r = Run(self.scene, out, wrap=lambda cmd: ["sh", "-c", plant.SCRIPT, *cmd], env=plant.environ(out, t)).finish()
+            report = subprocess.run([sys.executable, "-m", "analysis.run_report", out], capture_output=True, text=True, timeout=300)
+            try:
+                with open(os.path.join(out, "report.html"), errors="replace") as f:
+                    leaked = plant.SECRET_MARK in f.read()
+            except OSError:
+                leaked = False
+            named = [n for n in plant.PLANTED if f"removed {os.path.join(out, n)} (" in r.stderr]
+            changed = plant.untouched(t) + plant.left_behind(out)
+        finally:
+            plant.forget(t)
+        kept, kt = self.kept(r, "ok")
+        same, st = self.same(r.out) if kept else (False, "-")
+        did = (f"exit {r.code}, {len(named)} of {len(plant.PLANTED)} planted removed and named, report exit {report.returncode}"
+               + (", the secret IN the report" if leaked else "") + (f"; CHANGED: {changed[0]}" if changed else "; targets untouched"))
+        self.add(name, did, kept, kt, same, st,
+                 r.code == 0 and kept and same and report.returncode == 0 and not leaked and not changed and len(named) == len(plant.PLANTED))
+
     # ---- two hosts (docs/hosts.md) ---------------------------------------
     def link_said(self, r):
         """What run.json says of the link: shaper, delay achieved, datagrams lost, resends."""
@@ -719,6 +757,8 @@ class Matrix:
             elif kind == "spoof-port":
                 what, _, nokey = arg.partition(":")
                 self.spoof_port(what, key=not nokey)
+            elif row == "planted:link":
+                self.planted_link()
             elif row == "link:clean":
                 self.link_row(row, acted=lambda r, rep: sum(v.get("delayed", 0) for v in rep.values()) > 0, replay=True)
             elif row == "link:down":

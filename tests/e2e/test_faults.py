@@ -1,7 +1,7 @@
 """The fault matrix's fast rows (tools/faults.py; ./afm faults runs them all):
 a stopped process, a killed one, the launcher interrupted, every message
 duplicated and reordered, datagrams dropped, duplicated and reordered by the
-kernel, a full disk, the scene changed under a run."""
+kernel, a full disk, the scene changed under a run, links the run's user planted in its folder."""
 import json
 import os
 import subprocess
@@ -12,7 +12,7 @@ import benchtest
 
 FAULTS = os.path.join(benchtest.SRC, "tools", "faults.py")
 FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "launcher:SIGKILL", "net:dup", "net:kernel", "disk:full", "scene:changed",
-        "spoof-port:pose", "spoof-port:pose:nokey"]
+        "spoof-port:pose", "spoof-port:pose:nokey", "planted:link"]
 NETFAULT = os.path.join(benchtest.BUILD, "host_bridge", "afm_netfault")
 
 
@@ -43,6 +43,11 @@ class FaultMatrix(unittest.TestCase):
     def test_a_killed_process_fails_the_run_naming_it_and_keeps_the_record(self):
         self.check("kill:renderer")
         self.assertTrue(self.rows["kill:renderer"]["kept"])
+
+    def test_links_the_runs_user_planted_are_followed_by_nothing_root_does(self):
+        self.check("planted:link")
+        if os.geteuid() == 0:
+            self.assertIn("targets untouched", self.rows["planted:link"]["bench"])
 
     def test_an_interrupted_launcher_stops_every_child_and_says_interrupted(self):
         self.check("launcher:SIGINT")

@@ -14,60 +14,19 @@ give-back) is refused and named by the report and by replay --compare. An
 --out that is not a run's folder, or holds a third user's file, changes no
 ownership at all."""
 import os
-import stat
 import subprocess
 import sys
 import unittest
 
 import benchtest
 
+sys.path.insert(0, os.path.join(benchtest.SRC, "tools"))
+import plant  # noqa: E402  (tools/plant.py: what the run's user plants, and the check that nothing followed it)
+
 PY = sys.executable
 AFM = os.path.join(benchtest.SRC, "afm")
 ROOT = os.geteuid() == 0
-SECRET = "root:$6$stand-in-for-shadow$not-a-real-hash:19000:0:99999:7:::\n"
-
-
-def snapshot(top):
-    """{path: (uid, gid, mode, bytes)} of everything under `top` (links not followed)."""
-    out = {}
-    for d, dirs, files in os.walk(top):
-        for n in [d] + [os.path.join(d, f) for f in dirs + files]:
-            st = os.lstat(n)
-            data = None
-            if stat.S_ISREG(st.st_mode):
-                with open(n, "rb") as f:
-                    data = f.read()
-            out[n] = (st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode), data)
-    return out
-
-
-def left_behind(top):
-    """What under `top` is neither a regular file with one link nor a folder."""
-    bad = []
-    for d, dirs, files in os.walk(top):
-        for n in [os.path.join(d, f) for f in dirs + files]:
-            st = os.lstat(n)
-            if not (stat.S_ISDIR(st.st_mode) or (stat.S_ISREG(st.st_mode) and st.st_nlink == 1)):
-                bad.append(n)
-    return bad
-
-
-# Run as the run's user, after the launcher ("$0" "$@"): OUT the run
-# folder, VICTIM the root-only file, SHADOW the stand-in, ROOTDIR the
-# root-only folder, OWN a file of the run's user outside the run.
-PLANT = r'''set -e
-"$0" "$@"
-cd "$OUT"
-ln -s "$VICTIM" report.html.tmp
-ln -s "$VICTIM" report.html
-rm -f video.mp4 video.webm video.avi; ln -s "$SHADOW" video.mp4
-rm -rf frames; ln -s "$ROOTDIR" frames
-ln -s "$ROOTDIR" compare
-rm -f contact_sheet.png; mkfifo contact_sheet.png
-mkfifo logs/pipe
-echo "the run's user's" > "$OWN"
-ln "$OWN" hard.txt
-'''
+snapshot = plant.snapshot
 
 
 @unittest.skipUnless(ROOT, "the run's user differs from the caller only when started as root")
@@ -78,43 +37,27 @@ class RootFollowsNothing(unittest.TestCase):
         if closed:
             raise unittest.SkipTest(f"the build is under {closed}, which the run's user cannot traverse: no run drops to it")
         cls.top = benchtest.tmpdir("root-paths")
-        cls.victim = os.path.join(cls.top, "root-only.txt")
-        cls.shadow = os.path.join(cls.top, "shadow")
-        cls.rootdir = os.path.join(cls.top, "root-only-folder")
-        # a file the run's user makes outside the run (where it may: /tmp), then links into it
-        cls.own = os.path.join("/tmp", f"afm-test-root-paths-own-{os.getpid()}")
-        for path, text in ((cls.victim, "root's own, 0600\n"), (cls.shadow, SECRET)):
-            with open(path, "w") as f:
-                f.write(text)
-            os.chmod(path, 0o600)
-        os.mkdir(cls.rootdir, 0o700)
-        with open(os.path.join(cls.rootdir, "kept.txt"), "w") as f:
-            f.write("root's folder\n")
-        cls.before = {p: snapshot(p) for p in (cls.victim, cls.shadow, cls.rootdir)}
+        cls.t = plant.targets(cls.top)
+        cls.victim, cls.shadow, cls.rootdir, cls.own = (cls.t[k] for k in ("victim", "shadow", "rootdir", "own"))
         cls.out = os.path.join(cls.top, "run")
-        cmd = [benchtest.IN_NETNS, "sh", "-c", PLANT, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", cls.out,
+        cmd = [benchtest.IN_NETNS, "sh", "-c", plant.SCRIPT, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", cls.out,
                "--quiet"]
-        cls.p = subprocess.run(cmd, capture_output=True, text=True, timeout=300,
-                               env=dict(os.environ, OUT=cls.out, VICTIM=cls.victim, SHADOW=cls.shadow, ROOTDIR=cls.rootdir, OWN=cls.own))
+        cls.p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=plant.environ(cls.out, cls.t))
         cls.run_uid = os.stat(cls.own).st_uid if os.path.exists(cls.own) else None
 
     @classmethod
     def tearDownClass(cls):
-        if os.path.exists(cls.own):
-            os.unlink(cls.own)
+        plant.forget(cls.t)
 
     def untouched(self):
-        for path, snap in self.before.items():
-            self.assertEqual(snapshot(path), snap, f"{path} changed")
-        st = os.stat(self.own)
-        self.assertNotEqual(st.st_uid, 0, "the run's user's own file is still its own")
-        self.assertEqual(st.st_nlink, 1, "and linked from the run no more")
+        self.assertEqual(plant.untouched(self.t), [])
+        self.assertTrue(os.path.exists(self.own), "the run's user made its own file")
 
     def test_1_the_give_back_removes_and_names_what_was_planted(self):
         self.assertEqual(self.p.returncode, 0, self.p.stderr)
-        for name in ("report.html.tmp", "report.html", "video.mp4", "frames", "compare", "contact_sheet.png", "logs/pipe", "hard.txt"):
+        for name in plant.PLANTED:
             self.assertIn(f"removed {os.path.join(self.out, name)} (", self.p.stderr)
-        self.assertEqual(left_behind(self.out), [])
+        self.assertEqual(plant.left_behind(self.out), [])
         self.assertEqual([n for n, s in snapshot(self.out).items() if s[:2] != (0, 0) or s[2] & 0o022], [],
                          "every file root's, none writable by others")
         self.untouched()
@@ -124,7 +67,7 @@ class RootFollowsNothing(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         with open(os.path.join(self.out, "report.html")) as f:
             page = f.read()
-        self.assertNotIn("stand-in-for-shadow", page)
+        self.assertNotIn(plant.SECRET_MARK, page)
         self.untouched()
 
     def test_3_a_link_root_finds_all_the_same_is_refused_and_named(self):
@@ -144,7 +87,7 @@ class RootFollowsNothing(unittest.TestCase):
             page = f.read()
         self.assertIn("<h2>Refused</h2>", page)
         self.assertIn("video.mp4: refused: a symbolic link", page)
-        self.assertNotIn("stand-in-for-shadow", page)
+        self.assertNotIn(plant.SECRET_MARK, page)
         self.assertFalse(os.path.islink(os.path.join(d, "report.html")))
         # ./afm replay --compare with compare/ a link into a root-only folder
         os.symlink(self.rootdir, os.path.join(d, "compare"))
