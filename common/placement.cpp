@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <sched.h>
 #include <sys/file.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -182,6 +183,13 @@ const std::vector<int> &Placement::cpus_for(const std::string &process) const
 {
     if (!on()) return kNone;
     return in_lockstep(process) ? lockstep_ : observers_;
+}
+
+double thread_cpu_seconds()
+{
+    timespec ts{};
+    if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0;
+    return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
 }
 
 }  // namespace afm

@@ -43,6 +43,11 @@ bool pin_self(const std::vector<int> &cpus);
 // thread runs unpinned.
 std::thread start_pinned(std::vector<int> cpus, std::string what, std::function<void()> body);
 
+// The CPU time the calling thread has used, seconds (CLOCK_THREAD_CPUTIME_ID;
+// 0 where the clock is refused): a worker thread's own cost, as the
+// renderer's frame writer and view frames report it.
+double thread_cpu_seconds();
+
 // The CPUs process `pid` may run on, ascending; empty if it cannot be read.
 std::vector<int> cpus_of(pid_t pid);
 

@@ -1,7 +1,5 @@
 #include "frame_writer.hpp"
 
-#include <time.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -12,17 +10,6 @@
 #include "png_file.hpp"
 
 namespace afm {
-
-namespace {
-
-double thread_cpu_seconds()
-{
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-}  // namespace
 
 FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video, double fps, int px, std::vector<int> cpus,
                          std::size_t max_pending)

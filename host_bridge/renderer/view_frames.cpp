@@ -1,7 +1,5 @@
 #include "view_frames.hpp"
 
-#include <time.h>
-
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
@@ -14,13 +12,6 @@
 namespace afm {
 
 namespace {
-
-double thread_cpu_seconds()
-{
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 // The message's bytes without its image.
 std::size_t bytes_without_image(const view_frame_t &m)
