@@ -4,6 +4,7 @@ can write (/run/afm for root), opened without truncation and without
 following a link; a lock another process holds is named (pid and command)
 and waited on for AFM_BUILD_LOCK_WAIT_S seconds at most, never forever."""
 import os
+import signal
 import stat
 import subprocess
 import time
@@ -36,14 +37,17 @@ class BuildLock(unittest.TestCase):
         lock = os.path.join(benchtest.tmpdir("lock-held"), "build.lock")
         with open(lock, "w") as f:
             f.write("kept\n")
-        holder = subprocess.Popen(["flock", lock, "sleep", "60"])
+        # its own process group, killed whole: flock's `sleep` would otherwise
+        # outlive it holding ctest's output pipe, and ctest wait out its 60 s
+        holder = subprocess.Popen(["flock", lock, "sleep", "60"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                  start_new_session=True)
         try:
             time.sleep(0.5)
             t0 = time.monotonic()
             p = build(AFM_BUILD_LOCK=lock, AFM_BUILD_LOCK_WAIT_S="2")
             waited = time.monotonic() - t0
         finally:
-            holder.kill()
+            os.killpg(holder.pid, signal.SIGKILL)
             holder.wait()
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn(f"waiting for another build on this machine: pid {holder.pid} (flock {lock} sleep 60", p.stderr)
