@@ -30,7 +30,7 @@ built incrementally first). Targets (default: all of them):
   --seconds N  fuzz each target N seconds (default 60)
   --merge      afterwards, merge what the run found into the committed seed
                corpus fuzz/corpus/TARGET (only inputs with new coverage)
-  --smoke      the test suite's run: every target 15 s, then every input in
+  --smoke      the test suite's run: every target 5 s, then every input in
                fuzz/crashes/TARGET/ (crashes found before, fixed) once
   -h, --help   this text
 
@@ -72,7 +72,7 @@ while [ $# -gt 0 ]; do
 done
 if [ "$smoke" = 1 ]; then
   [ ${#targets[@]} -eq 0 ] && [ "$merge" = 0 ] || die "--smoke takes no targets and no --merge"
-  seconds=15
+  seconds=5
 fi
 [ ${#targets[@]} -eq 0 ] && targets=("${all_targets[@]}")
 
