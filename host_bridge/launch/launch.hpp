@@ -1,7 +1,8 @@
 // Launch: how afm_launch runs one scene (launch/main.cpp). Validates the scene before starting anything,
 // checks that it sits in a private network namespace whose loopback carries
 // the multicast route (./afm run puts it there), records the whole bus
-// itself (bus_recorder.hpp), starts the four processes, prints progress, stops everything
+// itself (bus_recorder.hpp), starts the four processes (and, with --view-fd, the page's bridge,
+// afm_view_bridge, with the run's key), prints progress, stops everything
 // at the end (or when one dies), and writes DIR/run.json.
 #pragma once
 
@@ -344,7 +345,7 @@ inline int parse_args(int argc, char **argv, Options *o)
     return check_args(o);
 }
 
-// afm_view_bridge's report in the run's folder (launch.hpp: run.json launcher.view_bridge).
+// afm_view_bridge's report in the run's folder (run.json launcher.view_bridge).
 inline constexpr const char *kViewBridgeReport = "view_bridge_report.json";
 
 // The files an earlier run left in a folder that this run replaces.
