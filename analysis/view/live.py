@@ -4,9 +4,11 @@ The page's browser is in the caller's network namespace and cannot reach
 the run's, so this process stays in the caller's: it opens the listening
 socket (127.0.0.1, a port it prints, a random token) and serves the page
 from here. The run goes into its own namespace as always
-(tools/in_netns.sh), with one more process inside: afm_view_bridge
-(host_bridge/view), which takes VIEW_FRAME and AFM_HEARTBEAT off the bus
-and writes them to a pipe this process reads. Nothing else crosses.
+(tools/in_netns.sh), and the launcher is handed the write end of a pipe
+(afm_launch --view-fd N), which it hands in turn to afm_view_bridge
+(host_bridge/view), its child holding the run's key: the bridge takes
+VIEW_FRAME and AFM_HEARTBEAT off the bus, with the run's proof, and writes
+them to the pipe this process reads. Nothing else crosses.
 
 Contract: the run starts at once, or (--wait) once a page with the token
 has opened its stream; Ctrl-C while waiting exits 130 before anything ran.
@@ -40,15 +42,9 @@ import time
 from analysis import afmlog, paths
 from analysis.view import frames, server
 
-BRIDGE = os.path.join(paths.BUILD, "host_bridge", "afm_view_bridge")
 MAX_CHANNEL = 63            # LCM's longest channel name
 MAX_PAYLOAD = 1 << 20       # bytes: far above a view frame (under 64 kB)
 SERVER_NICE = 10            # once the run has started (main_async)
-# Inside the namespace: the bridge in the background on the pipe's end,
-# which the launcher then closes; the launcher in the shell's place (its
-# parent dies with it: the bridge ends, afm_view_bridge's PR_SET_PDEATHSIG).
-# bash, not sh: dash's redirections take only the file descriptors 0-9.
-WRAPPER = 'fd=$1; shift; "$0" --fd "$fd" & eval "exec $fd>&-"; exec "$@"'
 
 
 class LiveSource:
@@ -225,10 +221,11 @@ async def wait_for_page(view):
 
 
 async def start_run(run_cmd, wfd, hand_fifo):
-    """The run in its namespace, the bridge beside the launcher; the hand's
-    named pipe is read by the operator in operator.mode browser
-    ($AFM_HAND_FIFO)."""
-    cmd = [paths.IN_NETNS, "bash", "-c", WRAPPER, BRIDGE, str(wfd)] + run_cmd
+    """The run in its namespace, the pipe's write end handed to the launcher
+    (--view-fd, after run_cmd's own arguments), which starts the bridge on
+    it; the hand's named pipe is read by the operator in operator.mode
+    browser ($AFM_HAND_FIFO)."""
+    cmd = [paths.IN_NETNS] + run_cmd + ["--view-fd", str(wfd)]
     # the pipe the run's user's for the run's life (in_netns.sh, AFM_RUN_FILES), this process's before and after
     env = dict(os.environ, AFM_HAND_FIFO=hand_fifo, AFM_RUN_FILES=hand_fifo)
     return await asyncio.create_subprocess_exec(*cmd, pass_fds=(wfd,), env=env)
@@ -283,6 +280,4 @@ async def main_async(run_cmd, out_dir, wait, port):
 def main(run_cmd, out_dir, wait=False, port=0):
     """Runs `run_cmd` (afm_launch and its arguments, --view among them) in its
     namespace with the page served; returns its exit code."""
-    if not os.access(BRIDGE, os.X_OK):
-        sys.exit(f"view: {BRIDGE} is missing: build the bench first (./afm build)")
     return asyncio.run(main_async(run_cmd, out_dir, wait, port))

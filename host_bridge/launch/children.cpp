@@ -105,10 +105,39 @@ bool enter_namespaces_of(int pid, bool net)
     return true;
 }
 
+// fd at `slot` in this process, inherited at exec (dup2 clears
+// close-on-exec; fd already there keeps its flag, cleared by hand).
+bool put_at(int fd, int slot)
+{
+    return fd == slot ? fcntl(slot, F_SETFD, 0) == 0 : dup2(fd, slot) == slot;
+}
+
+// In spawn's child: the key at kBusKeyFd and pass_fd at kPassedFd, each
+// slot closed when it has none; what is above them is the launcher's
+// (spawn closes it). Returns the first descriptor above them, or -1 (said)
+// when one cannot be placed.
+int place_inherited(int key_fd, int pass_fd, const char *who)
+{
+    // the passed descriptor out of the key's slot first
+    if (pass_fd == kBusKeyFd) pass_fd = fcntl(pass_fd, F_DUPFD, kPassedFd + 1);
+    if (key_fd < 0) {
+        close(kBusKeyFd);
+    } else if (!put_at(key_fd, kBusKeyFd)) {
+        std::fprintf(stderr, "afm_launch: cannot hand the bus key to %s: %s\n", who, std::strerror(errno));
+        return -1;
+    }
+    if (pass_fd == -1) return key_fd >= 0 ? kBusKeyFd + 1 : kBusKeyFd;
+    if (pass_fd < 0 || !put_at(pass_fd, kPassedFd)) {
+        std::fprintf(stderr, "afm_launch: cannot hand descriptor %d to %s: %s\n", kPassedFd, who, std::strerror(errno));
+        return -1;
+    }
+    return kPassedFd + 1;
+}
+
 }  // namespace
 
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus, Entry entry, int key_fd)
+            int nice_level, const std::vector<int> &cpus, Entry entry, int key_fd, int pass_fd)
 {
     const std::string key_env = std::string(kBusKeyFdEnv) + "=" + std::to_string(kBusKeyFd);
     const pid_t launcher = getpid();
@@ -134,18 +163,10 @@ pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, c
         }
         int devnull = open("/dev/null", O_RDONLY);
         if (devnull >= 0) dup2(devnull, 0);
-        // the run's key at kBusKeyFd (dup2 clears close-on-exec; a key
-        // already there keeps its flag, cleared by hand)
-        int keep = 3;
-        if (key_fd >= 0) {
-            const bool there = key_fd == kBusKeyFd ? fcntl(kBusKeyFd, F_SETFD, 0) == 0 : dup2(key_fd, kBusKeyFd) == kBusKeyFd;
-            if (!there) {
-                std::fprintf(stderr, "afm_launch: cannot hand the bus key to %s: %s\n", argv[0].c_str(), std::strerror(errno));
-                _exit(127);
-            }
-            putenv(const_cast<char *>(key_env.c_str()));
-            keep = kBusKeyFd + 1;
-        }
+        // the run's key at kBusKeyFd, the passed descriptor at kPassedFd
+        const int keep = place_inherited(key_fd, pass_fd, argv[0].c_str());
+        if (keep < 0) _exit(127);
+        if (key_fd >= 0) putenv(const_cast<char *>(key_env.c_str()));
         // nothing else of the launcher's: its bus socket, its log
         if (close_range(static_cast<unsigned>(keep), ~0u, 0) != 0)
             for (int k = keep, top = static_cast<int>(sysconf(_SC_OPEN_MAX)); k < top && k < 65536; ++k) close(k);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "afm/heartbeat_t.hpp"
+#include "bus_key.hpp"
 #include "inbox.hpp"
 #include "process.hpp"
 
@@ -60,10 +61,12 @@ struct Entry {
     bool net = false;
 };
 // key_fd >= 0: the run's bus key (bus_key.hpp), found by the child at
-// kBusKeyFd and named by kBusKeyFdEnv; nothing else of the launcher's is
-// inherited.
+// kBusKeyFd and named by kBusKeyFdEnv. pass_fd >= 0: one more descriptor
+// (afm_view_bridge's pipe to the page's server), found by the child at
+// kPassedFd. Nothing else of the launcher's is inherited.
+constexpr int kPassedFd = kBusKeyFd + 1;
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
-            int nice_level, const std::vector<int> &cpus, Entry entry = {}, int key_fd = -1);
+            int nice_level, const std::vector<int> &cpus, Entry entry = {}, int key_fd = -1, int pass_fd = -1);
 
 struct Progress {
     // The processes whose heartbeats the launcher follows (the run's own,

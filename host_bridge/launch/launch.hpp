@@ -1,7 +1,8 @@
 // Launch: how afm_launch runs one scene (launch/main.cpp). Validates the scene before starting anything,
 // checks that it sits in a private network namespace whose loopback carries
 // the multicast route (./afm run puts it there), records the whole bus
-// itself (bus_recorder.hpp), starts the four processes, prints progress, stops everything
+// itself (bus_recorder.hpp), starts the four processes (and, with --view-fd, the page's bridge,
+// afm_view_bridge, with the run's key), prints progress, stops everything
 // at the end (or when one dies), and writes DIR/run.json.
 #pragma once
 
@@ -78,6 +79,9 @@ inline const char *kUsage =
     "                     when lcm-spy is closed (time_mode: realtime to watch at pace)\n"
     "  --view             the renderer also publishes its frames on VIEW_FRAME for a page\n"
     "                     (./afm run --view serves it; docs/view.md)\n"
+    "  --view-fd N        with --view: start afm_view_bridge, the launcher's child with the\n"
+    "                     run's key, writing VIEW_FRAME and AFM_HEARTBEAT to descriptor N (the\n"
+    "                     pipe to the page's server, which ./afm run --view hands down)\n"
     "  --inject-drop P    sim_afm drops each analog block's first send with probability P\n"
     "  --kill AFTER_S:NAME  failure injection: SIGKILL process NAME AFTER_S wall seconds into the run\n"
     "  --inject-crash fw_node:N  failure injection: fw_node exits (code 70) on analog block N\n"
@@ -130,6 +134,12 @@ constexpr double kSpyWaitS = 10.0;   // --spy: the longest the run waits for lcm
 inline std::string exe_dir()
 {
     return fs::canonical("/proc/self/exe").parent_path().string();
+}
+
+// afm_view_bridge (host_bridge/view), built beside the launcher.
+inline std::string view_bridge_path()
+{
+    return exe_dir() + "/afm_view_bridge";
 }
 
 // Whether the planner can serve the scene's targets (pattern.hpp), asked of
@@ -191,6 +201,7 @@ struct Options {
     std::string scene_path, out_dir;
     bool spy = false, quiet = false, check_only = false, no_verdict = false, strict = false;
     bool view = false;          // the renderer publishes VIEW_FRAME (docs/view.md)
+    int view_fd = -1;           // --view-fd: the pipe afm_view_bridge writes to (-1: no bridge)
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
     long long crash_block = -1;
@@ -225,10 +236,33 @@ inline int check_args(const Options *o)
         std::fprintf(stderr, "afm_launch: --spy needs a display and DISPLAY is not set (lcm-spy is a window)\n");
         return 2;
     }
+    if (o->view_fd >= 0 && !o->view) {
+        std::fprintf(stderr, "afm_launch: --view-fd goes with --view (it is the pipe to the page's server)\n");
+        return 2;
+    }
+    if (o->view_fd >= 0 && access(view_bridge_path().c_str(), X_OK) != 0) {
+        std::fprintf(stderr, "afm_launch: --view-fd: %s is missing: build the bench first (./afm build)\n", view_bridge_path().c_str());
+        return 2;
+    }
     if (!(o->drop_p >= 0 && o->drop_p < 1)) {
         std::fprintf(stderr, "afm_launch: --inject-drop must be in [0, 1), got %g\n", o->drop_p);
         return 2;
     }
+    return -1;
+}
+
+// --view-fd N: a descriptor this process holds open for writing, above
+// stdin, stdout and stderr. -1 when it is, else 2, said.
+inline int parse_view_fd(const std::string &v, Options *o)
+{
+    char *end = nullptr;
+    const long fd = std::strtol(v.c_str(), &end, 10);
+    const int flags = !v.empty() && !*end && fd > 2 && fd < 1024 ? fcntl(static_cast<int>(fd), F_GETFL) : -1;
+    if (flags < 0 || (flags & O_ACCMODE) == O_RDONLY) {
+        std::fprintf(stderr, "afm_launch: --view-fd wants a descriptor above 2 open for writing, got '%s'\n", v.c_str());
+        return 2;
+    }
+    o->view_fd = static_cast<int>(fd);
     return -1;
 }
 
@@ -265,6 +299,9 @@ inline int parse_args(int argc, char **argv, Options *o)
             }
         }
         else if (a == "--no-renderer") o->renderer = false;
+        else if (a == "--view-fd") {
+            if (const int code = parse_view_fd(val(), o); code >= 0) return code;
+        }
         else if (a == "--hosts") {
             const std::string v = val();
             if (v != "1" && v != "2") {
@@ -308,17 +345,29 @@ inline int parse_args(int argc, char **argv, Options *o)
     return check_args(o);
 }
 
+// afm_view_bridge's report in the run's folder (run.json launcher.view_bridge).
+inline constexpr const char *kViewBridgeReport = "view_bridge_report.json";
+
 // The files an earlier run left in a folder that this run replaces.
 const char *const kRunOutputs[] = {"frames", "logs", "bus.lcmlog", "run.json", "scene.yaml", "video.mp4", "video.avi",
                                    "sim_report.json", "renderer_report.json", "operator_report.json", "fw_report.json", "scan_initial.png",
                                    "contact_sheet.png", "scan_initial.gsf", "scan_final.gsf", "display_final.gsf",
-                                   "fidelity.json", "fidelity_diff.png"};
+                                   "fidelity.json", "fidelity_diff.png", kViewBridgeReport};
 
 // One run: the steps of main, in order, sharing the run's state.
 class Launch {
 public:
-    explicit Launch(Options o) : o_(std::move(o)) {}
-    ~Launch() { mark_ended(); }
+    // --view-fd: kept from every process but afm_view_bridge (spawn hands it
+    // to that one) and closed here once the bridge has it
+    explicit Launch(Options o) : o_(std::move(o))
+    {
+        if (o_.view_fd >= 0) fcntl(o_.view_fd, F_SETFD, FD_CLOEXEC);
+    }
+    ~Launch()
+    {
+        mark_ended();
+        if (o_.view_fd >= 0) close(o_.view_fd);
+    }
     Launch(const Launch &) = delete;
     Launch &operator=(const Launch &) = delete;
 
@@ -517,21 +566,73 @@ public:
             {"renderer", renderer_cmd},
         };
         if (o_.spy) start_spy(url_env);
-        // two hosts: every process in the run's inner user namespace (the afm
-        // namespace's owner), so that they read one another's sockets; it
-        // drops what entering gave; the launcher's ports said in its stead
-        const std::string ports_env = std::string(afm::Senders::kParentPortsEnv) + "=" + afm::Senders::own_ports();
-        for (auto &c : kids_) {
-            std::vector<std::string> cmd = cmds.at(c.name), env = {url_env};
-            Entry entry;
-            if (hosts_.count == 2) {
-                env.insert(env.end(), {hosts_.bus_link_env(c.name), ports_env});
-                cmd.insert(cmd.begin(), hosts_.drop_caps);
-                entry = {hosts_.afm_ns_pid, hosts_.on_afm(c.name)};
-            }
-            c.pid = spawn(cmd, out_ + "/logs/" + c.name + ".log", env, kBusProcessNice, placement_.cpus_for(c.name), entry, key_fd_);
-        }
+        if (o_.view_fd >= 0) start_view_bridge();
+        for (auto &c : kids_) c.pid = spawn_in_run(c.name, cmds.at(c.name));
         return -1;
+    }
+
+    // A process of the run, started as each one is: its output to
+    // logs/NAME.log, the bus's URL, below the launcher's priority, on its
+    // CPUs, with the run's key (and pass_fd: spawn). Two hosts: in the run's
+    // inner user namespace (the afm namespace's owner), so that they read
+    // one another's sockets, and its network namespace too where NAME runs
+    // there; it drops what entering gave (tools/drop_caps.sh); the
+    // launcher's ports said in its stead.
+    pid_t spawn_in_run(const std::string &name, std::vector<std::string> cmd, int pass_fd = -1) const
+    {
+        std::vector<std::string> env = {std::string("LCM_DEFAULT_URL=") + bus_url()};
+        Entry entry;
+        if (hosts_.count == 2) {
+            env.insert(env.end(), {hosts_.bus_link_env(name), std::string(afm::Senders::kParentPortsEnv) + "=" + afm::Senders::own_ports()});
+            cmd.insert(cmd.begin(), hosts_.drop_caps);
+            entry = {hosts_.afm_ns_pid, hosts_.on_afm(name)};
+        }
+        return spawn(cmd, out_ + "/logs/" + name + ".log", env, kBusProcessNice, placement_.cpus_for(name), entry, key_fd_, pass_fd);
+    }
+
+    // afm_view_bridge (--view-fd; docs/view.md), before the run's processes
+    // so that it hears their first messages: an observer started as they
+    // are (spawn_in_run), holding the run's key, the pipe handed down at
+    // kPassedFd and closed here. It is stopped once they are done
+    // (stop_view_bridge).
+    void start_view_bridge()
+    {
+        view_bridge_.pid = spawn_in_run(view_bridge_.name, {view_bridge_path(), "--fd", std::to_string(kPassedFd), "--report",
+                                                            out_ + "/" + kViewBridgeReport},
+                                        o_.view_fd);
+        close(o_.view_fd);
+        o_.view_fd = -1;
+    }
+
+    // SIGTERM to afm_view_bridge: it passes on what its socket still holds,
+    // says in its log what it refused, writes its report and ends; SIGKILL
+    // after kViewBridgeStopMs (a pipe whose reader stopped reading).
+    void stop_view_bridge()
+    {
+        if (view_bridge_.pid <= 0) return;
+        view_bridge_.reap();
+        if (!view_bridge_.exited) kill(view_bridge_.pid, SIGTERM);
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kViewBridgeStopMs);
+        while (!view_bridge_.exited && std::chrono::steady_clock::now() < deadline) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+            view_bridge_.reap();
+        }
+        if (!view_bridge_.exited) kill(view_bridge_.pid, SIGKILL);
+        view_bridge_.reap(true);
+    }
+
+    // run.json launcher.view_bridge: null without --view-fd; else its exit
+    // code, log and the kernel's accounting, and its report (what it passed
+    // on and refused, afm_view_bridge's contract), or report_error.
+    nlohmann::json view_bridge_json() const
+    {
+        if (view_bridge_.pid <= 0) return nullptr;
+        nlohmann::json j = process_json(view_bridge_);
+        std::ifstream f(out_ + "/" + kViewBridgeReport);
+        const nlohmann::json rep = f ? nlohmann::json::parse(f, nullptr, false) : nlohmann::json();
+        if (rep.is_object()) j.update(rep);
+        else j["report_error"] = std::string(kViewBridgeReport) + (f ? ": not a JSON object" : ": missing");
+        return j;
     }
 
     // lcm-spy, before the run's processes: an LCM subscription sends
@@ -617,6 +718,7 @@ public:
             if (!started && std::all_of(kids_.begin(), kids_.end(), [&](const Child &c) { return prog_.is(c.name, afm::RunState::ready); })) {
                 started = true;
                 for (auto &c : kids_) c.cpus = afm::cpu_list(afm::cpus_of(c.pid));   // where each one really runs
+                if (view_bridge_.pid > 0) view_bridge_.cpus = afm::cpu_list(afm::cpus_of(view_bridge_.pid));
                 for (auto &kv : prog_.progress_at) kv.second = std::chrono::steady_clock::now();
                 take_loop_cpu();
             }
@@ -665,6 +767,7 @@ public:
         if (hosts_.count == 2) hosts_.stop_shapers();
         if (recorder_) recorded_events_ = recorder_->events();
         recorder_.reset();
+        stop_view_bridge();
         // lcm-spy stays open for the person watching (the bus is quiet now);
         // the run ends when they close it, or on SIGINT or SIGTERM (however
         // soon it comes). On failure it is closed with the rest.
@@ -722,6 +825,7 @@ public:
         }
         print_plan(run);
         print_board(run);
+        print_view_bridge(run["launcher"]["view_bridge"]);
         if (hosts_.count == 2)
             std::printf("%s; the simulator resent %lld blocks\n", hosts_.summary().c_str(),
                         static_cast<long long>(run.contains("sim") ? run["sim"].value("resends", 0L) : 0L));
@@ -865,6 +969,8 @@ private:
     int64_t recorded_events_ = 0;   // what the record held when it was closed
     afm::Placement placement_;   // the lockstep's CPU and the observers' (place())
     Child spy_{"lcm-spy"};
+    Child view_bridge_{"view_bridge"};   // afm_view_bridge (--view-fd)
+    static constexpr int kViewBridgeStopMs = 2000;
     std::vector<Child> kids_ = {{"sim_afm"}, {"fw_node"}, {"operator"}, {"renderer"}};
     std::string failure_;
     bool finished_ = false;
@@ -974,6 +1080,7 @@ private:
                 {"bus_mac", key_fd_ >= 0},
                 {"foreign_datagrams", senders_ ? senders_->foreign_count() : 0},   // from no process that publishes their channel
                 {"foreign", senders_ ? senders_->foreign() : nlohmann::json::object()},
+                {"view_bridge", view_bridge_json()},
                 {"tap_receive_buffer_bytes", tap_ ? tap_->receive_buffer_bytes() : 0},
                 {"log_window_blocks", log_window_},
                 {"cpu_user_s", ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6},
@@ -1135,6 +1242,18 @@ private:
                     b["instructions_per_sample"]["median"].get<double>(), b["instructions_per_sample"]["worst"].get<double>(),
                     100 * g["fraction_worst_cpi1"].get<double>(), 100 * g["fraction_worst_cpi2"].get<double>(),
                     b["round_trip_us"]["median"].get<double>());
+    }
+
+    // What the page's bridge refused (run.json launcher.view_bridge), when it refused anything.
+    static void print_view_bridge(const nlohmann::json &b)
+    {
+        if (!b.is_object() || !b.contains("rejected")) return;
+        const int64_t unproven = b["rejected"]["unproven"].value("total", int64_t{0});
+        const int64_t foreign = b["rejected"].value("foreign_datagrams", int64_t{0});
+        if (unproven + foreign == 0) return;
+        std::printf("run: the page's bridge refused %lld messages without the run's proof and %lld from no process of the run that "
+                    "publishes their channel (logs/view_bridge.log)\n",
+                    static_cast<long long>(unproven), static_cast<long long>(foreign));
     }
 
     // The planner's account (operator_report.json) and its result in the

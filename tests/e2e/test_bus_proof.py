@@ -13,11 +13,20 @@ forgeries, sent by tools/forge.py --spoof PROGRAM from a raw socket with
 that program's source port, change nothing (the run ends ok with the
 undisturbed run's trajectories) and are counted by every receiver that
 hears them (run.json: each process's rejected.unproven, the launcher's
-unproven, by reason and channel)."""
+unproven, by reason and channel).
+
+The page of ./afm run --view takes VIEW_FRAME through afm_view_bridge, the
+launcher's child holding the key: a VIEW_FRAME forged from the renderer's
+port never reaches the page, and the bridge counts it (run.json
+launcher.view_bridge, logs/view_bridge.log)."""
+import asyncio
 import json
+import math
 import os
+import re
 import subprocess
 import sys
+import time
 import unittest
 
 import benchtest
@@ -60,6 +69,75 @@ def unproven(rj, channel):
     return out
 
 
+# Beside the launcher of a viewed run: the forger, ended by the launcher's
+# end (its parent-death signal), and the launcher in the shell's place, so
+# that the run's processes are the launcher's children as ./afm run --view
+# makes them; the launcher's arguments follow the script.
+VIEWED_WITH_FORGER = ('setpriv --pdeathsig TERM -- "$PY" "$FORGE" "$WHAT" --spoof "$PROGRAM" --seconds 300 > "$SENT" & '
+                      'exec "$DROP" "$@"')
+
+
+async def page_messages(port, token, seconds):
+    """What a page of the live view is sent (the WebSocket, no browser):
+    ([JSON messages], [binary messages]) until the "end" message or
+    `seconds`."""
+    import aiohttp
+    texts, images = [], []
+    async with aiohttp.ClientSession() as s:
+        async with s.ws_connect(f"http://127.0.0.1:{port}/ws?token={token}", timeout=seconds) as ws:
+            end = time.monotonic() + seconds
+            while time.monotonic() < end:
+                try:
+                    m = await ws.receive(timeout=max(0.1, end - time.monotonic()))
+                except asyncio.TimeoutError:
+                    break
+                if m.type == aiohttp.WSMsgType.TEXT:
+                    texts.append(json.loads(m.data))
+                    if texts[-1].get("type") == "end":
+                        break
+                elif m.type == aiohttp.WSMsgType.BINARY:
+                    images.append(m.data)
+                else:
+                    break
+    return texts, images
+
+
+def viewed_with_spoofer(scene, out, what, program):
+    """./afm run SCENE --view --wait as ./afm starts it (python -m
+    analysis.view run: the page's server, the run in its namespace), with
+    tools/forge.py WHAT --spoof PROGRAM beside the launcher; a page's
+    WebSocket opens the stream. Returns (exit code, the server's stderr,
+    run.json, what was sent, the page's JSON messages, its images)."""
+    sent = out.rstrip("/") + ".sent.json"
+    env = dict(os.environ, PY=sys.executable, FORGE=FORGE, WHAT=what, PROGRAM=program, SENT=sent, DROP=DROP_CAPS,
+               AFM_KEEP_CAPS="net_raw", AFM_RUN_WRITES=os.path.dirname(sent))
+    cmd = [sys.executable, "-m", "analysis.view", "run", "--out", out, "--wait", "--", "sh", "-c", VIEWED_WITH_FORGER, "sh",
+           benchtest.LAUNCH, "--scene", scene, "--out", out, "--view", "--quiet"]
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        line = p.stderr.readline()
+        m = re.match(r"view: http://127\.0\.0\.1:(\d+)/\?token=(\S+)", line)
+        assert m, "no page address printed: " + line
+        texts, images = asyncio.run(page_messages(int(m.group(1)), m.group(2), benchtest.limit(300)))
+        err = p.stderr.read()
+        code = p.wait(timeout=benchtest.limit(60))
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    rj = None
+    if os.path.exists(os.path.join(out, "run.json")):
+        with open(os.path.join(out, "run.json")) as f:
+            rj = json.load(f)
+    deadline = time.monotonic() + benchtest.limit(10)   # the forger says what it sent once the launcher is gone
+    while not os.path.getsize(sent) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    with open(sent) as f:
+        said = json.load(f)
+    os.remove(sent)
+    return code, err, rj, said, texts, images
+
+
 class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
     # the one owner of the trailer is the bus layer (afm::publish_raw): a
     # process that called liblcm's publish itself would send without proof
@@ -67,7 +145,6 @@ class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
                "bench/host/bench_bus.cpp", "tools/linkprobe.cpp"}   # the benches' own channels, never a run's bus
 
     def test_no_publish_site_calls_liblcm_directly(self):
-        import re
         pattern = re.compile(r"(\.|->)publish\(")
         found = []
         for top in ("common", "host_bridge", "sim_afm", "tools", "bench"):
@@ -185,6 +262,49 @@ class BusProof(unittest.TestCase):
             named = [who for who in rj[p]["rejected"]["foreign"].get("AFM_HEARTBEAT", {}) if "naming itself launcher" in who]
             self.assertTrue(named, (p, rj[p]["rejected"]["foreign"]))
             self.assertIn("renderer", named[0])
+
+
+class ViewBridgeProof(unittest.TestCase):
+    """A viewed run's page takes nothing without the run's proof."""
+
+    def test_view_fd_without_view_is_refused_in_one_line(self):
+        r, w = os.pipe()
+        self.addCleanup(os.close, r)
+        self.addCleanup(os.close, w)
+        p = subprocess.run([benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", "/nonexistent/run",
+                            "--view-fd", str(w)], capture_output=True, text=True, pass_fds=(w,), timeout=60)
+        self.assertEqual(p.returncode, 2)
+        self.assertEqual(p.stderr, "afm_launch: --view-fd goes with --view (it is the pipe to the page's server)\n")
+
+    def test_a_view_frame_from_the_renderers_port_never_reaches_the_page(self):
+        scene = benchtest.short_scene_2s("view-proof-scene")
+        out = os.path.join(benchtest.tmpdir("spoof-view"), "run")
+        self.addCleanup(benchtest.cleanup, os.path.dirname(out), os.path.dirname(scene))
+        code, err, rj, sent, texts, images = viewed_with_spoofer(scene, out, "view", "renderer")
+        self.assertIsNotNone(rj, err[-2000:])
+        self.assertEqual(code, 0, err[-2000:])
+        self.assertEqual(rj["status"], "ok")
+        self.assertGreater(sent["total"], 5, sent)
+        self.assertTrue(sent["spoofed_port"], sent)
+        frames = [t for t in texts if t.get("type") == "frame"]
+        published = rj["renderer"]["view"]["published"]
+        self.assertGreater(len(frames), 0, texts[-3:])
+        # the page: only the renderer's frames (finite, real JPEGs), and the
+        # server took from the bridge no more frames than the renderer made
+        forged = [f for f in frames if not all(math.isfinite(v) for v in f["tip_nm"] + f["force_nN"])]
+        self.assertEqual(forged, [], f"{len(forged)} forged frames reached the page")
+        self.assertEqual([i for i in images if not i.startswith(b"\xff\xd8\xff")], [])
+        end = [t for t in texts if t.get("type") == "end"][-1]
+        self.assertLessEqual(end["frames_received"], published, (end, published))
+        # the bridge counted what it refused: run.json and its log
+        bridge = rj["launcher"]["view_bridge"]
+        self.assertEqual(bridge["exit_code"], 0, bridge)
+        refused = bridge["rejected"]["unproven"]
+        self.assertGreater(refused["by_channel"].get("VIEW_FRAME", 0), 0, refused)
+        self.assertGreater(refused["by_reason"]["no_trailer"], 0, refused)
+        with open(os.path.join(out, "logs", "view_bridge.log")) as f:
+            log = f.read()
+        self.assertRegex(log, r"refused \d+ .*no_trailer \d+", log)
 
 
 if __name__ == "__main__":
