@@ -1,8 +1,9 @@
 """A sweep's users (issue 46, item 2): started as root with its local
 cluster, the sweep's client and scheduler are one leased uid of the runs'
 range and each worker another, never nobody, so that no other uid can read
-the cluster's TLS key from their memory (/proc/PID/mem) or enter their
-points' namespaces. sweep.json names the scheduler's uid and, per point, the
+the cluster's TLS key from their memory (/proc/PID/mem) or from the folder
+Dask writes it in for a moment (their TMPDIR), or enter their points'
+namespaces. sweep.json names the scheduler's uid and, per point, the
 uid of the worker that ran it. After the sweep no lease is held and no file
 in /tmp is one of those uids', and every file of the sweep's folder is root's
 again. The smallest sweep that shows it: two points of the short scene on
@@ -77,6 +78,25 @@ def reads_memory(uid, pid):
     return p.returncode == 0
 
 
+def scratch_of(pid):
+    """The folders where `pid` keeps files (its TMPDIR: where Dask writes
+    the in-memory key for the moment it loads it; HOME; Dask's temporary
+    directory), from its environment; /tmp where TMPDIR is not set."""
+    with open(f"/proc/{pid}/environ", "rb") as f:
+        env = dict(v.split(b"=", 1) for v in f.read().split(b"\0") if b"=" in v)
+    return [env.get(k, b"/tmp").decode() for k in (b"TMPDIR", b"HOME", b"DASK_TEMPORARY_DIRECTORY")]
+
+
+def lists_folder(uid, folder):
+    """True if a process of `uid` (no groups) lists `folder` and reads what
+    it holds (a temporary folder of Dask's inside, for the key)."""
+    probe = ("import os,sys; d=sys.argv[1]; os.listdir(d); "
+             "[os.listdir(os.path.join(d, n)) for n in os.listdir(d) if os.path.isdir(os.path.join(d, n))]")
+    p = subprocess.run(["setpriv", f"--reuid={uid}", f"--regid={uid}", "--clear-groups", sys.executable, "-c", probe,
+                        folder], capture_output=True, text=True, timeout=30)
+    return p.returncode == 0
+
+
 @unittest.skipUnless(ROOT, "only a sweep started as root leases its users")
 class SweepUsers(unittest.TestCase):
     @classmethod
@@ -109,6 +129,8 @@ class SweepUsers(unittest.TestCase):
                         for probe in (NOBODY, third):
                             try:
                                 cls.read[(who, pid, probe)] = reads_memory(probe, pid)
+                                for folder in scratch_of(pid):
+                                    cls.read[(who, pid, probe, folder)] = folder == "/tmp" or lists_folder(probe, folder)
                             except OSError:
                                 pass
             time.sleep(0.1)
@@ -143,7 +165,8 @@ class SweepUsers(unittest.TestCase):
     def test_no_third_uid_reads_the_scheduler_or_a_worker(self):
         self.assertTrue(self.read, "the memory of the sweep's processes was not probed")
         read = [k for k, v in self.read.items() if v]
-        self.assertEqual(read, [], "(process, pid, the probe's uid) whose memory another uid read")
+        self.assertEqual(read, [], "(process, pid, the probe's uid[, folder]) whose memory, or whose folder where the "
+                                   "key is written for a moment (/tmp: shared with every uid), another uid read")
 
     def test_sweep_json_names_the_scheduler_and_each_points_worker(self):
         self.assertIsNotNone(self.record, self.se)
