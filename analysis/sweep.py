@@ -14,6 +14,7 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import stat
 import subprocess
 import sys
@@ -375,7 +376,12 @@ def run_points(a, tasks, prog, started=None):
     return records, engine_name
 
 
+def _interrupted(_sig, _frame):
+    raise KeyboardInterrupt
+
+
 def main(argv):
+    signal.signal(signal.SIGTERM, _interrupted)   # as Ctrl-C: the points done are kept (exit 130)
     started = None
     try:
         a = parse_args(argv)

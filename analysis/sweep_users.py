@@ -170,7 +170,7 @@ def start_client(argv, folder, user, users_rec, creds, sizes, n_workers):
 def start_worker(address, folder, user, group, creds):
     tls_r = _pipe_with(json.dumps(creds))
     env = env_of(folder, *user, groups=str(group) if group != user[1] else None,
-                 **{point.POINT_SCRATCH_ENV: f"{folder}/point", "DASK_LOGGING__DISTRIBUTED": "error"})
+                 **{point.POINT_SCRATCH_ENV: f"{folder}/point", "DASK_LOGGING__DISTRIBUTED": "critical"})
     try:
         return subprocess.Popen([paths.DROP_CAPS, sys.executable, "-m", "analysis.cluster", "worker", address,
                                  "--host", "127.0.0.1", "--tls-fd", str(tls_r)], env=env, pass_fds=(tls_r,),
@@ -280,7 +280,8 @@ def _serve(argv, n_workers, users, folders, lease, sizes, procs):
     if address:
         for user, folder in zip(users[1:], folders[1:]):
             procs.append(start_worker(address, folder, user, users[0][1], creds))
-    return client.wait()
+    code = client.wait()
+    return 128 - code if code < 0 else code   # a signal's end as a shell says it
 
 
 # The client's side: started by run() above, as the scheduler's uid.
