@@ -23,6 +23,15 @@ the user who started them (root, on a bench set up as the README says). So:
   only from a peer that holds the cluster's TLS credentials.
   The one stated exception: workers unpickle the tasks that the
   credentialed client sends them.
+- Who holds the key of a local cluster. Started as root, the sweep's root
+  process makes the credentials (Security.temporary()) and hands them, as
+  PEM text on an inherited pipe (read_credentials), to the client and
+  scheduler, a uid leased for the sweep, and to each worker (a nanny and its
+  worker), a uid leased for it (analysis/sweep_users.py). Each holds the key
+  in its own memory, which no other uid can read; Dask loads it through a
+  file of a temporary folder (0700) in the process's own TMPDIR, its scratch
+  folder (0700, its uid's). It never lies in a file another uid can read,
+  nor on a command line. Not root: every process is the caller.
 
 `python -m analysis.cluster` starts a scheduler and workers of this kind on
 other machines (docs/sweeps.md)."""

@@ -4,7 +4,10 @@ its costs measured from the run itself; a CSV, JSON, a table, Pareto plots
 and one report.html. Points run on Dask distributed: a LocalCluster by
 default, an existing cluster with --scheduler ADDRESS; both TLS with
 credentials (analysis/engine.py); the client reads results as JSON, never
-pickled.
+pickled. Started as root with a local cluster, the client and scheduler are
+one leased uid and each worker another (analysis/sweep_users.py). Knob names
+and values reach sweep.json, sweep.csv, the report and the terminal through
+the one escaper (analysis/text.py, shown_points).
 
 A point is known by a hash of its scene (the base scene with the point's
 settings) and of the build (the run's programs): running the sweep again
@@ -50,9 +53,9 @@ options:
                         the spread; errors must repeat exactly
   --workers N           a local Dask cluster of N workers (default: one per core),
                         on 127.0.0.1, TLS with credentials made for this sweep;
-                        started as root, the sweep and its workers run as the
-                        run's user (nobody, or AFM_RUN_USER) without capabilities,
-                        --out theirs for the sweep (docs/sweeps.md)
+                        started as root, its client and scheduler are a uid
+                        leased for the sweep and each worker another, without
+                        capabilities (docs/sweeps.md)
   --scheduler ADDRESS   an existing Dask cluster (tls://HOST:PORT) whose
                         workers have this checkout, built, at the same path
                         (docs/sweeps.md: python -m analysis.cluster)
