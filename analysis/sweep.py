@@ -406,7 +406,7 @@ def main(argv):
     duration = float(scene.get("duration_s", 1.0))
     timeout = a.timeout_s or 60.0 + 40.0 * duration
     os.makedirs(os.path.join(out, "points"), exist_ok=True)
-    # measured by the sweep's root parent, when it runs as the run's user (as_run_user)
+    # measured by the sweep's root process when it started this one as the sweep's user (as_run_users)
     sizes = json.loads(os.environ["AFM_SWEEP_ARM_SIZES"]) if "AFM_SWEEP_ARM_SIZES" in os.environ else arm_sizes()
     tasks, done = [], []
     for settings in settings_list:
