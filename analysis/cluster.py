@@ -19,6 +19,10 @@ usage: .venv/bin/python -m analysis.cluster certs DIR
 
   --tls-dir DIR            the folder certs wrote; or each file:
   --tls-ca, --tls-cert, --tls-key FILE
+  --tls-fd FD              or the credentials as JSON text ({"ca", "cert",
+                           "key"}: PEM) on an inherited descriptor, which a
+                           started-as-root sweep hands each worker it starts
+                           as a user of its own (analysis/sweep_users.py)
 
 The sweep then runs with
   ./afm sweep SCENE --vary ... --scheduler tls://HOST:PORT \\
@@ -94,6 +98,7 @@ def parse(argv):
     p.add_argument("--tls-ca")
     p.add_argument("--tls-cert")
     p.add_argument("--tls-key")
+    p.add_argument("--tls-fd", type=int)
     p.add_argument("-h", "--help", action="store_true")
     a = p.parse_args(argv)
     if a.help or not a.role:
@@ -111,7 +116,7 @@ def main(argv):
             for path in write_certs(a.where):
                 print(f"cluster: wrote {path}")
             return 0
-        sec = engine.security_from_files(*tls_files(a))
+        sec = engine.read_credentials(a.tls_fd) if a.tls_fd is not None else engine.security_from_files(*tls_files(a))
         if a.role == "scheduler":
             if not a.host:
                 raise engine.EngineError("scheduler: --host ADDR (an address of this machine) is needed")

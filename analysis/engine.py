@@ -23,11 +23,21 @@ the user who started them (root, on a bench set up as the README says). So:
   only from a peer that holds the cluster's TLS credentials.
   The one stated exception: workers unpickle the tasks that the
   credentialed client sends them.
+- Who holds the key of a local cluster. Started as root, the sweep's root
+  process makes the credentials (Security.temporary()) and hands them, as
+  PEM text on an inherited pipe (read_credentials), to the client and
+  scheduler, a uid leased for the sweep, and to each worker (a nanny and its
+  worker), a uid leased for it (analysis/sweep_users.py). Each holds the key
+  in its own memory, which no other uid can read; Dask loads it through a
+  file of a temporary folder (0700) in the process's own TMPDIR, its scratch
+  folder (0700, its uid's). It never lies in a file another uid can read,
+  nor on a command line. Not root: every process is the caller.
 
 `python -m analysis.cluster` starts a scheduler and workers of this kind on
 other machines (docs/sweeps.md)."""
 import concurrent.futures
 import json
+import os
 import socket
 import ssl
 from urllib.parse import urlsplit
@@ -152,6 +162,45 @@ def connect(address, tls_ca=None, tls_cert=None, tls_key=None, insecure=False):
     except Exception as e:   # Dask raises OSError, TimeoutError, ssl and comm errors with long chains
         why = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise EngineError(f"--scheduler {address}: cannot connect: {why[:200]}") from None
+
+
+def credentials_of(sec):
+    """{"ca", "cert", "key"}: the PEM text of a Security made by
+    Security.temporary(), to hand to a worker through a pipe."""
+    return {"ca": sec.tls_ca_file, "cert": sec.tls_client_cert, "key": sec.tls_client_key}
+
+
+def read_credentials(fd):
+    """A Security requiring TLS with the PEM text read (as JSON, credentials_of's)
+    from descriptor fd, which is closed: credentials that never lie in a file
+    or on a command line."""
+    from distributed import Security
+    with os.fdopen(fd, "r") as f:
+        try:
+            d = json.load(f)
+            ca, cert, key = (d[k] for k in ("ca", "cert", "key"))
+        except (ValueError, KeyError, TypeError) as e:
+            raise EngineError(f"the credentials on descriptor {fd} are not the cluster's ({type(e).__name__})") from None
+    return Security(tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key, tls_scheduler_cert=cert,
+                    tls_scheduler_key=key, tls_worker_cert=cert, tls_worker_key=key, require_encryption=True)
+
+
+def scheduler_alone(sec):
+    """(client, cluster): the scheduler of a local cluster on 127.0.0.1 in
+    this process, TLS with `sec`, no worker and no HTTP port; the workers,
+    started by whoever holds the same credentials, join it at
+    cluster.scheduler_address (analysis/sweep_users.py)."""
+    from distributed import Client, SpecCluster
+    harden_client()
+    scheduler = {"cls": QuietScheduler, "options": {"host": "127.0.0.1", "protocol": "tls://", "security": sec,
+                                                    "dashboard": False, "dashboard_address": None}}
+    cluster = SpecCluster(scheduler=scheduler, workers={}, security=sec, silence_logs=40)
+    try:
+        client = Client(cluster, security=sec, deserializers=SAFE_DESERIALIZERS)
+    except BaseException:
+        cluster.close()
+        raise
+    return client, cluster
 
 
 def local_cluster(n_workers):

@@ -7,6 +7,7 @@ interrupted sweep keeps every finished point."""
 import json
 import os
 import re
+import shutil
 import subprocess
 import time
 
@@ -45,7 +46,32 @@ def _write_json(path, data):
     os.replace(tmp, path)
 
 
-def run_scene(scene_path, run_dir, timeout_s):
+# A worker started by a root sweep (analysis/sweep_users.py) names a folder
+# of its own for its points' HOME and TMPDIR, emptied between points.
+POINT_SCRATCH_ENV = "AFM_SWEEP_POINT_SCRATCH"
+
+
+def fresh_scratch():
+    """The environment of a point's processes: with POINT_SCRATCH_ENV, HOME,
+    TMPDIR, MPLCONFIGDIR and XDG_CACHE_HOME in that folder, made empty
+    (0700) for this point; else this process's own (None)."""
+    d = os.environ.get(POINT_SCRATCH_ENV)
+    if not d:
+        return None
+    clear_scratch()
+    os.makedirs(os.path.join(d, "tmp"), mode=0o700)
+    os.chmod(d, 0o700)
+    return dict(os.environ, HOME=d, TMPDIR=os.path.join(d, "tmp"), MPLCONFIGDIR=os.path.join(d, ".matplotlib"),
+                XDG_CACHE_HOME=os.path.join(d, ".cache"))
+
+
+def clear_scratch():
+    d = os.environ.get(POINT_SCRATCH_ENV)
+    if d:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def run_scene(scene_path, run_dir, timeout_s, env=None):
     """Runs the scene; returns (exit code, stderr, run.json or None, wall s).
     A run that completes but fails one of its own checks exits 0 here
     (--no-verdict): sweeps and the paper keep its run.json "verdict" as data,
@@ -53,7 +79,7 @@ def run_scene(scene_path, run_dir, timeout_s):
     cmd = [paths.IN_NETNS, paths.LAUNCH, "--scene", scene_path, "--out", run_dir, "--quiet", "--no-verdict"]
     t0 = time.monotonic()
     try:
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, env=env)
         code, err = p.returncode, p.stderr
     except subprocess.TimeoutExpired:
         code, err = -1, f"the run did not finish in {timeout_s:.0f} s (killed)"
@@ -101,13 +127,13 @@ def costs_of(rj):
     return c
 
 
-def firmware_instructions(run_dir, out_file, samples):
+def firmware_instructions(run_dir, out_file, samples, env=None):
     """The card's instructions per sample on this run's own inputs: the run
     replayed through the card under callgrind, counting inside
     fw_card_step_block only. Also whether the replay was identical."""
     cmd = ["valgrind", "--tool=callgrind", "--toggle-collect=fw_card_step_block", f"--callgrind-out-file={out_file}",
            paths.REPLAY, run_dir, "--quiet"]
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=3600, env=env)
     total = None
     try:
         with open(out_file) as f:
@@ -123,7 +149,16 @@ def firmware_instructions(run_dir, out_file, samples):
 def run_point(task):
     """task: id, dir, scene (the dict), settings, label, repeat, timeout_s,
     build_id, callgrind, arm_sizes ({module: text bytes} or None). Returns the
-    point's record, also written to dir/point.json."""
+    point's record, also written to dir/point.json; its worker_uid is the
+    uid of the worker that ran it. The point's processes have a scratch
+    folder emptied before and removed after (fresh_scratch)."""
+    try:
+        return _run_point(task, fresh_scratch())
+    finally:
+        clear_scratch()
+
+
+def _run_point(task, env):
     d = task["dir"]
     os.makedirs(d, exist_ok=True)
     import yaml
@@ -131,11 +166,11 @@ def run_point(task):
     with open(scene_path, "w") as f:
         yaml.safe_dump(task["scene"], f, sort_keys=False)
     rec = {"id": task["id"], "settings": task["settings"], "label": task["label"], "build_id": task["build_id"],
-           "dir": d, "status": "ok", "runs": []}
+           "dir": d, "status": "ok", "runs": [], "worker_uid": os.getuid()}
     t0 = time.time()
     for r in range(task["repeat"]):
         run_dir = os.path.join(d, "run" if r == 0 else f"run-{r + 1}")
-        code, err, rj, wall = run_scene(scene_path, run_dir, task["timeout_s"])
+        code, err, rj, wall = run_scene(scene_path, run_dir, task["timeout_s"], env)
         if code != 0 or not rj or rj.get("status") != "ok":
             rec["status"] = "failed"
             rec["failure"] = failure_of(code, err, rj, run_dir)
@@ -162,7 +197,8 @@ def run_point(task):
             rec["cost_spread"] = {k: [min(x for x in v if x is not None), max(x for x in v if x is not None)]
                                   for k, v in costs.items() if any(x is not None for x in v)}
         if task["callgrind"]:
-            rec["costs"].update(firmware_instructions(first["run_dir"], os.path.join(d, "callgrind.out"), first["samples"]))
+            rec["costs"].update(firmware_instructions(first["run_dir"], os.path.join(d, "callgrind.out"), first["samples"],
+                                                      env))
         if task.get("arm_sizes"):
             mods = modules_run(task["scene"])
             rec["costs"]["fw_text_bytes"] = sum(task["arm_sizes"].get(m, 0) for m in mods)

@@ -4,7 +4,10 @@ its costs measured from the run itself; a CSV, JSON, a table, Pareto plots
 and one report.html. Points run on Dask distributed: a LocalCluster by
 default, an existing cluster with --scheduler ADDRESS; both TLS with
 credentials (analysis/engine.py); the client reads results as JSON, never
-pickled.
+pickled. Started as root with a local cluster, the client and scheduler are
+one leased uid and each worker another (analysis/sweep_users.py). Knob names
+and values reach sweep.json, sweep.csv, the report and the terminal through
+the one escaper (analysis/text.py, shown_points).
 
 A point is known by a hash of its scene (the base scene with the point's
 settings) and of the build (the run's programs): running the sweep again
@@ -24,7 +27,7 @@ import time
 import yaml
 
 from analysis import knobs as K
-from analysis import engine, paths, point, report
+from analysis import engine, paths, point, report, sweep_users
 from analysis.text import printable
 
 USAGE = """usage: ./afm sweep SCENE --vary KEY=V1,V2,... [--vary ...] [options]
@@ -50,9 +53,9 @@ options:
                         the spread; errors must repeat exactly
   --workers N           a local Dask cluster of N workers (default: one per core),
                         on 127.0.0.1, TLS with credentials made for this sweep;
-                        started as root, the sweep and its workers run as the
-                        run's user (nobody, or AFM_RUN_USER) without capabilities,
-                        --out theirs for the sweep (docs/sweeps.md)
+                        started as root, its client and scheduler are a uid
+                        leased for the sweep and each worker another, without
+                        capabilities (docs/sweeps.md)
   --scheduler ADDRESS   an existing Dask cluster (tls://HOST:PORT) whose
                         workers have this checkout, built, at the same path
                         (docs/sweeps.md: python -m analysis.cluster)
@@ -259,48 +262,23 @@ def arm_sizes():
     return sizes
 
 
-def as_run_user(a, argv):
-    """Started as root, the sweep runs again as the run's user, without
-    privilege (tools/run_user.sh, tools/drop_caps.sh; docs/design.md, "Least
-    privilege"): its client, its local cluster's scheduler and workers, and
-    so every point's run (with --scheduler the workers are the remote
-    cluster's, and the sweep stays as it is). Here, as root: the input is
-    validated, the Cortex-M4 sizes are measured (they build into the
-    checkout), `out` and a scratch folder (the sweep's HOME and Dask's
-    temporary-directory) are handed to that user, and given back after,
-    whatever the outcome; SIGTERM and SIGHUP are passed on (Ctrl-C reaches
-    both processes from the terminal). Returns the sweep's exit code, or
-    None when it goes on as root: the run's user is root, or cannot reach
-    the checkout or `out` (said on stderr)."""
-    p = subprocess.run([paths.RUN_USER, "id"], capture_output=True, text=True)
-    if p.returncode != 0:
-        raise SweepError(p.stderr.strip())
-    uid, gid = (int(v) for v in p.stdout.split())
-    if uid == 0:
-        return None
+def as_run_users(a, argv):
+    """Started as root with a local cluster, the sweep runs as users of its
+    own (analysis/sweep_users.py): its client and scheduler one leased uid,
+    each worker another. Here, as root, first: the input is validated (bad
+    input named before anything is made) and the Cortex-M4 sizes measured
+    (they build into the checkout). Returns the sweep's exit code, or None
+    when it goes on as root (said on stderr)."""
     scene_path, scene, knobs, out, _, sources = plan(a)
-    validate(scene_path, scene, K.grid(knobs), sources)   # bad input named before anything is made
-    os.makedirs(out, exist_ok=True)
-    scratch = tempfile.mkdtemp(prefix="afm-sweep-")
-    os.chmod(scratch, 0o755)
+    validate(scene_path, scene, K.grid(knobs), sources)
     try:
-        p = subprocess.run([paths.RUN_USER, "reach", paths.ROOT, os.getcwd(), sys.executable], capture_output=True, text=True)
-        if p.returncode == 0:
-            p = subprocess.run([paths.RUN_USER, "give", out, scratch], capture_output=True, text=True)
-        if p.returncode != 0:
-            print(f"sweep: warning: the sweep and its workers stay root: {p.stderr.strip().removeprefix('run_user: ')}",
-                  file=sys.stderr)
-            return None
-        env = dict(os.environ, AFM_RUN_UID=str(uid), AFM_RUN_GID=str(gid), HOME=scratch, DASK_TEMPORARY_DIRECTORY=scratch,
-                   AFM_SWEEP_ARM_SIZES=json.dumps(arm_sizes()))
-        child = subprocess.Popen([paths.DROP_CAPS, sys.executable, "-m", "analysis.sweep", *argv], env=env)
-        for sig in (signal.SIGTERM, signal.SIGHUP):
-            signal.signal(sig, lambda s, _f: child.send_signal(s))
-        signal.signal(signal.SIGINT, lambda _s, _f: None)
-        return child.wait()
-    finally:
-        subprocess.run([paths.RUN_USER, "take", out], capture_output=True)
-        shutil.rmtree(scratch, ignore_errors=True)
+        return sweep_users.run(argv, workers_wanted(a), out, arm_sizes())
+    except sweep_users.UsersError as e:
+        raise SweepError(str(e)) from None
+
+
+def workers_wanted(a):
+    return a.workers or os.cpu_count() or 1
 
 
 def load_done(path, build):
@@ -340,7 +318,10 @@ def start_engine(a):
     if a.scheduler:
         client = engine.connect(a.scheduler, a.tls_ca, a.tls_cert, a.tls_key, a.insecure)
         return client, None, f"Dask cluster at {a.scheduler}"
-    n = a.workers or os.cpu_count() or 1
+    n = workers_wanted(a)
+    if sweep_users.TLS_FD_ENV in os.environ:   # started by root's sweep_users.run: the workers are its to start
+        client, cluster = sweep_users.serve_scheduler(n)
+        return client, cluster, f"Dask local cluster, {n} worker(s) on 127.0.0.1, TLS, each a user of its own"
     client, cluster = engine.local_cluster(n)
     return client, cluster, f"Dask local cluster, {n} worker(s) on 127.0.0.1, TLS"
 
@@ -398,12 +379,17 @@ def run_points(a, tasks, prog, started=None):
     return records, engine_name
 
 
+def _interrupted(_sig, _frame):
+    raise KeyboardInterrupt
+
+
 def main(argv):
+    signal.signal(signal.SIGTERM, _interrupted)   # as Ctrl-C: the points done are kept (exit 130)
     started = None
     try:
         a = parse_args(argv)
         if os.geteuid() == 0 and not a.scheduler:   # a local cluster's workers (a remote cluster's are its own)
-            code = as_run_user(a, argv)
+            code = as_run_users(a, argv)
             if code is not None:
                 return code
         if a.scheduler:   # a cluster that cannot be used is named before anything else starts
@@ -420,7 +406,7 @@ def main(argv):
     duration = float(scene.get("duration_s", 1.0))
     timeout = a.timeout_s or 60.0 + 40.0 * duration
     os.makedirs(os.path.join(out, "points"), exist_ok=True)
-    # measured by the sweep's root parent, when it runs as the run's user (as_run_user)
+    # measured by the sweep's root process when it started this one as the sweep's user (as_run_users)
     sizes = json.loads(os.environ["AFM_SWEEP_ARM_SIZES"]) if "AFM_SWEEP_ARM_SIZES" in os.environ else arm_sizes()
     tasks, done = [], []
     for settings in settings_list:
@@ -433,7 +419,7 @@ def main(argv):
             continue
         tasks.append({"id": pid, "dir": d, "scene": s, "settings": settings, "label": K.label(settings), "repeat": repeat,
                       "timeout_s": timeout, "build_id": build, "callgrind": not a.no_callgrind, "arm_sizes": sizes})
-    print(f"sweep: {len(settings_list)} points of {os.path.basename(scene_path)} into {out}: {len(done)} done before, "
+    print(f"sweep: {len(settings_list)} points of {printable(os.path.basename(scene_path))} into {printable(out)}: {len(done)} done before, "
           f"{len(tasks)} to run", file=sys.stderr)
     prog = Progress(len(settings_list), len(done))
     engine_name = "nothing to run"
@@ -453,7 +439,8 @@ def main(argv):
             print("\nsweep: interrupted; the points done so far are kept", file=sys.stderr)
     order = {point_id(K.apply(scene, s), build): i for i, s in enumerate(settings_list)}
     points = sorted(done + new, key=lambda r: order.get(r["id"], 0))
-    finish(out, scene_path, scene, knobs, points, repeat, build, engine_name, prog.points_wall_s)
+    finish(out, scene_path, scene, knobs, points, repeat, build, engine_name, prog.points_wall_s,
+           sweep_users.record(points, remote=bool(a.scheduler)))
     if interrupted:
         print(f"sweep: {len(points)} of {len(settings_list)} points kept; run the same command again to finish",
               file=sys.stderr)
@@ -461,10 +448,34 @@ def main(argv):
     return 0 if all(p["status"] == "ok" for p in points) else 1
 
 
-def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_wall_s=None):
+def shown(v):
+    """A knob's name or value as the outputs show it: text through the one
+    escaper (analysis/text.py), numbers and true/false as they are."""
+    return printable(v) if isinstance(v, str) else v
+
+
+def shown_points(knobs, points):
+    """(knobs, points) as sweep.json, sweep.csv, the report, the plots and
+    the terminal show them: every knob's name and value, every point's
+    settings and label and a failure's words escaped, so that no control
+    character of a sweep file reaches a terminal or a page raw."""
+    knobs = [(shown(k), [shown(v) for v in vs]) for k, vs in knobs]
+    out = []
+    for p in points:
+        p = dict(p, settings={shown(k): shown(v) for k, v in (p.get("settings") or {}).items()},
+                 label=shown(p.get("label", "")))
+        if "failure" in p:   # a log's tail keeps its lines, each escaped
+            p["failure"] = {k: "\n".join(map(printable, v.split("\n"))) if isinstance(v, str) else v
+                            for k, v in p["failure"].items()}
+        out.append(p)
+    return knobs, out
+
+
+def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_wall_s=None, users=None):
+    knobs, points = shown_points(knobs, points)
     knob_keys = [k for k, _ in knobs]
-    meta = {"scene": scene_path, "scene_name": scene.get("name", ""), "knobs": knobs, "repeat": repeat,
-            "build_id": build, "engine": engine, "points_wall_s": points_wall_s,
+    meta = {"scene": scene_path, "scene_name": shown(scene.get("name", "")), "knobs": knobs, "repeat": repeat,
+            "build_id": build, "engine": engine, "points_wall_s": points_wall_s, "users": users,
             "ok": sum(p["status"] == "ok" for p in points),
             "failed": sum(p["status"] != "ok" for p in points)}
     report.write_csv_json(out, points, knob_keys, meta)
@@ -478,7 +489,7 @@ def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_
             f = p.get("failure", {})
             print(f"sweep: point {p['label']} FAILED: {f.get('process', 'launcher')} exit "
                   f"{f.get('process_exit_code', f.get('exit_code'))}: {f.get('error') or f.get('stderr', '')} "
-                  f"(folder {p.get('run_dir', p.get('dir'))})", file=sys.stderr)
+                  f"(folder {printable(p.get('run_dir', p.get('dir')))})", file=sys.stderr)
     if best:
         e = best[0]
         print(f"sweep: most accuracy per unit of cost: {e['knob']} {e['from']} -> {e['to']}: force RMS error "

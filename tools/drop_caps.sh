@@ -8,9 +8,11 @@
 #   tools/drop_caps.sh CMD [ARGS...]
 # AFM_RUN_UID=UID AFM_RUN_GID=GID (tools/in_netns.sh exports them when
 # started as root; tools/run_user.sh names the user): CMD runs as that uid
-# and gid with no supplementary groups, unless it is that uid already. Both
-# are removed from CMD's environment, so a command CMD starts through this
-# script again only drops capabilities.
+# and gid with no supplementary groups (AFM_RUN_GROUPS=GID[,GID...]: those
+# alone; a sweep's workers share its scheduler's group, analysis/sweep_users.py),
+# unless it is that uid already. All three are removed from CMD's
+# environment, so a command CMD starts through this script again only drops
+# capabilities.
 # Every command runs under rlimits (prlimit): at most LIMIT_NPROC processes
 # of its uid, files of at most LIMIT_FSIZE bytes, LIMIT_DATA bytes of data
 # segment per process; tools/drop_caps.sh --limits prints them as run.json's
@@ -26,12 +28,13 @@ LIMIT_NPROC=4096 LIMIT_FSIZE=$((16 << 30)) LIMIT_DATA=$((16 << 30))
 command -v setpriv >/dev/null || { echo "drop_caps: setpriv not found (util-linux)" >&2; exit 2; }
 keep=${AFM_KEEP_CAPS:-}
 limits="prlimit --nproc=$LIMIT_NPROC --fsize=$LIMIT_FSIZE --data=$LIMIT_DATA --"
-uid=${AFM_RUN_UID:-} gid=${AFM_RUN_GID:-}
-unset AFM_KEEP_CAPS AFM_RUN_UID AFM_RUN_GID
+uid=${AFM_RUN_UID:-} gid=${AFM_RUN_GID:-} groups=${AFM_RUN_GROUPS:-}
+unset AFM_KEEP_CAPS AFM_RUN_UID AFM_RUN_GID AFM_RUN_GROUPS
 user=""
 if [ -n "$uid" ] && [ "$(id -u)" != "$uid" ]; then
   case "$uid$gid" in *[!0-9]*|"") echo "drop_caps: AFM_RUN_UID and AFM_RUN_GID must be numbers, not '$uid' and '$gid'" >&2; exit 2 ;; esac
-  user="--reuid=$uid --regid=$gid --clear-groups"
+  case "$groups" in *[!0-9,]*|,*|*,|*,,*) echo "drop_caps: AFM_RUN_GROUPS must be numbers separated by commas, not '$groups'" >&2; exit 2 ;; esac
+  user="--reuid=$uid --regid=$gid $([ -n "$groups" ] && echo "--groups=$groups" || echo --clear-groups)"
 fi
 # The securebits need CAP_SETPCAP (bit 8 of CapEff); a command already
 # stripped by this script (netfault's shell starting the launcher) has them

@@ -100,22 +100,19 @@ done
 # A user of its own (issue 46, item 2): started as root without
 # AFM_RUN_USER, the run leases a uid (and the same gid) of the range
 # tools/run_uid.sh names, one no process holds and that owns no file where a
-# run writes: a lock on /run/afm/uid-UID.lock, held until the folders are
-# given back. Without a range reserved (tools/setup.sh reserves it), the
+# run writes (tools/run_uid.sh lease: a lock on /run/afm/uid-UID.lock, held
+# by that command until its input ends: this script holds the pipe until the
+# folders are given back, and the run inherits it, so a process of the run
+# that outlives this script keeps the lease too). Without a range reserved (tools/setup.sh reserves it), the
 # run's user is nobody, the documented fallback (AFM_RUN_USER=nobody).
 # A leased user is in no /etc/passwd: HOME (and MPLCONFIGDIR, XDG_CACHE_HOME)
 # are a scratch folder of the run's, handed over with the others and
 # removed after.
 lease="" home=""
 if [ -z "${AFM_RUN_USER:-}" ] && "$here/run_uid.sh" range >/dev/null 2>&1; then
-  state=$("$here/run_uid.sh" state-dir) || exit 2
-  for n in $("$here/run_uid.sh" free 16); do
-    : >> "$state/uid-$n.lock"
-    exec {lease_fd}<"$state/uid-$n.lock"
-    if flock -n "$lease_fd"; then lease=$n; break; fi
-    exec {lease_fd}<&-
-  done
-  [ -n "$lease" ] || { echo "in_netns: refused: no free uid in the range for runs ($("$here/run_uid.sh" range)): every one is leased, held by a process or owns a file in /tmp, /var/tmp or /dev/shm" >&2; exit 2; }
+  coproc LEASE { exec "$here/run_uid.sh" lease 1; }
+  read -r lease <&"${LEASE[0]}" || true
+  [ -n "$lease" ] || exit 2   # tools/run_uid.sh said why, in one line
   export AFM_RUN_USER=$lease:$lease
   home=$(mktemp -d "${TMPDIR:-/tmp}/afm-run-home-XXXXXX")
   writes+=("$home")

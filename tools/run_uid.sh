@@ -20,8 +20,18 @@
 #                                effective, saved or filesystem uid or gid,
 #                                /proc) and that own no file in the places a
 #                                run writes (/tmp, /var/tmp, /dev/shm)
-# tools/in_netns.sh leases one of them for a run's life (a lock on
-# /run/afm/uid-UID.lock, held until the folders are given back).
+#   tools/run_uid.sh lease [N]   (root) leases N (1) free uids: a lock on
+#                                /run/afm/uid-UID.lock each, taken without
+#                                waiting; prints them, one a line, then holds
+#                                the locks until its stdin ends (the caller
+#                                closes the pipe, or dies). SIGINT, SIGTERM
+#                                and SIGHUP are ignored: the caller ends the
+#                                lease once it has given the uids' folders
+#                                back. Refused (exit 2, one line, nothing
+#                                printed on stdout) when fewer are free.
+# The one owner of the lease: tools/in_netns.sh leases one uid for a run's
+# life, analysis/sweep.py one for a sweep's client and scheduler and one per
+# worker.
 set -euo pipefail
 NAME=afm-runs
 COUNT=65536
@@ -81,10 +91,28 @@ free() {
     END { for (i = 0; i < c && n < w; i++) { u = a + (s + i) % c; if (!(u in h)) { print u; n++ } } }'
 }
 
+lease() {
+  local want=${1:-1} state n fd got=()
+  [[ $want =~ ^[1-9][0-9]*$ ]] || die "lease: how many uids? (a whole number >= 1, not '$want')"
+  range >/dev/null || { echo "run_uid: no range reserved (tools/setup.sh reserves $NAME in /etc/subuid)" >&2; exit 3; }
+  state=$(state_dir)
+  for n in $(free $((want + 16))); do
+    : >> "$state/uid-$n.lock"
+    exec {fd}<"$state/uid-$n.lock"
+    if flock -n "$fd"; then got+=("$n"); [ ${#got[@]} -lt "$want" ] || break; else exec {fd}<&-; fi
+  done
+  [ ${#got[@]} = "$want" ] || die "refused: $want uid(s) wanted, ${#got[@]} free in the range for runs ($(range)): every other one is leased, held by a process or owns a file in /tmp, /var/tmp or /dev/shm"
+  trap '' INT TERM HUP
+  printf '%s\n' "${got[@]}"
+  exec >&-
+  while IFS= read -r _; do :; done
+}
+
 case "${1:-}" in
   state-dir) state_dir ;;
   range) range ;;
   reserve) reserve ;;
   free) shift; free "$@" ;;
-  *) die "usage: tools/run_uid.sh state-dir|range|reserve|free [N]" ;;
+  lease) shift; lease "$@" ;;
+  *) die "usage: tools/run_uid.sh state-dir|range|reserve|free [N]|lease [N]" ;;
 esac

@@ -6,7 +6,8 @@ the renderer's ffmpeg too), and a non-zero uid: started as root, the run's
 user (tools/run_user.sh, nobody unless AFM_RUN_USER says otherwise), else
 the caller's own. Started as root, the run's folder is handed to that user
 for the run and given back after: every file ends owned by the caller. A
-sweep's Dask workers drop to the same user. The link and fault helper alone
+sweep's scheduler and Dask workers drop too (each a uid of its own:
+test_sweep_users.py). The link and fault helper alone
 keeps CAP_NET_ADMIN and CAP_NET_RAW (AFM_KEEP_CAPS), and a command it starts
 through drop_caps.sh again has none. A run whose folder the run's user cannot
 reach is refused in one line, whatever stderr is; allowed (AFM_ALLOW_UID_0=1,
@@ -138,8 +139,9 @@ class LeastPrivilege(unittest.TestCase):
         p = subprocess.Popen([sys.executable, "-m", "analysis.sweep", benchtest.scene("short.yaml"), "--vary", "firmware.adc_bits=12",
                               "--workers", "1", "--no-callgrind", "--out", out], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                              text=True, cwd=benchtest.SRC, env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
-        # started as root, the sweep runs again as the run's user (its client
-        # and scheduler), whose workers are Python processes it spawns (multiprocessing)
+        # started as root, the sweep's client and scheduler run again as a
+        # leased uid, and each worker (a nanny and the Python process it
+        # spawns, multiprocessing) as another
         seen = {}
         t0 = time.monotonic()
         while p.poll() is None and time.monotonic() - t0 < 180 and "worker" not in seen:
