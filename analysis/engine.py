@@ -185,44 +185,50 @@ def read_credentials(fd):
                     tls_scheduler_key=key, tls_worker_cert=cert, tls_worker_key=key, require_encryption=True)
 
 
-def scheduler_alone(sec):
-    """(client, cluster): the scheduler of a local cluster on 127.0.0.1 in
-    this process, TLS with `sec`, no worker and no HTTP port; the workers,
-    started by whoever holds the same credentials, join it at
-    cluster.scheduler_address (analysis/sweep_users.py)."""
-    from distributed import Client, SpecCluster
-    harden_client()
-    scheduler = {"cls": QuietScheduler, "options": {"host": "127.0.0.1", "protocol": "tls://", "security": sec,
-                                                    "dashboard": False, "dashboard_address": None}}
-    cluster = SpecCluster(scheduler=scheduler, workers={}, security=sec, silence_logs=40)
+def _scheduler_spec(sec):
+    """A SpecCluster's scheduler: QuietScheduler on 127.0.0.1, TLS with `sec`, no dashboard."""
+    return {"cls": QuietScheduler, "options": {"host": "127.0.0.1", "protocol": "tls://", "security": sec,
+                                               "dashboard": False, "dashboard_address": None}}
+
+
+def _client_of(cluster, sec):
+    """(client, cluster): a client of `cluster` that deserializes nothing but
+    SAFE_DESERIALIZERS; the cluster closed if the client cannot be made."""
+    from distributed import Client
     try:
         client = Client(cluster, security=sec, deserializers=SAFE_DESERIALIZERS)
     except BaseException:
         cluster.close()
         raise
     return client, cluster
+
+
+def scheduler_alone(sec):
+    """(client, cluster): the scheduler of a local cluster on 127.0.0.1 in
+    this process, TLS with `sec`, no worker and no HTTP port; the workers,
+    started by whoever holds the same credentials, join it at
+    cluster.scheduler_address (analysis/sweep_users.py)."""
+    from distributed import SpecCluster
+    harden_client()
+    scheduler = _scheduler_spec(sec)
+    cluster = SpecCluster(scheduler=scheduler, workers={}, security=sec, silence_logs=40)
+    return _client_of(cluster, sec)
 
 
 def local_cluster(n_workers):
     """(client, cluster): n single-threaded worker processes and a scheduler
     on 127.0.0.1, TLS with credentials made for this cluster alone, no HTTP
     port anywhere."""
-    from distributed import Client, Nanny, Security, SpecCluster
+    from distributed import Nanny, Security, SpecCluster
     harden_client()
     sec = Security.temporary()
-    scheduler = {"cls": QuietScheduler, "options": {"host": "127.0.0.1", "protocol": "tls://", "security": sec,
-                                                    "dashboard": False, "dashboard_address": None}}
+    scheduler = _scheduler_spec(sec)
     worker = {"cls": Nanny, "options": {"host": "127.0.0.1", "protocol": "tls://", "security": sec, "nthreads": 1,
                                         "worker_class": QuietWorker, "dashboard": False, "dashboard_address": None,
                                         "silence_logs": 40}}
     cluster = SpecCluster(scheduler=scheduler, workers={i: worker for i in range(n_workers)}, worker=worker,
                           security=sec, silence_logs=40)
-    try:
-        client = Client(cluster, security=sec, deserializers=SAFE_DESERIALIZERS)
-    except BaseException:
-        cluster.close()
-        raise
-    return client, cluster
+    return _client_of(cluster, sec)
 
 
 def result_of(future):

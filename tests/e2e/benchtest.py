@@ -159,3 +159,22 @@ def cleanup(*dirs):
         return
     for d in dirs:
         shutil.rmtree(d, ignore_errors=True)
+
+
+def descendants(pid):
+    """Every process below `pid` (children, theirs, ...), from /proc."""
+    parent = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    parent[int(d)] = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError):
+                continue
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        kids = [c for c, pp in parent.items() if pp == p]
+        out += kids
+        todo += kids
+    return out

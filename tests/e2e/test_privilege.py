@@ -39,25 +39,6 @@ def status(pid):
     return out
 
 
-def descendants(pid):
-    """The pids under `pid` (any depth), from /proc."""
-    parent = {}
-    for d in os.listdir("/proc"):
-        if d.isdigit():
-            try:
-                with open(f"/proc/{d}/stat") as f:
-                    parent[int(d)] = int(f.read().rsplit(")", 1)[1].split()[1])
-            except OSError:
-                continue
-    out, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        kids = [c for c, pp in parent.items() if pp == p]
-        out += kids
-        todo += kids
-    return out
-
-
 def watch(p, names, want, timeout_s=120):
     """{name: status} of the processes under Popen `p` whose Name is in
     `names` (the last status seen of each), polled until `want` of them have
@@ -65,7 +46,7 @@ def watch(p, names, want, timeout_s=120):
     seen = {}
     t0 = time.monotonic()
     while p.poll() is None and time.monotonic() - t0 < timeout_s and not want <= set(seen):
-        for pid in [p.pid, *descendants(p.pid)]:   # p.pid: the launcher itself when in_netns.sh exec'd it (not root)
+        for pid in [p.pid, *benchtest.descendants(p.pid)]:   # p.pid: the launcher itself when in_netns.sh exec'd it (not root)
             try:
                 st = status(pid)
             except OSError:
@@ -145,7 +126,7 @@ class LeastPrivilege(unittest.TestCase):
         seen = {}
         t0 = time.monotonic()
         while p.poll() is None and time.monotonic() - t0 < 180 and "worker" not in seen:
-            for pid in descendants(p.pid):
+            for pid in benchtest.descendants(p.pid):
                 try:
                     with open(f"/proc/{pid}/cmdline", "rb") as f:
                         cmd = f.read()

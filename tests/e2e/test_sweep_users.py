@@ -22,24 +22,6 @@ RUN_UID = os.path.join(benchtest.SRC, "tools", "run_uid.sh")
 NOBODY = 65534
 
 
-def descendants(pid):
-    parent = {}
-    for d in os.listdir("/proc"):
-        if d.isdigit():
-            try:
-                with open(f"/proc/{d}/stat") as f:
-                    parent[int(d)] = int(f.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError):
-                continue
-    out, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        kids = [c for c, pp in parent.items() if pp == p]
-        out += kids
-        todo += kids
-    return out
-
-
 def uid_of(pid):
     with open(f"/proc/{pid}/status") as f:
         for line in f:
@@ -53,7 +35,7 @@ def sweep_processes(root_pid):
     process that is not root (its client and scheduler) and the Dask worker
     processes (those a nanny spawns), from /proc."""
     seen = {"sweep": {}, "worker": {}}
-    for pid in descendants(root_pid):
+    for pid in benchtest.descendants(root_pid):
         try:
             with open(f"/proc/{pid}/cmdline", "rb") as f:
                 cmd = f.read()
