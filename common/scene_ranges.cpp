@@ -71,6 +71,10 @@ std::string scene_bound_text(const SceneBound &b)
     case SceneRef::kDuration: return "duration_s";
     }
     char t[40];
+    if (b.number == std::floor(b.number) && std::fabs(b.number) <= 1e5) {   // 45, 4096, 90000; 1e+06 past that
+        std::snprintf(t, sizeof t, "%.0f", b.number);
+        return t;
+    }
     for (int digits = 1; digits <= 17; ++digits) {   // the shortest text that reads back as the bound
         std::snprintf(t, sizeof t, "%.*g", digits, b.number);
         if (std::strtod(t, nullptr) == b.number) break;

@@ -239,7 +239,7 @@ const SceneRange &scene_range(const std::string &key);
 // (std::logic_error when s is null and the bound is the scene's).
 double scene_bound(const SceneBound &b, const Scene *s);
 
-// The bound as docs/scenes.md writes it: "45", "1e+06", "cx - f/2", "duration_s".
+// The bound as docs/scenes.md writes it: "45", "0.1", "1e+06", "cx - f/2", "duration_s".
 std::string scene_bound_text(const SceneBound &b);
 
 // The row as docs/scenes.md's section "Ranges" shows it, one table line:
