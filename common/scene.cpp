@@ -1,4 +1,5 @@
 #include "scene.hpp"
+#include "scene_ranges.hpp"
 #include "text.hpp"
 
 #include <yaml-cpp/yaml.h>
@@ -60,7 +61,9 @@ bool from_include(const YAML::Node &n)
 // Walks a YAML tree, remembering the key path, so every error names file and key.
 class Reader {
 public:
-    explicit Reader(std::string file) : file_(std::move(file)) {}
+    // scene: where bounds of the scene's own (the field, duration_s) are
+    // read from, as far as it is read (scene_ranges.hpp)
+    explicit Reader(std::string file, const Scene *scene = nullptr) : file_(std::move(file)), scene_(scene) {}
 
     // `what` is the message's own text with values quoted by show(); the
     // file and the key (a scene's key may be any bytes) are escaped here.
@@ -121,19 +124,24 @@ public:
         return path.empty() ? k : path + "." + k;
     }
 
-    double num(const YAML::Node &map, const std::string &path, const std::string &k,
-               const double *dflt, double lo, double hi, bool lo_open = false) const
+    // The number at map[k], in its kSceneRanges row's range (*dflt when
+    // missing; a missing value without a default is refused).
+    double num(const YAML::Node &map, const std::string &path, const std::string &k, const double *dflt) const
     {
         const std::string key = join(path, k);
+        const SceneRange &range = scene_range(key);   // a key without a row fails here, given or not
         YAML::Node n = map[k];
         if (!n.IsDefined() || n.IsNull()) {
             if (!dflt) fail(key, "required value is missing");
             return *dflt;
         }
-        return check_num(n, key, lo, hi, lo_open);
+        return check_num(n, key, range);
     }
 
-    double check_num(const YAML::Node &n, const std::string &key, double lo, double hi, bool lo_open) const
+    double check_num(const YAML::Node &n, const std::string &key) const { return check_num(n, key, scene_range(key)); }
+
+    // n as a number in range r: finite, within both ends, whole if r says so.
+    double check_num(const YAML::Node &n, const std::string &key, const SceneRange &r) const
     {
         if (!n.IsScalar()) fail(key, "must be a number, got " + show(n));
         double v;
@@ -143,16 +151,15 @@ public:
             fail(key, "must be a number, got " + show(n));
         }
         if (!std::isfinite(v)) fail(key, "must be a finite number, got " + show(n));
-        if (lo_open ? !(v > lo) : !(v >= lo)) {
+        const double lo = scene_bound(r.lo, scene_), hi = scene_bound(r.hi, scene_);
+        const bool low = r.lo_open ? !(v > lo) : !(v >= lo), high = r.hi_open ? !(v < hi) : !(v <= hi);
+        if (low || high) {
             std::ostringstream o;
-            o << "must be " << (lo_open ? "> " : ">= ") << lo << ", got " << show(n);
+            if (low) o << "must be " << (r.lo_open ? "> " : ">= ") << lo << ", got " << show(n);
+            else o << "must be " << (r.hi_open ? "< " : "<= ") << hi << ", got " << show(n);
             fail(key, o.str());
         }
-        if (v > hi) {
-            std::ostringstream o;
-            o << "must be <= " << hi << ", got " << show(n);
-            fail(key, o.str());
-        }
+        if (r.whole && v != std::floor(v)) fail(key, std::string("must be ") + r.whole + ", got " + show(n));
         return v;
     }
 
@@ -176,10 +183,10 @@ public:
         return v;
     }
 
-    Vec2 vec2(const YAML::Node &n, const std::string &key, double lo, double hi) const
+    Vec2 vec2(const YAML::Node &n, const std::string &key) const
     {
         if (!n.IsSequence() || n.size() != 2) fail(key, "must be a pair [x, y], got " + show(n));
-        return Vec2{check_num(n[0], key + "[0]", lo, hi, false), check_num(n[1], key + "[1]", lo, hi, false)};
+        return Vec2{check_num(n[0], key + "[0]"), check_num(n[1], key + "[1]")};
     }
 
     bool boolean(const YAML::Node &map, const std::string &path, const std::string &k, bool dflt) const
@@ -195,19 +202,18 @@ public:
 
 private:
     std::string file_;
+    const Scene *scene_;
 };
-
-constexpr double kInf = 1e300;
 
 ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string &path, ContactSpec d)
 {
     if (!n.IsDefined() || n.IsNull()) return d;
     r.only_keys(n, path, {"mu", "adhesion_nN", "shear_strength_MPa", "contact_area_nm2"});
     ContactSpec c;
-    c.mu = r.num(n, path, "mu", &d.mu, 0, 10);
-    c.adhesion_nN = r.num(n, path, "adhesion_nN", &d.adhesion_nN, 0, 1e6);
-    c.shear_strength_MPa = r.num(n, path, "shear_strength_MPa", &d.shear_strength_MPa, 0, 1e6);
-    c.contact_area_nm2 = r.num(n, path, "contact_area_nm2", &d.contact_area_nm2, 0, 1e9);
+    c.mu = r.num(n, path, "mu", &d.mu);
+    c.adhesion_nN = r.num(n, path, "adhesion_nN", &d.adhesion_nN);
+    c.shear_strength_MPa = r.num(n, path, "shear_strength_MPa", &d.shear_strength_MPa);
+    c.contact_area_nm2 = r.num(n, path, "contact_area_nm2", &d.contact_area_nm2);
     return c;
 }
 
@@ -297,7 +303,7 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
                                 "lithography", "roughness_rms_nm", "roughness_corr_nm"});
     read_substrate(r, smp, s);
     if (s.substrate == "tilted_glass") {
-        s.slope_deg = r.num(smp, "sample", "slope_deg", nullptr, 0, 45, true);
+        s.slope_deg = r.num(smp, "sample", "slope_deg", nullptr);
     } else if (smp["slope_deg"].IsDefined()) {
         r.fail("sample.slope_deg", "only a tilted_glass substrate has a slope, got " + Reader::show(smp["slope_deg"]));
     }
@@ -310,44 +316,40 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
         if (wm["adhesion_nN_per_um"].IsDefined()) {
             if (wm["friction_nN_per_um"].IsDefined())
                 r.fail("sample.wire.friction_nN_per_um", "give either friction_nN_per_um (f) or adhesion_nN_per_um (f derived by eq. 23-24), not both");
-            s.wire_model.adhesion_nN_per_um = r.num(wm, "sample.wire", "adhesion_nN_per_um", nullptr, 0, 1e5);
-            s.wire_model.shear_strength_MPa = r.num(wm, "sample.wire", "shear_strength_MPa", &wd.shear_strength_MPa, 0, 1e4);
+            s.wire_model.adhesion_nN_per_um = r.num(wm, "sample.wire", "adhesion_nN_per_um", nullptr);
+            s.wire_model.shear_strength_MPa = r.num(wm, "sample.wire", "shear_strength_MPa", &wd.shear_strength_MPa);
             s.wire_model.contact = r.str(wm, "sample.wire", "contact", &wd.contact, {"hertz_line", "none"});
         } else {
             for (const char *k : {"shear_strength_MPa", "contact"})
                 if (wm[k].IsDefined())
                     r.fail(std::string("sample.wire.") + k, "belongs to load-dependent friction: give sample.wire.adhesion_nN_per_um too");
-            s.wire_model.friction_nN_per_um = r.num(wm, "sample.wire", "friction_nN_per_um", &wd.friction_nN_per_um, 0, 1e4, true);
+            s.wire_model.friction_nN_per_um = r.num(wm, "sample.wire", "friction_nN_per_um", &wd.friction_nN_per_um);
         }
-        s.wire_model.youngs_modulus_GPa = r.num(wm, "sample.wire", "youngs_modulus_GPa", &wd.youngs_modulus_GPa, 0, 2000, true);
-        s.wire_model.mu = r.num(wm, "sample.wire", "mu", &wd.mu, 0, 10, true);
+        s.wire_model.youngs_modulus_GPa = r.num(wm, "sample.wire", "youngs_modulus_GPa", &wd.youngs_modulus_GPa);
+        s.wire_model.mu = r.num(wm, "sample.wire", "mu", &wd.mu);
         s.wire_model.solver = r.str(wm, "sample.wire", "solver", &wd.solver, {"closed_form", "numeric"});
-        auto whole = [&](const char *k, int dflt, double lo, double hi) {
+        auto whole = [&](const char *k, int dflt) {   // a whole number (kSceneRanges)
             const double dv = dflt;
-            const double v = r.num(wm, "sample.wire", k, &dv, lo, hi);
-            if (v != std::floor(v)) r.fail(std::string("sample.wire.") + k, "must be an integer, got " + Reader::show(wm[k]));
-            return static_cast<int>(v);
+            return static_cast<int>(r.num(wm, "sample.wire", k, &dv));
         };
-        s.wire_model.segments = whole("segments", wd.segments, 2, 1024);
-        s.wire_model.friction_points = whole("friction_points", wd.friction_points, 4, 100000);
-        // Fewer than 8 Newton-IRLS iterations do not converge from a first
-        // contact (measured: the wire overshoots the tip); 8 and 40 agree.
-        s.wire_model.relax_sweeps = whole("relax_sweeps", wd.relax_sweeps, 8, 10000);
+        s.wire_model.segments = whole("segments", wd.segments);
+        s.wire_model.friction_points = whole("friction_points", wd.friction_points);
+        s.wire_model.relax_sweeps = whole("relax_sweeps", wd.relax_sweeps);
     }
     YAML::Node li = smp["lithography"];
     if (li.IsDefined() && !li.IsNull()) {
         r.only_keys(li, "sample.lithography", {"threshold_nN", "depth_nm_per_nN"});
         const LithoSpec ld;
-        s.litho.threshold_nN = r.num(li, "sample.lithography", "threshold_nN", &ld.threshold_nN, 0, 1e4);
-        s.litho.depth_nm_per_nN = r.num(li, "sample.lithography", "depth_nm_per_nN", &ld.depth_nm_per_nN, 0, 1e4, true);
+        s.litho.threshold_nN = r.num(li, "sample.lithography", "threshold_nN", &ld.threshold_nN);
+        s.litho.depth_nm_per_nN = r.num(li, "sample.lithography", "depth_nm_per_nN", &ld.depth_nm_per_nN);
     }
     if (std::find(s.effects.begin(), s.effects.end(), "lithography") != s.effects.end() && s.substrate != "polycarbonate")
         r.fail("sample.substrate", "the lithography effect needs a polycarbonate substrate, got " + Reader::show(smp["substrate"]));
     // The field must lie inside the scanner's range.
     const double range_half = kScannerRangeXY_nm / 2;
-    s.field_nm = r.num(smp, "sample", "field_nm", nullptr, 0, kScannerRangeXY_nm, true);
+    s.field_nm = r.num(smp, "sample", "field_nm", nullptr);
     if (smp["field_center_nm"].IsDefined()) {
-        s.field_center_nm = r.vec2(smp["field_center_nm"], "sample.field_center_nm", -range_half, range_half);
+        s.field_center_nm = r.vec2(smp["field_center_nm"], "sample.field_center_nm");
         if (std::fabs(s.field_center_nm.x) + s.field_nm / 2 > range_half || std::fabs(s.field_center_nm.y) + s.field_nm / 2 > range_half)
             r.fail("sample.field_center_nm", "the field (field_nm " + Reader::show(smp["field_nm"]) + " around " +
                                                  Reader::show(smp["field_center_nm"]) + ") must lie inside the scanner's range, +-45000 nm");
@@ -355,13 +357,13 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
     if (s.substrate_map) check_map_covers_field(r, s);
     s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0});
     s.particle_substrate = read_contact(r, smp["particle_substrate"], "sample.particle_substrate", ContactSpec{0.3, 3.0, 0, 0});
-    s.particle_contact_stiffness_N_per_m = r.num(smp, "sample", "contact_stiffness_N_per_m", &d.particle_contact_stiffness_N_per_m, 0, 1e4, true);
-    s.photodiode_noise_V = r.num(smp, "sample", "photodiode_noise_V", &d.photodiode_noise_V, 0, 10);
-    s.temperature_K = r.num(smp, "sample", "temperature_K", &d.temperature_K, 0, 1000, true);
-    if (smp["drift_nm_per_min"].IsDefined()) s.drift_nm_per_min = r.vec2(smp["drift_nm_per_min"], "sample.drift_nm_per_min", -1e4, 1e4);
-    s.drift_walk_nm_per_sqrt_min = r.num(smp, "sample", "drift_walk_nm_per_sqrt_min", &d.drift_walk_nm_per_sqrt_min, 0, 1e4);
-    s.roughness_rms_nm = r.num(smp, "sample", "roughness_rms_nm", &d.roughness_rms_nm, 0, 1000);
-    s.roughness_corr_nm = r.num(smp, "sample", "roughness_corr_nm", &d.roughness_corr_nm, 0, 1e5, true);
+    s.particle_contact_stiffness_N_per_m = r.num(smp, "sample", "contact_stiffness_N_per_m", &d.particle_contact_stiffness_N_per_m);
+    s.photodiode_noise_V = r.num(smp, "sample", "photodiode_noise_V", &d.photodiode_noise_V);
+    s.temperature_K = r.num(smp, "sample", "temperature_K", &d.temperature_K);
+    if (smp["drift_nm_per_min"].IsDefined()) s.drift_nm_per_min = r.vec2(smp["drift_nm_per_min"], "sample.drift_nm_per_min");
+    s.drift_walk_nm_per_sqrt_min = r.num(smp, "sample", "drift_walk_nm_per_sqrt_min", &d.drift_walk_nm_per_sqrt_min);
+    s.roughness_rms_nm = r.num(smp, "sample", "roughness_rms_nm", &d.roughness_rms_nm);
+    s.roughness_corr_nm = r.num(smp, "sample", "roughness_corr_nm", &d.roughness_corr_nm);
 }
 
 // probe: the lever and the tip.
@@ -373,20 +375,20 @@ void read_probe(const Reader &r, const YAML::Node &root, Scene &s)
         r.only_keys(pr, "probe", {"spring_N_per_m", "deflection_nm_per_V", "lateral_nN_per_V", "lever_length_um", "tip_height_um",
                                   "tip_radius_nm", "tip_half_angle_deg", "scan_angle_deg", "cn_nm_per_V", "cl_nm_per_V"});
         const ProbeSpec pd;
-        s.probe.spring_N_per_m = r.num(pr, "probe", "spring_N_per_m", &pd.spring_N_per_m, 0, 1000, true);
-        s.probe.deflection_nm_per_V = r.num(pr, "probe", "deflection_nm_per_V", &pd.deflection_nm_per_V, 0, 10000, true);
-        s.probe.lateral_nN_per_V = r.num(pr, "probe", "lateral_nN_per_V", &pd.lateral_nN_per_V, 0, 1e5, true);
-        s.probe.lever_length_um = r.num(pr, "probe", "lever_length_um", &pd.lever_length_um, 0, 1000, true);
-        s.probe.tip_height_um = r.num(pr, "probe", "tip_height_um", &pd.tip_height_um, 0, 100, true);
-        s.probe.tip_radius_nm = r.num(pr, "probe", "tip_radius_nm", &pd.tip_radius_nm, 0, 1000, true);
-        s.probe.tip_half_angle_deg = r.num(pr, "probe", "tip_half_angle_deg", &pd.tip_half_angle_deg, 0, 80, true);
-        s.probe.scan_angle_deg = r.num(pr, "probe", "scan_angle_deg", &pd.scan_angle_deg, 0, 360);
+        s.probe.spring_N_per_m = r.num(pr, "probe", "spring_N_per_m", &pd.spring_N_per_m);
+        s.probe.deflection_nm_per_V = r.num(pr, "probe", "deflection_nm_per_V", &pd.deflection_nm_per_V);
+        s.probe.lateral_nN_per_V = r.num(pr, "probe", "lateral_nN_per_V", &pd.lateral_nN_per_V);
+        s.probe.lever_length_um = r.num(pr, "probe", "lever_length_um", &pd.lever_length_um);
+        s.probe.tip_height_um = r.num(pr, "probe", "tip_height_um", &pd.tip_height_um);
+        s.probe.tip_radius_nm = r.num(pr, "probe", "tip_radius_nm", &pd.tip_radius_nm);
+        s.probe.tip_half_angle_deg = r.num(pr, "probe", "tip_half_angle_deg", &pd.tip_half_angle_deg);
+        s.probe.scan_angle_deg = r.num(pr, "probe", "scan_angle_deg", &pd.scan_angle_deg);
         // The real lever's displacement constants (the simulator's truth);
         // left out, the beam's 3 h K_n / (2 l).
         if (pr["cn_nm_per_V"].IsDefined() && !pr["cn_nm_per_V"].IsNull())
-            s.probe.cn_nm_per_V = r.num(pr, "probe", "cn_nm_per_V", nullptr, 0, 1e4, true);
+            s.probe.cn_nm_per_V = r.num(pr, "probe", "cn_nm_per_V", nullptr);
         if (pr["cl_nm_per_V"].IsDefined() && !pr["cl_nm_per_V"].IsNull())
-            s.probe.cl_nm_per_V = r.num(pr, "probe", "cl_nm_per_V", nullptr, 0, 1e4, true);
+            s.probe.cl_nm_per_V = r.num(pr, "probe", "cl_nm_per_V", nullptr);
     }
 }
 
@@ -396,14 +398,12 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
     YAML::Node fw = root["firmware"];
     if (fw.IsDefined() && !fw.IsNull()) {
         // The ranges are the card's (fw_card_check): the launcher's --check
-        // names the rule a value breaks; here only the types.
+        // names the rule a value breaks; here only the types and signs.
         r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate", "disp_n_nm_per_V", "disp_l_nm_per_V", "lateral_nN_per_V", "mu",
                                      "drift_max_step_nm", "interlock", "interlock_normal_nN", "interlock_lateral_nN"});
-        auto whole = [&](const char *k, int dflt) {
+        auto whole = [&](const char *k, int dflt) {   // a whole number (kSceneRanges)
             const double dv = dflt;
-            const double v = r.num(fw, "firmware", k, &dv, -1e6, 1e6);
-            if (v != std::floor(v)) r.fail(std::string("firmware.") + k, "must be an integer, got " + Reader::show(fw[k]));
-            return static_cast<int>(v);
+            return static_cast<int>(r.num(fw, "firmware", k, &dv));
         };
         s.adc_bits = whole("adc_bits", s.adc_bits);
         s.word_bits = whole("word_bits", s.word_bits);
@@ -411,20 +411,20 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         // The lever's constants as calibrated (./afm calib ... --write): the
         // card's configuration; left out, the firmware's estimate (C) or the
         // probe's values (the lateral gain, the tip-substrate mu).
-        auto optional = [&](const char *k, double hi, std::optional<double> *out) {
-            if (fw[k].IsDefined() && !fw[k].IsNull()) *out = r.num(fw, "firmware", k, nullptr, 0, hi, true);
+        auto optional = [&](const char *k, std::optional<double> *out) {
+            if (fw[k].IsDefined() && !fw[k].IsNull()) *out = r.num(fw, "firmware", k, nullptr);
         };
-        optional("disp_n_nm_per_V", 1e4, &s.fw_cal.disp_n_nm_per_V);
-        optional("disp_l_nm_per_V", 1e4, &s.fw_cal.disp_l_nm_per_V);
-        optional("lateral_nN_per_V", 1e5, &s.fw_cal.lateral_nN_per_V);
-        if (fw["mu"].IsDefined() && !fw["mu"].IsNull()) s.fw_cal.mu = r.num(fw, "firmware", "mu", nullptr, 0, 10);
-        optional("drift_max_step_nm", 1e6, &s.fw_cal.drift_max_step_nm);
+        optional("disp_n_nm_per_V", &s.fw_cal.disp_n_nm_per_V);
+        optional("disp_l_nm_per_V", &s.fw_cal.disp_l_nm_per_V);
+        optional("lateral_nN_per_V", &s.fw_cal.lateral_nN_per_V);
+        if (fw["mu"].IsDefined() && !fw["mu"].IsNull()) s.fw_cal.mu = r.num(fw, "firmware", "mu", nullptr);
+        optional("drift_max_step_nm", &s.fw_cal.drift_max_step_nm);
         // The force interlock: positive limits here; below the channel's
         // full scale is the card's rule (fw_guard_check, named by the
         // launcher with the probe's keys).
         s.fw_cal.interlock = r.boolean(fw, "firmware", "interlock", s.fw_cal.interlock);
-        optional("interlock_normal_nN", 1e6, &s.fw_cal.interlock_normal_nN);
-        optional("interlock_lateral_nN", 1e6, &s.fw_cal.interlock_lateral_nN);
+        optional("interlock_normal_nN", &s.fw_cal.interlock_normal_nN);
+        optional("interlock_lateral_nN", &s.fw_cal.interlock_lateral_nN);
     }
 }
 
@@ -435,7 +435,7 @@ void read_afm(const Reader &r, const YAML::Node &root, Scene &s)
     if (!a.IsDefined() || a.IsNull()) return;
     r.only_keys(a, "afm", {"z_speed_nm_per_s"});
     const Scene d;
-    s.z_speed_nm_per_s = r.num(a, "afm", "z_speed_nm_per_s", &d.z_speed_nm_per_s, 0, 1e9);
+    s.z_speed_nm_per_s = r.num(a, "afm", "z_speed_nm_per_s", &d.z_speed_nm_per_s);
 }
 
 // objects.scatter: particles drawn at random, the bench's own generator
@@ -451,17 +451,13 @@ void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
     const std::string k = "objects.scatter";
     r.only_keys(n, k, {"count", "radius_nm", "region_nm", "min_gap_nm", "seed"});
     ScatterSpec &c = s.scatter;
-    // placement tries each particle against the ones placed (O(count^2)):
-    // 5000 take 0.7 s, 20000 took 4.6 s
-    const double count = r.num(n, k, "count", nullptr, 1, 5000);
-    if (count != std::floor(count)) r.fail(k + ".count", "must be an integer, got " + Reader::show(n["count"]));
+    const double count = r.num(n, k, "count", nullptr);
     c.count = static_cast<int>(count);
     const ScatterSpec d;
-    c.radius_nm = r.num(n, k, "radius_nm", &d.radius_nm, 0, 5000, true);
-    c.min_gap_nm = r.num(n, k, "min_gap_nm", &d.min_gap_nm, 0, 1e5);
+    c.radius_nm = r.num(n, k, "radius_nm", &d.radius_nm);
+    c.min_gap_nm = r.num(n, k, "min_gap_nm", &d.min_gap_nm);
     const double seed_d = 1;
-    const double seed = r.num(n, k, "seed", &seed_d, 0, 9.007199254740992e15);
-    if (seed != std::floor(seed)) r.fail(k + ".seed", "must be a non-negative integer, got " + Reader::show(n["seed"]));
+    const double seed = r.num(n, k, "seed", &seed_d);
     c.seed = static_cast<uint64_t>(seed);
     const double half = s.field_nm / 2;
     YAML::Node reg = n["region_nm"];
@@ -470,10 +466,8 @@ void read_scatter(const Reader &r, const YAML::Node &n, Scene &s)
         c.hi_nm = {s.field_center_nm.x + half, s.field_center_nm.y + half};
     } else {
         if (!reg.IsSequence() || reg.size() != 4) r.fail(k + ".region_nm", "must be [x0, y0, x1, y1], got " + Reader::show(reg));
-        const double lx = s.field_center_nm.x - half, hx = s.field_center_nm.x + half;
-        const double ly = s.field_center_nm.y - half, hy = s.field_center_nm.y + half;
-        c.lo_nm = {r.check_num(reg[0], k + ".region_nm[0]", lx, hx, false), r.check_num(reg[1], k + ".region_nm[1]", ly, hy, false)};
-        c.hi_nm = {r.check_num(reg[2], k + ".region_nm[2]", lx, hx, false), r.check_num(reg[3], k + ".region_nm[3]", ly, hy, false)};
+        c.lo_nm = {r.check_num(reg[0], k + ".region_nm[0]"), r.check_num(reg[1], k + ".region_nm[1]")};
+        c.hi_nm = {r.check_num(reg[2], k + ".region_nm[2]"), r.check_num(reg[3], k + ".region_nm[3]")};
         if (!(c.hi_nm.x > c.lo_nm.x && c.hi_nm.y > c.lo_nm.y))
             r.fail(k + ".region_nm", "must have x1 > x0 and y1 > y0, got " + Reader::show(reg));
     }
@@ -515,8 +509,7 @@ int read_pin(const Reader &r, const YAML::Node &n, const std::string &key, const
 {
     if (!n.IsDefined()) r.fail(key, "missing: a site given as a mapping names the particle that must go there");
     if (!n.IsScalar()) r.fail(key, "must be a particle id, got " + Reader::show(n));
-    const double v = r.check_num(n, key, 0, 1e6, false);
-    if (v != std::floor(v)) r.fail(key, "must be an integer particle id, got " + Reader::show(n));
+    const double v = r.check_num(n, key);
     const int id = static_cast<int>(v);
     if (std::none_of(s.particles.begin(), s.particles.end(), [&](const ParticleSpec &p) { return p.id == id; }))
         r.fail(key, "names no particle of the scene (objects.particles, objects.scatter), got " + Reader::show(n));
@@ -540,8 +533,8 @@ void read_targets(const Reader &r, const YAML::Node &n, Scene &s)
             const std::string key = k + "[" + std::to_string(i) + "]";
             const bool pin = n[i].IsMap();
             if (pin) r.only_keys(n[i], key, {"x_nm", "y_nm", "particle"});
-            const Vec2 v = pin ? Vec2{r.num(n[i], key, "x_nm", nullptr, -1e6, 1e6), r.num(n[i], key, "y_nm", nullptr, -1e6, 1e6)}
-                               : r.vec2(n[i], key, -1e6, 1e6);
+            const Vec2 v = pin ? Vec2{r.num(n[i], key, "x_nm", nullptr), r.num(n[i], key, "y_nm", nullptr)}
+                               : r.vec2(n[i], key);
             if (std::fabs(v.x - s.field_center_nm.x) > half || std::fabs(v.y - s.field_center_nm.y) > half)
                 r.fail(key, "target " + Reader::show(n[i]) + " is outside the field");
             t.sites_nm.push_back(v);
@@ -560,10 +553,10 @@ void read_targets(const Reader &r, const YAML::Node &n, Scene &s)
         t.png = (slash == std::string::npos ? std::string(".") : s.file.substr(0, slash)) + "/" + t.png;
     }
     const TargetSpec d;
-    t.pitch_nm = r.num(n, k, "pitch_nm", &d.pitch_nm, 10, 1e5);
-    t.height_nm = r.num(n, k, "height_nm", &d.height_nm, 10, s.field_nm);
+    t.pitch_nm = r.num(n, k, "pitch_nm", &d.pitch_nm);
+    t.height_nm = r.num(n, k, "height_nm", &d.height_nm);
     t.center_nm = s.field_center_nm;
-    if (n["center_nm"].IsDefined()) t.center_nm = r.vec2(n["center_nm"], k + ".center_nm", -1e6, 1e6);
+    if (n["center_nm"].IsDefined()) t.center_nm = r.vec2(n["center_nm"], k + ".center_nm");
 }
 
 void read_wire_targets(const Reader &r, const YAML::Node &n, Scene &s)
@@ -571,19 +564,17 @@ void read_wire_targets(const Reader &r, const YAML::Node &n, Scene &s)
     if (!n.IsDefined() || n.IsNull()) return;
     const std::string k = "objects.wire_targets";
     if (!n.IsSequence()) r.fail(k, "must be a list, got " + Reader::show(n));
-    const double half = s.field_nm / 2;
     for (std::size_t i = 0; i < n.size(); ++i) {
         const std::string p = k + "[" + std::to_string(i) + "]";
         r.only_keys(n[i], p, {"id", "x_nm", "y_nm", "angle_deg"});
         WireTargetSpec w;
-        const double id = r.num(n[i], p, "id", nullptr, 0, 1e6);
-        if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(n[i]["id"]));
+        const double id = r.num(n[i], p, "id", nullptr);
         w.id = static_cast<int>(id);
         for (const auto &o : s.wire_targets)
             if (o.id == w.id) r.fail(p + ".id", "a second target for wire " + Reader::show(n[i]["id"]));
-        w.x_nm = r.num(n[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
-        w.y_nm = r.num(n[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
-        w.angle_deg = r.num(n[i], p, "angle_deg", nullptr, -360, 360);
+        w.x_nm = r.num(n[i], p, "x_nm", nullptr);
+        w.y_nm = r.num(n[i], p, "y_nm", nullptr);
+        w.angle_deg = r.num(n[i], p, "angle_deg", nullptr);
         if (std::none_of(s.wires.begin(), s.wires.end(), [&](const WireSpec &x) { return x.id == w.id; }))
             r.fail(p + ".id", "names no wire of objects.wires, got " + Reader::show(n[i]["id"]));
         s.wire_targets.push_back(w);
@@ -599,17 +590,15 @@ void read_particles(const Reader &r, const YAML::Node &ps, Scene &s)
         if (ps.size() > kMaxListedParticles)
             r.fail("objects.particles", "lists " + std::to_string(ps.size()) + " particles; at most " +
                                             std::to_string(kMaxListedParticles) + " (as objects.scatter.count)");
-        const double half = s.field_nm / 2;
         for (std::size_t i = 0; i < ps.size(); ++i) {
             const std::string p = "objects.particles[" + std::to_string(i) + "]";
             r.only_keys(ps[i], p, {"id", "x_nm", "y_nm", "radius_nm"});
             ParticleSpec q;
-            const double id = r.num(ps[i], p, "id", nullptr, 0, 1e6);
-            if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ps[i]["id"]));
+            const double id = r.num(ps[i], p, "id", nullptr);
             q.id = static_cast<int>(id);
-            q.x_nm = r.num(ps[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
-            q.y_nm = r.num(ps[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
-            q.radius_nm = r.num(ps[i], p, "radius_nm", nullptr, 0, 5000, true);
+            q.x_nm = r.num(ps[i], p, "x_nm", nullptr);
+            q.y_nm = r.num(ps[i], p, "y_nm", nullptr);
+            q.radius_nm = r.num(ps[i], p, "radius_nm", nullptr);
             for (const auto &o : s.particles)
                 if (o.id == q.id) r.fail(p + ".id", "duplicate particle id " + Reader::show(ps[i]["id"]));
             s.particles.push_back(q);
@@ -628,20 +617,17 @@ void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
             if (!ws.IsSequence()) r.fail("objects.wires", "must be a list, got " + Reader::show(ws));
             if (ws.size() > kMaxListedWires)
                 r.fail("objects.wires", "lists " + std::to_string(ws.size()) + " wires; at most " + std::to_string(kMaxListedWires));
-            const double half = s.field_nm / 2;
-            const double cx = s.field_center_nm.x, cy = s.field_center_nm.y;
             for (std::size_t i = 0; i < ws.size(); ++i) {
                 const std::string p = "objects.wires[" + std::to_string(i) + "]";
                 r.only_keys(ws[i], p, {"id", "x0_nm", "y0_nm", "x1_nm", "y1_nm", "diameter_nm"});
                 WireSpec w;
-                const double id = r.num(ws[i], p, "id", nullptr, 0, 1e6);
-                if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ws[i]["id"]));
+                const double id = r.num(ws[i], p, "id", nullptr);
                 w.id = static_cast<int>(id);
-                w.x0_nm = r.num(ws[i], p, "x0_nm", nullptr, cx - half, cx + half);
-                w.y0_nm = r.num(ws[i], p, "y0_nm", nullptr, cy - half, cy + half);
-                w.x1_nm = r.num(ws[i], p, "x1_nm", nullptr, cx - half, cx + half);
-                w.y1_nm = r.num(ws[i], p, "y1_nm", nullptr, cy - half, cy + half);
-                w.diameter_nm = r.num(ws[i], p, "diameter_nm", nullptr, 0, 5000, true);
+                w.x0_nm = r.num(ws[i], p, "x0_nm", nullptr);
+                w.y0_nm = r.num(ws[i], p, "y0_nm", nullptr);
+                w.x1_nm = r.num(ws[i], p, "x1_nm", nullptr);
+                w.y1_nm = r.num(ws[i], p, "y1_nm", nullptr);
+                w.diameter_nm = r.num(ws[i], p, "diameter_nm", nullptr);
                 if (std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm) < w.diameter_nm)
                     r.fail(p, "a wire must be longer than its diameter, got length " +
                                   std::to_string(std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm)) + " nm");
@@ -656,19 +642,17 @@ void read_objects(const Reader &r, const YAML::Node &root, Scene &s)
             if (ls.size() > kMaxListedLandmarks)
                 r.fail("objects.landmarks",
                        "lists " + std::to_string(ls.size()) + " landmarks; at most " + std::to_string(kMaxListedLandmarks));
-            const double half = s.field_nm / 2;
             for (std::size_t i = 0; i < ls.size(); ++i) {
                 const std::string p = "objects.landmarks[" + std::to_string(i) + "]";
                 r.only_keys(ls[i], p, {"id", "x_nm", "y_nm", "side_nm", "height_nm"});
                 LandmarkSpec m;
-                const double id = r.num(ls[i], p, "id", nullptr, 0, 1e6);
-                if (id != std::floor(id)) r.fail(p + ".id", "must be an integer, got " + Reader::show(ls[i]["id"]));
+                const double id = r.num(ls[i], p, "id", nullptr);
                 m.id = static_cast<int>(id);
-                m.x_nm = r.num(ls[i], p, "x_nm", nullptr, s.field_center_nm.x - half, s.field_center_nm.x + half);
-                m.y_nm = r.num(ls[i], p, "y_nm", nullptr, s.field_center_nm.y - half, s.field_center_nm.y + half);
+                m.x_nm = r.num(ls[i], p, "x_nm", nullptr);
+                m.y_nm = r.num(ls[i], p, "y_nm", nullptr);
                 const LandmarkSpec dl;
-                m.side_nm = r.num(ls[i], p, "side_nm", &dl.side_nm, 0, 20000, true);
-                m.height_nm = r.num(ls[i], p, "height_nm", &dl.height_nm, 0, 5000, true);
+                m.side_nm = r.num(ls[i], p, "side_nm", &dl.side_nm);
+                m.height_nm = r.num(ls[i], p, "height_nm", &dl.height_nm);
                 for (const auto &o : s.particles)
                     if (o.id == m.id) r.fail(p + ".id", "landmark id " + Reader::show(ls[i]["id"]) + " is also a particle's id");
                 for (const auto &o : s.landmarks)
@@ -691,25 +675,24 @@ void read_haptic(const Reader &r, const YAML::Node &op, Scene &s)
         const std::string k = "operator.haptic";
         r.only_keys(h, k, {"half_range_mm", "max_force_N", "max_stiffness_N_per_m", "force_gain_N_per_nN", "damping_Ns_per_m",
                            "passivity_check", "load_span_nN"});
-        s.op.haptic.half_range_mm = r.num(h, k, "half_range_mm", &dh.half_range_mm, 1, 1000);
-        s.op.haptic.max_force_N = r.num(h, k, "max_force_N", &dh.max_force_N, 0, 100);
-        s.op.haptic.max_stiffness_N_per_m = r.num(h, k, "max_stiffness_N_per_m", &dh.max_stiffness_N_per_m, 0, 1e6, true);
-        // The card renders it in whole uN/pN (0.001 N/nN), at most 2^31 / 10^6 N per axis.
+        s.op.haptic.half_range_mm = r.num(h, k, "half_range_mm", &dh.half_range_mm);
+        s.op.haptic.max_force_N = r.num(h, k, "max_force_N", &dh.max_force_N);
+        s.op.haptic.max_stiffness_N_per_m = r.num(h, k, "max_stiffness_N_per_m", &dh.max_stiffness_N_per_m);
         const YAML::Node g = h["force_gain_N_per_nN"];
         if (g.IsDefined() && !g.IsNull() && !(g.IsScalar() && g.Scalar() == "auto"))
-            s.op.haptic.force_gain_N_per_nN = r.num(h, k, "force_gain_N_per_nN", nullptr, 0, 100);
-        s.op.haptic.damping_Ns_per_m = r.num(h, k, "damping_Ns_per_m", &dh.damping_Ns_per_m, 0, 1e4);
+            s.op.haptic.force_gain_N_per_nN = r.num(h, k, "force_gain_N_per_nN", nullptr);
+        s.op.haptic.damping_Ns_per_m = r.num(h, k, "damping_Ns_per_m", &dh.damping_Ns_per_m);
         s.op.haptic.passivity_check = r.boolean(h, k, "passivity_check", true);
-        s.op.haptic.load_span_nN = r.num(h, k, "load_span_nN", &dh.load_span_nN, 0, 1000);
+        s.op.haptic.load_span_nN = r.num(h, k, "load_span_nN", &dh.load_span_nN);
     }
     const HandSpec dd;
     YAML::Node hand = op["hand"];
     if (hand.IsDefined() && !hand.IsNull()) {
         const std::string k = "operator.hand";
         r.only_keys(hand, k, {"stiffness_N_per_m", "damping_Ns_per_m", "mass_kg"});
-        s.op.hand.stiffness_N_per_m = r.num(hand, k, "stiffness_N_per_m", &dd.stiffness_N_per_m, 0, 1e6);
-        s.op.hand.damping_Ns_per_m = r.num(hand, k, "damping_Ns_per_m", &dd.damping_Ns_per_m, 0, 1e4);
-        s.op.hand.mass_kg = r.num(hand, k, "mass_kg", &dd.mass_kg, 0, 100, true);
+        s.op.hand.stiffness_N_per_m = r.num(hand, k, "stiffness_N_per_m", &dd.stiffness_N_per_m);
+        s.op.hand.damping_Ns_per_m = r.num(hand, k, "damping_Ns_per_m", &dd.damping_Ns_per_m);
+        s.op.hand.mass_kg = r.num(hand, k, "mass_kg", &dd.mass_kg);
     }
 }
 
@@ -727,12 +710,12 @@ void read_plan_cuts(const Reader &r, const YAML::Node &n, Scene &s)
         const std::string p = k + "[" + std::to_string(i) + "]";
         r.only_keys(n[i], p, {"from_nm", "to_nm", "load_nN"});
         CutSpec c;
-        c.from_nm = r.vec2(n[i]["from_nm"], p + ".from_nm", -1e6, 1e6);
-        c.to_nm = r.vec2(n[i]["to_nm"], p + ".to_nm", -1e6, 1e6);
+        c.from_nm = r.vec2(n[i]["from_nm"], p + ".from_nm");
+        c.to_nm = r.vec2(n[i]["to_nm"], p + ".to_nm");
         for (const auto &[end, v] : {std::pair{"from_nm", c.from_nm}, std::pair{"to_nm", c.to_nm}})
             if (std::fabs(v.x - s.field_center_nm.x) > reach || std::fabs(v.y - s.field_center_nm.y) > reach)
                 r.fail(p + "." + end, "is outside the field, got " + Reader::show(n[i][end]));
-        c.load_nN = r.num(n[i], p, "load_nN", nullptr, 0, 1e4, true);
+        c.load_nN = r.num(n[i], p, "load_nN", nullptr);
         if (c.load_nN <= s.litho.threshold_nN)
             r.fail(p + ".load_nN", "must exceed sample.lithography.threshold_nN (" + std::to_string(s.litho.threshold_nN) +
                                        ") or nothing is cut, got " + Reader::show(n[i]["load_nN"]));
@@ -759,23 +742,21 @@ void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
     r.only_keys(n, k, {"tolerance_nm", "speed_nm_per_s", "travel_speed_nm_per_s", "scan_size_nm", "scan_px", "scan_s",
                        "max_pushes", "clearance_nm", "push_depth_nm", "approach_nm", "wire_tolerance_nm", "wire_step_nm",
                        "cuts"});
-    p.tolerance_nm = r.num(n, k, "tolerance_nm", &d.tolerance_nm, 0, s.field_nm, true);
-    p.speed_nm_per_s = r.num(n, k, "speed_nm_per_s", &d.speed_nm_per_s, 0, 1e6, true);
-    p.travel_speed_nm_per_s = r.num(n, k, "travel_speed_nm_per_s", &d.travel_speed_nm_per_s, 0, 1e6, true);
-    p.scan_size_nm = r.num(n, k, "scan_size_nm", &d.scan_size_nm, 0, s.field_nm, true);
+    p.tolerance_nm = r.num(n, k, "tolerance_nm", &d.tolerance_nm);
+    p.speed_nm_per_s = r.num(n, k, "speed_nm_per_s", &d.speed_nm_per_s);
+    p.travel_speed_nm_per_s = r.num(n, k, "travel_speed_nm_per_s", &d.travel_speed_nm_per_s);
+    p.scan_size_nm = r.num(n, k, "scan_size_nm", &d.scan_size_nm);
     const double px_d = d.scan_px, mp_d = d.max_pushes;
-    const double px = r.num(n, k, "scan_px", &px_d, 4, 1024);
-    if (px != std::floor(px)) r.fail(k + ".scan_px", "must be an integer, got " + Reader::show(n["scan_px"]));
+    const double px = r.num(n, k, "scan_px", &px_d);
     p.scan_px = static_cast<int>(px);
-    p.scan_s = r.num(n, k, "scan_s", &d.scan_s, 0, 600);
-    const double mp = r.num(n, k, "max_pushes", &mp_d, 1, 100);
-    if (mp != std::floor(mp)) r.fail(k + ".max_pushes", "must be an integer, got " + Reader::show(n["max_pushes"]));
+    p.scan_s = r.num(n, k, "scan_s", &d.scan_s);
+    const double mp = r.num(n, k, "max_pushes", &mp_d);
     p.max_pushes = static_cast<int>(mp);
-    p.clearance_nm = r.num(n, k, "clearance_nm", &d.clearance_nm, 0, s.field_nm);
-    p.push_depth_nm = r.num(n, k, "push_depth_nm", &d.push_depth_nm, 0, 1000);
-    p.approach_nm = r.num(n, k, "approach_nm", &d.approach_nm, 0, s.field_nm, true);
-    p.wire_tolerance_nm = r.num(n, k, "wire_tolerance_nm", &d.wire_tolerance_nm, 0, s.field_nm, true);
-    p.wire_step_nm = r.num(n, k, "wire_step_nm", &d.wire_step_nm, 0, s.field_nm, true);
+    p.clearance_nm = r.num(n, k, "clearance_nm", &d.clearance_nm);
+    p.push_depth_nm = r.num(n, k, "push_depth_nm", &d.push_depth_nm);
+    p.approach_nm = r.num(n, k, "approach_nm", &d.approach_nm);
+    p.wire_tolerance_nm = r.num(n, k, "wire_tolerance_nm", &d.wire_tolerance_nm);
+    p.wire_step_nm = r.num(n, k, "wire_step_nm", &d.wire_step_nm);
     read_plan_cuts(r, n["cuts"], s);
 }
 
@@ -812,17 +793,17 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
     if (!op.IsDefined()) r.fail("operator", "required value is missing");
     r.only_keys(op, "operator", {"load_nN", "speed_nm_per_s", "path_nm", "kappa", "local_scans", "cantilever_changes", "mode",
                                  "feel_threshold_N", "haptic", "hand", "plan", "scan_load_nN", "load_ramp_to_nN"});
-    s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN, 0, 1000);
+    s.op.load_nN = r.num(op, "operator", "load_nN", &d.op.load_nN);
     if (op["load_ramp_to_nN"].IsDefined() && !op["load_ramp_to_nN"].IsNull())
-        s.op.load_ramp_to_nN = r.num(op, "operator", "load_ramp_to_nN", nullptr, 0, 1000);
+        s.op.load_ramp_to_nN = r.num(op, "operator", "load_ramp_to_nN", nullptr);
     if (op["scan_load_nN"].IsDefined() && !op["scan_load_nN"].IsNull())
-        s.op.scan_load_nN = r.num(op, "operator", "scan_load_nN", nullptr, 0, 1000);
-    s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s, 0, 1e6, true);
-    s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa, 0, 1, true);
+        s.op.scan_load_nN = r.num(op, "operator", "scan_load_nN", nullptr);
+    s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s);
+    s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa);
     s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel", "browser"});
     if (s.op.mode == "browser" && s.time_mode != "realtime")
         r.fail("operator.mode", "browser: a person's hand is paced by the wall clock: give time_mode: realtime");
-    s.op.feel_threshold_N = r.num(op, "operator", "feel_threshold_N", &d.op.feel_threshold_N, 0, 100, true);
+    s.op.feel_threshold_N = r.num(op, "operator", "feel_threshold_N", &d.op.feel_threshold_N);
     read_haptic(r, op, s);
     read_plan(r, op, s);
     YAML::Node path_n = op["path_nm"];
@@ -839,7 +820,7 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
     const double reach = s.op.kappa * s.field_nm / 2;
     for (std::size_t i = 0; i < path_n.size(); ++i) {
         const std::string key = "operator.path_nm[" + std::to_string(i) + "]";
-        Vec2 v = r.vec2(path_n[i], key, -1e6, 1e6);
+        Vec2 v = r.vec2(path_n[i], key);
         if (std::fabs(v.x - s.field_center_nm.x) > reach || std::fabs(v.y - s.field_center_nm.y) > reach)
             r.fail(key, "waypoint " + Reader::show(path_n[i]) + " is outside the joystick's reach (kappa * field_nm / 2 around the field centre)");
         s.op.path_nm.push_back(v);
@@ -851,15 +832,15 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
             const std::string key = "operator.local_scans[" + std::to_string(i) + "]";
             r.only_keys(ls_n[i], key, {"at_s", "around_id", "size_nm"});
             LocalScanSpec ls;
-            ls.at_s = r.num(ls_n[i], key, "at_s", nullptr, 0, s.duration_s);
-            const double id = r.num(ls_n[i], key, "around_id", nullptr, 0, 1e6);
+            ls.at_s = r.num(ls_n[i], key, "at_s", nullptr);
+            const double id = r.num(ls_n[i], key, "around_id", nullptr);
             ls.around_id = static_cast<int>(id);
             bool known = false;
-            for (const auto &p : s.particles) known = known || (p.id == ls.around_id && id == std::floor(id));
-            for (const auto &m : s.landmarks) known = known || (m.id == ls.around_id && id == std::floor(id));
+            for (const auto &p : s.particles) known = known || p.id == ls.around_id;
+            for (const auto &m : s.landmarks) known = known || m.id == ls.around_id;
             if (!known) r.fail(key + ".around_id", "names no particle or landmark of objects, got " + Reader::show(ls_n[i]["around_id"]));
             const double size_d = 400;
-            ls.size_nm = r.num(ls_n[i], key, "size_nm", &size_d, 0, s.field_nm, true);
+            ls.size_nm = r.num(ls_n[i], key, "size_nm", &size_d);
             if (!s.op.local_scans.empty() && ls.at_s < s.op.local_scans.back().at_s)
                 r.fail(key + ".at_s", "local scans must be in time order, got " + Reader::show(ls_n[i]["at_s"]));
             s.op.local_scans.push_back(ls);
@@ -872,9 +853,9 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
             const std::string key = "operator.cantilever_changes[" + std::to_string(i) + "]";
             r.only_keys(cc_n[i], key, {"at_s", "offset_nm"});
             CantileverChangeSpec cc;
-            cc.at_s = r.num(cc_n[i], key, "at_s", nullptr, 0, s.duration_s);
+            cc.at_s = r.num(cc_n[i], key, "at_s", nullptr);
             if (!cc_n[i]["offset_nm"].IsDefined()) r.fail(key + ".offset_nm", "required value is missing");
-            cc.offset_nm = r.vec2(cc_n[i]["offset_nm"], key + ".offset_nm", -s.field_nm / 2, s.field_nm / 2);
+            cc.offset_nm = r.vec2(cc_n[i]["offset_nm"], key + ".offset_nm");
             if (!s.op.cantilever_changes.empty() && cc.at_s < s.op.cantilever_changes.back().at_s)
                 r.fail(key + ".at_s", "cantilever changes must be in time order, got " + Reader::show(cc_n[i]["at_s"]));
             s.op.cantilever_changes.push_back(cc);
@@ -889,16 +870,14 @@ void read_outputs(const Reader &r, const YAML::Node &root, Scene &s)
     if (out.IsDefined() && !out.IsNull()) {
         r.only_keys(out, "outputs", {"image_px", "video", "png", "trails", "contact_sheet_frames", "update_mode"});
         const double px_d = s.out.image_px;
-        const double px = r.num(out, "outputs", "image_px", &px_d, 16, 4096);
-        if (px != std::floor(px)) r.fail("outputs.image_px", "must be an integer, got " + Reader::show(out["image_px"]));
+        const double px = r.num(out, "outputs", "image_px", &px_d);
         s.out.image_px = static_cast<int>(px);
         const std::string mp4 = "mp4";
         s.out.video = r.str(out, "outputs", "video", &mp4, {"mp4", "avi", "none"});
         s.out.png = r.boolean(out, "outputs", "png", true);
         s.out.trails = r.boolean(out, "outputs", "trails", false);
         const double csf = 16;
-        const double sheet = r.num(out, "outputs", "contact_sheet_frames", &csf, 0, 100);
-        if (sheet != std::floor(sheet)) r.fail("outputs.contact_sheet_frames", "must be an integer, got " + Reader::show(out["contact_sheet_frames"]));
+        const double sheet = r.num(out, "outputs", "contact_sheet_frames", &csf);
         s.out.contact_sheet_frames = static_cast<int>(sheet);
         const std::string local = "local";
         s.out.update_mode = r.str(out, "outputs", "update_mode", &local, {"local", "full"});
@@ -1147,22 +1126,19 @@ void read_expect(const Reader &r, const YAML::Node &root, Scene &s)
 
 Scene load_scene(const std::string &path)
 {
-    Reader r(path);
+    Scene s;
+    const Reader r(path, &s);   // bounds of the scene's own from s, as it is read
     const YAML::Node root = resolved_yaml(path);
     r.only_keys(root, "", kTopLevelKeys);
-    Scene s;
     s.file = path;
     const Scene d;  // defaults
     s.name = r.str(root, "", "name", nullptr);
-    const double seed = r.num(root, "", "seed", nullptr, 0, 9.007199254740992e15);
-    if (seed != std::floor(seed)) r.fail("seed", "must be a non-negative integer, got " + Reader::show(root["seed"]));
+    const double seed = r.num(root, "", "seed", nullptr);
     s.seed = static_cast<uint64_t>(seed);
-    s.duration_s = r.num(root, "", "duration_s", nullptr, 0, 3600, true);
-    s.sample_rate_hz = r.num(root, "", "sample_rate_hz", &d.sample_rate_hz, 0, 1e7, true);
-    s.block_hz = r.num(root, "", "block_hz", &d.block_hz, 0, 1e5, true);
-    // [0.1, 1000]: the renderer's and the video writer's range (1e-300 passed
-    // and crashed the writer on an OpenCV assertion)
-    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz, 0.1, 1000);
+    s.duration_s = r.num(root, "", "duration_s", nullptr);
+    s.sample_rate_hz = r.num(root, "", "sample_rate_hz", &d.sample_rate_hz);
+    s.block_hz = r.num(root, "", "block_hz", &d.block_hz);
+    s.frame_rate_hz = r.num(root, "", "frame_rate_hz", &d.frame_rate_hz);
     const std::string lockstep = "lockstep";
     s.time_mode = r.str(root, "", "time_mode", &lockstep, {"lockstep", "realtime"});
     const double spb = s.sample_rate_hz / s.block_hz;

@@ -1,8 +1,10 @@
 // The scene: what a run simulates, displays and writes. Parsed from YAML by
 // yaml-cpp and validated here, in one place, for every process of a run.
 //
-// Units are in the key names (nm, nN, s, Hz, deg, N_per_m, ...). A bad scene
-// raises SceneError with one line: "<file>: <key>: <what is wrong> (value)".
+// Units are in the key names (nm, nN, s, Hz, deg, N_per_m, ...). Every
+// number is held to its row of one table, kSceneRanges (scene_ranges.hpp).
+// A bad scene raises SceneError with one line: "<file>: <key>: <what is
+// wrong> (value)".
 #pragma once
 
 #include <cstdint>
