@@ -178,3 +178,22 @@ def descendants(pid):
         out += kids
         todo += kids
     return out
+
+
+def sweep_processes(root_pid):
+    """{"sweep": [pid...], "worker": [pid...]} below `root_pid`: the sweep's
+    own Python processes (analysis.sweep: its client and scheduler, and as
+    root the one that dropped to the sweep's uid too) and the Dask worker
+    processes (those a nanny spawns through multiprocessing), from /proc."""
+    seen = {"sweep": [], "worker": []}
+    for pid in descendants(root_pid):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                cmd = f.read()
+        except OSError:
+            continue
+        if b"spawn_main" in cmd and b"resource_tracker" not in cmd:
+            seen["worker"].append(pid)
+        elif b"analysis.sweep" in cmd:
+            seen["sweep"].append(pid)
+    return seen

@@ -126,17 +126,14 @@ class LeastPrivilege(unittest.TestCase):
         seen = {}
         t0 = time.monotonic()
         while p.poll() is None and time.monotonic() - t0 < 180 and "worker" not in seen:
-            for pid in benchtest.descendants(p.pid):
-                try:
-                    with open(f"/proc/{pid}/cmdline", "rb") as f:
-                        cmd = f.read()
-                    st = status(pid)
-                except OSError:
-                    continue
-                if b"spawn_main" in cmd and b"resource_tracker" not in cmd:
-                    seen["worker"] = st
-                elif b"analysis.sweep" in cmd and ROOT:
-                    seen["sweep"] = st
+            for kind, pids in benchtest.sweep_processes(p.pid).items():
+                for pid in pids:
+                    try:
+                        st = status(pid)
+                    except OSError:
+                        continue
+                    if kind == "worker" or ROOT:
+                        seen[kind] = st
             time.sleep(0.1)
         _, err = p.communicate(timeout=300)
         self.assertEqual(p.returncode, 0, err)

@@ -32,20 +32,17 @@ def uid_of(pid):
 
 def sweep_processes(root_pid):
     """{"sweep": {pid: uid}, "worker": {pid: uid}}: the sweep's own Python
-    process that is not root (its client and scheduler) and the Dask worker
-    processes (those a nanny spawns), from /proc."""
+    processes that are not root (its client and scheduler) and the Dask
+    worker processes (benchtest.sweep_processes), with their uids."""
     seen = {"sweep": {}, "worker": {}}
-    for pid in benchtest.descendants(root_pid):
-        try:
-            with open(f"/proc/{pid}/cmdline", "rb") as f:
-                cmd = f.read()
-            uid = uid_of(pid)
-        except OSError:
-            continue
-        if b"spawn_main" in cmd and b"resource_tracker" not in cmd:
-            seen["worker"][pid] = uid
-        elif b"analysis.sweep" in cmd and uid != 0:
-            seen["sweep"][pid] = uid
+    for kind, pids in benchtest.sweep_processes(root_pid).items():
+        for pid in pids:
+            try:
+                uid = uid_of(pid)
+            except OSError:
+                continue
+            if kind == "worker" or uid != 0:
+                seen[kind][pid] = uid
     return seen
 
 
