@@ -205,15 +205,30 @@ private:
     const Scene *scene_;
 };
 
-ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string &path, ContactSpec d)
+// A material pair's friction and adhesion. with_area: the pair's shear
+// strength and contact area too (the particle on the substrate, whose
+// sliding threshold the simulator takes as mu F_a + tau A); the tip on the
+// substrate slides by Amontons' law alone (mu and adhesion_nN), so those
+// two keys, which nothing would read, are refused there by name.
+ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string &path, ContactSpec d, bool with_area)
 {
     if (!n.IsDefined() || n.IsNull()) return d;
-    r.only_keys(n, path, {"mu", "adhesion_nN", "shear_strength_MPa", "contact_area_nm2"});
+    if (!with_area)
+        for (const char *k : {"shear_strength_MPa", "contact_area_nm2"})
+            if (n[k].IsDefined())
+                r.fail(path + "." + k, "not used: the tip slides on the substrate by mu and adhesion_nN alone (a shear strength and "
+                                       "contact area belong to sample.particle_substrate)");
+    if (with_area)
+        r.only_keys(n, path, {"mu", "adhesion_nN", "shear_strength_MPa", "contact_area_nm2"});
+    else
+        r.only_keys(n, path, {"mu", "adhesion_nN"});
     ContactSpec c;
     c.mu = r.num(n, path, "mu", &d.mu);
     c.adhesion_nN = r.num(n, path, "adhesion_nN", &d.adhesion_nN);
-    c.shear_strength_MPa = r.num(n, path, "shear_strength_MPa", &d.shear_strength_MPa);
-    c.contact_area_nm2 = r.num(n, path, "contact_area_nm2", &d.contact_area_nm2);
+    if (with_area) {
+        c.shear_strength_MPa = r.num(n, path, "shear_strength_MPa", &d.shear_strength_MPa);
+        c.contact_area_nm2 = r.num(n, path, "contact_area_nm2", &d.contact_area_nm2);
+    }
     return c;
 }
 
@@ -355,8 +370,8 @@ void read_sample(const Reader &r, const YAML::Node &root, Scene &s)
                                                  Reader::show(smp["field_center_nm"]) + ") must lie inside the scanner's range, +-45000 nm");
     }
     if (s.substrate_map) check_map_covers_field(r, s);
-    s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0});
-    s.particle_substrate = read_contact(r, smp["particle_substrate"], "sample.particle_substrate", ContactSpec{0.3, 3.0, 0, 0});
+    s.tip_substrate = read_contact(r, smp["tip_substrate"], "sample.tip_substrate", ContactSpec{0.0865, 1.0, 0, 0}, false);
+    s.particle_substrate = read_contact(r, smp["particle_substrate"], "sample.particle_substrate", ContactSpec{0.3, 3.0, 0, 0}, true);
     s.particle_contact_stiffness_N_per_m = r.num(smp, "sample", "contact_stiffness_N_per_m", &d.particle_contact_stiffness_N_per_m);
     s.photodiode_noise_V = r.num(smp, "sample", "photodiode_noise_V", &d.photodiode_noise_V);
     s.temperature_K = r.num(smp, "sample", "temperature_K", &d.temperature_K);
@@ -1188,13 +1203,18 @@ Elastic substrate_elastic(const std::string &substrate)
 constexpr double kWirePoisson = 0.37;
 }  // namespace
 
+double Scene::wire_adhesion_nN_per_um() const
+{
+    return wire_model.adhesion_nN_per_um && has_effect("adhesion") ? *wire_model.adhesion_nN_per_um : 0.0;
+}
+
 double Scene::wire_contact_width_nm() const
 {
     if (!wire_model.adhesion_nN_per_um || wire_model.contact == "none" || wires.empty()) return 0.0;
     const Elastic sub = substrate_elastic(substrate);
     const double inv_E = (1 - kWirePoisson * kWirePoisson) / (wire_model.youngs_modulus_GPa * 1e9) +
                          (1 - sub.nu * sub.nu) / (sub.E_GPa * 1e9);                    // 1 / E*, 1/Pa
-    const double P = *wire_model.adhesion_nN_per_um * 1e-3;                            // nN/um -> N/m
+    const double P = wire_adhesion_nN_per_um() * 1e-3;                                 // nN/um -> N/m
     const double R = 0.5 * wires.front().diameter_nm * 1e-9;                           // m
     return 2.0 * std::sqrt(4.0 * P * R * inv_E / M_PI) * 1e9;                          // 2 b, nm
 }
@@ -1203,7 +1223,7 @@ double Scene::wire_friction_nN_per_um() const
 {
     if (!wire_model.adhesion_nN_per_um) return wire_model.friction_nN_per_um;
     // tau [MPa] * A per um = 1e6 N/m^2 * (w [nm] 1e-9 m * 1e-6 m) = w 1e-9 N: tau w nN per um.
-    return wire_model.mu * *wire_model.adhesion_nN_per_um + wire_model.shear_strength_MPa * wire_contact_width_nm();
+    return wire_model.mu * wire_adhesion_nN_per_um() + wire_model.shear_strength_MPa * wire_contact_width_nm();
 }
 
 bool Scene::start_engaged() const { return !op.plan.enabled; }

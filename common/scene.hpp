@@ -328,14 +328,21 @@ struct Scene {
     double load_at_nN(double t_s) const;  // the scripted load at simulated time t (operator.load_ramp_to_nN)
     // f, the wire-substrate friction per length without the down force, nN/um
     // (eq. 23-24): sample.wire.friction_nN_per_um, or mu_os F_a,os + tau_os A
-    // per length when the scene gives adhesion_nN_per_um. The simulator and
+    // per length when the scene gives adhesion_nN_per_um (its adhesion acting
+    // with the adhesion effect alone: wire_adhesion_nN_per_um). The simulator and
     // the card's configuration both take it from here.
     double wire_friction_nN_per_um() const;
+    // The wire's adhesion per length that acts, nN/um: sample.wire's
+    // adhesion_nN_per_um when the scene lists the adhesion effect, else 0
+    // (then the load-dependent friction has no load: f = 0, no contact
+    // width), as the tip's and the particles' adhesion follow the effect.
+    double wire_adhesion_nN_per_um() const;
     // The wire's contact width with the substrate, nm (A / L): Hertz's line
     // contact of a cylinder of the first wire's diameter pressed by its
-    // adhesion per length, b = 2 sqrt(4 P' R / (pi E*)), with E* from the
-    // wire's and the substrate's moduli (substrate_modulus_GPa); 0 without
-    // load-dependent friction or with contact: none.
+    // adhesion per length (wire_adhesion_nN_per_um), b = 2 sqrt(4 P' R /
+    // (pi E*)), with E* from the wire's and the substrate's moduli
+    // (substrate_modulus_GPa); 0 without load-dependent friction, without
+    // the adhesion effect or with contact: none.
     double wire_contact_width_nm() const;
     bool start_engaged() const;         // in contact at block 0 (not when the planner drives: it starts lifted)
 };

@@ -105,8 +105,6 @@ inline constexpr SceneRange kSceneRanges[] = {
     {"sample.field_center_nm[1]", -kScannerRangeXY_nm / 2, kScannerRangeXY_nm / 2, true, true, nullptr, "nm", nullptr},
     scene_rows::in("sample.tip_substrate.mu", 0, 10, ""),
     scene_rows::in("sample.tip_substrate.adhesion_nN", 0, 1e6, "nN"),
-    scene_rows::in("sample.tip_substrate.shear_strength_MPa", 0, 1e6, "MPa"),
-    scene_rows::in("sample.tip_substrate.contact_area_nm2", 0, 1e9, "nm^2"),
     scene_rows::in("sample.particle_substrate.mu", 0, 10, ""),
     scene_rows::in("sample.particle_substrate.adhesion_nN", 0, 1e6, "nN"),
     scene_rows::in("sample.particle_substrate.shear_strength_MPa", 0, 1e6, "MPa"),

@@ -44,6 +44,12 @@ class BadScenes(unittest.TestCase):
     def test_nan_named_with_value(self):
         self.check_refused(GOOD.replace("mu: 0.0865", "mu: .nan"), "sample.tip_substrate.mu", "'.nan'")
 
+    def test_a_key_nothing_would_read_is_refused_by_name(self):
+        # the tip slides on the substrate by mu and adhesion alone (issue 47: keys that work)
+        for key in ("shear_strength_MPa", "contact_area_nm2"):
+            msg = self.check_refused(GOOD.replace("mu: 0.0865", f"mu: 0.0865, {key}: 5"), f"sample.tip_substrate.{key}", "not used")
+            self.assertIn("sample.particle_substrate", msg)
+
     def test_negative_roughness_named_with_value(self):
         self.check_refused(GOOD.replace("field_nm: 2000", "field_nm: 2000\n  roughness_rms_nm: -1"), "sample.roughness_rms_nm", "'-1'")
 

@@ -1011,6 +1011,14 @@ void test_load_dependent_friction_is_eq_23_24_with_a_hertz_line_contact()
     const afm::Scene n = scene_from_text(filled(with(base, "shear_strength_MPa: 10", "shear_strength_MPa: 10, contact: none")));
     TEST_ASSERT_DOUBLE_WITHIN(1e-12, 4.0, n.wire_friction_nN_per_um());
     TEST_ASSERT_DOUBLE_WITHIN(1e-12, 20.0, wire_scene(1300).wire_friction_nN_per_um());
+    // The adhesion acts with the adhesion effect alone (issue 47: no physics
+    // the scene did not ask for): without it no load, no width, no friction.
+    const afm::Scene off = scene_from_text(with(filled(base), "effects: [bending_offset, adhesion", "effects: [bending_offset"));
+    TEST_ASSERT_FALSE(off.has_effect("adhesion"));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, off.wire_adhesion_nN_per_um());
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, off.wire_contact_width_nm());
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, off.wire_friction_nN_per_um());
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 20.0, s.wire_adhesion_nN_per_um());
     // Both f and the adhesion, or tau without the adhesion: refused, named.
     const std::string both = filled(with(kWireScene, "friction_nN_per_um: FRICTION", "friction_nN_per_um: 3, adhesion_nN_per_um: 20"));
     TEST_ASSERT_TRUE(scene_error(both).find("sample.wire.friction_nN_per_um") != std::string::npos);
