@@ -360,6 +360,8 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
         }
         newton_step(c, phi);
     }
+    ++solved;
+    worst_iterations = std::max(worst_iterations, last_iterations);
     if (!last_converged) ++unconverged;
     // Stuck nodes go back to their start: no creep under a load below c_i,
     // however many steps.

@@ -36,6 +36,20 @@
 
 namespace {
 
+// sim_report.json's wire_solver: the flexible wires' Newton solver over the
+// run (World::wire_solver); null when the scene has no flexible wire.
+nlohmann::json wire_solver_report(const afm::sim::World::WireSolver &w)
+{
+    if (w.flexible == 0) return nullptr;
+    return {{"flexible_wires", w.flexible},         {"pushes_solved", w.solved},
+            {"unconverged", w.unconverged},          {"regularised", w.regularised},
+            {"worst_iterations", w.worst_iterations}, {"max_iterations", w.max_iterations}};
+}
+
+}  // namespace
+
+namespace {
+
 const char *kUsage =
     "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS] [--follow-log LOG]\n"
     "               [--log-window BLOCKS] [--no-renderer] [--aside-cpus LIST]\n"
@@ -514,6 +528,7 @@ struct Loop {
                 {"wire_friction_nN_per_um", scene.wire_friction_nN_per_um()},
                 {"wire_contact_width_nm", scene.wire_contact_width_nm()},
                 {"wire_axis_heights_nm", sim.world.wire_axis_heights_nm()},
+                {"wire_solver", wire_solver_report(sim.world.wire_solver())},
                 {"aside", aside.report()},
                 {"rejected", inbox.report()}};
     }

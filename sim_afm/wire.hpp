@@ -228,6 +228,8 @@ public:
     int max_iterations = 8;           // Newton iterations per push, at most
     int last_iterations = 0;          // the last push's Newton iterations (balance tests; 1: none needed)
     bool last_converged = false;      // whether it met the step tolerance
+    long solved = 0;                  // pushes the tip was in contact for (each solved to the step tolerance, or not)
+    int worst_iterations = 0;         // the most Newton iterations one of them took
     long unconverged = 0;             // pushes that hit max_iterations
     long regularised = 0;             // Newton steps whose system was singular (solved with a Levenberg shift)
 

@@ -185,6 +185,18 @@ public:
     // Samples in which the tip rode over a wire it pushed (down_force; eq. 27-28).
     long ridden_samples() const { return ridden_samples_; }
 
+    // The flexible wires' solver over the run (FlexibleWire's counters,
+    // summed; sim_report.json's wire_solver): pushes solved, the most Newton
+    // iterations one took against the cap, pushes left unconverged at the
+    // cap and Newton steps on a singular system. flexible == 0: no flexible
+    // wire in the scene, nothing counted.
+    struct WireSolver {
+        int flexible = 0;
+        long solved = 0, unconverged = 0, regularised = 0;
+        int worst_iterations = 0, max_iterations = 0;
+    };
+    WireSolver wire_solver() const;
+
     // Imaged height at (x, y) in frame A, nm: the surface, dilated by the tip
     // when the scene lists tip_convolution.
     double image_height(double x, double y) const;

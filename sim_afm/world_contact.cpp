@@ -272,4 +272,20 @@ std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m,
     return Eigen::Vector2d(S.head<2>());
 }
 
+World::WireSolver World::wire_solver() const
+{
+    WireSolver r;
+    for (const auto &w : wires_) {
+        const auto *f = dynamic_cast<const FlexibleWire *>(w.get());
+        if (!f) continue;
+        ++r.flexible;
+        r.solved += f->solved;
+        r.unconverged += f->unconverged;
+        r.regularised += f->regularised;
+        r.worst_iterations = std::max(r.worst_iterations, f->worst_iterations);
+        r.max_iterations = std::max(r.max_iterations, f->max_iterations);
+    }
+    return r;
+}
+
 }  // namespace afm::sim

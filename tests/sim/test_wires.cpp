@@ -842,6 +842,15 @@ void test_flexible_wire_steps_stay_regular_and_converge_in_the_world()
     TEST_ASSERT_TRUE(contact > 2000);
     TEST_ASSERT_EQUAL_INT(0, static_cast<int>(fw.regularised));
     TEST_ASSERT_TRUE(fw.unconverged < 0.05 * 4 * contact);   // 4 relax sweeps a sample, one push each
+    // the world's account of its solver (sim_report.json's wire_solver) is the wire's own
+    const World::WireSolver ws = w.wire_solver();
+    TEST_ASSERT_EQUAL_INT(1, ws.flexible);
+    TEST_ASSERT_TRUE(ws.solved >= contact);
+    TEST_ASSERT_EQUAL_INT(static_cast<int>(fw.unconverged), static_cast<int>(ws.unconverged));
+    TEST_ASSERT_EQUAL_INT(static_cast<int>(fw.regularised), static_cast<int>(ws.regularised));
+    TEST_ASSERT_TRUE(ws.worst_iterations >= 1 && ws.worst_iterations <= ws.max_iterations);
+    TEST_ASSERT_EQUAL_INT(8, ws.max_iterations);
+    TEST_ASSERT_EQUAL_INT(0, World(wire_scene(1000)).wire_solver().flexible);   // a rigid rod: nothing counted
 }
 
 // ---- The flexible wire's banded solver (BlockPentadiagonal) ----
