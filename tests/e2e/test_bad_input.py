@@ -50,6 +50,15 @@ class BadScenes(unittest.TestCase):
             msg = self.check_refused(GOOD.replace("mu: 0.0865", f"mu: 0.0865, {key}: 5"), f"sample.tip_substrate.{key}", "not used")
             self.assertIn("sample.particle_substrate", msg)
 
+    def test_a_path_that_starts_inside_a_particle_is_refused(self):
+        # particle 1 at (0, -300), radius 50; the tip's apex radius 10: 55 nm away is inside, 60 touches
+        msg = self.check_refused(GOOD.replace("- [0, -700]", "- [0, -355]"), "operator.path_nm[0]", "starts inside objects.particles[0]")
+        self.assertIn("55.0 nm", msg)
+        path = benchtest.write_scene(GOOD.replace("- [0, -700]", "- [0, -360]"), "touching")
+        p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", path], capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 0, p.stderr)   # touching is allowed
+        benchtest.cleanup(os.path.dirname(path))
+
     def test_negative_roughness_named_with_value(self):
         self.check_refused(GOOD.replace("field_nm: 2000", "field_nm: 2000\n  roughness_rms_nm: -1"), "sample.roughness_rms_nm", "'-1'")
 
