@@ -6,9 +6,20 @@ ROOT = os.environ.get("AFM_SOURCE") or os.path.dirname(os.path.dirname(os.path.a
 BUILD = os.environ.get("AFM_BUILD") or os.path.join(ROOT, "build", "main")
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 REPLAY = os.path.join(BUILD, "host_bridge", "afm_replay")
-IN_NETNS = os.path.join(ROOT, "tools", "in_netns.sh")
-RUN_USER = os.path.join(ROOT, "tools", "run_user.sh")   # who a run is when started as root
-DROP_CAPS = os.path.join(ROOT, "tools", "drop_caps.sh")  # the one place a process becomes that user
+# run/: the namespace and privilege wrappers every run passes through
+RUN_DIR = os.path.join(ROOT, "run")
+IN_NETNS = os.path.join(RUN_DIR, "in_netns.sh")
+RUN_USER = os.path.join(RUN_DIR, "run_user.sh")   # who a run is when started as root
+DROP_CAPS = os.path.join(RUN_DIR, "drop_caps.sh")  # the one place a process becomes that user
+RUN_UID = os.path.join(RUN_DIR, "run_uid.sh")      # the range of the runs' uids and their leases
+# faults/: the fault matrix, its injectors, the forgers (their modules are
+# imported from here: hostile, plant)
+FAULTS_DIR = os.path.join(ROOT, "faults")
+FAULTS = os.path.join(FAULTS_DIR, "faults.py")
+FORGE = os.path.join(FAULTS_DIR, "forge.py")
+HOSTILE = os.path.join(FAULTS_DIR, "hostile.py")
+# tools/: the developer's tools
+SPY_REPLAY = os.path.join(ROOT, "tools", "spy_replay.sh")
 ARM_BUILD = os.path.join(ROOT, "build", "arm")
 # The programs a run is made of: their contents identify the build a sweep
 # point was measured with (resume reruns a point when any of them changed).
@@ -26,7 +37,7 @@ def bench_folder(out, prefix):
     """A benchmark's folder for its runs: `out`, made if it is not there, or
     else a new temporary one; (path, kept: whether `out` was given). Open to
     the run's user (0755): a run started as root is that user's
-    (tools/run_user.sh), who must reach it."""
+    (run/run_user.sh), who must reach it."""
     path = out or tempfile.mkdtemp(prefix=prefix)
     os.makedirs(path, exist_ok=True)
     os.chmod(path, 0o755)

@@ -2,9 +2,9 @@
 cluster (issue 46, item 2; docs/design.md, "Least privilege").
 
 Root (this module, in the sweep's first process) leases uids of the runs'
-range through the one owner of leases, tools/run_uid.sh lease: one for the
+range through the one owner of leases, run/run_uid.sh lease: one for the
 client and scheduler, one per worker. It then starts, each through
-tools/drop_caps.sh (no capability, no_new_privs, rlimits):
+run/drop_caps.sh (no capability, no_new_privs, rlimits):
 
 - the client and scheduler: `python -m analysis.sweep ARGS` again, as the
   first uid, whose scheduler (analysis/engine.py, scheduler_alone) binds
@@ -26,12 +26,12 @@ the in-memory key through a file of a 0700 folder of the process's own
 Each process has a scratch folder of its own (0700, its uid's: HOME, TMPDIR,
 Dask's temporary directory) under one root folder (0711); a worker's points
 run with HOME and TMPDIR in `point/` of it, emptied before and removed after
-each point (analysis/point.py). Points go through tools/in_netns.sh as the
+each point (analysis/point.py). Points go through run/in_netns.sh as the
 worker's uid (not root: a user namespace of that uid's own).
 
 When the client ends, however (its exit, Ctrl-C, SIGTERM or SIGHUP to root,
 which passes them on), the workers are stopped, every process left of the
-leased uids is killed, the sweep's folder is given back (tools/run_user.sh
+leased uids is killed, the sweep's folder is given back (run/run_user.sh
 take), the scratch removed, and then the lease ended. Without a range
 reserved, or with AFM_RUN_USER set, every process is that one user
 (nobody unless AFM_RUN_USER names another: the documented fallback, said in
@@ -47,7 +47,7 @@ import time
 
 from analysis import engine, paths, point
 
-RUN_UID = os.path.join(paths.ROOT, "tools", "run_uid.sh")
+RUN_UID = paths.RUN_UID
 STOP_GRACE_S = 10.0
 USERS_ENV = "AFM_SWEEP_USERS"      # the client's: {"scheduler", "workers", "lease"}
 TLS_FD_ENV = "AFM_SWEEP_TLS_FD"    # the client's: its credentials' descriptor
@@ -59,7 +59,7 @@ class UsersError(Exception):
 
 
 class Lease:
-    """n uids leased through tools/run_uid.sh lease, held until release()
+    """n uids leased through run/run_uid.sh lease, held until release()
     (or until this process dies: the holder's input ends)."""
 
     def __init__(self, n):
@@ -69,7 +69,7 @@ class Lease:
         if len(self.uids) != n:
             err = self.proc.stderr.read().strip()
             self.proc.wait()
-            raise UsersError(err or f"tools/run_uid.sh lease {n}: exit {self.proc.returncode}")
+            raise UsersError(err or f"run/run_uid.sh lease {n}: exit {self.proc.returncode}")
         self.range = subprocess.run([RUN_UID, "range"], capture_output=True, text=True).stdout.split()
 
     def release(self):

@@ -1,5 +1,5 @@
 """What a run's trajectory is, for holding two runs of one scene equal block
-by block (./afm faults, tools/faults.py; tests/e2e/test_hosts.py): the
+by block (./afm faults, faults/faults.py; tests/e2e/test_hosts.py): the
 simulator's truth and the card's answers, by block. The one owner of that
 definition; callers import it.
 

@@ -97,7 +97,7 @@ TWO_HOSTS = [("two hosts", ""), ("two hosts, 0.2 ms each way", "delay=0.2")]
 
 def link_latency(sizes, count, link, out):
     """{"to_afm": {bytes: us}, "to_host": {bytes: us}}: one-way medians across
-    the link of two hosts (afm_linkprobe, run by tools/two_hosts.sh), and the probe's JSON."""
+    the link of two hosts (afm_linkprobe, run by run/two_hosts.sh), and the probe's JSON."""
     d = os.path.join(out, "link-" + (link.replace("=", "-").replace(",", "-") or "plain"))
     os.makedirs(d, exist_ok=True)
     # ping-pong, each ping once the last is answered: the path kept warm, as the

@@ -71,7 +71,7 @@ if [ ! -x "$bin" ]; then
 fi
 
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/bench_fw.XXXXXX")
-chmod 755 "$tmp"   # started as root, its run is the run's user (tools/run_user.sh), who must reach it
+chmod 755 "$tmp"   # started as root, its run is the run's user (run/run_user.sh), who must reach it
 trap 'rm -rf "$tmp"' EXIT
 
 echo "bench_firmware: timing and errors ($n samples per angle, $repeats repeats)" >&2
@@ -212,7 +212,7 @@ if [ "$do_board" -eq 1 ]; then
   echo
   scene="$top/scenes/short.yaml"
   echo "bench_firmware: $scene on the board (--firmware qemu), then its blocks under callgrind" >&2
-  if ! "$top/tools/in_netns.sh" "$build/host_bridge/afm_launch" --scene "$scene" --out "$tmp/pil" --quiet --firmware qemu \
+  if ! "$top/run/in_netns.sh" "$build/host_bridge/afm_launch" --scene "$scene" --out "$tmp/pil" --quiet --firmware qemu \
        >"$tmp/pil.log" 2>&1; then
     tail -3 "$tmp/pil.log" >&2
     echo "The whole card per block: the run on the board failed (above)"

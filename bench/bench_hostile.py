@@ -1,6 +1,6 @@
 """./afm bench hostile: what a flood of fragment headers costs a run (issue 35,
 "cheap floods stay cheap"). The scene runs ROUNDS times undisturbed and
-ROUNDS times with tools/hostile.py sending fragment-0 headers that each
+ROUNDS times with faults/hostile.py sending fragment-0 headers that each
 claim a 16 MiB message, at RATE datagrams a second from before the start to
 the end, alternately, so that the machine's load falls on both alike. Each
 run's wall time and its processes' peak memory come from its own run.json.
@@ -21,8 +21,8 @@ import tempfile
 
 from analysis import paths
 
-sys.path.insert(0, os.path.join(paths.ROOT, "tools"))
-import hostile  # noqa: E402  (tools/hostile.py: the sender and the one runner beside a run)
+sys.path.insert(0, paths.FAULTS_DIR)
+import hostile  # noqa: E402  (faults/hostile.py: the sender and the one runner beside a run)
 
 WALL_GOAL = 0.10     # the flood's share of the calm median wall time
 RSS_GOAL_MB = 50.0   # the flood's addition to a process's peak memory
@@ -79,7 +79,7 @@ def main(argv):
         sys.exit(f"bench hostile: --rate must be above 0, not {a.rate}")
     launch = paths.LAUNCH
     tmp = tempfile.mkdtemp(prefix="afm-bench-hostile-")
-    os.chmod(tmp, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
+    os.chmod(tmp, 0o755)   # started as root, the runs are the run's user (run/run_user.sh), who must reach it
     calm, flood = [], []
     try:
         print(f"bench hostile: {os.path.basename(a.scene)}, {a.rounds} calm and {a.rounds} flooded runs "

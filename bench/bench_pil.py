@@ -4,7 +4,7 @@
    it, in its own namespace, with --firmware host and --firmware qemu, and
    both again with the renderer off (--no-renderer: what the display costs
    the loop), in turn, --repeat rounds (so that a slow spell of the machine
-   falls on all alike). For each: the whole command (tools/in_netns.sh and
+   falls on all alike). For each: the whole command (run/in_netns.sh and
    afm_launch, start to exit), the run's own figures (run.json timing: the
    loop from the first block to the last, its us a block and its factor
    against real time; the rest of the run), what the loop waited for (the

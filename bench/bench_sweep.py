@@ -36,7 +36,7 @@ def main(argv):
     ap.add_argument("--callgrind", action="store_true", help="also count the firmware's instructions per point")
     a = ap.parse_args(argv)
     tmp = tempfile.mkdtemp(prefix="afm-bench-sweep-")
-    os.chmod(tmp, 0o755)   # started as root, the runs are the run's user (tools/run_user.sh), who must reach it
+    os.chmod(tmp, 0o755)   # started as root, the runs are the run's user (run/run_user.sh), who must reach it
     try:
         print(f"bench sweep: 8 points of {os.path.basename(a.scene)} (firmware.adc_bits 9..16), "
               f"{'with' if a.callgrind else 'without'} callgrind, {os.cpu_count()} cores", file=sys.stderr)

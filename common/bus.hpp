@@ -22,7 +22,7 @@ constexpr const char *kBusUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4
 // namespaces.
 constexpr const char *kLinkBusUrl = "udpm://239.255.76.67:7667?ttl=1&recv_buf_size=4194304";
 // The environment variable that names this namespace's end of that pair
-// (tools/two_hosts.sh sets it); unset: one namespace, the bus on loopback.
+// (run/two_hosts.sh sets it); unset: one namespace, the bus on loopback.
 constexpr const char *kBusLinkEnv = "AFM_BUS_LINK";
 constexpr const char *kBusGroup = "239.255.76.67";
 

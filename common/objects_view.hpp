@@ -38,7 +38,7 @@ inline ObjectsKey base_of(const objects_t &m) { return {m.base_seq, m.base_fix_i
 // The reader's side: the whole set after each message.
 //
 // The bus may hand a reader two messages out of order (the kernel holds a
-// datagram back behind the next one: tools/faults.py, net:kernel; the first
+// datagram back behind the next one: faults/faults.py, net:kernel; the first
 // block's complete message may come after the second's changes). A
 // changes-only message whose base is newer than the set held, or that comes
 // before any complete message, is kept (at

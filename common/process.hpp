@@ -65,7 +65,7 @@ void write_report(const std::string &path, const nlohmann::json &j);
 // each process a child starts (QEMU under fw_node), is bound to its parent
 // with PR_SET_PDEATHSIG (SIGKILL): a launcher killed outright (SIGKILL,
 // nothing to catch) takes its processes with it, and theirs with them.
-// A change of uid clears that signal (tools/drop_caps.sh on two hosts
+// A change of uid clears that signal (run/drop_caps.sh on two hosts
 // changes it between the launcher's fork and the process's main), so each
 // process binds itself again at its start (run_process), after any such
 // change; and since its parent may have ended before the bind, it then

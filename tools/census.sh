@@ -6,8 +6,9 @@
 # method named Class.method, a nested function outer.inner). The folders
 # read by default are all of the checkout's code: the firmware, the board,
 # the simulator, the host side, common/, lcmtypes/, the analysis package,
-# the benchmarks, the tests, the fuzz harnesses and their seed maker, and
-# tools/. The project's rule (issue 45) is that it finds nothing.
+# the benchmarks, the tests, the fuzz harnesses and their seed maker, the
+# run's wrappers (run/), the fault injectors (faults/) and tools/. The
+# project's rule (issue 45) is that it finds nothing.
 # Usage: tools/census.sh [N] [FOLDER...]; exit 0 (found or not), 2 when a
 # tool is missing or a Python file does not parse (named, with its line).
 set -euo pipefail
@@ -15,7 +16,7 @@ cd "$(dirname "$0")/.."
 n=${1:-80}; [ $# -gt 0 ] && shift
 [[ $n =~ ^[0-9]+$ ]] || { echo "census: N must be a whole number of lines, got '$n'" >&2; exit 2; }
 dirs=("$@")
-[ ${#dirs[@]} -gt 0 ] || dirs=(firmware board sim_afm host_bridge common lcmtypes analysis bench tests fuzz tools)
+[ ${#dirs[@]} -gt 0 ] || dirs=(firmware board sim_afm host_bridge common lcmtypes analysis bench tests fuzz run faults tools)
 command -v ctags >/dev/null || { echo "census: needs ctags (apt-get install universal-ctags)" >&2; exit 2; }
 py=.venv/bin/python; [ -x "$py" ] || py=python3
 

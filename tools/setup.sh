@@ -70,11 +70,11 @@ if [ "$(cat "$pkg_stamp" 2>/dev/null)" != "$pkg_want" ]; then
   echo "$pkg_want" > "$pkg_stamp"
 fi
 
-# ---- A range of uids for the runs (issue 46; tools/run_uid.sh) -------------------
+# ---- A range of uids for the runs (issue 46; run/run_uid.sh) -------------------
 # Started as root, each run takes a uid of its own from afm-runs in
 # /etc/subuid and /etc/subgid (65536 ids no user, group or other range holds).
-if [ "$(id -u)" = 0 ] && ! "$top/tools/run_uid.sh" range >/dev/null 2>&1; then
-  say "reserving uids for the runs: afm-runs $("$top/tools/run_uid.sh" reserve | tr ' ' ':') in /etc/subuid and /etc/subgid"
+if [ "$(id -u)" = 0 ] && ! "$top/run/run_uid.sh" range >/dev/null 2>&1; then
+  say "reserving uids for the runs: afm-runs $("$top/run/run_uid.sh" reserve | tr ' ' ':') in /etc/subuid and /etc/subgid"
 fi
 
 # ---- Unity 2.4.3 from Debian's cjson source package ---------------------------

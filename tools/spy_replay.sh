@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Inside a run's namespace (tools/in_netns.sh puts it there): lcm-spy with the
+# Inside a run's namespace (run/in_netns.sh puts it there): lcm-spy with the
 # project's types on its CLASSPATH, and lcm-logplayer replaying LOG into it.
 #   tools/spy_replay.sh LOG [SPEED]
 # lcm-spy stays open after the replay until closed, unless

@@ -4,7 +4,7 @@ The page's browser is in the caller's network namespace and cannot reach
 the run's, so this process stays in the caller's: it opens the listening
 socket (127.0.0.1, a port it prints, a random token) and serves the page
 from here. The run goes into its own namespace as always
-(tools/in_netns.sh), and the launcher is handed the write end of a pipe
+(run/in_netns.sh), and the launcher is handed the write end of a pipe
 (afm_launch --view-fd N), which it hands in turn to afm_view_bridge
 (host_bridge/view), its child holding the run's key: the bridge takes
 VIEW_FRAME and AFM_HEARTBEAT off the bus, with the run's proof, and writes
@@ -235,7 +235,7 @@ def hand_pipe():
     """(folder, path, write end) of the hand's named pipe: in a folder of
     this process's that others may pass through but not list or write
     (0711, a random name), the pipe 0600 (the run's user's for the run's
-    life: tools/in_netns.sh, AFM_RUN_FILES); opened
+    life: run/in_netns.sh, AFM_RUN_FILES); opened
     read-write here so that it never waits for a reader and never fails for
     want of one; written without waiting."""
     folder = tempfile.mkdtemp(prefix="afm-view-hand-")

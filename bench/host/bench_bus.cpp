@@ -14,7 +14,7 @@
 //   one-way    = echo's receive time - send time   (one hop: publish, kernel, receive, handler)
 //   round trip = back at the sender - send time    (two hops)
 // Prints median and p99 of each, in microseconds. Must run inside the run's
-// namespace (tools/in_netns.sh), like any process on the bus.
+// namespace (run/in_netns.sh), like any process on the bus.
 //
 // The two channels are the bench's own: raw bytes (no LCM type), never on a
 // run's bus, so they are not in lcmtypes/channels.yaml.
@@ -53,7 +53,7 @@ const char *kUsage =
     "  passes the sizes of the messages in a run's log), N pings each (default\n"
     "  2000). --receive: how both ends receive: tap (default) as the bench's\n"
     "  processes do, a filtered socket read on their own thread; liblcm through\n"
-    "  its receive thread. Run inside a network namespace (tools/in_netns.sh).\n";
+    "  its receive thread. Run inside a network namespace (run/in_netns.sh).\n";
 
 bool g_tap = true;   // --receive tap
 

@@ -46,13 +46,13 @@ std::string Hosts::from_env(int n)
     const std::string pid = env_or("AFM_HOSTS_AFM_PID");
     if (pid.empty() || std::atoi(pid.c_str()) <= 0)
         return "--hosts 2 needs the run's two namespaces (AFM_HOSTS_AFM_PID is not set): run it with ./afm run --hosts 2, "
-               "or AFM_HOSTS=2 tools/in_netns.sh";
+               "or AFM_HOSTS=2 run/in_netns.sh";
     afm_ns_pid = std::atoi(pid.c_str());
     if (access(("/proc/" + pid + "/ns/net").c_str(), R_OK) != 0)
         return "the afm namespace's holder (pid " + pid + ", AFM_HOSTS_AFM_PID) is gone";
     drop_caps = env_or("AFM_DROP_CAPS");
     if (drop_caps.empty() || access(drop_caps.c_str(), X_OK) != 0)
-        return "AFM_DROP_CAPS does not name tools/drop_caps.sh ('" + drop_caps + "')";
+        return "AFM_DROP_CAPS does not name run/drop_caps.sh ('" + drop_caps + "')";
     link_dir = env_or("AFM_LINK_DIR");
     link_dir_is_temporary = env_or("AFM_LINK_DIR_TEMPORARY") == "1";
     shaper = env_or("AFM_LINK_SHAPER", "none");

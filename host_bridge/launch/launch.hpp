@@ -89,7 +89,7 @@ inline const char *kUsage =
     "                     built for its processor on an emulated mps2-an386 board (docs/pil.md)\n"
     "  --hosts 1|2        one network namespace (the default), or the paper's two computers: sim_afm in\n"
     "                     \"afm\", the rest in \"host\", joined by a veth pair and its link (./afm run\n"
-    "                     --hosts 2 [--link SPEC] makes them: tools/two_hosts.sh, docs/hosts.md)\n"
+    "                     --hosts 2 [--link SPEC] makes them: run/two_hosts.sh, docs/hosts.md)\n"
     "  --stall-s S        abort if the run makes no progress for S wall seconds (default 60)\n"
     "  --quiet            no progress line (with --check: no warnings, only refusals)\n"
     "  --strict           a warning about the scene (host_bridge/launch/warnings.hpp) is an error\n"

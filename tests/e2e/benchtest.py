@@ -13,8 +13,8 @@ import time
 SRC = os.environ["AFM_SOURCE"]
 BUILD = os.environ["AFM_BUILD"]
 LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
-IN_NETNS = os.path.join(SRC, "tools", "in_netns.sh")
-from analysis import afmlog  # noqa: E402,F401  (the project's package, installed in the venv)
+from analysis import afmlog, paths  # noqa: E402,F401  (the project's package, installed in the venv)
+IN_NETNS = paths.IN_NETNS
 
 
 # The seconds this test file's own waits must end within (ctest's limit less
@@ -61,7 +61,7 @@ def encoded_by_seq(msgs, blocks, field="seq"):
 
 # Started as root from a checkout the run's user cannot reach (a clone in
 # /root, mode 700, as CI makes), a run is refused unless uid 0 is allowed
-# (tools/in_netns.sh): the suite allows it there, as before issue 46;
+# (run/in_netns.sh): the suite allows it there, as before issue 46;
 # test_privilege.py checks the refusal itself.
 if os.geteuid() == 0 and closed_ancestor(BUILD):
     os.environ.setdefault("AFM_ALLOW_UID_0", "1")
@@ -82,7 +82,7 @@ def tmpdir(tag):
     if _root is None:
         script = os.path.splitext(os.path.basename(sys.argv[0]))[0] or "e2e"
         _root = tempfile.mkdtemp(prefix=f"afm-{script}-", dir=os.environ.get("AFM_TEST_TMP"))
-        os.chmod(_root, 0o755)   # started as root, a run is the run's user (tools/run_user.sh), who must reach it
+        os.chmod(_root, 0o755)   # started as root, a run is the run's user (run/run_user.sh), who must reach it
     d = tempfile.mkdtemp(prefix=f"{tag}-", dir=_root)
     os.chmod(d, 0o755)
     return d

@@ -9,7 +9,7 @@ HOST_OBJECT_FIX from the renderer's port dropped the real fix of particle 1.
 
 Now every datagram of the run carries a MAC with the run's key
 (common/bus_key.hpp), which a forger outside the run does not hold: the
-forgeries, sent by tools/forge.py --spoof PROGRAM from a raw socket with
+forgeries, sent by faults/forge.py --spoof PROGRAM from a raw socket with
 that program's source port, change nothing (the run ends ok with the
 undisturbed run's trajectories) and are counted by every receiver that
 hears them (run.json: each process's rejected.unproven, the launcher's
@@ -30,17 +30,16 @@ import time
 import unittest
 
 import benchtest
-from analysis import afmlog
+from analysis import afmlog, paths
 
-FORGE = os.path.join(benchtest.SRC, "tools", "forge.py")
-DROP_CAPS = os.path.join(benchtest.SRC, "tools", "drop_caps.sh")
+FORGE, DROP_CAPS = paths.FORGE, paths.DROP_CAPS
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 PROCESSES = ("sim", "fw", "operator", "renderer")
 CHANNELS = ["SIM_TRUTH", "AFM_CMD", "FW_STATE", "HAPTIC_POSE", "HAPTIC_FORCE"]
 
 
 def run_with_spoofer(scene, out, what, program, mac=True):
-    """The scene with tools/forge.py WHAT --spoof PROGRAM beside it (the
+    """The scene with faults/forge.py WHAT --spoof PROGRAM beside it (the
     forger keeps CAP_NET_RAW in the run's namespace, the launcher runs
     without it); returns (exit code, stderr, run.json, what was sent)."""
     sent = out.rstrip("/") + ".sent.json"
@@ -105,7 +104,7 @@ async def page_messages(port, token, seconds):
 def viewed_with_spoofer(scene, out, what, program):
     """./afm run SCENE --view --wait as ./afm starts it (python -m
     analysis.view run: the page's server, the run in its namespace), with
-    tools/forge.py WHAT --spoof PROGRAM beside the launcher; a page's
+    faults/forge.py WHAT --spoof PROGRAM beside the launcher; a page's
     WebSocket opens the stream. Returns (exit code, the server's stderr,
     run.json, what was sent, the page's JSON messages, its images)."""
     sent = out.rstrip("/") + ".sent.json"
@@ -142,12 +141,12 @@ class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
     # the one owner of the trailer is the bus layer (afm::publish_raw): a
     # process that called liblcm's publish itself would send without proof
     ALLOWED = {"common/bus.cpp",   # publish_raw itself
-               "bench/host/bench_bus.cpp", "tools/linkprobe.cpp"}   # the benches' own channels, never a run's bus
+               "bench/host/bench_bus.cpp", "faults/linkprobe.cpp"}   # the benches' own channels, never a run's bus
 
     def test_no_publish_site_calls_liblcm_directly(self):
         pattern = re.compile(r"(\.|->)publish\(")
         found = []
-        for top in ("common", "host_bridge", "sim_afm", "tools", "bench"):
+        for top in ("common", "host_bridge", "sim_afm", "run", "faults", "tools", "bench"):
             for root, _, files in os.walk(os.path.join(benchtest.SRC, top)):
                 for name in files:
                     if not name.endswith((".cpp", ".hpp", ".h", ".c")):

@@ -1,4 +1,4 @@
-"""The fault matrix's fast rows (tools/faults.py; ./afm faults runs them all):
+"""The fault matrix's fast rows (faults/faults.py; ./afm faults runs them all):
 a stopped process, a killed one, the launcher interrupted, every message
 duplicated and reordered, datagrams dropped, duplicated and reordered by the
 kernel, a full disk, the scene changed under a run, links the run's user planted in its folder."""
@@ -9,8 +9,9 @@ import sys
 import unittest
 
 import benchtest
+from analysis import paths
 
-FAULTS = os.path.join(benchtest.SRC, "tools", "faults.py")
+FAULTS = paths.FAULTS
 FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "launcher:SIGKILL", "net:dup", "net:kernel", "disk:full", "scene:changed",
         "spoof-port:pose", "spoof-port:pose:nokey", "planted:link"]
 NETFAULT = os.path.join(benchtest.BUILD, "host_bridge", "afm_netfault")
@@ -24,7 +25,7 @@ class FaultMatrix(unittest.TestCase):
                                timeout=benchtest.limit(600))
         path = os.path.join(cls.out, "faults.json")
         if not os.path.exists(path):
-            raise AssertionError(f"tools/faults.py wrote no faults.json (exit {cls.p.returncode}):\n{cls.p.stdout}\n{cls.p.stderr}")
+            raise AssertionError(f"faults/faults.py wrote no faults.json (exit {cls.p.returncode}):\n{cls.p.stdout}\n{cls.p.stderr}")
         with open(path) as f:
             cls.rows = {r["fault"]: r for r in json.load(f)["rows"]}
 

@@ -1,7 +1,7 @@
 """Hostile datagrams into a live run (issue 14, part 1): every process counts
 and drops what it cannot use, and the run ends exactly as an undisturbed one.
 
-tools/hostile.py publishes, on every channel, truncated messages, random
+faults/hostile.py publishes, on every channel, truncated messages, random
 fingerprints, other types' messages, array lengths of 2^31 - 1, NaN and
 infinities, sequences long past and far ahead, and random bytes at 2000
 datagrams per second, beside the run in its namespace."""
@@ -12,10 +12,10 @@ import sys
 import unittest
 
 import benchtest
-from analysis import afmlog
+from analysis import afmlog, paths
 
-sys.path.insert(0, os.path.join(benchtest.SRC, "tools"))
-import hostile  # noqa: E402  (tools/hostile.py: the hostile sender and its runner)
+sys.path.insert(0, paths.FAULTS_DIR)
+import hostile  # noqa: E402  (faults/hostile.py: the hostile sender and its runner)
 
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 PROCESSES = ("sim", "fw", "operator", "renderer", "launcher")
@@ -29,15 +29,15 @@ RATE = 2000
 
 
 def run_with_hostile(scene, out, rate=RATE, kinds=None, admit_any=False):
-    """tools/hostile.py beside the run, from before its start to its end (hostile.run_beside)."""
+    """faults/hostile.py beside the run, from before its start to its end (hostile.run_beside)."""
     return hostile.run_beside(benchtest.LAUNCH, scene, out, rate=rate, kinds=kinds, admit_any=admit_any)
 
 
 def run_with_forger(scene, out, what):
-    """Runs the scene with tools/forge.py WHAT sending from before the start to the end."""
+    """Runs the scene with faults/forge.py WHAT sending from before the start to the end."""
     script = ('"$PY" "$FORGE" "$WHAT" --seconds 300 > /dev/null & h=$!; '
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
-    env = dict(os.environ, PY=sys.executable, FORGE=os.path.join(benchtest.SRC, "tools", "forge.py"), WHAT=what, OUT=out,
+    env = dict(os.environ, PY=sys.executable, FORGE=paths.FORGE, WHAT=what, OUT=out,
                LAUNCH=benchtest.LAUNCH, SCENE=scene, AFM_RUN_WRITES=out)   # the run's folder, for the run's user (in_netns.sh)
     p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
     with open(os.path.join(out, "run.json")) as f:

@@ -14,6 +14,7 @@ import time
 import unittest
 
 import benchtest
+from analysis import paths
 
 REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
 
@@ -154,7 +155,7 @@ class PilTest(unittest.TestCase):
 
     def test_the_fault_matrix_rows_of_the_board(self):
         out = benchtest.tmpdir("faults")
-        p = subprocess.run([os.sys.executable, os.path.join(benchtest.SRC, "tools", "faults.py"), "--out", out, "--quiet",
+        p = subprocess.run([os.sys.executable, paths.FAULTS, "--out", out, "--quiet",
                             "--only", "board:killed", "board:hung"], capture_output=True, text=True, timeout=300)
         with open(os.path.join(out, "faults.json")) as f:
             rows = {r["fault"]: r for r in json.load(f)["rows"]}

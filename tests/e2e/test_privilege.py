@@ -1,9 +1,9 @@
 """Least privilege (issue 35): a run's processes need no root. Once their
-namespace exists (tools/in_netns.sh) they run through tools/drop_caps.sh:
+namespace exists (run/in_netns.sh) they run through run/drop_caps.sh:
 /proc/PID/status shows CapEff, CapPrm, CapBnd and CapAmb 0 and NoNewPrivs 1
 for the launcher and each of its children (the card's board under QEMU and
 the renderer's ffmpeg too), and a non-zero uid: started as root, the run's
-user (tools/run_user.sh, nobody unless AFM_RUN_USER says otherwise), else
+user (run/run_user.sh, nobody unless AFM_RUN_USER says otherwise), else
 the caller's own. Started as root, the run's folder is handed to that user
 for the run and given back after: every file ends owned by the caller. A
 sweep's scheduler and Dask workers drop too (each a uid of its own:
@@ -22,8 +22,9 @@ import time
 import unittest
 
 import benchtest
+from analysis import paths
 
-DROP = os.path.join(benchtest.SRC, "tools", "drop_caps.sh")
+DROP = paths.DROP_CAPS
 NET_ADMIN_RAW = (1 << 12) | (1 << 13)
 RUN = {"afm_launch", "sim_afm", "fw_node", "operator", "renderer"}
 CAPS = ("CapEff", "CapPrm", "CapBnd", "CapAmb")
@@ -191,7 +192,7 @@ class LeastPrivilege(unittest.TestCase):
 
     @unittest.skipUnless(ROOT, "only root leases a uid for a run")
     def test_each_run_leases_a_uid_of_its_own_with_limits(self):
-        run_uid = os.path.join(benchtest.SRC, "tools", "run_uid.sh")
+        run_uid = paths.RUN_UID
         p = subprocess.run([run_uid, "range"], capture_output=True, text=True)
         if p.returncode == 3:
             self.skipTest("no range of uids reserved for the runs (tools/setup.sh reserves afm-runs in /etc/subuid)")

@@ -1,14 +1,14 @@
 """Nothing root does after a run follows what the run's user made (issue 46,
 item 1; docs/design.md, "Least privilege"). Started as root, a run's folder
 is the run's user's while it runs; this plants in it, as that user (the
-run's own command, through tools/drop_caps.sh's setpriv, once the launcher
+run's own command, through run/drop_caps.sh's setpriv, once the launcher
 is done): links to a root-only file as outputs (report.html.tmp,
 report.html), a link to a root-only stand-in for /etc/shadow as an input of
 the report (video.mp4), directory links (frames/, compare/) to a root-only
 folder, named pipes (contact_sheet.png, another) and a hard link to a file
 of its own outside the folder. Then it does what root does after a run
 (./afm run's report, ./afm replay --compare): the targets are untouched,
-nothing blocks, and the give-back (tools/run_user.sh take) names what it
+nothing blocks, and the give-back (run/run_user.sh take) names what it
 removed; a link root finds in a run folder all the same (left by an older
 give-back) is refused and named by the report and by replay --compare. An
 --out that is not a run's folder, or holds a third user's file, changes no
@@ -19,9 +19,10 @@ import sys
 import unittest
 
 import benchtest
+from analysis import paths
 
-sys.path.insert(0, os.path.join(benchtest.SRC, "tools"))
-import plant  # noqa: E402  (tools/plant.py: what the run's user plants, and the check that nothing followed it)
+sys.path.insert(0, paths.FAULTS_DIR)
+import plant  # noqa: E402  (faults/plant.py: what the run's user plants, and the check that nothing followed it)
 
 PY = sys.executable
 AFM = os.path.join(benchtest.SRC, "afm")

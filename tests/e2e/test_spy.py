@@ -13,6 +13,7 @@ import time
 import unittest
 
 import benchtest
+from analysis import paths
 
 
 def start_xvfb(wait_s=30):
@@ -58,7 +59,7 @@ class Spy(unittest.TestCase):
         self.assertEqual(code, 0, err)
         env = dict(os.environ, DISPLAY=f":{self.display}", AFM_SPY_EXIT_AFTER_REPLAY="1",
                    AFM_TYPES_JAR=os.path.join(benchtest.BUILD, "lcmtypes", "afm_types.jar"))
-        p = subprocess.run([benchtest.IN_NETNS, os.path.join(benchtest.SRC, "tools", "spy_replay.sh"),
+        p = subprocess.run([benchtest.IN_NETNS, paths.SPY_REPLAY,
                             os.path.join(out, "bus.lcmlog"), "5"], env=env, capture_output=True, text=True,
                            timeout=benchtest.limit(180))
         text = p.stdout + p.stderr

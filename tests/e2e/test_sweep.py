@@ -20,7 +20,7 @@ import unittest
 import benchtest
 
 PY = sys.executable
-ENV = dict(os.environ, PYTHONPATH=f"{benchtest.SRC}:{os.path.join(benchtest.SRC, 'tools')}")
+ENV = dict(os.environ, PYTHONPATH=benchtest.SRC)
 SHORT = benchtest.scene("short.yaml")
 
 

@@ -16,9 +16,10 @@ import time
 import unittest
 
 import benchtest
+from analysis import paths
 
 ROOT = os.geteuid() == 0
-RUN_UID = os.path.join(benchtest.SRC, "tools", "run_uid.sh")
+RUN_UID = paths.RUN_UID
 NOBODY = 65534
 
 

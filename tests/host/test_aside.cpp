@@ -3,7 +3,7 @@
 // rule, and its check); and that what is posted aside comes out on the
 // bus, every message, in the order posted, once flush() returns or the
 // Aside is gone, a full queue holding the poster back instead of dropping.
-// Runs inside a private network namespace (tools/in_netns.sh, from ctest):
+// Runs inside a private network namespace (run/in_netns.sh, from ctest):
 // the bus is real udpm multicast on its loopback.
 #include "aside.hpp"   // (with scene.hpp) before unity.h, whose isnan macro breaks nlohmann/json
 

@@ -8,7 +8,7 @@
 // message at a time (next) as liblcm's handleTimeout hands them; a filtered
 // receiver sees only its channels; an inbox on the bus reads its own socket
 // on the caller's thread and starts no receive thread.
-// Runs inside a private network namespace (tools/in_netns.sh, from ctest):
+// Runs inside a private network namespace (run/in_netns.sh, from ctest):
 // the bus is real udpm multicast on its loopback.
 #include "inbox.hpp"   // (with log_tail.hpp) before unity.h, whose isnan macro breaks nlohmann/json
 #include "log_tail.hpp"
@@ -595,7 +595,7 @@ int main()
 {
     std::string why;
     if (!afm::multicast_stays_in_run(&why)) {
-        std::fprintf(stderr, "test_bus_tap: run me inside tools/in_netns.sh (%s)\n", why.c_str());
+        std::fprintf(stderr, "test_bus_tap: run me inside run/in_netns.sh (%s)\n", why.c_str());
         return 2;
     }
     tap = std::make_unique<afm::BusTap>(afm::kBusUrl);

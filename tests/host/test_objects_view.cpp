@@ -182,7 +182,7 @@ void test_a_change_on_an_older_base_is_refused()
     TEST_ASSERT_EQUAL_INT(0, static_cast<int>(view.whole().seq));
 }
 
-// The kernel holds a datagram back behind the next one (tools/faults.py,
+// The kernel holds a datagram back behind the next one (faults/faults.py,
 // net:kernel): block n+1's changes come before block n's. Both are placed
 // when n comes, in turn; a resend of the held one is not kept twice.
 void test_a_message_before_its_base_is_held_until_the_base_comes()

@@ -2,12 +2,12 @@
 # The run's user (issue 35, least privilege; docs/design.md, "Least
 # privilege"): who a run's processes are when it was started as root, and
 # the folders handed to that user for the run and given back after it.
-#   tools/run_user.sh id             "UID GID" of the run's user (started as
+#   run/run_user.sh id             "UID GID" of the run's user (started as
 #                                    another user: that user's own)
-#   tools/run_user.sh reach PATH...  exit 0 if the run's user can reach each
+#   run/run_user.sh reach PATH...  exit 0 if the run's user can reach each
 #                                    PATH (search every folder above it, read
 #                                    it); else 3 and one line naming the folder
-#   tools/run_user.sh give [--reach PATH]... DIR...
+#   run/run_user.sh give [--reach PATH]... DIR...
 #                                    (root) makes each DIR, checks the run's
 #                                    user reaches each PATH and the folders
 #                                    above each DIR (DIR itself becomes
@@ -19,7 +19,7 @@
 #                                    of that user (with AFM_RUN_USER=root:
 #                                    nothing to do, "0 0"). Refused: nothing
 #                                    has changed hands.
-#   tools/run_user.sh take DIR...    gives each DIR and all it holds back to
+#   run/run_user.sh take DIR...    gives each DIR and all it holds back to
 #                                    whoever runs this (uid and gid), through
 #                                    analysis/safefs.py (take): folder by
 #                                    folder from the top, none followed if a
@@ -32,7 +32,7 @@
 # folders. AFM_RUN_USER=root keeps uid 0 (still without capabilities).
 set -euo pipefail
 die() { echo "run_user: $*" >&2; exit 2; }
-[ $# -ge 1 ] || die "usage: tools/run_user.sh id|reach PATH...|give DIR...|take DIR..."
+[ $# -ge 1 ] || die "usage: run/run_user.sh id|reach PATH...|give DIR...|take DIR..."
 
 # uid and gid of AFM_RUN_USER, or of the caller when it is not root.
 run_ids() {

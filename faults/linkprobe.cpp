@@ -1,5 +1,5 @@
 // afm_linkprobe: measures the link between a run's two hosts (docs/hosts.md)
-// by LCM round trips across it, before the run starts (tools/two_hosts.sh).
+// by LCM round trips across it, before the run starts (run/two_hosts.sh).
 //
 //   afm_linkprobe --echo --json FILE          in the "afm" namespace: answers
 //                                             every LINK_PING with a LINK_PONG

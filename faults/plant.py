@@ -20,7 +20,7 @@ import os
 import stat
 
 # What SCRIPT plants, relative to the run folder: each is removed and named
-# by the give-back (tools/run_user.sh take: "removed PATH (...)").
+# by the give-back (run/run_user.sh take: "removed PATH (...)").
 PLANTED = ("report.html.tmp", "report.html", "video.mp4", "frames", "compare", "contact_sheet.png", "logs/pipe", "hard.txt")
 SECRET = "root:$6$stand-in-for-shadow$not-a-real-hash:19000:0:99999:7:::\n"
 SECRET_MARK = "stand-in-for-shadow"   # in no output of a run that followed nothing

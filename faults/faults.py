@@ -4,7 +4,7 @@ per fault, and prints one row each: the fault, what the bench did, whether
 the bus log and run.json were kept whole, and whether the run's results
 match the undisturbed run where they should.
 
-    tools/faults.py [--only ROW...] [--scene SCENE] [--out DIR] [--seed N] [--list]
+    faults/faults.py [--only ROW...] [--scene SCENE] [--out DIR] [--seed N] [--list]
 
 Rows (design.md, "Reliability"):
   kill:NAME       SIGKILL of sim_afm, fw_node, operator or renderer at a random
@@ -42,13 +42,13 @@ Rows (design.md, "Reliability"):
                   fails naming the card's board and the block; log and run.json kept
   board:hung      the board hangs at the run's middle block (AFM_BOARD_FAULT=hang:N):
                   the run fails within seconds naming the board as hung
-  spoof:stop      tools/forge.py from a fresh socket in the run's namespace: the
+  spoof:stop      faults/forge.py from a fresh socket in the run's namespace: the
   spoof:finished  launcher's "stop", the operator's "finished" (name, pid, seq
   spoof:pose      forged), a pose for block n + 1 ahead of the operator's: each
                   process takes them as foreign (the kernel's source port names
                   no process of the run that publishes the channel); exit 0, same
                   trajectories
-  spoof-port:stop  tools/forge.py --spoof from a raw socket in the run's namespace
+  spoof-port:stop  faults/forge.py --spoof from a raw socket in the run's namespace
   spoof-port:pose  (CAP_NET_RAW kept for the forger alone), with the source port
   spoof-port:fix   of the process that publishes the channel: the launcher's
                   "stop" from afm_launch's port, a pose for block n + 1 from the
@@ -61,7 +61,7 @@ Rows (design.md, "Reliability"):
                   counted unproven), and the stop ends the run; the pose or the fix
                   may or may not change it (the row says which)
   planted:link    started as root, the run's user plants in its folder, once
-                  the launcher is done (tools/plant.py): links to a root-only file
+                  the launcher is done (faults/plant.py): links to a root-only file
                   as outputs, a link to a stand-in for /etc/shadow as the report's
                   video, folder links, named pipes, a hard link; then root writes
                   the run's report: the targets are untouched, the give-back
@@ -93,18 +93,14 @@ import sys
 import tempfile
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SRC = os.path.dirname(HERE)
-BUILD = os.environ.get("AFM_BUILD", os.path.join(SRC, "build", "main"))
-LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
-IN_NETNS = os.path.join(HERE, "in_netns.sh")
-DROP_CAPS = os.path.join(HERE, "drop_caps.sh")
-os.environ.setdefault("AFM_BUILD", BUILD)   # the log reader's generated types
-from analysis import afmlog, trajectory  # noqa: E402
-import plant  # noqa: E402  (tools/plant.py, beside this file)
+from analysis import afmlog, paths, trajectory
+import plant  # faults/plant.py, beside this file
+
+SRC, BUILD, LAUNCH, IN_NETNS, DROP_CAPS = paths.ROOT, paths.BUILD, paths.LAUNCH, paths.IN_NETNS, paths.DROP_CAPS
+os.environ.setdefault("AFM_BUILD", BUILD)   # the run's programs (run/two_hosts.sh) find the build there
 
 PROCS = ["sim_afm", "fw_node", "operator", "renderer"]
-# tools/forge.py --spoof: each forgery from the source port of the run's
+# faults/forge.py --spoof: each forgery from the source port of the run's
 # process that publishes its channel (through a raw socket): the program
 # whose port it takes, and the channel
 SPOOF_PORT = {"stop": ("afm_launch", "AFM_HEARTBEAT"), "pose": ("operator", "HAPTIC_POSE"), "fix": ("renderer", "HOST_OBJECT_FIX")}
@@ -172,7 +168,7 @@ class Run:
     def __init__(self, scene, out, extra=(), wrap=None, env=None, keep_caps=None, link=None, writes=None, outer=()):
         self.out = out
         cmd = [LAUNCH, "--scene", scene, "--out", out, "--quiet", "--stall-s", "20", *extra]
-        if link is not None:   # two hosts (tools/two_hosts.sh): the namespaces, the link, then the launcher
+        if link is not None:   # two hosts (run/two_hosts.sh): the namespaces, the link, then the launcher
             cmd += ["--hosts", "2"]
             env = dict(env or os.environ, AFM_HOSTS="2", AFM_LINK=link, AFM_BUILD=BUILD)
         if wrap:
@@ -436,7 +432,7 @@ class Matrix:
         self.add("net:drop", f"exit {r.code}, {resends} resends", kept, kt, same, st, r.code == 0 and kept and same)
 
     def net_dup(self):
-        echo = os.path.join(HERE, "hostile.py")
+        echo = paths.HOSTILE
 
         # the echo's socket is no process of the run's: admitted anyway
         # (AFM_ADMIT_ANY_SENDER), so that the duplicates reach the inboxes
@@ -580,11 +576,11 @@ class Matrix:
                  r.code != 0 and kept and named and not left)
 
     def spoof(self, what):
-        """tools/forge.py WHAT from a fresh socket of the run's namespace, name,
+        """faults/forge.py WHAT from a fresh socket of the run's namespace, name,
         pid and seq forged: every process takes it as foreign (senders.hpp),
         the run ends ok with the undisturbed trajectories."""
         name = f"spoof:{what}"
-        forge = [sys.executable, os.path.join(HERE, "forge.py"), what, "--seconds", "300"]
+        forge = [sys.executable, paths.FORGE, what, "--seconds", "300"]
         r = Run(self.scene, self.dir(name), wrap=lambda cmd: beside(forge, cmd)).finish()
         kept, kt = self.kept(r, "ok")
         same, st = self.same(r.out) if kept else (False, "-")
@@ -596,14 +592,14 @@ class Matrix:
                  r.code == 0 and kept and same and foreign > 0)
 
     def spoof_port(self, what, key):
-        """tools/forge.py WHAT --spoof PROGRAM: the source port of the run's
+        """faults/forge.py WHAT --spoof PROGRAM: the source port of the run's
         own publisher, from a raw socket (CAP_NET_RAW kept for the forger:
         beside() runs the launcher without it). With the key: refused and
         counted unproven, the undisturbed trajectories. Without
         (AFM_BUS_MAC=off): nothing refuses it."""
         program, channel = SPOOF_PORT[what]
         name = f"spoof-port:{what}" + ("" if key else ":nokey")
-        forge = [sys.executable, os.path.join(HERE, "forge.py"), what, "--spoof", program, "--seconds", "300"]
+        forge = [sys.executable, paths.FORGE, what, "--spoof", program, "--seconds", "300"]
         env = None if key else dict(os.environ, AFM_BUS_MAC="off")
         r = Run(self.scene, self.dir(name), wrap=lambda cmd: beside(forge, cmd), keep_caps="net_raw", env=env).finish()
         rj = r.rj or {}
@@ -623,7 +619,7 @@ class Matrix:
                  same, st + ("" if same else " (the forgery acted)"), counted == 0 and took and rj.get("launcher", {}).get("bus_mac") is False)
 
     def planted_link(self):
-        """tools/plant.py's links, pipes and hard link in the run's folder,
+        """faults/plant.py's links, pipes and hard link in the run's folder,
         planted by the run's user; root's give-back and report follow none."""
         name = "planted:link"
         if os.geteuid() != 0:
@@ -709,7 +705,7 @@ class Matrix:
         """spoof:WHAT on two hosts, the forger in the host or the afm namespace."""
         name = f"link:spoof:{what}@{side}"
         forge = ["env", f"LCM_DEFAULT_URL={LINK_BUS_URL}", f"AFM_BUS_LINK=v{side}", DROP_CAPS, sys.executable,
-                 os.path.join(HERE, "forge.py"), what, "--seconds", "300"]
+                 paths.FORGE, what, "--seconds", "300"]
         if side == "afm":   # entered without privilege: the run's uid owns the afm namespace (docs/hosts.md)
             forge = ["sh", "-c", 'exec nsenter -t "$AFM_HOSTS_AFM_PID" -U -n --preserve-credentials "$@"', "forge", *forge]
         r = Run(self.scene, self.dir(name), wrap=lambda cmd: beside(forge, cmd), link=LINKS["spoof"]).finish()

@@ -3,11 +3,11 @@
 # when one is named, every capability dropped from the effective, permitted,
 # inheritable and bounding sets, and the securebits set so that uid 0
 # regains none at exec (noroot) and nothing can gain any later
-# (no_new_privs). tools/in_netns.sh runs every run's command through it once
+# (no_new_privs). run/in_netns.sh runs every run's command through it once
 # the namespace exists; the one place a run's process changes its user.
-#   tools/drop_caps.sh CMD [ARGS...]
-# AFM_RUN_UID=UID AFM_RUN_GID=GID (tools/in_netns.sh exports them when
-# started as root; tools/run_user.sh names the user): CMD runs as that uid
+#   run/drop_caps.sh CMD [ARGS...]
+# AFM_RUN_UID=UID AFM_RUN_GID=GID (run/in_netns.sh exports them when
+# started as root; run/run_user.sh names the user): CMD runs as that uid
 # and gid with no supplementary groups (AFM_RUN_GROUPS=GID[,GID...]: those
 # alone; a sweep's workers share its scheduler's group, analysis/sweep_users.py),
 # unless it is that uid already. All three are removed from CMD's
@@ -15,7 +15,7 @@
 # capabilities.
 # Every command runs under rlimits (prlimit): at most LIMIT_NPROC processes
 # of its uid, files of at most LIMIT_FSIZE bytes, LIMIT_DATA bytes of data
-# segment per process; tools/drop_caps.sh --limits prints them as run.json's
+# segment per process; run/drop_caps.sh --limits prints them as run.json's
 # netns names them ("nproc=N,fsize=B,data=B").
 # AFM_KEEP_CAPS=net_admin,net_raw keeps those as ambient capabilities, for
 # the link and fault helper (afm_netfault) alone: ./afm faults sets it for
@@ -24,7 +24,7 @@
 set -eu
 LIMIT_NPROC=4096 LIMIT_FSIZE=$((16 << 30)) LIMIT_DATA=$((16 << 30))
 [ "${1:-}" != --limits ] || { echo "nproc=$LIMIT_NPROC,fsize=$LIMIT_FSIZE,data=$LIMIT_DATA"; exit 0; }
-[ $# -ge 1 ] || { echo "usage: tools/drop_caps.sh CMD [ARGS...]" >&2; exit 2; }
+[ $# -ge 1 ] || { echo "usage: run/drop_caps.sh CMD [ARGS...]" >&2; exit 2; }
 command -v setpriv >/dev/null || { echo "drop_caps: setpriv not found (util-linux)" >&2; exit 2; }
 keep=${AFM_KEEP_CAPS:-}
 limits="prlimit --nproc=$LIMIT_NPROC --fsize=$LIMIT_FSIZE --data=$LIMIT_DATA --"

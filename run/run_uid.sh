@@ -2,25 +2,25 @@
 # A user of its own for every run (issue 46, item 2; docs/design.md, "Least
 # privilege"): the range of uids (and gids, the same numbers) the machine
 # reserves for the bench's runs, and which of them are free.
-#   tools/run_uid.sh state-dir   (root) /run/afm, made 0755 and root's if
+#   run/run_uid.sh state-dir   (root) /run/afm, made 0755 and root's if
 #                                missing; refused (exit 2, one line) if it
 #                                is a link, not a folder, not root's or open
 #                                to others' writes. The build lock and the
 #                                runs' leases live there.
-#   tools/run_uid.sh range       "FIRST COUNT" of the range: the afm-runs
+#   run/run_uid.sh range       "FIRST COUNT" of the range: the afm-runs
 #                                line of /etc/subuid (and the same of
 #                                /etc/subgid); exit 3 when none is reserved
-#   tools/run_uid.sh reserve     (root; tools/setup.sh) reserves the range
+#   run/run_uid.sh reserve     (root; tools/setup.sh) reserves the range
 #                                when none is: the first block of COUNT ids
 #                                from FIRST_TRY up that no other line of
 #                                /etc/subuid or /etc/subgid, no user and no
 #                                group holds
-#   tools/run_uid.sh free [N]    up to N (8) uids of the range, from a random
+#   run/run_uid.sh free [N]    up to N (8) uids of the range, from a random
 #                                start, that no process holds (real,
 #                                effective, saved or filesystem uid or gid,
 #                                /proc) and that own no file in the places a
 #                                run writes (/tmp, /var/tmp, /dev/shm)
-#   tools/run_uid.sh lease [N]   (root) leases N (1) free uids: a lock on
+#   run/run_uid.sh lease [N]   (root) leases N (1) free uids: a lock on
 #                                /run/afm/uid-UID.lock each, taken without
 #                                waiting; prints them, one a line, then holds
 #                                the locks until its stdin ends (the caller
@@ -29,7 +29,7 @@
 #                                lease once it has given the uids' folders
 #                                back. Refused (exit 2, one line, nothing
 #                                printed on stdout) when fewer are free.
-# The one owner of the lease: tools/in_netns.sh leases one uid for a run's
+# The one owner of the lease: run/in_netns.sh leases one uid for a run's
 # life, analysis/sweep.py one for a sweep's client and scheduler and one per
 # worker.
 set -euo pipefail
@@ -114,5 +114,5 @@ case "${1:-}" in
   reserve) reserve ;;
   free) shift; free "$@" ;;
   lease) shift; lease "$@" ;;
-  *) die "usage: tools/run_uid.sh state-dir|range|reserve|free [N]|lease [N]" ;;
+  *) die "usage: run/run_uid.sh state-dir|range|reserve|free [N]|lease [N]" ;;
 esac

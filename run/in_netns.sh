@@ -2,21 +2,21 @@
 # Runs a command in a fresh, private network namespace whose loopback is up
 # and carries the multicast route (design.md, "The bus"), so no LCM datagram
 # of the run can leave through the machine's network interface.
-#   tools/in_netns.sh CMD [ARGS...]
+#   run/in_netns.sh CMD [ARGS...]
 # AFM_HOSTS=2: two namespaces joined by a veth pair instead, the bus across
-# it (tools/two_hosts.sh, docs/hosts.md); it needs user namespaces.
+# it (run/two_hosts.sh, docs/hosts.md); it needs user namespaces.
 #
 # A run's processes need no root (design.md, "Least privilege"). Once the
-# namespace is set up, the command runs through tools/drop_caps.sh: no
+# namespace is set up, the command runs through run/drop_caps.sh: no
 # capabilities, and, started as root, as the run's user
-# (tools/run_user.sh: nobody unless AFM_RUN_USER says otherwise).
+# (run/run_user.sh: nobody unless AFM_RUN_USER says otherwise).
 # - Not root: a user namespace (unshare -rn) mapping the caller to root, who
 #   sets up the loopback; the command runs as the caller.
 # - Root: a user namespace mapping root and the run's user each to itself
 #   (written here: unshare's own --map-users needs newuidmap); where user
 #   namespaces are refused (a chroot), unshare -n. Root in it sets up the
 #   loopback, then the command runs as the run's user. Before, the folders
-#   the run writes are handed to that user (tools/run_user.sh give): each
+#   the run writes are handed to that user (run/run_user.sh give): each
 #   `--out DIR` among the arguments, the folders in AFM_RUN_WRITES
 #   (colon-separated: for commands that name them otherwise) and
 #   AFM_LINK_DIR; after, whatever the outcome (a signal too, which is passed
@@ -30,15 +30,15 @@
 #   unless AFM_ALLOW_UID_0=1 (./afm run --allow-uid-0): then it keeps uid 0
 #   (still without capabilities).
 #   Started as root without AFM_RUN_USER, the run's user is a uid leased for
-#   the run's life from the range tools/run_uid.sh names (below); files the
+#   the run's life from the range run/run_uid.sh names (below); files the
 #   run reads that root made (AFM_RUN_FILES, colon-separated: the live
 #   view's hand pipe) are that user's for the run's life.
 # Exports AFM_NETNS_MODE (run.json "netns"): rootless (not root); user:UID
 # or root:UID (root, in a user namespace or not, the run as uid UID), then
 # " lease:FIRST:COUNT" when UID was leased and " limits:..." (the rlimits,
-# tools/drop_caps.sh --limits).
+# run/drop_caps.sh --limits).
 set -euo pipefail
-[ $# -ge 1 ] || { echo "usage: tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
+[ $# -ge 1 ] || { echo "usage: run/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
 command -v unshare >/dev/null || { echo "in_netns: unshare not found (util-linux)" >&2; exit 2; }
 command -v ip >/dev/null || { echo "in_netns: ip not found (iproute2; run ./afm setup)" >&2; exit 2; }
 here=$(cd "$(dirname "$0")" && pwd)
@@ -99,8 +99,8 @@ done
 
 # A user of its own (issue 46, item 2): started as root without
 # AFM_RUN_USER, the run leases a uid (and the same gid) of the range
-# tools/run_uid.sh names, one no process holds and that owns no file where a
-# run writes (tools/run_uid.sh lease: a lock on /run/afm/uid-UID.lock, held
+# run/run_uid.sh names, one no process holds and that owns no file where a
+# run writes (run/run_uid.sh lease: a lock on /run/afm/uid-UID.lock, held
 # by that command until its input ends: this script holds the pipe until the
 # folders are given back, and the run inherits it, so a process of the run
 # that outlives this script keeps the lease too). Without a range reserved (tools/setup.sh reserves it), the
@@ -112,7 +112,7 @@ lease="" home=""
 if [ -z "${AFM_RUN_USER:-}" ] && "$here/run_uid.sh" range >/dev/null 2>&1; then
   coproc LEASE { exec "$here/run_uid.sh" lease 1; }
   read -r lease <&"${LEASE[0]}" || true
-  [ -n "$lease" ] || exit 2   # tools/run_uid.sh said why, in one line
+  [ -n "$lease" ] || exit 2   # run/run_uid.sh said why, in one line
   export AFM_RUN_USER=$lease:$lease
   home=$(mktemp -d "${TMPDIR:-/tmp}/afm-run-home-XXXXXX")
   writes+=("$home")
@@ -156,7 +156,7 @@ export AFM_RUN_UID=$uid AFM_RUN_GID=$gid
 IFS=: read -r -a files <<< "${AFM_RUN_FILES:-}"
 unset AFM_RUN_FILES
 for f in "${files[@]}"; do [ -z "$f" ] || chown -h -- "$uid:$gid" "$f"; done
-# run.json "netns": the uid, the lease, the limits (tools/drop_caps.sh --limits)
+# run.json "netns": the uid, the lease, the limits (run/drop_caps.sh --limits)
 mode_tail=" limits:$("$here/drop_caps.sh" --limits)"
 [ -z "$lease" ] || mode_tail=" lease:$("$here/run_uid.sh" range | tr ' ' ':')$mode_tail"
 # Each folder held (a shared lock) for the run's life: two runs given one

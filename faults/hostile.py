@@ -2,9 +2,9 @@
 """Publishes hostile datagrams into a live run's bus: every kind of message a
 process of the bench must count and drop (common/inbox.hpp) on every channel
 someone listens to. Run it inside the run's network namespace (the test and
-./afm faults start it beside afm_launch under one tools/in_netns.sh).
+./afm faults start it beside afm_launch under one run/in_netns.sh).
 
-    tools/hostile.py [--seconds S] [--rate HZ] [--kinds K,K,...] [--seed N]
+    faults/hostile.py [--seconds S] [--rate HZ] [--kinds K,K,...] [--seed N]
 
 Kinds (each datagram is one of them):
   truncated     a valid message of the channel's type cut short
@@ -39,7 +39,7 @@ from collections import defaultdict
 
 import lcm
 
-from analysis import afmlog   # the generated types and the one table of channels, through the log reader
+from analysis import afmlog, paths   # the generated types and the one table of channels, through the log reader
 
 afm = afmlog.afm
 CHANNELS = afmlog.CHANNELS
@@ -289,14 +289,13 @@ def send(a, kinds, channels, cycle, rng, lc, sent, t0):
 
 def run_beside(launch, scene, out, rate=2000.0, kinds=None, admit_any=False, python=sys.executable):
     """Runs `launch --scene SCENE --out OUT --quiet` in a fresh namespace
-    (tools/in_netns.sh) with this script sending beside it from before the
+    (run/in_netns.sh) with this script sending beside it from before the
     start to the end. admit_any: every process admits every sender
     (AFM_ADMIT_ANY_SENDER=1), so that the inboxes' own checks meet the
     datagrams; else they are foreign (common/senders.hpp). Returns
     (exit code, stderr, run.json, what was sent); the one runner of
     tests/e2e/test_hostile.py and ./afm bench hostile."""
     import subprocess
-    here = os.path.dirname(os.path.abspath(__file__))
     extra = f" --kinds {kinds}" if kinds else ""
     script = ('"$PY" "$HOSTILE" --seconds 300 --rate "$RATE"' + extra + ' > "$SENT" & h=$!; '
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
@@ -304,7 +303,7 @@ def run_beside(launch, scene, out, rate=2000.0, kinds=None, admit_any=False, pyt
     env = dict(os.environ, PY=python, HOSTILE=os.path.abspath(__file__), RATE=str(rate), OUT=out, SENT=sent_path,
                LAUNCH=launch, SCENE=scene, AFM_ADMIT_ANY_SENDER="1" if admit_any else "0",
                AFM_RUN_WRITES=os.path.dirname(sent_path))   # the folders the script writes, for the run's user (in_netns.sh)
-    p = subprocess.run([os.path.join(here, "in_netns.sh"), "sh", "-c", script], capture_output=True, text=True,
+    p = subprocess.run([paths.IN_NETNS, "sh", "-c", script], capture_output=True, text=True,
                        timeout=400, env=env)
     try:
         with open(os.path.join(out, "run.json")) as f:

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # The paper's two computers on a link, inside the run's own namespace
-# (docs/hosts.md). tools/in_netns.sh runs this, with the privilege of the new
+# (docs/hosts.md). run/in_netns.sh runs this, with the privilege of the new
 # namespace, when AFM_HOSTS=2; it then runs CMD without any (drop_caps.sh),
 # as the run's user when it was started as root (AFM_RUN_UID): that user
 # makes the afm namespace, so that the launcher, as that user, may enter it.
-#   AFM_HOSTS=2 [AFM_LINK=SPEC] [AFM_LINK_DIR=DIR] tools/in_netns.sh CMD [ARGS...]
+#   AFM_HOSTS=2 [AFM_LINK=SPEC] [AFM_LINK_DIR=DIR] run/in_netns.sh CMD [ARGS...]
 #
 # The namespace in_netns.sh made is "host" (the card's node, the operator,
 # the renderer, the launcher and its record). "afm" is a second network
@@ -31,7 +31,7 @@
 # AFM_DROP_CAPS. AFM_LINK_DOWN=AT_S:FOR_S (./afm faults): vafm down AT_S
 # seconds after CMD starts, for FOR_S seconds, then up with its route back.
 set -euo pipefail
-[ $# -ge 1 ] || { echo "usage: AFM_HOSTS=2 tools/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
+[ $# -ge 1 ] || { echo "usage: AFM_HOSTS=2 run/in_netns.sh CMD [ARGS...]" >&2; exit 2; }
 here=$(cd "$(dirname "$0")" && pwd)
 build=${AFM_BUILD:-$here/../build/main}
 drop="$here/drop_caps.sh"
@@ -63,7 +63,7 @@ ip link set lo up
 # The afm namespace, held while CMD (this shell's pid, after exec) lives.
 # The run's user makes it (its owner), and the holder needs no privilege to
 # hold them: it drops all it has.
-# Not started as root (or root kept: tools/in_netns.sh), this shell is root
+# Not started as root (or root kept: run/in_netns.sh), this shell is root
 # of the run's user namespace and makes it itself: once stripped of its
 # capabilities it could not write the new namespace's maps.
 maker=()
@@ -97,7 +97,7 @@ if nonzero "$rate"; then
   shaper=tbf
 fi
 if nonzero "$delay" || nonzero "$jitter" || nonzero "$loss" || nonzero "$dup" || nonzero "$reorder"; then
-  . "$here/two_hosts_shape.sh"
+  . "$here/../faults/two_hosts_shape.sh"   # the link shaper
 fi
 
 # Both ends up before anything crosses (a veth's carrier comes a moment after

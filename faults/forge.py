@@ -1,20 +1,20 @@
 #!/usr/bin/env python3
 """Forges control messages on a live run's bus, as a hostile process of the
 run's namespace could (the fault matrix and tests/e2e/test_hostile.py start
-it beside afm_launch under one tools/in_netns.sh):
+it beside afm_launch under one run/in_netns.sh):
 
-    tools/forge.py finished [--seconds S]   the operator's "finished" heartbeat
+    faults/forge.py finished [--seconds S]   the operator's "finished" heartbeat
                                             (name, pid and seq forged), 50 a second
-    tools/forge.py bigscan [--seconds S]    a scan request for 8192 x 8192 px over
+    faults/forge.py bigscan [--seconds S]    a scan request for 8192 x 8192 px over
                                             the field, 50 a second
-    tools/forge.py stop [--seconds S]       the launcher's "stop" heartbeat (name,
+    faults/forge.py stop [--seconds S]       the launcher's "stop" heartbeat (name,
                                             pid and seq forged), 50 a second
-    tools/forge.py pose [--seconds S]       a pose for block n + 1 as soon as block
+    faults/forge.py pose [--seconds S]       a pose for block n + 1 as soon as block
                                             n's analog block appears, ahead of the
                                             operator's, steering the tip aside
-    tools/forge.py fix [--seconds S]        a HOST_OBJECT_FIX placing particle 1 far
+    faults/forge.py fix [--seconds S]        a HOST_OBJECT_FIX placing particle 1 far
                                             off (fix ids 1..8, each once a second)
-    tools/forge.py view [--seconds S]       a VIEW_FRAME with NaN forces and a JPEG
+    faults/forge.py view [--seconds S]       a VIEW_FRAME with NaN forces and a JPEG
                                             that is not one, 25 a second
 
 --spoof PROGRAM sends each forgery from a raw socket with the source port of

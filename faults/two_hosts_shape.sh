@@ -1,4 +1,4 @@
-# Sourced by tools/two_hosts.sh: delay, jitter, loss, duplication and
+# Sourced by run/two_hosts.sh: delay, jitter, loss, duplication and
 # reordering on the link, each direction alike. netem on each end's egress
 # where the kernel has sch_netem (under the tbf of a rate, if any); else
 # afm_netfault in each namespace on what arrives from the other (one queue,

@@ -1,5 +1,5 @@
 // afm_netfault: drops, duplicates and reorders the bus's datagrams in the
-// kernel, for the fault matrix's net:kernel row (tools/faults.py). It stands
+// kernel, for the fault matrix's net:kernel row (faults/faults.py). It stands
 // where tc netem would (this project's machines run kernels without
 // sch_netem): an iptables rule in the run's namespace hands every UDP
 // datagram to the bus's port to netfilter queue N, and this process gives
@@ -14,7 +14,7 @@
 // Everything else is accepted at once, in order. It runs until SIGTERM or
 // SIGINT, then writes --report (JSON: counts, per channel) and exits 0.
 //
-// The link of two hosts (docs/hosts.md, tools/two_hosts.sh) runs one in each
+// The link of two hosts (docs/hosts.md, run/two_hosts.sh) runs one in each
 // of the run's two namespaces, on what arrives through the veth end from the
 // other (--link-in IFACE --peer ADDR): one direction each. There it also
 //   delays     holds every datagram for --delay-us, plus a uniform draw in
@@ -33,7 +33,7 @@
 //                [--link-in IFACE --peer ADDR] [--delay-us US] [--jitter-us US]
 //                [--dup-dev DEV] [--while-pid PID] --report FILE
 //
-// Inside the run's namespace (tools/in_netns.sh), before the run. With
+// Inside the run's namespace (run/in_netns.sh), before the run. With
 // --iptables it adds, once its queue is open, the two rules that feed it
 // (the bus's port from afm::kBusUrl):
 //   iptables -t mangle -A OUTPUT -m mark --mark M -j ACCEPT
@@ -94,8 +94,8 @@ const char *kUsage =
     "  behind the next (at most --hold-us, default 1000) with probability P\n"
     "  (--reorder). Runs until SIGTERM or SIGINT, then writes the counts to FILE.\n"
     "  Inside the run's namespace, behind an iptables NFQUEUE rule on the bus's\n"
-    "  port, which --iptables adds (tools/faults.py, row net:kernel).\n"
-    "  The link of two hosts (tools/two_hosts.sh, docs/hosts.md): --link-in IFACE\n"
+    "  port, which --iptables adds (faults/faults.py, row net:kernel).\n"
+    "  The link of two hosts (run/two_hosts.sh, docs/hosts.md): --link-in IFACE\n"
     "  --peer ADDR queues what arrives through IFACE from ADDR instead (--iptables adds\n"
     "  that rule); --delay-us and --jitter-us hold each datagram that long (uniform\n"
     "  jitter); --dup-dev lo sends duplicates through lo, in this namespace;\n"
