@@ -5,7 +5,7 @@
  * and a double-precision reference (bench_ref.c). Host only; a benchmark,
  * not a test: it prints numbers and asserts nothing.
  *
- * Output is line based for tools/bench_firmware.sh, which adds callgrind's
+ * Output is line based for bench/bench_firmware.sh, which adds callgrind's
  * instruction counts and prints the table:
  *   input  key=value ...            the sweep
  *   row    path=NAME ns=... worst_pn=... rms_pn=... worst_pct=...
@@ -324,7 +324,7 @@ static void usage(FILE *f)
             "  --path NAME  run only NAME's loop once (q15, fw32, ref, ref_analog), for\n"
             "               valgrind --toggle-collect=bench_loop_*\n"
             "  --features   print whether callgrind client requests are compiled in\n"
-            "Prints 'input', 'row' and 'note' lines; tools/bench_firmware.sh makes the table.\n",
+            "Prints 'input', 'row' and 'note' lines; bench/bench_firmware.sh makes the table.\n",
             BENCH_N_DEFAULT, BENCH_REPEATS_DEFAULT, BENCH_BLOCK_DEFAULT);
 }
 
