@@ -33,9 +33,10 @@ namespace {
 
 std::string dir;
 
-// A valid scene every row starts from: a 20 um field about frame A's origin.
+// A valid scene every row starts from: a 20 um field about frame A's origin,
+// the path starting in a corner, clear of the objects the rows place.
 const char *kBase = "name: ranges\nseed: 1\nduration_s: 2\nsample: {substrate: glass, field_nm: 20000}\n"
-                    "operator: {path_nm: [[0, 0]]}\n";
+                    "operator: {path_nm: [[-9000, 9000]]}\n";
 
 // Two particles whose ids are the ends of an id's range.
 #define AFM_ID_ENDS "particles: [{id: 0, x_nm: -3000, y_nm: 0, radius_nm: 50}, {id: 1000000, x_nm: 3000, y_nm: 0, radius_nm: 50}]"
@@ -54,7 +55,7 @@ const struct { const char *prefix, *yaml; } kSetups[] = {
     {"objects.wires[]", "objects: {wires: [{id: 1, x0_nm: -6000, y0_nm: 0, x1_nm: 6000, y1_nm: 0, diameter_nm: 100}]}"},
     {"objects.landmarks[]", "objects: {landmarks: [{id: 1, x_nm: 0, y_nm: 0}]}"},
     {"objects.scatter", "objects: {scatter: {count: 1, region_nm: [-5000, -5000, 5000, 5000]}}"},
-    {"objects.scatter.count", "objects: {scatter: {count: 1}}"},
+    {"objects.scatter.count", "objects: {scatter: {count: 1, region_nm: [-9800, -9800, 9800, 7000]}}"},   // clear of the path's start
     {"objects.targets[]", "objects: {" AFM_ID_ENDS ", targets: [{x_nm: 0, y_nm: 0, particle: 0}]}\noperator: {plan: {}}"},
     {"objects.targets[][", "objects: {targets: [[0, 0]]}\noperator: {plan: {}}"},
     {"objects.targets.", "objects: {targets: {text: A, center_nm: [0, 0]}}\noperator: {plan: {}}"},
