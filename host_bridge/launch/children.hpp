@@ -1,6 +1,7 @@
-// The launcher's children (launch/launch.hpp): starting one (spawn), reaping
-// it with the kernel's accounting (Child), following the heartbeats of the
-// run's processes (Progress), and the tail of a child's log.
+// The launcher's children (supervisor.hpp starts them): starting one
+// (spawn), reaping it with the kernel's accounting (Child), the CPU of a
+// process tree, sockets on the bus's port, and the tail of a child's log.
+// (Progress, the heartbeats of the run's processes, is progress.hpp's.)
 #pragma once
 
 #include <sys/resource.h>
@@ -17,6 +18,7 @@
 #include "bus_key.hpp"
 #include "inbox.hpp"
 #include "process.hpp"
+#include "progress.hpp"
 
 namespace afm::launch {
 
@@ -52,7 +54,7 @@ struct Child {
 // environment, at nice_level, pinned to `cpus` (none: where the kernel puts
 // it). entry.ns_pid > 0: in the user namespace of that process first, and
 // (entry.net) its network namespace too (a two-host run, hosts.hpp);
-// argv[0] must then drop what entering gives (tools/drop_caps.sh).
+// argv[0] must then drop what entering gives (run/drop_caps.sh).
 // The child is bound to the launcher (process.hpp, bind_to_parent: SIGKILL
 // when the launcher ends, however it ends) and finds the launcher's pid in
 // kLauncherPidEnv, to bind itself again after drop_caps.sh.
@@ -67,29 +69,6 @@ struct Entry {
 constexpr int kPassedFd = kBusKeyFd + 1;
 pid_t spawn(const std::vector<std::string> &argv, const std::string &log_path, const std::vector<std::string> &env_add,
             int nice_level, const std::vector<int> &cpus, Entry entry = {}, int key_fd = -1, int pass_fd = -1);
-
-struct Progress {
-    // The processes whose heartbeats the launcher follows (the run's own,
-    // set by Launch); another name is refused (out_of_range), so that
-    // garbage cannot grow the tables.
-    std::set<std::string> names;
-    std::map<std::string, heartbeat_t> last;
-    std::map<std::string, std::chrono::steady_clock::time_point> progress_at;
-    Reject on_hb(const heartbeat_t &m)
-    {
-        if (!names.count(m.name)) return Reject::out_of_range;
-        auto it = last.find(m.name);
-        if (it == last.end() || it->second.seq != m.seq || it->second.state != m.state)
-            progress_at[m.name] = std::chrono::steady_clock::now();
-        last[m.name] = m;
-        return Reject::none;
-    }
-    bool is(const std::string &name, RunState state) const
-    {
-        auto it = last.find(name);
-        return it != last.end() && it->second.state == state_text(state);
-    }
-};
 
 // CPU time (s) on a CPU so far of process `root` and of every descendant
 // alive now (QEMU under fw_node, ffmpeg under the renderer), all threads:

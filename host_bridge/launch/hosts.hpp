@@ -1,5 +1,5 @@
 // Hosts: the run on one network namespace, or on the paper's two computers
-// (--hosts 2, docs/hosts.md). tools/two_hosts.sh makes the second namespace
+// (--hosts 2, docs/hosts.md). run/two_hosts.sh makes the second namespace
 // ("afm", held by a process whose pid it exports), the veth pair, the link's
 // shapers and its probe, then runs the launcher in the first ("host") with
 // no privilege. This module reads what it exported, says where each process
@@ -7,7 +7,7 @@
 // the launcher with its record in "host"). The launcher starts every
 // process in the afm namespace's user namespace (spawn's Entry: the
 // launcher's uid owns it, so entering needs no privilege; each process then
-// drops what that gives through tools/drop_caps.sh), sim_afm in its network
+// drops what that gives through run/drop_caps.sh), sim_afm in its network
 // namespace too. It stops the shapers at the end so that they write their
 // counts, and writes run.json's "hosts".
 #pragma once
@@ -24,15 +24,15 @@ namespace afm::launch {
 struct Hosts {
     int count = 1;
     int afm_ns_pid = -1;          // the holder of the afm namespace (/proc/PID/ns/{user,net})
-    std::string drop_caps;        // tools/drop_caps.sh
-    std::string link_dir;         // the link's probe and shaper reports (tools/two_hosts.sh)
+    std::string drop_caps;        // run/drop_caps.sh
+    std::string link_dir;         // the link's probe and shaper reports (run/two_hosts.sh)
     bool link_dir_is_temporary = false;   // made for this run alone: removed once read
     std::string shaper = "none";  // what shaped the link: none, tbf, nfqueue, netem (+tbf)
     std::string asked;            // the link asked: delay=MS,jitter=MS,loss=P,dup=P,reorder=P,rate=MBIT
     std::vector<pid_t> shapers;   // afm_netfault processes (SIGTERM: they write their reports)
     nlohmann::json shaper_reports = nlohmann::json::object();
 
-    // Reads what tools/two_hosts.sh exported for `count` hosts; "" or why
+    // Reads what run/two_hosts.sh exported for `count` hosts; "" or why
     // the run cannot go on (count 2 outside two namespaces).
     std::string from_env(int count);
 

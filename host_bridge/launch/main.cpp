@@ -1,5 +1,7 @@
 // afm_launch: runs one scene (launch.hpp: Launch, and the steps below in
-// order; children.hpp: its child processes).
+// order; options.hpp: the command line).
+#include <cstdio>
+
 #include "launch.hpp"
 
 int main(int argc, char **argv)
@@ -7,7 +9,10 @@ int main(int argc, char **argv)
     using namespace afm::launch;
 
     Options o;
-    if (const int code = parse_args(argc, argv, &o); code >= 0) return code;
+    const Parsed parsed = parse_args(argc, argv, &o);
+    std::fputs(parsed.out.c_str(), stdout);
+    std::fputs(parsed.err.c_str(), stderr);
+    if (parsed.code >= 0) return parsed.code;
     Launch run(o);
     if (const int code = run.check_scene(); code >= 0) return code;
     if (o.check_only) return run.check_out() < 0 ? 0 : 2;   // with --out: may a run take it
