@@ -27,7 +27,8 @@
 #                                closes the pipe, or dies). SIGINT, SIGTERM
 #                                and SIGHUP are ignored: the caller ends the
 #                                lease once it has given the uids' folders
-#                                back. Refused (exit 2, one line, nothing
+#                                back; the lock files are removed as it
+#                                ends. Refused (exit 2, one line, nothing
 #                                printed on stdout) when fewer are free.
 # The one owner of the lease: run/in_netns.sh leases one uid for a run's
 # life, analysis/sweep.py one for a sweep's client and scheduler and one per
@@ -99,13 +100,22 @@ lease() {
   for n in $(free $((want + 16))); do
     : >> "$state/uid-$n.lock"
     exec {fd}<"$state/uid-$n.lock"
-    if flock -n "$fd"; then got+=("$n"); [ ${#got[@]} -lt "$want" ] || break; else exec {fd}<&-; fi
+    # held, and still the file of that name (a lease that ended removes its
+    # file: a lock taken on the removed one leases nothing)
+    if flock -n "$fd" && [ "$(stat -L -c %i "/proc/self/fd/$fd")" = "$(stat -c %i -- "$state/uid-$n.lock" 2>/dev/null)" ]; then
+      got+=("$n"); [ ${#got[@]} -lt "$want" ] || break
+    else
+      exec {fd}<&-
+    fi
   done
   [ ${#got[@]} = "$want" ] || die "refused: $want uid(s) wanted, ${#got[@]} free in the range for runs ($(range)): every other one is leased, held by a process or owns a file in /tmp, /var/tmp or /dev/shm"
   trap '' INT TERM HUP
   printf '%s\n' "${got[@]}"
   exec >&-
   while IFS= read -r _; do :; done
+  # the lease ends: its files go while still held (so /run/afm keeps no
+  # file a lease per run), the locks with this process
+  for n in "${got[@]}"; do rm -f -- "$state/uid-$n.lock"; done
 }
 
 case "${1:-}" in

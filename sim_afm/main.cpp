@@ -31,6 +31,7 @@
 #include "objects_view.hpp"
 #include "placement.hpp"
 #include "process.hpp"
+#include "lockstep.hpp"
 #include "scene.hpp"
 #include "world.hpp"
 

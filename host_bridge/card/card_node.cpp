@@ -7,6 +7,7 @@ extern "C" {
 #include <stdexcept>
 
 #include "afm_channels.h"
+#include "lockstep.hpp"
 
 namespace afm {
 

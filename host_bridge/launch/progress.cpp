@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "lockstep.hpp"
 #include "scene.hpp"
 
 namespace afm::launch {

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "card_setup.hpp"
+#include "lockstep.hpp"
 
 namespace afm {
 

@@ -45,6 +45,7 @@
 #include "planner.hpp"
 #include "process.hpp"
 #include "scan_client.hpp"
+#include "lockstep.hpp"
 #include "scene.hpp"
 #include "turn_bench.hpp"
 

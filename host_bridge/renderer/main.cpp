@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "lockstep.hpp"
 #include "aside.hpp"
 #include "placement.hpp"
 #include "renderer.hpp"

@@ -60,6 +60,7 @@
 #include "process.hpp"
 #include "png_file.hpp"
 #include "scan_client.hpp"
+#include "lockstep.hpp"
 #include "scene.hpp"
 #include "fw_drift.h"
 

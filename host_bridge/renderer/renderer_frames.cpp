@@ -1,6 +1,7 @@
 // The renderer's frames (renderer.hpp): the card's states taken by block,
 // the model set, frames drawn, written, offered and announced, the last
 // frame's fidelity check.
+#include "lockstep.hpp"
 #include "renderer.hpp"
 
 #include <algorithm>

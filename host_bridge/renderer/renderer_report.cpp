@@ -1,5 +1,6 @@
 // The renderer's account (renderer.hpp): the contact sheet, renderer_report.json, the
 // placement check, the heartbeats it answers.
+#include "lockstep.hpp"
 #include "renderer.hpp"
 
 #include <algorithm>

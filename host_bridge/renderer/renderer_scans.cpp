@@ -1,6 +1,7 @@
 // The renderer's scans (renderer.hpp): the full scans, a person's local
 // scans pasted into the display, the scene's local scans and the fixes they
 // send.
+#include "lockstep.hpp"
 #include "renderer.hpp"
 
 #include <algorithm>

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "placement.hpp"
+#include "lockstep.hpp"
 #include "scene.hpp"
 
 namespace {

@@ -6,6 +6,7 @@
 // the run's frames cut when the simulator says the run ends early.
 #include <lcm/lcm-cpp.hpp>
 
+#include "lockstep.hpp"
 #include "renderer.hpp"
 
 #include "../scene_text.hpp"
