@@ -263,13 +263,20 @@ std::string particle_key(const Scene &s, std::size_t i)
                       : "objects.scatter (particle id " + std::to_string(s.particles[i].id) + ")";
 }
 
+// A distance as the overlap and path-start refusals quote it: nm, one decimal.
+static std::string fmt(double v)
+{
+    char b[32];
+    std::snprintf(b, sizeof b, "%.1f", v);
+    return std::string(b);
+}
+
 // Two bodies cannot start in one place: particles that overlap or coincide,
 // a particle on a wire or a landmark, wires that touch or cross. The
 // scattered particles keep their gaps by construction; listed ones are
 // checked here, pairwise (at most kMaxListedParticles of them).
 void check_overlaps(const Reader &r, const Scene &s)
 {
-    auto fmt = [](double v) { char b[32]; std::snprintf(b, sizeof b, "%.1f", v); return std::string(b); };
     for (std::size_t i = 0; i < s.particles.size(); ++i) {
         const ParticleSpec &p = s.particles[i];
         for (std::size_t j = 0; j < i; ++j) {
@@ -311,7 +318,6 @@ void check_overlaps(const Reader &r, const Scene &s)
 void check_path_start(const Reader &r, const Scene &s)
 {
     if (!s.start_engaged() || s.op.path_nm.empty()) return;
-    auto fmt = [](double v) { char b[32]; std::snprintf(b, sizeof b, "%.1f", v); return std::string(b); };
     const Vec2 a = s.op.path_nm.front();
     const double R = s.probe.tip_radius_nm;
     const std::string key = "operator.path_nm[0]";
