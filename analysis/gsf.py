@@ -1,7 +1,7 @@
 """A reader of Gwyddion Simple Field (.gsf) files, written from the format's
 description (text header "Gwyddion Simple Field 1.0", "Key = value" lines,
 NUL padding to a multiple of 4 bytes, then XRes * YRes little-endian float32,
-row by row), independent of the bench's writer (host_bridge/image/display.cpp).
+row by row), independent of the bench's writer (host/image/display.cpp).
 
     from analysis import gsf
     header, z = gsf.read("runs/demo/scan_final.gsf")

@@ -4,8 +4,17 @@ import tempfile
 
 ROOT = os.environ.get("AFM_SOURCE") or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = os.environ.get("AFM_BUILD") or os.path.join(ROOT, "build", "main")
-LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
-REPLAY = os.path.join(BUILD, "host_bridge", "afm_replay")
+# host/'s programs, built into one folder (CMakeLists.txt's AFM_HOST_BIN)
+HOST_BIN = os.path.join(BUILD, "host")
+LAUNCH = os.path.join(HOST_BIN, "afm_launch")
+REPLAY = os.path.join(HOST_BIN, "afm_replay")
+REPLAY_PERTURBED = os.path.join(HOST_BIN, "afm_replay_perturbed")   # tests: a card with a perturbed gain
+FW_NODE = os.path.join(HOST_BIN, "fw_node")
+OPERATOR = os.path.join(HOST_BIN, "operator")
+RENDERER = os.path.join(HOST_BIN, "renderer")
+CALC = os.path.join(HOST_BIN, "calc", "afm_calc")
+MEDIA = os.path.join(HOST_BIN, "afm_media")          # tools/: a video's frame count
+NETFAULT = os.path.join(HOST_BIN, "afm_netfault")    # faults/: the kernel-level fault injector
 # run/: the namespace and privilege wrappers every run passes through
 RUN_DIR = os.path.join(ROOT, "run")
 IN_NETNS = os.path.join(RUN_DIR, "in_netns.sh")
@@ -25,9 +34,9 @@ ARM_BUILD = os.path.join(ROOT, "build", "arm")
 # point was measured with (resume reruns a point when any of them changed).
 RUN_PROGRAMS = [
     os.path.join(BUILD, "sim_afm", "sim_afm"),
-    os.path.join(BUILD, "host_bridge", "fw_node"),
-    os.path.join(BUILD, "host_bridge", "operator"),
-    os.path.join(BUILD, "host_bridge", "renderer"),
+    FW_NODE,
+    OPERATOR,
+    RENDERER,
     LAUNCH,
     REPLAY,
 ]

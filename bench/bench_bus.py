@@ -5,7 +5,7 @@
    run's log): one-way and round trip, median and p99
    (build/main/bench/host/bench_bus, bench/host/bench_bus.cpp), received
    as the bench's processes receive (a socket of their own, filtered to
-   their channels and read on their own thread: common/bus_tap.hpp) and,
+   their channels and read on their own thread: bus/bus_tap.hpp) and,
    for comparison, through liblcm's own receive thread.
 2. The floor of one lockstep block: the hops a block needs as the protocol
    stands, from those medians (below, FLOOR_PATHS). Twice, as the
@@ -197,7 +197,7 @@ def disk_probe(folder, files=100, size=12000):
 
 def one_run(scene, args, out, link=None):
     """One run (link: on two hosts over that --link SPEC)."""
-    exe = os.path.join(BUILD, "host_bridge", "afm_launch")
+    exe = paths.LAUNCH
     env = None
     if link is not None:
         args = [*args, "--hosts", "2"]
@@ -244,7 +244,7 @@ def one_run(scene, args, out, link=None):
 
 
 def mac_cost(run, blocks):
-    """The bus's MAC (common/bus_key.hpp) a block: what every process of the
+    """The bus's MAC (bus/bus_key.hpp) a block: what every process of the
     run spent signing what it published and checking what it received, from
     clock reads around that work alone (run.json: each process's
     rejected.proof_cost, the launcher's proof_cost), over the whole run, by
@@ -431,7 +431,7 @@ def print_tables(r):
     print("waits, log ms: the simulator's waits for the record (the log window) and their wall time; frames ms: the wall "
           "time blocks waited for the renderer's frames after the card had answered (the frame window)")
     print("files ms: the CPU the renderer's frame writer spent on a frame's files (its PNG and video)")
-    print("\nThe bus's MAC (common/bus_key.hpp: every datagram signed by its sender and checked by each receiver), apart from the "
+    print("\nThe bus's MAC (bus/bus_key.hpp: every datagram signed by its sender and checked by each receiver), apart from the "
           "floor: the time every process of the run spent on it, a block, against the block's cost (target: at most 10 %)")
     for x in r["lockstep"]:
         m = x.get("mac")

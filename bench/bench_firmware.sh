@@ -212,7 +212,7 @@ if [ "$do_board" -eq 1 ]; then
   echo
   scene="$top/scenes/short.yaml"
   echo "bench_firmware: $scene on the board (--firmware qemu), then its blocks under callgrind" >&2
-  if ! "$top/run/in_netns.sh" "$build/host_bridge/afm_launch" --scene "$scene" --out "$tmp/pil" --quiet --firmware qemu \
+  if ! "$top/run/in_netns.sh" "$build/host/afm_launch" --scene "$scene" --out "$tmp/pil" --quiet --firmware qemu \
        >"$tmp/pil.log" 2>&1; then
     tail -3 "$tmp/pil.log" >&2
     echo "The whole card per block: the run on the board failed (above)"
@@ -226,7 +226,7 @@ print(b["blocks"], r["card"]["samples_per_block"], i["median"], i["worst"], i["m
     x86=""
     if [ "$do_cg" -eq 1 ] && command -v valgrind >/dev/null 2>&1; then
       valgrind --tool=callgrind --toggle-collect=fw_card_step_block --callgrind-out-file="$tmp/cg.card" \
-        "$build/host_bridge/afm_replay" "$tmp/pil" --quiet >"$tmp/cg.card.txt" 2>"$tmp/cg.card.log" \
+        "$build/host/afm_replay" "$tmp/pil" --quiet >"$tmp/cg.card.txt" 2>"$tmp/cg.card.log" \
         && x86=$(sed -n 's/^totals: //p' "$tmp/cg.card")
     fi
     echo "The whole card per block (fw_card_step_block), $(basename "$scene"): $blocks blocks of $spb samples"

@@ -1,5 +1,5 @@
 // Gwyddion Simple Field (.gsf), the one owner of the format in C++: the
-// renderer's scans and displays are written (host_bridge/image/display.cpp's
+// renderer's scans and displays are written (host/image/display.cpp's
 // write_gsf turns its images into a GsfGrid and calls write_gsf_grid here),
 // and a scene's measured substrate (sample.substrate: {gsf: FILE}) is read.
 //

@@ -2,8 +2,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "bus_key.hpp"
-
 #include <sys/prctl.h>
 #include <signal.h>
 #include <unistd.h>
@@ -70,25 +68,6 @@ bool bind_to_launcher(pid_t *parent)
     if (*end || pid <= 1) return true;   // not a pid the launcher wrote: nothing to bind to
     if (parent) *parent = static_cast<pid_t>(pid);
     return bind_to_parent(static_cast<pid_t>(pid));
-}
-
-int run_process(const char *name, const std::function<int()> &body)
-{
-    pid_t launcher = 0;
-    if (!bind_to_launcher(&launcher)) {
-        std::fprintf(stderr, "%s: its launcher (pid %d) is gone: the run is over\n", name, static_cast<int>(launcher));
-        return kExitFailure;
-    }
-    try {
-        run_key();   // the run's bus key, read once and its descriptor closed (bus_key.hpp)
-        return body();
-    } catch (const InputError &e) {
-        std::fprintf(stderr, "%s\n", e.what());
-        return kExitInput;
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "%s: %s\n", name, e.what());
-        return kExitFailure;
-    }
 }
 
 }  // namespace afm

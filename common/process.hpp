@@ -6,7 +6,6 @@
 
 #include <sys/types.h>
 
-#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -21,7 +20,7 @@ namespace afm {
 // over before the process could begin its part (the renderer's first scan);
 // 1 anything else. The launcher names a child that exits 2 as the scene's
 // fault. The launcher's own 4: the run completed but failed one of its own
-// checks (host_bridge/launch/verdict.hpp; --no-verdict answers 0).
+// checks (host/launch/verdict.hpp; --no-verdict answers 0).
 enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitInput = 2, kExitRunOverEarly = 3, kExitVerdict = 4 };
 
 // An error in the run's input: main answers it with kExitInput and its text,
@@ -79,11 +78,5 @@ bool bind_to_parent(pid_t parent);
 // `parent` (if given) is set to the launcher's pid, or 0.
 bool bind_to_launcher(pid_t *parent = nullptr);
 
-// Runs a process's body under the exit-code contract: an InputError is
-// printed as is and answered kExitInput; another exception is printed as
-// "NAME: what" and answered kExitFailure; otherwise the body's own code.
-// First binds the process to its launcher (bind_to_launcher): a process
-// whose launcher is already gone says so and answers kExitFailure.
-int run_process(const char *name, const std::function<int()> &body);
 
 }  // namespace afm

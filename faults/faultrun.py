@@ -21,7 +21,7 @@ SPOOF_PORT = {"stop": ("afm_launch", "AFM_HEARTBEAT"), "pose": ("operator", "HAP
 # The link rows (docs/hosts.md): --link of each, and of the spoof rows on two hosts.
 LINKS = {"link:clean": "delay=0.2,loss=0.02", "link:down": "delay=0.2", "link:loss": "delay=0.2,loss=0.1",
          "link:reorder": "delay=0.2,jitter=0.3,reorder=0.1", "spoof": "delay=0.2"}
-LINK_BUS_URL = "udpm://239.255.76.67:7667?ttl=1"   # the bus across the link (common/bus.hpp kLinkBusUrl)
+LINK_BUS_URL = "udpm://239.255.76.67:7667?ttl=1"   # the bus across the link (bus/bus.hpp kLinkBusUrl)
 
 
 def processes():
@@ -135,7 +135,7 @@ def video_opens(out):
     path = os.path.join(out, "video.mp4")
     if not os.path.exists(path):
         return True, "no video"
-    p = subprocess.run([os.path.join(BUILD, "host_bridge", "afm_media"), "frames", path], capture_output=True, text=True,
+    p = subprocess.run([paths.MEDIA, "frames", path], capture_output=True, text=True,
                        timeout=60)
     if p.returncode != 0:
         return False, f"video.mp4 does not open ({os.path.getsize(path)} bytes)"

@@ -54,7 +54,7 @@ Rows (design.md, "Reliability"):
                   "stop" from afm_launch's port, a pose for block n + 1 from the
                   operator's, a HOST_OBJECT_FIX of particle 1 from the renderer's.
                   The check of senders admits them; the bus's MAC (the run's key,
-                  common/bus_key.hpp) does not: each is counted unproven; exit 0,
+                  bus/bus_key.hpp) does not: each is counted unproven; exit 0,
                   same trajectories
   spoof-port:WHAT:nokey  the same on a run without a key (AFM_BUS_MAC=off): what
                   the MAC holds off. Expected: the forgery is not refused (none
@@ -93,7 +93,7 @@ import sys
 import time
 
 from analysis import paths
-from faultrun import (BUILD, LAUNCH, NOT_READY, PROCS, SPOOF_PORT, SRC, Run, alive_in_groups, beside, children, log_reads,
+from faultrun import (LAUNCH, NOT_READY, PROCS, SPOOF_PORT, SRC, Run, alive_in_groups, beside, children, log_reads,
                       netns_of, processes, signal_live, trajectories, trajectory, video_opens)
 from link_rows import LinkRows
 from trust_rows import TrustRows
@@ -287,7 +287,7 @@ class Matrix(TrustRows, LinkRows):
         d = self.dir("net:kernel")
         os.makedirs(d, exist_ok=True)
         report = os.path.join(d, "netfault.json")
-        nf = [os.path.join(BUILD, "host_bridge", "afm_netfault"), "--queue", "0", "--drop", "0.01", "--dup", "0.02", "--reorder", "0.1",
+        nf = [paths.NETFAULT, "--queue", "0", "--drop", "0.01", "--dup", "0.02", "--reorder", "0.1",
               "--hold-us", "1000", "--seed", str(self.a.seed), "--drop-channels", ",".join(self.KERNEL_DROP), "--iptables",
               "--report", report]
         log = os.path.join(d, "netfault.log")

@@ -22,14 +22,14 @@ PROGRAM's sending socket in this namespace (afm_launch, operator, renderer,
 ...; its UDP socket not bound to the bus's port), as a raw socket in the
 run's namespace can (it needs CAP_NET_RAW there: the fault matrix keeps it
 for the forger alone). The source port is then that of a process of the run
-that publishes the channel: only the bus's MAC (common/bus_key.hpp) tells
+that publishes the channel: only the bus's MAC (bus/bus_key.hpp) tells
 the forgery apart, and every receiver counts it (run.json: each process's
 rejected.unproven, by reason and channel).
 
 Prints a JSON line with what it sent. What the bench does against these:
 every process admits a message only from the run's own process that
 publishes its channel, as the kernel names the sender's socket
-(common/senders.hpp): each forgery is counted foreign and never acted on.
+(bus/senders.hpp): each forgery is counted foreign and never acted on.
 Behind that, sim_afm takes "finished" only where a planner runs, and scan
 requests only of at most four fields a side at no less than half the finest
 pitch of the scene's own scans (sim_afm/main.cpp)."""

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Publishes hostile datagrams into a live run's bus: every kind of message a
-process of the bench must count and drop (common/inbox.hpp) on every channel
+process of the bench must count and drop (bus/inbox.hpp) on every channel
 someone listens to. Run it inside the run's network namespace (the test and
 ./afm faults start it beside afm_launch under one run/in_netns.sh).
 
@@ -292,7 +292,7 @@ def run_beside(launch, scene, out, rate=2000.0, kinds=None, admit_any=False, pyt
     (run/in_netns.sh) with this script sending beside it from before the
     start to the end. admit_any: every process admits every sender
     (AFM_ADMIT_ANY_SENDER=1), so that the inboxes' own checks meet the
-    datagrams; else they are foreign (common/senders.hpp). Returns
+    datagrams; else they are foreign (bus/senders.hpp). Returns
     (exit code, stderr, run.json, what was sent); the one runner of
     tests/e2e/test_hostile.py and ./afm bench hostile."""
     import subprocess

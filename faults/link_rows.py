@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 from analysis import paths
-from faultrun import BUILD, DROP_CAPS, LINK_BUS_URL, LINKS, Run, beside
+from faultrun import DROP_CAPS, LINK_BUS_URL, LINKS, Run, beside
 
 
 class LinkRows:
@@ -38,7 +38,7 @@ class LinkRows:
             kept, kt = self.kept(r, "ok")
             same, st = self.same(r.out) if kept else (False, "-")
             if replay and same:
-                p = subprocess.run([os.path.join(BUILD, "host_bridge", "afm_replay"), r.out], capture_output=True, text=True)
+                p = subprocess.run([paths.REPLAY, r.out], capture_output=True, text=True)
                 same, st = p.returncode == 0, st + ("; replay identical" if p.returncode == 0 else f"; replay exit {p.returncode}")
             ok = kept and same and did
         else:

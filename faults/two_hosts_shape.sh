@@ -23,7 +23,7 @@ else
   lossy=AFM_ANALOG,AFM_CMD,HAPTIC_FORCE,HAPTIC_POSE,LINK_PING,LINK_PONG
   nf() {  # SIDE PEER: afm_netfault on what arrives through vSIDE from PEER
     local side=$1 peer=$2
-    local q=(env AFM_KEEP_CAPS=net_admin,net_raw "$drop" "$build/host_bridge/afm_netfault" --queue 0
+    local q=(env AFM_KEEP_CAPS=net_admin,net_raw "$drop" "$build/host/afm_netfault" --queue 0
       --link-in "v$side" --peer "$peer" --iptables --dup-dev lo --delay-us "$(us "$delay")" --jitter-us "$(us "$jitter")"
       --drop "$loss" --dup "$dup" --reorder "$reorder" --hold-us 1000 --drop-channels "$lossy"
       --seed "${AFM_LINK_SEED:-1}$([ "$side" = afm ] && echo 1 || echo 2)" --report "$dir/netfault-to-$side.json"

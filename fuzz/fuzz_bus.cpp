@@ -1,5 +1,5 @@
 // Fuzz target "bus": how every process of a run gathers the bus's datagrams
-// into messages (afm::BusGather, common/bus_tap.hpp: LCM's short messages
+// into messages (afm::BusGather, bus/bus_tap.hpp: LCM's short messages
 // and fragments, per sender), without the socket.
 //
 // Input: a first byte of options (bit 0: accept only three channels, as an

@@ -1,5 +1,5 @@
 // Fuzz target "calc": the lever calculator (./afm calc|calib|model,
-// host_bridge/calc/afm_calc.c and its calc_*.c) in-process: its argument parsing and the
+// host/calc/afm_calc.c and its calc_*.c) in-process: its argument parsing and the
 // firmware's solvers behind it.
 //
 // Input: the command line after the program's name, one argument per line

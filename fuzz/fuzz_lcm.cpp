@@ -7,7 +7,7 @@
 // not begin with the name of a channel of the bus (the fuzzer changed it)
 // has its first byte pick one, modulo the number of channels, and the rest
 // is the datagram: every input reaches a decoder. The datagram is handed to
-// an afm::Inbox (common/inbox.hpp) as if it had arrived on that channel. The
+// an afm::Inbox (bus/inbox.hpp) as if it had arrived on that channel. The
 // inbox decodes it as the channel's type (the guarded decoder,
 // decode_checked); what it refuses it names, and nothing else happens.
 //
@@ -15,7 +15,7 @@
 // to exactly the bytes it was decoded from (lengths, strings and numbers as
 // they came), and decodes from them to the same message. Then:
 //  - AFM_ANALOG, HAPTIC_POSE, HOST_OBJECT_FIX go to a fresh firmware card
-//    (afm::CardNode, host_bridge/card_node.hpp) on a small scene with
+//    (afm::CardNode, host/card_node.hpp) on a small scene with
 //    particles, a wire, a landmark and lithography: the block with a pose
 //    for it (and its signals for 7 blocks more), the pose with a block of
 //    zeros for it (and 7 more), the fix after block 0 and before block 1.

@@ -1,6 +1,6 @@
 // Fuzz target "lcmlog": the bench's reader of LCM log files (afm::LogReader,
-// common/lcmlog.hpp; lcm-logger's format) and the simulator's follower of
-// the log being written (afm::LogTail, common/log_tail.hpp).
+// bus/lcmlog.hpp; lcm-logger's format) and the simulator's follower of
+// the log being written (afm::LogTail, bus/log_tail.hpp).
 //
 // Input: the bytes of a log file. A LogError (a corrupt or truncated log,
 // named by file and offset) is the reader's clean refusal. Its promises:

@@ -1,5 +1,5 @@
 // Fuzz target "scene": the scene parser and validator (afm::load_scene,
-// common/scene.cpp) on any bytes as a scene file, and the card's check of
+// scene/scene.cpp) on any bytes as a scene file, and the card's check of
 // the scene that follows it in ./afm check and before every run.
 //
 // A SceneError is the validator's clean refusal. Anything else escaping
@@ -28,7 +28,7 @@
 #include "card_node.hpp"
 #include "card_setup.hpp"
 #include "fuzz_files.hpp"
-#include "haptic.hpp"
+#include "haptic_bound.hpp"
 #include "scene.hpp"
 
 namespace {

@@ -9,7 +9,7 @@ lcm:    valid messages of every channel, the channel's name and a NUL
         before the encoded message (fuzz/fuzz_lcm.cpp); the card's
         inputs fit the harness's scene (4 samples per block).
 calc:   the calculator's command lines from its --help texts and its test
-        (host_bridge/calc/test_afm_calc.cmake), one argument per line.
+        (host/calc/test_afm_calc.cmake), one argument per line.
 bus:    datagrams for the bus's gatherer: whole fragmented messages,
         fragment-0 headers that claim 16 MiB, repeats, overlaps, fragments
         out of order or without their fragment 0, two senders at once.
@@ -99,7 +99,7 @@ def calc_seeds():
     fresh("calc")
     for name, args in CALC.items():
         write("calc", name, "\n".join(args))
-    with open(os.path.join(TOP, "host_bridge", "calc", "paper_probe.txt")) as f:
+    with open(os.path.join(TOP, "host", "calc", "paper_probe.txt")) as f:
         probe = f.read()
     write("calc", "force_probe", "\n".join(CALC_PROBE) + "\n@probe\n" + probe)
 

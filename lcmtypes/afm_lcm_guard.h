@@ -12,7 +12,7 @@
  * decode() returns -1 for a short buffer or another type's fingerprint (as
  * LCM does), AFM_LCM_E_LENGTH for a length field past the bytes that are
  * left, AFM_LCM_E_NONFINITE for a non-finite number. afm::decode_checked
- * (common/inbox.hpp) names the reason. */
+ * (bus/inbox.hpp) names the reason. */
 #ifndef AFM_LCM_GUARD_H
 #define AFM_LCM_GUARD_H
 

@@ -108,10 +108,10 @@ for _ in $(seq 200); do
 done
 # The link as it is, by LCM round trips.
 export AFM_BUS_LINK=vhost
-AFM_BUS_LINK=vafm "${maker[@]}" nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host_bridge/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
+AFM_BUS_LINK=vafm "${maker[@]}" nsenter -t "$afm" -U -n --preserve-credentials "$drop" "$build/host/afm_linkprobe" --echo --json "$dir/echo.json" 2>"$dir/echo.log" >/dev/null </dev/null &
 echo_pid=$!
 for _ in $(seq 200); do grep -q ready "$dir/echo.log" 2>/dev/null && break; sleep 0.01; done
-"$drop" "$build/host_bridge/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --interval-us "${AFM_LINK_PROBE_INTERVAL_US:-1000}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \
+"$drop" "$build/host/afm_linkprobe" --ping "${AFM_LINK_PINGS:-400}" --interval-us "${AFM_LINK_PROBE_INTERVAL_US:-1000}" --sizes "${AFM_LINK_PROBE_SIZES:-64,4000}" --echoed "$dir/echo.json" --json "$dir/probe.json" \
   2>"$dir/probe.log" >/dev/null </dev/null &
 probe=$!
 # the echo writes its count when the pinger says it is done (or on SIGTERM)

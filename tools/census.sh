@@ -16,7 +16,7 @@ cd "$(dirname "$0")/.."
 n=${1:-80}; [ $# -gt 0 ] && shift
 [[ $n =~ ^[0-9]+$ ]] || { echo "census: N must be a whole number of lines, got '$n'" >&2; exit 2; }
 dirs=("$@")
-[ ${#dirs[@]} -gt 0 ] || dirs=(firmware board sim_afm host_bridge common lcmtypes analysis bench tests fuzz run faults tools)
+[ ${#dirs[@]} -gt 0 ] || dirs=(firmware board sim_afm host common scene bus lcmtypes analysis bench tests fuzz run faults tools)
 command -v ctags >/dev/null || { echo "census: needs ctags (apt-get install universal-ctags)" >&2; exit 2; }
 py=.venv/bin/python; [ -x "$py" ] || py=python3
 

@@ -32,7 +32,7 @@ def main(src: str, dst: str) -> int:
     lines.append("/* X(CHANNEL, type) for every channel: the type each one carries. */")
     lines.append("#define AFM_CHANNEL_TYPES(X) %s" % " ".join(f'X({r["channel"]}, {r["type"]})' for r in rows))
     lines.append("/* X(\"CHANNEL\", \"program\") for each program that publishes a channel (\"*\": every")
-    lines.append("   process of the run): the senders a receiver admits (common/senders.hpp). */")
+    lines.append("   process of the run): the senders a receiver admits (bus/senders.hpp). */")
     lines.append("#define AFM_CHANNEL_PUBLISHERS(X) %s" % " ".join(f'X("{r["channel"]}", "{p}")' for r in rows
                                                              for p in publishers(r["publisher"])))
     lines += ["", "#endif", ""]

@@ -22,7 +22,7 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           qemu-system-arm nlohmann-json3-dev gwyddion libdlib-dev
           clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev
           libisal-dev zlib1g-dev chromium chromium-driver ffmpeg)
-apt_pkgs+=(libsodium-dev)   # the bus's MAC (common/bus_key.hpp)
+apt_pkgs+=(libsodium-dev)   # the bus's MAC (bus/bus_key.hpp)
 missing=()
 for p in "${apt_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

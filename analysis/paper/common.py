@@ -15,7 +15,7 @@ import yaml
 from analysis import gsf, knobs, paths
 
 SCENES = os.path.join(paths.ROOT, "scenes", "paper")
-CALC = os.path.join(paths.BUILD, "host_bridge", "calc", "afm_calc")
+CALC = paths.CALC
 
 
 class PaperError(Exception):

@@ -6,7 +6,7 @@ socket (127.0.0.1, a port it prints, a random token) and serves the page
 from here. The run goes into its own namespace as always
 (run/in_netns.sh), and the launcher is handed the write end of a pipe
 (afm_launch --view-fd N), which it hands in turn to afm_view_bridge
-(host_bridge/view), its child holding the run's key: the bridge takes
+(host/view), its child holding the run's key: the bridge takes
 VIEW_FRAME and AFM_HEARTBEAT off the bus, with the run's proof, and writes
 them to the pipe this process reads. Nothing else crosses.
 
@@ -22,7 +22,7 @@ not handed to the run's user; the pipe, 0600, the run's user's for the
 run's life (AFM_RUN_FILES), so that started as root the run drops to its
 user like any other: issue 46), which
 the operator alone reads
-(host_bridge/operator/hand_input.hpp); the operator says on its heartbeat
+(host/operator/hand_input.hpp); the operator says on its heartbeat
 that it takes them ("hand: browser"), and the page then shows its controls;
 it says there too when a stroke starts and ends ("push: start ...", "push:
 end ..."), which the page is told as {"type": "push", ...}.
@@ -112,7 +112,7 @@ def _load_of(detail):
 
 def hand_line(msg):
     """The operator's command line for a page's {"type": "hand", "x_nm",
-    "y_nm", "load_nN", "engaged"} (host_bridge/operator/hand_input.hpp), or
+    "y_nm", "load_nN", "engaged"} (host/operator/hand_input.hpp), or
     None when a field is missing or not a finite number (the operator
     checks the ranges)."""
     try:
@@ -127,7 +127,7 @@ def hand_line(msg):
 def scan_line(msg):
     """The operator's command line for a page's {"type": "scan", "x_nm",
     "y_nm", "size_nm"}: a local scan around (x, y), size_nm on a side
-    (host_bridge/operator/hand_input.hpp), or None when a field is missing
+    (host/operator/hand_input.hpp), or None when a field is missing
     or not a finite number (the operator checks the ranges)."""
     try:
         x, y, size = (float(msg[k]) for k in ("x_nm", "y_nm", "size_nm"))

@@ -7,7 +7,7 @@
 // time. Both ends publish through lcm::LCM (afm::open_bus), and receive
 // either as the bench's processes do (--receive tap, the default: a socket
 // of their own filtered to their channel and read on their own thread,
-// common/bus_tap.hpp, as afm::Inbox does) or through liblcm's own receive
+// bus/bus_tap.hpp, as afm::Inbox does) or through liblcm's own receive
 // thread (--receive liblcm: subscribe and handleTimeout). Each ping carries
 // its send time; the echo writes its receive time into the copy it sends
 // back. Both clocks are the machine's CLOCK_MONOTONIC, so
@@ -39,6 +39,7 @@
 #include "bus.hpp"
 #include "bus_tap.hpp"
 #include "process.hpp"
+#include "run_process.hpp"
 
 namespace {
 

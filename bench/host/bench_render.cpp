@@ -139,7 +139,7 @@ int main(int argc, char **argv)
     }
     std::printf("\ncompose: the renderer's frame (frame_overlay.hpp); plain: Display::frame's, without axes, ids, lever or legend\n");
     std::printf("H.264: the writer's cost to hand a frame to ffmpeg, and ffmpeg's CPU per frame (-1: no ffmpeg with libx264)\n");
-    std::printf("PNG: the run's frame file (host_bridge/png_file.hpp, ISA-L's deflate); imwrite PNG: OpenCV's, for comparison\n");
+    std::printf("PNG: the run's frame file (host/png_file.hpp, ISA-L's deflate); imwrite PNG: OpenCV's, for comparison\n");
     std::printf("targets: local update >= 10x cheaper than full redraw; >= 300 frames/s at 512 px\n");
     return 0;
 }

@@ -78,7 +78,7 @@
 /* The operator's hand: 0.1 N per nN of tip force (100 uN/pN), at most 3 N
  * per axis (a Phantom-class device's peak force): values for a host without
  * a device model (the unit tests). The bench passes the scene's
- * operator.haptic (host_bridge/card_setup.cpp). */
+ * operator.haptic (host/card_setup.cpp). */
 #define FW_CARD_HAPTIC_UN_PER_PN_DEFAULT 100
 #define FW_CARD_HAPTIC_MAX_UN_DEFAULT 3000000
 

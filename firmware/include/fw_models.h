@@ -2,7 +2,7 @@
  * fw_models.h - the card's object models as the host publishes them: one
  * snapshot, taken after each block, fix or placement (pil.md).
  *
- * The host's adapter (host_bridge/card/card_node) reads the card's models
+ * The host's adapter (host/card/card_node) reads the card's models
  * only through this snapshot, whether the card runs in the same process
  * (fw_models_take on the host build) or on the board (the board takes it
  * and sends it with every answer, fw_marshal.h). What it holds:

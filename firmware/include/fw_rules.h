@@ -6,7 +6,7 @@
  * arguments break (FW_RULE_OK when none); its init calls it and returns
  * fw_rule_status(rule). fw_card_init reports the rule itself, so a host
  * can say which configuration value the card refuses without restating
- * the rule (host_bridge/card_setup.cpp names the scene keys that feed
+ * the rule (host/card_setup.cpp names the scene keys that feed
  * each rule).
  *
  * Rules are positive, FW_RULE_OK is zero; fw_rule_status maps each to the

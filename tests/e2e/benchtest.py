@@ -12,8 +12,8 @@ import time
 
 SRC = os.environ["AFM_SOURCE"]
 BUILD = os.environ["AFM_BUILD"]
-LAUNCH = os.path.join(BUILD, "host_bridge", "afm_launch")
 from analysis import afmlog, paths  # noqa: E402,F401  (the project's package, installed in the venv)
+LAUNCH = paths.LAUNCH
 IN_NETNS = paths.IN_NETNS
 
 

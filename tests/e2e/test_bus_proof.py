@@ -2,13 +2,13 @@
 
 Before: with a raw socket in the run's namespace, a datagram sent with the
 source port of a process of the run that publishes its channel passed the
-check of senders (common/senders.hpp): a `launcher stop` heartbeat from the
+check of senders (bus/senders.hpp): a `launcher stop` heartbeat from the
 launcher's port ended the run and blamed sim_afm; a pose for block n + 1
 from the operator's port made the run diverge and still end ok; a
 HOST_OBJECT_FIX from the renderer's port dropped the real fix of particle 1.
 
 Now every datagram of the run carries a MAC with the run's key
-(common/bus_key.hpp), which a forger outside the run does not hold: the
+(bus/bus_key.hpp), which a forger outside the run does not hold: the
 forgeries, sent by faults/forge.py --spoof PROGRAM from a raw socket with
 that program's source port, change nothing (the run ends ok with the
 undisturbed run's trajectories) and are counted by every receiver that
@@ -33,7 +33,7 @@ import benchtest
 from analysis import afmlog, paths
 
 FORGE, DROP_CAPS = paths.FORGE, paths.DROP_CAPS
-REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
+REPLAY = paths.REPLAY
 PROCESSES = ("sim", "fw", "operator", "renderer")
 CHANNELS = ["SIM_TRUTH", "AFM_CMD", "FW_STATE", "HAPTIC_POSE", "HAPTIC_FORCE"]
 
@@ -140,13 +140,13 @@ def viewed_with_spoofer(scene, out, what, program):
 class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
     # the one owner of the trailer is the bus layer (afm::publish_raw): a
     # process that called liblcm's publish itself would send without proof
-    ALLOWED = {"common/bus.cpp",   # publish_raw itself
+    ALLOWED = {"bus/bus.cpp",   # publish_raw itself
                "bench/host/bench_bus.cpp", "faults/linkprobe.cpp"}   # the benches' own channels, never a run's bus
 
     def test_no_publish_site_calls_liblcm_directly(self):
         pattern = re.compile(r"(\.|->)publish\(")
         found = []
-        for top in ("common", "host_bridge", "sim_afm", "run", "faults", "tools", "bench"):
+        for top in ("common", "scene", "bus", "host", "sim_afm", "run", "faults", "tools", "bench"):
             for root, _, files in os.walk(os.path.join(benchtest.SRC, top)):
                 for name in files:
                     if not name.endswith((".cpp", ".hpp", ".h", ".c")):

@@ -134,15 +134,15 @@ _BASE = {"libstdc++", "libm", "libgcc_s", "libc"}
 _BUS = _BASE | {"libyaml-cpp", "libglib-2.0"}   # the scene (yaml-cpp) and LCM (GLib)
 ALLOWED = {
     "sim_afm/sim_afm": _BUS,
-    "host_bridge/fw_node": _BUS,
-    "host_bridge/afm_launch": _BUS,                 # no OpenCV: it is on the path of every run
-    "host_bridge/afm_replay": _BUS,
-    "host_bridge/operator": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs"},   # no ISA-L, no zlib
-    "host_bridge/renderer": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs", "libopencv_videoio",
+    "host/fw_node": _BUS,
+    "host/afm_launch": _BUS,                 # no OpenCV: it is on the path of every run
+    "host/afm_replay": _BUS,
+    "host/operator": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs"},   # no ISA-L, no zlib
+    "host/renderer": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs", "libopencv_videoio",
                                     "libisal", "libz"},
-    "host_bridge/afm_netfault": _BASE | {"libnetfilter_queue"},
-    "host_bridge/afm_media": _BASE | {"libopencv_core", "libopencv_videoio"},
-    "host_bridge/calc/afm_calc": {"libm", "libc"},
+    "host/afm_netfault": _BASE | {"libnetfilter_queue"},
+    "host/afm_media": _BASE | {"libopencv_core", "libopencv_videoio"},
+    "host/calc/afm_calc": {"libm", "libc"},
 }
 
 
@@ -159,7 +159,7 @@ class LinkedLibraries(unittest.TestCase):
             self.assertEqual(sorted(got - allowed), [], f"{rel} needs libraries outside its list")
 
     def test_the_operator_has_no_png_encoder(self):
-        got = needed(os.path.join(benchtest.BUILD, "host_bridge", "operator"))
+        got = needed(benchtest.paths.OPERATOR)
         self.assertNotIn("libisal", got)
         self.assertNotIn("libz", got)
 

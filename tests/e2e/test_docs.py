@@ -28,7 +28,7 @@ The format these tests read (docs/scenes.md says it too):
   each row is | from | to | status | why |, the backticked paths of "from"
   are files or folders of the checkout, the status `planned` or `done`.
 
-The accepted keys come from the validator itself (common/scene.cpp,
+The accepted keys come from the validator itself (scene/scene.cpp,
 only_keys): a scene with a bogus key in a mapping is refused with
 "FILE: PATH.bogus: unknown key (known here: a, b, c)". Starting at the top
 level, each known key is tried as a mapping ({bogus: 1}) and as a list of
@@ -363,7 +363,7 @@ class Commands(unittest.TestCase):
             self.assertEqual(p.stdout.rstrip("\n"), open(os.path.join(help_dir, c + ".txt")).read().rstrip("\n"), c)
         # the programs: the Python commands' argparse and afm_replay read the same file
         progs = {"sweep": [afm, "sweep", "--help"], "paper": [afm, "paper", "--help"], "export": [afm, "export", "--help"],
-                 "faults": [afm, "faults", "--help"], "fuzz": [afm, "fuzz", "--help"], "replay": [os.path.join(benchtest.BUILD, "host_bridge", "afm_replay"), "--help"]}
+                 "faults": [afm, "faults", "--help"], "fuzz": [afm, "fuzz", "--help"], "replay": [benchtest.paths.REPLAY, "--help"]}
         for c, argv in progs.items():
             p = subprocess.run(argv, capture_output=True, text=True, timeout=120)
             self.assertEqual(p.returncode, 0, (c, p.stderr))

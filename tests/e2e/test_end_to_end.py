@@ -92,7 +92,7 @@ class EndToEnd(unittest.TestCase):
             self.assertEqual(rj["channels"].get(ch, 0), len(self.log1[ch]), ch)
 
     def test_what_went_aside_is_all_in_the_log(self):
-        # common/aside.hpp: the observers' channels are published from a
+        # bus/aside.hpp: the observers' channels are published from a
         # thread of the card's and the simulator's own; every one the
         # process counted is in the record, none failed
         import json
@@ -131,7 +131,7 @@ class EndToEnd(unittest.TestCase):
         self.assertTrue(os.path.getsize(os.path.join(self.out1, "video.mp4")) > 0)
 
     def test_pngs_read_with_another_decoder(self):
-        # the PNG files are the bench's own (host_bridge/png_file.hpp): Pillow,
+        # the PNG files are the bench's own (host/png_file.hpp): Pillow,
         # which does not use libpng, checks every chunk's CRC and reads them
         px = self.spec["outputs"]["image_px"]
         paths = sorted(glob.glob(os.path.join(self.out1, "frames", "*.png")))
@@ -147,7 +147,7 @@ class EndToEnd(unittest.TestCase):
 
     def test_video_decodes_to_the_frame_count(self):
         expected = round(self.spec["duration_s"] * self.spec["frame_rate_hz"])
-        out = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "afm_media"), "frames",
+        out = subprocess.run([benchtest.paths.MEDIA, "frames",
                               os.path.join(self.out1, "video.mp4")], capture_output=True, text=True, check=True).stdout.split()
         self.assertEqual(int(out[0]), expected)
         self.assertEqual(int(out[1]), self.spec["outputs"]["image_px"])

@@ -14,7 +14,7 @@ from analysis import paths
 FAULTS = paths.FAULTS
 FAST = ["stop:fw_node", "kill:renderer", "launcher:SIGINT", "launcher:SIGKILL", "net:dup", "net:kernel", "disk:full", "scene:changed",
         "spoof-port:pose", "spoof-port:pose:nokey", "planted:link"]
-NETFAULT = os.path.join(benchtest.BUILD, "host_bridge", "afm_netfault")
+NETFAULT = paths.NETFAULT
 
 
 class FaultMatrix(unittest.TestCase):

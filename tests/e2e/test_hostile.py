@@ -17,7 +17,7 @@ from analysis import afmlog, paths
 sys.path.insert(0, paths.FAULTS_DIR)
 import hostile  # noqa: E402  (faults/hostile.py: the hostile sender and its runner)
 
-REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
+REPLAY = paths.REPLAY
 PROCESSES = ("sim", "fw", "operator", "renderer", "launcher")
 
 

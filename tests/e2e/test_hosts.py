@@ -18,7 +18,7 @@ import unittest
 import benchtest
 from analysis import afmlog, trajectory
 
-REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
+REPLAY = benchtest.paths.REPLAY
 LINK = "delay=0.2,loss=0.02"
 # A user-space delay on two shared cores: the median one-way delay may exceed
 # the asked 200 us by the verdict loop's wake-ups and the lockstep's neighbours

@@ -20,7 +20,7 @@ import numpy as np
 import benchtest
 
 AFM = os.path.join(os.environ["AFM_SOURCE"], "afm")
-CALC = os.path.join(benchtest.BUILD, "host_bridge", "calc", "afm_calc")
+CALC = benchtest.paths.CALC
 PAPER = dict(phi=9.0, kn=0.12, Kn=89.0)
 RU, RD = 0.07, 0.02          # the paper's slopes: mu 0.0865, 37.9 nN/V
 

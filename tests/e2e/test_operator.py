@@ -199,7 +199,7 @@ class Pattern(unittest.TestCase):
         self.assertIn("run: placement (a fresh scan): 10 of 10 sites", self.so)
 
     def test_the_plan_run_replays_identical(self):
-        p = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "afm_replay"), self.out, "--quiet"],
+        p = subprocess.run([benchtest.paths.REPLAY, self.out, "--quiet"],
                            capture_output=True, text=True, timeout=300)
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
 
@@ -312,11 +312,11 @@ class BadTargets(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertNotIn("libopencv", p.stdout)
         scene = benchtest.write_scene(self.BASE + "  targets: [[0, 0], [300, 0]]\noperator:\n  plan: {}\n", "badtargets")
-        p = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "operator"), "--scene", scene, "--check-targets"], capture_output=True, text=True, timeout=60)
+        p = subprocess.run([benchtest.paths.OPERATOR, "--scene", scene, "--check-targets"], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("objects.targets: 2 sites but the scene has only 1 particles", p.stderr)
         ok = benchtest.write_scene(self.BASE + "  targets: [[0, 0]]\noperator:\n  plan: {}\n", "goodtargets")
-        p = subprocess.run([os.path.join(benchtest.BUILD, "host_bridge", "operator"), "--scene", ok, "--check-targets"], capture_output=True, text=True, timeout=60)
+        p = subprocess.run([benchtest.paths.OPERATOR, "--scene", ok, "--check-targets"], capture_output=True, text=True, timeout=60)
         self.assertEqual((p.returncode, p.stderr), (0, ""))
         # a launcher without its operator beside it names what it could not run
         alone = benchtest.tmpdir("launcher-alone")

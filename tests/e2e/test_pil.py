@@ -16,7 +16,7 @@ import unittest
 import benchtest
 from analysis import paths
 
-REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
+REPLAY = paths.REPLAY
 
 
 def replay(run_dir, *args, env=None):

@@ -16,8 +16,8 @@ import unittest
 import benchtest
 from analysis import afmlog
 
-REPLAY = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay")
-REPLAY_PERTURBED = os.path.join(benchtest.BUILD, "host_bridge", "afm_replay_perturbed")
+REPLAY = benchtest.paths.REPLAY
+REPLAY_PERTURBED = benchtest.paths.REPLAY_PERTURBED
 OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_STATE"]
 SYNC = 0xEDA1DA01
 

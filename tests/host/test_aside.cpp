@@ -1,4 +1,4 @@
-// Unity tests of publishing aside (common/aside.hpp): which channels the
+// Unity tests of publishing aside (bus/aside.hpp): which channels the
 // lockstep reads, and so which a process of it publishes aside (the one
 // rule, and its check); and that what is posted aside comes out on the
 // bus, every message, in the order posted, once flush() returns or the

@@ -1,5 +1,5 @@
 // Unity tests of the run's bus key and the trailer each datagram carries
-// (common/bus_key.hpp): what the key signs verifies, anything changed (a
+// (bus/bus_key.hpp): what the key signs verifies, anything changed (a
 // byte of the message, the channel, the sequence, the tag, another key)
 // does not, a message cut short or without a trailer is named so, a
 // sequence is taken once (and a reordered one within the window), and the

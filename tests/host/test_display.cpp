@@ -1,4 +1,4 @@
-// Unity tests of the videolized display (host_bridge/display, fidelity,
+// Unity tests of the videolized display (host/display, fidelity,
 // profile): footprints of known objects, local update == full redraw, the
 // fidelity check, the video writer read back by OpenCV, the GSF header,
 // labels legible on any map.

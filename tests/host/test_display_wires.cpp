@@ -1,5 +1,5 @@
 // Unity tests of the display's wires and lithography trenches
-// (host_bridge/display, fidelity, profile): the closed forms against brute
+// (host/display, fidelity, profile): the closed forms against brute
 // force dilations, a known wire's footprint and height, a trench's depth
 // where the tip fits and where it does not, local update == full redraw with
 // moving wires and growing trenches, the colour scale below 0, and the

@@ -1,4 +1,4 @@
-// Unity tests of the renderer's frame writer (host_bridge/frame_writer.hpp):
+// Unity tests of the renderer's frame writer (host/frame_writer.hpp):
 // the frames come out as PNG files, byte for byte what afm::encode_png
 // makes (png_file.hpp; its own tests read them back pixel for pixel), and
 // in the video in order, however small its queue; a file it cannot write

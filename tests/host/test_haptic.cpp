@@ -1,4 +1,4 @@
-// Unity tests of the operator's side of the force loop (host_bridge/haptic,
+// Unity tests of the operator's side of the force loop (host/haptic,
 // hand_script): the stated stability bound against the loop itself (inside
 // it the free stylus settles, outside it an oscillation grows unless the
 // passivity controller clamps it), the bound's figures for a scene, the
@@ -14,7 +14,8 @@
 
 #include "card_setup.hpp"
 #include "hand_script.hpp"
-#include "haptic.hpp"
+#include "haptic_device.hpp"
+#include "haptic_bound.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Unity tests of the planner's pure parts (host_bridge/planner, pattern):
+// Unity tests of the planner's pure parts (host/planner, pattern):
 // the assignment against brute force on small cases, more sites than
 // particles and the reverse, pinned sites (and their scene key), free and
 // blocked pushes, a site walled in, text rasterised into sites, strokes

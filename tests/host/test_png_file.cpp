@@ -1,4 +1,4 @@
-// Unity tests of the display's PNG files (host_bridge/png_file.hpp): every
+// Unity tests of the display's PNG files (host/png_file.hpp): every
 // image comes back pixel for pixel through libpng (OpenCV's imread), in
 // each kind it takes (grey, BGR, BGRA), at the sizes where a row's filter
 // or the deflate has edges (1 px, odd widths, a view into a larger image,

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "process.hpp"
+#include "run_process.hpp"
 #include "scene.hpp"
 
 extern "C" {

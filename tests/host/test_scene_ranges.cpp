@@ -1,4 +1,4 @@
-// Unity tests of the scene's ranges (common/scene_ranges.hpp kSceneRanges,
+// Unity tests of the scene's ranges (scene/scene_ranges.hpp kSceneRanges,
 // one table for every number a scene gives). Each row is tried in a scene:
 // at both of its ends (read, unless the end is open or the value must also
 // lie inside a region, which its own check then refuses), just past each end,

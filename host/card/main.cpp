@@ -1,0 +1,168 @@
+// fw_node: the A/D card's firmware on the bus. A thin adapter: it hands the
+// card's input messages to CardNode (card_node.hpp: the card, fw_card.h,
+// behind unit conversion) and publishes what it answers, in order: what the
+// lockstep waits for at once, the observers' channels aside (bus/aside.hpp:
+// from a thread of its own, in batches). The protocol and
+// everything the card computes are described in card_node.hpp.
+#include <lcm/lcm-cpp.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "afm/heartbeat_t.hpp"
+#include "aside.hpp"
+#include "bus.hpp"
+#include "card_node.hpp"
+#include "inbox.hpp"
+#include "placement.hpp"
+#include "process.hpp"
+#include "run_process.hpp"
+#include "scene.hpp"
+
+static_assert(FW_FLAG_SAT_SN == afm::fw_state_t::FLAG_SAT_SN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_SL == afm::fw_state_t::FLAG_SAT_SL, "flag bits must match the firmware");
+static_assert(FW_FLAG_FX_UNOBSERVABLE == afm::fw_state_t::FLAG_FX_UNOBSERVABLE, "flag bits must match the firmware");
+static_assert(FW_FLAG_VIRTUAL_SN == afm::fw_state_t::FLAG_VIRTUAL_SN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_FORCE == afm::fw_state_t::FLAG_SAT_FORCE, "flag bits must match the firmware");
+static_assert(FW_FLAG_CONTACT == afm::fw_state_t::FLAG_CONTACT, "flag bits must match the firmware");
+static_assert(FW_FLAG_THETA_UNKNOWN == afm::fw_state_t::FLAG_THETA_UNKNOWN, "flag bits must match the firmware");
+static_assert(FW_FLAG_SAT_POS == afm::fw_state_t::FLAG_SAT_POS, "flag bits must match the firmware");
+static_assert(FW_FLAG_SQUEEZE == afm::fw_state_t::FLAG_SQUEEZE, "flag bits must match the firmware");
+static_assert(FW_FLAG_INTERLOCK == afm::fw_state_t::FLAG_INTERLOCK, "flag bits must match the firmware");
+static_assert(FW_FLAG_RIDEOVER == afm::fw_state_t::FLAG_RIDEOVER, "flag bits must match the firmware");
+static_assert(FW_FLAG_BLIND_PUSH == afm::fw_state_t::FLAG_BLIND_PUSH, "flag bits must match the firmware");
+
+namespace {
+
+const char *kUsage =
+    "usage: fw_node --scene FILE [--out DIR] [--firmware host|qemu] [--board-elf ELF] [--crash-at-block N] [--aside-cpus LIST]\n"
+    "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
+    "  --firmware host     the card linked into this process (the default)\n"
+    "  --firmware qemu     the card built for its processor, on an emulated mps2-an386 board\n"
+    "                      (qemu-system-arm -icount shift=0; docs/pil.md); its output in DIR/logs/board.log\n"
+    "  --board-elf ELF     the board's image (default: the build's afm_board.elf)\n"
+    "  --out DIR           write DIR/fw_report.json at the end (what the node refused, by reason)\n"
+    "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n"
+    "  --aside-cpus L      the CPUs (\"0-1\") the thread that publishes the observers' channels\n"
+    "                      aside may use (bus/aside.hpp; the launcher passes every CPU of the run)\n";
+
+constexpr int kCrashExitCode = 70;
+
+struct Node {
+    const afm::Scene &scene;
+    lcm::LCM &lc;
+    afm::Aside &aside;
+    afm::CardNode card;
+    afm::Heartbeat hb;
+    int64_t crash_at = -1;
+    bool sim_done = false;
+
+    Node(const afm::Scene &s, lcm::LCM &l, afm::Aside &a, const afm::CardBackendOptions &where)
+        : scene(s), lc(l), aside(a), card(s, where), hb(l, "fw_node") {}
+
+    // In the card's order; a channel no process of the lockstep reads aside.
+    void publish(const afm::Outbox &box)
+    {
+        for (const auto &o : box) {
+            if (afm::lockstep_reads(scene, o.channel)) afm::publish_raw(lc, o.channel, o.data.data(), o.data.size());
+            else aside.post(o.channel, o.data.data(), o.data.size());
+        }
+    }
+
+    afm::Reject on_analog(const afm::analog_block_t &b)
+    {
+        if (b.seq == crash_at) {
+            std::fprintf(stderr, "fw_node: failure injection: crashing at block %lld\n", (long long)b.seq);
+            std::exit(kCrashExitCode);
+        }
+        afm::Reject why;
+        publish(card.on_analog(b, &why));
+        hb.maybe_send(afm::RunState::running, card.done(), card.sim_utime_done());
+        return why;
+    }
+
+    afm::Reject on_pose(const afm::haptic_pose_t &p)
+    {
+        afm::Reject why;
+        publish(card.on_pose(p, &why));
+        return why;
+    }
+
+    afm::Reject on_fix(const afm::object_fix_t &m)
+    {
+        std::string note;
+        afm::Reject why;
+        publish(card.on_fix(m, &note, &why));
+        if (!note.empty()) std::fprintf(stderr, "fw_node: %s\n", note.c_str());
+        return why;
+    }
+
+    afm::Reject on_heartbeat(const afm::heartbeat_t &m)
+    {
+        if (afm::run_over(m)) sim_done = true;
+        return afm::Reject::none;
+    }
+};
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    std::string scene_path, out_dir;
+    int64_t crash_at = -1;
+    std::vector<int> aside_cpus;
+    afm::CardBackendOptions where;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
+        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
+        else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
+        else if (a == "--firmware" && i + 1 < argc) where.firmware = argv[++i];
+        else if (a == "--board-elf" && i + 1 < argc) where.board_elf = argv[++i];
+        else if (a == "--aside-cpus" && i + 1 < argc) {
+            if (!afm::cpu_list_option("fw_node", a, argv[++i], &aside_cpus)) return 2;
+        }
+        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
+        else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
+    }
+    if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    if (where.firmware != "host" && where.firmware != "qemu") {
+        std::fprintf(stderr, "fw_node: --firmware wants host or qemu, got '%s'\n", where.firmware.c_str());
+        return afm::kExitInput;
+    }
+    if (!out_dir.empty() && where.firmware == "qemu") where.board_log = out_dir + "/logs/board.log";
+    return afm::run_process("fw_node", [&] {
+        const afm::Scene scene = afm::load_scene(scene_path);
+        auto lc = afm::open_bus();
+        afm::Aside aside(aside_cpus);
+        Node node(scene, *lc, aside, where);
+        node.crash_at = crash_at;
+        afm::Inbox inbox(lc.get());
+        inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &m) { return node.on_analog(m); });
+        inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &m) { return node.on_fix(m); });
+        inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &m) { return node.on_pose(m); });
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return node.on_heartbeat(m); });
+        afm::check_lockstep_reads(scene, inbox.channels(), "fw_node");
+        while (!node.sim_done) {
+            const int64_t done = node.card.done();
+            node.hb.maybe_send(done < 0 ? afm::RunState::ready : afm::RunState::running, done, node.card.sim_utime_done());
+            inbox.handle(done < 0 ? afm::kReadyPeriodMs : 100);
+        }
+        aside.flush();   // the record holds every block before "done"
+        node.hb.send(afm::RunState::done, node.card.done(), node.card.sim_utime_done());
+        if (!out_dir.empty()) {
+            // the force interlock's trips (fw_guard.h; null when the scene turns it off)
+            const fw_models_t &m = node.card.backend().models();
+            afm::write_report(out_dir + "/fw_report.json",
+                              {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
+                               {"aside", aside.report()},
+                               {"interlock_trips", m.interlock ? nlohmann::json(m.interlock_trips) : nlohmann::json(nullptr)},
+                               {"unobservable_push_blocks", node.card.tally().unobservable_push_blocks},
+                               {"saturated_samples", node.card.tally().saturated_samples},
+                               {"board", node.card.backend().report()}});
+        }
+        return afm::kExitOk;
+    });
+}

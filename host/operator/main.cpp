@@ -1,0 +1,124 @@
+// operator: the operator's process (operator.hpp: the Operator, its hand or
+// its planner and their turns). Reads the command line, then serves the bus
+// until the run is over, and writes operator_report.json.
+#include <cstdio>
+#include <exception>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "operator.hpp"
+#include "aside.hpp"
+#include "pattern.hpp"
+#include "run_process.hpp"
+
+namespace {
+
+const char *kUsage =
+    "usage: operator --scene FILE [--out DIR]\n"
+    "       operator --scene FILE --check-targets\n"
+    "  The operator: a scripted hand on a haptic device, or the planner (operator.plan);\n"
+    "  normally started by ./afm run inside the run's namespace.\n"
+    "  --check-targets: only say whether the planner can serve the scene's targets\n"
+    "      (pattern.hpp: sites inside the field, no more than the particles, far enough\n"
+    "      apart); exit 0 if it can (or the scene does not plan), 2 naming the problem.\n"
+    "      afm_launch asks this before a planning run starts, so that it need not\n"
+    "      load OpenCV itself.\n";
+
+}  // namespace
+
+// The planner on a thread of its own, turn by turn with the bus (TurnBench):
+// its end, or its error, is the bench's to say.
+static std::thread start_planner(afm::Planner &planner, afm::TurnBench &bench)
+{
+    return std::thread([&planner, &bench] {
+        try {
+            planner.run(bench);
+            bench.finish(nullptr);
+        } catch (const afm::PlanStopped &) {
+        } catch (...) {
+            bench.finish(std::current_exception());
+        }
+    });
+}
+
+int main(int argc, char **argv)
+{
+    std::string scene_path, out_dir;
+    bool check_targets = false;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
+        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
+        else if (a == "--check-targets") check_targets = true;
+        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
+        else { std::fprintf(stderr, "operator: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
+    }
+    if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    return afm::run_process("operator", [&] {
+      try {
+        const afm::Scene scene = afm::load_scene(scene_path);
+        if (check_targets) {
+            const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
+            if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
+            return why.empty() ? afm::kExitOk : afm::kExitInput;
+        }
+        std::unique_ptr<afm::Planner> planner;
+        if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
+        auto lc = afm::open_bus();
+        afm::Operator op(scene, *lc);
+        if (scene.op.mode == "browser") {   // the hand from the page (docs/view.md); the page's server hears this
+            op.page = std::make_unique<afm::HandInput>(scene, afm::HandInput::open_from_env());
+            op.stroke_planner = std::make_unique<afm::Planner>(scene);   // the strokes the page asks for (PUSH)
+            op.hb.send(afm::RunState::starting, op.answered, 0, "hand: browser load_nN=" + std::to_string(scene.op.load_nN));
+        }
+        afm::Inbox inbox(lc.get());
+        op.inbox = &inbox;
+        inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return op.on_heartbeat(m); });
+        afm::TurnBench bench;
+        std::thread plan_thread;
+        struct Joiner {   // the planner's thread ends with the run, however main leaves
+            afm::TurnBench &b;
+            std::thread &t;
+            ~Joiner()
+            {
+                b.stop();
+                if (t.joinable()) t.join();
+            }
+        } joiner{bench, plan_thread};
+        if (planner) {
+            inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
+            inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
+            op.hold_pose = {scene.start_nm(), false};
+        }
+        if (op.page) {   // the local scans the person asks for (Operator::page_scan), the strokes' model and scans
+            inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
+            inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
+        }
+        afm::check_lockstep_reads(scene, inbox.channels(), "operator");
+        if (planner) plan_thread = start_planner(*planner, bench);
+        while (!op.sim_done) {
+            op.hb.maybe_send(op.answered < -1 ? afm::RunState::ready : afm::RunState::running, op.answered, 0);
+            op.repeat_finished();
+            inbox.handle(op.have_force ? 0 : op.answered < -1 ? afm::kReadyPeriodMs : 100);
+            if (!op.have_force) continue;
+            if (planner) op.answer_by_planner(bench);
+            else op.answer_by_hand();
+            if (planner && bench.error()) std::rethrow_exception(bench.error());
+        }
+        bench.stop();
+        if (plan_thread.joinable()) plan_thread.join();
+        if (op.stroke) op.stroke->bench.stop();   // a stroke under way ends with the run (joined when op goes)
+        if (planner && bench.error()) std::rethrow_exception(bench.error());
+        if (!out_dir.empty())
+            afm::write_report(out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));
+        op.hb.send(afm::RunState::done, op.answered, 0);
+        return afm::kExitOk;
+      } catch (const afm::PlanError &e) {   // the scene asks the planner for what it cannot do
+        throw afm::InputError(std::string("operator: the planner: ") + e.what());
+      }
+    });
+}

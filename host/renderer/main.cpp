@@ -1,0 +1,104 @@
+// renderer: the videolized display's process (renderer.hpp: the Renderer,
+// what it draws and when). Reads the command line, takes the first scan,
+// serves the bus until the run is over, and writes the contact sheet and
+// renderer_report.json.
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "lockstep.hpp"
+#include "aside.hpp"
+#include "placement.hpp"
+#include "run_process.hpp"
+#include "renderer.hpp"
+
+namespace {
+
+const char *kUsage =
+    "usage: renderer --scene FILE --out DIR [--writer-cpus LIST] [--view-frames]\n"
+    "  The videolized display; normally started by ./afm run inside the run's namespace.\n"
+    "  --writer-cpus LIST  the CPUs (\"0-1\") the frame writer's thread may use\n"
+    "                      (host/frame_writer.hpp; the launcher passes every CPU of the run)\n"
+    "  --view-frames       also publish each frame for a page on VIEW_FRAME (view_frames.hpp;\n"
+    "                      the launcher passes it with --view)\n";
+
+using namespace afm::render;
+
+// SIGTERM or SIGINT (the launcher stopping a run): the renderer ends its
+// loop as when the run is over, so that the video is closed and opens (an
+// interrupted run left a 44-byte mp4 without its moov atom) and the frames,
+// sheet and report written so far are kept.
+volatile sig_atomic_t g_stop = 0;
+extern "C" void on_stop(int) { g_stop = 1; }
+
+}  // namespace
+
+int main(int argc, char **argv)
+{
+    std::string scene_path, out_dir;
+    std::vector<int> writer_cpus;
+    bool view_frames = false;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
+        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
+        else if (a == "--writer-cpus" && i + 1 < argc) {
+            if (!afm::cpu_list_option("renderer", a, argv[++i], &writer_cpus)) return 2;
+        }
+        else if (a == "--view-frames") view_frames = true;
+        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
+        else { std::fprintf(stderr, "renderer: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
+    }
+    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
+    return afm::run_process("renderer", [&] {
+        const afm::Scene scene = afm::load_scene(scene_path);
+        std::filesystem::create_directories(out_dir + "/frames");
+        auto lc = afm::open_bus();
+        Renderer r(scene, *lc, out_dir);
+        r.writer_cpus = writer_cpus;
+        // the strip chart: about 250 samples a simulated second; the
+        // encoding on the renderer's own CPUs (the observers', view_frames.hpp)
+        if (view_frames) r.view = std::make_unique<afm::ViewFrames>(std::max(1, static_cast<int>(scene.block_hz / 250)), std::vector<int>{});
+        afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
+        inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
+        inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &m) { return r.on_state(m); });
+        inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return r.on_haptic(m); });
+        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return r.on_heartbeat(m); });
+
+        struct sigaction sa {};
+        sa.sa_handler = on_stop;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGTERM, &sa, nullptr);
+        sigaction(SIGINT, &sa, nullptr);
+        // The full scan first, while the frames' video encoder starts.
+        r.open_writer();
+        r.hb.send(afm::RunState::starting, -1, 0, "scanning");
+        r.start_scan(kInitialScan, cv::Rect(0, 0, r.field.px, r.field.px));
+        while (r.scan.busy()) {
+            inbox.handle(50);
+            if (r.sim_done || g_stop) return static_cast<int>(afm::kExitRunOverEarly);
+            r.retry_scan();
+        }
+        r.begin();
+        while (!r.sim_done && !g_stop) {
+            r.hb.maybe_send(r.last_seq < 0 ? afm::RunState::ready : afm::RunState::running, r.last_seq, 0);
+            // what has come (the inbox's thread takes the bus in batches, kBatchUs apart)
+            if (inbox.handle(r.last_seq < 0 ? afm::kReadyPeriodMs : 50) > 0)
+                while (inbox.handle(0) > 0) {}
+            if (r.final_pending || r.local_pending >= 0) r.retry_scan();
+            r.retry_fix();
+            r.draw_ready();   // frames queued while a scan paused them
+        }
+        if (r.writer) {
+            r.write_composed(r.frames_written - 1);   // a last frame whose check never came is not written
+            r.writer->finish();
+        }
+        if (r.view) r.view->finish();
+        write_contact_sheet(r, scene, out_dir);
+        afm::write_report(out_dir + "/renderer_report.json", report_json(r, scene, inbox.report()));
+        r.hb.send(afm::RunState::done, r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
+        return static_cast<int>(afm::kExitOk);
+    });
+}
