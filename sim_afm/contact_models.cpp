@@ -28,8 +28,9 @@ const std::vector<Material> kMaterials = {
     // Silicon, the tip: E along <110> 169 GPa, nu 0.27 (Hopcroft, Nix & Kenny,
     // J. MEMS 19, 229 (2010)); native oxide in air: the SiO2 value.
     {"silicon", 169.0, 0.27, 45.0},
-    // Silicon nitride (LPCVD, tips): 250-310 GPa, nu 0.27 (Petersen, Proc.
-    // IEEE 70, 420 (1982); CRC Handbook, Si3N4); in air about 45 mJ/m^2.
+    // Silicon nitride (LPCVD films, tips): 250-320 GPa reported, 290 taken,
+    // nu 0.27; bulk Si3N4 is stiffer (385 GPa: Petersen, Proc. IEEE 70, 420
+    // (1982)); in air about 45 mJ/m^2.
     {"silicon_nitride", 290.0, 0.27, 45.0},
     // Glass / SiO2 substrate: soda-lime glass 70 GPa, nu 0.22 (the scene's
     // glass, common/scene.cpp); fused silica 72 GPa, nu 0.17 (Corning 7980

@@ -29,8 +29,8 @@
 //          W = 0; with adhesion the plane-strain JKR, Barquins 1988,
 //          Chaudhury et al. 1996). A plane-strain indentation has no absolute
 //          datum: delta is the Hertzian part's approach
-//          (b^2 / (4 R)) (2 ln(4R/b) - 1) (the cylinder's own approach,
-//          Johnson 1985 section 5.6, with E*), a convention for ordering and
+//          (b^2 / (4 R)) (2 ln(4R/b) - 1) (Johnson 1985's approach of a
+//          cylinder's centre, with E*), a convention for ordering and
 //          for the stiffness, not a depth to compare with a measurement.
 // Pull-off (closed forms, load control): hertz 0, dmt 2 pi W R,
 // jkr 1.5 pi W R, line 1.5 (pi E* W^2 R / 2)^(1/3) L. `retract` measures
