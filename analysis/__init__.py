@@ -1,6 +1,6 @@
-"""The bench's analysis in Python: a run's errors against the simulator's
+"""The project's analysis in Python: a run's errors against the simulator's
 truth (runlog), the sweep of fidelity knobs on Dask (sweep, knobs, point)
-and its report (pareto, report), a run's data as pandas frames (open_run,
+and its report (pareto, sweep_report), a run's data as pandas frames (open_run,
 runs) and its export to CSV and MCAP (export). Run through ./afm (the project's
 .venv, where tools/setup.sh installs this package editable)."""
 

@@ -27,7 +27,7 @@ import time
 import yaml
 
 from analysis import knobs as K
-from analysis import engine, paths, point, report, sweep_users
+from analysis import engine, paths, point, sweep_report, sweep_users
 from analysis.text import printable
 
 USAGE = """usage: ./afm sweep SCENE --vary KEY=V1,V2,... [--vary ...] [options]
@@ -478,12 +478,12 @@ def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_
             "build_id": build, "engine": engine, "points_wall_s": points_wall_s, "users": users,
             "ok": sum(p["status"] == "ok" for p in points),
             "failed": sum(p["status"] != "ok" for p in points)}
-    report.write_csv_json(out, points, knob_keys, meta)
-    print(report.table(points))
-    plots = report.write_plots(out, points)
-    effects = report.knob_effects(points, knobs)
-    best = report.best_buy(effects)
-    report.write_html(out, meta, points, knobs, plots, effects, best)
+    sweep_report.write_csv_json(out, points, knob_keys, meta)
+    print(sweep_report.table(points))
+    plots = sweep_report.write_plots(out, points)
+    effects = sweep_report.knob_effects(points, knobs)
+    best = sweep_report.best_buy(effects)
+    sweep_report.write_html(out, meta, points, knobs, plots, effects, best)
     for p in points:
         if p["status"] != "ok":
             f = p.get("failure", {})
@@ -493,7 +493,7 @@ def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_
     if best:
         e = best[0]
         print(f"sweep: most accuracy per unit of cost: {e['knob']} {e['from']} -> {e['to']}: force RMS error "
-              f"x{report.fmt(e['force_rms_pN'])} for x{report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second")
+              f"x{sweep_report.fmt(e['force_rms_pN'])} for x{sweep_report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second")
     print(f"sweep: wrote {out}/sweep.csv, sweep.json, report.html and {len(plots)} Pareto plots in plots/")
 
 

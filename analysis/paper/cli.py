@@ -10,7 +10,7 @@ import sys
 import time
 
 from analysis import paths, point
-from analysis.paper import common, report
+from analysis.paper import common, paper_report
 from analysis import helptext
 from analysis.paper import exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze, exp_tilted, exp_trench
 
@@ -194,8 +194,8 @@ def main(argv):
         results[e.NAME] = (e, analyse(e, os.path.join(a.out, e.NAME), a.size, outcomes[e.NAME]), walls[e.NAME])
     sys.stderr.write("\n")
     wall = time.monotonic() - t0
-    report.write(a.out, results, a.size, wall)
-    print(report.table(results))
+    paper_report.write(a.out, results, a.size, wall)
+    print(paper_report.table(results))
     print(f"paper: {wall:.0f} s; report in {os.path.join(a.out, 'report.html')} (and report.md, paper.json)")
     failed = [f"{n} {run}" for n, runs_ in outcomes.items() for run, (_, ok, _) in runs_.items() if not ok]
     if failed:

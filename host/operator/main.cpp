@@ -29,17 +29,17 @@ const char *kUsage =
 
 }  // namespace
 
-// The planner on a thread of its own, turn by turn with the bus (TurnBench):
-// its end, or its error, is the bench's to say.
-static std::thread start_planner(afm::Planner &planner, afm::TurnBench &bench)
+// The planner on a thread of its own, turn by turn with the bus (PlannerTurns):
+// its end, or its error, is handed to the turns (finish), where the bus side reads it.
+static std::thread start_planner(afm::Planner &planner, afm::PlannerTurns &turns)
 {
-    return std::thread([&planner, &bench] {
+    return std::thread([&planner, &turns] {
         try {
-            planner.run(bench);
-            bench.finish(nullptr);
+            planner.run(turns);
+            turns.finish(nullptr);
         } catch (const afm::PlanStopped &) {
         } catch (...) {
-            bench.finish(std::current_exception());
+            turns.finish(std::current_exception());
         }
     });
 }
@@ -78,17 +78,17 @@ int main(int argc, char **argv)
         op.inbox = &inbox;
         inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return op.on_heartbeat(m); });
-        afm::TurnBench bench;
+        afm::PlannerTurns turns;
         std::thread plan_thread;
         struct Joiner {   // the planner's thread ends with the run, however main leaves
-            afm::TurnBench &b;
+            afm::PlannerTurns &b;
             std::thread &t;
             ~Joiner()
             {
                 b.stop();
                 if (t.joinable()) t.join();
             }
-        } joiner{bench, plan_thread};
+        } joiner{turns, plan_thread};
         if (planner) {
             inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
@@ -99,20 +99,20 @@ int main(int argc, char **argv)
             inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
         }
         afm::check_lockstep_reads(scene, inbox.channels(), "operator");
-        if (planner) plan_thread = start_planner(*planner, bench);
+        if (planner) plan_thread = start_planner(*planner, turns);
         while (!op.sim_done) {
             op.hb.maybe_send(op.answered < -1 ? afm::RunState::ready : afm::RunState::running, op.answered, 0);
             op.repeat_finished();
             inbox.handle(op.have_force ? 0 : op.answered < -1 ? afm::kReadyPeriodMs : 100);
             if (!op.have_force) continue;
-            if (planner) op.answer_by_planner(bench);
+            if (planner) op.answer_by_planner(turns);
             else op.answer_by_hand();
-            if (planner && bench.error()) std::rethrow_exception(bench.error());
+            if (planner && turns.error()) std::rethrow_exception(turns.error());
         }
-        bench.stop();
+        turns.stop();
         if (plan_thread.joinable()) plan_thread.join();
-        if (op.stroke) op.stroke->bench.stop();   // a stroke under way ends with the run (joined when op goes)
-        if (planner && bench.error()) std::rethrow_exception(bench.error());
+        if (op.stroke) op.stroke->turns.stop();   // a stroke under way ends with the run (joined when op goes)
+        if (planner && turns.error()) std::rethrow_exception(turns.error());
         if (!out_dir.empty())
             afm::write_report(out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));
         op.hb.send(afm::RunState::done, op.answered, 0);

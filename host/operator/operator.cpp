@@ -119,15 +119,15 @@ void Operator::start_stroke(const HandInput::PushAsk &a)
     Planner *pl = stroke_planner.get();
     st->thread = std::thread([st, pl, a, tip] {
         try {
-            st->item = pl->push_particle(st->bench, a.id, a.target_nm, tip);
-            st->bench.finish(nullptr);
+            st->item = pl->push_particle(st->turns, a.id, a.target_nm, tip);
+            st->turns.finish(nullptr);
         } catch (const PlanStopped &) {
         } catch (const PlanError &e) {   // this stroke cannot be made: its account says why
             st->item.id = a.id;
             st->item.why = e.what();
-            st->bench.finish(nullptr);
+            st->turns.finish(nullptr);
         } catch (...) {
-            st->bench.finish(std::current_exception());
+            st->turns.finish(std::current_exception());
         }
     });
     hb.send(RunState::running, force.seq, block_end_utime(scene, force.seq), stroke_news("start", a, nullptr));
@@ -135,10 +135,10 @@ void Operator::start_stroke(const HandInput::PushAsk &a)
 
 void Operator::serve_stroke()
 {
-    const Turn t = serve_planner(stroke->bench, stroke->served_block);
+    const Turn t = serve_planner(stroke->turns, stroke->served_block);
     if (t == Turn::run_over) return;
     if (t == Turn::ended) {
-        if (const std::exception_ptr e = stroke->bench.error()) std::rethrow_exception(e);
+        if (const std::exception_ptr e = stroke->turns.error()) std::rethrow_exception(e);
         end_stroke();
         return;
     }
@@ -150,7 +150,7 @@ void Operator::serve_stroke()
                 has_z ? press_for(page->command().load_nN) : 0.0, 0);
     held_N = {0, 0};
     held_z_N = 0;
-    // its progress, for the page; the planner's thread waits for this block's model meanwhile (TurnBench)
+    // its progress, for the page; the planner's thread waits for this block's model meanwhile (PlannerTurns)
     if (std::chrono::steady_clock::now() - stroke->told >= std::chrono::milliseconds(kStrokeNewsMs)) {
         PlanItem so_far;
         so_far.id = stroke->ask.id;

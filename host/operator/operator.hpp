@@ -1,4 +1,4 @@
-// Operator: the operator's side of the bench (operator/main.cpp runs it). For every haptic force it
+// Operator: the operator's side of the loop (operator/main.cpp runs it). For every haptic force it
 // receives (block n) it answers with the stylus pose for block n + 1: where
 // the stylus is at the end of block n (lockstep; the card asks for the
 // first pose with a force of block -1).
@@ -48,7 +48,7 @@
 #include "scan_client.hpp"
 #include "lockstep.hpp"
 #include "scene.hpp"
-#include "turn_bench.hpp"
+#include "planner_turns.hpp"
 
 namespace afm {
 
@@ -60,11 +60,11 @@ constexpr int kStrokeNewsMs = 500;      // a stroke's progress on the heartbeat,
 constexpr double kPm_nm = 0.0015;       // the card holds positions in whole pm: a position it set is the asked one within this
 
 // operator.mode browser: one planner stroke the page asked for (PUSH), the
-// planner on a thread of its own in turns with the bus (TurnBench), as a
+// planner on a thread of its own in turns with the bus (PlannerTurns), as a
 // planning run's; ended (stopped and joined) with this.
 struct Stroke {
     HandInput::PushAsk ask{};
-    TurnBench bench;
+    PlannerTurns turns;
     std::thread thread;
     PlanItem item;              // the planner's account, once it has finished
     bool served_block = false;  // the pose of the block being answered came from the planner
@@ -73,7 +73,7 @@ struct Stroke {
     std::chrono::steady_clock::time_point told;   // the page last told of its progress
     ~Stroke()
     {
-        bench.stop();
+        turns.stop();
         if (thread.joinable()) thread.join();
     }
 };
@@ -297,35 +297,35 @@ struct Operator {
     // fixes) until it hands over the pose for block n + 1 (published:
     // pose), finishes (ended) or the run ends (run_over). answer_block: the
     // pose of block n was the planner's, which waits for the model after it.
-    Turn serve_planner(TurnBench &bench, bool answer_block)
+    Turn serve_planner(PlannerTurns &turns, bool answer_block)
     {
         const int64_t n = force.seq;
         if (answer_block) {
             if (!pump_until([&] { return view.ready() && view.whole().seq >= n; })) return Turn::run_over;
-            bench.answer(view.whole(), block_end_utime(scene, n) * 1e-6);
+            turns.answer(view.whole(), block_end_utime(scene, n) * 1e-6);
         }
         while (true) {
-            const TurnBench::Req r = bench.next(50);
-            if (r == TurnBench::Req::None) {
+            const PlannerTurns::Req r = turns.next(50);
+            if (r == PlannerTurns::Req::None) {
                 while (inbox->handle(0) > 0) {}   // all that came: the socket is the only queue
                 if (sim_done) return Turn::run_over;
                 continue;
             }
-            if (r == TurnBench::Req::Block) {
-                hold_pose = bench.pose();
+            if (r == PlannerTurns::Req::Block) {
+                hold_pose = turns.pose();
                 publish_pose(joy_of(hold_pose.tip_nm), hold_pose.engaged, hold_pose.load_nN);
                 return Turn::pose;
             }
-            if (r == TurnBench::Req::Scan) {
-                const Field f = bench.field();
+            if (r == PlannerTurns::Req::Scan) {
+                const Field f = turns.field();
                 ScanRegion reg{f.x0_nm, f.y0_nm, f.size_nm, f.size_nm, f.px, f.px};
                 scan.start(kScanReqBase + ++scans, reg, n + 1);   // the sample as the simulator holds it after block n + 1
                 if (!pump_until([&] { return !scan.busy(); }, &Operator::retry_scan)) return Turn::run_over;
-                bench.answer(view.whole(), block_end_utime(scene, n) * 1e-6, &scan.heights());
+                turns.answer(view.whole(), block_end_utime(scene, n) * 1e-6, &scan.heights());
                 continue;
             }
-            if (r == TurnBench::Req::Fix) {
-                if (!send_fix(bench)) return Turn::run_over;
+            if (r == PlannerTurns::Req::Fix) {
+                if (!send_fix(turns)) return Turn::run_over;
                 continue;
             }
             return Turn::ended;   // Done or Failed
@@ -333,12 +333,12 @@ struct Operator {
     }
 
     // Serves the planner until it hands over the pose for block n + 1.
-    void answer_by_planner(TurnBench &bench)
+    void answer_by_planner(PlannerTurns &turns)
     {
         count_force();
         const int64_t n = force.seq;
         if (!plan_done) {
-            if (serve_planner(bench, n >= 0) != Turn::ended) return;
+            if (serve_planner(turns, n >= 0) != Turn::ended) return;
             plan_done = true;
             finished_seq = n;
             hb.send(RunState::finished, n, block_end_utime(scene, n));   // the simulator ends the run soon after (before the pose)
@@ -357,15 +357,15 @@ struct Operator {
     void end_stroke();
 
     // A fix, until the card acknowledges it; the note says if it refused.
-    bool send_fix(TurnBench &bench)
+    bool send_fix(PlannerTurns &turns)
     {
         object_fix_t f{};
         f.utime = block_end_utime(scene, force.seq);
         f.fix_id = ++fixes_sent;
-        f.object_id = bench.fix_object();
-        f.scan_x_nm = bench.fix_at().x;
-        f.scan_y_nm = bench.fix_at().y;
-        f.kind = bench.fix_place() ? object_fix_t::KIND_PLACE : object_fix_t::KIND_DRIFT;
+        f.object_id = turns.fix_object();
+        f.scan_x_nm = turns.fix_at().x;
+        f.scan_y_nm = turns.fix_at().y;
+        f.kind = turns.fix_place() ? object_fix_t::KIND_PLACE : object_fix_t::KIND_DRIFT;
         auto sent = std::chrono::steady_clock::now();
         afm::publish(lc, AFM_CH_HOST_OBJECT_FIX, f);
         const bool ok = pump_until([&] {
@@ -382,7 +382,7 @@ struct Operator {
         bool applied = false;
         for (const auto &p : view.whole().particles)
             if (p.id == f.object_id) applied = std::fabs(p.x_nm - f.scan_x_nm) <= kPm_nm && std::fabs(p.y_nm - f.scan_y_nm) <= kPm_nm;
-        bench.answer(view.whole(), block_end_utime(scene, force.seq) * 1e-6, nullptr, applied ? "" : "refused: beyond the firmware's limit");
+        turns.answer(view.whole(), block_end_utime(scene, force.seq) * 1e-6, nullptr, applied ? "" : "refused: beyond the firmware's limit");
         return true;
     }
 };

@@ -1,4 +1,4 @@
-// The planner's bench-facing core (planner.hpp): the scene's sites, the tip's
+// The planner's instrument-facing core (planner.hpp): the scene's sites, the tip's
 // moves, local scans and fixes, cuts, and run(): cuts, particles, rods.
 // Its stages live beside it: push_geometry.cpp, planner_particles.cpp,
 // planner_rods.cpp.
@@ -81,7 +81,7 @@ std::vector<Disc> Planner::obstacles(int except_id) const
 
 void Planner::hold(int blocks)
 {
-    for (int i = 0; i < blocks; ++i) model_ = &bench_->block({tip_, engaged_, load_nN_});
+    for (int i = 0; i < blocks; ++i) model_ = &instrument_->block({tip_, engaged_, load_nN_});
 }
 
 void Planner::wait_s(double s) { hold(static_cast<int>(std::lround(s * s_.block_hz))); }
@@ -99,7 +99,7 @@ void Planner::cut(const CutSpec &c)
     hold(kLandBlocks);                       // back to the light load before lifting
     travel(tip_, false, ps.travel_speed_nm_per_s);
     ++rep_.cuts;
-    rep_.cuts_done_s = bench_->time_s();
+    rep_.cuts_done_s = instrument_->time_s();
 }
 
 void Planner::travel(Vec2 to, bool engaged, double speed)
@@ -122,7 +122,7 @@ void Planner::travel(Vec2 to, bool engaged, double speed)
         while (norm(route[k] - tip_) > 1e-9) {
             const Vec2 d = route[k] - tip_;
             tip_ = norm(d) <= step ? route[k] : tip_ + step * unit(d);
-            model_ = &bench_->block({tip_, engaged_, load_nN_});
+            model_ = &instrument_->block({tip_, engaged_, load_nN_});
         }
     }
 }
@@ -144,13 +144,13 @@ bool Planner::scan_at(int id, Vec2 around, Vec2 *found)
     for (double size : {ps.scan_size_nm, kWideScan * ps.scan_size_nm}) {
         const int px = static_cast<int>(std::lround(ps.scan_px * size / ps.scan_size_nm));
         const Field f{around.x - size / 2, around.y - size / 2, size, px};
-        const cv::Mat h = bench_->scan(f);
+        const cv::Mat h = instrument_->scan(f);
         ++rep_.local_scans;
         wait_s(ps.scan_s * size / ps.scan_size_nm);
         double x = 0, y = 0;
         if (nearest_bump(h, f, around.x, around.y, r, window, others, r, &x, &y)) {
             if (std::getenv("AFM_PLAN_TRACE"))
-                std::fprintf(stderr, "plan: scan t %.3f particle %d around (%.1f, %.1f) found (%.1f, %.1f)\n", bench_->time_s(), id, around.x,
+                std::fprintf(stderr, "plan: scan t %.3f particle %d around (%.1f, %.1f) found (%.1f, %.1f)\n", instrument_->time_s(), id, around.x,
                              around.y, x, y);
             *found = {x, y};
             return true;
@@ -162,7 +162,7 @@ bool Planner::scan_at(int id, Vec2 around, Vec2 *found)
 bool Planner::send_fix(int id, Vec2 at, bool place)
 {
     std::string note;
-    model_ = &bench_->fix(id, at, place, &note);
+    model_ = &instrument_->fix(id, at, place, &note);
     if (note.empty()) ++rep_.fixes;
     else ++rep_.fixes_refused;
     return note.empty();
@@ -195,14 +195,14 @@ bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
     return send_fix(id, here, true);
 }
 
-PlanItem Planner::push_particle(PlanBench &bench, int id, Vec2 target_nm, Vec2 tip_nm)
+PlanItem Planner::push_particle(PlanInstrument &instrument, int id, Vec2 target_nm, Vec2 tip_nm)
 {
     const auto wall0 = std::chrono::steady_clock::now();
-    bench_ = &bench;
+    instrument_ = &instrument;
     tip_ = tip_nm;
     engaged_ = false;
     load_nN_ = 0;
-    model_ = &bench.block({tip_, false});
+    model_ = &instrument.block({tip_, false});
     PlanItem item;
     item.kind = "particle";
     item.id = id;
@@ -210,22 +210,22 @@ PlanItem Planner::push_particle(PlanBench &bench, int id, Vec2 target_nm, Vec2 t
     if (particle(id)) place_particle(item, item.target_nm);
     else item.why = "not in the firmware's model";
     rep_.items.push_back(item);
-    rep_.finished_s = bench.time_s();
+    rep_.finished_s = instrument.time_s();
     rep_.wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     return item;
 }
 
-void Planner::run(PlanBench &bench)
+void Planner::run(PlanInstrument &instrument)
 {
     const auto wall0 = std::chrono::steady_clock::now();
-    bench_ = &bench;
+    instrument_ = &instrument;
     tip_ = s_.start_nm();
     engaged_ = false;
-    model_ = &bench.block({tip_, false});
+    model_ = &instrument.block({tip_, false});
     for (const CutSpec &c : s_.op.plan.cuts) cut(c);
     if (!sites_.empty()) run_particles();
     if (!s_.wire_targets.empty()) run_wires();
-    rep_.finished_s = bench.time_s();
+    rep_.finished_s = instrument.time_s();
     rep_.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 }
 

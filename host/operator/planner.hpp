@@ -89,7 +89,7 @@ public:
     using std::runtime_error::runtime_error;
 };
 
-// Thrown by a PlanBench when the run ends while the planner works.
+// Thrown by a PlanInstrument when the run ends while the planner works.
 struct PlanStopped {};
 
 // Particles to sites at minimum total travel: result[j] is the particle
@@ -158,15 +158,15 @@ std::vector<Vec2> lifted_route(Vec2 from, Vec2 to, const PushGeometry &g, Vec2 c
 // first. Indices into `sites`.
 std::vector<int> assembly_order(const std::vector<Vec2> &sites, const PushGeometry &g);
 
-// What the planner sees of the bench (the operator implements it).
+// What the planner sees of the instrument, the card and the microscope (the operator implements it).
 struct PlanPose {
     Vec2 tip_nm;
     bool engaged = false;
     double load_nN = 0;         // while engaged; 0: operator.load_nN (a cut presses harder)
 };
-class PlanBench {
+class PlanInstrument {
 public:
-    virtual ~PlanBench() = default;
+    virtual ~PlanInstrument() = default;
     // Holds `pose` (the apex target) for the next block; returns the
     // firmware's model after that block. May throw PlanStopped.
     virtual const objects_t &block(const PlanPose &pose) = 0;
@@ -207,9 +207,9 @@ class Planner {
 public:
     // Throws PlanError / PatternError when the scene's targets cannot be served.
     explicit Planner(const Scene &s);
-    // The whole plan, block by block through `bench`; returns when done.
-    // Throws PlanStopped if the bench stops it.
-    void run(PlanBench &bench);
+    // The whole plan, block by block through `instrument`; returns when done.
+    // Throws PlanStopped if the instrument stops it.
+    void run(PlanInstrument &instrument);
     // One particle pushed to one place, as run() pushes each to its site
     // (place_particle: the scan before, the strokes, the scan after each,
     // the fixes; pushed again up to max_pushes while more than half the
@@ -219,8 +219,8 @@ public:
     // particle's account, also appended to report().items. The scene need
     // not plan (operator.mode browser asks for these one at a time: PUSH,
     // hand_input.hpp); operator.plan's settings apply, their defaults if
-    // it is not given. Throws PlanStopped if the bench stops it.
-    PlanItem push_particle(PlanBench &bench, int id, Vec2 target_nm, Vec2 tip_nm);
+    // it is not given. Throws PlanStopped if the instrument stops it.
+    PlanItem push_particle(PlanInstrument &instrument, int id, Vec2 target_nm, Vec2 tip_nm);
     const PlanReport &report() const { return rep_; }
     const std::vector<Vec2> &sites() const { return sites_; }
 
@@ -229,7 +229,7 @@ private:
     const Scene &s_;
     std::vector<Vec2> sites_;
     PlanReport rep_;
-    PlanBench *bench_ = nullptr;
+    PlanInstrument *instrument_ = nullptr;
     const objects_t *model_ = nullptr;
     Vec2 tip_;                  // the apex target last given
     bool engaged_ = false;

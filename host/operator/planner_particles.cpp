@@ -81,7 +81,7 @@ bool Planner::push_leg(int id, Vec2 end_A, bool slow_end)
         const double v = slow_end ? std::clamp(d / kSlowOver_nm * ps.speed_nm_per_s, kSlowest_nm_per_s, ps.speed_nm_per_s) : ps.speed_nm_per_s;
         const Vec2 to = aim - tip_;
         tip_ = norm(to) <= v * T ? aim : tip_ + (v * T) * unit(to);
-        model_ = &bench_->block({tip_, true});
+        model_ = &instrument_->block({tip_, true});
     }
     // Back off from the particle's model (the way it came, if the tip is on its centre).
     if (const particle_t *q = particle(id)) u = unit(Vec2{q->x_nm, q->y_nm} - tip_, u);
@@ -168,7 +168,7 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
         // How far the model strayed over this stroke sets the next one's length.
         const double strayed = norm(at - model);
         if (std::getenv("AFM_PLAN_TRACE"))
-            std::fprintf(stderr, "plan: t %.2f particle %d stroke %.0f nm (limit %.0f) at_site %d model (%.1f, %.1f) at (%.1f, %.1f) strayed %.1f nm\n", bench_->time_s(), item.id, norm(end - from), stroke_nm_, at_site, model.x, model.y, at.x, at.y, strayed);
+            std::fprintf(stderr, "plan: t %.2f particle %d stroke %.0f nm (limit %.0f) at_site %d model (%.1f, %.1f) at (%.1f, %.1f) strayed %.1f nm\n", instrument_->time_s(), item.id, norm(end - from), stroke_nm_, at_site, model.x, model.y, at.x, at.y, strayed);
         if (strayed < kStrayLow_nm) stroke_nm_ = std::min(kStrokeMax_nm, stroke_nm_ * 1.5);
         else if (strayed > kStrayHigh_nm) stroke_nm_ = std::max(kStrokeMin_nm, stroke_nm_ * 0.5);
         if (!at_site) continue;

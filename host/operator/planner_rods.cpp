@@ -221,7 +221,7 @@ bool Planner::push_rod_once(const WireTargetSpec &t, PlanItem &item, RodPushes &
     const bool at_b = std::fabs(y) > std::fabs(x);
     const double dn = std::clamp(at_b ? y : x, -ps.wire_step_nm, ps.wire_step_nm);
     if (std::getenv("AFM_PLAN_TRACE"))
-        std::fprintf(stderr, "plan: t %.2f rod %d A (%.1f, %.1f) B (%.1f, %.1f) eA %.1f eB %.1f push %s by %.1f nm\n", bench_->time_s(),
+        std::fprintf(stderr, "plan: t %.2f rod %d A (%.1f, %.1f) B (%.1f, %.1f) eA %.1f eB %.1f push %s by %.1f nm\n", instrument_->time_s(),
                      t.id, p.A.x, p.A.y, p.B.x, p.B.y, eA, eB, at_b ? "B" : "A", dn);
     ++item.pushes;
     ++rep_.pushes;
@@ -242,7 +242,7 @@ void Planner::check_rod_by_scan(PlanItem &item, const WireTargetSpec &t)
     const int px = static_cast<int>(std::lround(ps.scan_px * size / ps.scan_size_nm));
     const Field f{T.x - size / 2, T.y - size / 2, size, px};
     if (engaged_) travel(tip_, false, ps.travel_speed_nm_per_s);
-    const cv::Mat h = bench_->scan(f);
+    const cv::Mat h = instrument_->scan(f);
     ++rep_.local_scans;
     ++item.scans;
     wait_s(ps.scan_s * size / ps.scan_size_nm);

@@ -1,5 +1,5 @@
 // The planner's geometry (planner.hpp: assign_sites, plan_push, lifted_route,
-// stroke_length, assembly_order): functions of the plane, no bench.
+// stroke_length, assembly_order): functions of the plane, no instrument.
 
 #include "planner.hpp"
 

@@ -10,16 +10,16 @@ import json
 import subprocess
 import unittest
 
-import benchtest
+import e2e_support
 
-GOOD = open(benchtest.scene("short.yaml")).read()
+GOOD = open(e2e_support.scene("short.yaml")).read()
 
 
 class BadScenes(unittest.TestCase):
     def check_refused(self, text, key, value_text):
-        path = benchtest.write_scene(text, "bad")
+        path = e2e_support.write_scene(text, "bad")
         out = os.path.join(os.path.dirname(path), "out")
-        code, stdout, stderr, _ = benchtest.run(path, out)
+        code, stdout, stderr, _ = e2e_support.run(path, out)
         lines = [l for l in stderr.splitlines() if l.strip()]
         self.assertNotEqual(code, 0)
         self.assertEqual(len(lines), 1, stderr)
@@ -27,7 +27,7 @@ class BadScenes(unittest.TestCase):
         self.assertIn(key, lines[0])
         self.assertIn(value_text, lines[0])
         self.assertFalse(os.path.exists(out), "nothing may start for a bad scene")
-        benchtest.cleanup(os.path.dirname(path))
+        e2e_support.cleanup(os.path.dirname(path))
         return lines[0]
 
     def test_unknown_key_named(self):
@@ -54,10 +54,10 @@ class BadScenes(unittest.TestCase):
         # particle 1 at (0, -300), radius 50; the tip's apex radius 10: 55 nm away is inside, 60 touches
         msg = self.check_refused(GOOD.replace("- [0, -700]", "- [0, -355]"), "operator.path_nm[0]", "starts inside objects.particles[0]")
         self.assertIn("55.0 nm", msg)
-        path = benchtest.write_scene(GOOD.replace("- [0, -700]", "- [0, -360]"), "touching")
-        p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", path], capture_output=True, text=True, timeout=60)
+        path = e2e_support.write_scene(GOOD.replace("- [0, -700]", "- [0, -360]"), "touching")
+        p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", path], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 0, p.stderr)   # touching is allowed
-        benchtest.cleanup(os.path.dirname(path))
+        e2e_support.cleanup(os.path.dirname(path))
 
     def test_negative_roughness_named_with_value(self):
         self.check_refused(GOOD.replace("field_nm: 2000", "field_nm: 2000\n  roughness_rms_nm: -1"), "sample.roughness_rms_nm", "'-1'")
@@ -108,7 +108,7 @@ class BadScenes(unittest.TestCase):
                            "firmware.drift_max_step_nm", "must be > 0, got '-5'")
 
     def test_plan_cuts_named(self):
-        with open(benchtest.scene("paper/trench.yaml")) as f:
+        with open(e2e_support.scene("paper/trench.yaml")) as f:
             trench = f.read()
         self.check_refused(trench.replace("load_nN: 55}", "load_nN: 15}"), "operator.plan.cuts[0].load_nN",
                            "must exceed sample.lithography.threshold_nN")
@@ -126,15 +126,15 @@ class BadScenes(unittest.TestCase):
                            "operator.plan.tolerance_nm", "'-3'")
 
     def test_empty_file_refused(self):
-        path = benchtest.write_scene("", "empty")
-        code, _, stderr, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"))
+        path = e2e_support.write_scene("", "empty")
+        code, _, stderr, _ = e2e_support.run(path, os.path.join(os.path.dirname(path), "out"))
         self.assertEqual(code, 2)
         self.assertIn(path, stderr)
         self.assertIn("empty", stderr)
 
     def test_a_directory_a_fifo_and_an_oversized_file_are_refused_by_type(self):
-        tmp = benchtest.tmpdir("types")
-        self.addCleanup(benchtest.cleanup, tmp)
+        tmp = e2e_support.tmpdir("types")
+        self.addCleanup(e2e_support.cleanup, tmp)
         fifo = os.path.join(tmp, "scene.fifo")
         os.mkfifo(fifo)
         big = os.path.join(tmp, "big.yaml")
@@ -142,25 +142,25 @@ class BadScenes(unittest.TestCase):
             f.write("# " + "x" * (5 << 20) + "\n")
         for path, words in ((tmp, "it is a directory"), (fifo, "it is a FIFO"), ("/dev/null", "it is a device"),
                             (big, "larger than a scene may be")):
-            code, _, stderr, _ = benchtest.run(path, os.path.join(tmp, "out"), timeout=30)   # a FIFO used to hang
+            code, _, stderr, _ = e2e_support.run(path, os.path.join(tmp, "out"), timeout=30)   # a FIFO used to hang
             lines = [l for l in stderr.splitlines() if l.strip()]
             self.assertEqual(code, 2, stderr)
             self.assertEqual(len(lines), 1, stderr)
             self.assertIn(path, lines[0])
             self.assertIn(words, lines[0])
         # an include that is a directory, named the same way
-        inc = benchtest.write_scene(open(benchtest.scene("short.yaml")).read() + f"include: {tmp}\n", "inc-dir")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(inc))
-        code, _, stderr, _ = benchtest.run(inc, os.path.join(tmp, "out2"), timeout=30)
+        inc = e2e_support.write_scene(open(e2e_support.scene("short.yaml")).read() + f"include: {tmp}\n", "inc-dir")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(inc))
+        code, _, stderr, _ = e2e_support.run(inc, os.path.join(tmp, "out2"), timeout=30)
         self.assertEqual(code, 2, stderr)
         self.assertIn("it is a directory", stderr)
 
     def test_a_frame_rate_the_writer_cannot_take_is_named(self):
-        text = open(benchtest.scene("short.yaml")).read().replace("frame_rate_hz: 25", "frame_rate_hz: 1e-300")
+        text = open(e2e_support.scene("short.yaml")).read().replace("frame_rate_hz: 25", "frame_rate_hz: 1e-300")
         self.check_refused(text, "frame_rate_hz", "1e-300")
 
     def test_control_characters_are_escaped_and_long_values_cut(self):
-        base = open(benchtest.scene("short.yaml")).read()
+        base = open(e2e_support.scene("short.yaml")).read()
         line = self.check_refused(base.replace("duration_s: 0.6", 'duration_s: "0.6\\e[31m\\nX"'), "duration_s",
                                   "\\x1B[31m")   # common/text.hpp's escapes (every control byte: test_hostile_input)
         self.assertNotIn("\x1b", line)
@@ -170,7 +170,7 @@ class BadScenes(unittest.TestCase):
         self.assertLess(len(line), 400, line)
 
     def test_listed_objects_are_capped_as_scattered_ones(self):
-        base = open(benchtest.scene("short.yaml")).read()
+        base = open(e2e_support.scene("short.yaml")).read()
         many = "\n".join(f"    - {{id: {i}, x_nm: {(i % 100) * 15 - 750}, y_nm: {(i // 100) * 15 - 750}, radius_nm: 5}}"
                          for i in range(1, 5002))
         text = base.replace("""    - {id: 1, x_nm: 0, y_nm: -300, radius_nm: 50}
@@ -179,7 +179,7 @@ class BadScenes(unittest.TestCase):
 
     def test_missing_file_named(self):
         path = "/nonexistent/afm/scene.yaml"
-        code, _, stderr, _ = benchtest.run(path, benchtest.tmpdir("missing"))
+        code, _, stderr, _ = e2e_support.run(path, e2e_support.tmpdir("missing"))
         lines = [l for l in stderr.splitlines() if l.strip()]
         self.assertEqual(code, 2)
         self.assertEqual(len(lines), 1, stderr)
@@ -187,8 +187,8 @@ class BadScenes(unittest.TestCase):
         self.assertIn("cannot open", lines[0])
 
     def test_yaml_syntax_error_names_line(self):
-        path = benchtest.write_scene(GOOD.replace("seed: 7", "seed: [7"), "syntax")
-        code, _, stderr, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"))
+        path = e2e_support.write_scene(GOOD.replace("seed: 7", "seed: [7"), "syntax")
+        code, _, stderr, _ = e2e_support.run(path, os.path.join(os.path.dirname(path), "out"))
         self.assertEqual(code, 2)
         self.assertIn(path, stderr)
         self.assertIn("line", stderr)
@@ -216,21 +216,21 @@ class ThroughTheAfmScript(unittest.TestCase):
         for cmd in ("run", "check", "demo", "test", "spy", "bench", "setup", "build", "replay", "calc"):
             for flag in ("--help", "-h"):
                 t0 = time.monotonic()
-                p = subprocess.run([os.path.join(benchtest.SRC, "afm"), cmd, flag], capture_output=True, text=True, timeout=60)
+                p = subprocess.run([os.path.join(e2e_support.SRC, "afm"), cmd, flag], capture_output=True, text=True, timeout=60)
                 self.assertEqual(p.returncode, 0, (cmd, flag, p.stderr))
                 self.assertIn("usage" if cmd in ("replay", "calc") else f"./afm {cmd}", p.stdout, (cmd, p.stdout))
                 self.assertNotIn("building", p.stderr, cmd)
                 self.assertLess(time.monotonic() - t0, 5.0, cmd)
         for b in ("firmware", "sim", "render", "bus", "sweep"):   # each bench's own text
-            p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "bench", b, "--help"], capture_output=True, text=True,
+            p = subprocess.run([os.path.join(e2e_support.SRC, "afm"), "bench", b, "--help"], capture_output=True, text=True,
                                timeout=60)
             self.assertEqual(p.returncode, 0, (b, p.stderr))
             self.assertIn(f"usage: ./afm bench {b}", p.stdout)
             self.assertNotIn("building", p.stderr, b)
 
     def test_afm_run_refuses_a_bad_scene_naming_file_key_value(self):
-        path = benchtest.write_scene(GOOD.replace("radius_nm: 50", "radius_nm: -5", 1), "afm-bad")
-        p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "run", path, "--out", os.path.join(os.path.dirname(path), "out")],
+        path = e2e_support.write_scene(GOOD.replace("radius_nm: 50", "radius_nm: -5", 1), "afm-bad")
+        p = subprocess.run([os.path.join(e2e_support.SRC, "afm"), "run", path, "--out", os.path.join(os.path.dirname(path), "out")],
                            capture_output=True, text=True, timeout=300)
         self.assertNotEqual(p.returncode, 0)
         named = [l for l in p.stderr.splitlines() if path in l]
@@ -238,13 +238,13 @@ class ThroughTheAfmScript(unittest.TestCase):
         self.assertIn("objects.particles[0].radius_nm", named[0])
         self.assertIn("'-5'", named[0])
         self.assertFalse(os.path.exists(os.path.join(os.path.dirname(path), "out")))
-        benchtest.cleanup(os.path.dirname(path))
+        e2e_support.cleanup(os.path.dirname(path))
 
     def test_check_mode_needs_no_output_folder(self):
-        p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", benchtest.scene("default.yaml")],
+        p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", e2e_support.scene("default.yaml")],
                            capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 0, p.stderr)
-        p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "check", benchtest.scene("default.yaml")],
+        p = subprocess.run([os.path.join(e2e_support.SRC, "afm"), "check", e2e_support.scene("default.yaml")],
                            capture_output=True, text=True, timeout=300)
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("is a valid scene", p.stdout)
@@ -256,18 +256,18 @@ class OutputFolderLocked(unittest.TestCase):
     folder is free again afterwards."""
 
     def test_a_second_run_into_the_same_folder_is_refused_at_once(self):
-        text = open(benchtest.scene("short.yaml")).read().replace("duration_s: 0.6", "duration_s: 2.0\ntime_mode: realtime")
-        scene = benchtest.write_scene(text, "lock")
+        text = open(e2e_support.scene("short.yaml")).read().replace("duration_s: 0.6", "duration_s: 2.0\ntime_mode: realtime")
+        scene = e2e_support.write_scene(text, "lock")
         out = os.path.join(os.path.dirname(scene), "out")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(scene))
-        first = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", scene, "--out", out, "--quiet"],
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(scene))
+        first = subprocess.Popen([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", scene, "--out", out, "--quiet"],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
             deadline = time.time() + 20
             while not os.path.exists(os.path.join(out, "bus.lcmlog")) and time.time() < deadline:
                 time.sleep(0.05)
             t0 = time.monotonic()
-            code, _, stderr, _ = benchtest.run(scene, out)
+            code, _, stderr, _ = e2e_support.run(scene, out)
             took = time.monotonic() - t0
             lines = [l for l in stderr.splitlines() if l.strip()]
             self.assertEqual(code, 2, stderr)
@@ -282,14 +282,14 @@ class OutputFolderLocked(unittest.TestCase):
                 first.kill()
         with open(os.path.join(out, "run.json")) as f:
             self.assertEqual(json.load(f)["status"], "ok")   # the second run changed nothing of the first's
-        code, _, stderr, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        code, _, stderr, _ = e2e_support.run(e2e_support.scene("short.yaml"), out)
         self.assertEqual(code, 0, stderr)   # free again
 
 
 class ProcessDies(unittest.TestCase):
     def test_dead_firmware_node_stops_the_run_and_keeps_the_log(self):
-        out = benchtest.tmpdir("crash")
-        code, _, stderr, rj = benchtest.run(benchtest.scene("short.yaml"), out, "--inject-crash", "fw_node:100")
+        out = e2e_support.tmpdir("crash")
+        code, _, stderr, rj = e2e_support.run(e2e_support.scene("short.yaml"), out, "--inject-crash", "fw_node:100")
         self.assertNotEqual(code, 0)
         self.assertIn("fw_node died with exit code 70", stderr)
         self.assertIsNotNone(rj, "run.json must be written on failure")
@@ -298,7 +298,7 @@ class ProcessDies(unittest.TestCase):
         self.assertEqual(codes["fw_node"], 70)
         self.assertGreater(os.path.getsize(os.path.join(out, "bus.lcmlog")), 0)
         self.assertGreater(rj["channels"]["AFM_ANALOG"], 0)
-        benchtest.cleanup(out)
+        e2e_support.cleanup(out)
 
 
 class BusGuard(unittest.TestCase):
@@ -306,14 +306,14 @@ class BusGuard(unittest.TestCase):
         route = subprocess.run(["ip", "route", "get", "239.255.76.67"], capture_output=True, text=True).stdout
         if " dev lo " in route:
             self.skipTest("this namespace routes multicast on loopback: the guard would allow it")
-        out = benchtest.tmpdir("guard")
-        p = subprocess.run([benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out],
+        out = e2e_support.tmpdir("guard")
+        p = subprocess.run([e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", out],
                            capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2)
         self.assertTrue("would leave through" in p.stderr or "no route" in p.stderr, p.stderr)
         self.assertEqual(os.listdir(out), [], "nothing may start outside the run's namespace")
-        benchtest.cleanup(out)
+        e2e_support.cleanup(out)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -9,18 +9,18 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 import lcm
 
-BENCH = os.path.join(benchtest.SRC, "bench", "bench_bus.py")
-PROBE = os.path.join(benchtest.BUILD, "bench", "host", "bench_bus")
+BENCH = os.path.join(e2e_support.SRC, "bench", "bench_bus.py")
+PROBE = os.path.join(e2e_support.BUILD, "bench", "host", "bench_bus")
 
 
 class BenchBus(unittest.TestCase):
     def test_the_probe_answers_every_ping_of_every_size(self):
         # as the processes receive (the default), and through liblcm's thread
         for receive in ([], ["--receive", "liblcm"]):
-            p = subprocess.run([benchtest.IN_NETNS, PROBE, "--sizes", "24,836,6200", "--count", "50", *receive], capture_output=True,
+            p = subprocess.run([e2e_support.IN_NETNS, PROBE, "--sizes", "24,836,6200", "--count", "50", *receive], capture_output=True,
                                text=True, timeout=120)
             self.assertEqual(p.returncode, 0, p.stderr)
             rows = [l.split() for l in p.stdout.splitlines()[1:]]
@@ -33,14 +33,14 @@ class BenchBus(unittest.TestCase):
 
     def test_the_probe_refuses_absurd_sizes_and_counts(self):
         for args in (["--sizes", "23"], ["--sizes", "100000"], ["--sizes", "49,x"], ["--count", "3"], ["--receive", "udp"]):
-            p = subprocess.run([benchtest.IN_NETNS, PROBE, *args], capture_output=True, text=True, timeout=60)
+            p = subprocess.run([e2e_support.IN_NETNS, PROBE, *args], capture_output=True, text=True, timeout=60)
             self.assertEqual(p.returncode, 2, args)
             self.assertIn("bench_bus:", p.stderr)
 
     def test_benches_refuse_a_missing_scene_and_no_rounds_naming_them(self):
         # bench view read a missing scene with a traceback; the three share benchargs.checked_scene
         for name in ("bench_bus.py", "bench_pil.py", "bench_view.py"):
-            bench = os.path.join(benchtest.SRC, "bench", name)
+            bench = os.path.join(e2e_support.SRC, "bench", name)
             for args, named in ((["--scene", "/nonexistent/scene.yaml"], "--scene: /nonexistent/scene.yaml: no such file"),
                                 (["--repeat", "0"], "--repeat: 0: give 1 or more")):
                 p = subprocess.run([sys.executable, bench, *args], capture_output=True, text=True, timeout=60)
@@ -49,12 +49,12 @@ class BenchBus(unittest.TestCase):
                 self.assertNotIn("Traceback", p.stderr, name)
 
     def test_six_arrangements_each_with_a_complete_log(self):
-        top = benchtest.tmpdir("bench-bus")
-        self.addCleanup(benchtest.cleanup, top)
+        top = e2e_support.tmpdir("bench-bus")
+        self.addCleanup(e2e_support.cleanup, top)
         out = os.path.join(top, "new", "runs")   # --out a folder not there yet: made, as a user would expect
-        p = subprocess.run([sys.executable, BENCH, "--scene", benchtest.scene("short.yaml"), "--repeat", "1", "--count", "50",
-                            "--out", out], capture_output=True, text=True, timeout=benchtest.limit(300),
-                           env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
+        p = subprocess.run([sys.executable, BENCH, "--scene", e2e_support.scene("short.yaml"), "--repeat", "1", "--count", "50",
+                            "--out", out], capture_output=True, text=True, timeout=e2e_support.limit(300),
+                           env=dict(os.environ, AFM_BUILD=e2e_support.BUILD))
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         self.assertIn("The bus's MAC", p.stdout)
         with open(os.path.join(out, "bench_bus.json")) as f:
@@ -147,4 +147,4 @@ def afmlog_events(path):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -10,18 +10,18 @@ import subprocess
 import time
 import unittest
 
-import benchtest
+import e2e_support
 
-AFM = os.path.join(benchtest.SRC, "afm")
+AFM = os.path.join(e2e_support.SRC, "afm")
 
 
 def build(**env):
-    return subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=benchtest.limit(540), env=dict(os.environ, **env))
+    return subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=e2e_support.limit(540), env=dict(os.environ, **env))
 
 
 class BuildLock(unittest.TestCase):
     def test_a_link_as_the_lock_is_refused_and_its_target_untouched(self):
-        d = benchtest.tmpdir("lock-link")
+        d = e2e_support.tmpdir("lock-link")
         target = os.path.join(d, "precious.txt")
         with open(target, "w") as f:
             f.write("not to be truncated\n")
@@ -34,7 +34,7 @@ class BuildLock(unittest.TestCase):
             self.assertEqual(f.read(), "not to be truncated\n")
 
     def test_a_held_lock_is_named_and_not_waited_on_forever(self):
-        lock = os.path.join(benchtest.tmpdir("lock-held"), "build.lock")
+        lock = os.path.join(e2e_support.tmpdir("lock-held"), "build.lock")
         with open(lock, "w") as f:
             f.write("kept\n")
         # its own process group, killed whole: flock's `sleep` would otherwise
@@ -57,7 +57,7 @@ class BuildLock(unittest.TestCase):
             self.assertEqual(f.read(), "kept\n", "opened without truncation")
 
     def test_the_holder_names_itself_and_roots_lock_lies_in_run_afm(self):
-        lock = os.path.join(benchtest.tmpdir("lock-kept"), "build.lock")
+        lock = os.path.join(e2e_support.tmpdir("lock-kept"), "build.lock")
         p = build(AFM_BUILD_LOCK=lock)
         self.assertEqual(p.returncode, 0, p.stderr)
         with open(lock) as f:
@@ -65,7 +65,7 @@ class BuildLock(unittest.TestCase):
         if os.geteuid() != 0:
             return
         env = {k: v for k, v in os.environ.items() if k != "AFM_BUILD_LOCK"}
-        p = subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=benchtest.limit(540), env=env)
+        p = subprocess.run([AFM, "build"], capture_output=True, text=True, timeout=e2e_support.limit(540), env=env)
         self.assertEqual(p.returncode, 0, p.stderr)
         st = os.lstat("/run/afm")
         self.assertTrue(stat.S_ISDIR(st.st_mode))
@@ -76,4 +76,4 @@ class BuildLock(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

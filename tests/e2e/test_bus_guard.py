@@ -19,7 +19,7 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 
 # One LCM short datagram ("LC02", a sequence number, the channel's name and
 # its NUL, a payload), sent from a plain UDP socket inside the run's
@@ -90,13 +90,13 @@ def alive(pid):
 
 class NoDatagramLosesARun(unittest.TestCase):
     def test_a_channel_name_that_is_not_utf8_is_counted_escaped(self):
-        out = benchtest.tmpdir("bad-channel")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("bad-channel")
+        self.addCleanup(e2e_support.cleanup, out)
         script = ('"$PY" -c "$SEND" 4 > /dev/null & h=$!; '
                   '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; wait $h; exit $rc')
-        env = dict(os.environ, PY=sys.executable, SEND=SEND_BAD_CHANNEL, LAUNCH=benchtest.LAUNCH,
-                   SCENE=benchtest.scene("short.yaml"), OUT=out, AFM_RUN_WRITES=out)
-        p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
+        env = dict(os.environ, PY=sys.executable, SEND=SEND_BAD_CHANNEL, LAUNCH=e2e_support.LAUNCH,
+                   SCENE=e2e_support.scene("short.yaml"), OUT=out, AFM_RUN_WRITES=out)
+        p = subprocess.run([e2e_support.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
         self.assertEqual(p.returncode, 0, p.stderr[-2000:])
         with open(os.path.join(out, "run.json"), "rb") as f:
             raw = f.read()
@@ -113,13 +113,13 @@ class NoDatagramLosesARun(unittest.TestCase):
 
 class TheRunDiesWithItsLauncher(unittest.TestCase):
     def test_sigkill_of_the_launcher_leaves_nothing_running(self):
-        out = benchtest.tmpdir("killed")
-        self.addCleanup(benchtest.cleanup, out)
-        with open(benchtest.scene("short.yaml")) as f:
+        out = e2e_support.tmpdir("killed")
+        self.addCleanup(e2e_support.cleanup, out)
+        with open(e2e_support.scene("short.yaml")) as f:
             text = f.read().replace("duration_s: 0.6", "duration_s: 120.0")
-        scene = benchtest.write_scene(text, "long-scene")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(scene))
-        p = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", scene, "--out", out, "--quiet"],
+        scene = e2e_support.write_scene(text, "long-scene")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(scene))
+        p = subprocess.Popen([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", scene, "--out", out, "--quiet"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
             launcher, kids = None, []
@@ -160,7 +160,7 @@ class TheRunDiesWithItsLauncher(unittest.TestCase):
                 p.wait()
         self.assertFalse(os.path.exists(os.path.join(out, "run.json")))
         # the next command on that folder says the run there was interrupted
-        code, _, err, rj = benchtest.run(benchtest.scene("short.yaml"), out)
+        code, _, err, rj = e2e_support.run(e2e_support.scene("short.yaml"), out)
         said = [line for line in err.splitlines() if "interrupted" in line]
         self.assertEqual(len(said), 1, err)
         self.assertIn("the last run in", said[0])
@@ -168,10 +168,10 @@ class TheRunDiesWithItsLauncher(unittest.TestCase):
         self.assertEqual(code, 0, err)
         self.assertEqual(rj["status"], "ok")
         # and a run that ended says nothing of the kind
-        code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        code, _, err, _ = e2e_support.run(e2e_support.scene("short.yaml"), out)
         self.assertEqual(code, 0, err)
         self.assertNotIn("interrupted", err)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -29,7 +29,7 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog, paths
 
 FORGE, DROP_CAPS = paths.FORGE, paths.DROP_CAPS
@@ -46,11 +46,11 @@ def run_with_spoofer(scene, out, what, program, mac=True):
     script = ('"$PY" "$FORGE" "$WHAT" --spoof "$PROGRAM" --seconds 300 > "$SENT" & h=$!; '
               '"$DROP" "$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     env = dict(os.environ, PY=sys.executable, FORGE=FORGE, WHAT=what, PROGRAM=program, SENT=sent, DROP=DROP_CAPS,
-               LAUNCH=benchtest.LAUNCH, SCENE=scene, OUT=out, AFM_KEEP_CAPS="net_raw",
+               LAUNCH=e2e_support.LAUNCH, SCENE=scene, OUT=out, AFM_KEEP_CAPS="net_raw",
                AFM_RUN_WRITES=os.path.dirname(sent))
     if not mac:
         env["AFM_BUS_MAC"] = "off"
-    p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
+    p = subprocess.run([e2e_support.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
     rj = None
     if os.path.exists(os.path.join(out, "run.json")):
         with open(os.path.join(out, "run.json")) as f:
@@ -111,15 +111,15 @@ def viewed_with_spoofer(scene, out, what, program):
     env = dict(os.environ, PY=sys.executable, FORGE=FORGE, WHAT=what, PROGRAM=program, SENT=sent, DROP=DROP_CAPS,
                AFM_KEEP_CAPS="net_raw", AFM_RUN_WRITES=os.path.dirname(sent))
     cmd = [sys.executable, "-m", "analysis.view", "run", "--out", out, "--wait", "--", "sh", "-c", VIEWED_WITH_FORGER, "sh",
-           benchtest.LAUNCH, "--scene", scene, "--out", out, "--view", "--quiet"]
+           e2e_support.LAUNCH, "--scene", scene, "--out", out, "--view", "--quiet"]
     p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
     try:
         line = p.stderr.readline()
         m = re.match(r"view: http://127\.0\.0\.1:(\d+)/\?token=(\S+)", line)
         assert m, "no page address printed: " + line
-        texts, images = asyncio.run(page_messages(int(m.group(1)), m.group(2), benchtest.limit(300)))
+        texts, images = asyncio.run(page_messages(int(m.group(1)), m.group(2), e2e_support.limit(300)))
         err = p.stderr.read()
-        code = p.wait(timeout=benchtest.limit(60))
+        code = p.wait(timeout=e2e_support.limit(60))
     finally:
         if p.poll() is None:
             p.kill()
@@ -128,7 +128,7 @@ def viewed_with_spoofer(scene, out, what, program):
     if os.path.exists(os.path.join(out, "run.json")):
         with open(os.path.join(out, "run.json")) as f:
             rj = json.load(f)
-    deadline = time.monotonic() + benchtest.limit(10)   # the forger says what it sent once the launcher is gone
+    deadline = time.monotonic() + e2e_support.limit(10)   # the forger says what it sent once the launcher is gone
     while not os.path.getsize(sent) and time.monotonic() < deadline:
         time.sleep(0.05)
     with open(sent) as f:
@@ -147,12 +147,12 @@ class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
         pattern = re.compile(r"(\.|->)publish\(")
         found = []
         for top in ("common", "scene", "bus", "host", "sim_afm", "run", "faults", "tools", "bench"):
-            for root, _, files in os.walk(os.path.join(benchtest.SRC, top)):
+            for root, _, files in os.walk(os.path.join(e2e_support.SRC, top)):
                 for name in files:
                     if not name.endswith((".cpp", ".hpp", ".h", ".c")):
                         continue
                     path = os.path.join(root, name)
-                    rel = os.path.relpath(path, benchtest.SRC)
+                    rel = os.path.relpath(path, e2e_support.SRC)
                     with open(path, errors="replace") as f:
                         for i, line in enumerate(f, 1):
                             code = line.split("//", 1)[0]
@@ -164,28 +164,28 @@ class EveryPublishGoesThroughTheBusLayer(unittest.TestCase):
 class BusProof(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.scene = benchtest.short_scene_2s("proof-scene")
-        cls.clean = benchtest.tmpdir("calm")
-        cls.code0, _, cls.err0, cls.rj0 = benchtest.run(cls.scene, cls.clean)
+        cls.scene = e2e_support.short_scene_2s("proof-scene")
+        cls.clean = e2e_support.tmpdir("calm")
+        cls.code0, _, cls.err0, cls.rj0 = e2e_support.run(cls.scene, cls.clean)
         cls.log0 = afmlog.load(os.path.join(cls.clean, "bus.lcmlog"), channels=CHANNELS)
         cls.blocks = cls.rj0["sim"]["blocks"]
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.clean, os.path.dirname(cls.scene))
+        e2e_support.cleanup(cls.clean, os.path.dirname(cls.scene))
 
     def same_run(self, out):
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=CHANNELS)
         for ch, field in (("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq"),
                           ("HAPTIC_FORCE", "seq")):
-            calm, now = benchtest.encoded_by_seq(self.log0[ch], self.blocks, field), benchtest.encoded_by_seq(log[ch], self.blocks, field)
+            calm, now = e2e_support.encoded_by_seq(self.log0[ch], self.blocks, field), e2e_support.encoded_by_seq(log[ch], self.blocks, field)
             self.assertEqual(sorted(calm), sorted(now), ch)
             differ = [q for q in calm if calm[q] != now[q]]
             self.assertEqual(differ, [], f"{ch}: blocks that differ from the undisturbed run: {differ[:5]}")
 
     def forged(self, what, program, channel):
-        out = benchtest.tmpdir(f"spoof-{what}")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir(f"spoof-{what}")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj, sent = run_with_spoofer(self.scene, out, what, program)
         self.assertIsNotNone(rj, err[-2000:])
         self.assertGreater(sent["total"], 5, sent)
@@ -238,8 +238,8 @@ class BusProof(unittest.TestCase):
     def test_without_the_key_the_spoofed_stop_ends_the_run(self):
         # what the MAC holds off: the same forgery on a run without a key
         # (AFM_BUS_MAC=off) passes the check of senders and stops the run
-        out = benchtest.tmpdir("spoof-stop-nokey")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("spoof-stop-nokey")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj, sent = run_with_spoofer(self.scene, out, "stop", "afm_launch", mac=False)
         self.assertGreater(sent["total"], 0, sent)
         self.assertNotEqual(code, 0, err[-2000:])
@@ -250,8 +250,8 @@ class BusProof(unittest.TestCase):
         # a heartbeat's name is tied to the program behind its source port
         # (Senders::vet), key or not: the launcher's "stop" from the
         # renderer's port, on a run without a key, is foreign everywhere
-        out = benchtest.tmpdir("spoof-stop-renderer")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("spoof-stop-renderer")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj, sent = run_with_spoofer(self.scene, out, "stop", "renderer", mac=False)
         self.assertGreater(sent["total"], 5, sent)
         self.assertEqual(code, 0, err[-2000:])
@@ -270,15 +270,15 @@ class ViewBridgeProof(unittest.TestCase):
         r, w = os.pipe()
         self.addCleanup(os.close, r)
         self.addCleanup(os.close, w)
-        p = subprocess.run([benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", "/nonexistent/run",
+        p = subprocess.run([e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", "/nonexistent/run",
                             "--view-fd", str(w)], capture_output=True, text=True, pass_fds=(w,), timeout=60)
         self.assertEqual(p.returncode, 2)
         self.assertEqual(p.stderr, "afm_launch: --view-fd goes with --view (it is the pipe to the page's server)\n")
 
     def test_a_view_frame_from_the_renderers_port_never_reaches_the_page(self):
-        scene = benchtest.short_scene_2s("view-proof-scene")
-        out = os.path.join(benchtest.tmpdir("spoof-view"), "run")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(out), os.path.dirname(scene))
+        scene = e2e_support.short_scene_2s("view-proof-scene")
+        out = os.path.join(e2e_support.tmpdir("spoof-view"), "run")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(out), os.path.dirname(scene))
         code, err, rj, sent, texts, images = viewed_with_spoofer(scene, out, "view", "renderer")
         self.assertIsNotNone(rj, err[-2000:])
         self.assertEqual(code, 0, err[-2000:])
@@ -307,4 +307,4 @@ class ViewBridgeProof(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

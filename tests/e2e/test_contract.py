@@ -14,10 +14,10 @@ import unittest
 
 import yaml
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 
-LCM_DIR = os.path.join(benchtest.SRC, "lcmtypes")
+LCM_DIR = os.path.join(e2e_support.SRC, "lcmtypes")
 
 
 class Messages(unittest.TestCase):
@@ -49,8 +49,8 @@ class FuzzInputs(unittest.TestCase):
         # made for whatever the order of channels.yaml
         rows = yaml.safe_load(open(os.path.join(LCM_DIR, "channels.yaml")))
         types = {r["channel"]: r["type"] for r in rows}
-        paths = glob.glob(os.path.join(benchtest.SRC, "fuzz", "corpus", "lcm", "*")) + \
-            glob.glob(os.path.join(benchtest.SRC, "fuzz", "crashes", "lcm", "*"))
+        paths = glob.glob(os.path.join(e2e_support.SRC, "fuzz", "corpus", "lcm", "*")) + \
+            glob.glob(os.path.join(e2e_support.SRC, "fuzz", "crashes", "lcm", "*"))
         self.assertGreater(len(paths), len(types))
         seen = set()
         for path in paths:
@@ -68,7 +68,7 @@ class FuzzInputs(unittest.TestCase):
 class ChannelTable(unittest.TestCase):
     def test_bus_md_table_equals_channels_yaml(self):
         rows = yaml.safe_load(open(os.path.join(LCM_DIR, "channels.yaml")))
-        text = open(os.path.join(benchtest.SRC, "docs", "bus.md")).read()
+        text = open(os.path.join(e2e_support.SRC, "docs", "bus.md")).read()
         section = text.split("\n## Channels\n", 1)[1].split("\n## ", 1)[0]
         table = {}
         for line in section.splitlines():
@@ -82,9 +82,9 @@ class ChannelTable(unittest.TestCase):
             self.assertEqual(table[r["channel"]][2], r["rate"], r["channel"])
 
     def test_ci_runs_the_readme_test_command(self):
-        ci = open(os.path.join(benchtest.SRC, ".ci", "run")).read()
+        ci = open(os.path.join(e2e_support.SRC, ".ci", "run")).read()
         self.assertIn("./afm test", ci)
-        readme = open(os.path.join(benchtest.SRC, "README.md")).read()
+        readme = open(os.path.join(e2e_support.SRC, "README.md")).read()
         self.assertIn("./afm demo", readme)
         self.assertIn("./afm test", readme)
 
@@ -96,7 +96,7 @@ class RunJsonKeys(unittest.TestCase):
     their row); it carries its schema version and the build's provenance."""
 
     def documented(self):
-        text = open(os.path.join(benchtest.SRC, "docs", "design.md")).read()
+        text = open(os.path.join(e2e_support.SRC, "docs", "design.md")).read()
         table = text[text.index("| key | meaning |"):]
         table = table[:table.index("\n\n")]
         keys, on_failure = set(), set()
@@ -109,9 +109,9 @@ class RunJsonKeys(unittest.TestCase):
         return keys, on_failure
 
     def test_a_runs_keys_are_the_documented_ones(self):
-        out = benchtest.tmpdir("runjson")
-        self.addCleanup(benchtest.cleanup, out)
-        code, _, err, rj = benchtest.run(benchtest.scene("short.yaml"), out)
+        out = e2e_support.tmpdir("runjson")
+        self.addCleanup(e2e_support.cleanup, out)
+        code, _, err, rj = e2e_support.run(e2e_support.scene("short.yaml"), out)
         self.assertEqual(code, 0, err)
         keys, on_failure = self.documented()
         self.assertEqual(sorted(set(rj) - keys), [], "keys of run.json docs/design.md does not document")
@@ -119,7 +119,7 @@ class RunJsonKeys(unittest.TestCase):
         self.assertEqual(rj["schema_version"], 2)
         prov = rj["provenance"]
         self.assertEqual(sorted(prov), ["build_type", "commit", "compilers", "dirty", "libraries"])
-        git = subprocess.run(["git", "-C", benchtest.SRC, "rev-parse", "HEAD"], capture_output=True, text=True)
+        git = subprocess.run(["git", "-C", e2e_support.SRC, "rev-parse", "HEAD"], capture_output=True, text=True)
         if git.returncode == 0:   # a checkout: the build's commit is the checkout's (built by this ./afm test)
             self.assertEqual(prov["commit"], git.stdout.strip())
             self.assertIn(prov["dirty"], (True, False))
@@ -154,15 +154,15 @@ def needed(path):
 class LinkedLibraries(unittest.TestCase):
     def test_each_program_needs_only_its_allowed_libraries(self):
         for rel, allowed in ALLOWED.items():
-            got = needed(os.path.join(benchtest.BUILD, rel))
+            got = needed(os.path.join(e2e_support.BUILD, rel))
             self.assertTrue(got, f"{rel}: readelf found no NEEDED entry")
             self.assertEqual(sorted(got - allowed), [], f"{rel} needs libraries outside its list")
 
     def test_the_operator_has_no_png_encoder(self):
-        got = needed(benchtest.paths.OPERATOR)
+        got = needed(e2e_support.paths.OPERATOR)
         self.assertNotIn("libisal", got)
         self.assertNotIn("libz", got)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -48,9 +48,9 @@ import unittest
 
 import yaml
 
-import benchtest
+import e2e_support
 
-SRC = benchtest.SRC
+SRC = e2e_support.SRC
 BOGUS = "zz_not_a_key"
 KEY_ROW = re.compile(r"^\|\s*`([A-Za-z_][A-Za-z0-9_.\[\]]*)`\s*\|")
 
@@ -158,7 +158,7 @@ class Validator:
         self.bases = [(f, load_standalone(f)) for f in scene_files()]
         fallback = os.path.join(SRC, "scenes", "lithography.yaml")
         self.fallback = load_standalone(fallback)
-        self.dir = benchtest.tmpdir("keys")
+        self.dir = e2e_support.tmpdir("keys")
         self.count = 0
 
     def base_for(self, path):
@@ -173,7 +173,7 @@ class Validator:
         path = os.path.join(self.dir, f"probe{self.count}.yaml")
         with open(path, "w") as f:
             yaml.safe_dump(doc, f, sort_keys=False)
-        p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", path], capture_output=True, text=True, timeout=60)
+        p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", path], capture_output=True, text=True, timeout=60)
         return p.returncode, p.stdout + p.stderr
 
     def known_at(self, path):
@@ -330,7 +330,7 @@ class SceneKeys(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.validator.dir)
+        e2e_support.cleanup(cls.validator.dir)
 
 
 class Commands(unittest.TestCase):
@@ -363,7 +363,7 @@ class Commands(unittest.TestCase):
             self.assertEqual(p.stdout.rstrip("\n"), open(os.path.join(help_dir, c + ".txt")).read().rstrip("\n"), c)
         # the programs: the Python commands' argparse and afm_replay read the same file
         progs = {"sweep": [afm, "sweep", "--help"], "paper": [afm, "paper", "--help"], "export": [afm, "export", "--help"],
-                 "faults": [afm, "faults", "--help"], "fuzz": [afm, "fuzz", "--help"], "replay": [benchtest.paths.REPLAY, "--help"]}
+                 "faults": [afm, "faults", "--help"], "fuzz": [afm, "fuzz", "--help"], "replay": [e2e_support.paths.REPLAY, "--help"]}
         for c, argv in progs.items():
             p = subprocess.run(argv, capture_output=True, text=True, timeout=120)
             self.assertEqual(p.returncode, 0, (c, p.stderr))
@@ -431,4 +431,4 @@ class Layout(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

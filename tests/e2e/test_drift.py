@@ -9,18 +9,18 @@ within 5 nm of a fresh scan."""
 import math
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 
 
 class DriftAndLocalScans(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("drift.yaml", "drift")
+        cls.out, cls.code, cls.err, cls.rj, cls.log = e2e_support.run_and_load("drift.yaml", "drift")
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_run_ok_and_every_local_scan_found_its_particle(self):
         self.assertEqual(self.code, 0, self.err)
@@ -71,12 +71,12 @@ class CantileverChangeAndLandmark(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("landmark.yaml", "landmark",
+        cls.out, cls.code, cls.err, cls.rj, cls.log = e2e_support.run_and_load("landmark.yaml", "landmark",
                                                                             {"FW_STATE", "SIM_TRUTH"})
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_landmark_scan_finds_the_jump_and_the_run_stays_registered(self):
         self.assertEqual(self.code, 0, self.err)
@@ -99,4 +99,4 @@ class CantileverChangeAndLandmark(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -15,7 +15,7 @@ import numpy as np
 import yaml
 from PIL import Image
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 from analysis import gsf
 
@@ -37,20 +37,20 @@ VIEWED_ONLY = {"VIEW_FRAME"}
 class EndToEnd(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.scene = benchtest.scene("short.yaml")
+        cls.scene = e2e_support.scene("short.yaml")
         with open(cls.scene) as f:
             cls.spec = yaml.safe_load(f)
-        cls.out1 = benchtest.tmpdir("e2e1")
-        cls.out2 = benchtest.tmpdir("e2e2")
-        cls.out3 = benchtest.tmpdir("e2e3")
-        cls.r1 = benchtest.run(cls.scene, cls.out1)
-        cls.r2 = benchtest.run(cls.scene, cls.out2)
-        cls.r3 = benchtest.run(cls.scene, cls.out3, "--inject-drop", "0.05")
+        cls.out1 = e2e_support.tmpdir("e2e1")
+        cls.out2 = e2e_support.tmpdir("e2e2")
+        cls.out3 = e2e_support.tmpdir("e2e3")
+        cls.r1 = e2e_support.run(cls.scene, cls.out1)
+        cls.r2 = e2e_support.run(cls.scene, cls.out2)
+        cls.r3 = e2e_support.run(cls.scene, cls.out3, "--inject-drop", "0.05")
         cls.log1 = afmlog.load(os.path.join(cls.out1, "bus.lcmlog"))
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out1, cls.out2, cls.out3)
+        e2e_support.cleanup(cls.out1, cls.out2, cls.out3)
 
     def test_run_exits_zero_with_every_process_clean(self):
         code, _, err, rj = self.r1
@@ -147,7 +147,7 @@ class EndToEnd(unittest.TestCase):
 
     def test_video_decodes_to_the_frame_count(self):
         expected = round(self.spec["duration_s"] * self.spec["frame_rate_hz"])
-        out = subprocess.run([benchtest.paths.MEDIA, "frames",
+        out = subprocess.run([e2e_support.paths.MEDIA, "frames",
                               os.path.join(self.out1, "video.mp4")], capture_output=True, text=True, check=True).stdout.split()
         self.assertEqual(int(out[0]), expected)
         self.assertEqual(int(out[1]), self.spec["outputs"]["image_px"])
@@ -277,9 +277,9 @@ class FromANotebook(unittest.TestCase):
     variable, reads a run's forces as arrays (issue 33)."""
 
     def test_the_venvs_python_reads_a_runs_forces_as_arrays(self):
-        out = benchtest.tmpdir("notebook")
-        self.addCleanup(benchtest.cleanup, out)
-        code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        out = e2e_support.tmpdir("notebook")
+        self.addCleanup(e2e_support.cleanup, out)
+        code, _, err, _ = e2e_support.run(e2e_support.scene("short.yaml"), out)
         self.assertEqual(code, 0, err)
         script = ("from analysis import afmlog\n"
                   f"log = afmlog.load({os.path.join(out, 'bus.lcmlog')!r})\n"
@@ -320,7 +320,7 @@ class MeasuredSubstrate(unittest.TestCase):
             f.write(head + z.astype("<f4").tobytes())
 
     def test_fresh_scan_reproduces_the_map(self):
-        text = open(benchtest.scene("short.yaml")).read()
+        text = open(e2e_support.scene("short.yaml")).read()
         spec = yaml.safe_load(text)
         spec["name"] = "measured-substrate"
         spec["duration_s"] = 0.2
@@ -329,10 +329,10 @@ class MeasuredSubstrate(unittest.TestCase):
         spec["objects"] = {"particles": []}
         spec["operator"] = {"load_nN": 5, "speed_nm_per_s": 2000, "path_nm": [[0, -700], [0, -300]]}
         spec["outputs"] = {"image_px": 64}
-        path = benchtest.write_scene(yaml.safe_dump(spec), "measured")
+        path = e2e_support.write_scene(yaml.safe_dump(spec), "measured")
         self.write_map(os.path.join(os.path.dirname(path), "hill.gsf"))
         out = os.path.join(os.path.dirname(path), "out")
-        code, _, err, rj = benchtest.run(path, out, "--no-verdict")
+        code, _, err, rj = e2e_support.run(path, out, "--no-verdict")
         self.assertEqual(code, 0, err)
         self.assertIn("substrate_map", rj["sim"]["models_built"])
         header, z = gsf.read(os.path.join(out, "scan_final.gsf"))
@@ -343,25 +343,25 @@ class MeasuredSubstrate(unittest.TestCase):
               f"{np.sqrt(np.mean(err_nm ** 2)):.3f} nm over {z.size} pixels (map 0..{want.max():.2f} nm)")
         self.assertGreater(np.ptp(z) * 1e9, 9.0)     # the hill is imaged, not a flat plane
         self.assertLess(err_nm.max(), TOL_MAP_NM)
-        benchtest.cleanup(os.path.dirname(path))
+        e2e_support.cleanup(os.path.dirname(path))
 
 
 class RealTime(unittest.TestCase):
     """time_mode: realtime paces the same lockstep loop by the wall clock."""
 
     def test_realtime_takes_at_least_the_simulated_time(self):
-        text = open(benchtest.scene("short.yaml")).read().replace("seed: 7", "seed: 7\ntime_mode: realtime")
-        path = benchtest.write_scene(text, "realtime")
+        text = open(e2e_support.scene("short.yaml")).read().replace("seed: 7", "seed: 7\ntime_mode: realtime")
+        path = e2e_support.write_scene(text, "realtime")
         out = os.path.join(os.path.dirname(path), "out")
-        code, _, err, rj = benchtest.run(path, out)
+        code, _, err, rj = e2e_support.run(path, out)
         self.assertEqual(code, 0, err)
         loop = rj["sim"]["loop_wall_seconds"]
         print(f"realtime: {rj['sim_seconds']:.2f} simulated s in a {loop:.2f} s loop")
         self.assertGreaterEqual(loop, rj["sim_seconds"] * 0.99)
         self.assertLess(loop, rj["sim_seconds"] + 2.0)
         self.assertLessEqual(rj["timing"]["loop_realtime_factor"], 1.01)   # paced: never ahead of real time
-        benchtest.cleanup(os.path.dirname(path))
+        e2e_support.cleanup(os.path.dirname(path))
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

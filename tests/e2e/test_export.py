@@ -25,11 +25,11 @@ import numpy as np
 import yaml
 from mcap.reader import make_reader
 
-import benchtest
+import e2e_support
 from analysis import afmlog, gsf, lcmschema, open_run, runs
 
 EXPORT = [sys.executable, "-m", "analysis.export"]
-LCM_FILES = sorted(glob.glob(os.path.join(benchtest.SRC, "lcmtypes", "*.lcm")))
+LCM_FILES = sorted(glob.glob(os.path.join(e2e_support.SRC, "lcmtypes", "*.lcm")))
 
 
 def export(*args):
@@ -99,8 +99,8 @@ class SchemaGenerator(unittest.TestCase):
 class Export(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("export-run")
-        code, _, err, cls.rj = benchtest.run(benchtest.scene("short.yaml"), cls.out)
+        cls.out = e2e_support.tmpdir("export-run")
+        code, _, err, cls.rj = e2e_support.run(e2e_support.scene("short.yaml"), cls.out)
         assert code == 0, err
         cls.log = os.path.join(cls.out, "bus.lcmlog")
         cls.events = log_events(cls.log)
@@ -112,7 +112,7 @@ class Export(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_the_log_has_only_the_bus_channels(self):
         # so that comparing the known channels' counts compares every message
@@ -258,8 +258,8 @@ class Export(unittest.TestCase):
         self.assertAlmostEqual(float(final["SimTime_s"]), self.scene["duration_s"], delta=1.5 / self.scene["frame_rate_hz"])
 
     def test_bad_inputs_exit_2_with_one_line(self):
-        tmp = benchtest.tmpdir("export-bad")
-        self.addCleanup(benchtest.cleanup, tmp)
+        tmp = e2e_support.tmpdir("export-bad")
+        self.addCleanup(e2e_support.cleanup, tmp)
         cut = os.path.join(tmp, "cut")
         os.makedirs(cut)
         shutil.copy(os.path.join(self.out, "run.json"), cut)
@@ -287,11 +287,11 @@ class Export(unittest.TestCase):
             open_run(cut)
 
     def test_help_needs_no_build(self):
-        p = subprocess.run([os.path.join(benchtest.SRC, "afm"), "export", "--help"], capture_output=True, text=True, timeout=60)
+        p = subprocess.run([os.path.join(e2e_support.SRC, "afm"), "export", "--help"], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("--mcap FILE", p.stdout)
         self.assertNotIn("building", p.stderr)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

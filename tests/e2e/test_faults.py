@@ -8,7 +8,7 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import paths
 
 FAULTS = paths.FAULTS
@@ -20,9 +20,9 @@ NETFAULT = paths.NETFAULT
 class FaultMatrix(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("faults")
+        cls.out = e2e_support.tmpdir("faults")
         cls.p = subprocess.run([sys.executable, FAULTS, "--out", cls.out, "--quiet", "--only", *FAST], capture_output=True, text=True,
-                               timeout=benchtest.limit(600))
+                               timeout=e2e_support.limit(600))
         path = os.path.join(cls.out, "faults.json")
         if not os.path.exists(path):
             raise AssertionError(f"faults/faults.py wrote no faults.json (exit {cls.p.returncode}):\n{cls.p.stdout}\n{cls.p.stderr}")
@@ -31,7 +31,7 @@ class FaultMatrix(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def check(self, fault):
         r = self.rows[fault]
@@ -109,4 +109,4 @@ class FaultMatrix(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -11,7 +11,7 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog, paths
 
 sys.path.insert(0, paths.FAULTS_DIR)
@@ -30,7 +30,7 @@ RATE = 2000
 
 def run_with_hostile(scene, out, rate=RATE, kinds=None, admit_any=False):
     """faults/hostile.py beside the run, from before its start to its end (hostile.run_beside)."""
-    return hostile.run_beside(benchtest.LAUNCH, scene, out, rate=rate, kinds=kinds, admit_any=admit_any)
+    return hostile.run_beside(e2e_support.LAUNCH, scene, out, rate=rate, kinds=kinds, admit_any=admit_any)
 
 
 def run_with_forger(scene, out, what):
@@ -38,8 +38,8 @@ def run_with_forger(scene, out, what):
     script = ('"$PY" "$FORGE" "$WHAT" --seconds 300 > /dev/null & h=$!; '
               '"$LAUNCH" --scene "$SCENE" --out "$OUT" --quiet; rc=$?; kill -TERM $h; wait $h; exit $rc')
     env = dict(os.environ, PY=sys.executable, FORGE=paths.FORGE, WHAT=what, OUT=out,
-               LAUNCH=benchtest.LAUNCH, SCENE=scene, AFM_RUN_WRITES=out)   # the run's folder, for the run's user (in_netns.sh)
-    p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
+               LAUNCH=e2e_support.LAUNCH, SCENE=scene, AFM_RUN_WRITES=out)   # the run's folder, for the run's user (in_netns.sh)
+    p = subprocess.run([e2e_support.IN_NETNS, "sh", "-c", script], capture_output=True, text=True, timeout=400, env=env)
     with open(os.path.join(out, "run.json")) as f:
         return p.returncode, p.stderr, json.load(f)
 
@@ -68,12 +68,12 @@ def foreign_of(rj, p):
 class HostileDatagrams(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.scene = benchtest.short_scene_2s("hostile-scene")
-        cls.clean = benchtest.tmpdir("calm")
-        cls.code0, _, cls.err0, cls.rj0 = benchtest.run(cls.scene, cls.clean)
-        cls.hostile = benchtest.tmpdir("hostile")
+        cls.scene = e2e_support.short_scene_2s("hostile-scene")
+        cls.clean = e2e_support.tmpdir("calm")
+        cls.code0, _, cls.err0, cls.rj0 = e2e_support.run(cls.scene, cls.clean)
+        cls.hostile = e2e_support.tmpdir("hostile")
         cls.code, cls.err, cls.rj, cls.sent = run_with_hostile(cls.scene, cls.hostile, admit_any=True)
-        cls.guarded = benchtest.tmpdir("guarded")
+        cls.guarded = e2e_support.tmpdir("guarded")
         cls.gcode, cls.gerr, cls.grj, cls.gsent = run_with_hostile(cls.scene, cls.guarded)
         chans = ["SIM_TRUTH", "AFM_CMD", "FW_STATE", "HAPTIC_POSE", "HAPTIC_FORCE"]
         cls.log0 = afmlog.load(os.path.join(cls.clean, "bus.lcmlog"), channels=chans)
@@ -81,7 +81,7 @@ class HostileDatagrams(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.clean, cls.hostile, cls.guarded, os.path.dirname(cls.scene))
+        e2e_support.cleanup(cls.clean, cls.hostile, cls.guarded, os.path.dirname(cls.scene))
 
     def test_the_run_completes_with_a_complete_log(self):
         self.assertEqual(self.code0, 0, self.err0)
@@ -127,15 +127,15 @@ class HostileDatagrams(unittest.TestCase):
         log = afmlog.load(os.path.join(self.guarded, "bus.lcmlog"), channels=["SIM_TRUTH"])
         self.assertEqual(sum(log.undecodable.values()), 0, log.undecodable)
         blocks = self.rj0["sim"]["blocks"]
-        self.assertEqual(benchtest.encoded_by_seq(log["SIM_TRUTH"], blocks), benchtest.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
+        self.assertEqual(e2e_support.encoded_by_seq(log["SIM_TRUTH"], blocks), e2e_support.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
         for p in PROCESSES:
             self.assertEqual(foreign_of(self.rj0, p)[0], 0, (p, foreign_of(self.rj0, p)))
 
     def test_a_forged_launcher_stop_does_not_end_the_run(self):
         # a 'launcher stop' heartbeat (name, pid and seq forged) killed the
         # run, and the failure was blamed on sim_afm with an empty log
-        out = benchtest.tmpdir("forged-stop")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("forged-stop")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj = run_with_forger(self.scene, out, "stop")
         self.assertEqual(code, 0, err)
         self.assertEqual(rj["status"], "ok")
@@ -148,16 +148,16 @@ class HostileDatagrams(unittest.TestCase):
         # a pose for block n + 1 sent as soon as block n's analog block
         # appeared steered the tip for 7,164 blocks, with 0 rejections, and
         # replay said "identical"
-        out = benchtest.tmpdir("forged-pose")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("forged-pose")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj = run_with_forger(self.scene, out, "pose")
         self.assertEqual(code, 0, err)
         foreign = sum(rj["fw"]["rejected"]["foreign"].get("HAPTIC_POSE", {}).values())
         self.assertGreater(foreign, 0.5 * self.rj0["sim"]["blocks"], rj["fw"]["rejected"])
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH", "HAPTIC_POSE"])
         blocks = self.rj0["sim"]["blocks"]
-        self.assertEqual(benchtest.encoded_by_seq(log["SIM_TRUTH"], blocks), benchtest.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
-        self.assertEqual(benchtest.encoded_by_seq(log["HAPTIC_POSE"], blocks), benchtest.encoded_by_seq(self.log0["HAPTIC_POSE"], blocks))
+        self.assertEqual(e2e_support.encoded_by_seq(log["SIM_TRUTH"], blocks), e2e_support.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
+        self.assertEqual(e2e_support.encoded_by_seq(log["HAPTIC_POSE"], blocks), e2e_support.encoded_by_seq(self.log0["HAPTIC_POSE"], blocks))
 
     def test_an_undisturbed_run_refuses_nothing(self):
         for p in PROCESSES:
@@ -168,7 +168,7 @@ class HostileDatagrams(unittest.TestCase):
         for ch, field in (("SIM_TRUTH", "seq"), ("AFM_CMD", "ack_seq"), ("FW_STATE", "seq"), ("HAPTIC_POSE", "seq"),
                           ("HAPTIC_FORCE", "seq")):
             blocks = self.rj0["sim"]["blocks"]
-            calm, hostile = benchtest.encoded_by_seq(self.log0[ch], blocks, field), benchtest.encoded_by_seq(self.log[ch], blocks, field)
+            calm, hostile = e2e_support.encoded_by_seq(self.log0[ch], blocks, field), e2e_support.encoded_by_seq(self.log[ch], blocks, field)
             self.assertEqual(sorted(calm), sorted(hostile), ch)
             differ = [q for q in calm if calm[q] != hostile[q]]
             self.assertEqual(differ, [], f"{ch}: blocks that differ from the undisturbed run: {differ[:5]}")
@@ -179,8 +179,8 @@ class HostileDatagrams(unittest.TestCase):
         # whose fragments never come: every process counts them abandoned,
         # none grows by the claims (each used to allocate 16 MiB: fw_node and
         # the launcher reached about 270 MB), the trajectories stay
-        out = benchtest.tmpdir("claims")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("claims")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj, sent = run_with_hostile(self.scene, out, kinds="fragment_claim")
         self.assertEqual(code, 0, err)
         self.assertGreater(sent["total"], 300, sent)
@@ -199,13 +199,13 @@ class HostileDatagrams(unittest.TestCase):
         self.assertEqual(rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
         log = afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH"])
         blocks = self.rj0["sim"]["blocks"]
-        self.assertEqual(benchtest.encoded_by_seq(log["SIM_TRUTH"], blocks), benchtest.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
+        self.assertEqual(e2e_support.encoded_by_seq(log["SIM_TRUTH"], blocks), e2e_support.encoded_by_seq(self.log0["SIM_TRUTH"], blocks))
 
     def test_a_forged_finished_does_not_end_a_run_without_a_planner(self):
         # an 'operator finished' heartbeat (name, pid and seq forged) cut a
         # scene with no planner to 27 % of its length, and it ended ok
-        out = benchtest.tmpdir("forged-finished")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("forged-finished")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj = run_with_forger(self.scene, out, "finished")
         self.assertEqual(code, 0, err)
         self.assertEqual(rj["sim"]["blocks"], self.rj0["sim"]["blocks"])
@@ -215,8 +215,8 @@ class HostileDatagrams(unittest.TestCase):
 
     def test_a_scan_request_beyond_the_scenes_scans_is_refused(self):
         # 8192 x 8192 px over the field: it stalled a run 26 s and grew its log to 1.6 GB
-        out = benchtest.tmpdir("forged-scan")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("forged-scan")
+        self.addCleanup(e2e_support.cleanup, out)
         code, err, rj = run_with_forger(self.scene, out, "bigscan")
         self.assertEqual(code, 0, err)
         self.assertGreater(sum(rj["sim"]["rejected"]["foreign"].get("AFM_SCAN_REQ", {}).values()), 10, rj["sim"]["rejected"])
@@ -230,4 +230,4 @@ class HostileDatagrams(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -16,9 +16,9 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 
-SHORT = open(benchtest.scene("short.yaml")).read()
+SHORT = open(e2e_support.scene("short.yaml")).read()
 # Every C0 control but NUL (no file name or argument holds one; the unit tests
 # of the escapers take it), DEL, and every C1 control as UTF-8.
 CONTROLS = [bytes([b]) for b in range(1, 0x20)] + [b"\x7f"] + [bytes([0xC2, c]) for c in range(0x80, 0xA0)]
@@ -38,7 +38,7 @@ def yaml_escape(raw):
 
 def check(path):
     """afm_launch --check of a scene path (bytes or str): (exit code, stderr bytes)."""
-    p = subprocess.run([benchtest.LAUNCH.encode(), b"--check", b"--scene", os.fsencode(path)], capture_output=True, timeout=60)
+    p = subprocess.run([e2e_support.LAUNCH.encode(), b"--check", b"--scene", os.fsencode(path)], capture_output=True, timeout=60)
     return p.returncode, p.stderr
 
 
@@ -57,8 +57,8 @@ GOOD_MAP = {"XRes": 4, "YRes": 4, "XReal": "1e-5", "YReal": "1e-5", "XOffset": "
 
 class TestCase(unittest.TestCase):
     def setUp(self):
-        self.dir = benchtest.tmpdir("hostile-input")
-        self.addCleanup(benchtest.cleanup, self.dir)
+        self.dir = e2e_support.tmpdir("hostile-input")
+        self.addCleanup(e2e_support.cleanup, self.dir)
 
     def scene(self, text, name="scene.yaml"):
         path = os.path.join(os.fsencode(self.dir), os.fsencode(name))
@@ -85,7 +85,7 @@ class GsfRanges(TestCase):
         self.assert_one_escaped_line(code, err, b"sample.substrate.gsf", gsf.encode(),
                                      b"GSF header XReal must be a number in [1e-10, 1], got '1e300'")
         out = os.path.join(self.dir, "out")
-        code, _, stderr, _ = benchtest.run(path.decode(), out, timeout=120)   # sim_afm exited 139 here
+        code, _, stderr, _ = e2e_support.run(path.decode(), out, timeout=120)   # sim_afm exited 139 here
         self.assertEqual(code, 2, stderr)
         self.assertNotIn("exit code 139", stderr)
         self.assertFalse(os.path.exists(out), "nothing may start for a bad substrate")
@@ -182,8 +182,8 @@ class ThePagesPort(unittest.TestCase):
                               timeout=60)
 
     def test_a_port_out_of_range_or_held_is_one_line(self):
-        run = benchtest.tmpdir("view-port")
-        self.addCleanup(benchtest.cleanup, run)
+        run = e2e_support.tmpdir("view-port")
+        self.addCleanup(e2e_support.cleanup, run)
         open(os.path.join(run, "bus.lcmlog"), "wb").close()   # (the port is refused first, before the record is read)
         held = socket.socket()
         held.bind(("127.0.0.1", 0))
@@ -205,7 +205,7 @@ class CorruptLog(TestCase):
     (LCM's reader raised UnicodeDecodeError: 4 tracebacks in 80 random
     flips of a run's log) or a negative timestamp (MCAP's writer raised
     struct.error) is one line, exit 2; and any flip is either read or that."""
-    LOG = os.path.join(benchtest.SRC, "fuzz", "corpus", "lcmlog", "run_start.lcmlog")   # a real run's start
+    LOG = os.path.join(e2e_support.SRC, "fuzz", "corpus", "lcmlog", "run_start.lcmlog")   # a real run's start
 
     def export(self, data, mode):
         run = os.path.join(self.dir, "run")
@@ -331,4 +331,4 @@ class ThePage(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -15,10 +15,10 @@ import os
 import subprocess
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog, trajectory
 
-REPLAY = benchtest.paths.REPLAY
+REPLAY = e2e_support.paths.REPLAY
 LINK = "delay=0.2,loss=0.02"
 # A user-space delay on two shared cores: the median one-way delay may exceed
 # the asked 200 us by the verdict loop's wake-ups and the lockstep's neighbours
@@ -32,11 +32,11 @@ def two_hosts_env(link=LINK):
 class TwoHostsTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        scene = benchtest.scene("short.yaml")
-        cls.one = benchtest.tmpdir("one")
-        cls.one_code, _, cls.one_err, cls.one_rj = benchtest.run(scene, cls.one)
-        cls.two = benchtest.tmpdir("two")
-        p = subprocess.run([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", scene, "--out", cls.two, "--hosts", "2"],
+        scene = e2e_support.scene("short.yaml")
+        cls.one = e2e_support.tmpdir("one")
+        cls.one_code, _, cls.one_err, cls.one_rj = e2e_support.run(scene, cls.one)
+        cls.two = e2e_support.tmpdir("two")
+        p = subprocess.run([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", scene, "--out", cls.two, "--hosts", "2"],
                            capture_output=True, text=True, timeout=300, env=two_hosts_env())
         cls.code, cls.out_text, cls.err = p.returncode, p.stdout, p.stderr
         with open(os.path.join(cls.two, "run.json")) as f:
@@ -92,8 +92,8 @@ class TwoHostsTest(unittest.TestCase):
 
     def test_each_namespace_holds_lo_and_its_end_of_the_pair_only(self):
         show = "cat /proc/net/dev; echo ==; nsenter -t $AFM_HOSTS_AFM_PID -U -n --preserve-credentials cat /proc/net/dev"
-        p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", show], capture_output=True, text=True, timeout=60,
-                           env=dict(two_hosts_env(""), AFM_LINK_DIR=benchtest.tmpdir("link")))   # the probe's files in the test's folder
+        p = subprocess.run([e2e_support.IN_NETNS, "sh", "-c", show], capture_output=True, text=True, timeout=60,
+                           env=dict(two_hosts_env(""), AFM_LINK_DIR=e2e_support.tmpdir("link")))   # the probe's files in the test's folder
         self.assertEqual(p.returncode, 0, p.stderr)
         host, afm = p.stdout.split("==")
         names = lambda t: sorted(line.split(":")[0].strip() for line in t.splitlines() if ":" in line)
@@ -103,7 +103,7 @@ class TwoHostsTest(unittest.TestCase):
     def test_the_launcher_refuses_a_link_that_could_leave_the_pair(self):
         # a namespace of our own: the link's end is no veth (a bridge), or a
         # veth beside another interface: the bus would not stay on the pair
-        out = benchtest.tmpdir("guard")
+        out = e2e_support.tmpdir("guard")
         setups = {
             "names no veth": "ip link add vhost type bridge",
             "also holds": "ip link add vhost type veth peer name vother",
@@ -111,14 +111,14 @@ class TwoHostsTest(unittest.TestCase):
         for why, setup in setups.items():
             with self.subTest(setup=setup):
                 cmd = (f"ip link set lo up && {setup} && ip link set vhost up && ip route add 224.0.0.0/4 dev vhost && "
-                       f"AFM_BUS_LINK=vhost AFM_HOSTS_AFM_PID=$$ '{benchtest.LAUNCH}' --scene '{benchtest.scene('short.yaml')}' "
+                       f"AFM_BUS_LINK=vhost AFM_HOSTS_AFM_PID=$$ '{e2e_support.LAUNCH}' --scene '{e2e_support.scene('short.yaml')}' "
                        f"--out '{out}' --hosts 2")
                 p = subprocess.run(["unshare", "-rn", "sh", "-c", cmd], capture_output=True, text=True, timeout=60)
                 self.assertEqual(p.returncode, 2, p.stderr)
                 self.assertIn(why, p.stderr)
                 self.assertEqual(os.listdir(out), [], "nothing may start")
-        benchtest.cleanup(out)
+        e2e_support.cleanup(out)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -8,21 +8,21 @@ import os
 import subprocess
 import unittest
 
-import benchtest
+import e2e_support
 
-AFM = os.path.join(benchtest.SRC, "afm")
+AFM = os.path.join(e2e_support.SRC, "afm")
 
 
 class Integrity(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = os.path.join(benchtest.tmpdir("integrity"), "run")
-        p = subprocess.run([AFM, "run", benchtest.scene("short.yaml"), "--out", cls.out, "--quiet"],
-                           capture_output=True, text=True, timeout=benchtest.limit(540))
+        cls.out = os.path.join(e2e_support.tmpdir("integrity"), "run")
+        p = subprocess.run([AFM, "run", e2e_support.scene("short.yaml"), "--out", cls.out, "--quiet"],
+                           capture_output=True, text=True, timeout=e2e_support.limit(540))
         assert p.returncode == 0, p.stderr
 
     def replay(self):
-        return subprocess.run([AFM, "replay", self.out, "--quiet"], capture_output=True, text=True, timeout=benchtest.limit(540))
+        return subprocess.run([AFM, "replay", self.out, "--quiet"], capture_output=True, text=True, timeout=e2e_support.limit(540))
 
     def test_1_the_digests_are_roots_and_cover_the_log(self):
         path = os.path.join(self.out, "digests.json")
@@ -51,20 +51,20 @@ class Integrity(unittest.TestCase):
 
     def test_2b_an_altered_log_is_not_exported(self):
         # (test_2 altered the log) ./afm export checks it as replay does, before it reads a byte of it
-        csv = os.path.join(benchtest.tmpdir("integrity-csv"), "csv")
-        p = subprocess.run([AFM, "export", self.out, "--csv", csv], capture_output=True, text=True, timeout=benchtest.limit(300))
+        csv = os.path.join(e2e_support.tmpdir("integrity-csv"), "csv")
+        p = subprocess.run([AFM, "export", self.out, "--csv", csv], capture_output=True, text=True, timeout=e2e_support.limit(300))
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn(f"{self.out}/bus.lcmlog: altered since the run: sha256 ", p.stderr)
         self.assertFalse(os.path.exists(csv), "nothing exported")
 
     def test_3_a_run_without_digests_replays_and_says_so(self):
-        d = os.path.join(benchtest.tmpdir("integrity-old"), "run")
-        code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), d)
+        d = os.path.join(e2e_support.tmpdir("integrity-old"), "run")
+        code, _, err, _ = e2e_support.run(e2e_support.scene("short.yaml"), d)
         self.assertEqual(code, 0, err)
-        p = subprocess.run([AFM, "replay", d, "--quiet"], capture_output=True, text=True, timeout=benchtest.limit(540))
+        p = subprocess.run([AFM, "replay", d, "--quiet"], capture_output=True, text=True, timeout=e2e_support.limit(540))
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("no digests.json (a run made before digests): not checked", p.stderr)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

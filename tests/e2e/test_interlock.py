@@ -18,7 +18,7 @@ import unittest
 import yaml
 import matplotlib.image
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 
 FLAG_INTERLOCK = afmlog.afm.fw_state_t.FLAG_INTERLOCK   # = the firmware's FW_FLAG_INTERLOCK (fw_node checks)
@@ -29,8 +29,8 @@ class Run:
     """One run of a scene and what the test reads from it."""
 
     def __init__(self, scene_path, tag):
-        self.out = benchtest.tmpdir(tag)
-        self.code, _, self.err, self.rj = benchtest.run(scene_path, self.out)
+        self.out = e2e_support.tmpdir(tag)
+        self.code, _, self.err, self.rj = e2e_support.run(scene_path, self.out)
         log = afmlog.load(os.path.join(self.out, "bus.lcmlog"), channels=CHANNELS)
         self.force = afmlog.by_seq(log["FW_STATE"])
         self.truth = log["SIM_TRUTH"]
@@ -77,7 +77,7 @@ class Run:
 class Interlock(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.base = Run(benchtest.scene("interlock.yaml"), "interlock")
+        cls.base = Run(e2e_support.scene("interlock.yaml"), "interlock")
         cls.worst = None
         if cls.base.code == 0:
             # The same scene with the limit just above the last sample of the
@@ -86,17 +86,17 @@ class Interlock(unittest.TestCase):
             r = cls.base
             last = r.true_fz(r.first_trip() - 1)[-1]
             rise = r.kn * r.v_z / r.scene["sample_rate_hz"]
-            with open(benchtest.scene("interlock.yaml")) as f:
+            with open(e2e_support.scene("interlock.yaml")) as f:
                 text = f.read()
             limit = round(last + rise / 2, 3)
             text = text.replace("  compensate: false\n", f"  compensate: false\n  interlock_normal_nN: {limit}\n", 1)
-            cls.worst = Run(benchtest.write_scene(text, "interlock-worst"), "interlock-worst-run")
+            cls.worst = Run(e2e_support.write_scene(text, "interlock-worst"), "interlock-worst-run")
 
     @classmethod
     def tearDownClass(cls):
         for r in (cls.base, cls.worst):
             if r is not None:
-                benchtest.cleanup(r.out)
+                e2e_support.cleanup(r.out)
 
     def test_run_ok_and_the_per_sample_forces_are_the_truths(self):
         self.assertEqual(self.base.code, 0, self.base.err)
@@ -193,4 +193,4 @@ class Interlock(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -17,10 +17,10 @@ import unittest
 
 import numpy as np
 
-import benchtest
+import e2e_support
 
 AFM = os.path.join(os.environ["AFM_SOURCE"], "afm")
-CALC = benchtest.paths.CALC
+CALC = e2e_support.paths.CALC
 PAPER = dict(phi=9.0, kn=0.12, Kn=89.0)
 RU, RD = 0.07, 0.02          # the paper's slopes: mu 0.0865, 37.9 nN/V
 
@@ -135,8 +135,8 @@ def flags():
 
 class Loops(unittest.TestCase):
     def setUp(self):
-        self.dir = benchtest.tmpdir("loops")
-        self.addCleanup(benchtest.cleanup, self.dir)
+        self.dir = e2e_support.tmpdir("loops")
+        self.addCleanup(e2e_support.cleanup, self.dir)
 
     def test_the_paper_calibration_comes_back_within_its_stated_error(self):
         files = write_loops(self.dir, [0.5, 1.0, 1.5, 2.0, 2.5], noise_v=0.002)
@@ -194,7 +194,7 @@ class Loops(unittest.TestCase):
     def test_the_afm_entry_point_routes_loops(self):
         files = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
         p = subprocess.run([AFM, "calib", "tilted", "--loops", *files, *map(str, flags())], capture_output=True, text=True,
-                           timeout=benchtest.limit(300))
+                           timeout=e2e_support.limit(300))
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("mu = 0.08", p.stdout)
         self.assertIn("+-", p.stdout)
@@ -207,8 +207,8 @@ class HostileLoops(unittest.TestCase):
     value or a file name comes out escaped (analysis/text.py)."""
 
     def setUp(self):
-        self.dir = benchtest.tmpdir("loops-hostile")
-        self.addCleanup(benchtest.cleanup, self.dir)
+        self.dir = e2e_support.tmpdir("loops-hostile")
+        self.addCleanup(e2e_support.cleanup, self.dir)
         self.good = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
 
     def write(self, name, data):
@@ -261,8 +261,8 @@ class GwyLoops(unittest.TestCase):
     LOADS = [0.5, 1.0, 1.5, 2.0, 2.5]
 
     def setUp(self):
-        self.dir = benchtest.tmpdir("loops_gwy")
-        self.addCleanup(benchtest.cleanup, self.dir)
+        self.dir = e2e_support.tmpdir("loops_gwy")
+        self.addCleanup(e2e_support.cleanup, self.dir)
         self.exact = json.loads(subprocess.run([CALC, "calib", "tilted", "--up", str(RU), "--down", str(RD), "--angle-deg", "9",
                                                 "--spring-N-per-m", "0.12", "--deflection-nm-per-V", "89", "--json"],
                                                capture_output=True, text=True, check=True).stdout)

@@ -8,7 +8,7 @@ import copy
 import math
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 
 
@@ -22,11 +22,11 @@ def ends(w):
 class WireZigzag(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("wire_push.yaml", "wire", CHANNELS)
+        cls.out, cls.code, cls.err, cls.rj, cls.log = e2e_support.run_and_load("wire_push.yaml", "wire", CHANNELS)
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_firmware_rod_matches_the_simulated_rod_between_pushes(self):
         # Between pushes (neither model in contact for 50 blocks) the two
@@ -121,11 +121,11 @@ class WireZigzag(unittest.TestCase):
 class Trench(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("lithography.yaml", "litho", CHANNELS)
+        cls.out, cls.code, cls.err, cls.rj, cls.log = e2e_support.run_and_load("lithography.yaml", "litho", CHANNELS)
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_firmware_trench_matches_the_simulated_cut(self):
         self.assertEqual(self.code, 0, self.err)
@@ -146,4 +146,4 @@ class Trench(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

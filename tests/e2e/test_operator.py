@@ -27,11 +27,11 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 import yaml
 
-FEEL = benchtest.scene("feel.yaml")
+FEEL = e2e_support.scene("feel.yaml")
 
 
 def scene_text(path):
@@ -55,7 +55,7 @@ def particle_travel(out, pid):
 
 
 def check(scene_path):
-    p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", scene_path], capture_output=True, text=True, timeout=60)
+    p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", scene_path], capture_output=True, text=True, timeout=60)
     return p.returncode, p.stderr
 
 
@@ -63,17 +63,17 @@ class FeelContact(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.spec = yaml.safe_load(scene_text(FEEL))
-        cls.feel = benchtest.tmpdir("feel")
-        cls.feel_run = benchtest.run(FEEL, cls.feel)
-        cls.script = benchtest.tmpdir("feel-script")
-        path = benchtest.write_scene(scene_text(FEEL).replace("mode: feel", "mode: script"), "feel-script-scene")
+        cls.feel = e2e_support.tmpdir("feel")
+        cls.feel_run = e2e_support.run(FEEL, cls.feel)
+        cls.script = e2e_support.tmpdir("feel-script")
+        path = e2e_support.write_scene(scene_text(FEEL).replace("mode: feel", "mode: script"), "feel-script-scene")
         # the scripted hand overshoots: its display is off the fresh scan
         # (a verdict the test does not judge; the distances are its point)
-        cls.script_run = benchtest.run(path, cls.script, "--no-verdict")
+        cls.script_run = e2e_support.run(path, cls.script, "--no-verdict")
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.feel, cls.script)
+        e2e_support.cleanup(cls.feel, cls.script)
 
     def test_feel_stops_within_the_stated_distance_and_script_overshoots(self):
         self.assertEqual(self.feel_run[0], 0, self.feel_run[2])
@@ -107,25 +107,25 @@ class Stability(unittest.TestCase):
     def setUpClass(cls):
         cls.dirs = []
         # The bound for this scene as the bench states it (the operator's report).
-        out = benchtest.tmpdir("stab-probe")
+        out = e2e_support.tmpdir("stab-probe")
         cls.dirs.append(out)
-        _, _, err, rj = benchtest.run(FEEL, out)
+        _, _, err, rj = e2e_support.run(FEEL, out)
         cls.largest = rj["operator"]["haptic"]["largest_passive_gain_N_per_nN"]
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(*cls.dirs)
+        e2e_support.cleanup(*cls.dirs)
 
     def scene_with_gain(self, gain, check_on=True):
         text = scene_text(FEEL).replace("force_gain_N_per_nN: 0.02", f"force_gain_N_per_nN: {gain:.3f}")
         if not check_on:
             text = text.replace(f"force_gain_N_per_nN: {gain:.3f}", f"force_gain_N_per_nN: {gain:.3f}, passivity_check: false")
-        return benchtest.write_scene(text, "stab")
+        return e2e_support.write_scene(text, "stab")
 
     def test_just_inside_runs_with_the_controller_idle(self):
-        out = benchtest.tmpdir("stab-in")
+        out = e2e_support.tmpdir("stab-in")
         self.dirs.append(out)
-        code, _, err, rj = benchtest.run(self.scene_with_gain(self.largest), out)
+        code, _, err, rj = e2e_support.run(self.scene_with_gain(self.largest), out)
         self.assertEqual(code, 0, err)
         h = rj["operator"]["haptic"]
         print(f"inside: gain {h['gain_N_per_nN']} N/nN, K_r {h['rendered_stiffness_N_per_m']:.0f} N/m "
@@ -141,9 +141,9 @@ class Stability(unittest.TestCase):
         self.assertIn(f"the largest gain that passes is {self.largest:g} N/nN", err)
 
     def test_outside_without_the_check_runs_clamped_never_growing(self):
-        out = benchtest.tmpdir("stab-out")
+        out = e2e_support.tmpdir("stab-out")
         self.dirs.append(out)
-        code, so, err, rj = benchtest.run(self.scene_with_gain(3 * self.largest, check_on=False), out)
+        code, so, err, rj = e2e_support.run(self.scene_with_gain(3 * self.largest, check_on=False), out)
         self.assertEqual(code, 0, err)
         self.assertIn("warning: the force loop is outside its stability bound", err)
         self.assertIn("the device's passivity controller will clamp it", err)
@@ -174,12 +174,12 @@ class Stability(unittest.TestCase):
 class Pattern(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("pattern")
-        cls.code, cls.so, cls.err, cls.rj = benchtest.run(benchtest.scene("pattern_ten.yaml"), cls.out)
+        cls.out = e2e_support.tmpdir("pattern")
+        cls.code, cls.so, cls.err, cls.rj = e2e_support.run(e2e_support.scene("pattern_ten.yaml"), cls.out)
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_ten_particles_placed_within_tolerance_by_a_fresh_scan(self):
         self.assertEqual(self.code, 0, self.err)
@@ -194,12 +194,12 @@ class Pattern(unittest.TestCase):
         self.assertLessEqual(placement["worst_nm"], placement["tolerance_nm"])
         self.assertIsNotNone(plan["finished_sim_s"])
         # The run ended when the planner had finished (one frame later).
-        self.assertLess(self.rj["sim_seconds"], yaml.safe_load(scene_text(benchtest.scene("pattern_ten.yaml")))["duration_s"])
+        self.assertLess(self.rj["sim_seconds"], yaml.safe_load(scene_text(e2e_support.scene("pattern_ten.yaml")))["duration_s"])
         self.assertEqual(self.rj["frames"], self.rj["frames_expected"])
         self.assertIn("run: placement (a fresh scan): 10 of 10 sites", self.so)
 
     def test_the_plan_run_replays_identical(self):
-        p = subprocess.run([benchtest.paths.REPLAY, self.out, "--quiet"],
+        p = subprocess.run([e2e_support.paths.REPLAY, self.out, "--quiet"],
                            capture_output=True, text=True, timeout=300)
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
 
@@ -223,11 +223,11 @@ def closest_pair_nm(log):
 class PatternLever(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out, cls.code, cls.err, cls.rj, cls.log = benchtest.run_and_load("pattern_lever.yaml", "pattern-lever", ["SIM_TRUTH"])
+        cls.out, cls.code, cls.err, cls.rj, cls.log = e2e_support.run_and_load("pattern_lever.yaml", "pattern-lever", ["SIM_TRUTH"])
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_every_site_filled_and_no_push_within_the_unobservable_cone(self):
         self.assertEqual(self.code, 0, self.err)
@@ -242,7 +242,7 @@ class PatternLever(unittest.TestCase):
         # Paths keep operator.plan.clearance_nm (40 by default) between
         # surfaces: centres 2 r + 40 = 140 nm apart, less a scan's error
         # (5 nm). The spares sit 170 nm off the pushes' straight lines.
-        spec = yaml.safe_load(scene_text(benchtest.scene("pattern_lever.yaml")))
+        spec = yaml.safe_load(scene_text(e2e_support.scene("pattern_lever.yaml")))
         r = spec["objects"]["particles"][0]["radius_nm"]
         clearance = spec["operator"]["plan"].get("clearance_nm", 40)
         d, pair = closest_pair_nm(self.log)
@@ -263,8 +263,8 @@ class PinnedSite(unittest.TestCase):
              "operator:\n  load_nN: 5\n  plan: {tolerance_nm: 25}\noutputs:\n  image_px: 128\n  video: none\n")
 
     def test_the_pinned_particle_goes_to_its_site(self):
-        out = benchtest.tmpdir("pinned")
-        code, _, err, rj = benchtest.run(benchtest.write_scene(self.SCENE, "pinned"), out)
+        out = e2e_support.tmpdir("pinned")
+        code, _, err, rj = e2e_support.run(e2e_support.write_scene(self.SCENE, "pinned"), out)
         self.assertEqual(code, 0, err)
         truth = afmlog.whole_objects(afmlog.load(os.path.join(out, "bus.lcmlog"), channels=["SIM_TRUTH"])["SIM_TRUTH"],
                                      lambda m: m.objects)[-1][1]
@@ -276,7 +276,7 @@ class PinnedSite(unittest.TestCase):
         self.assertLessEqual(off[3], 25)
         self.assertLess(off[1], 1)   # the nearer particle stays
         self.assertTrue(rj["verdict"]["pass"], rj["verdict"])
-        benchtest.cleanup(out)
+        e2e_support.cleanup(out)
 
 
 class BadTargets(unittest.TestCase):
@@ -284,7 +284,7 @@ class BadTargets(unittest.TestCase):
             "objects:\n  particles:\n    - {id: 1, x_nm: 0, y_nm: 0, radius_nm: 50}\n")
 
     def named(self, text, *expect):
-        code, err = check(benchtest.write_scene(text, "badtargets"))
+        code, err = check(e2e_support.write_scene(text, "badtargets"))
         self.assertEqual(code, 2, err)
         for e in expect:
             self.assertIn(e, err)
@@ -308,19 +308,19 @@ class BadTargets(unittest.TestCase):
     def test_the_launcher_asks_the_operator_and_says_when_it_cannot(self):
         # afm_launch does not load OpenCV (it would take 60 ms of every run):
         # `operator --check-targets` checks the planner's targets for it
-        p = subprocess.run(["ldd", benchtest.LAUNCH], capture_output=True, text=True, timeout=60)
+        p = subprocess.run(["ldd", e2e_support.LAUNCH], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertNotIn("libopencv", p.stdout)
-        scene = benchtest.write_scene(self.BASE + "  targets: [[0, 0], [300, 0]]\noperator:\n  plan: {}\n", "badtargets")
-        p = subprocess.run([benchtest.paths.OPERATOR, "--scene", scene, "--check-targets"], capture_output=True, text=True, timeout=60)
+        scene = e2e_support.write_scene(self.BASE + "  targets: [[0, 0], [300, 0]]\noperator:\n  plan: {}\n", "badtargets")
+        p = subprocess.run([e2e_support.paths.OPERATOR, "--scene", scene, "--check-targets"], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("objects.targets: 2 sites but the scene has only 1 particles", p.stderr)
-        ok = benchtest.write_scene(self.BASE + "  targets: [[0, 0]]\noperator:\n  plan: {}\n", "goodtargets")
-        p = subprocess.run([benchtest.paths.OPERATOR, "--scene", ok, "--check-targets"], capture_output=True, text=True, timeout=60)
+        ok = e2e_support.write_scene(self.BASE + "  targets: [[0, 0]]\noperator:\n  plan: {}\n", "goodtargets")
+        p = subprocess.run([e2e_support.paths.OPERATOR, "--scene", ok, "--check-targets"], capture_output=True, text=True, timeout=60)
         self.assertEqual((p.returncode, p.stderr), (0, ""))
         # a launcher without its operator beside it names what it could not run
-        alone = benchtest.tmpdir("launcher-alone")
-        shutil.copy(benchtest.LAUNCH, alone)
+        alone = e2e_support.tmpdir("launcher-alone")
+        shutil.copy(e2e_support.LAUNCH, alone)
         p = subprocess.run([os.path.join(alone, "afm_launch"), "--check", "--scene", ok], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn("cannot check the planner's targets: cannot execute " + os.path.join(alone, "operator"), p.stderr)
@@ -335,4 +335,4 @@ class BadTargets(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -11,7 +11,7 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 
 PY = sys.executable
 ENV = dict(os.environ)
@@ -20,22 +20,22 @@ from analysis.paper import cli, common  # noqa: E402
 
 
 def paper(*args, timeout=480):
-    p = subprocess.run([PY, "-m", "analysis.paper", *args], capture_output=True, text=True, timeout=benchtest.limit(timeout),
-                       env=ENV, cwd=benchtest.SRC)
+    p = subprocess.run([PY, "-m", "analysis.paper", *args], capture_output=True, text=True, timeout=e2e_support.limit(timeout),
+                       env=ENV, cwd=e2e_support.SRC)
     return p.returncode, p.stdout, p.stderr
 
 
 class Reduced(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("paper")
+        cls.out = e2e_support.tmpdir("paper")
         cls.code, cls.so, cls.se = paper("--size", "reduced", "--out", cls.out)
         with open(os.path.join(cls.out, "paper.json")) as f:
             cls.data = json.load(f)
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def rows(self, exp):
         return {r["quantity"]: r for r in self.data["experiments"][exp]["rows"]}
@@ -220,11 +220,11 @@ class SeededTruth(unittest.TestCase):
     and prints the seed."""
 
     def test_a_seeded_lever_and_surface_are_recovered_within_1_percent(self):
-        out = benchtest.tmpdir("paper-seeded")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("paper-seeded")
+        self.addCleanup(e2e_support.cleanup, out)
         p = subprocess.run([PY, "-m", "analysis.paper", "--only", "tilted", "--size", "reduced", "--truth", "seeded",
-                            "--seed", "3", "--out", out], capture_output=True, text=True, timeout=benchtest.limit(300), env=ENV,
-                           cwd=benchtest.SRC)
+                            "--seed", "3", "--out", out], capture_output=True, text=True, timeout=e2e_support.limit(300), env=ENV,
+                           cwd=e2e_support.SRC)
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         self.assertIn("seeded truth, seed 3", p.stderr)
         with open(os.path.join(out, "paper.json")) as f:
@@ -241,4 +241,4 @@ class SeededTruth(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -13,7 +13,7 @@ import subprocess
 import time
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import paths
 
 REPLAY = paths.REPLAY
@@ -25,25 +25,25 @@ def replay(run_dir, *args, env=None):
 
 
 def shortened(name, old, new, tag):
-    text = open(benchtest.scene(name)).read()
+    text = open(e2e_support.scene(name)).read()
     assert old in text, (name, old)
-    return benchtest.write_scene(text.replace(old, new), tag)
+    return e2e_support.write_scene(text.replace(old, new), tag)
 
 
 class PilTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.scenes = {
-            "short": benchtest.scene("short.yaml"),
+            "short": e2e_support.scene("short.yaml"),
             # the first end push of the rod (it starts at 0.27 s), and the turn it makes
             "wire": shortened("wire_push.yaml", "duration_s: 3.0", "duration_s: 0.9", "wire"),
         }
         cls.runs, cls.walls = {}, {}
         for name, path in cls.scenes.items():
             for fw in ("host", "qemu"):
-                out = benchtest.tmpdir(f"{name}-{fw}")
+                out = e2e_support.tmpdir(f"{name}-{fw}")
                 t0 = time.monotonic()
-                code, _, err, rj = benchtest.run(path, out, "--firmware", fw)
+                code, _, err, rj = e2e_support.run(path, out, "--firmware", fw)
                 cls.walls[(name, fw)] = time.monotonic() - t0
                 cls.runs[(name, fw)] = (out, code, err, rj)
 
@@ -99,9 +99,9 @@ class PilTest(unittest.TestCase):
 
     def test_trench_points_cross_incrementally(self):
         # lithography: the card records trench points; the board sends the new ones each block
-        out = benchtest.tmpdir("litho-host")
+        out = e2e_support.tmpdir("litho-host")
         path = shortened("lithography.yaml", "duration_s: 1.6", "duration_s: 0.8", "litho")
-        code, _, err, rj = benchtest.run(path, out)
+        code, _, err, rj = e2e_support.run(path, out)
         self.assertEqual(code, 0, err)
         code, text, err = replay(out, "--firmware", "qemu")
         self.assertEqual(code, 0, text + err)
@@ -116,8 +116,8 @@ class PilTest(unittest.TestCase):
         code, text, err = replay(out, "--firmware", "qemu", env=env)
         self.assertEqual(code, 2)
         self.assertIn("qemu-system-arm /nonexistent/qemu-system-arm not found", err)
-        run = benchtest.tmpdir("noqemu")
-        p = subprocess.run([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", self.scenes["short"], "--out", run, "--quiet",
+        run = e2e_support.tmpdir("noqemu")
+        p = subprocess.run([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", self.scenes["short"], "--out", run, "--quiet",
                             "--firmware", "qemu"], capture_output=True, text=True, timeout=120, env=env)
         self.assertNotEqual(p.returncode, 0)
         self.assertIn("the card's board cannot start: qemu-system-arm", p.stderr)
@@ -137,10 +137,10 @@ class PilTest(unittest.TestCase):
     def test_a_board_that_faults_or_hangs_ends_the_run_naming_it(self):
         for kind, words in (("hardfault", "exited (status 1) at block 120"), ("hang", "hung: no answer to block 120 within 2 s")):
             with self.subTest(kind=kind):
-                out = benchtest.tmpdir(kind)
+                out = e2e_support.tmpdir(kind)
                 env = dict(os.environ, AFM_BOARD_FAULT=f"{kind}:120")
                 t0 = time.monotonic()
-                p = subprocess.run([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", self.scenes["short"], "--out", out,
+                p = subprocess.run([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", self.scenes["short"], "--out", out,
                                     "--quiet", "--firmware", "qemu"], capture_output=True, text=True, timeout=120, env=env)
                 self.assertLess(time.monotonic() - t0, 30)
                 self.assertEqual(p.returncode, 1, p.stderr)
@@ -154,7 +154,7 @@ class PilTest(unittest.TestCase):
                     self.assertIn("FAULT: HardFault", rj["error"])
 
     def test_the_fault_matrix_rows_of_the_board(self):
-        out = benchtest.tmpdir("faults")
+        out = e2e_support.tmpdir("faults")
         p = subprocess.run([os.sys.executable, paths.FAULTS, "--out", out, "--quiet",
                             "--only", "board:killed", "board:hung"], capture_output=True, text=True, timeout=300)
         with open(os.path.join(out, "faults.json")) as f:
@@ -164,4 +164,4 @@ class PilTest(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

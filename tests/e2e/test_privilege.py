@@ -21,7 +21,7 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import paths
 
 DROP = paths.DROP_CAPS
@@ -47,7 +47,7 @@ def watch(p, names, want, timeout_s=120):
     seen = {}
     t0 = time.monotonic()
     while p.poll() is None and time.monotonic() - t0 < timeout_s and not want <= set(seen):
-        for pid in [p.pid, *benchtest.descendants(p.pid)]:   # p.pid: the launcher itself when in_netns.sh exec'd it (not root)
+        for pid in [p.pid, *e2e_support.descendants(p.pid)]:   # p.pid: the launcher itself when in_netns.sh exec'd it (not root)
             try:
                 st = status(pid)
             except OSError:
@@ -84,13 +84,13 @@ class LeastPrivilege(unittest.TestCase):
                   f"NoNewPrivs {st['NoNewPrivs']}")
 
     def run_watched(self, tag, names, want, *extra):
-        closed = benchtest.closed_ancestor(benchtest.BUILD) if ROOT else None
+        closed = e2e_support.closed_ancestor(e2e_support.BUILD) if ROOT else None
         if closed:
-            self.skipTest(f"the checkout's build {benchtest.BUILD} is under {closed} (mode "
+            self.skipTest(f"the checkout's build {e2e_support.BUILD} is under {closed} (mode "
                           f"{oct(os.stat(closed).st_mode & 0o777)}), which the run's user cannot traverse: the run keeps "
                           "uid 0 without capabilities, as the suite allows there (test_a_folder_the_runs_user_cannot_reach...)")
-        out = os.path.join(benchtest.tmpdir(tag), "run")
-        p = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out,
+        out = os.path.join(e2e_support.tmpdir(tag), "run")
+        p = subprocess.Popen([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", out,
                               "--quiet", *extra], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         seen = watch(p, names, want)
         _, err = p.communicate(timeout=180)
@@ -114,20 +114,20 @@ class LeastPrivilege(unittest.TestCase):
         self.assertIn("qemu-system-arm", seen)
 
     def test_a_sweeps_workers_hold_none_either(self):
-        closed = benchtest.closed_ancestor(benchtest.BUILD) if ROOT else None
+        closed = e2e_support.closed_ancestor(e2e_support.BUILD) if ROOT else None
         if closed:
             self.skipTest(f"the checkout's build is under {closed}, which the run's user cannot traverse")
-        out = os.path.join(benchtest.tmpdir("privilege-sweep"), "sweep")
-        p = subprocess.Popen([sys.executable, "-m", "analysis.sweep", benchtest.scene("short.yaml"), "--vary", "firmware.adc_bits=12",
+        out = os.path.join(e2e_support.tmpdir("privilege-sweep"), "sweep")
+        p = subprocess.Popen([sys.executable, "-m", "analysis.sweep", e2e_support.scene("short.yaml"), "--vary", "firmware.adc_bits=12",
                               "--workers", "1", "--no-callgrind", "--out", out], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                             text=True, cwd=benchtest.SRC, env=dict(os.environ, AFM_BUILD=benchtest.BUILD))
+                             text=True, cwd=e2e_support.SRC, env=dict(os.environ, AFM_BUILD=e2e_support.BUILD))
         # started as root, the sweep's client and scheduler run again as a
         # leased uid, and each worker (a nanny and the Python process it
         # spawns, multiprocessing) as another
         seen = {}
         t0 = time.monotonic()
         while p.poll() is None and time.monotonic() - t0 < 180 and "worker" not in seen:
-            for kind, pids in benchtest.sweep_processes(p.pid).items():
+            for kind, pids in e2e_support.sweep_processes(p.pid).items():
                 for pid in pids:
                     try:
                         st = status(pid)
@@ -146,12 +146,12 @@ class LeastPrivilege(unittest.TestCase):
 
     @unittest.skipUnless(ROOT, "the run's user differs from the caller only when started as root")
     def test_a_folder_the_runs_user_cannot_reach_is_refused_unless_uid_0_is_allowed(self):
-        closed = benchtest.tmpdir("closed")
+        closed = e2e_support.tmpdir("closed")
         os.chmod(closed, 0o700)
         out = os.path.join(closed, "run")
-        if benchtest.closed_ancestor(DROP):
-            self.skipTest(f"the checkout itself is under {benchtest.closed_ancestor(DROP)}: the run's user is stopped there first")
-        cmd = [benchtest.IN_NETNS, "sh", "-c", "id -u; grep CapEff /proc/self/status", "sh", "--out", out]
+        if e2e_support.closed_ancestor(DROP):
+            self.skipTest(f"the checkout itself is under {e2e_support.closed_ancestor(DROP)}: the run's user is stopped there first")
+        cmd = [e2e_support.IN_NETNS, "sh", "-c", "id -u; grep CapEff /proc/self/status", "sh", "--out", out]
         env = {k: v for k, v in os.environ.items() if k not in ("AFM_ALLOW_UID_0", "AFM_PRIVILEGE_WARNINGS")}
         # not allowed: refused in one line on any stderr (a pipe here), nothing run, nothing left
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=30, env=env)
@@ -170,20 +170,20 @@ class LeastPrivilege(unittest.TestCase):
         self.assertIn(f"keeps uid 0 (without capabilities, as AFM_ALLOW_UID_0=1 allows): the run's user", p.stderr)
         self.assertEqual(not_the_callers(closed), [])
         # allowed, not asked, and not a terminal: nothing said beyond the command's own output
-        p = subprocess.run([benchtest.IN_NETNS, "sh", "-c", "id -u", "sh", "--out", out], capture_output=True, text=True,
+        p = subprocess.run([e2e_support.IN_NETNS, "sh", "-c", "id -u", "sh", "--out", out], capture_output=True, text=True,
                            timeout=30, env=dict(env, AFM_ALLOW_UID_0="1"))
         self.assertEqual((p.returncode, p.stdout.strip(), p.stderr), (0, "0", ""))
 
     @unittest.skipUnless(ROOT, "the run's user differs from the caller only when started as root")
     def test_a_viewed_run_drops_to_the_runs_user_too(self):
-        closed = benchtest.closed_ancestor(benchtest.BUILD)
+        closed = e2e_support.closed_ancestor(e2e_support.BUILD)
         if closed:
             self.skipTest(f"the checkout's build is under {closed}, which the run's user cannot traverse")
-        out = os.path.join(benchtest.tmpdir("privilege-view"), "run")
+        out = os.path.join(e2e_support.tmpdir("privilege-view"), "run")
         env = {k: v for k, v in os.environ.items() if k != "AFM_ALLOW_UID_0"}
         p = subprocess.run([sys.executable, "-m", "analysis.view", "run", "--out", out, "--",
-                            benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out, "--view", "--quiet"],
-                           capture_output=True, text=True, timeout=300, cwd=benchtest.SRC, env=env)
+                            e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", out, "--view", "--quiet"],
+                           capture_output=True, text=True, timeout=300, cwd=e2e_support.SRC, env=env)
         self.assertEqual(p.returncode, 0, p.stderr)
         with open(os.path.join(out, "run.json")) as f:
             netns = json.load(f)["netns"]
@@ -197,8 +197,8 @@ class LeastPrivilege(unittest.TestCase):
         if p.returncode == 3:
             self.skipTest("no range of uids reserved for the runs (tools/setup.sh reserves afm-runs in /etc/subuid)")
         first, count = (int(x) for x in p.stdout.split())
-        if benchtest.closed_ancestor(DROP):
-            self.skipTest(f"the checkout is under {benchtest.closed_ancestor(DROP)}: the run's user cannot reach it")
+        if e2e_support.closed_ancestor(DROP):
+            self.skipTest(f"the checkout is under {e2e_support.closed_ancestor(DROP)}: the run's user cannot reach it")
         # never a uid a process holds or that owns a file where a run writes
         held_file = f"/tmp/afm-test-held-{os.getpid()}"
         open(held_file, "w").close()
@@ -216,7 +216,7 @@ class LeastPrivilege(unittest.TestCase):
         self.assertGreater(len(free), count - 100)
         # two runs at once: two uids of the range, HOME a scratch folder of theirs (removed after), the limits named
         show = 'id -u; echo "$HOME"; echo "$AFM_NETNS_MODE"; grep -E "^Max (processes|file size|data size)" /proc/self/limits; sleep 1'
-        runs = [subprocess.Popen([benchtest.IN_NETNS, "sh", "-c", show], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        runs = [subprocess.Popen([e2e_support.IN_NETNS, "sh", "-c", show], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                  env={k: v for k, v in os.environ.items() if k != "AFM_RUN_USER"}) for _ in range(2)]
         outs = [r.communicate(timeout=60) for r in runs]
         for r, (out, err) in zip(runs, outs):
@@ -232,12 +232,12 @@ class LeastPrivilege(unittest.TestCase):
             self.assertRegex(out, r"Max processes +4096 +4096")
             self.assertRegex(out, rf"Max file size +{16 << 30} +{16 << 30}")
         # nobody stays the documented fallback
-        p = subprocess.run([benchtest.IN_NETNS, "id", "-u"], capture_output=True, text=True, timeout=60,
+        p = subprocess.run([e2e_support.IN_NETNS, "id", "-u"], capture_output=True, text=True, timeout=60,
                            env=dict(os.environ, AFM_RUN_USER="nobody"))
         self.assertEqual((p.returncode, p.stdout.strip()), (0, "65534"), p.stderr)
 
     def test_the_fault_helper_alone_keeps_net_admin_and_net_raw(self):
-        cmd = [benchtest.IN_NETNS, "sh", "-c",
+        cmd = [e2e_support.IN_NETNS, "sh", "-c",
                f"id -u; grep CapEff /proc/self/status; '{DROP}' sh -c 'id -u; grep CapEff /proc/self/status'"]
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=30, env=dict(os.environ, AFM_KEEP_CAPS="net_admin,net_raw"))
         self.assertEqual(p.returncode, 0, p.stderr)
@@ -245,12 +245,12 @@ class LeastPrivilege(unittest.TestCase):
         helper_uid, helper, after_uid, after = words[0], int(words[2], 16), words[3], int(words[5], 16)
         self.assertEqual(helper, NET_ADMIN_RAW)
         self.assertEqual(after, 0)
-        if ROOT and not benchtest.closed_ancestor(DROP):   # the helper is the run's user too: its capabilities are its only privilege
+        if ROOT and not e2e_support.closed_ancestor(DROP):   # the helper is the run's user too: its capabilities are its only privilege
             self.assertNotEqual(helper_uid, "0")
             self.assertEqual(after_uid, helper_uid)
-        p = subprocess.run([benchtest.IN_NETNS, "grep", "CapEff", "/proc/self/status"], capture_output=True, text=True, timeout=30)
+        p = subprocess.run([e2e_support.IN_NETNS, "grep", "CapEff", "/proc/self/status"], capture_output=True, text=True, timeout=30)
         self.assertEqual(int(p.stdout.split()[1], 16), 0, "without AFM_KEEP_CAPS nothing is kept")
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -13,11 +13,11 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import afmlog
 
-REPLAY = benchtest.paths.REPLAY
-REPLAY_PERTURBED = benchtest.paths.REPLAY_PERTURBED
+REPLAY = e2e_support.paths.REPLAY
+REPLAY_PERTURBED = e2e_support.paths.REPLAY_PERTURBED
 OUTPUTS = ["AFM_CMD", "HAPTIC_FORCE", "FW_STATE"]
 SYNC = 0xEDA1DA01
 
@@ -87,13 +87,13 @@ class SceneHash(unittest.TestCase):
     replays a log recorded before hashes with a warning."""
 
     def test_a_log_of_another_scenes_run_is_refused(self):
-        tmp = benchtest.tmpdir("hash")
-        self.addCleanup(benchtest.cleanup, tmp)
-        other = benchtest.write_scene(open(benchtest.scene("short.yaml")).read().replace("seed: 7", "seed: 8"), "hash-other")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(other))
+        tmp = e2e_support.tmpdir("hash")
+        self.addCleanup(e2e_support.cleanup, tmp)
+        other = e2e_support.write_scene(open(e2e_support.scene("short.yaml")).read().replace("seed: 7", "seed: 8"), "hash-other")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(other))
         a, b = os.path.join(tmp, "a"), os.path.join(tmp, "b")
-        self.assertEqual(benchtest.run(benchtest.scene("short.yaml"), a)[0], 0)
-        self.assertEqual(benchtest.run(other, b)[0], 0)
+        self.assertEqual(e2e_support.run(e2e_support.scene("short.yaml"), a)[0], 0)
+        self.assertEqual(e2e_support.run(other, b)[0], 0)
         ha, hb = (json.load(open(os.path.join(d, "run.json")))["scene_hash"] for d in (a, b))
         self.assertRegex(ha, r"^fnv1a64:[0-9a-f]{16}$")
         self.assertNotEqual(ha, hb)
@@ -118,19 +118,19 @@ class ReplayEveryScene(unittest.TestCase):
     def setUpClass(cls):
         cls.runs = {}
         import yaml
-        for path in sorted(glob.glob(benchtest.scene("*.yaml"))):
+        for path in sorted(glob.glob(e2e_support.scene("*.yaml"))):
             if os.path.basename(path) in LONG:
                 continue
             with open(path) as f:
                 if ((yaml.safe_load(f) or {}).get("operator") or {}).get("mode") == "browser":
                     continue   # a person's hand through --view's page (test_view runs it)
-            out = benchtest.tmpdir("replay-" + os.path.basename(path)[:-5])
-            code, _, err, _ = benchtest.run(path, out)
+            out = e2e_support.tmpdir("replay-" + os.path.basename(path)[:-5])
+            code, _, err, _ = e2e_support.run(path, out)
             cls.runs[os.path.basename(path)] = (out, code, err)
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(*[r[0] for r in cls.runs.values()])
+        e2e_support.cleanup(*[r[0] for r in cls.runs.values()])
 
     def test_a_fresh_run_of_every_scene_replays_identical(self):
         self.assertGreaterEqual(len(self.runs), 8)
@@ -145,9 +145,9 @@ class ReplayEveryScene(unittest.TestCase):
                     # judged, which is not the firmware's fault; a second run
                     # of the scene must replay
                     print(f"{name}: the log cannot be judged, running the scene again: {se.strip()}")
-                    out = benchtest.tmpdir("replay-again-" + name[:-5])
-                    self.addCleanup(benchtest.cleanup, out)
-                    code, _, err, _ = benchtest.run(benchtest.scene(name), out)
+                    out = e2e_support.tmpdir("replay-again-" + name[:-5])
+                    self.addCleanup(e2e_support.cleanup, out)
+                    code, _, err, _ = e2e_support.run(e2e_support.scene(name), out)
                     self.assertEqual(code, 0, err)
                     rc, so, se = replay(REPLAY, out)
                 self.assertEqual(rc, 0, so + se)
@@ -157,9 +157,9 @@ class ReplayEveryScene(unittest.TestCase):
                 self.assertGreaterEqual(compared, len(OUTPUTS) * 500, "too few outputs compared")   # every output of 500 blocks at least
 
     def test_a_run_with_lost_datagrams_and_resends_replays_identical(self):
-        out = benchtest.tmpdir("replay-drops")
-        self.addCleanup(benchtest.cleanup, out)
-        code, _, err, rj = benchtest.run(benchtest.scene("short.yaml"), out, "--inject-drop", "0.1")
+        out = e2e_support.tmpdir("replay-drops")
+        self.addCleanup(e2e_support.cleanup, out)
+        code, _, err, rj = e2e_support.run(e2e_support.scene("short.yaml"), out, "--inject-drop", "0.1")
         self.assertEqual(code, 0, err)
         self.assertGreater(rj["sim"]["resends"], 0, "the injected drops caused no resend")
         rc, so, se = replay(REPLAY, out)
@@ -207,14 +207,14 @@ class ReplayEveryScene(unittest.TestCase):
 
     def _broken_copy(self, tag, edit):
         src = self.runs["short.yaml"][0]
-        dst = benchtest.tmpdir("replay-broken-" + tag)
+        dst = e2e_support.tmpdir("replay-broken-" + tag)
         for f in ("bus.lcmlog", "scene.yaml", "run.json"):
             shutil.copy(os.path.join(src, f), dst)
         log = os.path.join(dst, "bus.lcmlog")
         evs, blob = events(log)
         with open(log, "wb") as f:
             f.write(edit(evs, blob))
-        self.addCleanup(benchtest.cleanup, dst)
+        self.addCleanup(e2e_support.cleanup, dst)
         return dst, log, evs
 
     def test_a_truncated_log_names_the_file_and_the_offset(self):
@@ -361,8 +361,8 @@ class ReplayEveryScene(unittest.TestCase):
         rc, _, se = replay(REPLAY, "/nonexistent/run")
         self.assertEqual(rc, 2)
         self.assertIn("/nonexistent/run: no such run folder or log file", se)
-        empty = benchtest.tmpdir("replay-empty")
-        self.addCleanup(benchtest.cleanup, empty)
+        empty = e2e_support.tmpdir("replay-empty")
+        self.addCleanup(e2e_support.cleanup, empty)
         rc, _, se = replay(REPLAY, empty)
         self.assertEqual(rc, 2)
         self.assertIn("no bus.lcmlog", se)
@@ -374,4 +374,4 @@ class ReplayEveryScene(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

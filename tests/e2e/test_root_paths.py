@@ -18,14 +18,14 @@ import subprocess
 import sys
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import paths
 
 sys.path.insert(0, paths.FAULTS_DIR)
 import plant  # noqa: E402  (faults/plant.py: what the run's user plants, and the check that nothing followed it)
 
 PY = sys.executable
-AFM = os.path.join(benchtest.SRC, "afm")
+AFM = os.path.join(e2e_support.SRC, "afm")
 ROOT = os.geteuid() == 0
 snapshot = plant.snapshot
 
@@ -34,14 +34,14 @@ snapshot = plant.snapshot
 class RootFollowsNothing(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        closed = benchtest.closed_ancestor(benchtest.BUILD)
+        closed = e2e_support.closed_ancestor(e2e_support.BUILD)
         if closed:
             raise unittest.SkipTest(f"the build is under {closed}, which the run's user cannot traverse: no run drops to it")
-        cls.top = benchtest.tmpdir("root-paths")
+        cls.top = e2e_support.tmpdir("root-paths")
         cls.t = plant.targets(cls.top)
         cls.victim, cls.shadow, cls.rootdir, cls.own = (cls.t[k] for k in ("victim", "shadow", "rootdir", "own"))
         cls.out = os.path.join(cls.top, "run")
-        cmd = [benchtest.IN_NETNS, "sh", "-c", plant.SCRIPT, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", cls.out,
+        cmd = [e2e_support.IN_NETNS, "sh", "-c", plant.SCRIPT, e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", cls.out,
                "--quiet"]
         cls.p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=plant.environ(cls.out, cls.t))
         cls.run_uid = os.stat(cls.own).st_uid if os.path.exists(cls.own) else None
@@ -73,7 +73,7 @@ class RootFollowsNothing(unittest.TestCase):
 
     def test_3_a_link_root_finds_all_the_same_is_refused_and_named(self):
         # as an older give-back left them: root's own links and pipe in a root-owned run folder
-        d = benchtest.tmpdir("leftovers")
+        d = e2e_support.tmpdir("leftovers")
         for name in ("run.json", "bus.lcmlog", "scene.yaml"):
             with open(os.path.join(self.out, name), "rb") as src, open(os.path.join(d, name), "wb") as dst:
                 dst.write(src.read())
@@ -92,7 +92,7 @@ class RootFollowsNothing(unittest.TestCase):
         self.assertFalse(os.path.islink(os.path.join(d, "report.html")))
         # ./afm replay --compare with compare/ a link into a root-only folder
         os.symlink(self.rootdir, os.path.join(d, "compare"))
-        p = subprocess.run([AFM, "replay", d, "--compare"], capture_output=True, text=True, timeout=benchtest.limit(540))
+        p = subprocess.run([AFM, "replay", d, "--compare"], capture_output=True, text=True, timeout=e2e_support.limit(540))
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn(f"{d}/compare: refused: a symbolic link", p.stderr)
         self.untouched()
@@ -105,7 +105,7 @@ class RootFollowsNothing(unittest.TestCase):
         os.chown(d, 0, 0)
 
     def test_4_replay_compare_writes_in_a_compare_folder_of_its_own(self):
-        p = subprocess.run([AFM, "replay", self.out, "--compare"], capture_output=True, text=True, timeout=benchtest.limit(540))
+        p = subprocess.run([AFM, "replay", self.out, "--compare"], capture_output=True, text=True, timeout=e2e_support.limit(540))
         self.assertIn(p.returncode, (0, 1), p.stderr)
         cmp = os.path.join(self.out, "compare")
         self.assertFalse(os.path.islink(cmp))
@@ -116,7 +116,7 @@ class RootFollowsNothing(unittest.TestCase):
 @unittest.skipUnless(ROOT, "only root hands folders over")
 class ARefusedOutChangesNoOwnership(unittest.TestCase):
     def folder(self, tag, is_run):
-        d = os.path.join(benchtest.tmpdir(tag), "out")
+        d = os.path.join(e2e_support.tmpdir(tag), "out")
         os.mkdir(d, 0o755)
         script = os.path.join(d, "tool.sh")
         with open(script, "w") as f:
@@ -134,7 +134,7 @@ class ARefusedOutChangesNoOwnership(unittest.TestCase):
     def test_a_folder_that_is_not_a_run(self):
         d = self.folder("not-a-run", False)
         before = snapshot(d)
-        p = subprocess.run([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", d, "--quiet"],
+        p = subprocess.run([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", d, "--quiet"],
                            capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn(f"output folder {d} exists and holds something that is not a run", p.stderr)
@@ -144,7 +144,7 @@ class ARefusedOutChangesNoOwnership(unittest.TestCase):
     def test_a_run_folder_holding_a_third_users_file(self):
         d = self.folder("third-user", True)
         before = snapshot(d)
-        p = subprocess.run([benchtest.IN_NETNS, "true", "--out", d], capture_output=True, text=True, timeout=60,
+        p = subprocess.run([e2e_support.IN_NETNS, "true", "--out", d], capture_output=True, text=True, timeout=60,
                            env={k: v for k, v in os.environ.items() if k != "AFM_ALLOW_UID_0"})
         self.assertEqual(p.returncode, 2, p.stderr)
         self.assertIn(f"{d}/theirs.txt is uid 4321's", p.stderr)
@@ -152,4 +152,4 @@ class ARefusedOutChangesNoOwnership(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

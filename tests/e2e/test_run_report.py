@@ -17,12 +17,12 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 
 PY = sys.executable
 CHROMIUM = shutil.which("chromium")
 DRIVER = shutil.which("chromedriver")
-SHOT_DIR = os.path.join(benchtest.BUILD, "test-output", "run_report")
+SHOT_DIR = os.path.join(e2e_support.BUILD, "test-output", "run_report")
 
 
 def browser():
@@ -75,8 +75,8 @@ return [small, images];
 class RunReport(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = os.path.join(benchtest.tmpdir("report"), "run")
-        cls.code, _, cls.err, cls.rj = benchtest.run(benchtest.scene("short.yaml"), cls.out)
+        cls.out = os.path.join(e2e_support.tmpdir("report"), "run")
+        cls.code, _, cls.err, cls.rj = e2e_support.run(e2e_support.scene("short.yaml"), cls.out)
         p = subprocess.run([PY, "-m", "analysis.run_report", cls.out], capture_output=True, text=True, timeout=300)
         cls.gen = p
         with open(os.path.join(cls.out, "report.html")) as f:
@@ -99,9 +99,9 @@ class RunReport(unittest.TestCase):
             self.assertIn(part, self.html)
 
     def test_a_failed_verdict_is_listed_with_its_figures(self):
-        out = os.path.join(benchtest.tmpdir("report-fail"), "run")
-        text = open(benchtest.scene("interlock.yaml")).read().replace("expect: [interlock]", "")
-        code, _, err, _ = benchtest.run(benchtest.write_scene(text, "il"), out)
+        out = os.path.join(e2e_support.tmpdir("report-fail"), "run")
+        text = open(e2e_support.scene("interlock.yaml")).read().replace("expect: [interlock]", "")
+        code, _, err, _ = e2e_support.run(e2e_support.write_scene(text, "il"), out)
         self.assertEqual(code, 4, err)
         p = subprocess.run([PY, "-m", "analysis.run_report", out], capture_output=True, text=True, timeout=300)
         self.assertEqual(p.returncode, 0, p.stderr)
@@ -111,7 +111,7 @@ class RunReport(unittest.TestCase):
         self.assertIn("<b>interlock</b>: the card&#x27;s force interlock tripped", page)
 
     def test_not_a_run_folder_is_named(self):
-        d = benchtest.tmpdir("notarun")
+        d = e2e_support.tmpdir("notarun")
         p = subprocess.run([PY, "-m", "analysis.run_report", d], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 2)
         self.assertIn(f"{d}: no run.json", p.stderr)
@@ -119,7 +119,7 @@ class RunReport(unittest.TestCase):
     def test_a_real_browser_renders_it(self):
         chromium = shutil.which("chromium")
         self.assertIsNotNone(chromium, "chromium is installed by ./afm setup")
-        shot_dir = os.path.join(benchtest.BUILD, "test-output", "run_report")
+        shot_dir = os.path.join(e2e_support.BUILD, "test-output", "run_report")
         os.makedirs(shot_dir, exist_ok=True)
         shot = os.path.join(shot_dir, "report.png")
         if os.path.exists(shot):
@@ -218,4 +218,4 @@ class RunReport(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

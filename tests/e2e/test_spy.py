@@ -12,7 +12,7 @@ import subprocess
 import time
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import paths
 
 
@@ -24,7 +24,7 @@ def start_xvfb(wait_s=30):
     p = subprocess.Popen(["Xvfb", "-displayfd", str(w), "-screen", "0", "1280x800x24", "-nolisten", "tcp"],
                          pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     os.close(w)
-    text, deadline = b"", time.monotonic() + benchtest.limit(wait_s)
+    text, deadline = b"", time.monotonic() + e2e_support.limit(wait_s)
     try:
         while not text.endswith(b"\n") and time.monotonic() < deadline:
             if select.select([r], [], [], 0.5)[0]:
@@ -46,7 +46,7 @@ class Spy(unittest.TestCase):
         if not shutil.which("Xvfb"):
             raise unittest.SkipTest("Xvfb missing (./afm setup installs it)")
         cls.xvfb, cls.display = start_xvfb()
-        cls.n_types = len(glob.glob(os.path.join(benchtest.SRC, "lcmtypes", "*.lcm")))
+        cls.n_types = len(glob.glob(os.path.join(e2e_support.SRC, "lcmtypes", "*.lcm")))
 
     @classmethod
     def tearDownClass(cls):
@@ -54,30 +54,30 @@ class Spy(unittest.TestCase):
         cls.xvfb.wait()
 
     def test_spy_finds_every_type_and_replays_a_log(self):
-        out = benchtest.tmpdir("spy")
-        code, _, err, _ = benchtest.run(benchtest.scene("short.yaml"), out)
+        out = e2e_support.tmpdir("spy")
+        code, _, err, _ = e2e_support.run(e2e_support.scene("short.yaml"), out)
         self.assertEqual(code, 0, err)
         env = dict(os.environ, DISPLAY=f":{self.display}", AFM_SPY_EXIT_AFTER_REPLAY="1",
-                   AFM_TYPES_JAR=os.path.join(benchtest.BUILD, "lcmtypes", "afm_types.jar"))
-        p = subprocess.run([benchtest.IN_NETNS, paths.SPY_REPLAY,
+                   AFM_TYPES_JAR=os.path.join(e2e_support.BUILD, "lcmtypes", "afm_types.jar"))
+        p = subprocess.run([e2e_support.IN_NETNS, paths.SPY_REPLAY,
                             os.path.join(out, "bus.lcmlog"), "5"], env=env, capture_output=True, text=True,
-                           timeout=benchtest.limit(180))
+                           timeout=e2e_support.limit(180))
         text = p.stdout + p.stderr
         self.assertEqual(p.returncode, 0, text[-2000:])
         m = re.search(r"Found (\d+) LCM types", text)
         self.assertIsNotNone(m, text[-2000:])
         self.assertEqual(int(m.group(1)), self.n_types)
         self.assertIn("replay of", text)
-        benchtest.cleanup(out)
+        e2e_support.cleanup(out)
 
 
     def test_spy_holds_a_lockstep_run_until_it_listens(self):
         # --spy: the run starts only once lcm-spy's socket is bound on the
         # bus's port in the run's namespace (10 s at most), so a lockstep run
         # is not over before lcm-spy subscribes
-        out = os.path.join(benchtest.tmpdir("spy-live"), "run")
+        out = os.path.join(e2e_support.tmpdir("spy-live"), "run")
         env = dict(os.environ, DISPLAY=f":{self.display}")
-        p = subprocess.Popen([benchtest.IN_NETNS, benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out", out,
+        p = subprocess.Popen([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", out,
                               "--spy"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         lines = []
         try:
@@ -87,14 +87,14 @@ class Spy(unittest.TestCase):
                     break
         finally:
             p.send_signal(2)   # SIGINT: the launcher closes lcm-spy and ends
-            p.wait(timeout=benchtest.limit(60))
+            p.wait(timeout=e2e_support.limit(60))
         text = "".join(lines)
         self.assertIn("lcm-spy listens on the bus; the run starts", text)
         self.assertLess(text.index("lcm-spy listens"), text.index("close lcm-spy to finish"), text)
         with open(os.path.join(out, "run.json")) as f:
             self.assertEqual(json.load(f)["status"], "ok")
-        benchtest.cleanup(out)
+        e2e_support.cleanup(out)
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -17,16 +17,16 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 
 PY = sys.executable
-ENV = dict(os.environ, PYTHONPATH=benchtest.SRC)
-SHORT = benchtest.scene("short.yaml")
+ENV = dict(os.environ, PYTHONPATH=e2e_support.SRC)
+SHORT = e2e_support.scene("short.yaml")
 
 
 def sweep(*args, timeout=300):
-    p = subprocess.run([PY, "-m", "analysis.sweep", *args], capture_output=True, text=True, timeout=benchtest.limit(timeout),
-                       env=ENV, cwd=benchtest.SRC)
+    p = subprocess.run([PY, "-m", "analysis.sweep", *args], capture_output=True, text=True, timeout=e2e_support.limit(timeout),
+                       env=ENV, cwd=e2e_support.SRC)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -38,12 +38,12 @@ def rows(out):
 class LocalSweep(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = benchtest.tmpdir("sweep")
+        cls.out = e2e_support.tmpdir("sweep")
         cls.first = sweep(SHORT, "--vary", "firmware.adc_bits=10,12,14,16", "--out", cls.out, "--workers", "2")
 
     @classmethod
     def tearDownClass(cls):
-        benchtest.cleanup(cls.out)
+        e2e_support.cleanup(cls.out)
 
     def test_four_points_measured_with_every_column(self):
         code, so, se = self.first
@@ -93,8 +93,8 @@ class LocalSweep(unittest.TestCase):
         after = {x["point"]: os.path.getmtime(os.path.join(x["run_dir"], "run.json")) for x in rows(self.out)}
         self.assertEqual(before, after, "a done point was run again")
         # two points, each run twice: the errors repeat exactly
-        out = benchtest.tmpdir("sweep-repeat")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("sweep-repeat")
+        self.addCleanup(e2e_support.cleanup, out)
         code, so, se = sweep(SHORT, "--vary", "firmware.adc_bits=12,16", "--out", out, "--workers", "2", "--repeat",
                              "2", "--no-callgrind")
         self.assertEqual(code, 0, so + se)
@@ -179,7 +179,7 @@ class ThroughATlsScheduler(unittest.TestCase):
     def test_a_sweep_through_a_tls_scheduler_and_worker_on_127_0_0_1(self):
         port = free_port()
         addr = f"tls://127.0.0.1:{port}"
-        tmp = benchtest.tmpdir("sweep-tls")
+        tmp = e2e_support.tmpdir("sweep-tls")
         certs, out = os.path.join(tmp, "certs"), os.path.join(tmp, "out")
         cluster = [PY, "-m", "analysis.cluster"]
         subprocess.run(cluster + ["certs", certs], check=True, env=NO_PATH, cwd="/", capture_output=True)
@@ -226,7 +226,7 @@ class ThroughATlsScheduler(unittest.TestCase):
                     p.wait(timeout=20)
                 except subprocess.TimeoutExpired:
                     p.kill()
-            benchtest.cleanup(tmp)
+            e2e_support.cleanup(tmp)
 
 
 class LocalEngineIsClosed(unittest.TestCase):
@@ -234,10 +234,10 @@ class LocalEngineIsClosed(unittest.TestCase):
     answer no plain client and no HTTP; none is on another address."""
 
     def test_no_port_of_a_running_local_sweep_answers_a_plain_client(self):
-        out = benchtest.tmpdir("sweep-closed")
-        self.addCleanup(benchtest.cleanup, out)
+        out = e2e_support.tmpdir("sweep-closed")
+        self.addCleanup(e2e_support.cleanup, out)
         p = subprocess.Popen([PY, "-m", "analysis.sweep", SHORT, "--vary", "firmware.adc_bits=12,16", "--out", out,
-                              "--workers", "2", "--no-callgrind"], env=ENV, cwd=benchtest.SRC, stdout=subprocess.PIPE,
+                              "--workers", "2", "--no-callgrind"], env=ENV, cwd=e2e_support.SRC, stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
         seen = set()
         try:
@@ -250,7 +250,7 @@ class LocalEngineIsClosed(unittest.TestCase):
                 self.assertEqual(host, "127.0.0.1", (host, port))
                 if p.poll() is None:
                     self.assertTrue(plain_client_refused(port), f"port {port} answered a plain client")
-            so, se = p.communicate(timeout=benchtest.limit(300))
+            so, se = p.communicate(timeout=e2e_support.limit(300))
         finally:
             if p.poll() is None:
                 p.kill()
@@ -265,8 +265,8 @@ class WorkerAnswers(unittest.TestCase):
 
     def test_a_pickled_answer_is_refused_and_nothing_runs(self):
         from analysis import engine, sweep as sw
-        mark = os.path.join(benchtest.tmpdir("sweep-pickle"), "unpickled-by")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(mark))
+        mark = os.path.join(e2e_support.tmpdir("sweep-pickle"), "unpickled-by")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(mark))
         client, cluster = engine.local_cluster(1)
         try:
             good = client.submit(json.dumps, {"x": 1})
@@ -339,8 +339,8 @@ class EngineAddresses(unittest.TestCase):
         self.one_line("tcp://127.0.0.1:8786", "--insecure")
 
     def test_a_scheduler_that_does_not_answer(self):
-        certs = benchtest.tmpdir("sweep-dead")
-        self.addCleanup(benchtest.cleanup, certs)
+        certs = e2e_support.tmpdir("sweep-dead")
+        self.addCleanup(e2e_support.cleanup, certs)
         subprocess.run([PY, "-m", "analysis.cluster", "certs", certs], check=True, env=ENV, capture_output=True)
         tls = ["--tls-ca", os.path.join(certs, "ca.pem"), "--tls-cert", os.path.join(certs, "cert.pem"), "--tls-key",
                os.path.join(certs, "key.pem")]
@@ -363,8 +363,8 @@ class EngineAddresses(unittest.TestCase):
 
 class BadInput(unittest.TestCase):
     def refused(self, *args, needle):
-        out = os.path.join(benchtest.tmpdir("sweep-bad"), "out")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(out))
+        out = os.path.join(e2e_support.tmpdir("sweep-bad"), "out")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(out))
         code, so, se = sweep(*args, "--out", out)
         self.assertEqual(code, 2, so + se)
         self.assertIn(needle, se)
@@ -392,13 +392,13 @@ class BadInput(unittest.TestCase):
         self.assertIn("8 to 16 bits", se)
 
     def test_a_scene_that_fails_to_validate(self):
-        bad = benchtest.write_scene(open(SHORT).read().replace("duration_s: 0.6", "duration_s: -1"), "sweep-badscene")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(bad))
+        bad = e2e_support.write_scene(open(SHORT).read().replace("duration_s: 0.6", "duration_s: -1"), "sweep-badscene")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(bad))
         self.refused(bad, "--vary", "firmware.adc_bits=12,16", needle=f"{bad}: duration_s: must be > 0")
 
     def test_a_sweep_file_with_an_unknown_key(self):
-        path = benchtest.write_scene(f"scene: {SHORT}\nvary: {{firmware.adc_bits: [12]}}\nworkers: 3\n", "sweep-file")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(path))
+        path = e2e_support.write_scene(f"scene: {SHORT}\nvary: {{firmware.adc_bits: [12]}}\nworkers: 3\n", "sweep-file")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(path))
         self.refused(path, needle=f"{path}: unknown key 'workers'")
 
 
@@ -410,16 +410,16 @@ class BadInput(unittest.TestCase):
         self.assertEqual(len(se.strip().splitlines()), 1, se)
         self.refused(SHORT, "--vary", "firmware.adc_bits=12,12.0", needle="the value 12 and 12.0")
         self.refused(SHORT, "--vary", "effects.drift=on,yes", needle="effects.drift has the value")
-        path = benchtest.write_scene(f"scene: {SHORT}\nvary: {{firmware.adc_bits: [12, 14, 12]}}\n", "sweep-dup")
-        self.addCleanup(benchtest.cleanup, os.path.dirname(path))
+        path = e2e_support.write_scene(f"scene: {SHORT}\nvary: {{firmware.adc_bits: [12, 14, 12]}}\n", "sweep-dup")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(path))
         self.refused(path, needle=f"{path}: vary.firmware.adc_bits: firmware.adc_bits has the value 12 and 12")
 
     def test_a_file_nested_5000_deep_is_one_line(self):
         deep = "[" * 5000 + "]" * 5000
         for text, what in ((f"scene: {SHORT}\nvary: {{firmware.adc_bits: {deep}}}\n", "scene or sweep file"),
                            (open(SHORT).read() + f"objects_extra: {deep}\n", "scene or sweep file")):
-            path = benchtest.write_scene(text, "sweep-deep")
-            self.addCleanup(benchtest.cleanup, os.path.dirname(path))
+            path = e2e_support.write_scene(text, "sweep-deep")
+            self.addCleanup(e2e_support.cleanup, os.path.dirname(path))
             se = self.refused(path, *([] if "vary" in text else ["--vary", "firmware.adc_bits=12,14"]),
                               needle=f"{path}: the {what} is nested too deep to read")
             self.assertEqual(len(se.strip().splitlines()), 1, se)
@@ -427,4 +427,4 @@ class BadInput(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

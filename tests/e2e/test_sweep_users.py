@@ -15,7 +15,7 @@ import sys
 import time
 import unittest
 
-import benchtest
+import e2e_support
 from analysis import paths
 
 ROOT = os.geteuid() == 0
@@ -34,9 +34,9 @@ def uid_of(pid):
 def sweep_processes(root_pid):
     """{"sweep": {pid: uid}, "worker": {pid: uid}}: the sweep's own Python
     processes that are not root (its client and scheduler) and the Dask
-    worker processes (benchtest.sweep_processes), with their uids."""
+    worker processes (e2e_support.sweep_processes), with their uids."""
     seen = {"sweep": {}, "worker": {}}
-    for kind, pids in benchtest.sweep_processes(root_pid).items():
+    for kind, pids in e2e_support.sweep_processes(root_pid).items():
         for pid in pids:
             try:
                 uid = uid_of(pid)
@@ -85,19 +85,19 @@ class SweepUsers(unittest.TestCase):
         if p.returncode == 3:
             raise unittest.SkipTest("no range of uids reserved for the runs (tools/setup.sh reserves afm-runs)")
         cls.first, cls.count = (int(x) for x in p.stdout.split())
-        closed = benchtest.closed_ancestor(benchtest.BUILD)
+        closed = e2e_support.closed_ancestor(e2e_support.BUILD)
         if closed:
             raise unittest.SkipTest(f"the checkout's build is under {closed}, which the runs' users cannot traverse")
-        cls.tmp = benchtest.tmpdir("sweep-users")
+        cls.tmp = e2e_support.tmpdir("sweep-users")
         cls.out = os.path.join(cls.tmp, "sweep")
         env = {k: v for k, v in os.environ.items() if k not in ("AFM_RUN_USER", "AFM_ALLOW_UID_0")}
-        p = subprocess.Popen([sys.executable, "-m", "analysis.sweep", benchtest.scene("short.yaml"), "--vary",
+        p = subprocess.Popen([sys.executable, "-m", "analysis.sweep", e2e_support.scene("short.yaml"), "--vary",
                               "firmware.adc_bits=12,16", "--workers", "2", "--no-callgrind", "--out", cls.out],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=benchtest.SRC, env=env)
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=e2e_support.SRC, env=env)
         cls.seen = {"sweep": {}, "worker": {}}
         cls.read = {}   # (who, pid, probe uid) -> read
         t0 = time.monotonic()
-        while p.poll() is None and time.monotonic() - t0 < benchtest.limit(240):
+        while p.poll() is None and time.monotonic() - t0 < e2e_support.limit(240):
             for k, v in sweep_processes(p.pid).items():
                 cls.seen[k].update(v)
             if len(cls.seen["worker"]) >= 2 and cls.seen["sweep"] and not cls.read:
@@ -114,7 +114,7 @@ class SweepUsers(unittest.TestCase):
                             except OSError:
                                 pass
             time.sleep(0.1)
-        cls.so, cls.se = p.communicate(timeout=benchtest.limit(300))
+        cls.so, cls.se = p.communicate(timeout=e2e_support.limit(300))
         cls.code = p.returncode
         try:
             with open(os.path.join(cls.out, "sweep.json")) as f:
@@ -125,7 +125,7 @@ class SweepUsers(unittest.TestCase):
     @classmethod
     def tearDownClass(cls):
         if hasattr(cls, "tmp"):
-            benchtest.cleanup(cls.tmp)
+            e2e_support.cleanup(cls.tmp)
 
     def test_the_sweep_is_measured(self):
         self.assertEqual(self.code, 0, self.so + self.se)
@@ -184,4 +184,4 @@ def _uid_or_none(pid):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -6,10 +6,10 @@ place are refused before anything starts."""
 import os
 import unittest
 
-import benchtest
+import e2e_support
 
-SHORT = open(benchtest.scene("short.yaml")).read()
-INTERLOCK = open(benchtest.scene("interlock.yaml")).read()
+SHORT = open(e2e_support.scene("short.yaml")).read()
+INTERLOCK = open(e2e_support.scene("interlock.yaml")).read()
 
 
 def last_line(text):
@@ -19,9 +19,9 @@ def last_line(text):
 
 class Verdicts(unittest.TestCase):
     def run_text(self, text, tag, *extra):
-        path = benchtest.write_scene(text, tag)
+        path = e2e_support.write_scene(text, tag)
         out = os.path.join(os.path.dirname(path), "out")
-        code, so, se, rj = benchtest.run(path, out, *extra)
+        code, so, se, rj = e2e_support.run(path, out, *extra)
         return code, so, se, rj
 
     def test_a_run_that_passes_its_checks_says_so_and_exits_0(self):
@@ -71,9 +71,9 @@ class Verdicts(unittest.TestCase):
 
 class TwoBodiesInOnePlace(unittest.TestCase):
     def refused(self, text, key, words):
-        path = benchtest.write_scene(text, "overlap")
+        path = e2e_support.write_scene(text, "overlap")
         out = os.path.join(os.path.dirname(path), "out")
-        code, _, se, _ = benchtest.run(path, out)
+        code, _, se, _ = e2e_support.run(path, out)
         lines = [l for l in se.splitlines() if l.strip()]
         self.assertEqual(code, 2, se)
         self.assertEqual(len(lines), 1, se)
@@ -87,8 +87,8 @@ class TwoBodiesInOnePlace(unittest.TestCase):
 
     def test_overlapping_particles_are_refused_and_touching_ones_are_not(self):
         self.refused(SHORT.replace("{id: 2, x_nm: 500, y_nm: 300", "{id: 2, x_nm: 99, y_nm: -300"), "objects.particles[1]", "overlaps")
-        path = benchtest.write_scene(SHORT.replace("{id: 2, x_nm: 500, y_nm: 300", "{id: 2, x_nm: 100, y_nm: -300"), "touching")
-        code, _, se, _ = benchtest.run(path, os.path.join(os.path.dirname(path), "out"), "--check")
+        path = e2e_support.write_scene(SHORT.replace("{id: 2, x_nm: 500, y_nm: 300", "{id: 2, x_nm: 100, y_nm: -300"), "touching")
+        code, _, se, _ = e2e_support.run(path, os.path.join(os.path.dirname(path), "out"), "--check")
         self.assertEqual(code, 0, se)
 
     def test_a_particle_on_a_wire_and_crossing_wires_are_refused(self):
@@ -103,9 +103,9 @@ def check(text, *extra):
     """launcher --check on the scene text: (exit code, stderr lines)."""
     import glob  # noqa: F401
     import subprocess
-    path = benchtest.write_scene(text, "warn")
-    p = subprocess.run([benchtest.LAUNCH, "--check", "--scene", path, *extra], capture_output=True, text=True, timeout=60)
-    benchtest.cleanup(os.path.dirname(path))
+    path = e2e_support.write_scene(text, "warn")
+    p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", path, *extra], capture_output=True, text=True, timeout=60)
+    e2e_support.cleanup(os.path.dirname(path))
     return p.returncode, [l for l in p.stderr.splitlines() if l.strip()]
 
 
@@ -145,14 +145,14 @@ class CheckWarnings(unittest.TestCase):
 
     def test_every_committed_scene_passes_strict(self):
         import glob
-        scenes = sorted(glob.glob(os.path.join(benchtest.SRC, "scenes", "*.yaml")) +
-                        glob.glob(os.path.join(benchtest.SRC, "scenes", "paper", "*.yaml")))
+        scenes = sorted(glob.glob(os.path.join(e2e_support.SRC, "scenes", "*.yaml")) +
+                        glob.glob(os.path.join(e2e_support.SRC, "scenes", "paper", "*.yaml")))
         self.assertGreater(len(scenes), 20)
         import subprocess
         for path in scenes:
-            p = subprocess.run([benchtest.LAUNCH, "--check", "--strict", "--scene", path], capture_output=True, text=True, timeout=60)
+            p = subprocess.run([e2e_support.LAUNCH, "--check", "--strict", "--scene", path], capture_output=True, text=True, timeout=60)
             self.assertEqual(p.returncode, 0, (path, p.stderr))
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

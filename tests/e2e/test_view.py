@@ -30,13 +30,13 @@ import unittest
 import urllib.error
 import urllib.request
 
-import benchtest
+import e2e_support
 
 CHROMIUM = shutil.which("chromium")
 DRIVER = shutil.which("chromedriver")
 PY = sys.executable
 # Kept after the test (the runs' folder is removed when every test passes).
-SHOT_DIR = os.path.join(benchtest.BUILD, "test-output", "view")
+SHOT_DIR = os.path.join(e2e_support.BUILD, "test-output", "view")
 
 
 def browser(block_network=False):
@@ -122,9 +122,9 @@ def listening_on_loopback_only(port):
 class View(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.out = os.path.join(benchtest.tmpdir("view"), "run")
+        cls.out = os.path.join(e2e_support.tmpdir("view"), "run")
         cls.server, cls.url, cls.port, cls.token = start_server(
-            ["run", "--out", cls.out, "--wait", "--", benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"),
+            ["run", "--out", cls.out, "--wait", "--", e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"),
              "--out", cls.out, "--view", "--quiet"])
         cls.driver = browser(block_network=True)
 
@@ -261,8 +261,8 @@ class View(unittest.TestCase):
     def test_4_spy_without_display_refused(self):
         env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
         t0 = time.time()
-        r = subprocess.run([benchtest.LAUNCH, "--scene", benchtest.scene("short.yaml"), "--out",
-                            os.path.join(benchtest.tmpdir("spy"), "run"), "--spy"], env=env, capture_output=True,
+        r = subprocess.run([e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out",
+                            os.path.join(e2e_support.tmpdir("spy"), "run"), "--spy"], env=env, capture_output=True,
                            text=True, timeout=30)
         self.assertEqual(r.returncode, 2)
         self.assertIn("DISPLAY", r.stderr)
@@ -314,11 +314,11 @@ def particle(ps, pid):
 class BrowserHand(unittest.TestCase):
     def test_dragging_the_pointer_pushes_a_particle(self):
         from selenium.webdriver.common.action_chains import ActionChains
-        scene = benchtest.write_scene(BROWSER_SCENE, "browser")
-        out = os.path.join(benchtest.tmpdir("browser"), "run")
+        scene = e2e_support.write_scene(BROWSER_SCENE, "browser")
+        out = os.path.join(e2e_support.tmpdir("browser"), "run")
         # a person's push in real time: its display may end off the fresh
         # scan (the run's verdict), which is not this test's point
-        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", benchtest.LAUNCH, "--scene", scene,
+        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", e2e_support.LAUNCH, "--scene", scene,
                                        "--out", out, "--view", "--quiet", "--no-verdict"])
         d = browser()
         try:
@@ -351,8 +351,8 @@ class BrowserHand(unittest.TestCase):
             end_y = particle(s["particles"], 1)[2]
             self.assertGreater(end_y - start_y, 50, (start_y, end_y))
             # in the truth
-            log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
-            whole = benchtest.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
+            log = e2e_support.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
+            whole = e2e_support.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
             y0 = next(p.y_nm for p in whole[0][1].particles if p.id == 1)
             y1 = next(p.y_nm for p in whole[-1][1].particles if p.id == 1)
             self.assertGreater(y1 - y0, 50, (y0, y1))
@@ -372,7 +372,7 @@ class BrowserHand(unittest.TestCase):
         """The person's two local scans: asked by the operator (its req_ids,
         kPageScanReqBase 20000 and up), served, and pasted by the renderer."""
         self.assertEqual((rep["browser"]["scans_asked"], rep["browser"]["scans"]), (2, 2), rep["browser"])
-        log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"AFM_SCAN_REQ", "AFM_SCAN_LINE"})
+        log = e2e_support.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"AFM_SCAN_REQ", "AFM_SCAN_LINE"})
         reqs = {m.req_id: m for m in log["AFM_SCAN_REQ"] if m.req_id >= 20000}
         self.assertEqual(sorted(reqs), [20001, 20002])
         pitch = 2000 / 128
@@ -398,9 +398,9 @@ STROKE_TARGET_NM = (0.0, 150.0)   # 450 nm along +y from particle 1, across the 
 class BrowserStroke(unittest.TestCase):
     def test_click_particle_then_target_places_it(self):
         from selenium.webdriver.common.action_chains import ActionChains
-        scene = benchtest.write_scene(STROKE_SCENE, "stroke")
-        out = os.path.join(benchtest.tmpdir("stroke"), "run")
-        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", benchtest.LAUNCH, "--scene", scene,
+        scene = e2e_support.write_scene(STROKE_SCENE, "stroke")
+        out = os.path.join(e2e_support.tmpdir("stroke"), "run")
+        srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", e2e_support.LAUNCH, "--scene", scene,
                                        "--out", out, "--view", "--quiet", "--no-verdict"])
         d = browser()
         try:
@@ -436,8 +436,8 @@ class BrowserStroke(unittest.TestCase):
             self.assertLessEqual(abs(end["x_nm"] - STROKE_TARGET_NM[0]), pitch, end)
             self.assertLessEqual(abs(end["y_nm"] - STROKE_TARGET_NM[1]), pitch, end)
             # in the truth: within the planner's tolerance of the target the page sent
-            log = benchtest.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
-            whole = benchtest.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
+            log = e2e_support.afmlog.load(os.path.join(out, "bus.lcmlog"), channels={"SIM_TRUTH"})
+            whole = e2e_support.afmlog.whole_objects(log["SIM_TRUTH"], lambda m: m.objects)
             t = next(p for p in whole[-1][1].particles if p.id == 1)
             miss = ((t.x_nm - end["x_nm"]) ** 2 + (t.y_nm - end["y_nm"]) ** 2) ** 0.5
             self.assertLessEqual(miss, PLAN_TOLERANCE_NM, (t.x_nm, t.y_nm, end))
@@ -461,4 +461,4 @@ class BrowserStroke(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    benchtest.main()
+    e2e_support.main()

@@ -1,13 +1,13 @@
 """analysis.pareto: the front of an error against a cost, what counts as a
 figure that varies (beyond twice the repeat noise and 5 % of the median),
-and the plot's files; the sweep report's conclusion (analysis.report) says
+and the plot's files; the sweep report's conclusion (analysis.sweep_report) says
 which knob moves which figure by that rule. The noise rule's cases moved
 here from tests/e2e/test_sweep.py (they need no run)."""
 import os
 
 import pytest
 
-from analysis import pareto, report
+from analysis import pareto, sweep_report
 
 
 def point(label, err, cpu, runs=None):
@@ -81,12 +81,12 @@ def test_the_plot_writes_png_and_svg_and_returns_the_front(tmp_path):
 def test_the_conclusion_names_what_moved_and_what_did_not():
     pts = [point("a", 100.0, 1.0), point("b", 50.0, 2.0)]
     pts[0]["settings"], pts[1]["settings"] = {"k": 1}, {"k": 2}
-    eff = report.knob_effects(pts, [("k", [1, 2])])
-    lines = report.conclusion(pts, [("k", [1, 2])], eff, report.best_buy(eff))
+    eff = sweep_report.knob_effects(pts, [("k", [1, 2])])
+    lines = sweep_report.conclusion(pts, [("k", [1, 2])], eff, sweep_report.best_buy(eff))
     assert any(line.startswith("k from 1 to 2: tip force, RMS error x0.5") for line in lines), lines
     flat = [point("a", 100.0, 1.0), point("b", 101.0, 2.0)]
     flat[0]["settings"], flat[1]["settings"] = {"k": 1}, {"k": 2}
-    eff = report.knob_effects(flat, [("k", [1, 2])])
-    lines = report.conclusion(flat, [("k", [1, 2])], eff, None)
+    eff = sweep_report.knob_effects(flat, [("k", [1, 2])])
+    lines = sweep_report.conclusion(flat, [("k", [1, 2])], eff, None)
     assert any("No error figure varies" in line for line in lines), lines
-    assert report.conclusion([dict(point("a", 1, 1), status="failed")], [], [], None)[0][:21] == "No point was measured"
+    assert sweep_report.conclusion([dict(point("a", 1, 1), status="failed")], [], [], None)[0][:21] == "No point was measured"

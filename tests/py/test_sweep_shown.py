@@ -8,7 +8,7 @@ import json
 import re
 
 from analysis import knobs as K
-from analysis import report, sweep
+from analysis import sweep, sweep_report
 
 # every C0 control but tab and newline, DEL and the C1 controls: what a terminal acts on
 CONTROL = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f]")
@@ -47,10 +47,10 @@ def test_no_output_of_the_sweep_holds_a_control_character(tmp_path, capsys):
     knobs, points = sweep.shown_points(*made_up_points())
     meta = {"scene": "s.yaml", "scene_name": "s", "knobs": knobs, "repeat": 1, "build_id": "b", "engine": "e",
             "points_wall_s": 1.0, "users": None, "ok": 1, "failed": 1}
-    report.write_csv_json(str(tmp_path), points, [k for k, _ in knobs], meta)
-    table = report.table(points)
-    effects = report.knob_effects(points, knobs)
-    report.write_html(str(tmp_path), meta, points, knobs, [], effects, report.best_buy(effects))
+    sweep_report.write_csv_json(str(tmp_path), points, [k for k, _ in knobs], meta)
+    table = sweep_report.table(points)
+    effects = sweep_report.knob_effects(points, knobs)
+    sweep_report.write_html(str(tmp_path), meta, points, knobs, [], effects, sweep_report.best_buy(effects))
     texts = {"table": table}
     for name in ("sweep.json", "sweep.csv", "report.html"):
         texts[name] = (tmp_path / name).read_text()

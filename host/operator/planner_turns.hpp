@@ -20,7 +20,7 @@ namespace afm {
 
 // The planner's side of the turns: it blocks in each call until the bus
 // side has served it; the bus side serves one request at a time.
-class TurnBench : public PlanBench {
+class PlannerTurns : public PlanInstrument {
 public:
     enum class Req { None, Block, Scan, Fix, Done, Failed };
 

@@ -9,7 +9,7 @@ from dataclasses import asdict
 import jinja2
 
 from analysis import paths
-from analysis.report import fmt as sweep_fmt
+from analysis.sweep_report import fmt as sweep_fmt
 
 TEMPLATES = os.path.join(paths.ROOT, "analysis", "templates")
 

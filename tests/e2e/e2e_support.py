@@ -110,7 +110,7 @@ def main():
         if ok and not os.environ.get("AFM_KEEP_TEST_RUNS"):
             shutil.rmtree(_root, ignore_errors=True)
         else:
-            print(f"benchtest: the runs of these tests are kept in {_root}", file=sys.stderr)
+            print(f"e2e_support: the runs of these tests are kept in {_root}", file=sys.stderr)
     sys.exit(0 if ok else 1)
 
 
