@@ -44,7 +44,7 @@ int afm_objects_view_apply(void *view, const uint8_t *data, size_t len, afm_obje
         if (m.decode(data, 0, static_cast<int>(len)) < 0) return -1;
         std::vector<uint8_t> buf;
         const auto tell = [&](const afm::objects_t &p) {
-            // a placement the caller is not told of would be lost to it: fail instead
+            // a set placed but not told to the caller would be lost to it: fail instead
             if (!encode(v->whole(), buf)) throw std::runtime_error("cannot encode the set");
             placed(ctx, p.seq, p.fix_id, buf.data(), buf.size());
         };

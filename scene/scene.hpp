@@ -83,7 +83,7 @@ struct FirmwareCalibration {
 // a scene's expect: may give.
 inline const std::vector<std::string> &verdict_checks()
 {
-    static const std::vector<std::string> k{"fidelity", "placement", "interlock", "saturation", "unobservable_push"};
+    static const std::vector<std::string> k{"fidelity", "assembly", "interlock", "saturation", "unobservable_push"};
     return k;
 }
 

@@ -20,7 +20,7 @@ namespace afm::scene_detail {
 // objects.scatter: particles drawn at random, the bench's own generator
 // (xorshift64*), so every process and machine draws the same ones.
 // Listed objects, at most (scattered particles: objects.scatter.count <=
-// 5000, the placement's O(count^2)); a 50 MB scene listing 923k particles
+// 5000, the scatter's O(count^2)); a 50 MB scene listing 923k particles
 // took 3.9 GB before any answer.
 constexpr std::size_t kMaxListedParticles = 5000, kMaxListedWires = 1000, kMaxListedLandmarks = 1000;
 

@@ -1,7 +1,7 @@
 """More than a hundred 100 nm latex particles pushed into a pattern by the
 automatic planner (the operator's issue), in closed loop on the firmware's
-models with local scans before and after every stroke. The placement is
-measured on the run's fresh final scan (the renderer's placement check,
+models with local scans before and after every stroke. Where the particles land is
+measured on the run's fresh final scan (the renderer's assembly check,
 fidelity.json); the truth is the simulator's particles at the end
 (SIM_TRUTH). Reduced size: the ten-site cross of scenes/pattern_ten.yaml."""
 import json
@@ -48,7 +48,7 @@ def analyse(dirs, exp_dir, size):
         plan = json.load(f)["plan"]
     sc = common.truth(d)
     tol = float(sc["operator"]["plan"]["tolerance_nm"])
-    per = fid["placement"]["particles"]["per_site"]
+    per = fid["assembly"]["particles"]["per_site"]
     sites = np.array([s["site_nm"] for s in per])
     bench = np.array([s["error_nm"] if s["found"] else np.inf for s in per])
     truth = true_errors(d, sites)
@@ -61,10 +61,10 @@ def analyse(dirs, exp_dir, size):
         common.Row(f"sites filled within {tol:.0f} nm (of {n})", "", paper=None, bench=int((bench <= tol).sum()),
                    truth=int((truth <= tol).sum()), tolerance=max(1, round(0.03 * n)),
                    note="bench: found on the final fresh scan; the paper's fig. 10 shows its pattern, not a count"),
-        common.Row("RMS placement error", "nm", bench=float(np.sqrt(np.mean(finite ** 2))) if finite.size else None,
+        common.Row("RMS site error", "nm", bench=float(np.sqrt(np.mean(finite ** 2))) if finite.size else None,
                    truth=float(np.sqrt(np.mean(truth_found ** 2))) if finite.size else None, tolerance=3.0,
                    note="over the sites with a particle found on the scan (the truth over the same sites)"),
-        common.Row("worst placement error", "nm", bench=float(finite.max()) if finite.size else None, truth=float(truth_found.max()) if finite.size else None, tolerance=5.0),
+        common.Row("worst site error", "nm", bench=float(finite.max()) if finite.size else None, truth=float(truth_found.max()) if finite.size else None, tolerance=5.0),
         common.Row("simulated time to assemble", "s", paper=PAPER_S, bench=plan["finished_sim_s"], tolerance=TIME_BOUND_S[size],
                    note=f"bound: the measured time plus 25 %; the paper: by hand, about half an hour; here the planner: {pushes} pushes, "
                         f"{sum(i.get('scans', 0) for i in plan['items'])} local scans"),

@@ -128,7 +128,7 @@ def analyse(dirs, exp_dir, size):
     card_top = states[-1][1].wires[0].axis_z_nm + states[-1][1].wires[0].diameter_nm / 2
     item = plan["items"][0]
     target_deg = float(item.get("target_angle_deg", 0.0))
-    rods = fid.get("placement", {}).get("rods", [{}])
+    rods = fid.get("assembly", {}).get("rods", [{}])
     off_b, off_t = abs(sc["rod_y"] - sc["path_y"]), abs(tr["rod_y"] - tr["path_y"])
     axis_z = common.run_json(d)["sim"]["wire_axis_heights_nm"][0]   # the simulator's seat of the rod (truth)
     res = common.Result()
@@ -146,7 +146,7 @@ def analyse(dirs, exp_dir, size):
                         "on its centreline"),
         common.Row("rod's angle to its target (the trench's)", "deg", bench=rods[0].get("angle_error_deg"),
                    truth=(tr["angle"] - target_deg + 90.0) % 180.0 - 90.0, tolerance=1.0,
-                   note="bench: the renderer's placement check on the fresh scan; truth: the simulator's rod"),
+                   note="bench: the renderer's assembly check on the fresh scan; truth: the simulator's rod"),
         common.Row("end pushes", "", bench=item.get("pushes"), note=f"the planner's zigzag; {item.get('note') or item.get('why') or 'ended on its target'}"),
         common.Row("simulated time: cut, then pushed in", "s", bench=plan["finished_sim_s"],
                    note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
@@ -164,7 +164,7 @@ def analyse(dirs, exp_dir, size):
         common.Row("display against a fresh scan: worst object", "nm", bench=fid["max_position_error_nm"], tolerance=fid["target_nm"],
                    note="the renderer's check at the last frame"),
     ]
-    res.notes.append(f"placement by the renderer's scan: {'placed' if rods[0].get('placed') else 'NOT placed'} "
+    res.notes.append(f"assembly by the renderer's scan: {'placed' if rods[0].get('placed') else 'NOT placed'} "
                      f"within {rods[0].get('tolerance_nm')} nm of the trench's path")
     res.figures = [("The final fresh scan: the trench and the rod in it, with the rod's ends over time", plot(exp_dir, d, t, fw, truth)),
                    ("The fresh scan across the trench: beyond the rod, and over its middle (the rod seated below the surface)", plot_profile(exp_dir, sc))]

@@ -10,8 +10,8 @@
  *     once, in fw_marshal.c, and only there.
  *   - A message is a header (fw_marshal_put_header_le: magic, kind, payload
  *     length) and its payload. The host sends INIT (the configuration and
- *     its storage's capacities), STEP (a block in) and FIX (a fix or a
- *     placement); the board answers each with the same kind, its result,
+ *     its storage's capacities), STEP (a block in) and FIX (a drift fix or a
+ *     place fix); the board answers each with the same kind, its result,
  *     and the card's models after it (fw_models.h). STEP's answer carries
  *     the board's timer ticks around fw_card_step_block.
  *   - Writers never write past their buffer, readers never read past

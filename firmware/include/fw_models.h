@@ -1,6 +1,6 @@
 /*
  * fw_models.h - the card's object models as the host publishes them: one
- * snapshot, taken after each block, fix or placement (pil.md).
+ * snapshot, taken after each block and each fix, drift or place (pil.md).
  *
  * The host's adapter (host/card/card_node) reads the card's models
  * only through this snapshot, whether the card runs in the same process

@@ -66,10 +66,10 @@ bool nearest_bump(const cv::Mat &h_nm, const Field &f, double x_nm, double y_nm,
     return locate_bump_centred(h_nm, f, bx, by, radius_nm, 3, cx, cy);
 }
 
-PlacementCheck check_sites(const cv::Mat &scan_nm, const Field &f, const std::vector<cv::Point2d> &sites_nm, double search_nm,
+SitesCheck check_sites(const cv::Mat &scan_nm, const Field &f, const std::vector<cv::Point2d> &sites_nm, double search_nm,
                            double tolerance_nm)
 {
-    PlacementCheck out;
+    SitesCheck out;
     double sum2 = 0;
     int found = 0;
     for (const auto &s : sites_nm) {

@@ -73,13 +73,13 @@ struct SiteCheck {
     double scan_x_nm = 0, scan_y_nm = 0;
     double error_nm = 0;            // found: the distance
 };
-struct PlacementCheck {
+struct SitesCheck {
     std::vector<SiteCheck> sites;
     int placed = 0;                 // found within the tolerance
     double worst_nm = 0, rms_nm = 0;   // over the sites found
     int missing = 0;                // no particle found near the site
 };
-PlacementCheck check_sites(const cv::Mat &scan_nm, const Field &f, const std::vector<cv::Point2d> &sites_nm, double search_nm,
+SitesCheck check_sites(const cv::Mat &scan_nm, const Field &f, const std::vector<cv::Point2d> &sites_nm, double search_nm,
                            double tolerance_nm);
 
 // A rod against its target pose in a fresh scan: the ridge within band_nm

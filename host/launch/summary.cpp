@@ -37,7 +37,7 @@ void print_view_bridge(const nlohmann::json &b)
 }
 
 // The planner's account (operator_report.json) and its result in the
-// fresh scan (fidelity.json "placement"), as run.json holds them.
+// fresh scan (fidelity.json "assembly"), as run.json holds them.
 void print_plan(const nlohmann::json &run)
 {
     if (run.contains("operator") && run["operator"].contains("haptic")) {
@@ -56,11 +56,11 @@ void print_plan(const nlohmann::json &run)
     else std::snprintf(when, sizeof when, "NOT done when the run ended (give a longer duration_s)");
     std::printf("run: plan: %d pushes (%d again after a miss), %d local scans, %d fixes; %s\n", p.value("pushes", 0),
                 p.value("repushes", 0), p.value("local_scans", 0), p.value("fixes", 0), when);
-    if (!run.contains("fidelity") || !run["fidelity"].contains("placement")) return;
-    const auto &pl = run["fidelity"]["placement"];
+    if (!run.contains("fidelity") || !run["fidelity"].contains("assembly")) return;
+    const auto &pl = run["fidelity"]["assembly"];
     if (pl.contains("particles")) {
         const auto &q = pl["particles"];
-        std::printf("run: placement (a fresh scan): %d of %d sites hold a particle within %.0f nm (%d empty); worst %.1f nm, RMS %.1f nm\n",
+        std::printf("run: assembly (a fresh scan): %d of %d sites hold a particle within %.0f nm (%d empty); worst %.1f nm, RMS %.1f nm\n",
                     q.value("placed", 0), q.value("sites", 0), q.value("tolerance_nm", 0.0), q.value("missing", 0),
                     q.value("worst_nm", 0.0), q.value("rms_nm", 0.0));
     }
@@ -68,7 +68,7 @@ void print_plan(const nlohmann::json &run)
         for (const auto &r : pl["rods"]) {
             char err[64] = "not found in the scan";
             if (r["error_nm"].is_number()) std::snprintf(err, sizeof err, "ends within %.1f nm", r["error_nm"].get<double>());
-            std::printf("run: placement (a fresh scan): rod %d %s (tolerance %.0f nm), %s\n", r.value("id", 0),
+            std::printf("run: assembly (a fresh scan): rod %d %s (tolerance %.0f nm), %s\n", r.value("id", 0),
                         r.value("placed", false) ? "on its target" : "OFF its target", r.value("tolerance_nm", 0.0), err);
         }
 }

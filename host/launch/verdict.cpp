@@ -34,7 +34,7 @@ std::map<std::string, std::string> failures(const json &run)
                                     : std::string("an object the display shows is not in the fresh scan")) +
                           ", RMS height " + f1(num(fid, "rms_height_error_nm")) + " nm, against its " + f1(num(fid, "target_nm")) + " nm target";
     }
-    const json pl = fid.is_object() ? fid.value("placement", json::object()) : json::object();
+    const json pl = fid.is_object() ? fid.value("assembly", json::object()) : json::object();
     std::string place;
     if (pl.contains("particles")) {
         const json &q = pl["particles"];
@@ -46,7 +46,7 @@ std::map<std::string, std::string> failures(const json &run)
         for (const auto &r : pl["rods"])
             if (!r.value("placed", false))
                 place += (place.empty() ? "" : "; ") + std::string("rod ") + std::to_string(r.value("id", 0)) + " off its target";
-    if (!place.empty()) out["placement"] = place;
+    if (!place.empty()) out["assembly"] = place;
     const json fw = run.value("fw", json::object());
     if (num(fw, "interlock_trips") > 0)
         out["interlock"] = "the card's force interlock tripped " + std::to_string(fw["interlock_trips"].get<long long>()) + " times";

@@ -5,9 +5,9 @@
 // reports), never from the simulator's truth:
 //   fidelity           the display against a fresh scan, outside its target
 //                      (the renderer's fidelity.json "pass");
-//   placement          the planner's sites without a particle within their
+//   assembly           the planner's sites without a particle within their
 //                      tolerance, or a rod off its target (fidelity.json
-//                      "placement", from the fresh scan);
+//                      "assembly", from the fresh scan);
 //   interlock          the card's force interlock tripped (fw_report.json
 //                      interlock_trips);
 //   saturation         samples with an ADC saturated (the card's count);

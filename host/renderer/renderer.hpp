@@ -329,7 +329,7 @@ struct Renderer {
     // The planner's result in the fresh scan: each target site (sample
     // coordinates, moved by the firmware's drift) and the particle the scan
     // shows near it; each rod against its target pose.
-    nlohmann::json placement_json() const;
+    nlohmann::json assembly_json() const;
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m);
 };

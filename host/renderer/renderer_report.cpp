@@ -1,5 +1,5 @@
 // The renderer's account (renderer.hpp): the contact sheet, renderer_report.json, the
-// placement check, the heartbeats it answers.
+// assembly check (the planner's sites and rods in the fresh scan), the heartbeats it answers.
 #include "lockstep.hpp"
 #include "renderer.hpp"
 
@@ -15,7 +15,7 @@ void Renderer::pick_sheet()
     for (int i = 0; i < M; ++i) sheet_at.push_back(M == 1 ? 0 : static_cast<int>(std::lround(i * (K - 1.0) / (M - 1))));
 }
 
-nlohmann::json Renderer::placement_json() const
+nlohmann::json Renderer::assembly_json() const
 {
     using nlohmann::json;
     const afm::PlanSpec &ps = scene.op.plan;
@@ -26,7 +26,7 @@ nlohmann::json Renderer::placement_json() const
         for (const auto &v : sites) at.emplace_back(v.x + fw_drift_nm[0], v.y + fw_drift_nm[1]);
         double r = 0;
         for (const auto &p : scene.particles) r = std::max(r, p.radius_nm);
-        const afm::PlacementCheck c = afm::check_sites(scan.heights(), field, at, afm::sphere_footprint_nm(r, tip) * 0.5 + ps.tolerance_nm,
+        const afm::SitesCheck c = afm::check_sites(scan.heights(), field, at, afm::sphere_footprint_nm(r, tip) * 0.5 + ps.tolerance_nm,
                                                        ps.tolerance_nm);
         json per = json::array();
         for (const auto &x : c.sites)

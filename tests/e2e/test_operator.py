@@ -184,19 +184,19 @@ class Pattern(unittest.TestCase):
     def test_ten_particles_placed_within_tolerance_by_a_fresh_scan(self):
         self.assertEqual(self.code, 0, self.err)
         plan = self.rj["operator"]["plan"]
-        placement = self.rj["fidelity"]["placement"]["particles"]
-        print(f"pattern: {placement['placed']}/{placement['sites']} sites within {placement['tolerance_nm']} nm, worst "
-              f"{placement['worst_nm']:.1f} nm, RMS {placement['rms_nm']:.1f} nm; {plan['pushes']} pushes, "
+        assembly = self.rj["fidelity"]["assembly"]["particles"]
+        print(f"pattern: {assembly['placed']}/{assembly['sites']} sites within {assembly['tolerance_nm']} nm, worst "
+              f"{assembly['worst_nm']:.1f} nm, RMS {assembly['rms_nm']:.1f} nm; {plan['pushes']} pushes, "
               f"{plan['repushes']} re-pushes, {plan['local_scans']} local scans; done at {plan['finished_sim_s']} s")
-        self.assertEqual(placement["sites"], 10)
-        self.assertEqual(placement["placed"], 10)
-        self.assertEqual(placement["missing"], 0)
-        self.assertLessEqual(placement["worst_nm"], placement["tolerance_nm"])
+        self.assertEqual(assembly["sites"], 10)
+        self.assertEqual(assembly["placed"], 10)
+        self.assertEqual(assembly["missing"], 0)
+        self.assertLessEqual(assembly["worst_nm"], assembly["tolerance_nm"])
         self.assertIsNotNone(plan["finished_sim_s"])
         # The run ended when the planner had finished (one frame later).
         self.assertLess(self.rj["sim_seconds"], yaml.safe_load(scene_text(e2e_support.scene("pattern_ten.yaml")))["duration_s"])
         self.assertEqual(self.rj["frames"], self.rj["frames_expected"])
-        self.assertIn("run: placement (a fresh scan): 10 of 10 sites", self.so)
+        self.assertIn("run: assembly (a fresh scan): 10 of 10 sites", self.so)
 
     def test_the_plan_run_replays_identical(self):
         p = subprocess.run([e2e_support.paths.REPLAY, self.out, "--quiet"],
@@ -231,10 +231,10 @@ class PatternLever(unittest.TestCase):
 
     def test_every_site_filled_and_no_push_within_the_unobservable_cone(self):
         self.assertEqual(self.code, 0, self.err)
-        placement = self.rj["fidelity"]["placement"]["particles"]
-        print(f"pattern-lever: {placement['placed']}/{placement['sites']} sites, worst {placement['worst_nm']:.1f} nm; "
+        assembly = self.rj["fidelity"]["assembly"]["particles"]
+        print(f"pattern-lever: {assembly['placed']}/{assembly['sites']} sites, worst {assembly['worst_nm']:.1f} nm; "
               f"blind-push blocks {self.rj['fw']['unobservable_push_blocks']}; verdict {self.rj['verdict']['pass']}")
-        self.assertEqual((placement["placed"], placement["missing"]), (5, 0))
+        self.assertEqual((assembly["placed"], assembly["missing"]), (5, 0))
         self.assertEqual(self.rj["fw"]["unobservable_push_blocks"], 0)
         self.assertTrue(self.rj["verdict"]["pass"], self.rj["verdict"])
 
