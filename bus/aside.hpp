@@ -5,11 +5,11 @@
 // The thread may run on every CPU of the run (the launcher's placement:
 // common/placement.hpp): the kernel puts its sends where there is room.
 // Pinned to the observers' CPU, the run's busiest (the renderer, the
-// record), a block cost more: 82 against 71 us interleaved, 8 runs each.
+// record), a block cost more (docs/bus.md, "Publishing aside").
 //
 // Why (docs/bus.md "The latency model"; ./afm bench bus measures it): a
-// datagram costs its sender's CPU its delivery to every socket on the bus,
-// about 3.5 us on the default scene; two of a block's six datagrams are
+// datagram costs its sender's CPU its delivery to every socket on the bus;
+// two of a block's six datagrams are
 // for the observers (the launcher's record, the renderer), and on the one
 // CPU of the lockstep they cost as much as its hops. The observers do not
 // need them at once: the renderer draws a frame from them a window of

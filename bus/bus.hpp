@@ -85,8 +85,7 @@ int publish(lcm::LCM &lc, const std::string &channel, const M &m)
 // (and waits for the bus no longer than that between two): the simulator
 // starts the loop once it has heard every peer say so, and a peer that
 // began listening after another's first "ready" hears the next within this
-// period. (Every 200 ms, a run waited up to 200 ms for it: about 100 ms of
-// the demo's 0.55 s.)
+// period, short beside a run's start.
 constexpr int64_t kReadyPeriodUs = 10000;
 constexpr int kReadyPeriodMs = static_cast<int>(kReadyPeriodUs / 1000);
 

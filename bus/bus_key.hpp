@@ -18,11 +18,10 @@
 // the tag libsodium's SipHash-2-4 with a 128-bit output
 // (crypto_shorthash_siphashx24: a PRF made to authenticate short messages)
 // over the channel's name, a NUL, the sequence and the message. Why not
-// HMAC or keyed BLAKE2b: the cost a block (./afm bench bus). On this
-// machine a 60-byte message took 0.06 us with SipHash, 0.43 with keyed
-// BLAKE2b (2 kB: 1.2 against 3.0); a block signs six messages and checks
-// each about three times (the launcher's record, its readers), and BLAKE2b
-// came to about a fifth of a 124-us block, over the 10 % allowed. The sequence is
+// HMAC or keyed BLAKE2b: the cost a block (./afm bench bus measures it;
+// the figures: docs/bus.md, "The trailer"): a block signs six messages and
+// checks each about three times (the launcher's record, its readers), and
+// BLAKE2b's share of a block was over the 10 % allowed. The sequence is
 // the sender's own counter (one per sending socket), so that a datagram
 // recorded and sent again is refused (ReplayWindow). LCM's decoders read a
 // message's fields and ignore bytes after them, so a message with its

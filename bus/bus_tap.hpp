@@ -25,8 +25,7 @@
 //     abandons the one it had not finished (counted in abandoned()). The
 //     fragments are kept as they come, and the message is put together only
 //     when the last one has: what a message holds is what arrived, never the
-//     size its fragment 0 merely claims (a 40-byte datagram claiming 16 MiB
-//     made every tap allocate and zero 16 MiB).
+//     size its fragment 0 merely claims (a 40-byte datagram may claim 16 MiB).
 //   - anything else (garbage, a name over 63 bytes, a fragment without
 //     its fragment 0, a fragment past its message's size, a message over
 //     kMaxMessageBytes or larger than its fragments can carry) is dropped

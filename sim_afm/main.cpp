@@ -119,8 +119,8 @@ struct Sim {
     // The scans this scene's own clients may ask for (the renderer's at the
     // display's pitch, within the field; the planner's at its local scans'
     // pitch, at most a few fields wide): a side at most 4 fields, a pitch at
-    // least half the finest of theirs. One request for 8192 x 8192 px over
-    // the field stalled a run 26 s and grew its log to 1.6 GB.
+    // least half the finest of theirs. A request beyond them would stall the
+    // run and grow its log (tests/e2e/test_hostile.py forges one).
     double max_scan_side_nm() const { return 4.0 * scene.field_nm; }
     double min_scan_pitch_nm() const
     {

@@ -212,7 +212,7 @@ public:
     // kClockEvery, picked at random (its own generator, not the physics'),
     // and scaled by samples / samples timed: reading the clock around every
     // stage of every sample cost more than some stages (4 reads a sample,
-    // about 2 us of a 20-sample block on the lockstep's path). Imaging is
+    // on the lockstep's path). Imaging is
     // timed whole. Before a sample is timed, the per-sample stages read 0.
     std::vector<EffectClock> clocks() const;
     static constexpr uint32_t kClockEvery = 16;

@@ -22,7 +22,7 @@ FIGURES = "section II"
 
 
 def runs(size):
-    # The same at both sizes: 40 simulated s take about 15 wall s.
+    # The same at both sizes.
     return [common.Run(name="local_scans", scene="drift.yaml", cost_s=30),
             common.Run(name="no_local_scans", scene="drift.yaml", settings={"operator.local_scans": []}, cost_s=30),
             common.Run(name="far", scene="drift_far.yaml", cost_s=15),

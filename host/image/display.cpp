@@ -37,8 +37,8 @@ constexpr double kRangeGrowth = 1.25;          // widened by 25 % beyond an obje
 // outline is that mask dilated by a pixel (the width of cv::putText's
 // 3-pixel stroke). Both are blended into the BGR frame: the outline towards
 // black, then the text towards its colour. Drawing the outline as 3-pixel
-// anti-aliased strokes (cv::putText) cost about 110 us a label, 12 times the
-// thin text: most of a frame's composing (./afm bench render).
+// anti-aliased strokes (cv::putText) cost many times the thin text, and
+// most of a frame's composing (./afm bench render times the composing).
 void put_label(cv::Mat &img, const std::string &text, cv::Point org, double scale, const cv::Scalar &colour)
 {
     CV_Assert(img.type() == CV_8UC3);

@@ -38,8 +38,8 @@ constexpr int kBatchUs = 500;
 // Once every process has exited, what they sent is in the tap's socket or a
 // softirq away from it (loopback delivers in the sender's system call, or
 // on ksoftirqd soon after): the record takes the bus until it has been
-// quiet for kQuietMs, at most kDrainMs, and is closed. (A fixed 150 ms was
-// a quarter of the demo's wall time.)
+// quiet for kQuietMs, at most kDrainMs, and is closed: a short run does not
+// wait the whole kDrainMs.
 constexpr int kQuietMs = 20;
 constexpr int kDrainMs = 150;
 constexpr double kSpyWaitS = 10.0;   // --spy: the longest the run waits for lcm-spy to listen

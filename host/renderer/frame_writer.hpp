@@ -2,13 +2,13 @@
 // video, in order, on a thread of the renderer's own, allowed on every CPU
 // of the run. The PNG files are png_file.hpp's (ISA-L's deflate).
 //
-// Why (docs/bus.md "The latency model"; ./afm bench bus measures it): a
-// frame's PNG and video cost about 0.5 ms of CPU, the H.264 encoding about
-// 1.5 ms more in ffmpeg. On the renderer's thread they kept the renderer
+// Why (docs/bus.md "The latency model"; ./afm bench render times a frame's
+// PNG, video and H.264 encoding): a frame's files cost CPU, the H.264
+// encoding more in ffmpeg. On the renderer's thread they kept the renderer
 // from taking the bus while they were encoded; on a thread of its own that
 // may run on any CPU of the run, the kernel puts the encoding where there
-// is room. (Measured: the thread and ffmpeg on the observers' CPU only, or
-// at SCHED_IDLE, were no faster or slower.)
+// is room (on the observers' CPU only, or at SCHED_IDLE, they were no
+// faster).
 //
 // What stays as it was: the frames' pixels and their order; the renderer
 // announces a frame (RENDER_FRAME) when it is composed, before its files
@@ -72,7 +72,7 @@ public:
     // Waits until the video is open (ffmpeg started, or the fallback chosen);
     // rethrows the error when it could not be. The renderer calls it before
     // it says it is ready, so that the encoder's start (two ffmpeg
-    // processes, 0.1-0.4 s of CPU on a busy machine) falls before the
+    // processes, a noticeable spell of CPU) falls before the
     // loop's first block and not in it.
     void wait_open();
     // Writes what is queued, closes the video; rethrows the writer's error.

@@ -4,12 +4,12 @@
 // Why not cv::imwrite (docs/bus.md "The latency model"): a frame's PNG was
 // the largest share of the renderer's CPU, and on a machine whose two CPUs
 // the lockstep and its observers keep busy, the observers' CPU is the
-// lockstep's too. OpenCV's PNG is libpng with zlib at level 1 (0.3-0.7 ms
-// for a 256 px frame, most of it zlib's deflate); libdeflate and
-// stb_image_write were no faster. Here the deflate is ISA-L's (Intel's
-// Intelligent Storage Acceleration Library, Debian's libisal-dev) at its
-// level 1, about six times faster than zlib's on these frames, and its
-// output a little smaller. The container around it (the signature, IHDR,
+// lockstep's too. OpenCV's PNG is libpng with zlib at level 1 (most of its
+// time zlib's deflate); libdeflate and stb_image_write were no faster.
+// Here the deflate is ISA-L's (Intel's Intelligent Storage Acceleration
+// Library, Debian's libisal-dev) at its level 1, faster than zlib's on
+// these frames (./afm bench render times both), and its output a little
+// smaller. The container around it (the signature, IHDR,
 // one IDAT, IEND, each chunk's CRC-32 from zlib) is what the PNG
 // specification (ISO/IEC 15948) asks of a non-interlaced 8-bit image.
 //

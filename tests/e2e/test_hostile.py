@@ -177,8 +177,7 @@ class HostileDatagrams(unittest.TestCase):
     def test_fragment_headers_claiming_16_mib_cost_no_memory(self):
         # 2000 a second of 40-odd-byte fragment 0 headers claiming 16 MiB,
         # whose fragments never come: every process counts them abandoned,
-        # none grows by the claims (each used to allocate 16 MiB: fw_node and
-        # the launcher reached about 270 MB), the trajectories stay
+        # none grows by the claims, the trajectories stay
         out = e2e_support.tmpdir("claims")
         self.addCleanup(e2e_support.cleanup, out)
         code, err, rj, sent = run_with_hostile(self.scene, out, kinds="fragment_claim")
@@ -214,7 +213,7 @@ class HostileDatagrams(unittest.TestCase):
         self.assertEqual(rj["renderer"]["frames_expected"], self.rj0["renderer"]["frames_expected"])
 
     def test_a_scan_request_beyond_the_scenes_scans_is_refused(self):
-        # 8192 x 8192 px over the field: it stalled a run 26 s and grew its log to 1.6 GB
+        # 8192 x 8192 px over the field: far beyond the scans the scene's own clients ask for
         out = e2e_support.tmpdir("forged-scan")
         self.addCleanup(e2e_support.cleanup, out)
         code, err, rj = run_with_forger(self.scene, out, "bigscan")

@@ -306,7 +306,7 @@ class BadTargets(unittest.TestCase):
                    "operator:\n  plan: {}\n", "objects.targets.text: a site at")
 
     def test_the_launcher_asks_the_operator_and_says_when_it_cannot(self):
-        # afm_launch does not load OpenCV (it would take 60 ms of every run):
+        # afm_launch does not load OpenCV (its loading would be on every run's path):
         # `operator --check-targets` checks the planner's targets for it
         p = subprocess.run(["ldd", e2e_support.LAUNCH], capture_output=True, text=True, timeout=60)
         self.assertEqual(p.returncode, 0, p.stderr)
