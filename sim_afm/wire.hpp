@@ -116,7 +116,7 @@ double segment_param(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const E
 // 1/a, 1/det) with b the mean of the two off-diagonal entries rounding
 // leaves it: with both, the asymmetry grows from pivot to pivot, and on a
 // long chain of sliding nodes (whose friction holds them along their slip
-// with next to nothing) it swamps the solve (test_wires checks the
+// with next to nothing) it swamps the solve (test_flexible_wires checks the
 // backward error on such chains).
 class BlockPentadiagonal {
 public:

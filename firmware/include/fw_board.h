@@ -49,7 +49,7 @@
  * (cot zone, friction fallback, blend) with no call; an apex past int32 or
  * a theta window over 16 nm hands the sample to fw_board_step_checked.
  * Both paths, one sample at a time or in blocks, give bit-identical
- * outputs, flags, counters and state (tests/firmware/test_board.c compares
+ * outputs, flags, counters and state (tests/firmware/test_board_fast.c compares
  * them over 10^6 samples, in blocks of 1 to 64).
  *
  * Pointers: fw_board_step and fw_board_step_block test their pointers

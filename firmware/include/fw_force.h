@@ -37,7 +37,7 @@
  *                           as formed from the ADC codes and omits the
  *                           clamps, which its bounds make impossible.
  * They differ only in those clamps; tests/firmware/test_force.c and
- * test_board.c prove them equal over their sweeps.
+ * test_board_fast.c prove them equal over their sweeps.
  */
 #ifndef FW_FORCE_H
 #define FW_FORCE_H

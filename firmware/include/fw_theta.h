@@ -18,7 +18,7 @@
  * Two pushes, one result: fw_theta_push_pm serves any apex; the card's
  * fast path (fw_board.c) uses fw_theta_push_fast_pm on a run's state kept
  * in locals (fw_theta_run_t) while every window stays within
- * FW_THETA_FAST_WINDOW_PM; tests/firmware/test_board.c proves the two
+ * FW_THETA_FAST_WINDOW_PM; tests/firmware/test_board_fast.c proves the two
  * identical over its sweep.
  */
 #ifndef FW_THETA_H

@@ -273,7 +273,7 @@ class OutputFolderLocked(unittest.TestCase):
             self.assertEqual(code, 2, stderr)
             self.assertEqual(len(lines), 1, stderr)
             self.assertIn("in use by another run", lines[0])
-            self.assertIn(f"pid ", lines[0])
+            self.assertIn("pid ", lines[0])
             self.assertLess(took, 5.0)
             so, se = first.communicate(timeout=60)
             self.assertEqual(first.returncode, 0, se)

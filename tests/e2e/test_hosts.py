@@ -16,7 +16,7 @@ import subprocess
 import unittest
 
 import e2e_support
-from analysis import afmlog, trajectory
+from analysis import trajectory
 
 REPLAY = e2e_support.paths.REPLAY
 LINK = "delay=0.2,loss=0.02"

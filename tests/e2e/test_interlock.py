@@ -11,7 +11,6 @@ by more than k_n v_z T_block (plus half an ADC step), measured sample by
 sample, on the scene and on a copy whose limit makes the crossing fall on a
 block's first sample (the worst case: the whole block's rise), where it
 comes within 10 % of the bound."""
-import math
 import os
 import unittest
 

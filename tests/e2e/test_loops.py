@@ -8,7 +8,6 @@ with gwyfile): channels found by their titles or named by the user, the
 turnarounds left out, S_n from a channel or per file; a damaged or
 ambiguous file is named with its channel and value."""
 import json
-import math
 import os
 import re
 import subprocess

@@ -19,12 +19,10 @@ unobservable cone near a particle) and, by the simulator's truth, no two
 particles ever come closer than the clearance allows. A pinned site gets
 the particle it names, by the truth.
 """
-import json
 import math
 import os
 import shutil
 import subprocess
-import sys
 import unittest
 
 import e2e_support

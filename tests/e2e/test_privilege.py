@@ -157,7 +157,7 @@ class LeastPrivilege(unittest.TestCase):
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=30, env=env)
         self.assertEqual((p.returncode, p.stdout), (2, ""), p.stderr)
         self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
-        self.assertIn(f"refused: the run would keep uid 0: the run's user (uid ", p.stderr)
+        self.assertIn("refused: the run would keep uid 0: the run's user (uid ", p.stderr)
         self.assertIn(f"cannot reach {out}: {closed} is mode 700", p.stderr)
         self.assertFalse(os.path.exists(out), "the folder made for it is removed again")
         self.assertEqual(not_the_callers(closed), [])
@@ -167,7 +167,7 @@ class LeastPrivilege(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         uid, eff = p.stdout.split()[0], int(p.stdout.split()[2], 16)
         self.assertEqual((uid, eff), ("0", 0), p.stdout)
-        self.assertIn(f"keeps uid 0 (without capabilities, as AFM_ALLOW_UID_0=1 allows): the run's user", p.stderr)
+        self.assertIn("keeps uid 0 (without capabilities, as AFM_ALLOW_UID_0=1 allows): the run's user", p.stderr)
         self.assertEqual(not_the_callers(closed), [])
         # allowed, not asked, and not a terminal: nothing said beyond the command's own output
         p = subprocess.run([e2e_support.IN_NETNS, "sh", "-c", "id -u", "sh", "--out", out], capture_output=True, text=True,

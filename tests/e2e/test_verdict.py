@@ -101,7 +101,6 @@ class TwoBodiesInOnePlace(unittest.TestCase):
 
 def check(text, *extra):
     """launcher --check on the scene text: (exit code, stderr lines)."""
-    import glob  # noqa: F401
     import subprocess
     path = e2e_support.write_scene(text, "warn")
     p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", path, *extra], capture_output=True, text=True, timeout=60)

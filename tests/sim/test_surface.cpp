@@ -194,7 +194,7 @@ void test_wire_pushed_into_a_trench_sinks_into_it_and_is_held()
         "  wire: {friction_nN_per_um: 20, mu: 0.3}\nobjects:\n  wires:\n"
         "    - {id: 1, x0_nm: -500, y0_nm: -300, x1_nm: 500, y1_nm: -300, diameter_nm: 100}\noperator:"));
     World w(s);
-    w.set_relax_iterations(16);   // converged within a sample, as in test_wires
+    w.set_relax_iterations(16);   // converged within a sample, as in test_rods
     auto go = [&](double x, double y, double load, int samples) {
         w.command(Eigen::Vector2d(x - w.lever().normal_offset(load).x(), y), load, true);
         for (int i = 0; i < samples; ++i) w.step();
@@ -220,7 +220,7 @@ void test_wire_pushed_into_a_trench_sinks_into_it_and_is_held()
     const double held_force = -w.tip_force().y() - friction;
     std::printf("wire ends at y = %.3f, %.3f nm; free push %.3f f L, held against %.3f f L\n", n.front().y(), n.back().y(),
                 f_free / fL, held_force / fL);
-    TEST_ASSERT_DOUBLE_WITHIN(0.02, 1.0, f_free / fL);        // translation before the trench (2%, as test_wires)
+    TEST_ASSERT_DOUBLE_WITHIN(0.02, 1.0, f_free / fL);        // translation before the trench (2%, as test_rods)
     for (const auto &p : n) TEST_ASSERT_DOUBLE_WITHIN(0.5, 0.0, p.y());   // on the trench's line
     TEST_ASSERT_TRUE(held_force > 3 * fL);
     double D = 0;
