@@ -12,6 +12,7 @@ REPLAY_PERTURBED = os.path.join(HOST_BIN, "afm_replay_perturbed")   # tests: a c
 FW_NODE = os.path.join(HOST_BIN, "fw_node")
 OPERATOR = os.path.join(HOST_BIN, "operator")
 RENDERER = os.path.join(HOST_BIN, "renderer")
+VIEW_BRIDGE = os.path.join(HOST_BIN, "afm_view_bridge")   # a viewed run's frames out of its namespace
 CALC = os.path.join(HOST_BIN, "calc", "afm_calc")
 MEDIA = os.path.join(HOST_BIN, "afm_media")          # tools/: a video's frame count
 NETFAULT = os.path.join(HOST_BIN, "afm_netfault")    # faults/: the kernel-level fault injector

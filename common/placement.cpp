@@ -104,13 +104,6 @@ bool parse_cpu_list(const std::string &text, std::vector<int> *cpus)
     return true;
 }
 
-bool cpu_list_option(const std::string &process, const std::string &option, const std::string &text, std::vector<int> *cpus)
-{
-    if (parse_cpu_list(text, cpus)) return true;
-    std::fprintf(stderr, "%s: %s wants a CPU list such as 1 or 0-1, got '%s'\n", process.c_str(), option.c_str(), text.c_str());
-    return false;
-}
-
 std::vector<int> Placement::all() const
 {
     std::vector<int> a = lockstep_;

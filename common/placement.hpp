@@ -54,11 +54,9 @@ std::vector<int> cpus_of(pid_t pid);
 // "0", "1-3", "0,2-3": a CPU list as the kernel writes one.
 std::string cpu_list(const std::vector<int> &cpus);
 // The reverse: "" is no CPU; false (cpus untouched) for anything cpu_list()
-// would not write (not ascending, a CPU past CPU_SETSIZE, stray text).
+// would not write (not ascending, a CPU past CPU_SETSIZE, stray text). A
+// process's CPU-list option (--aside-cpus) reads it: command_line.hpp's read_cpus.
 bool parse_cpu_list(const std::string &text, std::vector<int> *cpus);
-// A process's CPU-list option (--aside-cpus, --writer-cpus): parse_cpu_list,
-// or false after a line on stderr naming the process, the option and the text.
-bool cpu_list_option(const std::string &process, const std::string &option, const std::string &text, std::vector<int> *cpus);
 
 class Placement {
 public:

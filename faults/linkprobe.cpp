@@ -42,6 +42,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bus.hpp"
+#include "command_line.hpp"
 
 namespace {
 
@@ -133,7 +134,8 @@ int echo(const std::string &json_path)
 }
 
 struct PingOptions {
-    int count = 400, interval_us = 1000, wait_ms = 300;
+    bool echo = false;   // --echo: the echo's side, not the pinger's
+    int count = 0, interval_us = 1000, wait_ms = 300;
     std::vector<int> sizes = {64, 4000};
     std::string echoed, json;
 };
@@ -238,57 +240,53 @@ int ping(const PingOptions &o)
     return write_ping(o, back, back_at);
 }
 
-// A positive integer option, or false (said on stderr).
-bool positive(const char *name, const char *v, int *out)
+constexpr long long kMost = 100000000;
+
+// --sizes B,B,...: payload sizes, each a positive integer.
+std::string set_sizes(const std::string &v, PingOptions *o)
 {
-    char *end = nullptr;
-    const long x = std::strtol(v, &end, 10);
-    if (end == v || *end || x < 1 || x > 100000000) {
-        std::fprintf(stderr, "afm_linkprobe: %s must be a positive integer, not '%s'\n", name, v);
-        return false;
+    std::vector<int> sizes;
+    std::stringstream ss(v);
+    std::string b;
+    long long x = 0;
+    while (std::getline(ss, b, ',')) {
+        if (!afm::cli::read_whole(b, 1, kMost, &x).empty()) return "wants sizes in bytes, positive integers, comma-separated";
+        sizes.push_back(static_cast<int>(x));
     }
-    *out = static_cast<int>(x);
-    return true;
+    if (sizes.empty()) return "wants sizes in bytes, positive integers, comma-separated";
+    o->sizes = sizes;
+    return "";
 }
+
+// The usage's head names every option (kUsage); the table checks them.
+const afm::cli::CommandLine<PingOptions> kCommandLine = {
+    "afm_linkprobe",
+    kUsage,
+    {
+        {{"--echo", nullptr, nullptr, nullptr}, afm::cli::flag(&PingOptions::echo)},
+        {{"--json", "FILE", nullptr, nullptr, true}, afm::cli::text(&PingOptions::json)},
+        {{"--ping", "N", nullptr, nullptr}, afm::cli::whole(&PingOptions::count, 1, kMost, "a positive integer")},
+        {{"--interval-us", "US", nullptr, nullptr}, afm::cli::whole(&PingOptions::interval_us, 0, kMost, "an integer")},
+        {{"--sizes", "B,B,...", nullptr, nullptr}, set_sizes},
+        {{"--wait-ms", "MS", nullptr, nullptr}, afm::cli::whole(&PingOptions::wait_ms, 1, kMost, "a positive integer")},
+        {{"--echoed", "FILE", nullptr, nullptr}, afm::cli::text(&PingOptions::echoed)},
+    },
+    [](const PingOptions &o) {
+        return o.echo == (o.count > 0) || (!o.echo && o.echoed.empty())
+                   ? std::string("--echo: or --ping N with --echoed FILE, one of them (afm_linkprobe --help: the usage)")
+                   : std::string();
+    }};
 
 }  // namespace
 
 int main(int argc, char **argv)
 {
-    bool is_echo = false;
     PingOptions o;
-    o.count = 0;
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "-h" || a == "--help") return std::fputs(kUsage, stdout), 0;
-        if (a == "--echo") {
-            is_echo = true;
-            continue;
-        }
-        if (i + 1 >= argc) return std::fprintf(stderr, "afm_linkprobe: %s needs a value (or is unknown)\n%s", a.c_str(), kUsage), 2;
-        const char *v = argv[++i];
-        bool ok = true;
-        if (a == "--ping") ok = positive("--ping", v, &o.count);
-        else if (a == "--interval-us") ok = std::string(v) == "0" || positive("--interval-us", v, &o.interval_us), o.interval_us = std::atoi(v);
-        else if (a == "--wait-ms") ok = positive("--wait-ms", v, &o.wait_ms);
-        else if (a == "--echoed") o.echoed = v;
-        else if (a == "--json") o.json = v;
-        else if (a == "--sizes") {
-            o.sizes.clear();
-            std::stringstream ss(v);
-            std::string b;
-            int x = 0;
-            while (ok && std::getline(ss, b, ',')) ok = positive("--sizes", b.c_str(), &x), o.sizes.push_back(x);
-            ok = ok && !o.sizes.empty();
-        } else return std::fprintf(stderr, "afm_linkprobe: unknown option %s\n%s", a.c_str(), kUsage), 2;
-        if (!ok) return 2;
-    }
-    if (o.json.empty() || is_echo == (o.count > 0) || (!is_echo && o.echoed.empty()))
-        return std::fprintf(stderr, "afm_linkprobe: --echo --json FILE, or --ping N --echoed FILE --json FILE\n%s", kUsage), 2;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;
     struct sigaction sa {};
     sa.sa_handler = on_signal;
     sigaction(SIGTERM, &sa, nullptr);
     sigaction(SIGINT, &sa, nullptr);
-    if (is_echo) return stays_in_run() ? echo(o.json) : 1;
+    if (o.echo) return stays_in_run() ? echo(o.json) : 1;
     return ping(o);
 }

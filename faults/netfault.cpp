@@ -79,6 +79,7 @@
 
 #include "bus.hpp"
 #include "bus_filter.hpp"
+#include "command_line.hpp"
 
 extern char **environ;
 
@@ -405,93 +406,57 @@ private:
     std::map<uint64_t, std::string> frag_channel_;       // (source, IP id) -> the first fragment's channel
 };
 
-bool parse_probability(const char *name, const char *v, double *out)
+// --drop-channels A,B,...: the channels, empty names skipped.
+std::string set_drop_channels(const std::string &v, Options *o)
 {
-    char *end = nullptr;
-    const double p = std::strtod(v, &end);
-    if (end == v || *end || !(p >= 0 && p <= 1)) {
-        std::fprintf(stderr, "afm_netfault: %s must be a probability in [0, 1], not '%s'\n", name, v);
-        return false;
-    }
-    *out = p;
-    return true;
+    std::stringstream ss(v);
+    std::string c;
+    while (std::getline(ss, c, ','))
+        if (!c.empty()) o->drop_channels.insert(c);
+    return "";
 }
 
-bool parse_int(const char *name, const char *v, long long lo, long long hi, long long *out)
+template <class I>
+afm::cli::Setter<Options> integer(I Options::*m, long long lo, long long hi)
 {
-    char *end = nullptr;
-    errno = 0;
-    const long long x = std::strtoll(v, &end, 10);
-    if (end == v || *end || errno || x < lo || x > hi) {
-        std::fprintf(stderr, "afm_netfault: %s must be an integer in [%lld, %lld], not '%s'\n", name, lo, hi, v);
-        return false;
-    }
-    *out = x;
-    return true;
+    return afm::cli::whole(m, lo, hi, "an integer");
 }
 
-// 0: parsed; 1: --help printed; 2: an error, printed.
-int parse(int argc, char **argv, Options *o)
+afm::cli::Setter<Options> probability(double Options::*m)
 {
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "-h" || a == "--help") {
-            std::fputs(kUsage, stdout);
-            return 1;
-        }
-        if (a == "--iptables") {   // the one flag without a value
-            o->iptables = true;
-            continue;
-        }
-        if (i + 1 >= argc) {
-            std::fprintf(stderr, "afm_netfault: %s needs a value (or is unknown)\n%s", a.c_str(), kUsage);
-            return 2;
-        }
-        const char *v = argv[++i];
-        long long x = 0;
-        bool ok = true;
-        if (a == "--queue") ok = parse_int("--queue", v, 0, 65535, &x), o->queue = static_cast<int>(x);
-        else if (a == "--drop") ok = parse_probability("--drop", v, &o->drop);
-        else if (a == "--dup") ok = parse_probability("--dup", v, &o->dup);
-        else if (a == "--reorder") ok = parse_probability("--reorder", v, &o->reorder);
-        else if (a == "--hold-us") ok = parse_int("--hold-us", v, 1, 1000000, &x), o->hold_us = static_cast<int>(x);
-        else if (a == "--mark") ok = parse_int("--mark", v, 1, 0xffffffffLL, &x), o->mark = static_cast<uint32_t>(x);
-        else if (a == "--seed") ok = parse_int("--seed", v, 0, INT64_MAX, &x), o->seed = static_cast<uint64_t>(x);
-        else if (a == "--report") o->report = v;
-        else if (a == "--link-in") o->link_in = v;
-        else if (a == "--peer") o->peer = v;
-        else if (a == "--dup-dev") o->dup_dev = v;
-        else if (a == "--while-pid") ok = parse_int("--while-pid", v, 1, 4194304, &x), o->while_pid = static_cast<int>(x);
-        else if (a == "--delay-us") ok = parse_int("--delay-us", v, 0, 10000000, &x), o->delay_us = static_cast<int>(x);
-        else if (a == "--jitter-us") ok = parse_int("--jitter-us", v, 0, 10000000, &x), o->jitter_us = static_cast<int>(x);
-        else if (a == "--drop-channels") {
-            std::stringstream ss(v);
-            std::string c;
-            while (std::getline(ss, c, ','))
-                if (!c.empty()) o->drop_channels.insert(c);
-        } else {
-            std::fprintf(stderr, "afm_netfault: unknown option %s\n%s", a.c_str(), kUsage);
-            return 2;
-        }
-        if (!ok) return 2;
-    }
-    if (o->queue < 0 || o->report.empty()) {
-        std::fprintf(stderr, "afm_netfault: --queue and --report are required\n%s", kUsage);
-        return 2;
-    }
-    if (o->link_in.empty() != o->peer.empty()) {
-        std::fprintf(stderr, "afm_netfault: --link-in and --peer go together\n%s", kUsage);
-        return 2;
-    }
-    return 0;
+    return afm::cli::number(m, afm::cli::in_range(0, 1), "a probability");
 }
+
+// The usage's head names every option (kUsage); the table checks them.
+const afm::cli::CommandLine<Options> kCommandLine = {
+    "afm_netfault",
+    kUsage,
+    {
+        {{"--queue", "N", nullptr, nullptr, true}, integer(&Options::queue, 0, 65535)},
+        {{"--report", "FILE", nullptr, nullptr, true}, afm::cli::text(&Options::report)},
+        {{"--drop", "P", nullptr, nullptr}, probability(&Options::drop)},
+        {{"--dup", "P", nullptr, nullptr}, probability(&Options::dup)},
+        {{"--reorder", "P", nullptr, nullptr}, probability(&Options::reorder)},
+        {{"--hold-us", "US", nullptr, nullptr}, integer(&Options::hold_us, 1, 1000000)},
+        {{"--drop-channels", "A,B,...", nullptr, nullptr}, set_drop_channels},
+        {{"--mark", "M", nullptr, nullptr}, integer(&Options::mark, 1, 0xffffffffLL)},
+        {{"--seed", "S", nullptr, nullptr}, integer(&Options::seed, 0, INT64_MAX)},
+        {{"--iptables", nullptr, nullptr, nullptr}, afm::cli::flag(&Options::iptables)},
+        {{"--link-in", "IFACE", nullptr, nullptr}, afm::cli::text(&Options::link_in)},
+        {{"--peer", "ADDR", nullptr, nullptr}, afm::cli::text(&Options::peer)},
+        {{"--delay-us", "US", nullptr, nullptr}, integer(&Options::delay_us, 0, 10000000)},
+        {{"--jitter-us", "US", nullptr, nullptr}, integer(&Options::jitter_us, 0, 10000000)},
+        {{"--dup-dev", "IFACE", nullptr, nullptr}, afm::cli::text(&Options::dup_dev)},
+        {{"--while-pid", "PID", nullptr, nullptr}, integer(&Options::while_pid, 1, 4194304)},
+    },
+    [](const Options &o) { return o.link_in.empty() != o.peer.empty() ? std::string("--link-in: goes with --peer") : std::string(); }};
 
 }  // namespace
 
 int main(int argc, char **argv)
 {
     Options o;
-    if (const int r = parse(argc, argv, &o)) return r == 1 ? 0 : 2;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;
     struct sigaction sa{};
     sa.sa_handler = on_signal;
     sigaction(SIGTERM, &sa, nullptr);

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -29,7 +30,6 @@
 #include "inbox.hpp"
 #include "log_tail.hpp"
 #include "objects_view.hpp"
-#include "placement.hpp"
 #include "process.hpp"
 #include "run_process.hpp"
 #include "lockstep.hpp"
@@ -51,23 +51,6 @@ nlohmann::json wire_solver_report(const afm::sim::World::WireSolver &w)
 }  // namespace
 
 namespace {
-
-const char *kUsage =
-    "usage: sim_afm --scene FILE --out DIR [--inject-drop P] [--resend-ms MS] [--follow-log LOG]\n"
-    "               [--log-window BLOCKS] [--no-renderer] [--aside-cpus LIST]\n"
-    "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
-    "  network namespace. --inject-drop P drops the first transmission of each\n"
-    "  analog block with probability P (failure injection: tests the resend path).\n"
-    "  --follow-log LOG: stay within a few blocks of what the run's record has written to LOG.\n"
-    "  --log-window BLOCKS: with --follow-log, how many blocks ahead of the log the\n"
-    "  simulator may run (default 8; the launcher passes log_window_blocks() of its\n"
-    "  record's receive buffer, bus/log_tail.hpp; ./afm bench bus varies it).\n"
-    "  --aside-cpus LIST: the CPUs (\"0-1\") the thread that publishes SIM_TRUTH aside may use\n"
-    "  (bus/aside.hpp; the launcher passes every CPU of the run).\n"
-    "  --no-renderer: no renderer on the bus; the simulator waits for no frames\n"
-    "  (./afm bench bus measures the lockstep without it). With one, the simulator\n"
-    "  runs at most 2 frames ahead of it, and waits for it at each frame where it\n"
-    "  asks for a scan.\n";
 
 constexpr int64_t kHeartbeatPeriodUs = 250000;   // the launcher's progress line reads these
 // With --follow-log, the simulator stays at most this many analog blocks (about
@@ -321,7 +304,7 @@ afm::objects_t truth_objects(const afm::Scene &s, const afm::sim::World &w, int6
     return o;
 }
 
-// The command line of sim_afm (kUsage).
+// The command line of sim_afm (kProcess below: each option's one check).
 struct Options {
     std::string scene_path, out_dir, follow_log;
     int64_t log_window = kLogWindowBlocks;
@@ -331,40 +314,41 @@ struct Options {
     std::vector<int> aside_cpus;
 };
 
-// Reads the command line; false (after saying why, or printing the usage
-// for --help with *code 0) when the process should exit with *code.
-bool parse_options(int argc, char **argv, Options *o, int *code)
-{
-    *code = afm::kExitInput;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        const bool has_value = i + 1 < argc;
-        auto val = [&]() -> std::string { return argv[++i]; };
-        if ((a == "--scene" || a == "--out" || a == "--inject-drop" || a == "--resend-ms" || a == "--follow-log" ||
-             a == "--log-window" || a == "--aside-cpus") && !has_value) {
-            std::fprintf(stderr, "sim_afm: %s needs a value\n%s", a.c_str(), kUsage);
-            return false;
-        }
-        if (a == "--scene") o->scene_path = val();
-        else if (a == "--out") o->out_dir = val();
-        else if (a == "--inject-drop") o->drop_p = std::atof(val().c_str());
-        else if (a == "--resend-ms") o->resend_ms = std::atoi(val().c_str());
-        else if (a == "--follow-log") o->follow_log = val();
-        else if (a == "--log-window") o->log_window = std::atoll(val().c_str());
-        else if (a == "--no-renderer") o->renderer = false;
-        else if (a == "--aside-cpus") {
-            if (!afm::cpu_list_option("sim_afm", a, val(), &o->aside_cpus)) return false;
-        }
-        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); *code = afm::kExitOk; return false; }
-        else { std::fprintf(stderr, "sim_afm: unknown argument '%s'\n%s", a.c_str(), kUsage); return false; }
-    }
-    const char *bad = o->scene_path.empty() || o->out_dir.empty() ? "" :
-                      !(o->drop_p >= 0 && o->drop_p < 1) ? "--inject-drop must be in [0, 1)" :
-                      o->log_window < 1 ? "--log-window must be >= 1" : o->resend_ms < 1 ? "--resend-ms must be >= 1" : nullptr;
-    if (bad && !*bad) std::fputs(kUsage, stderr);
-    else if (bad) std::fprintf(stderr, "sim_afm: %s\n", bad);
-    return bad == nullptr;
-}
+constexpr const char *kOptions = "options:";
+constexpr long long kMany = std::numeric_limits<long long>::max();
+
+const afm::Process<Options> kProcess = {
+    "sim_afm",
+    "usage: sim_afm --scene FILE --out DIR [options]\n"
+    "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
+    "  network namespace.\n",
+    {
+        {{"--scene", "FILE", nullptr, nullptr, true}, afm::cli::text(&Options::scene_path)},
+        {{"--out", "DIR", nullptr, nullptr, true}, afm::cli::text(&Options::out_dir)},
+        {{"--inject-drop", "P", kOptions,
+          "drop the first transmission of each analog block with\n"
+          "probability P (failure injection: tests the resend path)"},
+         afm::cli::number(&Options::drop_p, afm::cli::in_range(0, 1, true), "a probability")},
+        {{"--resend-ms", "MS", kOptions, "send an analog block again when MS wall ms pass without\nits answer (default 100)"},
+         afm::cli::whole(&Options::resend_ms, 1, kMany, "a number of ms")},
+        {{"--follow-log", "LOG", kOptions, "stay within a few blocks of what the run's record has\nwritten to LOG"},
+         afm::cli::text(&Options::follow_log)},
+        {{"--log-window", "BLOCKS", kOptions,
+          "with --follow-log, how many blocks ahead of the log the simulator may\n"
+          "run (default 8; the launcher passes log_window_blocks() of its record's\n"
+          "receive buffer, bus/log_tail.hpp; ./afm bench bus varies it)"},
+         afm::cli::whole(&Options::log_window, 1, kMany, "a number of blocks")},
+        {{"--aside-cpus", "LIST", kOptions,
+          "the CPUs (\"0-1\") the thread that publishes SIM_TRUTH aside may use\n"
+          "(bus/aside.hpp; the launcher passes every CPU of the run)"},
+         afm::cli::cpus(&Options::aside_cpus)},
+        {{"--no-renderer", nullptr, kOptions,
+          "no renderer on the bus; the simulator waits for no frames (./afm bench\n"
+          "bus measures the lockstep without it). With one, the simulator runs at\n"
+          "most 2 frames ahead of it, and waits for it at each frame where it asks\n"
+          "for a scan."},
+         afm::cli::flag(&Options::renderer, false)},
+    }};
 
 // The lockstep loop of a run: one analog block after another, each answered
 // by the card (and by the renderer's frames when due) before the next.
@@ -540,10 +524,7 @@ struct Loop {
 
 int main(int argc, char **argv)
 {
-    Options opt;
-    int code = afm::kExitOk;
-    if (!parse_options(argc, argv, &opt, &code)) return code;
-    return afm::run_process("sim_afm", [&] {
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
         const afm::Scene scene = afm::load_scene(opt.scene_path);
         auto lc = afm::open_bus();
         Sim sim(scene, *lc);

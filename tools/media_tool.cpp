@@ -6,15 +6,31 @@
 #include <cstdio>
 #include <string>
 
+#include "command_line.hpp"
+
+namespace {
+
+struct Options {
+    std::string command, video;
+};
+
+const afm::cli::CommandLine<Options> kCommandLine = {
+    "afm_media",
+    "usage: afm_media frames VIDEO\n  prints the frame count OpenCV decodes, then width and height\n",
+    {
+        {{"COMMAND", nullptr, nullptr, nullptr, true}, afm::cli::choice(&Options::command, {"frames"})},
+        {{"VIDEO", nullptr, nullptr, nullptr, true}, afm::cli::text(&Options::video)},
+    }};
+
+}  // namespace
+
 int main(int argc, char **argv)
 {
-    if (argc != 3 || std::string(argv[1]) != "frames") {
-        std::fprintf(stderr, "usage: afm_media frames VIDEO\n  prints the frame count OpenCV decodes, then width and height\n");
-        return 2;
-    }
-    cv::VideoCapture cap(argv[2]);
+    Options o;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;
+    cv::VideoCapture cap(o.video);
     if (!cap.isOpened()) {
-        std::fprintf(stderr, "afm_media: cannot open video %s\n", argv[2]);
+        std::fprintf(stderr, "afm_media: cannot open video %s\n", o.video.c_str());
         return 1;
     }
     cv::Mat f;

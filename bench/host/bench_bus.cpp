@@ -30,6 +30,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,15 +47,6 @@ namespace {
 constexpr const char *kPing = "BENCH_BUS_PING";
 constexpr const char *kPong = "BENCH_BUS_PONG";
 constexpr std::size_t kStampBytes = 24;   // send time, echo's receive time, sequence: int64 each
-
-const char *kUsage =
-    "usage: bench_bus [--sizes B,B,...] [--count N] [--receive tap|liblcm] [--json FILE]\n"
-    "  The raw one-way and round-trip latency of LCM on the run's bus for each\n"
-    "  payload size (bytes, at least 24; default 49,57,76,836,2056; ./afm bench bus\n"
-    "  passes the sizes of the messages in a run's log), N pings each (default\n"
-    "  2000). --receive: how both ends receive: tap (default) as the bench's\n"
-    "  processes do, a filtered socket read on their own thread; liblcm through\n"
-    "  its receive thread. Run inside a network namespace (run/in_netns.sh).\n";
 
 bool g_tap = true;   // --receive tap
 
@@ -173,68 +165,49 @@ Row measure(lcm::LCM &lc, afm::BusTap *tap, int bytes, int count)
     return r;
 }
 
-// The command line (kUsage).
+// The command line (kCommandLine: each option's one check).
 struct Options {
     std::vector<int> sizes = {49, 57, 76, 836, 2056};
     int count = 2000;
+    std::string receive = "tap";
     std::string json_path;
 };
 
-// "--sizes 49,836": false (after saying why) unless every size is a size in bytes the probe can send.
-bool parse_sizes(const std::string &v, std::vector<int> *sizes)
+// "--sizes 49,836": every one a size in bytes the probe can send.
+std::string set_sizes(const std::string &v, Options *o)
 {
-    sizes->clear();
+    std::vector<int> sizes;
     for (std::size_t p = 0; p <= v.size();) {
         const std::size_t q = std::min(v.find(',', p), v.size());
-        const int b = std::atoi(v.substr(p, q - p).c_str());
-        if (b < static_cast<int>(kStampBytes) || b > 60000) {
-            std::fprintf(stderr, "bench_bus: --sizes: '%s' is not a size in bytes from %zu to 60000\n", v.substr(p, q - p).c_str(),
-                         kStampBytes);
-            return false;
-        }
-        sizes->push_back(b);
+        long long b = 0;
+        if (!afm::cli::read_whole(v.substr(p, q - p), static_cast<long long>(kStampBytes), 60000, &b).empty())
+            return "wants sizes in bytes from " + std::to_string(kStampBytes) + " to 60000, comma-separated";
+        sizes.push_back(static_cast<int>(b));
         p = q + 1;
     }
-    return true;
+    o->sizes = sizes;
+    return "";
 }
 
-// Reads the command line; -1 to go on, else the exit code.
-int parse_args(int argc, char **argv, Options *o)
-{
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        const bool takes_value = a == "--sizes" || a == "--count" || a == "--receive" || a == "--json";
-        if (takes_value && i + 1 >= argc) {
-            std::fprintf(stderr, "bench_bus: %s needs a value\n%s", a.c_str(), kUsage);
-            return afm::kExitInput;
-        }
-        if (a == "--sizes") {
-            if (!parse_sizes(argv[++i], &o->sizes)) return afm::kExitInput;
-        } else if (a == "--count") {
-            o->count = std::atoi(argv[++i]);
-            if (o->count < 10) {
-                std::fprintf(stderr, "bench_bus: --count must be at least 10\n");
-                return afm::kExitInput;
-            }
-        } else if (a == "--receive") {
-            const std::string v = argv[++i];
-            if (v != "tap" && v != "liblcm") {
-                std::fprintf(stderr, "bench_bus: --receive: '%s' is neither tap nor liblcm\n", v.c_str());
-                return afm::kExitInput;
-            }
-            g_tap = v == "tap";
-        } else if (a == "--json") {
-            o->json_path = argv[++i];
-        } else if (a == "-h" || a == "--help") {
-            std::fputs(kUsage, stdout);
-            return afm::kExitOk;
-        } else {
-            std::fprintf(stderr, "bench_bus: unknown argument '%s'\n%s", a.c_str(), kUsage);
-            return afm::kExitInput;
-        }
-    }
-    return -1;
-}
+const afm::cli::CommandLine<Options> kCommandLine = {
+    "bench_bus",
+    "usage: bench_bus [--sizes B,B,...] [--count N] [--receive tap|liblcm] [--json FILE]\n"
+    "  The raw one-way and round-trip latency of LCM on the run's bus for each\n"
+    "  payload size. Run inside a network namespace (run/in_netns.sh).\n",
+    {
+        {{"--sizes", "B,B,...", "options:",
+          "payload sizes in bytes, 24 to 60000 (default 49,57,76,836,2056;\n"
+          "./afm bench bus passes the sizes of the messages in a run's log)"},
+         set_sizes},
+        {{"--count", "N", "options:", "pings a size (default 2000, at least 10)"},
+         afm::cli::whole(&Options::count, 10, std::numeric_limits<long long>::max(), "a number of pings")},
+        {{"--receive", "tap|liblcm", "options:",
+          "how both ends receive: tap (the default) as the bench's processes do,\n"
+          "a filtered socket read on their own thread; liblcm through its\n"
+          "receive thread"},
+         afm::cli::choice(&Options::receive, {"tap", "liblcm"})},
+        {{"--json", "FILE", "options:", "the rows as JSON to FILE too"}, afm::cli::text(&Options::json_path)},
+    }};
 
 void print_rows(const std::vector<Row> &rows)
 {
@@ -259,7 +232,8 @@ nlohmann::json rows_json(const std::vector<Row> &rows)
 int main(int argc, char **argv)
 {
     Options o;
-    if (const int code = parse_args(argc, argv, &o); code >= 0) return code;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;
+    g_tap = o.receive == "tap";
     return afm::run_process("bench_bus", [&] {
         auto lc = afm::open_bus();   // refuses a bus not confined to loopback
         const pid_t kid = fork();

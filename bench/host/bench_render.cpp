@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "afm/fw_state_t.hpp"
+#include "command_line.hpp"
 #include "display.hpp"
 #include "frame_overlay.hpp"
 #include "png_file.hpp"
@@ -118,16 +119,24 @@ Row measure(int px, int frames)
     return r;
 }
 
+struct Options {
+    int frames = 200;
+};
+
+const afm::cli::CommandLine<Options> kCommandLine = {
+    "bench_render",
+    "usage: bench_render [FRAMES]\n"
+    "  The display's cost per frame at 256, 512 and 1024 px: FRAMES frames per size\n"
+    "  (default 200, at least 10).\n",
+    {{{"FRAMES", nullptr, nullptr, nullptr}, afm::cli::whole(&Options::frames, 10, 1000000, "a number of frames")}}};
+
 }  // namespace
 
 int main(int argc, char **argv)
 {
-    int frames = 200;
-    if (argc == 2 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help")) {
-        std::printf("usage: bench_render [FRAMES]   (default 200 frames per size)\n");
-        return 0;
-    }
-    if (argc == 2) frames = std::max(10, std::atoi(argv[1]));
+    Options o;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;
+    const int frames = o.frames;
     std::printf("display cost per frame, 20 particles in 5 um, one moved per frame (%d frames per size)\n\n", frames);
     std::printf("| px   | local update ms | full redraw ms | full/local | compose ms | plain compose ms | frames/s (local+compose) | PNG ms | imwrite PNG ms | mp4v ms | H.264 pipe ms | ffmpeg CPU ms |\n");
     std::printf("|------|-----------------|----------------|------------|------------|------------------|--------------------------|--------|----------------|---------|---------------|---------------|\n");

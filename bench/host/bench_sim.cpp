@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "command_line.hpp"
 #include "wire.hpp"
 #include "world.hpp"
 
@@ -334,16 +335,23 @@ void table_flexible()
     std::printf("| 256 (reference) | 0 | 0 | %.1f | %.3f |\n", per_ref * 1e6, per_ref * 20000);
 }
 
+struct Options {
+    std::string only;   // "": every table
+};
+
+const afm::cli::CommandLine<Options> kCommandLine = {
+    "bench_sim",
+    "usage: bench_sim [particles|effects|wires]\n  Prints the simulator's cost and accuracy tables (all by default);\n"
+    "  wires: the pushed wires against issue 15's goals, then the flexible wire's accuracy against N.\n",
+    {{{"TABLE", nullptr, nullptr, nullptr}, afm::cli::choice(&Options::only, {"particles", "effects", "wires"})}}};
+
 }  // namespace
 
 int main(int argc, char **argv)
 {
-    const std::string only = argc > 1 ? argv[1] : "";
-    if (only == "-h" || only == "--help") {
-        std::printf("usage: bench_sim [particles|effects|wires]\n  Prints the simulator's cost and accuracy tables (all by default);\n"
-                    "  wires: the pushed wires against issue 15's goals, then the flexible wire's accuracy against N.\n");
-        return 0;
-    }
+    Options o;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;
+    const std::string &only = o.only;
     std::printf("bench_sim: 20 kHz samples; wall s per simulated s = the simulator's cost alone (no bus)\n");
     if (only.empty() || only == "particles") table_particles();
     if (only.empty() || only == "effects") table_effects();

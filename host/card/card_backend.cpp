@@ -4,6 +4,8 @@
 
 #include <vector>
 
+#include "command_line.hpp"
+
 namespace afm {
 namespace {
 
@@ -50,11 +52,15 @@ private:
 
 }  // namespace
 
+std::string read_firmware(const std::string &v, std::string *out) { return cli::read_choice(v, {"host", "qemu"}, out); }
+
 std::unique_ptr<CardBackend> make_card_backend(const CardBackendOptions &o)
 {
-    if (o.firmware == "host") return std::make_unique<HostCard>();
-    if (o.firmware == "qemu") return make_board_backend(o);
-    throw std::invalid_argument("--firmware wants host or qemu, got '" + o.firmware + "'");
+    std::string firmware;
+    if (const std::string why = read_firmware(o.firmware, &firmware); !why.empty())
+        throw std::invalid_argument("--firmware: " + why + " (got '" + o.firmware + "')");
+    if (firmware == "host") return std::make_unique<HostCard>();
+    return make_board_backend(o);
 }
 
 }  // namespace afm

@@ -53,6 +53,11 @@ public:
     virtual nlohmann::json report() const = 0;
 };
 
+// --firmware's value, "host" or "qemu", checked and stored: "" when taken,
+// else why (common/command_line.hpp's form). The one check of it: fw_node,
+// afm_replay, the launcher and make_card_backend call it.
+std::string read_firmware(const std::string &v, std::string *out);
+
 // "host" or "qemu" (BoardError when the board does not start; std::invalid_argument for another name).
 std::unique_ptr<CardBackend> make_card_backend(const CardBackendOptions &o);
 std::unique_ptr<CardBackend> make_board_backend(const CardBackendOptions &o);   // card_board.cpp

@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -16,7 +17,6 @@
 #include "bus.hpp"
 #include "card_node.hpp"
 #include "inbox.hpp"
-#include "placement.hpp"
 #include "process.hpp"
 #include "run_process.hpp"
 #include "scene.hpp"
@@ -36,17 +36,39 @@ static_assert(FW_FLAG_BLIND_PUSH == afm::fw_state_t::FLAG_BLIND_PUSH, "flag bits
 
 namespace {
 
-const char *kUsage =
-    "usage: fw_node --scene FILE [--out DIR] [--firmware host|qemu] [--board-elf ELF] [--crash-at-block N] [--aside-cpus LIST]\n"
-    "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n"
-    "  --firmware host     the card linked into this process (the default)\n"
-    "  --firmware qemu     the card built for its processor, on an emulated mps2-an386 board\n"
-    "                      (qemu-system-arm -icount shift=0; docs/pil.md); its output in DIR/logs/board.log\n"
-    "  --board-elf ELF     the board's image (default: the build's afm_board.elf)\n"
-    "  --out DIR           write DIR/fw_report.json at the end (what the node refused, by reason)\n"
-    "  --crash-at-block N  failure injection: exit with code 70 on receiving block N\n"
-    "  --aside-cpus L      the CPUs (\"0-1\") the thread that publishes the observers' channels\n"
-    "                      aside may use (bus/aside.hpp; the launcher passes every CPU of the run)\n";
+// fw_node's command line and its one check of each option (command_line.hpp).
+struct Options {
+    std::string scene_path, out_dir;
+    int64_t crash_at = -1;
+    std::vector<int> aside_cpus;
+    afm::CardBackendOptions where;
+};
+
+constexpr const char *kOptions = "options:";
+
+const afm::Process<Options> kProcess = {
+    "fw_node",
+    "usage: fw_node --scene FILE [options]\n"
+    "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n",
+    {
+        {{"--scene", "FILE", nullptr, nullptr, true}, afm::cli::text(&Options::scene_path)},
+        {{"--out", "DIR", kOptions, "write DIR/fw_report.json at the end (what the node\nrefused, by reason)"},
+         afm::cli::text(&Options::out_dir)},
+        {{"--firmware", "host|qemu", kOptions,
+          "where the card runs: linked into this process (host, the default), or\n"
+          "built for its processor on an emulated mps2-an386 board\n"
+          "(qemu-system-arm -icount shift=0; docs/pil.md); its output\n"
+          "in DIR/logs/board.log"},
+         [](const std::string &v, Options *o) { return afm::read_firmware(v, &o->where.firmware); }},
+        {{"--board-elf", "ELF", kOptions, "the board's image (default: the build's afm_board.elf)"},
+         [](const std::string &v, Options *o) { return afm::cli::read_text(v, &o->where.board_elf); }},
+        {{"--crash-at-block", "N", kOptions, "failure injection: exit with code 70 on receiving block N (-1: never)"},
+         afm::cli::whole(&Options::crash_at, -1, std::numeric_limits<long long>::max(), "a block number")},
+        {{"--aside-cpus", "LIST", kOptions,
+          "the CPUs (\"0-1\") the thread that publishes the observers' channels\n"
+          "aside may use (bus/aside.hpp; the launcher passes every CPU of the run)"},
+         afm::cli::cpus(&Options::aside_cpus)},
+    }};
 
 constexpr int kCrashExitCode = 70;
 
@@ -110,35 +132,14 @@ struct Node {
 
 int main(int argc, char **argv)
 {
-    std::string scene_path, out_dir;
-    int64_t crash_at = -1;
-    std::vector<int> aside_cpus;
-    afm::CardBackendOptions where;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
-        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
-        else if (a == "--crash-at-block" && i + 1 < argc) crash_at = std::atoll(argv[++i]);
-        else if (a == "--firmware" && i + 1 < argc) where.firmware = argv[++i];
-        else if (a == "--board-elf" && i + 1 < argc) where.board_elf = argv[++i];
-        else if (a == "--aside-cpus" && i + 1 < argc) {
-            if (!afm::cpu_list_option("fw_node", a, argv[++i], &aside_cpus)) return 2;
-        }
-        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
-        else { std::fprintf(stderr, "fw_node: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
-    }
-    if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
-    if (where.firmware != "host" && where.firmware != "qemu") {
-        std::fprintf(stderr, "fw_node: --firmware wants host or qemu, got '%s'\n", where.firmware.c_str());
-        return afm::kExitInput;
-    }
-    if (!out_dir.empty() && where.firmware == "qemu") where.board_log = out_dir + "/logs/board.log";
-    return afm::run_process("fw_node", [&] {
-        const afm::Scene scene = afm::load_scene(scene_path);
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
+        afm::CardBackendOptions where = opt.where;
+        if (!opt.out_dir.empty() && where.firmware == "qemu") where.board_log = opt.out_dir + "/logs/board.log";
+        const afm::Scene scene = afm::load_scene(opt.scene_path);
         auto lc = afm::open_bus();
-        afm::Aside aside(aside_cpus);
+        afm::Aside aside(opt.aside_cpus);
         Node node(scene, *lc, aside, where);
-        node.crash_at = crash_at;
+        node.crash_at = opt.crash_at;
         afm::Inbox inbox(lc.get());
         inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &m) { return node.on_analog(m); });
         inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &m) { return node.on_fix(m); });
@@ -152,10 +153,10 @@ int main(int argc, char **argv)
         }
         aside.flush();   // the record holds every block before "done"
         node.hb.send(afm::RunState::done, node.card.done(), node.card.sim_utime_done());
-        if (!out_dir.empty()) {
+        if (!opt.out_dir.empty()) {
             // the force interlock's trips (fw_guard.h; null when the scene turns it off)
             const fw_models_t &m = node.card.backend().models();
-            afm::write_report(out_dir + "/fw_report.json",
+            afm::write_report(opt.out_dir + "/fw_report.json",
                               {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
                                {"aside", aside.report()},
                                {"interlock_trips", m.interlock ? nlohmann::json(m.interlock_trips) : nlohmann::json(nullptr)},

@@ -1,7 +1,5 @@
 // afm_launch: runs one scene (launch.hpp: Launch, and the steps below in
 // order; options.hpp: the command line).
-#include <cstdio>
-
 #include "launch.hpp"
 
 int main(int argc, char **argv)
@@ -9,10 +7,7 @@ int main(int argc, char **argv)
     using namespace afm::launch;
 
     Options o;
-    const Parsed parsed = parse_args(argc, argv, &o);
-    std::fputs(parsed.out.c_str(), stdout);
-    std::fputs(parsed.err.c_str(), stderr);
-    if (parsed.code >= 0) return parsed.code;
+    if (const int code = afm::cli::answer(parse_args(argc, argv, &o)); code >= 0) return code;   // --help, or a refusal
     Launch run(o);
     if (const int code = run.check_scene(); code >= 0) return code;
     if (o.check_only) return run.check_out() < 0 ? 0 : 2;   // with --out: may a run take it

@@ -1,6 +1,6 @@
-// afm_launch's command line: Options, the table of its options (each one's
-// name, value, usage text and the one check of its value), the parser and
-// the usage text, generated from that table.
+// afm_launch's command line: Options and the table of its options (each
+// one's name, value, usage text and the one check of its value), read by
+// the parser and the usage of common/command_line.hpp.
 //
 // parse_args() reads argv into Options and checks what the options say
 // together; it prints nothing: its Parsed says whether the run goes on
@@ -10,6 +10,8 @@
 
 #include <string>
 #include <vector>
+
+#include "command_line.hpp"
 
 namespace afm::launch {
 
@@ -28,28 +30,18 @@ struct Options {
     int hosts = 1;              // 2: the two computers on a link (hosts.hpp)
 };
 
-// One option. set() checks the value and stores it; "" when it took it,
-// else the refusal (without the "afm_launch: " that parse_args adds).
-struct OptionSpec {
-    enum class Section { usage_line, run, bench };
-    const char *name;    // "--stall-s"
-    const char *shown;   // the value as the usage shows it ("S"); nullptr: a flag
-    Section section;     // usage_line: named in the usage's first line, not listed
-    const char *help;    // its usage text, lines after the first indented by the formatter
-    std::string (*set)(const std::string &value, Options *o);
-};
+// One option (common/command_line.hpp): its name, value, usage section and
+// text, and set(), which checks the value and stores it ("" when it took
+// it, else why).
+using OptionSpec = afm::cli::Option<Options>;
+using Parsed = afm::cli::Parsed;
 
 // Every option, in the usage's order.
 const std::vector<OptionSpec> &option_table();
 
-// The usage text (--help, and after a refusal of the whole command line).
+// The usage text (--help).
 std::string usage();
 
-struct Parsed {
-    int code = -1;     // -1: go on; else the exit code
-    std::string out;   // for stdout
-    std::string err;   // for stderr
-};
 Parsed parse_args(int argc, char **argv, Options *o);
 
 }  // namespace afm::launch

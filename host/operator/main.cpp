@@ -16,16 +16,29 @@
 
 namespace {
 
-const char *kUsage =
+// The operator's command line and its one check of each option (command_line.hpp).
+struct Options {
+    std::string scene_path, out_dir;
+    bool check_targets = false;
+};
+
+const afm::Process<Options> kProcess = {
+    "operator",
     "usage: operator --scene FILE [--out DIR]\n"
     "       operator --scene FILE --check-targets\n"
     "  The operator: a scripted hand on a haptic device, or the planner (operator.plan);\n"
-    "  normally started by ./afm run inside the run's namespace.\n"
-    "  --check-targets: only say whether the planner can serve the scene's targets\n"
-    "      (pattern.hpp: sites inside the field, no more than the particles, far enough\n"
-    "      apart); exit 0 if it can (or the scene does not plan), 2 naming the problem.\n"
-    "      afm_launch asks this before a planning run starts, so that it need not\n"
-    "      load OpenCV itself.\n";
+    "  normally started by ./afm run inside the run's namespace.\n",
+    {
+        {{"--scene", "FILE", nullptr, nullptr, true}, afm::cli::text(&Options::scene_path)},
+        {{"--out", "DIR", "options:", "write DIR/operator_report.json at the end"}, afm::cli::text(&Options::out_dir)},
+        {{"--check-targets", nullptr, "options:",
+          "only say whether the planner can serve the scene's targets\n"
+          "(pattern.hpp: sites inside the field, no more than the particles, far\n"
+          "enough apart); exit 0 if it can (or the scene does not plan), 2 naming\n"
+          "the problem. afm_launch asks this before a planning run starts, so that\n"
+          "it need not load OpenCV itself."},
+         afm::cli::flag(&Options::check_targets)},
+    }};
 
 }  // namespace
 
@@ -46,21 +59,10 @@ static std::thread start_planner(afm::Planner &planner, afm::PlannerTurns &turns
 
 int main(int argc, char **argv)
 {
-    std::string scene_path, out_dir;
-    bool check_targets = false;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
-        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
-        else if (a == "--check-targets") check_targets = true;
-        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
-        else { std::fprintf(stderr, "operator: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
-    }
-    if (scene_path.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
-    return afm::run_process("operator", [&] {
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
       try {
-        const afm::Scene scene = afm::load_scene(scene_path);
-        if (check_targets) {
+        const afm::Scene scene = afm::load_scene(opt.scene_path);
+        if (opt.check_targets) {
             const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
             if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
             return why.empty() ? afm::kExitOk : afm::kExitInput;
@@ -113,8 +115,8 @@ int main(int argc, char **argv)
         if (plan_thread.joinable()) plan_thread.join();
         if (op.stroke) op.stroke->turns.stop();   // a stroke under way ends with the run (joined when op goes)
         if (planner && turns.error()) std::rethrow_exception(turns.error());
-        if (!out_dir.empty())
-            afm::write_report(out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));
+        if (!opt.out_dir.empty())
+            afm::write_report(opt.out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));
         op.hb.send(afm::RunState::done, op.answered, 0);
         return afm::kExitOk;
       } catch (const afm::PlanError &e) {   // the scene asks the planner for what it cannot do

@@ -10,19 +10,34 @@
 
 #include "lockstep.hpp"
 #include "aside.hpp"
-#include "placement.hpp"
 #include "run_process.hpp"
 #include "renderer.hpp"
 
 namespace {
 
-const char *kUsage =
-    "usage: renderer --scene FILE --out DIR [--writer-cpus LIST] [--view-frames]\n"
-    "  The videolized display; normally started by ./afm run inside the run's namespace.\n"
-    "  --writer-cpus LIST  the CPUs (\"0-1\") the frame writer's thread may use\n"
-    "                      (host/frame_writer.hpp; the launcher passes every CPU of the run)\n"
-    "  --view-frames       also publish each frame for a page on VIEW_FRAME (view_frames.hpp;\n"
-    "                      the launcher passes it with --view)\n";
+// The renderer's command line and its one check of each option (command_line.hpp).
+struct Options {
+    std::string scene_path, out_dir;
+    std::vector<int> writer_cpus;
+    bool view_frames = false;
+};
+
+const afm::Process<Options> kProcess = {
+    "renderer",
+    "usage: renderer --scene FILE --out DIR [options]\n"
+    "  The videolized display; normally started by ./afm run inside the run's namespace.\n",
+    {
+        {{"--scene", "FILE", nullptr, nullptr, true}, afm::cli::text(&Options::scene_path)},
+        {{"--out", "DIR", nullptr, nullptr, true}, afm::cli::text(&Options::out_dir)},
+        {{"--writer-cpus", "LIST", "options:",
+          "the CPUs (\"0-1\") the frame writer's thread may use\n"
+          "(host/renderer/frame_writer.hpp; the launcher passes every CPU of the run)"},
+         afm::cli::cpus(&Options::writer_cpus)},
+        {{"--view-frames", nullptr, "options:",
+          "also publish each frame for a page on VIEW_FRAME (view_frames.hpp;\n"
+          "the launcher passes it with --view)"},
+         afm::cli::flag(&Options::view_frames)},
+    }};
 
 using namespace afm::render;
 
@@ -37,30 +52,15 @@ extern "C" void on_stop(int) { g_stop = 1; }
 
 int main(int argc, char **argv)
 {
-    std::string scene_path, out_dir;
-    std::vector<int> writer_cpus;
-    bool view_frames = false;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        if (a == "--scene" && i + 1 < argc) scene_path = argv[++i];
-        else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
-        else if (a == "--writer-cpus" && i + 1 < argc) {
-            if (!afm::cpu_list_option("renderer", a, argv[++i], &writer_cpus)) return 2;
-        }
-        else if (a == "--view-frames") view_frames = true;
-        else if (a == "-h" || a == "--help") { std::fputs(kUsage, stdout); return 0; }
-        else { std::fprintf(stderr, "renderer: unknown argument '%s'\n%s", a.c_str(), kUsage); return 2; }
-    }
-    if (scene_path.empty() || out_dir.empty()) { std::fputs(kUsage, stderr); return afm::kExitInput; }
-    return afm::run_process("renderer", [&] {
-        const afm::Scene scene = afm::load_scene(scene_path);
-        std::filesystem::create_directories(out_dir + "/frames");
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
+        const afm::Scene scene = afm::load_scene(opt.scene_path);
+        std::filesystem::create_directories(opt.out_dir + "/frames");
         auto lc = afm::open_bus();
-        Renderer r(scene, *lc, out_dir);
-        r.writer_cpus = writer_cpus;
+        Renderer r(scene, *lc, opt.out_dir);
+        r.writer_cpus = opt.writer_cpus;
         // the strip chart: about 250 samples a simulated second; the
         // encoding on the renderer's own CPUs (the observers', view_frames.hpp)
-        if (view_frames) r.view = std::make_unique<afm::ViewFrames>(std::max(1, static_cast<int>(scene.block_hz / 250)), std::vector<int>{});
+        if (opt.view_frames) r.view = std::make_unique<afm::ViewFrames>(std::max(1, static_cast<int>(scene.block_hz / 250)), std::vector<int>{});
         afm::Inbox inbox(lc.get(), kBatchUs);   // batched: its thread takes the bus every kBatchUs
         inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return r.on_line(m); });
         inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &m) { return r.on_state(m); });
@@ -96,8 +96,8 @@ int main(int argc, char **argv)
             r.writer->finish();
         }
         if (r.view) r.view->finish();
-        write_contact_sheet(r, scene, out_dir);
-        afm::write_report(out_dir + "/renderer_report.json", report_json(r, scene, inbox.report()));
+        write_contact_sheet(r, scene, opt.out_dir);
+        afm::write_report(opt.out_dir + "/renderer_report.json", report_json(r, scene, inbox.report()));
         r.hb.send(afm::RunState::done, r.last_seq, r.frames_written > 0 ? afm::frame_utime(scene, r.frames_written - 1) : 0);
         return static_cast<int>(afm::kExitOk);
     });

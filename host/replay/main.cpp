@@ -36,6 +36,7 @@
 #include "afm/heartbeat_t.hpp"
 #include "afm_channels.h"
 #include "card_node.hpp"
+#include "command_line.hpp"
 #include "inbox.hpp"
 #include "lcmlog.hpp"
 #include "replay_fields.hpp"
@@ -46,24 +47,10 @@ using namespace afm::replay;
 
 namespace {
 
-const char *kUsage =
-    "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--firmware host|qemu] [--quiet]\n"
-    "  Feeds the card inputs recorded in RUN_DIR/bus.lcmlog (AFM_ANALOG, HAPTIC_POSE,\n"
-    "  HOST_OBJECT_FIX) into the firmware card as built now and compares every output\n"
-    "  (AFM_CMD, HAPTIC_FORCE, FW_STATE) with the recording.\n"
-    "  RUN_DIR may also be the log file itself. The scene is RUN_DIR/scene.yaml (the\n"
-    "  copy the run kept), or --scene FILE.\n"
-    "  --write NEW_LOG  write the recorded inputs and the new outputs as an LCM log\n"
-    "                   (lcm-logplayer, ./afm spy NEW_LOG)\n"
-    "  --firmware qemu  the card built for its processor, on an emulated mps2-an386 board\n"
-    "                   (qemu-system-arm -icount shift=0, docs/pil.md): record on the host,\n"
-    "                   check on the target; prints the board's instructions per block\n"
-    "  --board-elf ELF  the board's image (default: the build's afm_board.elf)\n"
-    "  --quiet          only the verdict line\n"
-    "exit: 0 identical, bit for bit; 1 the outputs differ (the first divergence is named);\n"
-    "      2 a bad argument, or a log that is missing, truncated or corrupt (file and byte offset)\n";
-
+// The replay's command line (kCommandLine below: each option's one check),
+// and what locate() finds from RUN_DIR.
 struct Options {
+    std::string run;   // RUN_DIR
     std::string log, scene, write;
     afm::CardBackendOptions where;   // --firmware, --board-elf
     bool quiet = false;
@@ -473,38 +460,42 @@ int verdict_line(const Options &o, const Verdict &v)
     return 1;
 }
 
-// The command line into o; a message in *err and false when it is wrong.
-bool parse_args(int argc, char **argv, Options *o, bool *help, std::string *err)
+const afm::cli::CommandLine<Options> kCommandLine = {
+    "afm_replay",
+    std::string(kAfmHelpReplay) + "\n\nThe program behind it (--compare is ./afm's, around it):\n"
+        "usage: afm_replay RUN_DIR [--write NEW_LOG] [--scene FILE] [--firmware host|qemu] [--quiet]\n"
+        "  Feeds the card inputs recorded in RUN_DIR/bus.lcmlog (AFM_ANALOG, HAPTIC_POSE,\n"
+        "  HOST_OBJECT_FIX) into the firmware card as built now and compares every output\n"
+        "  (AFM_CMD, HAPTIC_FORCE, FW_STATE) with the recording.\n"
+        "  RUN_DIR may also be the log file itself. The scene is RUN_DIR/scene.yaml (the\n"
+        "  copy the run kept), or --scene FILE.\n"
+        "exit: 0 identical, bit for bit; 1 the outputs differ (the first divergence is named);\n"
+        "      2 a bad argument, or a log that is missing, truncated or corrupt (file and byte offset)\n",
+    {
+        {{"RUN_DIR", nullptr, nullptr, nullptr, true}, afm::cli::text(&Options::run)},
+        {{"--write", "NEW_LOG", "options:",
+          "write the recorded inputs and the new outputs as an LCM log\n"
+          "(lcm-logplayer, ./afm spy NEW_LOG)"},
+         afm::cli::text(&Options::write)},
+        {{"--scene", "FILE", "options:", "the run's scene (default: RUN_DIR/scene.yaml)"}, afm::cli::text(&Options::scene)},
+        {{"--firmware", "host|qemu", "options:",
+          "qemu: the card built for its processor, on an emulated mps2-an386\n"
+          "board (qemu-system-arm -icount shift=0, docs/pil.md): record on the\n"
+          "host, check on the target; prints the board's instructions per block"},
+         [](const std::string &v, Options *o) { return afm::read_firmware(v, &o->where.firmware); }},
+        {{"--board-elf", "ELF", "options:", "the board's image (default: the build's afm_board.elf)"},
+         [](const std::string &v, Options *o) { return afm::cli::read_text(v, &o->where.board_elf); }},
+        {{"--quiet", nullptr, "options:", "only the verdict line"}, afm::cli::flag(&Options::quiet)},
+    }};
+
+// The run's files from RUN_DIR (locate), and --write not the log replayed;
+// a message in *err and false when not.
+bool find_run(Options *o, std::string *err)
 {
-    std::string run;
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "-h" || a == "--help") {
-            *help = true;
-            return true;
-        } else if (a == "--write" || a == "--scene") {
-            if (i + 1 >= argc) return *err = a + " needs a file", false;
-            (a == "--write" ? o->write : o->scene) = argv[++i];
-        } else if (a == "--firmware" || a == "--board-elf") {
-            if (i + 1 >= argc) return *err = a + " needs a value", false;
-            (a == "--firmware" ? o->where.firmware : o->where.board_elf) = argv[++i];
-            if (o->where.firmware != "host" && o->where.firmware != "qemu")
-                return *err = "--firmware wants host or qemu, got '" + o->where.firmware + "'", false;
-        } else if (a == "--quiet") {
-            o->quiet = true;
-        } else if (!a.empty() && a[0] == '-') {
-            return *err = "unknown option '" + a + "'", false;
-        } else if (run.empty()) {
-            run = a;
-        } else {
-            return *err = "one run at a time, got '" + run + "' and '" + a + "'", false;
-        }
-    }
-    if (run.empty()) return *err = "which run?", false;
-    if (!locate(run, o, err)) return false;
+    if (!locate(o->run, o, err)) return false;
     std::error_code ec;
     if (!o->write.empty() && fs::exists(o->write) && fs::equivalent(o->write, o->log, ec))
-        return *err = "--write " + o->write + " is the log being replayed: choose another file", false;
+        return *err = "--write: " + o->write + " is the log being replayed: choose another file", false;
     return true;
 }
 
@@ -550,19 +541,11 @@ bool scene_matches_log(const Options &o)
 int main(int argc, char **argv)
 {
     Options o;
-    bool help = false;
+    if (const int code = afm::cli::read_command_line(kCommandLine, argc, argv, &o); code >= 0) return code;   // --help, or a refusal
     std::string err;
-    if (!parse_args(argc, argv, &o, &help, &err)) {
+    if (!find_run(&o, &err)) {
         std::fprintf(stderr, "afm_replay: %s\n", err.c_str());
-        if (err.find("no such") == std::string::npos && err.find("not there") == std::string::npos &&
-            err.find("no bus.lcmlog") == std::string::npos)
-            std::fputs(kUsage, stderr);
-        return 2;
-    }
-    if (help) {
-        std::printf("%s\n\nThe program behind it (--compare is ./afm's, around it):\n", kAfmHelpReplay);
-        std::fputs(kUsage, stdout);
-        return 0;
+        return afm::kExitInput;
     }
     const auto t0 = std::chrono::steady_clock::now();
     Outputs r;

@@ -38,7 +38,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <exception>
 #include <map>
 #include <string>
@@ -54,12 +53,6 @@
 #include "senders.hpp"
 
 namespace {
-
-const char *kUsage =
-    "usage: afm_view_bridge --fd N [--report FILE]\n"
-    "  Writes the run's VIEW_FRAME and AFM_HEARTBEAT messages to file descriptor N\n"
-    "  (a pipe to the page's server; docs/view.md); what it refused to FILE at its end.\n"
-    "  afm_launch --view --view-fd N starts it.\n";
 
 volatile sig_atomic_t g_stop = 0;
 extern "C" void on_stop(int) { g_stop = 1; }
@@ -86,28 +79,22 @@ bool write_u32(int fd, std::size_t v)
     return write_all(fd, le, 4);
 }
 
+// The bridge's command line and its one check of each option (command_line.hpp).
 struct Args {
     int fd = -1;
     std::string report;   // "" when none
 };
 
-// "--fd N [--report FILE]"; false for anything else.
-bool parse(int argc, char **argv, Args *a)
-{
-    for (int i = 1; i + 1 < argc; i += 2) {
-        if (!std::strcmp(argv[i], "--fd")) {
-            char *end = nullptr;
-            const long fd = std::strtol(argv[i + 1], &end, 10);
-            if (!*argv[i + 1] || *end || fd < 0 || fd >= 1024) return false;
-            a->fd = static_cast<int>(fd);
-        } else if (!std::strcmp(argv[i], "--report") && *argv[i + 1]) {
-            a->report = argv[i + 1];
-        } else {
-            return false;
-        }
-    }
-    return argc % 2 == 1 && a->fd >= 0;
-}
+const afm::Process<Args> kProcess = {
+    "afm_view_bridge",
+    "usage: afm_view_bridge --fd N [--report FILE]\n"
+    "  Writes the run's VIEW_FRAME and AFM_HEARTBEAT messages to file descriptor N\n"
+    "  (a pipe to the page's server; docs/view.md); what it refused to FILE at its end.\n"
+    "  afm_launch --view --view-fd N starts it.\n",
+    {
+        {{"--fd", "N", nullptr, nullptr, true}, afm::cli::whole(&Args::fd, 0, 1023, "a file descriptor")},
+        {{"--report", "FILE", nullptr, nullptr}, afm::cli::text(&Args::report)},
+    }};
 
 void on_signals()
 {
@@ -183,15 +170,6 @@ int bridge(const Args &a, pid_t parent)
 
 int main(int argc, char **argv)
 {
-    if (argc == 2 && (!std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "--help"))) {
-        std::fputs(kUsage, stdout);
-        return 0;
-    }
-    Args a;
-    if (!parse(argc, argv, &a)) {
-        std::fputs(kUsage, stderr);
-        return afm::kExitInput;
-    }
     const pid_t parent = getppid();
-    return afm::run_process("afm_view_bridge", [&a, parent] { return bridge(a, parent); });
+    return afm::run_process(kProcess, argc, argv, [parent](const Args &a) { return bridge(a, parent); });
 }

@@ -250,6 +250,43 @@ class ThroughTheAfmScript(unittest.TestCase):
         self.assertIn("is a valid scene", p.stdout)
 
 
+class BadCommandLines(unittest.TestCase):
+    """Each program of a run reads its command line through one table
+    (common/command_line.hpp): a bad value, a missing value or an unknown
+    option is refused in one line, 'PROG: --opt: why (got 'value')', exit 2,
+    before anything starts (sim_afm took '--inject-drop lots' as 0 and
+    fw_node '--crash-at-block abc' as block 0); --help prints the usage."""
+
+    P = e2e_support.paths
+    SIM, BRIDGE = P.RUN_PROGRAMS[0], P.VIEW_BRIDGE
+    SEVEN = (SIM, P.FW_NODE, P.OPERATOR, P.RENDERER, P.LAUNCH, P.REPLAY, BRIDGE)
+
+    def test_each_program_refuses_a_bad_option_in_one_line(self):
+        rows = ((self.SIM, ["--scene", "s", "--out", "o", "--inject-drop", "lots"], "sim_afm: --inject-drop: wants", "'lots'"),
+                (self.SIM, ["--scene", "s", "--out", "o", "--log-window", "8x"], "sim_afm: --log-window: wants", "'8x'"),
+                (self.P.FW_NODE, ["--scene", "s", "--crash-at-block", "abc"], "fw_node: --crash-at-block: wants", "'abc'"),
+                (self.P.FW_NODE, ["--scene", "s", "--firmware", "arm"], "fw_node: --firmware: wants host or qemu", "'arm'"),
+                (self.P.OPERATOR, ["--scene"], "operator: --scene: needs a value", "FILE"),
+                (self.P.RENDERER, ["--scene", "s", "--out", "o", "--writer-cpus", "1-0"], "renderer: --writer-cpus: wants", "'1-0'"),
+                (self.P.LAUNCH, ["--scene", "s", "--out", "o", "--bogus"], "afm_launch: --bogus: unknown option", "--help"),
+                (self.P.REPLAY, ["run", "--firmware", "arm"], "afm_replay: --firmware: wants host or qemu", "'arm'"),
+                (self.BRIDGE, ["--fd", "x"], "afm_view_bridge: --fd: wants", "'x'"))
+        for exe, args, head, value in rows:
+            p = subprocess.run([exe, *args], capture_output=True, text=True, timeout=30)
+            lines = p.stderr.splitlines()
+            self.assertEqual(p.returncode, 2, (exe, args, p.stderr))
+            self.assertEqual(len(lines), 1, (exe, args, p.stderr))
+            self.assertTrue(lines[0].startswith(head), (args, lines[0]))
+            self.assertIn(value, lines[0], args)
+
+    def test_each_program_prints_its_usage_for_help(self):
+        for exe in self.SEVEN:
+            p = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=30)
+            self.assertEqual(p.returncode, 0, (exe, p.stderr))
+            self.assertEqual(p.stderr, "", exe)
+            self.assertIn("usage: " + os.path.basename(exe), p.stdout, exe)
+
+
 class OutputFolderLocked(unittest.TestCase):
     """--out is locked for a run's life: a second run into it is refused at
     once, naming the run (its pid) that holds it; the first completes; the

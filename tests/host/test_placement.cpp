@@ -80,17 +80,6 @@ void test_a_cpu_list_reads_back_and_anything_else_is_refused()
     }
 }
 
-// A process's CPU-list option: read as parse_cpu_list reads it; refused
-// (its output untouched) for what parse_cpu_list refuses.
-void test_a_cpu_list_option_is_read_or_refused()
-{
-    std::vector<int> cpus = {7};
-    TEST_ASSERT_TRUE(afm::cpu_list_option("renderer", "--writer-cpus", "0-1", &cpus));
-    TEST_ASSERT_TRUE((cpus == std::vector<int>{0, 1}));
-    TEST_ASSERT_FALSE(afm::cpu_list_option("renderer", "--writer-cpus", "1-0", &cpus));
-    TEST_ASSERT_TRUE((cpus == std::vector<int>{0, 1}));
-}
-
 void test_one_cpu_or_none_places_nothing()
 {
     setUp_dir();
@@ -246,7 +235,6 @@ int main()
     UNITY_BEGIN();
     RUN_TEST(test_cpu_list_is_written_as_the_kernel_writes_it);
     RUN_TEST(test_a_cpu_list_reads_back_and_anything_else_is_refused);
-    RUN_TEST(test_a_cpu_list_option_is_read_or_refused);
     RUN_TEST(test_one_cpu_or_none_places_nothing);
     RUN_TEST(test_the_lockstep_shares_one_cpu_and_the_observers_take_the_rest);
     RUN_TEST(test_concurrent_runs_take_different_cpus);
