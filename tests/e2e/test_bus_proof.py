@@ -273,7 +273,7 @@ class ViewBridgeProof(unittest.TestCase):
         p = subprocess.run([e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", "/nonexistent/run",
                             "--view-fd", str(w)], capture_output=True, text=True, pass_fds=(w,), timeout=60)
         self.assertEqual(p.returncode, 2)
-        self.assertEqual(p.stderr, "afm_launch: --view-fd goes with --view (it is the pipe to the page's server)\n")
+        self.assertEqual(p.stderr, "afm_launch: --view-fd: goes with --view (it is the pipe to the page's server)\n")
 
     def test_a_view_frame_from_the_renderers_port_never_reaches_the_page(self):
         scene = e2e_support.short_scene_2s("view-proof-scene")
