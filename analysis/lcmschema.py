@@ -6,7 +6,8 @@ Contract:
   Struct.fields        [Field] in declaration order; Struct.consts, .doc.
   Field.unit           the unit its comment states ("nN", "us", "V", ...), or
                        None: the comment's fields after the first, split at
-                       the commas outside brackets, whose first word is a unit
+                       the commas outside brackets, whose first word (a colon
+                       after it aside: "nm: measured from ...") is a unit
                        word (UNIT_WORDS below: words, not a table of fields).
   Field.components     a fixed array's element names: those its comment
                        names, "(x, y, z)"; else x, y (, z) for a 2- or
@@ -66,9 +67,9 @@ class Field:
     @property
     def unit(self):
         for part in _split_top(self.comment)[1:]:
-            words = part.split()
-            if words and words[0] in UNIT_WORDS:
-                return UNIT_WORDS[words[0]]
+            word = (part.split() or [""])[0].rstrip(":")
+            if word in UNIT_WORDS:
+                return UNIT_WORDS[word]
         return None
 
     @property

@@ -1,18 +1,20 @@
 // afm_replay's comparison of one output (replay/main.cpp runs it over a
-// whole log): the card's outputs flattened to named fields in their units,
-// keyed by (block, channel, fix), and compared recorded against replayed,
-// naming the first field that differs.
+// whole log): the card's outputs flattened to named fields in their units
+// by the walk generated from their .lcm files, keyed by (block, channel,
+// fix), and compared recorded against replayed, naming the first field that
+// differs.
 #pragma once
 
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include "afm/fw_state_t.hpp"
 #include "afm/haptic_force_t.hpp"
-#include "afm/objects_t.hpp"
 #include "afm/tip_cmd_t.hpp"
 
 namespace afm::replay {
@@ -35,12 +37,24 @@ struct Field {
     Unit unit;
 };
 
+// A message's fields in the order of its .lcm file: the visitor of the
+// generated walk (afm_lcm_walk.hpp, from tools/gen_lcm_walk.py), which names
+// every field and the unit its comment states. A field in nN is kept in pN,
+// one in nm as a position.
 class Flat {
 public:
     std::vector<Field> f;
-    void add(const std::string &n, double v, Unit u = Unit::kOther) { f.push_back({n, v, u}); }
-    void force_nN(const std::string &n, double v) { add(n, v * 1e3, Unit::kForce_pN); }
-    void pos_nm(const std::string &n, double v) { add(n, v, Unit::kPosition_nm); }
+    template <class T>
+    void operator()(const std::string &name, const T &v, const char *unit)
+    {
+        static_assert(std::is_arithmetic_v<T>, "replay compares numbers: an output with a string field needs its comparison here");
+        const std::string_view u(unit);
+        const double x = static_cast<double>(v);
+        if (u == "nN")
+            f.push_back({name, x * 1e3, Unit::kForce_pN});
+        else
+            f.push_back({name, x, u == "nm" ? Unit::kPosition_nm : Unit::kOther});
+    }
 };
 
 struct DecodeError : std::runtime_error {
@@ -59,9 +73,7 @@ M decode_recorded(const std::vector<uint8_t> &d, const char *type)
 using Key = std::tuple<int64_t, int, int32_t>;
 Key output_key(const std::string &ch, const std::vector<uint8_t> &d);
 
-// An objects_t's fields into x, each name after pre.
-void flatten_objects(const afm::objects_t &m, const std::string &pre, Flat &x);
-// A recorded output's fields (AFM_CMD, HAPTIC_FORCE, FW_STATE).
+// A recorded output's fields (AFM_CMD, HAPTIC_FORCE, FW_STATE), by the walk.
 Flat flatten(const std::string &ch, const std::vector<uint8_t> &d);
 
 struct ChannelStats {

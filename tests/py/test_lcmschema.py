@@ -67,6 +67,11 @@ def test_units_components_and_columns_come_from_the_comment(known):
     assert f["utime"].primitive and not f["inner"].primitive
 
 
+def test_a_unit_followed_by_a_colon_is_read(tmp_path):
+    lcm(tmp_path, "package afm;\nstruct z_t\n{\n    double axis_nm; // its height, nm: half the diameter\n}\n", "z_t")
+    assert lcmschema.types(str(tmp_path))["z_t"].fields[0].unit == "nm"
+
+
 def test_the_committed_types_all_read_with_utime_in_microseconds():
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     known = lcmschema.types(os.path.join(root, "lcmtypes"))
