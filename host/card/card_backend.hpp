@@ -51,6 +51,11 @@ public:
     virtual const fw_models_t &models() const = 0;
     // What ran, and on the board its cost (run.json card.board).
     virtual nlohmann::json report() const = 0;
+    // Throws when the card can no longer answer (the board's emulator has
+    // exited), naming it, between blocks too: a board killed while the
+    // run waits for its first block is named then, not as another
+    // process's stall. The card in this process is always alive.
+    virtual void check_alive() {}
 };
 
 // --firmware's value, "host" or "qemu", checked and stored: "" when taken,

@@ -91,6 +91,7 @@ public:
     fw_status_t fix(bool place, int32_t object_id, const int32_t scan_pm[2], fw_card_fix_out_t *out) override;
     const fw_models_t &models() const override { return models_; }
     nlohmann::json report() const override;
+    void check_alive() override;
 
 private:
     CardBackendOptions o_;
@@ -202,6 +203,15 @@ void BoardCard::stop()
         rmdir(dir_.c_str());
         dir_.clear();
     }
+}
+
+void BoardCard::check_alive()
+{
+    int st = 0;
+    if (pid_ <= 0 || waitpid(pid_, &st, WNOHANG) != pid_) return;
+    pid_ = -1;
+    fail("exited (" + std::string(WIFEXITED(st) ? "status " + std::to_string(WEXITSTATUS(st)) : "signal " + std::to_string(WTERMSIG(st))) +
+         ") at block " + std::to_string(blocks_) + ", before the host sent it");
 }
 
 // Sends req_ (a whole message) and reads the answer into ans_, within the

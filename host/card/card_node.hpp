@@ -99,6 +99,7 @@ public:
     int64_t done() const { return done_; }              // last block stepped (-1: none)
     int64_t sim_utime_done() const;                     // simulated time at its end, us
     const CardBackend &backend() const { return *card_; }
+    void check_alive() { card_->check_alive(); }       // CardBackend::check_alive
 
 private:
     const Scene &scene_;

@@ -148,6 +148,7 @@ int main(int argc, char **argv)
         afm::check_lockstep_reads(scene, inbox.channels(), "fw_node");
         while (!node.sim_done) {
             const int64_t done = node.card.done();
+            if (done < 0) node.card.check_alive();   // a board that died before the first block is named at once (a block's exchange names it after)
             node.hb.maybe_send(done < 0 ? afm::RunState::ready : afm::RunState::running, done, node.card.sim_utime_done());
             inbox.handle(done < 0 ? afm::kReadyPeriodMs : 100);
         }
