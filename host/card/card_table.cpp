@@ -123,7 +123,7 @@ const std::vector<CardRow> kRows = {
      [](S s) -> SceneKeys { return {{"sample.particle_substrate.contact_area_nm2", s.particle_substrate.contact_area_nm2}}; },
      [](S s, C c) { c->particle_contact_area_nm2 = fwu_i32(s.particle_substrate.contact_area_nm2); }, {FW_RULE_PARTICLE}},
     {"wire_friction_pn_per_um", [](S s) -> SceneKeys { return {{"sample.wire.friction_nN_per_um", s.wire_friction_nN_per_um()}}; },
-     [](S s, C c) { c->wire_friction_pn_per_um = fwu_pn_from_nn(s.wire_friction_nN_per_um()); }, {FW_RULE_WIRE_FRICTION}},
+     [](S s, C c) { c->wire_friction_pn_per_um = fwu_pn_per_um_from_nn_per_um(s.wire_friction_nN_per_um()); }, {FW_RULE_WIRE_FRICTION}},
     {"wire_mu_ppm", [](S s) -> SceneKeys { return {{"sample.wire.mu", s.wire_model.mu}}; },
      [](S s, C c) { c->wire_mu_ppm = fwu_ppm(s.wire_model.mu); }, {FW_RULE_WIRE_FRICTION}},
     {"litho_threshold_pn", [](S s) -> SceneKeys { return {{"sample.lithography.threshold_nN", s.litho.threshold_nN}}; },
