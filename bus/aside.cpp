@@ -1,14 +1,11 @@
 #include "aside.hpp"
 
-#include <chrono>
-#include <cstdio>
 #include <stdexcept>
 #include <utility>
 
 #include "afm_channels.h"
 
 #include "bus.hpp"
-#include "placement.hpp"
 
 namespace afm {
 
@@ -33,94 +30,58 @@ void check_lockstep_reads(const Scene &s, const std::vector<std::string> &subscr
 }
 
 Aside::Aside(std::vector<int> cpus, int batch_us, std::size_t max_queued)
-    : lc_(open_bus()), batch_us_(batch_us > 0 ? batch_us : kBatchUs), max_queued_(max_queued > 0 ? max_queued : 1)
+    : lc_(open_bus()),
+      worker_({max_queued > 0 ? max_queued : 1, Full::block, batch_us > 0 ? batch_us : kBatchUs, 0},
+              [this](std::vector<Msg> &batch, int64_t) { publish(batch); })
 {
-    thread_ = start_pinned(std::move(cpus), "aside: the publishing thread", [this] { run(); });
+    worker_.start(std::move(cpus), "aside: the publishing thread");
 }
 
 Aside::~Aside()
 {
-    {
-        std::lock_guard<std::mutex> l(m_);
-        stop_ = true;
-    }
-    wake_.notify_one();
-    if (thread_.joinable()) thread_.join();
+    worker_.stop(Stop::drain);
 }
 
 void Aside::post(const std::string &channel, const void *data, std::size_t size)
 {
     const auto *p = static_cast<const uint8_t *>(data);
-    Msg msg{channel, std::vector<uint8_t>(p, p + size)};
-    std::unique_lock<std::mutex> l(m_);
-    if (queue_.size() >= max_queued_) {
-        ++waits_;
-        hurry_ = true;
-        wake_.notify_one();
-        done_.wait(l, [&] { return queue_.size() < max_queued_; });
-    }
-    queue_.push_back(std::move(msg));
-    ++posted_;
-    // no notify: the thread takes the queue at its next batch (a wake-up
-    // of a thread on another CPU costs more than the datagram)
+    worker_.post(Msg{channel, std::vector<uint8_t>(p, p + size)});
 }
 
 void Aside::flush()
 {
-    std::unique_lock<std::mutex> l(m_);
-    const int64_t want = posted_;
-    hurry_ = true;
-    wake_.notify_one();
-    done_.wait(l, [&] { return published_ + failed_ >= want; });
+    worker_.flush();
 }
 
 int64_t Aside::published() const
 {
-    std::lock_guard<std::mutex> l(m_);
     return published_;
 }
 
 int64_t Aside::failed() const
 {
-    std::lock_guard<std::mutex> l(m_);
     return failed_;
 }
 
 int64_t Aside::waits() const
 {
-    std::lock_guard<std::mutex> l(m_);
-    return waits_;
+    return worker_.counts().waits;
 }
 
 nlohmann::json Aside::report() const
 {
-    std::lock_guard<std::mutex> l(m_);
-    return {{"published", published_}, {"failed", failed_}, {"waits", waits_}};
+    return {{"published", published()}, {"failed", failed()}, {"waits", waits()}};
 }
 
-void Aside::run()
+void Aside::publish(std::vector<Msg> &batch)
 {
-    std::vector<Msg> batch;
-    std::unique_lock<std::mutex> l(m_);
-    while (true) {
-        wake_.wait_for(l, std::chrono::microseconds(batch_us_), [&] { return hurry_ || stop_; });
-        hurry_ = false;
-        const bool last = stop_;
-        batch.swap(queue_);
-        done_.notify_all();   // room in the queue
-        l.unlock();
-        int64_t ok = 0, bad = 0;
-        for (const auto &m : batch) {
-            if (publish_raw(*lc_, m.channel, m.data.data(), m.data.size()) == 0) ++ok;
-            else ++bad;
-        }
-        batch.clear();
-        l.lock();
-        published_ += ok;
-        failed_ += bad;
-        done_.notify_all();   // flush() waits for this
-        if (last && queue_.empty()) return;
+    int64_t ok = 0, bad = 0;
+    for (const auto &m : batch) {
+        if (publish_raw(*lc_, m.channel, m.data.data(), m.data.size()) == 0) ++ok;
+        else ++bad;
     }
+    published_ += ok;
+    failed_ += bad;
 }
 
 }  // namespace afm

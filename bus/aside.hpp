@@ -33,16 +33,15 @@
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 
-#include <condition_variable>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "scene.hpp"
+#include "worker.hpp"
 
 namespace afm {
 
@@ -99,7 +98,7 @@ public:
     int64_t published() const;
     int64_t failed() const;
     int64_t waits() const;
-    // The three, at one moment, as the processes' reports hold them:
+    // The three, as the processes' reports hold them:
     // {"published", "failed", "waits"}.
     nlohmann::json report() const;
 
@@ -108,18 +107,11 @@ private:
         std::string channel;
         std::vector<uint8_t> data;
     };
-    void run();
+    void publish(std::vector<Msg> &batch);
 
     std::unique_ptr<lcm::LCM> lc_;
-    const int batch_us_;
-    const std::size_t max_queued_;
-    mutable std::mutex m_;
-    std::condition_variable wake_;   // the thread: flush, a full queue, stop
-    std::condition_variable done_;   // the posters: a batch published
-    std::vector<Msg> queue_;
-    int64_t posted_ = 0, published_ = 0, failed_ = 0, waits_ = 0;
-    bool hurry_ = false, stop_ = false;
-    std::thread thread_;
+    std::atomic<int64_t> published_{0}, failed_{0};
+    Worker<Msg> worker_;   // the thread (common/worker.hpp): batch_us apart, max_queued, blocking
 };
 
 }  // namespace afm

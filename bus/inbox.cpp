@@ -3,14 +3,12 @@
 #include "bus_tap.hpp"
 #include "senders.hpp"
 #include "text.hpp"
+#include "worker.hpp"
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
 #include <exception>
-#include <mutex>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -115,52 +113,37 @@ void Inbox::check_channel(const std::string &channel, const char *type_name) con
     if (t != type_name) throw std::logic_error("Inbox: channel " + channel + " carries " + t + ", not " + type_name);
 }
 
+// The batched receiver: a thread of the inbox's own (common/worker.hpp)
+// fills an unbounded queue, a batch at a time, that handle() empties.
 struct Inbox::Batcher {
     struct Msg {
         std::string channel;
         std::vector<unsigned char> data;
     };
-    std::mutex m;
-    std::condition_variable ready;
-    std::deque<Msg> queue;
-    std::atomic<bool> stop{false};
+    Queue<Msg> queue{{}};
     std::atomic<int64_t> dropped{0};
     std::atomic<int64_t> abandoned{0};
-    std::exception_ptr failed;   // what ended the thread (under m)
-    std::thread thread;
+    WorkerThread thread;   // the only reader of the tap once started; its error ends handle()
 
-    // The thread: the only reader of the tap once started.
-    void run(BusTap &tap, int batch_us)
+    void start(BusTap &tap, int batch_us)
+    {
+        thread.start({}, "inbox: the receive thread", [this, &tap, batch_us](const std::atomic<bool> &stop) { run(tap, batch_us, stop); },
+                     [this](std::exception_ptr e) { queue.fail(std::move(e), Stop::drain); });
+    }
+
+    void run(BusTap &tap, int batch_us, const std::atomic<bool> &stop)
     {
         std::vector<Msg> batch;
         const BusTap::Sink take = [&](const std::string &channel, const unsigned char *d, std::size_t n, int64_t) {
             batch.push_back({channel, std::vector<unsigned char>(d, d + n)});
         };
-        try {
-            loop(tap, batch_us, batch, take);
-        } catch (...) {
-            std::lock_guard<std::mutex> lock(m);
-            failed = std::current_exception();
-            stop = true;
-        }
-        ready.notify_one();
-    }
-
-    void loop(BusTap &tap, int batch_us, std::vector<Msg> &batch, const BusTap::Sink &take)
-    {
         while (!stop) {
             if (!tap.wait(50)) continue;
             std::this_thread::sleep_for(std::chrono::microseconds(batch_us));
             tap.drain(take);
             dropped = tap.dropped();
             abandoned = tap.abandoned();
-            if (batch.empty()) continue;
-            {
-                std::lock_guard<std::mutex> lock(m);
-                for (auto &x : batch) queue.push_back(std::move(x));
-            }
-            batch.clear();
-            ready.notify_one();
+            if (!batch.empty()) queue.push_all(batch);
         }
     }
 };
@@ -180,10 +163,7 @@ Inbox::Inbox(lcm::LCM *lc, int batch_us) : lc_(lc), batch_us_(batch_us)
 
 Inbox::~Inbox()
 {
-    if (batcher_ && batcher_->thread.joinable()) {
-        batcher_->stop = true;
-        batcher_->thread.join();   // within the thread's 50 ms wait
-    }
+    if (batcher_) batcher_->thread.join();   // within the thread's 50 ms wait
 }
 
 void Inbox::subscribe(Sub &sub)
@@ -203,22 +183,13 @@ int Inbox::handle(int timeout_ms)
     if (tap_ && batch_us_ > 0) {
         if (!batcher_) {
             auto b = std::make_unique<Batcher>();
-            Batcher *bp = b.get();
-            bp->thread = std::thread([bp, this] { bp->run(*tap_, batch_us_); });   // throws before batcher_ is set
+            b->start(*tap_, batch_us_);   // throws before batcher_ is set
             batcher_ = std::move(b);
         }
-        Batcher::Msg msg;
-        {
-            std::unique_lock<std::mutex> lock(batcher_->m);
-            if (!batcher_->ready.wait_for(lock, std::chrono::milliseconds(std::max(0, timeout_ms)),
-                                          [&] { return !batcher_->queue.empty() || batcher_->failed; })) {
-                return 0;
-            }
-            if (batcher_->queue.empty()) std::rethrow_exception(batcher_->failed);   // the receive thread's end
-            msg = std::move(batcher_->queue.front());
-            batcher_->queue.pop_front();
-        }
-        deliver(msg.channel, msg.data.data(), msg.data.size());
+        std::vector<Batcher::Msg> one;
+        // rethrows the receive thread's end once what it queued is taken
+        if (batcher_->queue.take(&one, 1, 1000LL * std::max(0, timeout_ms)).n == 0) return 0;
+        deliver(one.front().channel, one.front().data.data(), one.front().data.size());
         return 1;
     }
     if (tap_)

@@ -1,8 +1,11 @@
 // The card's configuration as a lab would flash it, from the scene: the
 // scene's doubles converted to the firmware's integers (fw_units.h) and
-// nothing else. The firmware owns every rule about them: card_refusal runs
-// fw_card_init and, when it refuses, names the rule in the firmware's words
-// (fw_rule_text) with the scene keys that feed it and their values.
+// nothing else; each scalar setting by its row of the scene-to-card table
+// (card_table.hpp), the lists (particles, wires, landmarks), the flags and
+// the storage here. The firmware owns every rule about them: card_refusal
+// runs fw_card_init and, when it refuses, names the rule in the firmware's
+// words (fw_rule_text) with the scene keys that feed it (the table's) and
+// their values.
 #pragma once
 
 extern "C" {

@@ -1,19 +1,19 @@
 #include "frame_writer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
 
-#include "placement.hpp"
 #include "png_file.hpp"
 
 namespace afm {
 
 FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video, double fps, int px, std::vector<int> cpus,
                          std::size_t max_pending)
-    : out_(std::move(out_dir)), png_(png), max_pending_(max_pending > 0 ? max_pending : 1), fps_(fps), px_(px)
+    : out_(std::move(out_dir)), png_(png), fps_(fps), px_(px),
+      worker_({max_pending > 0 ? max_pending : 1, Full::block, 0, 1},
+              [this](std::vector<Frame> &one, int64_t) { write_one(one.front().first, one.front().second); })
 {
     if (video != "none") {
         const bool mp4 = video == "mp4";
@@ -24,7 +24,6 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
             // file that cannot be made is refused now, as OpenCV's would be.
             if (!std::ofstream(path, std::ios::binary)) throw std::runtime_error("cannot open a video writer for " + path);
             h264_wanted_ = true;
-            opening_ = true;
         } else {
             video_.open(path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, cv::Size(px, px));
             if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
@@ -32,7 +31,8 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
             video_info_ = {{"file", "video.avi"}, {"codec", "mjpeg"}, {"encoder", "opencv"}, {"fallback_why", nullptr}};
         }
     }
-    thread_ = start_pinned(std::move(cpus), "renderer: the frame writer", [this] { run(); });
+    // the encoder starts while the run does, not at the first frame
+    worker_.start(std::move(cpus), "renderer: the frame writer", [this] { open_video_once(px_); });
 }
 
 // At the thread's start: H.264 through ffmpeg, or OpenCV's mp4v with the reason.
@@ -69,48 +69,26 @@ void FrameWriter::close_video(bool throwing)
 
 FrameWriter::~FrameWriter()
 {
-    {
-        std::lock_guard<std::mutex> l(m_);
-        stop_ = true;
-        queue_.clear();
-    }
-    work_.notify_one();
-    room_.notify_all();
-    if (thread_.joinable()) thread_.join();
+    worker_.stop(Stop::discard);
     // Stopped before its first frame (a run interrupted at its start): a
     // video without a frame does not open, so none is left that claims one.
     close_video(false);
-    if (!video_path_.empty() && written_ == 0) std::remove(video_path_.c_str());
+    if (!video_path_.empty() && written() == 0) std::remove(video_path_.c_str());
 }
 
 void FrameWriter::write(int k, cv::Mat frame)
 {
-    std::unique_lock<std::mutex> l(m_);
-    const auto room = [&] { return queue_.size() < max_pending_ || error_; };
-    if (!room()) {
-        const auto t0 = std::chrono::steady_clock::now();
-        room_.wait(l, room);
-        ++waits_;
-        wait_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    }
-    if (error_) std::rethrow_exception(error_);
-    queue_.emplace_back(k, std::move(frame));
-    work_.notify_one();
+    worker_.post({k, std::move(frame)});
 }
 
 void FrameWriter::wait_open()
 {
-    std::unique_lock<std::mutex> l(m_);
-    room_.wait(l, [&] { return !opening_ || error_; });
-    if (error_) std::rethrow_exception(error_);
+    worker_.wait_started();
 }
 
 void FrameWriter::finish()
 {
-    std::unique_lock<std::mutex> l(m_);
-    room_.wait(l, [&] { return (queue_.empty() && !busy_) || error_; });
-    if (error_) std::rethrow_exception(error_);
-    l.unlock();
+    worker_.flush();
     close_video(true);
 }
 
@@ -122,26 +100,22 @@ nlohmann::json FrameWriter::video() const
 
 int FrameWriter::written() const
 {
-    std::lock_guard<std::mutex> l(m_);
-    return written_;
+    return static_cast<int>(worker_.counts().handled);
 }
 
 int FrameWriter::waits() const
 {
-    std::lock_guard<std::mutex> l(m_);
-    return waits_;
+    return static_cast<int>(worker_.counts().waits);
 }
 
 double FrameWriter::wait_seconds() const
 {
-    std::lock_guard<std::mutex> l(m_);
-    return wait_s_;
+    return worker_.counts().wait_s;
 }
 
 double FrameWriter::cpu_seconds() const
 {
-    std::lock_guard<std::mutex> l(m_);
-    return cpu_s_;
+    return worker_.counts().cpu_s;
 }
 
 void FrameWriter::write_one(int k, const cv::Mat &frame)
@@ -157,51 +131,6 @@ void FrameWriter::write_one(int k, const cv::Mat &frame)
         throw std::runtime_error(video_path_ + ": the encoder took no more frames (" + why + ")");
     }
     if (video_.isOpened()) video_.write(frame);
-}
-
-void FrameWriter::run()
-{
-    std::exception_ptr open_err;
-    try {
-        open_video_once(px_);   // the encoder starts while the run does, not at the first frame
-    } catch (...) {
-        open_err = std::current_exception();
-    }
-    std::unique_lock<std::mutex> l(m_);
-    opening_ = false;
-    room_.notify_all();
-    if (open_err) {
-        error_ = open_err;
-        return;
-    }
-    while (true) {
-        work_.wait(l, [&] { return stop_ || !queue_.empty(); });
-        if (stop_) return;
-        std::pair<int, cv::Mat> f = std::move(queue_.front());
-        queue_.pop_front();
-        busy_ = true;
-        room_.notify_all();
-        l.unlock();
-        const double t0 = thread_cpu_seconds();
-        std::exception_ptr err;
-        try {
-            write_one(f.first, f.second);
-        } catch (...) {
-            err = std::current_exception();
-        }
-        const double dt = thread_cpu_seconds() - t0;
-        l.lock();
-        busy_ = false;
-        cpu_s_ += dt;
-        if (err) {
-            error_ = err;
-            queue_.clear();
-            room_.notify_all();
-            return;
-        }
-        ++written_;
-        room_.notify_all();
-    }
 }
 
 }  // namespace afm

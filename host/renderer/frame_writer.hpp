@@ -35,17 +35,14 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/videoio.hpp>
 
-#include <condition_variable>
 #include <cstddef>
-#include <deque>
-#include <exception>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
 #include "video_pipe.hpp"
+#include "worker.hpp"
 
 namespace afm {
 
@@ -91,33 +88,23 @@ public:
     nlohmann::json video() const;
 
 private:
-    void run();
+    using Frame = std::pair<int, cv::Mat>;
     void write_one(int k, const cv::Mat &frame);
     void open_video_once(int px);
     void close_video(bool throwing);
 
     const std::string out_;
     const bool png_;
-    const std::size_t max_pending_;
     cv::VideoWriter video_;
     std::string video_path_;          // "" without a video
     double fps_ = 0;
     bool h264_wanted_ = false;        // "mp4": the pipe is tried at the thread's start
     bool video_tried_ = false;
-    bool opening_ = false;            // the thread is opening the video (m_)
     int px_ = 0;
     VideoPipe pipe_;
+    mutable std::mutex m_;            // video_info_
     nlohmann::json video_info_;       // video()
-    mutable std::mutex m_;
-    std::condition_variable work_, room_;
-    std::deque<std::pair<int, cv::Mat>> queue_;
-    bool busy_ = false, stop_ = false;
-    int written_ = 0;
-    double cpu_s_ = 0;
-    int waits_ = 0;
-    double wait_s_ = 0;
-    std::exception_ptr error_;
-    std::thread thread_;
+    Worker<Frame> worker_;            // the thread (common/worker.hpp): a frame at a time, max_pending, blocking
 };
 
 }  // namespace afm

@@ -7,7 +7,6 @@
 
 #include "afm_channels.h"
 #include "bus.hpp"
-#include "placement.hpp"
 
 namespace afm {
 
@@ -25,20 +24,16 @@ std::size_t bytes_without_image(const view_frame_t &m)
 }  // namespace
 
 ViewFrames::ViewFrames(int sample_every_blocks, std::vector<int> cpus)
-    : every_(sample_every_blocks > 0 ? sample_every_blocks : 1), lc_(open_bus())
+    : every_(sample_every_blocks > 0 ? sample_every_blocks : 1), lc_(open_bus()),
+      worker_({1, Full::replace, 0, 1},
+              [this](std::vector<Offer> &one, int64_t skipped) { publish(std::move(one.front()), static_cast<int>(skipped)); })
 {
-    thread_ = start_pinned(std::move(cpus), "renderer: the view frames", [this] { run(); });
+    worker_.start(std::move(cpus), "renderer: the view frames");
 }
 
 ViewFrames::~ViewFrames()
 {
-    {
-        std::lock_guard<std::mutex> l(m_);
-        stop_ = true;
-        pending_.reset();
-    }
-    work_.notify_one();
-    if (thread_.joinable()) thread_.join();
+    worker_.stop(Stop::discard);
 }
 
 void ViewFrames::sample(const haptic_force_t &m)
@@ -54,47 +49,23 @@ void ViewFrames::sample(const haptic_force_t &m)
 
 void ViewFrames::offer(cv::Mat frame, view_frame_t state)
 {
-    {
-        std::lock_guard<std::mutex> l(m_);
-        if (pending_) ++skipped_pending_;
-        pending_ = Offer{std::move(frame), std::move(state)};
-    }
-    work_.notify_one();
+    worker_.post(Offer{std::move(frame), std::move(state)});
 }
 
 void ViewFrames::finish()
 {
+    worker_.stop(Stop::drain);
+}
+
+// On the thread: the frame taken with the samples since the previous one.
+void ViewFrames::publish(Offer o, int skipped)
+{
+    std::vector<haptic_force_t> samples;
     {
         std::lock_guard<std::mutex> l(m_);
-        stop_ = true;
-    }
-    work_.notify_one();
-    if (thread_.joinable()) thread_.join();
-}
-
-void ViewFrames::run()
-{
-    std::unique_lock<std::mutex> l(m_);
-    while (true) {
-        work_.wait(l, [&] { return stop_ || pending_; });
-        if (!pending_) return;   // stopped, nothing waits
-        Offer o = std::move(*pending_);
-        pending_.reset();
-        std::vector<haptic_force_t> samples;
         samples.swap(samples_);
-        const int skipped = skipped_pending_;
-        skipped_pending_ = 0;
-        l.unlock();
-        const double t0 = thread_cpu_seconds();
-        publish(std::move(o), std::move(samples), skipped);
-        l.lock();
-        cpu_s_ += thread_cpu_seconds() - t0;
         skipped_ += skipped;
     }
-}
-
-void ViewFrames::publish(Offer o, std::vector<haptic_force_t> samples, int skipped)
-{
     view_frame_t &m = o.msg;
     m.skipped = skipped;
     m.n_samples = static_cast<int32_t>(samples.size());
@@ -139,12 +110,13 @@ bool ViewFrames::encode(const cv::Mat &frame, view_frame_t *msg)
 
 nlohmann::json ViewFrames::report() const
 {
+    const double cpu_s = worker_.counts().cpu_s;
     std::lock_guard<std::mutex> l(m_);
     return {{"published", published_},
             {"skipped", skipped_},
             {"too_large", too_large_},
             {"samples_dropped", samples_dropped_},
-            {"encode_ms_per_frame", published_ ? 1e3 * cpu_s_ / published_ : 0.0},
+            {"encode_ms_per_frame", published_ ? 1e3 * cpu_s / published_ : 0.0},
             {"bytes_per_frame", published_ ? bytes_ / published_ : 0},
             {"jpeg_quality_min", quality_min_}};
 }

@@ -22,17 +22,15 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <mutex>
-#include <optional>
-#include <thread>
 #include <vector>
 
 #include "afm/haptic_force_t.hpp"
 #include "afm/view_frame_t.hpp"
+#include "worker.hpp"
 
 namespace afm {
 
@@ -70,22 +68,16 @@ private:
         cv::Mat frame;
         view_frame_t msg;
     };
-    void run();
-    void publish(Offer o, std::vector<haptic_force_t> samples, int skipped);
+    void publish(Offer o, int skipped);
     bool encode(const cv::Mat &frame, view_frame_t *msg);
 
     const int every_;
     std::unique_ptr<lcm::LCM> lc_;
     mutable std::mutex m_;
-    std::condition_variable work_;
-    std::optional<Offer> pending_;
     std::vector<haptic_force_t> samples_;
-    int skipped_pending_ = 0;
-    bool stop_ = false;
     int64_t published_ = 0, skipped_ = 0, too_large_ = 0, samples_dropped_ = 0, bytes_ = 0;
     int quality_min_ = kQuality;
-    double cpu_s_ = 0;
-    std::thread thread_;
+    Worker<Offer> worker_;   // the thread (common/worker.hpp): one frame waits, the newest
 };
 
 }  // namespace afm

@@ -1,0 +1,189 @@
+// Unity tests of the scene-to-card table (host/card/card_table.hpp) and the
+// card's refusal (card_setup.hpp): settings converted as computed by hand
+// here (units, Q formats, the calibrations and defaults chosen); every
+// setting of the board but its two optional ones comes from a row; each
+// rule's keys, in order, named once, the calibrated ones where the scene
+// gives them; and a refusal's line, from a scene file.
+#include "card_setup.hpp"
+#include "card_table.hpp"
+
+#include <unity.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string>
+
+using afm::SceneKeys;
+
+namespace {
+
+// A scene with round values: each setting below is computed by hand from them.
+afm::Scene hand_scene()
+{
+    afm::Scene s;
+    s.probe.spring_N_per_m = 0.2;
+    s.probe.deflection_nm_per_V = 50;
+    s.probe.lateral_nN_per_V = 30;
+    s.probe.tip_height_um = 10;
+    s.probe.lever_length_um = 200;
+    s.probe.scan_angle_deg = 270;
+    s.probe.tip_radius_nm = 12.5;
+    s.tip_substrate.mu = 0.0865;
+    s.tip_substrate.adhesion_nN = 3;
+    s.field_nm = 2000;
+    s.field_center_nm = {100, -250};
+    s.op.kappa = 1.5;
+    s.litho.depth_nm_per_nN = 0.25;
+    s.op.haptic.force_gain_N_per_nN = 0.004;
+    s.op.haptic.max_force_N = 3;
+    s.adc_bits = 12;
+    s.word_bits = 32;
+    s.effects = {"bending_offset"};   // no adhesion
+    return s;
+}
+
+fw_card_config_t filled(const afm::Scene &s)
+{
+    fw_card_config_t c;
+    std::memset(&c, 0x5a, sizeof c);
+    afm::fill_card_rows(s, &c);
+    return c;
+}
+
+void expect_keys(const SceneKeys &want, const SceneKeys &got)
+{
+    TEST_ASSERT_EQUAL_INT(static_cast<int>(want.size()), static_cast<int>(got.size()));
+    for (std::size_t i = 0; i < want.size(); ++i) {
+        TEST_ASSERT_EQUAL_STRING(want[i].first.c_str(), got[i].first.c_str());
+        TEST_ASSERT_EQUAL_DOUBLE(want[i].second, got[i].second);
+    }
+}
+
+}  // namespace
+
+void setUp() {}
+void tearDown() {}
+
+// The probe's and the sample's values in the firmware's units.
+void test_rows_convert_the_scene_as_computed_by_hand()
+{
+    const fw_card_config_t c = filled(hand_scene());
+    TEST_ASSERT_EQUAL_INT32(12, c.board.adc_bits);
+    TEST_ASSERT_EQUAL_INT32(32, c.word_bits);
+    TEST_ASSERT_EQUAL_INT32(10000, c.board.normal_gain_pn_per_v);   // 0.2 N/m x 50 nm/V = 10 nN/V
+    TEST_ASSERT_EQUAL_INT32(30000, c.board.lateral_gain_pn_per_v);
+    TEST_ASSERT_EQUAL_INT32(50000, c.board.deflection_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(10000, c.board.tip_height_nm);
+    TEST_ASSERT_EQUAL_INT32(200000, c.board.lever_length_nm);
+    TEST_ASSERT_EQUAL_INT32(FW_CARD_DISP_ESTIMATE, c.board.disp_n_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(FW_CARD_DISP_ESTIMATE, c.board.disp_l_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(270000, c.board.scan_angle_mdeg);
+    TEST_ASSERT_EQUAL_INT32(86500, c.board.mu_ppm);
+    TEST_ASSERT_EQUAL_INT32(0, c.board.adhesion_pn);   // the adhesion effect is off
+    TEST_ASSERT_EQUAL_INT32(100000, c.board.scan_center_pm[0]);
+    TEST_ASSERT_EQUAL_INT32(-250000, c.board.scan_center_pm[1]);
+    TEST_ASSERT_EQUAL_INT32(1000000, c.board.scan_half_range_pm);
+    TEST_ASSERT_EQUAL_INT32(98304, c.board.kappa_q16);       // 1.5 in 16.16
+    TEST_ASSERT_EQUAL_INT32(16384, c.litho_depth_pm_per_pn);  // 0.25 nm/nN = pm/pN, 16.16
+    TEST_ASSERT_EQUAL_INT32(12500, c.tip_radius_pm);
+    TEST_ASSERT_EQUAL_INT32(1000000, c.landmark_max_step_pm);
+    TEST_ASSERT_EQUAL_INT32(0, c.drift_max_step_pm);          // the firmware's default
+    TEST_ASSERT_EQUAL_INT32(4, c.haptic_un_per_pn);           // 0.004 N/nN = 4 uN/pN
+    TEST_ASSERT_EQUAL_INT32(3000000, c.haptic_max_un);
+    // 80 % of each channel's full scale, gain x 10 V
+    TEST_ASSERT_EQUAL_INT32(80000, c.interlock_normal_pn);
+    TEST_ASSERT_EQUAL_INT32(240000, c.interlock_lateral_pn);
+}
+
+// firmware.* where the scene gives it; the effects and compensate as the card reads them.
+void test_calibrations_and_effects_take_their_rows()
+{
+    afm::Scene s = hand_scene();
+    s.fw_cal.lateral_nN_per_V = 40;
+    s.fw_cal.mu = 0.25;
+    s.fw_cal.disp_n_nm_per_V = 75;
+    s.fw_cal.drift_max_step_nm = 300;
+    s.fw_cal.interlock_normal_nN = 55;
+    s.effects.push_back("adhesion");
+    fw_card_config_t c = filled(s);
+    TEST_ASSERT_EQUAL_INT32(40000, c.board.lateral_gain_pn_per_v);
+    TEST_ASSERT_EQUAL_INT32(250000, c.board.mu_ppm);
+    TEST_ASSERT_EQUAL_INT32(75000, c.board.disp_n_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(FW_CARD_DISP_ESTIMATE, c.board.disp_l_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(300000, c.drift_max_step_pm);
+    TEST_ASSERT_EQUAL_INT32(55000, c.interlock_normal_pn);
+    TEST_ASSERT_EQUAL_INT32(320000, c.interlock_lateral_pn);   // 80 % of 40 nN/V x 10 V
+    TEST_ASSERT_EQUAL_INT32(3000, c.board.adhesion_pn);
+    s.compensate = false;
+    c = filled(s);
+    TEST_ASSERT_EQUAL_INT32(0, c.board.disp_n_pm_per_v);
+    TEST_ASSERT_EQUAL_INT32(0, c.board.disp_l_pm_per_v);
+}
+
+// Every setting of the board comes from a row, but the two optional ones
+// (0: the firmware's default), which no scene key sets.
+void test_every_board_setting_but_the_optional_ones_has_a_row()
+{
+    const fw_card_config_t c = filled(hand_scene());
+    const int32_t untouched = 0x5a5a5a5a;
+    TEST_ASSERT_EQUAL_INT32(untouched, c.board.filter_log2);
+    TEST_ASSERT_EQUAL_INT32(untouched, c.board.theta_min_disp_pm);
+    const int32_t *b = reinterpret_cast<const int32_t *>(&c.board);
+    const std::size_t n = offsetof(fw_board_config_t, filter_log2) / sizeof(int32_t);
+    for (std::size_t i = 0; i < n; ++i) TEST_ASSERT_NOT_EQUAL_MESSAGE(untouched, b[i], "a board setting no row fills");
+    for (const afm::CardRow &r : afm::card_rows()) TEST_ASSERT_NOT_NULL(r.field);
+}
+
+// A rule's keys: every row feeding it, in the table's order, each key once.
+void test_a_rules_keys_are_its_rows_keys_in_order()
+{
+    afm::Scene s = hand_scene();
+    expect_keys({{"firmware.word_bits", 32}, {"probe.spring_N_per_m", 0.2}, {"probe.deflection_nm_per_V", 50},
+                 {"probe.lateral_nN_per_V", 30}, {"probe.tip_height_um", 10}, {"probe.lever_length_um", 200}},
+                afm::card_rule_keys(s, FW_RULE_WORD16_RANGE));
+    expect_keys({{"probe.tip_height_um", 10}, {"probe.deflection_nm_per_V", 50}, {"probe.lever_length_um", 200}},
+                afm::card_rule_keys(s, FW_RULE_DISP_RANGE));
+    expect_keys({{"firmware.interlock_normal_nN", -1}, {"probe.spring_N_per_m", 0.2}, {"probe.deflection_nm_per_V", 50}},
+                afm::card_rule_keys(s, FW_RULE_INTERLOCK_NORMAL));
+    expect_keys({{"sample.field_nm", 2000}, {"operator.kappa", 1.5}}, afm::card_rule_keys(s, FW_RULE_JOYSTICK_RANGE));
+    expect_keys({{"sample.field_nm", 2000}}, afm::card_rule_keys(s, FW_RULE_DRIFT_STEP));
+    // calibrated: the keys the card's values came from
+    s.fw_cal.mu = 0.25;
+    s.fw_cal.lateral_nN_per_V = 40;
+    s.fw_cal.disp_n_nm_per_V = 75;
+    s.fw_cal.disp_l_nm_per_V = 80;
+    expect_keys({{"firmware.mu", 0.25}, {"probe.tip_height_um", 10}, {"probe.lever_length_um", 200}},
+                afm::card_rule_keys(s, FW_RULE_MU_2H_OVER_L));
+    expect_keys({{"probe.spring_N_per_m", 0.2}, {"probe.deflection_nm_per_V", 50}, {"firmware.lateral_nN_per_V", 40}},
+                afm::card_rule_keys(s, FW_RULE_FORCE_GAINS));
+    expect_keys({{"firmware.disp_n_nm_per_V", 75}, {"firmware.disp_l_nm_per_V", 80}}, afm::card_rule_keys(s, FW_RULE_DISP_NEGATIVE));
+    // rules about what no scalar setting holds (the lists, the storage)
+    for (fw_rule_t r : {FW_RULE_OK, FW_RULE_NULL_POINTER, FW_RULE_PARTICLE_CAPACITY, FW_RULE_LANDMARKS, FW_RULE_TILTED_SLOPE})
+        TEST_ASSERT_EQUAL_INT(0, static_cast<int>(afm::card_rule_keys(s, r).size()));
+}
+
+// The refusal's line: the first key names it, the rule in the firmware's words, every key with its value.
+void test_a_refusal_names_the_rule_and_its_keys()
+{
+    afm::Scene s = afm::load_scene(std::string(AFM_SOURCE_DIR) + "/scenes/default.yaml");
+    TEST_ASSERT_EQUAL_STRING("", afm::card_refusal(s).c_str());
+    s.probe.tip_height_um = s.probe.lever_length_um;
+    const std::string why = afm::card_refusal(s);
+    const std::string want = std::string("probe.tip_height_um: the firmware's card refuses it: ") + fw_rule_text(FW_RULE_TIP_SHORTER_THAN_LEVER);
+    TEST_ASSERT_EQUAL_STRING(want.c_str(), why.substr(0, want.size()).c_str());
+    TEST_ASSERT_TRUE(why.find("(fw_card_init: FW_ERR_DOMAIN, rule " + std::to_string(FW_RULE_TIP_SHORTER_THAN_LEVER) + ")") != std::string::npos);
+    TEST_ASSERT_TRUE(why.find("; got probe.tip_height_um ") != std::string::npos);
+    TEST_ASSERT_TRUE(why.find(", probe.lever_length_um ") != std::string::npos);
+}
+
+int main()
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_rows_convert_the_scene_as_computed_by_hand);
+    RUN_TEST(test_calibrations_and_effects_take_their_rows);
+    RUN_TEST(test_every_board_setting_but_the_optional_ones_has_a_row);
+    RUN_TEST(test_a_rules_keys_are_its_rows_keys_in_order);
+    RUN_TEST(test_a_refusal_names_the_rule_and_its_keys);
+    return UNITY_END();
+}
