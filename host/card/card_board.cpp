@@ -111,6 +111,7 @@ private:
     void start();
     void stop();
     [[noreturn]] void fail(const std::string &what);
+    void fail_if_exited(const std::string &at);
     void exchange(uint32_t kind, double deadline_s, fw_marshal_cursor_t *answer);
     void read_models(fw_marshal_cursor_t *r);
     void check(const fw_marshal_cursor_t &r, const char *what);
@@ -205,14 +206,18 @@ void BoardCard::stop()
     }
 }
 
-void BoardCard::check_alive()
+// Fails naming how the board's emulator ended ("exited (signal 9) at AT")
+// when it has; returns when it still runs.
+void BoardCard::fail_if_exited(const std::string &at)
 {
     int st = 0;
     if (pid_ <= 0 || waitpid(pid_, &st, WNOHANG) != pid_) return;
     pid_ = -1;
     fail("exited (" + std::string(WIFEXITED(st) ? "status " + std::to_string(WEXITSTATUS(st)) : "signal " + std::to_string(WTERMSIG(st))) +
-         ") at block " + std::to_string(blocks_) + ", before the host sent it");
+         ") at " + at);
 }
+
+void BoardCard::check_alive() { fail_if_exited("block " + std::to_string(blocks_) + ", before the host sent it"); }
 
 // Sends req_ (a whole message) and reads the answer into ans_, within the
 // deadline; *answer reads its payload. The board's death or silence fails.
@@ -238,12 +243,7 @@ void BoardCard::exchange(uint32_t kind, double deadline_s, fw_marshal_cursor_t *
             const ssize_t n = read(from_, ans_.data() + got, ans_.size() - got);
             if (n > 0) got += static_cast<std::size_t>(n);
         }
-        int st = 0;
-        if (r == 0 && waitpid(pid_, &st, WNOHANG) == pid_) {
-            pid_ = -1;
-            fail("exited (" + std::string(WIFEXITED(st) ? "status " + std::to_string(WEXITSTATUS(st)) : "signal " + std::to_string(WTERMSIG(st))) +
-                 ") at " + at);
-        }
+        if (r == 0) fail_if_exited(at);
         const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         if (r == 0 && waited > deadline_s) {
             kill(pid_, SIGKILL);
