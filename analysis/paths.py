@@ -4,6 +4,7 @@ import tempfile
 
 ROOT = os.environ.get("AFM_SOURCE") or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = os.environ.get("AFM_BUILD") or os.path.join(ROOT, "build", "main")
+SIM_AFM = os.path.join(BUILD, "sim_afm", "sim_afm")
 # host/'s programs, built into one folder (CMakeLists.txt's AFM_HOST_BIN)
 HOST_BIN = os.path.join(BUILD, "host")
 LAUNCH = os.path.join(HOST_BIN, "afm_launch")
@@ -34,7 +35,7 @@ ARM_BUILD = os.path.join(ROOT, "build", "arm")
 # The programs a run is made of: their contents identify the build a sweep
 # point was measured with (resume reruns a point when any of them changed).
 RUN_PROGRAMS = [
-    os.path.join(BUILD, "sim_afm", "sim_afm"),
+    SIM_AFM,
     FW_NODE,
     OPERATOR,
     RENDERER,

@@ -258,7 +258,7 @@ class BadCommandLines(unittest.TestCase):
     fw_node '--crash-at-block abc' as block 0); --help prints the usage."""
 
     P = e2e_support.paths
-    SIM, BRIDGE = P.RUN_PROGRAMS[0], P.VIEW_BRIDGE
+    SIM, BRIDGE = P.SIM_AFM, P.VIEW_BRIDGE
     SEVEN = (SIM, P.FW_NODE, P.OPERATOR, P.RENDERER, P.LAUNCH, P.REPLAY, BRIDGE)
 
     def test_each_program_refuses_a_bad_option_in_one_line(self):
