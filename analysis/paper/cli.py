@@ -26,8 +26,9 @@ def parse_args(argv):
         description=helptext.text("paper") + "\n\n" + textwrap.fill("Runs each of the paper's experiments as scenes under scenes/paper/, analyses the runs' own "
                     "signals, scans and firmware outputs with the firmware's own solvers, and writes report.html, "
                     "report.md and paper.json into --out, one folder per experiment with its runs and figures. "
-                    "A table on stdout; exit 1 if any figure is outside its stated tolerance, 2 on bad arguments "
-                    "or a run that failed.", 79),
+                    "Two tables on stdout: the figures, and the paper's models against the truth, each row held to "
+                    "its entry in analysis/paper/tolerances.yaml; exit 1 if any row is not ok (outside its tolerance, "
+                    "or measured from a run whose own verdict failed), 2 on bad arguments or a run that failed.", 79),
         epilog=USAGE_EPILOG)
     p.add_argument("--only", nargs="+", metavar="NAME", help="run these experiments only")
     p.add_argument("--out", default=os.path.join(paths.ROOT, "runs", "paper"), help="output folder (default runs/paper)")
@@ -224,7 +225,7 @@ def main(argv):
         return 2
     bad = [n for n, (_, r, _) in results.items() if not r.ok]
     if bad:
-        print(f"paper: outside the stated tolerance: {', '.join(bad)}")
+        print(f"paper: rows not ok (outside their tolerance, or their run failed its verdict): {', '.join(bad)}")
         return 1
     return 0
 
