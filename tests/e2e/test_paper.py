@@ -20,7 +20,6 @@ import e2e_support
 PY = sys.executable
 ENV = dict(os.environ)
 
-sys.path.insert(0, e2e_support.SRC)   # this checkout's analysis/, whichever venv runs the test
 from analysis.paper import cli, common  # noqa: E402
 
 # The runs whose own verdict fails today at the reduced size, each with why
