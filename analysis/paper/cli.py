@@ -26,8 +26,9 @@ def parse_args(argv):
         description=helptext.text("paper") + "\n\n" + textwrap.fill("Runs each of the paper's experiments as scenes under scenes/paper/, analyses the runs' own "
                     "signals, scans and firmware outputs with the firmware's own solvers, and writes report.html, "
                     "report.md and paper.json into --out, one folder per experiment with its runs and figures. "
-                    "A table on stdout; exit 1 if any figure is outside its stated tolerance, 2 on bad arguments "
-                    "or a run that failed.", 79),
+                    "Two tables on stdout: the figures, and the paper's models against the truth, each row held to "
+                    "its entry in analysis/paper/tolerances.yaml; exit 1 if any row is not ok (outside its tolerance, "
+                    "or measured from a run whose own verdict failed), 2 on bad arguments or a run that failed.", 79),
         epilog=USAGE_EPILOG)
     p.add_argument("--only", nargs="+", metavar="NAME", help="run these experiments only")
     p.add_argument("--out", default=os.path.join(paths.ROOT, "runs", "paper"), help="output folder (default runs/paper)")
@@ -101,7 +102,9 @@ def _one_run(job):
 
 
 def analyse(exp, exp_dir, size, outcomes):
-    """An experiment's analysis from its runs' outcomes: its Result."""
+    """An experiment's analysis from its runs' outcomes: its Result, each row
+    judged against its entry in tolerances.yaml, and any row measured from a
+    run whose own verdict failed marked so (never ok)."""
     failures = [(name, fail) for name, (_, ok, fail) in outcomes.items() if not ok]
     if failures:
         name, fail = failures[0]
@@ -113,25 +116,44 @@ def analyse(exp, exp_dir, size, outcomes):
         except common.PaperError as e:
             res = common.Result(notes=[str(e)])
             res.rows.append(common.Row(quantity="analysis", unit="", bench=None, note=str(e)))
-    res.notes += _verdict_notes(outcomes)
+    failed = failed_verdicts(outcomes)
+    if failed:
+        res.notes.append("runs whose own verdict failed (their rows say so and are not ok; docs: README 'The verdict'): "
+                         + "; ".join(f"{n} ({', '.join(c)})" for n, c in sorted(failed.items())))
     for r in res.rows:
-        r.judge()
+        mark_failed_runs(r, failed)
+        try:
+            r.judge(size)
+        except common.PaperError as e:
+            r.ok, r.note = False, f"{e}; {r.note}"
     return res
 
 
-def _verdict_notes(outcomes):
-    """The runs' own verdicts (run.json "verdict"), as data: a note naming
-    each run that failed one of its checks (the paper's runs may, on
-    purpose: a squeeze that rides over, a soft lever's fidelity)."""
-    failed = []
+def failed_verdicts(outcomes):
+    """{run: [check, ...]} for each run whose own verdict (run.json
+    "verdict") failed: a check it failed that its scene did not expect, or
+    an expected one it met."""
+    failed = {}
     for name, (run_dir, _, _) in sorted(outcomes.items()):
+        if run_dir is None:
+            continue
         try:
             v = common.run_json(run_dir).get("verdict") or {}
         except (OSError, ValueError):
             continue
         if v and not v.get("pass", True):
-            failed.append(f"{name} ({', '.join(f['check'] for f in v.get('failed', []))})")
-    return [f"runs whose own verdict failed (kept as data, docs: README 'The verdict'): {'; '.join(failed)}"] if failed else []
+            failed[name] = [f["check"] for f in v.get("failed", [])] or ["verdict"]
+    return failed
+
+
+def mark_failed_runs(row, failed):
+    """The row's run_failed, "run failed: CHECK (RUN)", when a run it is
+    measured from (row.runs; none named: every run of its experiment)
+    failed its own verdict."""
+    hit = [(n, failed[n]) for n in (row.runs or sorted(failed)) if n in failed]
+    if hit:
+        checks = sorted({c for _, cs in hit for c in cs})
+        row.run_failed = f"run failed: {', '.join(checks)} ({', '.join(n for n, _ in hit)})"
 
 
 def run_all(jobs, workers, prog, outcomes, walls):
@@ -203,7 +225,7 @@ def main(argv):
         return 2
     bad = [n for n, (_, r, _) in results.items() if not r.ok]
     if bad:
-        print(f"paper: outside the stated tolerance: {', '.join(bad)}")
+        print(f"paper: rows not ok (outside their tolerance, or their run failed its verdict): {', '.join(bad)}")
         return 1
     return 0
 

@@ -32,45 +32,143 @@ class Run:
     cost_s: float = 10.0         # about how long it takes (the longest start first)
 
 
+TOLERANCES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tolerances.yaml")
+KINDS = ("figure", "model error", "unit check")
+_ENTRY_KEYS = {"quantity", "kind", "model", "truth", "tolerance", "unit", "relative", "per", "at_least", "why"}
+_TOLERANCES = None
+
+
+def tolerances():
+    """The committed tolerance file (analysis/paper/tolerances.yaml), read
+    and checked once: {key: entry}. Every row's tolerance comes from it."""
+    global _TOLERANCES
+    if _TOLERANCES is None:
+        _TOLERANCES = read_tolerances(TOLERANCES)
+    return _TOLERANCES
+
+
+def read_tolerances(path):
+    """{key: entry} of a tolerance file, each entry checked (PaperError naming
+    the file, the key and the field)."""
+    try:
+        with open(path) as f:
+            data = yaml.safe_load(f)
+    except OSError as e:
+        raise PaperError(f"{path}: cannot read the tolerances: {e.strerror}")
+    if not isinstance(data, dict):
+        raise PaperError(f"{path}: must map each row's key to its entry")
+    for key, e in data.items():
+        where = f"{path}: {key}"
+        if not isinstance(e, dict):
+            raise PaperError(f"{where}: must be a mapping")
+        missing = {"quantity", "kind", "model", "truth", "tolerance", "unit", "why"} - set(e)
+        if missing:
+            raise PaperError(f"{where}: missing {', '.join(sorted(missing))}")
+        if set(e) - _ENTRY_KEYS:
+            raise PaperError(f"{where}: unknown field {', '.join(sorted(set(e) - _ENTRY_KEYS))}")
+        if e["kind"] not in KINDS:
+            raise PaperError(f"{where}: kind {e['kind']!r} is not one of {', '.join(KINDS)}")
+        t = e["tolerance"]
+        sizes = t.values() if isinstance(t, dict) else [t]
+        if isinstance(t, dict) and set(t) != {"full", "reduced"}:
+            raise PaperError(f"{where}: tolerance by size must give full and reduced, got {sorted(t)}")
+        if any(v is not None and not (isinstance(v, (int, float)) and v >= 0) for v in sizes):
+            raise PaperError(f"{where}: tolerance {t!r} must be a number >= 0 (or null: shown, not judged)")
+        if not str(e["why"]).strip():
+            raise PaperError(f"{where}: why is empty")
+    return data
+
+
 @dataclass
 class Row:
-    """One line of the report. error: bench - truth (absolute) unless
-    relative; ok: |error| within tolerance. Without a truth, a tolerance is
-    a limit: ok when |bench| is within it (an error measured directly)."""
+    """One line of the report. Two kinds of value: bench (a figure measured
+    from the run's own data) or model (the paper's model, as the card or the
+    firmware's solver computes it); either against the truth. error: value -
+    truth (absolute) unless relative; ok: |error| within tolerance. Without a
+    truth, a tolerance is a limit: ok when |value| is within it. The
+    tolerance, its kind (figure, model error, unit check: a formula held
+    against itself) and its unit come from the row's entry `key` in
+    tolerances.yaml, never from the code; `scale` is the value of the
+    entry's `per` (the tolerance is that many of it). A row measured from a
+    run whose own verdict failed is never ok: its verdict names the check."""
     quantity: str
     unit: str
+    key: str = None              # its entry in tolerances.yaml
     paper: object = None         # the paper's value (None: it gives none)
     bench: object = None         # measured from the run's own data by the firmware's solvers
     truth: object = None         # the simulator's (the scene's physics, or SIM_TRUTH)
-    tolerance: float = None      # the error allowed (absolute, in unit; or a fraction with relative)
-    relative: bool = False
+    model: object = None         # the paper's model's value (a model row: no bench)
     note: str = ""               # where the paper's number is lost or wrong, or how it was measured
-    error: float = None
-    ok: bool = True
+    runs: tuple = ()             # the runs it is measured from (empty: all the experiment's)
+    scale: float = None          # the value of the entry's `per`
+    tolerance: float = field(default=None, init=False)   # the error allowed (absolute, in unit; or a fraction with relative)
+    relative: bool = field(default=False, init=False)
+    kind: str = field(default="figure", init=False)
+    run_failed: str = field(default=None, init=False)    # "run failed: CHECK (RUN)" when a run's verdict failed
+    error: float = field(default=None, init=False)
+    ok: bool = field(default=True, init=False)
+
+    @property
+    def value(self):
+        return self.model if self.model is not None else self.bench
 
     @property
     def verdict(self):
-        """'ok' or 'NO' for a row held to a tolerance; 'shown' for one that is
-        only shown (no tolerance: it can fail nothing, so it says no 'ok')."""
-        if self.bench is not None and self.tolerance is None:
+        """'ok' or 'NO' for a row held to a tolerance ('unit check ok' where
+        the truth is the model's own formula); 'shown' for one that is only
+        shown; 'run failed: ...' for one whose run failed its verdict."""
+        if self.run_failed:
+            return self.run_failed
+        if self.value is not None and self.tolerance is None:
             return "shown"
-        return "ok" if self.ok else "NO"
+        v = "ok" if self.ok else "NO"
+        return f"unit check {v}" if self.kind == "unit check" else v
 
-    def judge(self):
-        if self.bench is None:
+    def entry(self):
+        """Its entry in tolerances.yaml (PaperError when it has none)."""
+        e = tolerances().get(self.key)
+        if e is None:
+            raise PaperError(f"{TOLERANCES}: no entry {self.key!r} for the row {self.quantity!r}")
+        if str(e["unit"]) != self.unit:
+            raise PaperError(f"{TOLERANCES}: {self.key}: unit {e['unit']!r}, but the row {self.quantity!r} is in {self.unit!r}")
+        return e
+
+    def resolve(self, size):
+        """The tolerance, its kind and relativity from the row's entry."""
+        e = self.entry()
+        t = e["tolerance"]
+        t = t[size] if isinstance(t, dict) else t
+        self.kind, self.relative = e["kind"], bool(e.get("relative"))
+        if t is not None and self.relative:
+            t = t / 100.0   # written in percent of the truth
+        if t is not None and e.get("per"):
+            if self.scale is None:
+                raise PaperError(f"{TOLERANCES}: {self.key}: the tolerance is per {e['per']}, which the row does not give")
+            t = t * abs(float(self.scale))
+        if t is not None and e.get("at_least") is not None:
+            t = max(t, float(e["at_least"]))
+        self.tolerance = None if t is None else float(t)
+        return self
+
+    def judge(self, size="full"):
+        if self.key is not None:
+            self.resolve(size)
+        elif self.value is not None:
+            raise PaperError(f"the row {self.quantity!r} has no key into {TOLERANCES}")
+        v = self.value
+        if v is not None and self.truth is not None:
+            e = float(v) - float(self.truth)
+            if self.relative:
+                e = e / float(self.truth) if self.truth else float("inf")
+            self.error = e
+        if v is None:
             self.ok = False
-            return self
-        if self.tolerance is None:
+        elif self.tolerance is None:
             self.ok = True
-            return self
-        if self.truth is None:
-            self.ok = abs(float(self.bench)) <= self.tolerance
-            return self
-        e = float(self.bench) - float(self.truth)
-        if self.relative:
-            e = e / float(self.truth) if self.truth else float("inf")
-        self.error = e
-        self.ok = abs(e) <= self.tolerance
+        else:
+            self.ok = abs(float(v) if self.truth is None else self.error) <= self.tolerance
+        if self.run_failed:
+            self.ok = False
         return self
 
 

@@ -120,33 +120,41 @@ def analyse(dirs, exp_dir, size):
     res = common.Result()
     end, mid = pts[0], min(pts, key=lambda p: abs(p["q"] - 0.45))
     rms = lambda k, ref: float(np.sqrt(np.mean([(p[k] - p[ref]) ** 2 for p in pts])))
+    run = lambda p: (f"l_{p['q']:.2f}L",)
     res.rows = [
         common.Row(f"static point at an end push (l = {end['q']:.2f} L), from the rod's centre", "nm",
-                   paper=L / math.sqrt(2) - L / 2, bench=end["s_scan"], truth=end["s_truth"], tolerance=30,
-                   note="paper: L/sqrt2 from end A at the very end; the rod as scanned is "
-                        f"{end['L_scan']:.0f} nm long (the tip's dilation), so the centre is the reference"),
-        common.Row(f"push that moves the rod at l = {end['q']:.2f} L", "nN", paper=0.586 * f * L, bench=end["F_card"],
-                   truth=end["F_truth"], tolerance=0.1, relative=True,
+                   key="rod.end_static_point", paper=L / math.sqrt(2) - L / 2, bench=end["s_scan"], truth=end["s_truth"],
+                   runs=run(end), note="paper: L/sqrt2 from end A at the very end; the rod as scanned is "
+                                       f"{end['L_scan']:.0f} nm long (the tip's dilation), so the centre is the reference"),
+        common.Row(f"push that moves the rod at l = {end['q']:.2f} L", "nN", key="rod.end_push", paper=0.586 * f * L,
+                   bench=end["F_card"], truth=end["F_truth"], runs=run(end),
                    note="the paper's (2 - sqrt2) f L is wrong: torque balance gives (sqrt2 - 1) f L at the end (physics.md 6)"),
-        common.Row(f"push that moves the rod at l = {mid['q']:.2f} L", "nN", paper=f * L, bench=mid["F_card"],
-                   truth=mid["F_truth"], tolerance=0.1, relative=True, note="paper: f L at the middle"),
-        common.Row(f"static point, scans against the closed form (RMS over {len(pts)})", "nm", bench=rms("s_scan", "s_cf"),
-                   tolerance=40, note="the closed form of physics.md 6 (its middle expression for F_min has a sign slip; "
-                                      "f |L - 2 s| is right)"),
-        common.Row(f"push, card against the closed form (RMS over {len(pts)})", "nN", bench=rms("F_card", "F_cf"),
-                   tolerance=0.1 * f * L, note="the simulator's rod carries its friction at 64 points and is pushed on its "
-                                               "flank, not its axis"),
-        common.Row("firmware fw_wire against the closed form: static point (RMS)", "nm", bench=rms("s_fw", "s_cf"),
-                   tolerance=2.0, note="afm_calc model wire (fixed point) at the same push points"),
-        common.Row("firmware fw_wire against the closed form: F_min (RMS)", "nN", bench=rms("F_fw", "F_cf"), tolerance=0.05),
-        common.Row("the card's model (fw_wire) against the simulator's numeric rod: static point (RMS)", "nm",
-                   bench=rms("s_fw", "s_truth"), tolerance=0.02 * L,
-                   note="the simulator moves the rod by its friction lumped on 64 points and the balance iterated "
-                        "(sample.wire.solver: numeric), independent of eq. 20; 2 % of L"),
-        common.Row("the card's model (fw_wire) against the simulator's numeric rod: F_min (RMS)", "nN",
-                   bench=rms("F_fw", "F_truth"), tolerance=0.05 * f * L,
-                   note="the simulator's force less the tip's own sliding friction; 5 % of f L"),
+        common.Row(f"push that moves the rod at l = {mid['q']:.2f} L", "nN", key="rod.mid_push", paper=f * L,
+                   bench=mid["F_card"], truth=mid["F_truth"], runs=run(mid), note="paper: f L at the middle"),
+        common.Row(f"static point, scans against the closed form (RMS over {len(pts)})", "nm", key="rod.static_scan_rms",
+                   bench=rms("s_scan", "s_cf"), note="the closed form of physics.md 6 (its middle expression for F_min "
+                                                     "has a sign slip; f |L - 2 s| is right)"),
+        common.Row(f"push, card against the closed form (RMS over {len(pts)})", "nN", key="rod.push_card_rms",
+                   bench=rms("F_card", "F_cf"), scale=f * L,
+                   note="the simulator's rod carries its friction at 64 points and is pushed on its flank, not its axis"),
+        common.Row("firmware fw_wire against the closed form: static point (RMS)", "nm", key="rod.fw_static_rms",
+                   bench=rms("s_fw", "s_cf"), note="afm_calc model wire (fixed point) at the same push points: eq. 20 "
+                                                   "against eq. 20"),
+        common.Row("firmware fw_wire against the closed form: F_min (RMS)", "nN", key="rod.fw_push_rms",
+                   bench=rms("F_fw", "F_cf")),
     ]
+    for p in pts:
+        res.rows += [
+            common.Row(f"static point at l = {p['q']:.2f} L, from the rod's centre: the card's fw_wire against the "
+                       "numeric rod", "nm", key="rod.model_static_point", model=p["s_fw"], truth=p["s_truth"], scale=L,
+                       runs=run(p), note="model: afm_calc model wire (eq. 20); truth: the simulator's first and last "
+                                         "poses (SIM_TRUTH), its rod moved by the friction lumped on 64 points and the "
+                                         "balance iterated (sample.wire.solver: numeric)"),
+            common.Row(f"least push at l = {p['q']:.2f} L: the card's fw_wire against the numeric rod", "nN",
+                       key="rod.model_least_push", model=p["F_fw"], truth=p["F_truth"], scale=f * L, runs=run(p),
+                       note="truth: the simulator's force (SIM_TRUTH) across the push less the tip's own sliding "
+                            "friction before contact"),
+        ]
     res.notes.append("per push: " + "; ".join(f"l={p['q']:.2f}L s_scan={p['s_scan']:.0f} s_truth={p['s_truth']:.0f} "
                                               f"s_cf={p['s_cf']:.0f} F_card={p['F_card']:.1f} F_cf={p['F_cf']:.1f}" for p in pts))
     res.figures = [("Static point against push point: scans, simulator, closed form, firmware (fig. 13)",

@@ -41,6 +41,7 @@ RIDE_LOADS = {"low": 0.9, "high": 1.1}   # of eq. 30's least load
 END_Q = 0.03            # the end push, as in the rod experiment
 MID_Q = 0.45            # near the middle: k = 0.909
 SQUEEZE_GAMMA, SQUEEZE_MU = 50, 1.0
+RIDDEN_Y_NM = 60        # the rod's far side: an apex that ends past it rode over
 PARTICLE = {"particles": [{"id": 1, "x_nm": 0, "y_nm": -200, "radius_nm": 50}]}
 PARTICLE_GAMMA = 40
 
@@ -98,13 +99,14 @@ def _rod_moved(run_dir):
     return float(np.linalg.norm(c1 - c0)), float(np.linalg.norm(t1 - t0))
 
 
-def _apex_final_y(run_dir):
-    """The apex's last y (nm) from the card (FW_STATE): past the rod when the tip rode over it."""
+def _apex_final_y(run_dir, channel="FW_STATE"):
+    """The apex's last y (nm) from the card (FW_STATE) or the simulator
+    (SIM_TRUTH): past the rod when the tip rode over it."""
     from analysis import afmlog
-    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={"FW_STATE"})
-    tips = sorted(afmlog.by_seq(log.get("FW_STATE", [])).values(), key=lambda m: m.seq)
+    log = afmlog.load(os.path.join(run_dir, "bus.lcmlog"), channels={channel})
+    tips = sorted(afmlog.by_seq(log.get(channel, [])).values(), key=lambda m: m.seq)
     if not tips:
-        raise common.PaperError(f"{run_dir}/bus.lcmlog: no FW_STATE")
+        raise common.PaperError(f"{run_dir}/bus.lcmlog: no {channel}")
     return float(tips[-1].tip_nm[1])
 
 
@@ -127,13 +129,14 @@ def analyse(dirs, exp_dir, size):
     last = pts[-1]
     rms = float(np.sqrt(np.mean([(p["H_card"] - p["H_fw"]) ** 2 for p in pts])))
     res.rows = [
-        common.Row(f"push at an end, gamma {last['g']} deg (eq. 29: k f L / (1 - k mu tan psi))", "nN", bench=last["H_card"],
-                   truth=last["H_fw"], tolerance=0.1, relative=True,
+        common.Row(f"push at an end, gamma {last['g']} deg (eq. 29: k f L / (1 - k mu tan psi))", "nN",
+                   key="squeeze.end_push_eq29", bench=last["H_card"], truth=last["H_fw"], runs=(f"gamma_{last['g']}",),
                    note=f"without the down force k f L = {k_end:.2f} nN; truth column: the firmware's solver"),
-        common.Row(f"push, card against eq. 29 (RMS over {len(pts)} cones)", "nN", bench=rms, tolerance=0.1 * k_end,
+        common.Row(f"push, card against eq. 29 (RMS over {len(pts)} cones)", "nN", key="squeeze.push_eq29_rms", bench=rms,
+                   scale=k_end, runs=tuple(f"gamma_{p['g']}" for p in pts),
                    note="simulator: " + ", ".join(f"{p['H_truth']:.2f}" for p in pts) + " nN"),
-        common.Row(f"dF at gamma {last['g']} deg from the measured push (eq. 30)", "nN", bench=last["dF_card"],
-                   truth=last["dF_fw"], tolerance=max(0.15 * abs(last["dF_fw"]), 0.5),
+        common.Row(f"dF at gamma {last['g']} deg from the measured push (eq. 30)", "nN", key="squeeze.df_from_push",
+                   bench=last["dF_card"], truth=last["dF_fw"], runs=(f"gamma_{last['g']}",),
                    note="dF = H tan psi - F_a,ts; > 0: the load must exceed it to keep the apex down"),
     ]
     _squeeze_rows(res, dirs, L, fl, fats)
@@ -163,20 +166,22 @@ def _squeeze_rows(res, dirs, L, fl, fats):
         y_end = _apex_final_y(d)
         ride = (load + fats) / math.tan(math.radians(SQUEEZE_GAMMA))
         res.rows.append(common.Row(f"{name}: the rod's move past psi_max ({SQUEEZE_GAMMA} > {psi_max:.1f} deg), load {load} nN",
-                                   "nm", bench=moved_scan, truth=moved_truth, tolerance=5.0,
+                                   "nm", key="squeeze.past_psi_max_move", bench=moved_scan, truth=moved_truth, runs=(name,),
                                    note="between the run's scans; truth: SIM_TRUTH (the rod stays)"))
         # The model: past psi_max no push moves the rod; the card flags SQUEEZE
         # once the push passes half of k f L, which the tip
         # reaches before it rides up only when (load + F_a,ts) / tan psi does.
         flag_expected = ride > k * fl / 2
-        res.rows.append(common.Row(f"{name}: the card flagged SQUEEZE (1 yes, 0 no)", "", bench=float(flagged > 0),
-                                   truth=float(flag_expected), tolerance=0,
+        res.rows.append(common.Row(f"{name}: the card flagged SQUEEZE (1 yes, 0 no)", "", key="squeeze.squeeze_flag",
+                                   bench=float(flagged > 0), truth=float(flag_expected), runs=(name,),
                                    note=f"{flagged} blocks; the tip rides up once H tan psi - F_a,ts > load, at H = "
                                         f"{ride:.1f} nN; the card flags past half of k f L = {k * fl / 2:.1f} nN"))
-        res.rows.append(common.Row(f"{name}: the tip rode over the rod (1 yes, 0 no)", "", bench=float(y_end > 60),
-                                   truth=1.0, tolerance=0,
-                                   note=f"the apex's last y {y_end:.0f} nm (the rod's far side: +60; the path ends at "
-                                        f"+100); the stroke pushes on until the lift exceeds the load"))
+        y_true = _apex_final_y(d, "SIM_TRUTH")
+        res.rows.append(common.Row(f"{name}: the tip rode over the rod (1 yes, 0 no)", "", key="squeeze.rode_over",
+                                   bench=float(y_end > RIDDEN_Y_NM), truth=float(y_true > RIDDEN_Y_NM), runs=(name,),
+                                   note=f"the apex's last y: the card's {y_end:.0f} nm, the simulator's {y_true:.0f} nm "
+                                        f"(SIM_TRUTH, the truth column); the rod's far side is +{RIDDEN_Y_NM:.0f}, the "
+                                        f"path ends at +100; the stroke pushes on until the lift exceeds the load"))
 
 
 def _ride_flags(run_dir):
@@ -195,24 +200,27 @@ def _ride_rows(res, dirs, sc, size):
     for g in RIDE_GAMMAS[size]:
         dF = ride_load(sc, g)
         for tag, x in RIDE_LOADS.items():
-            d = dirs[f"ride_{g}_{tag}"]
+            name = f"ride_{g}_{tag}"
+            d = dirs[name]
             moved_scan, moved_truth = _rod_moved(d)
             ridden, contact = _ride_flags(d)
             sim_ridden = common.run_json(d).get("sim", {}).get("wire_ridden_samples", 0)
             load = x * dF
             if tag == "low":
                 res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 0.9 dF = {load:.2f} nN: the rod's move", "nm",
-                                           bench=moved_scan, tolerance=5.0,
+                                           key="squeeze.ride_low_move", bench=moved_scan, runs=(name,),
                                            note=f"between the run's scans (5 nm: the scan's pixel is 7.8 nm); simulator "
                                                 f"{moved_truth:.2f} nm; eq. 30's dF = {dF:.2f} nN"))
                 res.rows.append(common.Row(f"ride-over, gamma {g} deg, 0.9 dF: the card flagged RIDE-OVER (1 yes)", "",
-                                           bench=float(ridden > 0), truth=float(sim_ridden > 0), tolerance=0,
+                                           key="squeeze.ride_low_flag", bench=float(ridden > 0), truth=float(sim_ridden > 0),
+                                           runs=(name,),
                                            note=f"{ridden} blocks flagged; the simulator's tip rode over in {sim_ridden} "
                                                 f"samples (truth column)"))
             else:
                 pushed = float(contact >= 5 and moved_scan > 20.0)
                 res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 1.1 dF = {load:.2f} nN: pushed (1 yes)", "",
-                                           bench=pushed, truth=float(moved_truth > 20.0), tolerance=0,
+                                           key="squeeze.ride_high_pushed", bench=pushed, truth=float(moved_truth > 20.0),
+                                           runs=(name,),
                                            note=f"the card flagged contact in {contact} blocks and RIDE-OVER in {ridden}; "
                                                 f"the scans see the rod moved {moved_scan:.0f} nm (simulator "
                                                 f"{moved_truth:.0f} nm)"))
@@ -228,13 +236,20 @@ def _particle_rows(res, dirs, sc):
         if hb is None:
             raise common.PaperError(f"{dirs[name]}: the card never flagged contact with the particle")
         got[name] = hb
-        res.rows.append(common.Row(f"particle push, {'with' if name == 'particle_down' else 'without'} the down force "
-                                   f"(gamma {PARTICLE_GAMMA} deg)", "nN", bench=hb, truth=want, tolerance=0.15, relative=True,
+        how = "with" if name == "particle_down" else "without"
+        res.rows.append(common.Row(f"particle push, {how} the down force (gamma {PARTICLE_GAMMA} deg)", "nN",
+                                   key="squeeze.particle_push", bench=hb, truth=want, runs=(name,),
                                    note=f"truth: section 5's {what}; simulator {ht:.3f} nN (both above the threshold by "
                                         "the contact's relaxation lag while the particle slides)"))
-    res.rows.append(common.Row("particle: what the down force adds to the push", "nN",
-                               bench=got["particle_down"] - got["particle_flat"], truth=down - base, tolerance=0.1,
-                               relative=True, note="the two runs' difference: the lag common to both cancels"))
+        res.rows.append(common.Row(f"particle threshold, {how} the down force: the model's {what} against the truth's "
+                                   "push", "nN", key="squeeze.model_particle_threshold", model=want, truth=ht, runs=(name,),
+                                   note=f"model: section 5 with the values the card is handed (mu_ps {ps['mu']}, F_adh "
+                                        f"{ps['adhesion_nN']} nN); truth: the simulator's lateral force (SIM_TRUTH) while "
+                                        "it pushes the particle (median), less the tip's own sliding friction before"))
+    res.rows.append(common.Row("particle: what the down force adds to the push", "nN", key="squeeze.particle_added",
+                               bench=got["particle_down"] - got["particle_flat"], truth=down - base,
+                               runs=("particle_down", "particle_flat"),
+                               note="the two runs' difference: the lag common to both cancels"))
 
 
 def _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats):

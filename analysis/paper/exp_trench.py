@@ -133,36 +133,42 @@ def analyse(dirs, exp_dir, size):
     axis_z = common.run_json(d)["sim"]["wire_axis_heights_nm"][0]   # the simulator's seat of the rod (truth)
     res = common.Result()
     res.rows = [
-        common.Row("trench width at the surface", "nm", paper=None, bench=sc["width"], truth=tr["width"], tolerance=20.0,
+        common.Row("trench width at the surface", "nm", key="trench.width", bench=sc["width"], truth=tr["width"],
                    note=f"the scan's profile beyond the rod, {EDGE_BELOW_NM:.0f} nm below the substrate; truth: 2 depth tan gamma"),
-        common.Row("the rod's top against the substrate (fig. 18f: below it, in its fixture)", "nm", bench=sc["rod_top"],
-                   truth=axis_z + tr["rod_d"] / 2, tolerance=10.0,
+        common.Row("the rod's top against the substrate (fig. 18f: below it, in its fixture)", "nm", key="trench.rod_top",
+                   bench=sc["rod_top"], truth=axis_z + tr["rod_d"] / 2,
                    note="the fresh scan's highest point across the groove over the rod's middle; truth: the simulator's "
                         "seat, the rod on both walls of the V (axis at -D + R / sin gamma)"),
-        common.Row("the rod lies below the substrate (1 yes, 0 no)", "", bench=float(sc["rod_top"] < -EDGE_BELOW_NM), truth=1.0,
-                   tolerance=0, note="its top in the fresh scan below the substrate's level"),
-        common.Row("rod's axis from the trench's path", "nm", bench=off_b, truth=off_t, tolerance=6.0,
+        common.Row("the rod lies below the substrate (1 yes, 0 no)", "", key="trench.rod_below",
+                   bench=float(sc["rod_top"] < -EDGE_BELOW_NM), truth=float(axis_z + tr["rod_d"] / 2 < 0),
+                   note="its top in the fresh scan below the substrate's level; truth: the simulator's seat"),
+        common.Row("rod's axis from the trench's path", "nm", key="trench.axis_offset", bench=off_b, truth=off_t,
                    note="the scan's top over the rod's middle against the trench's centre beyond it: a rod in a V settles "
                         "on its centreline"),
-        common.Row("rod's angle to its target (the trench's)", "deg", bench=rods[0].get("angle_error_deg"),
-                   truth=(tr["angle"] - target_deg + 90.0) % 180.0 - 90.0, tolerance=1.0,
+        common.Row("rod's angle to its target (the trench's)", "deg", key="trench.angle", bench=rods[0].get("angle_error_deg"),
+                   truth=(tr["angle"] - target_deg + 90.0) % 180.0 - 90.0,
                    note="bench: the renderer's assembly check on the fresh scan; truth: the simulator's rod"),
-        common.Row("end pushes", "", bench=item.get("pushes"), note=f"the planner's zigzag; {item.get('note') or item.get('why') or 'ended on its target'}"),
-        common.Row("simulated time: cut, then pushed in", "s", bench=plan["finished_sim_s"],
+        common.Row("end pushes", "", key="trench.pushes", bench=item.get("pushes"), note=f"the planner's zigzag; {item.get('note') or item.get('why') or 'ended on its target'}"),
+        common.Row("simulated time: cut, then pushed in", "s", key="trench.time", bench=plan["finished_sim_s"],
                    note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
-        common.Row("the card's rod against the simulator's, at the end", "nm", bench=model_err, tolerance=10.0,
+        common.Row("the card's rod against the simulator's, at the end", "nm", key="trench.model_end", bench=model_err,
                    note="largest end distance (FW_STATE, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
-        common.Row("the same, worst over the run (within a block)", "nm", bench=worst, tolerance=40.0,
+        common.Row("the same, worst over the run (within a block)", "nm", key="trench.model_worst", bench=worst,
                    note="each block against the simulator's same or neighbouring block: a lag while an end a trench "
                         "holds is pushed (the card moves a held rod only past its whole threshold, fw_wire.h)"),
-        common.Row("blocks where they differ by more than 40 nm", "", bench=apart, tolerance=2,
+        common.Row("blocks where they differ by more than 40 nm", "", key="trench.blocks_apart", bench=apart,
                    note="the settle into the groove is a jump: the card (fw_wire_settle) and the simulator "
                         "(World::settle_rods) may take it a block apart"),
-        common.Row("the card's rod top against the fresh scan's", "nm", bench=card_top - sc["rod_top"], tolerance=10.0,
+        common.Row("the card's rod top against the fresh scan's", "nm", key="trench.card_top_scan", bench=card_top - sc["rod_top"],
                    note=f"the card's seated model (FW_STATE axis_z_nm + d/2: {card_top:.1f} nm) and the scan's "
                         f"{sc['rod_top']:.1f} nm"),
-        common.Row("display against a fresh scan: worst object", "nm", bench=fid["max_position_error_nm"], tolerance=fid["target_nm"],
-                   note="the renderer's check at the last frame"),
+        common.Row("display against a fresh scan: worst object", "nm", key="trench.display", bench=fid["max_position_error_nm"],
+                   scale=fid["target_nm"],
+                   note=f"the renderer's check at the last frame (its target {fid['target_nm']:.0f} nm)"),
+        common.Row("the rod's seat (axis height): the card's model against the truth's", "nm", key="trench.model_seat",
+                   model=states[-1][1].wires[0].axis_z_nm, truth=axis_z,
+                   note="model: the card's seated rod (fw_wire_settle, FW_STATE axis_z_nm); truth: the simulator's "
+                        "(sim_report wire_axis_heights_nm); both the rod on the V's walls, -D + R / sin gamma"),
     ]
     res.notes.append(f"assembly by the renderer's scan: {'placed' if rods[0].get('placed') else 'NOT placed'} "
                      f"within {rods[0].get('tolerance_nm')} nm of the trench's path")

@@ -1,5 +1,8 @@
 """./afm paper's outputs: paper.json (for scripts), report.md and a
-self-contained report.html (figures inline), and the table on stdout."""
+self-contained report.html (figures inline), and the tables on stdout: the
+figures (paper, bench, truth) and the paper's models against the truth
+(model, truth), each row with the error, its tolerance from
+analysis/paper/tolerances.yaml and its verdict."""
 import base64
 import datetime
 import json
@@ -31,15 +34,31 @@ def _tol(r):
     return f"{100 * r.tolerance:.3g} %" if r.relative else fmt(r.tolerance, 3)
 
 
+def model_rows(res):
+    return [r for r in res.rows if r.model is not None]
+
+
+def figure_rows(res):
+    return [r for r in res.rows if r.model is None]
+
+
 def table(results):
-    """The stdout table: one line per figure."""
+    """The stdout tables: one line per figure, then one per model row."""
     head = f"{'experiment':10s} {'quantity':44s} {'paper':>10s} {'bench':>11s} {'truth':>11s} {'error':>10s} {'tol':>8s}  verdict"
     lines = [head, "-" * len(head)]
     for name, (_, res, _) in results.items():
-        for r in res.rows:
+        for r in figure_rows(res):
             q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
             lines.append(f"{name:10s} {q[:44]:44s} {fmt(r.paper):>10s} {fmt(r.bench):>11s} {fmt(r.truth):>11s} {_err(r):>10s} "
                          f"{_tol(r):>8s}  {r.verdict}")
+    what = "the paper's model against the truth"
+    head = f"{'experiment':10s} {what:56s} {'model':>11s} {'truth':>11s} {'error':>10s} {'tol':>8s}  verdict"
+    lines += ["", head, "-" * len(head)]
+    for name, (_, res, _) in results.items():
+        for r in model_rows(res):
+            q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
+            lines.append(f"{name:10s} {q[:56]:56s} {fmt(r.model):>11s} {fmt(r.truth):>11s} {_err(r):>10s} {_tol(r):>8s}  "
+                         f"{r.verdict}")
     return "\n".join(lines)
 
 
@@ -61,14 +80,23 @@ def write(out, results, size, wall_s):
 
     md = [f"# The paper, reproduced on the bench ({size} size)", "",
           f"Written {now}; {wall_s:.0f} s. Each value under *bench* is measured from the runs' own signals, scans and "
-          "firmware outputs by the firmware's own solvers; *truth* is the simulator's; *error* is bench - truth.", ""]
+          "firmware outputs by the firmware's own solvers; *model* is the paper's model as the card or the firmware's solver "
+          "computes it; *truth* is the simulator's; *error* is bench (or model) - truth. Tolerances: "
+          "analysis/paper/tolerances.yaml, fixed before running. *unit check*: the truth is the model's own formula; "
+          "*run failed*: a run the row is measured from failed its own verdict.", ""]
     for n, (e, res, w) in results.items():
         md += [f"## {e.TITLE} ({e.FIGURES}): {'within tolerance' if res.ok else 'OUTSIDE tolerance'}", "",
                "| quantity | paper | bench | truth | error | tolerance | verdict | note |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
-        for r in res.rows:
+        for r in figure_rows(res):
             q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
             md.append(f"| {q} | {fmt(r.paper)} | {fmt(r.bench)} | {fmt(r.truth)} | {_err(r)} | {_tol(r)} | "
                       f"{r.verdict} | {r.note} |")
+        if model_rows(res):
+            md += ["", "The paper's models against the truth:", "",
+                   "| quantity | model | truth | error | tolerance | verdict | note |", "| --- | --- | --- | --- | --- | --- | --- |"]
+        for r in model_rows(res):
+            q = f"{r.quantity} ({r.unit})" if r.unit else r.quantity
+            md.append(f"| {q} | {fmt(r.model)} | {fmt(r.truth)} | {_err(r)} | {_tol(r)} | {r.verdict} | {r.note} |")
         md += [""] + [f"- {t}" for t in res.notes] + [""]
         md += [f"![{cap}]({n}/{fn})" for cap, fn in res.figures] + [""]
     with open(os.path.join(out, "report.md"), "w") as f:
@@ -79,8 +107,10 @@ def write(out, results, size, wall_s):
     exps = []
     for n, (e, res, w) in results.items():
         figs = [(cap, _inline(os.path.join(out, n, fn))) for cap, fn in res.figures if os.path.exists(os.path.join(out, n, fn))]
-        rows = [dict(asdict(r), err=_err(r), tol=_tol(r), verdict=r.verdict) for r in res.rows]
-        exps.append({"name": n, "title": e.TITLE, "figs": e.FIGURES, "ok": res.ok, "rows": rows, "notes": res.notes,
+        row = lambda r: dict(asdict(r), err=_err(r), tol=_tol(r), verdict=r.verdict)
+        rows, models = [row(r) for r in figure_rows(res)], [row(r) for r in model_rows(res)]
+        exps.append({"name": n, "title": e.TITLE, "figs": e.FIGURES, "ok": res.ok, "rows": rows, "models": models,
+                     "notes": res.notes,
                      "figures": figs, "wall_s": w, "what": e.__doc__ or ""})
     html = env.get_template("paper.html.j2").render(exps=exps, size=size, now=now, wall_s=wall_s,
                                                      all_ok=all(x["ok"] for x in exps))

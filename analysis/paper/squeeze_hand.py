@@ -68,12 +68,12 @@ def rows(res, dirs, exp_dir):
         want = frac > 1
         res.rows.append(common.Row(
             f"by hand, load {frac} x eq. 30's dF: the hand felt the rod {'carried to the stroke end' if want else 'ridden over'} (1 yes)",
-            "", bench=float(pushed == want), truth=1.0, tolerance=0,
+            "", key="squeeze.hand_felt", bench=float(pushed == want), truth=1.0, runs=(name,),
             note=f"the device's rendered |F_y| in the first stroke: peak {g['peak'] * 1e3:.1f} mN, last fifth "
                  f"{g['tail'] * 1e3:.1f} mN (a push keeps at least half its peak); gamma {GAMMA} deg, l = {Q} L"))
         res.rows.append(common.Row(
-            f"by hand, load {frac} x dF: the load the stylus's press asked for", "nN", bench=g["load"], truth=frac * df,
-            tolerance=0.08, relative=True,
+            f"by hand, load {frac} x dF: the load the stylus's press asked for", "nN", key="squeeze.hand_load",
+            bench=g["load"], truth=frac * df, runs=(name,),
             note=f"HAPTIC_POSE's load from the stylus's depth (span {SPAN_NN:.0f} nN); the hand aims for {frac * df:.2f} nN and "
                  f"F_z pushes the stylus back up by g F_z / K_hand (rendered F_z {g['fz_med'] * 1e3:.0f} mN)"))
     return plot(exp_dir, got)

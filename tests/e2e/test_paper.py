@@ -1,9 +1,13 @@
-"""./afm paper at its reduced size (issue 13): every experiment runs on the
-bench, is analysed from the runs' own data, and its figures are checked here
-against the truth or the closed form within the tolerance the report states
-(recomputed from paper.json, not taken from its "ok"). The report is written
-whole (report.html with its figures inline, report.md, paper.json); a
-tolerance broken makes the judge say so; bad arguments are named."""
+"""./afm paper at its reduced size (issues 13, 47): every experiment runs on
+the bench, is analysed from the runs' own data, and its figures and the
+paper's models are checked here against the truth or the closed form within
+the tolerance of analysis/paper/tolerances.yaml (recomputed from paper.json,
+not taken from its "ok"); every row names an entry of that file and every
+entry is used; a row measured from a run whose own verdict failed is never
+ok and names the check, and only the runs KNOWN_VERDICT_FAILURES lists may
+fail; the command exits 1 exactly when a row is not ok. The report is
+written whole (report.html with its figures inline, report.md, paper.json);
+bad arguments are named. The judge itself: tests/py/test_paper_tolerances.py."""
 import json
 import math
 import os
@@ -17,6 +21,24 @@ PY = sys.executable
 ENV = dict(os.environ)
 
 from analysis.paper import cli, common  # noqa: E402
+
+# The runs whose own verdict fails today at the reduced size, each with why
+# (their rows say "run failed: CHECK"; a run not listed here that fails its
+# verdict fails this test).
+KNOWN_VERDICT_FAILURES = {
+    ("squeeze", "ride_20_high"): "fidelity: the card flags RIDE-OVER while the truth pushes the rod just above eq. 30's dF "
+                                 "(issue 47, item 7), so the display ends off the rod",
+    ("squeeze", "f16_g50"): "fidelity: the load ramp's last strokes push the rod on while the card judges ride-overs",
+    ("squeeze", "f17_g30_q25"): "fidelity: as f16_g50",
+    ("rod", "l_0.45L"): "fidelity: the display ends about 30 nm off the rod pushed near its middle",
+    ("drift", "local_scans"): "fidelity: the sample drifts on after the last local scan",
+    ("drift", "far"): "fidelity: the sample drifts on after the wider scan's fix",
+}
+
+
+def value(r):
+    """A row's value: the model's on a model row, else the bench's."""
+    return r["model"] if r["model"] is not None else r["bench"]
 
 
 def paper(*args, timeout=480):
@@ -45,34 +67,88 @@ class Reduced(unittest.TestCase):
         self.assertEqual(len(hits), 1, f"{exp}: one row starting {prefix!r}")
         return hits[0]
 
-    def test_every_experiment_ran_and_the_command_passed(self):
-        self.assertEqual(self.code, 0, self.so[-3000:] + self.se[-3000:])
+    def all_rows(self):
+        return [(name, r) for name, exp in self.data["experiments"].items() for r in exp["rows"]]
+
+    def test_every_experiment_ran_and_the_command_exits_1_exactly_when_a_row_is_not_ok(self):
+        self.assertIn(self.code, (0, 1), self.so[-3000:] + self.se[-3000:])
+        self.assertEqual(self.code, 1 if any(not r["ok"] for _, r in self.all_rows()) else 0, self.so[-3000:])
         self.assertEqual(sorted(self.data["experiments"]), sorted(e.NAME for e in cli.EXPERIMENTS))
         self.assertIn("experiment quantity", self.so)
+        self.assertIn("the paper's model against the truth", self.so)
 
     def test_every_judged_figure_within_its_tolerance_recomputed(self):
+        for name, r in self.all_rows():
+            self.assertIsNotNone(value(r), f"{name}: {r['quantity']}: nothing measured ({self.data['experiments'][name]['notes']})")
+            if r["tolerance"] is None:
+                continue
+            if r["truth"] is None:
+                self.assertLessEqual(abs(value(r)), r["tolerance"], f"{name}: {r['quantity']}")
+                continue
+            e = value(r) - r["truth"]
+            if r["relative"]:
+                e /= r["truth"]
+            self.assertLessEqual(abs(e), r["tolerance"], f"{name}: {r['quantity']}: {r}")
+
+    def test_every_row_has_its_entry_in_the_tolerance_file_and_every_entry_is_used(self):
+        entries = common.tolerances()
+        used = set()
+        for name, r in self.all_rows():
+            self.assertIn(r["key"], entries, f"{name}: {r['quantity']}")
+            self.assertEqual(r["kind"], entries[r["key"]]["kind"], r)
+            used.add(r["key"])
+        self.assertEqual(set(entries) - used, set(), "entries no row used at the reduced size")
+
+    def test_a_row_of_a_run_whose_verdict_failed_says_so_and_is_never_ok(self):
+        failed = {}
         for name, exp in self.data["experiments"].items():
-            for r in exp["rows"]:
-                self.assertIsNotNone(r["bench"], f"{name}: {r['quantity']}: nothing measured ({exp['notes']})")
-                if r["tolerance"] is None:
-                    continue
-                if r["truth"] is None:
-                    self.assertLessEqual(abs(r["bench"]), r["tolerance"], f"{name}: {r['quantity']}")
-                    continue
-                e = r["bench"] - r["truth"]
-                if r["relative"]:
-                    e /= r["truth"]
-                self.assertLessEqual(abs(e), r["tolerance"], f"{name}: {r['quantity']}: {r}")
+            for run in os.listdir(os.path.join(self.out, name, "runs")):
+                rj = os.path.join(self.out, name, "runs", run, "run.json")
+                if os.path.isfile(rj):
+                    with open(rj) as f:
+                        v = json.load(f).get("verdict") or {}
+                    if not v.get("pass", True):
+                        failed[(name, run)] = [c["check"] for c in v["failed"]]
+        self.assertEqual(set(failed) - set(KNOWN_VERDICT_FAILURES), set(), failed)
+        for name, r in self.all_rows():
+            mine = [run for (e, run) in failed if e == name and (not r["runs"] or run in r["runs"])]
+            if mine:
+                self.assertFalse(r["ok"], r)
+                self.assertTrue(r["verdict"].startswith("run failed: "), r)
+                for run in mine:
+                    self.assertIn(run, r["verdict"])
+            else:
+                self.assertFalse(r["verdict"].startswith("run failed"), r)
+        ride = self.row("squeeze", "ride-over, gamma 20 deg, load 1.1 dF")
+        if ("squeeze", "ride_20_high") in failed:
+            self.assertEqual(ride["verdict"], "run failed: fidelity (ride_20_high)")
+
+    def test_the_models_against_the_truth(self):
+        # eq. 30's dF against the truth's own lift-off (SIM_TRUTH, the load ramp),
+        # the rod's static point and least push against the numeric rod, the
+        # particle threshold, the calibrations: each a model row with its truth
+        models = [r for _, r in self.all_rows() if r["model"] is not None]
+        keys = {r["key"] for r in models}
+        for k in ("squeeze.model_liftoff", "rod.model_static_point", "rod.model_least_push",
+                  "squeeze.model_particle_threshold", "tilted.mu", "tilted.lateral", "lines.cn", "trench.model_seat",
+                  "flex.model_bow"):
+            self.assertIn(k, keys)
+        for r in models:
+            self.assertIsNotNone(r["truth"], r)
+            self.assertIn(r["kind"], ("model error", "unit check"), r)
+        for r in (r for r in models if r["key"] == "squeeze.model_liftoff"):
+            self.assertIn("SIM_TRUTH", r["note"])
+            self.assertEqual(r["kind"], "unit check", "the simulator still lifts the tip by eq. 27-28's balance")
 
     def test_tilted_glass_gives_mu_and_the_lateral_gain_of_the_closed_form(self):
         # physics.md 2: the paper's r_u 0.07, r_d 0.02 give mu 0.0865 and 37.9 nN/V.
-        self.assertAlmostEqual(self.row("tilted", "mu")["bench"], 0.0865, delta=0.0865 * 0.05)
-        self.assertAlmostEqual(self.row("tilted", "k_theta")["bench"], 37.9, delta=37.9 * 0.03)
+        self.assertAlmostEqual(value(self.row("tilted", "mu")), 0.0865, delta=0.0865 * 0.05)
+        self.assertAlmostEqual(value(self.row("tilted", "k_theta")), 37.9, delta=37.9 * 0.03)
 
     def test_lines_find_the_levers_true_cn_not_the_estimate_and_the_calibration_mends_the_apex(self):
         cn = self.row("lines", "C_n")
-        self.assertAlmostEqual(cn["bench"], cn["truth"], delta=0.03 * cn["truth"])
-        self.assertGreater(abs(cn["bench"] - 23.1), 2.0, "the estimate, not a measurement")
+        self.assertAlmostEqual(value(cn), cn["truth"], delta=0.03 * cn["truth"])
+        self.assertGreater(abs(value(cn) - 23.1), 2.0, "the estimate, not a measurement")
         # read from the fresh scans' lines against the card's apex, not from SIM_TRUTH
         est = self.row("lines", "apex error on a cut, C_n estimated")
         cal = self.row("lines", "apex error on a cut, C_n calibrated")
@@ -91,7 +167,7 @@ class Reduced(unittest.TestCase):
         self.assertGreater(shift["bench"], 100.0, "the shift's sign is the frame convention's")
         self.assertAlmostEqual(shift["bench"], shift["truth"], delta=0.03 * shift["truth"])
         cn = self.row("lines", "scan angle 0: C_n")
-        self.assertAlmostEqual(cn["bench"], cn["truth"], delta=0.01 * cn["truth"])
+        self.assertAlmostEqual(value(cn), cn["truth"], delta=0.01 * cn["truth"])
         self.assertLess(self.row("lines", "lines at scan angle 0 against the 270 deg lines")["bench"], 3.0)
         self.assertTrue(any("quarter turn" in n for n in self.data["experiments"]["lines"]["notes"]))
 
@@ -116,9 +192,12 @@ class Reduced(unittest.TestCase):
         s_end, k_end = exp_rod.closed_form(0.03 * L, L)
         # the static point from the rod's centre (the scans need no length)
         self.assertAlmostEqual(self.row("rod", "static point at an end push")["bench"], s_end - L / 2, delta=30)
-        # the card's model against the simulator's own numeric rod, not eq. 20
-        self.assertLess(self.row("rod", "the card's model (fw_wire) against the simulator's numeric rod: static")["bench"],
-                        0.02 * L)
+        # the card's model against the simulator's own numeric rod, not eq. 20, at every push point
+        static = [r for r in self.data["experiments"]["rod"]["rows"] if r["key"] == "rod.model_static_point"]
+        self.assertEqual(len(static), 4)
+        for r in static:
+            self.assertLess(abs(r["model"] - r["truth"]), 0.02 * L, r)
+            self.assertEqual(r["kind"], "model error")
         self.assertAlmostEqual(self.row("rod", "push that moves the rod at l = 0.03")["bench"], k_end * 26.0, delta=0.1 * 26.0)
         self.assertLess(self.row("rod", "firmware fw_wire against the closed form: static")["bench"], 2.0)
 
@@ -200,13 +279,6 @@ class Reduced(unittest.TestCase):
 
 
 class Judge(unittest.TestCase):
-    def test_a_figure_outside_its_tolerance_is_judged_so(self):
-        self.assertFalse(common.Row("x", "nm", bench=10.6, truth=10.0, tolerance=0.05, relative=True).judge().ok)
-        self.assertTrue(common.Row("x", "nm", bench=10.4, truth=10.0, tolerance=0.05, relative=True).judge().ok)
-        self.assertFalse(common.Row("x", "nm", bench=3.0, tolerance=2.0).judge().ok)       # a limit
-        self.assertFalse(common.Row("x", "nm", bench=None, truth=1.0, tolerance=2.0).judge().ok)   # nothing measured
-        self.assertFalse(common.Row("x", "", bench=1.0, truth=0.0, tolerance=0.1, relative=True).judge().ok)   # truth 0
-
     def test_bad_arguments_are_named(self):
         code, so, se = paper("--only", "nonsense")
         self.assertEqual(code, 2)
@@ -228,12 +300,12 @@ class SeededTruth(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         self.assertIn("seeded truth, seed 3", p.stderr)
         with open(os.path.join(out, "paper.json")) as f:
-            rows = {r["quantity"]: r for r in json.load(f)["experiments"]["tilted"]["rows"]}
-        mu, lat = rows["mu (tip-substrate)"], rows["k_theta K_l / h"]
+            rows = {r["key"]: r for r in json.load(f)["experiments"]["tilted"]["rows"]}
+        mu, lat = rows["tilted.mu"], rows["tilted.lateral"]
         self.assertNotAlmostEqual(mu["truth"], 0.0865, delta=0.005)   # not the paper's
         self.assertNotAlmostEqual(lat["truth"], 37.9, delta=1.0)
         for r in (mu, lat):
-            self.assertLess(abs(r["bench"] - r["truth"]) / r["truth"], 0.01, r)
+            self.assertLess(abs(r["model"] - r["truth"]) / r["truth"], 0.01, r)
         # the card was told the paper's values, not the drawn ones
         with open(os.path.join(out, "tilted", "runs", "load_5nN", "run.json")) as f:
             card = json.load(f)["card"]
