@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <stdexcept>
 
 #include "process.hpp"
@@ -102,6 +103,10 @@ void Lifecycle::end(const std::string &ended, const std::string &error)
 {
     if (report_path_.empty() || written_) return;
     take_report();
+    // a folder that is not there (a run that failed before making it) keeps nothing: no second complaint
+    const std::filesystem::path folder = std::filesystem::path(report_path_).parent_path();
+    std::error_code ec;
+    if (!folder.empty() && !std::filesystem::is_directory(folder, ec)) return;
     try {
         write(ended, error);
     } catch (const std::exception &e) {

@@ -23,7 +23,9 @@
 //    or as the body leaves (the guard report_from returns), plus "ended":
 //    "done", "ok", "run_over_early", "exit N", "input_error" or "failure",
 //    and "error" (the exception's text) for the last two. A fill that
-//    throws leaves "report_error" instead of its content.
+//    throws leaves "report_error" instead of its content. A report whose
+//    folder is not there when the body fails is not written (nothing to
+//    keep it in).
 //  - Its declared subscriptions: check_subscriptions(channels) refuses
 //    (std::runtime_error naming the channel) an Inbox's subscription the
 //    process did not declare.
@@ -89,7 +91,8 @@ public:
     [[nodiscard]] ReportScope report_from(std::function<nlohmann::json()> fill);
 
     // The skeleton's end: the report, if not yet written, saying `ended`
-    // (and `error` when not empty). Prints (does not throw) a failure to write.
+    // (and `error` when not empty). Prints (does not throw) a failure to
+    // write; writes nothing into a folder that is not there.
     void end(const std::string &ended, const std::string &error = "");
     const std::string &report_path() const { return report_path_; }
     bool report_written() const { return written_; }
