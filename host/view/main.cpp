@@ -20,7 +20,8 @@
 //     refuses is counted by reason and channel, said in its log when it
 //     ends, and written to --report FILE (JSON: "passed" by channel,
 //     "rejected": "unproven", "foreign", "foreign_datagrams", "tap_dropped",
-//     "tap_abandoned"; "bus_mac": whether it held a key), which the launcher
+//     "tap_abandoned"; "bus_mac": whether it held a key; "ended": how the
+//     bridge ended, bus/lifecycle.hpp), which the launcher
 //     puts in run.json (launcher.view_bridge).
 //   - It publishes nothing: an observer the run never waits for. When the
 //     pipe is full it blocks, and its socket's buffer overflows instead of
