@@ -94,8 +94,6 @@ public:
     // (and `error` when not empty). Prints (does not throw) a failure to
     // write; writes nothing into a folder that is not there.
     void end(const std::string &ended, const std::string &error = "");
-    const std::string &report_path() const { return report_path_; }
-    bool report_written() const { return written_; }
 
     void check_subscriptions(const std::vector<std::string> &channels) const;
 
