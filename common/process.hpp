@@ -1,7 +1,9 @@
 // The life of a run's process, written once for sim_afm, fw_node, the
 // operator, the renderer and the launcher: the exit codes the launcher reads,
 // the states a process says on AFM_HEARTBEAT, when the run is over for a
-// peer, the report a process leaves in the run's folder, and main's catch.
+// peer, and how a report is written to the run's folder. The skeleton that
+// runs a process's body, says its states and writes its report is
+// bus/run_process.hpp and bus/lifecycle.hpp.
 #pragma once
 
 #include <sys/types.h>

@@ -68,7 +68,7 @@ struct Sim {
     const afm::Scene &scene;
     lcm::LCM &lc;
     afm::sim::World world;
-    afm::Heartbeat hb;
+    afm::Lifecycle &life;
 
     std::set<std::string> ready;       // peers that said ready
     bool go = false;                   // launcher said running
@@ -97,7 +97,7 @@ struct Sim {
     int64_t waiting_after = -1;        // the analog block the simulator has published and waits after (-1: none yet)
     std::vector<afm::scan_req_t> later_scans;   // asked for a later block (scan_req_t.at_seq)
 
-    Sim(const afm::Scene &s, lcm::LCM &l) : scene(s), lc(l), world(s), hb(l, "sim_afm") {}
+    Sim(const afm::Scene &s, afm::Lifecycle &li) : scene(s), lc(li.bus()), world(s), life(li) {}
 
     // The scans this scene's own clients may ask for (the renderer's at the
     // display's pitch, within the field; the planner's at its local scans'
@@ -204,7 +204,7 @@ struct Sim {
             *ended_at = end;
         }
         for (int i = 0; i < 3; ++i)
-            hb.send(afm::RunState::ending, *blocks - 1, afm::block_end_utime(scene, *blocks - 1), "the planner finished");
+            life.heartbeat().send(afm::RunState::ending, *blocks - 1, afm::block_end_utime(scene, *blocks - 1), "the planner finished");
     }
 
     // The scans asked for the block the simulator now waits after.
@@ -318,7 +318,7 @@ constexpr const char *kOptions = "options:";
 constexpr long long kMany = std::numeric_limits<long long>::max();
 
 const afm::Process<Options> kProcess = {
-    "sim_afm",
+    {"sim_afm",
     "usage: sim_afm --scene FILE --out DIR [options]\n"
     "  The simulated AFM of a run; normally started by ./afm run inside the run's\n"
     "  network namespace.\n",
@@ -348,7 +348,10 @@ const afm::Process<Options> kProcess = {
           "most 2 frames ahead of it, and waits for it at each frame where it asks\n"
           "for a scan."},
          afm::cli::flag(&Options::renderer, false)},
-    }};
+    }},
+    {AFM_CH_AFM_HEARTBEAT, AFM_CH_AFM_CMD, AFM_CH_RENDER_FRAME, AFM_CH_AFM_SCAN_REQ},
+    {AFM_CH_AFM_ANALOG, AFM_CH_AFM_SCAN_LINE, AFM_CH_SIM_TRUTH},
+    [](const Options &o) { return o.out_dir + "/sim_report.json"; }};
 
 // The lockstep loop of a run: one analog block after another, each answered
 // by the card (and by the renderer's frames when due) before the next.
@@ -441,7 +444,7 @@ struct Loop {
                 ++resends;
                 last_send = std::chrono::steady_clock::now();
             }
-            sim.hb.maybe_send(afm::RunState::running, n, blk.utime, kHeartbeatPeriodUs);
+            sim.life.running(n, blk.utime, kHeartbeatPeriodUs);
         }
         if (answered != std::chrono::steady_clock::time_point{}) {
             const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - answered).count();
@@ -479,7 +482,7 @@ struct Loop {
                 sim.have_cmd = false;
             }
             sim.end_early(n, &blocks, &ended_early_at);
-            sim.hb.maybe_send(afm::RunState::running, n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
+            sim.life.running(n, afm::block_end_utime(scene, n), kHeartbeatPeriodUs);
         }
         wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
         return true;
@@ -524,37 +527,33 @@ struct Loop {
 
 int main(int argc, char **argv)
 {
-    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt, afm::Lifecycle &life) {
         const afm::Scene scene = afm::load_scene(opt.scene_path);
-        auto lc = afm::open_bus();
-        Sim sim(scene, *lc);
+        lcm::LCM &lc = life.bus();
+        Sim sim(scene, life);
         afm::Aside aside(opt.aside_cpus);   // SIM_TRUTH: the record's, no process of the lockstep reads it
         if (!opt.follow_log.empty()) sim.log = std::make_unique<afm::LogTail>(opt.follow_log);
-        afm::Inbox inbox(lc.get());
+        afm::Inbox inbox(&lc);
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return sim.on_heartbeat(m); });
         inbox.on<afm::tip_cmd_t>(AFM_CH_AFM_CMD, [&](const afm::tip_cmd_t &m) { return sim.on_cmd(m); });
         inbox.on<afm::render_frame_t>(AFM_CH_RENDER_FRAME, [&](const afm::render_frame_t &m) { return sim.on_frame(m); });
         inbox.on<afm::scan_req_t>(AFM_CH_AFM_SCAN_REQ, [&](const afm::scan_req_t &m) { return sim.on_scan_req(m); });
         afm::check_lockstep_reads(scene, inbox.channels(), "sim_afm");
+        life.check_subscriptions(inbox.channels());
 
         // Start: serve scans until every peer is ready and the launcher says go.
         std::set<std::string> peers = {"fw_node", "operator"};
         if (opt.renderer) peers.insert("renderer");
-        while (!sim.go || !std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())) {
-            sim.hb.maybe_send(afm::RunState::ready, -1, 0);
-            inbox.handle(afm::kReadyPeriodMs);
-            if (sim.abort) return static_cast<int>(afm::kExitRunOverEarly);
-        }
-        Loop loop(sim, *lc, inbox, aside, opt);
+        life.serve([] { return afm::Progress{}; }, [&](int ms) { inbox.handle(ms); },
+                   [&] { return sim.abort || (sim.go && std::includes(sim.ready.begin(), sim.ready.end(), peers.begin(), peers.end())); });
+        if (sim.abort) return static_cast<int>(afm::kExitRunOverEarly);
+        Loop loop(sim, lc, inbox, aside, opt);
+        const auto report = life.report_from([&] { return loop.report(); });   // sim_report.json
         if (!loop.run()) return static_cast<int>(afm::kExitRunOverEarly);
         // at once: the launcher reads each process's CPU at the loop's end (run.json timing)
-        sim.hb.send(afm::RunState::running, loop.blocks - 1, afm::block_end_utime(scene, loop.blocks - 1), "loop over");
+        life.heartbeat().send(afm::RunState::running, loop.blocks - 1, afm::block_end_utime(scene, loop.blocks - 1), "loop over");
         aside.flush();   // the record holds every block before "done", and the report counts them all
-        afm::write_report(opt.out_dir + "/sim_report.json", loop.report());
-        for (int i = 0; i < 3; ++i) {
-            sim.hb.send(afm::RunState::done, loop.blocks - 1, afm::block_end_utime(scene, loop.blocks - 1));
-            inbox.handle(20);
-        }
+        life.done(loop.blocks - 1, afm::block_end_utime(scene, loop.blocks - 1), 3, [&] { inbox.handle(20); });
         return static_cast<int>(afm::kExitOk);
     });
 }

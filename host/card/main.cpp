@@ -47,7 +47,7 @@ struct Options {
 constexpr const char *kOptions = "options:";
 
 const afm::Process<Options> kProcess = {
-    "fw_node",
+    {"fw_node",
     "usage: fw_node --scene FILE [options]\n"
     "  The firmware on the bus; normally started by ./afm run inside the run's namespace.\n",
     {
@@ -68,7 +68,10 @@ const afm::Process<Options> kProcess = {
           "the CPUs (\"0-1\") the thread that publishes the observers' channels\n"
           "aside may use (bus/aside.hpp; the launcher passes every CPU of the run)"},
          afm::cli::cpus(&Options::aside_cpus)},
-    }};
+    }},
+    {AFM_CH_AFM_ANALOG, AFM_CH_HOST_OBJECT_FIX, AFM_CH_HAPTIC_POSE, AFM_CH_AFM_HEARTBEAT},
+    {AFM_CH_AFM_CMD, AFM_CH_FW_STATE, AFM_CH_HAPTIC_FORCE},
+    [](const Options &o) { return o.out_dir.empty() ? std::string() : o.out_dir + "/fw_report.json"; }};
 
 constexpr int kCrashExitCode = 70;
 
@@ -77,12 +80,12 @@ struct Node {
     lcm::LCM &lc;
     afm::Aside &aside;
     afm::CardNode card;
-    afm::Heartbeat hb;
+    afm::Lifecycle &life;
     int64_t crash_at = -1;
     bool sim_done = false;
 
-    Node(const afm::Scene &s, lcm::LCM &l, afm::Aside &a, const afm::CardBackendOptions &where)
-        : scene(s), lc(l), aside(a), card(s, where), hb(l, "fw_node") {}
+    Node(const afm::Scene &s, afm::Lifecycle &li, afm::Aside &a, const afm::CardBackendOptions &where)
+        : scene(s), lc(li.bus()), aside(a), card(s, where), life(li) {}
 
     // In the card's order; a channel no process of the lockstep reads aside.
     void publish(const afm::Outbox &box)
@@ -101,7 +104,7 @@ struct Node {
         }
         afm::Reject why;
         publish(card.on_analog(b, &why));
-        hb.maybe_send(afm::RunState::running, card.done(), card.sim_utime_done());
+        life.running(card.done(), card.sim_utime_done());
         return why;
     }
 
@@ -130,41 +133,46 @@ struct Node {
 
 }  // namespace
 
+// fw_report.json: the card's account of the run (the force interlock's
+// trips: fw_guard.h; null when the scene turns it off).
+static nlohmann::json card_report(Node &node, const afm::Inbox &inbox, const afm::Aside &aside)
+{
+    const fw_models_t &m = node.card.backend().models();
+    return {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
+            {"aside", aside.report()},
+            {"interlock_trips", m.interlock ? nlohmann::json(m.interlock_trips) : nlohmann::json(nullptr)},
+            {"unobservable_push_blocks", node.card.tally().unobservable_push_blocks},
+            {"saturated_samples", node.card.tally().saturated_samples},
+            {"board", node.card.backend().report()}};
+}
+
 int main(int argc, char **argv)
 {
-    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt, afm::Lifecycle &life) {
         afm::CardBackendOptions where = opt.where;
         if (!opt.out_dir.empty() && where.firmware == "qemu") where.board_log = opt.out_dir + "/logs/board.log";
         const afm::Scene scene = afm::load_scene(opt.scene_path);
-        auto lc = afm::open_bus();
+        lcm::LCM &lc = life.bus();
         afm::Aside aside(opt.aside_cpus);
-        Node node(scene, *lc, aside, where);
+        Node node(scene, life, aside, where);
         node.crash_at = opt.crash_at;
-        afm::Inbox inbox(lc.get());
+        afm::Inbox inbox(&lc);
         inbox.on<afm::analog_block_t>(AFM_CH_AFM_ANALOG, [&](const afm::analog_block_t &m) { return node.on_analog(m); });
         inbox.on<afm::object_fix_t>(AFM_CH_HOST_OBJECT_FIX, [&](const afm::object_fix_t &m) { return node.on_fix(m); });
         inbox.on<afm::haptic_pose_t>(AFM_CH_HAPTIC_POSE, [&](const afm::haptic_pose_t &m) { return node.on_pose(m); });
         inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return node.on_heartbeat(m); });
         afm::check_lockstep_reads(scene, inbox.channels(), "fw_node");
-        while (!node.sim_done) {
-            const int64_t done = node.card.done();
-            if (done < 0) node.card.check_alive();   // a board that died before the first block is named at once (a block's exchange names it after)
-            node.hb.maybe_send(done < 0 ? afm::RunState::ready : afm::RunState::running, done, node.card.sim_utime_done());
-            inbox.handle(done < 0 ? afm::kReadyPeriodMs : 100);
-        }
+        life.check_subscriptions(inbox.channels());
+        const auto report = life.report_from([&] { return card_report(node, inbox, aside); });
+        life.serve(
+            [&] {
+                const int64_t done = node.card.done();
+                if (done < 0) node.card.check_alive();   // a board that died before the first block is named at once (a block's exchange names it after)
+                return afm::Progress{done >= 0, done, node.card.sim_utime_done()};
+            },
+            [&](int ms) { inbox.handle(ms); }, [&] { return node.sim_done; });
         aside.flush();   // the record holds every block before "done"
-        node.hb.send(afm::RunState::done, node.card.done(), node.card.sim_utime_done());
-        if (!opt.out_dir.empty()) {
-            // the force interlock's trips (fw_guard.h; null when the scene turns it off)
-            const fw_models_t &m = node.card.backend().models();
-            afm::write_report(opt.out_dir + "/fw_report.json",
-                              {{"blocks_stepped", node.card.done() + 1}, {"rejected", inbox.report()},
-                               {"aside", aside.report()},
-                               {"interlock_trips", m.interlock ? nlohmann::json(m.interlock_trips) : nlohmann::json(nullptr)},
-                               {"unobservable_push_blocks", node.card.tally().unobservable_push_blocks},
-                               {"saturated_samples", node.card.tally().saturated_samples},
-                               {"board", node.card.backend().report()}});
-        }
+        life.done(node.card.done(), node.card.sim_utime_done());
         return afm::kExitOk;
     });
 }

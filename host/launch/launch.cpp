@@ -166,7 +166,7 @@ int Launch::prepare()
     if (const int code = open_tap(); code >= 0) return code;
     inbox_ = std::make_unique<afm::Inbox>(nullptr);   // fed by the tap (pump())
     inbox_->on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [this](const afm::heartbeat_t &m) { return prog_.on_hb(m); });
-    hb_ = std::make_unique<afm::Heartbeat>(*lc_, "launcher");
+    life_ = std::make_unique<afm::Lifecycle>("launcher", *lc_);
     wall0_ = std::chrono::steady_clock::now();
     return -1;
 }
@@ -204,7 +204,7 @@ int Launch::start()
     }
     try {
         recorder_ = std::make_unique<afm::BusRecorder>(out_ + "/bus.lcmlog");
-        hb_->send(afm::RunState::starting, 0, 0, std::string("recording the bus; ") + afm::kScenePrefix + scene_hash_);
+        life_->starting(std::string("recording the bus; ") + afm::kScenePrefix + scene_hash_, 0);
         pump(0);
         recorder_->settle(true);
     } catch (const afm::LogError &e) {
@@ -324,7 +324,7 @@ bool Launch::supervise_step(bool *started)
             start_run();
         }
     }
-    if (*started && !prog_.is("sim_afm", afm::RunState::done)) hb_->maybe_send(afm::RunState::running, 0, 0, 200000);
+    if (*started && !prog_.is("sim_afm", afm::RunState::done)) life_->running(0, 0, 200000);
     failure_ = stalled_process();
     return failure_.empty();
 }
@@ -354,7 +354,7 @@ void Launch::stop()
 {
     if (!failure_.empty()) {
         for (int i = 0; i < 3; ++i) {
-            hb_->send(afm::RunState::stop, 0, 0, failure_);
+            life_->stop(failure_);
             pump(20);
         }
         sup_.signal_run(SIGTERM);

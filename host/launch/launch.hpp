@@ -22,6 +22,7 @@
 #include "bus_tap.hpp"
 #include "hosts.hpp"
 #include "inbox.hpp"
+#include "lifecycle.hpp"
 #include "options.hpp"
 #include "placement.hpp"
 #include "progress.hpp"
@@ -77,7 +78,7 @@ private:
     std::string scene_hash_;   // afm::scene_hash of scene_run_'s text
     std::unique_ptr<lcm::LCM> lc_;
     std::unique_ptr<afm::Inbox> inbox_;
-    std::unique_ptr<afm::Heartbeat> hb_;
+    std::unique_ptr<afm::Lifecycle> life_;   // its heartbeat: starting, running, stop
     Progress prog_;
     std::chrono::steady_clock::time_point wall0_;
     std::unique_ptr<afm::BusTap> tap_;        // the whole bus, without liblcm's receive thread

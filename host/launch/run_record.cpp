@@ -170,7 +170,8 @@ void merge_reports(const std::string &out, json *run)
 // can lose datagrams; a block missing either input cannot be replayed).
 void log_completeness(const RecordedBlocks &recorded, json *run)
 {
-    if (!run->contains("sim") || !(*run)["sim"].contains("blocks")) return;
+    // a simulator that did not finish its part (its report's "ended": run_process.hpp) counts no blocks to hold
+    if (!run->contains("sim") || !(*run)["sim"].contains("blocks") || (*run)["sim"].value("ended", "done") != "done") return;
     const int64_t sent = (*run)["sim"]["blocks"].get<int64_t>();
     // a block the simulator sent (a datagram with another seq is not one)
     auto in_run = [&](const std::set<int64_t> &s) {

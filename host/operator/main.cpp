@@ -23,7 +23,7 @@ struct Options {
 };
 
 const afm::Process<Options> kProcess = {
-    "operator",
+    {"operator",
     "usage: operator --scene FILE [--out DIR]\n"
     "       operator --scene FILE --check-targets\n"
     "  The operator: a scripted hand on a haptic device, or the planner (operator.plan);\n"
@@ -38,7 +38,10 @@ const afm::Process<Options> kProcess = {
           "the problem. afm_launch asks this before a planning run starts, so that\n"
           "it need not load OpenCV itself."},
          afm::cli::flag(&Options::check_targets)},
-    }};
+    }},
+    {AFM_CH_HAPTIC_FORCE, AFM_CH_AFM_HEARTBEAT, AFM_CH_FW_STATE, AFM_CH_AFM_SCAN_LINE},
+    {AFM_CH_HAPTIC_POSE, AFM_CH_AFM_SCAN_REQ, AFM_CH_HOST_OBJECT_FIX},
+    [](const Options &o) { return o.out_dir.empty() || o.check_targets ? std::string() : o.out_dir + "/operator_report.json"; }};
 
 }  // namespace
 
@@ -57,70 +60,83 @@ static std::thread start_planner(afm::Planner &planner, afm::PlannerTurns &turns
     });
 }
 
+// The operator's turns until the run is over: each force answered, by the
+// planner or by the hand.
+static void serve(afm::Operator &op, afm::Planner *planner, afm::PlannerTurns &turns, afm::Inbox &inbox, afm::Lifecycle &life)
+{
+    life.serve([&] { return afm::Progress{op.answered >= -1, op.answered, 0}; },
+               [&](int ms) {
+                   op.repeat_finished();
+                   inbox.handle(op.have_force ? 0 : ms);
+                   if (!op.have_force) return;
+                   if (planner) op.answer_by_planner(turns);
+                   else op.answer_by_hand();
+                   if (planner && turns.error()) std::rethrow_exception(turns.error());
+               },
+               [&] { return op.sim_done; });
+}
+
+// The operator on the bus, once its scene is read.
+static int operate(const afm::Scene &scene, afm::Lifecycle &life)
+{
+    std::unique_ptr<afm::Planner> planner;
+    if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
+    afm::Operator op(scene, life.bus(), life.heartbeat());
+    if (scene.op.mode == "browser") {   // the hand from the page (docs/view.md); the page's server hears this
+        op.page = std::make_unique<afm::HandInput>(scene, afm::HandInput::open_from_env());
+        op.stroke_planner = std::make_unique<afm::Planner>(scene);   // the strokes the page asks for (PUSH)
+        life.starting("hand: browser load_nN=" + std::to_string(scene.op.load_nN), op.answered);
+    }
+    afm::Inbox inbox(&life.bus());
+    op.inbox = &inbox;
+    inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });
+    inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return op.on_heartbeat(m); });
+    afm::PlannerTurns turns;
+    std::thread plan_thread;
+    struct Joiner {   // the planner's thread ends with the run, however main leaves
+        afm::PlannerTurns &b;
+        std::thread &t;
+        ~Joiner()
+        {
+            b.stop();
+            if (t.joinable()) t.join();
+        }
+    } joiner{turns, plan_thread};
+    if (planner) {
+        inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
+        inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
+        op.hold_pose = {scene.start_nm(), false};
+    }
+    if (op.page) {   // the local scans the person asks for (Operator::page_scan), the strokes' model and scans
+        inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
+        inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
+    }
+    afm::check_lockstep_reads(scene, inbox.channels(), "operator");
+    life.check_subscriptions(inbox.channels());
+    const auto report = life.report_from([&] { return afm::operator_report(op, planner.get(), scene, inbox.report()); });
+    if (planner) plan_thread = start_planner(*planner, turns);
+    serve(op, planner.get(), turns, inbox, life);
+    turns.stop();
+    if (plan_thread.joinable()) plan_thread.join();
+    if (op.stroke) op.stroke->turns.stop();   // a stroke under way ends with the run (joined when op goes)
+    if (planner && turns.error()) std::rethrow_exception(turns.error());
+    life.done(op.answered, 0);
+    return afm::kExitOk;
+}
+
 int main(int argc, char **argv)
 {
-    return afm::run_process(kProcess, argc, argv, [](const Options &opt) {
-      try {
-        const afm::Scene scene = afm::load_scene(opt.scene_path);
-        if (opt.check_targets) {
-            const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
-            if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
-            return why.empty() ? afm::kExitOk : afm::kExitInput;
-        }
-        std::unique_ptr<afm::Planner> planner;
-        if (scene.op.plan.enabled) planner = std::make_unique<afm::Planner>(scene);
-        auto lc = afm::open_bus();
-        afm::Operator op(scene, *lc);
-        if (scene.op.mode == "browser") {   // the hand from the page (docs/view.md); the page's server hears this
-            op.page = std::make_unique<afm::HandInput>(scene, afm::HandInput::open_from_env());
-            op.stroke_planner = std::make_unique<afm::Planner>(scene);   // the strokes the page asks for (PUSH)
-            op.hb.send(afm::RunState::starting, op.answered, 0, "hand: browser load_nN=" + std::to_string(scene.op.load_nN));
-        }
-        afm::Inbox inbox(lc.get());
-        op.inbox = &inbox;
-        inbox.on<afm::haptic_force_t>(AFM_CH_HAPTIC_FORCE, [&](const afm::haptic_force_t &m) { return op.on_force(m); });
-        inbox.on<afm::heartbeat_t>(AFM_CH_AFM_HEARTBEAT, [&](const afm::heartbeat_t &m) { return op.on_heartbeat(m); });
-        afm::PlannerTurns turns;
-        std::thread plan_thread;
-        struct Joiner {   // the planner's thread ends with the run, however main leaves
-            afm::PlannerTurns &b;
-            std::thread &t;
-            ~Joiner()
-            {
-                b.stop();
-                if (t.joinable()) t.join();
+    return afm::run_process(kProcess, argc, argv, [](const Options &opt, afm::Lifecycle &life) -> int {
+        try {
+            const afm::Scene scene = afm::load_scene(opt.scene_path);
+            if (opt.check_targets) {
+                const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
+                if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
+                return why.empty() ? afm::kExitOk : afm::kExitInput;
             }
-        } joiner{turns, plan_thread};
-        if (planner) {
-            inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
-            inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
-            op.hold_pose = {scene.start_nm(), false};
+            return operate(scene, life);
+        } catch (const afm::PlanError &e) {   // the scene asks the planner for what it cannot do
+            throw afm::InputError(std::string("operator: the planner: ") + e.what());
         }
-        if (op.page) {   // the local scans the person asks for (Operator::page_scan), the strokes' model and scans
-            inbox.on<afm::fw_state_t>(AFM_CH_FW_STATE, [&](const afm::fw_state_t &s) { return op.on_state(s); });
-            inbox.on<afm::scan_line_t>(AFM_CH_AFM_SCAN_LINE, [&](const afm::scan_line_t &m) { return op.on_line(m); });
-        }
-        afm::check_lockstep_reads(scene, inbox.channels(), "operator");
-        if (planner) plan_thread = start_planner(*planner, turns);
-        while (!op.sim_done) {
-            op.hb.maybe_send(op.answered < -1 ? afm::RunState::ready : afm::RunState::running, op.answered, 0);
-            op.repeat_finished();
-            inbox.handle(op.have_force ? 0 : op.answered < -1 ? afm::kReadyPeriodMs : 100);
-            if (!op.have_force) continue;
-            if (planner) op.answer_by_planner(turns);
-            else op.answer_by_hand();
-            if (planner && turns.error()) std::rethrow_exception(turns.error());
-        }
-        turns.stop();
-        if (plan_thread.joinable()) plan_thread.join();
-        if (op.stroke) op.stroke->turns.stop();   // a stroke under way ends with the run (joined when op goes)
-        if (planner && turns.error()) std::rethrow_exception(turns.error());
-        if (!opt.out_dir.empty())
-            afm::write_report(opt.out_dir + "/operator_report.json", afm::operator_report(op, planner.get(), scene, inbox.report()));
-        op.hb.send(afm::RunState::done, op.answered, 0);
-        return afm::kExitOk;
-      } catch (const afm::PlanError &e) {   // the scene asks the planner for what it cannot do
-        throw afm::InputError(std::string("operator: the planner: ") + e.what());
-      }
     });
 }

@@ -88,7 +88,7 @@ struct Operator {
     const Scene &scene;
     lcm::LCM &lc;
     Inbox *inbox = nullptr;     // the process's inbox, once made (main)
-    Heartbeat hb;
+    Heartbeat &hb;   // the process's one (its Lifecycle's)
     int64_t answered = -2;   // last haptic force answered (-1: the card's request for pose 0)
     haptic_pose_t last{};
     bool sim_done = false;
@@ -120,8 +120,8 @@ struct Operator {
     std::chrono::steady_clock::time_point finished_sent;
     PlanPose hold_pose;
 
-    Operator(const Scene &s, lcm::LCM &l)
-        : scene(s), lc(l), hb(l, "operator"), script(s),
+    Operator(const Scene &s, lcm::LCM &l, Heartbeat &h)
+        : scene(s), lc(l), hb(h), script(s),
           device(s.op.haptic, s.op.hand, 1.0 / s.block_hz, to_stylus(s, s.start_nm())), reach_nm(s.op.kappa * s.field_nm / 2),
           half_range_m(s.op.haptic.half_range_mm * 1e-3), scan(l)
     {

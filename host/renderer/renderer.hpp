@@ -140,7 +140,7 @@ struct Renderer {
     const afm::Scene &scene;
     lcm::LCM &lc;
     std::string out;
-    afm::Heartbeat hb;
+    afm::Heartbeat &hb;   // the process's one (its Lifecycle's)
     afm::Field field;
     afm::TipShape tip;
     afm::Display display;
@@ -203,8 +203,8 @@ struct Renderer {
     long touched_px = 0;
     nlohmann::json fidelity;
 
-    Renderer(const afm::Scene &s, lcm::LCM &l, std::string o)
-        : scene(s), lc(l), out(std::move(o)), hb(l, "renderer"),
+    Renderer(const afm::Scene &s, lcm::LCM &l, afm::Heartbeat &h, std::string o)
+        : scene(s), lc(l), out(std::move(o)), hb(h),
           field{s.field_center_nm.x - s.field_nm / 2, s.field_center_nm.y - s.field_nm / 2, s.field_nm, s.out.image_px},
           tip(s.has_effect("tip_convolution") ? afm::TipShape{s.probe.tip_radius_nm, s.probe.tip_half_angle_deg} : afm::TipShape{}),
           display(field, tip), scan(l), total_frames(s.total_frames())

@@ -20,7 +20,8 @@
 //     refuses is counted by reason and channel, said in its log when it
 //     ends, and written to --report FILE (JSON: "passed" by channel,
 //     "rejected": "unproven", "foreign", "foreign_datagrams", "tap_dropped",
-//     "tap_abandoned"; "bus_mac": whether it held a key), which the launcher
+//     "tap_abandoned"; "bus_mac": whether it held a key; "ended": how the
+//     bridge ended, bus/lifecycle.hpp), which the launcher
 //     puts in run.json (launcher.view_bridge).
 //   - It publishes nothing: an observer the run never waits for. When the
 //     pipe is full it blocks, and its socket's buffer overflows instead of
@@ -86,7 +87,7 @@ struct Args {
 };
 
 const afm::Process<Args> kProcess = {
-    "afm_view_bridge",
+    {"afm_view_bridge",
     "usage: afm_view_bridge --fd N [--report FILE]\n"
     "  Writes the run's VIEW_FRAME and AFM_HEARTBEAT messages to file descriptor N\n"
     "  (a pipe to the page's server; docs/view.md); what it refused to FILE at its end.\n"
@@ -94,7 +95,10 @@ const afm::Process<Args> kProcess = {
     {
         {{"--fd", "N", nullptr, nullptr, true}, afm::cli::whole(&Args::fd, 0, 1023, "a file descriptor")},
         {{"--report", "FILE", nullptr, nullptr}, afm::cli::text(&Args::report)},
-    }};
+    }},
+    {AFM_CH_VIEW_FRAME, AFM_CH_AFM_HEARTBEAT},
+    {},
+    [](const Args &a) { return a.report; }};
 
 void on_signals()
 {
@@ -106,8 +110,8 @@ void on_signals()
     signal(SIGPIPE, SIG_IGN);
 }
 
-// What the bridge passed on and refused: its log's last line, and --report.
-void report(const Args &a, const afm::BusTap &tap, const afm::Senders &senders, const std::map<std::string, int64_t> &passed)
+// What the bridge passed on and refused: its log's last line.
+void say_passed(const afm::BusTap &tap, const afm::Senders &senders, const std::map<std::string, int64_t> &passed)
 {
     const nlohmann::json unproven = tap.unproven().to_json();
     int64_t n = 0;
@@ -121,21 +125,20 @@ void report(const Args &a, const afm::BusTap &tap, const afm::Senders &senders, 
                  static_cast<long long>(unproven["by_reason"]["bad_mac"].get<int64_t>()),
                  static_cast<long long>(unproven["by_reason"]["replayed"].get<int64_t>()), afm::run_key() ? "" : " (no key: nothing proven)",
                  static_cast<long long>(senders.foreign_count()));
-    if (a.report.empty()) return;
-    const nlohmann::json j = {{"passed", passed},
-                              {"rejected", {{"unproven", unproven}, {"foreign", senders.foreign()}, {"foreign_datagrams", senders.foreign_count()}}},
-                              {"tap_dropped", tap.dropped()},
-                              {"tap_abandoned", tap.abandoned()},
-                              {"bus_mac", afm::run_key() != nullptr}};
-    try {
-        afm::write_report(a.report, j);
-    } catch (const std::exception &e) {
-        std::fprintf(stderr, "afm_view_bridge: %s\n", e.what());
-    }
+}
+
+// --report: the same, by channel and reason.
+nlohmann::json report_json(const afm::BusTap &tap, const afm::Senders &senders, const std::map<std::string, int64_t> &passed)
+{
+    return {{"passed", passed},
+            {"rejected", {{"unproven", tap.unproven().to_json()}, {"foreign", senders.foreign()}, {"foreign_datagrams", senders.foreign_count()}}},
+            {"tap_dropped", tap.dropped()},
+            {"tap_abandoned", tap.abandoned()},
+            {"bus_mac", afm::run_key() != nullptr}};
 }
 
 // parent: the launcher, as the bridge found it at its start.
-int bridge(const Args &a, pid_t parent)
+int bridge(const Args &a, pid_t parent, afm::Lifecycle &life)
 {
     // still bound to the launcher (run_process), now by a signal it stops
     // on as on SIGTERM, saying what it refused
@@ -150,6 +153,7 @@ int bridge(const Args &a, pid_t parent)
         afm::Senders senders(afm::Senders::Scope::siblings);
         tap.admit_only([&senders](const std::string &channel, uint16_t port) { return senders.admit(channel, port); });
         std::map<std::string, int64_t> passed;
+        const auto report = life.report_from([&] { return report_json(tap, senders, passed); });   // written as the bridge ends
         bool open = true;
         const afm::BusTap::Sink sink = [&](const std::string &channel, const unsigned char *data, std::size_t size, int64_t) {
             open = open && write_u32(a.fd, channel.size()) && write_all(a.fd, channel.data(), channel.size()) && write_u32(a.fd, size) &&
@@ -158,7 +162,7 @@ int bridge(const Args &a, pid_t parent)
         };
         while (open && !g_stop) tap.next(sink, 200);
         while (open && tap.next(sink, 0) > 0) {}   // stopped: what the socket holds yet
-        report(a, tap, senders, passed);
+        say_passed(tap, senders, passed);
     } catch (const std::exception &e) {
         std::fprintf(stderr, "afm_view_bridge: %s\n", e.what());
         return afm::kExitInput;
@@ -171,5 +175,5 @@ int bridge(const Args &a, pid_t parent)
 int main(int argc, char **argv)
 {
     const pid_t parent = getppid();
-    return afm::run_process(kProcess, argc, argv, [parent](const Args &a) { return bridge(a, parent); });
+    return afm::run_process(kProcess, argc, argv, [parent](const Args &a, afm::Lifecycle &life) { return bridge(a, parent, life); });
 }

@@ -27,7 +27,8 @@ static const char *kScene =
 struct Fixture {
     afm::Scene scene = scene_from_text(kScene);
     lcm::LCM lc{"memq://"};
-    Renderer r{scene, lc, "/nonexistent-not-written"};
+    afm::Heartbeat hb{lc, "renderer"};
+    Renderer r{scene, lc, hb, "/nonexistent-not-written"};
 };
 
 void test_the_contact_sheet_takes_frames_evenly_from_first_to_last()
