@@ -21,12 +21,30 @@ const std::vector<std::pair<std::string, std::string>> &channel_publishers()
     return rows;
 }
 
-std::string publishers_of(const std::string &channel)
+// channels.yaml's channels and, for each, the run's programs that read it ("*": every process).
+const std::vector<std::pair<std::string, std::string>> &channel_readers()
+{
+#define AFM_READER_ROW(channel, program) {channel, program},
+    static const std::vector<std::pair<std::string, std::string>> rows = {AFM_CHANNEL_READERS(AFM_READER_ROW)};
+#undef AFM_READER_ROW
+    return rows;
+}
+
+// The programs a table gives `channel`, joined with ", " ("" for none).
+std::string programs_of(const std::vector<std::pair<std::string, std::string>> &rows, const std::string &channel)
 {
     std::string out;
-    for (const auto &[ch, program] : channel_publishers())
+    for (const auto &[ch, program] : rows)
         if (ch == channel) out += (out.empty() ? "" : ", ") + program;
     return out;
+}
+
+std::string publishers_of(const std::string &channel) { return programs_of(channel_publishers(), channel); }
+
+// True when the table gives `channel` to program `name` (or to every process).
+bool gives(const std::vector<std::pair<std::string, std::string>> &rows, const std::string &channel, const std::string &name)
+{
+    return std::any_of(rows.begin(), rows.end(), [&](const auto &r) { return r.first == channel && (r.second == name || r.second == "*"); });
 }
 
 // How the body ended, as its report says it (lifecycle.hpp).
@@ -41,14 +59,17 @@ std::string ended_text(int code)
 
 std::string channels_refusal(const std::string &name, const std::vector<std::string> &subscribes, const std::vector<std::string> &publishes)
 {
-    for (const auto &ch : subscribes)
+    for (const auto &ch : subscribes) {
         if (publishers_of(ch).empty()) return "reads " + ch + ", which is no channel of lcmtypes/channels.yaml";
+        if (!gives(channel_readers(), ch, name)) {
+            const std::string who = programs_of(channel_readers(), ch);
+            return "reads " + ch + ", which lcmtypes/channels.yaml does not give it (its readers: " + (who.empty() ? "none" : who) + ")";
+        }
+    }
     for (const auto &ch : publishes) {
         const std::string who = publishers_of(ch);
         if (who.empty()) return "publishes " + ch + ", which is no channel of lcmtypes/channels.yaml";
-        const auto &rows = channel_publishers();
-        const bool given = std::any_of(rows.begin(), rows.end(), [&](const auto &r) { return r.first == ch && (r.second == name || r.second == "*"); });
-        if (!given) return "publishes " + ch + ", which lcmtypes/channels.yaml does not give it (its publisher: " + who + ")";
+        if (!gives(channel_publishers(), ch, name)) return "publishes " + ch + ", which lcmtypes/channels.yaml does not give it (its publisher: " + who + ")";
     }
     return "";
 }

@@ -35,8 +35,9 @@ struct Process : cli::CommandLine<O> {
 };
 
 // "" when program `name` may publish each of `publishes` (channels.yaml's
-// publisher, AFM_CHANNEL_PUBLISHERS) and each of `subscribes` is a channel
-// of channels.yaml; else why, naming the channel.
+// publisher, AFM_CHANNEL_PUBLISHERS) and read each of `subscribes`
+// (channels.yaml's readers, AFM_CHANNEL_READERS: SIM_TRUTH has none, so no
+// process of the run can take the truth); else why, naming the channel.
 std::string channels_refusal(const std::string &name, const std::vector<std::string> &subscribes,
                              const std::vector<std::string> &publishes);
 

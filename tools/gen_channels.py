@@ -6,14 +6,17 @@ import sys
 import yaml
 
 
-def publishers(text: str):
-    """channels.yaml's publisher field as program names: "renderer, operator
-    (planner)" -> renderer, operator; "every process" -> *."""
+def programs(text: str, field: str = "publisher"):
+    """channels.yaml's publisher or readers field as program names:
+    "renderer, operator (planner)" -> renderer, operator; "every process" -> *;
+    "none" -> none."""
     if text.strip() == "every process":
         return ["*"]
+    if text.strip() == "none":
+        return []
     out = [re.sub(r"\(.*?\)", "", p).strip() for p in text.split(",")]
     if not all(re.fullmatch(r"[a-z_]+", p) for p in out):
-        raise SystemExit(f"channels.yaml: publisher {text!r} is not a list of program names")
+        raise SystemExit(f"channels.yaml: {field} {text!r} is not a list of program names")
     return out
 
 
@@ -24,7 +27,9 @@ def main(src: str, dst: str) -> int:
              "#ifndef AFM_CHANNELS_H", "#define AFM_CHANNELS_H", ""]
     for r in rows:
         ch = r["channel"]
-        lines.append(f"/* {r['type']}, published by {r['publisher']}, {r['rate']} */")
+        if "readers" not in r:
+            raise SystemExit(f"channels.yaml: {ch}: no readers (name them, or none)")
+        lines.append(f"/* {r['type']}, published by {r['publisher']}, read by {r['readers']}, {r['rate']} */")
         lines.append(f'#define AFM_CH_{ch} "{ch}"')
     lines.append("")
     lines.append("#define AFM_CHANNEL_COUNT %d" % len(rows))
@@ -34,7 +39,11 @@ def main(src: str, dst: str) -> int:
     lines.append("/* X(\"CHANNEL\", \"program\") for each program that publishes a channel (\"*\": every")
     lines.append("   process of the run): the senders a receiver admits (bus/senders.hpp). */")
     lines.append("#define AFM_CHANNEL_PUBLISHERS(X) %s" % " ".join(f'X("{r["channel"]}", "{p}")' for r in rows
-                                                             for p in publishers(r["publisher"])))
+                                                             for p in programs(r["publisher"])))
+    lines.append("/* X(\"CHANNEL\", \"program\") for each program of the run that subscribes to a channel")
+    lines.append("   (\"*\": every process): a process's declared subscriptions (bus/run_process.hpp). */")
+    lines.append("#define AFM_CHANNEL_READERS(X) %s" % " ".join(f'X("{r["channel"]}", "{p}")' for r in rows
+                                                          for p in programs(r["readers"], "readers")))
     lines += ["", "#endif", ""]
     with open(dst, "w") as f:
         f.write("\n".join(lines))

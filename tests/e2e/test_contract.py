@@ -72,14 +72,15 @@ class ChannelTable(unittest.TestCase):
         section = text.split("\n## Channels\n", 1)[1].split("\n## ", 1)[0]
         table = {}
         for line in section.splitlines():
-            m = re.match(r"\|\s*`([A-Z_]+)`\s*\|\s*`(\w+)`\s*\|\s*([^|]+?)\s*\|\s*([^|]+?)\s*\|", line)
+            m = re.match(r"\|\s*`([A-Z_]+)`\s*\|\s*`(\w+)`\s*\|\s*([^|]+?)\s*\|\s*([^|]+?)\s*\|\s*([^|]+?)\s*\|", line)
             if m:
-                table[m.group(1)] = (m.group(2), m.group(3), m.group(4))
+                table[m.group(1)] = (m.group(2), m.group(3), m.group(5), m.group(4))
         self.assertEqual(set(table), {r["channel"] for r in rows})
         for r in rows:
             self.assertEqual(table[r["channel"]][0], r["type"], r["channel"])
             self.assertEqual(table[r["channel"]][1], r["publisher"], r["channel"])
             self.assertEqual(table[r["channel"]][2], r["rate"], r["channel"])
+            self.assertEqual(table[r["channel"]][3], r["readers"], r["channel"])
 
     def test_ci_runs_the_readme_test_command(self):
         ci = open(os.path.join(e2e_support.SRC, ".ci", "run")).read()

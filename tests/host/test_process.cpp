@@ -162,6 +162,12 @@ void test_a_process_publishing_a_channel_channels_yaml_does_not_give_it_is_refus
     TEST_ASSERT_TRUE_MESSAGE(why.find("fw_node") != std::string::npos, why.c_str());   // who channels.yaml gives it to
     TEST_ASSERT_EQUAL_STRING("", afm::channels_refusal("renderer", {AFM_CH_FW_STATE}, {AFM_CH_RENDER_FRAME, AFM_CH_AFM_HEARTBEAT}).c_str());
     TEST_ASSERT_TRUE(afm::channels_refusal("fw_node", {"NO_SUCH"}, {}).find("reads NO_SUCH") != std::string::npos);
+    // readers: the truth is no process's to read; a channel read by others is refused naming them
+    const std::string truth = afm::channels_refusal("operator", {AFM_CH_SIM_TRUTH}, {});
+    TEST_ASSERT_TRUE_MESSAGE(truth.find("reads SIM_TRUTH") != std::string::npos && truth.find("readers: none") != std::string::npos, truth.c_str());
+    const std::string analog = afm::channels_refusal("renderer", {AFM_CH_AFM_ANALOG}, {});
+    TEST_ASSERT_TRUE_MESSAGE(analog.find("its readers: fw_node") != std::string::npos, analog.c_str());
+    TEST_ASSERT_EQUAL_STRING("", afm::channels_refusal("afm_view_bridge", {AFM_CH_VIEW_FRAME, AFM_CH_AFM_HEARTBEAT}, {}).c_str());
     TEST_ASSERT_TRUE(afm::channels_refusal("fw_node", {}, {"NO_SUCH"}).find("publishes NO_SUCH") != std::string::npos);
     TEST_ASSERT_EQUAL(0, run(process("renderer", {AFM_CH_FW_STATE}, {AFM_CH_RENDER_FRAME}), body));
     TEST_ASSERT_TRUE(ran);
