@@ -77,6 +77,24 @@ struct FirmwareCalibration {
     // channel's full scale (fw_guard_default_limit_pn).
     bool interlock = true;
     std::optional<double> interlock_normal_nN, interlock_lateral_nN;
+    // The card's own values of the lever, the tip and the sample: a
+    // datasheet's or a lab's measurement (firmware.*). None: the card's
+    // nominal (host/card/card_table.cpp), never the probe's or the
+    // sample's: those are the simulator's truth.
+    std::optional<double> spring_N_per_m, deflection_nm_per_V, lever_length_um, tip_height_um;
+    std::optional<double> tip_radius_nm, tip_half_angle_deg;
+    std::optional<double> adhesion_nN;                        // tip-substrate pull-off
+    std::optional<double> particle_mu, particle_adhesion_nN, particle_shear_strength_MPa, particle_contact_area_nm2;
+    std::optional<double> wire_friction_nN_per_um, wire_mu;
+    std::optional<double> litho_threshold_nN, litho_depth_nm_per_nN;
+    // What a calibration on the bench measured (firmware.calibration,
+    // written by analysis/card_calib.py): its run's id and its results. The
+    // card takes them where the scene's own firmware.* leaves a value out.
+    struct Bench {
+        std::string run;                                      // the calibration's id ("tilted fnv1a64:...")
+        std::optional<double> mu, lateral_nN_per_V, disp_n_nm_per_V;
+    };
+    std::optional<Bench> calibration;
 };
 
 // The checks of a run's verdict (host/launch/verdict.hpp), the names

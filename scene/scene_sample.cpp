@@ -178,6 +178,21 @@ void read_probe(const Reader &r, const YAML::Node &root, Scene &s)
 }
 
 // firmware: the card's settings (the sweep's firmware knobs).
+// firmware.calibration: a bench calibration's id and what it measured
+// (analysis/card_calib.py writes it into an include).
+static void read_bench_calibration(const Reader &r, const YAML::Node &n, Scene &s)
+{
+    if (!n.IsDefined() || n.IsNull()) return;
+    const std::string k = "firmware.calibration";
+    if (!n.IsMap()) r.fail(k, "must be a mapping {run, mu, lateral_nN_per_V, disp_n_nm_per_V}, got " + Reader::show(n));
+    r.only_keys(n, k, {"run", "mu", "lateral_nN_per_V", "disp_n_nm_per_V"});
+    FirmwareCalibration::Bench b;
+    b.run = r.str(n, k, "run", nullptr);
+    for (const auto &[key, out] : {std::pair{"mu", &b.mu}, {"lateral_nN_per_V", &b.lateral_nN_per_V}, {"disp_n_nm_per_V", &b.disp_n_nm_per_V}})
+        if (n[key].IsDefined() && !n[key].IsNull()) *out = r.num(n, k, key, nullptr);
+    s.fw_cal.calibration = b;
+}
+
 void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
 {
     YAML::Node fw = root["firmware"];
@@ -185,7 +200,11 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         // The ranges are the card's (fw_card_check): the launcher's --check
         // names the rule a value breaks; here only the types and signs.
         r.only_keys(fw, "firmware", {"adc_bits", "word_bits", "compensate", "disp_n_nm_per_V", "disp_l_nm_per_V", "lateral_nN_per_V", "mu",
-                                     "drift_max_step_nm", "interlock", "interlock_normal_nN", "interlock_lateral_nN"});
+                                     "drift_max_step_nm", "interlock", "interlock_normal_nN", "interlock_lateral_nN",
+                                     "spring_N_per_m", "deflection_nm_per_V", "lever_length_um", "tip_height_um", "tip_radius_nm",
+                                     "tip_half_angle_deg", "adhesion_nN", "particle_mu", "particle_adhesion_nN",
+                                     "particle_shear_strength_MPa", "particle_contact_area_nm2", "wire_friction_nN_per_um", "wire_mu",
+                                     "litho_threshold_nN", "litho_depth_nm_per_nN", "calibration"});
         auto whole = [&](const char *k, int dflt) {   // a whole number (kSceneRanges)
             const double dv = dflt;
             return static_cast<int>(r.num(fw, "firmware", k, &dv));
@@ -210,6 +229,18 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         s.fw_cal.interlock = r.boolean(fw, "firmware", "interlock", s.fw_cal.interlock);
         optional("interlock_normal_nN", &s.fw_cal.interlock_normal_nN);
         optional("interlock_lateral_nN", &s.fw_cal.interlock_lateral_nN);
+        FirmwareCalibration &c = s.fw_cal;
+        for (const auto &[k, out] : {std::pair{"spring_N_per_m", &c.spring_N_per_m}, {"deflection_nm_per_V", &c.deflection_nm_per_V},
+                                     {"lever_length_um", &c.lever_length_um}, {"tip_height_um", &c.tip_height_um},
+                                     {"tip_radius_nm", &c.tip_radius_nm}, {"tip_half_angle_deg", &c.tip_half_angle_deg},
+                                     {"adhesion_nN", &c.adhesion_nN}, {"particle_mu", &c.particle_mu},
+                                     {"particle_adhesion_nN", &c.particle_adhesion_nN},
+                                     {"particle_shear_strength_MPa", &c.particle_shear_strength_MPa},
+                                     {"particle_contact_area_nm2", &c.particle_contact_area_nm2},
+                                     {"wire_friction_nN_per_um", &c.wire_friction_nN_per_um}, {"wire_mu", &c.wire_mu},
+                                     {"litho_threshold_nN", &c.litho_threshold_nN}, {"litho_depth_nm_per_nN", &c.litho_depth_nm_per_nN}})
+            optional(k, out);
+        read_bench_calibration(r, fw["calibration"], s);
     }
 }
 

@@ -71,22 +71,23 @@ def ride_load(sc, gamma):
 def runs(size):
     sc = common.load_scene("squeeze.yaml")
     out = [common.Run(name=f"gamma_{g}", scene="squeeze.yaml", cost_s=4,
-                      settings={"probe.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc),
+                      settings={"probe.tip_half_angle_deg": g, "firmware.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc),
                                 "operator.load_nN": PRESSED_NN}) for g in GAMMAS[size]]
     for g in RIDE_GAMMAS[size]:
         dF = ride_load(sc, g)
         for tag, x in RIDE_LOADS.items():
             out.append(common.Run(name=f"ride_{g}_{tag}", scene="squeeze.yaml", cost_s=4,
-                                  settings={"probe.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc),
+                                  settings={"probe.tip_half_angle_deg": g, "firmware.tip_half_angle_deg": g, "operator.path_nm": _path(END_Q, sc),
                                             "operator.load_nN": round(x * dF, 4)}))
     for name, load in (("squeeze_pressed", 40), ("squeeze_light", 5)):
         out.append(common.Run(name=name, scene="squeeze.yaml", cost_s=4,
                               settings={"probe.tip_half_angle_deg": SQUEEZE_GAMMA, "sample.wire.mu": SQUEEZE_MU,
+                                        "firmware.tip_half_angle_deg": SQUEEZE_GAMMA, "firmware.wire_mu": SQUEEZE_MU,
                                         "operator.load_nN": load, "operator.path_nm": _path(MID_Q, sc)}))
     for name, on in (("particle_down", True), ("particle_flat", False)):
         out.append(common.Run(name=name, scene="squeeze.yaml", cost_s=3,
                               settings={"objects": PARTICLE, "effects.down_force": on,
-                                        "probe.tip_half_angle_deg": PARTICLE_GAMMA,
+                                        "probe.tip_half_angle_deg": PARTICLE_GAMMA, "firmware.tip_half_angle_deg": PARTICLE_GAMMA,
                                         "operator.path_nm": [[0, -700], [0, 100]]}))
     return out + squeeze_figs.runs(size) + squeeze_hand.runs(size)
 

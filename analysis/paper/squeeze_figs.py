@@ -42,7 +42,11 @@ CROSSINGS = 24            # the zigzag's crossings of the rod (the path has CROS
 RAMP = (0.4, 1.6)         # the ramp's ends, as fractions of eq. 30's dF without twist
 MOVED_NM = 2.0            # a stroke in which the truth's rod moves more than this pushed it (issue 47, item 7's 2 nm)
 SOFT_LEVER = {"probe.lever_length_um": 20, "probe.deflection_nm_per_V": 174, "probe.lateral_nN_per_V": 1.2,
-              "probe.tip_height_um": 3}   # a short tip: theta of degrees, the apex only h theta = 0.2 um aside
+              "probe.tip_height_um": 3,   # a short tip: theta of degrees, the apex only h theta = 0.2 um aside
+              # the card is told the lever it is given (its section: docs/scenes.md "### firmware")
+              "firmware.lever_length_um": 20, "firmware.deflection_nm_per_V": 174, "firmware.lateral_nN_per_V": 1.2,
+              "firmware.tip_height_um": 3}
+WIRE_MU = 0.2             # ride.yaml's mu_os (contact: none): the card's f = mu_os F_a,os / L
 
 # (name, figure, gamma deg, push point as a fraction of L, F_a,os / F_a,ts, soft lever)
 POINTS = {
@@ -79,7 +83,9 @@ def runs(size):
         df0, _ = model_df(gamma, q, ratio)
         hi = RAMP[1] * df0 * (1.4 if soft else 1.0)   # the twist raises dF
         x = -ROD_L / 2 + q * ROD_L
-        settings = {"probe.tip_half_angle_deg": gamma, "sample.wire.adhesion_nN_per_um": round(ratio * F_A_TS / ROD_L * 1e3, 5),
+        adh = round(ratio * F_A_TS / ROD_L * 1e3, 5)
+        settings = {"probe.tip_half_angle_deg": gamma, "sample.wire.adhesion_nN_per_um": adh,
+                    "firmware.tip_half_angle_deg": gamma, "firmware.wire_friction_nN_per_um": round(WIRE_MU * adh, 4),
                     "operator.load_nN": round(RAMP[0] * df0, 4), "operator.load_ramp_to_nN": round(hi, 4),
                     "operator.path_nm": [[x, -STROKE if i % 2 == 0 else STROKE] for i in range(CROSSINGS + 1)],
                     "operator.speed_nm_per_s": SPEED}

@@ -27,8 +27,9 @@ def runs(size):
     path = [[x, -squeeze_figs.STROKE if i % 2 == 0 else squeeze_figs.STROKE] for i in range(CROSSINGS + 1)]
     out = []
     for name, frac in LOADS:
-        settings = {"probe.tip_half_angle_deg": GAMMA,
-                    "sample.wire.adhesion_nN_per_um": round(RATIO * squeeze_figs.F_A_TS / squeeze_figs.ROD_L * 1e3, 5),
+        adh = round(RATIO * squeeze_figs.F_A_TS / squeeze_figs.ROD_L * 1e3, 5)
+        settings = {"probe.tip_half_angle_deg": GAMMA, "sample.wire.adhesion_nN_per_um": adh,
+                    "firmware.tip_half_angle_deg": GAMMA, "firmware.wire_friction_nN_per_um": round(squeeze_figs.WIRE_MU * adh, 4),
                     "operator.load_nN": round(frac * df, 4), "operator.load_ramp_to_nN": None,
                     "operator.path_nm": path, "operator.speed_nm_per_s": squeeze_figs.SPEED,
                     "operator.haptic": {"load_span_nN": SPAN_NN},

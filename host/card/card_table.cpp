@@ -7,6 +7,7 @@ extern "C" {
 }
 
 #include <algorithm>
+#include <optional>
 
 #include "haptic_bound.hpp"
 
@@ -14,39 +15,121 @@ namespace afm {
 
 namespace {
 
-// The lever's lateral constant as the card has it: calibrated, or the probe's.
-double lateral_nN_per_V(const Scene &s)
+// The card's nominal values: what a lab holds before it measures anything
+// (the paper's lever's datasheet, fw_paper_probe.h; the tip's catalogue
+// figures; the paper's materials). A row takes its nominal only when the
+// scene's firmware.* gives nothing and no bench calibration measured it; it
+// is never the scene's probe or sample (the simulator's truth). Their
+// offsets from the default truth are deliberate and listed in
+// docs/scenes.md ("### firmware"): the half angle's 2 deg, mu's 0.0135.
+struct Nominal {
+    double spring_N_per_m = FW_PAPER_KN_MN_PER_M * 1e-3;
+    double deflection_nm_per_V = FW_PAPER_DEFLECTION_PM_PER_V * 1e-3;
+    double lateral_nN_per_V = FW_PAPER_LATERAL_GAIN_PN_PER_V * 1e-3;
+    double lever_length_um = FW_PAPER_LEVER_LENGTH_NM * 1e-3;
+    double tip_height_um = FW_PAPER_TIP_HEIGHT_NM * 1e-3;
+    double tip_radius_nm = 10.0;
+    double tip_half_angle_deg = 22.0;   // the catalogue's "< 22 deg"; the default truth's is 20
+    double mu = 0.1;                    // a silicon nitride tip on glass, before calibration; the paper calibrated 0.0865
+    double adhesion_nN = 1.0;
+    double particle_mu = 0.3, particle_adhesion_nN = 3.0, particle_shear_strength_MPa = 0, particle_contact_area_nm2 = 0;
+    double wire_friction_nN_per_um = 20.0, wire_mu = 0.3;
+    double litho_threshold_nN = 20.0, litho_depth_nm_per_nN = 2.0;
+};
+const Nominal kNominal;
+
+constexpr const char *kNominalSuffix = " (nominal)";
+constexpr const char *kCalibrationPrefix = "firmware.calibration.";
+
+// One constant as the card has it: the scene's firmware.* (its card
+// section), else a bench calibration's result (firmware.calibration.*),
+// else the nominal, named with its key.
+std::pair<std::string, double> card_value(const std::string &name, const std::optional<double> &given,
+                                          const std::optional<double> &calibrated, double nominal)
 {
-    return s.fw_cal.lateral_nN_per_V.value_or(s.probe.lateral_nN_per_V);
+    if (given) return {"firmware." + name, *given};
+    if (calibrated) return {kCalibrationPrefix + name, *calibrated};
+    return {"firmware." + name + kNominalSuffix, nominal};
 }
-SceneKeys lateral_key(const Scene &s)
+std::pair<std::string, double> card_value(const std::string &name, const std::optional<double> &given, double nominal)
 {
-    return {{s.fw_cal.lateral_nN_per_V ? "firmware.lateral_nN_per_V" : "probe.lateral_nN_per_V", lateral_nN_per_V(s)}};
+    return card_value(name, given, std::nullopt, nominal);
 }
+std::optional<double> calibrated(const Scene &s, std::optional<double> FirmwareCalibration::Bench::*field)
+{
+    return s.fw_cal.calibration ? (*s.fw_cal.calibration).*field : std::nullopt;
+}
+
+using K = std::pair<std::string, double>;
+K spring(const Scene &s) { return card_value("spring_N_per_m", s.fw_cal.spring_N_per_m, kNominal.spring_N_per_m); }
+K deflection(const Scene &s) { return card_value("deflection_nm_per_V", s.fw_cal.deflection_nm_per_V, kNominal.deflection_nm_per_V); }
+K lever_length(const Scene &s) { return card_value("lever_length_um", s.fw_cal.lever_length_um, kNominal.lever_length_um); }
+K tip_height(const Scene &s) { return card_value("tip_height_um", s.fw_cal.tip_height_um, kNominal.tip_height_um); }
+K lateral(const Scene &s)
+{
+    return card_value("lateral_nN_per_V", s.fw_cal.lateral_nN_per_V, calibrated(s, &FirmwareCalibration::Bench::lateral_nN_per_V),
+                      kNominal.lateral_nN_per_V);
+}
+K tip_mu(const Scene &s)
+{
+    return card_value("mu", s.fw_cal.mu, calibrated(s, &FirmwareCalibration::Bench::mu), kNominal.mu);
+}
+std::optional<double> disp_n(const Scene &s)
+{
+    return s.fw_cal.disp_n_nm_per_V ? s.fw_cal.disp_n_nm_per_V : calibrated(s, &FirmwareCalibration::Bench::disp_n_nm_per_V);
+}
+
 // k_n K_n and k_theta K_l / h, pN/V (the interlock's default limits read them too).
 int32_t normal_gain_pn_per_v(const Scene &s)
 {
-    return fwu_pn_per_v_from_nn_per_v(s.probe.spring_N_per_m * s.probe.deflection_nm_per_V);   // N/m nm/V = nN/V
+    return fwu_pn_per_v_from_nn_per_v(spring(s).second * deflection(s).second);   // N/m nm/V = nN/V
 }
 int32_t lateral_gain_pn_per_v(const Scene &s)
 {
-    return fwu_pn_per_v_from_nn_per_v(lateral_nN_per_V(s));
+    return fwu_pn_per_v_from_nn_per_v(lateral(s).second);
 }
-// C_n or C_l: calibrated (firmware.*), or the firmware's estimate from h, K_n and l.
-SceneKeys disp_keys(const char *key, const std::optional<double> &cal, const Scene &s)
+// C_n or C_l: calibrated, or the firmware's estimate from the card's h, K_n and l.
+SceneKeys disp_keys(const char *name, const std::optional<double> &given, const std::optional<double> &cal, const Scene &s)
 {
-    if (cal) return {{key, *cal}};
-    return {{"probe.tip_height_um", s.probe.tip_height_um}, {"probe.deflection_nm_per_V", s.probe.deflection_nm_per_V},
-            {"probe.lever_length_um", s.probe.lever_length_um}};
+    if (given || cal) return {card_value(name, given, cal, 0)};
+    return {tip_height(s), deflection(s), lever_length(s)};
 }
 int32_t disp_pm_per_v(const std::optional<double> &cal, const Scene &s)
 {
     if (!s.compensate) return 0;   // firmware.compensate: false: the piezo is taken as the apex
     return cal ? fwu_pm_per_v_from_nm_per_v(*cal) : FW_CARD_DISP_ESTIMATE;
 }
+// The card's adhesion acts where the run lists the adhesion effect (the
+// lab's choice of environment, as the effect is the scene's).
 double adhesion_if_on(const Scene &s, double nN)
 {
     return s.has_effect("adhesion") ? nN : 0.0;
+}
+K tip_adhesion(const Scene &s) { return card_value("adhesion_nN", s.fw_cal.adhesion_nN, kNominal.adhesion_nN); }
+K tip_radius(const Scene &s) { return card_value("tip_radius_nm", s.fw_cal.tip_radius_nm, kNominal.tip_radius_nm); }
+K half_angle(const Scene &s) { return card_value("tip_half_angle_deg", s.fw_cal.tip_half_angle_deg, kNominal.tip_half_angle_deg); }
+K particle_mu(const Scene &s) { return card_value("particle_mu", s.fw_cal.particle_mu, kNominal.particle_mu); }
+K particle_adhesion(const Scene &s)
+{
+    return card_value("particle_adhesion_nN", s.fw_cal.particle_adhesion_nN, kNominal.particle_adhesion_nN);
+}
+K particle_shear(const Scene &s)
+{
+    return card_value("particle_shear_strength_MPa", s.fw_cal.particle_shear_strength_MPa, kNominal.particle_shear_strength_MPa);
+}
+K particle_area(const Scene &s)
+{
+    return card_value("particle_contact_area_nm2", s.fw_cal.particle_contact_area_nm2, kNominal.particle_contact_area_nm2);
+}
+K wire_friction(const Scene &s)
+{
+    return card_value("wire_friction_nN_per_um", s.fw_cal.wire_friction_nN_per_um, kNominal.wire_friction_nN_per_um);
+}
+K wire_mu(const Scene &s) { return card_value("wire_mu", s.fw_cal.wire_mu, kNominal.wire_mu); }
+K litho_threshold(const Scene &s) { return card_value("litho_threshold_nN", s.fw_cal.litho_threshold_nN, kNominal.litho_threshold_nN); }
+K litho_depth(const Scene &s)
+{
+    return card_value("litho_depth_nm_per_nN", s.fw_cal.litho_depth_nm_per_nN, kNominal.litho_depth_nm_per_nN);
 }
 
 using S = const Scene &;
@@ -71,30 +154,28 @@ const std::vector<CardRow> kRows = {
                                                                  : fw_guard_default_limit_pn(lateral_gain_pn_per_v(s));
      },
      {FW_RULE_INTERLOCK_LATERAL}},
-    {"board.normal_gain_pn_per_v",
-     [](S s) -> SceneKeys { return {{"probe.spring_N_per_m", s.probe.spring_N_per_m}, {"probe.deflection_nm_per_V", s.probe.deflection_nm_per_V}}; },
+    {"board.normal_gain_pn_per_v", [](S s) -> SceneKeys { return {spring(s), deflection(s)}; },
      [](S s, C c) { c->board.normal_gain_pn_per_v = normal_gain_pn_per_v(s); },
      {FW_RULE_FORCE_GAINS, FW_RULE_WORD16_RANGE, FW_RULE_INTERLOCK_NORMAL}},
-    {"board.lateral_gain_pn_per_v", lateral_key, [](S s, C c) { c->board.lateral_gain_pn_per_v = lateral_gain_pn_per_v(s); },
+    {"board.lateral_gain_pn_per_v", [](S s) -> SceneKeys { return {lateral(s)}; }, [](S s, C c) { c->board.lateral_gain_pn_per_v = lateral_gain_pn_per_v(s); },
      {FW_RULE_FORCE_GAINS, FW_RULE_WORD16_RANGE, FW_RULE_INTERLOCK_LATERAL}},
-    {"board.mu_ppm",
-     [](S s) -> SceneKeys { return {{s.fw_cal.mu ? "firmware.mu" : "sample.tip_substrate.mu", s.fw_cal.mu.value_or(s.tip_substrate.mu)}}; },
-     [](S s, C c) { c->board.mu_ppm = fwu_ppm(s.fw_cal.mu.value_or(s.tip_substrate.mu)); }, {FW_RULE_MU_RANGE, FW_RULE_MU_2H_OVER_L}},
-    {"board.tip_height_nm", [](S s) -> SceneKeys { return {{"probe.tip_height_um", s.probe.tip_height_um}}; },
-     [](S s, C c) { c->board.tip_height_nm = fwu_nm_from_um(s.probe.tip_height_um); },
+    {"board.mu_ppm", [](S s) -> SceneKeys { return {tip_mu(s)}; }, [](S s, C c) { c->board.mu_ppm = fwu_ppm(tip_mu(s).second); }, {FW_RULE_MU_RANGE, FW_RULE_MU_2H_OVER_L}},
+    {"board.tip_height_nm", [](S s) -> SceneKeys { return {tip_height(s)}; },
+     [](S s, C c) { c->board.tip_height_nm = fwu_nm_from_um(tip_height(s).second); },
      {FW_RULE_LEVER_POSITIVE, FW_RULE_TIP_SHORTER_THAN_LEVER, FW_RULE_MU_2H_OVER_L, FW_RULE_WORD16_RANGE}},
-    {"board.deflection_pm_per_v", [](S s) -> SceneKeys { return {{"probe.deflection_nm_per_V", s.probe.deflection_nm_per_V}}; },
-     [](S s, C c) { c->board.deflection_pm_per_v = fwu_pm_per_v_from_nm_per_v(s.probe.deflection_nm_per_V); },
+    {"board.deflection_pm_per_v", [](S s) -> SceneKeys { return {deflection(s)}; },
+     [](S s, C c) { c->board.deflection_pm_per_v = fwu_pm_per_v_from_nm_per_v(deflection(s).second); },
      {FW_RULE_DEFLECTION_GAIN, FW_RULE_WORD16_RANGE}},
-    {"board.lever_length_nm", [](S s) -> SceneKeys { return {{"probe.lever_length_um", s.probe.lever_length_um}}; },
-     [](S s, C c) { c->board.lever_length_nm = fwu_nm_from_um(s.probe.lever_length_um); },
+    {"board.lever_length_nm", [](S s) -> SceneKeys { return {lever_length(s)}; },
+     [](S s, C c) { c->board.lever_length_nm = fwu_nm_from_um(lever_length(s).second); },
      {FW_RULE_LEVER_POSITIVE, FW_RULE_TIP_SHORTER_THAN_LEVER, FW_RULE_MU_2H_OVER_L, FW_RULE_WORD16_RANGE}},
-    {"board.disp_n_pm_per_v", [](S s) { return disp_keys("firmware.disp_n_nm_per_V", s.fw_cal.disp_n_nm_per_V, s); },
-     [](S s, C c) { c->board.disp_n_pm_per_v = disp_pm_per_v(s.fw_cal.disp_n_nm_per_V, s); }, {FW_RULE_DISP_NEGATIVE, FW_RULE_DISP_RANGE}},
-    {"board.disp_l_pm_per_v", [](S s) { return disp_keys("firmware.disp_l_nm_per_V", s.fw_cal.disp_l_nm_per_V, s); },
+    {"board.disp_n_pm_per_v",
+     [](S s) { return disp_keys("disp_n_nm_per_V", s.fw_cal.disp_n_nm_per_V, calibrated(s, &FirmwareCalibration::Bench::disp_n_nm_per_V), s); },
+     [](S s, C c) { c->board.disp_n_pm_per_v = disp_pm_per_v(disp_n(s), s); }, {FW_RULE_DISP_NEGATIVE, FW_RULE_DISP_RANGE}},
+    {"board.disp_l_pm_per_v", [](S s) { return disp_keys("disp_l_nm_per_V", s.fw_cal.disp_l_nm_per_V, std::nullopt, s); },
      [](S s, C c) { c->board.disp_l_pm_per_v = disp_pm_per_v(s.fw_cal.disp_l_nm_per_V, s); }, {FW_RULE_DISP_NEGATIVE, FW_RULE_DISP_RANGE}},
-    {"board.adhesion_pn", [](S s) -> SceneKeys { return {{"sample.tip_substrate.adhesion_nN", s.tip_substrate.adhesion_nN}}; },
-     [](S s, C c) { c->board.adhesion_pn = fwu_pn_from_nn(adhesion_if_on(s, s.tip_substrate.adhesion_nN)); }, {FW_RULE_ADHESION}},
+    {"board.adhesion_pn", [](S s) -> SceneKeys { return {tip_adhesion(s)}; },
+     [](S s, C c) { c->board.adhesion_pn = fwu_pn_from_nn(adhesion_if_on(s, tip_adhesion(s).second)); }, {FW_RULE_ADHESION}},
     {"board.scan_angle_mdeg", [](S s) -> SceneKeys { return {{"probe.scan_angle_deg", s.probe.scan_angle_deg}}; },
      [](S s, C c) { c->board.scan_angle_mdeg = fwu_mdeg_from_deg(s.probe.scan_angle_deg); }, {}},
     {"board.scan_center_pm",
@@ -108,28 +189,25 @@ const std::vector<CardRow> kRows = {
      [](S s, C c) { c->board.scan_half_range_pm = fwu_pm_from_nm(s.field_nm / 2); }, {FW_RULE_JOYSTICK_RANGE}},
     {"board.kappa_q16", [](S s) -> SceneKeys { return {{"operator.kappa", s.op.kappa}}; },
      [](S s, C c) { c->board.kappa_q16 = fwu_q16(s.op.kappa); }, {FW_RULE_JOYSTICK_RANGE}},
-    {"tip_radius_pm", [](S s) -> SceneKeys { return {{"probe.tip_radius_nm", s.probe.tip_radius_nm}}; },
-     [](S s, C c) { c->tip_radius_pm = fwu_pm_from_nm(s.probe.tip_radius_nm); }, {FW_RULE_TIP_RADIUS}},
-    {"tip_half_angle_mdeg", [](S s) -> SceneKeys { return {{"probe.tip_half_angle_deg", s.probe.tip_half_angle_deg}}; },
-     [](S s, C c) { c->tip_half_angle_mdeg = fwu_mdeg_from_deg(s.probe.tip_half_angle_deg); }, {FW_RULE_TIP_HALF_ANGLE}},
-    {"particle_mu_ppm", [](S s) -> SceneKeys { return {{"sample.particle_substrate.mu", s.particle_substrate.mu}}; },
-     [](S s, C c) { c->particle_mu_ppm = fwu_ppm(s.particle_substrate.mu); }, {FW_RULE_PARTICLE}},
-    {"particle_adhesion_pn", [](S s) -> SceneKeys { return {{"sample.particle_substrate.adhesion_nN", s.particle_substrate.adhesion_nN}}; },
-     [](S s, C c) { c->particle_adhesion_pn = fwu_pn_from_nn(adhesion_if_on(s, s.particle_substrate.adhesion_nN)); }, {FW_RULE_PARTICLE}},
-    {"particle_shear_kpa",
-     [](S s) -> SceneKeys { return {{"sample.particle_substrate.shear_strength_MPa", s.particle_substrate.shear_strength_MPa}}; },
-     [](S s, C c) { c->particle_shear_kpa = fwu_kpa_from_mpa(s.particle_substrate.shear_strength_MPa); }, {FW_RULE_PARTICLE}},
-    {"particle_contact_area_nm2",
-     [](S s) -> SceneKeys { return {{"sample.particle_substrate.contact_area_nm2", s.particle_substrate.contact_area_nm2}}; },
-     [](S s, C c) { c->particle_contact_area_nm2 = fwu_i32(s.particle_substrate.contact_area_nm2); }, {FW_RULE_PARTICLE}},
-    {"wire_friction_pn_per_um", [](S s) -> SceneKeys { return {{"sample.wire.friction_nN_per_um", s.wire_friction_nN_per_um()}}; },
-     [](S s, C c) { c->wire_friction_pn_per_um = fwu_pn_per_um_from_nn_per_um(s.wire_friction_nN_per_um()); }, {FW_RULE_WIRE_FRICTION}},
-    {"wire_mu_ppm", [](S s) -> SceneKeys { return {{"sample.wire.mu", s.wire_model.mu}}; },
-     [](S s, C c) { c->wire_mu_ppm = fwu_ppm(s.wire_model.mu); }, {FW_RULE_WIRE_FRICTION}},
-    {"litho_threshold_pn", [](S s) -> SceneKeys { return {{"sample.lithography.threshold_nN", s.litho.threshold_nN}}; },
-     [](S s, C c) { c->litho_threshold_pn = fwu_pn_from_nn(s.litho.threshold_nN); }, {FW_RULE_LITHO}},
-    {"litho_depth_pm_per_pn", [](S s) -> SceneKeys { return {{"sample.lithography.depth_nm_per_nN", s.litho.depth_nm_per_nN}}; },
-     [](S s, C c) { c->litho_depth_pm_per_pn = fwu_q16(s.litho.depth_nm_per_nN); }, {FW_RULE_LITHO}},   // nm/nN = pm/pN, 16.16
+    {"tip_radius_pm", [](S s) -> SceneKeys { return {tip_radius(s)}; },
+     [](S s, C c) { c->tip_radius_pm = fwu_pm_from_nm(tip_radius(s).second); }, {FW_RULE_TIP_RADIUS}},
+    {"tip_half_angle_mdeg", [](S s) -> SceneKeys { return {half_angle(s)}; },
+     [](S s, C c) { c->tip_half_angle_mdeg = fwu_mdeg_from_deg(half_angle(s).second); }, {FW_RULE_TIP_HALF_ANGLE}},
+    {"particle_mu_ppm", [](S s) -> SceneKeys { return {particle_mu(s)}; },
+     [](S s, C c) { c->particle_mu_ppm = fwu_ppm(particle_mu(s).second); }, {FW_RULE_PARTICLE}},
+    {"particle_adhesion_pn", [](S s) -> SceneKeys { return {particle_adhesion(s)}; },
+     [](S s, C c) { c->particle_adhesion_pn = fwu_pn_from_nn(adhesion_if_on(s, particle_adhesion(s).second)); }, {FW_RULE_PARTICLE}},
+    {"particle_shear_kpa", [](S s) -> SceneKeys { return {particle_shear(s)}; },
+     [](S s, C c) { c->particle_shear_kpa = fwu_kpa_from_mpa(particle_shear(s).second); }, {FW_RULE_PARTICLE}},
+    {"particle_contact_area_nm2", [](S s) -> SceneKeys { return {particle_area(s)}; },
+     [](S s, C c) { c->particle_contact_area_nm2 = fwu_i32(particle_area(s).second); }, {FW_RULE_PARTICLE}},
+    {"wire_friction_pn_per_um", [](S s) -> SceneKeys { return {wire_friction(s)}; },
+     [](S s, C c) { c->wire_friction_pn_per_um = fwu_pn_per_um_from_nn_per_um(wire_friction(s).second); }, {FW_RULE_WIRE_FRICTION}},
+    {"wire_mu_ppm", [](S s) -> SceneKeys { return {wire_mu(s)}; }, [](S s, C c) { c->wire_mu_ppm = fwu_ppm(wire_mu(s).second); }, {FW_RULE_WIRE_FRICTION}},
+    {"litho_threshold_pn", [](S s) -> SceneKeys { return {litho_threshold(s)}; },
+     [](S s, C c) { c->litho_threshold_pn = fwu_pn_from_nn(litho_threshold(s).second); }, {FW_RULE_LITHO}},
+    {"litho_depth_pm_per_pn", [](S s) -> SceneKeys { return {litho_depth(s)}; },
+     [](S s, C c) { c->litho_depth_pm_per_pn = fwu_q16(litho_depth(s).second); }, {FW_RULE_LITHO}},   // nm/nN = pm/pN, 16.16
     // A landmark after a lever change may be anywhere in the field.
     {"landmark_max_step_pm", [](S s) -> SceneKeys { return {{"sample.field_nm", s.field_nm}}; },
      [](S s, C c) { c->landmark_max_step_pm = fwu_pm_from_nm(s.field_nm / 2); }, {FW_RULE_DRIFT_STEP}},
@@ -164,6 +242,24 @@ const std::vector<CardRow> &card_rows()
 void fill_card_rows(const Scene &s, fw_card_config_t *c)
 {
     for (const CardRow &r : card_rows()) r.fill(s, c);
+}
+
+std::vector<CardSource> card_sources(const Scene &s)
+{
+    std::vector<CardSource> out;
+    const std::string nominal = kNominalSuffix;
+    for (const CardRow &r : card_rows())
+        for (auto &[key, value] : r.keys(s)) {
+            std::string source = "scene configuration";
+            if (key.size() > nominal.size() && key.compare(key.size() - nominal.size(), nominal.size(), nominal) == 0)
+                source = "nominal";
+            else if (key.rfind(kCalibrationPrefix, 0) == 0)
+                source = "calibration run " + s.fw_cal.calibration->run;
+            else if (key.rfind("firmware.", 0) == 0)
+                source = "scene card section";
+            out.push_back({r.field, key, value, source});
+        }
+    return out;
 }
 
 SceneKeys card_rule_keys(const Scene &s, fw_rule_t rule)

@@ -6,10 +6,14 @@
 // names a rule's scene keys from it (card_rule_keys). What the card is
 // given changes here, and only here.
 //
-// A row's keys are the ones the scene gave for it: a calibration
-// (firmware.*) where the scene has one, else the probe's or the sample's
-// value it stands in for. An absent optional key is named with -1. The
-// keys of a rule are those of every row that feeds it, in the table's
+// The card is given what a lab would have, never the simulator's truth
+// (the scene's probe and sample sections): a row's constant is the scene's
+// card section (firmware.*) where it gives one, else what a bench
+// calibration measured (firmware.calibration.*, analysis/card_calib.py),
+// else the card's nominal, named "firmware.KEY (nominal)". The run's
+// settings (the field, the scan angle, the operator's scale and device)
+// are the card's configuration. An absent optional key is named with -1.
+// The keys of a rule are those of every row that feeds it, in the table's
 // order, each named once; the first names the refusal's line.
 #pragma once
 
@@ -41,6 +45,17 @@ const std::vector<CardRow> &card_rows();
 // Fills every row of the table into *c (the lists, flags and storage are
 // card_setup.cpp's).
 void fill_card_rows(const Scene &s, fw_card_config_t *c);
+
+// Where each of the card's constants came from, a row's key at a time:
+// source "scene card section" (firmware.*), "calibration run <id>"
+// (firmware.calibration.*), "nominal", or "scene configuration" (the
+// run's settings). run.json's card_sources (host/launch/run_record.cpp).
+struct CardSource {
+    std::string field, key;   // "board.mu_ppm", "firmware.calibration.mu"
+    double value;             // in the key's units
+    std::string source;
+};
+std::vector<CardSource> card_sources(const Scene &s);
 
 // The scene keys whose values feed `rule`, with those values (this names
 // inputs; the rule itself is the firmware's). Empty for a rule no row feeds.

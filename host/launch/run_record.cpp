@@ -16,6 +16,7 @@ extern "C" {
 #include "bus.hpp"
 #include "bus_recorder.hpp"
 #include "card_setup.hpp"
+#include "card_table.hpp"
 #include "lcmlog.hpp"
 #include "processes.hpp"
 #include "scene.hpp"
@@ -96,6 +97,16 @@ json card_json(const Scene &scene)
             {"twist_urad_per_v", static_cast<double>(card.twist_rad_per_v) * 1e6 / static_cast<double>(1 << 30)},
             {"samples_per_block", scene.samples_per_block()},
             {"full_scale_pn", fw_guard_full_scale_pn(b.normal_gain_pn_per_v)}};
+}
+
+// Where each of the card's constants came from (card_table.hpp: the
+// scene's card section, a bench calibration, a nominal, the run's settings).
+json card_sources_json(const Scene &scene)
+{
+    json out = json::array();
+    for (const auto &c : afm::card_sources(scene))
+        out.push_back({{"field", c.field}, {"key", c.key}, {"value", c.value}, {"source", c.source}});
+    return out;
 }
 
 // CPU a block in the loop, per process (from the run's start, within the
@@ -244,6 +255,7 @@ json assemble(const RunParts &p, int64_t *messages)
     run["channels"] = afm::channels_json(counts);
     if (!log_err.empty()) run["log_error"] = log_err;
     run["card"] = card_json(*p.scene);
+    run["card_sources"] = card_sources_json(*p.scene);
     run["launcher"] = p.launcher;
     run["placement"] = p.placement;
     merge_reports(p.out, &run);

@@ -23,8 +23,9 @@ struct Scene;
 
 namespace afm::launch {
 
-// run.json's layout. 2: schema_version, provenance, scene_hash.
-constexpr int kRunSchemaVersion = 2;
+// run.json's layout. 2: schema_version, provenance, scene_hash. 3:
+// card_sources (where each of the card's constants came from).
+constexpr int kRunSchemaVersion = 3;
 
 // The files a run writes in its folder (those an earlier run left there are replaced).
 const std::vector<std::string> &run_outputs();

@@ -117,7 +117,7 @@ class RunJsonKeys(unittest.TestCase):
         keys, on_failure = self.documented()
         self.assertEqual(sorted(set(rj) - keys), [], "keys of run.json docs/design.md does not document")
         self.assertEqual(sorted(keys - set(rj) - on_failure), [], "documented keys an ok run does not write")
-        self.assertEqual(rj["schema_version"], 2)
+        self.assertEqual(rj["schema_version"], 3)
         prov = rj["provenance"]
         self.assertEqual(sorted(prov), ["build_type", "commit", "compilers", "dirty", "libraries"])
         git = subprocess.run(["git", "-C", e2e_support.SRC, "rev-parse", "HEAD"], capture_output=True, text=True)

@@ -1,9 +1,10 @@
 // Unity tests of the scene-to-card table (host/card/card_table.hpp) and the
 // card's refusal (card_setup.hpp): settings converted as computed by hand
-// here (units, Q formats, the calibrations and defaults chosen); every
+// here (units, Q formats, the calibrations and defaults chosen); the card
+// reads nothing of the scene's probe and sample (the truth): its section,
+// a bench calibration or its nominal, each named in card_sources; every
 // setting of the board but its two optional ones comes from a row; each
-// rule's keys, in order, named once, the calibrated ones where the scene
-// gives them; and a refusal's line, from a scene file.
+// rule's keys, in order, named once; and a refusal's line, from a scene file.
 #include "card_setup.hpp"
 #include "card_table.hpp"
 
@@ -22,19 +23,19 @@ namespace {
 afm::Scene hand_scene()
 {
     afm::Scene s;
-    s.probe.spring_N_per_m = 0.2;
-    s.probe.deflection_nm_per_V = 50;
-    s.probe.lateral_nN_per_V = 30;
-    s.probe.tip_height_um = 10;
-    s.probe.lever_length_um = 200;
+    s.fw_cal.spring_N_per_m = 0.2;
+    s.fw_cal.deflection_nm_per_V = 50;
+    s.fw_cal.lateral_nN_per_V = 30;
+    s.fw_cal.tip_height_um = 10;
+    s.fw_cal.lever_length_um = 200;
     s.probe.scan_angle_deg = 270;
-    s.probe.tip_radius_nm = 12.5;
-    s.tip_substrate.mu = 0.0865;
-    s.tip_substrate.adhesion_nN = 3;
+    s.fw_cal.tip_radius_nm = 12.5;
+    s.fw_cal.mu = 0.0865;
+    s.fw_cal.adhesion_nN = 3;
     s.field_nm = 2000;
     s.field_center_nm = {100, -250};
     s.op.kappa = 1.5;
-    s.litho.depth_nm_per_nN = 0.25;
+    s.fw_cal.litho_depth_nm_per_nN = 0.25;
     s.op.haptic.force_gain_N_per_nN = 0.004;
     s.op.haptic.max_force_N = 3;
     s.adc_bits = 12;
@@ -65,7 +66,7 @@ void expect_keys(const SceneKeys &want, const SceneKeys &got)
 void setUp() {}
 void tearDown() {}
 
-// The probe's and the sample's values in the firmware's units.
+// The card section's values in the firmware's units.
 void test_rows_convert_the_scene_as_computed_by_hand()
 {
     const fw_card_config_t c = filled(hand_scene());
@@ -100,6 +101,8 @@ void test_rows_convert_the_scene_as_computed_by_hand()
 void test_calibrations_and_effects_take_their_rows()
 {
     afm::Scene s = hand_scene();
+    s.fw_cal.lateral_nN_per_V.reset();
+    s.fw_cal.mu.reset();
     s.fw_cal.lateral_nN_per_V = 40;
     s.fw_cal.mu = 0.25;
     s.fw_cal.disp_n_nm_per_V = 75;
@@ -121,6 +124,58 @@ void test_calibrations_and_effects_take_their_rows()
     TEST_ASSERT_EQUAL_INT32(0, c.board.disp_l_pm_per_v);
 }
 
+// The truth (the probe and sample sections) changes nothing the card is
+// given: each of its values is the card section's, a calibration's or a nominal.
+void test_the_card_reads_nothing_of_the_truth()
+{
+    afm::Scene a, b;
+    b.probe.spring_N_per_m = 0.3;
+    b.probe.deflection_nm_per_V = 60;
+    b.probe.lateral_nN_per_V = 20;
+    b.probe.lever_length_um = 150;
+    b.probe.tip_height_um = 9;
+    b.probe.tip_radius_nm = 30;
+    b.probe.tip_half_angle_deg = 50;
+    b.tip_substrate = {0.4, 7, 0, 0};
+    b.particle_substrate = {0.6, 9, 5, 100};
+    b.wire_model.friction_nN_per_um = 70;
+    b.wire_model.mu = 0.9;
+    b.litho = {5, 0.5};
+    for (afm::Scene *s : {&a, &b}) s->effects = {"adhesion"};
+    const fw_card_config_t ca = filled(a), cb = filled(b);
+    TEST_ASSERT_EQUAL_MEMORY(&ca, &cb, sizeof ca);
+    TEST_ASSERT_EQUAL_INT32(22000, ca.tip_half_angle_mdeg);   // the nominal, not the truth's 20 deg
+    TEST_ASSERT_EQUAL_INT32(100000, ca.board.mu_ppm);         // nominal 0.1, not the truth's 0.0865
+    for (const auto &c : afm::card_sources(b)) {
+        TEST_ASSERT_TRUE_MESSAGE(c.key.rfind("probe.", 0) != 0 || c.key == "probe.scan_angle_deg", c.key.c_str());
+        TEST_ASSERT_TRUE_MESSAGE(c.key.rfind("sample.", 0) != 0 || c.key.rfind("sample.field", 0) == 0, c.key.c_str());
+    }
+}
+
+// Each constant's source: the card section, a bench calibration, a nominal.
+void test_card_sources_name_section_calibration_and_nominal()
+{
+    afm::Scene s;
+    s.fw_cal.tip_half_angle_deg = 50;
+    s.fw_cal.calibration = afm::FirmwareCalibration::Bench{"tilted fnv1a64:0123456789abcdef", 0.09, 36.5, std::nullopt};
+    const fw_card_config_t c = filled(s);
+    TEST_ASSERT_EQUAL_INT32(90000, c.board.mu_ppm);
+    TEST_ASSERT_EQUAL_INT32(36500, c.board.lateral_gain_pn_per_v);
+    TEST_ASSERT_EQUAL_INT32(50000, c.tip_half_angle_mdeg);
+    auto source = [&](const std::string &field) {
+        for (const auto &x : afm::card_sources(s))
+            if (x.field == field) return x.key + " = " + std::to_string(x.value) + ": " + x.source;
+        return std::string("none");
+    };
+    TEST_ASSERT_EQUAL_STRING("firmware.calibration.mu = 0.090000: calibration run tilted fnv1a64:0123456789abcdef",
+                             source("board.mu_ppm").c_str());
+    TEST_ASSERT_EQUAL_STRING("firmware.tip_half_angle_deg = 50.000000: scene card section", source("tip_half_angle_mdeg").c_str());
+    TEST_ASSERT_EQUAL_STRING("firmware.wire_mu (nominal) = 0.300000: nominal", source("wire_mu_ppm").c_str());
+    TEST_ASSERT_EQUAL_STRING("operator.kappa = 1.000000: scene configuration", source("board.kappa_q16").c_str());
+    s.fw_cal.mu = 0.2;   // the card section wins over the calibration
+    TEST_ASSERT_EQUAL_STRING("firmware.mu = 0.200000: scene card section", source("board.mu_ppm").c_str());
+}
+
 // Every setting of the board comes from a row, but the two optional ones
 // (0: the firmware's default), which no scene key sets.
 void test_every_board_setting_but_the_optional_ones_has_a_row()
@@ -139,12 +194,14 @@ void test_every_board_setting_but_the_optional_ones_has_a_row()
 void test_a_rules_keys_are_its_rows_keys_in_order()
 {
     afm::Scene s = hand_scene();
-    expect_keys({{"firmware.word_bits", 32}, {"probe.spring_N_per_m", 0.2}, {"probe.deflection_nm_per_V", 50},
-                 {"probe.lateral_nN_per_V", 30}, {"probe.tip_height_um", 10}, {"probe.lever_length_um", 200}},
+    s.fw_cal.lateral_nN_per_V.reset();
+    s.fw_cal.mu.reset();
+    expect_keys({{"firmware.word_bits", 32}, {"firmware.spring_N_per_m", 0.2}, {"firmware.deflection_nm_per_V", 50},
+                 {"firmware.lateral_nN_per_V (nominal)", 37.9}, {"firmware.tip_height_um", 10}, {"firmware.lever_length_um", 200}},
                 afm::card_rule_keys(s, FW_RULE_WORD16_RANGE));
-    expect_keys({{"probe.tip_height_um", 10}, {"probe.deflection_nm_per_V", 50}, {"probe.lever_length_um", 200}},
+    expect_keys({{"firmware.tip_height_um", 10}, {"firmware.deflection_nm_per_V", 50}, {"firmware.lever_length_um", 200}},
                 afm::card_rule_keys(s, FW_RULE_DISP_RANGE));
-    expect_keys({{"firmware.interlock_normal_nN", -1}, {"probe.spring_N_per_m", 0.2}, {"probe.deflection_nm_per_V", 50}},
+    expect_keys({{"firmware.interlock_normal_nN", -1}, {"firmware.spring_N_per_m", 0.2}, {"firmware.deflection_nm_per_V", 50}},
                 afm::card_rule_keys(s, FW_RULE_INTERLOCK_NORMAL));
     expect_keys({{"sample.field_nm", 2000}, {"operator.kappa", 1.5}}, afm::card_rule_keys(s, FW_RULE_JOYSTICK_RANGE));
     expect_keys({{"sample.field_nm", 2000}}, afm::card_rule_keys(s, FW_RULE_DRIFT_STEP));
@@ -153,9 +210,9 @@ void test_a_rules_keys_are_its_rows_keys_in_order()
     s.fw_cal.lateral_nN_per_V = 40;
     s.fw_cal.disp_n_nm_per_V = 75;
     s.fw_cal.disp_l_nm_per_V = 80;
-    expect_keys({{"firmware.mu", 0.25}, {"probe.tip_height_um", 10}, {"probe.lever_length_um", 200}},
+    expect_keys({{"firmware.mu", 0.25}, {"firmware.tip_height_um", 10}, {"firmware.lever_length_um", 200}},
                 afm::card_rule_keys(s, FW_RULE_MU_2H_OVER_L));
-    expect_keys({{"probe.spring_N_per_m", 0.2}, {"probe.deflection_nm_per_V", 50}, {"firmware.lateral_nN_per_V", 40}},
+    expect_keys({{"firmware.spring_N_per_m", 0.2}, {"firmware.deflection_nm_per_V", 50}, {"firmware.lateral_nN_per_V", 40}},
                 afm::card_rule_keys(s, FW_RULE_FORCE_GAINS));
     expect_keys({{"firmware.disp_n_nm_per_V", 75}, {"firmware.disp_l_nm_per_V", 80}}, afm::card_rule_keys(s, FW_RULE_DISP_NEGATIVE));
     // rules about what no scalar setting holds (the lists, the storage)
@@ -168,13 +225,13 @@ void test_a_refusal_names_the_rule_and_its_keys()
 {
     afm::Scene s = afm::load_scene(std::string(AFM_SOURCE_DIR) + "/scenes/default.yaml");
     TEST_ASSERT_EQUAL_STRING("", afm::card_refusal(s).c_str());
-    s.probe.tip_height_um = s.probe.lever_length_um;
+    s.fw_cal.tip_height_um = 100;   // the lever's nominal length
     const std::string why = afm::card_refusal(s);
-    const std::string want = std::string("probe.tip_height_um: the firmware's card refuses it: ") + fw_rule_text(FW_RULE_TIP_SHORTER_THAN_LEVER);
+    const std::string want = std::string("firmware.tip_height_um: the firmware's card refuses it: ") + fw_rule_text(FW_RULE_TIP_SHORTER_THAN_LEVER);
     TEST_ASSERT_EQUAL_STRING(want.c_str(), why.substr(0, want.size()).c_str());
     TEST_ASSERT_TRUE(why.find("(fw_card_init: FW_ERR_DOMAIN, rule " + std::to_string(FW_RULE_TIP_SHORTER_THAN_LEVER) + ")") != std::string::npos);
-    TEST_ASSERT_TRUE(why.find("; got probe.tip_height_um ") != std::string::npos);
-    TEST_ASSERT_TRUE(why.find(", probe.lever_length_um ") != std::string::npos);
+    TEST_ASSERT_TRUE(why.find("; got firmware.tip_height_um ") != std::string::npos);
+    TEST_ASSERT_TRUE(why.find(", firmware.lever_length_um (nominal) ") != std::string::npos);
 }
 
 int main()
@@ -182,6 +239,8 @@ int main()
     UNITY_BEGIN();
     RUN_TEST(test_rows_convert_the_scene_as_computed_by_hand);
     RUN_TEST(test_calibrations_and_effects_take_their_rows);
+    RUN_TEST(test_the_card_reads_nothing_of_the_truth);
+    RUN_TEST(test_card_sources_name_section_calibration_and_nominal);
     RUN_TEST(test_every_board_setting_but_the_optional_ones_has_a_row);
     RUN_TEST(test_a_rules_keys_are_its_rows_keys_in_order);
     RUN_TEST(test_a_refusal_names_the_rule_and_its_keys);

@@ -69,6 +69,7 @@ const struct { const char *prefix, *yaml; } kSetups[] = {
      "operator: {plan: {cuts: [{from_nm: [0, 0], to_nm: [1000, 0], load_nN: 50}]}}"},
     {"operator.local_scans[]", "objects: {" AFM_ID_ENDS "}\noperator: {local_scans: [{at_s: 0.5, around_id: 0}]}"},
     {"operator.cantilever_changes[]", "operator: {cantilever_changes: [{at_s: 0.5, offset_nm: [0, 0]}]}"},
+    {"firmware.calibration.", "firmware: {calibration: {run: a test}}"},
 };
 
 // Copies `from` into `into`, mapping by mapping (from's values win).
