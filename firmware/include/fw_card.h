@@ -22,8 +22,10 @@
  * force on the operator's hand (haptic: gain and limit), and the command to
  * the piezo for the next block from the operator's pose given with the
  * block: the joystick target (fw_comp) moved by the drift the local scans
- * measured, less the bending offset of the block's last signals. The
- * command answers the pose of the block it is computed in: the haptic
+ * measured, less the bending offset of the block's last signals, then
+ * shaped for the scanner when its compensation is on (creep_enable:
+ * fw_creep; hyst_enable: fw_hyst's inverse; the configuration's fields
+ * below). The command answers the pose of the block it is computed in: the haptic
  * loop's latency is one block, as a card's DMA with two buffers has it.
  * The interlock (fw_guard.h) then steps with the block's causes and the
  * pose (its load, the joystick target before the drift, its engagement):
@@ -64,6 +66,8 @@
 #include "fw_litho.h"
 #include "fw_drift.h"
 #include "fw_guard.h"
+#include "fw_hyst.h"
+#include "fw_creep.h"
 
 /* disp_n_pm_per_v, disp_l_pm_per_v of the board configuration: use the
  * lever's estimate 3 h K_n / (2 l) (fw_calib_disp_estimate). */
@@ -128,6 +132,16 @@ typedef struct {
     bool interlock;
     int32_t interlock_normal_pn;        /* |F_z| above it trips: in (0, k_n K_n 10 V) */
     int32_t interlock_lateral_pn;       /* |F_y| above it trips: in (0, k_theta K_l / h 10 V) */
+    /* the scanner's compensation, each off by default (a zeroed
+     * configuration: the command is the piezo set point above, unshaped).
+     * The command for the next block passes the creep feed-forward, then
+     * the inverse hysteresis model (a scanner that creeps after its
+     * hysteresis, y = C[H[u]], is inverted as u = H^-1[C^-1[r]]), x and y
+     * each through its own instance. */
+    bool creep_enable;
+    fw_creep_params_t creep;            /* both axes; period_us: the block's period */
+    bool hyst_enable;
+    fw_hyst_params_t hyst[2];           /* x, y: the direct models ./afm calib scanner fits; the card inverts them */
 } fw_card_config_t;
 
 /* The caller's storage: capacities at least the configuration's counts
@@ -200,6 +214,8 @@ typedef struct {
     fw_litho_t litho;
     fw_drift_t drift;
     fw_guard_t guard;                /* the interlock, when cfg.interlock */
+    fw_creep_t creep[2];             /* x, y, when cfg.creep_enable */
+    fw_hyst_t hyst[2];               /* x, y, when cfg.hyst_enable */
     bool objects;                    /* particles, wires or lithography: the per-sample models run */
     bool down;                       /* this block's samples were taken with the tip engaged */
     uint32_t sat_samples;
@@ -216,7 +232,8 @@ typedef struct {
  * rod's fw_wire_check, fw_wire_check_tip, capacity), lithography
  * (fw_litho_check, storage), drift (fw_drift_check), landmarks (capacity),
  * haptic (gain and limit >= 0), the interlock's limits when it is on
- * (fw_guard_check, against the board's gains). FW_RULE_NULL_POINTER for NULL arguments,
+ * (fw_guard_check, against the board's gains), the creep law and each
+ * axis's hysteresis model when on (fw_creep_check, fw_hyst_check). FW_RULE_NULL_POINTER for NULL arguments,
  * a NULL array with a count > 0, or no scratch. */
 fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st);
 

@@ -55,6 +55,8 @@ typedef enum {
     FW_RULE_TILTED_NO_ANGLE,       /* the slopes give a real friction angle (fw_calib) */
     FW_RULE_INTERLOCK_NORMAL,      /* the interlock's normal limit in (0, k_n K_n 10 V) pN (fw_guard) */
     FW_RULE_INTERLOCK_LATERAL,     /* the interlock's lateral limit in (0, k_theta K_l / h 10 V) pN (fw_guard) */
+    FW_RULE_HYST,                  /* the scanner's hysteresis model's domain (fw_hyst.h) */
+    FW_RULE_CREEP,                 /* the scanner's creep law's domain (fw_creep.h) */
     FW_RULE_COUNT
 } fw_rule_t;
 

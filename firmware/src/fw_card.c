@@ -109,6 +109,17 @@ static int32_t card_drift_step_pm(const fw_card_config_t *cfg)
     return (cfg->drift_max_step_pm == 0) ? FW_DRIFT_MAX_STEP_DEFAULT_PM : cfg->drift_max_step_pm;
 }
 
+/* The scanner's compensation, each part when it is on. */
+static fw_rule_t card_check_scanner(const fw_card_config_t *cfg)
+{
+    fw_rule_t rule = cfg->creep_enable ? fw_creep_check(&cfg->creep) : FW_RULE_OK;
+    int i;
+    for (i = 0; i < 2 && rule == FW_RULE_OK && cfg->hyst_enable; i++) {
+        rule = fw_hyst_check(&cfg->hyst[i]);
+    }
+    return rule;
+}
+
 fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st)
 {
     fw_board_config_t board;
@@ -153,6 +164,9 @@ fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st
         rule = fw_guard_check(cfg->interlock_normal_pn, cfg->interlock_lateral_pn, board.normal_gain_pn_per_v,
                               board.lateral_gain_pn_per_v);
     }
+    if (rule == FW_RULE_OK) {
+        rule = card_check_scanner(cfg);
+    }
     return rule;
 }
 
@@ -161,6 +175,7 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
 {
     fw_board_config_t board;
     fw_rule_t r = fw_card_check(cfg, st);
+    int i;
     if (rule != NULL) {
         *rule = (c == NULL) ? FW_RULE_NULL_POINTER : r;
     }
@@ -198,6 +213,14 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
         (void)fw_guard_init(&c->guard, cfg->interlock_normal_pn, cfg->interlock_lateral_pn,
                             board.normal_gain_pn_per_v, board.lateral_gain_pn_per_v);
     }
+    for (i = 0; i < 2; i++) {
+        if (cfg->creep_enable) {
+            (void)fw_creep_init(&c->creep[i], &cfg->creep);
+        }
+        if (cfg->hyst_enable) {
+            (void)fw_hyst_init(&c->hyst[i], &cfg->hyst[i]);
+        }
+    }
     c->objects = cfg->n_particles > 0 || cfg->n_wires > 0 || cfg->litho;
     fw_card_reset(c);
     return FW_OK;
@@ -227,6 +250,14 @@ void fw_card_reset(fw_card_t *c)
     fw_drift_reset(&c->drift);
     if (cfg->interlock) {
         fw_guard_reset(&c->guard);
+    }
+    for (i = 0; i < 2; i++) {
+        if (cfg->creep_enable) {
+            fw_creep_reset(&c->creep[i]);
+        }
+        if (cfg->hyst_enable) {
+            fw_hyst_reset(&c->hyst[i]);
+        }
     }
     c->sat_samples = 0;
     c->fixes_applied = 0;
@@ -308,6 +339,21 @@ static int32_t card_mean_pn(int64_t sum, int32_t n)
     return fw_math_sat_i32(fw_math_div_round_i64(sum, n), NULL);
 }
 
+/* The command shaped for the scanner (fw_card.h: creep, then hysteresis,
+ * each when on); a clamp in either sets *sat. */
+static void card_shape_command(fw_card_t *c, int32_t cmd_pm[2], bool *sat)
+{
+    int i;
+    for (i = 0; i < 2; i++) {
+        if (c->cfg.creep_enable) {
+            cmd_pm[i] = fw_creep_step_pm(&c->creep[i], cmd_pm[i], sat);
+        }
+        if (c->cfg.hyst_enable) {
+            cmd_pm[i] = fw_hyst_inverse_pm(&c->hyst[i], cmd_pm[i], sat);
+        }
+    }
+}
+
 /* The block's end: the pose's target and command, the hand's force;
  * joy_target_pm: the joystick's target before the drift (the interlock's
  * xy set point). */
@@ -338,6 +384,7 @@ static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t
         out->target_pm[i] = fw_math_sat_i32((int64_t)out->target_pm[i] + c->drift.offset_pm[i], &sat);
         out->piezo_cmd_pm[i] = fw_math_sat_i32((int64_t)out->piezo_cmd_pm[i] + c->drift.offset_pm[i], &sat);
     }
+    card_shape_command(c, out->piezo_cmd_pm, &sat);
     /* a clamped target or command is a position clamped */
     if (sat) {
         out->flags |= FW_FLAG_SAT_POS;

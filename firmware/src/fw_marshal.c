@@ -22,6 +22,9 @@
  *              drift_max_step_pm, landmark_max_step_pm, n_landmarks, each {id, x_pm, y_pm};
  *              haptic_un_per_pn, haptic_max_un, start_lifted (bool), interlock (bool),
  *                interlock_normal_pn, interlock_lateral_pn;
+ *              creep_enable (bool), creep {gamma_ppm, t0_us, period_us};
+ *                hyst_enable (bool), hyst[2] each {n, r_pm[16], w_q24[16],
+ *                range_pm, origin_pm} (all FW_HYST_N_MAX entries);
  *              capacities: particles, wires, trench points
  *   in         joy_q15[2], load_pn, engaged (bool), n, each {sn_uv, sl_uv, piezo_pm[3]}
  *   out        force_pn[3], flags, code_n, code_l, tip_pm[3], target_pm[2],
@@ -290,6 +293,44 @@ static void get_objects(fw_marshal_cursor_t *cur, fw_card_config_t *c, const fw_
     }
 }
 
+static void put_scanner(fw_marshal_cursor_t *cur, const fw_card_config_t *c)
+{
+    int i, k;
+    put_bool(cur, c->creep_enable);
+    PUT(c->creep.gamma_ppm);
+    PUT(c->creep.t0_us);
+    PUT(c->creep.period_us);
+    put_bool(cur, c->hyst_enable);
+    for (i = 0; i < 2; i++) {
+        PUT(c->hyst[i].n);
+        for (k = 0; k < FW_HYST_N_MAX; k++) {
+            PUT(c->hyst[i].r_pm[k]);
+            PUT(c->hyst[i].w_q24[k]);
+        }
+        PUT(c->hyst[i].range_pm);
+        PUT(c->hyst[i].origin_pm);
+    }
+}
+
+static void get_scanner(fw_marshal_cursor_t *cur, fw_card_config_t *c)
+{
+    int i, k;
+    c->creep_enable = get_bool(cur, "config.creep_enable");
+    GET(c->creep.gamma_ppm, "config.creep.gamma_ppm");
+    GET(c->creep.t0_us, "config.creep.t0_us");
+    GET(c->creep.period_us, "config.creep.period_us");
+    c->hyst_enable = get_bool(cur, "config.hyst_enable");
+    for (i = 0; i < 2; i++) {
+        GET(c->hyst[i].n, "config.hyst.n");
+        for (k = 0; k < FW_HYST_N_MAX; k++) {
+            GET(c->hyst[i].r_pm[k], "config.hyst.r_pm");
+            GET(c->hyst[i].w_q24[k], "config.hyst.w_q24");
+        }
+        GET(c->hyst[i].range_pm, "config.hyst.range_pm");
+        GET(c->hyst[i].origin_pm, "config.hyst.origin_pm");
+    }
+}
+
 void fw_marshal_put_config_le(fw_marshal_cursor_t *cur, const fw_card_config_t *cfg, const fw_card_storage_t *st)
 {
     put_board(cur, &cfg->board);
@@ -304,6 +345,7 @@ void fw_marshal_put_config_le(fw_marshal_cursor_t *cur, const fw_card_config_t *
     put_bool(cur, cfg->interlock);
     PUT(cfg->interlock_normal_pn);
     PUT(cfg->interlock_lateral_pn);
+    put_scanner(cur, cfg);
     PUT(st->particle_capacity);
     PUT(st->wire_capacity);
     PUT(st->trench_capacity);
@@ -324,6 +366,7 @@ void fw_marshal_get_config_le(fw_marshal_cursor_t *cur, fw_card_config_t *cfg, c
     cfg->interlock = get_bool(cur, "config.interlock");
     GET(cfg->interlock_normal_pn, "config.interlock_normal_pn");
     GET(cfg->interlock_lateral_pn, "config.interlock_lateral_pn");
+    get_scanner(cur, cfg);
     GET(capacities[0], "storage.particle_capacity");
     GET(capacities[1], "storage.wire_capacity");
     GET(capacities[2], "storage.trench_capacity");

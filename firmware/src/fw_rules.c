@@ -52,6 +52,11 @@ static const rule_row_t rule_rows[FW_RULE_COUNT] = {
       FW_ERR_ARG },
     { "the interlock's lateral force limit lies above 0 pN and below the lateral channel's full scale "
       "k_theta K_l / h 10 V", FW_ERR_ARG },
+    { "the scanner's hysteresis model: 1 to 16 play operators, thresholds from 0 strictly increasing up to the "
+      "half range, which lies in (0, 2^28] pm, an origin within +-2^30 pm, and every partial sum of the weights "
+      "in [1/2, 2]", FW_ERR_ARG },
+    { "the scanner's creep law: gamma in [0, 100000] ppm per decade, t0 in [1 ms, 100 s], the period in "
+      "(0, t0 / 16]", FW_ERR_ARG },
 };
 
 const char *fw_rule_text(fw_rule_t rule)

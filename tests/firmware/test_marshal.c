@@ -59,6 +59,12 @@ static void fill_config(fw_card_config_t *c, bool flag)
     c->drift_max_step_pm = draw(); c->landmark_max_step_pm = draw(); c->landmarks = marks; c->n_landmarks = 2;
     c->haptic_un_per_pn = draw(); c->haptic_max_un = draw(); c->start_lifted = flag; c->interlock = !flag;
     c->interlock_normal_pn = draw(); c->interlock_lateral_pn = draw();
+    c->creep_enable = flag; c->creep.gamma_ppm = draw(); c->creep.t0_us = draw(); c->creep.period_us = draw();
+    c->hyst_enable = !flag;
+    for (int i = 0; i < 2; ++i) {
+        c->hyst[i].n = draw(); c->hyst[i].range_pm = draw(); c->hyst[i].origin_pm = draw();
+        for (int k = 0; k < FW_HYST_N_MAX; ++k) { c->hyst[i].r_pm[k] = draw(); c->hyst[i].w_q24[k] = draw(); }
+    }
 }
 
 static void test_config_round_trips_with_its_arrays_and_capacities(void)
