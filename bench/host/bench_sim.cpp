@@ -5,7 +5,8 @@
 //      particles (1, 100, 10000 on a fixed-pitch lattice: the grid keeps the
 //      per-sample cost flat);
 //   2. cost with each effect turned on, over a base of bending_offset and
-//      100 particles;
+//      100 particles; 2b. a scan as sim_afm serves it (World::scan_line),
+//      plain and with the effects that act on scans;
 //   3. pushed wires against issue 15's goals: the cost per sample (as table
 //      2 measures it) and per sample in contact of a rigid rod (uniform
 //      friction; a trench under part of it) and of a flexible chain of
@@ -108,6 +109,10 @@ void table_effects()
         {"+ tip_convolution", {"tip_convolution"}, false, "glass", 5},
         {"+ particle_contacts", {"particle_contacts"}, false, "glass", 5},
         {"+ thermal_drift", {"thermal_drift"}, false, "glass", 5},
+        {"+ piezo_hysteresis", {"piezo_hysteresis"}, false, "glass", 5},
+        {"+ piezo_creep", {"piezo_creep"}, false, "glass", 5},
+        {"+ z_drift", {"z_drift"}, false, "glass", 5},
+        {"+ scan_artefacts (scans only: table 2b)", {"scan_artefacts"}, false, "glass", 5},
         {"+ lithography (cutting)", {"lithography"}, false, "polycarbonate", 30},
         {"+ a rigid wire (pushed)", {}, true, "glass", 5},
         {"+ a flexible wire, N = 32 (pushed)", {"wire_flexibility"}, true, "glass", 5},
@@ -138,6 +143,38 @@ void table_effects()
         const double scan = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::printf("| %s | %.3f | %.4f | %.2fx | %.2f | %.0f%% |\n", c.name, per * 1e6, per * s.sample_rate_hz, per / ref, scan * 1e3,
                     100 * touching);
+    }
+}
+
+// Table 2b: a scan as sim_afm serves it (World::scan_line, line by line),
+// plain and with the effects that act on scans: us per point.
+void table_scans()
+{
+    std::printf("\n2b. Cost of a scan as served (World::scan_line; 128 x 128 over the 5 um field of table 2's scene, fastest of 3)\n");
+    std::printf("| scene | us per scan point | vs plain |\n|---|---|---|\n");
+    const std::vector<std::pair<const char *, std::vector<std::string>>> cases = {
+        {"plain", {}},
+        {"+ piezo_hysteresis", {"piezo_hysteresis"}},
+        {"+ scan_artefacts", {"scan_artefacts"}},
+        {"+ both", {"piezo_hysteresis", "scan_artefacts"}},
+    };
+    const int n = 128;
+    std::vector<afm::sim::ScanPoint> line(n);
+    double ref = 0;
+    for (const auto &c : cases) {
+        Scene s = base_scene(100);
+        for (const auto &e : c.second) s.effects.push_back(e);
+        const World w(s);
+        double best = 0;
+        for (int r = 0; r < 3; ++r) {
+            const auto t0 = std::chrono::steady_clock::now();
+            for (int j = 0; j < n; ++j) w.scan_line(-2500, 5000.0 / n, n, -2500 + j * 5000.0 / n, -2500, line.data());
+            const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            if (r == 0 || t < best) best = t;
+        }
+        const double per = best / (n * n);
+        if (ref == 0) ref = per;
+        std::printf("| %s | %.3f | %.2fx |\n", c.first, per * 1e6, per / ref);
     }
 }
 
@@ -354,7 +391,10 @@ int main(int argc, char **argv)
     const std::string &only = o.only;
     std::printf("bench_sim: 20 kHz samples; wall s per simulated s = the simulator's cost alone (no bus)\n");
     if (only.empty() || only == "particles") table_particles();
-    if (only.empty() || only == "effects") table_effects();
+    if (only.empty() || only == "effects") {
+        table_effects();
+        table_scans();
+    }
     if (only.empty() || only == "wires") {
         table_wire_goals();
         table_flexible();
