@@ -15,7 +15,8 @@ usage: ./afm bench sim [particles|effects|wires]
        bench/bench_sim.sh [same]
 
   particles  cost against the number of particles (1, 100, 10000)
-  effects    cost of each effect over a base scene
+  effects    cost of each effect over a base scene, then of a scan as served
+             (plain, + piezo_hysteresis, + scan_artefacts)
   wires      pushed wires against issue 15's goals (rigid, rigid with a
              trench, flexible N = 32), then flexible wires' shape error and
              cost against segments N

@@ -27,6 +27,10 @@ const std::vector<EffectInfo> &known_effects()
         {"lithography", "trenches inscribed above a load threshold (sample.lithography)"},
         {"roughness", "random rough substrate (sample.roughness_rms_nm, sample.roughness_corr_nm)"},
         {"down_force", "the cone presses what it pushes: friction rises with the push, the tip squeezes past psi_max"},
+        {"piezo_hysteresis", "the scanner's x, y follow their command through a Prandtl-Ishlinskii loop (afm.hysteresis)"},
+        {"piezo_creep", "the scanner keeps moving after a step, gamma log10(t / t0) of it (afm.creep)"},
+        {"scan_artefacts", "scans show line offsets, the z servo's lag at edges and the scanner's bow (afm.scan_artefacts)"},
+        {"z_drift", "the deflection signal's zero drifts: the true load leaves the set point (afm.z_drift)"},
     };
     return effects;
 }

@@ -191,6 +191,21 @@ struct LithoSpec {
     double depth_nm_per_nN = 2.0;       // depth = depth_nm_per_nN * (load - threshold)
 };
 
+// The instrument's errors (afm.hysteresis, afm.creep, afm.scan_artefacts,
+// afm.z_drift), each acting only with its effect listed (piezo_hysteresis,
+// piezo_creep, scan_artefacts, z_drift; physics.md section 17).
+struct InstrumentSpec {
+    double hysteresis_width_pct = 10.0;               // the loop's opening over its output range, for a cycle of span_nm
+    double hysteresis_span_nm = kScannerRangeXY_nm;   // that cycle's peak-to-peak excursion (default: the scanner's range)
+    double creep_pct_per_decade = 1.5;                // gamma: a step's creep per decade of time, % of the step
+    double creep_t0_s = 0.1;                          // t0 of gamma log10(t / t0)
+    double line_offset_rms_nm = 0.5;                  // scans: each line's height offset, rms
+    double servo_lag_nm = 10.0;                       // scans: the z servo's first-order lag along the fast axis, as a length (tau v)
+    double bow_sag_nm = 2.0;                          // scans: the scanner's bow, a parabola about the field's centre, this low at its edge
+    double z_drift_nm_per_min = 1.0;                  // the deflection signal's zero: its drift rate, nm of deflection
+    double z_drift_walk_nm_per_sqrt_min = 0.0;        // and its random walk
+};
+
 // A quick local scan around an object before an operation (section 10): the
 // display replaces that region of the image and the firmware re-registers
 // its models to where the scan finds the object (drift correction).
@@ -297,6 +312,7 @@ struct Scene {
     // force lags the set point by k_n times the distance left); 0: ideal
     // feedback, the force at the set point from the next sample on.
     double z_speed_nm_per_s = 0.0;
+    InstrumentSpec instrument;          // afm's error sources (their effects listed)
     std::vector<std::string> effects;   // effects the simulator builds
     // The run's own checks this scene fails on purpose (expect:, names of
     // kVerdictChecks): the interlock scene trips the interlock. Meeting an

@@ -244,14 +244,51 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
     }
 }
 
-// afm: the microscope's controller (the z servo's speed).
+namespace {
+
+// afm.hysteresis, afm.creep, afm.scan_artefacts, afm.z_drift: the
+// instrument's errors (InstrumentSpec).
+void read_instrument(const Reader &r, const YAML::Node &a, Scene &s)
+{
+    const InstrumentSpec d;
+    InstrumentSpec &i = s.instrument;
+    // whether the mapping afm.NAME is given (its keys checked)
+    auto given = [&](const YAML::Node &n, const char *name, std::set<std::string> keys) {
+        if (!n.IsDefined() || n.IsNull()) return false;
+        r.only_keys(n, std::string("afm.") + name, std::move(keys));
+        return true;
+    };
+    const YAML::Node h = a["hysteresis"], c = a["creep"], sa = a["scan_artefacts"], z = a["z_drift"];
+    if (given(h, "hysteresis", {"width_pct", "span_nm"})) {
+        i.hysteresis_width_pct = r.num(h, "afm.hysteresis", "width_pct", &d.hysteresis_width_pct);
+        i.hysteresis_span_nm = r.num(h, "afm.hysteresis", "span_nm", &d.hysteresis_span_nm);
+    }
+    if (given(c, "creep", {"gamma_pct_per_decade", "t0_s"})) {
+        i.creep_pct_per_decade = r.num(c, "afm.creep", "gamma_pct_per_decade", &d.creep_pct_per_decade);
+        i.creep_t0_s = r.num(c, "afm.creep", "t0_s", &d.creep_t0_s);
+    }
+    if (given(sa, "scan_artefacts", {"line_offset_rms_nm", "servo_lag_nm", "bow_sag_nm"})) {
+        i.line_offset_rms_nm = r.num(sa, "afm.scan_artefacts", "line_offset_rms_nm", &d.line_offset_rms_nm);
+        i.servo_lag_nm = r.num(sa, "afm.scan_artefacts", "servo_lag_nm", &d.servo_lag_nm);
+        i.bow_sag_nm = r.num(sa, "afm.scan_artefacts", "bow_sag_nm", &d.bow_sag_nm);
+    }
+    if (given(z, "z_drift", {"rate_nm_per_min", "walk_nm_per_sqrt_min"})) {
+        i.z_drift_nm_per_min = r.num(z, "afm.z_drift", "rate_nm_per_min", &d.z_drift_nm_per_min);
+        i.z_drift_walk_nm_per_sqrt_min = r.num(z, "afm.z_drift", "walk_nm_per_sqrt_min", &d.z_drift_walk_nm_per_sqrt_min);
+    }
+}
+
+}  // namespace
+
+// afm: the microscope's controller (the z servo's speed) and its errors.
 void read_afm(const Reader &r, const YAML::Node &root, Scene &s)
 {
     YAML::Node a = root["afm"];
     if (!a.IsDefined() || a.IsNull()) return;
-    r.only_keys(a, "afm", {"z_speed_nm_per_s"});
+    r.only_keys(a, "afm", {"z_speed_nm_per_s", "hysteresis", "creep", "scan_artefacts", "z_drift"});
     const Scene d;
     s.z_speed_nm_per_s = r.num(a, "afm", "z_speed_nm_per_s", &d.z_speed_nm_per_s);
+    read_instrument(r, a, s);
 }
 
 }  // namespace afm::scene_detail

@@ -1,4 +1,6 @@
-// The per-sample effects a scene can name, and the registry that builds them.
+// The per-sample effects a scene can name, and the registry that builds them
+// (piezo_hysteresis and piezo_creep: the scanner's, piezo.hpp; scan_artefacts:
+// the scans', scan_artefacts.hpp).
 #include <cmath>
 #include <functional>
 #include <map>
@@ -60,6 +62,31 @@ public:
     void apply(World &w, double &, double &) override { w.engrave(); }
 };
 
+// The deflection signal's zero drifts (z_drift, physics.md section 17.4):
+// d(t) = rate t + walk W(t), nm of deflection (W a Wiener process, per
+// minute). The signal reads d more than the lever bends; the z servo holds
+// the signal at the set point, so the true load is k_n d below it
+// (World::set_deflection_zero_nm) while S_n reads the set point's volts.
+class ZDrift : public SampleEffect {
+public:
+    ZDrift(const Scene &s, const Lever &lever) : SampleEffect("z_drift"), volts_per_nm_(1.0 / lever.deflection)
+    {
+        const double dt = 1.0 / s.sample_rate_hz;
+        step_nm_ = s.instrument.z_drift_nm_per_min * dt / 60.0;
+        walk_nm_ = s.instrument.z_drift_walk_nm_per_sqrt_min * std::sqrt(dt / 60.0);
+    }
+    void apply(World &w, double &sn, double &) override
+    {
+        sn += zero_nm_ * volts_per_nm_;   // the zero this sample's mechanics ran with
+        zero_nm_ += step_nm_ + (walk_nm_ > 0 ? walk_nm_ * gauss_(w.rng()) : 0.0);
+        w.set_deflection_zero_nm(zero_nm_);
+    }
+
+private:
+    double volts_per_nm_, step_nm_ = 0, walk_nm_ = 0, zero_nm_ = 0;
+    std::normal_distribution<double> gauss_{0.0, 1.0};
+};
+
 using Factory = std::function<std::unique_ptr<SampleEffect>(const Scene &, const Lever &)>;
 
 const std::map<std::string, Factory> &registry()
@@ -68,6 +95,7 @@ const std::map<std::string, Factory> &registry()
         {"photodiode_noise", [](const Scene &s, const Lever &l) { return std::make_unique<PhotodiodeNoise>(s, l); }},
         {"lithography", [](const Scene &, const Lever &) { return std::make_unique<Lithography>(); }},
         {"thermal_drift", [](const Scene &s, const Lever &) { return std::make_unique<ThermalDrift>(s, 1.0 / s.sample_rate_hz); }},
+        {"z_drift", [](const Scene &s, const Lever &l) { return std::make_unique<ZDrift>(s, l); }},
     };
     return r;
 }

@@ -226,6 +226,7 @@ struct Sim {
         const auto t0 = std::chrono::steady_clock::now();
         const int last = std::min(m->ny, m->first_line + m->n_lines);
         const double dx = m->width_nm / m->nx, dy = m->height_nm / m->ny;
+        std::vector<afm::sim::ScanPoint> points;
         for (int j = m->first_line; j < last; ++j) {
             afm::scan_line_t line;
             line.utime = acked >= 0 ? afm::block_end_utime(scene, acked) : 0;
@@ -239,8 +240,10 @@ struct Sim {
             line.height_nm.resize(m->nx);
             line.defl_v.resize(m->nx);
             line.lat_v.resize(m->nx);
+            points.resize(m->nx);
+            world.scan_line(line.x0_nm, dx, m->nx, line.y_nm, m->y0_nm + 0.5 * dy, points.data());
             for (int i = 0; i < m->nx; ++i) {
-                const afm::sim::ScanPoint p = world.scan_point(line.x0_nm + i * dx, line.y_nm);
+                const afm::sim::ScanPoint &p = points[static_cast<std::size_t>(i)];
                 line.height_nm[i] = p.height_nm;
                 line.defl_v[i] = p.sn_v;
                 line.lat_v[i] = p.sl_v;

@@ -77,8 +77,10 @@ World::World(const Scene &s)
     }
 
     const Vec2 start = s.start_nm();
-    piezo_ = target_ = Eigen::Vector2d(start.x, start.y);
+    piezo_ = target_ = drive_ = Eigen::Vector2d(start.x, start.y);
     apex_ = piezo_;
+    piezo_model_ = make_piezo(s, piezo_);
+    if (s.has_effect("scan_artefacts")) artefacts_ = std::make_unique<ScanArtefacts>(s);
 
     mechanics_ = s.has_effect("bending_offset") ? &World::relax : &World::relax_rigid;
     imaging_ = s.has_effect("tip_convolution") ? &World::height_convolved : &World::height_true;
@@ -125,7 +127,8 @@ void World::command(const Eigen::Vector2d &piezo_nm, double load_nN, bool engage
     const double half = kScannerRangeXY_nm / 2;
     target_ = piezo_nm.cwiseMax(-half).cwiseMin(half);
     target_clamped_ = target_ != piezo_nm;
-    load_nN_ = load_nN;
+    load_set_nN_ = load_nN;
+    load_nN_ = load_nN - zero_load_nN_;
     engaged_ = engaged;
 }
 
@@ -168,10 +171,12 @@ World::ZHold World::short_of(ZHold h, double fz) const
 
 Sample World::step()
 {
-    // Scanner: piezo towards its set point at a bounded speed.
-    const Eigen::Vector2d to = target_ - piezo_;
+    // Scanner: the drive towards its set point at a bounded speed; the
+    // piezo where the drive puts it.
+    const Eigen::Vector2d to = target_ - drive_;
     const double max_step = scanner_speed_nm_per_s_ * dt_;
-    piezo_ += to.norm() > max_step ? Eigen::Vector2d(to.normalized() * max_step) : to;
+    drive_ += to.norm() > max_step ? Eigen::Vector2d(to.normalized() * max_step) : to;
+    piezo_ = piezo_model_ ? piezo_model_->step(drive_) : drive_;
 
     // 1 sample in kClockEvery is timed (clocks()): xorshift32's low bits
     clock_pick_ ^= clock_pick_ << 13;
@@ -223,7 +228,7 @@ Sample World::step()
     Sample out;
     out.sn_v = std::clamp(sn, -kSignalLimitV, kSignalLimitV);
     out.sl_v = std::clamp(sl, -kSignalLimitV, kSignalLimitV);
-    out.piezo_nm = Eigen::Vector3d(piezo_.x(), piezo_.y(), piezo_z_);
+    out.piezo_nm = Eigen::Vector3d(drive_.x(), drive_.y(), piezo_z_);
     return out;
 }
 
@@ -266,6 +271,9 @@ std::vector<std::string> World::models_built() const
     m.push_back(scene_.has_effect("bending_offset") ? "mechanics:compliant_lever" : "mechanics:rigid_lever");
     m.push_back(scene_.has_effect("tip_convolution") ? "imaging:tip_convolution" : "imaging:true_topography");
     for (const auto &e : per_sample_) m.push_back(e->name());
+    if (piezo_model_ && piezo_model_->hx) m.push_back("piezo_hysteresis");
+    if (piezo_model_ && piezo_model_->cx) m.push_back("piezo_creep");
+    if (artefacts_) m.push_back("scan_artefacts");
     return m;
 }
 

@@ -28,6 +28,18 @@
 // topography) while disengaged; engaged again, the servo lands it (at once
 // when ideal, at v_z otherwise). Scan lines (scan_point) keep the ideal
 // feedback: a scan is taken as a whole, not sample by sample.
+//
+// The scanner (physics.md section 17): the piezo's drive moves towards its
+// set point at the scanner's speed limit (drive()); with piezo_hysteresis
+// or piezo_creep the piezo is where that drive puts it through the models of
+// piezo.hpp (piezo(): the truth), else at the drive. The analog block's
+// piezo xy is the drive: an open-loop scanner reports what it was told, so
+// the card sees the hysteresis and creep only through what it measures.
+// Scans (scan_line) take each line's points where the hysteresis puts them
+// (creep left out: a scan is taken at once) and, with scan_artefacts, show
+// its line offsets, servo lag and bow. z_drift shifts the deflection
+// signal's zero (set_deflection_zero_nm): the true load is the set point
+// less k_n times that shift.
 #pragma once
 
 #include <Eigen/Dense>
@@ -42,6 +54,8 @@
 
 #include "grid.hpp"
 #include "lever.hpp"
+#include "piezo.hpp"
+#include "scan_artefacts.hpp"
 #include "scene.hpp"
 #include "wire.hpp"
 
@@ -161,7 +175,8 @@ public:
     Sample step();                                 // one analog sample
 
     const Eigen::Vector2d &apex() const { return apex_; }       // frame A
-    const Eigen::Vector2d &piezo() const { return piezo_; }     // frame A
+    const Eigen::Vector2d &piezo() const { return piezo_; }     // frame A, where the piezo is
+    const Eigen::Vector2d &drive() const { return drive_; }     // frame A, where it was told to be (speed-limited)
     double piezo_z() const { return piezo_z_; }
     Eigen::Vector3d tip_force() const;             // sample on tip, frame A, nN
     const std::vector<Particle> &particles() const { return particles_; }
@@ -174,6 +189,13 @@ public:
     void engrave();
     const Eigen::Vector2d &drift() const { return drift_; }
     void add_drift(const Eigen::Vector2d &d) { drift_ += d; }
+    // z_drift: the deflection signal reads d_nm more than the lever bends;
+    // the servo holding the signal leaves the true load k_n d_nm below the set point.
+    void set_deflection_zero_nm(double d_nm)
+    {
+        zero_load_nN_ = lever_.spring * d_nm;
+        load_nN_ = load_set_nN_ - zero_load_nN_;
+    }
     double dt() const { return dt_; }
     std::mt19937_64 &rng() { return rng_; }
     const Lever &lever() const { return lever_; }
@@ -206,6 +228,14 @@ public:
     // imaged surface's local normal; ideal z feedback holds F_z at the set
     // point, so S_n is the set point plus the moment of F_x (eq. 1c).
     ScanPoint scan_point(double x, double y) const;
+    // A scan line in +x at the commanded x_i = x0 + i dx (i < n) and y, one
+    // line of a raster whose first line is at y_first, into out[0..n): each
+    // point's scan_point where the scanner puts it (the hysteresis, from its
+    // present state along the raster: to y_first, to y, to the line's end,
+    // back to its start, then along the line), then the scan artefacts
+    // (heights; the servo's tracking error in S_n). Without those effects,
+    // scan_point at each x_i.
+    void scan_line(double x0, double dx, int n, double y, double y_first, ScanPoint *out) const;
 
     // Per effect, seconds of wall time. The per-sample stages (mechanics,
     // wire pushes, the per-sample effects) are timed in 1 sample of
@@ -315,6 +345,11 @@ private:
     double max_radius_ = 0;        // largest particle radius, nm
 
     Eigen::Vector2d piezo_, target_, apex_;
+    Eigen::Vector2d drive_;                   // the speed-limited command, frame A
+    std::unique_ptr<PiezoXY> piezo_model_;    // piezo_hysteresis, piezo_creep; null without them
+    std::unique_ptr<ScanArtefacts> artefacts_;   // scan_artefacts; null without it
+    double load_set_nN_ = 0;                  // the card's load set point (load_nN_: the true one)
+    double zero_load_nN_ = 0;                 // z_drift: k_n times the deflection signal's zero shift
     Eigen::Vector2d drift_{0.0, 0.0};   // sample against scanner, nm
     double piezo_z_ = 0;
     double load_nN_ = 0;
@@ -349,6 +384,7 @@ private:
     bool cutting_ = false;
     Grid grid_;
     mutable std::vector<int> scratch_, scratch2_, scratch3_;
+    mutable std::vector<double> scratch_line_;   // scan_line's heights and servo errors
 
     // Chosen once at construction (no per-sample flag tests).
     void (World::*mechanics_)();

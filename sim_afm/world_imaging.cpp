@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "world_internal.hpp"
 
@@ -159,6 +160,38 @@ ScanPoint World::scan_point(double x, double y) const
     if (clamped) ++scan_clamped_;
     t_scan_ += seconds_since(t0);
     return p;
+}
+
+void World::scan_line(double x0, double dx, int n, double y, double y_first, ScanPoint *out) const
+{
+    // The hysteresis's state, copied, taken along the raster to this line
+    // and its retrace (a play's state after a monotone stretch depends on
+    // its end alone, so each stretch is one step).
+    std::optional<PlayHysteresis> hx, hy;
+    double yt = y;
+    if (piezo_model_ && piezo_model_->hx) {
+        hx = piezo_model_->hx;
+        hy = piezo_model_->hy;
+        hy->step(y_first);
+        yt = hy->step(y);
+        hx->step(x0 + (n - 1) * dx);
+        hx->step(x0);
+    }
+    for (int i = 0; i < n; ++i) {
+        const double x = x0 + i * dx;
+        out[i] = scan_point(hx ? hx->step(x) : x, yt);
+    }
+    if (!artefacts_) return;
+    scratch_line_.resize(2 * static_cast<std::size_t>(n));
+    double *h = scratch_line_.data(), *err = h + n;
+    for (int i = 0; i < n; ++i) h[i] = out[i].height_nm;
+    artefacts_->apply(x0, dx, y, n, h, err);
+    for (int i = 0; i < n; ++i) {
+        out[i].height_nm = h[i];
+        // what z has not followed bends the lever (S_n per nm: 1 / K_n); a
+        // point off the surface (S_n 0: the lever hangs free) has no error
+        if (out[i].sn_v != 0.0) out[i].sn_v = std::clamp(out[i].sn_v + err[i] / lever_.deflection, -kSignalLimitV, kSignalLimitV);
+    }
 }
 
 Eigen::Vector3d World::normal_rough(const Eigen::Vector2d &q) const

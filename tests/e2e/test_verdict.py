@@ -145,7 +145,8 @@ class CheckWarnings(unittest.TestCase):
     def test_every_committed_scene_passes_strict(self):
         import glob
         scenes = sorted(glob.glob(os.path.join(e2e_support.SRC, "scenes", "*.yaml")) +
-                        glob.glob(os.path.join(e2e_support.SRC, "scenes", "paper", "*.yaml")))
+                        glob.glob(os.path.join(e2e_support.SRC, "scenes", "paper", "*.yaml")) +
+                        glob.glob(os.path.join(e2e_support.SRC, "scenes", "lab", "*.yaml")))
         self.assertGreater(len(scenes), 20)
         import subprocess
         for path in scenes:
