@@ -46,14 +46,55 @@
  * rod's surface, fw_wire_contact). test_wire pins both edges. With the down
  * force, psi = gamma + theta_t at or past psi_max is the squeeze (section
  * 7): the rod stays and FW_WIRE_SQUEEZED is raised once the excess passes
- * half of k f L. Below psi_max the tip still leaves the substrate when its
- * load F_z cannot hold it down against the push (eq. 30: dF = F_r sin psi -
- * F_a,ts above F_z): the tip rides over the rod, which stays, and
- * FW_WIRE_RIDDEN is raised once the excess passes half of the most the tip
- * can push before it lifts, H_ride = (F_z + F_a,ts) / tan psi (the tip's
- * vertical balance, eq. 27-28). A pushed rod moves along its normal until the apex sits on
- * its surface, in steps of at most L/4 (fw_wire_push),
+ * half of k f L. Below psi_max the tip may leave the substrate: see "The
+ * ride-over judgement". A pushed rod moves along its normal until the apex
+ * sits on its surface, in steps of at most L/4 (fw_wire_push),
  * FW_WIRE_PUSH_STEPS_MAX of them at most.
+ *
+ * The ride-over judgement (with the down force, a rod no trench holds;
+ * physics.md section 7). The prior is eq. 30: the tip leaves the substrate
+ * when its load F_z cannot hold it down against the push (dF = F_r sin psi
+ * - F_a,ts above F_z), i.e. when eq. 29's push exceeds the most the tip can
+ * push before it lifts, H_ride = (F_z + F_a,ts) / tan psi (the tip's
+ * vertical balance, eq. 27-28). Near dF the card's own constants decide
+ * that comparison, so the card declares a ride-over only from its signals:
+ *   - the climb: the apex's height (the z piezo's, apex_pm[2]) rises over
+ *     its height at the last sample off the rod (z_ref) by at least
+ *     max(3 d / 8, 2 nm) (fw_wire_climb_on_pm). A tip that rides over climbs
+ *     by up to d, by d / 2 or more once its apex is over the rod's edge (by
+ *     r_tip past the contact); a tip that pushes stays down, its height
+ *     wandering by the lever's bending under the push's F_x and the
+ *     substrate's tilt over the push: up to 26 nm over 40 nN pushes on the
+ *     paper's lever (./afm bench rideover), growing with the push. 3 d / 8
+ *     (37.5 nm on the paper's 100 nm rod) lies between the two; a thinner
+ *     rod, or a harder push, loses that margin.
+ *     The climb counts whatever the prior says: pushes the model made in
+ *     the contact, if no more than the reach r_tip + d/2 in all (the apex's
+ *     approach before the climb shows), are undone (the pose the contact
+ *     began with is restored: the rod ridden over never moved).
+ *   The lateral force is no evidence of its own: it falls when the tip
+ *   rides over, but also when the pushed rod slips ahead of the tip (a
+ *   stroke's end), where the apex then stands deep in the model's lagging
+ *   rod; taken as evidence it flagged pushes (./afm bench rideover).
+ * The climb declares it (FW_WIRE_JUDGE_RIDE, FW_WIRE_RIDDEN each sample): the
+ * rod stays, latched until the apex leaves the rod's reach (that latch is
+ * the hysteresis: a climb noisy about its threshold cannot chatter). While
+ * eq. 30 predicts a ride-over and the climb has not shown, the rod stays and
+ * FW_WIRE_RIDE_PENDING is raised, not FW_WIRE_RIDDEN. The signals
+ * contradict the prediction when the apex stands r_tip + d / 8 or more
+ * inside the reach (fw_wire_contra_extra_pm: past where a ride-over's climb
+ * shows, by a margin) with no climb and the excess above half of H_ride:
+ * the truth's rod is in front of the apex, pushed. Then (FW_WIRE_JUDGE_PUSH,
+ * until the contact ends or the climb shows) the rod moves as pushed,
+ * caught up at once to the apex's surface, while the excess passes half of
+ * the lesser of eq. 29's push and H_ride. Where eq. 30 predicts a push the
+ * rule is the push rule above (the climb still declares a ride-over).
+ * Latency, at the paper's 1.5 um/s and 1000 blocks/s (1.5 nm a block): a
+ * ride-over shows its climb once the apex has passed r_tip past the
+ * contact (10 nm: about 7 blocks); a push eq. 30 misjudged is taken up
+ * after r_tip + d / 8 (22.5 nm: about 15 blocks), the model rod that far
+ * behind until then. Without the down force the card models no ride-over
+ * (nor does the simulator: no cone flank to climb).
  *
  * Trenches (physics.md section 9, the paper's fig. 18): a lithography
  * trench (fw_litho's record) holds a rod where its V, of the recorded width
@@ -117,6 +158,14 @@
 #define FW_WIRE_SQUEEZED (1u << 1)   /* the tip squeezed it in the last update (section 7): it stayed */
 #define FW_WIRE_RIDDEN   (1u << 3)   /* the tip rode over it in the last update (eq. 30, the load too small): it stayed */
 #define FW_WIRE_SAT_POS  (1u << 2)   /* a move was clamped to int32 (sticky) */
+#define FW_WIRE_RIDE_PENDING (1u << 4) /* eq. 30 predicts a ride-over the signals have not yet decided: it stays */
+
+/* fw_wire_t.judge: the contact's ride-over judgement (above) */
+#define FW_WIRE_JUDGE_NONE 0   /* undecided (or no contact) */
+#define FW_WIRE_JUDGE_PUSH 1   /* the signals contradicted eq. 30's ride-over: the tip pushes it */
+#define FW_WIRE_JUDGE_RIDE 2   /* the tip rides over it: declared, latched until the contact ends */
+/* The climb's least threshold, pm (a rod thinner than 16 / 3 of it still needs it). */
+#define FW_WIRE_CLIMB_FLOOR_PM 2000
 
 typedef enum {
     FW_WIRE_TRANSLATE = 0,      /* l = L/2 exactly: S undefined */
@@ -188,6 +237,14 @@ typedef struct {
     int32_t hold_points;     /* trench points seen; -1: never computed */
     int32_t axis_z_pm;       /* the axis's height above the substrate plane: d/2 on the flat, less (negative
                               * below the surface) once settled in a groove (fw_wire_settle) */
+    /* the ride-over judgement (above): the contact under way */
+    int32_t judge;           /* FW_WIRE_JUDGE_* */
+    bool touching;           /* the apex touched it in the last update */
+    bool z_ref_valid;        /* z_ref_pm holds a height */
+    int32_t z_ref_pm;        /* the apex's height at the last sample off the rod, pm */
+    int32_t snap_pm[2];      /* the rod's centre when the contact began, pm */
+    fw_bam_t snap_psi;       /* and its direction */
+    int32_t contact_moved_pm; /* the normal moves made in this contact, summed, pm (saturated) */
 } fw_wire_t;
 
 /* The first rule a rod breaks: length outside (0, 2^30] pm, diameter
@@ -344,19 +401,30 @@ bool fw_wire_settle(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_trench_poin
  * Scaling and overflow: f < 2^31, L <= 2^30: the product < 2^61. */
 int32_t fw_wire_friction_pn(const fw_wire_tip_t *tip, const fw_wire_t *w);
 
-/* One sample of the push rule (above): apex (frame A, pm), the contact
+/* The ride-over judgement's thresholds for a rod of diameter d (pm; above):
+ * the climb that declares a ride-over, max(3 d / 8, FW_WIRE_CLIMB_FLOOR_PM)
+ * (3 d in 64 bits),
+ * and how far past the apex's radius the apex must stand inside the reach,
+ * with no climb and the push still on, to contradict eq. 30: d / 8. */
+int32_t fw_wire_climb_on_pm(int32_t diameter_pm);
+int32_t fw_wire_contra_extra_pm(int32_t diameter_pm);
+
+/* One sample of the push rule (above): apex (frame A, pm: x, y and z, z the
+ * z piezo's height, the ride-over's climb), the contact
  * force excess_pn (fw_force_lateral_excess_pn) and the lever's twist
  * theta_t (radians in 2.30, sign ignored: it tilts the cone away from the
  * rod), and the tip's load F_z (pN, the sample's measured normal force;
  * INT32_MAX: a load that never lets the tip ride over). Clears
- * FW_WIRE_PUSHED, FW_WIRE_SQUEEZED and FW_WIRE_RIDDEN, then raises the one
- * that happens. FW_ERR_ARG for a NULL pointer.
+ * FW_WIRE_PUSHED, FW_WIRE_SQUEEZED, FW_WIRE_RIDDEN and FW_WIRE_RIDE_PENDING,
+ * then raises the one that happens; keeps the contact's judgement in w.
+ * FW_ERR_ARG for a NULL pointer.
  * Scaling and overflow: fw_wire_contact, fw_wire_static_point,
  * fw_wire_push_threshold_pn (saturated; with the down force, push_pn of
  * fw_wire_squeeze_solve, saturated), psi = gamma + |theta_t| as a
  * binary angle (|theta_t| clamped to 90 deg), fw_wire_squeeze_solve,
- * H_ride (fw_wire_ride_push_pn), fw_wire_push steps of at most L/4. */
-fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[2], int64_t excess_pn,
+ * H_ride (fw_wire_ride_push_pn), fw_wire_push steps of at most L/4; the
+ * climb z - z_ref in 64 bits; the contact's moves summed saturated. */
+fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[3], int64_t excess_pn,
                            q30_t twist_rad, int32_t load_pn);
 
 /* The most the tip can push horizontally through a contact at psi before

@@ -237,6 +237,14 @@ fw_status_t fw_wire_init(fw_wire_t *w, int32_t x_pm, int32_t y_pm, fw_bam_t psi,
     w->hold_at_psi = 0;
     w->hold_points = -1;
     w->axis_z_pm = diameter_pm / 2;
+    w->judge = FW_WIRE_JUDGE_NONE;
+    w->touching = false;
+    w->z_ref_valid = false;
+    w->z_ref_pm = 0;
+    w->snap_pm[0] = x_pm;
+    w->snap_pm[1] = y_pm;
+    w->snap_psi = psi;
+    w->contact_moved_pm = 0;
     return FW_OK;
 }
 
@@ -766,45 +774,128 @@ int32_t fw_wire_ride_push_pn(fw_bam_t psi, int32_t load_pn, int32_t adhesion_ts_
     return fw_math_sat_i32(fw_math_div_round_i64(hold * cs, sn), NULL);
 }
 
-/* The push rule with the cone's down force (fw_wire.h) for a rod no trench
- * holds: true when the rod stays this sample, with FW_WIRE_SQUEEZED or
- * FW_WIRE_RIDDEN raised when that is why. psi at or past psi_max: the
- * squeeze, once the excess passes half of k f L. Below it: eq. 30's dF
- * above the load (equivalently eq. 29's push above H_ride) is a ride-over,
- * once the excess passes half of H_ride; else the rod moves once the
- * excess passes half of eq. 29's push. */
-static bool wire_pressed_stays(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_wire_static_t *st, int32_t fl,
-                               int64_t excess_pn, q30_t twist_rad, int32_t load_pn)
+/* The prior (eq. 29-30, fw_wire.h "The ride-over judgement"): the push
+ * eq. 29 says moves the rod (*push_pn) and the most the tip can push before
+ * it lifts (*ride_pn, H_ride). False past psi_max (the squeeze): then
+ * *push_pn is half of k f L's trigger's whole (k f L). */
+static bool wire_prior(const fw_wire_tip_t *tip, const fw_wire_static_t *st, int32_t fl, q30_t twist_rad,
+                       int32_t load_pn, int32_t *push_pn, int32_t *ride_pn)
 {
     bool sat = false;
-    const int64_t half_kfl = (int64_t)(fw_wire_push_threshold_pn(st->k, fl, &sat) >> 1);
     fw_squeeze_t sq;
     fw_status_t sqs = FW_ERR_DOMAIN;
-    int32_t ride;
     fw_bam_t psi = wire_contact_angle(tip, twist_rad);
+    *push_pn = fw_wire_push_threshold_pn(st->k, fl, &sat);
+    *ride_pn = INT32_MAX;
     if (psi < FW_BAM_QUARTER_TURN) {
         sqs = fw_wire_squeeze_solve(psi, st->k, tip->mu, fl, tip->adhesion_ts_pn, &sq);
     }
     if (sqs == FW_ERR_DOMAIN) {
-        if (excess_pn > half_kfl) {
+        return false;
+    }
+    if (sqs == FW_OK) {   /* FW_ERR_ARG cannot happen (tip and k validated): then k f L stands */
+        *push_pn = sq.push_pn;
+        *ride_pn = fw_wire_ride_push_pn(psi, load_pn, tip->adhesion_ts_pn);
+    }
+    return true;
+}
+
+/* A ride-over declared (fw_wire.h, "The ride-over judgement"): latched for
+ * the contact; the pushes the model made in this contact are undone when
+ * they are no more than the apex's approach to the rod's line (reach). */
+static void wire_ride_declare(fw_wire_t *w, int32_t reach_pm)
+{
+    w->judge = FW_WIRE_JUDGE_RIDE;
+    w->flags |= FW_WIRE_RIDDEN;
+    if (w->contact_moved_pm <= reach_pm) {
+        w->x_pm = w->snap_pm[0];
+        w->y_pm = w->snap_pm[1];
+        w->psi = w->snap_psi;
+        w->contact_moved_pm = 0;
+    }
+}
+
+/* The push rule with the cone's down force for a rod no trench holds: the
+ * ride-over judged from the evidence with eq. 29-30 as the prior (fw_wire.h,
+ * "The ride-over judgement"). True when the rod stays this sample, with
+ * FW_WIRE_SQUEEZED, FW_WIRE_RIDDEN or FW_WIRE_RIDE_PENDING raised when that
+ * is why. climb_pm: the apex's height over its height before the contact;
+ * depth_pm: how far the apex lies inside the reach (|dn|). */
+static bool wire_pressed_stays(fw_wire_t *w, const fw_wire_tip_t *tip, const fw_wire_static_t *st, int32_t fl,
+                               int64_t excess_pn, q30_t twist_rad, int32_t load_pn, int64_t climb_pm,
+                               int32_t depth_pm)
+{
+    int32_t push;
+    int32_t ride;
+    const int32_t reach = tip->tip_radius_pm + w->diameter_pm / 2;
+    if (w->judge == FW_WIRE_JUDGE_RIDE) {
+        w->flags |= FW_WIRE_RIDDEN;
+        return true;
+    }
+    if (climb_pm >= fw_wire_climb_on_pm(w->diameter_pm)) {
+        wire_ride_declare(w, reach);
+        return true;
+    }
+    if (!wire_prior(tip, st, fl, twist_rad, load_pn, &push, &ride)) {
+        if (excess_pn > (int64_t)(push >> 1)) {
             w->flags |= FW_WIRE_SQUEEZED;
         }
         return true;
     }
-    if (sqs != FW_OK) {   /* FW_ERR_ARG cannot happen (tip and k validated): then k f L stands */
-        return excess_pn <= half_kfl;
+    if (w->judge == FW_WIRE_JUDGE_PUSH) {
+        return excess_pn <= (int64_t)((push < ride ? push : ride) >> 1);
     }
-    ride = fw_wire_ride_push_pn(psi, load_pn, tip->adhesion_ts_pn);
-    if (sq.push_pn > ride) {
-        if (excess_pn > (int64_t)(ride >> 1)) {
-            w->flags |= FW_WIRE_RIDDEN;
-        }
-        return true;
+    if (push <= ride) {
+        return excess_pn <= (int64_t)(push >> 1);
     }
-    return excess_pn <= (int64_t)(sq.push_pn >> 1);
+    /* eq. 30 predicts a ride-over: the rod stays until the signals decide */
+    if (excess_pn > (int64_t)(ride >> 1) &&
+        (int64_t)depth_pm >= (int64_t)tip->tip_radius_pm + fw_wire_contra_extra_pm(w->diameter_pm)) {
+        w->judge = FW_WIRE_JUDGE_PUSH;   /* deep past the rod's edge, no climb, still pushing */
+        return false;
+    }
+    w->flags |= FW_WIRE_RIDE_PENDING;
+    return true;
 }
 
-fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[2], int64_t excess_pn,
+int32_t fw_wire_climb_on_pm(int32_t diameter_pm)
+{
+    int32_t on = (int32_t)(((int64_t)diameter_pm * 3) / 8);
+    return on > FW_WIRE_CLIMB_FLOOR_PM ? on : FW_WIRE_CLIMB_FLOOR_PM;
+}
+
+int32_t fw_wire_contra_extra_pm(int32_t diameter_pm)
+{
+    return diameter_pm / 8;
+}
+
+/* The contact's bookkeeping for the judgement: a sample off the rod keeps
+ * the apex's height as the baseline and ends the contact's judgement; the
+ * first sample on it snapshots the rod's pose. */
+static void wire_contact_track(fw_wire_t *w, bool touch, int32_t z_pm)
+{
+    if (!touch) {
+        w->touching = false;
+        w->judge = FW_WIRE_JUDGE_NONE;
+        w->z_ref_pm = z_pm;
+        w->z_ref_valid = true;
+        return;
+    }
+    if (!w->touching) {
+        w->touching = true;
+        w->judge = FW_WIRE_JUDGE_NONE;
+        w->snap_pm[0] = w->x_pm;
+        w->snap_pm[1] = w->y_pm;
+        w->snap_psi = w->psi;
+        w->contact_moved_pm = 0;
+        if (!w->z_ref_valid) {
+            w->z_ref_pm = z_pm;
+            w->z_ref_valid = true;
+        }
+    }
+}
+
+fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t apex_pm[3], int64_t excess_pn,
                            q30_t twist_rad, int32_t load_pn)
 {
     bool touch;
@@ -815,11 +906,16 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
     int32_t max_step;
     fw_wire_static_t st;
     int steps;
+    int64_t moved = 0;
     if (w == NULL || tip == NULL || apex_pm == NULL) {
         return FW_ERR_ARG;
     }
-    w->flags &= ~(FW_WIRE_PUSHED | FW_WIRE_SQUEEZED | FW_WIRE_RIDDEN);
-    if (fw_wire_contact(w, apex_pm, tip->tip_radius_pm + w->diameter_pm / 2, &touch, &l, &dn) != FW_OK || !touch) {
+    w->flags &= ~(FW_WIRE_PUSHED | FW_WIRE_SQUEEZED | FW_WIRE_RIDDEN | FW_WIRE_RIDE_PENDING);
+    if (fw_wire_contact(w, apex_pm, tip->tip_radius_pm + w->diameter_pm / 2, &touch, &l, &dn) != FW_OK) {
+        return FW_OK;
+    }
+    wire_contact_track(w, touch, apex_pm[2]);
+    if (!touch) {
         return FW_OK;
     }
     if (fw_wire_static_point_held(w->length_pm, l, w->held, w->hold_q16, &st) != FW_OK) {
@@ -835,7 +931,8 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
             return FW_OK;
         }
     } else if (tip->down_force) {
-        if (wire_pressed_stays(w, tip, &st, fl, excess_pn, twist_rad, load_pn)) {
+        if (wire_pressed_stays(w, tip, &st, fl, excess_pn, twist_rad, load_pn,
+                               (int64_t)apex_pm[2] - w->z_ref_pm, dn < 0 ? -dn : dn)) {
             return FW_OK;
         }
     } else if (excess_pn <= (int64_t)(fw_wire_push_threshold_pn(st.k, fl, &sat) >> 1)) {
@@ -859,7 +956,9 @@ fw_status_t fw_wire_update(fw_wire_t *w, const fw_wire_tip_t *tip, const int32_t
         }
         wire_move(w, step, &st);
         dn -= step;
+        moved += step < 0 ? -step : step;
     }
+    w->contact_moved_pm = fw_math_sat_i32((int64_t)w->contact_moved_pm + moved, NULL);
     w->flags |= FW_WIRE_PUSHED;
     return FW_OK;
 }

@@ -26,10 +26,6 @@ from analysis.paper import cli, common  # noqa: E402
 # (their rows say "run failed: CHECK"; a run not listed here that fails its
 # verdict fails this test).
 KNOWN_VERDICT_FAILURES = {
-    ("squeeze", "ride_20_high"): "fidelity: the card flags RIDE-OVER while the truth pushes the rod just above eq. 30's dF "
-                                 "(issue 47, item 7), so the display ends off the rod",
-    ("squeeze", "f16_g50"): "fidelity: the load ramp's last strokes push the rod on while the card judges ride-overs",
-    ("squeeze", "f17_g30_q25"): "fidelity: as f16_g50",
     ("rod", "l_0.45L"): "fidelity: the display ends about 30 nm off the rod pushed near its middle",
     ("drift", "local_scans"): "fidelity: the sample drifts on after the last local scan",
     ("drift", "far"): "fidelity: the sample drifts on after the wider scan's fix",

@@ -311,7 +311,7 @@ static void rule_rod(fw_wire_t *w, fw_wire_tip_t *tip, int32_t gamma_mdeg, int32
 static void test_wire_rule_triggers_one_pn_past_half_of_k_f_l(void)
 {
     /* without the down force the push is k f L = 1 x 26000 pN: half is 13000 */
-    const int32_t apex[2] = { 0, -50000 };
+    const int32_t apex[3] = { 0, -50000, 0 };
     fw_wire_t w;
     fw_wire_tip_t tip;
     rule_rod(&w, &tip, 20000, 300000, false);
@@ -327,7 +327,7 @@ static void test_wire_rule_with_down_force_uses_eq_29_push(void)
 {
     /* gamma 20 deg, mu 0.3: the push that moves the rod is k f L / (1 - k mu
      * tan psi) = 26000 / (1 - 0.3 tan 20) = 29188 pN; half of it decides */
-    const int32_t apex[2] = { 0, -50000 };
+    const int32_t apex[3] = { 0, -50000, 0 };
     fw_wire_t w;
     fw_wire_tip_t tip;
     fw_squeeze_t sq;
@@ -350,7 +350,7 @@ static void test_wire_rule_squeezes_past_psi_max_and_the_twist_counts(void)
 {
     /* mu 1.0, k 1 at the middle: psi_max = 45 deg. gamma 44 deg pushes;
      * the same with a twist of 2 deg (either sign) squeezes: the rod stays */
-    const int32_t apex[2] = { 0, -50000 };
+    const int32_t apex[3] = { 0, -50000, 0 };
     const q30_t two_deg = (q30_t)lround(2.0 * TU_PI / 180.0 * TU_TWO_POW(30));
     fw_wire_t w;
     fw_wire_tip_t tip;
@@ -389,10 +389,12 @@ static void test_wire_ride_push_is_the_load_over_tan_psi(void)
 static void test_wire_rides_over_below_eq_30s_load_and_pushes_above_it(void)
 {
     /* gamma 20 deg, mu 0.3, no adhesion: eq. 29's push 29188 pN; eq. 30's
-     * least load dF = push tan psi = 10623 pN. At 0.9 dF the tip lifts
-     * once the excess passes half of H_ride = 0.9 dF / tan psi: the rod
-     * stays, RIDDEN; at 1.1 dF it is pushed at half of eq. 29's push. */
-    const int32_t apex[2] = { 0, -50000 };
+     * least load dF = push tan psi = 10623 pN. At 0.9 dF eq. 30 predicts
+     * the lift once the excess passes half of H_ride = 0.9 dF / tan psi:
+     * the rod stays, the ride-over pending (no climb yet: not RIDDEN;
+     * test_wire_ride has the evidence); at 1.1 dF it is pushed at half of
+     * eq. 29's push. */
+    const int32_t apex[3] = { 0, -50000, 0 };
     fw_wire_t w;
     fw_wire_tip_t tip;
     fw_squeeze_t sq;
@@ -410,11 +412,14 @@ static void test_wire_rides_over_below_eq_30s_load_and_pushes_above_it(void)
     /* below half of H_ride: the tip merely touches */
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, ride >> 1, 0, low));
     TEST_ASSERT_EQUAL_UINT32(0u, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED));
-    /* past it: ridden over, the rod stays, however large the excess */
+    /* past it: a ride-over predicted, the rod stays, however large the
+     * excess (the apex only r_tip inside the reach: no contradiction) */
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, (ride >> 1) + 1, 0, low));
-    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_RIDDEN, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_RIDE_PENDING, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED |
+                                                              FW_WIRE_RIDE_PENDING));
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, INT32_MAX, 0, low));
-    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_RIDDEN, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED));
+    TEST_ASSERT_EQUAL_UINT32(FW_WIRE_RIDE_PENDING, w.flags & (FW_WIRE_PUSHED | FW_WIRE_RIDDEN | FW_WIRE_SQUEEZED |
+                                                              FW_WIRE_RIDE_PENDING));
     TEST_ASSERT_EQUAL_INT32(0, w.y_pm);
     /* the load above dF: pushed, as without any load limit */
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_wire_update(&w, &tip, apex, sq.push_pn >> 1, 0, high));

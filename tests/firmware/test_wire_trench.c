@@ -393,7 +393,7 @@ static void test_trench_rule_a_held_rod_needs_hold_times_the_push(void)
      * the whole of it decides (not half, as for a free rod), one pN either
      * side */
     static fw_trench_point_t p[200];
-    const int32_t apex[2] = { 0, -50000 };
+    const int32_t apex[3] = { 0, -50000, 0 };
     fw_wire_t w;
     fw_wire_tip_t tip;
     fw_wire_static_t st;
@@ -449,7 +449,7 @@ static void test_trench_push_on_a_short_held_rod_stays_first_order(void)
      * order (no wrap of the angle) and the rod ends where the apex is */
     static fw_trench_point_t p[2];
     const int32_t len = 400000;
-    int32_t apex[2];
+    int32_t apex[3] = { 0, 0, 0 };
     int32_t a0[2], b0[2], a1[2], b1[2];
     fw_wire_t w;
     fw_wire_tip_t tip;
