@@ -78,26 +78,27 @@ class BadScenes(unittest.TestCase):
         self.check_refused(GOOD.replace("block_hz: 1000", "block_hz: 3000"), "block_hz", "'3000'")
 
     def test_lever_the_firmware_refuses_named_with_values(self):
-        # The card's own init (fw_card_init) decides; the launcher names the
-        # rule in the firmware's words with the scene keys that feed it.
+        # The card's own init (fw_card_init) decides, on what the card is
+        # given (its firmware.* section, never the probe's truth); the
+        # launcher names the rule in the firmware's words with the scene
+        # keys that feed it.
         # C_n = 3 h K_n / (2 l) = 11250 nm/V: beyond the bending
         # compensation's 4194.304 nm/V (FW_RULE_DISP_RANGE)
-        lever = "probe: {tip_height_um: 50, deflection_nm_per_V: 9000, lever_length_um: 60}\nobjects:"
-        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "probe.tip_height_um", "4194304 pm/V")
+        lever = "firmware: {tip_height_um: 50, deflection_nm_per_V: 9000, lever_length_um: 60}\nobjects:"
+        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "firmware.tip_height_um", "4194304 pm/V")
         self.assertIn("tip_height_um 50", msg)
         self.assertIn("lever_length_um 60", msg)
         self.assertIn("deflection_nm_per_V 9000", msg)
         self.assertIn("estimate C_n = C_l = 3 h K_n / (2 l) = 11250 nm/V", msg)
         # h = l: 2h/l = 2 is no lever for eq. 1c
-        lever = "probe: {tip_height_um: 50, deflection_nm_per_V: 10, lever_length_um: 50}\nobjects:"
-        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "probe.tip_height_um", "2h/l < 2")
+        lever = "firmware: {tip_height_um: 50, deflection_nm_per_V: 10, lever_length_um: 50}\nobjects:"
+        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "firmware.tip_height_um", "2h/l < 2")
         self.assertIn("fw_card_init: FW_ERR_DOMAIN", msg)
         # mu 2h/l = 0.9 * 1.2 > 1/2: the friction fallback's denominator
-        lever = "probe: {tip_height_um: 60, lever_length_um: 100}\nobjects:"
-        msg = self.check_refused(GOOD.replace("objects:", lever, 1).replace("mu: 0.0865", "mu: 0.9"),
-                                 "sample.tip_substrate.mu", "mu 2h/l <= 1/2")
-        self.assertIn("sample.tip_substrate.mu 0.9", msg)
-        self.assertIn("probe.tip_height_um 60", msg)
+        lever = "firmware: {tip_height_um: 60, lever_length_um: 100, mu: 0.9}\nobjects:"
+        msg = self.check_refused(GOOD.replace("objects:", lever, 1), "firmware.mu", "mu 2h/l <= 1/2")
+        self.assertIn("firmware.mu 0.9", msg)
+        self.assertIn("firmware.tip_height_um 60", msg)
         # a range only the card knows: 20 ADC bits
         msg = self.check_refused(GOOD.replace("objects:", "firmware: {adc_bits: 20}\nobjects:", 1), "firmware.adc_bits",
                                  "8 to 16 bits")
