@@ -86,6 +86,35 @@ Vector3d nearest_on_segment(const Vector3d &a, const Vector3d &b, const Vector3d
     return a + t * ab;
 }
 
+// The least distance between segments [p1, q1] and [p2, q2], exact (the
+// closest points' parameters in closed form, clamped to the segments;
+// Ericson, Real-Time Collision Detection, 5.1.9). A segment of zero length
+// is its point; parallel segments take the first's start.
+double segments_distance(const Vector3d &p1, const Vector3d &q1, const Vector3d &p2, const Vector3d &q2)
+{
+    const Vector3d d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+    const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+    double s = 0, t = 0;
+    if (a <= 0 && e <= 0) return r.norm();
+    if (a <= 0) {
+        t = std::clamp(f / e, 0.0, 1.0);
+    } else if (e <= 0) {
+        s = std::clamp(-d1.dot(r) / a, 0.0, 1.0);
+    } else {
+        const double b = d1.dot(d2), c = d1.dot(r), denom = a * e - b * b;
+        s = denom > 0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+        t = (b * s + f) / e;
+        if (t < 0) {
+            t = 0;
+            s = std::clamp(-c / a, 0.0, 1.0);
+        } else if (t > 1) {
+            t = 1;
+            s = std::clamp((b - c) / a, 0.0, 1.0);
+        }
+    }
+    return (p1 + s * d1 - (p2 + t * d2)).norm();
+}
+
 // The field (per unit of k / eps_r, in e/nm^2) at p of a charge q spread
 // uniformly along [a, b]: closed form in the line's frame (header); a
 // point on the segment itself has no direction: zero.
@@ -141,8 +170,7 @@ PairForce van_der_waals(const Body &first, const Body &second, const Settings &s
     const bool s1 = first.kind == Body::Kind::sphere, s2 = second.kind == Body::Kind::sphere;
     if (!s1 && !s2) {
         if (s.hamaker_aJ > 0) refuse("hamaker_aJ between two rods", "0 (rod-rod van der Waals is not modelled)", s.hamaker_aJ);
-        const Vector3d p = nearest_on_segment(first.a_nm, first.b_nm, 0.5 * (second.a_nm + second.b_nm));
-        out.gap_nm = (nearest_on_segment(second.a_nm, second.b_nm, p) - p).norm() - first.radius_nm - second.radius_nm;
+        out.gap_nm = segments_distance(first.a_nm, first.b_nm, second.a_nm, second.b_nm) - first.radius_nm - second.radius_nm;
         return out;
     }
     // The sphere's centre, and the nearest point of the other body's axis.

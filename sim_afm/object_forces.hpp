@@ -16,7 +16,8 @@
 // permittivity eps_r (air 1). e^2 / (4 pi eps0) = kCoulomb_nN_nm2.
 //
 // The laws (the gap D: the surfaces' distance, centre distance minus the
-// radii, or the sphere's centre to the rod's axis minus both radii):
+// radii, the sphere's centre to the rod's axis minus both radii, or two
+// rods' axes' least distance, exact, minus both radii):
 // - sphere-sphere van der Waals: Hamaker's (1937) exact energy of two
 //   spheres of radii R1, R2 at centre distance r, s = R1 + R2, d = R1 - R2,
 //     U = -A/6 [2 R1 R2/(r^2 - s^2) + 2 R1 R2/(r^2 - d^2)

@@ -180,6 +180,20 @@ static void test_coulomb_rods_brute_force(void)
     TEST_ASSERT_TRUE_MESSAGE((got - want).norm() <= 1e-3 * want.norm(), msg);
 }
 
+// Two rods' gap is their axes' least distance less the radii, exact for
+// skew rods whose closest points lie inside both (here 10 nm apart in z,
+// crossing in plan at x = 65; a point of the second's middle projected once
+// gives 10.95) and for rods whose closest points are their ends.
+static void test_rod_rod_gap(void)
+{
+    of::Settings s;
+    const of::Body a = rod({0, 0, 0}, {100, 0, 0}, 2);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 10.0 - 4, of::between(a, rod({40, -50, 10}, {100, 70, 10}, 2), s).gap_nm);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, std::sqrt(100.0 * 100 + 50 * 50 + 30 * 30) - 4,
+                              of::between(a, rod({200, 50, 30}, {300, 150, 30}, 2), s).gap_nm);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 7.0 - 4, of::between(a, rod({20, 7, 0}, {80, 7, 0}, 2), s).gap_nm);   // parallel
+}
+
 // Coincident centres: no direction, no force, no NaN.
 static void test_coincident_bodies(void)
 {
@@ -229,6 +243,7 @@ int main(void)
     RUN_TEST(test_coulomb_spheres);
     RUN_TEST(test_coulomb_rod_limits);
     RUN_TEST(test_coulomb_rods_brute_force);
+    RUN_TEST(test_rod_rod_gap);
     RUN_TEST(test_coincident_bodies);
     RUN_TEST(test_refusals);
     return UNITY_END();
