@@ -26,6 +26,9 @@
  * with the signals); S_n, S_l follow from eq. 1a-1c plus +-2 mV of uniform
  * noise, clamped inside +-9.99 V.
  */
+#define _GNU_SOURCE   /* getopt_long */
+#include <errno.h>
+#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,6 +51,9 @@
 
 enum { PATH_Q15, PATH_FW32, PATH_REF, PATH_REF_ANALOG, PATH_COUNT };
 static const char *const path_name[PATH_COUNT] = { "q15", "fw32", "ref", "ref_analog" };
+
+#define BENCH_XSTR(x) #x
+#define BENCH_STR(x) BENCH_XSTR(x)   /* a default's digits in the usage text */
 
 static size_t bench_block = BENCH_BLOCK_DEFAULT;
 
@@ -122,25 +128,8 @@ static int cmp_double(const void *x, const void *y)
 
 /* ---- main ---------------------------------------------------------------- */
 
-static void usage(FILE *f)
-{
-    fprintf(f,
-            "usage: bench_fw [-n SAMPLES] [-r REPEATS] [-b SAMPLES] [-a DEG[,DEG...]] [--callgrind | --path NAME]\n"
-            "  -n SAMPLES   samples per scan angle (default %d)\n"
-            "  -r REPEATS   timing repeats, the median is reported (default %d)\n"
-            "  -b SAMPLES   samples per fw_board_step_block call (default %d, the default\n"
-            "               scene's analog block)\n"
-            "  -a DEGREES   scan angles in degrees (default 270,300)\n"
-            "  --callgrind  run each path's loop once per scan angle between callgrind\n"
-            "               client requests (dumps named bench_PATH@DEG); no timing, no errors\n"
-            "  --path NAME  run only NAME's loop once (q15, fw32, ref, ref_analog), for\n"
-            "               valgrind --toggle-collect=bench_loop_*\n"
-            "  --features   print whether callgrind client requests are compiled in\n"
-            "Prints 'input', 'row' and 'note' lines; bench/bench_firmware.sh makes the table.\n",
-            BENCH_N_DEFAULT, BENCH_REPEATS_DEFAULT, BENCH_BLOCK_DEFAULT);
-}
-
-/* The command line (usage()). */
+/* The command line: one table, from which getopt_long's options and the
+ * usage text both come. */
 typedef struct {
     size_t n;
     int repeats;
@@ -150,80 +139,185 @@ typedef struct {
     int callgrind;
 } bench_opts_t;
 
-/* "-a 270,300": the scan angles, at most BENCH_MAX_ANGLES. */
-static void parse_angles(char *s, bench_opts_t *o)
+enum { OPT_CALLGRIND = 256, OPT_PATH, OPT_FEATURES };
+
+typedef struct {
+    struct option opt;   /* name, has_arg, flag (unused), val */
+    const char *short_name;
+    const char *arg;
+    const char *help;
+} bench_option_t;
+
+static const bench_option_t bench_options[] = {
+    { { "samples", required_argument, NULL, 'n' }, "-n", "SAMPLES",
+      "samples per scan angle, at least 100 (default " BENCH_STR(BENCH_N_DEFAULT) ")" },
+    { { "repeats", required_argument, NULL, 'r' }, "-r", "REPEATS",
+      "timing repeats, the median is reported (default " BENCH_STR(BENCH_REPEATS_DEFAULT) ")" },
+    { { "block", required_argument, NULL, 'b' }, "-b", "SAMPLES",
+      "samples per fw_board_step_block call, 1..1000000 (default " BENCH_STR(BENCH_BLOCK_DEFAULT)
+      ",\nthe default scene's analog block)" },
+    { { "angles", required_argument, NULL, 'a' }, "-a", "DEG[,DEG...]",
+      "scan angles in degrees, at most " BENCH_STR(BENCH_MAX_ANGLES) " (default 270,300)" },
+    { { "callgrind", no_argument, NULL, OPT_CALLGRIND }, NULL, NULL,
+      "run each path's loop once per scan angle between callgrind\n"
+      "client requests (dumps named bench_PATH@DEG); no timing, no errors" },
+    { { "path", required_argument, NULL, OPT_PATH }, NULL, "NAME",
+      "run only NAME's loop once (q15, fw32, ref, ref_analog), for\n"
+      "valgrind --toggle-collect=bench_loop_*" },
+    { { "features", no_argument, NULL, OPT_FEATURES }, NULL, NULL,
+      "print whether callgrind client requests are compiled in" },
+    { { "help", no_argument, NULL, 'h' }, "-h", NULL, "this text" },
+};
+enum { BENCH_N_OPTIONS = (int)(sizeof bench_options / sizeof bench_options[0]) };
+
+static void usage(FILE *f)
+{
+    int k;
+    fprintf(f, "usage: bench_fw [OPTION...]\n");
+    for (k = 0; k < BENCH_N_OPTIONS; k++) {
+        const bench_option_t *o = &bench_options[k];
+        char head[64];
+        snprintf(head, sizeof head, "%s%s--%s%s%s", o->short_name ? o->short_name : "",
+                 o->short_name ? ", " : "", o->opt.name, o->arg ? " " : "", o->arg ? o->arg : "");
+        const char *h;
+        fprintf(f, "  %-28s ", head);
+        for (h = o->help; *h != '\0'; h++) {   /* a help's further lines under its first */
+            fputc(*h, f);
+            if (*h == '\n') {
+                fprintf(f, "%31s", "");
+            }
+        }
+        fputc('\n', f);
+    }
+    fprintf(f, "Prints 'input', 'row' and 'note' lines; bench/bench_firmware.sh makes the table.\n");
+}
+
+/* Refuses an option's value in one line naming both; returns the exit code 2. */
+static int refuse(const char *opt, const char *value, const char *why)
+{
+    fprintf(stderr, "bench_fw: %s %s: %s\n", opt, value, why);
+    return 2;
+}
+
+/* A whole decimal integer in [lo, hi] from s; 0, or -1 if s is not one. */
+static int parse_long(const char *s, long lo, long hi, long *v)
+{
+    char *end;
+    errno = 0;
+    *v = strtol(s, &end, 10);
+    return (end == s || *end != '\0' || errno != 0 || *v < lo || *v > hi) ? -1 : 0;
+}
+
+/* "-a 270,300": the scan angles; 0, or -1 for an empty, unreadable or
+ * non-finite entry or more than BENCH_MAX_ANGLES of them. */
+static int parse_angles(const char *s, bench_opts_t *o)
 {
     o->n_angles = 0;
-    while (*s != '\0' && o->n_angles < BENCH_MAX_ANGLES) {
+    for (;;) {
         char *end;
-        o->angles_deg[o->n_angles++] = strtod(s, &end);
-        s = (*end == ',') ? end + 1 : end;
-        if (end == s && *s != '\0') {
-            break;
+        double v = strtod(s, &end);
+        if (end == s || !isfinite(v) || o->n_angles >= BENCH_MAX_ANGLES) {
+            return -1;
         }
+        o->angles_deg[o->n_angles++] = v;
+        if (*end == '\0') {
+            return 0;
+        }
+        if (*end != ',') {
+            return -1;
+        }
+        s = end + 1;
+    }
+}
+
+/* --path NAME: the path's index, or -1. */
+static int path_index(const char *name)
+{
+    int p;
+    for (p = 0; p < PATH_COUNT; p++) {
+        if (strcmp(name, path_name[p]) == 0) {
+            return p;
+        }
+    }
+    return -1;
+}
+
+/* One option's value into o; -1 to go on, else the exit code. */
+static int take_option(int c, const char *arg, bench_opts_t *o)
+{
+    long v;
+    switch (c) {
+    case 'n':
+        return parse_long(arg, 100, 100000000L, &v) ? refuse("-n", arg, "samples must be 100..100000000")
+                                                     : (o->n = (size_t)v, -1);
+    case 'r':
+        return parse_long(arg, 1, 1000, &v) ? refuse("-r", arg, "repeats must be 1..1000") : (o->repeats = (int)v, -1);
+    case 'b':
+        return parse_long(arg, 1, 1000000, &v) ? refuse("-b", arg, "samples per block must be 1..1000000")
+                                               : (bench_block = (size_t)v, -1);
+    case 'a':
+        return parse_angles(arg, o) ? refuse("-a", arg, "angles must be finite numbers, comma separated, at most "
+                                                        BENCH_STR(BENCH_MAX_ANGLES))
+                                    : -1;
+    case OPT_CALLGRIND:
+        o->callgrind = 1;
+        return -1;
+    case OPT_PATH:
+        o->only_path = path_index(arg);
+        return o->only_path < 0 ? refuse("--path", arg, "unknown path (q15, fw32, ref, ref_analog)") : -1;
+    case OPT_FEATURES:
+#ifdef BENCH_HAVE_CALLGRIND
+        printf("callgrind_requests=1\n");
+#else
+        printf("callgrind_requests=0\n");
+#endif
+        return 0;
+    case 'h':
+        usage(stdout);
+        return 0;
+    default:   /* getopt_long has named the option */
+        fprintf(stderr, "bench_fw: see bench_fw --help\n");
+        return 2;
     }
 }
 
 /* Reads the command line into o; returns -1 to go on, else the exit code. */
 static int parse_args(int argc, char **argv, bench_opts_t *o)
 {
-    int i;
-    int p;
+    struct option longopts[BENCH_N_OPTIONS + 1];
+    char shortopts[2 * BENCH_N_OPTIONS + 1];
+    size_t ns = 0;
+    int k;
+    int c;
+    for (k = 0; k < BENCH_N_OPTIONS; k++) {
+        longopts[k] = bench_options[k].opt;
+        if (bench_options[k].short_name != NULL) {
+            shortopts[ns++] = (char)bench_options[k].opt.val;
+            if (bench_options[k].opt.has_arg == required_argument) {
+                shortopts[ns++] = ':';
+            }
+        }
+    }
+    memset(&longopts[BENCH_N_OPTIONS], 0, sizeof longopts[0]);
+    shortopts[ns] = '\0';
     o->n = BENCH_N_DEFAULT;
     o->repeats = BENCH_REPEATS_DEFAULT;
     o->n_angles = 0;
     o->only_path = -1;
     o->callgrind = 0;
-    for (i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "-n") == 0 && i + 1 < argc) {
-            o->n = (size_t)strtoul(argv[++i], NULL, 10);
-        } else if (strcmp(argv[i], "-r") == 0 && i + 1 < argc) {
-            o->repeats = atoi(argv[++i]);
-        } else if (strcmp(argv[i], "-b") == 0 && i + 1 < argc) {
-            long v = strtol(argv[++i], NULL, 10);
-            if (v < 1 || v > 1000000) {
-                fprintf(stderr, "bench_fw: -b %s: samples per block must be 1..1000000\n", argv[i]);
-                return 2;
-            }
-            bench_block = (size_t)v;
-        } else if (strcmp(argv[i], "-a") == 0 && i + 1 < argc) {
-            parse_angles(argv[++i], o);
-        } else if (strcmp(argv[i], "--callgrind") == 0) {
-            o->callgrind = 1;
-        } else if (strcmp(argv[i], "--path") == 0 && i + 1 < argc) {
-            const char *name = argv[++i];
-            for (p = 0; p < PATH_COUNT; p++) {
-                if (strcmp(name, path_name[p]) == 0) {
-                    o->only_path = p;
-                }
-            }
-            if (o->only_path < 0) {
-                fprintf(stderr, "bench_fw: unknown path '%s'\n", name);
-                return 2;
-            }
-        } else if (strcmp(argv[i], "--features") == 0) {
-#ifdef BENCH_HAVE_CALLGRIND
-            printf("callgrind_requests=1\n");
-#else
-            printf("callgrind_requests=0\n");
-#endif
-            return 0;
-        } else if (strcmp(argv[i], "-h") == 0 || strcmp(argv[i], "--help") == 0) {
-            usage(stdout);
-            return 0;
-        } else {
-            usage(stderr);
-            return 2;
+    while ((c = getopt_long(argc, argv, shortopts, longopts, NULL)) != -1) {
+        int rc = take_option(c, optarg, o);
+        if (rc >= 0) {
+            return rc;
         }
+    }
+    if (optind < argc) {
+        return refuse("argument", argv[optind], "not an option (see --help)");
     }
     if (o->n_angles == 0) {
         o->angles_deg[0] = 270.0;
         o->angles_deg[1] = 300.0;
         o->n_angles = 2;
-    }
-    if (o->n < 100 || o->repeats < 1) {
-        fprintf(stderr, "bench_fw: need at least 100 samples and 1 repeat\n");
-        return 2;
     }
     return -1;
 }

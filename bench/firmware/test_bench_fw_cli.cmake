@@ -1,0 +1,56 @@
+# ctest script for bench_fw's command line: absurd values refused (exit 2,
+# one line naming the option and the value), --help from the option table,
+# and a tiny sweep that prints its rows.
+# cmake -DBENCH_FW=path/to/bench_fw -P test_bench_fw_cli.cmake
+
+function(expect_refused opt value want)
+  execute_process(COMMAND ${BENCH_FW} ${opt} ${value}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2)
+    message(FATAL_ERROR "bench_fw ${opt} ${value}: exit ${rc}, not 2 (${err})")
+  endif()
+  string(FIND "${err}" "bench_fw: ${opt} ${value}: ${want}" at)
+  if(at LESS 0)
+    message(FATAL_ERROR "bench_fw ${opt} ${value}: said '${err}', not '${want}'")
+  endif()
+endfunction()
+
+expect_refused(-n 99 "samples must be")
+expect_refused(-n 12x "samples must be")
+expect_refused(-n 99999999999999999999 "samples must be")
+expect_refused(-r 0 "repeats must be")
+expect_refused(-b 0 "samples per block must be")
+expect_refused(-b 1000001 "samples per block must be")
+expect_refused(-a "270,x" "angles must be")
+expect_refused(-a "270," "angles must be")
+expect_refused(-a "nan" "angles must be")
+expect_refused(-a "1,2,3,4,5,6,7,8,9" "angles must be")
+expect_refused(--path nope "unknown path")
+execute_process(COMMAND ${BENCH_FW} --angles= RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "bench_fw: -a : angles must be")
+  message(FATAL_ERROR "bench_fw --angles=: exit ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${BENCH_FW} --bogus RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "unrecognized option")
+  message(FATAL_ERROR "bench_fw --bogus: exit ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${BENCH_FW} extra RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "bench_fw: argument extra: not an option")
+  message(FATAL_ERROR "bench_fw extra: exit ${rc}: ${err}")
+endif()
+
+execute_process(COMMAND ${BENCH_FW} --help RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+foreach(opt "-n, --samples" "-r, --repeats" "-b, --block" "-a, --angles" "--callgrind" "--path NAME" "--features")
+  string(FIND "${out}" "${opt}" at)
+  if(NOT rc EQUAL 0 OR at LESS 0)
+    message(FATAL_ERROR "bench_fw --help (exit ${rc}) does not name ${opt}: ${out}")
+  endif()
+endforeach()
+
+execute_process(COMMAND ${BENCH_FW} --samples 1000 -r 1 -a 270
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+string(REGEX MATCHALL "row path=[a-z0-9_]+" rows "${out}")
+list(LENGTH rows n)
+if(NOT rc EQUAL 0 OR NOT n EQUAL 4)
+  message(FATAL_ERROR "bench_fw --samples 1000: exit ${rc}, ${n} rows (want 4): ${out}${err}")
+endif()
