@@ -19,7 +19,11 @@
 #                                start, that no process holds (real,
 #                                effective, saved or filesystem uid or gid,
 #                                /proc) and that own no file in the places a
-#                                run writes (/tmp, /var/tmp, /dev/shm)
+#                                run writes (/tmp, /var/tmp, /dev/shm): for
+#                                root, by the record of uids used
+#                                (/run/afm/uids-used, below), for others by
+#                                walking those places
+#   run/run_uid.sh rescan      (root) walks those places anew into the record
 #   run/run_uid.sh lease [N]   (root) leases N (1) free uids: a lock on
 #                                /run/afm/uid-UID.lock each, taken without
 #                                waiting; prints them, one a line, then holds
@@ -80,16 +84,79 @@ reserve() {
   echo "$first $COUNT"
 }
 
-free() {
-  local want=${1:-8} first count held start
-  read -r first count < <(range) || { echo "run_uid: no range reserved (tools/setup.sh reserves $NAME in /etc/subuid)" >&2; exit 3; }
-  held=$( { awk '/^(Uid|Gid):/ { for (i = 2; i <= 5; i++) print $i }' /proc/[0-9]*/status 2>/dev/null || true
-            find /tmp /var/tmp /dev/shm -xdev -printf '%U\n%G\n' 2>/dev/null || true; } \
-          | awk -v a="$first" -v b="$((first + count))" '$1 >= a && $1 < b' | sort -un)
+# The uids of the range that own a file where a run writes, by walking
+# /tmp, /var/tmp and /dev/shm (its cost grows with what they hold: 0.6 s
+# for 240k files).
+owners_of_files() {
+  local first=$1 count=$2
+  { find /tmp /var/tmp /dev/shm -xdev -printf '%U\n%G\n' 2>/dev/null || true; } \
+    | awk -v a="$first" -v b="$((first + count))" '$1 >= a && $1 < b' | sort -un
+}
+
+# Root's record of the uids that may own such a file (STATE/uids-used):
+# its first line the boot it was made in, then the owners one walk found
+# and every uid leased since, a line each. A run's user can leave files
+# only under a uid it was leased, so the record stays a superset of the
+# owners without walking again; it is walked anew when missing, made in
+# another boot, or when too few uids outside it remain. A file root
+# chowns into the range is seen at the next walk (run/run_uid.sh rescan).
+used_record() { echo "$(state_dir)/uids-used"; }
+
+rescan() {
+  local first=$1 count=$2 rec tmp
+  rec=$(used_record); tmp="$rec.$$"
+  # a uid leased now is held by its lock until its lease ends, and marked
+  # again then (lease), so the walk need not see it
+  { cat /proc/sys/kernel/random/boot_id
+    owners_of_files "$first" "$count"
+  } > "$tmp"
+  mv -f -- "$tmp" "$rec"
+}
+
+# The record's uids (walking first if it is missing or of another boot).
+used_uids() {
+  local first=$1 count=$2 rec
+  rec=$(used_record)
+  if [ -L "$rec" ] || [ ! -f "$rec" ] || [ "$(head -n1 -- "$rec")" != "$(cat /proc/sys/kernel/random/boot_id)" ]; then
+    rm -f -- "$rec"; rescan "$first" "$count"
+  fi
+  tail -n +2 -- "$rec"
+}
+
+# Up to WANT uids from a random start that are in none of the lists on stdin.
+pick_free() {
+  local first=$1 count=$2 want=$3 start
   start=$(( $(od -An -N4 -tu4 /dev/urandom) % count ))
-  printf '%s\n' "$held" | awk -v a="$first" -v c="$count" -v s="$start" -v w="$want" '
+  awk -v a="$first" -v c="$count" -v s="$start" -v w="$want" '
     NF { h[$1] = 1 }
     END { for (i = 0; i < c && n < w; i++) { u = a + (s + i) % c; if (!(u in h)) { print u; n++ } } }'
+}
+
+free() {
+  local want=${1:-8} first count held got lk
+  read -r first count < <(range) || { echo "run_uid: no range reserved (tools/setup.sh reserves $NAME in /etc/subuid)" >&2; exit 3; }
+  held=$(awk '/^(Uid|Gid):/ { for (i = 2; i <= 5; i++) print $i }' /proc/[0-9]*/status 2>/dev/null || true)
+  if [ "$(id -u)" != 0 ]; then   # no record to read: walk
+    printf '%s\n%s\n' "$held" "$(owners_of_files "$first" "$count")" | pick_free "$first" "$count" "$want"
+    return
+  fi
+  exec {lk}>>"$(state_dir)/uids-used.lock"; flock "$lk"
+  got=$(printf '%s\n%s\n' "$held" "$(used_uids "$first" "$count")" | pick_free "$first" "$count" "$want")
+  if [ "$(printf '%s' "$got" | grep -c .)" -lt "$want" ]; then   # the record has filled: walk again
+    rescan "$first" "$count"
+    got=$(printf '%s\n%s\n' "$held" "$(used_uids "$first" "$count")" | pick_free "$first" "$count" "$want")
+  fi
+  exec {lk}>&-
+  [ -z "$got" ] || printf '%s\n' "$got"
+}
+
+# Adds UIDS (arguments) to the record of uids that may own files.
+mark_used() {
+  local rec lk
+  rec=$(used_record)
+  exec {lk}>>"$(state_dir)/uids-used.lock"; flock "$lk"
+  [ -f "$rec" ] && [ ! -L "$rec" ] && printf '%s\n' "$@" >> "$rec"
+  exec {lk}>&-
 }
 
 lease() {
@@ -109,12 +176,14 @@ lease() {
     fi
   done
   [ ${#got[@]} = "$want" ] || die "refused: $want uid(s) wanted, ${#got[@]} free in the range for runs ($(range)): every other one is leased, held by a process or owns a file in /tmp, /var/tmp or /dev/shm"
+  mark_used "${got[@]}"
   trap '' INT TERM HUP
   printf '%s\n' "${got[@]}"
   exec >&-
   while IFS= read -r _; do :; done
   # the lease ends: its files go while still held (so /run/afm keeps no
   # file a lease per run), the locks with this process
+  mark_used "${got[@]}"   # a walk made during the lease may have missed its files
   for n in "${got[@]}"; do rm -f -- "$state/uid-$n.lock"; done
 }
 
@@ -123,6 +192,7 @@ case "${1:-}" in
   range) range ;;
   reserve) reserve ;;
   free) shift; free "$@" ;;
+  rescan) [ "$(id -u)" = 0 ] || die "rescan: root's alone"; read -r f c < <(range) || exit 3; rescan "$f" "$c" ;;
   lease) shift; lease "$@" ;;
-  *) die "usage: run/run_uid.sh state-dir|range|reserve|free [N]|lease [N]" ;;
+  *) die "usage: run/run_uid.sh state-dir|range|reserve|free [N]|rescan|lease [N]" ;;
 esac

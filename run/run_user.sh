@@ -100,9 +100,14 @@ give() {
   echo "$uid $gid"
 }
 
-# take DIR...: see the header (stdlib Python alone: no venv needed).
+# take DIR...: see the header (stdlib Python alone: no venv needed). The
+# system's interpreter, isolated (-I: no PYTHONPATH, user site or working
+# folder on its path; -S: no site packages), not whichever python3 comes
+# first on root's PATH (a version manager's shim costs 0.2 s a call).
 take() {
-  [ $# = 0 ] || python3 "$(dirname "$0")/../analysis/safefs.py" take "$@"
+  local py=/usr/bin/python3
+  [ -x "$py" ] || py=$(command -v python3) || die "take: no python3"
+  [ $# = 0 ] || "$py" -I -S "$(dirname "$0")/../analysis/safefs.py" take "$@"
 }
 
 case "$1" in

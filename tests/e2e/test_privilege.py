@@ -206,7 +206,17 @@ class LeastPrivilege(unittest.TestCase):
         holder = subprocess.Popen(["setpriv", f"--reuid={first + 6}", f"--regid={first + 6}", "--clear-groups", "sleep", "60"])
         try:
             time.sleep(0.3)
+            # a file root chowned into the range is seen once the record is walked anew
+            subprocess.run([run_uid, "rescan"], check=True)
             free = set(subprocess.run([run_uid, "free", str(count)], capture_output=True, text=True, check=True).stdout.split())
+            # a uid leased and given back stays out of the free ones without a walk (its run may have left files)
+            lease = subprocess.Popen([run_uid, "lease", "1"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+            leased = lease.stdout.readline().strip()
+            lease.stdin.close()
+            self.assertEqual(lease.wait(timeout=30), 0)
+            state = subprocess.run([run_uid, "state-dir"], capture_output=True, text=True, check=True).stdout.strip()
+            with open(os.path.join(state, "uids-used")) as f:
+                used = f.read().split()
         finally:
             holder.kill()
             holder.wait()
@@ -214,6 +224,8 @@ class LeastPrivilege(unittest.TestCase):
         self.assertNotIn(str(first + 5), free, "a uid that owns a file in /tmp")
         self.assertNotIn(str(first + 6), free, "a uid a process holds")
         self.assertGreater(len(free), count - 100)
+        self.assertRegex(leased, r"^[1-9][0-9]*$")
+        self.assertIn(leased, used, "a uid leased stays in the record of uids that may own files until a walk")
         # two runs at once: two uids of the range, HOME a scratch folder of theirs (removed after), the limits named
         show = 'id -u; echo "$HOME"; echo "$AFM_NETNS_MODE"; grep -E "^Max (processes|file size|data size)" /proc/self/limits; sleep 1'
         runs = [subprocess.Popen([e2e_support.IN_NETNS, "sh", "-c", show], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
