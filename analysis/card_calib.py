@@ -9,8 +9,11 @@ pair, and the run starts with what it measured as firmware.calibration.
 prints the path of the scene to run: SCENE itself when its card section
 gives both constants or a calibration already, else DIR/scene.yaml, SCENE
 with firmware.calibration {run: "tilted sha256:KEY", mu, lateral_nN_per_V}
-set in its card section (its include, sample.substrate.gsf and
-objects.targets.png paths made absolute, so it stands in another folder).
+set in its card section. SCENE is read as the launcher resolves it, the one
+reader of the scene format (`afm_launch --scene SCENE --resolved`: checked
+as --check checks it, its includes merged in, its file paths absolute), so
+DIR/scene.yaml stands in another folder and a scene the launcher refuses
+is refused here, in its words, before anything runs.
 DIR must be a folder the run's user can reach (./afm makes it, 0755): the
 calibration's runs are made in DIR/calibration.
 
@@ -22,21 +25,22 @@ tilted experiment measures them (analysis/paper/exp_tilted.py,
 analysis/loops.py: the one owner of each). Measured, never copied from the
 truth: the run's mu is the calibration's, within its accuracy.
 
-The cache: KEY is the SHA-256 of the scene's probe and sample sections (its
-includes merged as the launcher merges them: the scene's own values win) and
-the calibration's own settings; its result is DIR_CACHE/KEY.json, DIR_CACHE
-$XDG_CACHE_HOME/afm-calib, else ~/.cache/afm-calib, made 0700. The folder
-must be a folder (not a link), the caller's, closed to others; the entry is
-read and written through analysis/safefs.py (no link followed, a regular
-file; written by rename). A second run with the same probe and sample
-runs nothing ("from the cache" on stderr); --recalibrate ignores the cache
-and writes it anew. A refusal is one line on stderr and exit 2."""
+The cache: KEY is the SHA-256 of the resolved scene's probe and sample
+sections and the calibration's own settings; its result is
+DIR_CACHE/KEY.json, DIR_CACHE $XDG_CACHE_HOME/afm-calib, else
+~/.cache/afm-calib, made 0700. The folder must be a folder (not a link), the
+caller's, closed to others; the entry is read and written through
+analysis/safefs.py (no link followed, a regular file; written by rename). A
+second run with the same probe and sample runs nothing ("from the cache" on
+stderr); --recalibrate ignores the cache and writes it anew. A refusal is
+one line on stderr and exit 2."""
 import argparse
 import copy
 import hashlib
 import json
 import os
 import stat
+import subprocess
 import sys
 import time
 
@@ -51,6 +55,7 @@ CALIB_SCAN_ANGLE_DEG = 270             # the lever across the slope: the calibra
 SAMPLE_KEYS = ("tip_substrate", "photodiode_noise_V", "temperature_K")   # the sample's, taken onto the tilted glass
 CARD_KEYS = ("spring_N_per_m", "deflection_nm_per_V")                   # the card's k_n and K_n
 RUN_TIMEOUT_S = 600.0
+RESOLVE_TIMEOUT_S = 60.0               # afm_launch --resolved (the planner's targets checked too)
 VERSION = 1                            # of the calibration's recipe: a new one is a new key
 
 
@@ -58,42 +63,22 @@ class CalibError(Exception):
     """The calibration could not run or was refused (named: what and why)."""
 
 
-def read_yaml(path, what):
+def resolved(scene_path):
+    """The scene as the launcher resolves it (afm_launch --resolved), a mapping."""
     try:
-        with open(path) as f:
-            data = yaml.safe_load(f)
-    except OSError as e:
-        raise CalibError(f"{path}: cannot read the {what}: {e.strerror}") from None
+        p = subprocess.run([paths.LAUNCH, "--scene", scene_path, "--resolved", "--quiet"], capture_output=True,
+                           text=True, timeout=RESOLVE_TIMEOUT_S)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        raise CalibError(f"{scene_path}: the launcher could not read the scene: {e}") from None
+    if p.returncode != 0:
+        raise CalibError((p.stderr.strip().splitlines() or [f"{paths.LAUNCH} --resolved: exit {p.returncode}"])[-1])
+    try:
+        scene = yaml.safe_load(p.stdout)
     except yaml.YAMLError as e:
-        raise CalibError(f"{path}: the {what} is not YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise CalibError(f"{path}: the {what} is not a mapping")
-    return data
-
-
-def include_paths(scene, scene_path):
-    inc = scene.get("include")
-    files = [] if inc is None else [inc] if isinstance(inc, str) else list(inc)
-    base = os.path.dirname(os.path.abspath(scene_path))
-    return [f if os.path.isabs(f) else os.path.join(base, f) for f in files]
-
-
-def merge_missing(into, part):
-    """What part has and into lacks, through mappings (scene/scene_include.cpp's rule)."""
-    for k, v in part.items():
-        if into.get(k) is None:
-            into[k] = copy.deepcopy(v)
-        elif isinstance(into[k], dict) and isinstance(v, dict):
-            merge_missing(into[k], v)
-
-
-def merged(scene, scene_path):
-    """The scene's probe, sample and firmware sections, its includes merged in."""
-    out = {k: copy.deepcopy(scene.get(k)) or {} for k in ("probe", "sample", "firmware")}
-    for f in include_paths(scene, scene_path):
-        part = read_yaml(f, "included file")
-        merge_missing(out, {k: part[k] for k in ("probe", "sample", "firmware") if isinstance(part.get(k), dict)})
-    return out
+        raise CalibError(f"{scene_path}: the launcher's resolved scene is not YAML ({str(e).splitlines()[0]})") from None
+    if not isinstance(scene, dict):
+        raise CalibError(f"{scene_path}: the launcher's resolved scene is not a mapping")
+    return scene
 
 
 def needs_calibration(fw):
@@ -189,19 +174,6 @@ def run_calibration(scene, work):
             "loads_nN": LOADS_NN}
 
 
-def absolute_paths(scene, scene_path):
-    """The scene's paths the launcher takes relative to it, made absolute."""
-    base = os.path.dirname(os.path.abspath(scene_path))
-    if scene.get("include") is not None:
-        scene["include"] = include_paths(scene, scene_path)
-    for where, key in ((("sample", "substrate"), "gsf"), (("objects", "targets"), "png")):
-        node = scene
-        for k in where:
-            node = node.get(k) if isinstance(node, dict) else None
-        if isinstance(node, dict) and isinstance(node.get(key), str) and node[key] and not os.path.isabs(node[key]):
-            node[key] = os.path.join(base, node[key])
-
-
 def calibration(sections, work, recalibrate):
     """firmware.calibration for the scene's sections: from the cache, or measured and cached."""
     scene = calib_scene(sections)
@@ -227,15 +199,14 @@ def calibration(sections, work, recalibrate):
 
 def prepare(scene_path, work, recalibrate=False):
     """The path of the scene to run (see the module's contract)."""
-    scene = read_yaml(scene_path, "scene")
-    sections = merged(scene, scene_path)
+    scene = resolved(scene_path)
+    sections = {k: scene.get(k) if isinstance(scene.get(k), dict) else {} for k in ("probe", "sample", "firmware")}
     why = needs_calibration(sections["firmware"])
     if why is None:
         say(f"{scene_path}: the scene's card section gives mu and k_theta K_l / h (or a calibration): not calibrated")
         return scene_path
     say(f"{scene_path}: {why}")
     cal = calibration(sections, work, recalibrate)
-    absolute_paths(scene, scene_path)
     if not isinstance(scene.get("firmware"), dict):
         scene["firmware"] = {}
     scene["firmware"]["calibration"] = cal

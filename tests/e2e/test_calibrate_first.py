@@ -6,14 +6,20 @@ tilted sha256:KEY" for board.mu_ppm, its value within 2 % of the truth's mu
 (the calibration's accuracy) and not the truth's bit for bit. A second run
 takes the calibration from the cache ("from the cache: no run" on stderr,
 no calibration run made, and faster). A symbolic link planted at the
-cache's entry or in place of the cache's folder is refused, not followed."""
+cache's entry or in place of the cache's folder is refused, not followed.
+The scene's probe is in a file it includes: card_calib reads the scene as
+the launcher resolves it (afm_launch --resolved), whose own case, an
+include merged and a relative path made absolute, is class Resolved."""
 import glob
 import json
 import os
+import struct
 import subprocess
 import sys
 import time
 import unittest
+
+import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import e2e_support  # noqa: E402
@@ -23,13 +29,20 @@ TRUTH_MU = 0.12          # the card's nominal is 0.1: the calibration must find 
 TRUTH_LATERAL = 42.0     # nN/V; the nominal 37.9
 
 
-def scene_without_card_mu():
+def short_text():
     with open(e2e_support.scene("short.yaml")) as f:
-        text = f.read()
-    text = text.replace("tip_substrate: {mu: 0.0865, adhesion_nN: 1.0}", f"tip_substrate: {{mu: {TRUTH_MU}, adhesion_nN: 1.0}}")
-    text = text.replace("objects:\n", f"probe:\n  lateral_nN_per_V: {TRUTH_LATERAL}\nobjects:\n", 1)
-    assert f"mu: {TRUTH_MU}" in text and "firmware" not in text
-    return e2e_support.write_scene(text, "scene")
+        return f.read()
+
+
+def scene_without_card_mu():
+    """scenes/short.yaml on the truth's mu, its probe's truth in probe.yaml
+    beside it (include: relative): no firmware section."""
+    text = short_text().replace("tip_substrate: {mu: 0.0865, adhesion_nN: 1.0}", f"tip_substrate: {{mu: {TRUTH_MU}, adhesion_nN: 1.0}}")
+    assert f"mu: {TRUTH_MU}" in text and "firmware" not in text and "include" not in text
+    path = e2e_support.write_scene("include: probe.yaml\n" + text, "scene")
+    with open(os.path.join(os.path.dirname(path), "probe.yaml"), "w") as f:
+        f.write(f"probe:\n  lateral_nN_per_V: {TRUTH_LATERAL}\n")
+    return path
 
 
 def afm_run(scene, cache, tag, *extra):
@@ -109,6 +122,57 @@ class CalibrateFirst(unittest.TestCase):
         self.assertNotEqual(code, 0, err[-800:])
         self.assertIsNone(rj)
         self.assertIn("a symbolic link, not a folder", err)
+
+
+def flat_gsf(path, side_m):
+    """A flat 2 x 2 Gwyddion Simple Field map, side_m across, centred on frame A's origin."""
+    head = (f"Gwyddion Simple Field 1.0\nXRes = 2\nYRes = 2\nXReal = {side_m}\nYReal = {side_m}\n"
+            f"XOffset = {-side_m / 2}\nYOffset = {-side_m / 2}\nXYUnits = m\nZUnits = m\n").encode()
+    with open(path, "wb") as f:
+        f.write(head + b"\0" * (4 - len(head) % 4) + struct.pack("<4f", 0, 0, 0, 0))
+
+
+def launch(*args):
+    return subprocess.run([e2e_support.LAUNCH, *args], capture_output=True, text=True, timeout=e2e_support.limit(60))
+
+
+class Resolved(unittest.TestCase):
+    """afm_launch --scene FILE --resolved: the scene checked as --check
+    checks it, then on stdout as a run keeps it (scene.hpp:
+    resolved_scene_text), which card_calib reads."""
+
+    def setUp(self):
+        self.dir = e2e_support.tmpdir("resolved")
+        with open(os.path.join(self.dir, "part.yaml"), "w") as f:
+            f.write(f"probe:\n  lateral_nN_per_V: {TRUTH_LATERAL}\nsample:\n  field_nm: 999\n  temperature_K: 301\n")
+        flat_gsf(os.path.join(self.dir, "flat.gsf"), 4e-6)
+        text = short_text().replace("  substrate: glass\n", "  substrate: {gsf: flat.gsf, material: glass}\n")
+        self.scene = os.path.join(self.dir, "scene.yaml")
+        with open(self.scene, "w") as f:
+            f.write("include: part.yaml\n" + text)
+
+    def test_an_include_merged_and_a_path_made_absolute(self):
+        p = launch("--scene", self.scene, "--resolved", "--quiet")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        doc = yaml.safe_load(p.stdout)
+        self.assertNotIn("include", doc)
+        self.assertEqual(doc["probe"]["lateral_nN_per_V"], TRUTH_LATERAL)        # from the include
+        self.assertEqual(doc["sample"]["temperature_K"], 301)                   # from the include
+        self.assertEqual(doc["sample"]["field_nm"], 2000)                       # the scene's own wins
+        self.assertEqual(doc["sample"]["substrate"]["gsf"], os.path.join(os.path.realpath(self.dir), "flat.gsf"))
+
+    def test_a_refusal_as_check_gives_it(self):
+        with open(self.scene, "a") as f:
+            f.write("zz_not_a_key: 1\n")
+        check, res = launch("--scene", self.scene, "--check", "--quiet"), launch("--scene", self.scene, "--resolved", "--quiet")
+        self.assertEqual((res.returncode, res.stdout, res.stderr), (2, "", check.stderr))
+        self.assertIn("zz_not_a_key", res.stderr)
+
+    def test_it_runs_nothing(self):
+        p = launch("--scene", self.scene, "--resolved", "--out", os.path.join(self.dir, "run"))
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("--resolved", p.stderr)
+        self.assertFalse(os.path.exists(os.path.join(self.dir, "run")))
 
 
 if __name__ == "__main__":
