@@ -84,20 +84,13 @@ def scene_files():
 
 
 def load_standalone(path):
-    """A scene's YAML with its relative file names (include:, a PNG target)
-    made absolute, so that it validates from any folder."""
-    with open(path) as f:
-        doc = yaml.safe_load(f)
-    here = os.path.dirname(path)
-    inc = doc.get("include")
-    if isinstance(inc, str):
-        doc["include"] = os.path.join(here, inc)
-    elif isinstance(inc, list):
-        doc["include"] = [os.path.join(here, i) for i in inc]
-    targets = (doc.get("objects") or {}).get("targets")
-    if isinstance(targets, dict) and isinstance(targets.get("png"), str):
-        targets["png"] = os.path.join(here, targets["png"])
-    return doc
+    """A scene as the launcher resolves it (afm_launch --resolved: its includes
+    merged, its file names absolute), so that it validates from any folder."""
+    p = subprocess.run([e2e_support.LAUNCH, "--resolved", "--quiet", "--scene", path],
+                       capture_output=True, text=True, timeout=60)
+    if p.returncode:
+        raise AssertionError(f"{path}: afm_launch --resolved: exit {p.returncode}: {p.stderr.strip()}")
+    return yaml.safe_load(p.stdout)
 
 
 def get(doc, path):
