@@ -51,7 +51,7 @@ class Envelope:
 
     def __init__(self, columns, bins):
         self.columns, self.bins, self.width = list(columns), bins, 1.0
-        self.n = 0
+        self.n, self.any = 0, False
         shape = (0, len(self.columns), bins)
         self.lo, self.hi = np.full(shape, np.inf), np.full(shape, -np.inf)
         self.tlo, self.thi = np.zeros(shape), np.zeros(shape)
@@ -90,8 +90,9 @@ class Envelope:
         t = np.maximum(np.asarray(t, dtype=float), 0.0)
         self.n = max(self.n, int(series.max()) + 1)
         self._grow(self.n)
-        if not np.isfinite(self.lo).any():   # nothing held yet: the width the rows need, at once
+        if not self.any:   # nothing held yet: the width the rows need, at once
             self.width = float(2 ** max(0, int(np.ceil(np.log2((t.max() + 1) / self.bins)))))
+        self.any = True
         while t.max() >= self.bins * self.width:
             self._coarsen()
         key = series.astype(np.int64) * self.bins + (t // self.width).astype(np.int64)
@@ -154,6 +155,8 @@ def _lib():
         lib.afm_log_series_particles.argtypes = [ctypes.c_void_p, dbl, ctypes.c_long]
         for f in (lib.afm_log_series_undecodable, lib.afm_log_series_refused):
             f.restype, f.argtypes = ctypes.c_long, [ctypes.c_void_p]
+        lib.afm_log_series_recorded.restype = ctypes.c_longlong
+        lib.afm_log_series_recorded.argtypes = [ctypes.c_void_p, ctypes.c_int]
         _LIB = lib
     return _LIB
 
@@ -172,6 +175,7 @@ class Series:
         self.ids = {}             # (channel, particle id) -> series index in self.particles
         self.block_rows = [0, 0]  # rows per channel (FW, TRUTH)
         self.undecodable = self.refused = 0
+        self.recorded = (0, 0)    # the first and last block's recording time, us since the epoch
 
     def has(self, channel):
         return self.block_rows[channel] > 0
@@ -222,6 +226,7 @@ def read(path, chunk_rows=CHUNK_ROWS):
             if n == 0:
                 break
         out.undecodable, out.refused = lib.afm_log_series_undecodable(reader), lib.afm_log_series_refused(reader)
+        out.recorded = (lib.afm_log_series_recorded(reader, 0), lib.afm_log_series_recorded(reader, 1))
     finally:
         lib.afm_log_series_free(reader)
     return out

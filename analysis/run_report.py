@@ -47,20 +47,32 @@ VIDEO_MAX_BYTES = 40 << 20
 
 
 def _plt():
+    """matplotlib with the page's text sizes: its figures are made without
+    pyplot (matplotlib.figure.Figure, drawn by Agg on savefig), whose
+    import and figure manager a page of PNGs does not need."""
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as p
     # at dpi 100, 9 pt is 12.5 px: no text in a figure under 12 px at 100 %
-    p.rcParams.update({"font.size": 10, "legend.fontsize": 9, "legend.title_fontsize": 9})
-    return p
+    matplotlib.rcParams.update({"font.size": 10, "legend.fontsize": 9, "legend.title_fontsize": 9})
+    return matplotlib
+
+
+def _figure(nrows, ncols, figsize, **kw):
+    """A figure and its axes in fixed margins (room for the tick labels of
+    six digits and the axis labels): a layout engine measures every text by
+    drawing it, which cost each figure as much again as its drawing."""
+    _plt()
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize)
+    w, h = figsize
+    fig.subplots_adjust(left=0.85 / w, right=1 - 0.15 / w, bottom=0.6 / h, top=1 - 0.15 / h,
+                        wspace=1.1 / (w / ncols), hspace=0.25 if nrows > 1 else 0.2)
+    return fig, fig.subplots(nrows, ncols, **kw)
 
 
 def _png(fig):
     import io
     buf = io.BytesIO()
-    fig.tight_layout()
     fig.savefig(buf, format="png", dpi=100)
-    _plt().close(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
 
 
@@ -104,9 +116,8 @@ def _force_and_apex(series):
     out = []
     if not (series.has(FW) and series.has(TRUTH)):
         return out
-    p = _plt()
     pts = series.blocks.points
-    fig, axs = p.subplots(3, 1, figsize=(9, 6), sharex=True)
+    fig, axs = _figure(3, 1, (9, 6), sharex=True)
     for ax, c in zip(axs, "xyz"):
         ax.plot(*pts(TRUTH, f"force_nN_{c}"), lw=0.8, color="0.5", label="truth (SIM_TRUTH)")
         ax.plot(*pts(FW, f"force_nN_{c}"), lw=0.8, label="card (FW_STATE)")
@@ -114,7 +125,7 @@ def _force_and_apex(series):
     axs[0].legend(loc="upper right")
     axs[-1].set_xlabel("simulated time (s)")
     out.append(("Force of the sample on the tip: the card's against the truth", _png(fig)))
-    fig, axs = p.subplots(1, 2, figsize=(9, 3.2))
+    fig, axs = _figure(1, 2, (9, 3.2))
     for ax, c in zip(axs, "xy"):
         ax.plot(*pts(TRUTH, f"tip_nm_{c}"), lw=0.8, color="0.5", label="truth")
         ax.plot(*pts(FW, f"tip_nm_{c}"), lw=0.8, label="card (compensated apex)")
@@ -133,8 +144,7 @@ def _objects(series):
         return None
     spans = [series.particle_span(TRUTH, i) for i in truth_ids]
     ids = [truth_ids[k] for k in np.argsort(-np.array(spans), kind="stable")[:MAX_OBJECTS]]
-    p = _plt()
-    fig, axs = p.subplots(1, 2, figsize=(9, 3.4))
+    fig, axs = _figure(1, 2, (9, 3.4))
     for i in ids:
         for ax, c in zip(axs, "xy"):
             line, = ax.plot(*series.particle_points(TRUTH, i, f"{c}_nm"), lw=1.6, alpha=0.35)
@@ -300,11 +310,30 @@ def write(run_dir, out=None):
     return out, folder.refused
 
 
+def _ready():
+    """--wait: the imports and the library loaded; True once stdin says go."""
+    from matplotlib.backends import backend_agg  # noqa: F401
+    from matplotlib.figure import Figure  # noqa: F401
+    from matplotlib.font_manager import fontManager  # noqa: F401  (its cache read)
+    from analysis import report_series
+    try:
+        report_series._lib()
+    except FileNotFoundError:
+        pass   # said when the page is written
+    return sys.stdin.readline().strip() == "go"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m analysis.run_report", description=__doc__.split("\n\n")[0])
     ap.add_argument("run_dir", help="a run folder (with run.json)")
     ap.add_argument("--out", help="the page (default RUN_DIR/report.html)")
+    ap.add_argument("--wait", action="store_true",
+                    help="load what the page needs (numpy, matplotlib, the log's reader), then wait for a line on "
+                         "stdin: 'go' writes the page, anything else or the end exits 0 with none (./afm run starts "
+                         "it beside the run, so the imports are not waited for after it)")
     a = ap.parse_args(argv)
+    if a.wait and not _ready():
+        return 0
     try:
         if not safefs.is_file(safefs.open_dir(a.run_dir), "run.json"):
             print(f"run_report: {a.run_dir}: no run.json (not a run folder)", file=sys.stderr)

@@ -50,6 +50,7 @@ struct Reader {
     std::vector<bool> seen[2];                  // seq -> a block row went out
     std::deque<ParticleRow> particles;          // rows made, not yet taken
     long undecodable = 0, refused = 0;
+    long long recorded[2] = {0, 0};   // the first and the last event's recording time
     bool ended = false;
 
     explicit Reader(const std::string &path) : log(path) { log.only({AFM_CH_FW_STATE, AFM_CH_SIM_TRUTH}); }
@@ -184,6 +185,8 @@ long afm_log_series_blocks(void *reader, double *rows, long cap, char *err, size
                 r->finish();
                 break;
             }
+            if (!r->recorded[0]) r->recorded[0] = ev.utime;
+            r->recorded[1] = ev.utime;
             double *out = rows + n * kBlockCols;
             const bool row = ev.channel == AFM_CH_FW_STATE ? r->message<afm::fw_state_t>(0, ev.data, out)
                                                            : r->message<afm::sim_truth_t>(1, ev.data, out);
@@ -211,6 +214,10 @@ long afm_log_series_particles(void *reader, double *rows, long cap)
 }
 
 long afm_log_series_undecodable(void *reader) { return reader ? static_cast<Reader *>(reader)->undecodable : 0; }
+long long afm_log_series_recorded(void *reader, int which)
+{
+    return reader && (which == 0 || which == 1) ? static_cast<Reader *>(reader)->recorded[which] : 0;
+}
 long afm_log_series_refused(void *reader) { return reader ? static_cast<Reader *>(reader)->refused : 0; }
 
 }  // extern "C"

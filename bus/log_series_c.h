@@ -54,6 +54,10 @@ long afm_log_series_particles(void *reader, double *rows, long cap);
 /* Messages on FW_STATE or SIM_TRUTH that did not decode as their type
  * (left out), and objects messages ObjectsView refused, so far. */
 long afm_log_series_undecodable(void *reader);
+/* The recording time (the log's timestamp, us since the epoch) of the
+ * first (which 0) and the last (1) FW_STATE or SIM_TRUTH event read so
+ * far; 0 before any. */
+long long afm_log_series_recorded(void *reader, int which);
 long afm_log_series_refused(void *reader);
 
 #ifdef __cplusplus
