@@ -312,9 +312,9 @@ def write(run_dir, out=None):
 
 def _ready():
     """--wait: the imports and the library loaded; True once stdin says go."""
-    from matplotlib.backends import backend_agg  # noqa: F401
-    from matplotlib.figure import Figure  # noqa: F401
-    from matplotlib.font_manager import fontManager  # noqa: F401  (its cache read)
+    import importlib
+    for name in ("matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.font_manager"):   # its font cache read
+        importlib.import_module(name)
     from analysis import report_series
     try:
         report_series._lib()

@@ -12,6 +12,9 @@ its parts) and its prompt-to-prompt wall time split into
                video's end, run.json)
   report       the digests and report.html (analysis/run_report.py)
 
+Beside them the launcher's own wall time (run.json wall_seconds) and what
+start and end spend outside it (run/in_netns.sh: the namespace, the run's
+user, the folder handed back).
 (the log's recording times: analysis/report_series.py). The report is then
 run again alone, its peak memory the sum of RSS over its process tree,
 sampled every 5 ms.
@@ -28,7 +31,6 @@ import os
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 
 from analysis import paths
@@ -100,6 +102,7 @@ def one_run(scene, out):
     parts = {"build check": mark["built"] - mark["begin"], "start": first - mark["built"], "loop": last - first,
              "end": mark["launched"] - last, "report": mark["reported"] - mark["launched"]}
     r_wall, r_mb = report_alone(out)
+    parts["outside the launcher"] = mark["launched"] - mark["built"] - info["wall_seconds"]
     return {"prompt to prompt": whole, **parts, "launcher loop_seconds": info["timing"]["loop_seconds"],
             "run wall_seconds": info["wall_seconds"], "report alone": r_wall, "report peak MB": r_mb}
 
@@ -131,6 +134,8 @@ def main(argv=None):
         for part in PARTS[:-1]:
             show("  " + part, col[part], "s")
         show("    (loop_seconds)", col["launcher loop_seconds"], "s")
+        show("    (launcher's own)", col["run wall_seconds"], "s")
+        show("    (start+end outside it)", col["outside the launcher"], "s")
         limit = max(REPORT_S, REPORT_FRACTION * statistics.median(col["run wall_seconds"]))
         show("  report", col["report"], "s", f"<= {limit:.2f} s (10 % of the run's {statistics.median(col['run wall_seconds']):.1f} s, or 1 s)",
              lambda v: v <= limit)
