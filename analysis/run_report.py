@@ -312,9 +312,11 @@ def write(run_dir, out=None):
 
 def _ready():
     """--wait: the imports and the library loaded; True once stdin says go."""
-    import importlib
-    for name in ("matplotlib.figure", "matplotlib.backends.backend_agg", "matplotlib.font_manager"):   # its font cache read
-        importlib.import_module(name)
+    fig, ax = _figure(1, 1, (2, 2))   # a figure drawn and dropped: the fonts and Agg's caches loaded
+    ax.plot([0, 1], [0, 1], label="x")
+    ax.set_xlabel("simulated time (s)")
+    ax.legend(title="t")
+    _png(fig)
     from analysis import report_series
     try:
         report_series._lib()
