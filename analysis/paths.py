@@ -53,3 +53,7 @@ def bench_folder(out, prefix):
     os.makedirs(path, exist_ok=True)
     os.chmod(path, 0o755)
     return path, out is not None
+
+
+# bus/: the report's one pass over a log (log_series_c.h, analysis/report_series.py)
+LOG_SERIES_LIB = os.path.join(BUILD, "bus", "libafm_log_series_c.so")

@@ -5,8 +5,10 @@ first.
     python -m analysis.run_report RUN_DIR [--out FILE]
 
 `./afm run` writes it into every run folder it makes. What it shows, all
-from the run's own files (run.json and bus.lcmlog through open_run, the
-package's one reader; contact_sheet.png, fidelity_diff.png, video.*):
+from the run's own files (run.json; bus.lcmlog read once, streaming, by
+analysis/report_series.py, whose decimated series and running figures are
+all it keeps of the log, so its time and memory stay bounded whatever the
+run's length; contact_sheet.png, fidelity_diff.png, video.*):
   - the verdict (run.json "verdict"), and the run's status and error;
   - the video (H.264 when the renderer had ffmpeg: run.json
     renderer.video says which writer ran; shown at video_width_px) and the
@@ -14,7 +16,8 @@ package's one reader; contact_sheet.png, fidelity_diff.png, video.*):
   - the card's force against the simulator's truth (FW_STATE against
     SIM_TRUTH, x, y, z), the apex the card compensated against the true one,
     and each object's position as the card modelled it against the truth
-    (at most MAX_OBJECTS particles, those that moved most);
+    (at most MAX_OBJECTS particles, those that moved most); each line
+    drawn through its bins' extremes (report_series.Envelope);
   - the fidelity check with its image;
   - the card's configuration (run.json "card"), the planner's or the hand's
     account (run.json "operator"), and the costs (wall and CPU time per
@@ -44,20 +47,32 @@ VIDEO_MAX_BYTES = 40 << 20
 
 
 def _plt():
+    """matplotlib with the page's text sizes: its figures are made without
+    pyplot (matplotlib.figure.Figure, drawn by Agg on savefig), whose
+    import and figure manager a page of PNGs does not need."""
     import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as p
     # at dpi 100, 9 pt is 12.5 px: no text in a figure under 12 px at 100 %
-    p.rcParams.update({"font.size": 10, "legend.fontsize": 9, "legend.title_fontsize": 9})
-    return p
+    matplotlib.rcParams.update({"font.size": 10, "legend.fontsize": 9, "legend.title_fontsize": 9})
+    return matplotlib
+
+
+def _figure(nrows, ncols, figsize, **kw):
+    """A figure and its axes in fixed margins (room for the tick labels of
+    six digits and the axis labels): a layout engine measures every text by
+    drawing it, which cost each figure as much again as its drawing."""
+    _plt()
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize)
+    w, h = figsize
+    fig.subplots_adjust(left=0.85 / w, right=1 - 0.15 / w, bottom=0.6 / h, top=1 - 0.15 / h,
+                        wspace=1.1 / (w / ncols), hspace=0.25 if nrows > 1 else 0.2)
+    return fig, fig.subplots(nrows, ncols, **kw)
 
 
 def _png(fig):
     import io
     buf = io.BytesIO()
-    fig.tight_layout()
     fig.savefig(buf, format="png", dpi=100)
-    _plt().close(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
 
 
@@ -79,12 +94,13 @@ class Folder:
             return None
         return data if limit is None or len(data) <= limit else None
 
-    def checked(self, name):
-        """The path of a file for a reader that takes one (safefs.checked), or None."""
+    def open(self, name):
+        """A file opened for a reader that takes a path (/proc/self/fd/N:
+        safefs.open_file), or None; the caller closes it."""
         if not safefs.is_file(self.fd, name):
             return None
         try:
-            return safefs.checked(self.fd, name, self.path)
+            return safefs.open_file(self.fd, name, self.path)
         except (safefs.Refused, OSError) as e:
             self.refused.append(str(e))
             return None
@@ -94,26 +110,25 @@ def _file_uri(data, mime):
     return f"data:{mime};base64," + base64.b64encode(data).decode()
 
 
-def _force_and_apex(run):
+def _force_and_apex(series):
     """Two figures (data URIs): force and apex, card against truth, over time."""
-    p = _plt()
+    from analysis.report_series import FW, TRUTH
     out = []
-    if "FW_STATE" not in run or "SIM_TRUTH" not in run:
+    if not (series.has(FW) and series.has(TRUTH)):
         return out
-    fw, tr = run["FW_STATE"].drop_duplicates("seq"), run["SIM_TRUTH"].drop_duplicates("seq")
-    t_fw, t_tr = fw["utime_us"] * 1e-6, tr["utime_us"] * 1e-6
-    fig, axs = p.subplots(3, 1, figsize=(9, 6), sharex=True)
+    pts = series.blocks.points
+    fig, axs = _figure(3, 1, (9, 6), sharex=True)
     for ax, c in zip(axs, "xyz"):
-        ax.plot(t_tr, tr[f"force_nN_{c}"], lw=0.8, color="0.5", label="truth (SIM_TRUTH)")
-        ax.plot(t_fw, fw[f"force_nN_{c}"], lw=0.8, label="card (FW_STATE)")
+        ax.plot(*pts(TRUTH, f"force_nN_{c}"), lw=0.8, color="0.5", label="truth (SIM_TRUTH)")
+        ax.plot(*pts(FW, f"force_nN_{c}"), lw=0.8, label="card (FW_STATE)")
         ax.set_ylabel(f"F_{c} (nN)")
     axs[0].legend(loc="upper right")
     axs[-1].set_xlabel("simulated time (s)")
     out.append(("Force of the sample on the tip: the card's against the truth", _png(fig)))
-    fig, axs = p.subplots(1, 2, figsize=(9, 3.2))
+    fig, axs = _figure(1, 2, (9, 3.2))
     for ax, c in zip(axs, "xy"):
-        ax.plot(t_tr, tr[f"tip_nm_{c}"], lw=0.8, color="0.5", label="truth")
-        ax.plot(t_fw, fw[f"tip_nm_{c}"], lw=0.8, label="card (compensated apex)")
+        ax.plot(*pts(TRUTH, f"tip_nm_{c}"), lw=0.8, color="0.5", label="truth")
+        ax.plot(*pts(FW, f"tip_nm_{c}"), lw=0.8, label="card (compensated apex)")
         ax.set_xlabel("simulated time (s)")
         ax.set_ylabel(f"apex {c} (nm)")
     axs[0].legend()
@@ -121,23 +136,19 @@ def _force_and_apex(run):
     return out
 
 
-def _objects(run):
+def _objects(series):
     """A figure (data URI) of the particles that moved most: model against truth."""
-    try:
-        model, truth = run.particles("FW_STATE"), run.particles("SIM_TRUTH")
-    except Exception:
+    from analysis.report_series import FW, TRUTH
+    truth_ids = series.particle_ids(TRUTH)
+    if not truth_ids or not series.particle_ids(FW):
         return None
-    if model.empty or truth.empty:
-        return None
-    span = truth.groupby("id").agg(dx=("x_nm", lambda s: s.max() - s.min()), dy=("y_nm", lambda s: s.max() - s.min()))
-    ids = list((span["dx"] + span["dy"]).sort_values(ascending=False).index[:MAX_OBJECTS])
-    p = _plt()
-    fig, axs = p.subplots(1, 2, figsize=(9, 3.4))
+    spans = [series.particle_span(TRUTH, i) for i in truth_ids]
+    ids = [truth_ids[k] for k in np.argsort(-np.array(spans), kind="stable")[:MAX_OBJECTS]]
+    fig, axs = _figure(1, 2, (9, 3.4))
     for i in ids:
-        m, t = model[model["id"] == i], truth[truth["id"] == i]
         for ax, c in zip(axs, "xy"):
-            line, = ax.plot(t["utime_us"] * 1e-6, t[f"{c}_nm"], lw=1.6, alpha=0.35)
-            ax.plot(m["utime_us"] * 1e-6, m[f"{c}_nm"], lw=0.8, color=line.get_color(), label=f"id {i}")
+            line, = ax.plot(*series.particle_points(TRUTH, i, f"{c}_nm"), lw=1.6, alpha=0.35)
+            ax.plot(*series.particle_points(FW, i, f"{c}_nm"), lw=0.8, color=line.get_color(), label=f"id {i}")
     for ax, c in zip(axs, "xy"):
         ax.set_xlabel("simulated time (s)")
         ax.set_ylabel(f"{c} (nm)")
@@ -234,31 +245,38 @@ video { image-rendering: pixelated; background: #000; }
 .wide { overflow-x: auto; } img.natural { max-width: none; }"""
 
 
-def _open(folder):
-    """(Run or None, run.json as a dict): the log and run.json read through
-    paths safefs checked first."""
-    from analysis.runs import open_run
-    info_text = folder.read("run.json")
+def _info(folder):
+    """run.json as a dict (what it says when it is missing or not JSON)."""
+    text = folder.read("run.json")
     try:
-        info = json.loads(info_text) if info_text is not None else {}
+        return json.loads(text) if text is not None else {}
     except ValueError as e:
-        info = {"status": "unreadable", "error": f"run.json is not JSON: {e}"}
-    if folder.checked("bus.lcmlog") is None:
+        return {"status": "unreadable", "error": f"run.json is not JSON: {e}"}
+
+
+def _open(folder):
+    """(report_series.Series or None, run.json as a dict): the log read in
+    one pass (analysis/report_series.py) through the file safefs opened."""
+    info = _info(folder)
+    fd = folder.open("bus.lcmlog")
+    if fd is None:
         info.setdefault("error", "its log is missing or was refused")
         return None, info
+    from analysis import report_series
     try:
-        run = open_run(f"/proc/self/fd/{folder.fd}")
-        return run, run.info
+        return report_series.read(f"/proc/self/fd/{fd}"), info
     except Exception as e:   # a run cut short: what run.json says, and why there is no more
         info.setdefault("error", f"its log does not read: {e}")
         return None, info
+    finally:
+        os.close(fd)
 
 
 def render(run_dir, folder=None):
     """The page's HTML text."""
     folder = folder or Folder(run_dir)
-    run, info = _open(folder)
-    figs = (_force_and_apex(run) + [f for f in [_objects(run)] if f]) if run else []
+    series, info = _open(folder)
+    figs = (_force_and_apex(series) + [f for f in [_objects(series)] if f]) if series else []
     fid = info.get("fidelity") or {}
     diff = folder.read("fidelity_diff.png")
     body = [f"<h1>Run {html.escape(str(info.get('scene_name', os.path.basename(os.path.abspath(run_dir)))))}</h1>",
@@ -292,11 +310,32 @@ def write(run_dir, out=None):
     return out, folder.refused
 
 
+def _ready():
+    """--wait: the imports and the library loaded; True once stdin says go."""
+    fig, ax = _figure(1, 1, (2, 2))   # a figure drawn and dropped: the fonts and Agg's caches loaded
+    ax.plot([0, 1], [0, 1], label="x")
+    ax.set_xlabel("simulated time (s)")
+    ax.legend(title="t")
+    _png(fig)
+    from analysis import report_series
+    try:
+        report_series._lib()
+    except FileNotFoundError:
+        pass   # said when the page is written
+    return sys.stdin.readline().strip() == "go"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m analysis.run_report", description=__doc__.split("\n\n")[0])
     ap.add_argument("run_dir", help="a run folder (with run.json)")
     ap.add_argument("--out", help="the page (default RUN_DIR/report.html)")
+    ap.add_argument("--wait", action="store_true",
+                    help="load what the page needs (numpy, matplotlib, the log's reader), then wait for a line on "
+                         "stdin: 'go' writes the page, anything else or the end exits 0 with none (./afm run starts "
+                         "it beside the run, so the imports are not waited for after it)")
     a = ap.parse_args(argv)
+    if a.wait and not _ready():
+        return 0
     try:
         if not safefs.is_file(safefs.open_dir(a.run_dir), "run.json"):
             print(f"run_report: {a.run_dir}: no run.json (not a run folder)", file=sys.stderr)

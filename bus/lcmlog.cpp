@@ -89,8 +89,10 @@ LogReader::Next LogReader::next_framed(LogEvent *ev)
         ev->data.resize(dlen);
         if (!f_.read(reinterpret_cast<char *>(ev->data.data()), dlen)) return Next::kIncomplete;
     } else {
-        ev->data.clear();   // passed over: framed and checked, not read
-        f_.seekg(dlen, std::ios::cur);
+        ev->data.clear();   // passed over: framed and checked, not kept
+        // through the stream's buffer, not a seek: a seek is a system call
+        // and a refill per event, and most of a log's events are passed over
+        if (!f_.ignore(dlen) || f_.gcount() != static_cast<std::streamsize>(dlen)) return Next::kIncomplete;
     }
     off_ += uint64_t(kHeaderBytes) + clen + dlen;
     at_off_ = true;
