@@ -2,30 +2,37 @@
 
     python -m analysis.export RUN_DIR --csv DIR      (./afm export ...)
     python -m analysis.export RUN_DIR --mcap FILE
+    python -m analysis.export RUN_DIR --gwy FILE
 
 --csv DIR writes DIR/CHANNEL.csv for every channel in the run's log: the
 frames of open_run (analysis/runs.py: a row per message, units in the
 column names, variable-length arrays and nested messages left out).
 
 --mcap FILE writes one MCAP file (the `mcap` library), for Foxglove Studio
-and PlotJuggler:
+and PlotJuggler, every message logged and published at its simulated time
+(sim_times: its own utime, or the block's in progress; ns), in that order:
   - topic CHANNEL, for every channel of the log: every message, whole
     (nested objects and arrays included), JSON-encoded, with the JSON Schema
     analysis/lcmschema.py generates from lcmtypes/*.lcm (schema name
-    afm.TYPE, encoding jsonschema); log time = the LCM log's timestamp;
-  - topic /frames: the renderer's frames (frames/frame_NNNNN.png) as
-    foxglove.CompressedImage, logged at the time the log recorded that
-    frame's RENDER_FRAME;
-  - topic /scans/NAME: each of the run's GSF files (NAME.gsf) as
-    foxglove.Grid in frame "afm" (metres; row 0 at the scan's bottom, -y,
-    as Grid's rows grow along +y), logged at the time the log recorded the
-    scan's last line (its ScanRequest key) or the display's frame (Frame);
+    afm.TYPE, encoding jsonschema) and the LCM log's timestamp (the wall
+    clock, us) as WALL_FIELD;
+  - /scene/card, /scene/truth (foxglove.SceneUpdate), /tip, /truth/tip
+    (PoseInFrame), /tf (FrameTransform): FW_STATE's and SIM_TRUTH's tip,
+    objects, lever and force per block (analysis/foxglove.py);
+  - /frames: the renderer's frames (frames/frame_NNNNN.png) as
+    foxglove.CompressedImage at their RENDER_FRAME's simulated time;
+  - /scans/NAME: each of the run's GSF files (NAME.gsf) as foxglove.Grid
+    at its SimTime_s;
   - metadata "run": run.json's text.
-The time of a message in nanoseconds is the LCM log's microseconds x 1000.
+The Foxglove types are protobuf with the schemas of Foxglove's package.
+Beside it, layout_path(FILE) is a Foxglove layout (templates/foxglove_layout.json).
+
+--gwy FILE writes the run's GSF files as the channels of one .gwy
+(analysis/gwy.py).
 
 Errors (a missing folder, a folder without bus.lcmlog, a log cut short or
-corrupt, a file that cannot be written) are one line on stderr naming the
-file and what is wrong; exit 2."""
+corrupt, a run without GSF files for --gwy, a file that cannot be written)
+are one line on stderr naming the file and what is wrong; exit 2."""
 import argparse
 import textwrap
 import contextlib
@@ -299,9 +306,11 @@ class _Parser(argparse.ArgumentParser):
 def parse(argv):
     from analysis import helptext
     p = _Parser(prog="./afm export", formatter_class=argparse.RawDescriptionHelpFormatter,
-                description=helptext.text("export") + "\n\n" + textwrap.fill("Export a run's folder: its bus as CSV files (one per channel) "
-                "or as one MCAP file (JSON messages with JSON Schemas from lcmtypes/*.lcm, the frames as "
-                "foxglove.CompressedImage, the scans as foxglove.Grid) for Foxglove Studio and PlotJuggler. "
+                description=helptext.text("export") + "\n\n" + textwrap.fill("Export a run's folder: its bus as CSV files (one per channel); "
+                "as one MCAP file on simulated time (JSON messages with JSON Schemas from lcmtypes/*.lcm; the tip, objects, "
+                "lever and force as foxglove.SceneUpdate, PoseInFrame and FrameTransform, the frames as "
+                "foxglove.CompressedImage, the scans as foxglove.Grid) for Foxglove Studio and PlotJuggler, with a Foxglove "
+                "layout beside it; or its scans as the channels of one Gwyddion file. "
                 "From Python: from analysis import open_run (docs/data.md).", 79),
                 epilog="Exit 0 when written; 2 with one line naming the file and what is wrong.")
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run's folder (./afm run's --out): bus.lcmlog, run.json, frames/, *.gsf")
