@@ -193,15 +193,31 @@ def _write_bus(out, run, clock):
     return counts
 
 
+def _paper_probe_um(name):
+    """A default of the scene's probe: the paper's probe's FW_PAPER_NAME_NM
+    (firmware/include/fw_paper_probe.h, where scene/scene.hpp takes it), um."""
+    from analysis import paths
+    header = os.path.join(paths.ROOT, "firmware", "include", "fw_paper_probe.h")
+    try:
+        with open(header) as f:
+            m = re.search(rf"#define FW_PAPER_{name}_NM\s+([0-9.eE+-]+)", f.read())
+    except OSError as e:
+        raise ExportError(f"{header}: cannot read: {e.strerror}")
+    if not m:
+        raise ExportError(f"{header}: no FW_PAPER_{name}_NM")
+    return float(m.group(1)) * 1e-3
+
+
 def _probe(run):
-    """(lever_length_um, tip_height_um) of the run's scene.yaml (100, 17.3 where it says none)."""
+    """(lever_length_um, tip_height_um): the run's scene.yaml's probe, else the paper probe's."""
     import yaml
     try:
         with open(os.path.join(run.dir, "scene.yaml")) as f:
             probe = (yaml.safe_load(f) or {}).get("probe") or {}
-    except (OSError, yaml.YAMLError):
+    except (OSError, yaml.YAMLError, AttributeError):
         probe = {}
-    return float(probe.get("lever_length_um", 100)), float(probe.get("tip_height_um", 17.3))
+    return (float(probe.get("lever_length_um") or _paper_probe_um("LEVER_LENGTH")),
+            float(probe.get("tip_height_um") or _paper_probe_um("TIP_HEIGHT")))
 
 
 def _write_state(out, run):

@@ -299,7 +299,9 @@ class Export(unittest.TestCase):
             self.assertAlmostEqual(spheres[(p["x_nm"], p["y_nm"])], p["radius_nm"], places=6, msg=p)
         self.assertEqual(len(e.spheres), len(self.scene["objects"]["particles"]) + 1, "the particles and the apex")
         (lever,) = e.cubes
-        self.assertAlmostEqual(lever.size.x, self.scene["probe"]["lever_length_um"] * 1e-6)
+        lever_um = self.scene.get("probe", {}).get("lever_length_um", 100)   # the scene's, else the paper probe's 100 um
+        self.assertEqual(export_mod._probe(self.data), (lever_um, self.scene.get("probe", {}).get("tip_height_um", 17.3)))
+        self.assertAlmostEqual(lever.size.x, lever_um * 1e-6)
         tips = [s for s in e.spheres if abs(s.pose.position.x * 1e9 - m0.tip_nm[0]) < 1e-6]
         self.assertTrue(tips, "the apex where the truth has it")
         fmag = float(np.linalg.norm(m0.force_nN))
