@@ -364,6 +364,35 @@ class Export(unittest.TestCase):
         self.assertEqual((code, len(se.strip().splitlines())), (2, 1), se)
         self.assertIn("no GSF file", se)
 
+    def test_scene_from_the_runs_scan(self):
+        # the bench's own scan (tip convolution and noise on): each scene
+        # particle found within 2 nm in x, y and radius, nothing else found,
+        # and the scene written is one the launcher accepts
+        self.assertIn("tip_convolution", self.scene["effects"])
+        out = os.path.join(self.out, "from_scan", "scene.yaml")
+        os.makedirs(os.path.dirname(out), exist_ok=True)
+        p = subprocess.run([sys.executable, "-m", "analysis.from_scan", os.path.join(self.out, "scan_initial.gsf"), "--out", out],
+                           capture_output=True, text=True, timeout=120)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        got = yaml.safe_load(open(out))
+        found = got["objects"]["particles"]
+        truth = self.scene["objects"]["particles"]
+        self.assertEqual(len(found), len(truth), found)
+        self.assertNotIn("wires", got["objects"])
+        for t in truth:
+            f = min(found, key=lambda f: (f["x_nm"] - t["x_nm"]) ** 2 + (f["y_nm"] - t["y_nm"]) ** 2)
+            for k in ("x_nm", "y_nm", "radius_nm"):
+                self.assertAlmostEqual(f[k], t[k], delta=2.0, msg=(k, t, f))
+        sub_header, sub = gsf.read(os.path.join(os.path.dirname(out), got["sample"]["substrate"]["gsf"]))
+        self.assertLess(float(np.abs(sub).max()) * 1e9, 2.0, "the substrate: levelled, the particles out")
+        c = subprocess.run([e2e_support.paths.LAUNCH, "--check", "--scene", out], capture_output=True, text=True, timeout=60)
+        self.assertEqual(c.returncode, 0, c.stderr)
+        bad = os.path.join(self.out, "from_scan", "lateral.yaml")
+        p = subprocess.run([sys.executable, "-m", "analysis.from_scan", os.path.join(self.out, "scan_initial_lateral.gsf"),
+                            "--out", bad], capture_output=True, text=True, timeout=60)
+        self.assertEqual((p.returncode, len(p.stderr.strip().splitlines())), (2, 1), p.stderr)
+        self.assertIn("not a height scan", p.stderr)
+
     def test_gsf_orientation_against_the_scan_lines(self):
         lines = self.data.messages("AFM_SCAN_LINE")
         scans = [n for n in self.data.scans if n.startswith("scan_") and not n.endswith("_lateral")]
