@@ -393,6 +393,30 @@ class Export(unittest.TestCase):
         self.assertEqual((p.returncode, len(p.stderr.strip().splitlines())), (2, 1), p.stderr)
         self.assertIn("not a height scan", p.stderr)
 
+    def test_scene_from_a_scan_with_scan_artefacts(self):
+        # the same scene, its scans with line offsets (0.5 nm rms) and the
+        # scanner's bow (2 nm) besides the tip's convolution and the noise
+        scene = dict(self.scene, duration_s=0.1, effects=self.scene["effects"] + ["scan_artefacts"],
+                     afm={"scan_artefacts": {"line_offset_rms_nm": 0.5, "servo_lag_nm": 0, "bow_sag_nm": 2}},
+                     operator=dict(self.scene["operator"], local_scans=[]))
+        tmp = e2e_support.tmpdir("export-artefacts")
+        self.addCleanup(e2e_support.cleanup, tmp)
+        path, run = os.path.join(tmp, "scene.yaml"), os.path.join(tmp, "run")
+        with open(path, "w") as f:
+            yaml.safe_dump(scene, f)
+        code, _, err, _ = e2e_support.run(path, run)
+        self.assertEqual(code, 0, err)
+        out = os.path.join(tmp, "found.yaml")
+        p = subprocess.run([sys.executable, "-m", "analysis.from_scan", os.path.join(run, "scan_initial.gsf"), "--out", out],
+                           capture_output=True, text=True, timeout=120)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        found = yaml.safe_load(open(out))["objects"]["particles"]
+        self.assertEqual(len(found), len(scene["objects"]["particles"]), found)
+        for t in scene["objects"]["particles"]:
+            f = min(found, key=lambda f: (f["x_nm"] - t["x_nm"]) ** 2 + (f["y_nm"] - t["y_nm"]) ** 2)
+            for k in ("x_nm", "y_nm", "radius_nm"):
+                self.assertAlmostEqual(f[k], t[k], delta=2.0, msg=(k, t, f))
+
     def test_gsf_orientation_against_the_scan_lines(self):
         lines = self.data.messages("AFM_SCAN_LINE")
         scans = [n for n in self.data.scans if n.startswith("scan_") and not n.endswith("_lateral")]
