@@ -55,21 +55,32 @@ fi
 venv="$top/.venv"
 py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0 aiohttp==3.14.5 selenium==4.51.0 gwyfile==0.3.0 foxglove-schemas-protobuf==0.4.0 protobuf==7.36.2 pytest==9.2.0"
 stamp="$venv/.afm-reqs"
-if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
-  say "creating Python venv in .venv ($py_reqs)"
-  /usr/bin/python3 -m venv "$venv" || die "python3 -m venv failed (is python3-venv installed?)"
-  "$venv/bin/pip" install -q --disable-pip-version-check $py_reqs || die "pip install failed: $py_reqs"
-  echo "$py_reqs" > "$stamp"
-fi
-# The project's own package (pyproject.toml: analysis), editable: the venv's
-# python imports this checkout's analysis/ wherever it runs from.
 pkg_stamp="$venv/.afm-package"
 pkg_want="$top $(sha256sum "$top/pyproject.toml" | cut -d' ' -f1)"
-if [ "$(cat "$pkg_stamp" 2>/dev/null)" != "$pkg_want" ]; then
-  say "installing the project's Python package (analysis) into .venv, editable"
-  "$venv/bin/pip" install -q --disable-pip-version-check --no-deps -e "$top" \
-    || die "pip install -e $top failed (pyproject.toml)"
-  echo "$pkg_want" > "$pkg_stamp"
+if [ -L "$venv" ]; then
+  # A venv borrowed through a link (a worktree using its main checkout's):
+  # used as it is, never rebuilt nor its package re-pointed from here, so
+  # that this checkout's setup cannot undo the one it belongs to.
+  [ -x "$venv/bin/python" ] || die ".venv is a link to '$(readlink -- "$venv")', which holds no python: remove the link and setup makes this checkout a venv of its own"
+  [ "$(cat "$stamp" 2>/dev/null)" = "$py_reqs" ] \
+    || say "warning: .venv is a link to $(readlink -f -- "$venv"), whose packages are not this checkout's list: left as it is (./afm setup in the checkout it belongs to, or remove the link)"
+  [ "$(cat "$pkg_stamp" 2>/dev/null | cut -d' ' -f1)" = "$top" ] \
+    || say "warning: .venv is a link to $(readlink -f -- "$venv"), whose python imports $(cut -d' ' -f1 "$pkg_stamp" 2>/dev/null)'s analysis package, not this checkout's (outside this folder)"
+else
+  if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$py_reqs" ]; then
+    say "creating Python venv in .venv ($py_reqs)"
+    /usr/bin/python3 -m venv "$venv" || die "python3 -m venv failed (is python3-venv installed?)"
+    "$venv/bin/pip" install -q --disable-pip-version-check $py_reqs || die "pip install failed: $py_reqs"
+    echo "$py_reqs" > "$stamp"
+  fi
+  # The project's own package (pyproject.toml: analysis), editable: the venv's
+  # python imports this checkout's analysis/ wherever it runs from.
+  if [ "$(cat "$pkg_stamp" 2>/dev/null)" != "$pkg_want" ]; then
+    say "installing the project's Python package (analysis) into .venv, editable"
+    "$venv/bin/pip" install -q --disable-pip-version-check --no-deps -e "$top" \
+      || die "pip install -e $top failed (pyproject.toml)"
+    echo "$pkg_want" > "$pkg_stamp"
+  fi
 fi
 
 # ---- A range of uids for the runs (issue 46; run/run_uid.sh) -------------------
