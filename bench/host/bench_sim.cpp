@@ -6,7 +6,9 @@
 //      per-sample cost flat);
 //   2. cost with each effect turned on, over a base of bending_offset and
 //      100 particles; 2b. a scan as sim_afm serves it (World::scan_line),
-//      plain and with the effects that act on scans;
+//      plain and with the effects that act on scans; 2c. a 512 px scan
+//      without and with tip_convolution (rough glass, a measured map)
+//      against the goal, with it at most 3x;
 //   3. pushed wires against issue 15's goals: the cost per sample (as table
 //      2 measures it) and per sample in contact of a rigid rod (uniform
 //      friction; a trench under part of it) and of a flexible chain of
@@ -445,7 +447,7 @@ struct Options {
 
 const afm::cli::CommandLine<Options> kCommandLine = {
     "bench_sim",
-    "usage: bench_sim [particles|effects|wires]\n  Prints the simulator's cost and accuracy tables (all by default);\n"
+    "usage: bench_sim [particles|effects|imaging|wires]\n  Prints the simulator's cost and accuracy tables (all by default);\n"
     "  wires: the pushed wires against issue 15's goals, then the flexible wire's accuracy against N.\n",
     {{{"TABLE", nullptr, nullptr, nullptr}, afm::cli::choice(&Options::only, {"particles", "effects", "imaging", "wires"})}}};
 
