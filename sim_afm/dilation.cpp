@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -13,11 +14,6 @@ namespace afm::sim {
 namespace {
 
 constexpr double kNone = -std::numeric_limits<double>::infinity();
-// The footprint's radius at most, lattice steps: a relief of more than
-// about kMaxReach h cot(gamma) (a micrometre-high map at a nm pitch) is
-// dilated within that radius only.
-constexpr int kMaxReach = 128;
-
 int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
 }  // namespace
@@ -59,12 +55,16 @@ DilatedField::DilatedField(const TipShape &tip, double x0_nm, double y0_nm, doub
     : tip_(tip), x0_(x0_nm), y0_(y0_nm), h_(h_nm), fill_(std::move(fill))
 {
     if (!(h_nm > 0) || !std::isfinite(x0_nm) || !std::isfinite(y0_nm) || !(tip.radius_nm >= 0) || !(tip.half_angle_rad > 0) ||
-        !(tip.half_angle_rad < M_PI / 2) || !(relief_nm >= 0) || !(slope >= 0 && slope * std::tan(tip.half_angle_rad) < 1))
+        !(tip.half_angle_rad < M_PI / 2) || !(relief_nm >= 0) || !(slope >= 0))
         throw std::invalid_argument("dilation: a lattice needs a pitch > 0, a finite origin, a tip radius >= 0, a half angle in (0, 90) deg, "
-                                    "a relief >= 0 and a slope below the cone's; pitch " + std::to_string(h_nm));
-    // The footprint: where t(u) stays below the relief plus the slope's rise over u.
-    double rho = tip.reach(relief_nm);
-    for (int k = 0; k < 8; ++k) rho = tip.reach(relief_nm + slope * rho);
+                                    "a relief >= 0 and a slope >= 0; pitch " + std::to_string(h_nm));
+    // The footprint: where t(u) stays below the relief plus the slope's rise
+    // over u (t grows by cot(gamma) a nm on the flank: a slope as steep as
+    // the cone has no such bound, and the footprint is the largest).
+    // On the flank t(u) = cot(gamma) u + c0, so u >= (relief - c0) / (cot(gamma) - slope) suffices.
+    const double cot = 1 / std::tan(tip.half_angle_rad), rt = tip.radius_nm;
+    const double c0 = rt - rt * std::sin(tip.half_angle_rad) - cot * rt * std::cos(tip.half_angle_rad);
+    const double rho = slope < cot ? std::max(tip.reach(relief_nm), (relief_nm - c0) / (cot - slope)) : kMaxReach * h_nm;
     reach_ = std::min(kMaxReach, static_cast<int>(std::ceil(rho / h_)) + 1);
     for (int dj = -reach_; dj <= reach_; ++dj)
         for (int di = -reach_; di <= reach_; ++di)
@@ -158,11 +158,21 @@ void DilatedField::dilate_tile(int64_t ti, int64_t tj, std::vector<double> &out)
         }
 }
 
+void DilatedField::drop_below(int64_t tj) const
+{
+    auto row = [](int64_t k) { return static_cast<int64_t>(static_cast<int32_t>(k & 0xffffffffLL)); };
+    for (auto it = maps_.begin(); it != maps_.end();) it = row(it->first) < tj ? maps_.erase(it) : std::next(it);
+    for (auto it = images_.begin(); it != images_.end();) it = row(it->first) < tj ? images_.erase(it) : std::next(it);
+    last_map_ = nullptr;
+}
+
 const std::vector<double> &DilatedField::image(int64_t ti, int64_t tj) const
 {
     const int64_t k = key(ti, tj);
     auto it = images_.find(k);
     if (it != images_.end()) return it->second;
+    // a tile's map reaches reach_ nodes (a tile row or more) below it; one row more kept
+    if (maps_.size() > kKeepTiles) drop_below(tj - 2 - reach_ / kTile);
     std::vector<double> out;
     dilate_tile(ti, tj, out);
     return images_.emplace(k, std::move(out)).first->second;

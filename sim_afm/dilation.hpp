@@ -32,7 +32,8 @@
 // the 8 x 8 blocks within the footprint) above the best found: a few
 // offsets on a smooth substrate, the footprint near a tall object. The
 // lattice is built lazily in tiles of kTile x kTile nodes, the map's with a
-// margin of the footprint, as queries reach them.
+// margin of the footprint, as queries reach them; past kKeepTiles, the
+// tiles well below the one asked for are dropped.
 //
 // Error against the continuous dilation (tests/sim/test_dilation.cpp): the
 // maximum is taken over lattice offsets, so a node's image lies below the
@@ -80,11 +81,18 @@ class DilatedField {
 public:
     static constexpr int kTile = 32;    // nodes a tile's side
     static constexpr int kBlock = 8;    // nodes a bound block's side (kTile / kBlock blocks a tile's side)
+    static constexpr int kMaxReach = 128;   // the footprint's radius at most, steps
+    // Tiles kept at most before those a row of tiles or more below the one
+    // asked for are dropped (a scan goes up its rows; 4096 tiles of the map
+    // are about 100 MB): a tile asked for again is computed again.
+    static constexpr std::size_t kKeepTiles = 4096;
 
     // The lattice (x0, y0, h > 0), the tip, the map's relief (the most any
     // point of the map may rise above another within the footprint: objects,
     // roughness, a measured map's span, >= 0) and slope (the most its
-    // substrate rises per nm, < cot gamma), and the fill.
+    // substrate rises per nm, >= 0; at cot gamma or more the footprint is
+    // the largest, kMaxReach steps), and the fill. Throws
+    // std::invalid_argument (one line, the pitch) out of those ranges.
     DilatedField(const TipShape &tip, double x0_nm, double y0_nm, double h_nm, double relief_nm, double slope, MapFill fill);
 
     // The image at (x, y) (frame A, nm), bilinear between the four nodes
@@ -114,6 +122,7 @@ private:
     // blocks within the footprint of the block holding (i, j).
     void map_at(int64_t i, int64_t j, double *b, double *o) const;
     void bound(int64_t bi, int64_t bj, double *mb, double *mo) const;
+    void drop_below(int64_t tj) const;   // the tiles of rows below tj
 
     TipShape tip_;
     double x0_, y0_, h_;

@@ -233,6 +233,37 @@ void test_a_rough_substrate_is_dilated_too()
     TEST_ASSERT_TRUE(lift > 1.0);
 }
 
+void test_a_long_scan_keeps_its_tiles_bounded()
+{
+    // 80 rows of 64 tiles (5,120, past kKeepTiles): the tiles well below the
+    // row asked for are dropped, and a node asked for again is the same.
+    const TipShape tip{10, 20 * kDeg};
+    const DilatedField f(tip, 0, 0, 5, 100, 0, ball(1000, 300, 50));
+    const double first = f.node(200, 60);
+    std::size_t most = 0;
+    for (int64_t tj = 0; tj < 80; ++tj)
+        for (int64_t ti = 0; ti < 64; ++ti) {
+            f.node(ti * DilatedField::kTile, tj * DilatedField::kTile);
+            most = std::max(most, f.tiles());
+        }
+    TEST_ASSERT_TRUE(most <= DilatedField::kKeepTiles + 64);
+    TEST_ASSERT_EQUAL_DOUBLE(first, f.node(200, 60));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, tip.bump(std::hypot(200 * 5 - 1000, 60 * 5 - 300), 50), first);
+}
+
+void test_a_slope_steeper_than_the_cone_takes_the_largest_footprint()
+{
+    // tilted 45 deg under an 80 deg cone (the scene's limits): the footprint
+    // has no bound from the slope, so it is the largest, not refused.
+    const TipShape tip{10, 80 * kDeg};
+    const DilatedField f(tip, 0, 0, 5, 0, 1.0, [](double x, double y, int n, double h, double *b, double *g, double *o) {
+        for (int i = 0; i < n; ++i) b[i] = -y, g[i] = 0, o[i] = kNone;
+        (void)x, (void)h;
+    });
+    TEST_ASSERT_EQUAL_INT(DilatedField::kMaxReach, f.footprint_nodes());
+    TEST_ASSERT_TRUE(std::isfinite(f.node(3, 4)));
+}
+
 void test_rough_rows_match_the_rough_surface()
 {
     // add_row steps each wave's phase: the same heights as height() to 1e-9 nm over 1000 nodes.
@@ -258,6 +289,8 @@ int main()
     RUN_TEST(test_a_world_scan_matches_the_closed_form_between_nodes_too);
     RUN_TEST(test_a_one_pixel_field_images_its_point);
     RUN_TEST(test_a_rough_substrate_is_dilated_too);
+    RUN_TEST(test_a_long_scan_keeps_its_tiles_bounded);
+    RUN_TEST(test_a_slope_steeper_than_the_cone_takes_the_largest_footprint);
     RUN_TEST(test_rough_rows_match_the_rough_surface);
     return UNITY_END();
 }
