@@ -2,7 +2,8 @@
 # ./afm bench sim: what the simulator costs and how accurate its knobs are.
 # Runs build/main/bench/host/bench_sim (bench/host/bench_sim.cpp) and prints its
 # tables: cost per simulated second against the number of particles and with
-# each effect turned on; pushed wires against issue 15's goals (a rigid rod
+# each effect turned on; a 512 px scan without and with tip_convolution
+# against its 3x goal; pushed wires against issue 15's goals (a rigid rod
 # with uniform friction and with a trench under part of it, a flexible
 # chain of N = 32; us per sample, per sample in contact, the goal); for flexible
 # wires, the shape error against an N = 256 reference and the cost,
@@ -11,12 +12,15 @@ set -euo pipefail
 
 usage() {
   cat <<'TXT'
-usage: ./afm bench sim [particles|effects|wires]
+usage: ./afm bench sim [particles|effects|imaging|wires]
        bench/bench_sim.sh [same]
 
   particles  cost against the number of particles (1, 100, 10000)
   effects    cost of each effect over a base scene, then of a scan as served
              (plain, + piezo_hysteresis, + scan_artefacts)
+  imaging    a 512 px scan of scenes/imaging.yaml's field (rough glass, and a
+             measured map) without and with tip_convolution, against the
+             goal: with it at most 3x
   wires      pushed wires against issue 15's goals (rigid, rigid with a
              trench, flexible N = 32), then flexible wires' shape error and
              cost against segments N
@@ -30,7 +34,7 @@ TXT
 
 case "${1:-}" in
   -h|--help) usage; exit 0 ;;
-  ""|particles|effects|wires) ;;
+  ""|particles|effects|imaging|wires) ;;
   *) echo "bench_sim: unknown table '$1'" >&2; usage >&2; exit 2 ;;
 esac
 

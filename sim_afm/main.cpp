@@ -221,9 +221,25 @@ struct Sim {
         }
     }
 
+    // While a scan is served (it may take seconds), a heartbeat every
+    // kScanBeat says so in its detail ("scan K / N lines"), in the state the
+    // simulator is in: the launcher's progress line names the stage.
+    static constexpr auto kScanBeat = std::chrono::milliseconds(500);
+    void say_scanning(const afm::scan_req_t *m, int line, std::chrono::steady_clock::time_point *said)
+    {
+        const auto now = std::chrono::steady_clock::now();
+        if (now - *said < kScanBeat) return;
+        *said = now;
+        const int64_t seq = std::max<int64_t>(waiting_after, -1);
+        life.heartbeat().send(in_loop ? afm::RunState::running : afm::RunState::ready, seq,
+                              seq >= 0 ? afm::block_end_utime(scene, seq) : 0,
+                              "scan " + std::to_string(line - m->first_line) + " / " + std::to_string(m->n_lines) + " lines");
+    }
+
     void serve_scan(const afm::scan_req_t *m)
     {
         const auto t0 = std::chrono::steady_clock::now();
+        auto said = t0;
         const int last = std::min(m->ny, m->first_line + m->n_lines);
         const double dx = m->width_nm / m->nx, dy = m->height_nm / m->ny;
         std::vector<afm::sim::ScanPoint> points;
@@ -251,6 +267,7 @@ struct Sim {
             wait_for_log(-1, scan_lines_sent - kLogWindowLines);
             afm::publish(lc, AFM_CH_AFM_SCAN_LINE, line);
             ++scan_lines_sent;
+            say_scanning(m, j + 1, &said);
         }
         (in_loop ? loop_scan_s : start_scan_s) += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }

@@ -48,6 +48,12 @@ double MeasuredSurface::height(const Eigen::Vector2d &q) const
     return (1 - u) * ((1 - t) * r0[0] + t * r0[1]) + u * ((1 - t) * r1[0] + t * r1[1]);
 }
 
+double MeasuredSurface::span_nm() const
+{
+    const auto [lo, hi] = std::minmax_element(h_nm_.begin(), h_nm_.end());
+    return *hi - *lo;
+}
+
 Eigen::Vector2d MeasuredSurface::gradient(const Eigen::Vector2d &q) const
 {
     int i, j;
@@ -84,6 +90,24 @@ double RoughSurface::height(const Eigen::Vector2d &q) const
     double z = 0;
     for (int i = 0; i < kWaves; ++i) z += std::cos(k_[i].dot(q) + phase_[i]);
     return amp_ * z;
+}
+
+void RoughSurface::add_row(double x, double y, int n, double h, double *out) const
+{
+    // Each wave's phase at the row's start, then turned by k_x h a node (the
+    // rotation's rounding grows by about 1e-16 a step: 1e-13 of amp_ over a
+    // row of a thousand nodes).
+    for (int i = 0; i < kWaves; ++i) {
+        const double a = k_[i].x() * x + k_[i].y() * y + phase_[i];
+        double c = std::cos(a), s = std::sin(a);
+        const double dc = std::cos(k_[i].x() * h), ds = std::sin(k_[i].x() * h);
+        for (int j = 0; j < n; ++j) {
+            out[j] += amp_ * c;
+            const double c2 = c * dc - s * ds;
+            s = s * dc + c * ds;
+            c = c2;
+        }
+    }
 }
 
 Eigen::Vector2d RoughSurface::gradient(const Eigen::Vector2d &q) const

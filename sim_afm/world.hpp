@@ -52,6 +52,7 @@
 #include <string>
 #include <vector>
 
+#include "dilation.hpp"
 #include "grid.hpp"
 #include "lever.hpp"
 #include "piezo.hpp"
@@ -109,6 +110,10 @@ public:
     RoughSurface(double rms_nm, double corr_nm, uint64_t seed);
     double height(const Eigen::Vector2d &q) const;          // nm, sample frame
     Eigen::Vector2d gradient(const Eigen::Vector2d &q) const;
+    // Adds height() at the n points (x + i h, y), i < n, to out[i] (a row of
+    // the imaging's lattice: each wave's phase stepped, not recomputed).
+    void add_row(double x, double y, int n, double h, double *out) const;
+    double amplitude_bound_nm() const { return amp_ * kWaves; }   // |height| never exceeds it
 
 private:
     std::vector<Eigen::Vector2d> k_;   // rad/nm
@@ -126,6 +131,7 @@ public:
     explicit MeasuredSurface(const GsfGrid &g);
     double height(const Eigen::Vector2d &q) const;          // nm, sample frame
     Eigen::Vector2d gradient(const Eigen::Vector2d &q) const;   // of height(), 0 across an edge
+    double span_nm() const;                                  // highest less lowest pixel, nm
 
 private:
     // The cell of q: column i, row j (row 0 at the top, the largest y), the
@@ -296,7 +302,6 @@ public:
     std::vector<double> wire_axis_heights_nm() const;  // every wire's, in the scene's order
 private:
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
-    double bump_convolved(double rho, double r) const;      // tip-dilated sphere/cylinder of radius r at distance rho
     void press_cone();                                        // down_force: each wire's tan psi and the pushed particle's factor for this sample
     void build_wires(const Scene &s);                         // the scene's wires, as its effects model them (constructor)
     double ride_push_nN(const Wire &w) const;                 // the most the tip can push before it lifts (down_force)
@@ -329,7 +334,6 @@ private:
     // the z shortfall of the last sample; 0 when lifted off or not engaged.
     bool touching() const { return engaged_ && !lifted_; }
     double contact_load() const { return touching() ? load_nN_ + z_excess_nN_ : 0.0; }
-    double tip_profile(double u) const;            // tip surface above its apex at radius u
     void near(const Eigen::Vector2d &p, double radius, std::vector<int> &out) const;
 
     const Scene scene_;            // a copy: a World outlives the Scene it was built from
@@ -365,14 +369,29 @@ private:
     long ridden_samples_ = 0;      // samples the tip rode over a wire (down_force)
     bool down_force_ = false;      // the cone presses what it pushes (effect down_force)
     double gamma_rad_ = 0;         // the cone's half angle
-    double cos_gamma_ = 1, sin_gamma_ = 0, tan_gamma_ = 0;   // of gamma_rad_, once (tip_profile runs ~10^6 times a scan)
+    double cos_gamma_ = 1, sin_gamma_ = 0, tan_gamma_ = 0;   // of gamma_rad_, once
     double particle_mu_ = 0;       // mu_ps
     double cone_factor_ = 1;       // down_force: 1 / (1 - mu_ps tan psi) on the threshold of the particle the tip pushes
     Eigen::Vector2d last_motion_{1.0, 0.0};    // unit, frame A: direction of the last apex move
     Eigen::Vector2d lateral_force_{0.0, 0.0};  // sample on tip, frame A, nN
     std::vector<Particle> particles_;
     std::vector<LandmarkSpec> landmarks_;   // fixed pillars, sample frame (section 10)
-    double landmark_height(const Eigen::Vector2d &q, bool dilated) const;
+    // The objects' height above the substrate at q (sample frame): the
+    // particles', the wires' (at their axis height), the landmarks'; -inf
+    // where there is none.
+    double object_profile(const Eigen::Vector2d &q) const;
+    // The imaging (world_imaging.cpp, dilation.hpp): the tip's image of the
+    // present state over a lattice of pitch h through (x0, y0), frame A,
+    // kept while the state it shows (imaging_state) and the lattice stay;
+    // the lattice's pitch for a scan of pitch dx; the map's rows.
+    std::shared_ptr<const DilatedField> dilated(double x0, double y0, double h) const;
+    std::shared_ptr<const DilatedField> dilated_default() const;   // the display's pixels (image_height, scan_point)
+    double lattice_pitch(double dx) const;
+    void imaging_state(std::vector<double> &out) const;
+    void fill_map(double x, double y, int n, double h, double *base, double *groove, double *object) const;
+    ScanPoint scan_point_on(const DilatedField *f, double x, double y) const;
+    mutable std::shared_ptr<const DilatedField> dilated_;
+    mutable std::vector<double> dilated_state_, state_now_;
     std::vector<std::unique_ptr<Wire>> wires_;   // empty unless the scene has wires
     double tan_slope_ = 0;                       // tilted_glass: height = -y tan(slope)
     Eigen::Vector3d normal_{0.0, 0.0, 1.0};      // substrate unit normal

@@ -1,5 +1,5 @@
-// What a scan sees (world.hpp): the true height, the tip's profile and its
-// convolution with the objects, one scan point with its noise.
+// What a scan sees (world.hpp): the true height, the map the tip images and
+// its dilation by the tip (dilation.hpp), one scan point with its noise.
 
 #include "world.hpp"
 
@@ -16,8 +16,12 @@ namespace afm::sim {
 double World::height_true(double x, double y) const
 {
     const Eigen::Vector2d q = Eigen::Vector2d(x, y) - drift_;
-    const double base = base_height(q);
-    double z = -groove_depth(q);
+    return base_height(q) + std::max(-groove_depth(q), object_profile(q));
+}
+
+double World::object_profile(const Eigen::Vector2d &q) const
+{
+    double z = -std::numeric_limits<double>::infinity();
     near(q, max_radius_, scratch2_);
     for (int idx : scratch2_) {
         const Particle &p = particles_[idx];
@@ -30,82 +34,87 @@ double World::height_true(double x, double y) const
         const double r = 0.5 * w->d_nm, d = w->axis_distance(q);
         if (d < r) z = std::max(z, wire_axis_height_nm(i) + std::sqrt(r * r - d * d));
     }
-    return base + std::max(z, landmark_height(q, false));
-}
-
-double World::landmark_height(const Eigen::Vector2d &q, bool dilated) const
-{
-    // A square pillar of side a and height H: flat top; under the tip, its
-    // top edge is met by the tip's profile at horizontal distance d from
-    // the pillar, so the apex stands at H - t(d).
-    double z = -std::numeric_limits<double>::infinity();
-    for (const auto &m : landmarks_) {
-        const double dx = std::max(0.0, std::fabs(q.x() - m.x_nm) - m.side_nm / 2);
-        const double dy = std::max(0.0, std::fabs(q.y() - m.y_nm) - m.side_nm / 2);
-        const double d = std::hypot(dx, dy);
-        if (d == 0) z = std::max(z, m.height_nm);
-        else if (dilated) {
-            const double h = m.height_nm - tip_profile(d);
-            if (h > 0) z = std::max(z, h);
-        }
-    }
+    for (const auto &m : landmarks_)   // a square pillar of side a and height H
+        if (std::fabs(q.x() - m.x_nm) <= m.side_nm / 2 && std::fabs(q.y() - m.y_nm) <= m.side_nm / 2) z = std::max(z, m.height_nm);
     return z;
 }
 
-double World::tip_profile(double u) const
+void World::fill_map(double x, double y, int n, double h, double *base, double *groove, double *object) const
 {
-    // Spherical apex of radius r_t, tangent to a cone of half angle gamma.
-    const double rt = scene_.probe.tip_radius_nm;
-    const double u0 = rt * cos_gamma_;
-    if (u <= u0) return rt - std::sqrt(rt * rt - u * u);
-    return rt - rt * sin_gamma_ + (u - u0) / tan_gamma_;
+    const Eigen::Vector2d q0 = Eigen::Vector2d(x, y) - drift_;
+    for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2d q(q0.x() + i * h, q0.y());
+        base[i] = measured_ ? measured_->height(q) : -q.y() * tan_slope_;
+        groove[i] = groove_depth(q);
+        object[i] = object_profile(q);   // above the substrate: the base is added below
+    }
+    if (rough_) rough_->add_row(q0.x(), q0.y(), n, h, base);
+    for (int i = 0; i < n; ++i) object[i] += base[i];   // -inf stays -inf
 }
 
-double World::bump_convolved(double rho, double r) const
+void World::imaging_state(std::vector<double> &out) const
 {
-    // Dilation by the tip of a sphere (or a cylinder, seen across its axis)
-    // of radius r resting on the surface, at horizontal distance rho: the apex
-    // height at which the tip first touches. The touching point lies in the
-    // vertical plane through the tip axis and the centre; along it the gap
-    // s(w) - t(|rho - w|) is concave, so a golden-section search finds it.
-    if (tip_profile(std::max(0.0, rho - r)) >= 2 * r) return 0.0;   // tip flank clears the top
-    auto gap = [&](double w) { return r + std::sqrt(std::max(0.0, r * r - w * w)) - tip_profile(std::fabs(rho - w)); };
-    double a = -r, b = r;
-    const double phi = (std::sqrt(5.0) - 1) / 2;
-    double c = b - phi * (b - a), d = a + phi * (b - a);
-    double fc = gap(c), fd = gap(d);
-    for (int i = 0; i < 60 && b - a > 1e-6; ++i) {
-        if (fc > fd) { b = d; d = c; fd = fc; c = b - phi * (b - a); fc = gap(c); }
-        else { a = c; c = d; fc = fd; d = a + phi * (b - a); fd = gap(d); }
+    // Everything fill_map reads that changes while a run goes.
+    out.clear();
+    out.push_back(drift_.x());
+    out.push_back(drift_.y());
+    out.push_back(scene_.probe.tip_radius_nm);
+    for (const Particle &p : particles_) out.insert(out.end(), {p.c.x(), p.c.y(), p.r});
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        out.push_back(wires_[i]->d_nm);
+        out.push_back(wire_axis_height_nm(i));
+        for (const auto &x : wires_[i]->nodes()) out.insert(out.end(), {x.x(), x.y()});
     }
-    return std::max(0.0, gap(0.5 * (a + b)));
+    for (const Trench &t : trenches_) {
+        out.push_back(static_cast<double>(t.p.size()));
+        for (std::size_t k = 0; k < t.p.size(); ++k) out.insert(out.end(), {t.p[k].x(), t.p[k].y(), t.depth_nm[k]});
+    }
+}
+
+double World::lattice_pitch(double dx) const
+{
+    // A scan's pixels, subdivided (at most 4 x 4) until the lattice's step is
+    // at most half the apex's radius (1 nm at least): the tip's own scale,
+    // below which a dilation shows nothing new.
+    constexpr int kMaxSubdivision = 4;
+    const double fine = 0.5 * std::max(scene_.probe.tip_radius_nm, 2.0);
+    const int k = std::clamp(static_cast<int>(std::ceil(dx / fine)), 1, kMaxSubdivision);
+    return dx / k;
+}
+
+std::shared_ptr<const DilatedField> World::dilated(double x0, double y0, double h) const
+{
+    // The lattice through (x0, y0), its origin brought into [0, h): scans on
+    // the same pixels share it.
+    const double ox = x0 - h * std::floor(x0 / h), oy = y0 - h * std::floor(y0 / h);
+    imaging_state(state_now_);
+    if (dilated_ && dilated_->pitch() == h && dilated_->x0() == ox && dilated_->y0() == oy && state_now_ == dilated_state_) return dilated_;
+    dilated_state_ = state_now_;
+    const TipShape tip{scene_.probe.tip_radius_nm, gamma_rad_};
+    // The relief: the tallest object, the roughness's bound, the map's span.
+    double relief = 2 * max_radius_;
+    for (std::size_t i = 0; i < wires_.size(); ++i) relief = std::max(relief, wire_axis_height_nm(i) + 0.5 * wires_[i]->d_nm);
+    for (const auto &m : landmarks_) relief = std::max(relief, m.height_nm);
+    if (rough_) relief += 2 * rough_->amplitude_bound_nm();
+    if (measured_) relief += measured_->span_nm();
+    dilated_ = std::make_shared<const DilatedField>(tip, ox, oy, h, relief, measured_ ? 0.0 : tan_slope_,
+                                                    [this](double x, double y, int n, double hh, double *b, double *g, double *o) {
+                                                        fill_map(x, y, n, hh, b, g, o);
+                                                    });
+    return dilated_;
+}
+
+std::shared_ptr<const DilatedField> World::dilated_default() const
+{
+    const double dx = scene_.field_nm / scene_.out.image_px;
+    return dilated(scene_.field_center_nm.x - 0.5 * scene_.field_nm + 0.5 * dx, scene_.field_center_nm.y - 0.5 * scene_.field_nm + 0.5 * dx,
+                   lattice_pitch(dx));
 }
 
 double World::height_convolved(double x, double y) const
 {
-    // Objects are dilated by the tip; the substrate plane and the trenches
-    // are shown undilated (a V-groove cut by this very tip fits it).
-    const Eigen::Vector2d q = Eigen::Vector2d(x, y) - drift_;
-    double z = -groove_depth(q);
-    // The tip's flank reaches sideways by at most its profile at the height
-    // of the tallest object.
-    near(q, max_radius_ + 2 * max_radius_ * tan_gamma_ + scene_.probe.tip_radius_nm, scratch2_);
-    // An object the tip does not touch here (dilation 0) must not fill a
-    // groove beside it: only a positive dilation competes with the groove.
-    for (int idx : scratch2_) {
-        const Particle &p = particles_[idx];
-        const double b = bump_convolved((q - p.c).norm(), p.r);
-        if (b > 0) z = std::max(z, b);
-    }
-    for (std::size_t i = 0; i < wires_.size(); ++i) {
-        const auto &w = wires_[i];
-        const double r = 0.5 * w->d_nm;
-        if (!w->near(q, r + 2 * r * tan_gamma_ + scene_.probe.tip_radius_nm)) continue;
-        const double b = bump_convolved(w->axis_distance(q), r);
-        if (b > 0) z = std::max(z, b + wire_axis_height_nm(i) - r);   // a rod sunk into a groove: lower by its seat
-    }
-    z = std::max(z, landmark_height(q, true));
-    return base_height(q) + z;
+    // The tip's dilation of the height map (dilation.hpp), on the display's lattice.
+    return dilated_default()->height(x, y);
 }
 
 double World::image_height(double x, double y) const
@@ -119,18 +128,33 @@ double World::image_height(double x, double y) const
 ScanPoint World::scan_point(double x, double y) const
 {
     const auto t0 = Clock::now();
+    const std::shared_ptr<const DilatedField> f = imaging_ == &World::height_convolved ? dilated_default() : nullptr;
+    const ScanPoint p = scan_point_on(f.get(), x, y);
+    t_scan_ += seconds_since(t0);
+    return p;
+}
+
+ScanPoint World::scan_point_on(const DilatedField *field, double x, double y) const
+{
     // The scanner cannot reach beyond its range: the point is taken at the limit.
     const double half = kScannerRangeXY_nm / 2;
     const double xc = std::clamp(x, -half, half), yc = std::clamp(y, -half, half);
     bool clamped = xc != x || yc != y;
     // The contact normal is the imaged surface's (the locus of the apex):
     // central differences over a step far below the tip radius and every
-    // feature's size, far above rounding.
+    // feature's size, far above rounding; on the tip's image, the lattice's
+    // (dilation.hpp: central differences at its nodes, bilinear between).
     constexpr double kSlopeStep_nm = 0.01;
-    const double h = (this->*imaging_)(xc, yc);
-    const double hx = ((this->*imaging_)(xc + kSlopeStep_nm, yc) - (this->*imaging_)(xc - kSlopeStep_nm, yc)) / (2 * kSlopeStep_nm);
-    const double hy = ((this->*imaging_)(xc, yc + kSlopeStep_nm) - (this->*imaging_)(xc, yc - kSlopeStep_nm)) / (2 * kSlopeStep_nm);
-    const Eigen::Vector3d n = Eigen::Vector3d(-hx, -hy, 1.0).normalized();
+    Eigen::Vector2d grad;
+    double h;
+    if (field) {
+        h = field->height(xc, yc, &grad);
+    } else {
+        h = (this->*imaging_)(xc, yc);
+        grad.x() = ((this->*imaging_)(xc + kSlopeStep_nm, yc) - (this->*imaging_)(xc - kSlopeStep_nm, yc)) / (2 * kSlopeStep_nm);
+        grad.y() = ((this->*imaging_)(xc, yc + kSlopeStep_nm) - (this->*imaging_)(xc, yc - kSlopeStep_nm)) / (2 * kSlopeStep_nm);
+    }
+    const Eigen::Vector3d n = Eigen::Vector3d(-grad.x(), -grad.y(), 1.0).normalized();
 
     // Sliding in +x at the scan's load (operator.scan_load_nN, else the
     // scene's; the mechanics' contact physics).
@@ -158,7 +182,6 @@ ScanPoint World::scan_point(double x, double y) const
     p.sn_v = std::clamp(p.sn_v, -kSignalLimitV, kSignalLimitV);
     p.sl_v = std::clamp(p.sl_v, -kSignalLimitV, kSignalLimitV);
     if (clamped) ++scan_clamped_;
-    t_scan_ += seconds_since(t0);
     return p;
 }
 
@@ -177,10 +200,15 @@ void World::scan_line(double x0, double dx, int n, double y, double y_first, Sca
         hx->step(x0 + (n - 1) * dx);
         hx->step(x0);
     }
+    const auto t0 = Clock::now();
+    // With tip_convolution, the lattice through the line's first point and
+    // the raster's first line, at the line's pitch subdivided.
+    const std::shared_ptr<const DilatedField> f = imaging_ == &World::height_convolved ? dilated(x0, y_first, lattice_pitch(dx)) : nullptr;
     for (int i = 0; i < n; ++i) {
         const double x = x0 + i * dx;
-        out[i] = scan_point(hx ? hx->step(x) : x, yt);
+        out[i] = scan_point_on(f.get(), hx ? hx->step(x) : x, yt);
     }
+    t_scan_ += seconds_since(t0);
     if (!artefacts_) return;
     scratch_line_.resize(2 * static_cast<std::size_t>(n));
     double *h = scratch_line_.data(), *err = h + n;

@@ -42,6 +42,7 @@ bool ScanClient::on_line(const scan_line_t &m)
     float *row = h_.ptr<float>(r_.ny - 1 - m.line);
     for (int i = 0; i < r_.nx; ++i) row[i] = static_cast<float>(m.height_nm[static_cast<std::size_t>(i)]);
     got_[static_cast<std::size_t>(m.line)] = true;
+    asked_ = std::chrono::steady_clock::now();   // the scan is coming: a retry waits for it to stop
     return --left_ == 0;
 }
 

@@ -37,8 +37,9 @@ public:
     // A line from the bus: stored if it is one of ours; true when it was
     // the last one missing.
     bool on_line(const scan_line_t &m);
-    // Asks again for the lines still missing, if the last request is older
-    // than retry_ms.
+    // Asks again for the lines still missing, if retry_ms passed since the
+    // last request and the last line received (a scan that takes longer
+    // than retry_ms to serve is not asked for again while its lines come).
     void retry(int retry_ms = 500);
 
     bool busy() const { return left_ > 0; }

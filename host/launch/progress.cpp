@@ -1,5 +1,6 @@
 #include "progress.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 #include "lockstep.hpp"
@@ -35,18 +36,38 @@ bool Progress::sim_loop_over(int64_t total_blocks) const
     return it->second.state == state_text(RunState::done) || it->second.seq >= total_blocks - 1;
 }
 
+std::string Progress::scanning() const
+{
+    const auto it = last.find("sim_afm");
+    if (it == last.end() || it->second.detail.rfind("scan ", 0) != 0) return "";
+    return it->second.detail.substr(5);   // "K / N lines"
+}
+
+std::string Progress::stage(const Scene &scene, bool started) const
+{
+    const std::string scan = scanning();
+    if (!started) return scan.empty() ? "initial scan, processes starting" : "initial scan (" + scan + ")";
+    if (sim_loop_over(scene.total_blocks())) return "end (processes finish)";
+    if (scan.empty()) return "loop";
+    // a scan asked in the last frame period is the display's check, the run's last
+    const auto it = last.find("sim_afm");
+    const int64_t frame = static_cast<int64_t>(std::ceil(scene.block_hz / scene.frame_rate_hz));
+    const bool final = it != last.end() && it->second.seq >= scene.total_blocks() - 1 - frame;
+    return (final ? "final scan (" : "loop, a local scan (") + scan + ")";
+}
+
 std::string Progress::line(const Scene &scene, bool started, double wall_s) const
 {
-    char buf[160];
+    char buf[224];
     if (!started) {
-        std::snprintf(buf, sizeof buf, "run: starting (scan, processes)   wall %.1f s   ", wall_s);
+        std::snprintf(buf, sizeof buf, "run: %s   wall %.1f s   ", stage(scene, false).c_str(), wall_s);
         return buf;
     }
     int frames = 0;
     const auto r = last.find("renderer");
     if (r != last.end() && r->second.sim_utime > 0) frames = frames_due(scene, r->second.sim_utime);
-    std::snprintf(buf, sizeof buf, "run: sim %.2f / %.2f s   frames %d / %d   wall %.1f s   ", sim_seconds(), scene.duration_s, frames,
-                  scene.total_frames(), wall_s);
+    std::snprintf(buf, sizeof buf, "run: %s   sim %.2f / %.2f s   frames %d / %d   wall %.1f s   ", stage(scene, true).c_str(), sim_seconds(),
+                  scene.duration_s, frames, scene.total_frames(), wall_s);
     return buf;
 }
 

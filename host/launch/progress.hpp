@@ -61,8 +61,16 @@ struct Progress {
     // ended early).
     bool sim_loop_over(int64_t total_blocks) const;
 
-    // The progress line (without its "\r"): before the start, or simulated
-    // time and frames against the scene's, with the wall time.
+    // What the simulator's last heartbeat says it scans ("K / N lines",
+    // from its detail "scan K / N lines"), or "".
+    std::string scanning() const;
+    // The run's stage: "initial scan" (before the start: the renderer's
+    // first scan, the processes starting), "loop", a scan in it ("loop, a
+    // local scan", or "final scan" in the last frame period: the display's
+    // check), "end" (the simulator's loop over); with a scan's lines.
+    std::string stage(const Scene &scene, bool started) const;
+    // The progress line (without its "\r"): the stage, then, once started,
+    // simulated time and frames against the scene's, with the wall time.
     std::string line(const Scene &scene, bool started, double wall_s) const;
 };
 

@@ -2,7 +2,7 @@
 // times: a stall is a live process with nothing new for the stall time
 // (since the start when it never spoke), a heartbeat that repeats the last
 // is no progress, a process done never stalls; the end of the simulator's
-// loop; the progress line.
+// loop; the progress line and the stage it names.
 #include <chrono>
 #include <string>
 
@@ -99,11 +99,41 @@ void test_the_progress_line_says_time_and_frames()
     afm::Scene s;
     Progress p;
     p.names = {"sim_afm", "renderer"};
-    TEST_ASSERT_EQUAL_STRING("run: starting (scan, processes)   wall 1.5 s   ", p.line(s, false, 1.5).c_str());
+    TEST_ASSERT_EQUAL_STRING("run: initial scan, processes starting   wall 1.5 s   ", p.line(s, false, 1.5).c_str());
     p.on_hb(hb("sim_afm", 10, "running", 250000));
     const std::string l = p.line(s, true, 2.0);
-    TEST_ASSERT_TRUE_MESSAGE(l.rfind("run: sim 0.25 / ", 0) == 0, l.c_str());
+    TEST_ASSERT_TRUE_MESSAGE(l.rfind("run: loop   sim 0.25 / ", 0) == 0, l.c_str());
     TEST_ASSERT_TRUE_MESSAGE(l.find("frames 0 / ") != std::string::npos && l.find("wall 2.0 s") != std::string::npos, l.c_str());
+}
+
+static afm::heartbeat_t scanning(int64_t seq, const char *state, const char *detail)
+{
+    afm::heartbeat_t m = hb("sim_afm", seq, state);
+    m.detail = detail;
+    return m;
+}
+
+void test_the_progress_line_names_the_stage()
+{
+    // 3 s at 1 kHz blocks, 25 frames a second: the last frame period is the
+    // last 40 blocks. Each stage by what the simulator last said.
+    afm::Scene s;
+    s.duration_s = 3;
+    s.block_hz = 1000;
+    s.frame_rate_hz = 25;
+    Progress p;
+    p.names = {"sim_afm"};
+    p.on_hb(scanning(-1, "ready", "scan 120 / 512 lines"));
+    TEST_ASSERT_EQUAL_STRING("initial scan (120 / 512 lines)", p.stage(s, false).c_str());
+    p.on_hb(hb("sim_afm", 500));
+    TEST_ASSERT_EQUAL_STRING("loop", p.stage(s, true).c_str());
+    p.on_hb(scanning(700, "running", "scan 3 / 64 lines"));
+    TEST_ASSERT_EQUAL_STRING("loop, a local scan (3 / 64 lines)", p.stage(s, true).c_str());
+    p.on_hb(scanning(2970, "running", "scan 300 / 512 lines"));
+    TEST_ASSERT_EQUAL_STRING("final scan (300 / 512 lines)", p.stage(s, true).c_str());
+    TEST_ASSERT_TRUE(p.line(s, true, 9.0).rfind("run: final scan (300 / 512 lines)   sim ", 0) == 0);
+    p.on_hb(hb("sim_afm", 2999));
+    TEST_ASSERT_EQUAL_STRING("end (processes finish)", p.stage(s, true).c_str());
 }
 
 int main()
@@ -115,5 +145,6 @@ int main()
     RUN_TEST(test_heartbeats_of_others_are_refused);
     RUN_TEST(test_the_loop_is_over_at_its_last_block_or_when_done);
     RUN_TEST(test_the_progress_line_says_time_and_frames);
+    RUN_TEST(test_the_progress_line_names_the_stage);
     return UNITY_END();
 }
