@@ -159,21 +159,28 @@ def branch_points(u, profile, pitch):
 
 
 def register(run_dir, pitch):
-    """Each axis's points from the run's initial scan: {"x": (cmd, place), "y": ...}."""
+    """Each axis's points from the run's initial scan: {"x": (cmd, place), "y": ...},
+    and each axis's pixel centres (the command's turning points are its ends)."""
     h, xs, ys = common.scan(run_dir, "scan_initial")
     x_profile = (h - h.mean(axis=1, keepdims=True)).mean(axis=0)   # each line levelled: its offset and the y part gone
     y_profile = h.mean(axis=1)                                     # each line's mean: the y part, with its offset
     order = np.argsort(ys)
-    return {"x": branch_points(xs, x_profile, pitch), "y": branch_points(ys[order], y_profile[order], pitch)}
+    return {"x": branch_points(xs, x_profile, pitch), "y": branch_points(ys[order], y_profile[order], pitch)}, (xs, ys)
 
 
-def fit_axes(points, centre, plays):
-    """fit_branch per axis, in pm, about the field's centre."""
+def half_ranges(pixels, centre):
+    """Each axis's cycle half range about the centre: its farthest pixel, pm."""
+    return [float(np.max(np.abs(p - c))) * 1e3 for p, c in zip(pixels, centre)]
+
+
+def fit_axes(points, centre, plays, halves):
+    """fit_branch per axis, in pm, about the field's centre, over the scan's
+    cycle (halves: its half range per axis, pm)."""
     out = {}
     for i, ax in enumerate(("x", "y")):
         cmd, place = points[ax]
         try:
-            out[ax] = scanner_fit.fit_branch(cmd * 1e3, place * 1e3, centre[i] * 1e3, plays)
+            out[ax] = scanner_fit.fit_branch(cmd * 1e3, place * 1e3, centre[i] * 1e3, plays, halves[i])
         except ValueError as e:
             raise CalibError(f"axis {ax}: {e}")
         sums = np.cumsum(out[ax]["w"])
@@ -183,13 +190,13 @@ def fit_axes(points, centre, plays):
     return out
 
 
-def plot(points, fits, centre, path):
+def plot(points, fits, centre, halves, path):
     plt = common.plt()
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     for i, ax in enumerate(("x", "y")):
         cmd, place = points[ax]
         f = fits[ax]
-        lcmd, lmeas = scanner_fit.loop_from_branch(cmd * 1e3, place * 1e3, centre[i] * 1e3)
+        lcmd, lmeas = scanner_fit.loop_from_branch(cmd * 1e3, place * 1e3, centre[i] * 1e3, halves[i])
         model = scanner_fit.pi_model(lcmd - centre[i] * 1e3, f["r_pm"], f["w"]) + f["offset_pm"] + centre[i] * 1e3
         a = axes[0][i]
         a.plot(lcmd * 1e-3, (lmeas * 1e-3 - lcmd * 1e-3), color="0.7", label="the loop (from the branch)")
@@ -248,16 +255,17 @@ def calibrate(a):
     if code != 0 or not rj or rj.get("status") != "ok":
         raise CalibError(f"the grating's run failed (exit {code}): {point.failure_of(code, err, rj, run_dir)}")
     say(f"scanned in {wall:.1f} s ({run_dir})")
-    points = register(run_dir, pitch)
+    points, pixels = register(run_dir, pitch)
     say(f"registered {len(points['x'][0])} points along x, {len(points['y'][0])} along y")
-    fits = fit_axes(points, centre, a.plays)
+    halves = half_ranges(pixels, centre)
+    fits = fit_axes(points, centre, a.plays, halves)
     for ax in ("x", "y"):
         f = fits[ax]
         say(f"{ax}: {len(f['w'])} plays, slopes {np.cumsum(f['w'])[0]:.3f} to {np.sum(f['w']):.3f}, residual rms "
             f"{f['rms_pm'] * 1e-3:.2f} nm, worst {f['worst_pm'] * 1e-3:.2f} nm")
     rid = run_id(text, gsf_path)
     png = os.path.join(a.out, "scanner_loop.png")
-    plot(points, fits, centre, png)
+    plot(points, fits, centre, halves, png)
     with open(os.path.join(a.out, "scanner_fit.json"), "w") as f:
         json.dump({"run": rid, "pitch_nm": pitch, "fit": fits,
                    "points": {ax: {"commanded_nm": p[0].tolist(), "grating_nm": p[1].tolist()} for ax, p in points.items()}},

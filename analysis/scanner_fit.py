@@ -81,7 +81,7 @@ def fit_pi(commanded_pm, measured_pm, n_plays=8, origin_pm=None):
             "rms_pm": float(np.sqrt(np.mean(res ** 2))), "worst_pm": float(np.max(np.abs(res)))}
 
 
-def loop_from_branch(commanded_pm, measured_pm, origin_pm, points=400):
+def loop_from_branch(commanded_pm, measured_pm, origin_pm, half_range_pm=None, points=400):
     """The whole loop of a PI scanner from one ascending branch of its full
     cycle about origin_pm (commanded rising from origin - R to origin + R
     after a fall from origin + R, as a scan's trace line is): (commanded,
@@ -93,12 +93,14 @@ def loop_from_branch(commanded_pm, measured_pm, origin_pm, points=400):
     u about the origin, a centred by (a(R) + a(-R)) / 2 (the offset the fit
     takes back). The branch is interpolated linearly between its points
     (increasing commanded) and extended by its end segments to +-R, R the
-    largest |commanded - origin|."""
+    cycle's half range (half_range_pm: the command's turning points, which
+    the registered points need not reach; None: the largest |commanded -
+    origin|)."""
     x = np.asarray(commanded_pm, dtype=float) - origin_pm
     y = np.asarray(measured_pm, dtype=float)
     if x.shape != y.shape or x.ndim != 1 or len(x) < 4 or np.any(np.diff(x) <= 0):
         raise ValueError(f"loop_from_branch: need at least 4 points of increasing command, got {x.shape} and {y.shape}")
-    R = float(np.max(np.abs(x)))
+    R = float(np.max(np.abs(x))) if half_range_pm is None else float(half_range_pm)
 
     def branch(u):   # linear inside, the end segments' lines outside
         u = np.asarray(u, dtype=float)
@@ -125,11 +127,11 @@ def ascending(n):
     return slice(n - 2 * n // 5, n)
 
 
-def fit_branch(commanded_pm, measured_pm, origin_pm, n_plays=16):
+def fit_branch(commanded_pm, measured_pm, origin_pm, n_plays=16, half_range_pm=None):
     """fit_pi on the loop loop_from_branch makes of an ascending branch, its
     thresholds over the branch's half range; the fit's residual is taken
     again on the branch's own points (rms_pm, worst_pm)."""
-    cmd, meas = loop_from_branch(commanded_pm, measured_pm, origin_pm)
+    cmd, meas = loop_from_branch(commanded_pm, measured_pm, origin_pm, half_range_pm)
     fit = fit_pi(cmd, meas, n_plays, origin_pm=origin_pm)
     model = pi_model(cmd - origin_pm, fit["r_pm"], fit["w"]) + fit["offset_pm"] + origin_pm
     up = ascending(len(cmd))
