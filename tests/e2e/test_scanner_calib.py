@@ -82,14 +82,14 @@ class Calibration(unittest.TestCase):
             self.assertGreater(float(np.max(np.abs(true - x))), 50.0)   # the path does show the hysteresis
 
     def test_a_scene_including_it_is_valid(self):
-        text = open(LAB).read().replace("include: [calibration/scanner.yaml]", f"include: [{self.include}]")
+        text = open(LAB).read().replace("include: [calibration/scanner.yml]", f"include: [{self.include}]")
         code, lines = check(text, "scanner_ok")
         self.assertEqual(code, 0, lines)
 
 
 class Refusals(unittest.TestCase):
     """The card's scanner keys refused in one line naming key and value."""
-    BASE = open(LAB).read().replace("include: [calibration/scanner.yaml]\n", "")
+    BASE = open(LAB).read().replace("include: [calibration/scanner.yml]\n", "")
     MODEL = ("  scanner:\n    run: test\n    x: {r_nm: [0, 500], w: [0.8, W]}\n"
              "    y: {r_nm: [0, 500], w: [0.8, 0.2]}\n")
 
