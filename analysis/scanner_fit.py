@@ -81,6 +81,66 @@ def fit_pi(commanded_pm, measured_pm, n_plays=8, origin_pm=None):
             "rms_pm": float(np.sqrt(np.mean(res ** 2))), "worst_pm": float(np.max(np.abs(res)))}
 
 
+def loop_from_branch(commanded_pm, measured_pm, origin_pm, half_range_pm=None, points=400):
+    """The whole loop of a PI scanner from one ascending branch of its full
+    cycle about origin_pm (commanded rising from origin - R to origin + R
+    after a fall from origin + R, as a scan's trace line is): (commanded,
+    measured) in the order a virgin scanner at the origin would be driven,
+    up to origin + R, down to origin - R, up again. A PI model's loop is
+    point-symmetric and its branches follow from its first loading curve v:
+    ascending a(u) = -v(R) + 2 v((u + R) / 2), descending d(u) = -a(-u),
+    first loading v(s) = (a(2 s - R) + v(R)) / 2, v(R) = (a(R) - a(-R)) / 2,
+    u about the origin, a centred by (a(R) + a(-R)) / 2 (the offset the fit
+    takes back). The branch is interpolated linearly between its points
+    (increasing commanded) and extended by its end segments to +-R, R the
+    cycle's half range (half_range_pm: the command's turning points, which
+    the registered points need not reach; None: the largest |commanded -
+    origin|)."""
+    x = np.asarray(commanded_pm, dtype=float) - origin_pm
+    y = np.asarray(measured_pm, dtype=float)
+    if x.shape != y.shape or x.ndim != 1 or len(x) < 4 or np.any(np.diff(x) <= 0):
+        raise ValueError(f"loop_from_branch: need at least 4 points of increasing command, got {x.shape} and {y.shape}")
+    R = float(np.max(np.abs(x))) if half_range_pm is None else float(half_range_pm)
+
+    def branch(u):   # linear inside, the end segments' lines outside
+        u = np.asarray(u, dtype=float)
+        out = np.interp(u, x, y)
+        lo, hi = u < x[0], u > x[-1]
+        out[lo] = y[0] + (u[lo] - x[0]) * (y[1] - y[0]) / (x[1] - x[0])
+        out[hi] = y[-1] + (u[hi] - x[-1]) * (y[-1] - y[-2]) / (x[-1] - x[-2])
+        return out
+    mid = 0.5 * (branch([R])[0] + branch([-R])[0])
+    vR = 0.5 * (branch([R])[0] - branch([-R])[0])
+    s = np.linspace(0.0, R, points)
+    virgin = 0.5 * (branch(2 * s - R) - mid + vR)
+    u = np.linspace(R, -R, 2 * points)
+    down = -(branch(-u) - mid)
+    up = branch(u[::-1]) - mid
+    cmd = np.concatenate([s, u, u[::-1]]) + origin_pm
+    meas = np.concatenate([virgin, down, up]) + mid
+    return cmd, meas
+
+
+def ascending(n):
+    """The slice of loop_from_branch's sequence of n points that is its
+    last ascending branch (its last 2/5)."""
+    return slice(n - 2 * n // 5, n)
+
+
+def fit_branch(commanded_pm, measured_pm, origin_pm, n_plays=16, half_range_pm=None):
+    """fit_pi on the loop loop_from_branch makes of an ascending branch, its
+    thresholds over the branch's half range; the fit's residual is taken
+    again on the branch's own points (rms_pm, worst_pm)."""
+    cmd, meas = loop_from_branch(commanded_pm, measured_pm, origin_pm, half_range_pm)
+    fit = fit_pi(cmd, meas, n_plays, origin_pm=origin_pm)
+    model = pi_model(cmd - origin_pm, fit["r_pm"], fit["w"]) + fit["offset_pm"] + origin_pm
+    up = ascending(len(cmd))
+    at = np.interp(np.asarray(commanded_pm, dtype=float), cmd[up], model[up])
+    res = at - np.asarray(measured_pm, dtype=float)
+    fit.update(rms_pm=float(np.sqrt(np.mean(res ** 2))), worst_pm=float(np.max(np.abs(res))), points=len(res))
+    return fit
+
+
 def card_params(fit):
     """The card's fw_hyst_params_t fields (integers) and the partial sums of
     the weights fw_hyst_check tests."""

@@ -95,6 +95,24 @@ struct FirmwareCalibration {
         std::optional<double> mu, lateral_nN_per_V, disp_n_nm_per_V;
     };
     std::optional<Bench> calibration;
+    // The scanner's compensation (fw_card.h: hyst_enable, creep_enable; both
+    // off unless given). The direct hysteresis model of each axis, x and y,
+    // as ./afm calib scanner fitted it from scans of a grating
+    // (firmware.scanner, written into an include; analysis/scanner_calib.py):
+    // thresholds r_nm (0 first, increasing) and weights w, one per play. The
+    // creep law's gamma (% of a step a decade) and t0 (s): the scanner's
+    // datasheet or a lab's step test (firmware.creep_*; none: the card's
+    // nominal). Never the scene's afm.hysteresis or afm.creep (the truth).
+    bool hyst_enable = false, creep_enable = false;
+    struct ScannerAxis {
+        std::vector<double> r_nm, w;
+    };
+    struct Scanner {
+        std::string run;                                      // the calibration's id ("scanner fnv1a64:...")
+        ScannerAxis axis[2];                                  // x, y
+    };
+    std::optional<Scanner> scanner;
+    std::optional<double> creep_gamma_pct_per_decade, creep_t0_s;
 };
 
 // The checks of a run's verdict (host/launch/verdict.hpp), the names

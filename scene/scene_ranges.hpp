@@ -155,6 +155,8 @@ inline constexpr SceneRange kSceneRanges[] = {
     scene_rows::in("firmware.calibration.mu", 0, 10, ""),
     scene_rows::above("firmware.calibration.lateral_nN_per_V", 0, 1e5, "nN/V"),
     scene_rows::above("firmware.calibration.disp_n_nm_per_V", 0, 1e4, "nm/V"),
+    scene_rows::in("firmware.creep_gamma_pct_per_decade", 0, 10, "%"),
+    scene_rows::in("firmware.creep_t0_s", 0.001, 100, "s"),
     scene_rows::in("afm.z_speed_nm_per_s", 0, 1e9, "nm/s"),
     // the model's linear part vanishes at 50 % (piezo.hpp: a = 4 w / (1 + 2 w)); labs report 2-23 %
     scene_rows::in("afm.hysteresis.width_pct", 0, 40, "%"),

@@ -2,6 +2,10 @@
 // (scene_reader.hpp).
 #include "scene_reader.hpp"
 
+extern "C" {
+#include "fw_hyst.h"   // FW_HYST_N_MAX: the card's largest model
+}
+
 namespace afm::scene_detail {
 
 
@@ -193,6 +197,73 @@ static void read_bench_calibration(const Reader &r, const YAML::Node &n, Scene &
     s.fw_cal.calibration = b;
 }
 
+// One axis of firmware.scanner: {r_nm: [...], w: [...]}, in the domain
+// fw_hyst_check holds the card's model to (fw_hyst.h): 1 to 16 plays, the
+// thresholds from 0 strictly increasing, every partial sum of the weights
+// in [1/2, 2]; each refusal names the key and its value.
+// The list items' ranges (a threshold within fw_hyst.h's largest half
+// range, 2^28 pm; a weight within +-2), held here as their partial sums
+// and order are: the lists' own rules, not kSceneRanges' single numbers.
+constexpr SceneRange kR = scene_rows::in("firmware.scanner.AXIS.r_nm[]", 0, 268435.456, "nm");
+constexpr SceneRange kW = scene_rows::in("firmware.scanner.AXIS.w[]", -2, 2, "");
+
+static FirmwareCalibration::ScannerAxis read_scanner_axis(const Reader &r, const YAML::Node &n, const std::string &k)
+{
+    if (!n.IsDefined() || n.IsNull()) r.fail(k, "required in firmware.scanner (./afm calib scanner --write writes it)");
+    if (!n.IsMap()) r.fail(k, "must be a mapping {r_nm, w}, got " + Reader::show(n));
+    r.only_keys(n, k, {"r_nm", "w"});
+    FirmwareCalibration::ScannerAxis a;
+    for (const auto &[key, out] : {std::pair{"r_nm", &a.r_nm}, {"w", &a.w}}) {
+        const YAML::Node l = n[key];
+        const std::string lk = k + "." + key;
+        if (!l.IsSequence() || l.size() < 1 || l.size() > FW_HYST_N_MAX)
+            r.fail(lk, "must be a list of 1 to " + std::to_string(FW_HYST_N_MAX) + " numbers (one per play), got " + Reader::show(l));
+        for (std::size_t i = 0; i < l.size(); ++i)
+            out->push_back(r.check_num(l[i], lk + "[" + std::to_string(i) + "]", key == std::string("r_nm") ? kR : kW));
+    }
+    if (a.w.size() != a.r_nm.size())
+        r.fail(k + ".w", "must have one weight per threshold (" + std::to_string(a.r_nm.size()) + "), got " + std::to_string(a.w.size()));
+    if (a.r_nm[0] != 0) r.fail(k + ".r_nm[0]", "must be 0 (the identity play), got " + Reader::show(n["r_nm"][0]));
+    double sum = 0;
+    for (std::size_t i = 0; i < a.w.size(); ++i) {
+        const std::string at = "[" + std::to_string(i) + "]";
+        if (i > 0 && !(a.r_nm[i] > a.r_nm[i - 1]))
+            r.fail(k + ".r_nm" + at, "must be above the threshold before it (" + Reader::show(n["r_nm"][i - 1]) + "), got " + Reader::show(n["r_nm"][i]));
+        sum += a.w[i];
+        if (sum < 0.5 || sum > 2)
+            r.fail(k + ".w" + at, "the weights' partial sum to here must lie in [0.5, 2] (the card's model must be invertible: fw_hyst.h), got " +
+                                    std::to_string(sum) + " with this weight " + Reader::show(n["w"][i]));
+    }
+    return a;
+}
+
+// firmware.scanner: ./afm calib scanner's fit, {run, x, y}.
+static void read_scanner(const Reader &r, const YAML::Node &n, Scene &s)
+{
+    if (!n.IsDefined() || n.IsNull()) return;
+    const std::string k = "firmware.scanner";
+    if (!n.IsMap()) r.fail(k, "must be a mapping {run, x, y}, got " + Reader::show(n));
+    r.only_keys(n, k, {"run", "x", "y"});
+    FirmwareCalibration::Scanner sc;
+    sc.run = r.str(n, k, "run", nullptr);
+    sc.axis[0] = read_scanner_axis(r, n["x"], k + ".x");
+    sc.axis[1] = read_scanner_axis(r, n["y"], k + ".y");
+    s.fw_cal.scanner = sc;
+}
+
+// firmware.hyst_enable, creep_enable and the creep law's keys.
+static void read_scanner_compensation(const Reader &r, const YAML::Node &fw, Scene &s)
+{
+    FirmwareCalibration &c = s.fw_cal;
+    c.hyst_enable = r.boolean(fw, "firmware", "hyst_enable", c.hyst_enable);
+    c.creep_enable = r.boolean(fw, "firmware", "creep_enable", c.creep_enable);
+    for (const auto &[k, out] : {std::pair{"creep_gamma_pct_per_decade", &c.creep_gamma_pct_per_decade}, {"creep_t0_s", &c.creep_t0_s}})
+        if (fw[k].IsDefined() && !fw[k].IsNull()) *out = r.num(fw, "firmware", k, nullptr);
+    read_scanner(r, fw["scanner"], s);
+    if (c.hyst_enable && !c.scanner)
+        r.fail("firmware.hyst_enable", "true needs the scanner's model, firmware.scanner (./afm calib scanner SCENE --write FILE, then include FILE), got none");
+}
+
 void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
 {
     YAML::Node fw = root["firmware"];
@@ -204,7 +275,8 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
                                      "spring_N_per_m", "deflection_nm_per_V", "lever_length_um", "tip_height_um", "tip_radius_nm",
                                      "tip_half_angle_deg", "adhesion_nN", "particle_mu", "particle_adhesion_nN",
                                      "particle_shear_strength_MPa", "particle_contact_area_nm2", "wire_friction_nN_per_um", "wire_mu",
-                                     "litho_threshold_nN", "litho_depth_nm_per_nN", "calibration"});
+                                     "litho_threshold_nN", "litho_depth_nm_per_nN", "calibration", "hyst_enable", "creep_enable",
+                                     "creep_gamma_pct_per_decade", "creep_t0_s", "scanner"});
         auto whole = [&](const char *k, int dflt) {   // a whole number (kSceneRanges)
             const double dv = dflt;
             return static_cast<int>(r.num(fw, "firmware", k, &dv));
@@ -241,6 +313,7 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
                                      {"litho_threshold_nN", &c.litho_threshold_nN}, {"litho_depth_nm_per_nN", &c.litho_depth_nm_per_nN}})
             optional(k, out);
         read_bench_calibration(r, fw["calibration"], s);
+        read_scanner_compensation(r, fw, s);
     }
 }
 

@@ -25,7 +25,11 @@
  * measured, less the bending offset of the block's last signals, then
  * shaped for the scanner when its compensation is on (creep_enable:
  * fw_creep; hyst_enable: fw_hyst's inverse; the configuration's fields
- * below). The command answers the pose of the block it is computed in: the haptic
+ * below). With either on, the apex each sample gives the object models is
+ * where the scanner is: the sample's piezo reading (the drive) through the
+ * direct hysteresis model, plus the creep the feed-forward expects of the
+ * command (r - u of the command the samples were taken with), not the
+ * drive itself. The command answers the pose of the block it is computed in: the haptic
  * loop's latency is one block, as a card's DMA with two buffers has it.
  * The interlock (fw_guard.h) then steps with the block's causes and the
  * pose (its load, the joystick target before the drift, its engagement):
@@ -216,6 +220,7 @@ typedef struct {
     fw_guard_t guard;                /* the interlock, when cfg.interlock */
     fw_creep_t creep[2];             /* x, y, when cfg.creep_enable */
     fw_hyst_t hyst[2];               /* x, y, when cfg.hyst_enable */
+    int32_t creep_expect_pm[2];      /* the creep the feed-forward took off the last command (r - u), pm */
     bool objects;                    /* particles, wires or lithography: the per-sample models run */
     bool down;                       /* this block's samples were taken with the tip engaged */
     uint32_t sat_samples;

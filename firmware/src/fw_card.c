@@ -258,6 +258,7 @@ void fw_card_reset(fw_card_t *c)
         if (cfg->hyst_enable) {
             fw_hyst_reset(&c->hyst[i]);
         }
+        c->creep_expect_pm[i] = 0;
     }
     c->sat_samples = 0;
     c->fixes_applied = 0;
@@ -346,10 +347,30 @@ static void card_shape_command(fw_card_t *c, int32_t cmd_pm[2], bool *sat)
     int i;
     for (i = 0; i < 2; i++) {
         if (c->cfg.creep_enable) {
-            cmd_pm[i] = fw_creep_step_pm(&c->creep[i], cmd_pm[i], sat);
+            const int32_t r = cmd_pm[i];
+            cmd_pm[i] = fw_creep_step_pm(&c->creep[i], r, sat);
+            c->creep_expect_pm[i] = fw_math_sat_i32((int64_t)r - cmd_pm[i], NULL);
         }
         if (c->cfg.hyst_enable) {
             cmd_pm[i] = fw_hyst_inverse_pm(&c->hyst[i], cmd_pm[i], sat);
+        }
+    }
+}
+
+/* The apex of each of the block's k samples from in[], where the scanner
+ * is (fw_card.h): the drive through the direct hysteresis model, plus the
+ * creep the feed-forward expects. Scaling: P[u] - u and the expected creep
+ * each within int32 (|P[u] - u| <= 2^30: fw_hyst.h), summed in int64,
+ * saturated to int32. */
+static void card_scanner_apex(fw_card_t *c, const fw_sample_in_t *in, fw_sample_out_t *o, int32_t k)
+{
+    int32_t j;
+    int i;
+    for (j = 0; j < k; j++) {
+        for (i = 0; i < 2; i++) {
+            const int32_t u = in[j].piezo_pm[i];
+            const int32_t p = c->cfg.hyst_enable ? fw_hyst_direct_pm(&c->hyst[i], u, NULL) : u;
+            o[j].tip_pm[i] = fw_math_sat_i32((int64_t)o[j].tip_pm[i] + ((int64_t)p - u) + c->creep_expect_pm[i], NULL);
         }
     }
 }
@@ -475,6 +496,9 @@ fw_status_t fw_card_step_block(fw_card_t *c, const fw_card_in_t *in, fw_card_out
             (void)fw_board16_step_block(&c->board16, &in->samples[done], c->st.scratch, (size_t)k);
         } else {
             (void)fw_board_step_block(&c->board, &in->samples[done], c->st.scratch, (size_t)k);
+        }
+        if (c->cfg.hyst_enable || c->cfg.creep_enable) {
+            card_scanner_apex(c, &in->samples[done], c->st.scratch, k);
         }
         for (j = 0; j < k; j++) {
             fw_sample_out_t *o = &c->st.scratch[j];

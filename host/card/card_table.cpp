@@ -7,6 +7,7 @@ extern "C" {
 }
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 
 #include "haptic_bound.hpp"
@@ -35,6 +36,7 @@ struct Nominal {
     double particle_mu = 0.3, particle_adhesion_nN = 3.0, particle_shear_strength_MPa = 0, particle_contact_area_nm2 = 0;
     double wire_friction_nN_per_um = 20.0, wire_mu = 0.3;
     double litho_threshold_nN = 20.0, litho_depth_nm_per_nN = 2.0;
+    double creep_gamma_pct_per_decade = 1.0, creep_t0_s = 0.1;   // a piezo tube's catalogue: 1-2 % a decade
 };
 const Nominal kNominal;
 
@@ -130,6 +132,65 @@ K litho_threshold(const Scene &s) { return card_value("litho_threshold_nN", s.fw
 K litho_depth(const Scene &s)
 {
     return card_value("litho_depth_nm_per_nN", s.fw_cal.litho_depth_nm_per_nN, kNominal.litho_depth_nm_per_nN);
+}
+
+// The scanner's compensation (fw_card.h: creep_enable, hyst_enable). Off,
+// its rows name no key and leave the configuration zeroed (the card as
+// without it, bit for bit). The creep law: the scene's firmware.creep_*
+// (a datasheet's or a lab's step test), else the nominal; the block's
+// period from the run's block_hz. The hysteresis: each axis's direct model
+// as ./afm calib scanner fitted it (firmware.scanner, source "calibration
+// run ID"), about the scanner's rest at block 0 (the path's first point:
+// every play 0 there, as a scanner at rest after its last cycle), over the
+// field from there with a tenth of the field to spare.
+K creep_gamma(const Scene &s)
+{
+    return card_value("creep_gamma_pct_per_decade", s.fw_cal.creep_gamma_pct_per_decade, kNominal.creep_gamma_pct_per_decade);
+}
+K creep_t0(const Scene &s) { return card_value("creep_t0_s", s.fw_cal.creep_t0_s, kNominal.creep_t0_s); }
+SceneKeys creep_keys(const Scene &s)
+{
+    if (!s.fw_cal.creep_enable) return {};
+    return {creep_gamma(s), creep_t0(s), {"block_hz", s.block_hz}};
+}
+void fill_creep(const Scene &s, fw_card_config_t *c)
+{
+    if (!s.fw_cal.creep_enable) return;
+    c->creep.gamma_ppm = fwu_i32(creep_gamma(s).second * 1e4);   // % -> ppm
+    c->creep.t0_us = fwu_i32(creep_t0(s).second * 1e6);
+    c->creep.period_us = fwu_i32(1e6 / s.block_hz);
+}
+constexpr const char *kScannerPrefix = "firmware.scanner.";
+double scanner_origin_nm(const Scene &s, int axis) { return axis ? s.start_nm().y : s.start_nm().x; }
+double scanner_range_nm(const Scene &s, int axis)
+{
+    const double c = axis ? s.field_center_nm.y : s.field_center_nm.x;
+    return std::abs(scanner_origin_nm(s, axis) - c) + 0.6 * s.field_nm;
+}
+SceneKeys hyst_keys(const Scene &s, int axis)
+{
+    if (!s.fw_cal.hyst_enable || !s.fw_cal.scanner) return {};
+    const FirmwareCalibration::ScannerAxis &a = s.fw_cal.scanner->axis[axis];
+    const std::string k = std::string(kScannerPrefix) + (axis ? "y" : "x");
+    SceneKeys out;
+    for (std::size_t i = 0; i < a.r_nm.size(); ++i) out.push_back({k + ".r_nm[" + std::to_string(i) + "]", a.r_nm[i]});
+    for (std::size_t i = 0; i < a.w.size(); ++i) out.push_back({k + ".w[" + std::to_string(i) + "]", a.w[i]});
+    out.push_back({std::string("operator.path_nm[0][") + (axis ? "1]" : "0]"), scanner_origin_nm(s, axis)});
+    out.push_back({"sample.field_nm", s.field_nm});
+    return out;
+}
+void fill_hyst(const Scene &s, fw_card_config_t *c, int axis)
+{
+    if (!s.fw_cal.hyst_enable || !s.fw_cal.scanner) return;
+    const FirmwareCalibration::ScannerAxis &a = s.fw_cal.scanner->axis[axis];
+    fw_hyst_params_t &p = c->hyst[axis];
+    p.n = static_cast<int32_t>(std::min<std::size_t>(a.r_nm.size(), FW_HYST_N_MAX));   // the reader held it to 1..16
+    for (int32_t i = 0; i < p.n; ++i) {
+        p.r_pm[i] = fwu_pm_from_nm(a.r_nm[static_cast<std::size_t>(i)]);
+        p.w_q24[i] = fwu_q24(a.w[static_cast<std::size_t>(i)]);
+    }
+    p.range_pm = fwu_pm_from_nm(scanner_range_nm(s, axis));
+    p.origin_pm = fwu_pm_from_nm(scanner_origin_nm(s, axis));
 }
 
 using S = const Scene &;
@@ -230,6 +291,13 @@ const std::vector<CardRow> kRows = {
      {FW_RULE_HAPTIC}},
     {"haptic_max_un", [](S s) -> SceneKeys { return {{"operator.haptic.max_force_N", s.op.haptic.max_force_N}}; },
      [](S s, C c) { c->haptic_max_un = fwu_un_from_n(s.op.haptic.max_force_N); }, {FW_RULE_HAPTIC}},
+    {"creep_enable", [](S s) -> SceneKeys { return {{"firmware.creep_enable", s.fw_cal.creep_enable ? 1 : 0}}; },
+     [](S s, C c) { c->creep_enable = s.fw_cal.creep_enable; }, {FW_RULE_CREEP}},
+    {"creep", creep_keys, fill_creep, {FW_RULE_CREEP}},
+    {"hyst_enable", [](S s) -> SceneKeys { return {{"firmware.hyst_enable", s.fw_cal.hyst_enable ? 1 : 0}}; },
+     [](S s, C c) { c->hyst_enable = s.fw_cal.hyst_enable; }, {FW_RULE_HYST}},
+    {"hyst[0]", [](S s) { return hyst_keys(s, 0); }, [](S s, C c) { fill_hyst(s, c, 0); }, {FW_RULE_HYST}},
+    {"hyst[1]", [](S s) { return hyst_keys(s, 1); }, [](S s, C c) { fill_hyst(s, c, 1); }, {FW_RULE_HYST}},
 };
 
 }  // namespace
@@ -255,6 +323,8 @@ std::vector<CardSource> card_sources(const Scene &s)
                 source = "nominal";
             else if (key.rfind(kCalibrationPrefix, 0) == 0)
                 source = "calibration run " + s.fw_cal.calibration->run;
+            else if (key.rfind(kScannerPrefix, 0) == 0)
+                source = "calibration run " + s.fw_cal.scanner->run;
             else if (key.rfind("firmware.", 0) == 0)
                 source = "scene card section";
             out.push_back({r.field, key, value, source});

@@ -48,8 +48,9 @@ void fill_card_rows(const Scene &s, fw_card_config_t *c);
 
 // Where each of the card's constants came from, a row's key at a time:
 // source "scene card section" (firmware.*), "calibration run <id>"
-// (firmware.calibration.*), "nominal", or "scene configuration" (the
-// run's settings). run.json's card_sources (host/launch/run_record.cpp).
+// (firmware.calibration.*; the scanner's model, firmware.scanner.*, from
+// ./afm calib scanner), "nominal", or "scene configuration" (the run's
+// settings). run.json's card_sources (host/launch/run_record.cpp).
 struct CardSource {
     std::string field, key;   // "board.mu_ppm", "firmware.calibration.mu"
     double value;             // in the key's units

@@ -137,14 +137,41 @@ static void test_identity_models_on_change_no_command(void)
     }
 }
 
+/* Block k's samples' piezo x (step_card's): the direct model's input. */
+static int32_t piezo_x_of(int k, int j)
+{
+    return -1200000 + 500 * k + 40 * j;
+}
+
+/* The apex x the card with the compensation on gives for block k, from the
+ * card's with it off (off_tip_pm): each sample's piezo reading through the
+ * direct model hd, plus the creep the feed-forward took off the previous
+ * command (*expect_pm). */
+static int32_t apex_on(fw_hyst_t *hd, int k, int32_t off_tip_pm, int32_t expect_pm)
+{
+    int32_t p = 0;
+    int j;
+    for (j = 0; j < BLOCK; j++) {
+        p = fw_hyst_direct_pm(hd, piezo_x_of(k, j), NULL);
+    }
+    return off_tip_pm + (p - piezo_x_of(k, BLOCK - 1)) + expect_pm;
+}
+
 /* On: each axis's command is fw_hyst's inverse of fw_creep's shaping of
- * the command the card gives with both off; nothing else changes. */
+ * the command the card gives with both off; the apex is the scanner's
+ * (apex_on); nothing else changes. */
 static void test_on_the_command_passes_creep_then_the_inverse_hysteresis(void)
 {
     fw_card_config_t off = cfg;
     fw_creep_t cr[2];
-    fw_hyst_t hy[2];
+    fw_hyst_t hy[2], hd;
+    int32_t expect = 0;
     int k, i;
+    /* no object models: the apex moves them (test_card_objects), not this */
+    cfg.n_particles = 0;
+    cfg.n_wires = 0;
+    cfg.litho = false;
+    off = cfg;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &off, &st, NULL));
     cfg.creep_enable = true;
     lab_creep(&cfg.creep);
@@ -156,11 +183,18 @@ static void test_on_the_command_passes_creep_then_the_inverse_hysteresis(void)
         TEST_ASSERT_EQUAL_INT(FW_OK, fw_creep_init(&cr[i], &cfg.creep));
         TEST_ASSERT_EQUAL_INT(FW_OK, fw_hyst_init(&hy[i], &cfg.hyst[i]));
     }
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_hyst_init(&hd, &cfg.hyst[0]));
     for (k = 0; k < BLOCKS; k++) {
         fw_card_out_t a = step_card(&card, k);
         const fw_card_out_t b = step_card(&card_b, k);
+        a.tip_pm[0] = apex_on(&hd, k, a.tip_pm[0], expect);
         for (i = 0; i < 2; i++) {
-            a.piezo_cmd_pm[i] = fw_hyst_inverse_pm(&hy[i], fw_creep_step_pm(&cr[i], a.piezo_cmd_pm[i], NULL), NULL);
+            const int32_t r = a.piezo_cmd_pm[i];
+            const int32_t u = fw_creep_step_pm(&cr[i], r, NULL);
+            if (i == 0) {
+                expect = r - u;
+            }
+            a.piezo_cmd_pm[i] = fw_hyst_inverse_pm(&hy[i], u, NULL);
         }
         assert_same_out(&a, &b, k);
     }
@@ -171,11 +205,19 @@ static void test_on_the_command_passes_creep_then_the_inverse_hysteresis(void)
         fw_creep_reset(&cr[i]);
         fw_hyst_reset(&hy[i]);
     }
+    fw_hyst_reset(&hd);
+    expect = 0;
     for (k = 0; k < 20; k++) {
         fw_card_out_t a = step_card(&card, k);
         const fw_card_out_t b = step_card(&card_b, k);
+        a.tip_pm[0] = apex_on(&hd, k, a.tip_pm[0], expect);
         for (i = 0; i < 2; i++) {
-            a.piezo_cmd_pm[i] = fw_hyst_inverse_pm(&hy[i], fw_creep_step_pm(&cr[i], a.piezo_cmd_pm[i], NULL), NULL);
+            const int32_t r = a.piezo_cmd_pm[i];
+            const int32_t u = fw_creep_step_pm(&cr[i], r, NULL);
+            if (i == 0) {
+                expect = r - u;
+            }
+            a.piezo_cmd_pm[i] = fw_hyst_inverse_pm(&hy[i], u, NULL);
         }
         assert_same_out(&a, &b, k);
     }

@@ -8,6 +8,10 @@
 #include "card_setup.hpp"
 #include "card_table.hpp"
 
+extern "C" {
+#include "fw_marshal.h"
+}
+
 #include <unity.h>
 
 #include <cstddef>
@@ -234,6 +238,113 @@ void test_a_refusal_names_the_rule_and_its_keys()
     TEST_ASSERT_TRUE(why.find(", firmware.lever_length_um (nominal) ") != std::string::npos);
 }
 
+// A scene with the scanner's compensation on: a two-play model per axis
+// (./afm calib scanner's firmware.scanner), the creep law's gamma given, t0
+// the nominal.
+afm::Scene scanner_scene()
+{
+    afm::Scene s = hand_scene();
+    s.op.path_nm = {{-400, 300}, {0, 0}};
+    s.block_hz = 500;
+    s.fw_cal.hyst_enable = s.fw_cal.creep_enable = true;
+    s.fw_cal.creep_gamma_pct_per_decade = 1.5;
+    afm::FirmwareCalibration::Scanner sc;
+    sc.run = "scanner sha256:0123456789abcdef";
+    sc.axis[0] = {{0, 500}, {0.8, 0.3}};
+    sc.axis[1] = {{0, 250.5}, {0.9, 0.1}};
+    s.fw_cal.scanner = sc;
+    return s;
+}
+
+// The compensation's rows: the switches, each axis's model about the path's
+// start over the field from there, the creep law; off, the rows name no key
+// and fill nothing.
+void test_scanner_compensation_rows()
+{
+    const afm::Scene s = scanner_scene();
+    fw_card_config_t c = filled(s);
+    TEST_ASSERT_TRUE(c.hyst_enable);
+    TEST_ASSERT_TRUE(c.creep_enable);
+    TEST_ASSERT_EQUAL_INT32(2, c.hyst[0].n);
+    TEST_ASSERT_EQUAL_INT32(500000, c.hyst[0].r_pm[1]);
+    TEST_ASSERT_EQUAL_INT32(250500, c.hyst[1].r_pm[1]);
+    TEST_ASSERT_EQUAL_INT32(13421773, c.hyst[0].w_q24[0]);   // 0.8 2^24
+    TEST_ASSERT_EQUAL_INT32(1677722, c.hyst[1].w_q24[1]);    // 0.1 2^24
+    TEST_ASSERT_EQUAL_INT32(-400000, c.hyst[0].origin_pm);
+    TEST_ASSERT_EQUAL_INT32(300000, c.hyst[1].origin_pm);
+    TEST_ASSERT_EQUAL_INT32(500000 + 1200000, c.hyst[0].range_pm);   // |start - centre| + 0.6 field
+    TEST_ASSERT_EQUAL_INT32(550000 + 1200000, c.hyst[1].range_pm);
+    TEST_ASSERT_EQUAL_INT32(15000, c.creep.gamma_ppm);
+    TEST_ASSERT_EQUAL_INT32(100000, c.creep.t0_us);
+    TEST_ASSERT_EQUAL_INT32(2000, c.creep.period_us);
+    auto source = [&](const std::string &key) {
+        for (const auto &x : afm::card_sources(s))
+            if (x.key == key) return x.field + " = " + std::to_string(x.value) + ": " + x.source;
+        return std::string("none");
+    };
+    TEST_ASSERT_EQUAL_STRING("hyst[0] = 500.000000: calibration run scanner sha256:0123456789abcdef", source("firmware.scanner.x.r_nm[1]").c_str());
+    TEST_ASSERT_EQUAL_STRING("hyst[1] = 0.100000: calibration run scanner sha256:0123456789abcdef", source("firmware.scanner.y.w[1]").c_str());
+    TEST_ASSERT_EQUAL_STRING("creep = 1.500000: scene card section", source("firmware.creep_gamma_pct_per_decade").c_str());
+    TEST_ASSERT_EQUAL_STRING("creep = 0.100000: nominal", source("firmware.creep_t0_s (nominal)").c_str());
+    TEST_ASSERT_EQUAL_STRING("hyst_enable = 1.000000: scene card section", source("firmware.hyst_enable").c_str());
+    expect_keys({{"firmware.creep_enable", 1}, {"firmware.creep_gamma_pct_per_decade", 1.5}, {"firmware.creep_t0_s (nominal)", 0.1},
+                 {"block_hz", 500}},
+                afm::card_rule_keys(s, FW_RULE_CREEP));
+    TEST_ASSERT_EQUAL_STRING("firmware.hyst_enable", afm::card_rule_keys(s, FW_RULE_HYST).front().first.c_str());
+    // off: no key, nothing filled (the zeroed configuration runs the card as without it)
+    afm::Scene off = s;
+    off.fw_cal.hyst_enable = off.fw_cal.creep_enable = false;
+    c = filled(off);
+    TEST_ASSERT_FALSE(c.hyst_enable);
+    TEST_ASSERT_EQUAL_INT32(0x5a5a5a5a, c.hyst[0].n);
+    TEST_ASSERT_EQUAL_INT32(0x5a5a5a5a, c.creep.gamma_ppm);
+    expect_keys({{"firmware.creep_enable", 0}}, afm::card_rule_keys(off, FW_RULE_CREEP));
+    expect_keys({{"firmware.hyst_enable", 0}}, afm::card_rule_keys(off, FW_RULE_HYST));
+    TEST_ASSERT_EQUAL_STRING("", afm::card_refusal(s).c_str());
+}
+
+// The card's INIT message (fw_marshal, what the board is given) for two
+// scenes whose scanner truth differs (afm.hysteresis, afm.creep) and whose
+// firmware section is the same: the same bytes.
+void test_the_scanner_truth_reaches_no_init()
+{
+    afm::Scene a = scanner_scene(), b = scanner_scene();
+    for (afm::Scene *s : {&a, &b}) s->effects = {"piezo_hysteresis", "piezo_creep"};
+    b.instrument.hysteresis_width_pct = 25;
+    b.instrument.hysteresis_span_nm = 900;
+    b.instrument.creep_pct_per_decade = 4;
+    b.instrument.creep_t0_s = 0.5;
+    auto init = [](const afm::Scene &s) {
+        const afm::CardSetup setup(s);
+        std::string buf(1 << 16, '\0');
+        fw_marshal_cursor_t cur;
+        fw_marshal_writer_init(&cur, reinterpret_cast<uint8_t *>(&buf[0]), static_cast<uint32_t>(buf.size()));
+        fw_marshal_put_config_le(&cur, &setup.config(), &setup.storage());
+        TEST_ASSERT_TRUE(fw_marshal_ok(&cur));
+        return buf;
+    };
+    TEST_ASSERT_TRUE(init(a) == init(b));
+    b.fw_cal.scanner->axis[0].w[1] = 0.31;   // the card section's change does reach it
+    TEST_ASSERT_FALSE(init(a) == init(b));
+}
+
+// A model the card cannot invert (a partial sum of its weights past 2,
+// given past the reader): refused by the card's rule, the line named by the
+// switch with the model's keys.
+void test_a_scanner_model_the_card_cannot_invert_is_refused()
+{
+    afm::Scene s = scanner_scene();
+    s.fw_cal.scanner->axis[1].w = {0.9, 1.2};
+    const std::string why = afm::card_refusal(s);
+    const std::string want = std::string("firmware.hyst_enable: the firmware's card refuses it: ") + fw_rule_text(FW_RULE_HYST);
+    TEST_ASSERT_EQUAL_STRING(want.c_str(), why.substr(0, want.size()).c_str());
+    TEST_ASSERT_TRUE(why.find("firmware.scanner.y.w[1] 1.2") != std::string::npos);
+    s = scanner_scene();
+    s.fw_cal.creep_t0_s = 0.01;   // the block's period 2 ms past t0 / 16
+    TEST_ASSERT_EQUAL_STRING("firmware.creep_enable", afm::card_rule_keys(s, FW_RULE_CREEP).front().first.c_str());
+    TEST_ASSERT_TRUE(afm::card_refusal(s).find(fw_rule_text(FW_RULE_CREEP)) != std::string::npos);
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -244,5 +355,8 @@ int main()
     RUN_TEST(test_every_board_setting_but_the_optional_ones_has_a_row);
     RUN_TEST(test_a_rules_keys_are_its_rows_keys_in_order);
     RUN_TEST(test_a_refusal_names_the_rule_and_its_keys);
+    RUN_TEST(test_scanner_compensation_rows);
+    RUN_TEST(test_the_scanner_truth_reaches_no_init);
+    RUN_TEST(test_a_scanner_model_the_card_cannot_invert_is_refused);
     return UNITY_END();
 }
