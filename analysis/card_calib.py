@@ -40,7 +40,6 @@ import hashlib
 import json
 import os
 import stat
-import subprocess
 import sys
 import time
 
@@ -48,6 +47,7 @@ import yaml
 
 from analysis import loops, paths, point, safefs
 from analysis.paper import common, exp_tilted
+from analysis.resolved import SceneRefused, resolved_scene
 
 LOADS_NN = exp_tilted.LOADS_NN["reduced"]
 CALIB_SCENE = "tilted.yaml"            # under scenes/paper/
@@ -55,7 +55,6 @@ CALIB_SCAN_ANGLE_DEG = 270             # the lever across the slope: the calibra
 SAMPLE_KEYS = ("tip_substrate", "photodiode_noise_V", "temperature_K")   # the sample's, taken onto the tilted glass
 CARD_KEYS = ("spring_N_per_m", "deflection_nm_per_V")                   # the card's k_n and K_n
 RUN_TIMEOUT_S = 600.0
-RESOLVE_TIMEOUT_S = 60.0               # afm_launch --resolved (the planner's targets checked too)
 VERSION = 1                            # of the calibration's recipe: a new one is a new key
 
 
@@ -64,21 +63,11 @@ class CalibError(Exception):
 
 
 def resolved(scene_path):
-    """The scene as the launcher resolves it (afm_launch --resolved), a mapping."""
+    """The scene as the launcher resolves it (analysis/resolved.py), a mapping."""
     try:
-        p = subprocess.run([paths.LAUNCH, "--scene", scene_path, "--resolved", "--quiet"], capture_output=True,
-                           text=True, timeout=RESOLVE_TIMEOUT_S)
-    except (OSError, subprocess.TimeoutExpired) as e:
-        raise CalibError(f"{scene_path}: the launcher could not read the scene: {e}") from None
-    if p.returncode != 0:
-        raise CalibError((p.stderr.strip().splitlines() or [f"{paths.LAUNCH} --resolved: exit {p.returncode}"])[-1])
-    try:
-        scene = yaml.safe_load(p.stdout)
-    except yaml.YAMLError as e:
-        raise CalibError(f"{scene_path}: the launcher's resolved scene is not YAML ({str(e).splitlines()[0]})") from None
-    if not isinstance(scene, dict):
-        raise CalibError(f"{scene_path}: the launcher's resolved scene is not a mapping")
-    return scene
+        return resolved_scene(scene_path)
+    except SceneRefused as e:
+        raise CalibError(str(e)) from None
 
 
 def needs_calibration(fw):

@@ -47,6 +47,7 @@ import yaml
 
 from analysis import paths, point, scanner_fit
 from analysis.paper import common
+from analysis.resolved import SceneRefused, resolved_scene
 
 # The effects that shape a scan (those of objects and of the lever's
 # pushes have nothing to act on in the grating's scene).
@@ -66,27 +67,15 @@ def say(msg):
 
 
 def load_instrument(scene_path):
-    """The scene's YAML with its includes' probe and sample merged where the
-    scene leaves them out (an include that is not there yet, such as the
-    calibration's own output, is skipped)."""
+    """The scene as the launcher resolves it (analysis/resolved.py: its
+    includes merged by the C++ reader). A scene that includes the
+    calibration's own output before it exists is refused there: calibrate
+    it without that include first."""
     try:
-        with open(scene_path) as f:
-            scene = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError) as e:
-        raise CalibError(f"{scene_path}: cannot read the scene: {e}")
-    if not isinstance(scene, dict):
-        raise CalibError(f"{scene_path}: not a scene (a mapping)")
-    base = os.path.dirname(os.path.abspath(scene_path))
-    for inc in scene.get("include") or []:
-        path = os.path.join(base, inc)
-        if not os.path.exists(path):
-            continue
-        with open(path) as f:
-            part = yaml.safe_load(f) or {}
-        for sec in ("probe", "sample"):
-            if isinstance(part.get(sec), dict):
-                scene[sec] = {**part[sec], **(scene.get(sec) or {})}
-    return scene
+        return resolved_scene(scene_path)
+    except SceneRefused as e:
+        raise CalibError(f"{e} (a scene that includes this calibration's output is calibrated without that include "
+                         "the first time)") from None
 
 
 def pitch_nm(field_nm, px):
