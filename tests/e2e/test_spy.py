@@ -97,11 +97,17 @@ class Spy(unittest.TestCase):
 
 
     def test_spy_holds_a_lockstep_run_until_it_listens(self):
+        self.live(os.environ.get("PATH", ""))
+
+    def test_a_runs_spy_opens_with_a_headless_java_first_on_path(self):
+        self.live(headless_java_first(e2e_support.tmpdir("spy-live-headless")))
+
+    def live(self, path):
         # --spy: the run starts only once lcm-spy's socket is bound on the
         # bus's port in the run's namespace (10 s at most), so a lockstep run
         # is not over before lcm-spy subscribes
         out = os.path.join(e2e_support.tmpdir("spy-live"), "run")
-        env = dict(os.environ, DISPLAY=f":{self.display}")
+        env = dict(os.environ, DISPLAY=f":{self.display}", PATH=path)
         p = subprocess.Popen([e2e_support.IN_NETNS, e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"), "--out", out,
                               "--spy"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         lines = []
