@@ -119,6 +119,8 @@ class RunJsonKeys(unittest.TestCase):
         self.assertEqual(sorted(set(rj) - keys), [], "keys of run.json docs/design.md does not document")
         self.assertEqual(sorted(keys - set(rj) - on_failure), [], "documented keys an ok run does not write")
         self.assertEqual(rj["schema_version"], 3)
+        # the launcher removed its lock as it ended: a finished run's folder keeps none
+        self.assertFalse(os.path.exists(os.path.join(out, ".afm-run.lock")), sorted(os.listdir(out)))
         prov = rj["provenance"]
         self.assertEqual(sorted(prov), ["build_type", "commit", "compilers", "dirty", "libraries"])
         # A checkout: the build's commit is the checkout's (built by this ./afm
