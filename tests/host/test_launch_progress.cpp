@@ -134,6 +134,8 @@ void test_the_progress_line_names_the_stage()
     TEST_ASSERT_TRUE(p.line(s, true, 9.0).rfind("run: final scan (300 / 512 lines)   sim ", 0) == 0);
     p.on_hb(hb("sim_afm", 2999));
     TEST_ASSERT_EQUAL_STRING("end (processes finish)", p.stage(s, true).c_str());
+}
+
 void test_after_the_loop_the_line_names_what_it_waits_for()
 {
     afm::Scene s;
