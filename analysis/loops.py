@@ -11,6 +11,8 @@ with a header line and these columns (others are ignored):
   s_n_V      the normal photodiode signal S_n, volts
   s_l_V      the lateral photodiode signal S_l, volts
   direction  up or down: the pass going up or down the tilted facet
+  set_point  optional: the set point the row's loop was taken at (any
+             label, e.g. 2nN); with it one CSV holds a loop per set point
 Each row is a sample from the middle of a pass (leave the turnarounds out).
 As a Gwyddion file (.gwy, read with the gwyfile package), or any other
 file Gwyddion reads (Nanoscope's; converted by gwyddion --convert-to-gwy
@@ -21,7 +23,8 @@ titles are recognised); --up-pass says which pass climbs the facet,
 the outer --edge-fraction of each line at each end (the turnarounds) is
 left out, and --s-n-V gives S_n per file where the file has no normal
 channel. Per file the mean S_n and S_l of each direction make one point of
-each line; at least 3 files (set points) are needed. The slopes
+each line; at least 3 set points are needed (files, or set points of one
+CSV). The slopes
 r_u = dS_l/dS_n (up) and r_d (down) are fitted by least squares with their
 standard errors, and the firmware's own solver (afm_calc calib tilted)
 turns them into mu and k_theta K_l / h; their uncertainty is propagated
@@ -80,20 +83,21 @@ class GwyChoice:
     s_n_V: float | None = None
 
 
-def read_loop(path, gwy=None):
-    """(mean S_n up, mean S_l up, mean S_n down, mean S_l down) of one loop
-    file, volts (gwy: a GwyChoice): CSV by its .csv name, Gwyddion's own by
-    its .gwy name, any other file converted to .gwy by Gwyddion first."""
+def read_loops(path, gwy=None):
+    """[(mean S_n up, mean S_l up, mean S_n down, mean S_l down)], volts, one
+    per set point of a loop file (gwy: a GwyChoice): CSV by its .csv name
+    (several set points with a set_point column), Gwyddion's own by its
+    .gwy name, any other file converted to .gwy by Gwyddion first."""
     if not os.path.isfile(path):
         raise LoopError(f"{path}: not a file")
     if path.lower().endswith(".csv"):
         if gwy is not None and gwy.s_n_V is not None:
             raise LoopError(f"{path}: --s-n-V is for image files; a CSV loop has its own s_n_V column")
-        return read_csv_loop(path)
+        return read_csv_loops(path)
     if path.lower().endswith(".gwy"):
-        return read_gwy_loop(path, path, gwy or GwyChoice())
+        return [read_gwy_loop(path, path, gwy or GwyChoice())]
     with tempfile.TemporaryDirectory(prefix="afm-loop-") as tmp:
-        return read_gwy_loop(path, convert_to_gwy(path, os.path.join(tmp, "loop.gwy")), gwy or GwyChoice())
+        return [read_gwy_loop(path, convert_to_gwy(path, os.path.join(tmp, "loop.gwy")), gwy or GwyChoice())]
 
 
 def convert_to_gwy(path, out):
@@ -112,10 +116,12 @@ def convert_to_gwy(path, out):
     return out
 
 
-def read_csv_loop(path):
-    """read_loop of a CSV loop file (the module's header says its columns):
-    UTF-8 text, with or without the byte-order mark Excel writes first."""
-    acc = {"up": [], "down": []}
+def read_csv_loops(path):
+    """read_loops of a CSV loop file (the module's header says its columns):
+    UTF-8 text, with or without the byte-order mark Excel writes first; one
+    loop per set_point label in the order they first appear (one loop
+    without that column)."""
+    acc = {}
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
             rows = csv.DictReader(f)
@@ -131,17 +137,28 @@ def read_csv_loop(path):
         raise LoopError(f"{path}: cannot read ({e.strerror})") from None
     except csv.Error as e:   # a NUL byte, a field over the csv module's limit (131 072 characters)
         raise LoopError(f"{path}: line {rows.line_num + 1}: not a CSV loop file ({e})") from None
-    for d, v in acc.items():
-        if len(v) < 2:
-            raise LoopError(f"{path}: {len(v)} sample(s) going {d}: a loop needs both passes")
-    up, down = np.array(acc["up"]), np.array(acc["down"])
-    return up[:, 0].mean(), up[:, 1].mean(), down[:, 0].mean(), down[:, 1].mean()
+    if not acc:
+        acc[None] = {"up": [], "down": []}
+    loops = []
+    for sp, dirs in acc.items():
+        where = path if sp is None else f"{path}: set_point {sp}"
+        for d, v in dirs.items():
+            if len(v) < 2:
+                raise LoopError(f"{where}: {len(v)} sample(s) going {d}: a loop needs both passes")
+        up, down = np.array(dirs["up"]), np.array(dirs["down"])
+        loops.append((up[:, 0].mean(), up[:, 1].mean(), down[:, 0].mean(), down[:, 1].mean()))
+    return loops
 
 
 def read_csv_row(path, i, r, acc):
-    """Row i of a CSV loop file into acc {direction: [(S_n, S_l)]}."""
+    """Row i of a CSV loop file into acc {set_point or None: {direction: [(S_n, S_l)]}}."""
+    sp = None
+    if "set_point" in r:
+        sp = (r["set_point"] or "").strip()
+        if not sp:
+            raise LoopError(f"{path}: line {i}: set_point is empty (the file has a set_point column: every row names one)")
     d = (r["direction"] or "").strip()
-    if d not in acc:
+    if d not in ("up", "down"):
         raise LoopError(f"{path}: line {i}: direction must be up or down, got '{d[:20]}'")
     try:
         sn, sl = float(r["s_n_V"]), float(r["s_l_V"])
@@ -150,7 +167,7 @@ def read_csv_row(path, i, r, acc):
                         f"'{str(r['s_l_V'])[:20]}'") from None
     if not (math.isfinite(sn) and math.isfinite(sl)):
         raise LoopError(f"{path}: line {i}: not finite: s_n_V {sn}, s_l_V {sl}")
-    acc[d].append((sn, sl))
+    acc.setdefault(sp, {"up": [], "down": []})[d].append((sn, sl))
 
 
 def gwy_fields(path, gwy_path):
@@ -314,13 +331,14 @@ def solve(calc, ru, rd, phi, kn, Kn, write=None):
 def calibrate(calc, files, phi, kn, Kn, write=None, gwy=None, s_n_V=None):
     """The calibration from loop files (gwy: a GwyChoice for .gwy files;
     s_n_V: S_n per file, volts, or None) as the dict main prints."""
-    if len(files) < MIN_LOOPS:
-        raise LoopError(f"--loops: {len(files)} file(s); at least {MIN_LOOPS} set points are needed for the slopes and their errors")
     if s_n_V is not None and len(s_n_V) != len(files):
         raise LoopError(f"--s-n-V: {len(s_n_V)} value(s) for {len(files)} loop file(s); give one per file, in their order")
     gwy = gwy or GwyChoice()
-    means = [read_loop(f, dataclasses.replace(gwy, s_n_V=None if s_n_V is None else s_n_V[i]))
-             for i, f in enumerate(files)]
+    means = [m for i, f in enumerate(files)
+             for m in read_loops(f, dataclasses.replace(gwy, s_n_V=None if s_n_V is None else s_n_V[i]))]
+    if len(means) < MIN_LOOPS:
+        raise LoopError(f"--loops: {len(means)} set point(s) in {len(files)} file(s); at least {MIN_LOOPS} set points "
+                        "are needed for the slopes and their errors")
     fit = fit_slopes(means)
     (ru, bu, su), (rd, bd, sd) = fit["up"], fit["down"]
     sol = solve(calc, ru, rd, phi, kn, Kn, write)
@@ -334,7 +352,7 @@ def calibrate(calc, files, phi, kn, Kn, write=None, gwy=None, s_n_V=None):
             b = solve(calc, ru - h if i == 0 else ru, rd - h if i == 1 else rd, phi, kn, Kn)[key]
             var += ((a - b) / (2 * h) * s) ** 2
         sigma[key] = math.sqrt(var)
-    return {"loops": len(files), "r_u": ru, "r_u_se": su, "r_d": rd, "r_d_se": sd, "intercept_up_V": bu,
+    return {"loops": len(means), "r_u": ru, "r_u_se": su, "r_d": rd, "r_d_se": sd, "intercept_up_V": bu,
             "intercept_down_V": bd, "mu": sol["mu"], "mu_se": sigma["mu"], "lateral_nN_per_V": sol["lateral_nN_per_V"],
             "lateral_nN_per_V_se": sigma["lateral_nN_per_V"], "solver": sol}
 
@@ -344,7 +362,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="./afm calib tilted --loops", formatter_class=argparse.RawDescriptionHelpFormatter,
                                  description=helptext.text("calib") + "\n\n" + __doc__.split("\n\n")[0],
                                  epilog="the file format: docs/data.md, 'Friction loops in'")
-    ap.add_argument("--loops", nargs="+", required=True, metavar="FILE", help="one friction loop per set point: .csv, .gwy, or a scan Gwyddion reads")
+    ap.add_argument("--loops", nargs="+", required=True, metavar="FILE", help="one friction loop per set point: .csv, .gwy, or a scan Gwyddion reads; "
+                    "or one .csv holding every set point (a set_point column)")
     ap.add_argument("--angle-deg", type=float, required=True, help="the facet's slope phi, degrees")
     ap.add_argument("--spring-N-per-m", type=float, required=True, help="k_n, N/m")
     ap.add_argument("--deflection-nm-per-V", type=float, required=True, help="K_n, nm/V")

@@ -18,6 +18,10 @@ Contract of a channel's frame (run[CHANNEL], run.frames[CHANNEL]):
   - every fixed-size array, a column per element: force_nN_x, force_nN_y,
     force_nN_z where the comment names the axes or the vector's frame, else
     NAME_0, NAME_1, ...;
+  - a column whose name is an attribute of pandas' DataFrame (which
+    frame.NAME would return instead of the column) is renamed here,
+    _columns: flags (FW_STATE, HAPTIC_FORCE, VIEW_FRAME: FLAG_* bits) is
+    flag_bits; any other such name gets _field appended;
   - left out: variable-length arrays (AFM_ANALOG's samples, AFM_SCAN_LINE's
     heights and signals) and nested messages (the objects of FW_STATE and
     SIM_TRUTH). Those are below, in frames of their own.
@@ -49,6 +53,16 @@ class RunError(ValueError):
     """A folder that is not a run (its message names the file and what is wrong)."""
 
 
+_RENAMED = {"flags": "flag_bits"}   # a field's column that pandas' DataFrame.flags would hide
+
+
+def _column_name(column):
+    """column, or its name in the frame where it is a DataFrame attribute."""
+    if not hasattr(pd.DataFrame, column):
+        return column
+    return _RENAMED.get(column, column + "_field")
+
+
 def _columns(struct):
     """[(column, field, element index or None)] of a type's frame."""
     out = []
@@ -56,7 +70,7 @@ def _columns(struct):
         if not f.primitive or not f.fixed:
             continue
         if not f.dims:
-            out.append((f.column, f.name, None))
+            out.append((_column_name(f.column), f.name, None))
         else:
             out.extend((f"{f.column}_{c}", f.name, i) for i, c in enumerate(f.components))
     return out

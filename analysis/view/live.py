@@ -90,7 +90,8 @@ class LiveSource:
             meta["t_rx_ms"] = time.time() * 1e3   # ./afm bench view's stages: the server has it
             view.broadcast_frame(meta, image)
         elif channel == "AFM_HEARTBEAT":
-            self.processes[m.name] = {"state": m.state, "sim_s": m.sim_utime * 1e-6, "seq": m.seq}
+            clocked = m.sim_utime > 0 or self.processes.get(m.name, {}).get("clocked", False)
+            self.processes[m.name] = {"state": m.state, "sim_s": m.sim_utime * 1e-6, "seq": m.seq, "clocked": clocked}
             view.broadcast({"type": "status", "processes": self.processes})
             if m.name == "operator" and m.detail.startswith("hand: browser") and self.hand is None:
                 self.hand = {"load_nN": _load_of(m.detail)}

@@ -213,7 +213,7 @@ int Launch::start()
     }
     log_window_ = o_.log_window >= 0 ? o_.log_window : afm::log_window_blocks(tap_->receive_buffer_bytes());
     place();
-    RunPlaces places{exe_dir(), out_, scene_run_, bus_url(), log_window_, &hosts_, &placement_, "", AFM_LCM_BIN, AFM_TYPES_JAR};
+    RunPlaces places{exe_dir(), out_, scene_run_, bus_url(), log_window_, &hosts_, &placement_, "", AFM_LCM_BIN, AFM_TYPES_JAR, AFM_SPY_LAUNCHER};
     if (hosts_.count == 2) places.parent_ports = afm::Senders::own_ports();
     for (const auto &p : run_processes(o_, places)) {
         const int sockets_before = p.name == "lcm-spy" ? udp_sockets_on_port(afm::kBusPort) : 0;

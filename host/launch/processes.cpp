@@ -59,15 +59,16 @@ std::vector<std::string> renderer_argv(const Options &o, const RunPlaces &p)
     return a;
 }
 
-// lcm-spy (--spy): a window on the bus, at the launcher's priority, without the key.
+// lcm-spy (--spy): a window on the bus, at the launcher's priority, without
+// the key; started through tools/spy.sh, which picks a Java runtime with AWT.
 Process spy(const RunPlaces &p)
 {
     Process r;
     r.name = "lcm-spy";
     r.role = Process::Role::observer;
-    r.argv = {p.lcm_bin + "/lcm-spy", "--lcm-url=" + p.bus_url};
+    r.argv = {p.spy_launcher, "--lcm-url=" + p.bus_url};
     r.log = p.out + "/logs/lcm-spy.log";
-    r.env = {"LCM_DEFAULT_URL=" + p.bus_url, "CLASSPATH=" + p.types_jar};
+    r.env = {"LCM_DEFAULT_URL=" + p.bus_url, "CLASSPATH=" + p.types_jar, "AFM_LCM_BIN=" + p.lcm_bin};
     r.cpus = p.placement->cpus_for("lcm-spy");
     return r;
 }

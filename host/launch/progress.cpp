@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "lockstep.hpp"
 #include "scene.hpp"
@@ -68,7 +69,22 @@ std::string Progress::line(const Scene &scene, bool started, double wall_s) cons
     if (r != last.end() && r->second.sim_utime > 0) frames = frames_due(scene, r->second.sim_utime);
     std::snprintf(buf, sizeof buf, "run: %s   sim %.2f / %.2f s   frames %d / %d   wall %.1f s   ", stage(scene, true).c_str(), sim_seconds(),
                   scene.duration_s, frames, scene.total_frames(), wall_s);
-    return buf;
+    return buf + finishing(scene);
+}
+
+// Once the simulator's loop is over: the processes the run still waits
+// for, each with the last block it said (the firmware under QEMU, which
+// runs behind the simulator, or the renderer's video); "" before.
+std::string Progress::finishing(const Scene &scene) const
+{
+    if (!sim_loop_over(scene.total_blocks())) return "";
+    std::string waits;
+    for (const auto &[name, hb] : last) {
+        if (name == "sim_afm" || hb.state == state_text(RunState::done)) continue;
+        waits += (waits.empty() ? "" : ", ") + name + " (block " + std::to_string(hb.seq + 1) + " / " +
+                 std::to_string(scene.total_blocks()) + ")";
+    }
+    return waits.empty() ? "" : "simulation over; finishing: " + waits + "   ";
 }
 
 }  // namespace afm::launch

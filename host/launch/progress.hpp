@@ -71,7 +71,10 @@ struct Progress {
     std::string stage(const Scene &scene, bool started) const;
     // The progress line (without its "\r"): the stage, then, once started,
     // simulated time and frames against the scene's, with the wall time.
+    // Once the simulator's loop is over, the line also names the processes
+    // the run still waits for and the block each has reached (finishing).
     std::string line(const Scene &scene, bool started, double wall_s) const;
+    std::string finishing(const Scene &scene) const;
 };
 
 }  // namespace afm::launch

@@ -27,12 +27,16 @@ bool only_a_lock(const fs::path &dir)
 
 }  // namespace
 
-// The lock's record says the run's launcher ended (however the run did).
+// The launcher ended (however the run did): the lock's file goes, removed
+// while still held, so no run can take the folder between the removal and
+// the release (one that opened the file before is refused, or finds it
+// removed once it holds it: lock()).
 RunFolder::~RunFolder()
 {
     if (lock_fd_ < 0) return;
-    const std::string rec = "ended, pid " + std::to_string(getpid()) + "\n";
-    if (ftruncate(lock_fd_, 0) != 0 || pwrite(lock_fd_, rec.data(), rec.size(), 0) != static_cast<ssize_t>(rec.size())) {}
+    if (unlink((fs::path(dir_) / kLockName).c_str()) != 0 && errno != ENOENT)
+        std::fprintf(stderr, "afm_launch: warning: cannot remove the lock %s/%s: %s\n", dir_.c_str(), kLockName, std::strerror(errno));
+    close(lock_fd_);
 }
 
 int RunFolder::check() const
@@ -90,17 +94,29 @@ int RunFolder::lock()
 {
     const fs::path dir = dir_;
     const std::string path = (dir / kLockName).string();
-    lock_fd_ = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (lock_fd_ < 0) {
-        std::fprintf(stderr, "afm_launch: cannot lock the output folder %s: %s\n", dir_.c_str(), std::strerror(errno));
-        return 2;
+    // held, the file must still be the folder's: a launcher that ended
+    // removed it (~RunFolder) after this one opened it; then open anew
+    for (int tries = 0; lock_fd_ < 0; ++tries) {
+        const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+        if (fd < 0) {
+            std::fprintf(stderr, "afm_launch: cannot lock the output folder %s: %s\n", dir_.c_str(), std::strerror(errno));
+            return 2;
+        }
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            say_in_use(fd, path);
+            close(fd);
+            return 2;
+        }
+        struct stat held {}, named {};
+        if (fstat(fd, &held) == 0 && lstat(path.c_str(), &named) == 0 && held.st_dev == named.st_dev && held.st_ino == named.st_ino)
+            lock_fd_ = fd;
+        else if (close(fd), tries >= 10) {
+            std::fprintf(stderr, "afm_launch: cannot lock the output folder %s: its lock %s was removed under it 10 times\n", dir_.c_str(), path.c_str());
+            return 2;
+        }
     }
-    if (flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
-        say_in_use(lock_fd_, path);
-        return 2;
-    }
-    // the record of the last run in this folder: "pid N" while it ran,
-    // "ended, pid N" once its launcher ended; a "pid N" left behind is a
+    // the record of the last run in this folder: "pid N" while it ran; the
+    // file is removed when its launcher ends, so a "pid N" left behind is a
     // launcher that never ended (SIGKILL, a crash), and the lock, now ours,
     // says it is gone
     char last[64] = {0};

@@ -2,10 +2,11 @@
 // run's, or new), its lock for the run's life, and making it ready. The lock
 // is flock on OUT/.afm-run.lock, which names the run's pid: a second run
 // into the folder is refused at once, naming the one that holds it. The
-// lock goes with this process, however it ends; its record says "ended, pid
-// N" once the launcher ended (~RunFolder), so a "pid N" found by the next
-// launcher is a run whose launcher was killed (its processes went with it:
-// children.hpp), said in one line.
+// lock goes with this process, however it ends; the launcher that ends
+// removes the file while it still holds it (~RunFolder), so a run's folder
+// keeps no lock, and a "pid N" found by the next launcher is a run whose
+// launcher was killed (its processes went with it: children.hpp), said in
+// one line.
 #pragma once
 
 #include <string>

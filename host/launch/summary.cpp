@@ -1,6 +1,7 @@
 #include "summary.hpp"
 
 #include <cstdio>
+#include <string>
 
 #include "verdict.hpp"
 
@@ -36,6 +37,21 @@ void print_view_bridge(const nlohmann::json &b)
                 static_cast<long long>(unproven), static_cast<long long>(foreign));
 }
 
+// What the hand felt: in mode feel, the strokes a contact ended
+// (contacts_felt); in mode script, which does not react to force and so
+// ends no stroke, the largest force the hand felt (peak_haptic_force_N).
+std::string hand_felt(const nlohmann::json &op)
+{
+    char text[160];
+    if (op.value("mode", std::string()) == "feel")
+        std::snprintf(text, sizeof text, "%zu contacts felt (strokes ended by the force)",
+                      op.contains("contacts_felt") ? op["contacts_felt"].size() : std::size_t{0});
+    else
+        std::snprintf(text, sizeof text, "the hand felt up to %.3g N (mode %s: strokes do not stop at contact)",
+                      op.value("peak_haptic_force_N", 0.0), op.value("mode", std::string("script")).c_str());
+    return text;
+}
+
 // The planner's account (operator_report.json) and its result in the
 // fresh scan (fidelity.json "assembly"), as run.json holds them.
 void print_plan(const nlohmann::json &run)
@@ -43,10 +59,10 @@ void print_plan(const nlohmann::json &run)
     if (run.contains("operator") && run["operator"].contains("haptic")) {
         const auto &h = run["operator"]["haptic"];
         std::printf("run: haptic: gain %.3f N/nN, K_r %.0f N/m against the bound %.0f N/m (%s); the passivity controller acted in %ld "
-                    "blocks, %.3g J; %zu contacts felt\n",
+                    "blocks, %.3g J; %s\n",
                     h.value("gain_N_per_nN", 0.0), h.value("rendered_stiffness_N_per_m", 0.0), h.value("passivity_bound_N_per_m", 0.0),
                     h.value("passive", false) ? "inside" : "OUTSIDE", h.value("controller_blocks", 0L), h.value("controller_energy_J", 0.0),
-                    run["operator"].contains("contacts_felt") ? run["operator"]["contacts_felt"].size() : std::size_t{0});
+                    hand_felt(run["operator"]).c_str());
     }
     if (!run.contains("operator") || !run["operator"].contains("plan")) return;
     const auto &p = run["operator"]["plan"];

@@ -315,6 +315,8 @@ class OutputFolderLocked(unittest.TestCase):
             self.assertLess(took, 5.0)
             so, se = first.communicate(timeout=60)
             self.assertEqual(first.returncode, 0, se)
+            # the first run removed its lock as it ended; the refused one left it alone
+            self.assertFalse(os.path.exists(os.path.join(out, ".afm-run.lock")), sorted(os.listdir(out)))
         finally:
             if first.poll() is None:
                 first.kill()

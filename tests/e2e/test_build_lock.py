@@ -20,6 +20,13 @@ def build(**env):
 
 
 class BuildLock(unittest.TestCase):
+    def test_run_without_a_scene_asks_for_it_before_building(self):
+        for args in ([], ["--spy"], ["--out", "x"]):
+            p = subprocess.run([AFM, "run", *args], capture_output=True, text=True, timeout=e2e_support.limit(60))
+            self.assertEqual(p.returncode, 2, args)
+            self.assertIn("run: which scene?", p.stderr, args)
+            self.assertNotIn("building", p.stderr, args)
+
     def test_a_link_as_the_lock_is_refused_and_its_target_untouched(self):
         d = e2e_support.tmpdir("lock-link")
         target = os.path.join(d, "precious.txt")

@@ -43,6 +43,7 @@ import copy
 import glob
 import os
 import re
+import shutil
 import subprocess
 import unittest
 
@@ -401,6 +402,8 @@ class Layout(unittest.TestCase):
             self.assertIsNotNone(m, f"docs/layout.md: a folder row's first cell is one folder in backticks: {row[0]!r}")
             self.assertTrue(os.path.isdir(os.path.join(SRC, m.group(1))), f"docs/layout.md names {m.group(1)}, not a folder")
         named = {re.fullmatch(r"`([^`]+)/`", r[0]).group(1) for r in rows}
+        if not shutil.which("git") or not os.path.exists(os.path.join(SRC, ".git")):
+            return   # a tree got as an archive: no list of tracked files to hold the table to
         tracked = subprocess.run(["git", "-C", SRC, "ls-files"], capture_output=True, text=True, timeout=60)
         if tracked.returncode == 0:   # a checkout: every top-level folder of it has its row
             tops = {p.split("/")[0] for p in tracked.stdout.splitlines() if "/" in p and not p.startswith(".")}

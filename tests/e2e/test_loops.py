@@ -160,6 +160,45 @@ class Loops(unittest.TestCase):
         r2 = json.loads(loops_cli("--loops", *noisy, *flags(), "--json").stdout)
         self.assertGreater(r2["mu_se"], 3 * r["mu_se"])
 
+    def test_one_csv_with_every_set_point_is_the_same_as_one_file_each(self):
+        # a lab's one CSV: the per-file loops' rows, each with a set_point column
+        files = write_loops(self.dir, [0.5, 1.0, 1.5, 2.0], noise_v=0.002)
+        whole = os.path.join(self.dir, "all_set_points.csv")
+        with open(whole, "w") as out:
+            out.write("set_point,y_nm,s_n_V,s_l_V,direction\n")
+            for k, path in enumerate(files):
+                with open(path) as f:
+                    next(f)
+                    out.writelines(f"{k * 0.5 + 0.5}nN,{line}" for line in f)
+        each = json.loads(loops_cli("--loops", *files, *flags(), "--json").stdout)
+        p = loops_cli("--loops", whole, *flags(), "--json")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        one = json.loads(p.stdout)
+        self.assertEqual(one["loops"], 4)
+        for key in ("r_u", "r_d", "mu", "lateral_nN_per_V", "mu_se"):
+            self.assertAlmostEqual(one[key], each[key], places=9, msg=key)
+        # a set_point column with an empty cell, and too few set points, are named
+        with open(whole) as f:
+            lines = f.readlines()
+        bad = os.path.join(self.dir, "blank_set_point.csv")
+        with open(bad, "w") as f:
+            f.writelines(lines[:3] + ["," + lines[3].split(",", 1)[1]])
+        p = loops_cli("--loops", bad, *flags())
+        self.assertEqual(p.returncode, 2)
+        self.assertIn(f"{bad}: line 4: set_point is empty", p.stderr)
+        two = os.path.join(self.dir, "two_set_points.csv")
+        with open(two, "w") as f:
+            f.writelines([ln for ln in lines if not ln.startswith(("1.5nN", "2.0nN"))])
+        p = loops_cli("--loops", two, *flags())
+        self.assertEqual(p.returncode, 2)
+        self.assertIn("--loops: 2 set point(s) in 1 file(s); at least 3 set points", p.stderr)
+
+    def test_calib_tilted_help_names_loops(self):
+        p = subprocess.run([AFM, "calib", "tilted", "--help"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertIn("--loops FILE", p.stdout)
+        self.assertIn("set_point", p.stdout)
+
     def test_bad_files_are_named(self):
         good = write_loops(self.dir, [0.5, 1.0, 1.5], noise_v=0.002)
         cases = {

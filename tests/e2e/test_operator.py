@@ -96,6 +96,13 @@ class FeelContact(unittest.TestCase):
         self.assertGreater(pushed, 10 * stated)
         self.assertEqual(rep["haptic"]["controller_blocks"], 0)
         self.assertIn("run: haptic: gain 0.020 N/nN", self.feel_run[1])
+        # the summary says what each mode felt: feel's contacts; script, which
+        # ends no stroke, the force the hand felt (not "0 contacts felt")
+        self.assertIn("; 1 contacts felt (strokes ended by the force)", self.feel_run[1])
+        peak = self.script_run[3]["operator"]["peak_haptic_force_N"]
+        self.assertGreater(peak, 0)
+        self.assertIn(f"; the hand felt up to {peak:.3g} N (mode script: strokes do not stop at contact)", self.script_run[1])
+        self.assertNotIn("0 contacts felt", self.script_run[1])
 
 
 class Stability(unittest.TestCase):

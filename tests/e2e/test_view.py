@@ -182,6 +182,23 @@ class View(unittest.TestCase):
         # the force chart moves: samples came and its window advanced
         self.assertGreater(s["chartSamples"], 50, s)
         self.assertGreaterEqual(len({e[1] for e in ends if e[1] is not None}), 2, ends)
+        # its edges are labelled with their own times: the window is 5 s wide,
+        # starts at 0 s until the run reaches 5 s, and holds the samples drawn
+        lo, hi = s["chartEdges"]
+        self.assertAlmostEqual(hi - lo, 5.0, places=6, msg=s["chartEdges"])
+        self.assertGreaterEqual(lo, 0.0, s["chartEdges"])
+        self.assertEqual(s["chartLabels"], [f"{lo:.1f} s", f"{hi:.1f} s"], s)
+        self.assertTrue(lo <= s["chartT"][0] <= s["chartT"][1] <= hi, (s["chartT"], s["chartEdges"]))
+        # a process with no simulated clock (the launcher, the operator) shows
+        # none, not 0.00 s; the simulator's time is shown
+        procs = d.find_element("id", "procs").text
+        for name, p in s["procs"].items():
+            line = next(x for x in procs.splitlines() if x.startswith(name))
+            if p["clocked"]:
+                self.assertRegex(line, r"\d+\.\d\d s$", line)
+            else:
+                self.assertNotIn("0.00 s", line)
+        self.assertTrue(any(p["clocked"] for p in s["procs"].values()), s["procs"])
         # nothing came from anywhere but the server (and nothing else resolves)
         hosts = d.execute_script("return performance.getEntriesByType('resource').map(e => new URL(e.name).host)")
         self.assertTrue(hosts and all(h == f"127.0.0.1:{self.port}" for h in hosts), hosts)

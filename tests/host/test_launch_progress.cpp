@@ -136,6 +136,24 @@ void test_the_progress_line_names_the_stage()
     TEST_ASSERT_EQUAL_STRING("end (processes finish)", p.stage(s, true).c_str());
 }
 
+void test_after_the_loop_the_line_names_what_it_waits_for()
+{
+    afm::Scene s;
+    Progress p;
+    p.names = {"sim_afm", "fw_node", "renderer"};
+    const int64_t n = s.total_blocks();
+    p.on_hb(hb("fw_node", n / 2, "running"));
+    p.on_hb(hb("renderer", n - 1, "done"));
+    p.on_hb(hb("sim_afm", n - 2, "running"));
+    std::string l = p.line(s, true, 3.0);
+    TEST_ASSERT_TRUE_MESSAGE(l.find("finishing") == std::string::npos, l.c_str());
+    p.on_hb(hb("sim_afm", n - 1, "running"));
+    l = p.line(s, true, 3.0);
+    const std::string want = "simulation over; finishing: fw_node (block " + std::to_string(n / 2 + 1) + " / " + std::to_string(n) + ")";
+    TEST_ASSERT_TRUE_MESSAGE(l.find(want) != std::string::npos, l.c_str());
+    TEST_ASSERT_TRUE_MESSAGE(l.find("renderer") == std::string::npos, l.c_str());
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -146,5 +164,6 @@ int main()
     RUN_TEST(test_the_loop_is_over_at_its_last_block_or_when_done);
     RUN_TEST(test_the_progress_line_says_time_and_frames);
     RUN_TEST(test_the_progress_line_names_the_stage);
+    RUN_TEST(test_after_the_loop_the_line_names_what_it_waits_for);
     return UNITY_END();
 }

@@ -395,7 +395,10 @@
   function drawChart(t) {
     const c = chart, W = c.canvas.width, H = c.canvas.height, L = 44, R = 50, T = 22, B = 22;
     c.clearRect(0, 0, W, H);
-    const lo = t - CHART_S;
+    // the window's edges: [0, CHART_S] until t reaches CHART_S, then
+    // [t - CHART_S, t]; each edge is labelled with its own time
+    const hi = Math.max(t, CHART_S), lo = hi - CHART_S;
+    state.chartEdges = [lo, hi];
     let i0 = 0, i1 = series.t.length;
     while (i0 < i1 && series.t[i0] < lo) i0 += 1;
     while (i1 > i0 && series.t[i1 - 1] > t) i1 -= 1;
@@ -412,8 +415,9 @@
     c.fillStyle = "#aaa"; c.font = "11px sans-serif";
     c.fillText(yhi.toFixed(1), 2, T + 9); c.fillText(ylo.toFixed(1), 2, H - B);
     c.fillText(hhi.toFixed(3), W - R + 3, T + 9); c.fillText("N", W - R + 3, T + 22);
-    c.fillText("nN", 2, T + 22); c.fillText((lo > 0 ? lo : 0).toFixed(1) + " s", L, H - 6);
-    c.fillText(t.toFixed(1) + " s", W - R - 30, H - 6);
+    c.fillText("nN", 2, T + 22); state.chartLabels = [lo.toFixed(1) + " s", hi.toFixed(1) + " s"];
+    c.fillText(state.chartLabels[0], L, H - 6);
+    c.fillText(state.chartLabels[1], W - R - 30, H - 6);
     const line = (ys, a, b, colour) => {
       c.strokeStyle = colour; c.beginPath();
       ys.forEach((v, i) => { const y = T + (1 - (v - a) / (b - a)) * (H - T - B);
@@ -427,7 +431,11 @@
   }
 
   function procs(p) {
-    $("procs").textContent = Object.entries(p).map(([n, s]) => `${n.padEnd(9)} ${s.state.padEnd(9)} ${s.sim_s.toFixed(2)} s`).join("\n");
+    // a process that steps no simulated clock (the launcher, the operator:
+    // their heartbeats carry sim_utime 0) shows its state without a time
+    $("procs").textContent = Object.entries(p).map(([n, s]) =>
+      `${n.padEnd(9)} ${s.state.padEnd(9)} ${s.clocked ? s.sim_s.toFixed(2) + " s" : "(no sim clock)"}`).join("\n");
+    state.procs = p;
   }
 
   function ended(m) {
