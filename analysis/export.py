@@ -241,9 +241,10 @@ def _write_state(out, run):
 
 def _frame_times(run):
     """{frame index: simulated utime us} of the first RENDER_FRAME of each frame."""
+    from analysis import runs
     out = {}
     if "RENDER_FRAME" in run:
-        for k, u in run["RENDER_FRAME"][["index", "utime_us"]].itertuples(index=False):
+        for k, u in run["RENDER_FRAME"][[runs.column_name("index"), "utime_us"]].itertuples(index=False):
             out.setdefault(int(k), int(u))
     return out
 

@@ -56,7 +56,7 @@ class RunError(ValueError):
 _RENAMED = {"flags": "flag_bits"}   # a field's column that pandas' DataFrame.flags would hide
 
 
-def _column_name(column):
+def column_name(column):
     """column, or its name in the frame where it is a DataFrame attribute."""
     if not hasattr(pd.DataFrame, column):
         return column
@@ -70,7 +70,7 @@ def _columns(struct):
         if not f.primitive or not f.fixed:
             continue
         if not f.dims:
-            out.append((_column_name(f.column), f.name, None))
+            out.append((column_name(f.column), f.name, None))
         else:
             out.extend((f"{f.column}_{c}", f.name, i) for i, c in enumerate(f.components))
     return out

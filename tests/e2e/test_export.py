@@ -166,7 +166,8 @@ class Export(unittest.TestCase):
                     self.assertIn(col, fw.columns)
                     self.assertEqual(fw[col].tolist(), [getattr(m, f.name)[i] for m in msgs], col)
             elif f.primitive and not f.dims:
-                self.assertEqual(fw[f.column].tolist(), [getattr(m, f.name) for m in msgs], f.column)
+                col = runs.column_name(f.column)   # flags is flag_bits: DataFrame.flags would hide it
+                self.assertEqual(fw[col].tolist(), [getattr(m, f.name) for m in msgs], col)
         self.assertIn("utime_us", fw.columns)                       # the comment says microseconds
         self.assertFalse(any(c.startswith("objects") for c in fw.columns), "nested messages are left out")
         samples = self.data.samples()

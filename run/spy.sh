@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The one way the project starts lcm-spy: LCM's lcm-spy script with a Java
 # runtime that can open a window.
-#   tools/spy.sh [lcm-spy's arguments...]
+#   run/spy.sh [lcm-spy's arguments...]
 # lcm-spy's script runs the first `java` on PATH. A headless runtime (Debian's
 # default-jre-headless / default-jdk-headless: no lib/libawt_xawt.so) fails
 # there with java.awt.HeadlessException even under Xvfb, so this puts first on
