@@ -30,7 +30,7 @@ FAULTS = os.path.join(FAULTS_DIR, "faults.py")
 FORGE = os.path.join(FAULTS_DIR, "forge.py")
 HOSTILE = os.path.join(FAULTS_DIR, "hostile.py")
 # tools/: the developer's tools
-SPY_REPLAY = os.path.join(ROOT, "tools", "spy_replay.sh")
+SPY_REPLAY = os.path.join(RUN_DIR, "spy_replay.sh")
 ARM_BUILD = os.path.join(ROOT, "build", "arm")
 # The programs a run is made of: their contents identify the build a sweep
 # point was measured with (resume reruns a point when any of them changed).

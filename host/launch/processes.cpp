@@ -60,7 +60,7 @@ std::vector<std::string> renderer_argv(const Options &o, const RunPlaces &p)
 }
 
 // lcm-spy (--spy): a window on the bus, at the launcher's priority, without
-// the key; started through tools/spy.sh, which picks a Java runtime with AWT.
+// the key; started through run/spy.sh, which picks a Java runtime with AWT.
 Process spy(const RunPlaces &p)
 {
     Process r;

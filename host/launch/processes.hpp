@@ -59,7 +59,7 @@ struct RunPlaces {
     const Placement *placement = nullptr;
     std::string parent_ports;    // two hosts: the launcher's own UDP ports (Senders::own_ports())
     std::string lcm_bin, types_jar;   // lcm-spy's folder and the types' jar for its CLASSPATH
-    std::string spy_launcher;         // tools/spy.sh: starts lcm-spy with a Java runtime that has AWT
+    std::string spy_launcher;         // run/spy.sh: starts lcm-spy with a Java runtime that has AWT
 };
 
 std::vector<Process> run_processes(const Options &o, const RunPlaces &p);

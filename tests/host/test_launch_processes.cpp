@@ -24,7 +24,7 @@ static const afm::Placement none;
 
 static RunPlaces places(const afm::launch::Hosts &h)
 {
-    return {"/b", "/o", "/o/scene.yaml", "udpm://bus", 0, &h, &none, "4242", "/lcm", "/types.jar", "/src/tools/spy.sh"};
+    return {"/b", "/o", "/o/scene.yaml", "udpm://bus", 0, &h, &none, "4242", "/lcm", "/types.jar", "/src/run/spy.sh"};
 }
 
 static std::vector<std::string> names(const std::vector<Process> &t)
@@ -103,7 +103,7 @@ void test_spy_comes_first_as_an_observer_without_the_key()
     TEST_ASSERT_TRUE(t[0].role == Process::Role::observer);
     TEST_ASSERT_FALSE(t[0].key);
     TEST_ASSERT_EQUAL(0, t[0].nice);
-    TEST_ASSERT_TRUE((t[0].argv == std::vector<std::string>{"/src/tools/spy.sh", "--lcm-url=udpm://bus"}));
+    TEST_ASSERT_TRUE((t[0].argv == std::vector<std::string>{"/src/run/spy.sh", "--lcm-url=udpm://bus"}));
     TEST_ASSERT_TRUE(has(t[0].env, "CLASSPATH=/types.jar"));
     TEST_ASSERT_TRUE(has(t[0].env, "AFM_LCM_BIN=/lcm"));
     TEST_ASSERT_EQUAL(4, std::count_if(t.begin(), t.end(), [](const Process &p) { return p.role == Process::Role::run; }));
