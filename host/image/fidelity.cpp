@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
 
 namespace afm {
 
@@ -109,32 +111,64 @@ RodCheck check_rod(const cv::Mat &scan_nm, const Field &f, cv::Point2d centre_nm
 
 namespace {
 
-double polyline_distance(const std::vector<cv::Point2d> &nodes, const cv::Point2d &q)
+// The polyline's point nearest q: its segment's index (a single node: 0),
+// its distance from q and its arc length from the first node, nm (beyond an
+// end, the arc length of q's projection on the end segment's line, so that
+// the pixels beyond an end step on as the axis does).
+struct Nearest {
+    std::size_t segment = 0;
+    double distance_nm = std::numeric_limits<double>::infinity(), along_nm = 0;
+};
+Nearest nearest_on_polyline(const std::vector<cv::Point2d> &nodes, const cv::Point2d &q)
 {
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
+    Nearest out;
+    double s0 = 0;
+    for (std::size_t i = 0; i < std::max<std::size_t>(1, nodes.size() - 1); ++i) {
         const cv::Point2d a = nodes[i], ab = nodes[std::min(i + 1, nodes.size() - 1)] - a;
         const double l2 = ab.dot(ab);
-        const double t = l2 > 0 ? std::clamp((q - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
-        best = std::min(best, std::hypot(q.x - a.x - t * ab.x, q.y - a.y - t * ab.y));
+        const double u = l2 > 0 ? (q - a).dot(ab) / l2 : 0.0, t = std::clamp(u, 0.0, 1.0);
+        const double d = std::hypot(q.x - a.x - t * ab.x, q.y - a.y - t * ab.y);
+        // Beyond the first or the last node, the arc length runs on.
+        const bool open_end = (i == 0 && u < 0) || (i + 2 >= nodes.size() && u > 1);
+        if (d < out.distance_nm) out = {i, d, s0 + (open_end ? u : t) * std::sqrt(l2)};
+        s0 += std::sqrt(l2);
     }
-    return best;
+    return out;
 }
 
-// A ridge's rise above the ground around it, over the pixels r: the image
-// less its morphological opening by a disc of radius band_nm (the white
-// top-hat). The opening removes what is narrower than the disc (a wire's
-// image, whose footprint the band holds) and keeps what is wider or hollow
-// (the flat substrate, a V-groove), so a rod seated in a groove, its top
-// below the substrate, rises above the groove's walls as a rod on the flat
-// rises above 0. Computed on r widened by the disc, so r's edges see their
-// ground.
-cv::Mat ridge_rise(const cv::Mat &h_nm, const Field &f, const cv::Rect &r, double band_nm)
+// A segment's direction across its axis, binned to whole degrees in [0, 180)
+// from +x, y up (a single node, or a segment of no length: 90).
+int across_bin_deg(const std::vector<cv::Point2d> &nodes, std::size_t i)
+{
+    const cv::Point2d ab = nodes[std::min(i + 1, nodes.size() - 1)] - nodes[i];
+    if (ab.dot(ab) <= 0) return 90;
+    const int along = static_cast<int>(std::lround(std::atan2(ab.y, ab.x) * 180 / M_PI));
+    return ((along + 90) % 180 + 180) % 180;
+}
+
+// A ridge's rise above the ground beside it, over the pixels r, for the
+// direction across its axis `across_deg` (degrees from +x, y up): the image
+// less its opening by a line of half-length band_nm in that direction (a
+// 1-D white top-hat across the axis). The opening removes what is narrower
+// than the line across it (a wire's image, whose footprint the band holds)
+// and keeps what is wider or hollow (the flat substrate, a V-groove, a
+// groove's end), so a rod seated in a groove, its top below the substrate,
+// rises above the groove's walls as a rod on the flat rises above 0; and its
+// end, which a disc would set against the groove's floor beyond it, rises
+// only as its cross-section does. Computed on r widened by the line, so r's
+// edges see their ground.
+cv::Mat ridge_rise(const cv::Mat &h_nm, const Field &f, const cv::Rect &r, double band_nm, int across_deg)
 {
     const int rad = std::max(1, static_cast<int>(std::ceil(band_nm / f.pitch())));
     const cv::Rect wide = cv::Rect(r.x - rad, r.y - rad, r.width + 2 * rad, r.height + 2 * rad) & cv::Rect(0, 0, h_nm.cols, h_nm.rows);
+    // The line in pixels: columns run with +x, rows against +y.
+    const double a = across_deg * M_PI / 180;
+    const cv::Point2d end(rad * std::cos(a), -rad * std::sin(a));
+    cv::Mat line(2 * rad + 1, 2 * rad + 1, CV_8U, cv::Scalar(0));
+    cv::line(line, cv::Point(cvRound(rad - end.x), cvRound(rad - end.y)), cv::Point(cvRound(rad + end.x), cvRound(rad + end.y)),
+             cv::Scalar(1), 1, cv::LINE_8);
     cv::Mat open;
-    cv::morphologyEx(h_nm(wide), open, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * rad + 1, 2 * rad + 1}));
+    cv::morphologyEx(h_nm(wide), open, cv::MORPH_OPEN, line);
     cv::Mat rise = h_nm(wide) - open;
     return rise(cv::Rect(r.x - wide.x, r.y - wide.y, r.width, r.height)).clone();
 }
@@ -164,23 +198,46 @@ bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Poi
                                 cv::Point(static_cast<int>(std::ceil(hi.x)) + 1, static_cast<int>(std::ceil(hi.y)) + 1)) &
                        cv::Rect(0, 0, h_nm.cols, h_nm.rows);
     if (r.area() == 0) return false;
-    const cv::Mat rise = ridge_rise(h_nm, f, r, band_nm);
-    // The band: pixels within band_nm of the polyline.
-    cv::Mat in_band(r.size(), CV_8U, cv::Scalar(0));
-    double peak = 0;
+    // The band: pixels within band_nm of the polyline, each with the rise
+    // across its nearest segment (one opening per direction met), and the
+    // highest rise at each pixel step along the polyline.
+    std::map<int, cv::Mat> rise_across;
+    std::map<int, float> crest;
+    cv::Mat rise(r.size(), CV_32F, cv::Scalar(0)), step_of(r.size(), CV_32S, cv::Scalar(0)), in_band(r.size(), CV_8U, cv::Scalar(0));
     for (int row = r.y; row < r.y + r.height; ++row)
-        for (int col = r.x; col < r.x + r.width; ++col)
-            if (polyline_distance(nodes_nm, {f.x_of(col), f.y_of(row)}) <= band_nm) {
-                in_band.at<uchar>(row - r.y, col - r.x) = 1;
-                peak = std::max(peak, static_cast<double>(rise.at<float>(row - r.y, col - r.x)));
-            }
+        for (int col = r.x; col < r.x + r.width; ++col) {
+            const Nearest n = nearest_on_polyline(nodes_nm, {f.x_of(col), f.y_of(row)});
+            if (n.distance_nm > band_nm) continue;
+            const int bin = across_bin_deg(nodes_nm, n.segment);
+            auto it = rise_across.find(bin);
+            if (it == rise_across.end()) it = rise_across.emplace(bin, ridge_rise(h_nm, f, r, band_nm, bin)).first;
+            const float v = it->second.at<float>(row - r.y, col - r.x);
+            rise.at<float>(row - r.y, col - r.x) = v;
+            in_band.at<uchar>(row - r.y, col - r.x) = 1;
+            const int step = static_cast<int>(std::lround(n.along_nm / f.pitch()));
+            step_of.at<int>(row - r.y, col - r.x) = step;
+            crest[step] = std::max(crest[step], v);
+        }
+    // The ridge's height: the median of its crest over the steps where it
+    // rises at all, so that a feature a few pixels long neither sets the
+    // threshold nor outweighs the ridge's length. A step whose crest is over
+    // twice that is not the ridge's body but something set against a deeper
+    // floor (a seated rod's end over the groove's bottom, whose image the
+    // tip's shape sets more than the rod's place) and is left out; each
+    // other pixel weighs its rise clipped at the ridge's height.
+    std::vector<float> crests;
+    for (const auto &[step, c] : crest)
+        if (c > 1e-6f) crests.push_back(c);
+    if (crests.empty()) return false;
+    std::nth_element(crests.begin(), crests.begin() + crests.size() / 2, crests.end());
+    const double peak = crests[crests.size() / 2];
     if (peak <= 1e-6) return false;
     const double floor_nm = 0.5 * peak;
     double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
     for (int row = r.y; row < r.y + r.height; ++row)
         for (int col = r.x; col < r.x + r.width; ++col) {
-            const double w = rise.at<float>(row - r.y, col - r.x) - floor_nm;
-            if (w <= 0 || !in_band.at<uchar>(row - r.y, col - r.x)) continue;
+            const double w = std::min<double>(rise.at<float>(row - r.y, col - r.x), peak) - floor_nm;
+            if (w <= 0 || !in_band.at<uchar>(row - r.y, col - r.x) || crest[step_of.at<int>(row - r.y, col - r.x)] > 2 * peak) continue;
             const double x = f.x_of(col), y = f.y_of(row);
             sw += w;
             sx += w * x;

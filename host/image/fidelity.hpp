@@ -94,10 +94,12 @@ RodCheck check_rod(const cv::Mat &scan_nm, const Field &f, cv::Point2d centre_nm
 // Locates a ridge (a wire) within band_nm of a polyline: the rise-weighted
 // centroid and principal axis (radians from +x, in [0, pi)) of the pixels of
 // that band whose rise is above half its peak. The rise is a pixel's height
-// above the ground around it (the image less its opening by a disc of
-// radius band_nm: 0 on the flat substrate and on a groove's walls, so a
-// wire lying on the flat and one seated in a groove below the surface are
-// found alike). Returns false if the band holds no ridge.
+// above the ground beside it across the nearest segment's axis (the image
+// less its opening by a line of half-length band_nm across that axis: 0 on
+// the flat substrate, on a groove's walls and at a groove's end, so a wire
+// lying on the flat and one seated in a groove below the surface are found
+// alike, and the end of a seated rod does not outweigh its length). Returns
+// false if the band holds no ridge.
 bool locate_ridge(const cv::Mat &h_nm, const Field &f, const std::vector<cv::Point2d> &nodes_nm, double band_nm,
                   double *cx, double *cy, double *angle_rad);
 

@@ -29,13 +29,6 @@ KNOWN_VERDICT_FAILURES = {
     ("rod", "l_0.45L"): "fidelity: the display ends about 30 nm off the rod pushed near its middle",
     ("drift", "local_scans"): "fidelity: the sample drifts on after the last local scan",
     ("drift", "far"): "fidelity: the sample drifts on after the wider scan's fix",
-    # A regression the clean clone of ef1b081 found, to be fixed first: the
-    # image is now the tip's dilation of the whole map (sim_afm/dilation), in
-    # which a rod seated in the V-groove the tip cut fills the groove up to
-    # its top, so the renderer's ridge check (host/image/fidelity.cpp
-    # locate_ridge, a white top-hat) finds no ridge there and reads the rod
-    # across the trench: angle 90 deg off, 1,361 nm.
-    ("trench", "zigzag"): "assembly, fidelity: the seated rod's image fills its groove; the ridge check finds no ridge",
 }
 
 

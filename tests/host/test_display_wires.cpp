@@ -2,8 +2,9 @@
 // (host/display, fidelity, profile): the closed forms against brute
 // force dilations, a known wire's footprint and height, a trench's depth
 // where the tip fits and where it does not, local update == full redraw with
-// moving wires and growing trenches, the colour scale below 0, and the
-// fidelity check catching a misplaced wire.
+// moving wires and growing trenches, the colour scale below 0, the
+// fidelity check catching a misplaced wire, and a rod seated in a groove
+// found along its length.
 #include <unity.h>
 
 #include <opencv2/core.hpp>
@@ -288,6 +289,51 @@ void test_fidelity_rms_counts_a_trench_the_display_lacks()
     TEST_ASSERT_TRUE(afm::compare_with_scan(blind.height(), scan, kField, afm::DisplayModel{}, kTip, 40).rms_height_error_nm > 1.0);
 }
 
+// A rod seated in a V-groove, its ends over the groove's floor, imaged by a
+// brute-force dilation at the trench run's pixel (15.6 nm). The tip falls
+// far past each end into the V, so an end is a narrow spike that rises more
+// above the ground beside it than the rod's body does above the walls; at
+// some pixel phases only one end shows it. The ridge is still found along
+// the rod, its centre within a quarter pixel of the rod's, at every phase.
+void test_ridge_of_a_rod_seated_in_a_groove_is_found_along_it_at_every_pixel_phase()
+{
+    const afm::Field field{-1000, -1000, 2000, 128};
+    const afm::TipShape tip{10, 20};
+    const double g = 20 * kDeg, depth = 337, R = 50, yc = 100, L = 1300 - 2 * R;
+    const double zc = -depth + R / std::sin(g);   // the axis where the rod rests on both walls
+    const int reach = static_cast<int>(std::ceil(depth * std::tan(g) / field.pitch())) + 2;
+    for (double shift = 0; shift < field.pitch(); shift += field.pitch() / 5) {
+        const double x0 = -L / 2 + shift, x1 = L / 2 + shift;
+        cv::Mat surface(field.px, field.px, CV_32F), image(field.px, field.px, CV_32F);
+        for (int r = 0; r < field.px; ++r)
+            for (int c = 0; c < field.px; ++c) {
+                const double x = field.x_of(c), y = field.y_of(r), u = std::fabs(y - yc);
+                double h = std::min(0.0, -depth + u / std::tan(g));
+                const double dx = x < x0 ? x - x0 : (x > x1 ? x - x1 : 0.0), d2 = dx * dx + (y - yc) * (y - yc);
+                if (d2 < R * R) h = std::max(h, zc + std::sqrt(R * R - d2));
+                surface.at<float>(r, c) = static_cast<float>(h);
+            }
+        for (int r = 0; r < field.px; ++r)
+            for (int c = 0; c < field.px; ++c) {
+                double best = -1e9;
+                for (int i = std::max(0, r - reach); i <= std::min(field.px - 1, r + reach); ++i)
+                    for (int j = std::max(0, c - reach); j <= std::min(field.px - 1, c + reach); ++j)
+                        best = std::max(best, surface.at<float>(i, j) -
+                                                  tip_surface_nm(field.pitch() * std::hypot(i - r, j - c), tip));
+                image.at<float>(r, c) = static_cast<float>(best);
+            }
+        double cx = 0, cy = 0, a = 0;
+        const double band = afm::wire_footprint_nm(R, tip) + 40;
+        TEST_ASSERT_TRUE(afm::locate_ridge(image, field, {{x0, yc}, {x1, yc}}, band, &cx, &cy, &a));
+        const double along = std::min(a, M_PI - a) * 180 / M_PI;
+        std::printf("seated rod shifted %.2f nm: centre off by (%.2f, %.2f) nm, axis %.3f deg off\n", shift, cx - 0.5 * (x0 + x1),
+                    cy - yc, along);
+        TEST_ASSERT_DOUBLE_WITHIN(0.25 * field.pitch(), 0.5 * (x0 + x1), cx);
+        TEST_ASSERT_DOUBLE_WITHIN(1.0, yc, cy);
+        TEST_ASSERT_TRUE(along < 0.5);
+    }
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -301,5 +347,6 @@ int main()
     RUN_TEST(test_growing_trench_touches_only_its_new_end);
     RUN_TEST(test_fidelity_passes_honest_and_catches_a_wire_misplaced_by_20nm);
     RUN_TEST(test_fidelity_rms_counts_a_trench_the_display_lacks);
+    RUN_TEST(test_ridge_of_a_rod_seated_in_a_groove_is_found_along_it_at_every_pixel_phase);
     return UNITY_END();
 }
