@@ -10,7 +10,7 @@ import statistics
 
 import jinja2
 
-from analysis import pareto
+from analysis import pareto, units
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -58,25 +58,31 @@ def write_csv_json(out, points, knob_keys, meta):
     return cols
 
 
-def fmt(v, digits=3):
+def fmt(v, digits=None):
+    """A value as the tables show it: analysis/units.py's number (at most 4
+    significant digits, yes/no), "-" for none; `digits` is not used (the
+    one owner decides)."""
     if v is None or v == "":
         return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
     if isinstance(v, (int, float)):
-        if v == 0:
-            return "0"
-        a = abs(v)
-        if a >= 1e5 or a < 1e-3:
-            return f"{v:.{digits}g}"
-        return f"{v:.{max(0, digits - 1 - int(math.floor(math.log10(a))))}f}"
+        return units.number(v)
     return str(v)
 
 
-TABLE = [("force_rms_pN", "F rms pN"), ("force_worst_pN", "F worst pN"), ("apex_rms_nm", "apex rms nm"),
-         ("objects_worst_nm", "obj worst nm"), ("display_max_nm", "display nm")]
-TABLE_COSTS = [("wall_s_per_sim_s", "wall s/s"), ("cpu_s_per_sim_s", "CPU s/s"), ("fw_instr_per_sample", "fw instr"),
-               ("fw_text_bytes", "fw text B"), ("renderer_ms_per_frame", "render ms")]
+# Costs a single run per point cannot tell from the machine's noise: the
+# timings (the others, counted, are exact in one run).
+TIMINGS = ("wall_s_per_sim_s", "cpu_s_per_sim_s", "renderer_ms_per_frame")
+
+
+def single_runs(points):
+    """True when no point was repeated: its timings' noise is unmeasured."""
+    return all(len(p.get("runs") or []) <= 1 for p in points if p["status"] == "ok")
+
+
+TABLE = [("force_rms_pN", "F rms (pN)"), ("force_worst_pN", "F worst (pN)"), ("apex_rms_nm", "apex rms (nm)"),
+         ("objects_worst_nm", "obj worst (nm)"), ("display_max_nm", "display (nm)")]
+TABLE_COSTS = [("wall_s_per_sim_s", "wall (s/s)"), ("cpu_s_per_sim_s", "CPU (s/s)"), ("fw_instr_per_sample", "fw instr"),
+               ("fw_text_bytes", "fw text (B)"), ("renderer_ms_per_frame", "render (ms)")]
 
 
 def table(points):
@@ -163,8 +169,9 @@ def conclusion(points, knobs, effects, best):
             f = e.get(k)
             if f is not None and abs(math.log(f)) > math.log(1 + pareto.MIN_RELATIVE_SPREAD):
                 parts.append(f"{label} x{fmt(f)}")
+        single = single_runs(points)
         costs = [f"{l} x{fmt(e.get(k))}" for k, l, _ in pareto.COSTS
-                 if pareto.varies(ok, "costs", k) and e.get(k) is not None]
+                 if pareto.varies(ok, "costs", k) and e.get(k) is not None and not (single and k in TIMINGS)]
         what = "; ".join(parts) if parts else "no error figure beyond its noise"
         out.append(f"{e['knob']} from {e['from']} to {e['to']}: {what}" + (f"; costs {', '.join(costs)}" if costs else "") +
                    f" (median over {e['pairs']} pair(s)).")
@@ -173,8 +180,12 @@ def conclusion(points, knobs, effects, best):
                    f"{pareto.MIN_RELATIVE_SPREAD:.0%} of its value: within these knobs the accuracy does not depend on them.")
     if still:
         out.append("Unchanged beyond noise: " + ", ".join(still) + ".")
+    if single_runs(points):
+        out.append("Timings (wall, CPU and renderer time) are not compared: one run per point leaves their noise "
+                   "on a shared machine unmeasured (--repeat 3 measures it).")
     if best:
-        out.append(f"Best buy: {best[0]['knob']} (the most accuracy per unit of CPU time).")
+        out.append(f"Best buy: {best[0]['knob']} (the most accuracy per unit of CPU time"
+                   + ("; from one run per point, within the timings' unmeasured noise)." if single_runs(points) else ")."))
     if failed:
         out.append(f"{failed} of {len(points)} points failed (the table says why).")
     return out
@@ -208,10 +219,12 @@ def write_html(out, meta, points, knobs, plots, effects, best):
         with open(base + ".svg") as f:
             svg = f.read()
         svgs[(ek, ck)] = svg[svg.index("<svg"):]
+    env.filters["knob"] = lambda v: units.number(v) if isinstance(v, (int, float)) else str(v)
     html = env.get_template("sweep.html.j2").render(
         meta=meta, points=points, knobs=knobs, plots=plots, svgs=svgs, effects=effects, best=best,
         conclusion=conclusion(points, knobs, effects, best), min_spread=pareto.MIN_RELATIVE_SPREAD,
         errors=pareto.ERRORS, costs=pareto.COSTS, table_errors=TABLE, table_costs=TABLE_COSTS,
+        single=single_runs(points), timings=TIMINGS,
         now=datetime.datetime.now().isoformat(timespec="seconds"))
     with open(os.path.join(out, "report.html"), "w") as f:
         f.write(html)
