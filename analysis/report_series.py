@@ -50,6 +50,7 @@ FW, TRUTH = 0, 1
 CHUNK_ROWS = 16384
 BLOCK_BINS = 4096       # the force and apex figures: about 800 px of axes each
 PARTICLE_BINS = 1024    # the objects' figure: two axes of about 400 px
+DIFF_BINS = 1024        # card minus truth: a bin to a pixel column or so (a noisy line drawn no longer than it shows)
 BLOCK_COLUMNS = ["force_nN_x", "force_nN_y", "force_nN_z", "tip_nm_x", "tip_nm_y"]
 PARTICLE_COLUMNS = ["x_nm", "y_nm"]
 
@@ -276,9 +277,9 @@ class Series:
         self.block_rows = [0, 0]  # rows per channel (FW, TRUTH)
         self.undecodable = self.refused = 0
         self.recorded = (0, 0)    # the first and last block's recording time, us since the epoch
-        self.diff = Envelope(BLOCK_COLUMNS, BLOCK_BINS)
+        self.diff = Envelope(BLOCK_COLUMNS, DIFF_BINS)
         self.diff_stats = Stats(BLOCK_COLUMNS)
-        self.particle_diff = Envelope(PARTICLE_COLUMNS, PARTICLE_BINS)
+        self.particle_diff = Envelope(PARTICLE_COLUMNS, DIFF_BINS)
         self.particle_diff_stats = {}   # particle id -> Stats
         self.diff_index = {}            # particle id -> series index in particle_diff
         self._pairs, self._ppairs, self._t_end = _BlockPairs(), _ParticlePairs(), 0.0

@@ -28,9 +28,9 @@ significant digits, yes/no); every table whole. The page fits 1,000 px:
 the contact sheet's tiles flow in rows the page's width holds, shown at a
 size where their labels read MIN_CAP_PX; the video's controls sit below the
 picture. Each figure is also written beside the page, figures/NAME.png and
-figures/NAME.svg (linked from the page): the SVGs drawn by a forked child
-while the parent draws the PNGs, so they cost the page no wall time on a
-second core.
+figures/NAME.svg (linked from the page): a forked child draws the SVGs
+(and the last figure's PNG) while the parent draws the other PNGs, so
+that on a second core they cost the page no wall time.
 A run that failed still gets a page with what it left.
 
 Every file of the run folder is read, and the page written, through
@@ -86,10 +86,7 @@ def _figure(nrows, ncols, figsize, right_in=0.15, **kw):
 
 
 def _png(fig):
-    import io
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+    return "data:image/png;base64," + base64.b64encode(_png_bytes(fig)).decode()
 
 
 class Folder:
@@ -133,19 +130,44 @@ def _stats_text(st, unit):
     return f"bias {units.show(st['bias'], unit, sign=True, like=st['rms'])}, RMS {units.show(st['rms'], unit)}"
 
 
-def _diff_axes(series, name, title, columns, figsize):
+# The figures: (name, title, [(column, what is plotted)], size in inches).
+FORCE = ("force", "Force of the sample on the tip: the card's minus the truth",
+         [("force_nN_x", "F_x"), ("force_nN_y", "F_y"), ("force_nN_z", "F_z")], (9, 6.6))
+APEX = ("apex", "The apex: the card's compensated position minus the truth",
+        [("tip_nm_x", "apex x"), ("tip_nm_y", "apex y")], (9, 4.6))
+OBJECTS = ("objects", "Objects: the card's model minus the truth", [("x_nm", "x"), ("y_nm", "y")], (9, 5.2))
+TICKS = 9   # ticks an axis is given ahead (a figure's drawing makes them otherwise, at 2 ms each)
+_SKELETONS = {}
+
+
+def _skeleton(spec):
+    """A figure of `spec` with its axes, labels and zero lines and no data,
+    its ticks made ahead: built once (while ./afm run's run runs, under
+    --wait) and filled once."""
+    name, _, columns, size = spec
+    if name not in _SKELETONS:
+        fig, axs = _figure(len(columns), 1, size, right_in=3.3 if spec is OBJECTS else 0.15, sharex=True)
+        for ax, (col, what) in zip(axs, columns):
+            ax.axhline(0, color="0.55", lw=0.6)
+            ax.set_ylabel(f"{what} ({units.split(col)[1]})")
+            ax.xaxis.get_major_ticks(TICKS)
+            ax.yaxis.get_major_ticks(TICKS)
+        axs[-1].set_xlabel("simulated time (s)")
+        _SKELETONS[name] = (fig, axs)
+    return _SKELETONS.pop(name)
+
+
+def _diff_axes(series, spec):
     """(name, title, figure, rows of the table): card minus truth per block."""
-    fig, axs = _figure(len(columns), 1, figsize, sharex=True)
+    name, title, columns, _ = spec
+    fig, axs = _skeleton(spec)
     rows = []
     for ax, (col, what) in zip(axs, columns):
-        label, unit = units.split(col)
+        unit = units.split(col)[1]
         st = series.diff_stats.figures(col)
         ax.plot(*series.diff.points(0, col), lw=0.8, color="C0")
-        ax.axhline(0, color="0.55", lw=0.6)
-        ax.set_ylabel(f"{what} ({unit})")
         ax.set_title(f"{what}, card − truth: {_stats_text(st, unit)}", loc="left")
         rows.append((what, st, unit))
-    axs[-1].set_xlabel("simulated time (s)")
     return name, title, fig, rows
 
 
@@ -165,19 +187,15 @@ def _objects(series):
     ids = _object_ids(series)
     if not ids:
         return None
-    fig, axs = _figure(2, 1, (9, 5.2), right_in=3.3, sharex=True)
+    fig, axs = _skeleton(OBJECTS)
     rows = []
-    for ax, col in zip(axs, ("x_nm", "y_nm")):
-        c = col[0]
+    for ax, (col, c) in zip(axs, OBJECTS[2]):
         for i in ids:
             st = series.particle_diff_stats[i].figures(col)
             ax.plot(*series.particle_diff_points(i, col), lw=0.9, drawstyle="steps-post", label=f"p{i}: {_stats_text(st, 'nm')}")
             rows.append((f"object p{i}, {c}", st, "nm"))
-        ax.axhline(0, color="0.55", lw=0.6)
-        ax.set_ylabel(f"{c} (nm)")
         ax.set_title(f"{c}, card's model − truth", loc="left")
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, handlelength=1.2)
-    axs[-1].set_xlabel("simulated time (s)")
     rows.sort(key=lambda r: r[0])
     return ("objects", f"Objects (the {len(ids)} the card had most wrong): the card's model minus the truth", fig, rows)
 
@@ -187,12 +205,8 @@ def _figures(series):
     from analysis.report_series import FW, TRUTH
     if not (series and series.has(FW) and series.has(TRUTH)):
         return []
-    out = [_diff_axes(series, "force", "Force of the sample on the tip: the card's minus the truth",
-                      [("force_nN_x", "F_x"), ("force_nN_y", "F_y"), ("force_nN_z", "F_z")], (9, 6.6)),
-           _diff_axes(series, "apex", "The apex: the card's compensated position minus the truth",
-                      [("tip_nm_x", "apex x"), ("tip_nm_y", "apex y")], (9, 4.6))]
     obj = _objects(series)
-    return out + ([obj] if obj else [])
+    return [_diff_axes(series, FORCE), _diff_axes(series, APEX)] + ([obj] if obj else [])
 
 
 def _diff_table(figs):
@@ -210,42 +224,79 @@ def _diff_table(figs):
     return f'<table class="num">{head}{"".join(body)}</table>' if body else ""
 
 
+def _png_bytes(fig):
+    import io
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, pil_kwargs={"compress_level": 1})   # zlib's fastest: its time, not bytes, waited for
+    return buf.getvalue()
+
+
+def _child(figs, mine, dest, out_fd):
+    """The forked child's share (_draw): the PNGs of `mine` (their bytes
+    pickled into out_fd) and every SVG, written into dest; exits 0, or 1
+    having said why."""
+    import io
+    import pickle
+    code = 0
+    try:
+        pngs = {name: _png_bytes(fig) for name, _, fig, _ in figs if name in mine}
+        with os.fdopen(out_fd, "wb") as f:
+            f.write(pickle.dumps(pngs))
+        for name, _, fig, _ in figs:
+            buf = io.StringIO()
+            fig.savefig(buf, format="svg", metadata={"Date": None})
+            safefs.write_atomic(dest[0], f"{FIGURES}/{name}.svg", buf.getvalue(), dest[1])
+    except BaseException as e:   # the parent's page then links no SVG
+        print(f"run_report: the SVG figures were not written: {e}", file=sys.stderr)
+        code = 1
+    finally:
+        sys.stderr.flush()
+        os._exit(code)
+
+
 def _draw(figs, dest):
     """The figures as PNG data URIs, each also written as dest's
-    figures/NAME.png; their SVGs written meanwhile by a forked child
-    (figures/NAME.svg). dest: (folder descriptor, its path) or None (no
-    files). Returns ({name: data URI}, {name: True when its SVG is there})."""
-    import io
-    svg_pid = None
+    figures/NAME.png and figures/NAME.svg. dest: (folder descriptor, its
+    path), or None (no files: the PNGs alone, here). With dest the work is
+    shared with a forked child on the second core: it draws the last
+    figure's PNG (sent back through a pipe) and every SVG while this
+    process draws the other PNGs. Returns ({name: data URI}, {name: True
+    when its SVG is there})."""
+    import pickle
     if dest is not None:
-        safefs.make_dir(dest[0], FIGURES, dest[1])
+        try:
+            os.close(safefs.make_dir(dest[0], FIGURES, dest[1]))
+        except (safefs.Refused, OSError) as e:   # a link planted there: the figures inline only, and said
+            print(f"run_report: {e}: the figures are not written as files", file=sys.stderr)
+            dest = None
+    pid, theirs, pngs = None, set(), {}
+    if dest is not None and figs:
+        theirs = {figs[-1][0]} if len(figs) > 1 else set()
+        r, w = os.pipe()
         sys.stdout.flush()
         sys.stderr.flush()
-        svg_pid = os.fork()
-        if svg_pid == 0:   # the child: every SVG, then out without the parent's exit handlers
-            code = 0
-            try:
-                for name, _, fig, _ in figs:
-                    buf = io.StringIO()
-                    fig.savefig(buf, format="svg", metadata={"Date": None})
-                    safefs.write_atomic(dest[0], f"{FIGURES}/{name}.svg", buf.getvalue(), dest[1])
-            except BaseException as e:   # said by the parent's page: no link
-                print(f"run_report: the SVG figures were not written: {e}", file=sys.stderr)
-                code = 1
-            finally:
-                sys.stderr.flush()
-                os._exit(code)
-    uris = {}
+        pid = os.fork()
+        if pid == 0:
+            os.close(r)
+            _child(figs, theirs, dest, w)
+        os.close(w)
     for name, _, fig, _ in figs:
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=100)
-        uris[name] = "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
-        if dest is not None:
-            safefs.write_atomic(dest[0], f"{FIGURES}/{name}.png", buf.getvalue(), dest[1])
+        if name not in theirs:
+            pngs[name] = _png_bytes(fig)
     svgs = {}
-    if svg_pid is not None:
-        ok = os.waitpid(svg_pid, 0)[1] == 0
+    if pid is not None:
+        with os.fdopen(r, "rb") as f:
+            got = f.read()
+        ok = os.waitpid(pid, 0)[1] == 0
+        pngs.update(pickle.loads(got) if got else {})
         svgs = {name: ok for name, _, _, _ in figs}
+    uris = {}
+    for name, _, _, _ in figs:
+        if name not in pngs:   # the child failed before its PNG: drawn here
+            pngs[name] = _png_bytes(next(f for n, _, f, _ in figs if n == name))
+        uris[name] = "data:image/png;base64," + base64.b64encode(pngs[name]).decode()
+        if dest is not None:
+            safefs.write_atomic(dest[0], f"{FIGURES}/{name}.png", pngs[name], dest[1])
     return uris, svgs
 
 
@@ -518,6 +569,8 @@ def _ready():
     ax.set_title("F_x, card − truth", loc="left")
     ax.legend(title="t")
     _png(fig)
+    for spec in (FORCE, APEX, OBJECTS):   # the page's figures without data, their ticks made
+        _SKELETONS[spec[0]] = _skeleton(spec)
     from analysis import report_series
     try:
         report_series._lib()
