@@ -78,7 +78,7 @@ def plot(points, ek, ck, out_base):
     cl = next(c for c in COSTS if c[0] == ck)
     pts = [p for p in points if p["errors"].get(ek) is not None and p["costs"].get(ck) is not None]
     fr = front(pts, ek, ck)
-    fig, ax = plt.subplots(figsize=(8, 4.4))
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
     ax.scatter([p["costs"][ck] for p in pts], [p["errors"][ek] for p in pts], s=28, color="#9aa7b5", label="points",
                zorder=2)
     # repeated points: their runs' range on each axis
@@ -104,20 +104,12 @@ def plot(points, ek, ck, out_base):
         ax.set_ylim(bottom=0)   # from 0: a small difference looks small
     if all(p["costs"][ck] >= 0 for p in pts) and max(p["costs"][ck] for p in pts) <= 20 * max(min(p["costs"][ck] for p in pts), 1e-300):
         ax.set_xlim(left=0)
-    # room past the extreme points (their markers and labels whole, none on the axes' corner)
-    ys, xs = [p["errors"][ek] for p in pts], [p["costs"][ck] for p in pts]
-    if ys and ax.get_yscale() == "linear":
-        lo, hi = ax.get_ylim()
-        ax.set_ylim(lo, max(hi, max(ys) + 0.12 * (max(ys) - min(lo, min(ys)) or abs(max(ys)) or 1)))
-    if xs:
-        lo, hi = ax.get_xlim()
-        ax.set_xlim(lo, max(hi, max(xs) + 0.1 * (max(xs) - min(lo, min(xs)) or abs(max(xs)) or 1)))
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)   # beside, never over a point
+    ax.legend(fontsize=8, loc="best")
     ax.set_title(f"{el[1]} against {cl[1]}", fontsize=9)
     fig.tight_layout()
     os.makedirs(os.path.dirname(out_base), exist_ok=True)
     fig.savefig(out_base + ".png", dpi=110)
-    fig.savefig(out_base + ".svg", metadata={"Date": None})
+    fig.savefig(out_base + ".svg")
     plt.close(fig)
     return fr

@@ -69,16 +69,6 @@ def fmt(v, digits=None):
     return str(v)
 
 
-# Costs a single run per point cannot tell from the machine's noise: the
-# timings (the others, counted, are exact in one run).
-TIMINGS = ("wall_s_per_sim_s", "cpu_s_per_sim_s", "renderer_ms_per_frame")
-
-
-def single_runs(points):
-    """True when no point was repeated: its timings' noise is unmeasured."""
-    return all(len(p.get("runs") or []) <= 1 for p in points if p["status"] == "ok")
-
-
 TABLE = [("force_rms_pN", "F rms (pN)"), ("force_worst_pN", "F worst (pN)"), ("apex_rms_nm", "apex rms (nm)"),
          ("objects_worst_nm", "obj worst (nm)"), ("display_max_nm", "display (nm)")]
 TABLE_COSTS = [("wall_s_per_sim_s", "wall (s/s)"), ("cpu_s_per_sim_s", "CPU (s/s)"), ("fw_instr_per_sample", "fw instr"),
@@ -169,9 +159,8 @@ def conclusion(points, knobs, effects, best):
             f = e.get(k)
             if f is not None and abs(math.log(f)) > math.log(1 + pareto.MIN_RELATIVE_SPREAD):
                 parts.append(f"{label} x{fmt(f)}")
-        single = single_runs(points)
         costs = [f"{l} x{fmt(e.get(k))}" for k, l, _ in pareto.COSTS
-                 if pareto.varies(ok, "costs", k) and e.get(k) is not None and not (single and k in TIMINGS)]
+                 if pareto.varies(ok, "costs", k) and e.get(k) is not None]
         what = "; ".join(parts) if parts else "no error figure beyond its noise"
         out.append(f"{e['knob']} from {e['from']} to {e['to']}: {what}" + (f"; costs {', '.join(costs)}" if costs else "") +
                    f" (median over {e['pairs']} pair(s)).")
@@ -180,12 +169,8 @@ def conclusion(points, knobs, effects, best):
                    f"{pareto.MIN_RELATIVE_SPREAD:.0%} of its value: within these knobs the accuracy does not depend on them.")
     if still:
         out.append("Unchanged beyond noise: " + ", ".join(still) + ".")
-    if single_runs(points):
-        out.append("Timings (wall, CPU and renderer time) are not compared: one run per point leaves their noise "
-                   "on a shared machine unmeasured (--repeat 3 measures it).")
     if best:
-        out.append(f"Best buy: {best[0]['knob']} (the most accuracy per unit of CPU time"
-                   + ("; from one run per point, within the timings' unmeasured noise)." if single_runs(points) else ")."))
+        out.append(f"Best buy: {best[0]['knob']} (the most accuracy per unit of CPU time).")
     if failed:
         out.append(f"{failed} of {len(points)} points failed (the table says why).")
     return out
@@ -224,7 +209,6 @@ def write_html(out, meta, points, knobs, plots, effects, best):
         meta=meta, points=points, knobs=knobs, plots=plots, svgs=svgs, effects=effects, best=best,
         conclusion=conclusion(points, knobs, effects, best), min_spread=pareto.MIN_RELATIVE_SPREAD,
         errors=pareto.ERRORS, costs=pareto.COSTS, table_errors=TABLE, table_costs=TABLE_COSTS,
-        single=single_runs(points), timings=TIMINGS,
         now=datetime.datetime.now().isoformat(timespec="seconds"))
     with open(os.path.join(out, "report.html"), "w") as f:
         f.write(html)

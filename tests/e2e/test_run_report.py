@@ -198,7 +198,7 @@ class RunReport(unittest.TestCase):
             for ext in ("png", "svg"):
                 self.assertTrue(os.path.isfile(os.path.join(out, "figures", f"{name}.{ext}")), f"{name}.{ext}")
                 self.assertIn(f'href="figures/{name}.{ext}"', page)
-        self.assertIn("F_x, card − truth: bias ", page)
+        self.assertRegex(page, r"<tr><th>F_x</th><td>[+-][0-9.]+ nN</td><td>[0-9.]+ nN</td>", "F_x's bias and RMS as numbers")
         over, raw = page_faults(os.path.join(out, "report.html"))
         self.assertEqual(over, [], "elements past the page's 1,000 px")
         self.assertEqual(raw, [], "raw values on the page")
