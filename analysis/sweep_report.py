@@ -10,7 +10,7 @@ import statistics
 
 import jinja2
 
-from analysis import pareto
+from analysis import pareto, units
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -58,25 +58,21 @@ def write_csv_json(out, points, knob_keys, meta):
     return cols
 
 
-def fmt(v, digits=3):
+def fmt(v, digits=None):
+    """A value as the tables show it: analysis/units.py's number (at most 4
+    significant digits, yes/no), "-" for none; `digits` is not used (the
+    one owner decides)."""
     if v is None or v == "":
         return "-"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
     if isinstance(v, (int, float)):
-        if v == 0:
-            return "0"
-        a = abs(v)
-        if a >= 1e5 or a < 1e-3:
-            return f"{v:.{digits}g}"
-        return f"{v:.{max(0, digits - 1 - int(math.floor(math.log10(a))))}f}"
+        return units.number(v)
     return str(v)
 
 
-TABLE = [("force_rms_pN", "F rms pN"), ("force_worst_pN", "F worst pN"), ("apex_rms_nm", "apex rms nm"),
-         ("objects_worst_nm", "obj worst nm"), ("display_max_nm", "display nm")]
-TABLE_COSTS = [("wall_s_per_sim_s", "wall s/s"), ("cpu_s_per_sim_s", "CPU s/s"), ("fw_instr_per_sample", "fw instr"),
-               ("fw_text_bytes", "fw text B"), ("renderer_ms_per_frame", "render ms")]
+TABLE = [("force_rms_pN", "F rms (pN)"), ("force_worst_pN", "F worst (pN)"), ("apex_rms_nm", "apex rms (nm)"),
+         ("objects_worst_nm", "obj worst (nm)"), ("display_max_nm", "display (nm)")]
+TABLE_COSTS = [("wall_s_per_sim_s", "wall (s/s)"), ("cpu_s_per_sim_s", "CPU (s/s)"), ("fw_instr_per_sample", "fw instr"),
+               ("fw_text_bytes", "fw text (B)"), ("renderer_ms_per_frame", "render (ms)")]
 
 
 def table(points):
@@ -208,6 +204,7 @@ def write_html(out, meta, points, knobs, plots, effects, best):
         with open(base + ".svg") as f:
             svg = f.read()
         svgs[(ek, ck)] = svg[svg.index("<svg"):]
+    env.filters["knob"] = lambda v: units.number(v) if isinstance(v, (int, float)) else str(v)
     html = env.get_template("sweep.html.j2").render(
         meta=meta, points=points, knobs=knobs, plots=plots, svgs=svgs, effects=effects, best=best,
         conclusion=conclusion(points, knobs, effects, best), min_spread=pareto.MIN_RELATIVE_SPREAD,

@@ -347,9 +347,11 @@ def paper_probe():
 
 
 def save(fig, exp_dir, fname):
-    """Writes a figure into the experiment's folder and closes it; its file name."""
+    """Writes a figure into the experiment's folder (PNG, and SVG beside it
+    for print: the report links both) and closes it; its file name."""
     fig.tight_layout()
     fig.savefig(os.path.join(exp_dir, fname), dpi=110)
+    fig.savefig(os.path.join(exp_dir, os.path.splitext(fname)[0] + ".svg"), metadata={"Date": None})
     plt().close(fig)
     return fname
 

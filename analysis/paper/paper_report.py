@@ -2,7 +2,10 @@
 self-contained report.html (figures inline), and the tables on stdout: the
 figures (paper, bench, truth) and the paper's models against the truth
 (model, truth), each row with the error, its tolerance from
-analysis/paper/tolerances.yaml and its verdict."""
+analysis/paper/tolerances.yaml and its verdict. Numbers through
+analysis/units.py (at most 4 significant digits; an absolute error and
+tolerance with the row's unit); each figure inline, with links to its PNG
+and, where the experiment wrote one beside it, its SVG."""
 import base64
 import datetime
 import json
@@ -11,27 +14,35 @@ from dataclasses import asdict
 
 import jinja2
 
-from analysis import paths
-from analysis.sweep_report import fmt as sweep_fmt
+from analysis import paths, units
 
 TEMPLATES = os.path.join(paths.ROOT, "analysis", "templates")
 
 
-def fmt(v, digits=4):
-    """A number as a person reads it (None: a dash): the sweep report's."""
-    return sweep_fmt(v, digits)
+def fmt(v, digits=None):
+    """A number as a person reads it (None: a dash): analysis/units.py's
+    (at most 4 significant digits, no exponent, yes/no)."""
+    if v is None or v == "":
+        return "-"
+    return units.number(v) if isinstance(v, (int, float)) else str(v)
+
+
+def _with_unit(v, r, sign=False):
+    """An absolute error or tolerance with the row's unit."""
+    text = units.number(v, sign)
+    return f"{text} {r.unit}" if r.unit else text
 
 
 def _err(r):
     if r.error is None:
         return "-"
-    return f"{100 * r.error:+.2g} %" if r.relative else fmt(r.error, 3)
+    return f"{units.number(100 * r.error, sign=True)} %" if r.relative else _with_unit(r.error, r, sign=True)
 
 
 def _tol(r):
     if r.tolerance is None:
         return "-"
-    return f"{100 * r.tolerance:.3g} %" if r.relative else fmt(r.tolerance, 3)
+    return f"{units.number(100 * r.tolerance)} %" if r.relative else _with_unit(r.tolerance, r)
 
 
 def model_rows(res):
@@ -106,7 +117,9 @@ def write(out, results, size, wall_s):
     env.filters["fmt"] = fmt
     exps = []
     for n, (e, res, w) in results.items():
-        figs = [(cap, _inline(os.path.join(out, n, fn))) for cap, fn in res.figures if os.path.exists(os.path.join(out, n, fn))]
+        figs = [(cap, _inline(os.path.join(out, n, fn)), f"{n}/{fn}",
+                 f"{n}/{os.path.splitext(fn)[0]}.svg" if os.path.exists(os.path.join(out, n, os.path.splitext(fn)[0] + ".svg")) else None)
+                for cap, fn in res.figures if os.path.exists(os.path.join(out, n, fn))]
         row = lambda r: dict(asdict(r), err=_err(r), tol=_tol(r), verdict=r.verdict)
         rows, models = [row(r) for r in figure_rows(res)], [row(r) for r in model_rows(res)]
         exps.append({"name": n, "title": e.TITLE, "figs": e.FIGURES, "ok": res.ok, "rows": rows, "models": models,

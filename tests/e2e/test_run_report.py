@@ -6,7 +6,11 @@ headless), whose screenshot is kept in the test's output. The video is
 H.264 (ffprobe) with its index first, or run.json says the fallback ran and
 why; it plays in Chromium (no MEDIA_ERR, its time advances); at 1280 x 800
 every text on the page is 12 px or more, the frames' labels included at the
-size the page shows them."""
+size the page shows them. The run's, the sweep's and the paper's pages
+(the sweep's and the paper's from small fixtures: tests/py/test_units.py's)
+at 1280 px: no element wider than the page, no raw value in the text a
+person reads (analysis/units.py raw_values), the video's controls below the
+picture, each figure's SVG beside its PNG and linked."""
 import json
 import os
 import re
@@ -64,7 +68,7 @@ for (const el of document.querySelectorAll('body *')) {
 }
 const images = [];
 for (const el of document.querySelectorAll('[data-label-cap-px]')) {
-  const natural = el.videoWidth || el.naturalWidth;
+  const natural = el.videoWidth || el.naturalWidth || parseFloat(el.dataset.naturalPx);
   const shown = el.getBoundingClientRect().width;
   images.push([el.tagName, parseFloat(el.dataset.labelCapPx) * shown / natural, natural, shown]);
 }
@@ -95,7 +99,7 @@ class RunReport(unittest.TestCase):
     def test_it_says_the_verdict_and_each_part(self):
         self.assertIn("Verdict: pass", self.html)
         for part in ("Contact sheet", "Force of the sample on the tip", "The apex", "Objects (the", "Fidelity",
-                     "The card's configuration", "Costs", "fw_node CPU (s)"):
+                     "The card's configuration", "Costs", "fw_node CPU time", "The card minus the truth"):
             self.assertIn(part, self.html)
 
     def test_a_failed_verdict_is_listed_with_its_figures(self):
@@ -187,6 +191,26 @@ class RunReport(unittest.TestCase):
         finally:
             d.quit()
 
+    def test_the_run_page_fits_and_shows_no_raw_value(self):   # RunReport's run, its page as written there
+        self.assertTrue(CHROMIUM and DRIVER, "chromium and chromium-driver are installed by ./afm setup")
+        out, page = self.out, self.html
+        for name in ("force", "apex", "objects"):
+            for ext in ("png", "svg"):
+                self.assertTrue(os.path.isfile(os.path.join(out, "figures", f"{name}.{ext}")), f"{name}.{ext}")
+                self.assertIn(f'href="figures/{name}.{ext}"', page)
+        self.assertRegex(page, r"<tr><th>F_x</th><td>[+-][0-9.]+ nN</td><td>[0-9.]+ nN</td>", "F_x's bias and RMS as numbers")
+        over, raw = page_faults(os.path.join(out, "report.html"))
+        self.assertEqual(over, [], "elements past the page's 1,000 px")
+        self.assertEqual(raw, [], "raw values on the page")
+        d = browser()
+        try:
+            d.get("file://" + os.path.join(out, "report.html"))
+            video, controls = d.execute_script("return [document.getElementById('run-video').getBoundingClientRect().bottom,"
+                                               "document.getElementById('run-video-play').getBoundingClientRect().top];")
+        finally:
+            d.quit()
+        self.assertGreaterEqual(controls, video, "the video's controls below the picture")
+
     def test_text_is_at_least_12_px_at_1280_by_800(self):
         self.assertTrue(CHROMIUM and DRIVER, "chromium and chromium-driver are installed by ./afm setup")
         d = browser()
@@ -215,6 +239,67 @@ class RunReport(unittest.TestCase):
                 from matplotlib.font_manager import FontProperties
                 pts = FontProperties(size=pts).get_size_in_points()
             self.assertGreaterEqual(pts * 100 / 72, 12, key)
+
+
+# Every element whose box reaches past the page's 1,000 px column (or the
+# window), or that scrolls sideways; the page's own scroll width.
+OVERFLOW_JS = """
+const page = Math.min(1000, document.documentElement.clientWidth), body = document.body.getBoundingClientRect();
+const left = body.left + (body.width - Math.min(body.width, page)) / 2, out = [];
+for (const el of document.querySelectorAll('body *')) {
+  const r = el.getBoundingClientRect();
+  if (r.width && (r.right > left + page + 0.5 || r.left < left - 0.5 || el.scrollWidth > el.clientWidth + 1 &&
+      getComputedStyle(el).overflowX !== 'visible'))
+    out.push(el.tagName + '.' + el.className + ' ' + Math.round(r.left) + '..' + Math.round(r.right));
+}
+return [out, document.documentElement.scrollWidth, document.body.innerText];
+"""
+
+
+def page_faults(path):
+    """(overflowing elements, raw values in the text) of a page in Chromium at 1280 px."""
+    from analysis import units
+    d = browser()
+    try:
+        d.get("file://" + path)
+        time.sleep(0.3)
+        over, width, text = d.execute_script(OVERFLOW_JS)
+    finally:
+        d.quit()
+    print(f"{path}: scroll width {width} px, {len(over)} element(s) past the page, {len(units.raw_values(text))} raw value(s)")
+    return over + ([f"page scroll width {width}"] if width > 1280 else []), units.raw_values(text)
+
+
+class ReportsFit(unittest.TestCase):
+    """The three reports at 1280 px: nothing past the page, no raw value."""
+
+    def test_the_sweep_page_fits_and_shows_no_raw_value(self):
+        self.assertTrue(CHROMIUM and DRIVER, "chromium and chromium-driver are installed by ./afm setup")
+        sys.path.insert(0, os.path.join(e2e_support.SRC, "tests", "py"))
+        from test_units import sweep_points
+        from analysis import sweep_report
+        out = e2e_support.tmpdir("report-sweep")
+        points, knobs = sweep_points(), [("firmware.adc_bits", [10, 12, 14])]
+        effects = sweep_report.knob_effects(points, knobs)
+        meta = {"scene_name": "short-push", "scene": "scenes/short.yaml", "ok": 3, "failed": 0, "repeat": 1,
+                "build_id": "abc", "engine": "local"}
+        plots = sweep_report.write_plots(out, points)
+        self.assertTrue(plots, "some figure varies: its plot drawn")
+        sweep_report.write_html(out, meta, points, knobs, plots, effects, sweep_report.best_buy(effects))
+        over, raw = page_faults(os.path.join(out, "report.html"))
+        self.assertEqual(over, [], "elements past the page's 1,000 px")
+        self.assertEqual(raw, [], "raw values on the page")
+
+    def test_the_paper_page_fits_and_shows_no_raw_value(self):
+        self.assertTrue(CHROMIUM and DRIVER, "chromium and chromium-driver are installed by ./afm setup")
+        sys.path.insert(0, os.path.join(e2e_support.SRC, "tests", "py"))
+        from test_units import paper_results
+        from analysis.paper import paper_report
+        out = e2e_support.tmpdir("report-paper")
+        paper_report.write(out, paper_results(out), "quick", 246.3)
+        over, raw = page_faults(os.path.join(out, "report.html"))
+        self.assertEqual(over, [], "elements past the page's 1,000 px")
+        self.assertEqual(raw, [], "raw values on the page")
 
 
 if __name__ == "__main__":

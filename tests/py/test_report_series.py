@@ -58,3 +58,26 @@ def test_series_grow_as_they_come():
     assert env.n == 6
     assert env.points(5, "x")[1].tolist() == [2.0]
     assert env.points(3, "x")[0].size == 0
+
+
+def test_card_minus_truth_pairs_blocks_across_chunks():
+    """FW and TRUTH rows of a block meet though they come in different
+    chunks (the card's a block late); the bias and RMS are the pairs'."""
+    from analysis.report_series import BLOCK_COLUMNS, FW, TRUTH, Stats, _BlockPairs
+    pairs, stats = _BlockPairs(), Stats(BLOCK_COLUMNS)
+    n, k = 1000, len(BLOCK_COLUMNS)
+    truth = np.column_stack([np.full(n, TRUTH), np.arange(n), np.arange(n) * 1000.0, np.zeros((n, k))])
+    card = truth.copy()
+    card[:, 0], card[:, 3] = FW, 0.06 + 0.1 * np.where(np.arange(n) % 2, 1, -1)   # F_x: bias 0.06, RMS sqrt(0.06² + 0.1²)
+    order = [truth[0]] + [r for i in range(1, n) for r in (truth[i], card[i - 1])] + [card[n - 1]]
+    rows = np.array(order)   # the card's row of block i after the truth's of i + 1, as a log has them
+    got = 0
+    for start in range(0, 2 * n, 333):
+        chunk = rows[start:start + 333]
+        t, d = pairs.pair(chunk[:, 0].astype(np.int64), chunk)
+        stats.add(d)
+        got += len(t)
+    assert got == n
+    f = stats.figures("force_nN_x")
+    assert abs(f["bias"] - 0.06) < 1e-12 and abs(f["rms"] - np.hypot(0.06, 0.1)) < 1e-12 and f["n"] == n
+    assert max(len(h) for h in pairs.held) == 0, "nothing left waiting"
