@@ -27,7 +27,8 @@ Contract:
     scene's tolerance (then the run is ended and judged), or after kind 3;
     truncated after max_steps actions. info: sim_s, seq, refused (why),
     placed_by_model, mean_site_error_nm, push (the planner's account),
-    and at the end fresh_scan (fidelity.assembly's particles) and run_dir.
+    and at the end fresh_scan (fidelity.assembly's particles); the run's
+    folder is env.run_dir (kept until the next reset, or with keep_runs).
   - Deterministic for a seed: the generated task's and the scene's seed.
 """
 import math
@@ -206,7 +207,7 @@ class AssemblyEnv(gym.Env):
         tol = float(self.scene.get("operator", {}).get("plan", {}).get("tolerance_nm", 25))
         info = {"sim_s": float(obs["sim_s"][0]), "seq": ready["seq"], "refused": refused,
                 "placed_by_model": sum(1 for x in e if x <= tol), "sites": len(e),
-                "mean_site_error_nm": sum(e) / len(e) if e else 0.0, "run_dir": self.run_dir}
+                "mean_site_error_nm": sum(e) / len(e) if e else 0.0}
         if "placed" in ready:
             info["push"] = {k: ready[k] for k in ("placed", "error_nm", "pushes", "scans") if k in ready}
         return info

@@ -108,5 +108,5 @@ def run_episode(env, policy, seed=None, options=None):
     return {"policy": policy.name, "return": round(ret, 3), "steps": steps, "sites": fresh.get("sites"),
             "placed": fresh.get("placed"), "worst_nm": fresh.get("worst_nm"), "rms_nm": fresh.get("rms_nm"),
             "sim_s": round(info.get("sim_s", 0.0), 2), "wall_s": round(wall, 2), "reset_s": round(reset_s, 2),
-            "steps_per_s": round(steps / wall, 1) if wall > 0 else None, "run_dir": info.get("run_dir"),
+            "steps_per_s": round(steps / wall, 1) if wall > 0 else None, "run_dir": env.unwrapped.run_dir,
             "error": info.get("error")}
