@@ -7,7 +7,7 @@ its policy (builtin: the C++ planner's jobs and pushes; random: random
 strokes), judged by the fresh scan at the end (run.json
 fidelity.assembly). A row: the task set's version, the commit, the
 planner, the task and its parameters, sites, placed, missing, worst and
-RMS error (nm), steps, simulated and wall seconds, and the episode's
+RMS error (nm) of the sites placed (empty when none is), steps, simulated and wall seconds, and the episode's
 return. Rows are appended to --out (CSV, default
 runs/bench_pattern.csv; a header when the file is new) and printed as a
 table. Exit 0 when every task ran, 1 naming the first that did not.
@@ -47,7 +47,7 @@ def row_of(t, planner, score, rev):
     out = {"taskset": patterns.TASKSET_VERSION, "commit": rev, "planner": planner, "task": t["name"],
            **{k: t[k] for k in ("n", "field_nm", "spacing_nm", "mean_travel_nm", "error_level", "seed")},
            "sites": sites, "placed": placed, "missing": sites - placed,
-           "worst_nm": round(score["worst_nm"] or 0.0, 2), "rms_nm": round(score["rms_nm"] or 0.0, 2),
+           "worst_nm": round(score["worst_nm"], 2) if placed else "", "rms_nm": round(score["rms_nm"], 2) if placed else "",
            "steps": score["steps"], "sim_s": score["sim_s"], "wall_s": score["wall_s"], "return": score["return"]}
     return out
 
@@ -84,7 +84,7 @@ def main(argv=None):
                 r = row_of(t, a.planner, score, rev)
                 w.writerow(r)
                 f.flush()
-                print(f"{r['task']:8s} {r['sites']:5d} {r['placed']:6d} {r['worst_nm']:8.1f} {r['rms_nm']:6.1f} "
+                print(f"{r['task']:8s} {r['sites']:5d} {r['placed']:6d} {str(r['worst_nm']):>8s} {str(r['rms_nm']):>6s} "
                       f"{r['steps']:5d} {r['sim_s']:7.1f} {r['wall_s']:6.1f}", flush=True)
     finally:
         env.close()

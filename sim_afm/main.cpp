@@ -108,7 +108,9 @@ struct Sim {
     double min_scan_pitch_nm() const
     {
         double p = scene.field_nm / scene.out.image_px;
-        if (scene.op.plan.enabled) p = std::min(p, scene.op.plan.scan_size_nm / scene.op.plan.scan_px);
+        // the planner's local scans: a planning run's, or the pushes a page or a program asks for
+        if (scene.op.plan.enabled || scene.op.mode == "browser" || scene.op.mode == "env")
+            p = std::min(p, scene.op.plan.scan_size_nm / scene.op.plan.scan_px);
         return 0.5 * p;
     }
 

@@ -18,9 +18,12 @@ Contract:
     at or before the card's last block, resized to obs_px), "force_nN" and
     "flags" (its bits) the card's, "particles" the card's models (x, y, r in
     nm, rows by id, unused rows 0) with "particle_mask", "sites" the
-    targets with "site_mask", "tip_nm" and "sim_s". Never SIM_TRUTH.
+    targets with "site_mask" (the sample's coordinates), "drift_nm" the
+    card's drift estimate (a site is at site + drift in the models' frame),
+    "tip_nm" and "sim_s". Never SIM_TRUTH.
   - Reward: the change of the potential -mean over sites of min(distance to
-    the nearest modelled particle, 1000 nm) / 100 nm, less 0.01 an action
+    the nearest modelled particle (the site moved by the card's drift
+    estimate), 1000 nm) / 100 nm, less 0.01 an action
     (0.1 for an action the operator refused); at the end, 10 x the share of
     sites the fresh scan finds filled (run.json fidelity.assembly).
   - terminated when every site holds a modelled particle within the
@@ -88,6 +91,7 @@ class AssemblyEnv(gym.Env):
             "sites": spaces.Box(-BOUND_NM, BOUND_NM, (m, 2), np.float32),
             "site_mask": spaces.MultiBinary(m),
             "tip_nm": spaces.Box(-BOUND_NM, BOUND_NM, (2,), np.float32),
+            "drift_nm": spaces.Box(-BOUND_NM, BOUND_NM, (2,), np.float32),
             "sim_s": spaces.Box(0.0, BOUND_NM, (1,), np.float32),
         })
         self.session = None
@@ -190,13 +194,17 @@ class AssemblyEnv(gym.Env):
             sites[k] = s
             smask[k] = 1
         sim_s = np.array([ready["seq"] / float(self.scene.get("block_hz", 1000))], np.float32)
+        drift = np.clip(np.array([ready.get("drift_x_nm", 0.0), ready.get("drift_y_nm", 0.0)], np.float32), -BOUND_NM, BOUND_NM)
         return {"image": self._image.copy(), "force_nN": force, "flags": flags, "particles": parts,
-                "particle_mask": pmask, "sites": sites, "site_mask": smask, "tip_nm": tip,
+                "particle_mask": pmask, "sites": sites, "site_mask": smask, "tip_nm": tip, "drift_nm": drift,
                 "sim_s": np.clip(sim_s, 0, BOUND_NM)}
 
     def _site_errors(self, obs):
+        """Each site's distance to the nearest modelled particle (the site in
+        frame A: the sample's coordinates plus the card's drift estimate)."""
         pts = [tuple(obs["particles"][k][:2]) for k in range(self.max_particles) if obs["particle_mask"][k]]
-        return [min([math.dist(s, p) for p in pts] + [CAP_NM]) for s in self._sites()]
+        dx, dy = (float(v) for v in obs["drift_nm"])
+        return [min([math.dist((s[0] + dx, s[1] + dy), p) for p in pts] + [CAP_NM]) for s in self._sites()]
 
     def _phi(self, obs):
         e = self._site_errors(obs)

@@ -5,7 +5,8 @@ Contract:
     for its jobs (operator --scene SCENE --plan-jobs: each site's particle,
     assigned at least total travel, in assembly order; Planner::jobs, the
     one owner), then gives one action per job: the planner's push of that
-    particle to its site (kind 2, Planner::push_particle in the operator);
+    particle to its site moved by the card's drift estimate (kind 2,
+    Planner::push_particle in the operator, which aims in frame A);
     the jobs whose site the card's model does not show filled afterwards are
     pushed once more, then it ends the episode (kind 3).
   - RandomPolicy: strokes (kind 0) between uniformly drawn points of the
@@ -56,7 +57,8 @@ class PlannerPolicy:
         for j in self.jobs:
             k = ids.index(j["particle"])
             x, y, _ = obs["particles"][k]
-            if not obs["particle_mask"][k] or np.hypot(x - j["site_nm"][0], y - j["site_nm"][1]) > tol:
+            sx, sy = j["site_nm"][0] + obs["drift_nm"][0], j["site_nm"][1] + obs["drift_nm"][1]
+            if not obs["particle_mask"][k] or np.hypot(x - sx, y - sy) > tol:
                 out.append(j)
         return out
 
@@ -67,8 +69,8 @@ class PlannerPolicy:
         if not self.queue:
             return _action(self.env, KIND_END)
         j = self.queue.pop(0)
-        return _action(self.env, KIND_PUSH, particle=self.env._particle_ids().index(j["particle"]),
-                       to=self.env.to_unit(j["site_nm"]))
+        at = (j["site_nm"][0] + float(obs["drift_nm"][0]), j["site_nm"][1] + float(obs["drift_nm"][1]))   # frame A
+        return _action(self.env, KIND_PUSH, particle=self.env._particle_ids().index(j["particle"]), to=self.env.to_unit(at))
 
 
 class RandomPolicy:

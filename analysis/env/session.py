@@ -35,7 +35,7 @@ from analysis import afmlog, paths
 from analysis.view import live
 
 READY_WAIT_S = 60.0      # a run's start, or one action, at most (wall)
-FRAME_WAIT_S = 5.0       # the display's frame after the card's block
+FRAME_WAIT_S = 15.0      # the display's frame after the card's block
 END_WAIT_S = 120.0       # END to the run's exit (its fresh scan, run.json)
 
 

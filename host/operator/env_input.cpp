@@ -174,6 +174,7 @@ void EnvDriver::ready(bool ok, const std::string &why)
     const int64_t n = op_.force.seq;
     std::ostringstream d;
     d << "env: ready " << answered_ << " seq=" << n << " ok=" << (ok ? 1 : 0);
+    if (op_.view.ready()) d << " drift_x_nm=" << op_.view.whole().drift_nm[0] << " drift_y_nm=" << op_.view.whole().drift_nm[1];
     if (ok && answered_ > 0 && !op_.strokes_done.empty() && op_.strokes_done.size() == static_cast<std::size_t>(pushes_) &&
         last_push_told_ < pushes_) {
         const PlanItem &i = op_.strokes_done.back().item;

@@ -23,9 +23,11 @@
 //   - Between two actions the operator does not answer the card's force:
 //     the run waits. One frame into the run, and after each action (done or
 //     refused), it says on its heartbeat
-//       "env: ready K seq=N ok=1|0[ placed=0|1 error_nm=E pushes=P scans=S][ why=...]"
+//       "env: ready K seq=N ok=1|0 drift_x_nm=X drift_y_nm=Y[ placed=0|1 error_nm=E pushes=P scans=S][ why=...]"
 //     K: the actions answered (0 at the start), N: the last block the card
 //     has stepped (its FW_STATE and the display's frames up to N are out);
+//     the card's drift estimate (FW_STATE's objects: frame A less the
+//     sample's coordinates);
 //     ok=0 and why for a line refused; a PUSH adds the planner's account.
 //   - No action for kIdleLimit_s of wall time (the program gone): the run
 //     ends as at END, and the report says so.

@@ -53,7 +53,8 @@ class TestEnv(unittest.TestCase):
             self.assertLessEqual(s["steps"], 11, s)   # a push a site, and the end
             with open(os.path.join(s["run_dir"], "run.json")) as f:
                 rep = json.load(f)["operator"]
-            self.assertEqual(rep["env"]["pushes"], s["steps"] - 1, rep["env"])
+            # a push a job; the last either fills the last site by the card's models (the episode ends there) or END follows
+            self.assertIn(rep["env"]["pushes"], (s["steps"], s["steps"] - 1), rep["env"])
             self.assertEqual(rep["env"]["ended_by"], "END")
             self.assertEqual(rep["env"]["refused"], 0)
         finally:
