@@ -16,8 +16,8 @@ bool lockstep_reads(const Scene &s, const std::string &channel)
                                          AFM_CH_HOST_OBJECT_FIX, AFM_CH_RENDER_FRAME, AFM_CH_AFM_HEARTBEAT};
     for (const char *c : always)
         if (channel == c) return true;
-    // the planner steers on the objects (a run's, or a stroke the page asks for in operator.mode browser)
-    return channel == AFM_CH_FW_STATE && (s.op.plan.enabled || s.op.mode == "browser");
+    // the planner steers on the objects (a run's, or a stroke the page or a program asks for: operator.mode browser, env)
+    return channel == AFM_CH_FW_STATE && (s.op.plan.enabled || s.op.mode == "browser" || s.op.mode == "env");
 }
 
 void check_lockstep_reads(const Scene &s, const std::vector<std::string> &subscribed, const std::string &process)

@@ -300,7 +300,7 @@ struct OperatorSpec {
     double kappa = 1.0;                 // joystick scale kappa (p = kappa r_scan p_joy)
     std::vector<LocalScanSpec> local_scans;   // in time order
     std::vector<CantileverChangeSpec> cantilever_changes;   // in time order
-    std::string mode = "script";        // script: the hand follows the path; feel: a felt contact ends a segment; browser: a person on the page (realtime)
+    std::string mode = "script";        // script: the hand follows the path; feel: a felt contact ends a segment; browser: a person on the page (realtime); env: a program, step by step (lockstep; docs/env.md)
     double feel_threshold_N = 0.02;     // feel: the stylus force against the motion that ends a segment
     HapticSpec haptic;
     HandSpec hand;

@@ -65,6 +65,7 @@ void read_plan_cuts(const Reader &r, const YAML::Node &n, Scene &s)
 // on). With operator.mode: browser it only sets the strokes a person asks
 // for on the page (tolerance, speeds, scans, pushes): the planner is not
 // turned on, and cuts, which only the automatic planner makes, are refused.
+// The same with operator.mode: env (the pushes a program asks for).
 void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
 {
     YAML::Node n = op["plan"];
@@ -72,11 +73,11 @@ void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
     const std::string k = "operator.plan";
     PlanSpec &p = s.op.plan;
     const PlanSpec d;
-    const bool browser = s.op.mode == "browser";
+    const bool browser = s.op.mode == "browser" || s.op.mode == "env";
     p.enabled = !browser;
     if (n.IsNull()) return;
     if (browser && n.IsMap() && n["cuts"].IsDefined())
-        r.fail(k + ".cuts", "the automatic planner's: with operator.mode: browser operator.plan sets only the page's strokes");
+        r.fail(k + ".cuts", "the automatic planner's: with operator.mode: " + s.op.mode + " operator.plan sets only the strokes asked for");
     r.only_keys(n, k, {"tolerance_nm", "speed_nm_per_s", "travel_speed_nm_per_s", "scan_size_nm", "scan_px", "scan_s",
                        "max_pushes", "clearance_nm", "push_depth_nm", "approach_nm", "wire_tolerance_nm", "wire_step_nm",
                        "cuts"});
@@ -102,7 +103,7 @@ void read_plan(const Reader &r, const YAML::Node &op, Scene &s)
 void check_plan(const Reader &r, const Scene &s)
 {
     if (!s.op.plan.enabled) {
-        if (s.targets.any()) r.fail("objects.targets", "targets are for the planner: give operator.plan as well");
+        if (s.targets.any() && s.op.mode != "env") r.fail("objects.targets", "targets are for the planner: give operator.plan as well (or operator.mode: env)");
         if (!s.wire_targets.empty()) r.fail("objects.wire_targets", "targets are for the planner: give operator.plan as well");
         const double most = std::max(s.op.load_nN, s.op.load_ramp_to_nN.value_or(0.0));
         if (s.op.haptic.load_span_nN > 0 && most > s.op.haptic.load_span_nN)
@@ -138,15 +139,17 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
         s.op.scan_load_nN = r.num(op, "operator", "scan_load_nN", nullptr);
     s.op.speed_nm_per_s = r.num(op, "operator", "speed_nm_per_s", &d.op.speed_nm_per_s);
     s.op.kappa = r.num(op, "operator", "kappa", &d.op.kappa);
-    s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel", "browser"});
+    s.op.mode = r.str(op, "operator", "mode", &d.op.mode, {"script", "feel", "browser", "env"});
     if (s.op.mode == "browser" && s.time_mode != "realtime")
         r.fail("operator.mode", "browser: a person's hand is paced by the wall clock: give time_mode: realtime");
+    if (s.op.mode == "env" && s.time_mode == "realtime")
+        r.fail("operator.mode", "env: a program's steps wait for each other in lockstep: leave time_mode out (docs/env.md)");
     s.op.feel_threshold_N = r.num(op, "operator", "feel_threshold_N", &d.op.feel_threshold_N);
     read_haptic(r, op, s);
     read_plan(r, op, s);
     YAML::Node path_n = op["path_nm"];
     if (!path_n.IsDefined() || path_n.IsNull()) {
-        if (!s.op.plan.enabled) r.fail("operator.path_nm", "required value is missing");
+        if (!s.op.plan.enabled && s.op.mode != "env") r.fail("operator.path_nm", "required value is missing");
         path_n = YAML::Node(YAML::NodeType::Sequence);
         YAML::Node c(YAML::NodeType::Sequence);
         c.push_back(s.field_center_nm.x);

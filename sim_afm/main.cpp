@@ -108,7 +108,9 @@ struct Sim {
     double min_scan_pitch_nm() const
     {
         double p = scene.field_nm / scene.out.image_px;
-        if (scene.op.plan.enabled) p = std::min(p, scene.op.plan.scan_size_nm / scene.op.plan.scan_px);
+        // the planner's local scans: a planning run's, or the pushes a page or a program asks for
+        if (scene.op.plan.enabled || scene.op.mode == "browser" || scene.op.mode == "env")
+            p = std::min(p, scene.op.plan.scan_size_nm / scene.op.plan.scan_px);
         return 0.5 * p;
     }
 
@@ -133,10 +135,11 @@ struct Sim {
     afm::Reject on_heartbeat(const afm::heartbeat_t &m)
     {
         using afm::RunState;
-        // "finished" ends the run early only where a planner runs (a forged
+        // "finished" ends the run early only where a planner runs, or a
+        // program's steps (operator.mode env: docs/env.md) (a forged
         // one cut a scene without one to 27 % of its length)
         if (afm::says(m, "operator", RunState::finished)) {
-            if (!scene.op.plan.enabled) return afm::Reject::out_of_range;
+            if (!scene.op.plan.enabled && scene.op.mode != "env") return afm::Reject::out_of_range;
             if (finished_seq < 0) finished_seq = m.seq;
         }
         if (m.state == afm::state_text(RunState::ready) || m.state == afm::state_text(RunState::running)) ready.insert(m.name);

@@ -53,7 +53,7 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0 aiohttp==3.14.5 selenium==4.51.0 gwyfile==0.3.0 foxglove-schemas-protobuf==0.4.0 protobuf==7.36.2 pytest==9.2.0"
+py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0 aiohttp==3.14.5 selenium==4.51.0 gwyfile==0.3.0 foxglove-schemas-protobuf==0.4.0 protobuf==7.36.2 pytest==9.2.0 gymnasium==1.2.2"
 stamp="$venv/.afm-reqs"
 pkg_stamp="$venv/.afm-package"
 pkg_want="$top $(sha256sum "$top/pyproject.toml" | cut -d' ' -f1)"

@@ -74,6 +74,10 @@ public:
 
     // Takes the commands that came since the last call.
     void poll();
+    // Takes one line (without its newline) as poll() takes each: "" taken,
+    // else why not (not counted: the caller says so). operator.mode env
+    // hands it the SCAN and PUSH lines it reads itself (env_input.hpp).
+    std::string take_line(const std::string &line);
     const Command &command() const { return cmd_; }
     int64_t taken() const { return taken_; }
     int64_t refused() const { return refused_; }
@@ -92,7 +96,6 @@ public:
 
 private:
     void refuse(const std::string &why);
-    std::string take_line(const std::string &line);   // "" taken, else why not
     std::string parse(const std::string &line, Command *c) const;
     std::string parse_scan(const std::string &line, ScanAsk *s) const;
     std::string parse_push(const std::string &line, PushAsk *p) const;

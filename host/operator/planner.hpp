@@ -203,6 +203,9 @@ struct PlanReport {
     double wall_s = 0;
 };
 
+// One site and the particle run() pushes to it (PlanJob.site: an index in sites()).
+struct PlanJob { int site = 0; int particle = 0; };
+
 class Planner {
 public:
     // Throws PlanError / PatternError when the scene's targets cannot be served.
@@ -221,6 +224,12 @@ public:
     // hand_input.hpp); operator.plan's settings apply, their defaults if
     // it is not given. Throws PlanStopped if the instrument stops it.
     PlanItem push_particle(PlanInstrument &instrument, int id, Vec2 target_nm, Vec2 tip_nm);
+    // The particles' jobs as run() takes them up, from the card's objects
+    // `model` (frame A, its drift_nm taken off): each site's particle
+    // (assign_sites, pinned sites kept) in assembly order (assembly_order).
+    // run() pushes the first of them with a free push, again and again;
+    // operator --plan-jobs prints them for a policy outside (docs/env.md).
+    std::vector<PlanJob> jobs(const objects_t &model) const;
     const PlanReport &report() const { return rep_; }
     const std::vector<Vec2> &sites() const { return sites_; }
 

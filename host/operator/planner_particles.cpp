@@ -229,13 +229,15 @@ void Planner::clear_blockers(const std::vector<int> &assigned)
     }
 }
 
-void Planner::run_particles()
+std::vector<PlanJob> Planner::jobs(const objects_t &model) const
 {
     std::vector<Vec2> pos;
     std::vector<int> ids;
-    for (const auto &p : model_->particles) {
-        pos.push_back(Vec2{p.x_nm, p.y_nm} - drift());
+    double r = 0;
+    for (const auto &p : model.particles) {
+        pos.push_back(Vec2{p.x_nm - model.drift_nm[0], p.y_nm - model.drift_nm[1]});
         ids.push_back(p.id);
+        r = std::max(r, p.radius_nm);
     }
     // A pinned site (objects.targets[j].particle) by the particle's index here.
     std::vector<int> pinned;
@@ -245,14 +247,20 @@ void Planner::run_particles()
         pinned.push_back(id < 0 ? -1 : static_cast<int>(at - ids.begin()));
     }
     const std::vector<int> who = assign_sites(pos, sites_, pinned);
-    std::vector<int> assigned;
-    for (int i : who) assigned.push_back(ids[static_cast<std::size_t>(i)]);
+    std::vector<PlanJob> out;
+    for (int j : assembly_order(sites_, geometry(r))) out.push_back({j, ids[static_cast<std::size_t>(who[static_cast<std::size_t>(j)])]});
+    return out;
+}
+
+void Planner::run_particles()
+{
+    const std::vector<PlanJob> order = jobs(*model_);
+    std::vector<int> assigned(sites_.size(), -1);
+    for (const PlanJob &j : order) assigned[static_cast<std::size_t>(j.site)] = j.particle;
     clear_blockers(assigned);
 
-    double r = 0;
-    for (const auto &p : model_->particles) r = std::max(r, p.radius_nm);
     std::vector<Job> left;
-    for (int j : assembly_order(sites_, geometry(r))) left.push_back({j, assigned[static_cast<std::size_t>(j)]});
+    for (const PlanJob &j : order) left.push_back({j.site, j.particle});
     const PlanSpec &ps = s_.op.plan;
     while (!left.empty()) {
         // The innermost job with a free push.

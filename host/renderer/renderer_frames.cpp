@@ -277,7 +277,7 @@ void Renderer::finish_last_frame()
         }
         fidelity["objects"].push_back(rec);
     }
-    if (scene.op.plan.enabled) fidelity["assembly"] = assembly_json();
+    if (scene.op.plan.enabled || scene.op.mode == "env") fidelity["assembly"] = assembly_json();
     afm::write_report(out + "/fidelity.json", fidelity);
 }
 
