@@ -84,6 +84,16 @@ Scene load_scene(const std::string &path)
 
 Vec2 Scene::start_nm() const { return op.path_nm.front(); }
 
+std::vector<double> path_times_s(const Scene &s)
+{
+    std::vector<double> t;
+    for (std::size_t i = 0; i < s.op.path_nm.size(); ++i) {
+        const Vec2 a = s.op.path_nm[i ? i - 1 : 0], b = s.op.path_nm[i];
+        t.push_back((i ? t.back() : 0.0) + std::hypot(b.x - a.x, b.y - a.y) / s.op.speed_nm_per_s);
+    }
+    return t;
+}
+
 double Scene::load_at_nN(double t_s) const
 {
     if (!op.load_ramp_to_nN) return op.load_nN;

@@ -399,6 +399,30 @@ struct Scene {
     bool start_engaged() const;         // in contact at block 0 (not when the planner drives: it starts lifted)
 };
 
+// Two of the scene's objects closer than a given gap at the start: the one
+// owner of the objects' starting geometry in the plane. The validator
+// refuses an overlap (check_overlaps); ./afm check warns of objects that
+// touch (host/launch/warnings.hpp). Particles (listed and scattered) are
+// discs of their radius, wires stadiums of half their diameter about their
+// axis, landmarks squares of their side.
+struct ObjectPair {
+    enum class Kind { particles, particle_wire, particle_landmark, wires };
+    Kind kind = Kind::particles;
+    std::size_t i = 0, j = 0;   // particle i and particle, wire or landmark j; wires: wire i and wire j (j < i)
+    double apart_nm = 0;        // the centres' distance (a particle's centre to a wire's axis; two wires' axes; to a landmark's edge)
+    double gap_nm = 0;          // surface to surface; negative: they overlap
+    std::string key_i, key_j;   // their keys (objects.particles[2], objects.scatter (particle id 7), objects.wires[0], ...)
+    int id_j = 0;               // the second one's id
+};
+// The pairs whose gap is below gap_nm, in the order the objects are listed.
+std::vector<ObjectPair> object_pairs_within(const Scene &s, double gap_nm);
+
+// The scripted aim's walk (operator.mode script, host/operator/hand_script.hpp):
+// operator.path_nm at operator.speed_nm_per_s from its first waypoint; the
+// time it reaches each waypoint, s (the first: 0). Its last is when the
+// script is done.
+std::vector<double> path_times_s(const Scene &s);
+
 // The effects a scene may name.
 struct EffectInfo { const char *name; const char *what; };
 const std::vector<EffectInfo> &known_effects();

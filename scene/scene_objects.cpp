@@ -272,43 +272,33 @@ static std::string fmt(double v)
 }
 
 // Two bodies cannot start in one place: particles that overlap or coincide,
-// a particle on a wire or a landmark, wires that touch or cross. The
-// scattered particles keep their gaps by construction; listed ones are
-// checked here, pairwise (at most kMaxListedParticles of them).
+// a particle on a wire or a landmark, wires that touch or cross
+// (object_pairs_within, the one owner of the geometry). The scattered
+// particles keep their gaps by construction; listed ones are checked here,
+// pairwise (at most kMaxListedParticles of them). Touching is allowed
+// here; ./afm check warns of it.
 void check_overlaps(const Reader &r, const Scene &s)
 {
-    for (std::size_t i = 0; i < s.particles.size(); ++i) {
-        const ParticleSpec &p = s.particles[i];
-        for (std::size_t j = 0; j < i; ++j) {
-            const ParticleSpec &q = s.particles[j];
-            const double d = std::hypot(p.x_nm - q.x_nm, p.y_nm - q.y_nm);
-            if (d < p.radius_nm + q.radius_nm - 1e-9)
-                r.fail(particle_key(s, i), "overlaps " + particle_key(s, j) + " (id " + std::to_string(q.id) + "): centres " + fmt(d) +
-                                               " nm apart, radii " + fmt(p.radius_nm) + " + " + fmt(q.radius_nm) + " nm");
-        }
-        for (std::size_t k = 0; k < s.wires.size(); ++k) {
-            const WireSpec &w = s.wires[k];
-            const Vec2 c{p.x_nm, p.y_nm};
-            const double d = segment_gap(c, c, {w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm});
-            if (d < p.radius_nm + w.diameter_nm / 2 - 1e-9)
-                r.fail(particle_key(s, i), "lies on objects.wires[" + std::to_string(k) + "] (id " + std::to_string(w.id) + "): " + fmt(d) +
-                                               " nm from its axis, closer than " + fmt(p.radius_nm + w.diameter_nm / 2) + " nm");
-        }
-        for (std::size_t k = 0; k < s.landmarks.size(); ++k) {
-            const LandmarkSpec &m = s.landmarks[k];
-            const double dx = std::max(0.0, std::fabs(p.x_nm - m.x_nm) - m.side_nm / 2), dy = std::max(0.0, std::fabs(p.y_nm - m.y_nm) - m.side_nm / 2);
-            if (std::hypot(dx, dy) < p.radius_nm - 1e-9)
-                r.fail(particle_key(s, i), "lies on objects.landmarks[" + std::to_string(k) + "] (id " + std::to_string(m.id) + ")");
+    for (const ObjectPair &p : object_pairs_within(s, 1e-9)) {
+        const std::string j = " (id " + std::to_string(p.id_j) + ")";
+        switch (p.kind) {
+        case ObjectPair::Kind::particles:
+            if (p.gap_nm < -1e-9)
+                r.fail(p.key_i, "overlaps " + p.key_j + j + ": centres " + fmt(p.apart_nm) + " nm apart, radii " +
+                                    fmt(s.particles[p.i].radius_nm) + " + " + fmt(s.particles[p.j].radius_nm) + " nm");
+            break;
+        case ObjectPair::Kind::particle_wire:
+            if (p.gap_nm < -1e-9)
+                r.fail(p.key_i, "lies on " + p.key_j + j + ": " + fmt(p.apart_nm) + " nm from its axis, closer than " +
+                                    fmt(p.apart_nm - p.gap_nm) + " nm");
+            break;
+        case ObjectPair::Kind::particle_landmark:
+            if (p.gap_nm < -1e-9) r.fail(p.key_i, "lies on " + p.key_j + j);
+            break;
+        case ObjectPair::Kind::wires:
+            if (p.gap_nm < -1e-9) r.fail(p.key_i, "touches or crosses " + p.key_j + j + ": axes " + fmt(p.apart_nm) + " nm apart");
         }
     }
-    for (std::size_t i = 0; i < s.wires.size(); ++i)
-        for (std::size_t j = 0; j < i; ++j) {
-            const WireSpec &a = s.wires[i], &b = s.wires[j];
-            const double d = segment_gap({a.x0_nm, a.y0_nm}, {a.x1_nm, a.y1_nm}, {b.x0_nm, b.y0_nm}, {b.x1_nm, b.y1_nm});
-            if (d < (a.diameter_nm + b.diameter_nm) / 2 - 1e-9)
-                r.fail("objects.wires[" + std::to_string(i) + "]", "touches or crosses objects.wires[" + std::to_string(j) + "] (id " +
-                                                                   std::to_string(b.id) + "): axes " + fmt(d) + " nm apart");
-        }
 }
 
 // A path that starts with the apex inside a particle or a wire: the
@@ -340,3 +330,49 @@ void check_path_start(const Reader &r, const Scene &s)
 }
 
 }  // namespace afm::scene_detail
+
+namespace afm {
+
+std::vector<ObjectPair> object_pairs_within(const Scene &s, double gap_nm)
+{
+    using scene_detail::particle_key;
+    using scene_detail::segment_gap;
+    using K = ObjectPair::Kind;
+    std::vector<ObjectPair> out;
+    auto wire_key = [](std::size_t k) { return "objects.wires[" + std::to_string(k) + "]"; };
+    for (std::size_t i = 0; i < s.particles.size(); ++i) {
+        const ParticleSpec &p = s.particles[i];
+        const Vec2 c{p.x_nm, p.y_nm};
+        for (std::size_t j = 0; j < i; ++j) {
+            const ParticleSpec &q = s.particles[j];
+            const double d = std::hypot(p.x_nm - q.x_nm, p.y_nm - q.y_nm);
+            if (d - p.radius_nm - q.radius_nm < gap_nm)
+                out.push_back({K::particles, i, j, d, d - p.radius_nm - q.radius_nm, particle_key(s, i), particle_key(s, j), q.id});
+        }
+        for (std::size_t k = 0; k < s.wires.size(); ++k) {
+            const WireSpec &w = s.wires[k];
+            const double d = segment_gap(c, c, {w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm});
+            if (d - p.radius_nm - w.diameter_nm / 2 < gap_nm)
+                out.push_back({K::particle_wire, i, k, d, d - p.radius_nm - w.diameter_nm / 2, particle_key(s, i), wire_key(k), w.id});
+        }
+        for (std::size_t k = 0; k < s.landmarks.size(); ++k) {
+            const LandmarkSpec &m = s.landmarks[k];
+            const double dx = std::max(0.0, std::fabs(p.x_nm - m.x_nm) - m.side_nm / 2), dy = std::max(0.0, std::fabs(p.y_nm - m.y_nm) - m.side_nm / 2);
+            const double d = std::hypot(dx, dy);
+            if (d - p.radius_nm < gap_nm)
+                out.push_back({K::particle_landmark, i, k, d, d - p.radius_nm, particle_key(s, i),
+                               "objects.landmarks[" + std::to_string(k) + "]", m.id});
+        }
+    }
+    for (std::size_t i = 0; i < s.wires.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j) {
+            const WireSpec &a = s.wires[i], &b = s.wires[j];
+            const double d = segment_gap({a.x0_nm, a.y0_nm}, {a.x1_nm, a.y1_nm}, {b.x0_nm, b.y0_nm}, {b.x1_nm, b.y1_nm});
+            const double gap = d - (a.diameter_nm + b.diameter_nm) / 2;
+            if (gap < gap_nm)
+                out.push_back({K::wires, i, j, d, gap, wire_key(i), wire_key(j), b.id});
+        }
+    return out;
+}
+
+}  // namespace afm

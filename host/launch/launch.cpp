@@ -14,6 +14,8 @@
 #include <fstream>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "afm/heartbeat_t.hpp"
 #include "bus.hpp"
 #include "bus_key.hpp"
@@ -79,6 +81,26 @@ void warn_haptic_bound(const afm::Scene &s, const afm::CardSetup &card, const st
                      path.c_str(), b.rendered_N_per_m, b.max_rendered_N_per_m, s.op.haptic.max_stiffness_N_per_m);
 }
 
+// --estimate: the estimate and the work it counts, one JSON line on stdout.
+void print_estimate(const afm::WallEstimate &e)
+{
+    const nlohmann::json j = {{"blocks", e.blocks},       {"samples", e.samples},   {"scan_px", e.scan_px},
+                              {"rough_scan_px", e.rough_scan_px}, {"frame_px", e.frame_px}, {"wire_samples", e.wire_samples},
+                              {"seconds", e.seconds},     {"planned", e.planned},   {"realtime", e.realtime}};
+    std::printf("%s\n", j.dump().c_str());
+}
+
+// --check: the estimate in a line (a long one is a warning already).
+void say_estimate(const std::string &path, const afm::Scene &s)
+{
+    const afm::WallEstimate e = afm::estimate_wall(s);
+    if (e.realtime)
+        std::printf("%s: a realtime run: it takes duration_s, %.4g s, of wall time\n", path.c_str(), s.duration_s);
+    else
+        std::printf("%s: the run's wall time, estimated from its size: about %.*f s%s\n", path.c_str(), e.seconds < 10 ? 1 : 0, e.seconds,
+                    e.planned ? " if it runs to duration_s (a planned run ends when the planner is done)" : "");
+}
+
 }  // namespace
 
 // --view-fd: kept from every process but afm_view_bridge (spawn hands it
@@ -117,7 +139,11 @@ int Launch::check_scene()
     if (!(o_.check_only && o_.quiet) || o_.strict)
         for (const auto &w : warnings) std::fprintf(stderr, "%s: %s%s\n", o_.scene_path.c_str(), o_.strict ? "" : "warning: ", w.c_str());
     if (o_.strict && !warnings.empty()) return 2;
-    if (scene_.op.plan.enabled) return check_targets(o_.scene_path);
+    if (scene_.op.plan.enabled) {
+        if (const int code = check_targets(o_.scene_path); code >= 0) return code;
+    }
+    if (o_.estimate) print_estimate(afm::estimate_wall(scene_));
+    else if (o_.check_only && !o_.quiet && !o_.resolved) say_estimate(o_.scene_path, scene_);
     return -1;
 }
 

@@ -31,6 +31,7 @@ int main(int argc, char **argv)
     Launch run(o);
     if (const int code = run.check_scene(); code >= 0) return code;
     if (o.resolved) return print_resolved(o.scene_path);
+    if (o.estimate) return 0;   // check_scene printed it
     if (o.check_only) return run.check_out() < 0 ? 0 : 2;   // with --out: may a run take it
     if (const int code = run.prepare(); code >= 0) return code;
     if (const int code = run.start(); code >= 0) return code;

@@ -79,6 +79,11 @@ const std::vector<OptionSpec> kTable = {
       "check the scene as --check does, then print it as a run keeps it\n"
       "(its includes merged in, its file paths absolute) on stdout"},
      [](const std::string &, Options *o) { o->check_only = o->resolved = true; return std::string(); }},
+    {{"--estimate", nullptr, kRun,
+      "check the scene as --check does, then print the run's wall time\n"
+      "estimated from its size, with the work it counts, as one JSON line\n"
+      "on stdout (host/launch/warnings.hpp: estimate_wall)"},
+     [](const std::string &, Options *o) { o->check_only = o->estimate = true; return std::string(); }},
     {{"--spy", nullptr, kRun,
       "also start lcm-spy on the run's bus (needs DISPLAY); the run\n"
       "starts once lcm-spy listens on the bus (10 s at most) and ends\n"
@@ -133,6 +138,8 @@ std::string check_together(const Options &o)
 {
     if (o.out_dir.empty() && !o.check_only) return "--out DIR: required unless --check (afm_launch --help: the usage)";
     if (o.resolved && !o.out_dir.empty()) return "--resolved: prints the scene and runs nothing: it takes no --out";
+    if (o.estimate && !o.out_dir.empty()) return "--estimate: prints an estimate and runs nothing: it takes no --out";
+    if (o.estimate && o.resolved) return "--estimate: goes without --resolved (each prints on stdout)";
     if (o.spy && !o.check_only && !std::getenv("DISPLAY")) return "--spy: needs a display, and DISPLAY is not set (lcm-spy is a window)";
     if (o.view_fd >= 0 && !o.view) return "--view-fd: goes with --view (it is the pipe to the page's server)";
     if (o.view_fd >= 0 && access(view_bridge_path().c_str(), X_OK) != 0)

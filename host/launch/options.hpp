@@ -20,6 +20,7 @@ struct Options {
     bool spy = false, quiet = false, check_only = false, no_verdict = false, strict = false;
     bool view = false;          // the renderer publishes VIEW_FRAME (docs/view.md)
     bool resolved = false;      // --resolved: checked as --check does, then the scene as a run keeps it on stdout
+    bool estimate = false;      // --estimate: checked as --check does, then the wall time's estimate as JSON on stdout
     int view_fd = -1;           // --view-fd: the pipe afm_view_bridge writes to (-1: no bridge)
     double drop_p = 0, stall_s = 60, kill_after = -1;
     std::string kill_name;
