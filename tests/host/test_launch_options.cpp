@@ -68,6 +68,21 @@ void test_resolved_is_a_check_that_takes_no_out()
     TEST_ASSERT_EQUAL_STRING("afm_launch: --resolved: prints the scene and runs nothing: it takes no --out\n", p.err.c_str());
 }
 
+void test_estimate_is_a_check_that_takes_no_out_nor_resolved()
+{
+    Options o;
+    Parsed p = parse({"--scene", "s.yaml", "--estimate"}, &o);
+    TEST_ASSERT_EQUAL(-1, p.code);
+    TEST_ASSERT_TRUE(o.estimate && o.check_only && !o.resolved);
+    Options with_out;
+    p = parse({"--scene", "s.yaml", "--estimate", "--out", "d"}, &with_out);
+    TEST_ASSERT_EQUAL(2, p.code);
+    TEST_ASSERT_EQUAL_STRING("afm_launch: --estimate: prints an estimate and runs nothing: it takes no --out\n", p.err.c_str());
+    Options both;
+    p = parse({"--scene", "s.yaml", "--estimate", "--resolved"}, &both);
+    TEST_ASSERT_EQUAL(2, p.code);
+}
+
 void test_view_fd_takes_a_descriptor_open_for_writing()
 {
     const int fd = open("/dev/null", O_WRONLY | O_CLOEXEC);
@@ -146,6 +161,7 @@ int main()
     UNITY_BEGIN();
     RUN_TEST(test_every_option_is_parsed);
     RUN_TEST(test_resolved_is_a_check_that_takes_no_out);
+    RUN_TEST(test_estimate_is_a_check_that_takes_no_out_nor_resolved);
     RUN_TEST(test_view_fd_takes_a_descriptor_open_for_writing);
     RUN_TEST(test_bad_values_are_refused_naming_the_option_and_the_value);
     RUN_TEST(test_a_missing_value_an_unknown_argument_and_no_scene_are_refused);
