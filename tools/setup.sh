@@ -23,6 +23,7 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev
           libisal-dev zlib1g-dev chromium chromium-driver ffmpeg)
 apt_pkgs+=(libsodium-dev)   # the bus's MAC (bus/bus_key.hpp)
+apt_pkgs+=(libopencv-contrib-dev fonts-dejavu-core)   # the frames' text: OpenCV's FreeType module, DejaVu Sans (host/renderer/frame_font.hpp)
 missing=()
 # one dpkg-query for them all (a call each cost a run's build check 0.8 s)
 installed=" $(dpkg-query -W -f='${Status} ${Package}\n' "${apt_pkgs[@]}" 2>/dev/null | awk '$1 == "install" && $3 == "installed" { printf "%s ", $4 }') "

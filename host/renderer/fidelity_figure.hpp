@@ -15,15 +15,15 @@
 
 #include "display.hpp"
 #include "fidelity.hpp"
+#include "figure_axes.hpp"
 #include "frame_overlay.hpp"
 
 namespace afm {
 
 double diff_range_nm(const cv::Mat &diff_nm);
 
-// The figure's text (its capitals' height: renderer_report.json fidelity_label_cap_px).
-FrameText fidelity_figure_text();
-
-cv::Mat fidelity_figure(const Fidelity &fid, const Field &f, const DisplayModel &model, double target_nm);
+// layout (optional): what was drawn (figure_axes.hpp).
+cv::Mat fidelity_figure(const Fidelity &fid, const Field &f, const DisplayModel &model, double target_nm,
+                        FigureLayout *layout = nullptr);
 
 }  // namespace afm

@@ -27,13 +27,13 @@ void Renderer::write_display_gsf(const std::string &name, const cv::Mat &h, int 
 
 void Renderer::open_writer()
 {
-    writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, field.px, writer_cpus);
+    writer = std::make_unique<afm::FrameWriter>(out, scene.out.png, scene.out.video, scene.frame_rate_hz, afm::frame_px(field.px), writer_cpus);
 }
 
 void Renderer::begin()
 {
     display.start(scan.heights(), model);
-    afm::write_png(out + "/scan_initial.png", display.colourise(scan.heights()));
+    afm::write_png(out + "/scan_initial.png", afm::scan_figure(display, scan.heights(), "initial scan: height (nm)"));
     write_scan_gsf("scan_initial", cv::Rect(0, 0, field.px, field.px));
     if (!writer) open_writer();
     writer->wait_open();   // the encoder up before the first block (frame_writer.hpp)
@@ -72,7 +72,7 @@ afm::view_frame_t Renderer::view_state(int k, const afm::fw_state_t &state, cons
     m.index = k;
     m.frames_total = total_frames;
     m.seq = shown_seq;
-    m.width = m.height = field.px;
+    m.width = m.height = afm::frame_px(field.px);
     m.field_nm[0] = field.x0_nm;
     m.field_nm[1] = field.y0_nm;
     m.field_nm[2] = field.size_nm;

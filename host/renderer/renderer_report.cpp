@@ -97,6 +97,7 @@ nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, const nlo
             {"frames_mixed_blocks", r.frames_mixed_blocks},
             {"frames_expected", r.total_frames},
             {"image_px", scene.out.image_px},
+            {"frame_px", afm::frame_px(scene.out.image_px)},   // the frames' side (frame_overlay.hpp)
             {"update_mode", scene.out.update_mode},
             {"update_ms_per_frame", r.frames_written ? 1e3 * r.update_s / r.frames_written : 0.0},
             {"compose_ms_per_frame", r.frames_written ? 1e3 * r.compose_s / r.frames_written : 0.0},
@@ -108,8 +109,8 @@ nlohmann::json report_json(const Renderer &r, const afm::Scene &scene, const nlo
             {"video", r.writer ? r.writer->video() : nlohmann::json(nullptr)},
             // a capital's height in the frames' labels and in fidelity_diff.png, pixels
             // (the report shows them so that it reads 9 px or more: analysis/run_report.py)
-            {"label_cap_px", afm::frame_text(scene.out.image_px).cap_px},
-            {"fidelity_label_cap_px", afm::fidelity_figure_text().cap_px},
+            {"label_cap_px", afm::frame_text(afm::frame_px(scene.out.image_px)).cap_px},
+            {"fidelity_label_cap_px", afm::figure_text().cap_px},
             {"pixels_updated", r.touched_px},
             {"local_scans", r.local_scans},
             {"page_scans_pasted", r.page_pasted},   // a person's local scans (operator.mode browser)

@@ -133,7 +133,11 @@ class EndToEnd(unittest.TestCase):
     def test_pngs_read_with_another_decoder(self):
         # the PNG files are the bench's own (host/png_file.hpp): Pillow,
         # which does not use libpng, checks every chunk's CRC and reads them
-        px = self.spec["outputs"]["image_px"]
+        # frames at least 512 px, each display pixel a whole square (renderer/frame_overlay.hpp)
+        image_px = self.spec["outputs"]["image_px"]
+        px = self.r1[3]["renderer"]["frame_px"]
+        self.assertGreaterEqual(px, 512)
+        self.assertEqual(px % image_px, 0)
         paths = sorted(glob.glob(os.path.join(self.out1, "frames", "*.png")))
         paths += [os.path.join(self.out1, n) for n in ("scan_initial.png", "fidelity_diff.png", "contact_sheet.png")]
         for p in paths:
@@ -150,7 +154,7 @@ class EndToEnd(unittest.TestCase):
         out = subprocess.run([e2e_support.paths.MEDIA, "frames",
                               os.path.join(self.out1, "video.mp4")], capture_output=True, text=True, check=True).stdout.split()
         self.assertEqual(int(out[0]), expected)
-        self.assertEqual(int(out[1]), self.spec["outputs"]["image_px"])
+        self.assertEqual(int(out[1]), self.r1[3]["renderer"]["frame_px"])
         self.assertTrue(os.path.getsize(os.path.join(self.out1, "contact_sheet.png")) > 0)
 
     def test_fidelity_against_a_fresh_scan(self):
