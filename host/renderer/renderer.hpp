@@ -60,6 +60,7 @@
 #include "process.hpp"
 #include "png_file.hpp"
 #include "scan_client.hpp"
+#include "scan_dewarp.hpp"
 #include "lockstep.hpp"
 #include "scene.hpp"
 #include "fw_drift.h"
@@ -145,6 +146,10 @@ struct Renderer {
     afm::TipShape tip;
     afm::Display display;
     afm::ScanClient scan;
+    // The card's scanner model, followed from FW_STATE's drive: every scan
+    // de-warped by it (the full and local scans through the scan client,
+    // their lateral signal and a person's local scans here).
+    afm::ScanDewarp dewarp;
     cv::Rect scan_px;            // the scan's region, in display pixels (same pitch)
     cv::Mat scan_lateral;        // the scan's lateral signal S_l, V, row 0 at the top (its GSF: *_lateral.gsf)
     int64_t scan_utime = 0;      // the simulated time of the scan's latest line, microseconds
@@ -207,8 +212,9 @@ struct Renderer {
         : scene(s), lc(l), out(std::move(o)), hb(h),
           field{s.field_center_nm.x - s.field_nm / 2, s.field_center_nm.y - s.field_nm / 2, s.field_nm, s.out.image_px},
           tip(s.has_effect("tip_convolution") ? afm::TipShape{s.probe.tip_radius_nm, s.probe.tip_half_angle_deg} : afm::TipShape{}),
-          display(field, tip), scan(l), total_frames(s.total_frames())
+          display(field, tip), scan(l), dewarp(s), total_frames(s.total_frames())
     {
+        scan.set_dewarp(&dewarp);
         display.set_trails(s.out.trails);
         pick_sheet();
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
@@ -333,6 +339,11 @@ struct Renderer {
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m);
 };
+
+// What a scan's de-warp did (fidelity.json "dewarp", each local scan's
+// record): whether the card's model placed its pixels, the largest move,
+// the model's block end and the scan's, s.
+nlohmann::json dewarp_json(const afm::DewarpNote &n);
 
 // Writes contact_sheet.png: the frames picked over the run, those not kept in memory
 // (picked again after an early end) read back from frames/.

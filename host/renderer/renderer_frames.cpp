@@ -115,6 +115,7 @@ afm::Reject Renderer::on_state(const afm::fw_state_t &m)
 {
     if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
     if (m.objects.seq != m.seq || m.objects.utime != m.utime) return afm::Reject::out_of_range;
+    dewarp.follow(m.seq, m.utime, m.piezo_nm[0], m.piezo_nm[1]);
     // A block older than the newest (the bus reordered them) is not kept
     // for the frames (BySeq), but its objects are taken: the next
     // block's lists only what changed since it (objects_t.lcm).
@@ -265,6 +266,7 @@ void Renderer::finish_last_frame()
                     {"target_nm", kFidelityTarget_nm},
                     {"pass", f.max_position_error_nm <= kFidelityTarget_nm},
                     {"frame", last},
+                    {"dewarp", dewarp_json(scan.dewarp_note())},
                     {"objects", json::array()}};
     for (const auto &o : f.objects) {
         json rec = {{"kind", o.kind}, {"id", o.id}, {"found", o.found}, {"error_nm", o.found ? json(o.error_nm) : json(nullptr)},
