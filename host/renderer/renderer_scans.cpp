@@ -139,6 +139,22 @@ bool Renderer::landmark_or_particle_at(int id, double *x, double *y) const
     return false;
 }
 
+void Renderer::mark_seen(int id)
+{
+    for (const auto &p : model.particles)
+        if (id < 0 || p.id == id) seen[p.id] = {p.x_nm, p.y_nm, fw_drift_nm[0], fw_drift_nm[1]};
+}
+
+bool Renderer::pushed_since_seen(int id) const
+{
+    const auto it = seen.find(id);
+    for (const auto &p : model.particles)
+        if (p.id == id && it != seen.end())
+            return std::hypot(p.x_nm - it->second.x_nm - (fw_drift_nm[0] - it->second.drift_x_nm),
+                              p.y_nm - it->second.y_nm - (fw_drift_nm[1] - it->second.drift_y_nm)) > kPushedModel_nm;
+    return false;
+}
+
 void Renderer::start_local_scan(int i, double size_nm)
 {
     const afm::LocalScanSpec &ls = scene.op.local_scans[i];
@@ -211,15 +227,18 @@ void Renderer::local_scan_done()
         draw_ready();
         return;
     }
+    const bool place = !fix_on_landmark && pushed_since_seen(ls.around_id);
     rec["found"] = true;
     rec["model_nm"] = {mx, my};
     rec["scan_nm"] = {sx, sy};
+    rec["fix"] = place ? "place" : "drift";
     local_scans.push_back(rec);
     fix_msg.utime = afm::frame_utime(scene, frames_written);
     fix_msg.fix_id = ++fixes_sent;
     fix_msg.object_id = ls.around_id;
     fix_msg.scan_x_nm = sx;
     fix_msg.scan_y_nm = sy;
+    fix_msg.kind = place ? afm::object_fix_t::KIND_PLACE : afm::object_fix_t::KIND_DRIFT;
     fix_awaited = fix_msg.fix_id;
     send_fix();
 }
