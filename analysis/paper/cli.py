@@ -12,9 +12,11 @@ import time
 from analysis import paths, point
 from analysis.paper import common, paper_report
 from analysis import helptext
-from analysis.paper import exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze, exp_tilted, exp_trench
+from analysis.paper import (exp_compensation, exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze,
+                            exp_tilted, exp_trench)
 
-EXPERIMENTS = [exp_tilted, exp_lines, exp_rod, exp_squeeze, exp_trench, exp_flex, exp_drift, exp_landmark, exp_pattern]
+EXPERIMENTS = [exp_tilted, exp_lines, exp_rod, exp_squeeze, exp_trench, exp_flex, exp_drift, exp_landmark, exp_pattern,
+               exp_compensation]
 BY_NAME = {e.NAME: e for e in EXPERIMENTS}
 
 USAGE_EPILOG = "experiments: " + ", ".join(f"{e.NAME} ({e.FIGURES})" for e in EXPERIMENTS)

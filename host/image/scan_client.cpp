@@ -1,8 +1,11 @@
 #include "scan_client.hpp"
 
+#include <algorithm>
+
 #include "afm/scan_req_t.hpp"
 #include "afm_channels.h"
 #include "bus.hpp"
+#include "scan_dewarp.hpp"
 
 namespace afm {
 
@@ -12,6 +15,9 @@ void ScanClient::start(int req_id, const ScanRegion &r, int64_t at_seq)
     at_seq_ = at_seq;
     r_ = r;
     h_ = cv::Mat::zeros(r.ny, r.nx, CV_32F);
+    raw_.release();
+    note_ = DewarpNote{};
+    line_utime_ = 0;
     got_.assign(static_cast<std::size_t>(r.ny), false);
     left_ = r.ny;
     request(0, r.ny);
@@ -42,8 +48,21 @@ bool ScanClient::on_line(const scan_line_t &m)
     float *row = h_.ptr<float>(r_.ny - 1 - m.line);
     for (int i = 0; i < r_.nx; ++i) row[i] = static_cast<float>(m.height_nm[static_cast<std::size_t>(i)]);
     got_[static_cast<std::size_t>(m.line)] = true;
+    line_utime_ = std::max(line_utime_, m.utime);
     asked_ = std::chrono::steady_clock::now();   // the scan is coming: a retry waits for it to stop
-    return --left_ == 0;
+    if (--left_ > 0) return false;
+    finish();
+    return true;
+}
+
+void ScanClient::finish()
+{
+    raw_ = h_.clone();
+    note_.scan_utime = line_utime_;
+    if (!dewarp_ || !dewarp_->active()) return;
+    h_ = dewarp_->apply(raw_, r_, &note_.shift_nm);
+    note_.dewarped = true;
+    note_.model_utime = dewarp_->state_utime();
 }
 
 void ScanClient::retry(int retry_ms)

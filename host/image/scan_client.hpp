@@ -1,7 +1,10 @@
 // A raster scan asked of the simulator (AFM_SCAN_REQ) and received line by
 // line (AFM_SCAN_LINE), lines lost on the bus asked again. The renderer
 // (its full and local scans) and the planner's operator (its local scans)
-// use it; each requester keeps to its own req_id range.
+// use it; each requester keeps to its own req_id range. Given the card's
+// scanner model (set_dewarp: scan_dewarp.hpp), a scan once whole is
+// de-warped by it: heights() places each pixel where the card's model says
+// the tip was; raw_heights() keeps the scan as it came.
 #pragma once
 
 #include <lcm/lcm-cpp.hpp>
@@ -27,9 +30,23 @@ struct ScanRegion {
     int nx = 0, ny = 0;
 };
 
+class ScanDewarp;
+
+// What the de-warp of the last whole scan did.
+struct DewarpNote {
+    bool dewarped = false;     // the card's model placed the pixels
+    double shift_nm = 0;       // the largest move of a pixel along either axis
+    int64_t model_utime = 0;   // the block end whose state the card's model was in, simulated us
+    int64_t scan_utime = 0;    // the block end after which the simulator took the scan's last line
+};
+
 class ScanClient {
 public:
     explicit ScanClient(lcm::LCM &lc) : lc_(lc) {}
+
+    // The card's scanner model that de-warps each whole scan (null: none);
+    // it must outlive the client.
+    void set_dewarp(const ScanDewarp *d) { dewarp_ = d; }
 
     // Asks for the whole scan (a new one: any scan in progress is dropped),
     // at once or when the simulator waits after block at_seq (scan_req_t).
@@ -45,16 +62,22 @@ public:
     bool busy() const { return left_ > 0; }
     int id() const { return id_; }
     const ScanRegion &region() const { return r_; }
-    const cv::Mat &heights() const { return h_; }   // nm, CV_32F, ny x nx, row 0 at the top
+    const cv::Mat &heights() const { return h_; }   // nm, CV_32F, ny x nx, row 0 at the top; de-warped once whole
+    const cv::Mat &raw_heights() const { return raw_; }   // the whole scan as it came (empty before)
+    const DewarpNote &dewarp_note() const { return note_; }
 
 private:
     void request(int first, int n);
+    void finish();
 
     lcm::LCM &lc_;
+    const ScanDewarp *dewarp_ = nullptr;
     int id_ = 0;
     int64_t at_seq_ = -1;
     ScanRegion r_;
-    cv::Mat h_;
+    cv::Mat h_, raw_;
+    DewarpNote note_;
+    int64_t line_utime_ = 0;
     std::vector<bool> got_;
     int left_ = 0;
     std::chrono::steady_clock::time_point asked_;

@@ -46,6 +46,7 @@
 #include "planner.hpp"
 #include "process.hpp"
 #include "scan_client.hpp"
+#include "scan_dewarp.hpp"
 #include "lockstep.hpp"
 #include "scene.hpp"
 #include "planner_turns.hpp"
@@ -113,6 +114,7 @@ struct Operator {
     // the planner
     ObjectsView view;            // FW_STATE's objects, whole: view.whole() the latest set (highest seq, then fix id)
     ScanClient scan;
+    ScanDewarp dewarp;           // the card's scanner model, followed from FW_STATE's drive: the planner's scans de-warped by it
     int scans = 0, fixes_sent = 0;
     bool plan_done = false;
     int64_t finished_seq = -1;       // the block whose force the planner finished on
@@ -123,8 +125,9 @@ struct Operator {
     Operator(const Scene &s, lcm::LCM &l, Heartbeat &h)
         : scene(s), lc(l), hb(h), script(s),
           device(s.op.haptic, s.op.hand, 1.0 / s.block_hz, to_stylus(s, s.start_nm())), reach_nm(s.op.kappa * s.field_nm / 2),
-          half_range_m(s.op.haptic.half_range_mm * 1e-3), scan(l)
+          half_range_m(s.op.haptic.half_range_mm * 1e-3), scan(l), dewarp(s)
     {
+        scan.set_dewarp(&dewarp);
         if (s.op.haptic.load_span_nN > 0) device.place_z(press_for(s.load_at_nN(0)));   // the hand already pressing
     }
 
@@ -155,6 +158,7 @@ struct Operator {
     {
         const objects_t &m = s.objects;
         if (m.seq > answered + 2) return Reject::seq_future;
+        dewarp.follow(s.seq, s.utime, s.piezo_nm[0], s.piezo_nm[1]);
         if (view.ready() && key_of(m) <= key_of(view.whole())) return Reject::seq_past;
         // held: before its base, taken when that comes
         return view.apply(m) == ObjectsView::Take::refused ? Reject::out_of_range : Reject::none;

@@ -60,6 +60,7 @@
 #include "process.hpp"
 #include "png_file.hpp"
 #include "scan_client.hpp"
+#include "scan_dewarp.hpp"
 #include "lockstep.hpp"
 #include "scene.hpp"
 #include "fw_drift.h"
@@ -77,6 +78,7 @@ constexpr int kScanRetryMs = 500;
 // it). A frame is announced at most this much later than it could be.
 constexpr int kBatchUs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
+constexpr double kPushedModel_nm = 0.5;        // a particle's model moved this much (less the drift) since a scan saw it: pushed
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
 
@@ -145,6 +147,10 @@ struct Renderer {
     afm::TipShape tip;
     afm::Display display;
     afm::ScanClient scan;
+    // The card's scanner model, followed from FW_STATE's drive: every scan
+    // de-warped by it (the full and local scans through the scan client,
+    // their lateral signal and a person's local scans here).
+    afm::ScanDewarp dewarp;
     cv::Rect scan_px;            // the scan's region, in display pixels (same pitch)
     cv::Mat scan_lateral;        // the scan's lateral signal S_l, V, row 0 at the top (its GSF: *_lateral.gsf)
     int64_t scan_utime = 0;      // the simulated time of the scan's latest line, microseconds
@@ -182,6 +188,17 @@ struct Renderer {
     int fixes_sent = 0;
     double fw_drift_nm[2] = {0, 0};   // the firmware's drift estimate, from FW_STATE's objects
     bool fix_on_landmark = false;
+    // Where each particle's model was when a scan last saw it (the scene's
+    // place at the start, the answer to a fix on it since) and the drift then. A
+    // model that moved since by more than the drift did was pushed: a local
+    // scan of it puts that model where the scan shows it (KIND_PLACE,
+    // object_fix_t.lcm) instead of taking its offset for drift.
+    struct Seen {
+        double x_nm, y_nm, drift_x_nm, drift_y_nm;
+    };
+    std::map<int, Seen> seen;
+    bool pushed_since_seen(int id) const;
+    void mark_seen(int id);   // -1: every particle
     afm::object_fix_t fix_msg{};
     std::chrono::steady_clock::time_point fix_sent;
     int due_pending = 0;         // frames due by the block being drawn (continue_frames draws up to it; a scan pauses it)
@@ -207,11 +224,13 @@ struct Renderer {
         : scene(s), lc(l), out(std::move(o)), hb(h),
           field{s.field_center_nm.x - s.field_nm / 2, s.field_center_nm.y - s.field_nm / 2, s.field_nm, s.out.image_px},
           tip(s.has_effect("tip_convolution") ? afm::TipShape{s.probe.tip_radius_nm, s.probe.tip_half_angle_deg} : afm::TipShape{}),
-          display(field, tip), scan(l), total_frames(s.total_frames())
+          display(field, tip), scan(l), dewarp(s), total_frames(s.total_frames())
     {
+        scan.set_dewarp(&dewarp);
         display.set_trails(s.out.trails);
         pick_sheet();
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
+        mark_seen(-1);
         for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
 
@@ -333,6 +352,11 @@ struct Renderer {
 
     afm::Reject on_heartbeat(const afm::heartbeat_t &m);
 };
+
+// What a scan's de-warp did (fidelity.json "dewarp", each local scan's
+// record): whether the card's model placed its pixels, the largest move,
+// the model's block end and the scan's, s.
+nlohmann::json dewarp_json(const afm::DewarpNote &n);
 
 // Writes contact_sheet.png: the frames picked over the run, those not kept in memory
 // (picked again after an early end) read back from frames/.

@@ -115,6 +115,7 @@ afm::Reject Renderer::on_state(const afm::fw_state_t &m)
 {
     if (const afm::Reject r = block_message(m.seq, m.utime); r != afm::Reject::none) return r;
     if (m.objects.seq != m.seq || m.objects.utime != m.utime) return afm::Reject::out_of_range;
+    dewarp.follow(m.seq, m.utime, m.piezo_nm[0], m.piezo_nm[1]);
     // A block older than the newest (the bus reordered them) is not kept
     // for the frames (BySeq), but its objects are taken: the next
     // block's lists only what changed since it (objects_t.lcm).
@@ -188,6 +189,7 @@ void Renderer::objects_frames(const afm::objects_t *m)
             // objects' corrected footprints is what the scan shows).
             const double ddx = m->drift_nm[0] - fw_drift_nm[0], ddy = m->drift_nm[1] - fw_drift_nm[1];
             set_model(*m);
+            if (!fix_on_landmark) mark_seen(fix_msg.object_id);
             // A landmark fix re-registers the whole work space: the
             // background (the last scan) moves with the sample too.
             if (fix_on_landmark) display.shift_background(ddx, ddy);
@@ -265,6 +267,7 @@ void Renderer::finish_last_frame()
                     {"target_nm", kFidelityTarget_nm},
                     {"pass", f.max_position_error_nm <= kFidelityTarget_nm},
                     {"frame", last},
+                    {"dewarp", dewarp_json(scan.dewarp_note())},
                     {"objects", json::array()}};
     for (const auto &o : f.objects) {
         json rec = {{"kind", o.kind}, {"id", o.id}, {"found", o.found}, {"error_nm", o.found ? json(o.error_nm) : json(nullptr)},

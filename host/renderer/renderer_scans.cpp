@@ -69,6 +69,11 @@ void Renderer::write_scan_gsf(const std::string &name, const cv::Rect &region)
         throw std::runtime_error(err);
 }
 
+nlohmann::json dewarp_json(const afm::DewarpNote &n)
+{
+    return {{"dewarped", n.dewarped}, {"shift_nm", n.shift_nm}, {"model_s", n.model_utime * 1e-6}, {"scan_s", n.scan_utime * 1e-6}};
+}
+
 afm::Reject Renderer::page_line(const afm::scan_line_t &m)
 {
     const double pitch = field.pitch();
@@ -92,7 +97,14 @@ afm::Reject Renderer::page_line(const afm::scan_line_t &m)
     float *row = p.heights.ptr<float>(m.n_lines - 1 - m.line);
     for (int i = 0; i < m.n; ++i) row[i] = static_cast<float>(m.height_nm[static_cast<std::size_t>(i)]);
     if (--p.left == 0) {
-        display.paste_scan(p.heights, p.where);
+        afm::ScanRegion r;   // the request's rectangle, as the operator asked it on the display's pixels
+        r.x0_nm = m.x0_nm - 0.5 * pitch;
+        r.y0_nm = m.y_nm - (m.line + 0.5) * pitch;
+        r.width_nm = m.n * pitch;
+        r.height_nm = m.n_lines * pitch;
+        r.nx = m.n;
+        r.ny = m.n_lines;
+        display.paste_scan(dewarp.apply(p.heights, r), p.where);
         ++page_pasted;
         page_open.erase(it);
     }
@@ -104,6 +116,7 @@ afm::Reject Renderer::on_line(const afm::scan_line_t &m)
     if (m.req_id >= afm::kPageScanReqBase) return page_line(m);
     keep_line(m);
     if (!scan.on_line(m)) return afm::Reject::none;   // a line of another client's scan, or one already here
+    scan_lateral = dewarp.apply(scan_lateral, scan.region());   // as the heights are (the scan client)
     if (scan.id() == kFinalScan && final_pending) finish_last_frame();
     else if (local_pending >= 0 && scan.id() == kLocalScanBase + local_pending) local_scan_done();
     return afm::Reject::none;
@@ -123,6 +136,22 @@ bool Renderer::landmark_or_particle_at(int id, double *x, double *y) const
             *y = m.y_nm + fw_drift_nm[1];
             return true;
         }
+    return false;
+}
+
+void Renderer::mark_seen(int id)
+{
+    for (const auto &p : model.particles)
+        if (id < 0 || p.id == id) seen[p.id] = {p.x_nm, p.y_nm, fw_drift_nm[0], fw_drift_nm[1]};
+}
+
+bool Renderer::pushed_since_seen(int id) const
+{
+    const auto it = seen.find(id);
+    for (const auto &p : model.particles)
+        if (p.id == id && it != seen.end())
+            return std::hypot(p.x_nm - it->second.x_nm - (fw_drift_nm[0] - it->second.drift_x_nm),
+                              p.y_nm - it->second.y_nm - (fw_drift_nm[1] - it->second.drift_y_nm)) > kPushedModel_nm;
     return false;
 }
 
@@ -174,7 +203,7 @@ void Renderer::local_scan_done()
     double sx = 0, sy = 0;
     nlohmann::json rec = {{"at_s", ls.at_s}, {"around_id", ls.around_id}, {"frame", frames_written},
                           {"kind", fix_on_landmark ? "landmark" : "particle"}, {"size_nm", local_size_nm},
-                          {"wide", local_wide}};
+                          {"wide", local_wide}, {"dewarp", dewarp_json(scan.dewarp_note())}};
     // A particle drifted out of reach of its model: in the wider retry,
     // the bump nearest its model (physics.md 10: the scan is wide enough
     // for any drift the card accepts).
@@ -198,15 +227,18 @@ void Renderer::local_scan_done()
         draw_ready();
         return;
     }
+    const bool place = !fix_on_landmark && pushed_since_seen(ls.around_id);
     rec["found"] = true;
     rec["model_nm"] = {mx, my};
     rec["scan_nm"] = {sx, sy};
+    rec["fix"] = place ? "place" : "drift";
     local_scans.push_back(rec);
     fix_msg.utime = afm::frame_utime(scene, frames_written);
     fix_msg.fix_id = ++fixes_sent;
     fix_msg.object_id = ls.around_id;
     fix_msg.scan_x_nm = sx;
     fix_msg.scan_y_nm = sy;
+    fix_msg.kind = place ? afm::object_fix_t::KIND_PLACE : afm::object_fix_t::KIND_DRIFT;
     fix_awaited = fix_msg.fix_id;
     send_fix();
 }

@@ -1,0 +1,201 @@
+// A scan de-warped by the card's scanner model (host/image/scan_dewarp.hpp)
+// against the simulator's scanner: the lab scene (scenes/lab/default.yaml:
+// piezo_hysteresis 10 % over its 5 um field, the card's model
+// scenes/lab/calibration/scanner.yml from ./afm calib scanner) scanned as
+// sim_afm serves a scan request (World::scan_line), its particles located
+// in the raw and the de-warped image against where the world has them; the
+// pixels' modelled positions against the simulator's own hysteresis; and
+// the card's model followed through a path of blocks before the scan.
+#include <unity.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "display.hpp"
+#include "fidelity.hpp"
+#include "piezo.hpp"
+#include "scan_dewarp.hpp"
+#include "scene.hpp"
+#include "world.hpp"
+
+using afm::ScanDewarp;
+using afm::ScanRegion;
+
+namespace {
+
+const std::string kLab = std::string(AFM_SOURCE_DIR) + "/scenes/lab/default.yaml";
+constexpr int kPx = 256;
+
+afm::Scene lab() { return afm::load_scene(kLab); }
+
+ScanRegion whole_field(const afm::Scene &s)
+{
+    ScanRegion r;
+    r.x0_nm = s.field_center_nm.x - s.field_nm / 2;
+    r.y0_nm = s.field_center_nm.y - s.field_nm / 2;
+    r.width_nm = r.height_nm = s.field_nm;
+    r.nx = r.ny = kPx;
+    return r;
+}
+
+// The scan as sim_afm's serve_scan takes it (pixel centres; rows from the top).
+cv::Mat scan_of(const afm::sim::World &w, const ScanRegion &r)
+{
+    cv::Mat h(r.ny, r.nx, CV_32F);
+    const double dx = r.width_nm / r.nx, dy = r.height_nm / r.ny;
+    std::vector<afm::sim::ScanPoint> p(static_cast<std::size_t>(r.nx));
+    for (int j = 0; j < r.ny; ++j) {
+        w.scan_line(r.x0_nm + 0.5 * dx, dx, r.nx, r.y0_nm + (j + 0.5) * dy, r.y0_nm + 0.5 * dy, p.data());
+        for (int i = 0; i < r.nx; ++i) h.at<float>(r.ny - 1 - j, i) = static_cast<float>(p[static_cast<std::size_t>(i)].height_nm);
+    }
+    return h;
+}
+
+// The worst distance between each particle's place in the world and where
+// locate_bump finds it in `h`.
+double worst_located(const afm::Scene &s, const afm::sim::World &w, const cv::Mat &h, const char *what)
+{
+    const afm::Field f{s.field_center_nm.x - s.field_nm / 2, s.field_center_nm.y - s.field_nm / 2, s.field_nm, kPx};
+    double worst = 0;
+    for (const auto &p : w.particles()) {
+        double x = 0, y = 0;
+        TEST_ASSERT_TRUE_MESSAGE(afm::locate_bump(h, f, p.c.x(), p.c.y(), 200, &x, &y), what);
+        std::printf("  %s: particle at (%.1f, %.1f) found at (%.1f, %.1f): %.1f nm\n", what, p.c.x(), p.c.y(), x, y,
+                    std::hypot(x - p.c.x(), y - p.c.y()));
+        worst = std::max(worst, std::hypot(x - p.c.x(), y - p.c.y()));
+    }
+    return worst;
+}
+
+// The simulator's scanner along an axis (its truth: piezo.hpp, started at
+// the scene's first point as the World starts it), driven through the
+// blocks of a path, each block a straight stretch towards its end in
+// kSteps samples; the card's model followed at the blocks' ends alone.
+struct Driven {
+    afm::sim::PlayHysteresis x, y;
+    ScanDewarp card;
+    int64_t seq = 0;   // the next block
+};
+
+constexpr int kSteps = 20;
+
+void drive(Driven *d, const std::vector<std::array<double, 2>> &ends)
+{
+    std::array<double, 2> from = ends.front();
+    for (const auto &to : ends) {
+        for (int k = 1; k <= kSteps; ++k) {
+            d->x.step(from[0] + (to[0] - from[0]) * k / kSteps);
+            d->y.step(from[1] + (to[1] - from[1]) * k / kSteps);
+        }
+        d->card.follow(d->seq, d->seq * 1000, to[0], to[1]);
+        ++d->seq;
+        from = to;
+    }
+}
+
+// The worst distance, per axis, between where the card's model puts the
+// pixels of a scan of r and where the simulator's scanner does (its state
+// copied, as World::scan_line takes it).
+std::array<double, 2> worst_placed(const Driven &d, const ScanRegion &r)
+{
+    const afm::RasterPositions p = d.card.raster(r);
+    const double dx = r.width_nm / r.nx, dy = r.height_nm / r.ny;
+    const double x_first = r.x0_nm + 0.5 * dx, y_first = r.y0_nm + 0.5 * dy;
+    afm::sim::PlayHysteresis x = d.x, y = d.y;
+    x.step(x_first + (r.nx - 1) * dx);
+    x.step(x_first);
+    y.step(y_first);
+    std::array<double, 2> worst{0, 0};
+    for (int i = 0; i < r.nx; ++i) worst[0] = std::max(worst[0], std::fabs(p.x_nm[static_cast<std::size_t>(i)] - x.step(x_first + i * dx)));
+    for (int j = 0; j < r.ny; ++j) {
+        afm::sim::PlayHysteresis line = y;
+        worst[1] = std::max(worst[1], std::fabs(p.y_nm[static_cast<std::size_t>(j)] - line.step(y_first + j * dy)));
+    }
+    return worst;
+}
+
+}  // namespace
+
+void setUp() {}
+void tearDown() {}
+
+void test_pixels_are_where_the_simulators_scanner_put_the_tip()
+{
+    // The lab's scanner (afm.hysteresis: 10 % over a 5 um span) at rest at
+    // the path's first point, then driven about the field with turns on
+    // both axes; after each leg, a full scan and a local scan (400 nm at
+    // 64 px, about the tip): each pixel where the card's model says within
+    // kPlaced_nm of the simulator's scanner, against up to 200 nm commanded.
+    constexpr double kPlaced_nm = 5.0;
+    const afm::Scene s = lab();
+    const afm::Vec2 o = s.start_nm();
+    const double w = s.instrument.hysteresis_width_pct / 100, span = s.instrument.hysteresis_span_nm;
+    Driven d{afm::sim::PlayHysteresis(w, span, o.x), afm::sim::PlayHysteresis(w, span, o.y), ScanDewarp(s)};
+    const std::vector<std::vector<std::array<double, 2>>> legs = {
+        {{o.x, o.y}},
+        {{o.x, o.y}, {2400, 2300}, {2000, 2350}},
+        {{2000, 2350}, {-2100, -1800}, {-1900, -2000}, {-1950, -1500}},
+        {{-1950, -1500}, {600, 200}, {300, 450}, {350, 420}}};
+    double worst_cmd = 0;
+    for (const auto &leg : legs) {
+        drive(&d, leg);
+        const std::array<double, 2> tip = leg.back();
+        ScanRegion local{tip[0] - 200, tip[1] - 200, 400, 400, 64, 64};
+        for (const ScanRegion &r : {whole_field(s), local}) {
+            const std::array<double, 2> e = worst_placed(d, r);
+            double shift = 0;
+            const cv::Mat unused = d.card.apply(cv::Mat::zeros(r.ny, r.nx, CV_32F), r, &shift);
+            worst_cmd = std::max(worst_cmd, shift);
+            std::printf("scan %.0f nm at (%.0f, %.0f): the card's model within %.2f nm (x), %.2f nm (y) of the scanner; "
+                        "pixels moved up to %.1f nm\n", r.width_nm, r.x0_nm, r.y0_nm, e[0], e[1], shift);
+            TEST_ASSERT_TRUE(e[0] < kPlaced_nm && e[1] < kPlaced_nm);
+        }
+    }
+    TEST_ASSERT_TRUE(worst_cmd > 50);
+}
+
+void test_without_the_cards_compensation_a_scan_stays_as_it_came()
+{
+    afm::Scene s = lab();
+    s.fw_cal.hyst_enable = false;
+    const ScanDewarp d(s);
+    TEST_ASSERT_FALSE(d.active());
+    const ScanRegion r = whole_field(s);
+    cv::Mat h(r.ny, r.nx, CV_32F);
+    cv::randu(h, 0, 10);
+    double shift = 1;
+    const cv::Mat out = d.apply(h, r, &shift);
+    TEST_ASSERT_EQUAL_INT(0, cv::countNonZero(out != h));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, shift);
+}
+
+
+void test_particles_in_a_dewarped_scan_are_where_the_world_has_them()
+{
+    const afm::Scene s = lab();
+    const afm::sim::World w(s);
+    const ScanDewarp d(s);
+    TEST_ASSERT_TRUE(d.active());
+    const ScanRegion r = whole_field(s);
+    const cv::Mat raw = scan_of(w, r);
+    double shift = 0;
+    const cv::Mat fixed = d.apply(raw, r, &shift);
+    const double off_raw = worst_located(s, w, raw, "raw"), off_fixed = worst_located(s, w, fixed, "de-warped");
+    std::printf("lab scene, 256 px: the particles %.1f nm off raw, %.1f nm de-warped (pixels moved up to %.1f nm)\n", off_raw,
+                off_fixed, shift);
+    TEST_ASSERT_TRUE(off_raw > 50);
+    TEST_ASSERT_TRUE(off_fixed < 5);
+}
+
+
+int main()
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_particles_in_a_dewarped_scan_are_where_the_world_has_them);
+    RUN_TEST(test_pixels_are_where_the_simulators_scanner_put_the_tip);
+    RUN_TEST(test_without_the_cards_compensation_a_scan_stays_as_it_came);
+    return UNITY_END();
+}
