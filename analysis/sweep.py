@@ -561,9 +561,12 @@ def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_
                   f"{f.get('process_exit_code', f.get('exit_code'))}: {f.get('error') or f.get('stderr', '')} "
                   f"(folder {printable(p.get('run_dir', p.get('dir')))})", file=sys.stderr)
     if best:
-        e = best[0]
+        e, (lo, hi) = best[0], best[0]["cpu_s_per_sim_s_range"]
         print(f"sweep: most accuracy per unit of cost: {e['knob']} {e['from']} -> {e['to']}: force RMS error "
-              f"x{sweep_report.fmt(e['force_rms_pN'])} for x{sweep_report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second")
+              f"x{sweep_report.fmt(e['force_rms_pN'])} for x{sweep_report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second "
+              f"(x{sweep_report.fmt(lo)} to x{sweep_report.fmt(hi)} over {repeat} repeats)")
+    elif any("cpu_s_per_sim_s" in e.get("unjudged", []) for e in effects):
+        print(f"sweep: {sweep_report.unjudged_words(['cpu_s_per_sim_s'])}")
     print(f"sweep: wrote {out}/sweep.csv, sweep.json, report.html and {len(plots)} Pareto plots in plots/")
 
 
