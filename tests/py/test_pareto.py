@@ -133,4 +133,5 @@ def test_a_cpu_ratio_of_one_run_each_is_not_a_knobs_effect_and_with_repeats_come
     assert eff[0]["cpu_s_per_sim_s"] == pytest.approx(1.35) and eff[0]["unjudged"] == []
     assert eff[0]["cpu_s_per_sim_s_range"] == pytest.approx([1.3 / 1.02, 1.4 / 0.98])
     lines = sweep_report.conclusion(rep, knobs, eff, sweep_report.best_buy(eff))
-    assert any("x1.35 (x1.27 to x1.43 over the repeats)" in line for line in lines), lines
+    f = sweep_report.fmt
+    assert any(f"x{f(1.35)} (x{f(1.3 / 1.02)} to x{f(1.4 / 0.98)} over the repeats)" in line for line in lines), lines
