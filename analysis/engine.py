@@ -16,7 +16,7 @@ the user who started them (root, on a bench set up as the README says). So:
   scheduler); QuietScheduler and QuietWorker open none.
 - The sweep's client unpickles nothing its peers send of their own accord:
   it deserializes results with msgpack only (SAFE_DESERIALIZERS), a point's
-  result comes back as JSON text (result_of), and anything else is refused;
+  result comes back as JSON text (result_of, results_of), and anything else is refused;
   the client's own unpickling of a task's type, a task's exception and warn
   events is closed (harden_client). Dask's protocol layer still unpickles a
   message's pickled sub-frames and an RPC's error reply; those can come
@@ -231,9 +231,9 @@ def local_cluster(n_workers):
     return _client_of(cluster, sec)
 
 
-def result_of(future):
-    """A point's record from its future: JSON text, parsed. Anything else a
-    worker sends back (a pickled object above all) is refused unread."""
+def _answer_of(future):
+    """A finished future's answer: JSON text, parsed. Anything else a worker
+    sends back (a pickled object above all) is refused unread."""
     try:
         text = future.result()
     except Exception as e:
@@ -242,12 +242,27 @@ def result_of(future):
     if not isinstance(text, str):
         raise EngineError(f"the worker's answer was refused: a {type(text).__name__}, not JSON text")
     try:
-        rec = json.loads(text)
+        return json.loads(text)
     except ValueError as e:
         raise EngineError(f"the worker's answer was refused: not JSON ({e})") from None
+
+
+def result_of(future):
+    """A point's record from its future: a JSON object (_answer_of)."""
+    rec = _answer_of(future)
     if not isinstance(rec, dict):
         raise EngineError("the worker's answer was refused: not a JSON object")
     return rec
+
+
+def results_of(future):
+    """A batch's records from its future: a JSON list of objects, or one
+    object (_answer_of)."""
+    recs = _answer_of(future)
+    recs = [recs] if isinstance(recs, dict) else recs
+    if not isinstance(recs, list) or not all(isinstance(r, dict) for r in recs):
+        raise EngineError("the worker's answer was refused: not a JSON object or a list of them")
+    return recs
 
 
 class _NoLoads:

@@ -27,6 +27,33 @@ COSTS = [
     ("log_bytes", "bus log size", "bytes"),
 ]
 
+# Costs read from the clock (wall and CPU time): on a shared machine one run
+# of each of two points says nothing of a knob's effect on them (a 1.35 CPU
+# ratio was noise); a knob's effect on them is judged only over repeats,
+# with its spread (effect_on_timed).
+TIMED = ("wall_s_per_sim_s", "cpu_s_per_sim_s", "renderer_ms_per_frame")
+
+
+def effect_on_timed(pairs, key):
+    """(median ratio, [lowest, highest] ratio) of a clock-read cost over
+    pairs (a, b) of points that differ in one knob, each ratio's range from
+    the extremes of their repeats; (None, None) when a point of a pair was
+    run once (it cannot be judged)."""
+    ratios, lows, highs = [], [], []
+    for a, b in pairs:
+        va, vb = repeat_values(a, "costs", key), repeat_values(b, "costs", key)
+        if len(va) < 2 or len(vb) < 2 or min(va) <= 0:
+            return None, None
+        ratios.append(b["costs"][key] / a["costs"][key])
+        lows.append(min(vb) / max(va))
+        highs.append(max(vb) / min(va))
+    if not ratios:
+        return None, None
+    ratios.sort()
+    n = len(ratios)
+    mid = ratios[n // 2] if n % 2 else 0.5 * (ratios[n // 2 - 1] + ratios[n // 2])
+    return mid, [min(lows), max(highs)]
+
 
 def front(points, ek, ck):
     """The non-dominated points for error ek and cost ck (both defined),
@@ -74,11 +101,31 @@ def varies(points, group, key):
 def plot(points, ek, ck, out_base):
     """One error against one cost: every point, the front marked and
     labelled. Writes out_base.png and out_base.svg; returns the front."""
+    fig, _, fr = figure(points, ek, ck)
+    os.makedirs(os.path.dirname(out_base), exist_ok=True)
+    fig.savefig(out_base + ".png", dpi=110)
+    fig.savefig(out_base + ".svg")
+    plt.close(fig)
+    return fr
+
+
+def _from_zero(ax, axis, values):
+    """The axis from 0 (a small difference looks small), with a margin below
+    0 as above the largest value, so that a point at 0 is drawn whole."""
+    top = max(values)
+    pad = 0.06 * top if top > 0 else 1.0
+    (ax.set_ylim if axis == "y" else ax.set_xlim)(-pad, top + pad)
+
+
+def figure(points, ek, ck):
+    """(figure, axes, front) of plot(): every point inside the axes with a
+    margin (none half clipped at an edge or corner), the legend outside
+    them, on the right, so that it covers no point."""
     el = next(e for e in ERRORS if e[0] == ek)
     cl = next(c for c in COSTS if c[0] == ck)
     pts = [p for p in points if p["errors"].get(ek) is not None and p["costs"].get(ck) is not None]
     fr = front(pts, ek, ck)
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    fig, ax = plt.subplots(figsize=(7.6, 4.4))
     ax.scatter([p["costs"][ck] for p in pts], [p["errors"][ek] for p in pts], s=28, color="#9aa7b5", label="points",
                zorder=2)
     # repeated points: their runs' range on each axis
@@ -98,18 +145,16 @@ def plot(points, ek, ck, out_base):
                         fontsize=7, color="#5b1a12")
     ax.set_xlabel(f"{cl[1]} ({cl[2]})")
     ax.set_ylabel(f"{el[1]} ({el[2]})")
-    if all(p["errors"][ek] > 0 for p in pts) and max(p["errors"][ek] for p in pts) > 20 * min(p["errors"][ek] for p in pts):
+    ys, xs = [p["errors"][ek] for p in pts], [p["costs"][ck] for p in pts]
+    ax.margins(0.06)
+    if all(y > 0 for y in ys) and max(ys) > 20 * min(ys):
         ax.set_yscale("log")
-    elif all(p["errors"][ek] >= 0 for p in pts):
-        ax.set_ylim(bottom=0)   # from 0: a small difference looks small
-    if all(p["costs"][ck] >= 0 for p in pts) and max(p["costs"][ck] for p in pts) <= 20 * max(min(p["costs"][ck] for p in pts), 1e-300):
-        ax.set_xlim(left=0)
+    elif all(y >= 0 for y in ys):
+        _from_zero(ax, "y", ys)
+    if all(x >= 0 for x in xs) and max(xs) <= 20 * max(min(xs), 1e-300):
+        _from_zero(ax, "x", xs)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     ax.set_title(f"{el[1]} against {cl[1]}", fontsize=9)
     fig.tight_layout()
-    os.makedirs(os.path.dirname(out_base), exist_ok=True)
-    fig.savefig(out_base + ".png", dpi=110)
-    fig.savefig(out_base + ".svg")
-    plt.close(fig)
-    return fr
+    return fig, ax, fr

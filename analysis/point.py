@@ -3,7 +3,15 @@ ordinary run in its own network namespace (afm_launch through in_netns.sh,
 as ./afm run does), then its errors from its own log and its costs from the
 kernel's accounting, its renderer and the firmware replayed under callgrind.
 Everything it finds is written to the point's folder (point.json), so an
-interrupted sweep keeps every finished point."""
+interrupted sweep keeps every finished point.
+
+A Dask task runs a batch of points (run_points_json), one after the other
+in the worker's long-lived process, each still a run of its own in its own
+namespace; the batch's answer is JSON text, a record per point. Each record
+says where its time went ("timing", docs/sweeps.md "Where a point's time
+goes"): the namespace and the drop around the launcher, the launcher's start
+and end (its processes' start, the scans, run.json) and its loop, the
+errors read from the log, and the callgrind replay."""
 import json
 import os
 import re
@@ -168,6 +176,7 @@ def _run_point(task, env):
     rec = {"id": task["id"], "settings": task["settings"], "label": task["label"], "build_id": task["build_id"],
            "dir": d, "status": "ok", "runs": [], "worker_uid": os.getuid()}
     t0 = time.time()
+    timing = {k: 0.0 for k in TIMING}
     for r in range(task["repeat"]):
         run_dir = os.path.join(d, "run" if r == 0 else f"run-{r + 1}")
         code, err, rj, wall = run_scene(scene_path, run_dir, task["timeout_s"], env)
@@ -177,11 +186,13 @@ def _run_point(task, env):
             rec["run_dir"] = run_dir
             break
         card = rj.get("card") or {}
+        t1 = time.monotonic()
         run = {"run_dir": run_dir, "costs": costs_of(rj),
                "errors": runlog.errors(run_dir, card.get("full_scale_pn")),
                "fidelity": {k: (rj.get("fidelity") or {}).get(k) for k in ("max_position_error_nm", "rms_height_error_nm")},
                "samples": rj.get("samples"), "verdict": rj.get("verdict")}
         rec["runs"].append(run)
+        _add_run_timing(timing, wall, rj, time.monotonic() - t1)
     if rec["status"] == "ok":
         first = rec["runs"][0]
         rec["run_dir"] = first["run_dir"]
@@ -197,15 +208,37 @@ def _run_point(task, env):
             rec["cost_spread"] = {k: [min(x for x in v if x is not None), max(x for x in v if x is not None)]
                                   for k, v in costs.items() if any(x is not None for x in v)}
         if task["callgrind"]:
+            t1 = time.monotonic()
             rec["costs"].update(firmware_instructions(first["run_dir"], os.path.join(d, "callgrind.out"), first["samples"],
                                                       env))
+            timing["callgrind_s"] = time.monotonic() - t1
         if task.get("arm_sizes"):
             mods = modules_run(task["scene"])
             rec["costs"]["fw_text_bytes"] = sum(task["arm_sizes"].get(m, 0) for m in mods)
             rec["fw_modules"] = mods
     rec["point_wall_s"] = time.time() - t0
+    timing["other_s"] = max(0.0, rec["point_wall_s"] - sum(timing.values()))
+    rec["timing"] = timing
     _write_json(os.path.join(d, "point.json"), rec)
     return rec
+
+
+# Where a point's time goes (its record's "timing", seconds, summed over its
+# repeats): the namespace and the drop around the launcher (run/in_netns.sh,
+# run/drop_caps.sh), the launcher's start and end (the processes' start, the
+# initial and final scans, the fidelity check, frames and video when asked,
+# run.json), its loop (first block to last), the errors read from the log,
+# the callgrind replay, and the rest (the scene written, the scratch folder).
+TIMING = ["namespace_s", "launcher_start_end_s", "loop_s", "errors_s", "callgrind_s"]
+
+
+def _add_run_timing(timing, wall, rj, errors_s):
+    launcher = float(rj.get("wall_seconds") or 0.0)
+    loop = float((rj.get("timing") or {}).get("loop_seconds") or 0.0)
+    timing["namespace_s"] += max(0.0, wall - launcher)
+    timing["launcher_start_end_s"] += max(0.0, launcher - loop)
+    timing["loop_s"] += loop
+    timing["errors_s"] += errors_s
 
 
 def run_point_json(task):
@@ -219,6 +252,18 @@ def run_point_json(task):
         return json.dumps({"id": task.get("id"), "settings": task.get("settings"), "label": task.get("label"),
                            "dir": task.get("dir"), "status": "failed",
                            "failure": {"exit_code": -1, "error": f"the point's task raised {type(e).__name__}: {e}"}})
+
+
+def run_points_json(tasks):
+    """A batch of points as one Dask task: each point run in turn
+    (run_point_json), the answer a JSON list of their records; "task_s" in
+    the first says the batch's whole time on its worker (the engine's
+    overhead is what the sweep's client sees beyond it)."""
+    t0 = time.monotonic()
+    recs = [json.loads(run_point_json(t)) for t in tasks]
+    if recs:
+        recs[0]["task_s"] = time.monotonic() - t0
+    return json.dumps(recs)
 
 
 def _median(v):

@@ -10,9 +10,14 @@ and values reach sweep.json, sweep.csv, the report and the terminal through
 the one escaper (analysis/text.py, shown_points).
 
 A point is known by a hash of its scene (the base scene with the point's
-settings) and of the build (the run's programs): running the sweep again
-into the same folder runs only the points it does not have yet."""
+settings, and without frames, video or contact sheet unless --frames) and
+of the build (the run's programs, hashed once per sweep): running the sweep
+again into the same folder runs only the points it does not have yet.
+Every point's scene is checked once, before anything starts, on every core.
+Points go to the workers in batches (batch_size): a task per batch keeps
+the engine's overhead under 1 % of the points' time."""
 import argparse
+import concurrent.futures
 import hashlib
 import json
 import os
@@ -65,6 +70,9 @@ options:
   --insecure            allow a plain tcp:// --scheduler (anyone who reaches it
                         can run code as its workers' user)
   --no-callgrind        skip the firmware's instructions per sample
+  --frames              keep the scene's frames, video and contact sheet in
+                        each point's run (default: none; run.json, the log
+                        and the fidelity figures are kept either way)
   --timeout-s S         a point's run is killed after S s (default: 60 s + 40 x
                         the scene's duration)
   -h, --help            this text
@@ -90,6 +98,7 @@ def parse_args(argv):
     p.add_argument("--tls-key")
     p.add_argument("--insecure", action="store_true")
     p.add_argument("--no-callgrind", action="store_true")
+    p.add_argument("--frames", action="store_true")
     p.add_argument("--timeout-s", type=float)
     p.add_argument("-h", "--help", action="store_true")
     a, rest = p.parse_known_args(argv)
@@ -206,22 +215,50 @@ def check_scene(path):
     return p.returncode, p.stderr.strip()
 
 
+VALIDATED_ENV = "AFM_SWEEP_VALIDATED"   # set by root's process for the sweep's user: checked once, not twice
+
+
 def validate(scene_path, scene, points, sources):
-    """Every point's scene checked before anything starts; a refusal names
-    the point's knobs, where they came from, and the validator's words."""
+    """Every point's scene checked before anything starts, on every core;
+    a refusal names the first refused point's knobs (in the grid's order),
+    where they came from, and the validator's words."""
     code, msg = check_scene(scene_path)
     if code != 0:
         raise SweepError(msg or f"{scene_path}: the scene does not validate")
     with tempfile.TemporaryDirectory(prefix="afm-sweep-check-") as tmp:
+        files = []
         for i, settings in enumerate(points):
             path = os.path.join(tmp, f"point-{i}.yaml")
             with open(path, "w") as f:
                 yaml.safe_dump(K.apply(scene, settings), f, sort_keys=False)
-            code, msg = check_scene(path)
-            if code != 0:
-                detail = msg.replace(path + ": ", "").replace(path, "the point's scene")
-                named = "; ".join(sources.get(k, k) for k in settings)
-                raise SweepError(f"point {K.label(settings)} ({named}): {detail}")
+            files.append(path)
+        with concurrent.futures.ThreadPoolExecutor(os.cpu_count() or 1) as ex:
+            for settings, path, (code, msg) in zip(points, files, ex.map(check_scene, files)):
+                if code != 0:
+                    detail = msg.replace(path + ": ", "").replace(path, "the point's scene")
+                    named = "; ".join(sources.get(k, k) for k in settings)
+                    raise SweepError(f"point {K.label(settings)} ({named}): {detail}")
+
+
+# What a point's run leaves out unless the sweep asks (--frames): the
+# frames, the video and the contact sheet (docs/scenes.md, outputs).
+NO_FRAMES = {"png": False, "video": "none", "contact_sheet_frames": 0}
+
+
+def point_scene(scene, settings, frames):
+    """The scene a point runs: the base with its settings, and without
+    frames, video or contact sheet unless `frames`."""
+    s = K.apply(scene, settings)
+    if not frames:
+        s["outputs"] = dict(s.get("outputs") or {}, **NO_FRAMES)
+    return s
+
+
+def batch_size(n_points, n_workers):
+    """Points per Dask task: about 16 tasks per worker, at most 4 points each
+    (a task's overhead, some ms, is then far under 1 % of its points' time,
+    and the last tasks leave a worker idle a few seconds at most)."""
+    return max(1, min(4, -(-n_points // (16 * max(1, n_workers)))))
 
 
 def build_id():
@@ -270,7 +307,9 @@ def as_run_users(a, argv):
     (they build into the checkout). Returns the sweep's exit code, or None
     when it goes on as root (said on stderr)."""
     scene_path, scene, knobs, out, _, sources = plan(a)
+    t0 = time.monotonic()
     validate(scene_path, scene, K.grid(knobs), sources)
+    os.environ[VALIDATED_ENV] = f"{time.monotonic() - t0:.3f}"   # for the sweep's user, who checks nothing again
     try:
         return sweep_users.run(argv, workers_wanted(a), out, arm_sizes())
     except sweep_users.UsersError as e:
@@ -295,6 +334,7 @@ class Progress:
         self.total, self.done, self.failed, self.t0 = total, done_before, 0, time.monotonic()
         self.new_done, self.durations = 0, []
         self.points_wall_s = None   # from the first submission to the last point
+        self.engine_start_s = None   # the local cluster's start (its workers joined), or the connection's
         self.tty = sys.stderr.isatty()
 
     def show(self, running, final=False):
@@ -326,42 +366,56 @@ def start_engine(a):
     return client, cluster, f"Dask local cluster, {n} worker(s) on 127.0.0.1, TLS"
 
 
-def record_of(f, t):
-    """A finished future's point record; a failed task or a refused answer
-    is the point's failure, named."""
+def records_of(f, batch):
+    """A finished future's point records, one per task of its batch; a
+    failed task, a refused answer or an answer that is not the batch's is
+    each point's failure, named."""
     if f.status == "finished":
         try:
-            return engine.result_of(f)
+            recs = engine.results_of(f)
+            if [r.get("id") for r in recs] == [t["id"] for t in batch]:
+                return recs
+            error = "the worker's answer was refused: its points are not the batch's"
         except engine.EngineError as e:
             error = str(e)
     else:   # the task's exception is never fetched: it would arrive pickled
         error = f"the worker failed the task ({f.status})"
-    return {"id": t["id"], "settings": t["settings"], "label": t["label"], "status": "failed", "dir": t["dir"],
-            "failure": {"exit_code": -1, "error": error}}
+    return [{"id": t["id"], "settings": t["settings"], "label": t["label"], "status": "failed", "dir": t["dir"],
+             "failure": {"exit_code": -1, "error": error}} for t in batch]
+
+
+def submit_batches(client, tasks, n_workers):
+    """{future: its batch}: the tasks in batches (batch_size), a Dask task each."""
+    size = batch_size(len(tasks), n_workers)
+    batches = [tasks[i:i + size] for i in range(0, len(tasks), size)]
+    return {client.submit(point.run_points_json, b, key=f"afm-points-{b[0]['id']}-{len(b)}", pure=False): b
+            for b in batches}
 
 
 def run_points(a, tasks, prog, started=None):
-    """Submits the tasks; returns their records (failed ones included) and
-    the engine in words. started: start_engine's answer, if already had."""
+    """Submits the tasks in batches; returns their records (failed ones
+    included) and the engine in words. started: start_engine's answer, if
+    already had."""
+    t0 = time.monotonic()
     client, cluster, engine_name = started or start_engine(a)
+    prog.engine_start_s = time.monotonic() - t0
     records = []
-    futures = []
+    futures = {}
     t0 = time.monotonic()
     try:
-        futures = [client.submit(point.run_point_json, t, key=f"afm-point-{t['id']}", pure=False) for t in tasks]
-        by_key = {f.key: t for f, t in zip(futures, tasks)}
+        futures = submit_batches(client, tasks, max(1, len(client.nthreads())))
         pending = set(futures)
         while pending:
             time.sleep(0.5)
             for f in [f for f in pending if f.status in ("finished", "error", "cancelled")]:
                 pending.discard(f)
-                rec = record_of(f, by_key[f.key])
-                records.append(rec)
-                if rec["status"] == "ok":
-                    prog.done += 1
-                    prog.durations.append(rec.get("point_wall_s", 0.0))
-                else:
-                    prog.failed += 1
+                for rec in records_of(f, futures[f]):
+                    records.append(rec)
+                    if rec["status"] == "ok":
+                        prog.done += 1
+                        prog.durations.append(rec.get("point_wall_s", 0.0))
+                    else:
+                        prog.failed += 1
             # tasks assigned to workers, at most one per worker thread at a time
             nthreads = client.nthreads()
             running = sum(min(len(v), nthreads.get(w, 1)) for w, v in client.processing().items())
@@ -379,6 +433,27 @@ def run_points(a, tasks, prog, started=None):
     return records, engine_name
 
 
+def make_tasks(a, scene, settings_list, out, repeat, build):
+    """(tasks to run, records of the points done before): a point whose
+    point.json says it was measured with this build, as often as asked, is
+    not run again."""
+    timeout = a.timeout_s or 60.0 + 40.0 * float(scene.get("duration_s", 1.0))
+    # measured by the sweep's root process when it started this one as the sweep's user (as_run_users)
+    sizes = json.loads(os.environ["AFM_SWEEP_ARM_SIZES"]) if "AFM_SWEEP_ARM_SIZES" in os.environ else arm_sizes()
+    tasks, done = [], []
+    for settings in settings_list:
+        s = point_scene(scene, settings, a.frames)
+        pid = point_id(s, build)
+        d = os.path.join(out, "points", pid)
+        rec = load_done(os.path.join(d, "point.json"), build)
+        if rec is not None and len(rec.get("runs", [])) >= repeat:
+            done.append(rec)
+            continue
+        tasks.append({"id": pid, "dir": d, "scene": s, "settings": settings, "label": K.label(settings), "repeat": repeat,
+                      "timeout_s": timeout, "build_id": build, "callgrind": not a.no_callgrind, "arm_sizes": sizes})
+    return tasks, done
+
+
 def _interrupted(_sig, _frame):
     raise KeyboardInterrupt
 
@@ -386,6 +461,7 @@ def _interrupted(_sig, _frame):
 def main(argv):
     signal.signal(signal.SIGTERM, _interrupted)   # as Ctrl-C: the points done are kept (exit 130)
     started = None
+    serial = {}   # the sweep's serial parts, s (sweep.json "serial_s")
     try:
         a = parse_args(argv)
         if os.geteuid() == 0 and not a.scheduler:   # a local cluster's workers (a remote cluster's are its own)
@@ -396,29 +472,22 @@ def main(argv):
             started = start_engine(a)
         scene_path, scene, knobs, out, repeat, sources = plan(a)
         settings_list = K.grid(knobs)
-        validate(scene_path, scene, settings_list, sources)
+        t0 = time.monotonic()
+        if sweep_users.TLS_FD_ENV in os.environ and VALIDATED_ENV in os.environ:   # root's process checked them
+            serial["validate_s"] = float(os.environ[VALIDATED_ENV])
+        else:
+            validate(scene_path, scene, settings_list, sources)
+            serial["validate_s"] = time.monotonic() - t0
+        t0 = time.monotonic()
         build = build_id()
+        serial["build_check_s"] = time.monotonic() - t0
     except (SweepError, K.KnobError, engine.EngineError) as e:
         print(f"sweep: {printable(str(e))}", file=sys.stderr)   # keys, values and the validator's words, escaped
         if started:
             started[0].close()
         return 2
-    duration = float(scene.get("duration_s", 1.0))
-    timeout = a.timeout_s or 60.0 + 40.0 * duration
     os.makedirs(os.path.join(out, "points"), exist_ok=True)
-    # measured by the sweep's root process when it started this one as the sweep's user (as_run_users)
-    sizes = json.loads(os.environ["AFM_SWEEP_ARM_SIZES"]) if "AFM_SWEEP_ARM_SIZES" in os.environ else arm_sizes()
-    tasks, done = [], []
-    for settings in settings_list:
-        s = K.apply(scene, settings)
-        pid = point_id(s, build)
-        d = os.path.join(out, "points", pid)
-        rec = load_done(os.path.join(d, "point.json"), build)
-        if rec is not None and len(rec.get("runs", [])) >= repeat:
-            done.append(rec)
-            continue
-        tasks.append({"id": pid, "dir": d, "scene": s, "settings": settings, "label": K.label(settings), "repeat": repeat,
-                      "timeout_s": timeout, "build_id": build, "callgrind": not a.no_callgrind, "arm_sizes": sizes})
+    tasks, done = make_tasks(a, scene, settings_list, out, repeat, build)
     print(f"sweep: {len(settings_list)} points of {printable(os.path.basename(scene_path))} into {printable(out)}: {len(done)} done before, "
           f"{len(tasks)} to run", file=sys.stderr)
     prog = Progress(len(settings_list), len(done))
@@ -437,10 +506,11 @@ def main(argv):
             interrupted = True
             new = [r for r in (load_done(os.path.join(t["dir"], "point.json"), build) for t in tasks) if r]
             print("\nsweep: interrupted; the points done so far are kept", file=sys.stderr)
-    order = {point_id(K.apply(scene, s), build): i for i, s in enumerate(settings_list)}
+    order = {point_id(point_scene(scene, s, a.frames), build): i for i, s in enumerate(settings_list)}
     points = sorted(done + new, key=lambda r: order.get(r["id"], 0))
+    serial["engine_start_s"] = prog.engine_start_s
     finish(out, scene_path, scene, knobs, points, repeat, build, engine_name, prog.points_wall_s,
-           sweep_users.record(points, remote=bool(a.scheduler)))
+           sweep_users.record(points, remote=bool(a.scheduler)), serial)
     if interrupted:
         print(f"sweep: {len(points)} of {len(settings_list)} points kept; run the same command again to finish",
               file=sys.stderr)
@@ -471,11 +541,11 @@ def shown_points(knobs, points):
     return knobs, out
 
 
-def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_wall_s=None, users=None):
+def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_wall_s=None, users=None, serial=None):
     knobs, points = shown_points(knobs, points)
     knob_keys = [k for k, _ in knobs]
     meta = {"scene": scene_path, "scene_name": shown(scene.get("name", "")), "knobs": knobs, "repeat": repeat,
-            "build_id": build, "engine": engine, "points_wall_s": points_wall_s, "users": users,
+            "build_id": build, "engine": engine, "points_wall_s": points_wall_s, "users": users, "serial_s": serial,
             "ok": sum(p["status"] == "ok" for p in points),
             "failed": sum(p["status"] != "ok" for p in points)}
     sweep_report.write_csv_json(out, points, knob_keys, meta)
@@ -491,9 +561,12 @@ def finish(out, scene_path, scene, knobs, points, repeat, build, engine, points_
                   f"{f.get('process_exit_code', f.get('exit_code'))}: {f.get('error') or f.get('stderr', '')} "
                   f"(folder {printable(p.get('run_dir', p.get('dir')))})", file=sys.stderr)
     if best:
-        e = best[0]
+        e, (lo, hi) = best[0], best[0]["cpu_s_per_sim_s_range"]
         print(f"sweep: most accuracy per unit of cost: {e['knob']} {e['from']} -> {e['to']}: force RMS error "
-              f"x{sweep_report.fmt(e['force_rms_pN'])} for x{sweep_report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second")
+              f"x{sweep_report.fmt(e['force_rms_pN'])} for x{sweep_report.fmt(e['cpu_s_per_sim_s'])} CPU per simulated second "
+              f"(x{sweep_report.fmt(lo)} to x{sweep_report.fmt(hi)} over {repeat} repeats)")
+    elif any("cpu_s_per_sim_s" in e.get("unjudged", []) for e in effects):
+        print(f"sweep: {sweep_report.unjudged_words(['cpu_s_per_sim_s'])}")
     print(f"sweep: wrote {out}/sweep.csv, sweep.json, report.html and {len(plots)} Pareto plots in plots/")
 
 

@@ -16,8 +16,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def columns(points, knob_keys):
-    """The CSV's columns: every knob, every error figure, every cost figure,
-    the status and the run's folder."""
+    """The CSV's columns: every knob, the status, the run's own verdict,
+    every error figure, every cost figure and the run's folder."""
     cost_keys = []
     for p in points:
         for k in p.get("costs", {}):
@@ -25,12 +25,13 @@ def columns(points, knob_keys):
                 cost_keys.append(k)
     err_keys = [e[0] for e in pareto.ERRORS] + ["force_rms_pct_fs", "force_worst_pct_fs", "display_rms_height_nm",
                                                  "blocks"]
-    return ["point", "label"] + knob_keys + ["status"] + err_keys + sorted(cost_keys) + [
+    return ["point", "label"] + knob_keys + ["status", "verdict"] + err_keys + sorted(cost_keys) + [
         "errors_identical_over_repeats", "run_dir", "failure"]
 
 
 def row(p, cols, knob_keys):
     r = {"point": p["id"], "label": p["label"], "status": p["status"], "run_dir": p.get("run_dir", ""),
+         "verdict": verdict_words(p.get("verdict")),
          "errors_identical_over_repeats": p.get("errors_identical_over_repeats", "")}
     for k in knob_keys:
         r[k] = p["settings"].get(k)
@@ -43,6 +44,18 @@ def row(p, cols, knob_keys):
         f = p.get("failure", {})
         r["failure"] = f"{f.get('process', 'launcher')} exit {f.get('process_exit_code', f.get('exit_code'))}: {f.get('error') or f.get('stderr', '')}"
     return {c: r.get(c, "") for c in cols}
+
+
+def verdict_words(v):
+    """A point's verdict, as its run.json says it (the one owner,
+    host/launch/verdict.hpp): "pass", or "fail: CHECK, ..." naming the
+    checks it failed; "" for a point with no run."""
+    if not isinstance(v, dict):
+        return ""
+    if v.get("pass"):
+        return "pass"
+    failed = [f.get("check", "?") if isinstance(f, dict) else str(f) for f in v.get("failed") or []]
+    return "fail: " + ", ".join(failed) if failed else "fail"
 
 
 def write_csv_json(out, points, knob_keys, meta):
@@ -115,14 +128,26 @@ def knob_effects(points, knobs):
                  if json.dumps(lo) in g and json.dumps(hi) in g]
         if not pairs:
             continue
-        eff = {"knob": key, "from": lo, "to": hi, "pairs": len(pairs)}
+        eff = {"knob": key, "from": lo, "to": hi, "pairs": len(pairs), "unjudged": []}
         for k, _, _ in pareto.ERRORS + pareto.COSTS:
             group = "errors" if any(k == e[0] for e in pareto.ERRORS) else "costs"
+            if k in pareto.TIMED:   # only over repeats, with the spread (pareto.effect_on_timed)
+                eff[k], eff[f"{k}_range"] = pareto.effect_on_timed(pairs, k)
+                if eff[k] is None and any(a[group].get(k) is not None for a, _ in pairs):
+                    eff["unjudged"].append(k)
+                continue
             ratios = [b[group].get(k) / a[group].get(k) for a, b in pairs
                       if a[group].get(k) and b[group].get(k) is not None and a[group].get(k) > 0]
             eff[k] = statistics.median(ratios) if ratios else None
         rows.append(eff)
     return rows
+
+
+def unjudged_words(keys):
+    """The sentence for clock-read costs that no knob's effect can be said of."""
+    names = [l for k, l, _ in pareto.COSTS if k in keys]
+    return (f"{'; '.join(names)}: each point was run once, on a shared machine, so what a knob does to "
+            f"{'it' if len(names) == 1 else 'them'} cannot be judged (--repeat 3 measures the spread).")
 
 
 def best_buy(effects):
@@ -159,11 +184,15 @@ def conclusion(points, knobs, effects, best):
             f = e.get(k)
             if f is not None and abs(math.log(f)) > math.log(1 + pareto.MIN_RELATIVE_SPREAD):
                 parts.append(f"{label} x{fmt(f)}")
-        costs = [f"{l} x{fmt(e.get(k))}" for k, l, _ in pareto.COSTS
-                 if pareto.varies(ok, "costs", k) and e.get(k) is not None]
+        costs = [f"{l} x{fmt(e.get(k))}" + (f" (x{fmt(e[k + '_range'][0])} to x{fmt(e[k + '_range'][1])} over the repeats)"
+                                             if e.get(k + "_range") else "")
+                 for k, l, _ in pareto.COSTS if pareto.varies(ok, "costs", k) and e.get(k) is not None]
         what = "; ".join(parts) if parts else "no error figure beyond its noise"
         out.append(f"{e['knob']} from {e['from']} to {e['to']}: {what}" + (f"; costs {', '.join(costs)}" if costs else "") +
                    f" (median over {e['pairs']} pair(s)).")
+    unjudged = sorted({k for e in effects for k in e.get("unjudged", [])}, key=list(pareto.TIMED).index)
+    if unjudged:
+        out.append(unjudged_words(unjudged))
     if not moving:
         out.append("No error figure varies over this sweep beyond its repeat noise and "
                    f"{pareto.MIN_RELATIVE_SPREAD:.0%} of its value: within these knobs the accuracy does not depend on them.")

@@ -57,6 +57,7 @@ class LocalSweep(unittest.TestCase):
             self.assertIn(col, r[0], col)
         for x in r:
             self.assertEqual(x["status"], "ok", x)
+            self.assertEqual(x["verdict"], "pass", x)   # run.json's verdict, in words
             self.assertTrue(os.path.exists(os.path.join(x["run_dir"], "bus.lcmlog")))
             self.assertGreater(float(x["fw_instr_per_sample"]), 50)
             self.assertGreater(float(x["cpu_fw_node_s_per_sim_s"]), 0)
@@ -74,6 +75,30 @@ class LocalSweep(unittest.TestCase):
         self.assertIn("firmware.adc_bits from 10 to 16: ", html)
         self.assertIn("adc_bits=10", html)
         self.assertIn("adc_bits=16", so)   # the table on stdout
+
+    def test_a_point_gives_the_errors_of_its_scene_run_alone(self):
+        """A point keeps run.json, the logs and its figures, not the frames
+        or the video (unless --frames), and its errors and verdict are those
+        of the same scene run alone, frames and video on (16 bits: the
+        scene's own ADC)."""
+        with open(os.path.join(self.out, "sweep.json")) as f:
+            point = next(p for p in json.load(f)["points"] if p["settings"] == {"firmware.adc_bits": 16})
+        run_dir = point["run_dir"]
+        for f in ("run.json", "bus.lcmlog", "logs/fw_node.log", "scan_initial.png", "fidelity_diff.png"):
+            self.assertTrue(os.path.exists(os.path.join(run_dir, f)), f)
+        self.assertFalse(os.path.exists(os.path.join(run_dir, "video.mp4")))
+        self.assertFalse(os.path.exists(os.path.join(run_dir, "frames")) and os.listdir(os.path.join(run_dir, "frames")))
+        alone = e2e_support.tmpdir("sweep-alone")
+        self.addCleanup(e2e_support.cleanup, alone)
+        code, _, err, rj = e2e_support.run(SHORT, alone, "--no-verdict")
+        self.assertEqual(code, 0, err)
+        self.assertTrue(os.path.exists(os.path.join(alone, "video.mp4")))
+        from analysis import runlog
+        errors = dict(runlog.errors(alone, rj["card"]["full_scale_pn"]),
+                      display_max_nm=rj["fidelity"]["max_position_error_nm"],
+                      display_rms_height_nm=rj["fidelity"]["rms_height_error_nm"])
+        self.assertEqual(json.loads(json.dumps(errors)), point["errors"])
+        self.assertEqual(rj["verdict"], point["verdict"])
 
     def test_errors_fall_as_the_adc_bits_rise(self):
         r = {int(x["firmware.adc_bits"]): x for x in rows(self.out)}
@@ -279,8 +304,8 @@ class WorkerAnswers(unittest.TestCase):
                 with self.assertRaises(engine.EngineError) as e:
                     engine.result_of(f)
                 self.assertIn("refused", str(e.exception))
-                rec = sw.record_of(f, task)
-                self.assertEqual(rec["status"], "failed", fn.__name__)
+                recs = sw.records_of(f, [task])
+                self.assertEqual([r["status"] for r in recs], ["failed"], fn.__name__)
         finally:
             client.close()
             cluster.close()

@@ -90,3 +90,48 @@ def test_the_conclusion_names_what_moved_and_what_did_not():
     lines = sweep_report.conclusion(flat, [("k", [1, 2])], eff, None)
     assert any("No error figure varies" in line for line in lines), lines
     assert sweep_report.conclusion([dict(point("a", 1, 1), status="failed")], [], [], None)[0][:21] == "No point was measured"
+
+
+@pytest.mark.parametrize("corner_costs", [(0.0, 2.0), (1.0, 1.4)])
+def test_no_point_is_clipped_at_an_edge_or_under_the_legend(corner_costs):
+    """The extreme points (at 0, at the largest error and cost, on the
+    corners) are drawn whole inside the axes, and the legend covers none
+    (issue 50, item 8: they sat half clipped on the corner under it)."""
+    lo, hi = corner_costs
+    pts = [point("a", 0.0, hi), point("b", 40.0, lo), point("c", 40.0, hi), point("d", 0.0, lo), point("e", 12.0, 0.5 * (lo + hi)),
+           point("f", 3.0, hi)]
+    fig, ax, _ = pareto.figure(pts, "force_rms_pN", "cpu_s_per_sim_s")
+    try:
+        fig.canvas.draw()
+        box, legend = ax.get_window_extent(), ax.get_legend().get_window_extent()
+        r = (46 ** 0.5) / 2 * fig.dpi / 72   # the largest marker's radius, px
+        for p in pts:
+            x, y = ax.transData.transform((p["costs"]["cpu_s_per_sim_s"], p["errors"]["force_rms_pN"]))
+            assert box.x0 + r <= x <= box.x1 - r and box.y0 + r <= y <= box.y1 - r, (p["label"], (x, y), box)
+            assert not (legend.x0 - r < x < legend.x1 + r and legend.y0 - r < y < legend.y1 + r), (p["label"], legend)
+    finally:
+        pareto.plt.close(fig)
+
+
+def test_a_cpu_ratio_of_one_run_each_is_not_a_knobs_effect_and_with_repeats_comes_with_its_spread():
+    """Issue 50, item 8: with one repeat on a shared machine a CPU ratio of
+    1.35 was presented as the knob's effect; it is said to be unjudged, and
+    with repeats it is shown with the range of its repeats."""
+    knobs = [("k", [1, 2])]
+    once = [point("a", 100.0, 1.0), point("b", 50.0, 1.35)]
+    once[0]["settings"], once[1]["settings"] = {"k": 1}, {"k": 2}
+    eff = sweep_report.knob_effects(once, knobs)
+    assert eff[0]["cpu_s_per_sim_s"] is None and "cpu_s_per_sim_s" in eff[0]["unjudged"], eff
+    assert sweep_report.best_buy(eff) is None
+    lines = sweep_report.conclusion(once, knobs, eff, None)
+    assert not any("x1.35" in line for line in lines), lines
+    assert any("CPU time per simulated second" in line and "cannot be judged" in line for line in lines), lines
+    rep = [point("a", 100.0, 1.0, runs=[(100.0, 0.98), (100.0, 1.0), (100.0, 1.02)]),
+           point("b", 50.0, 1.35, runs=[(50.0, 1.3), (50.0, 1.35), (50.0, 1.4)])]
+    rep[0]["settings"], rep[1]["settings"] = {"k": 1}, {"k": 2}
+    eff = sweep_report.knob_effects(rep, knobs)
+    assert eff[0]["cpu_s_per_sim_s"] == pytest.approx(1.35) and eff[0]["unjudged"] == []
+    assert eff[0]["cpu_s_per_sim_s_range"] == pytest.approx([1.3 / 1.02, 1.4 / 0.98])
+    lines = sweep_report.conclusion(rep, knobs, eff, sweep_report.best_buy(eff))
+    f = sweep_report.fmt
+    assert any(f"x{f(1.35)} (x{f(1.3 / 1.02)} to x{f(1.4 / 0.98)} over the repeats)" in line for line in lines), lines

@@ -62,3 +62,15 @@ def test_no_output_of_the_sweep_holds_a_control_character(tmp_path, capsys):
         found = CONTROL.search(text)
         assert found is None, f"{name}: {found.group(0)!r} at {found.start()}"
         assert "\\x1B]52" in text, name
+
+
+def test_the_csv_has_each_points_verdict_from_its_run_json(tmp_path):
+    """Issue 50, item 8: sweep.csv had no verdict column; it says run.json's
+    verdict (its one owner) in words: pass, or fail naming the checks."""
+    knobs, points = made_up_points()
+    points[1]["verdict"] = {"pass": False, "failed": [{"check": "fidelity", "detail": "x"}], "expected": [], "met": []}
+    points.append(dict(points[1], id="p2", verdict={"pass": True, "failed": [], "expected": [], "met": []}))
+    sweep_report.write_csv_json(str(tmp_path), points, [k for k, _ in knobs], {})
+    with open(tmp_path / "sweep.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["verdict"] for r in rows] == ["", "fail: fidelity", "pass"]
