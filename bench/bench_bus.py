@@ -442,7 +442,7 @@ def print_tables(r):
                   f"{m['lockstep_us_per_block']:.2f} us, {100 * m['lockstep_us_per_block'] / x['us_per_block']:.1f} %")
         else:
             print(f"  {x['arrangement']:34s} no key (AFM_BUS_MAC=off)")
-    print(f"\nTwo hosts (docs/hosts.md): sim_afm in its own namespace across a veth pair; the floor's simulator path crosses the link")
+    print("\nTwo hosts (docs/hosts.md): sim_afm in its own namespace across a veth pair; the floor's simulator path crosses the link")
     print(f"{'arrangement':34s} {'us/block':>9s} {'floor us':>9s} {'x floor':>8s} {'sim path':>9s} {'op path':>8s} {'link ms one-way':>16s} "
           f"{'log':>9s}  CPU us/block")
     for x in r.get("two_hosts", []):
