@@ -231,6 +231,11 @@ struct LocalScanSpec {
     double at_s = 0;                    // simulated time it is taken (at the first frame from then)
     int around_id = 0;                  // the particle or landmark it is centred on (its modelled position)
     double size_nm = 400;               // side of the scanned square
+    // fix: drift (default): the particle's offset in the scan is the
+    // sample's drift, and every model moves by it; place: the particle was
+    // pushed since a scan last saw it, and only its model is put where the
+    // scan shows it (a landmark's scan is always drift)
+    bool place = false;
 };
 
 // The haptic device (a Phantom-class joystick) and the force the card

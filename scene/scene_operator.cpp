@@ -171,7 +171,7 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
         if (!ls_n.IsSequence()) r.fail("operator.local_scans", "must be a list, got " + Reader::show(ls_n));
         for (std::size_t i = 0; i < ls_n.size(); ++i) {
             const std::string key = "operator.local_scans[" + std::to_string(i) + "]";
-            r.only_keys(ls_n[i], key, {"at_s", "around_id", "size_nm"});
+            r.only_keys(ls_n[i], key, {"at_s", "around_id", "size_nm", "fix"});
             LocalScanSpec ls;
             ls.at_s = r.num(ls_n[i], key, "at_s", nullptr);
             const double id = r.num(ls_n[i], key, "around_id", nullptr);
@@ -182,6 +182,8 @@ void read_operator(const Reader &r, const YAML::Node &root, Scene &s)
             if (!known) r.fail(key + ".around_id", "names no particle or landmark of objects, got " + Reader::show(ls_n[i]["around_id"]));
             const double size_d = 400;
             ls.size_nm = r.num(ls_n[i], key, "size_nm", &size_d);
+            const std::string drift = "drift";
+            ls.place = r.str(ls_n[i], key, "fix", &drift, {"drift", "place"}) == "place";
             if (!s.op.local_scans.empty() && ls.at_s < s.op.local_scans.back().at_s)
                 r.fail(key + ".at_s", "local scans must be in time order, got " + Reader::show(ls_n[i]["at_s"]));
             s.op.local_scans.push_back(ls);

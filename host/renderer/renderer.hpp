@@ -78,7 +78,6 @@ constexpr int kScanRetryMs = 500;
 // it). A frame is announced at most this much later than it could be.
 constexpr int kBatchUs = 500;
 constexpr double kFidelitySearch_nm = 40.0;    // how far from its model position an object is looked for
-constexpr double kPushedModel_nm = 0.5;        // a particle's model moved this much (less the drift) since a scan saw it: pushed
 constexpr double kFidelityTarget_nm = 5.0;     // the target: every object within 5 nm
 constexpr double kHandGaugeThresholds = 4.0;   // the hand's gauge: its circle is this many feel thresholds
 
@@ -188,17 +187,6 @@ struct Renderer {
     int fixes_sent = 0;
     double fw_drift_nm[2] = {0, 0};   // the firmware's drift estimate, from FW_STATE's objects
     bool fix_on_landmark = false;
-    // Where each particle's model was when a scan last saw it (the scene's
-    // place at the start, the answer to a fix on it since) and the drift then. A
-    // model that moved since by more than the drift did was pushed: a local
-    // scan of it puts that model where the scan shows it (KIND_PLACE,
-    // object_fix_t.lcm) instead of taking its offset for drift.
-    struct Seen {
-        double x_nm, y_nm, drift_x_nm, drift_y_nm;
-    };
-    std::map<int, Seen> seen;
-    bool pushed_since_seen(int id) const;
-    void mark_seen(int id);   // -1: every particle
     afm::object_fix_t fix_msg{};
     std::chrono::steady_clock::time_point fix_sent;
     int due_pending = 0;         // frames due by the block being drawn (continue_frames draws up to it; a scan pauses it)
@@ -230,7 +218,6 @@ struct Renderer {
         display.set_trails(s.out.trails);
         pick_sheet();
         for (const auto &p : s.particles) model.particles.push_back({p.id, p.x_nm, p.y_nm, p.radius_nm});
-        mark_seen(-1);
         for (const auto &w : s.wires) model.wires.push_back({w.id, w.diameter_nm, {{w.x0_nm, w.y0_nm}, {w.x1_nm, w.y1_nm}}});
     }
 

@@ -189,7 +189,6 @@ void Renderer::objects_frames(const afm::objects_t *m)
             // objects' corrected footprints is what the scan shows).
             const double ddx = m->drift_nm[0] - fw_drift_nm[0], ddy = m->drift_nm[1] - fw_drift_nm[1];
             set_model(*m);
-            if (!fix_on_landmark) mark_seen(fix_msg.object_id);
             // A landmark fix re-registers the whole work space: the
             // background (the last scan) moves with the sample too.
             if (fix_on_landmark) display.shift_background(ddx, ddy);

@@ -139,22 +139,6 @@ bool Renderer::landmark_or_particle_at(int id, double *x, double *y) const
     return false;
 }
 
-void Renderer::mark_seen(int id)
-{
-    for (const auto &p : model.particles)
-        if (id < 0 || p.id == id) seen[p.id] = {p.x_nm, p.y_nm, fw_drift_nm[0], fw_drift_nm[1]};
-}
-
-bool Renderer::pushed_since_seen(int id) const
-{
-    const auto it = seen.find(id);
-    for (const auto &p : model.particles)
-        if (p.id == id && it != seen.end())
-            return std::hypot(p.x_nm - it->second.x_nm - (fw_drift_nm[0] - it->second.drift_x_nm),
-                              p.y_nm - it->second.y_nm - (fw_drift_nm[1] - it->second.drift_y_nm)) > kPushedModel_nm;
-    return false;
-}
-
 void Renderer::start_local_scan(int i, double size_nm)
 {
     const afm::LocalScanSpec &ls = scene.op.local_scans[i];
@@ -227,7 +211,7 @@ void Renderer::local_scan_done()
         draw_ready();
         return;
     }
-    const bool place = !fix_on_landmark && pushed_since_seen(ls.around_id);
+    const bool place = !fix_on_landmark && ls.place;
     rec["found"] = true;
     rec["model_nm"] = {mx, my};
     rec["scan_nm"] = {sx, sy};

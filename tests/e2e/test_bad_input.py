@@ -119,10 +119,15 @@ class BadScenes(unittest.TestCase):
         self.check_refused(trench.replace("load_nN: 55}", "load_nN: 55, depth_nm: 3}"), "operator.plan.cuts[0].depth_nm",
                            "unknown key")
 
+    def test_a_local_scans_fix_is_drift_or_place(self):
+        self.check_refused(GOOD.replace("{at_s: 0.04, around_id: 1, size_nm: 300}",
+                                        "{at_s: 0.04, around_id: 1, size_nm: 300, fix: sideways}"),
+                           "operator.local_scans[0].fix", "sideways")
+
     def test_browser_plan_takes_settings_but_no_cuts(self):
         browser = GOOD.replace("operator:\n", "time_mode: realtime\noperator:\n  mode: browser\n", 1)
         self.check_refused(browser.replace("  mode: browser\n", "  mode: browser\n  plan: {tolerance_nm: 15, cuts: []}\n"),
-                           "operator.plan.cuts", "only the page's strokes")
+                           "operator.plan.cuts", "sets only the strokes asked for")
         self.check_refused(browser.replace("  mode: browser\n", "  mode: browser\n  plan: {tolerance_nm: -3}\n"),
                            "operator.plan.tolerance_nm", "'-3'")
 
