@@ -147,6 +147,7 @@ ALLOWED = {
     "host/afm_replay": _BUS,
     "host/operator": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs"},   # no ISA-L, no zlib
     "host/renderer": _BUS | {"libopencv_core", "libopencv_imgproc", "libopencv_imgcodecs", "libopencv_videoio",
+                                    "libopencv_freetype",   # the frames' and figures' text (host/renderer/frame_font)
                                     "libisal", "libz"},
     "host/afm_netfault": _BASE | {"libnetfilter_queue"},
     "host/afm_media": _BASE | {"libopencv_core", "libopencv_videoio"},
