@@ -44,23 +44,9 @@ class SessionError(RuntimeError):
 
 
 def parse_ready(detail):
-    """The operator's "env: ready K seq=N ok=1 [k=v ...] [why=...]" as a dict
-    (numbers as numbers; why: the rest of the line)."""
+    """The operator's "env: ready K seq=N ok=1 [k=v ...] [why=...]" as a dict."""
     words = detail.split()
-    out = {"k": int(words[2])}
-    for i, w in enumerate(words[3:], 3):
-        key, _, v = w.partition("=")
-        if key == "why":
-            out["why"] = " ".join([v] + words[i + 1:])
-            break
-        try:
-            out[key] = int(v)
-        except ValueError:
-            try:
-                out[key] = float(v)
-            except ValueError:
-                out[key] = v
-    return out
+    return dict(live.detail_fields(words, 3), k=int(words[2]))
 
 
 class Session:

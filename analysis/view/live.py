@@ -159,22 +159,33 @@ def push_line(msg):
 LINES = {"hand": hand_line, "scan": scan_line, "push": push_line}
 
 
-def push_news(detail):
-    """The operator's "push: start|end id=.. x_nm=.. y_nm=.. [placed=..
-    error_nm=.. pushes=.. scans=.. why=...]" as a dict (numbers as numbers;
-    why: the rest of the line)."""
-    words = detail.split()
-    out = {"phase": words[1] if len(words) > 1 else ""}
-    for i, w in enumerate(words[2:], 2):
+def detail_fields(words, start):
+    """The key=value words of an operator's heartbeat detail (its push and
+    env lines, host/operator) from words[start] on, as a dict: a value as an
+    int where it reads as one, else a float, else its text; why= takes the
+    rest of the line."""
+    out = {}
+    for i, w in enumerate(words[start:], start):
         k, _, v = w.partition("=")
         if k == "why":
             out["why"] = " ".join([v] + words[i + 1:])
             break
-        try:
-            out[k] = int(v) if k in ("id", "placed", "pushes", "scans") else float(v)
-        except ValueError:
+        for number in (int, float):
+            try:
+                out[k] = number(v)
+                break
+            except ValueError:
+                pass
+        else:
             out[k] = v
     return out
+
+
+def push_news(detail):
+    """The operator's "push: start|end id=.. x_nm=.. y_nm=.. [placed=..
+    error_nm=.. pushes=.. scans=.. why=...]" as a dict."""
+    words = detail.split()
+    return dict(detail_fields(words, 2), phase=words[1] if len(words) > 1 else "")
 
 
 async def read_records(fd, on_record):

@@ -26,13 +26,8 @@ EnvDriver::EnvDriver(Operator &op, int fd) : op_(op), fd_(fd)
 
 int EnvDriver::open_from_env()
 {
-    const char *path = std::getenv("AFM_HAND_FIFO");
-    if (!path || !*path)
-        throw InputError("operator: operator.mode env takes its actions from a program: run it through analysis.env "
-                         "(docs/env.md; AFM_HAND_FIFO is not set)");
-    const int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) throw InputError(std::string("operator: cannot open the program's pipe, AFM_HAND_FIFO ") + path + ": " + std::strerror(errno));
-    return fd;
+    return HandInput::open_from_env("operator.mode env takes its actions from a program: run it through analysis.env (docs/env.md)",
+                                    "the program's pipe");
 }
 
 void EnvDriver::hold() { op_.publish_pose(op_.joy_of(tip_.tip_nm), false); }

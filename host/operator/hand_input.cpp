@@ -19,15 +19,13 @@ HandInput::HandInput(const Scene &s, int fd) : scene_(s), fd_(fd), cmd_{s.start_
     if (fl >= 0) fcntl(fd_, F_SETFL, fl | O_NONBLOCK);
 }
 
-int HandInput::open_from_env()
+int HandInput::open_from_env(const char *unset_why, const char *what)
 {
     const char *path = std::getenv("AFM_HAND_FIFO");
-    if (!path || !*path)
-        throw InputError("operator: operator.mode browser takes the hand from the page: run it with ./afm run SCENE --view "
-                         "(AFM_HAND_FIFO is not set)");
+    if (!path || !*path) throw InputError(std::string("operator: ") + unset_why + " (AFM_HAND_FIFO is not set)");
     const int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0)
-        throw InputError(std::string("operator: cannot open the page's hand, AFM_HAND_FIFO ") + path + ": " + std::strerror(errno));
+        throw InputError(std::string("operator: cannot open ") + what + ", AFM_HAND_FIFO " + path + ": " + std::strerror(errno));
     return fd;
 }
 

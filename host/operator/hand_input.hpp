@@ -69,8 +69,13 @@ public:
     // fd: the pipe's read end (made non-blocking here).
     HandInput(const Scene &s, int fd);
     // $AFM_HAND_FIFO opened to read, without waiting; throws InputError
-    // naming the variable when it is unset or does not open.
-    static int open_from_env();
+    // naming the variable when it is unset (saying `unset_why`, what the
+    // mode takes its commands from) or does not open (naming the pipe as
+    // `what`). The page's hand by default; operator.mode env's program
+    // through EnvDriver::open_from_env.
+    static int open_from_env(const char *unset_why = "operator.mode browser takes the hand from the page: run it with "
+                                                     "./afm run SCENE --view",
+                             const char *what = "the page's hand");
 
     // Takes the commands that came since the last call.
     void poll();

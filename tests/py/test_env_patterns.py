@@ -2,7 +2,8 @@
 task is the same scene for the same seed and another for another seed;
 its sites are on the grid at the spacing, its particles inside the field,
 apart and off the sites; a field too small is refused naming the
-parameter; the task set's names are unique and each task generates."""
+parameter; the task set's names are unique and each task generates. And
+the operator's env and push lines, read by one parser (live.detail_fields)."""
 import math
 
 import pytest
@@ -45,3 +46,13 @@ def test_task_set():
         p = dict(t)
         name = p.pop("name")
         assert len(patterns.generate(name=name, **p)["objects"]["targets"]) == t["n"]
+
+
+def test_the_operators_ready_and_push_lines():
+    from analysis.env import session
+    from analysis.view import live
+    assert session.parse_ready("env: ready 7 seq=12 ok=1 drift_x_nm=0.5 why=refused: off the field") == {
+        "k": 7, "seq": 12, "ok": 1, "drift_x_nm": 0.5, "why": "refused: off the field"}
+    assert live.push_news("push: end id=3 x_nm=12.5 placed=1 note=odd why=lost it") == {
+        "phase": "end", "id": 3, "x_nm": 12.5, "placed": 1, "note": "odd", "why": "lost it"}
+    assert live.push_news("push:") == {"phase": ""}
