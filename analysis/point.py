@@ -175,10 +175,14 @@ def _run_point(task, env):
         yaml.safe_dump(task["scene"], f, sort_keys=False)
     rec = {"id": task["id"], "settings": task["settings"], "label": task["label"], "build_id": task["build_id"],
            "dir": d, "status": "ok", "runs": [], "worker_uid": os.getuid()}
+    if os.environ.get("SLURM_JOB_ID"):   # a worker of --cluster slurm: the job that ran the point
+        rec["slurm_job_id"] = os.environ["SLURM_JOB_ID"]
     t0 = time.time()
     timing = {k: 0.0 for k in TIMING}
     for r in range(task["repeat"]):
         run_dir = os.path.join(d, "run" if r == 0 else f"run-{r + 1}")
+        if os.path.isdir(run_dir) and not os.path.islink(run_dir):   # a run cut short (its worker's job killed, Ctrl-C)
+            shutil.rmtree(run_dir)
         code, err, rj, wall = run_scene(scene_path, run_dir, task["timeout_s"], env)
         if code != 0 or not rj or rj.get("status") != "ok":
             rec["status"] = "failed"

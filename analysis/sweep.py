@@ -2,7 +2,8 @@
 in its own network namespace, its errors against the simulator's truth and
 its costs measured from the run itself; a CSV, JSON, a table, Pareto plots
 and one report.html. Points run on Dask distributed: a LocalCluster by
-default, an existing cluster with --scheduler ADDRESS; both TLS with
+default, an existing cluster with --scheduler ADDRESS, SLURM jobs with
+--cluster slurm (analysis/slurm_engine.py); each TLS with
 credentials (analysis/engine.py); the client reads results as JSON, never
 pickled. Started as root with a local cluster, the client and scheduler are
 one leased uid and each worker another (analysis/sweep_users.py). Knob names
@@ -32,7 +33,7 @@ import time
 import yaml
 
 from analysis import knobs as K
-from analysis import engine, paths, point, sweep_report, sweep_users
+from analysis import engine, paths, point, slurm_engine, sweep_report, sweep_users
 from analysis.text import printable
 
 USAGE = """usage: ./afm sweep SCENE --vary KEY=V1,V2,... [--vary ...] [options]
@@ -69,6 +70,17 @@ options:
                         (PEM), for --scheduler tls://...
   --insecure            allow a plain tcp:// --scheduler (anyone who reaches it
                         can run code as its workers' user)
+  --cluster slurm       the workers are SLURM jobs (dask-jobqueue), --workers N
+                        of them (default: one per core), each one
+                        single-threaded worker; the scheduler is this process,
+                        TLS (--tls-* files, or credentials made for the sweep);
+                        a job ended by its walltime is replaced and its points
+                        run again (docs/sweeps.md, "On a SLURM cluster")
+  --partition P, --account A, --time T, --job-mem M
+                        each job's sbatch -p, -A, -t (walltime: MINUTES or
+                        HH:MM:SS) and --mem (default: none asked)
+  --cluster-host ADDR   the scheduler's address, which the jobs' nodes reach
+                        (default 127.0.0.1: a cluster of this machine)
   --no-callgrind        skip the firmware's instructions per sample
   --frames              keep the scene's frames, video and contact sheet in
                         each point's run (default: none; run.json, the log
@@ -97,6 +109,12 @@ def parse_args(argv):
     p.add_argument("--tls-cert")
     p.add_argument("--tls-key")
     p.add_argument("--insecure", action="store_true")
+    p.add_argument("--cluster", choices=["slurm"])
+    p.add_argument("--partition")
+    p.add_argument("--account")
+    p.add_argument("--time")
+    p.add_argument("--job-mem")
+    p.add_argument("--cluster-host", default="127.0.0.1")
     p.add_argument("--no-callgrind", action="store_true")
     p.add_argument("--frames", action="store_true")
     p.add_argument("--timeout-s", type=float)
@@ -117,7 +135,8 @@ def parse_args(argv):
     if a.repeat is not None and a.repeat < 1:
         raise SweepError(f"--repeat {a.repeat}: at least 1")
     tls = [f for f, v in (("--tls-ca", a.tls_ca), ("--tls-cert", a.tls_cert), ("--tls-key", a.tls_key)) if v]
-    if (tls or a.insecure) and not a.scheduler:
+    check_cluster_args(a, tls)
+    if (tls and not a.cluster or a.insecure) and not a.scheduler:
         raise SweepError(f"{(tls or ['--insecure'])[0]}: only with --scheduler (the local cluster makes its own credentials)")
     if a.scheduler:
         try:
@@ -127,6 +146,23 @@ def parse_args(argv):
         if scheme == "tcp" and tls:
             raise SweepError(f"{tls[0]} with a tcp:// --scheduler: TLS needs a tls:// address")
     return a
+
+
+def check_cluster_args(a, tls):
+    """--cluster slurm's options: with it alone, its TLS files all or none."""
+    jobs = [f for f, v in (("--partition", a.partition), ("--account", a.account), ("--time", a.time),
+                           ("--job-mem", a.job_mem)) if v]
+    if a.cluster_host != "127.0.0.1":
+        jobs.append("--cluster-host")
+    if jobs and not a.cluster:
+        raise SweepError(f"{jobs[0]}: only with --cluster slurm")
+    if a.cluster and a.scheduler:
+        raise SweepError("--cluster and --scheduler: one or the other (--scheduler is a cluster already running)")
+    if a.cluster and a.insecure:
+        raise SweepError("--cluster slurm with --insecure: the SLURM engine is TLS only")
+    if a.cluster and tls and len(tls) != 3:
+        raise SweepError(f"{tls[0]}: --cluster slurm takes --tls-ca, --tls-cert and --tls-key together, or none "
+                         f"(credentials made for the sweep)")
 
 
 MAX_INPUT_BYTES = 4 << 20   # a scene or sweep file larger than this is refused (the scene reader's own cap)
@@ -316,6 +352,17 @@ def as_run_users(a, argv):
         raise SweepError(str(e)) from None
 
 
+def as_job_user(a, argv):
+    """--cluster slurm started as root: the input validated and the
+    Cortex-M4 sizes measured here, then the sweep again as the runs' user,
+    whose jobs they are (slurm_engine.as_job_user)."""
+    scene_path, scene, knobs, out, _, sources = plan(a)
+    t0 = time.monotonic()
+    validate(scene_path, scene, K.grid(knobs), sources)
+    os.environ[VALIDATED_ENV] = f"{time.monotonic() - t0:.3f}"   # for the sweep's user, who checks nothing again
+    return slurm_engine.as_job_user(argv, out, arm_sizes())
+
+
 def workers_wanted(a):
     return a.workers or os.cpu_count() or 1
 
@@ -355,6 +402,14 @@ class Progress:
 def start_engine(a):
     """(client, cluster or None, the engine in words); EngineError names a
     cluster that cannot be used."""
+    if a.cluster == "slurm":
+        n = workers_wanted(a)
+        try:
+            client, cluster = slurm_engine.start(a, n, a.out)
+        except slurm_engine.SlurmError as e:
+            raise engine.EngineError(str(e)) from None
+        cluster.afm_workers = n
+        return client, cluster, f"SLURM through dask-jobqueue, {n} job(s) of one worker, TLS"
     if a.scheduler:
         client = engine.connect(a.scheduler, a.tls_ca, a.tls_cert, a.tls_key, a.insecure)
         return client, None, f"Dask cluster at {a.scheduler}"
@@ -403,7 +458,8 @@ def run_points(a, tasks, prog, started=None):
     futures = {}
     t0 = time.monotonic()
     try:
-        futures = submit_batches(client, tasks, max(1, len(client.nthreads())))
+        # SLURM's jobs join as the queue starts them: batched for as many as were asked
+        futures = submit_batches(client, tasks, getattr(cluster, "afm_workers", None) or max(1, len(client.nthreads())))
         pending = set(futures)
         while pending:
             time.sleep(0.5)
@@ -464,16 +520,22 @@ def main(argv):
     serial = {}   # the sweep's serial parts, s (sweep.json "serial_s")
     try:
         a = parse_args(argv)
-        if os.geteuid() == 0 and not a.scheduler:   # a local cluster's workers (a remote cluster's are its own)
+        if os.geteuid() == 0 and a.cluster:   # the jobs are the runs' user's, never root's
+            code = as_job_user(a, argv)
+            if code is not None:
+                return code
+        if os.geteuid() == 0 and not a.scheduler and not a.cluster:   # a local cluster's workers (a remote cluster's are its own)
             code = as_run_users(a, argv)
             if code is not None:
                 return code
         if a.scheduler:   # a cluster that cannot be used is named before anything else starts
             started = start_engine(a)
         scene_path, scene, knobs, out, repeat, sources = plan(a)
+        a.out = out   # the engine's folder for its jobs' output (--cluster slurm)
         settings_list = K.grid(knobs)
         t0 = time.monotonic()
-        if sweep_users.TLS_FD_ENV in os.environ and VALIDATED_ENV in os.environ:   # root's process checked them
+        started_by_root = sweep_users.TLS_FD_ENV in os.environ or slurm_engine.JOB_NAME_ENV in os.environ
+        if started_by_root and VALIDATED_ENV in os.environ:   # root's process checked them
             serial["validate_s"] = float(os.environ[VALIDATED_ENV])
         else:
             validate(scene_path, scene, settings_list, sources)
@@ -481,7 +543,7 @@ def main(argv):
         t0 = time.monotonic()
         build = build_id()
         serial["build_check_s"] = time.monotonic() - t0
-    except (SweepError, K.KnobError, engine.EngineError) as e:
+    except (SweepError, K.KnobError, engine.EngineError, slurm_engine.SlurmError) as e:
         print(f"sweep: {printable(str(e))}", file=sys.stderr)   # keys, values and the validator's words, escaped
         if started:
             started[0].close()
