@@ -34,6 +34,7 @@ import json
 import os
 import pwd
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -43,6 +44,7 @@ from analysis import engine, paths
 JOIN_TIMEOUT_S = 600.0   # the first job's worker joins within this (a queue's wait included)
 LOST_WORKER_S = 1.0      # a worker gone this long is its job's end: the job is replaced
 DEFAULT_MEM = "2GB"
+STOP_GRACE_S = 30.0      # the sweep's user's process, told to stop, ends within this (its plots and report)
 JOB_NAME_ENV = "AFM_SWEEP_JOB_NAME"   # root's name for the jobs of the sweep it starts as the runs' user
 LOOPBACK = ("127.0.0.1", "localhost")
 
@@ -188,9 +190,14 @@ def as_job_user(argv, out, sizes):
         child = subprocess.Popen([paths.DROP_CAPS, sys.executable, "-m", "analysis.sweep", *argv], env=env)
         code = child.wait()
         return 128 - code if code < 0 else code
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:   # Ctrl-C reached the child too; SIGTERM (sweep.main: as Ctrl-C) did not
         if child is not None:
-            child.wait()
+            child.send_signal(signal.SIGTERM)
+            try:
+                child.wait(timeout=STOP_GRACE_S)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
         return 130
     finally:
         if child is not None:

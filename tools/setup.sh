@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what the bench needs and is missing, and nothing else:
 #   Debian packages (apt), the project's Python venv (.venv: LCM 1.5 from PyPI,
-#   numpy, matplotlib, PyYAML; Dask distributed with cryptography for its TLS,
+#   numpy, matplotlib, PyYAML; Dask distributed with cryptography for its TLS
+#   and dask-jobqueue for sweeps on SLURM,
 #   Jinja2 and SciPy for sweeps, reports and the planner; pandas, mcap and
 #   jsonschema for a run's data and its export; aiohttp for the live view's
 #   server and Selenium to test it in Debian's chromium; the project's own
@@ -24,6 +25,7 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           libisal-dev zlib1g-dev chromium chromium-driver ffmpeg)
 apt_pkgs+=(libsodium-dev)   # the bus's MAC (bus/bus_key.hpp)
 apt_pkgs+=(libopencv-contrib-dev fonts-dejavu-core)   # the frames' text: OpenCV's FreeType module, DejaVu Sans (host/renderer/frame_font.hpp)
+apt_pkgs+=(slurm-wlm munge)   # ./afm sweep --cluster slurm and its test's single-machine SLURM (13.2 MB installed, 3.6 MB fetched)
 missing=()
 # one dpkg-query for them all (a call each cost a run's build check 0.8 s)
 installed=" $(dpkg-query -W -f='${Status} ${Package}\n' "${apt_pkgs[@]}" 2>/dev/null | awk '$1 == "install" && $3 == "installed" { printf "%s ", $4 }') "
@@ -54,7 +56,7 @@ fi
 
 # ---- Python venv with LCM 1.5 ------------------------------------------------
 venv="$top/.venv"
-py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0 aiohttp==3.14.5 selenium==4.51.0 gwyfile==0.3.0 foxglove-schemas-protobuf==0.4.0 protobuf==7.36.2 pytest==9.2.0 gymnasium==1.2.2"
+py_reqs="lcm==1.5.3 numpy matplotlib pillow PyYAML dask==2026.8.0 distributed==2026.8.0 cryptography==46.0.3 jinja2==3.1.6 scipy==1.17.1 pandas==3.1.1 mcap==1.6.0 jsonschema==4.26.0 aiohttp==3.14.5 selenium==4.51.0 gwyfile==0.3.0 foxglove-schemas-protobuf==0.4.0 protobuf==7.36.2 pytest==9.2.0 gymnasium==1.2.2 dask-jobqueue==0.9.0"
 stamp="$venv/.afm-reqs"
 pkg_stamp="$venv/.afm-package"
 pkg_want="$top $(sha256sum "$top/pyproject.toml" | cut -d' ' -f1)"

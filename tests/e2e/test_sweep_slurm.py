@@ -40,7 +40,7 @@ PROGRAMS = ["munged", "slurmctld", "slurmd", "sbatch", "scontrol", "squeue", "sc
 KNOBS = ["--vary", "firmware.adc_bits=10,12,14,16", "--no-callgrind"]
 ERROR_COLUMNS = ["label", "status", "verdict"] + [e[0] for e in pareto.ERRORS] + [
     "force_rms_pct_fs", "force_worst_pct_fs", "display_rms_height_nm", "blocks"]
-CHECK_PERIOD_S = 30.0   # slurmctld ends jobs past their time limit every 30 s from its start
+SWEEP_S = 100   # the SLURM sweep's end, from the test's start (41 s here)
 
 
 def free_ports(n):
@@ -246,10 +246,13 @@ class SweepOnSlurm(unittest.TestCase):
         local = subprocess.Popen(sweep + ["--workers", "2", "--out", cls.local], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                  cwd=e2e_support.SRC, env=env)
         cls.victim, cls.held, cls.users = None, None, set()
-        while p.poll() is None and time.monotonic() - t0 < e2e_support.limit(150):
+        while p.poll() is None and time.monotonic() - t0 < e2e_support.limit(SWEEP_S):
             if cls.victim is None:
                 cls._kill_one_at_walltime()
             time.sleep(0.1)
+        cls.unfinished = p.poll() is None
+        if cls.unfinished:   # ended as Ctrl-C ends it: its jobs cancelled, its folder given back
+            p.terminate()
         cls.so, cls.se = p.communicate(timeout=e2e_support.limit(60))
         cls.code, cls.slurm_s = p.returncode, time.monotonic() - t0
         cls.local_so, cls.local_se = local.communicate(timeout=e2e_support.limit(120))
@@ -275,6 +278,8 @@ class SweepOnSlurm(unittest.TestCase):
             return
 
     def test_the_sweep_is_measured_on_slurm_jobs_of_an_unprivileged_user(self):
+        self.assertFalse(self.unfinished, f"the SLURM sweep had not finished {SWEEP_S} s after the test's start "
+                                          f"(jobs: {self.completed}): {self.se[-2000:]}")
         self.assertEqual(self.code, 0, self.so + self.se)
         with open(os.path.join(self.out, "sweep.json")) as f:
             rec = json.load(f)
@@ -308,6 +313,9 @@ class SweepOnSlurm(unittest.TestCase):
     def test_no_daemon_or_job_outlives_the_test(self):
         left = [p.args[0] for p in self.slurm.procs if p.poll() is None]
         self.assertEqual(left, [], "daemons still running")
+        conf = self.slurm.conf.encode()
+        ours = [pid for pid in os.listdir("/proc") if pid.isdigit() and environ_of(pid).get(b"SLURM_CONF") == conf]
+        self.assertEqual(ours, [], "processes of the test's SLURM (its sweeps, its jobs' workers) still running")
         self.assertEqual([d for d in os.listdir(self.out) if d.startswith(".tls-")], [], "the jobs' credentials are removed")
 
 
