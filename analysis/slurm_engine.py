@@ -121,7 +121,8 @@ def start(a, n_workers, out):
     try:
         cluster = _cluster_class()(
             n_workers=0, cores=1, processes=1, memory=a.job_mem or DEFAULT_MEM, queue=a.partition, account=a.account,
-            walltime=a.time, job_name=os.environ.get(JOB_NAME_ENV) or f"afm-sweep-{os.getpid()}", log_directory=jobs, python=sys.executable,
+            walltime=a.time, job_name=os.environ.get(JOB_NAME_ENV) or f"afm-sweep-{os.getpid()}", log_directory=jobs,
+            python=sys.executable,
             security=sec, protocol="tls://", shared_temp_directory=tls_dir, scheduler_cls=engine.QuietScheduler,
             scheduler_options={"host": host, "dashboard": False, "dashboard_address": None},
             worker_extra_args=worker_args(host),
@@ -129,8 +130,8 @@ def start(a, n_workers, out):
     except Exception as e:   # dask-jobqueue's and Dask's errors, in one line
         if tls_dir:
             shutil.rmtree(tls_dir, ignore_errors=True)
-        raise SlurmError(f"--cluster slurm: cannot start the scheduler: {str(e).splitlines()[0][:200] if str(e) else type(e).__name__}") \
-            from None
+        why = str(e).splitlines()[0][:200] if str(e) else type(e).__name__
+        raise SlurmError(f"--cluster slurm: cannot start the scheduler: {why}") from None
     cluster.afm_tls_dir = tls_dir
     try:
         client = Client(cluster, security=sec, deserializers=engine.SAFE_DESERIALIZERS)
