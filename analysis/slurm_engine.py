@@ -104,6 +104,19 @@ def worker_args(host):
     return args + ["--host", host] if host in LOOPBACK else args
 
 
+def _controller_answers():
+    """SlurmError naming why, within 30 s, if slurmctld does not answer
+    (no slurm.conf, a controller down): else the sweep would wait for
+    jobs that never start."""
+    try:
+        p = subprocess.run(["squeue", "-h", "-o", "%i", "-u", str(os.getuid())], capture_output=True, text=True, timeout=30)
+    except subprocess.TimeoutExpired:
+        raise SlurmError("--cluster slurm: squeue had no answer from slurmctld in 30 s") from None
+    if p.returncode != 0:
+        why = (p.stderr.strip().splitlines() or [f"exit {p.returncode}"])[-1]
+        raise SlurmError(f"--cluster slurm: SLURM does not answer: {why}")
+
+
 def start(a, n_workers, out):
     """(client, cluster): n_workers SLURM jobs, each a TLS worker of this
     process's scheduler on --cluster-host (default 127.0.0.1); once the
@@ -113,6 +126,7 @@ def start(a, n_workers, out):
     engine.harden_client()
     if not shutil.which("sbatch"):
         raise SlurmError("--cluster slurm: sbatch is not on PATH (SLURM's client commands: Debian's slurm-client)")
+    _controller_answers()
     dask.config.set({"distributed.deploy.lost-worker-timeout": f"{LOST_WORKER_S}s"})
     sec, tls_dir = security(a, out)
     host = a.cluster_host
