@@ -1,6 +1,7 @@
 #include "scan_client.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "afm/scan_req_t.hpp"
 #include "afm_channels.h"
@@ -9,14 +10,18 @@
 
 namespace afm {
 
-void ScanClient::start(int req_id, const ScanRegion &r, int64_t at_seq)
+void ScanClient::start(int req_id, const ScanRegion &r, int64_t at_seq, bool aim)
 {
     id_ = req_id;
     at_seq_ = at_seq;
     r_ = r;
+    cmd_ = aim && dewarp_ && dewarp_->active() ? dewarp_->aim(r) : r;
     h_ = cv::Mat::zeros(r.ny, r.nx, CV_32F);
     raw_.release();
     note_ = DewarpNote{};
+    const double x1 = r.x0_nm + r.width_nm, y1 = r.y0_nm + r.height_nm;
+    note_.aim_nm = std::max({std::fabs(cmd_.x0_nm - r.x0_nm), std::fabs(cmd_.y0_nm - r.y0_nm),
+                             std::fabs(cmd_.x0_nm + cmd_.width_nm - x1), std::fabs(cmd_.y0_nm + cmd_.height_nm - y1)});
     line_utime_ = 0;
     got_.assign(static_cast<std::size_t>(r.ny), false);
     left_ = r.ny;
@@ -28,10 +33,10 @@ void ScanClient::request(int first, int n)
     scan_req_t q{};
     q.utime = wall_utime();
     q.req_id = id_;
-    q.x0_nm = r_.x0_nm;
-    q.y0_nm = r_.y0_nm;
-    q.width_nm = r_.width_nm;
-    q.height_nm = r_.height_nm;
+    q.x0_nm = cmd_.x0_nm;
+    q.y0_nm = cmd_.y0_nm;
+    q.width_nm = cmd_.width_nm;
+    q.height_nm = cmd_.height_nm;
     q.nx = r_.nx;
     q.ny = r_.ny;
     q.first_line = first;
@@ -60,9 +65,14 @@ void ScanClient::finish()
     raw_ = h_.clone();
     note_.scan_utime = line_utime_;
     if (!dewarp_ || !dewarp_->active()) return;
-    h_ = dewarp_->apply(raw_, r_, &note_.shift_nm);
+    h_ = dewarp_->apply(raw_, cmd_, r_, &note_.shift_nm);
     note_.dewarped = true;
     note_.model_utime = dewarp_->state_utime();
+}
+
+cv::Mat ScanClient::placed(const cv::Mat &raw) const
+{
+    return dewarp_ && dewarp_->active() ? dewarp_->apply(raw, cmd_, r_) : raw.clone();
 }
 
 void ScanClient::retry(int retry_ms)

@@ -2,9 +2,12 @@
 // line (AFM_SCAN_LINE), lines lost on the bus asked again. The renderer
 // (its full and local scans) and the planner's operator (its local scans)
 // use it; each requester keeps to its own req_id range. Given the card's
-// scanner model (set_dewarp: scan_dewarp.hpp), a scan once whole is
-// de-warped by it: heights() places each pixel where the card's model says
-// the tip was; raw_heights() keeps the scan as it came.
+// scanner model (set_dewarp: scan_dewarp.hpp), a scan is aimed by it (the
+// rectangle commanded is the one the card's inverse model puts on the
+// region asked, unless the requester asks for the region as it is) and,
+// once whole, de-warped by it: heights() places each pixel where the
+// card's model says the tip was, on the region asked; raw_heights() keeps
+// the scan as it came.
 #pragma once
 
 #include <lcm/lcm-cpp.hpp>
@@ -36,6 +39,7 @@ class ScanDewarp;
 struct DewarpNote {
     bool dewarped = false;     // the card's model placed the pixels
     double shift_nm = 0;       // the largest move of a pixel along either axis
+    double aim_nm = 0;         // the largest move of the commanded rectangle's edges from the region asked (aimed by the card's model)
     int64_t model_utime = 0;   // the block end whose state the card's model was in, simulated us
     int64_t scan_utime = 0;    // the block end after which the simulator took the scan's last line
 };
@@ -48,9 +52,12 @@ public:
     // it must outlive the client.
     void set_dewarp(const ScanDewarp *d) { dewarp_ = d; }
 
-    // Asks for the whole scan (a new one: any scan in progress is dropped),
-    // at once or when the simulator waits after block at_seq (scan_req_t).
-    void start(int req_id, const ScanRegion &r, int64_t at_seq = -1);
+    // Asks for the whole scan of r (a new one: any scan in progress is
+    // dropped), at once or when the simulator waits after block at_seq
+    // (scan_req_t); aim: commanded where the card's model puts it on r
+    // (false: r commanded as it is, e.g. a scan whose lines a reader places
+    // by their own coordinates).
+    void start(int req_id, const ScanRegion &r, int64_t at_seq = -1, bool aim = true);
     // A line from the bus: stored if it is one of ours; true when it was
     // the last one missing.
     bool on_line(const scan_line_t &m);
@@ -61,8 +68,12 @@ public:
 
     bool busy() const { return left_ > 0; }
     int id() const { return id_; }
-    const ScanRegion &region() const { return r_; }
+    const ScanRegion &region() const { return r_; }     // the region asked
+    const ScanRegion &commanded() const { return cmd_; }   // the rectangle commanded (the region asked, unless aimed)
     const cv::Mat &heights() const { return h_; }   // nm, CV_32F, ny x nx, row 0 at the top; de-warped once whole
+    // Another image of the same scan (its lateral signal, as it came)
+    // de-warped as heights() was: on the region asked.
+    cv::Mat placed(const cv::Mat &raw) const;
     const cv::Mat &raw_heights() const { return raw_; }   // the whole scan as it came (empty before)
     const DewarpNote &dewarp_note() const { return note_; }
 
@@ -74,7 +85,7 @@ private:
     const ScanDewarp *dewarp_ = nullptr;
     int id_ = 0;
     int64_t at_seq_ = -1;
-    ScanRegion r_;
+    ScanRegion r_, cmd_;
     cv::Mat h_, raw_;
     DewarpNote note_;
     int64_t line_utime_ = 0;

@@ -22,8 +22,14 @@
 // request's pixel centres: x_i = x0 + (i + 1/2) w / nx, y_j likewise; to
 // the first line, to line j, to the line's end, back along the retrace to
 // its start, then along the line), through a copy of that state gives each
-// pixel's position (raster). The de-warped image is the scan resampled at
-// its commanded grid (bilinear; past what the scan reached, its edge).
+// pixel's position (raster). A scan is aimed by the card's inverse model
+// (aim: fw_hyst_inverse_pm, the card's own compensation, its plays kept in
+// step with the direct model's by follow): the rectangle to command so
+// that the model puts the raster's first and last pixel of each axis on
+// the square's, the pixels between on the branch between them. The
+// de-warped image is the scan resampled at the asked square's grid
+// (bilinear; past what the scan reached, its edge); a scan not aimed is
+// resampled at its commanded grid.
 // Creep moves nothing here: the card's creep model of a raster taken at
 // once is none, and the simulator takes its scans at once (physics.md
 // 17.2: they show no creep). Without the card's hysteresis compensation
@@ -65,14 +71,21 @@ public:
 
     // Where the card's model puts each pixel of a scan of r taken now.
     RasterPositions raster(const ScanRegion &r) const;
-    // The scan (CV_32F, r.ny x r.nx, row 0 at the top) resampled at its
-    // commanded grid; *shift_nm (may be null): the largest distance
-    // between a pixel's commanded and modelled position. Inactive: a copy.
-    cv::Mat apply(const cv::Mat &scan, const ScanRegion &r, double *shift_nm = nullptr) const;
+    // The rectangle to command (as many pixels) so that the card's model
+    // puts a scan taken now on `want`'s pixels (header). Inactive, or
+    // fewer than 2 pixels on an axis: want.
+    ScanRegion aim(const ScanRegion &want) const;
+    // The scan (CV_32F, taken.ny x taken.nx, row 0 at the top), commanded
+    // over `taken`, resampled at `grid`'s pixels (as many as taken's);
+    // *shift_nm (may be null): the largest distance between a pixel's
+    // commanded and modelled position. Inactive: a copy.
+    cv::Mat apply(const cv::Mat &scan, const ScanRegion &taken, const ScanRegion &grid, double *shift_nm = nullptr) const;
+    // The same resampled at its commanded grid (a scan not aimed).
+    cv::Mat apply(const cv::Mat &scan, const ScanRegion &r, double *shift_nm = nullptr) const { return apply(scan, r, r, shift_nm); }
 
 private:
     bool active_ = false;
-    fw_hyst_t axis_[2]{};    // the card's direct models, x and y, in the state followed
+    fw_hyst_t axis_[2]{};    // the card's models, x and y, in the state followed (the direct's and the inverse's plays)
     int64_t seq_ = -1, utime_ = 0;
 };
 

@@ -235,7 +235,7 @@ struct Operator {
         const int c0 = std::clamp(static_cast<int>(std::lround((a.center_nm.x - x0) / pitch - n / 2.0)), 0, px - n);
         const int r0 = std::clamp(static_cast<int>(std::lround((a.center_nm.y - y0) / pitch - n / 2.0)), 0, px - n);
         const ScanRegion reg{x0 + c0 * pitch, y0 + r0 * pitch, n * pitch, n * pitch, n, n};
-        scan.start(kPageScanReqBase + ++page_scans, reg);
+        scan.start(kPageScanReqBase + ++page_scans, reg, -1, false);   // the renderer places its lines by their own coordinates
     }
 
     // The hand on the device: block n integrated with the force of block

@@ -71,7 +71,8 @@ void Renderer::write_scan_gsf(const std::string &name, const cv::Rect &region)
 
 nlohmann::json dewarp_json(const afm::DewarpNote &n)
 {
-    return {{"dewarped", n.dewarped}, {"shift_nm", n.shift_nm}, {"model_s", n.model_utime * 1e-6}, {"scan_s", n.scan_utime * 1e-6}};
+    return {{"dewarped", n.dewarped}, {"shift_nm", n.shift_nm}, {"aim_nm", n.aim_nm}, {"model_s", n.model_utime * 1e-6},
+            {"scan_s", n.scan_utime * 1e-6}};
 }
 
 afm::Reject Renderer::page_line(const afm::scan_line_t &m)
@@ -116,7 +117,7 @@ afm::Reject Renderer::on_line(const afm::scan_line_t &m)
     if (m.req_id >= afm::kPageScanReqBase) return page_line(m);
     keep_line(m);
     if (!scan.on_line(m)) return afm::Reject::none;   // a line of another client's scan, or one already here
-    scan_lateral = dewarp.apply(scan_lateral, scan.region());   // as the heights are (the scan client)
+    scan_lateral = scan.placed(scan_lateral);   // as the heights are (the scan client)
     if (scan.id() == kFinalScan && final_pending) finish_last_frame();
     else if (local_pending >= 0 && scan.id() == kLocalScanBase + local_pending) local_scan_done();
     return afm::Reject::none;

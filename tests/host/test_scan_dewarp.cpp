@@ -117,6 +117,20 @@ std::array<double, 2> worst_placed(const Driven &d, const ScanRegion &r)
     return worst;
 }
 
+// Where the simulator's scanner puts the first and last pixel of each axis
+// of a scan commanded over r (as World::scan_line takes it): {x first, x
+// last, y first, y last}.
+std::array<double, 4> landed(const Driven &d, const ScanRegion &r)
+{
+    const double dx = r.width_nm / r.nx, dy = r.height_nm / r.ny;
+    const double x_first = r.x0_nm + 0.5 * dx, y_first = r.y0_nm + 0.5 * dy;
+    afm::sim::PlayHysteresis x = d.x, y = d.y;
+    const double x_last = x.step(x_first + (r.nx - 1) * dx);
+    const double x0 = x.step(x_first);
+    const double y0 = y.step(y_first);
+    return {x0, x_last, y0, y.step(y_first + (r.ny - 1) * dy)};
+}
+
 }  // namespace
 
 void setUp() {}
@@ -155,6 +169,45 @@ void test_pixels_are_where_the_simulators_scanner_put_the_tip()
         }
     }
     TEST_ASSERT_TRUE(worst_cmd > 50);
+}
+
+void test_a_scan_aimed_by_the_cards_inverse_lands_on_its_square()
+{
+    // After each leg of a path with turns on both axes, a local scan of a
+    // 400 nm square about the tip (64 px), commanded as asked and commanded
+    // where the card's inverse model aims it: the simulator's scanner puts
+    // the first and last pixel of each axis where the square has them,
+    // within kLanded_nm aimed, against up to 200 nm off as asked.
+    constexpr double kLanded_nm = 5.0;
+    const afm::Scene s = lab();
+    const afm::Vec2 o = s.start_nm();
+    const double w = s.instrument.hysteresis_width_pct / 100, span = s.instrument.hysteresis_span_nm;
+    Driven d{afm::sim::PlayHysteresis(w, span, o.x), afm::sim::PlayHysteresis(w, span, o.y), ScanDewarp(s)};
+    const std::vector<std::vector<std::array<double, 2>>> legs = {
+        {{o.x, o.y}, {2400, 2300}, {2000, 2350}},
+        {{2000, 2350}, {-2100, -1800}, {-1900, -2000}, {-1950, -1500}},
+        {{-1950, -1500}, {600, 200}, {300, 450}, {350, 420}}};
+    double worst_asked = 0, worst_aimed = 0;
+    for (const auto &leg : legs) {
+        drive(&d, leg);
+        const std::array<double, 2> tip = leg.back();
+        const ScanRegion want{tip[0] - 200, tip[1] - 200, 400, 400, 64, 64};
+        const double px = want.width_nm / want.nx;
+        const std::array<double, 4> square{want.x0_nm + px / 2, want.x0_nm + want.width_nm - px / 2, want.y0_nm + px / 2,
+                                           want.y0_nm + want.height_nm - px / 2};
+        const std::array<double, 4> asked = landed(d, want), aimed = landed(d, d.card.aim(want));
+        double off_asked = 0, off_aimed = 0;
+        for (int k = 0; k < 4; ++k) {
+            off_asked = std::max(off_asked, std::fabs(asked[static_cast<std::size_t>(k)] - square[static_cast<std::size_t>(k)]));
+            off_aimed = std::max(off_aimed, std::fabs(aimed[static_cast<std::size_t>(k)] - square[static_cast<std::size_t>(k)]));
+        }
+        std::printf("local scan at (%.0f, %.0f): its edges land up to %.1f nm off the square as asked, %.2f nm aimed\n", tip[0], tip[1],
+                    off_asked, off_aimed);
+        worst_asked = std::max(worst_asked, off_asked);
+        worst_aimed = std::max(worst_aimed, off_aimed);
+    }
+    TEST_ASSERT_TRUE(worst_asked > 50);
+    TEST_ASSERT_TRUE(worst_aimed < kLanded_nm);
 }
 
 void test_without_the_cards_compensation_a_scan_stays_as_it_came()
@@ -196,6 +249,7 @@ int main()
     UNITY_BEGIN();
     RUN_TEST(test_particles_in_a_dewarped_scan_are_where_the_world_has_them);
     RUN_TEST(test_pixels_are_where_the_simulators_scanner_put_the_tip);
+    RUN_TEST(test_a_scan_aimed_by_the_cards_inverse_lands_on_its_square);
     RUN_TEST(test_without_the_cards_compensation_a_scan_stays_as_it_came);
     return UNITY_END();
 }
