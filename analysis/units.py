@@ -26,6 +26,9 @@ Contract:
                          "none"; a string as it is. sign: a "+" before a
                          positive number; like: the prefix of another
                          value (a bias in its RMS's unit).
+  listed(vs, unit, sign) values in one unit, joined: "1.2, 3.4 nm" (each
+                         show()n, the unit said once, at the end; the
+                         prefix the largest value takes).
   field(name, v)         (label, text) for a field named in the house's way.
   html_table(d)          a dict as an HTML table, labels and values through
                          field(); nested dicts as nested tables, lists of
@@ -152,6 +155,18 @@ def show(v, unit=None, sign=False, like=None):
         n = number(x if not isinstance(v, numbers.Integral) or x != v else v, sign)
         return f"{n} {text}".strip() if text else n
     return number(v, sign)
+
+
+def listed(vs, unit=None, sign=False):
+    """Values in one unit, joined (module docstring)."""
+    vs = list(vs)
+    if not vs:
+        return "none"
+    big = max(vs, key=lambda v: abs(v) if isinstance(v, numbers.Number) and not isinstance(v, bool) else -1)
+    shown = [show(v, unit, sign, like=big if isinstance(v, numbers.Number) else None) for v in vs]
+    tail = show(big, unit, like=big).partition(" ")[2] if unit else ""
+    cut = len(tail) + 1 if tail else 0
+    return ", ".join(t[:-cut] if cut and t.endswith(" " + tail) else t for t in shown) + (f" {tail}" if tail else "")
 
 
 def field(name, v):

@@ -4,7 +4,6 @@ simulator's truth. See docs/paper.md."""
 import argparse
 import textwrap
 import concurrent.futures
-import json
 import os
 import sys
 import time
@@ -110,7 +109,7 @@ def analyse(exp, exp_dir, size, outcomes):
     failures = [(name, fail) for name, (_, ok, fail) in outcomes.items() if not ok]
     if failures:
         name, fail = failures[0]
-        res = common.Result(notes=[f"run {name} failed: {json.dumps(fail)[:600]}"])
+        res = common.Result(notes=[f"run {name} failed: {failure_text(fail)}"])
         res.rows.append(common.Row(quantity=f"run {name}", unit="", bench=None, note="the run failed"))
     else:
         try:
@@ -129,6 +128,19 @@ def analyse(exp, exp_dir, size, outcomes):
         except common.PaperError as e:
             r.ok, r.note = False, f"{e}; {r.note}"
     return res
+
+
+def failure_text(fail):
+    """A failed run's record (point.failure_of, or a sentence) in words, whole:
+    the process and its exit code, the error, the tail of its log."""
+    if not isinstance(fail, dict):
+        return str(fail)
+    parts = [f"exit code {fail.get('exit_code')}"]
+    if fail.get("process"):
+        parts.append(f"{fail['process']} exited {fail.get('process_exit_code')}")
+    parts += [f"{what}: {fail[k].strip()}" for k, what in (("error", "error"), ("stderr", "stderr"), ("log_tail", "its log ends"))
+              if str(fail.get(k) or "").strip()]
+    return "; ".join(parts)
 
 
 def failed_verdicts(outcomes):

@@ -18,6 +18,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show, listed
 from analysis.paper import common
 
 NAME = "flex"
@@ -154,7 +155,7 @@ def analyse(dirs, exp_dir, size):
             common.Row(f"renderer's check of the wire, ratio {r}", "nm", key="flex.renderer_check", bench=m[r]["fidelity"],
                        runs=run,
                        note=f"fidelity.json: centroid distance plus half the length times the axis angle's sine "
-                            f"(angle error {m[r]['angle'] if m[r]['angle'] is not None else float('nan'):.2f} deg); "
+                            f"(angle error {show(m[r]['angle'], 'deg')}); "
                             "a rigid motion's bound, blind to a bend that keeps the axis"),
         ]
     res.rows += [
@@ -174,10 +175,9 @@ def analyse(dirs, exp_dir, size):
     res.figures = [(f"Ratio {r}: the fresh scan (left) and the display (right) after the push; the dots: each image's "
                     f"ridge, column by column", plot_pair(exp_dir, r, m[r])) for r in RATIOS]
     res.figures.append(("The display's error along the wire against the aspect ratio", plot_errors(exp_dir, m)))
-    res.notes.append("display's error (nm) at ratios " + ", ".join(f"{r}: {m[r]['error']:.1f}" for r in RATIOS) +
-                     "; bow in the fresh scan: " + ", ".join(f"{m[r]['bow']:.1f}" for r in RATIOS) +
-                     "; in the display (a rod): " + ", ".join(f"{m[r]['display_bow']:.1f}" for r in RATIOS) +
-                     f"; the push at {PUSH_AT:.1f} L from the middle, 5 nN")
+    res.notes.append(f"at ratios {listed(RATIOS)}: the display's error {listed([m[r]['error'] for r in RATIOS], 'nm')}; "
+                     f"the bow in the fresh scan {listed([m[r]['bow'] for r in RATIOS], 'nm')}, in the display (a rod) "
+                     f"{listed([m[r]['display_bow'] for r in RATIOS], 'nm')}; the push at {show(PUSH_AT)} L from the middle, 5 nN")
     return res
 
 

@@ -8,6 +8,7 @@ same run without the landmark scan shows what the change costs unmended."""
 
 import numpy as np
 
+from analysis.units import show
 from analysis.paper import common
 
 NAME = "landmark"
@@ -39,7 +40,7 @@ def analyse(dirs, exp_dir, size):
                    bench=common.model_error(wo[-1][1], wo[-1][2]), runs=("without",),
                    note="unmended, the models are off by the whole lever change (shown, not judged)"),
     ]
-    res.notes.append(f"the lever change moved the work space by {change:.1f} nm (the simulator's)")
+    res.notes.append(f"the lever change moved the work space by {show(change, 'nm')} (the simulator's)")
     res.figures = [("Models' error against time, with and without the landmark scan", plot(exp_dir, w, wo))]
     return res
 

@@ -13,6 +13,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show, listed
 from analysis.paper import common
 
 NAME = "lines"
@@ -155,7 +156,7 @@ def analyse(dirs, exp_dir, size):
                    runs=LINE_RUNS, note="mean gap between neighbouring lines in the final scans"),
         common.Row("C_n: the calibration against the truth's", "nm/V", key="lines.cn", paper=23.1,
                    model=cal["sol"]["cn_nm_per_V"], truth=cn_t, runs=LINE_RUNS,
-                   note=f"fw_calib_lines_cn; the beam's estimate is {estimate:.1f} nm/V. S_n' = dz / K_n counts the "
+                   note=f"fw_calib_lines_cn; the beam's estimate is {show(estimate, 'nm/V')}. S_n' = dz / K_n counts the "
                         "trench's own depth as bending: the method's bias, about 1 % here"),
     ]
     figs = [("The four lines in their final scans (mean profile across the cut's middle)", plot_lines(exp_dir, cal)),
@@ -172,7 +173,7 @@ def analyse(dirs, exp_dir, size):
                             "2 nm pixels"),
             common.Row("the same, predicted from the lines: |C_n(lines) - estimate| S_n", "nm", key="lines.apex_predicted",
                        bench=predicted, truth=cuts["push_estimate"]["truth"], runs=LINE_RUNS + ("push_estimate",),
-                       note=f"C_n as the lines gave it, S_n = {sn:.2f} V the card's photodiode while cutting; 2 nm: "
+                       note=f"C_n as the lines gave it, S_n = {show(sn, 'V')} the card's photodiode while cutting; 2 nm: "
                             "the lines' C_n is good to about 1 %, which is S_n x 0.3 nm/V here, and a scan pixel"),
             common.Row("apex error on a cut, C_n calibrated", "nm", key="lines.apex_calibrated",
                        bench=cuts["push_calibrated"]["bench"], truth=cuts["push_calibrated"]["truth"],
@@ -194,8 +195,8 @@ def analyse(dirs, exp_dir, size):
         figs.append(("The lines at each scan angle in frame A: the profile across them, along the axis the lever "
                      "lies on (fig. 8 is the 0 deg run as the paper read it)", frame_fig))
         res.notes.append(FRAME_NOTE)
-    res.notes.append("lines at x = " + ", ".join(f"{x:.1f}" for x in cal["x"]) + " nm; dz = " +
-                     ", ".join(f"{d:.1f}" for d in cal["dz"]) + f" nm; fit residual {cal['sol']['residual_nm']:.2f} nm")
+    res.notes.append(f"lines at x = {listed(cal['x'], 'nm')}; dz = {listed(cal['dz'], 'nm')}; "
+                     f"fit residual {show(cal['sol']['residual_nm'], 'nm')}")
     res.figures = figs
     return res
 

@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show
 from analysis.paper import common
 
 NAME = "pattern"
@@ -69,7 +70,7 @@ def analyse(dirs, exp_dir, size):
                    note="the renderer's check at the last frame"),
     ]
     res.notes.append(f"{n} sites; {sum(1 for s in per if not s['found'])} not found on the scan; "
-                     f"wall {common.run_json(d)['wall_seconds']:.0f} s")
+                     f"wall {show(common.run_json(d)['wall_seconds'], 's')}")
     res.figures = [("The final fresh scan with the sites", plot(exp_dir, d, sites, bench, tol))]
     return res
 

@@ -17,6 +17,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show
 from analysis.paper import common
 
 NAME = "rod"
@@ -125,7 +126,7 @@ def analyse(dirs, exp_dir, size):
         common.Row(f"static point at an end push (l = {end['q']:.2f} L), from the rod's centre", "nm",
                    key="rod.end_static_point", paper=L / math.sqrt(2) - L / 2, bench=end["s_scan"], truth=end["s_truth"],
                    runs=run(end), note="paper: L/sqrt2 from end A at the very end; the rod as scanned is "
-                                       f"{end['L_scan']:.0f} nm long (the tip's dilation), so the centre is the reference"),
+                                       f"{show(end['L_scan'], 'nm')} long (the tip's dilation), so the centre is the reference"),
         common.Row(f"push that moves the rod at l = {end['q']:.2f} L", "nN", key="rod.end_push", paper=0.586 * f * L,
                    bench=end["F_card"], truth=end["F_truth"], runs=run(end),
                    note="the paper's (2 - sqrt2) f L is wrong: torque balance gives (sqrt2 - 1) f L at the end (physics.md 6)"),
@@ -155,8 +156,10 @@ def analyse(dirs, exp_dir, size):
                        note="truth: the simulator's force (SIM_TRUTH) across the push less the tip's own sliding "
                             "friction before contact"),
         ]
-    res.notes.append("per push: " + "; ".join(f"l={p['q']:.2f}L s_scan={p['s_scan']:.0f} s_truth={p['s_truth']:.0f} "
-                                              f"s_cf={p['s_cf']:.0f} F_card={p['F_card']:.1f} F_cf={p['F_cf']:.1f}" for p in pts))
+    res.notes.append("per push: " + "; ".join(
+        f"at l = {show(p['q'])} L the static point {show(p['s_scan'], 'nm')} in the scans, {show(p['s_truth'], 'nm')} by "
+        f"the simulator, {show(p['s_cf'], 'nm')} by the closed form; the push {show(p['F_card'], 'nN')} by the card, "
+        f"{show(p['F_cf'], 'nN')} by the closed form" for p in pts))
     res.figures = [("Static point against push point: scans, simulator, closed form, firmware (fig. 13)",
                     plot(exp_dir, pts, L, "s", "static point s from end A (nm)", "static_point.png")),
                    ("Push that moves the rod against push point: card, simulator, closed form, firmware (fig. 14)",

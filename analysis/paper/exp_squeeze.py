@@ -1,7 +1,7 @@
 """The cone's down force (figs. 16-17; eq. 23-24 and 29-30; physics.md
 sections 5-7), in the live loop: the simulator's effect down_force presses
 what the tip pushes by H tan psi, the card models the same (fw_wire_update,
-fw_particles_down_threshold_pn) and flags SQUEEZE past psi_max.
+the particles' down threshold of fw_particles) and flags SQUEEZE past psi_max.
 
 - A rod (1.3 um x 100 nm, f L = 26 nN, wire mu 0.5) pushed at an end by cones
   of several half angles, pressed at 40 nN so that the tip stays down: the
@@ -27,6 +27,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show, listed
 from analysis.paper import common, squeeze_figs, squeeze_hand
 from analysis.paper.exp_rod import rod_pose, truth_poses
 
@@ -132,10 +133,10 @@ def analyse(dirs, exp_dir, size):
     res.rows = [
         common.Row(f"push at an end, gamma {last['g']} deg (eq. 29: k f L / (1 - k mu tan psi))", "nN",
                    key="squeeze.end_push_eq29", bench=last["H_card"], truth=last["H_fw"], runs=(f"gamma_{last['g']}",),
-                   note=f"without the down force k f L = {k_end:.2f} nN; truth column: the firmware's solver"),
+                   note=f"without the down force k f L = {show(k_end, 'nN')}; truth column: the firmware's solver"),
         common.Row(f"push, card against eq. 29 (RMS over {len(pts)} cones)", "nN", key="squeeze.push_eq29_rms", bench=rms,
                    scale=k_end, runs=tuple(f"gamma_{p['g']}" for p in pts),
-                   note="simulator: " + ", ".join(f"{p['H_truth']:.2f}" for p in pts) + " nN"),
+                   note="simulator: " + listed([p['H_truth'] for p in pts], "nN")),
         common.Row(f"dF at gamma {last['g']} deg from the measured push (eq. 30)", "nN", key="squeeze.df_from_push",
                    bench=last["dF_card"], truth=last["dF_fw"], runs=(f"gamma_{last['g']}",),
                    note="dF = H tan psi - F_a,ts; > 0: the load must exceed it to keep the apex down"),
@@ -145,9 +146,10 @@ def analyse(dirs, exp_dir, size):
     _particle_rows(res, dirs, sc)
     fig_pts = squeeze_figs.rows(res, dirs, size)
     hand_fig = squeeze_hand.rows(res, dirs, exp_dir)
-    res.notes.append("per cone: " + "; ".join(f"gamma={p['g']} H_card={p['H_card']:.2f} H_sim={p['H_truth']:.2f} "
-                                              f"H_eq29={p['H_fw']:.2f} dF={p['dF_card']:.2f} (eq. 30: {p['dF_fw']:.2f})"
-                                              for p in pts))
+    res.notes.append("per cone: " + "; ".join(
+        f"gamma {show(p['g'], 'deg')}: the push {show(p['H_card'], 'nN')} by the card, {show(p['H_truth'], 'nN')} by the "
+        f"simulator, {show(p['H_fw'], 'nN')} by eq. 29; dF {show(p['dF_card'], 'nN')} (eq. 30: {show(p['dF_fw'], 'nN')})"
+        for p in pts))
     res.figures = [("Push at an end against the cone's half angle: card, simulator, eq. 29 (firmware), and no down force",
                     _plot_runs(exp_dir, pts, k_end, L, mu, fl, fats)),
                    ("Figs. 16-17 from runs: the least load dF / F_a,ts found by a load ramp in each run, against eq. 30 "
@@ -166,7 +168,7 @@ def _squeeze_rows(res, dirs, L, fl, fats):
         _, _, flagged = common.push_excess(d)
         y_end = _apex_final_y(d)
         ride = (load + fats) / math.tan(math.radians(SQUEEZE_GAMMA))
-        res.rows.append(common.Row(f"{name}: the rod's move past psi_max ({SQUEEZE_GAMMA} > {psi_max:.1f} deg), load {load} nN",
+        res.rows.append(common.Row(f"{name}: the rod's move past psi_max ({SQUEEZE_GAMMA} > {show(psi_max, 'deg')}), load {show(load, 'nN')}",
                                    "nm", key="squeeze.past_psi_max_move", bench=moved_scan, truth=moved_truth, runs=(name,),
                                    note="between the run's scans; truth: SIM_TRUTH (the rod stays)"))
         # The model: past psi_max no push moves the rod; the card flags SQUEEZE
@@ -176,12 +178,12 @@ def _squeeze_rows(res, dirs, L, fl, fats):
         res.rows.append(common.Row(f"{name}: the card flagged SQUEEZE (1 yes, 0 no)", "", key="squeeze.squeeze_flag",
                                    bench=float(flagged > 0), truth=float(flag_expected), runs=(name,),
                                    note=f"{flagged} blocks; the tip rides up once H tan psi - F_a,ts > load, at H = "
-                                        f"{ride:.1f} nN; the card flags past half of k f L = {k * fl / 2:.1f} nN"))
+                                        f"{show(ride, 'nN')}; the card flags past half of k f L = {show(k * fl / 2, 'nN')}"))
         y_true = _apex_final_y(d, "SIM_TRUTH")
         res.rows.append(common.Row(f"{name}: the tip rode over the rod (1 yes, 0 no)", "", key="squeeze.rode_over",
                                    bench=float(y_end > RIDDEN_Y_NM), truth=float(y_true > RIDDEN_Y_NM), runs=(name,),
-                                   note=f"the apex's last y: the card's {y_end:.0f} nm, the simulator's {y_true:.0f} nm "
-                                        f"(SIM_TRUTH, the truth column); the rod's far side is +{RIDDEN_Y_NM:.0f}, the "
+                                   note=f"the apex's last y: the card's {show(y_end, 'nm')}, the simulator's {show(y_true, 'nm')} "
+                                        f"(SIM_TRUTH, the truth column); the rod's far side is {show(RIDDEN_Y_NM, 'nm', sign=True)}, the "
                                         f"path ends at +100; the stroke pushes on until the lift exceeds the load"))
 
 
@@ -208,10 +210,10 @@ def _ride_rows(res, dirs, sc, size):
             sim_ridden = common.run_json(d).get("sim", {}).get("wire_ridden_samples", 0)
             load = x * dF
             if tag == "low":
-                res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 0.9 dF = {load:.2f} nN: the rod's move", "nm",
+                res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 0.9 dF = {show(load, 'nN')}: the rod's move", "nm",
                                            key="squeeze.ride_low_move", bench=moved_scan, runs=(name,),
                                            note=f"between the run's scans (5 nm: the scan's pixel is 7.8 nm); simulator "
-                                                f"{moved_truth:.2f} nm; eq. 30's dF = {dF:.2f} nN"))
+                                                f"{show(moved_truth, 'nm')}; eq. 30's dF = {show(dF, 'nN')}"))
                 res.rows.append(common.Row(f"ride-over, gamma {g} deg, 0.9 dF: the card flagged RIDE-OVER (1 yes)", "",
                                            key="squeeze.ride_low_flag", bench=float(ridden > 0), truth=float(sim_ridden > 0),
                                            runs=(name,),
@@ -219,12 +221,12 @@ def _ride_rows(res, dirs, sc, size):
                                                 f"samples (truth column)"))
             else:
                 pushed = float(contact >= 5 and moved_scan > 20.0)
-                res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 1.1 dF = {load:.2f} nN: pushed (1 yes)", "",
+                res.rows.append(common.Row(f"ride-over, gamma {g} deg, load 1.1 dF = {show(load, 'nN')}: pushed (1 yes)", "",
                                            key="squeeze.ride_high_pushed", bench=pushed, truth=float(moved_truth > 20.0),
                                            runs=(name,),
                                            note=f"the card flagged contact in {contact} blocks and RIDE-OVER in {ridden}; "
-                                                f"the scans see the rod moved {moved_scan:.0f} nm (simulator "
-                                                f"{moved_truth:.0f} nm)"))
+                                                f"the scans see the rod moved {show(moved_scan, 'nm')} (simulator "
+                                                f"{show(moved_truth, 'nm')})"))
 
 
 def _particle_rows(res, dirs, sc):
@@ -240,12 +242,12 @@ def _particle_rows(res, dirs, sc):
         how = "with" if name == "particle_down" else "without"
         res.rows.append(common.Row(f"particle push, {how} the down force (gamma {PARTICLE_GAMMA} deg)", "nN",
                                    key="squeeze.particle_push", bench=hb, truth=want, runs=(name,),
-                                   note=f"truth: section 5's {what}; simulator {ht:.3f} nN (both above the threshold by "
+                                   note=f"truth: section 5's {what}; simulator {show(ht, 'nN')} (both above the threshold by "
                                         "the contact's relaxation lag while the particle slides)"))
         res.rows.append(common.Row(f"particle threshold, {how} the down force: the model's {what} against the truth's "
                                    "push", "nN", key="squeeze.model_particle_threshold", model=want, truth=ht, runs=(name,),
-                                   note=f"model: section 5 with the values the card is handed (mu_ps {ps['mu']}, F_adh "
-                                        f"{ps['adhesion_nN']} nN); truth: the simulator's lateral force (SIM_TRUTH) while "
+                                   note=f"model: section 5 with the values the card is handed (mu_ps {show(ps['mu'])}, F_adh "
+                                        f"{show(ps['adhesion_nN'], 'nN')}); truth: the simulator's lateral force (SIM_TRUTH) while "
                                         "it pushes the particle (median), less the tip's own sliding friction before"))
     res.rows.append(common.Row("particle: what the down force adds to the push", "nN", key="squeeze.particle_added",
                                bench=got["particle_down"] - got["particle_flat"], truth=down - base,

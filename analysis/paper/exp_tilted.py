@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from analysis import loops
+from analysis.units import show
 from analysis.paper import common
 
 NAME = "tilted"
@@ -88,8 +89,8 @@ def analyse(dirs, exp_dir, size):
         common.Row("k_theta K_l / h: the calibration against the truth's", "nN/V", key="tilted.lateral", paper=37.8,
                    model=sol["lateral_nN_per_V"], truth=lat_t, note="fw_calib_tilted_solve; the same law"),
     ]
-    res.notes.append(f"k_n K_n = {kn_Kn:.3f} nN/V from the card's configuration (run.json); intercepts {bu:.4f} V up, "
-                     f"{bd:.4f} V down (adhesion shifts the loops, not the slopes)")
+    res.notes.append(f"k_n K_n = {show(kn_Kn, 'nN/V')} from the card's configuration (run.json); intercepts {show(bu, 'V')} up, "
+                     f"{show(bd, 'V')} down (adhesion shifts the loops, not the slopes)")
     res.figures = [("Friction loops: S_l against the piezo's y at each set point", plot_loops(exp_dir, signals, loads)),
                    ("Mid-pass S_l against S_n, up and down the slope, with the fitted lines",
                     plot_fit(exp_dir, snu, slu, snd, sld, (ru, bu), (rd, bd)))]

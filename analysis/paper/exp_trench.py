@@ -15,6 +15,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show
 from analysis.paper import common
 
 NAME = "trench"
@@ -134,7 +135,7 @@ def analyse(dirs, exp_dir, size):
     res = common.Result()
     res.rows = [
         common.Row("trench width at the surface", "nm", key="trench.width", bench=sc["width"], truth=tr["width"],
-                   note=f"the scan's profile beyond the rod, {EDGE_BELOW_NM:.0f} nm below the substrate; truth: 2 depth tan gamma"),
+                   note=f"the scan's profile beyond the rod, {show(EDGE_BELOW_NM, 'nm')} below the substrate; truth: 2 depth tan gamma"),
         common.Row("the rod's top against the substrate (fig. 18f: below it, in its fixture)", "nm", key="trench.rod_top",
                    bench=sc["rod_top"], truth=axis_z + tr["rod_d"] / 2,
                    note="the fresh scan's highest point across the groove over the rod's middle; truth: the simulator's "
@@ -150,7 +151,7 @@ def analyse(dirs, exp_dir, size):
                    note="bench: the renderer's assembly check on the fresh scan; truth: the simulator's rod"),
         common.Row("end pushes", "", key="trench.pushes", bench=item.get("pushes"), note=f"the planner's zigzag; {item.get('note') or item.get('why') or 'ended on its target'}"),
         common.Row("simulated time: cut, then pushed in", "s", key="trench.time", bench=plan["finished_sim_s"],
-                   note=f"the cut ended at {plan['cuts_done_sim_s']:.2f} s; wall {common.run_json(d)['wall_seconds']:.1f} s"),
+                   note=f"the cut ended at {show(plan['cuts_done_sim_s'], 's')}; wall {show(common.run_json(d)['wall_seconds'], 's')}"),
         common.Row("the card's rod against the simulator's, at the end", "nm", key="trench.model_end", bench=model_err,
                    note="largest end distance (FW_STATE, SIM_TRUTH): the card's model knows the trench (fw_wire_hold)"),
         common.Row("the same, worst over the run (within a block)", "nm", key="trench.model_worst", bench=worst,
@@ -160,18 +161,18 @@ def analyse(dirs, exp_dir, size):
                    note="the settle into the groove is a jump: the card (fw_wire_settle) and the simulator "
                         "(World::settle_rods) may take it a block apart"),
         common.Row("the card's rod top against the fresh scan's", "nm", key="trench.card_top_scan", bench=card_top - sc["rod_top"],
-                   note=f"the card's seated model (FW_STATE axis_z_nm + d/2: {card_top:.1f} nm) and the scan's "
-                        f"{sc['rod_top']:.1f} nm"),
+                   note=f"the card's seated model (FW_STATE axis_z_nm + d/2: {show(card_top, 'nm')}) and the scan's "
+                        f"{show(sc['rod_top'], 'nm')}"),
         common.Row("display against a fresh scan: worst object", "nm", key="trench.display", bench=fid["max_position_error_nm"],
                    scale=fid["target_nm"],
-                   note=f"the renderer's check at the last frame (its target {fid['target_nm']:.0f} nm)"),
+                   note=f"the renderer's check at the last frame (its target {show(fid['target_nm'], 'nm')})"),
         common.Row("the rod's seat (axis height): the card's model against the truth's", "nm", key="trench.model_seat",
                    model=states[-1][1].wires[0].axis_z_nm, truth=axis_z,
                    note="model: the card's seated rod (fw_wire_settle, FW_STATE axis_z_nm); truth: the simulator's "
                         "(sim_report wire_axis_heights_nm); both the rod on the V's walls, -D + R / sin gamma"),
     ]
     res.notes.append(f"assembly by the renderer's scan: {'placed' if rods[0].get('placed') else 'NOT placed'} "
-                     f"within {rods[0].get('tolerance_nm')} nm of the trench's path")
+                     f"within {show(rods[0].get('tolerance_nm'), 'nm')} of the trench's path")
     res.figures = [("The final fresh scan: the trench and the rod in it, with the rod's ends over time", plot(exp_dir, d, t, fw, truth)),
                    ("The fresh scan across the trench: beyond the rod, and over its middle (the rod seated below the surface)", plot_profile(exp_dir, sc))]
     return res

@@ -31,6 +31,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show
 from analysis.paper import common
 
 SCENE = "ride.yaml"
@@ -162,25 +163,25 @@ def rows(res, dirs, size):
         pts.append(dict(name=name, fig=fig, gamma=gamma, q=q, ratio=ratio, soft=soft, df=df, want=want, twist=twist))
         lever = "soft lever" if soft else "paper's lever"
         res.rows.append(common.Row(
-            f"fig. {fig}: dF, gamma {gamma} deg, l = {q:.2f} L, F_a,os = {ratio} F_a,ts, {lever} (theta {twist:.2f} deg)",
+            f"fig. {fig}: dF, gamma {gamma} deg, l = {q:.2f} L, F_a,os = {ratio} F_a,ts, {lever} (theta {show(twist, 'deg')})",
             "nN", key="squeeze.fig_df", bench=df, truth=want, runs=(name,),
             note=f"the load ramp's first push at stroke {n + 1} of {CROSSINGS} (the card's lateral force stays up to the "
-                 f"stroke's end), +- {half_step:.2f} nN (half the ramp's step); truth column: eq. 30 by the firmware's "
-                 f"solver, the model under test; dF / F_a,ts = {df / F_A_TS:.2f}"))
+                 f"stroke's end), +- {show(half_step, 'nN')} (half the ramp's step); truth column: eq. 30 by the firmware's "
+                 f"solver, the model under test; dF / F_a,ts = {show(df / F_A_TS)}"))
         res.rows.append(common.Row(
             f"fig. {fig}, gamma {gamma} deg, {lever}: the card's push judgement, its first contact's load less dF", "nN",
             key="squeeze.fig_card_judgement", bench=None if card_load is None else card_load - df, scale=df, runs=(name,),
-            note=f"the card flagged contact first in stroke {None if card is None else card + 1}, the rod was first pushed in "
+            note=f"the card flagged contact first {'in no stroke' if card is None else f'in stroke {card + 1}'}, the rod was first pushed in "
                  f"stroke {n + 1}: the card's ride-over rule (fw_wire: H_ride = (F_z + F_a,ts) / tan(gamma + theta), its "
-                 f"twist estimate) judged a push at {'-' if card_load is None else f'{card_load:.3f}'} nN against the "
-                 f"measured {df:.3f}; held to the figures' own tolerance (tolerances.yaml)"))
+                 f"twist estimate) judged a push at {'none' if card_load is None else show(card_load, 'nN')} against the "
+                 f"measured {show(df, 'nN')}; held to the figures' own tolerance (tolerances.yaml)"))
         lift, lift_half, lift_n = truth_liftoff(d)
         res.rows.append(common.Row(
             f"fig. {fig}, gamma {gamma} deg, l = {q:.2f} L, {lever}: eq. 30's dF against the load at which the truth's "
             "tip lifts off", "nN", key="squeeze.model_liftoff", model=want, truth=lift, runs=(name,),
-            note=f"model: eq. 30 by the firmware's solver (afm_calc model squeeze, twist {twist:.2f} deg); truth: the "
-                 f"simulator's own record (SIM_TRUTH): the load where its rod first moves over {MOVED_NM:.0f} nm in a "
-                 f"stroke (stroke {lift_n + 1}), between that stroke's and the last ridden one's, +- {lift_half:.2f} nN"))
+            note=f"model: eq. 30 by the firmware's solver (afm_calc model squeeze, twist {show(twist, 'deg')}); truth: the "
+                 f"simulator's own record (SIM_TRUTH): the load where its rod first moves over {show(MOVED_NM, 'nm')} in a "
+                 f"stroke (stroke {lift_n + 1}), between that stroke's and the last ridden one's, +- {show(lift_half, 'nN')}"))
     return pts
 
 

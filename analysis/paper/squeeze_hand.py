@@ -13,6 +13,7 @@ import os
 
 import numpy as np
 
+from analysis.units import show
 from analysis.paper import common, squeeze_figs
 
 GAMMA, Q, RATIO = 40, 0.25, 20      # fig. 16's first point: the paper's lever
@@ -70,13 +71,13 @@ def rows(res, dirs, exp_dir):
         res.rows.append(common.Row(
             f"by hand, load {frac} x eq. 30's dF: the hand felt the rod {'carried to the stroke end' if want else 'ridden over'} (1 yes)",
             "", key="squeeze.hand_felt", bench=float(pushed == want), truth=1.0, runs=(name,),
-            note=f"the device's rendered |F_y| in the first stroke: peak {g['peak'] * 1e3:.1f} mN, last fifth "
-                 f"{g['tail'] * 1e3:.1f} mN (a push keeps at least half its peak); gamma {GAMMA} deg, l = {Q} L"))
+            note=f"the device's rendered |F_y| in the first stroke: peak {show(g['peak'], 'N')}, last fifth "
+                 f"{show(g['tail'], 'N')} (a push keeps at least half its peak); gamma {GAMMA} deg, l = {Q} L"))
         res.rows.append(common.Row(
             f"by hand, load {frac} x dF: the load the stylus's press asked for", "nN", key="squeeze.hand_load",
             bench=g["load"], truth=frac * df, runs=(name,),
-            note=f"HAPTIC_POSE's load from the stylus's depth (span {SPAN_NN:.0f} nN); the hand aims for {frac * df:.2f} nN and "
-                 f"F_z pushes the stylus back up by g F_z / K_hand (rendered F_z {g['fz_med'] * 1e3:.0f} mN)"))
+            note=f"HAPTIC_POSE's load from the stylus's depth (span {show(SPAN_NN, 'nN')}); the hand aims for {show(frac * df, 'nN')} and "
+                 f"F_z pushes the stylus back up by g F_z / K_hand (rendered F_z {show(g['fz_med'], 'N')})"))
     return plot(exp_dir, got)
 
 

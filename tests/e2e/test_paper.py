@@ -7,7 +7,8 @@ entry is used; a row measured from a run whose own verdict failed is never
 ok and names the check, and only the runs KNOWN_VERDICT_FAILURES lists may
 fail; the command exits 1 exactly when a row is not ok. The report is
 written whole (report.html with its figures inline, report.md, paper.json);
-bad arguments are named. The judge itself: tests/py/test_paper_tolerances.py."""
+bad arguments are named; no raw value in its text (analysis/units.py's
+raw_values). The judge itself: tests/py/test_paper_tolerances.py."""
 import json
 import math
 import os
@@ -275,6 +276,18 @@ class Reduced(unittest.TestCase):
         self.assertGreaterEqual(n_figs, 10)
         self.assertEqual(html.count("data:image/png;base64,"), n_figs)
         self.assertTrue(os.path.exists(os.path.join(self.out, "report.md")))
+
+    def test_the_report_shows_no_raw_value(self):
+        # every number of the rows, notes and captions through analysis/units.py:
+        # at most 4 significant digits with its unit, no True/False/None, no code name
+        from analysis import units
+        with open(os.path.join(self.out, "report.html")) as f:
+            page = units.page_text(f.read())
+        with open(os.path.join(self.out, "report.md")) as f:
+            md = f.read()
+        self.assertGreater(len(page), 5000)
+        self.assertEqual(units.raw_values(page), [], "report.html")
+        self.assertEqual(units.raw_values(md), [], "report.md")
 
 
 class Judge(unittest.TestCase):

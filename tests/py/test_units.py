@@ -31,6 +31,9 @@ def test_numbers_have_at_most_four_significant_digits():
     assert units.number(18738) == "18738"   # a count, exactly
     assert units.show(True) == "yes" and units.show(None) == "none"
     assert units.show(0.000375, "nN", sign=True, like=0.0185) == "+0.000375 nN"   # a bias in its RMS's unit
+    # the paper's notes: values in one unit, said once (the lines' x, before: 1006.5, 1512.5, 2015.8)
+    assert units.listed([1006.5, 1512.5, 2015.8], "nm") == "1006, 1512, 2016 nm"
+    assert units.listed([0.4, 12.25], "nm") == "0.4, 12.25 nm" and units.listed([13, 25, 50]) == "13, 25, 50"
 
 
 def test_nested_tables_are_whole():
