@@ -50,20 +50,50 @@ constexpr double kSpyWaitS = 10.0;   // --spy: the longest the run waits for lcm
 // the operator, which owns the planner: `operator --check-targets` prints
 // the refusal itself. The launcher does not link OpenCV (the text and PNG
 // patterns need it) so that it starts in a few ms, not 60: it is on the path
-// of every run. Returns -1 if they can be served, else 2 (said on stderr).
-int check_targets(const std::string &scene_path)
+// of every run. Returns -1 if they can be served, with *plan the plan's
+// simulated time as the operator estimated it (plan_estimate.hpp: the one
+// line it prints on stdout), else 2 (said on stderr).
+int check_targets(const std::string &scene_path, afm::PlanEstimate *plan)
 {
     const std::string op = exe_dir() + "/operator";
     std::vector<char *> a = {const_cast<char *>(op.c_str()), const_cast<char *>("--scene"), const_cast<char *>(scene_path.c_str()),
                              const_cast<char *>("--check-targets"), nullptr};
+    int out[2];
+    if (pipe2(out, O_CLOEXEC) != 0) {
+        std::fprintf(stderr, "afm_launch: cannot check the planner's targets: pipe: %s\n", std::strerror(errno));
+        return 2;
+    }
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, out[1], STDOUT_FILENO);
     pid_t pid = -1;
-    if (const int e = posix_spawn(&pid, op.c_str(), nullptr, nullptr, a.data(), environ); e != 0) {
+    const int e = posix_spawn(&pid, op.c_str(), &fa, nullptr, a.data(), environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(out[1]);
+    std::string line;
+    for (char b[4096]; e == 0;) {
+        const ssize_t n = read(out[0], b, sizeof b);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) break;
+        line.append(b, static_cast<std::size_t>(n));
+    }
+    close(out[0]);
+    if (e != 0) {
         std::fprintf(stderr, "afm_launch: cannot check the planner's targets: cannot execute %s: %s\n", op.c_str(), std::strerror(e));
         return 2;
     }
     int status = 0;
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return -1;
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+        try {
+            *plan = afm::plan_estimate_from_json(nlohmann::json::parse(line));
+            return -1;
+        } catch (const nlohmann::json::exception &x) {
+            std::fprintf(stderr, "afm_launch: %s --check-targets: cannot read the plan's estimate '%s': %s\n", op.c_str(),
+                         line.substr(0, 200).c_str(), x.what());
+            return 2;
+        }
+    }
     if (!(WIFEXITED(status) && WEXITSTATUS(status) == 2))
         std::fprintf(stderr, "afm_launch: cannot check the planner's targets: %s --check-targets %s\n", op.c_str(),
                      WIFEXITED(status) ? ("exited " + std::to_string(WEXITSTATUS(status))).c_str()
@@ -81,12 +111,14 @@ void warn_haptic_bound(const afm::Scene &s, const afm::CardSetup &card, const st
                      path.c_str(), b.rendered_N_per_m, b.max_rendered_N_per_m, s.op.haptic.max_stiffness_N_per_m);
 }
 
-// --estimate: the estimate and the work it counts, one JSON line on stdout.
-void print_estimate(const afm::WallEstimate &e)
+// --estimate: the estimate and the work it counts, one JSON line on stdout;
+// a planning run's also "plan": the planner's simulated time (plan_estimate.hpp).
+void print_estimate(const afm::WallEstimate &e, const afm::PlanEstimate *plan)
 {
-    const nlohmann::json j = {{"blocks", e.blocks},       {"samples", e.samples},   {"scan_px", e.scan_px},
-                              {"rough_scan_px", e.rough_scan_px}, {"frame_px", e.frame_px}, {"wire_samples", e.wire_samples},
-                              {"seconds", e.seconds},     {"planned", e.planned},   {"realtime", e.realtime}};
+    nlohmann::json j = {{"blocks", e.blocks},       {"samples", e.samples},   {"scan_px", e.scan_px},
+                        {"rough_scan_px", e.rough_scan_px}, {"frame_px", e.frame_px}, {"wire_samples", e.wire_samples},
+                        {"seconds", e.seconds},     {"planned", e.planned},   {"realtime", e.realtime}};
+    if (plan) j["plan"] = afm::plan_estimate_json(*plan);
     std::printf("%s\n", j.dump().c_str());
 }
 
@@ -135,14 +167,16 @@ int Launch::check_scene()
     }
     if (!scene_.op.plan.enabled && !scene_.op.haptic.passivity_check && !(o_.check_only && o_.quiet))
         warn_haptic_bound(scene_, card, o_.scene_path);
-    const auto warnings = afm::scene_warnings(scene_, card.config());
+    afm::PlanEstimate plan;
+    if (scene_.op.plan.enabled) {
+        if (const int code = check_targets(o_.scene_path, &plan); code >= 0) return code;
+    }
+    const afm::PlanEstimate *planned = scene_.op.plan.enabled ? &plan : nullptr;
+    const auto warnings = afm::scene_warnings(scene_, card.config(), planned);
     if (!(o_.check_only && o_.quiet) || o_.strict)
         for (const auto &w : warnings) std::fprintf(stderr, "%s: %s%s\n", o_.scene_path.c_str(), o_.strict ? "" : "warning: ", w.c_str());
     if (o_.strict && !warnings.empty()) return 2;
-    if (scene_.op.plan.enabled) {
-        if (const int code = check_targets(o_.scene_path); code >= 0) return code;
-    }
-    if (o_.estimate) print_estimate(afm::estimate_wall(scene_));
+    if (o_.estimate) print_estimate(afm::estimate_wall(scene_), planned);
     else if (o_.check_only && !o_.quiet && !o_.resolved) say_estimate(o_.scene_path, scene_);
     return -1;
 }

@@ -18,10 +18,12 @@ namespace {
 
 bool expects(const Scene &s, const char *check) { return std::find(s.expect.begin(), s.expect.end(), check) != s.expect.end(); }
 
+// A value as the warnings say it: 4 significant digits, a whole number from
+// 10000 up (never an exponent: "12874 nm", not "1.287e+04").
 std::string num(double v)
 {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.4g", v);
+    char b[48];
+    std::snprintf(b, sizeof b, std::fabs(v) < 1e4 ? "%.4g" : "%.0f", v);
     return b;
 }
 
@@ -220,9 +222,25 @@ void long_run(const Scene &s, std::vector<std::string> *out)
                    " s; shorten duration_s, or lower sample_rate_hz or outputs.image_px");
 }
 
+// A plan that needs longer than the run: the planner's estimate
+// (plan_estimate.hpp, a floor) past duration_s.
+void plan_outlasts(const Scene &s, const PlanEstimate *plan, std::vector<std::string> *out)
+{
+    if (!plan || plan->seconds <= s.duration_s) return;
+    const PlanSpec &ps = s.op.plan;
+    std::string work = std::to_string(plan->jobs) + " particles to their sites: " + std::to_string(plan->strokes) + " strokes over " +
+                       num(plan->push_nm) + " nm at operator.plan.speed_nm_per_s " + num(ps.speed_nm_per_s) + ", " +
+                       std::to_string(plan->scans) + " local scans of operator.plan.scan_s " + num(ps.scan_s) + " s, " +
+                       num(plan->travel_nm) + " nm lifted at operator.plan.travel_speed_nm_per_s " + num(ps.travel_speed_nm_per_s);
+    if (plan->cuts > 0) work += ", " + std::to_string(plan->cuts) + " cuts over " + num(plan->cut_nm) + " nm";
+    out->push_back("duration_s: " + num(s.duration_s) + " s is shorter than the plan needs, at least " + num(plan->seconds) +
+                   " s of simulated time by the planner's estimate (" + work + "): the run ends with the plan half done; "
+                   "make duration_s at least " + num(std::ceil(plan->seconds)) + " (a planning run ends when the planner is done)");
+}
+
 }  // namespace
 
-std::vector<std::string> scene_warnings(const Scene &s, const fw_card_config_t &card)
+std::vector<std::string> scene_warnings(const Scene &s, const fw_card_config_t &card, const PlanEstimate *plan)
 {
     std::vector<std::string> out;
     unobservable_pushes(s, &out);
@@ -233,6 +251,7 @@ std::vector<std::string> scene_warnings(const Scene &s, const fw_card_config_t &
         out.push_back("effects: the scene has particles to push but no adhesion effect: nothing holds them (the first touch slides them away)");
     loads(s, card, &out);
     long_run(s, &out);
+    plan_outlasts(s, plan, &out);
     return out;
 }
 

@@ -17,7 +17,11 @@
 //   - a load beyond the card's normal full scale (k_n K_n 10 V) or its
 //     interlock limit;
 //   - a scripted lockstep run whose wall time, estimated from its size
-//     (estimate_wall), exceeds kLongRun_s.
+//     (estimate_wall), exceeds kLongRun_s;
+//   - a planning run (operator.plan) whose plan needs more simulated time
+//     than duration_s, by the planner's own estimate (plan_estimate.hpp,
+//     which the launcher asks of the operator): the run ends with the
+//     pattern half done.
 // (A path off the scan field is an error already: the joystick cannot reach
 // it, scene/scene.cpp.)
 // A scene's expect: silences the warnings of a failure it expects
@@ -30,11 +34,13 @@
 extern "C" {
 #include "fw_card.h"
 }
+#include "plan_estimate.hpp"
 #include "scene.hpp"
 
 namespace afm {
 
-std::vector<std::string> scene_warnings(const Scene &s, const fw_card_config_t &card);
+// plan: the planner's estimate for a planning run (nullptr: none).
+std::vector<std::string> scene_warnings(const Scene &s, const fw_card_config_t &card, const PlanEstimate *plan = nullptr);
 
 // The run's wall time estimated from the scene's size: a linear model of
 // its work (the features below), its coefficients fitted by least squares

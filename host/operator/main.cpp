@@ -13,6 +13,7 @@
 #include "env_input.hpp"
 #include "aside.hpp"
 #include "pattern.hpp"
+#include "plan_estimate.hpp"
 #include "run_process.hpp"
 
 namespace {
@@ -38,8 +39,9 @@ const afm::Process<Options> kProcess = {
           "only say whether the planner can serve the scene's targets\n"
           "(pattern.hpp: sites inside the field, no more than the particles, far\n"
           "enough apart); exit 0 if it can (or the scene does not plan), 2 naming\n"
-          "the problem. afm_launch asks this before a planning run starts, so that\n"
-          "it need not load OpenCV itself."},
+          "the problem; if it can, the plan's simulated time, estimated\n"
+          "(plan_estimate.hpp), as one JSON line on stdout. afm_launch asks this\n"
+          "before a planning run starts, so that it need not load OpenCV itself."},
          afm::cli::flag(&Options::check_targets)},
         {{"--plan-jobs", nullptr, "options:",
           "only print, as JSON, the planner's jobs from the scene's particles:\n"
@@ -165,6 +167,7 @@ int main(int argc, char **argv)
             if (opt.check_targets) {
                 const std::string why = scene.op.plan.enabled ? afm::targets_refusal(scene) : "";
                 if (!why.empty()) std::fprintf(stderr, "%s\n", why.c_str());
+                else if (scene.op.plan.enabled) std::printf("%s\n", afm::plan_estimate_json(afm::estimate_plan(scene)).dump().c_str());
                 return why.empty() ? afm::kExitOk : afm::kExitInput;
             }
             if (opt.plan_jobs) return print_jobs(scene);
