@@ -32,7 +32,9 @@ Beside it, layout_path(FILE) is a Foxglove layout (templates/foxglove_layout.jso
 
 Errors (a missing folder, a folder without bus.lcmlog, a log cut short or
 corrupt, a run without GSF files for --gwy, a file that cannot be written)
-are one line on stderr naming the file and what is wrong; exit 2."""
+are one line on stderr naming the file and what is wrong; exit 2. Each
+file is written whole or not at all, no link followed (analysis/safefs.py's
+atomic writer)."""
 import argparse
 import textwrap
 import contextlib
@@ -42,6 +44,7 @@ import os
 import re
 import sys
 
+from analysis import safefs
 from analysis.text import printable
 
 MAX_LOG_TIME_US = 2 ** 64 // 1000   # MCAP's log time: nanoseconds, unsigned 64-bit
@@ -94,9 +97,11 @@ def write_csv(run, folder):
     try:
         os.makedirs(folder, exist_ok=True)
         for ch, df in run.frames.items():
-            df.to_csv(os.path.join(folder, ch + ".csv"), index=False)
+            safefs.write_path(os.path.join(folder, ch + ".csv"), df.to_csv(index=False))   # whole, no link followed
     except OSError as e:
         raise ExportError(f"{e.filename or folder}: cannot write: {e.strerror}")
+    except safefs.Refused as e:
+        raise ExportError(str(e))
     return {ch: len(df) for ch, df in run.frames.items()}
 
 
@@ -289,9 +294,8 @@ def write_mcap(run, path):
     """The MCAP file and its layout (see the module's contract);
     (messages per channel, frames, grids, Foxglove state messages)."""
     from mcap.writer import Writer
-    tmp = path + ".part"
     try:
-        with open(tmp, "wb") as f:
+        with safefs.atomic_path(path) as f:   # whole or not at all, no link followed
             w = Writer(f)
             w.start(profile="", library="afm-bench analysis.export")
             out, clock = _Out(w), _block_clock(run)
@@ -302,14 +306,12 @@ def write_mcap(run, path):
             out.write()
             w.add_metadata("run", {"run.json": json.dumps(run.info)})
             w.finish()
-        with open(LAYOUT) as f, open(layout_path(path), "w") as g:
-            json.dump(json.load(f), g, indent=1)
-        os.replace(tmp, path)
+        with open(LAYOUT) as f:
+            safefs.write_path(layout_path(path), json.dumps(json.load(f), indent=1))
     except OSError as e:
         raise ExportError(f"{e.filename or path}: cannot write: {e.strerror}")
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    except safefs.Refused as e:
+        raise ExportError(str(e))
     return counts, frames, grids, state
 
 

@@ -16,10 +16,12 @@ others (local scans) by name:
                     Run_* (scene_hash, seed, ... : its scalar values);
                     each a string (Gwyddion's metadata browser shows text)
 
-A run without GSF files, or a file that cannot be written, raises
+The file is written whole or not at all (analysis/safefs.py's atomic
+writer). A run without GSF files, or a file that cannot be written, raises
 GwyError naming the folder or the file."""
 import json
-import os
+
+from analysis import safefs
 
 ORDER = ("scan_initial", "scan_initial_lateral", "scan_final", "scan_final_lateral", "display_final")
 HEADER_SIZE_KEYS = {"XRes", "YRes", "XReal", "YReal", "XOffset", "YOffset", "XYUnits", "ZUnits", "Title"}
@@ -67,13 +69,11 @@ def write_gwy(run, path):
         meta = {k: str(v) for k, v in header.items() if k not in HEADER_SIZE_KEYS}
         meta.update(run_meta)
         c[f"/{i}/meta"] = GwyContainer(meta, typecodes={k: "s" for k in meta})   # text, even one character long
-    tmp = path + ".part"
     try:
-        c.tofile(tmp)
-        os.replace(tmp, path)
+        with safefs.atomic_path(path) as f:   # whole or not at all, no link followed
+            c.tofile(f)
     except OSError as e:
-        raise GwyError(f"{e.filename or path}: cannot write: {e.strerror}")
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        raise GwyError(f"{path}: cannot write: {e.strerror}")
+    except safefs.Refused as e:
+        raise GwyError(str(e))
     return names

@@ -19,7 +19,7 @@ import shutil
 import subprocess
 import time
 
-from analysis import paths, runlog
+from analysis import paths, runlog, safefs
 
 # The firmware modules every card runs, and those a configuration adds.
 CARD_MODULES = ["fw_math", "fw_guard", "fw_acq", "fw_rules", "fw_theta", "fw_force", "fw_comp", "fw_board", "fw_particles",
@@ -47,11 +47,7 @@ def _tail(path, n=8):
 
 
 def _write_json(path, data):
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=2, sort_keys=True)
-        f.write("\n")
-    os.replace(tmp, path)
+    safefs.write_path(path, json.dumps(data, indent=2, sort_keys=True) + "\n")   # whole or not at all, no link followed
 
 
 # A worker started by a root sweep (analysis/sweep_users.py) names a folder

@@ -17,10 +17,26 @@ with the folder afterwards goes through here:
   checked(dfd, rel)         the path of a file that was checked so, for a
                             reader that takes a path (afm_replay, afmlog):
                             /proc/self/fd/N/rel (the folder as opened)
-  write_atomic(dfd, rel, b) written through a temporary file this process
-                            created (O_CREAT | O_EXCL | O_NOFOLLOW in the
-                            folder's descriptor), then renamed over `rel`
-                            (renameat: a link there is replaced, not followed)
+  atomic(dfd, rel)          the one atomic writer: a binary file to write
+                            `rel` through (a context manager): a temporary
+                            file this process created in the same folder
+                            (O_CREAT | O_EXCL | O_NOFOLLOW in the folder's
+                            descriptor, a name of its own), fsync'd, then
+                            renamed over `rel` and the folder fsync'd: a
+                            reader sees the old file whole or the new one
+                            whole, and a crash mid-write leaves the old one
+                            (and at most a hidden .NAME.*.tmp); an error in
+                            the block removes the temporary file. A link,
+                            pipe or device planted at `rel` is replaced,
+                            never followed (renameat); one planted as a
+                            folder on the way is Refused, as is a folder
+                            standing at `rel`
+  write_atomic(dfd, rel, b) `b` (bytes or str) written through atomic()
+  atomic_path(path)         atomic() for a path: its folder as the caller
+  write_path(path, b)       names it (the folders on the way are the
+                            caller's choice, as open_dir's), the file itself
+                            never followed; for the bench's writers
+                            (export.py, gwy.py, point.py, paper/)
   make_dir(dfd, rel)        a folder under it, made or found (a real folder)
   give_back(path)           the folder handed back to the caller (root):
                             top-down, each folder made the caller's and
@@ -52,10 +68,12 @@ to lose). A Refused is a ValueError with a one-line message.
     python -m analysis.safefs digest DIR           write_digests
     python -m analysis.safefs verify DIR FILE...   check_digests; exit 2 with one line when one was altered
 """
+import contextlib
 import errno
 import hashlib
 import json
 import os
+import secrets
 import stat
 import sys
 
@@ -217,19 +235,43 @@ def make_dir(dfd, rel, shown=""):
     return fd
 
 
-def write_atomic(dfd, rel, data, shown=""):
-    """`data` (bytes or str) into `rel` under `dfd`: a temporary file made
-    here with O_EXCL, then renamed over `rel`; 0644."""
-    if isinstance(data, str):
-        data = data.encode()
-    parts = _parts(rel)
-    parent = _walk_dirs(dfd, parts, shown)
-    tmp = f".{parts[-1]}.{os.getpid()}.tmp"
+def _refuse_standing(parent, name, where):
+    """Refused when a folder stands at `name` (anything else is replaced)."""
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644, dir_fd=parent)
+        mode = os.stat(name, dir_fd=parent, follow_symlinks=False).st_mode
+    except FileNotFoundError:
+        return
+    if stat.S_ISDIR(mode):
+        raise Refused(f"{where}: refused: a folder stands there, not replaced")
+
+
+def _temporary(parent, name):
+    """A new file of this process's beside `name`: (its name, its descriptor)."""
+    for _ in range(16):
+        tmp = f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+        try:
+            return tmp, os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644, dir_fd=parent)
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no free temporary name", name)
+
+
+@contextlib.contextmanager
+def atomic(dfd, rel, shown=""):
+    """A binary file whose bytes replace `rel` under `dfd` at the block's end
+    (the module's contract); 0644."""
+    parts = _parts(rel)
+    where = os.path.join(shown, rel)
+    parent = _walk_dirs(dfd, parts, shown)
+    try:
+        _refuse_standing(parent, parts[-1], where)
+        tmp, fd = _temporary(parent, parts[-1])
         try:
             with os.fdopen(fd, "wb") as f:
-                f.write(data)
+                yield f
+                f.flush()
+                os.fsync(f.fileno())
+            _refuse_standing(parent, parts[-1], where)   # planted while it was written
             os.rename(tmp, parts[-1], src_dir_fd=parent, dst_dir_fd=parent)
         except BaseException:
             try:
@@ -237,11 +279,35 @@ def write_atomic(dfd, rel, data, shown=""):
             except OSError:
                 pass
             raise
-    except IsADirectoryError:
-        raise Refused(f"{os.path.join(shown, rel)}: refused: a folder stands there, not replaced") from None
+        os.fsync(parent)
     finally:
         if parent != dfd:
             os.close(parent)
+
+
+def write_atomic(dfd, rel, data, shown=""):
+    """`data` (bytes or str) into `rel` under `dfd` through atomic()."""
+    with atomic(dfd, rel, shown) as f:
+        f.write(data.encode() if isinstance(data, str) else data)
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """atomic() for a path (the module's contract): its folder opened as
+    named, the file itself never followed."""
+    folder = os.path.dirname(os.path.abspath(path))
+    dfd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    try:
+        with atomic(dfd, os.path.basename(path), folder) as f:
+            yield f
+    finally:
+        os.close(dfd)
+
+
+def write_path(path, data):
+    """`data` (bytes or str) into `path` through atomic_path()."""
+    with atomic_path(path) as f:
+        f.write(data.encode() if isinstance(data, str) else data)
 
 
 def _give_back_dir(fd, shown, uid, gid, removed):

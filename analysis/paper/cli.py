@@ -8,7 +8,7 @@ import os
 import sys
 import time
 
-from analysis import paths, point
+from analysis import paths, point, safefs
 from analysis.paper import common, paper_report
 from analysis import helptext
 from analysis.paper import (exp_compensation, exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze,
@@ -94,9 +94,7 @@ def _one_run(job):
     import yaml
     scene_path = os.path.join(exp_dir, "runs", run.name + ".yaml")
     scene = common.scene_for(run)
-    with open(scene_path, "w") as f:
-        f.write(f"# {run.scene} with {run.settings} (./afm paper)\n")
-        yaml.safe_dump(scene, f, sort_keys=False)
+    safefs.write_path(scene_path, f"# {run.scene} with {run.settings} (./afm paper)\n" + yaml.safe_dump(scene, sort_keys=False))
     code, err, rj, wall = point.run_scene(scene_path, run_dir, run.timeout_s)
     ok = code == 0 and rj is not None and rj.get("status") == "ok"
     return run.name, run_dir, ok, (None if ok else point.failure_of(code, err, rj, run_dir)), wall

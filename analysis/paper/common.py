@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import yaml
 
-from analysis import gsf, knobs, paths
+from analysis import gsf, knobs, paths, safefs
 
 SCENES = os.path.join(paths.ROOT, "scenes", "paper")
 CALC = paths.CALC
@@ -348,10 +348,13 @@ def paper_probe():
 
 def save(fig, exp_dir, fname):
     """Writes a figure into the experiment's folder (PNG, and SVG beside it
-    for print: the report links both) and closes it; its file name."""
+    for print: the report links both; each through safefs's atomic writer)
+    and closes it; its file name."""
     fig.tight_layout()
-    fig.savefig(os.path.join(exp_dir, fname), dpi=110)
-    fig.savefig(os.path.join(exp_dir, os.path.splitext(fname)[0] + ".svg"), metadata={"Date": None})
+    with safefs.atomic_path(os.path.join(exp_dir, fname)) as f:
+        fig.savefig(f, dpi=110, format="png")
+    with safefs.atomic_path(os.path.join(exp_dir, os.path.splitext(fname)[0] + ".svg")) as f:
+        fig.savefig(f, format="svg", metadata={"Date": None})
     plt().close(fig)
     return fname
 

@@ -5,7 +5,9 @@ figures (paper, bench, truth) and the paper's models against the truth
 analysis/paper/tolerances.yaml and its verdict. Numbers through
 analysis/units.py (at most 4 significant digits; an absolute error and
 tolerance with the row's unit); each figure inline, with links to its PNG
-and, where the experiment wrote one beside it, its SVG."""
+and, where the experiment wrote one beside it, its SVG. Each file is
+written whole or not at all, no link followed (analysis/safefs.py's atomic
+writer)."""
 import base64
 import datetime
 import json
@@ -14,7 +16,7 @@ from dataclasses import asdict
 
 import jinja2
 
-from analysis import paths, units
+from analysis import paths, safefs, units
 
 TEMPLATES = os.path.join(paths.ROOT, "analysis", "templates")
 
@@ -83,11 +85,7 @@ def write(out, results, size, wall_s):
     data = {"size": size, "wall_s": wall_s, "written": now,
             "experiments": {n: dict(res.as_dict(), title=e.TITLE, figures_of_the_paper=e.FIGURES, wall_s=w, folder=n)
                             for n, (e, res, w) in results.items()}}
-    tmp = os.path.join(out, "paper.json.tmp")
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=2)
-        f.write("\n")
-    os.replace(tmp, os.path.join(out, "paper.json"))
+    safefs.write_path(os.path.join(out, "paper.json"), json.dumps(data, indent=2) + "\n")
 
     md = [f"# The paper, reproduced on the bench ({size} size)", "",
           f"Written {now}; {wall_s:.0f} s. Each value under *bench* is measured from the runs' own signals, scans and "
@@ -110,8 +108,7 @@ def write(out, results, size, wall_s):
             md.append(f"| {q} | {fmt(r.model)} | {fmt(r.truth)} | {_err(r)} | {_tol(r)} | {r.verdict} | {r.note} |")
         md += [""] + [f"- {t}" for t in res.notes] + [""]
         md += [f"![{cap}]({n}/{fn})" for cap, fn in res.figures] + [""]
-    with open(os.path.join(out, "report.md"), "w") as f:
-        f.write("\n".join(md) + "\n")
+    safefs.write_path(os.path.join(out, "report.md"), "\n".join(md) + "\n")
 
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True)
     env.filters["fmt"] = fmt
@@ -127,5 +124,4 @@ def write(out, results, size, wall_s):
                      "figures": figs, "wall_s": w, "what": e.__doc__ or ""})
     html = env.get_template("paper.html.j2").render(exps=exps, size=size, now=now, wall_s=wall_s,
                                                      all_ok=all(x["ok"] for x in exps))
-    with open(os.path.join(out, "report.html"), "w") as f:
-        f.write(html)
+    safefs.write_path(os.path.join(out, "report.html"), html)
