@@ -1,5 +1,7 @@
 #include "bus_filter.hpp"
 
+#include "big_endian.hpp"
+
 #include <sys/socket.h>
 
 #include <cstring>
@@ -39,8 +41,6 @@ std::vector<sock_filter> channel_block(const std::string &channel)
     for (std::size_t j : fail) p[j].jf = static_cast<uint8_t>(p.size() - (j + 1));   // < 255: names are short (checked below)
     return p;
 }
-
-uint32_t be32(const unsigned char *p) { return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3]; }
 
 }  // namespace
 

@@ -1,17 +1,11 @@
 #include "lcmlog.hpp"
 
+#include "big_endian.hpp"
+
 #include <cstdio>
 #include <cstring>
 
 namespace afm {
-
-namespace {
-uint32_t be32(const unsigned char *p)
-{
-    return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | uint32_t(p[3]);
-}
-uint64_t be64(const unsigned char *p) { return (uint64_t(be32(p)) << 32) | be32(p + 4); }
-}  // namespace
 
 LogReader::LogReader(std::string path) : path_(std::move(path)), f_(path_, std::ios::binary)
 {

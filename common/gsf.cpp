@@ -33,7 +33,7 @@ std::string fmt(double v)
 }
 
 // A header value as a message quotes it: escaped, at most 80 bytes.
-std::string quoted(const std::string &v)
+std::string header_quoted(const std::string &v)
 {
     return "'" + printable(v.substr(0, 80)) + (v.size() > 80 ? "...'" : "'");
 }
@@ -47,7 +47,7 @@ double header_num(const std::string &path, const std::vector<std::pair<std::stri
         const double x = std::strtod(v.c_str(), &end);
         if (v.empty() || *end != '\0' || !std::isfinite(x) || (r.integer && x != std::floor(x)) || !(x >= r.lo && x <= r.hi))
             refuse(path, std::string("GSF header ") + r.key + " must be " + (r.integer ? "a whole number" : "a number") + " in [" +
-                             fmt(r.lo) + ", " + fmt(r.hi) + "], got " + quoted(v));
+                             fmt(r.lo) + ", " + fmt(r.hi) + "], got " + header_quoted(v));
         return x;
     }
     if (r.required) refuse(path, std::string("GSF header ") + r.key + " is missing");
@@ -77,13 +77,13 @@ std::vector<std::pair<std::string, std::string>> parse_header(const std::string 
     for (std::string line; std::getline(lines, line);) {
         if (line.empty()) continue;
         const std::size_t eq = line.find('=');
-        if (eq == std::string::npos) refuse(path, "GSF header line without '=': " + quoted(line));
+        if (eq == std::string::npos) refuse(path, "GSF header line without '=': " + header_quoted(line));
         auto trim = [](std::string s) {
             const std::size_t a = s.find_first_not_of(" \t\r"), b = s.find_last_not_of(" \t\r");
             return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
         };
         std::string key = trim(line.substr(0, eq));
-        if (!seen.insert(key).second) refuse(path, "GSF header " + quoted(key) + " given twice");   // which would a reader take?
+        if (!seen.insert(key).second) refuse(path, "GSF header " + header_quoted(key) + " given twice");   // which would a reader take?
         h.emplace_back(std::move(key), trim(line.substr(eq + 1)));
     }
     return h;
@@ -147,8 +147,8 @@ GsfGrid read_gsf(const std::string &path, bool require_metres)
     g.xy_units = header_str(h, "XYUnits", "m");
     g.z_units = header_str(h, "ZUnits", "");
     g.title = header_str(h, "Title", "");
-    if (require_metres && g.xy_units != "m") refuse(path, "GSF header XYUnits must be m, got " + quoted(g.xy_units));
-    if (require_metres && g.z_units != "m") refuse(path, "GSF header ZUnits must be m (heights), got " + quoted(g.z_units));
+    if (require_metres && g.xy_units != "m") refuse(path, "GSF header XYUnits must be m, got " + header_quoted(g.xy_units));
+    if (require_metres && g.z_units != "m") refuse(path, "GSF header ZUnits must be m (heights), got " + header_quoted(g.z_units));
     for (const auto &kv : h) {
         const bool numeric = std::any_of(std::begin(kGsfRanges), std::end(kGsfRanges), [&](const GsfRange &r) { return kv.first == r.key; });
         if (!numeric && kv.first != "XYUnits" && kv.first != "ZUnits" && kv.first != "Title") g.keys.push_back(kv);

@@ -6,12 +6,11 @@
 #include <map>
 
 #include "world.hpp"
+#include "world_internal.hpp"
 
 namespace afm::sim {
 
 namespace {
-
-constexpr double kBoltzmann_nN_nm_per_K = 1.380649e-5;  // 1.380649e-23 J/K in nN nm / K
 
 // White noise on S_n and S_l. Default level: the lever's thermal noise,
 // <delta^2> = kT / k_n and <twist^2> = kT / k_theta, as volts.

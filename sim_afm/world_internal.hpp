@@ -1,4 +1,4 @@
-// What the world's units share (world.cpp, world_contact.cpp,
+// What the world's units share (world.cpp, world_contact.cpp, effects.cpp,
 // world_imaging.cpp, world_trenches.cpp, surfaces.cpp). Internal to the
 // simulator's library.
 #pragma once

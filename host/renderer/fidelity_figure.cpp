@@ -15,12 +15,11 @@ namespace afm {
 
 namespace {
 
-const cv::Scalar kBlack(0, 0, 0), kGrey(90, 90, 90);
+const cv::Scalar kGrey(90, 90, 90);
 constexpr std::size_t kMaxLabelled = 12;   // errors written beside at most this many objects: the unfound, then the worst
 // The colour scale: the 95th percentile of the pixels that differ by more
 // than kDiffFloor_nm (most pixels do not differ at all), at least kMinRange_nm.
 constexpr double kDiffFloor_nm = 0.01, kDiffQuantile = 0.95, kMinRange_nm = 0.5;
-constexpr int kGap = 2;   // between two texts' inks, pixels at least
 
 // Blue (BGR 192, 76, 59) through white at 0 to red (38, 4, 180): v in [-1, 1].
 cv::Vec3b diverging(double v)
@@ -33,23 +32,16 @@ cv::Vec3b diverging(double v)
     return out;
 }
 
-std::string fmt(const char *f, double v)
-{
-    char b[96];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
-
 // The error the check found for an object, as its label.
 std::string error_label(const Fidelity &fid, const std::string &kind, int id)
 {
     for (const auto &o : fid.objects)
-        if (o.kind == kind && o.id == id) return o.found ? fmt("%.1f nm", o.error_nm) : "not found";
+        if (o.kind == kind && o.id == id) return o.found ? label_number("%.1f nm", o.error_nm) : "not found";
     return "not checked";
 }
 
 // The picture's labels: each beside its mark, in the first place around it
-// that no earlier label or mark holds (its ink kGap round), inside the
+// that no earlier label or mark holds (its ink kTextGapPx round), inside the
 // picture; none if every place is held.
 struct Labels {
     cv::Mat img;
@@ -60,12 +52,12 @@ struct Labels {
     void beside(const std::string &s, cv::Point c, int r)
     {
         const cv::Rect ink = ink_box(s, t.font_px, {0, 0});
-        const int g = kGap + 1;
+        const int g = kTextGapPx + 1;
         const cv::Point tries[] = {{c.x + r + g - ink.x, c.y - ink.y - ink.height / 2},       {c.x - r - g - ink.br().x, c.y - ink.y - ink.height / 2},
                                    {c.x - ink.x - ink.width / 2, c.y + r + g - ink.y},       {c.x - ink.x - ink.width / 2, c.y - r - g - ink.br().y},
                                    {c.x + r + g - ink.x, c.y + r + g - ink.y},               {c.x - r - g - ink.br().x, c.y - r - g - ink.br().y}};
         for (const cv::Point &org : tries) {
-            const cv::Rect box = ink + org, grown(box.x - kGap, box.y - kGap, box.width + 2 * kGap, box.height + 2 * kGap);
+            const cv::Rect box = ink + org, grown(box.x - kTextGapPx, box.y - kTextGapPx, box.width + 2 * kTextGapPx, box.height + 2 * kTextGapPx);
             if ((box & cv::Rect(0, 0, img.cols, img.rows)) != box ||
                 std::any_of(taken.begin(), taken.end(), [&](const cv::Rect &o) { return (o & grown).area() > 0; }))
                 continue;
@@ -155,9 +147,9 @@ cv::Mat fidelity_figure(const Fidelity &fid, const Field &f, const DisplayModel 
 {
     const int side = frame_px(f.px), k = side / f.px;
     const double range = diff_range_nm(fid.diff_nm);
-    const std::string title = fmt("display \u2212 fresh scan: worst object %.2f nm", fid.max_position_error_nm) + fmt(" (target %g nm)", target_nm);
-    std::string second = fmt("rms height %.2f nm; colour saturates past \u00b1", fid.rms_height_error_nm) + fmt("%g nm", range);
-    if (fid.objects.size() > kMaxLabelled) second += fmt("; errors of the %.0f worst", static_cast<double>(kMaxLabelled));
+    const std::string title = label_number("display \u2212 fresh scan: worst object %.2f nm", fid.max_position_error_nm) + label_number(" (target %g nm)", target_nm);
+    std::string second = label_number("rms height %.2f nm; colour saturates past \u00b1", fid.rms_height_error_nm) + label_number("%g nm", range);
+    if (fid.objects.size() > kMaxLabelled) second += label_number("; errors of the %.0f worst", static_cast<double>(kMaxLabelled));
     cv::Mat diff(fid.diff_nm.size(), CV_8UC3);
     for (int r = 0; r < diff.rows; ++r)
         for (int c = 0; c < diff.cols; ++c) diff.at<cv::Vec3b>(r, c) = diverging(fid.diff_nm.at<float>(r, c) / range);

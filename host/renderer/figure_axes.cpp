@@ -10,12 +10,10 @@ namespace afm {
 
 namespace {
 
-const cv::Scalar kBlack(0, 0, 0);
 constexpr int kFigureFontPx = 15;   // DejaVu Sans: a capital 11 px high
 constexpr int kPad = 10;            // the figure's margin
-constexpr int kGap = 2;             // between two texts' inks, pixels at least
 
-// The figure's texts, each where its ink (kGap round) meets no other text
+// The figure's texts, each where its ink (kTextGapPx round) meets no other text
 // or tick, inside the figure.
 struct Page {
     cv::Mat img;
@@ -26,7 +24,7 @@ struct Page {
     cv::Rect ink(const std::string &s, cv::Point org = {0, 0}) const { return ink_box(s, t.font_px, org); }
     bool put(const std::string &s, cv::Point org, const char *role)
     {
-        const cv::Rect r = ink(s, org), g(r.x - kGap, r.y - kGap, r.width + 2 * kGap, r.height + 2 * kGap);
+        const cv::Rect r = ink(s, org), g(r.x - kTextGapPx, r.y - kTextGapPx, r.width + 2 * kTextGapPx, r.height + 2 * kTextGapPx);
         if ((r & cv::Rect(0, 0, img.cols, img.rows)) != r) return false;
         if (std::any_of(taken.begin(), taken.end(), [&](const cv::Rect &o) { return (o & g).area() > 0; })) return false;
         draw_text(img, s, org, t.font_px, kBlack);
@@ -64,7 +62,7 @@ Margins margins(const Page &p, const Field &f, std::size_t title_lines, const Fi
     for (double v : round_ticks(f.y0_nm, f.y0_nm + f.size_nm)) y_w = std::max(y_w, p.ink(axis_number(v)).width);
     for (double v : bar.ticks) bar_lw = std::max(bar_lw, p.ink(bar_label(v, bar.plus)).width);
     m.left = kPad + std::max(y_w + m.gap + m.T, p.ink("y (nm)").width / 2);
-    m.top = kPad + static_cast<int>(title_lines + 1) * p.t.line_px + m.gap + p.t.cap_px / 2 + 2 * kGap + 2;
+    m.top = kPad + static_cast<int>(title_lines + 1) * p.t.line_px + m.gap + p.t.cap_px / 2 + 2 * kTextGapPx + 2;
     m.right = 2 * p.t.line_px + m.bar_w + m.T + m.gap + bar_lw + kPad;
     m.bottom = m.T + m.gap + 2 * p.t.line_px + kPad;
     return m;
@@ -92,7 +90,7 @@ void draw_axes(Page &p, const cv::Rect &pic, const Field &f, const Margins &m)
     const cv::Rect xr = p.ink("x (nm)"), yr = p.ink("y (nm)");
     p.put("x (nm)", {pic.x + pic.width / 2 - xr.x - xr.width / 2, base + p.t.line_px}, "axis unit");
     // above the top tick's label, which may stand half over the picture's top
-    p.put("y (nm)", {std::max(0, pic.x - yr.width / 2) - yr.x, pic.y - p.t.cap_px / 2 - 2 * kGap - 2 - yr.br().y}, "axis unit");
+    p.put("y (nm)", {std::max(0, pic.x - yr.width / 2) - yr.x, pic.y - p.t.cap_px / 2 - 2 * kTextGapPx - 2 - yr.br().y}, "axis unit");
 }
 
 // The colour bar right of the picture, its ticks and labels, the unit above it.
@@ -112,7 +110,7 @@ void draw_bar(Page &p, const cv::Rect &pic, const FigureBar &bar, const Margins 
         p.put(s, {b.br().x + m.T + m.gap - r.x, y - r.y - r.height / 2}, "bar");
     }
     const cv::Rect u = p.ink(bar.unit);
-    p.put(bar.unit, {b.x - u.x, b.y - m.gap - kGap - 1 - u.br().y}, "bar");
+    p.put(bar.unit, {b.x - u.x, b.y - m.gap - kTextGapPx - 1 - u.br().y}, "bar");
 }
 
 }  // namespace

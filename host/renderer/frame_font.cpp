@@ -210,4 +210,11 @@ std::string axis_number(double v)
     return v < 0 ? std::string("\u2212") + b : std::string(b);
 }
 
+std::string label_number(const char *f, double v)
+{
+    char b[96];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
 }  // namespace afm

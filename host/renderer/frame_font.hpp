@@ -32,6 +32,8 @@ namespace afm {
 
 inline constexpr const char *kFontFile = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 constexpr std::size_t kMaxCachedTexts = 1024;
+constexpr int kTextGapPx = 2;                 // between two texts' inks (and a text and a tick), pixels at least
+inline const cv::Scalar kBlack(0, 0, 0);      // a figure's texts and lines, on white
 
 struct TextMask {
     cv::Mat a;          // coverage 0-255 (CV_8U): the glyphs, anti-aliased
@@ -75,5 +77,8 @@ struct TextBox {
 // A number for an axis or a colour bar: "%g", a negative one with the
 // minus sign (U+2212), never a hyphen; -0 as 0.
 std::string axis_number(double v);
+// A label's text: printf's format f (one conversion, of a double) with v,
+// cut at 95 bytes.
+std::string label_number(const char *f, double v);
 
 }  // namespace afm

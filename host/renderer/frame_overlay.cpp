@@ -29,10 +29,9 @@ constexpr double kLateralNnAcross = 12.8;   // the lateral arrow: this many nN s
 constexpr double kFzNnAcross = 128.0;       // the F_z bar: this many nN span the frame's side
 constexpr double kLeverAlpha = 0.35, kConeAlpha = 0.18;
 constexpr double kBandDim = 0.35;           // the axes' bands: the image under them at this brightness
-constexpr int kGap = 2;                     // between two texts' inks, pixels at least
 
 // The frame's texts and the boxes they and the marks hold: a text goes
-// only where its ink, kGap round, meets nothing held.
+// only where its ink, kTextGapPx round, meets nothing held.
 struct Canvas {
     cv::Mat img;
     FrameText text;
@@ -54,7 +53,7 @@ struct Canvas {
     {
         const cv::Rect inside(edge, edge, img.cols - 2 * edge, img.rows - 2 * edge);
         if ((ink & inside) != ink) return false;
-        const cv::Rect r(ink.x - kGap, ink.y - kGap, ink.width + 2 * kGap, ink.height + 2 * kGap);
+        const cv::Rect r(ink.x - kTextGapPx, ink.y - kTextGapPx, ink.width + 2 * kTextGapPx, ink.height + 2 * kTextGapPx);
         return std::none_of(taken.begin(), taken.end(), [&](const cv::Rect &t) { return (t & r).area() > 0; });
     }
     void label(const std::string &s, cv::Point org, const cv::Scalar &colour, const char *role)
@@ -77,13 +76,6 @@ struct Canvas {
         return {p.x - r.x - r.width / 2, p.y - r.y - r.height / 2};
     }
 };
-
-std::string fmt(const char *f, double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
 
 // Each pixel of src (BGR) a k x k square (cv::resize's nearest cost
 // twice as much, most of it its threads' hand-over).
@@ -188,7 +180,7 @@ void draw_axes(Canvas &c, const Axes &a)
 void label_beside(Canvas &c, const std::string &s, const cv::Rect &mark, const cv::Scalar &colour)
 {
     const cv::Rect r = c.ink(s, {0, 0});
-    const int g = kGap + 1, cy = mark.y + mark.height / 2, cx = mark.x + mark.width / 2;
+    const int g = kTextGapPx + 1, cy = mark.y + mark.height / 2, cx = mark.x + mark.width / 2;
     const cv::Point tries[] = {{mark.br().x + g - r.x, cy - r.y - r.height / 2},        {mark.x - g - r.br().x, cy - r.y - r.height / 2},
                                {cx - r.x - r.width / 2, mark.y - g - r.br().y},        {cx - r.x - r.width / 2, mark.br().y + g - r.y},
                                {mark.br().x + g - r.x, mark.y - g - r.br().y},          {mark.br().x + g - r.x, mark.br().y + g - r.y},
@@ -281,7 +273,7 @@ void label_lever(Canvas &c, cv::Point tip, cv::Point base)
     const double len = std::max(1.0, std::hypot(d.x, d.y));
     const cv::Point2d n(-d.y / len, d.x / len);   // across the line
     const cv::Rect r = c.ink("lever", {0, 0});
-    const double side = std::max(r.width, r.height) / 2.0 + c.N() / 64.0 + kGap;
+    const double side = std::max(r.width, r.height) / 2.0 + c.N() / 64.0 + kTextGapPx;
     for (double frac : {1.0, 0.8, 0.6, 0.4})
         for (double s : {1.0, -1.0}) {
             const cv::Point p(cvRound(tip.x + d.x * frac + s * n.x * side), cvRound(tip.y + d.y * frac + s * n.y * side));
@@ -337,10 +329,10 @@ void draw_legend(Canvas &c, const Overlay &o, const Axes &a, int right)
     const double lat_ref = round_below(N / 8.0 / lat), fz_ref = round_below(cap * 1.5 / fz);
     const int aw = cvRound(lat_ref * lat), bh = cvRound(fz_ref * fz), bw = std::max(3, N / 128);
     std::vector<std::pair<std::string, cv::Point>> lines = {
-        {fmt("%g nN", lat_ref) + fmt("   lateral F %.2f nN", std::hypot(o.force_nN[0], o.force_nN[1])), {x + aw + 6, 0}},
-        {fmt("%g nN", fz_ref) + fmt("   F_z %.2f nN (bar)", o.force_nN[2]), {x + bw + 8, 0}}};
+        {label_number("%g nN", lat_ref) + label_number("   lateral F %.2f nN", std::hypot(o.force_nN[0], o.force_nN[1])), {x + aw + 6, 0}},
+        {label_number("%g nN", fz_ref) + label_number("   F_z %.2f nN (bar)", o.force_nN[2]), {x + bw + 8, 0}}};
     if (o.hand_scale_N > 0)
-        lines.push_back({fmt("hand feels %.0f mN", 1e3 * std::hypot(o.hand_N[0], o.hand_N[1])) + fmt(", ring %.0f mN", 1e3 * o.hand_scale_N), {x, 0}});
+        lines.push_back({label_number("hand feels %.0f mN", 1e3 * std::hypot(o.hand_N[0], o.hand_N[1])) + label_number(", ring %.0f mN", 1e3 * o.hand_scale_N), {x, 0}});
     const int last = N - a.B - a.gap - c.text.font_px / 4 - 2;   // the last line's baseline: its descenders above the band
     cv::Rect panel(x, last - static_cast<int>(lines.size() - 1) * L - std::max(cap, bh), 1, 1);
     for (std::size_t i = 0; i < lines.size(); ++i) {
@@ -361,15 +353,15 @@ void draw_legend(Canvas &c, const Overlay &o, const Axes &a, int right)
     }
     if (o.hand_scale_N <= 0) return;
     const int rad = std::max(8, N / 20);
-    const cv::Point beside(panel.br().x + 2 * kGap + rad + lw, last - rad);
-    draw_gauge(c, o, beside.x + rad + lw + kGap < right ? beside : cv::Point(x + rad + lw, panel.y - 2 * kGap - rad - lw), rad);
+    const cv::Point beside(panel.br().x + 2 * kTextGapPx + rad + lw, last - rad);
+    draw_gauge(c, o, beside.x + rad + lw + kTextGapPx < right ? beside : cv::Point(x + rad + lw, panel.y - 2 * kTextGapPx - rad - lw), rad);
 }
 
 // Time and flags, top left (right of the y axis).
 void draw_status(Canvas &c, const Overlay &o, const Axes &a)
 {
     const int x = a.A + 6, y = c.edge + c.text.cap_px + 2;
-    c.label(fmt("t %.2f s", o.t_s), cv::Point(x, y), kWhite, "status");
+    c.label(label_number("t %.2f s", o.t_s), cv::Point(x, y), kWhite, "status");
     const std::string flags = flag_words(o.flags);   // the display's one list
     if (!flags.empty()) c.label(flags.substr(0, flags.find_last_not_of(' ') + 1), cv::Point(x, y + c.text.line_px), kYellow, "status");
 }
@@ -394,14 +386,14 @@ int draw_colour_bar(Canvas &c, const Display &d, const Axes &a)
     auto value = [&](double z, int row) {
         const std::string s = axis_number(std::round(z));
         const cv::Rect r = c.ink(s, {0, 0});
-        const cv::Point org(bx - 1 - kGap - 2 - r.br().x, row - r.y - r.height / 2);
+        const cv::Point org(bx - 1 - kTextGapPx - 2 - r.br().x, row - r.y - r.height / 2);
         if (c.try_label(s, org, kWhite, "bar")) left = std::min(left, org.x + r.x);
     };
     value(d.z_top(), top);
     value(d.z_bottom(), bottom - 1);
     if (d.z_bottom() < 0 && d.z_top() > 0) value(0, top + cvRound((h.rows - 1) * d.z_top() / (d.z_top() - d.z_bottom())));
     const cv::Rect u = c.ink("nm", {0, 0});
-    c.try_label("nm", {N - c.edge - 1 - u.br().x, top - c.text.cap_px / 2 - 2 * kGap - 2 - u.br().y}, kWhite, "bar");   // above the top value
+    c.try_label("nm", {N - c.edge - 1 - u.br().x, top - c.text.cap_px / 2 - 2 * kTextGapPx - 2 - u.br().y}, kWhite, "bar");   // above the top value
     return left;
 }
 
