@@ -52,6 +52,19 @@ def particle_travel(out, pid):
     return math.hypot(p1.x_nm - p0.x_nm, p1.y_nm - p0.y_nm), first
 
 
+_feel = {}
+
+
+def feel_run():
+    """scenes/feel.yaml run once for the file: (folder, e2e_support.run's
+    result). FeelContact judges the stroke; Stability reads the bound its
+    report states. The folder goes with the file's runs (main())."""
+    if not _feel:
+        out = e2e_support.tmpdir("feel")
+        _feel["run"] = (out, e2e_support.run(FEEL, out))
+    return _feel["run"]
+
+
 def check(scene_path):
     p = subprocess.run([e2e_support.LAUNCH, "--check", "--scene", scene_path], capture_output=True, text=True, timeout=60)
     return p.returncode, p.stderr
@@ -61,8 +74,7 @@ class FeelContact(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.spec = yaml.safe_load(scene_text(FEEL))
-        cls.feel = e2e_support.tmpdir("feel")
-        cls.feel_run = e2e_support.run(FEEL, cls.feel)
+        cls.feel, cls.feel_run = feel_run()
         cls.script = e2e_support.tmpdir("feel-script")
         path = e2e_support.write_scene(scene_text(FEEL).replace("mode: feel", "mode: script"), "feel-script-scene")
         # the scripted hand overshoots: its display is off the fresh scan
@@ -71,7 +83,7 @@ class FeelContact(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        e2e_support.cleanup(cls.feel, cls.script)
+        e2e_support.cleanup(cls.script)
 
     def test_feel_stops_within_the_stated_distance_and_script_overshoots(self):
         self.assertEqual(self.feel_run[0], 0, self.feel_run[2])
@@ -112,9 +124,7 @@ class Stability(unittest.TestCase):
     def setUpClass(cls):
         cls.dirs = []
         # The bound for this scene as the bench states it (the operator's report).
-        out = e2e_support.tmpdir("stab-probe")
-        cls.dirs.append(out)
-        _, _, err, rj = e2e_support.run(FEEL, out)
+        rj = feel_run()[1][3]
         cls.largest = rj["operator"]["haptic"]["largest_passive_gain_N_per_nN"]
 
     @classmethod
