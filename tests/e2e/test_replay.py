@@ -81,38 +81,6 @@ def outputs(path):
 LONG = {"pattern.yaml"}
 
 
-class SceneHash(unittest.TestCase):
-    """A run records its scene's hash (run.json and its log); replay refuses
-    a log of another scene's run, in one line naming both hashes, and
-    replays a log recorded before hashes with a warning."""
-
-    def test_a_log_of_another_scenes_run_is_refused(self):
-        tmp = e2e_support.tmpdir("hash")
-        self.addCleanup(e2e_support.cleanup, tmp)
-        other = e2e_support.write_scene(open(e2e_support.scene("short.yaml")).read().replace("seed: 7", "seed: 8"), "hash-other")
-        self.addCleanup(e2e_support.cleanup, os.path.dirname(other))
-        a, b = os.path.join(tmp, "a"), os.path.join(tmp, "b")
-        self.assertEqual(e2e_support.run(e2e_support.scene("short.yaml"), a)[0], 0)
-        self.assertEqual(e2e_support.run(other, b)[0], 0)
-        ha, hb = (json.load(open(os.path.join(d, "run.json")))["scene_hash"] for d in (a, b))
-        self.assertRegex(ha, r"^fnv1a64:[0-9a-f]{16}$")
-        self.assertNotEqual(ha, hb)
-        code, so, se = replay(REPLAY, a, "--quiet")
-        self.assertEqual(code, 0, se)
-        code, so, se = replay(REPLAY, a, "--scene", os.path.join(b, "scene.yaml"), "--quiet")
-        self.assertEqual(code, 2, so + se)
-        lines = [l for l in se.splitlines() if l.strip()]
-        self.assertEqual(len(lines), 1, se)
-        self.assertIn(ha, lines[0])
-        self.assertIn(hb, lines[0])
-        self.assertIn("another scene's run", lines[0])
-        # b's log put into a's folder: a's scene is not b's
-        shutil.copy(os.path.join(b, "bus.lcmlog"), os.path.join(a, "bus.lcmlog"))
-        code, so, se = replay(REPLAY, a, "--quiet")
-        self.assertEqual(code, 2, so + se)
-        self.assertIn("another scene's run", se)
-
-
 class ReplayEveryScene(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -155,6 +123,34 @@ class ReplayEveryScene(unittest.TestCase):
                 self.assertNotIn("DIVERGES", so)
                 compared = int(so.split("bit for bit (")[1].split(" messages")[0])
                 self.assertGreaterEqual(compared, len(OUTPUTS) * 500, "too few outputs compared")   # every output of 500 blocks at least
+
+    def test_a_log_of_another_scenes_run_is_refused(self):
+        """A run records its scene's hash (run.json and its log); replay
+        refuses a log of another scene's run, in one line naming both
+        hashes, and replays a log recorded before hashes with a warning."""
+        other = e2e_support.write_scene(open(e2e_support.scene("short.yaml")).read().replace("seed: 7", "seed: 8"), "hash-other")
+        self.addCleanup(e2e_support.cleanup, os.path.dirname(other))
+        b = e2e_support.tmpdir("hash-b")
+        self.addCleanup(e2e_support.cleanup, b)
+        self.assertEqual(e2e_support.run(other, b)[0], 0)
+        a, _, _ = self._broken_copy("hash-a", lambda evs, blob: blob)   # the short run's, whole
+        ha, hb = (json.load(open(os.path.join(d, "run.json")))["scene_hash"] for d in (a, b))
+        self.assertRegex(ha, r"^fnv1a64:[0-9a-f]{16}$")
+        self.assertNotEqual(ha, hb)
+        code, so, se = replay(REPLAY, a, "--quiet")
+        self.assertEqual(code, 0, se)
+        code, so, se = replay(REPLAY, a, "--scene", os.path.join(b, "scene.yaml"), "--quiet")
+        self.assertEqual(code, 2, so + se)
+        lines = [l for l in se.splitlines() if l.strip()]
+        self.assertEqual(len(lines), 1, se)
+        self.assertIn(ha, lines[0])
+        self.assertIn(hb, lines[0])
+        self.assertIn("another scene's run", lines[0])
+        # b's log put into a's folder: a's scene is not b's
+        shutil.copy(os.path.join(b, "bus.lcmlog"), os.path.join(a, "bus.lcmlog"))
+        code, so, se = replay(REPLAY, a, "--quiet")
+        self.assertEqual(code, 2, so + se)
+        self.assertIn("another scene's run", se)
 
     def test_a_run_with_lost_datagrams_and_resends_replays_identical(self):
         out = e2e_support.tmpdir("replay-drops")
