@@ -52,6 +52,23 @@ def browser(block_network=False):
     return webdriver.Chrome(service=Service(DRIVER), options=opts)
 
 
+_driver = []
+
+
+def shared_browser():
+    """The file's one browser (block_network: every page here is the
+    server's own), started at the first test that needs it and quit after
+    the last (tearDownModule): each test loads its page anew."""
+    if not _driver:
+        _driver.append(browser(block_network=True))
+    return _driver[0]
+
+
+def tearDownModule():
+    while _driver:
+        _driver.pop().quit()
+
+
 def start_server(args):
     """A `python -m analysis.view` process and the page's URL it prints."""
     p = subprocess.Popen([PY, "-m", "analysis.view"] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -126,11 +143,10 @@ class View(unittest.TestCase):
         cls.server, cls.url, cls.port, cls.token = start_server(
             ["run", "--out", cls.out, "--wait", "--", e2e_support.LAUNCH, "--scene", e2e_support.scene("short.yaml"),
              "--out", cls.out, "--view", "--quiet"])
-        cls.driver = browser(block_network=True)
+        cls.driver = shared_browser()
 
     @classmethod
     def tearDownClass(cls):
-        cls.driver.quit()
         if cls.server.poll() is None:
             cls.server.kill()
             cls.server.wait()
@@ -337,7 +353,7 @@ class BrowserHand(unittest.TestCase):
         # scan (the run's verdict), which is not this test's point
         srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", e2e_support.LAUNCH, "--scene", scene,
                                        "--out", out, "--view", "--quiet", "--no-verdict"])
-        d = browser()
+        d = shared_browser()
         try:
             d.get(url)
             s = wait_for(d, lambda s: s["hand"] and s["framesShown"] >= 1, 60, "the hand's controls and a frame")
@@ -380,7 +396,6 @@ class BrowserHand(unittest.TestCase):
             os.makedirs(SHOT_DIR, exist_ok=True)
             d.save_screenshot(os.path.join(SHOT_DIR, "browser_hand.png"))
         finally:
-            d.quit()
             if srv.poll() is None:
                 srv.kill()
                 srv.wait()
@@ -419,7 +434,7 @@ class BrowserStroke(unittest.TestCase):
         out = os.path.join(e2e_support.tmpdir("stroke"), "run")
         srv, url, _, _ = start_server(["run", "--out", out, "--wait", "--", e2e_support.LAUNCH, "--scene", scene,
                                        "--out", out, "--view", "--quiet", "--no-verdict"])
-        d = browser()
+        d = shared_browser()
         try:
             d.get(url)
             s = wait_for(d, lambda s: s["hand"] and s["framesShown"] >= 1, 60, "the hand's controls and a frame")
@@ -471,7 +486,6 @@ class BrowserStroke(unittest.TestCase):
             os.makedirs(SHOT_DIR, exist_ok=True)
             d.save_screenshot(os.path.join(SHOT_DIR, "browser_stroke.png"))
         finally:
-            d.quit()
             if srv.poll() is None:
                 srv.kill()
                 srv.wait()
