@@ -35,11 +35,35 @@ def rows(out):
         return list(csv.DictReader(f))
 
 
+def watched_sweep(*args, timeout=300):
+    """sweep(*args), its local cluster's ports watched from the kernel while
+    it runs: (exit code, stdout, stderr, the ports seen listening as
+    {(address, port)}, {port: whether a plain client got nothing from it},
+    probed while the sweep still ran)."""
+    p = subprocess.Popen([PY, "-m", "analysis.sweep", *args], env=ENV, cwd=e2e_support.SRC, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    seen, refused = set(), {}
+    try:
+        deadline = time.time() + 120
+        while p.poll() is None and len(seen) < 5 and time.time() < deadline:   # scheduler, 2 nannies, 2 workers
+            seen |= listeners(p.pid)
+            time.sleep(0.2)
+        for host, port in sorted(seen):
+            if p.poll() is None:
+                refused[port] = plain_client_refused(port)
+        so, se = p.communicate(timeout=e2e_support.limit(timeout))
+    finally:
+        if p.poll() is None:
+            p.kill()
+    return p.returncode, so, se, seen, refused
+
+
 class LocalSweep(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.out = e2e_support.tmpdir("sweep")
-        cls.first = sweep(SHORT, "--vary", "firmware.adc_bits=10,12,14,16", "--out", cls.out, "--workers", "2")
+        *cls.first, cls.seen, cls.refused = watched_sweep(SHORT, "--vary", "firmware.adc_bits=10,12,14,16", "--out", cls.out,
+                                                          "--workers", "2")
 
     @classmethod
     def tearDownClass(cls):
@@ -99,6 +123,16 @@ class LocalSweep(unittest.TestCase):
                       display_rms_height_nm=rj["fidelity"]["rms_height_error_nm"])
         self.assertEqual(json.loads(json.dumps(errors)), point["errors"])
         self.assertEqual(rj["verdict"], point["verdict"])
+
+    def test_no_port_of_a_running_local_sweep_answers_a_plain_client(self):
+        """The local cluster's ports, seen from the kernel while the sweep
+        runs, answer no plain client and no HTTP; none is on another address."""
+        self.assertGreaterEqual(len(self.seen), 5, f"the sweep's listeners, as seen: {sorted(self.seen)}")
+        for host, port in sorted(self.seen):
+            self.assertEqual(host, "127.0.0.1", (host, port))
+            self.assertTrue(self.refused.get(port, True), f"port {port} answered a plain client")
+        self.assertEqual(self.first[0], 0, self.first[1] + self.first[2])
+        self.assertNotIn(8787, {port for _, port in self.seen})
 
     def test_errors_fall_as_the_adc_bits_rise(self):
         r = {int(x["firmware.adc_bits"]): x for x in rows(self.out)}
@@ -252,35 +286,6 @@ class ThroughATlsScheduler(unittest.TestCase):
                 except subprocess.TimeoutExpired:
                     p.kill()
             e2e_support.cleanup(tmp)
-
-
-class LocalEngineIsClosed(unittest.TestCase):
-    """The local cluster's ports, seen from the kernel while a sweep runs,
-    answer no plain client and no HTTP; none is on another address."""
-
-    def test_no_port_of_a_running_local_sweep_answers_a_plain_client(self):
-        out = e2e_support.tmpdir("sweep-closed")
-        self.addCleanup(e2e_support.cleanup, out)
-        p = subprocess.Popen([PY, "-m", "analysis.sweep", SHORT, "--vary", "firmware.adc_bits=12,16", "--out", out,
-                              "--workers", "2", "--no-callgrind"], env=ENV, cwd=e2e_support.SRC, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
-        seen = set()
-        try:
-            deadline = time.time() + 120
-            while p.poll() is None and len(seen) < 5 and time.time() < deadline:   # scheduler, 2 nannies, 2 workers
-                seen |= listeners(p.pid)
-                time.sleep(0.2)
-            self.assertGreaterEqual(len(seen), 5, f"the sweep's listeners, as seen: {sorted(seen)}")
-            for host, port in sorted(seen):
-                self.assertEqual(host, "127.0.0.1", (host, port))
-                if p.poll() is None:
-                    self.assertTrue(plain_client_refused(port), f"port {port} answered a plain client")
-            so, se = p.communicate(timeout=e2e_support.limit(300))
-        finally:
-            if p.poll() is None:
-                p.kill()
-        self.assertEqual(p.returncode, 0, so + se)
-        self.assertNotIn(8787, {port for _, port in seen})
 
 
 class WorkerAnswers(unittest.TestCase):
