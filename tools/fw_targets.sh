@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds and tests the firmware on its other targets, firmware-only
-# (-DAFM_FIRMWARE_ONLY=ON), with Ninja, one job at a time:
+# (-DAFM_FIRMWARE_ONLY=ON), with Ninja, AFM_JOBS (default: every core) jobs:
 #   (a) build/arm: Cortex-M4 cross build (cmake/arm-none-eabi.cmake), every
 #       Unity test run under qemu-system-arm (mps2-an386, semihosting);
 #       prints arm-none-eabi-size of the firmware library and a test image.
@@ -8,7 +8,7 @@
 # Exits non-zero on the first failure. Usage: tools/fw_targets.sh [arm|san]...
 set -euo pipefail
 top=$(cd "$(dirname "$0")/.." && pwd)
-jobs=1
+jobs=${AFM_JOBS:-$(nproc)}
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(arm san)
 
