@@ -21,6 +21,10 @@ set(AFM_LCM_BIN "${AFM_SITE_PACKAGES}/bin")
 
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs videoio)
+# PNG files read and the page's JPEGs written without OpenCV's imgcodecs
+# (host/image/png_read.hpp, host/renderer/jpeg_file.hpp)
+find_package(PNG REQUIRED)
+find_package(JPEG REQUIRED)
 find_package(yaml-cpp REQUIRED)
 find_package(Threads REQUIRED)
 find_package(Java 11 REQUIRED COMPONENTS Development)

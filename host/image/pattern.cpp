@@ -1,11 +1,12 @@
 #include "pattern.hpp"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+
+#include "png_read.hpp"
 
 namespace afm {
 
@@ -50,7 +51,7 @@ std::vector<Vec2> text_sites(const TargetSpec &t)
 std::vector<Vec2> png_sites(const Scene &s)
 {
     const TargetSpec &t = s.targets;
-    const cv::Mat grey = cv::imread(t.png, cv::IMREAD_GRAYSCALE);
+    const cv::Mat grey = read_png(t.png, false);
     if (grey.empty()) throw PatternError(s.file + ": objects.targets.png: cannot read the image '" + t.png + "'");
     const double px_per_nm = kPxPerPitch / t.pitch_nm;
     const int rows = std::max(kPxPerPitch, static_cast<int>(std::lround(t.height_nm * px_per_nm / kPxPerPitch)) * kPxPerPitch);

@@ -25,8 +25,7 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
             if (!std::ofstream(path, std::ios::binary)) throw std::runtime_error("cannot open a video writer for " + path);
             h264_wanted_ = true;
         } else {
-            video_.open(path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, cv::Size(px, px));
-            if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + path);
+            if (!video_.open(path, "MJPG", fps, px)) throw std::runtime_error("cannot open a video writer for " + path + ": " + video_.why());
             video_tried_ = true;
             video_info_ = {{"file", "video.avi"}, {"codec", "mjpeg"}, {"encoder", "opencv"}, {"fallback_why", nullptr}};
         }
@@ -47,8 +46,8 @@ void FrameWriter::open_video_once(int px)
         return;
     }
     std::fprintf(stderr, "renderer: video.mp4 as OpenCV's mp4v, which browsers do not play: %s\n", why.c_str());
-    video_.open(video_path_, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), fps_, cv::Size(px, px));
-    if (!video_.isOpened()) throw std::runtime_error("cannot open a video writer for " + video_path_);
+    if (!video_.open(video_path_, "mp4v", fps_, px))
+        throw std::runtime_error("cannot open a video writer for " + video_path_ + ": " + video_.why());
     std::lock_guard<std::mutex> l(m_);
     video_info_ = {{"file", "video.mp4"}, {"codec", "mp4v"}, {"encoder", "opencv"}, {"fallback_why", why}};
 }

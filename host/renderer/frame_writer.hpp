@@ -28,12 +28,12 @@
 // or its libx264 is missing, OpenCV's mp4v writer (which browsers do not
 // play) writes video.mp4 instead; video() says which ran and why
 // (renderer_report.json "video", so run.json's renderer.video). "avi" is
-// OpenCV's MJPG.
+// OpenCV's MJPG. OpenCV's writer is a module loaded only then
+// (cv_video.hpp), not at the renderer's start.
 #pragma once
 
 #include <opencv2/core.hpp>
 #include <nlohmann/json.hpp>
-#include <opencv2/videoio.hpp>
 
 #include <cstddef>
 #include <mutex>
@@ -41,6 +41,7 @@
 #include <utility>
 #include <vector>
 
+#include "cv_video.hpp"
 #include "video_pipe.hpp"
 #include "worker.hpp"
 
@@ -95,7 +96,7 @@ private:
 
     const std::string out_;
     const bool png_;
-    cv::VideoWriter video_;
+    CvVideo video_;                   // OpenCV's writer, loaded when asked (cv_video.hpp)
     std::string video_path_;          // "" without a video
     double fps_ = 0;
     bool h264_wanted_ = false;        // "mp4": the pipe is tried at the thread's start

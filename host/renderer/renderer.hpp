@@ -22,8 +22,6 @@
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/videoio.hpp>
 
 #include <chrono>
 #include <deque>

@@ -1,6 +1,7 @@
 // The renderer's account (renderer.hpp): the contact sheet, renderer_report.json, the
 // assembly check (the planner's sites and rods in the fresh scan), the heartbeats it answers.
 #include "lockstep.hpp"
+#include "png_read.hpp"
 #include "renderer.hpp"
 
 #include <algorithm>
@@ -79,7 +80,7 @@ void write_contact_sheet(Renderer &r, const afm::Scene &scene, const std::string
         } else if (scene.out.png) {
             char name[64];
             std::snprintf(name, sizeof name, "/frames/frame_%05d.png", k);
-            const cv::Mat f = cv::imread(out_dir + name);
+            const cv::Mat f = afm::read_png(out_dir + name, true);
             if (!f.empty()) tiles.push_back(f);
         }
     }

@@ -1,12 +1,11 @@
 #include "view_frames.hpp"
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <algorithm>
 #include <utility>
 
 #include "afm_channels.h"
 #include "bus.hpp"
+#include "jpeg_file.hpp"
 
 namespace afm {
 
@@ -96,7 +95,7 @@ bool ViewFrames::encode(const cv::Mat &frame, view_frame_t *msg)
     const std::size_t room = kMaxMessageBytes - std::min(kMaxMessageBytes, bytes_without_image(*msg));
     std::vector<unsigned char> jpeg;
     for (int q = kQuality; q >= kLowestQuality; q -= 10) {
-        cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, q});
+        jpeg = encode_jpeg(frame, q);
         if (jpeg.size() <= room) {
             msg->jpeg = std::move(jpeg);
             msg->n_jpeg = static_cast<int32_t>(msg->jpeg.size());

@@ -4,9 +4,14 @@
 // or the deflate has edges (1 px, odd widths, a view into a larger image,
 // noise that does not compress, samples that wrap round 0 and 255); what it
 // does not take is refused naming what it got; a file it cannot write is
-// named and not left half written.
+// named and not left half written. The readers and encoders that stand in
+// for OpenCV's imgcodecs in the renderer and the operator give what
+// imgcodecs gives: read_png (host/image/png_read.hpp) imread's pixels for
+// every colour type and depth, grey and colour; encode_jpeg
+// (host/renderer/jpeg_file.hpp) imencode's bytes.
 #include <unity.h>
 
+#include <png.h>
 #include <signal.h>
 #include <sys/resource.h>
 
@@ -23,7 +28,9 @@
 #include <string>
 #include <vector>
 
+#include "jpeg_file.hpp"
 #include "png_file.hpp"
+#include "png_read.hpp"
 
 namespace fs = std::filesystem;
 
@@ -66,6 +73,49 @@ cv::Mat frame_like(int px)
     for (int k = 0; k < 6; ++k) cv::circle(f, cv::Point(20 + 35 * k, px / 2), 12, cv::Scalar(255, 255 - 40 * k, 40 * k), cv::FILLED, cv::LINE_AA);
     cv::putText(f, "1 um  12.3 nN", cv::Point(8, px - 10), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
     return f;
+}
+
+// A PNG written by libpng itself: `colormap` a palette image (libpng's
+// simplified API), else an interlaced (Adam7) RGB one.
+void write_with_libpng(const std::string &path, const cv::Mat &bgr, bool colormap)
+{
+    cv::Mat rgb;
+    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+    if (colormap) {
+        png_image im{};
+        im.version = PNG_IMAGE_VERSION;
+        im.width = static_cast<png_uint_32>(rgb.cols);
+        im.height = static_cast<png_uint_32>(rgb.rows);
+        im.format = PNG_FORMAT_RGB;   // libpng builds the palette (at most 256 colours; the image has 8)
+        im.flags = 0;
+        std::vector<png_color> map(256);
+        std::vector<png_byte> idx(rgb.total());
+        for (std::size_t i = 0; i < rgb.total(); ++i) {
+            const cv::Vec3b v = rgb.at<cv::Vec3b>(static_cast<int>(i));
+            idx[i] = static_cast<png_byte>((v[0] >> 7) | ((v[1] >> 7) << 1) | ((v[2] >> 7) << 2));
+            map[idx[i]] = {static_cast<png_byte>(v[0] & 0x80 ? 255 : 0), static_cast<png_byte>(v[1] & 0x80 ? 255 : 0),
+                           static_cast<png_byte>(v[2] & 0x80 ? 255 : 0)};
+        }
+        im.format = PNG_FORMAT_RGB_COLORMAP;
+        im.colormap_entries = 8;
+        TEST_ASSERT_TRUE_MESSAGE(png_image_write_to_file(&im, path.c_str(), 0, idx.data(), 0, map.data()), im.message);
+        return;
+    }
+    std::FILE *f = std::fopen(path.c_str(), "wb");
+    TEST_ASSERT_NOT_NULL(f);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    png_infop info = png_create_info_struct(png);
+    TEST_ASSERT_EQUAL_INT(0, setjmp(png_jmpbuf(png)));
+    png_init_io(png, f);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(rgb.cols), static_cast<png_uint_32>(rgb.rows), 8, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_ADAM7, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    std::vector<png_bytep> rows(static_cast<std::size_t>(rgb.rows));
+    for (int y = 0; y < rgb.rows; ++y) rows[static_cast<std::size_t>(y)] = rgb.ptr(y);
+    png_write_image(png, rows.data());
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+    std::fclose(f);
 }
 
 }  // namespace
@@ -235,6 +285,63 @@ void test_a_file_cut_short_is_named_and_removed()
     TEST_ASSERT_FALSE(fs::exists(path));
 }
 
+// read_png gives imread's pixels, grey and colour, for a file written by
+// imwrite at each depth and channel count, 1-bit grey, one interlaced
+// (Adam7), and a palette image; a file that is not a PNG is an empty image.
+void test_read_png_gives_imreads_pixels()
+{
+    struct Case { cv::Mat img; std::vector<int> params; const char *what; };
+    cv::Mat bits = noise(19, 23, CV_8UC1, 11) > 128;
+    const Case cases[] = {
+        {noise(31, 37, CV_8UC1, 1), {}, "grey 8"},
+        {noise(31, 37, CV_16UC1, 2), {}, "grey 16"},
+        {noise(31, 37, CV_8UC3, 3), {}, "BGR 8"},
+        {noise(31, 37, CV_16UC3, 4), {}, "BGR 16"},
+        {noise(31, 37, CV_8UC4, 5), {}, "BGRA 8"},
+        {noise(31, 37, CV_16UC4, 6), {}, "BGRA 16"},
+        {bits, {cv::IMWRITE_PNG_BILEVEL, 1}, "grey 1 bit"},
+        {frame_like(64), {}, "a frame"},
+    };
+    const std::string path = dir + "/r.png";
+    for (const Case &c : cases) {
+        TEST_ASSERT_TRUE_MESSAGE(cv::imwrite(path, c.img, c.params), c.what);
+        for (const bool colour : {false, true}) {
+            const cv::Mat want = cv::imread(path, colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+            const cv::Mat got = afm::read_png(path, colour);
+            TEST_ASSERT_EQUAL_INT_MESSAGE(want.type(), got.type(), c.what);
+            TEST_ASSERT_EQUAL_INT_MESSAGE(want.cols, got.cols, c.what);
+            TEST_ASSERT_EQUAL_INT_MESSAGE(want.rows, got.rows, c.what);
+            TEST_ASSERT_EQUAL_DOUBLE_MESSAGE(0.0, cv::norm(want, got, cv::NORM_INF), c.what);
+        }
+    }
+    for (const bool colormap : {true, false}) {
+        const std::string p = dir + (colormap ? "/palette.png" : "/interlaced.png");
+        write_with_libpng(p, frame_like(40), colormap);
+        for (const bool colour : {false, true}) {
+            const cv::Mat want = cv::imread(p, colour ? cv::IMREAD_COLOR : cv::IMREAD_GRAYSCALE);
+            TEST_ASSERT_FALSE_MESSAGE(want.empty(), p.c_str());
+            TEST_ASSERT_EQUAL_DOUBLE_MESSAGE(0.0, cv::norm(want, afm::read_png(p, colour), cv::NORM_INF), p.c_str());
+        }
+    }
+    std::ofstream(dir + "/not.png") << "not a PNG";
+    TEST_ASSERT_TRUE(afm::read_png(dir + "/not.png", false).empty());
+    TEST_ASSERT_TRUE(afm::read_png(dir + "/absent.png", true).empty());
+}
+
+// encode_jpeg gives imencode's bytes, colour and grey, at the view's qualities.
+void test_encode_jpeg_gives_imencodes_bytes()
+{
+    const cv::Mat frame = frame_like(96);
+    cv::Mat grey;
+    cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
+    for (const cv::Mat &img : {frame, grey})
+        for (int q : {85, 30}) {
+            std::vector<unsigned char> want;
+            TEST_ASSERT_TRUE(cv::imencode(".jpg", img, want, {cv::IMWRITE_JPEG_QUALITY, q}));
+            TEST_ASSERT_TRUE_MESSAGE(want == afm::encode_jpeg(img, q), img.channels() == 3 ? "colour" : "grey");
+        }
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -250,5 +357,7 @@ int main()
     RUN_TEST(test_what_it_does_not_take_is_refused_by_name);
     RUN_TEST(test_a_folder_that_is_not_there_is_named);
     RUN_TEST(test_a_file_cut_short_is_named_and_removed);
+    RUN_TEST(test_read_png_gives_imreads_pixels);
+    RUN_TEST(test_encode_jpeg_gives_imencodes_bytes);
     return UNITY_END();
 }
