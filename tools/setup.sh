@@ -24,6 +24,7 @@ apt_pkgs=(build-essential cmake ninja-build pkg-config ca-certificates iproute2
           clang-14 libclang-rt-14-dev iptables libnetfilter-queue-dev
           libisal-dev zlib1g-dev chromium chromium-driver ffmpeg)
 apt_pkgs+=(libsodium-dev)   # the bus's MAC (bus/bus_key.hpp)
+apt_pkgs+=(libpng-dev libjpeg-dev)   # PNG read and the page's JPEGs without OpenCV's imgcodecs (host/image/png_read.hpp, host/renderer/jpeg_file.hpp)
 apt_pkgs+=(libopencv-contrib-dev fonts-dejavu-core)   # the frames' text: OpenCV's FreeType module, DejaVu Sans (host/renderer/frame_font.hpp)
 apt_pkgs+=(slurm-wlm munge)   # ./afm sweep --cluster slurm and its test's single-machine SLURM (13.2 MB installed, 3.6 MB fetched)
 missing=()
