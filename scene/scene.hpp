@@ -119,7 +119,7 @@ struct FirmwareCalibration {
 // a scene's expect: may give.
 inline const std::vector<std::string> &verdict_checks()
 {
-    static const std::vector<std::string> k{"fidelity", "assembly", "interlock", "saturation", "unobservable_push"};
+    static const std::vector<std::string> k{"fidelity", "assembly", "interlock", "saturation", "unobservable_push", "solver"};
     return k;
 }
 
@@ -354,7 +354,7 @@ struct Scene {
     Vec2 field_center_nm;
     ContactSpec tip_substrate;          // tip on substrate
     ContactSpec particle_substrate;     // particle on substrate
-    double particle_contact_stiffness_N_per_m = 20.0;   // tip-particle / particle-particle penalty
+    double particle_contact_stiffness_N_per_m = 20.0;   // tip-wire penalty (sample.contact_stiffness_N_per_m; particle contacts are exact)
     double photodiode_noise_V = 0.0;    // rms; 0 with the effect listed = the lever's thermal level
     double temperature_K = 300.0;
     Vec2 drift_nm_per_min;              // linear thermal drift of the sample (thermal_drift)

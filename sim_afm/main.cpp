@@ -48,6 +48,22 @@ nlohmann::json wire_solver_report(const afm::sim::World::WireSolver &w)
             {"worst_iterations", w.worst_iterations}, {"max_iterations", w.max_iterations}};
 }
 
+// sim_report.json's solver: the contact solver over the run (World::solver,
+// physics.md 5.1), the one owner of these field names; run.json's sim.solver
+// and the verdict's solver check read them.
+nlohmann::json solver_report(const afm::sim::World::SolverStats &s)
+{
+    return {{"samples", s.samples},
+            {"sweeps", s.sweeps},
+            {"max_sweeps_per_sample", s.max_sweeps},
+            {"cap", s.cap},
+            {"worst_force_residual_nN", s.worst_force_nN},
+            {"worst_gap_nm", s.worst_gap_nm},
+            {"force_tolerance_nN", afm::sim::kSolverForceTol_nN},
+            {"gap_tolerance_nm", afm::sim::kSolverGapTol_nm},
+            {"unconverged_samples", s.unconverged}};
+}
+
 }  // namespace
 
 namespace {
@@ -541,6 +557,7 @@ struct Loop {
                 {"wire_contact_width_nm", scene.wire_contact_width_nm()},
                 {"wire_axis_heights_nm", sim.world.wire_axis_heights_nm()},
                 {"wire_solver", wire_solver_report(sim.world.wire_solver())},
+                {"solver", solver_report(sim.world.solver())},
                 {"aside", aside.report()},
                 {"rejected", inbox.report()}};
     }

@@ -45,6 +45,7 @@ World::World(const Scene &s)
     sin_gamma_ = std::sin(gamma_rad_);
     tan_gamma_ = std::tan(gamma_rad_);
     particle_mu_ = ps.mu;
+    particle_chains_ = s.has_effect("particle_contacts");
     const double threshold = ps.mu * ps_adh + ps.shear_strength_MPa * ps.contact_area_nm2 * 1e-3;
     for (const auto &p : s.particles) {
         particles_.push_back(Particle{p.id, Eigen::Vector2d(p.x_nm, p.y_nm), p.radius_nm, threshold});

@@ -2,12 +2,21 @@
 // particles, drift and imaging. Double precision, own numerics (quasi-static
 // relaxation), built only from the effects the scene names.
 //
-// Mechanics, per analog sample (quasi-static, physics.md sections 1, 4, 5):
-// the piezo moves towards its set point at the scanner's speed limit; then
-// `relax_iterations` Gauss-Seidel sweeps bring the apex and the particles near
-// it to Coulomb equilibrium: a body whose driving force exceeds its friction
-// capacity moves along that force until it no longer does. Contacts (tip-
-// particle, particle-particle) are stiff penalty springs. A uniform grid finds
+// Mechanics, per analog sample (quasi-static, physics.md sections 1, 4, 5
+// and 5.1): the piezo moves towards its set point at the scanner's speed
+// limit; then Gauss-Seidel sweeps bring the apex and the objects near it to
+// Coulomb equilibrium, until the sample's residual is within the solver's
+// tolerances (kSolverForceTol_nN, kSolverGapTol_nm) or the sweeps reach the
+// cap (kSolverMaxSweeps; set_solver_cap): a body whose driving force exceeds
+// its friction capacity moves along that force until it no longer does.
+// Tip-particle and particle-particle contacts are exact constraints (a
+// projected Gauss-Seidel on their forces: a contact is closed, its force
+// within [0, the particle's threshold], and a particle at its threshold is
+// moved to exact contact), so no stiffness enters their answer; tip-wire
+// contacts are the wire's penalty (sample.contact_stiffness_N_per_m), whose
+// force at convergence is the wire's own resistance. The apex's step uses
+// the lever's stiffness plus that of the wire contacts that held in the last
+// sweep (a sliding object offers a constant force). A uniform grid finds
 // the particles near the apex, so the cost per sample does not grow with the
 // number of particles far away.
 //
@@ -77,7 +86,18 @@ struct Particle {
     double r;              // radius, nm
     double threshold_nN;   // static friction capacity against a lateral push, F_th(0) (without the cone's down force)
     bool in_contact = false;
+    double push_nN = 0;    // the apex's contact force on it, nN (the solver's multiplier; kept as the next sample's start)
+    double chain_nN = 0;   // the force it passes on to the particles it pushes, along its push, nN (particle_contacts)
 };
+
+// The contact solver's tolerances and cap (physics.md 5.1). A sample is
+// converged when the apex's force balance is within kSolverForceTol_nN (the
+// force the substrate's friction cannot take) and every contact within
+// kSolverGapTol_nm (no penetration, no gap under load); its sweeps stop there
+// or at the cap, and a sample left at the cap counts as unconverged.
+constexpr double kSolverForceTol_nN = 0.002;
+constexpr double kSolverGapTol_nm = 0.01;
+constexpr int kSolverMaxSweeps = 200;
 
 struct Sample {
     double sn_v, sl_v;            // photodiode outputs, V (saturated at +-10 V)
@@ -256,16 +276,32 @@ public:
     int64_t samples_timed() const { return timed_samples_; }
     std::vector<std::string> models_built() const; // every model and effect constructed
 
-    // Accuracy knob: Gauss-Seidel sweeps per sample (default 4).
-    void set_relax_iterations(int n) { relax_iterations_ = n < 1 ? 1 : n; }
+    // The contact solver over the run (sim_report.json's solver): samples
+    // solved (the tip touching), sweeps in all and the most one sample took,
+    // the worst residual a sample ended with (force, nN; contact gap, nm),
+    // and the samples left unconverged at the cap.
+    struct SolverStats {
+        long samples = 0, sweeps = 0, unconverged = 0;
+        int max_sweeps = 0, cap = kSolverMaxSweeps;
+        double worst_force_nN = 0, worst_gap_nm = 0;
+    };
+    const SolverStats &solver() const { return solver_; }
+    // The cap on sweeps per sample (default kSolverMaxSweeps; at least 1).
+    void set_solver_cap(int n) { solver_.cap = n < 1 ? 1 : n; }
 
 private:
     using Clock = std::chrono::steady_clock;
     void relax();
-    // relax()'s parts, one Gauss-Seidel sweep each:
-    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt, double *kt);
-    void slide_apex(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal, double kt);
-    void push_particles(const Eigen::Vector2d &as2, double rt, bool chains);
+    // relax()'s parts, one Gauss-Seidel sweep each: the force on the apex
+    // and the stiffness its step meets (*kt: the lever's, and each wire
+    // contact's that held); the force the substrate cannot take (its excess,
+    // frame A); the apex's step; the contacts.
+    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::Matrix2d *kt);
+    Eigen::Vector2d apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const;
+    void slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt);
+    void push_particles(double rt, bool chains);
+    void push_neighbours(std::size_t q);
+    void record_solve(int sweeps, double force_nN, double gap_nm, bool converged);
     void push_wires(const Eigen::Vector2d &as2, double rt);
     void relax_rigid();
     double height_true(double x, double y) const;
@@ -340,12 +376,14 @@ private:
     Lever lever_;
     Eigen::Matrix2d K_;            // lever lateral stiffness at the apex, frame A, nN/nm
     double k_lever_max_;           // its largest eigenvalue
-    double k_contact_;             // penalty stiffness, nN/nm
+    double k_contact_;             // tip-wire penalty stiffness, nN/nm
     double dt_;                    // sample period, s
     double scanner_speed_nm_per_s_ = 20000.0;
     double z_speed_nm_per_s_ = 0.0;     // afm.z_speed_nm_per_s: 0 is the ideal z servo
     bool z_started_ = false;            // piezo_z_ holds a sample's extension (the first sample settles at once)
-    int relax_iterations_ = 4;
+    SolverStats solver_;
+    bool particle_chains_ = false; // particle_contacts: pushed particles push their neighbours
+    double sweep_gap_nm_ = 0;      // the worst contact gap apex_pull saw (penetration, or a gap under load), nm
     double max_radius_ = 0;        // largest particle radius, nm
 
     Eigen::Vector2d piezo_, target_, apex_;

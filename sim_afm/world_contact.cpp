@@ -16,35 +16,58 @@ void World::relax()
 {
     // Apex held by the lever (stiffness K_ about its loaded rest position) and
     // by contacts; particles by contacts and their friction threshold. Contact
-    // geometry in the sample's frame (apex - drift).
+    // geometry in the sample's frame (apex - drift). Sweeps until the residual
+    // is within the tolerances (world.hpp) or the cap.
     const Eigen::Vector2d rest = piezo_ + lever_.normal_offset(contact_load());
     if (!touching()) {
         apex_ = rest;
         lateral_force_.setZero();
-        for (auto &p : particles_) p.in_contact = false;
+        for (auto &p : particles_) p.in_contact = false, p.push_nN = 0, p.chain_nN = 0;
         for (auto &w : wires_) w->in_contact = false;
         return;
     }
     const double rt = scene_.probe.tip_radius_nm;
-    const bool chains = scene_.has_effect("particle_contacts");
+    const bool chains = particle_chains_;
     const Eigen::Vector2d apex0 = apex_;
     const double fz = contact_load();
     press_cone();
     const Eigen::Vector3d normal = (this->*normal_at_)(apex_ - drift_);   // the substrate's, at the apex
     // Candidates: particles that can touch the apex during this sample.
+    // A contact's force from the last sample starts this one's (a steady
+    // push converges at once) while the contact is still closed.
     near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
-    for (int idx : scratch_) particles_[idx].in_contact = false;
-    for (int it = 0; it < relax_iterations_; ++it) {
-        double kt = k_lever_max_;
-        const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
-        slide_apex(g, fz, normal, kt);
-        const Eigen::Vector2d as2 = apex_ - drift_;
-        push_particles(as2, rt, chains);
-        push_wires(as2, rt);
+    for (int idx : scratch_) {
+        Particle &p = particles_[idx];
+        p.in_contact = false;
+        if ((apex_ - drift_ - p.c).norm() - rt - p.r > kSolverGapTol_nm) p.push_nN = 0;
     }
+    int sweeps = 0;
+    double force = 0;
+    for (;; ++sweeps) {
+        Eigen::Matrix2d kt;
+        const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
+        const Eigen::Vector2d excess = apex_excess(g, fz, normal);
+        force = excess.norm();
+        if (sweeps > 0 && force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm) break;
+        if (sweeps == solver_.cap) break;
+        slide_apex(excess, kt);
+        push_particles(rt, chains);
+        push_wires(apex_ - drift_, rt);
+    }
+    record_solve(sweeps, force, sweep_gap_nm_, force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm);
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     lateral_force_ = -(K_ * (rest - apex_));
     count_ridden();
+}
+
+void World::record_solve(int sweeps, double force_nN, double gap_nm, bool converged)
+{
+    ++solver_.samples;
+    solver_.sweeps += sweeps;
+    solver_.max_sweeps = std::max(solver_.max_sweeps, sweeps);
+    solver_.worst_force_nN = std::max(solver_.worst_force_nN, force_nN);
+    solver_.worst_gap_nm = std::max(solver_.worst_gap_nm, gap_nm);
+    solver_.unconverged += !converged;
 }
 
 void World::count_ridden()
@@ -56,20 +79,32 @@ void World::count_ridden()
         }
 }
 
-Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, double *kt)
+Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::Matrix2d *kt)
 {
-    // The force on the apex from the lever and from every contact, and the
-    // stiffness it meets (*kt, from the lever's).
+    // The force on the apex from the lever, from every particle's contact
+    // force (push_nN, along the line of centres) and from every wire's
+    // penalty; the stiffness its step meets: the lever's, and each wire
+    // contact's that held in the last sweep (a sliding wire's force stays
+    // its resistance). sweep_gap_nm_: the worst contact gap, penetration or
+    // a gap under load, of the particles and of the chains.
     const Eigen::Vector2d as = apex_ - drift_;
     Eigen::Vector2d g = K_ * (rest - apex_);
+    *kt = K_;
+    sweep_gap_nm_ = 0;
     for (int idx : scratch_) {
         const Particle &p = particles_[idx];
         const Eigen::Vector2d d = as - p.c;
-        const double reach = rt + p.r;
-        const double dn = d.norm();
-        if (dn >= reach) continue;
-        g += k_contact_ * (reach - dn) * unit_or(d, -last_motion_);
-        *kt += k_contact_;
+        const double gap = d.norm() - rt - p.r;
+        if (gap < 0 || p.push_nN > 0) {
+            sweep_gap_nm_ = std::max(sweep_gap_nm_, p.push_nN > 0 ? std::fabs(gap) : -gap);
+            g += p.push_nN * unit_or(d, -last_motion_);
+        }
+        if (particle_chains_)
+            for (int j : scratch_) {
+                if (j == idx) continue;
+                const double e = (p.c - particles_[j].c).norm() - p.r - particles_[j].r;
+                sweep_gap_nm_ = std::max(sweep_gap_nm_, -e);
+            }
     }
     for (const auto &w : wires_) {
         double pen, u;
@@ -78,66 +113,98 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, double 
         if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
         if (w->ridden) continue;   // the tip rode over it at the last push (push_wires)
         g += k_contact_ * pen * n;
-        *kt += k_contact_;
+        if (!w->slid) *kt += k_contact_ * n * n.transpose();
         w->pulled = true;
     }
     return g;
 }
 
-void World::slide_apex(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal, double kt)
+Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const
 {
     // Substrate: the tip stays while the force it must supply, S = (-g,
     // F_z) (lever and contacts horizontal, the set point vertical), lies in
     // its friction cone about the surface normal n: |S_t| <= mu (S . n +
-    // F_adh). Otherwise it slides along the surface, against S_t.
+    // F_adh). Otherwise the excess, |S_t| less that capacity, drives it
+    // along the surface against S_t (its horizontal direction, frame A).
     const Eigen::Vector3d S(-g.x(), -g.y(), fz);
     const double sn = S.dot(normal);
     const Eigen::Vector3d St = S - sn * normal;
     const double capacity = tip_mu_ * std::max(0.0, sn + tip_adhesion_nN_);
     const double stn = St.norm();
-    if (stn > capacity) {
-        const Eigen::Vector2d mh = -St.head<2>();
-        const double mhn = mh.norm();
-        if (mhn > 1e-12) apex_ += (stn - capacity) / kt * (mh / mhn);
-    }
+    const Eigen::Vector2d mh = -St.head<2>();
+    const double mhn = mh.norm();
+    if (stn <= capacity || mhn <= 1e-12) return Eigen::Vector2d::Zero();
+    return (stn - capacity) / mhn * mh;
 }
 
-void World::push_particles(const Eigen::Vector2d &as2, double rt, bool chains)
+void World::slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt)
 {
-    // Particles touching the apex, then (particle_contacts) those they touch.
+    // The step that takes the excess up in the stiffness the apex meets.
+    if (excess.squaredNorm() > 0) apex_ += kt.ldlt().solve(excess);
+}
+
+void World::push_particles(double rt, bool chains)
+{
+    // A projected Gauss-Seidel on the apex's contacts: each contact's force
+    // lambda (push_nN) moves by the lever's stiffness along the line of
+    // centres times the gap, kept within [0, the particle's resistance];
+    // below it the particle holds and the apex is put back on its surface,
+    // at it the particle slides and is put on the apex's (the contact
+    // closed exactly either way). The resistance is the threshold (pressed
+    // by the cone: down_force) plus what the particles it pushes pass on
+    // (particle_contacts).
     for (std::size_t q = 0; q < scratch_.size(); ++q) {
         const int i = scratch_[q];
         Particle &p = particles_[i];
-        Eigen::Vector2d gp = Eigen::Vector2d::Zero();
-        double kp = 0;
-        const Eigen::Vector2d d = p.c - as2;
-        const double dn = d.norm();
-        if (dn < rt + p.r) {
-            p.in_contact = true;
-            gp += k_contact_ * (rt + p.r - dn) * unit_or(d, last_motion_);
-            kp += k_contact_;
-        }
-        if (chains) {
-            near(p.c, p.r + max_radius_, scratch2_);
-            for (int j : scratch2_) {
-                if (j == i) continue;
-                const Eigen::Vector2d e = p.c - particles_[j].c;
-                const double en = e.norm();
-                const double reach = p.r + particles_[j].r;
-                if (en >= reach) continue;
-                gp += k_contact_ * (reach - en) * unit_or(e, last_motion_);
-                kp += k_contact_;
-                // A neighbour being pushed joins the sweep.
-                if (std::find(scratch_.begin(), scratch_.end(), j) == scratch_.end()) scratch_.push_back(j);
+        const Eigen::Vector2d as = apex_ - drift_;
+        const Eigen::Vector2d d = p.c - as;
+        const double reach = rt + p.r;
+        const double gap = d.norm() - reach;
+        if (gap < 0 || p.push_nN > 0) {
+            const Eigen::Vector2d n = unit_or(d, last_motion_);
+            const double resist = p.threshold_nN * cone_factor_ + p.chain_nN;
+            const double lam = std::clamp(p.push_nN - n.dot(K_ * n) * gap, 0.0, resist);
+            p.push_nN = lam;
+            p.in_contact = lam > 0 || gap < 0;
+            if (gap < 0 && lam >= resist) {
+                p.c = as + reach * n;   // slides: on the apex's surface
+                grid_.update(i, p.c);
+            } else if (gap < 0) {
+                apex_ += gap * n;       // holds: the apex back on its surface
             }
         }
-        const double gpn = gp.norm();
-        const double th = p.threshold_nN * (dn < rt + p.r ? cone_factor_ : 1.0);   // the tip's cone presses it (down_force)
-        if (kp > 0 && gpn > th) {
-            p.c += (gpn - th) / kp * (gp / gpn);
-            grid_.update(i, p.c);
-        }
+        if (chains) push_neighbours(q);
     }
+}
+
+void World::push_neighbours(std::size_t q)
+{
+    // particle_contacts: a particle that overlaps a neighbour puts it on its
+    // surface (a pushed particle moves its neighbours at their own
+    // resistance: they join the sweep), and passes the resistance of those
+    // it touches ahead on along its push (chain_nN, the next bound of the
+    // apex's contact with it).
+    const int i = scratch_[q];
+    Particle &p = particles_[i];
+    const Eigen::Vector2d along = unit_or(p.c - (apex_ - drift_), last_motion_);
+    double passed = 0;
+    near(p.c, p.r + max_radius_, scratch2_);
+    for (int j : scratch2_) {
+        if (j == i) continue;
+        Particle &o = particles_[j];
+        const Eigen::Vector2d e = o.c - p.c;
+        const double reach = p.r + o.r;
+        const double en = e.norm();
+        if (en > reach + kSolverGapTol_nm) continue;
+        const Eigen::Vector2d u = unit_or(e, along);
+        if (en < reach) {
+            o.c = p.c + reach * u;
+            grid_.update(j, o.c);
+        }
+        passed += std::max(0.0, u.dot(along)) * (o.threshold_nN + o.chain_nN);
+        if (std::find(scratch_.begin(), scratch_.end(), j) == scratch_.end()) scratch_.push_back(j);
+    }
+    p.chain_nN = passed;
 }
 
 void World::push_wires(const Eigen::Vector2d &as2, double rt)
@@ -150,7 +217,7 @@ void World::push_wires(const Eigen::Vector2d &as2, double rt)
         // the wire, before that, overshoots by a penalty artefact, and is
         // no lift-off (a ride already under way stays one).
         const double ride = w->pulled || w->ridden ? ride_push_nN(*w) : std::numeric_limits<double>::infinity();
-        w->push(as2, rt, k_contact_, ride);
+        w->slid = w->push(as2, rt, k_contact_, ride);
         clock_add(&t_wires_, t0);
     }
 }
@@ -184,29 +251,35 @@ void World::relax_rigid()
         Eigen::Vector2d n;
         if (!w->near(as, rt)) { w->in_contact = false; continue; }
         const auto t0 = clock_start();
-        w->push(as, rt, k_contact_, ride_push_nN(*w));
+        w->slid = w->push(as, rt, k_contact_, ride_push_nN(*w));
         clock_add(&t_wires_, t0);
         if (w->contact(as, rt, pen, n, u) && !w->ridden) f += k_contact_ * pen * n;
     }
     count_ridden();
+    // A particle the apex overlaps slides at its threshold (pressed by the
+    // cone: down_force) onto the apex's surface, the contact closed exactly;
+    // one it only touches keeps the force of the last push (static, within
+    // [0, threshold]); apart, none. Exact in one pass: one sweep.
     near(as, rt + max_radius_ + 1.0, scratch_);
+    double gap_worst = 0;
     for (int idx : scratch_) {
         Particle &p = particles_[idx];
         const Eigen::Vector2d d = p.c - as;
         const double reach = rt + p.r;
-        p.in_contact = d.norm() < reach;
-        if (!p.in_contact) continue;
+        const double gap = d.norm() - reach;
         const Eigen::Vector2d n = unit_or(d, last_motion_);
-        const double pen = reach - d.norm();
-        const double th = p.threshold_nN * cone_factor_;   // pressed by the cone (down_force)
-        if (k_contact_ * pen > th) {
-            p.c += (pen - th / k_contact_) * n;
+        if (gap < 0) {
+            p.push_nN = p.threshold_nN * cone_factor_;
+            p.c = as + reach * n;
             grid_.update(idx, p.c);
-            f -= th * n;
-        } else {
-            f -= k_contact_ * pen * n;
+        } else if (gap > kSolverGapTol_nm) {
+            p.push_nN = 0;
         }
+        p.in_contact = p.push_nN > 0;
+        f -= p.push_nN * n;
+        if (p.push_nN > 0) gap_worst = std::max(gap_worst, std::max(gap, 0.0));
     }
+    record_solve(1, 0.0, gap_worst, true);
     lateral_force_ = f;
 }
 

@@ -55,6 +55,11 @@ std::map<std::string, std::string> failures(const json &run)
     if (num(fw, "unobservable_push_blocks") > 0)
         out["unobservable_push"] = std::to_string(fw["unobservable_push_blocks"].get<long long>()) +
                                    " blocks pushed an object along the lever's axis, where F_x is unobservable";
+    const json sol = run.value("sim", json::object()).value("solver", json::object());
+    if (num(sol, "unconverged_samples") > 0)
+        out["solver"] = std::to_string(sol["unconverged_samples"].get<long long>()) + " samples of the simulator's contact solver unconverged at its cap of " +
+                        std::to_string(sol.value("cap", 0)) + " sweeps (tolerances " + sol.value("force_tolerance_nN", json(0)).dump() + " nN, " +
+                        sol.value("gap_tolerance_nm", json(0)).dump() + " nm)";
     return out;
 }
 

@@ -13,7 +13,11 @@
 //   saturation         samples with an ADC saturated (the card's count);
 //   unobservable_push  blocks in which the card pushed an object while F_x
 //                      was unobservable (motion along the lever's axis: the
-//                      card's friction fallback).
+//                      card's friction fallback);
+//   solver             samples the simulator's contact solver left
+//                      unconverged at its cap (sim_report.json solver
+//                      unconverged_samples > 0; the tolerances are the
+//                      solver's own, physics.md 5.1).
 // The names are scene/scene.hpp's verdict_checks(); a scene's expect:
 // lists those it fails on purpose. An expected failure that happens passes;
 // an expected one that does not is itself a failure ("expect").

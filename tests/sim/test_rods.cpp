@@ -26,7 +26,6 @@ std::pair<double, long> ride_sweep(double gamma_deg, double load_nN)
     const double L = 1000;
     const afm::Scene s = wire_scene(L, ", down_force", 20, 32, 8, load_nN, gamma_deg);
     World w(s);
-    w.set_relax_iterations(16);
     const double cn_off = w.lever().normal_offset(load_nN).x();
     double y = -70;
     w.command(Eigen::Vector2d(-cn_off, y), load_nN, true);

@@ -190,7 +190,8 @@ void test_pushed_particle_slides_at_its_threshold_in_contact_ahead()
 {
     // Push across the lever (+y) through the particle's centre: once it
     // slides, the lateral force on the tip is tip friction + F_th (section 5)
-    // and the particle sits r_t + r_p ahead, less the contact's give F_th / k_c.
+    // and the particle sits r_t + r_p ahead: the contact is closed exactly
+    // (physics.md 5.1; the penalty's give F_th / k_c is gone).
     const afm::Scene s = scene_with("bending_offset, adhesion");
     World w(s);
     // Start with the apex (not the piezo) on the line x = 0.
@@ -201,7 +202,7 @@ void test_pushed_particle_slides_at_its_threshold_in_contact_ahead()
     for (int i = 0; i < 20000; ++i) w.step();     // 20 um/s scanner limit: 20 ms per 400 nm, then rest
     const double fth = s.particle_substrate.mu * s.particle_substrate.adhesion_nN;
     const double friction = s.tip_substrate.mu * (s.op.load_nN + s.tip_substrate.adhesion_nN);
-    const double reach = s.probe.tip_radius_nm + 50 - fth / s.particle_contact_stiffness_N_per_m;
+    const double reach = s.probe.tip_radius_nm + 50;
     const Eigen::Vector2d p = w.particle_position(0);
     std::printf("particle at (%.4f, %.4f), apex at (%.4f, %.4f), force (%.4f, %.4f) nN\n", p.x(), p.y(),
                 w.apex().x(), w.apex().y(), w.tip_force().x(), w.tip_force().y());

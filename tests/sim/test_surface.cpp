@@ -124,7 +124,6 @@ void test_friction_loop_slopes_on_a_tilted_plane_match_eq_16_17()
         std::vector<double> sn_u, sl_u, sn_d, sl_d;
         for (double load : {5.0, 10.0, 15.0, 20.0, 30.0}) {
             World w(s);
-            w.set_relax_iterations(8);
             double y = 0;
             w.command(Eigen::Vector2d(0, y), load, true);
             for (int i = 0; i < 500; ++i) w.step();
@@ -194,7 +193,6 @@ void test_wire_pushed_into_a_trench_sinks_into_it_and_is_held()
         "  wire: {friction_nN_per_um: 20, mu: 0.3}\nobjects:\n  wires:\n"
         "    - {id: 1, x0_nm: -500, y0_nm: -300, x1_nm: 500, y1_nm: -300, diameter_nm: 100}\noperator:"));
     World w(s);
-    w.set_relax_iterations(16);   // converged within a sample, as in test_rods
     auto go = [&](double x, double y, double load, int samples) {
         w.command(Eigen::Vector2d(x - w.lever().normal_offset(load).x(), y), load, true);
         for (int i = 0; i < samples; ++i) w.step();
@@ -261,7 +259,6 @@ void test_scan_line_on_tilted_glass_reads_what_the_tip_sliding_there_reads()
         const std::string text = with(with(kTilted, "SLOPE", "9"), "MU", "0.0865") + "probe:\n  scan_angle_deg: " + r.angle + "\n";
         const afm::Scene s = scene_from_text(text);
         World w(s);
-        w.set_relax_iterations(8);
         const double y = 100, load = s.op.load_nN;
         double x = -150;
         w.command(Eigen::Vector2d(x, y), load, true);
