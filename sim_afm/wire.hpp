@@ -185,7 +185,6 @@ public:
     bool squeezed = false;        // the last push could not move it
     bool ridden = false;          // the last push: the tip rode over it (push's ride_nN), and it stayed
     bool pulled = false;          // the apex's balance took this wire's contact in this sweep (World::apex_pull)
-    bool slid = false;            // the last push moved it (World::apex_pull: a sliding wire adds no stiffness to the apex's step)
 
 protected:
     std::vector<Eigen::Vector2d> x;   // nodes, nm

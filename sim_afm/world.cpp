@@ -58,6 +58,7 @@ World::World(const Scene &s)
     for (std::size_t i = 0; i < particles_.size(); ++i) grid_.insert(static_cast<int>(i), particles_[i].c);
 
     build_wires(s);
+    wire_links_.resize(wires_.size());
     if (s.substrate == "tilted_glass") {
         tan_slope_ = std::tan(s.slope_deg * M_PI / 180.0);
         normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y

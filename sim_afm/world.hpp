@@ -15,8 +15,8 @@
 // moved to exact contact), so no stiffness enters their answer; tip-wire
 // contacts are the wire's penalty (sample.contact_stiffness_N_per_m), whose
 // force at convergence is the wire's own resistance. The apex's step uses
-// the lever's stiffness plus that of the wire contacts that held in the last
-// sweep (a sliding object offers a constant force). A uniform grid finds
+// the lever's stiffness plus each wire contact's secant stiffness (a sliding
+// object offers a constant force: none). A uniform grid finds
 // the particles near the apex, so the cost per sample does not grow with the
 // number of particles far away.
 //
@@ -294,8 +294,8 @@ private:
     void relax();
     // relax()'s parts, one Gauss-Seidel sweep each: the force on the apex
     // and the stiffness its step meets (*kt: the lever's, and each wire
-    // contact's that held); the force the substrate cannot take (its excess,
-    // frame A); the apex's step; the contacts.
+    // contact's secant stiffness, wire_links_); the force the substrate
+    // cannot take (its excess, frame A); the apex's step; the contacts.
     Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::Matrix2d *kt);
     Eigen::Vector2d apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const;
     void slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt);
@@ -382,6 +382,17 @@ private:
     double z_speed_nm_per_s_ = 0.0;     // afm.z_speed_nm_per_s: 0 is the ideal z servo
     bool z_started_ = false;            // piezo_z_ holds a sample's extension (the first sample settles at once)
     SolverStats solver_;
+    // Each wire's contact as the apex's step sees it: a secant stiffness
+    // along the contact's normal, from the force after the wire's push at
+    // two apex positions (k_nN_per_nm, clamped to [0, k_contact_]; k_contact_
+    // until measured), and the last such point of this sample (s_nm: the
+    // apex along the normal, f_nN: the force; fresh: taken in this sample).
+    struct WireLink {
+        double k_nN_per_nm = -1, s_nm = 0, f_nN = 0;
+        bool fresh = false;
+    };
+    std::vector<WireLink> wire_links_;
+    void measure_wire_links(double rt);
     bool particle_chains_ = false; // particle_contacts: pushed particles push their neighbours
     double sweep_gap_nm_ = 0;      // the worst contact gap apex_pull saw (penetration, or a gap under load), nm
     double max_radius_ = 0;        // largest particle radius, nm

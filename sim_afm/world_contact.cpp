@@ -41,6 +41,7 @@ void World::relax()
         p.in_contact = false;
         if ((apex_ - drift_ - p.c).norm() - rt - p.r > kSolverGapTol_nm) p.push_nN = 0;
     }
+    for (auto &l : wire_links_) l.fresh = false;   // a secant within a sample only
     int sweeps = 0;
     double force = 0;
     for (;; ++sweeps) {
@@ -53,6 +54,7 @@ void World::relax()
         slide_apex(excess, kt);
         push_particles(rt, chains);
         push_wires(apex_ - drift_, rt);
+        if (!wires_.empty()) measure_wire_links(rt);
     }
     record_solve(sweeps, force, sweep_gap_nm_, force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm);
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
@@ -113,10 +115,35 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::
         if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
         if (w->ridden) continue;   // the tip rode over it at the last push (push_wires)
         g += k_contact_ * pen * n;
-        if (!w->slid) *kt += k_contact_ * n * n.transpose();
+        const double k = wire_links_[static_cast<std::size_t>(&w - wires_.data())].k_nN_per_nm;
+        *kt += (k < 0 ? k_contact_ : k) * n * n.transpose();
         w->pulled = true;
     }
     return g;
+}
+
+void World::measure_wire_links(double rt)
+{
+    // After the wires' push at this sweep's apex: each contact's force and
+    // the apex's place along its normal; with the last such point of the
+    // sample, the secant stiffness of the force against the apex's advance
+    // into the wire (a sliding wire's force stays: 0; a held one: k_c).
+    constexpr double kLinkMargin_nm = 10;   // a step that left the contact still measures within this of it
+    const Eigen::Vector2d as = apex_ - drift_;
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire &w = *wires_[i];
+        WireLink &l = wire_links_[i];
+        double pen = 0, u;
+        Eigen::Vector2d n;
+        if (!w.near(as, rt + kLinkMargin_nm) || w.ridden) {
+            l.fresh = false;
+            continue;
+        }
+        w.contact(as, rt, pen, n, u);   // apart too: a point of 0 force, so a step that left the contact measures its chord
+        const double s = as.dot(n), f = k_contact_ * std::max(0.0, pen);
+        if (l.fresh && std::fabs(s - l.s_nm) > 1e-9) l.k_nN_per_nm = std::clamp(-(f - l.f_nN) / (s - l.s_nm), 0.0, k_contact_);
+        l.s_nm = s, l.f_nN = f, l.fresh = true;
+    }
 }
 
 Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const
@@ -139,8 +166,14 @@ Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Ei
 
 void World::slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt)
 {
-    // The step that takes the excess up in the stiffness the apex meets.
-    if (excess.squaredNorm() > 0) apex_ += kt.ldlt().solve(excess);
+    // The apex slips along the excess (against the substrate's friction:
+    // the slip direction is the friction's, whatever the lever's
+    // anisotropy) by the step that takes the excess up in the stiffness it
+    // meets along that direction.
+    const double e = excess.norm();
+    if (!(e > 0)) return;
+    const Eigen::Vector2d m = excess / e;
+    apex_ += e / m.dot(kt * m) * m;
 }
 
 void World::push_particles(double rt, bool chains)
@@ -217,7 +250,7 @@ void World::push_wires(const Eigen::Vector2d &as2, double rt)
         // the wire, before that, overshoots by a penalty artefact, and is
         // no lift-off (a ride already under way stays one).
         const double ride = w->pulled || w->ridden ? ride_push_nN(*w) : std::numeric_limits<double>::infinity();
-        w->slid = w->push(as2, rt, k_contact_, ride);
+        w->push(as2, rt, k_contact_, ride);
         clock_add(&t_wires_, t0);
     }
 }
@@ -251,7 +284,7 @@ void World::relax_rigid()
         Eigen::Vector2d n;
         if (!w->near(as, rt)) { w->in_contact = false; continue; }
         const auto t0 = clock_start();
-        w->slid = w->push(as, rt, k_contact_, ride_push_nN(*w));
+        w->push(as, rt, k_contact_, ride_push_nN(*w));
         clock_add(&t_wires_, t0);
         if (w->contact(as, rt, pen, n, u) && !w->ridden) f += k_contact_ * pen * n;
     }
