@@ -7,6 +7,7 @@
 // goals (2 % of the force, 0.5 nm of the position) and a verdict line. A
 // benchmark: it prints, it does not fail.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -71,7 +72,7 @@ void table(const Object &o)
                 sp.pmin = std::min(sp.pmin, r.final_nm), sp.pmax = std::max(sp.pmax, r.final_nm);
                 sp.unconverged += r.unconverged;
             }
-    const double df = (sp.fmax - sp.fmin) / sp.fmin, dp = sp.pmax - sp.pmin;
+    const double df = (sp.fmax - sp.fmin) / std::max(std::fabs(sp.fmax), 1e-12), dp = sp.pmax - sp.pmin;   // of the largest force
     std::printf("\nspread: force %.3f %% (goal %.0f %%), final position %.3f nm (goal %.1f nm); %ld samples unconverged\n",
                 100 * df, 100 * kForceGoal, dp, kPositionGoal_nm, sp.unconverged);
     std::printf("verdict: %s: %s\n", o.name, df <= kForceGoal && dp <= kPositionGoal_nm ? "meets the goals" : "MISSES the goals");
