@@ -92,10 +92,9 @@ inline PushResult push_world(double l, double L, const std::string &extra = "", 
     afm::sim::World w(s);
     const double cn_off = w.lever().normal_offset(s.op.load_nN).x();
     const double x = l - L / 2;
-    // Quasi-static push: the scene's relaxation converges within a sample
-    // (16 sweeps) and the piezo advances 0.05 nm per sample (1 um/s, an
-    // operator's pace): the lag of the relaxation then costs < 0.5% of f L.
-    w.set_relax_iterations(16);
+    // Quasi-static push: the solver converges every sample to its residual
+    // (physics.md 5.1) and the piezo advances 0.05 nm per sample (1 um/s, an
+    // operator's pace).
     double y = -70;
     w.command(Eigen::Vector2d(x - cn_off, y), s.op.load_nN, true);
     for (int i = 0; i < 1000; ++i) w.step();
