@@ -321,14 +321,54 @@ bool FlexibleWire::follow(const Contact &c, double t_seg, double &phi)
     return true;
 }
 
+void FlexibleWire::begin_step()
+{
+    if (open_) close_step();
+    stepping_ = true;
+}
+
+void FlexibleWire::end_step()
+{
+    if (open_) close_step();
+}
+
+void FlexibleWire::close_step()
+{
+    ++solved;
+    if (!last_converged) ++unconverged;
+    open_ = false;
+    // Stuck nodes go back to their start: no creep under a load below c_i,
+    // however many steps.
+    const std::size_t nn = x.size();
+    last_dx_.resize(nn);
+    for (std::size_t i = 0; i < nn; ++i) {
+        if ((x[i] - start_[i]).squaredNorm() < stuck_nm * stuck_nm) x[i] = start_[i];
+        last_dx_[i] = x[i] - start_[i];
+    }
+    update_box();
+}
+
+void FlexibleWire::first_guess(const Contact &c, double t_seg, bool resume, double &phi)
+{
+    if (resume) {   // the step's last answer, for the apex where it now is
+        phi = evaluate(c, now_);
+        return;
+    }
+    if (follow(c, t_seg, phi)) return;
+    // A wire in balance where it is does not move: one evaluation decides.
+    phi = evaluate(c, now_, true);
+    if (now_.residual >= 1 && last_dx_.size() == start_.size()) warm_start(c, phi);
+}
+
 bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, double ride_nN)
 {
+    const bool resume = open_;
     Contact c;
     c.q = q;
     c.reach = r_tip + 0.5 * d_nm;
     c.kc = kc;
-    // The tip touches the segment closest to it at the start of the step,
-    // and only it, for the whole step: the distance to one segment is
+    // The tip touches the segment closest to it at the start of the push,
+    // and only it, for the whole push: the distance to one segment is
     // continuously differentiable in the nodes, the minimum over segments is
     // not (a kink wherever the apex faces a node), which would stall Newton.
     double t_seg;
@@ -337,18 +377,22 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
     // The contact force past what the tip can push: it rides over (the
     // chain's own friction is per node; the press is not modelled on it).
     ridden = in_contact && kc * (c.reach - dist) > ride_nN;
-    if (!in_contact || ridden) return false;
+    if (!in_contact || ridden) {
+        // A step under way that lost its contact (the apex stepped back, or
+        // rides over) still ends in balance without the tip's push.
+        if (!resume || x == start_) return false;
+        if (ridden) c.kc = 0;
+    }
     const Eigen::Vector2d ab = x[c.seg + 1] - x[c.seg], dv = q - (x[c.seg] + t_seg * ab);
     c.n0 = dist > 1e-12 ? Eigen::Vector2d(dv / dist) : Eigen::Vector2d(-ab.y(), ab.x()).normalized();
     const int nn = static_cast<int>(x.size());
-    start_ = x;
-    double phi = 0;
-    const bool followed = follow(c, t_seg, phi);
-    last_q_ = q;
-    if (!followed) {   // a wire in balance where it is does not move: one evaluation decides
-        phi = evaluate(c, now_, true);
-        if (now_.residual >= 1 && last_dx_.size() == start_.size()) warm_start(c, phi);
+    if (!resume) {
+        start_ = x;
+        open_ = stepping_;
     }
+    double phi = 0;
+    first_guess(c, t_seg, resume, phi);
+    last_q_ = q;
     last_iterations = 1;
     last_converged = now_.residual < 1;
     if (!last_converged) chord_step(c, phi);
@@ -360,17 +404,15 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
         }
         newton_step(c, phi);
     }
-    ++solved;
+    last_converged = now_.residual < 1;
     worst_iterations = std::max(worst_iterations, last_iterations);
-    if (!last_converged) ++unconverged;
-    // Stuck nodes go back to their start: no creep under a load below c_i,
-    // however many steps.
-    last_dx_.resize(nn);
-    for (int i = 0; i < nn; ++i) {
-        if ((x[i] - start_[i]).squaredNorm() < stuck_nm * stuck_nm) x[i] = start_[i];
-        last_dx_[i] = x[i] - start_[i];
+    if (!stepping_) {
+        close_step();
+    } else {   // the step goes on: its increment so far, unsnapped (the next push resumes from it)
+        last_dx_.resize(nn);
+        for (int i = 0; i < nn; ++i) last_dx_[i] = x[i] - start_[i];
+        update_box();
     }
-    update_box();
     return true;
 }
 

@@ -172,6 +172,17 @@ public:
     // `ridden`, and the wire stays.
     virtual bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
                       double ride_nN = std::numeric_limits<double>::infinity()) = 0;
+    // One sample's step over several pushes (the world's contact solver,
+    // World::relax): between begin_step() and end_step() every push solves
+    // the same step, from the wire's place at begin_step() to balance with
+    // the tip where it now is (resumed from the last push's answer), so the
+    // force a push leaves is a function of the apex alone and the apex's
+    // balance with it converges. Without begin_step() each push is a step.
+    virtual void begin_step() {}
+    virtual void end_step() {}
+    // Whether the step's last push left the wire in balance (its own
+    // tolerance; a rod's push is exact).
+    virtual bool settled() const { return true; }
     // Distance from q to the wire's axis, nm.
     double axis_distance(const Eigen::Vector2d &q) const;
     TrenchTrap trap;              // empty unless lithography cuts trenches
@@ -220,6 +231,9 @@ public:
                  double E_GPa, int segments, int iterations);
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
               double ride_nN = std::numeric_limits<double>::infinity()) override;
+    void begin_step() override;
+    void end_step() override;
+    bool settled() const override { return !open_ || last_converged; }
 
     double ds = 0;                    // rest segment length, nm
     double EI = 0;                    // nN nm^2
@@ -228,9 +242,9 @@ public:
     int max_iterations = 8;           // Newton iterations per push, at most
     int last_iterations = 0;          // the last push's Newton iterations (balance tests; 1: none needed)
     bool last_converged = false;      // whether it met the step tolerance
-    long solved = 0;                  // pushes the tip was in contact for (each solved to the step tolerance, or not)
-    int worst_iterations = 0;         // the most Newton iterations one of them took
-    long unconverged = 0;             // pushes that hit max_iterations
+    long solved = 0;                  // steps the tip was in contact for (each solved to the step tolerance, or not)
+    int worst_iterations = 0;         // the most Newton iterations one push took
+    long unconverged = 0;             // steps left out of balance (a push at max_iterations that no later push of the step finished)
     long regularised = 0;             // Newton steps whose system was singular (solved with a Levenberg shift)
 
 private:
@@ -289,6 +303,12 @@ private:
     // did not slide to balance or the apex did not advance into the wire.
     bool follow(const Contact &c, double t_seg, double &phi);
     Eigen::Vector2d last_q_ = Eigen::Vector2d::Zero();   // the apex at the last push
+    bool stepping_ = false;   // begin_step() was called: pushes share a step until end_step()
+    bool open_ = false;       // a step is under way: start_ is its start, the next push resumes it
+    // The push's first guess: a fresh step's (follow, else a balance test
+    // at the start and warm_start), or a resumed step's (x as it is).
+    void first_guess(const Contact &c, double t_seg, bool resume, double &phi);
+    void close_step();        // a step's counters; the stuck nodes back to their start
 };
 
 }  // namespace afm::sim

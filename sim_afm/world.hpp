@@ -301,6 +301,7 @@ private:
     void slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt);
     void push_particles(double rt, bool chains);
     void push_neighbours(std::size_t q);
+    bool wires_settled() const;   // every wire's step in balance (Wire::settled)
     void record_solve(int sweeps, double force_nN, double gap_nm, bool converged);
     void push_wires(const Eigen::Vector2d &as2, double rt);
     void relax_rigid();

@@ -42,24 +42,34 @@ void World::relax()
         if ((apex_ - drift_ - p.c).norm() - rt - p.r > kSolverGapTol_nm) p.push_nN = 0;
     }
     for (auto &l : wire_links_) l.fresh = false;   // a secant within a sample only
+    for (auto &w : wires_) w->begin_step();        // the sample's pushes share one step (Wire::begin_step)
     int sweeps = 0;
     double force = 0;
+    bool converged = false;
     for (;; ++sweeps) {
         Eigen::Matrix2d kt;
         const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
         const Eigen::Vector2d excess = apex_excess(g, fz, normal);
         force = excess.norm();
-        if (sweeps > 0 && force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm) break;
-        if (sweeps == solver_.cap) break;
+        converged = force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm && wires_settled();
+        if ((sweeps > 0 && converged) || sweeps == solver_.cap) break;
         slide_apex(excess, kt);
         push_particles(rt, chains);
         push_wires(apex_ - drift_, rt);
         if (!wires_.empty()) measure_wire_links(rt);
     }
-    record_solve(sweeps, force, sweep_gap_nm_, force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm);
+    for (auto &w : wires_) w->end_step();
+    record_solve(sweeps, force, sweep_gap_nm_, converged);
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     lateral_force_ = -(K_ * (rest - apex_));
     count_ridden();
+}
+
+bool World::wires_settled() const
+{
+    for (const auto &w : wires_)
+        if (!w->settled()) return false;
+    return true;
 }
 
 void World::record_solve(int sweeps, double force_nN, double gap_nm, bool converged)

@@ -158,7 +158,7 @@ void test_long_flexible_wire_shape_converges_with_N()
     // (shared by that segment's two nodes), so the load does not grow with
     // the number of segments the apex overlaps. Errors decrease
     // monotonically, by at least 2x per doubling of N (observed order about 2:
-    // 0.6, 0.1, 0.03 nm against a middle deflection of 4 nm) and the N = 128
+    // 0.58, 0.08, 0.015 nm against a middle deflection of 4 nm) and the N = 128
     // shape is within 0.1 nm (2.5%) of N = 256.
     const LongPush ref = push_long(256, 0.0);
     double last = 1e300;
