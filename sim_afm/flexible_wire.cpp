@@ -82,7 +82,7 @@ double FlexibleWire::contact_energy(const Contact &c, const Eigen::Vector2d *xs,
     const int i = c.seg;
     ev.contact_t = segment_param(xs[i], xs[i + 1], c.q);
     const Eigen::Vector2d dv = c.q - (xs[i] + ev.contact_t * (xs[i + 1] - xs[i]));
-    const double dn = dv.norm(), pen = c.reach - dn;
+    const double dn = dv.norm(), pen = c.reach - dn + (c.kc > 0 ? c.lam / c.kc : 0.0);
     ev.touching = pen > 0;
     if (!ev.touching) return 0;
     ev.contact_n = dn > 1e-12 ? Eigen::Vector2d(dv / dn) : c.n0;
@@ -373,15 +373,17 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
     // not (a kink wherever the apex faces a node), which would stall Newton.
     double t_seg;
     const double dist = closest(q, c.seg, t_seg);
-    in_contact = c.reach - dist > 0;
+    const double force = contact_force(kc, c.reach - dist);
+    c.lam = lambda_nN;
+    in_contact = force > 0;
     // The contact force past what the tip can push: it rides over (the
     // chain's own friction is per node; the press is not modelled on it).
-    ridden = in_contact && kc * (c.reach - dist) > ride_nN;
+    ridden = in_contact && force > ride_nN;
     if (!in_contact || ridden) {
         // A step under way that lost its contact (the apex stepped back, or
         // rides over) still ends in balance without the tip's push.
         if (!resume || x == start_) return false;
-        if (ridden) c.kc = 0;
+        if (ridden) c.kc = 0, c.lam = 0;
     }
     const Eigen::Vector2d ab = x[c.seg + 1] - x[c.seg], dv = q - (x[c.seg] + t_seg * ab);
     c.n0 = dist > 1e-12 ? Eigen::Vector2d(dv / dist) : Eigen::Vector2d(-ab.y(), ab.x()).normalized();

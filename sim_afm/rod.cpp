@@ -328,7 +328,9 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k, double ri
 {
     double pen, u_from_a;
     Eigen::Vector2d n;
-    in_contact = contact(q, r_tip, pen, n, u_from_a);
+    contact(q, r_tip, pen, n, u_from_a);
+    const double F = contact_force(k, pen);
+    in_contact = F > 0;
     squeezed = false;
     ridden = false;
     if (!in_contact) return false;
@@ -360,7 +362,6 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k, double ri
         last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60);
     else
         last = rod_push_twist_uniform(L_nm, f, u_p, p_rod, last);
-    const double F = k * pen;
     // down_force: the push H presses the rod by H tan psi, spread over it as
     // its own load (eq. 29): D(H) = D0 (1 + mu H tan psi / (f L)), so H moves
     // it when H a > D0 with a = 1 - (D0 / f L) mu tan psi; a <= 0: squeezed.

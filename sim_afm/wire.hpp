@@ -45,6 +45,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <functional>
 #include <limits>
 #include <vector>
@@ -164,6 +165,13 @@ public:
     // closest point (nm from the first node; the first of equally close).
     // Returns false when not touching.
     bool contact(const Eigen::Vector2d &q, double r_tip, double &pen, Eigen::Vector2d &n_out, double &u_out) const;
+    // The contact's multiplier, nN: the tip pushes the wire with
+    // max(0, lambda + k pen) (an augmented Lagrangian on the penalty k; the
+    // world's solver raises lambda by k pen each sweep, so at convergence
+    // the contact is closed to kSolverGapTol_nm and its force does not
+    // depend on k). 0 for a push on its own (the plain penalty).
+    double lambda_nN = 0;
+    double contact_force(double k, double pen) const { return std::max(0.0, lambda_nN + k * pen); }
     // The tip at q pushes the wire with contact stiffness k (nN/nm): the wire
     // moves to quasi-static equilibrium. Returns true when it moved.
     // ride_nN: the most the tip can push before it leaves the substrate
@@ -255,6 +263,7 @@ private:
         Eigen::Vector2d q, n0;
         int seg = 0;
         double reach = 0, kc = 0;
+        double lam = 0;   // the multiplier (Wire::lambda_nN): the force is kc (pen + lam / kc)
     };
     // What one evaluation of the step's energy leaves for the Newton step at
     // that point: the gradient (nN), each segment's unit direction, each

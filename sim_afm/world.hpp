@@ -394,7 +394,9 @@ private:
     };
     std::vector<WireLink> wire_links_;
     void measure_wire_links(double rt);
+    void close_wire_contacts(double rt);   // each wire's multiplier: its contact force after the push
     bool particle_chains_ = false; // particle_contacts: pushed particles push their neighbours
+    double wire_gap_nm_ = 0;       // the worst wire contact's gap under load (penetration, or apart with force), nm
     double sweep_gap_nm_ = 0;      // the worst contact gap apex_pull saw (penetration, or a gap under load), nm
     double max_radius_ = 0;        // largest particle radius, nm
 

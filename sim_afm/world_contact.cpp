@@ -23,7 +23,7 @@ void World::relax()
         apex_ = rest;
         lateral_force_.setZero();
         for (auto &p : particles_) p.in_contact = false, p.push_nN = 0, p.chain_nN = 0;
-        for (auto &w : wires_) w->in_contact = false;
+        for (auto &w : wires_) w->in_contact = false, w->lambda_nN = 0;
         return;
     }
     const double rt = scene_.probe.tip_radius_nm;
@@ -51,15 +51,17 @@ void World::relax()
         const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
         const Eigen::Vector2d excess = apex_excess(g, fz, normal);
         force = excess.norm();
-        converged = force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm && wires_settled();
+        const bool balanced = force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm && wires_settled();
+        converged = balanced && wire_gap_nm_ <= kSolverGapTol_nm;
         if ((sweeps > 0 && converged) || sweeps == solver_.cap) break;
+        if (sweeps > 0 && balanced) close_wire_contacts(rt);   // in balance with a wire's contact open: its multiplier's step
         slide_apex(excess, kt);
         push_particles(rt, chains);
         push_wires(apex_ - drift_, rt);
         if (!wires_.empty()) measure_wire_links(rt);
     }
     for (auto &w : wires_) w->end_step();
-    record_solve(sweeps, force, sweep_gap_nm_, converged);
+    record_solve(sweeps, force, std::max(sweep_gap_nm_, wire_gap_nm_), converged);
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     lateral_force_ = -(K_ * (rest - apex_));
     count_ridden();
@@ -103,6 +105,7 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::
     Eigen::Vector2d g = K_ * (rest - apex_);
     *kt = K_;
     sweep_gap_nm_ = 0;
+    wire_gap_nm_ = 0;
     for (int idx : scratch_) {
         const Particle &p = particles_[idx];
         const Eigen::Vector2d d = as - p.c;
@@ -122,9 +125,13 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::
         double pen, u;
         Eigen::Vector2d n;
         w->pulled = false;
-        if (!w->near(as, rt) || !w->contact(as, rt, pen, n, u)) continue;
-        if (w->ridden) continue;   // the tip rode over it at the last push (push_wires)
-        g += k_contact_ * pen * n;
+        // ridden: the tip rode over it at the last push (push_wires)
+        if (w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_)) continue;
+        w->contact(as, rt, pen, n, u);
+        const double f = w->contact_force(k_contact_, pen);
+        if (!(f > 0)) continue;
+        wire_gap_nm_ = std::max(wire_gap_nm_, std::fabs(pen));   // closed under load
+        g += f * n;
         const double k = wire_links_[static_cast<std::size_t>(&w - wires_.data())].k_nN_per_nm;
         *kt += (k < 0 ? k_contact_ : k) * n * n.transpose();
         w->pulled = true;
@@ -150,9 +157,28 @@ void World::measure_wire_links(double rt)
             continue;
         }
         w.contact(as, rt, pen, n, u);   // apart too: a point of 0 force, so a step that left the contact measures its chord
-        const double s = as.dot(n), f = k_contact_ * std::max(0.0, pen);
+        const double s = as.dot(n), f = w.contact_force(k_contact_, pen);
         if (l.fresh && std::fabs(s - l.s_nm) > 1e-9) l.k_nN_per_nm = std::clamp(-(f - l.f_nN) / (s - l.s_nm), 0.0, k_contact_);
         l.s_nm = s, l.f_nN = f, l.fresh = true;
+    }
+}
+
+void World::close_wire_contacts(double rt)
+{
+    // The multipliers' step (Wire::lambda_nN): each contact's force after
+    // the push becomes its multiplier, so the next push closes what the
+    // penalty left open (a ride-over, or a wire apart, takes none).
+    const Eigen::Vector2d as = apex_ - drift_;
+    for (auto &l : wire_links_) l.fresh = false;   // the forces move: the secants start again
+    for (auto &w : wires_) {
+        double pen, u;
+        Eigen::Vector2d n;
+        if (w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_)) {
+            w->lambda_nN = 0;
+            continue;
+        }
+        w->contact(as, rt, pen, n, u);
+        w->lambda_nN = w->contact_force(k_contact_, pen);
     }
 }
 
@@ -253,7 +279,10 @@ void World::push_neighbours(std::size_t q)
 void World::push_wires(const Eigen::Vector2d &as2, double rt)
 {
     for (auto &w : wires_) {
-        if (!w->near(as2, rt)) { w->in_contact = false; w->ridden = false; continue; }
+        if (!w->near(as2, rt + w->lambda_nN / k_contact_)) {
+            w->in_contact = false, w->ridden = false, w->lambda_nN = 0;
+            continue;
+        }
         const auto t0 = clock_start();
         // The contact's force is the tip's push once the apex's balance has
         // taken it (pulled); the sweep in which the apex first steps into
@@ -292,12 +321,14 @@ void World::relax_rigid()
     for (auto &w : wires_) {
         double pen, u;
         Eigen::Vector2d n;
-        if (!w->near(as, rt)) { w->in_contact = false; continue; }
+        if (!w->near(as, rt + w->lambda_nN / k_contact_)) { w->in_contact = false, w->lambda_nN = 0; continue; }
         const auto t0 = clock_start();
         w->push(as, rt, k_contact_, ride_push_nN(*w));
         clock_add(&t_wires_, t0);
-        if (w->contact(as, rt, pen, n, u) && !w->ridden) f += k_contact_ * pen * n;
+        w->contact(as, rt, pen, n, u);
+        if (!w->ridden) f += w->contact_force(k_contact_, pen) * n;
     }
+    close_wire_contacts(rt);   // one step a sample: the next sample's push closes this one's penalty
     count_ridden();
     // A particle the apex overlaps slides at its threshold (pressed by the
     // cone: down_force) onto the apex's surface, the contact closed exactly;
