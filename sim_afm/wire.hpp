@@ -23,7 +23,8 @@
 // - FlexibleWire (wire_flexibility): N segments (N + 1 nodes), stretch springs
 //   (EA / segment length), discrete bending EI / (2 ds^3) |x_{i-1} - 2 x_i +
 //   x_{i+1}|^2 (= EI / (2 ds) theta^2 for small joint angles theta), and Coulomb
-//   friction f ds on each node (half at the ends). Each push the wire takes
+//   friction f ds on each node (half at the ends). Each push (each sample's
+//   pushes, between begin_step and end_step) the wire takes
 //   the incremental quasi-static step: minimise elastic energy + tip contact
 //   energy + sum_i c_i |x_i - x_i(start)| (rate-independent friction
 //   dissipation, regularised below 1e-6 nm) until every node's force

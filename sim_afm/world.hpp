@@ -13,8 +13,10 @@
 // projected Gauss-Seidel on their forces: a contact is closed, its force
 // within [0, the particle's threshold], and a particle at its threshold is
 // moved to exact contact), so no stiffness enters their answer; tip-wire
-// contacts are the wire's penalty (sample.contact_stiffness_N_per_m), whose
-// force at convergence is the wire's own resistance. The apex's step uses
+// contacts are the wire's penalty (sample.contact_stiffness_N_per_m) with a
+// multiplier (an augmented Lagrangian, Wire::lambda_nN) that closes them to
+// kSolverGapTol_nm, and a flexible wire's step spans the sample's sweeps
+// (Wire::begin_step) until it is in balance too. The apex's step uses
 // the lever's stiffness plus each wire contact's secant stiffness (a sliding
 // object offers a constant force: none). A uniform grid finds
 // the particles near the apex, so the cost per sample does not grow with the
