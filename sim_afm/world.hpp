@@ -295,12 +295,15 @@ private:
     using Clock = std::chrono::steady_clock;
     void relax();
     // relax()'s parts, one Gauss-Seidel sweep each: the force on the apex
-    // and the stiffness its step meets (*kt: the lever's, and each wire
-    // contact's secant stiffness, wire_links_); the force the substrate
-    // cannot take (its excess, frame A); the apex's step; the contacts.
-    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::Matrix2d *kt);
+    // (and which wire contacts press it, wire_links_); the force the
+    // substrate cannot take (its excess, frame A); the apex's step in the
+    // stiffness it meets (step_stiffness), stopped at the surface of a wire
+    // contact it would enter (stop_at_wires); the contacts.
+    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt);
     Eigen::Vector2d apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const;
-    void slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt);
+    void slide_apex(const Eigen::Vector2d &excess, double rt);
+    double step_stiffness(const Eigen::Vector2d &m) const;
+    double stop_at_wires(const Eigen::Vector2d &m, double t, double rt);
     void push_particles(double rt, bool chains);
     void push_neighbours(std::size_t q);
     bool wires_settled() const;   // every wire's step in balance (Wire::settled)
@@ -390,12 +393,19 @@ private:
     // two apex positions (k_nN_per_nm, clamped to [0, k_contact_]; k_contact_
     // until measured), and the last such point of this sample (s_nm: the
     // apex along the normal, f_nN: the force; fresh: taken in this sample).
+    // pressing: the contact pushed the apex at this sweep (or the last step
+    // stopped at its surface: touched), along n (from the wire to the apex).
+    // An advance into the wire meets the secant; a retreat k_contact_ (the
+    // contact unloads; the wire does not follow the apex back).
     struct WireLink {
         double k_nN_per_nm = -1, s_nm = 0, f_nN = 0;
         bool fresh = false;
+        bool pressing = false, touched = false;
+        Eigen::Vector2d n = Eigen::Vector2d::Zero();
     };
     std::vector<WireLink> wire_links_;
     void measure_wire_links(double rt);
+    void open_wire_contacts(double rt);    // at a sample's start: a contact apart loses its multiplier
     void close_wire_contacts(double rt);   // each wire's multiplier: its contact force after the push
     bool particle_chains_ = false; // particle_contacts: pushed particles push their neighbours
     double wire_gap_nm_ = 0;       // the worst wire contact's gap under load (penetration, or apart with force), nm

@@ -41,21 +41,21 @@ void World::relax()
         p.in_contact = false;
         if ((apex_ - drift_ - p.c).norm() - rt - p.r > kSolverGapTol_nm) p.push_nN = 0;
     }
-    for (auto &l : wire_links_) l.fresh = false;   // a secant within a sample only
+    for (auto &l : wire_links_) l.fresh = l.touched = false;   // a secant within a sample only
+    open_wire_contacts(rt);
     for (auto &w : wires_) w->begin_step();        // the sample's pushes share one step (Wire::begin_step)
     int sweeps = 0;
     double force = 0;
     bool converged = false;
     for (;; ++sweeps) {
-        Eigen::Matrix2d kt;
-        const Eigen::Vector2d g = apex_pull(rest, rt, &kt);
+        const Eigen::Vector2d g = apex_pull(rest, rt);
         const Eigen::Vector2d excess = apex_excess(g, fz, normal);
         force = excess.norm();
         const bool balanced = force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm && wires_settled();
         converged = balanced && wire_gap_nm_ <= kSolverGapTol_nm;
         if ((sweeps > 0 && converged) || sweeps == solver_.cap) break;
         if (sweeps > 0 && balanced) close_wire_contacts(rt);   // in balance with a wire's contact open: its multiplier's step
-        slide_apex(excess, kt);
+        slide_apex(excess, rt);
         push_particles(rt, chains);
         push_wires(apex_ - drift_, rt);
         if (!wires_.empty()) measure_wire_links(rt);
@@ -93,17 +93,15 @@ void World::count_ridden()
         }
 }
 
-Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::Matrix2d *kt)
+Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt)
 {
     // The force on the apex from the lever, from every particle's contact
     // force (push_nN, along the line of centres) and from every wire's
-    // penalty; the stiffness its step meets: the lever's, and each wire
-    // contact's that held in the last sweep (a sliding wire's force stays
-    // its resistance). sweep_gap_nm_: the worst contact gap, penetration or
-    // a gap under load, of the particles and of the chains.
+    // penalty; which wire contacts press it (wire_links_: they meet its
+    // step). sweep_gap_nm_: the worst contact gap, penetration or a gap
+    // under load, of the particles and of the chains.
     const Eigen::Vector2d as = apex_ - drift_;
     Eigen::Vector2d g = K_ * (rest - apex_);
-    *kt = K_;
     sweep_gap_nm_ = 0;
     wire_gap_nm_ = 0;
     for (int idx : scratch_) {
@@ -121,20 +119,22 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt, Eigen::
                 sweep_gap_nm_ = std::max(sweep_gap_nm_, -e);
             }
     }
-    for (const auto &w : wires_) {
-        double pen, u;
-        Eigen::Vector2d n;
-        w->pulled = false;
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire &w = *wires_[i];
+        WireLink &l = wire_links_[i];
+        l.pressing = l.touched;   // the last step stopped at its surface (l.n its normal there)
+        l.touched = false;
+        w.pulled = false;
         // ridden: the tip rode over it at the last push (push_wires)
-        if (w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_)) continue;
-        w->contact(as, rt, pen, n, u);
-        const double f = w->contact_force(k_contact_, pen);
+        if (w.ridden || !w.near(as, rt + w.lambda_nN / k_contact_)) continue;
+        double pen, u;
+        w.contact(as, rt, pen, l.n, u);
+        const double f = w.contact_force(k_contact_, pen);
         if (!(f > 0)) continue;
+        l.pressing = true;
         wire_gap_nm_ = std::max(wire_gap_nm_, std::fabs(pen));   // closed under load
-        g += f * n;
-        const double k = wire_links_[static_cast<std::size_t>(&w - wires_.data())].k_nN_per_nm;
-        *kt += (k < 0 ? k_contact_ : k) * n * n.transpose();
-        w->pulled = true;
+        g += f * l.n;
+        w.pulled = true;
     }
     return g;
 }
@@ -160,6 +160,20 @@ void World::measure_wire_links(double rt)
         const double s = as.dot(n), f = w.contact_force(k_contact_, pen);
         if (l.fresh && std::fabs(s - l.s_nm) > 1e-9) l.k_nN_per_nm = std::clamp(-(f - l.f_nN) / (s - l.s_nm), 0.0, k_contact_);
         l.s_nm = s, l.f_nN = f, l.fresh = true;
+    }
+}
+
+void World::open_wire_contacts(double rt)
+{
+    // A wire contact apart at the sample's start (the apex moved off it, or
+    // rode over it) has no force: its multiplier starts again from 0.
+    const Eigen::Vector2d as = apex_ - drift_;
+    for (auto &w : wires_) {
+        if (w->lambda_nN == 0) continue;
+        double pen = -1, u;
+        Eigen::Vector2d n;
+        if (!w->ridden && w->near(as, rt + w->lambda_nN / k_contact_)) w->contact(as, rt, pen, n, u);
+        if (w->ridden || !(w->contact_force(k_contact_, pen) > 0)) w->lambda_nN = 0;
     }
 }
 
@@ -200,16 +214,56 @@ Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Ei
     return (stn - capacity) / mhn * mh;
 }
 
-void World::slide_apex(const Eigen::Vector2d &excess, const Eigen::Matrix2d &kt)
+void World::slide_apex(const Eigen::Vector2d &excess, double rt)
 {
     // The apex slips along the excess (against the substrate's friction:
     // the slip direction is the friction's, whatever the lever's
     // anisotropy) by the step that takes the excess up in the stiffness it
-    // meets along that direction.
+    // meets along that direction, but no further than the surface of a
+    // wire contact the step would enter.
     const double e = excess.norm();
     if (!(e > 0)) return;
     const Eigen::Vector2d m = excess / e;
-    apex_ += e / m.dot(kt * m) * m;
+    apex_ += stop_at_wires(m, e / step_stiffness(m), rt) * m;
+}
+
+double World::step_stiffness(const Eigen::Vector2d &m) const
+{
+    // Along m: the lever's, and each pressing wire contact's: its secant
+    // (k_contact_ until measured) for an advance into the wire, k_contact_
+    // for a retreat from it.
+    double k = m.dot(K_ * m);
+    for (const auto &l : wire_links_) {
+        if (!l.pressing) continue;
+        const double a = m.dot(l.n);
+        k += (a > 0 || l.k_nN_per_nm < 0 ? k_contact_ : l.k_nN_per_nm) * a * a;
+    }
+    return k;
+}
+
+double World::stop_at_wires(const Eigen::Vector2d &m, double t, double rt)
+{
+    // A wire the apex does not press yet offers no stiffness: a step into
+    // it would go as far as the lever alone takes it, deep into the
+    // contact. The step stops where the contact's force begins (the axis's
+    // distance along the contact's normal, to first order), and the next
+    // sweep meets the contact's stiffness (touched).
+    const Eigen::Vector2d as = apex_ - drift_;
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire &w = *wires_[i];
+        WireLink &l = wire_links_[i];
+        if (l.pressing || w.ridden || !w.near(as, rt + w.lambda_nN / k_contact_ + t)) continue;
+        double pen, u;
+        Eigen::Vector2d n;
+        w.contact(as, rt, pen, n, u);
+        const double open = -(pen + w.lambda_nN / k_contact_), a = m.dot(n);   // open >= 0: no force here
+        if (a < 0 && open < -a * t) {
+            t = std::max(0.0, open / -a);
+            l.touched = true;
+            l.n = n;
+        }
+    }
+    return t;
 }
 
 void World::push_particles(double rt, bool chains)
@@ -278,9 +332,11 @@ void World::push_neighbours(std::size_t q)
 
 void World::push_wires(const Eigen::Vector2d &as2, double rt)
 {
+    // A wire the apex left within the sample is pushed once more (its step
+    // ends in balance without the tip); its multiplier stays the sample's.
     for (auto &w : wires_) {
-        if (!w->near(as2, rt + w->lambda_nN / k_contact_)) {
-            w->in_contact = false, w->ridden = false, w->lambda_nN = 0;
+        if (!w->near(as2, rt + w->lambda_nN / k_contact_) && !w->in_contact) {
+            w->ridden = false;
             continue;
         }
         const auto t0 = clock_start();
