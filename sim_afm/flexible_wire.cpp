@@ -32,6 +32,9 @@ constexpr int kMaxShifts = 6;
 // FlexibleWire::follow scales the last increment only when the contact
 // point moved by more than this in it (nm): below, the ratio means nothing.
 constexpr double kFollowFloor_nm = 1e-9;
+// The contact's window (FlexibleWire::contact_window) reaches this beyond
+// the reach and a segment (nm).
+constexpr double kWindowMargin_nm = 20;
 }  // namespace
 
 using detail::closest_segment;
@@ -58,7 +61,9 @@ FlexibleWire::FlexibleWire(int id_, const Eigen::Vector2d &a, const Eigen::Vecto
         ev->g.assign(nn, Eigen::Vector2d::Zero());
         ev->seg_dir.assign(nn, Eigen::Vector2d::Zero());
         ev->node_dir.assign(nn, Eigen::Vector2d::Zero());
+        ev->cg.assign(nn, Eigen::Vector2d::Zero());
         ev->node_w.assign(nn, 0.0);
+        ev->feats.reserve(8);
     }
 }
 
@@ -68,27 +73,49 @@ double FlexibleWire::closest(const Eigen::Vector2d &q, int &seg, double &t) cons
     return (q - (x[seg] + t * (x[seg + 1] - x[seg]))).norm();
 }
 
+void FlexibleWire::contact_window(Contact &c) const
+{
+    // Segments lo..hi: from the first to the last whose axis comes within
+    // the reach (and the multiplier's shift) and a margin of the apex, the
+    // closest one at least; the margin covers the wire's motion in a push.
+    const double within = c.reach + (c.kc > 0 ? c.lam / c.kc : 0.0) + ds + kWindowMargin_nm;
+    c.lo = c.hi = c.seg;
+    for (int s = 0; s + 1 < static_cast<int>(x.size()); ++s) {
+        const double t = segment_param(x[s], x[s + 1], c.q);
+        if ((c.q - (x[s] + t * (x[s + 1] - x[s]))).squaredNorm() >= within * within) continue;
+        c.lo = std::min(c.lo, s);
+        c.hi = std::max(c.hi, s);
+    }
+}
+
 double FlexibleWire::node_friction(int i) const
 {
     const int last_node = static_cast<int>(x.size()) - 1;
     return f * ds * ((i == 0 || i == last_node) ? 0.5 : 1.0);
 }
 
-// The tip's contact at the point of segment c.seg closest to the apex: its
-// energy, nN nm, and the forces *fa, *fb on that segment's nodes (ev's
-// contact fields set).
-double FlexibleWire::contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev, Eigen::Vector2d *fa, Eigen::Vector2d *fb)
+// The tip's contact over its features in segments c.lo..c.hi (wire.hpp,
+// contact_features): its energy, nN nm, each feature's kc/2 pen^2 times its
+// count, and their forces on the nodes (ev.cg, set on the features' nodes
+// only; ev.feats).
+double FlexibleWire::contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev)
 {
-    const int i = c.seg;
-    ev.contact_t = segment_param(xs[i], xs[i + 1], c.q);
-    const Eigen::Vector2d dv = c.q - (xs[i] + ev.contact_t * (xs[i + 1] - xs[i]));
-    const double dn = dv.norm(), pen = c.reach - dn + (c.kc > 0 ? c.lam / c.kc : 0.0);
-    ev.touching = pen > 0;
-    if (!ev.touching) return 0;
-    ev.contact_n = dn > 1e-12 ? Eigen::Vector2d(dv / dn) : c.n0;
-    *fa = c.kc * pen * (1 - ev.contact_t) * ev.contact_n;
-    *fb = c.kc * pen * ev.contact_t * ev.contact_n;
-    return 0.5 * c.kc * pen * pen;
+    ev.feats.clear();
+    if (!(c.kc > 0)) return 0;
+    const double reach = c.reach + c.lam / c.kc;
+    contact_features(xs, c.lo, c.hi, c.q, reach, c.n0, ev.feats);
+    double e = 0;
+    for (const auto &f : ev.feats) {
+        const double pen = reach - f.dist, push = f.sign * c.kc * pen;
+        e += 0.5 * f.sign * c.kc * pen * pen;
+        if (f.node) {
+            ev.cg[f.a] += push * f.n;
+        } else {
+            ev.cg[f.a] += push * (1 - f.t) * f.n;
+            ev.cg[f.a + 1] += push * f.t * f.n;
+        }
+    }
+    return e;
 }
 
 double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
@@ -106,8 +133,8 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
     const Eigen::Vector2d *xs = x.data(), *x0 = start_.data();
     Eigen::Vector2d *g = ev.g.data(), *seg_dir = ev.seg_dir.data(), *node_dir = ev.node_dir.data();
     double *node_w = ev.node_w.data();
-    Eigen::Vector2d fa = Eigen::Vector2d::Zero(), fb = Eigen::Vector2d::Zero();
-    const double e = contact_energy(c, xs, ev, &fa, &fb);
+    const double e = contact_energy(c, xs, ev);
+    Eigen::Vector2d *cg = ev.cg.data();
     // Coulomb friction c_i |dx_i|, regularised as c_i (sqrt(|dx_i|^2 +
     // eps^2) - eps). A node is in balance when stuck (within stuck_nm of its
     // start) with an elastic and contact force of at most c_i (the Coulomb
@@ -121,7 +148,10 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
     const double stuck_in = inv_sq(c_in + tol_in), stuck_end = inv_sq(c_end + tol_end);
     const double slide_in = inv_sq(tol_in), slide_end = inv_sq(tol_end);
     const double eps_root = std::sqrt(eps * eps), inv_eps_root = 1.0 / eps_root;
-    double e_stretch = 0, e_bend = 0, e_friction = 0, worst = 0;
+    double e_stretch = 0, e_bend = 0, e_friction = 0, worst = 0, slide2 = 0, stuck_excess = 0;
+    auto stuck_past = [&](double f2, double ci) {   // a stuck node's force past its friction c_i
+        if (f2 > ci * ci) stuck_excess = std::max(stuck_excess, std::sqrt(f2) - ci);
+    };
     Eigen::Vector2d fs_before = Eigen::Vector2d::Zero();   // spring force of segment i - 1 on node i
     Eigen::Vector2d b_before = Eigen::Vector2d::Zero();    // b_{i-1}
     Eigen::Vector2d b_here = Eigen::Vector2d::Zero();      // b_i
@@ -137,8 +167,10 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
         const Eigen::Vector2d b_after = i + 2 < nn ? Eigen::Vector2d(xs[i] - 2 * xs[i + 1] + xs[i + 2]) : Eigen::Vector2d::Zero();
         e_bend += b_after.squaredNorm();
         Eigen::Vector2d gi = fs_before - fs + kb * (b_before - 2 * b_here + b_after);
-        if (i == c.seg) gi += fa;
-        if (i == c.seg + 1) gi += fb;
+        if (i >= c.lo && i <= c.hi + 1) {   // the contact's window: its forces, then cg zero again
+            gi += cg[i];
+            cg[i].setZero();
+        }
         fs_before = fs;
         b_before = b_here;
         b_here = b_after;
@@ -148,6 +180,7 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
             node_w[i] = ci / eps;
             node_dir[i].setZero();
             worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in));
+            stuck_past(gi.squaredNorm(), ci);
             g[i] = gi;
             continue;
         }
@@ -160,12 +193,13 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
         node_w[i] = ci * inv;
         node_dir[i] = dx * inv;
         const bool stuck = d2 < stuck_nm * stuck_nm;
-        if (stuck) worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in));
+        if (stuck) worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in)), stuck_past(gi.squaredNorm(), ci);
         gi += node_w[i] * dx;
-        if (!stuck) worst = std::max(worst, gi.squaredNorm() * (end ? slide_end : slide_in));
+        if (!stuck) worst = std::max(worst, gi.squaredNorm() * (end ? slide_end : slide_in)), slide2 = std::max(slide2, gi.squaredNorm());
         g[i] = gi;
     }
     ev.residual = worst;
+    ev.imbalance_nN = std::max(std::sqrt(slide2), stuck_excess);
     return e + 0.5 * ks * e_stretch + 0.5 * kb * e_bend + e_friction;
 }
 
@@ -181,9 +215,9 @@ double FlexibleWire::elastic_curvature(const Contact &c, const Eval &ev, const s
         const double a = ev.seg_dir[i].dot(d[i + 1] - d[i]);
         q += ks * a * a;
     }
-    if (ev.touching) {
-        const double a = ev.contact_n.dot((1 - ev.contact_t) * d[c.seg] + ev.contact_t * d[c.seg + 1]);
-        q += c.kc * a * a;
+    for (const auto &f : ev.feats) {   // Gauss-Newton: kc (n . d)^2 per feature, times its count
+        const double a = f.n.dot(f.node ? d[f.a] : Eigen::Vector2d((1 - f.t) * d[f.a] + f.t * d[f.a + 1]));
+        q += f.sign * c.kc * a * a;
     }
     return q;
 }
@@ -213,10 +247,18 @@ void FlexibleWire::assemble_hessian(const Contact &c, const Eval &ev)
         H_.sub2[i] = (i >= 2 ? kb : 0.0) * I;
         before = after;
     }
-    if (ev.touching) {   // tip contact (Gauss-Newton: kc n n^T, shared as (1 - t, t))
-        const int i = c.seg;
-        const double t = ev.contact_t;
-        const Eigen::Matrix2d B = c.kc * ev.contact_n * ev.contact_n.transpose();
+    // The tip's contact: Gauss-Newton, kc n n^T per feature times its
+    // count, a segment's shared as (1 - t, t). A bend's inside takes its
+    // node's off (count -1): the sum is then one contact's kc n n^T near the
+    // node, as the energy's; an H that does not factor gets its shift.
+    for (const auto &f : ev.feats) {
+        const Eigen::Matrix2d B = f.sign * c.kc * f.n * f.n.transpose();
+        if (f.node) {
+            H_.diag[f.a] += B;
+            continue;
+        }
+        const int i = f.a;
+        const double t = f.t;
         H_.diag[i] += (1 - t) * (1 - t) * B;
         H_.diag[i + 1] += t * t * B;
         H_.sub1[i + 1] += t * (1 - t) * B;
@@ -367,14 +409,16 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
     c.q = q;
     c.reach = r_tip + 0.5 * d_nm;
     c.kc = kc;
-    // The tip touches the segment closest to it at the start of the push,
-    // and only it, for the whole push: the distance to one segment is
-    // continuously differentiable in the nodes, the minimum over segments is
-    // not (a kink wherever the apex faces a node), which would stall Newton.
+    // The tip touches the features (contact_features) of the segments
+    // within reach at the push's start, and a margin: their energy is
+    // continuously differentiable in the nodes across a node (the distance
+    // to the closest segment is not: a kink wherever the apex faces a node,
+    // which would stall Newton and the world's sweeps).
     double t_seg;
     const double dist = closest(q, c.seg, t_seg);
-    const double force = contact_force(kc, c.reach - dist);
+    const double force = tip_push(q, r_tip, kc).force.norm();
     c.lam = lambda_nN;
+    contact_window(c);
     in_contact = force > 0;
     // The contact force past what the tip can push: it rides over (the
     // chain's own friction is per node; the press is not modelled on it).
@@ -407,6 +451,7 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
         newton_step(c, phi);
     }
     last_converged = now_.residual < 1;
+    last_imbalance_nN = now_.imbalance_nN;
     worst_iterations = std::max(worst_iterations, last_iterations);
     if (!stepping_) {
         close_step();

@@ -91,5 +91,63 @@ bool Wire::contact(const Eigen::Vector2d &q, double r_tip, double &pen, Eigen::V
     return pen > 0;
 }
 
+void contact_features(const Eigen::Vector2d *xs, int lo, int hi, const Eigen::Vector2d &q, double reach,
+                      const Eigen::Vector2d &n0, std::vector<ContactFeature> &out)
+{
+    // One pass over the nodes lo..hi + 1: node j's count gathers segment
+    // j - 1 ending at it and segment j starting at it (their closest point
+    // clamped to it), less one where both are in the window.
+    bool prev_end = false;   // segment j - 1's closest point is node j
+    for (int j = lo; j <= hi + 1; ++j) {
+        int m = prev_end ? 1 : 0;
+        prev_end = false;
+        if (j <= hi) {   // segment j
+            const Eigen::Vector2d ab = xs[j + 1] - xs[j], qa = q - xs[j];
+            const double l2 = ab.squaredNorm(), t = l2 > 0 ? qa.dot(ab) / l2 : 0.0;
+            if (t <= 0) {
+                ++m;
+            } else if (t >= 1) {
+                prev_end = true;
+            } else {
+                const Eigen::Vector2d d = qa - t * ab;
+                const double dn = d.norm();
+                if (dn < reach) {
+                    ContactFeature f;
+                    f.a = j, f.t = t, f.dist = dn;
+                    f.n = dn > 1e-12 ? Eigen::Vector2d(d / dn) : Eigen::Vector2d(Eigen::Vector2d(-ab.y(), ab.x()).normalized());
+                    out.push_back(f);
+                }
+            }
+        }
+        if (j > lo && j <= hi) --m;   // an inner node of the window: both its segments counted it
+        if (m == 0) continue;
+        const Eigen::Vector2d d = q - xs[j];
+        const double dn = d.norm();
+        if (!(dn < reach)) continue;
+        ContactFeature f;
+        f.a = j, f.node = true, f.sign = m, f.dist = dn;
+        f.n = dn > 1e-12 ? Eigen::Vector2d(d / dn) : n0;
+        out.push_back(f);
+    }
+}
+
+TipPush Wire::tip_push(const Eigen::Vector2d &q, double r_tip, double k) const
+{
+    TipPush r;
+    if (!(k > 0)) return r;
+    const double reach = r_tip + 0.5 * d_nm + lambda_nN / k;
+    features_.clear();
+    const Eigen::Vector2d ab = x[1] - x[0];
+    contact_features(x.data(), 0, static_cast<int>(x.size()) - 2, q, reach, Eigen::Vector2d(-ab.y(), ab.x()).normalized(), features_);
+    const Eigen::Matrix2d I = Eigen::Matrix2d::Identity();
+    for (const auto &f : features_) {
+        const double push = k * (reach - f.dist);   // max(0, lambda + k pen): the feature is within reach
+        r.force += f.sign * push * f.n;
+        Eigen::Matrix2d s = k * f.n * f.n.transpose();
+        if (f.node && f.dist > 1e-12) s -= push / f.dist * (I - f.n * f.n.transpose());   // the node's normal turns with q
+        r.stiffness += f.sign * s;
+    }
+    return r;
+}
 
 }  // namespace afm::sim

@@ -143,6 +143,42 @@ private:
     std::vector<Pivot> piv_;                 // D_i
 };
 
+// The tip's contact with a polyline of capsules (segments of half width
+// d/2 with round caps), as features: each segment whose closest point to
+// the apex is inside it, and each node whose count is not zero: +1 for a
+// node that is both its segments' closest point (the convex side of a
+// bend, or an end), -1 for an inner node that neither is (the concave
+// side: the two segments' terms would count its share twice). Their
+// energies sum, by inclusion-exclusion of the shared caps, to one contact
+// wherever a single segment or node is closest, and to the blend of both
+// segments (and the node taken off) where the apex faces a bend's inside:
+// continuously differentiable in the apex and in the nodes, so the force's
+// direction turns smoothly across a node instead of jumping between the
+// segments' normals (physics.md 5.1). Only features closer than the reach
+// are listed.
+struct ContactFeature {
+    int a = 0;               // the segment (a, a + 1), or the node a
+    bool node = false;
+    double t = 0;            // along the segment (0 for a node)
+    double sign = 1;         // its count: +1, or -1 (an inner node on a bend's inside)
+    double dist = 0;         // from the apex to the feature, nm
+    Eigen::Vector2d n = Eigen::Vector2d::Zero();   // unit, from the feature to the apex
+};
+
+// The features of segments lo..hi of xs within `reach` of q (appended to
+// out). A node of the window's edge counts as an end (the window must hold
+// every segment within reach). n0: the normal when the apex is on a node.
+void contact_features(const Eigen::Vector2d *xs, int lo, int hi, const Eigen::Vector2d &q, double reach,
+                      const Eigen::Vector2d &n0, std::vector<ContactFeature> &out);
+
+// The tip's push through a wire's contact (Wire::tip_push): the force on
+// the apex, nN, and its stiffness with the wire held (-dF/dq, nN/nm:
+// k n n^T for each feature, less the turning of a node's normal).
+struct TipPush {
+    Eigen::Vector2d force = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d stiffness = Eigen::Matrix2d::Zero();
+};
+
 class Wire {
 public:
     virtual ~Wire() = default;
@@ -173,6 +209,10 @@ public:
     // depend on k). 0 for a push on its own (the plain penalty).
     double lambda_nN = 0;
     double contact_force(double k, double pen) const { return std::max(0.0, lambda_nN + k * pen); }
+    // The push on the apex circle (centre q, radius r_tip) with penalty k:
+    // each contact feature (contact_features) pushes by max(0, lambda + k
+    // pen) along its normal, times its count.
+    TipPush tip_push(const Eigen::Vector2d &q, double r_tip, double k) const;
     // The tip at q pushes the wire with contact stiffness k (nN/nm): the wire
     // moves to quasi-static equilibrium. Returns true when it moved.
     // ride_nN: the most the tip can push before it leaves the substrate
@@ -189,9 +229,10 @@ public:
     // balance with it converges. Without begin_step() each push is a step.
     virtual void begin_step() {}
     virtual void end_step() {}
-    // Whether the step's last push left the wire in balance (its own
-    // tolerance; a rod's push is exact).
-    virtual bool settled() const { return true; }
+    // Whether the step's last push left the wire in balance to tol_nN (the
+    // world's force tolerance): every node's force within it of its
+    // Coulomb law (a rod's push is exact).
+    virtual bool settled(double tol_nN) const { (void)tol_nN; return true; }
     // Distance from q to the wire's axis, nm.
     double axis_distance(const Eigen::Vector2d &q) const;
     TrenchTrap trap;              // empty unless lithography cuts trenches
@@ -209,6 +250,7 @@ public:
 protected:
     std::vector<Eigen::Vector2d> x;   // nodes, nm
     void update_box();
+    mutable std::vector<ContactFeature> features_;   // tip_push's, kept (no allocation per call)
 };
 
 class RigidWire : public Wire {
@@ -242,7 +284,7 @@ public:
               double ride_nN = std::numeric_limits<double>::infinity()) override;
     void begin_step() override;
     void end_step() override;
-    bool settled() const override { return !open_ || last_converged; }
+    bool settled(double tol_nN) const override { return !open_ || last_converged || last_imbalance_nN <= tol_nN; }
 
     double ds = 0;                    // rest segment length, nm
     double EI = 0;                    // nN nm^2
@@ -251,32 +293,35 @@ public:
     int max_iterations = 8;           // Newton iterations per push, at most
     int last_iterations = 0;          // the last push's Newton iterations (balance tests; 1: none needed)
     bool last_converged = false;      // whether it met the step tolerance
+    double last_imbalance_nN = 0;     // the last push's worst node imbalance, nN (the Coulomb law's excess at a stuck node)
     long solved = 0;                  // steps the tip was in contact for (each solved to the step tolerance, or not)
     int worst_iterations = 0;         // the most Newton iterations one push took
     long unconverged = 0;             // steps left out of balance (a push at max_iterations that no later push of the step finished)
     long regularised = 0;             // Newton steps whose system was singular (solved with a Levenberg shift)
 
 private:
-    // The tip's contact during one step: apex q, reach r_tip + d/2, contact
-    // stiffness kc, the segment it touches (fixed for the step) and the
-    // normal to use if the apex sits on the axis.
+    // The tip's contact during one push: apex q, reach r_tip + d/2, contact
+    // stiffness kc, the segment closest to it at the push's start, the
+    // window of segments lo..hi whose features (contact_features) it may
+    // touch during the push, and the normal to use if the apex sits on the
+    // axis.
     struct Contact {
         Eigen::Vector2d q, n0;
-        int seg = 0;
+        int seg = 0, lo = 0, hi = 0;
         double reach = 0, kc = 0;
         double lam = 0;   // the multiplier (Wire::lambda_nN): the force is kc (pen + lam / kc)
     };
     // What one evaluation of the step's energy leaves for the Newton step at
     // that point: the gradient (nN), each segment's unit direction, each
     // node's friction stiffness c_i / s and direction dx / s (s =
-    // sqrt(|dx|^2 + eps^2)), the contact's parameter and normal.
+    // sqrt(|dx|^2 + eps^2)), the contact's features and their forces on
+    // the nodes (cg: zero outside the features' nodes).
     struct Eval {
-        std::vector<Eigen::Vector2d> g, seg_dir, node_dir;
+        std::vector<Eigen::Vector2d> g, seg_dir, node_dir, cg;
         std::vector<double> node_w;
         double residual = 0;          // worst node's imbalance (a ratio of squares; < 1: balanced)
-        double contact_t = 0;
-        Eigen::Vector2d contact_n = Eigen::Vector2d::Zero();
-        bool touching = false;
+        double imbalance_nN = 0;      // the same, nN: a sliding node's net force, a stuck one's force past c_i
+        std::vector<ContactFeature> feats;
     };
     std::vector<Eigen::Vector2d> last_dx_;   // the last push's increment (warm start)
     // The step's work arrays, kept between pushes (no allocation per push).
@@ -287,10 +332,11 @@ private:
     // Distance from q to the axis; the closest segment and its parameter.
     double closest(const Eigen::Vector2d &q, int &seg, double &t) const;
     double node_friction(int i) const;   // c_i = f ds, half at the ends, nN
+    void contact_window(Contact &c) const;   // c.lo, c.hi about c.q and c.seg
     // The step's energy at x (elastic + contact + regularised friction work
     // from start_), nN nm; fills ev at x.
     // evaluate()'s tip contact: its energy and the forces on its segment's nodes.
-    static double contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev, Eigen::Vector2d *fa, Eigen::Vector2d *fb);
+    static double contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev);
     double evaluate(const Contact &c, Eval &ev, bool at_start = false) const;
     // d^T H d of the elastic and contact energy at ev's point.
     double elastic_curvature(const Contact &c, const Eval &ev, const std::vector<Eigen::Vector2d> &d) const;

@@ -402,6 +402,7 @@ private:
         bool fresh = false;
         bool pressing = false, touched = false;
         Eigen::Vector2d n = Eigen::Vector2d::Zero();
+        double kt_nN_per_nm = 0;   // across n: the contact's stiffness as the apex slides along the wire held (its normal turns)
     };
     std::vector<WireLink> wire_links_;
     void measure_wire_links(double rt);

@@ -70,7 +70,7 @@ void World::relax()
 bool World::wires_settled() const
 {
     for (const auto &w : wires_)
-        if (!w->settled()) return false;
+        if (!w->settled(kSolverForceTol_nN)) return false;
     return true;
 }
 
@@ -127,13 +127,17 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt)
         w.pulled = false;
         // ridden: the tip rode over it at the last push (push_wires)
         if (w.ridden || !w.near(as, rt + w.lambda_nN / k_contact_)) continue;
-        double pen, u;
-        w.contact(as, rt, pen, l.n, u);
-        const double f = w.contact_force(k_contact_, pen);
+        // Re-linearised each sweep: the force's direction and its stiffness
+        // across it (the normal turns as the apex slides along a bend).
+        const TipPush tp = w.tip_push(as, rt, k_contact_);
+        const double f = tp.force.norm();
         if (!(f > 0)) continue;
         l.pressing = true;
-        wire_gap_nm_ = std::max(wire_gap_nm_, std::fabs(pen));   // closed under load
-        g += f * l.n;
+        l.n = tp.force / f;
+        const Eigen::Vector2d tau(-l.n.y(), l.n.x());
+        l.kt_nN_per_nm = std::max(0.0, tau.dot(tp.stiffness * tau));
+        wire_gap_nm_ = std::max(wire_gap_nm_, std::fabs(f - w.lambda_nN) / k_contact_);   // closed under load
+        g += tp.force;
         w.pulled = true;
     }
     return g;
@@ -157,7 +161,10 @@ void World::measure_wire_links(double rt)
             continue;
         }
         w.contact(as, rt, pen, n, u);   // apart too: a point of 0 force, so a step that left the contact measures its chord
-        const double s = as.dot(n), f = w.contact_force(k_contact_, pen);
+        const Eigen::Vector2d F = w.tip_push(as, rt, k_contact_).force;
+        const double f = F.norm();
+        if (f > 0) n = F / f;
+        const double s = as.dot(n);
         if (l.fresh && std::fabs(s - l.s_nm) > 1e-9) l.k_nN_per_nm = std::clamp(-(f - l.f_nN) / (s - l.s_nm), 0.0, k_contact_);
         l.s_nm = s, l.f_nN = f, l.fresh = true;
     }
@@ -170,10 +177,8 @@ void World::open_wire_contacts(double rt)
     const Eigen::Vector2d as = apex_ - drift_;
     for (auto &w : wires_) {
         if (w->lambda_nN == 0) continue;
-        double pen = -1, u;
-        Eigen::Vector2d n;
-        if (!w->ridden && w->near(as, rt + w->lambda_nN / k_contact_)) w->contact(as, rt, pen, n, u);
-        if (w->ridden || !(w->contact_force(k_contact_, pen) > 0)) w->lambda_nN = 0;
+        if (w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_) || !(w->tip_push(as, rt, k_contact_).force.norm() > 0))
+            w->lambda_nN = 0;
     }
 }
 
@@ -184,16 +189,8 @@ void World::close_wire_contacts(double rt)
     // penalty left open (a ride-over, or a wire apart, takes none).
     const Eigen::Vector2d as = apex_ - drift_;
     for (auto &l : wire_links_) l.fresh = false;   // the forces move: the secants start again
-    for (auto &w : wires_) {
-        double pen, u;
-        Eigen::Vector2d n;
-        if (w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_)) {
-            w->lambda_nN = 0;
-            continue;
-        }
-        w->contact(as, rt, pen, n, u);
-        w->lambda_nN = w->contact_force(k_contact_, pen);
-    }
+    for (auto &w : wires_)
+        w->lambda_nN = w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_) ? 0.0 : w->tip_push(as, rt, k_contact_).force.norm();
 }
 
 Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const
@@ -229,14 +226,15 @@ void World::slide_apex(const Eigen::Vector2d &excess, double rt)
 
 double World::step_stiffness(const Eigen::Vector2d &m) const
 {
-    // Along m: the lever's, and each pressing wire contact's: its secant
-    // (k_contact_ until measured) for an advance into the wire, k_contact_
-    // for a retreat from it.
+    // Along m: the lever's, and each pressing wire contact's: along its
+    // normal its secant (k_contact_ until measured) for an advance into the
+    // wire, k_contact_ for a retreat from it; across it the turning of its
+    // normal (kt, the wire held).
     double k = m.dot(K_ * m);
     for (const auto &l : wire_links_) {
         if (!l.pressing) continue;
-        const double a = m.dot(l.n);
-        k += (a > 0 || l.k_nN_per_nm < 0 ? k_contact_ : l.k_nN_per_nm) * a * a;
+        const double a = m.dot(l.n), b = m.x() * -l.n.y() + m.y() * l.n.x();
+        k += (a > 0 || l.k_nN_per_nm < 0 ? k_contact_ : l.k_nN_per_nm) * a * a + l.kt_nN_per_nm * b * b;
     }
     return k;
 }
@@ -261,6 +259,7 @@ double World::stop_at_wires(const Eigen::Vector2d &m, double t, double rt)
             t = std::max(0.0, open / -a);
             l.touched = true;
             l.n = n;
+            l.kt_nN_per_nm = 0;
         }
     }
     return t;
@@ -375,14 +374,11 @@ void World::relax_rigid()
         if (fr) f = *fr;
     }
     for (auto &w : wires_) {
-        double pen, u;
-        Eigen::Vector2d n;
         if (!w->near(as, rt + w->lambda_nN / k_contact_)) { w->in_contact = false, w->lambda_nN = 0; continue; }
         const auto t0 = clock_start();
         w->push(as, rt, k_contact_, ride_push_nN(*w));
         clock_add(&t_wires_, t0);
-        w->contact(as, rt, pen, n, u);
-        if (!w->ridden) f += w->contact_force(k_contact_, pen) * n;
+        if (!w->ridden) f += w->tip_push(as, rt, k_contact_).force;
     }
     close_wire_contacts(rt);   // one step a sample: the next sample's push closes this one's penalty
     count_ridden();

@@ -115,11 +115,48 @@ void test_solver_counts_samples_left_unconverged_at_its_cap()
     TEST_ASSERT_TRUE(capped.unconverged > 0);
 }
 
+void test_flexible_wire_pushed_at_a_node_converges_every_sample()
+{
+    // scenes/wire_flexible.yaml's push: a 5 um silver wire (N = 32: a node
+    // every 156.25 nm, one at x = 0), friction 20 nN/um, pushed at its
+    // middle at 2 um/s. The apex faces node 16, between two segments whose
+    // normals turn apart as the chain bends around the tip: a contact whose
+    // normal jumps there (the closest segment's) leaves samples at the cap.
+    const afm::Scene s = scene_from_text(R"(name: node-push
+seed: 12
+duration_s: 1
+sample_rate_hz: 20000
+block_hz: 1000
+frame_rate_hz: 25
+effects: [bending_offset, adhesion, wire_flexibility]
+sample:
+  substrate: glass
+  field_nm: 7000
+  tip_substrate: {mu: 0.0865, adhesion_nN: 1.0}
+  wire: {friction_nN_per_um: 20, youngs_modulus_GPa: 83, segments: 32}
+objects:
+  wires:
+    - {id: 1, x0_nm: -2500, y0_nm: 0, x1_nm: 2500, y1_nm: 0, diameter_nm: 100}
+operator:
+  load_nN: 5
+  path_nm: [[0, -300]]
+)");
+    for (double x : {0.0, 78.125}) {   // facing the node; facing a segment's middle
+        const PushRun r = push_at_speed(s, x, -100, 300, 2000, afm::sim::kSolverMaxSweeps);
+        std::printf("wire pushed at x = %.3f nm: %ld samples, %ld sweeps (max %d), worst %.3e nN %.3e nm, unconverged %ld,"
+                    " final %.3f nm\n",
+                    x, r.samples, r.sweeps, r.max_sweeps, r.worst_force_nN, r.worst_gap_nm, r.unconverged, r.final_nm);
+        TEST_ASSERT_TRUE(r.contact_samples > 1000);
+        TEST_ASSERT_EQUAL_INT(0, r.unconverged);
+    }
+}
+
 int main()
 {
     UNITY_BEGIN();
     RUN_TEST(test_pushed_particle_force_and_position_hold_over_stiffness_rate_and_cap);
     RUN_TEST(test_slow_push_force_is_the_friction_law_with_the_particle_own_load);
     RUN_TEST(test_solver_counts_samples_left_unconverged_at_its_cap);
+    RUN_TEST(test_flexible_wire_pushed_at_a_node_converges_every_sample);
     return UNITY_END();
 }
