@@ -338,9 +338,14 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k, double ri
     const Eigen::Vector2d p = -n;   // the tip pushes the wire away from itself
     // Where a trench holds the wire, its friction is anisotropic: f along the
     // trench, hold x f across it (G = a a^T + hold b b^T in the rod frame).
-    bool held = false;
-    held_points = 0;
-    if (trap) {
+    // Within a sample's step (begin_step .. end_step: no trench is cut
+    // meanwhile) the metric depends on the pose alone: a push that left the
+    // rod where it was (static, as most of a sample's sweeps) keeps it.
+    const bool same_pose = metric_valid_ && centre == metric_centre_ && psi == metric_psi_;
+    bool held = same_pose && held_points > 0;
+    if (trap && !same_pose) {
+        held_points = 0;
+        metric_valid_ = in_step_, metric_centre_ = centre, metric_psi_ = psi;
         metric_.assign(u.size(), Eigen::Matrix2d::Identity());
         for (std::size_t k = 0; k < u.size(); ++k) {
             Eigen::Vector2d along;

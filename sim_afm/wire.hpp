@@ -264,6 +264,8 @@ public:
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
               double ride_nN = std::numeric_limits<double>::infinity()) override;
     void place(const Eigen::Vector2d &centre, double psi);   // sets the pose and the nodes
+    void begin_step() override { in_step_ = true, metric_valid_ = false; }   // the trench's metric is kept within a step only
+    void end_step() override { in_step_ = false, metric_valid_ = false; }
 
     Eigen::Vector2d centre;       // nm
     double psi = 0;               // axis angle from +x, rad
@@ -274,6 +276,10 @@ public:
 
 private:
     std::vector<Eigen::Matrix2d> metric_;
+    bool in_step_ = false;                 // between begin_step and end_step
+    bool metric_valid_ = false;            // metric_ is the trench's at metric_centre_, metric_psi_ (within a step)
+    Eigen::Vector2d metric_centre_ = Eigen::Vector2d::Zero();
+    double metric_psi_ = 0;
 };
 
 class FlexibleWire : public Wire {
