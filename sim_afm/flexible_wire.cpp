@@ -149,9 +149,7 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
     const double slide_in = inv_sq(tol_in), slide_end = inv_sq(tol_end);
     const double eps_root = std::sqrt(eps * eps), inv_eps_root = 1.0 / eps_root;
     double e_stretch = 0, e_bend = 0, e_friction = 0, worst = 0, slide2 = 0, stuck_excess = 0;
-    auto stuck_past = [&](double f2, double ci) {   // a stuck node's force past its friction c_i
-        if (f2 > ci * ci) stuck_excess = std::max(stuck_excess, std::sqrt(f2) - ci);
-    };
+    auto stuck_past = [&](double f2, double ci) { if (f2 > ci * ci) stuck_excess = std::max(stuck_excess, std::sqrt(f2) - ci); };
     Eigen::Vector2d fs_before = Eigen::Vector2d::Zero();   // spring force of segment i - 1 on node i
     Eigen::Vector2d b_before = Eigen::Vector2d::Zero();    // b_{i-1}
     Eigen::Vector2d b_here = Eigen::Vector2d::Zero();      // b_i
@@ -167,10 +165,7 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
         const Eigen::Vector2d b_after = i + 2 < nn ? Eigen::Vector2d(xs[i] - 2 * xs[i + 1] + xs[i + 2]) : Eigen::Vector2d::Zero();
         e_bend += b_after.squaredNorm();
         Eigen::Vector2d gi = fs_before - fs + kb * (b_before - 2 * b_here + b_after);
-        if (i >= c.lo && i <= c.hi + 1) {   // the contact's window: its forces, then cg zero again
-            gi += cg[i];
-            cg[i].setZero();
-        }
+        if (i >= c.lo && i <= c.hi + 1) gi += cg[i], cg[i].setZero();   // the contact's window: its forces, cg zero again
         fs_before = fs;
         b_before = b_here;
         b_here = b_after;
