@@ -57,6 +57,7 @@ typedef enum {
     FW_RULE_INTERLOCK_LATERAL,     /* the interlock's lateral limit in (0, k_theta K_l / h 10 V) pN (fw_guard) */
     FW_RULE_HYST,                  /* the scanner's hysteresis model's domain (fw_hyst.h) */
     FW_RULE_CREEP,                 /* the scanner's creep law's domain (fw_creep.h) */
+    FW_RULE_DRIFT_KALMAN,          /* the drift filter's domain (fw_kalman.h) */
     FW_RULE_COUNT
 } fw_rule_t;
 

@@ -57,6 +57,8 @@ static const rule_row_t rule_rows[FW_RULE_COUNT] = {
       "in [1/2, 2]", FW_ERR_ARG },
     { "the scanner's creep law: gamma in [0, 100000] ppm per decade, t0 in [1 ms, 100 s], the period in "
       "(0, t0 / 16]", FW_ERR_ARG },
+    { "the drift filter: the period in (0, 1 s], the random walk's variance a second and the velocity's prior "
+      "variance >= 0", FW_ERR_ARG },
 };
 
 const char *fw_rule_text(fw_rule_t rule)
