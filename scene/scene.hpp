@@ -69,6 +69,14 @@ struct FirmwareCalibration {
     // FW_DRIFT_MAX_STEP_DEFAULT_PM (200 nm). Local scans that miss their
     // object scan again wider, out to this limit.
     std::optional<double> drift_max_step_nm;
+    // The card's drift estimate (fw_drift.h): "step" (each local scan's
+    // offset taken whole and held) or "kalman" (fw_kalman: constant
+    // velocity and a random walk, predicting between scans), and the
+    // filter's figures as the card takes them (firmware.drift_*; none: the
+    // card's nominal, host/card/card_table.cpp): the walk, the velocity's
+    // prior sigma and a local scan's registration sigma.
+    std::string drift_filter = "step";
+    std::optional<double> drift_walk_nm_per_sqrt_min, drift_rate_nm_per_min, drift_scan_sigma_nm;
     // The card's force interlock (firmware/include/fw_guard.h): on unless
     // firmware.interlock is false (a lab turns it off to press past the
     // lever's range on purpose, as the paper's deep lines do). Its limits

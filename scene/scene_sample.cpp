@@ -276,7 +276,8 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
                                      "tip_half_angle_deg", "adhesion_nN", "particle_mu", "particle_adhesion_nN",
                                      "particle_shear_strength_MPa", "particle_contact_area_nm2", "wire_friction_nN_per_um", "wire_mu",
                                      "litho_threshold_nN", "litho_depth_nm_per_nN", "calibration", "hyst_enable", "creep_enable",
-                                     "creep_gamma_pct_per_decade", "creep_t0_s", "scanner"});
+                                     "creep_gamma_pct_per_decade", "creep_t0_s", "scanner", "drift_filter",
+                                     "drift_walk_nm_per_sqrt_min", "drift_rate_nm_per_min", "drift_scan_sigma_nm"});
         auto whole = [&](const char *k, int dflt) {   // a whole number (kSceneRanges)
             const double dv = dflt;
             return static_cast<int>(r.num(fw, "firmware", k, &dv));
@@ -295,6 +296,11 @@ void read_firmware(const Reader &r, const YAML::Node &root, Scene &s)
         optional("lateral_nN_per_V", &s.fw_cal.lateral_nN_per_V);
         if (fw["mu"].IsDefined() && !fw["mu"].IsNull()) s.fw_cal.mu = r.num(fw, "firmware", "mu", nullptr);
         optional("drift_max_step_nm", &s.fw_cal.drift_max_step_nm);
+        const std::string step = s.fw_cal.drift_filter;
+        s.fw_cal.drift_filter = r.str(fw, "firmware", "drift_filter", &step, {"step", "kalman"});
+        optional("drift_walk_nm_per_sqrt_min", &s.fw_cal.drift_walk_nm_per_sqrt_min);
+        optional("drift_rate_nm_per_min", &s.fw_cal.drift_rate_nm_per_min);
+        optional("drift_scan_sigma_nm", &s.fw_cal.drift_scan_sigma_nm);
         // The force interlock: positive limits here; below the channel's
         // full scale is the card's rule (fw_guard_check, named by the
         // launcher with the probe's keys).

@@ -42,7 +42,11 @@
  * Between blocks, fw_card_fix applies a local scan's finding (physics.md
  * section 10): the object's scanned position against its model is drift
  * (fw_drift), accepted up to the drift limit (a landmark: the landmark
- * limit), applied to every model; the command follows from the next block.
+ * limit, taken whole as a jump), and the change of the drift estimate is
+ * applied to every model; the command follows from the next block. With
+ * the Kalman filter (drift_filter) the estimate also moves on at its
+ * estimated velocity at each block's end, before the command, and every
+ * model moves with it.
  *
  * Wires are rigid rods (fw_wire); the trenches the card has recorded
  * (fw_litho) hold them (fw_wire_hold before each sample's push rule: the
@@ -125,6 +129,13 @@ typedef struct {
     int32_t litho_step_pm;              /* 0: FW_CARD_LITHO_STEP_DEFAULT_PM */
     /* drift and landmarks (section 10) */
     int32_t drift_max_step_pm;          /* 0: FW_DRIFT_MAX_STEP_DEFAULT_PM */
+    /* the drift estimate (fw_drift.h): FW_DRIFT_FILTER_STEP (0, the default)
+     * or FW_DRIFT_FILTER_KALMAN with its parameters (period_us: the
+     * block's period) and the variance it gives each local scan's
+     * registration (nm^2, 16.16) */
+    int32_t drift_filter;
+    fw_kalman_params_t drift_kalman;
+    q16_t drift_scan_var_nm2;
     int32_t landmark_max_step_pm;       /* > 0 when there are landmarks */
     const fw_card_landmark_t *landmarks;
     int32_t n_landmarks;
@@ -235,7 +246,7 @@ typedef struct {
  * fw_board16_check for 16 bits, with the displacement estimate where asked),
  * particles (fw_particles_check, each particle's, capacity), wires (each
  * rod's fw_wire_check, fw_wire_check_tip, capacity), lithography
- * (fw_litho_check, storage), drift (fw_drift_check), landmarks (capacity),
+ * (fw_litho_check, storage), drift (fw_drift_check, fw_drift_filter_check), landmarks (capacity),
  * haptic (gain and limit >= 0), the interlock's limits when it is on
  * (fw_guard_check, against the board's gains), the creep law and each
  * axis's hysteresis model when on (fw_creep_check, fw_hyst_check). FW_RULE_NULL_POINTER for NULL arguments,

@@ -150,6 +150,9 @@ fw_rule_t fw_card_check(const fw_card_config_t *cfg, const fw_card_storage_t *st
     if (rule == FW_RULE_OK) {
         rule = fw_drift_check(card_drift_step_pm(cfg));
     }
+    if (rule == FW_RULE_OK) {
+        rule = fw_drift_filter_check(cfg->drift_filter, &cfg->drift_kalman, cfg->drift_scan_var_nm2);
+    }
     if (rule == FW_RULE_OK && cfg->n_landmarks != 0) {
         if (cfg->n_landmarks < 0 || cfg->landmarks == NULL) {
             rule = FW_RULE_LANDMARKS;
@@ -209,6 +212,9 @@ fw_status_t fw_card_init(fw_card_t *c, const fw_card_config_t *cfg, const fw_car
                             cfg->litho_depth_pm_per_pn, cfg->tip_half_angle_mdeg, card_litho_step_pm(cfg));
     }
     (void)fw_drift_init(&c->drift, card_drift_step_pm(cfg));
+    if (cfg->drift_filter == FW_DRIFT_FILTER_KALMAN) {
+        (void)fw_drift_use_kalman(&c->drift, &cfg->drift_kalman, cfg->drift_scan_var_nm2);
+    }
     if (cfg->interlock) {
         (void)fw_guard_init(&c->guard, cfg->interlock_normal_pn, cfg->interlock_lateral_pn,
                             board.normal_gain_pn_per_v, board.lateral_gain_pn_per_v);
@@ -375,6 +381,17 @@ static void card_scanner_apex(fw_card_t *c, const fw_sample_in_t *in, fw_sample_
     }
 }
 
+/* The drift estimate at the block's end (fw_drift_predict), every model
+ * moved by its change. */
+static void card_drift_block(fw_card_t *c)
+{
+    int32_t delta[2];
+    fw_drift_predict(&c->drift, delta);
+    if (delta[0] != 0 || delta[1] != 0) {
+        fw_drift_apply(delta, &c->parts, c->st.wires, c->n_wires, c->cfg.litho ? &c->litho : NULL);
+    }
+}
+
 /* The block's end: the pose's target and command, the hand's force;
  * joy_target_pm: the joystick's target before the drift (the interlock's
  * xy set point). */
@@ -400,7 +417,9 @@ static void card_command(fw_card_t *c, const fw_card_pose_t *pose, fw_card_out_t
     } else {
         fw_comp_piezo_cmd_pm(&c->board.comp, joy, c->board.sn_v, c->board.sl_v, out->piezo_cmd_pm, &sat);
     }
-    /* the joystick's workspace follows the sample, as the display does */
+    /* the drift estimate moves on (the Kalman filter), every model with it;
+     * the joystick's workspace follows the sample, as the display does */
+    card_drift_block(c);
     for (i = 0; i < 2; i++) {
         out->target_pm[i] = fw_math_sat_i32((int64_t)out->target_pm[i] + c->drift.offset_pm[i], &sat);
         out->piezo_cmd_pm[i] = fw_math_sat_i32((int64_t)out->piezo_cmd_pm[i] + c->drift.offset_pm[i], &sat);
@@ -595,7 +614,8 @@ fw_status_t fw_card_fix(fw_card_t *c, int32_t object_id, const int32_t scan_pm[2
     }
     /* a landmark may have jumped far (a lever change): its own limit */
     limit = out->landmark ? c->cfg.landmark_max_step_pm : c->drift.max_step_pm;
-    if (fw_drift_measure_within(&c->drift, out->model_pm, scan_pm, limit, out->delta_pm) != FW_OK) {
+    if ((out->landmark ? fw_drift_jump_within(&c->drift, out->model_pm, scan_pm, limit, out->delta_pm)
+                       : fw_drift_measure_within(&c->drift, out->model_pm, scan_pm, limit, out->delta_pm)) != FW_OK) {
         out->result = FW_CARD_FIX_NOT_DRIFT;
         return FW_OK;
     }

@@ -25,6 +25,8 @@
  *              creep_enable (bool), creep {gamma_ppm, t0_us, period_us};
  *                hyst_enable (bool), hyst[2] each {n, r_pm[16], w_q24[16],
  *                range_pm, origin_pm} (all FW_HYST_N_MAX entries);
+ *              drift_filter, drift_kalman {period_us, walk_nm2_per_s,
+ *                vel_prior_nm2_per_s2}, drift_scan_var_nm2;
  *              capacities: particles, wires, trench points
  *   in         joy_q15[2], load_pn, engaged (bool), n, each {sn_uv, sl_uv, piezo_pm[3]}
  *   out        force_pn[3], flags, code_n, code_l, tip_pm[3], target_pm[2],
@@ -310,6 +312,11 @@ static void put_scanner(fw_marshal_cursor_t *cur, const fw_card_config_t *c)
         PUT(c->hyst[i].range_pm);
         PUT(c->hyst[i].origin_pm);
     }
+    PUT(c->drift_filter);
+    PUT(c->drift_kalman.period_us);
+    PUT(c->drift_kalman.walk_nm2_per_s);
+    PUT(c->drift_kalman.vel_prior_nm2_per_s2);
+    PUT(c->drift_scan_var_nm2);
 }
 
 static void get_scanner(fw_marshal_cursor_t *cur, fw_card_config_t *c)
@@ -329,6 +336,11 @@ static void get_scanner(fw_marshal_cursor_t *cur, fw_card_config_t *c)
         GET(c->hyst[i].range_pm, "config.hyst.range_pm");
         GET(c->hyst[i].origin_pm, "config.hyst.origin_pm");
     }
+    GET(c->drift_filter, "config.drift_filter");
+    GET(c->drift_kalman.period_us, "config.drift_kalman.period_us");
+    GET(c->drift_kalman.walk_nm2_per_s, "config.drift_kalman.walk_nm2_per_s");
+    GET(c->drift_kalman.vel_prior_nm2_per_s2, "config.drift_kalman.vel_prior_nm2_per_s2");
+    GET(c->drift_scan_var_nm2, "config.drift_scan_var_nm2");
 }
 
 void fw_marshal_put_config_le(fw_marshal_cursor_t *cur, const fw_card_config_t *cfg, const fw_card_storage_t *st)

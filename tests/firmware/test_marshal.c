@@ -61,6 +61,8 @@ static void fill_config(fw_card_config_t *c, bool flag)
     c->interlock_normal_pn = draw(); c->interlock_lateral_pn = draw();
     c->creep_enable = flag; c->creep.gamma_ppm = draw(); c->creep.t0_us = draw(); c->creep.period_us = draw();
     c->hyst_enable = !flag;
+    c->drift_filter = draw(); c->drift_kalman.period_us = draw(); c->drift_kalman.walk_nm2_per_s = draw();
+    c->drift_kalman.vel_prior_nm2_per_s2 = draw(); c->drift_scan_var_nm2 = draw();
     for (int i = 0; i < 2; ++i) {
         c->hyst[i].n = draw(); c->hyst[i].range_pm = draw(); c->hyst[i].origin_pm = draw();
         for (int k = 0; k < FW_HYST_N_MAX; ++k) { c->hyst[i].r_pm[k] = draw(); c->hyst[i].w_q24[k] = draw(); }
