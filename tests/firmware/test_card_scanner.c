@@ -293,6 +293,17 @@ static void test_cost_on_the_board(void)
     cost_start_timer();
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &off, &st, NULL));
     block_cost(&card, "compensation off");
+    /* the drift's Kalman filter, at 1 nm/s: the models move a pm a block */
+    off.drift_filter = FW_DRIFT_FILTER_KALMAN;
+    off.drift_kalman.period_us = 1000;
+    off.drift_kalman.walk_nm2_per_s = 109227;           /* 10 nm/sqrt(min), 16.16 */
+    off.drift_kalman.vel_prior_nm2_per_s2 = 182044;     /* (100 nm/min)^2, 16.16 */
+    off.drift_scan_var_nm2 = 16384;                     /* (0.5 nm)^2, 16.16 */
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &off, &st, NULL));
+    card.drift.kalman[0].v_pm_per_s = 1000 * 65536;
+    card.drift.kalman[1].v_pm_per_s = -1000 * 65536;
+    block_cost(&card, "drift Kalman filter on");
+    TEST_ASSERT_INT32_WITHIN(2, BLOCKS, card.drift.offset_pm[0]);
     cfg.creep_enable = true;
     lab_creep(&cfg.creep);
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
