@@ -107,6 +107,10 @@ class BadScenes(unittest.TestCase):
                                  "16 or 32 bits")
         self.check_refused(GOOD.replace("objects:", "firmware: {drift_max_step_nm: -5}\nobjects:", 1),
                            "firmware.drift_max_step_nm", "must be > 0, got '-5'")
+        self.check_refused(GOOD.replace("objects:", "firmware: {drift_filter: sideways}\nobjects:", 1),
+                           "firmware.drift_filter", "must be one of kalman, step, got 'sideways'")
+        self.check_refused(GOOD.replace("objects:", "firmware: {drift_filter: kalman, drift_scan_sigma_nm: -1}\nobjects:", 1),
+                           "firmware.drift_scan_sigma_nm", "must be >= 0, got '-1'")
 
     def test_plan_cuts_named(self):
         with open(e2e_support.scene("paper/trench.yaml")) as f:
