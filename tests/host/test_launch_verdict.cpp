@@ -45,6 +45,7 @@ void test_every_check_that_can_fail_is_one_a_scene_may_expect()
     json run = run_with_assembly(3, false);
     run["fidelity"]["pass"] = false;
     run["fw"] = {{"interlock_trips", 2}, {"saturated_samples", 5}, {"unobservable_push_blocks", 9}};
+    run["sim"]["solver"] = {{"unconverged_samples", 3}, {"cap", 200}, {"force_tolerance_nN", 0.002}, {"gap_tolerance_nm", 0.01}};
     const std::set<std::string> failed = failed_checks(afm::judge(run, {}));
     const auto &names = afm::verdict_checks();
     TEST_ASSERT_EQUAL(static_cast<int>(names.size()), static_cast<int>(failed.size()));
