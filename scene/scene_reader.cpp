@@ -37,6 +37,9 @@ bool from_include(const YAML::Node &n)
 ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string &path, ContactSpec d, bool with_area)
 {
     if (!n.IsDefined() || n.IsNull()) return d;
+    if (!n.IsMap())   // before any n[key]: yaml-cpp throws its own error indexing a scalar or a sequence
+        r.fail(path, std::string("must be a mapping {mu, adhesion_nN") + (with_area ? ", shear_strength_MPa, contact_area_nm2" : "") +
+                         "}, got " + Reader::show(n));
     if (!with_area)
         for (const char *k : {"shear_strength_MPa", "contact_area_nm2"})
             if (n[k].IsDefined())
