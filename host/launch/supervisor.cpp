@@ -66,11 +66,16 @@ bool Supervisor::all_exited() const
 
 std::string Supervisor::dead(const Progress &prog, const std::string &out) const
 {
+    // The simulator ends the run: once it has said "done", or has itself
+    // exited cleanly, a clean exit of any process is the run's end.
+    const bool sim_ended = prog.is("sim_afm", RunState::done) ||
+                           std::any_of(run_.begin(), run_.end(),
+                                       [](const Child &c) { return c.name == "sim_afm" && c.exited && c.exit_code == 0; });
     for (const auto &c : run_) {
-        if (!c.exited || (c.exit_code == 0 && (prog.is("sim_afm", RunState::done) || c.name == "sim_afm"))) continue;
+        if (!c.exited || (c.exit_code == 0 && (sim_ended || c.name == "sim_afm"))) continue;
         // A clean exit: the process heard the simulator's "done", which
         // the launcher may not have dispatched yet; given a moment.
-        if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(500)) continue;
+        if (c.exit_code == 0 && std::chrono::steady_clock::now() - c.exited_at < std::chrono::milliseconds(kCleanExitGraceMs)) continue;
         std::string why = c.name + " died with exit code " + std::to_string(c.exit_code) + " (log: " + out + "/logs/" + c.name + ".log)";
         const std::string last = slurp_tail(out + "/logs/" + c.name + ".log", 1);   // the card's board names itself (pil.md)
         const std::size_t a = last.find_first_not_of(" \n"), b = last.find_last_not_of(" \n");

@@ -31,6 +31,13 @@ class Supervisor {
 public:
     // SIGTERM to afm_view_bridge, SIGKILL after this long (a pipe whose reader stopped reading).
     static constexpr int kViewBridgeStopMs = 2000;
+    // A run's process that exits 0 before the launcher has read the
+    // simulator's "done" is given this long for that message to be read
+    // (under load the launcher's reading lags: the clean clone of 46b2590,
+    // two paper runs beside another e2e file on two cores, called fw_node
+    // dead at 500 ms after a whole run); a process that truly ends early is
+    // named after it.
+    static constexpr int kCleanExitGraceMs = 5000;
 
     // Starts one row: a run's process, or an observer (lcm-spy, the page's
     // bridge), with the run's key (key_fd) and the page's pipe (pass_fd) where the row says.
