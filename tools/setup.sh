@@ -28,8 +28,10 @@ apt_pkgs+=(libpng-dev libjpeg-dev)   # PNG read and the page's JPEGs without Ope
 apt_pkgs+=(libopencv-contrib-dev fonts-dejavu-core)   # the frames' text: OpenCV's FreeType module, DejaVu Sans (host/renderer/frame_font.hpp)
 apt_pkgs+=(slurm-wlm munge)   # ./afm sweep --cluster slurm and its test's single-machine SLURM (13.2 MB installed, 3.6 MB fetched)
 missing=()
-# one dpkg-query for them all (a call each cost a run's build check 0.8 s)
-installed=" $(dpkg-query -W -f='${Status} ${Package}\n' "${apt_pkgs[@]}" 2>/dev/null | awk '$1 == "install" && $3 == "installed" { printf "%s ", $4 }') "
+# one dpkg-query for them all (a call each cost a run's build check 0.8 s);
+# it exits 1 when any of them is unknown to dpkg (never installed, as on a
+# fresh machine), which must not end the script under pipefail
+installed=" $({ dpkg-query -W -f='${Status} ${Package}\n' "${apt_pkgs[@]}" 2>/dev/null || true; } | awk '$1 == "install" && $3 == "installed" { printf "%s ", $4 }') "
 for p in "${apt_pkgs[@]}"; do
   [[ $installed == *" $p "* ]] || missing+=("$p")
 done
