@@ -37,10 +37,7 @@ bool from_include(const YAML::Node &n)
 ContactSpec read_contact(const Reader &r, const YAML::Node &n, const std::string &path, ContactSpec d, bool with_area)
 {
     if (!n.IsDefined() || n.IsNull()) return d;
-    if (!n.IsMap())   // before any n[key]: yaml-cpp throws its own error indexing a scalar or a sequence
-        r.fail(path, std::string("must be a mapping {mu, adhesion_nN") + (with_area ? ", shear_strength_MPa, contact_area_nm2" : "") +
-                         "}, got " + Reader::show(n));
-    if (!with_area)
+    if (!with_area && n.IsMap())   // the tip's contact: these two name the particles' own, said as such
         for (const char *k : {"shear_strength_MPa", "contact_area_nm2"})
             if (n[k].IsDefined())
                 r.fail(path + "." + k, "not used: the tip slides on the substrate by mu and adhesion_nN alone (a shear strength and "

@@ -85,9 +85,15 @@ public:
         return afm::printable(t.substr(0, kShowMax)) + "... (" + std::to_string(t.size()) + " characters)";
     }
 
+    // The one refusal of a section that is not a mapping of known keys:
+    // not a mapping ("must be a mapping {a, b}, got ..."), a key that is not
+    // a name, a key given twice, a key not in `allowed`. Call it before any
+    // map[key] lookup: yaml-cpp throws its own error indexing a scalar.
     void only_keys(const YAML::Node &map, const std::string &path, std::set<std::string> allowed) const
     {
-        if (!map.IsMap()) fail(path.empty() ? "(top level)" : path, "must be a mapping, got " + show(map));
+        std::string list;
+        for (const auto &a : allowed) list += (list.empty() ? "" : ", ") + a;
+        if (!map.IsMap()) fail(path.empty() ? "(top level)" : path, "must be a mapping {" + list + "}, got " + show(map));
         std::set<std::string> seen;
         for (auto it = map.begin(); it != map.end(); ++it) {
             if (!it->first.IsScalar()) fail(path.empty() ? "(top level)" : path, "a key must be a name, got " + show(it->first));
@@ -96,11 +102,7 @@ public:
             if (!seen.insert(k).second) fail(join(path, k), "given twice");
             if (!allowed.count(k) && from_include(it->first))
                 fail(path.empty() ? "(top level)" : path, "an included file has a key not known here (not quoted: an included file)");
-            if (!allowed.count(k)) {
-                std::string list;
-                for (const auto &a : allowed) list += (list.empty() ? "" : ", ") + a;
-                fail(join(path, k), "unknown key (known here: " + list + ")");
-            }
+            if (!allowed.count(k)) fail(join(path, k), "unknown key (known here: " + list + ")");
         }
     }
 

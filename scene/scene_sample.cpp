@@ -188,7 +188,6 @@ static void read_bench_calibration(const Reader &r, const YAML::Node &n, Scene &
 {
     if (!n.IsDefined() || n.IsNull()) return;
     const std::string k = "firmware.calibration";
-    if (!n.IsMap()) r.fail(k, "must be a mapping {run, mu, lateral_nN_per_V, disp_n_nm_per_V}, got " + Reader::show(n));
     r.only_keys(n, k, {"run", "mu", "lateral_nN_per_V", "disp_n_nm_per_V"});
     FirmwareCalibration::Bench b;
     b.run = r.str(n, k, "run", nullptr);
@@ -210,7 +209,6 @@ constexpr SceneRange kW = scene_rows::in("firmware.scanner.AXIS.w[]", -2, 2, "")
 static FirmwareCalibration::ScannerAxis read_scanner_axis(const Reader &r, const YAML::Node &n, const std::string &k)
 {
     if (!n.IsDefined() || n.IsNull()) r.fail(k, "required in firmware.scanner (./afm calib scanner --write writes it)");
-    if (!n.IsMap()) r.fail(k, "must be a mapping {r_nm, w}, got " + Reader::show(n));
     r.only_keys(n, k, {"r_nm", "w"});
     FirmwareCalibration::ScannerAxis a;
     for (const auto &[key, out] : {std::pair{"r_nm", &a.r_nm}, {"w", &a.w}}) {
@@ -242,7 +240,6 @@ static void read_scanner(const Reader &r, const YAML::Node &n, Scene &s)
 {
     if (!n.IsDefined() || n.IsNull()) return;
     const std::string k = "firmware.scanner";
-    if (!n.IsMap()) r.fail(k, "must be a mapping {run, x, y}, got " + Reader::show(n));
     r.only_keys(n, k, {"run", "x", "y"});
     FirmwareCalibration::Scanner sc;
     sc.run = r.str(n, k, "run", nullptr);

@@ -233,6 +233,7 @@ void plan_outlasts(const Scene &s, const PlanEstimate *plan, std::vector<std::st
                        std::to_string(plan->scans) + " local scans of operator.plan.scan_s " + num(ps.scan_s) + " s, " +
                        num(plan->travel_nm) + " nm lifted at operator.plan.travel_speed_nm_per_s " + num(ps.travel_speed_nm_per_s);
     if (plan->cuts > 0) work += ", " + std::to_string(plan->cuts) + " cuts over " + num(plan->cut_nm) + " nm";
+    if (plan->rods > 0) work += ", " + std::to_string(plan->rods) + " rods to their targets (an end push and a check scan each at least)";
     out->push_back("duration_s: " + num(s.duration_s) + " s is shorter than the plan needs, at least " + num(plan->seconds) +
                    " s of simulated time by the planner's estimate (" + work + "): the run ends with the plan half done; "
                    "make duration_s at least " + num(std::ceil(plan->seconds)) + " (a planning run ends when the planner is done)");

@@ -26,6 +26,36 @@ int strokes_to(Vec2 from, Vec2 to, double *limit)
     return n;
 }
 
+// The rods (objects.wire_targets), after the particles as run_wires does:
+// each rod not yet within wire_tolerance_nm of its target takes at least
+// one end push (the lifted travel to its end's approach, the push of its
+// largest end error up to wire_step_nm, the tip's landing and lift), then
+// the scan of its target's square that checks it (check_rod_by_scan's
+// field and time).
+void estimate_rods(const Scene &s, Vec2 *tip, PlanEstimate *e)
+{
+    const PlanSpec &ps = s.op.plan;
+    for (const WireTargetSpec &t : s.wire_targets) {
+        const auto w = std::find_if(s.wires.begin(), s.wires.end(), [&](const WireSpec &x) { return x.id == t.id; });
+        if (w == s.wires.end()) continue;
+        const Vec2 A{w->x0_nm, w->y0_nm}, B{w->x1_nm, w->y1_nm};
+        const double L = norm(B - A), th = t.angle_deg * kPi / 180;
+        Vec2 ta{std::cos(th), std::sin(th)};
+        if (dot(ta, B - A) < 0) ta = -1.0 * ta;
+        const Vec2 T{t.x_nm, t.y_nm};
+        const double err = std::max(norm(T - (L / 2) * ta - A), norm(T + (L / 2) * ta - B));
+        ++e->rods;
+        if (err > ps.wire_tolerance_nm) {
+            const Vec2 end = A + (kEndAt * L) * unit(B - A);
+            e->travel_nm += norm(end - *tip);
+            e->push_nm += std::min(err, ps.wire_step_nm);
+            ++e->strokes;
+            *tip = end;
+        }
+        e->scan_s += ps.scan_s * (L + 2 * ps.scan_size_nm) / ps.scan_size_nm;
+    }
+}
+
 }  // namespace
 
 PlanEstimate estimate_plan(const Scene &s)
@@ -56,8 +86,10 @@ PlanEstimate estimate_plan(const Scene &s)
         ++e.jobs;
         tip = site;
     }
+    estimate_rods(s, &tip, &e);
+    e.scan_s += e.scans * ps.scan_s;
     const double land_s = 2.0 * kLandBlocks / s.block_hz;   // landing and lifting, each stroke and cut
-    e.seconds = (e.cut_nm + e.push_nm) / ps.speed_nm_per_s + e.travel_nm / ps.travel_speed_nm_per_s + e.scans * ps.scan_s +
+    e.seconds = (e.cut_nm + e.push_nm) / ps.speed_nm_per_s + e.travel_nm / ps.travel_speed_nm_per_s + e.scan_s +
                 (e.strokes + e.cuts) * land_s;
     return e;
 }

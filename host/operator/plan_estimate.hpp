@@ -14,9 +14,12 @@
 // at speed_nm_per_s as stroke_length would cut it with the stroke limit
 // growing each time (kStrokeStart_nm x 1.5 per stroke up to kStrokeMax_nm,
 // as when the model never strays), a scan after each (scan_s), and the
-// tip's landing and lift (kLandBlocks each) at each stroke. Detours round
-// other particles, repushes, strays, shorter strokes near a neighbour,
-// disturbed particles and rods (objects.wire_targets) only add to it.
+// tip's landing and lift (kLandBlocks each) at each stroke. Then each rod
+// (objects.wire_targets): one end push if it is off its target (the lifted
+// travel to its end, the push of its end error up to wire_step_nm) and the
+// scan of its target's square that checks it. Detours round other
+// particles, repushes, strays, shorter strokes near a neighbour, disturbed
+// particles and a rod's further end pushes only add to it.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -30,7 +33,9 @@ struct PlanEstimate {
     int cuts = 0;             // operator.plan.cuts
     int jobs = 0;             // particles pushed onto sites
     int strokes = 0;          // pushing strokes
-    int scans = 0;            // local scans (scan_s each)
+    int scans = 0;            // local scans of particles (scan_s each)
+    int rods = 0;             // rods (objects.wire_targets), each with its check scan
+    double scan_s = 0;        // simulated s in local scans, particles' and rods'
     double cut_nm = 0;        // cut, at speed_nm_per_s
     double push_nm = 0;       // pushed, at speed_nm_per_s
     double travel_nm = 0;     // lifted, at travel_speed_nm_per_s
@@ -43,7 +48,7 @@ PlanEstimate estimate_plan(const Scene &s);
 inline nlohmann::json plan_estimate_json(const PlanEstimate &e)
 {
     return {{"seconds", e.seconds}, {"cuts", e.cuts},           {"jobs", e.jobs},         {"strokes", e.strokes},
-            {"scans", e.scans},     {"cut_nm", e.cut_nm},       {"push_nm", e.push_nm},   {"travel_nm", e.travel_nm}};
+            {"scans", e.scans},     {"rods", e.rods},           {"scan_s", e.scan_s},     {"cut_nm", e.cut_nm},       {"push_nm", e.push_nm},   {"travel_nm", e.travel_nm}};
 }
 
 inline PlanEstimate plan_estimate_from_json(const nlohmann::json &j)
@@ -54,6 +59,8 @@ inline PlanEstimate plan_estimate_from_json(const nlohmann::json &j)
     e.jobs = j.at("jobs").get<int>();
     e.strokes = j.at("strokes").get<int>();
     e.scans = j.at("scans").get<int>();
+    e.rods = j.at("rods").get<int>();
+    e.scan_s = j.at("scan_s").get<double>();
     e.cut_nm = j.at("cut_nm").get<double>();
     e.push_nm = j.at("push_nm").get<double>();
     e.travel_nm = j.at("travel_nm").get<double>();

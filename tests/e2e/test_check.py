@@ -133,6 +133,13 @@ class CheckWarnings(unittest.TestCase):
         self.assertEqual((e["jobs"], e["strokes"], e["scans"]), (10, 24, 34))
         self.assertAlmostEqual(e["seconds"], 18.51, delta=0.01)
         self.assertNotIn("plan", json.loads(launch(e2e_support.scene("default.yaml"), "--estimate").stdout))
+        # a rod counts too: at least one end push (120 nm, wire_step_nm) and the 1,575 ms scan that checks it
+        rod = json.loads(launch(e2e_support.scene("wire_plan.yaml"), "--estimate").stdout)["plan"]
+        self.assertEqual((rod["jobs"], rod["rods"], rod["strokes"]), (0, 1, 1))
+        self.assertAlmostEqual(rod["scan_s"], 1.575, delta=0.001)
+        self.assertAlmostEqual(rod["seconds"], 1.71, delta=0.01)
+        self.warned(open(e2e_support.scene("wire_plan.yaml")).read().replace("duration_s: 60", "duration_s: 1"), "duration_s:",
+                    "1 rods to their targets (an end push and a check scan each at least)")
 
     def test_the_estimate_of_the_default_scene(self):
         p = launch(e2e_support.scene("default.yaml"))
