@@ -11,6 +11,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -53,12 +54,30 @@ void test_a_childs_exit_code_and_output_are_kept()
     std::remove(log.c_str());
 }
 
+// The CPU seconds (user + system) the kernel has counted for a running
+// process so far (/proc/PID/stat's utime and stime), or -1 once it is gone.
+static double cpu_so_far_s(pid_t pid)
+{
+    std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+    std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const auto close_paren = text.rfind(')');
+    if (close_paren == std::string::npos) return -1;
+    std::istringstream rest(text.substr(close_paren + 2));
+    std::string field;
+    double ticks = 0;
+    for (int i = 3; i <= 15 && rest >> field; ++i)   // fields 14 and 15: utime, stime
+        if (i >= 14) ticks += std::stod(field);
+    return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
 void test_a_child_killed_reads_as_128_plus_the_signal_and_its_cpu_is_counted()
 {
     const std::string log = log_path();
     Child c;
     c.pid = afm::launch::spawn({"/bin/sh", "-c", "i=0; while :; do i=$((i+1)); done"}, log, {}, 0, {});
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    // Until it has spun 0.1 s of CPU (on a loaded machine that takes longer
+    // than 0.1 s of wall time), at most 20 s.
+    for (int i = 0; i < 2000 && cpu_so_far_s(c.pid) < 0.1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     c.reap();   // still running: not reaped
     TEST_ASSERT_FALSE(c.exited);
     kill(c.pid, SIGKILL);
