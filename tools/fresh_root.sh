@@ -59,19 +59,10 @@ mkdir -p "$root/src/afm"
 echo "fresh_root: copying $top into $root/src/afm without .git, build/, .venv/, runs/" >&2
 tar -C "$top" --exclude=./.git --exclude=./build --exclude=./.venv --exclude=./runs -cf - . | tar -C "$root/src/afm" -xf -
 
-mounts=()
-bind() { mount --bind "$1" "$root$1"; mounts=("$root$1" "${mounts[@]}"); }
 cleanup() {
-  for m in "${mounts[@]}"; do umount -l "$m" 2>/dev/null || true; done
   if [ $keep = 0 ]; then rm -rf --one-file-system "$root"; else echo "fresh_root: kept $root" >&2; fi
 }
 trap cleanup EXIT
-mount -t proc proc "$root/proc"; mounts=("$root/proc")
-mount -t sysfs sysfs "$root/sys"; mounts=("$root/sys" "${mounts[@]}")
-bind /dev; bind /dev/pts
-mount -t tmpfs tmpfs "$root/dev/shm"; mounts=("$root/dev/shm" "${mounts[@]}")
-mount -t tmpfs tmpfs "$root/run"; mounts=("$root/run" "${mounts[@]}")
-mount -t tmpfs -o size=8g tmpfs "$root/tmp"; mounts=("$root/tmp" "${mounts[@]}")
 cp /etc/resolv.conf "$root/etc/resolv.conf"
 
 if [ -n "$only" ]; then
@@ -80,10 +71,30 @@ else
   body="./afm test"
 fi
 echo "fresh_root: in the root: $body" >&2
+# Into the root by pivot_root in a mount namespace of its own, not chroot:
+# the kernel refuses a user namespace to a chrooted process (unshare -r:
+# EPERM), which the runs' own namespaces need, and under chroot / is no
+# mount point (unshare --propagation fails). The mounts below live and die
+# with that namespace: nothing is left mounted on the host.
 set +e
-chroot "$root" /usr/bin/env -i HOME=/root TERM="${TERM:-dumb}" PATH=/usr/sbin:/usr/bin:/sbin:/bin \
-  PIP_CERT=/etc/ssl/certs/ca-certificates.crt \
-  /bin/bash -c "cd /src/afm && $body"
+unshare --mount --propagation private -- /bin/bash -c '
+set -e
+root=$1 body=$2 term=$3
+mount --bind "$root" "$root"
+mount -t proc proc "$root/proc"
+mount --rbind /sys "$root/sys"
+mount --rbind /dev "$root/dev"
+mount -t tmpfs tmpfs "$root/dev/shm"
+mount -t tmpfs tmpfs "$root/run"
+mount -t tmpfs -o size=8g tmpfs "$root/tmp"
+mkdir -p "$root/.oldroot"
+cd "$root"
+pivot_root . .oldroot
+umount -l /.oldroot
+cd /src/afm
+exec /usr/bin/env -i HOME=/root TERM="$term" PATH=/usr/sbin:/usr/bin:/sbin:/bin \
+  PIP_CERT=/etc/ssl/certs/ca-certificates.crt /bin/bash -c "$body"
+' fresh_root "$root" "$body" "${TERM:-dumb}"
 status=$?
 set -e
 echo "fresh_root: exit $status" >&2
