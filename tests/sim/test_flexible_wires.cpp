@@ -426,7 +426,7 @@ void test_chain_of_1024_segments_converges_at_its_stated_residual()
     World w(s);
     double y = -40;
     w.command(Eigen::Vector2d(-1250, y), 5, true);
-    for (int i = 0; i < 200; ++i) w.step();
+    for (int i = 0; i < 1500; ++i) w.step();   // the scanner's 1 nm a sample from the scene's start, (0, -300)
     for (int i = 0; i < 500; ++i) {
         y += 0.1;
         w.command(Eigen::Vector2d(-1250, y), 5, true);
