@@ -37,6 +37,59 @@ constexpr double kFollowFloor_nm = 1e-9;
 // The contact's window (FlexibleWire::contact_window) reaches this beyond
 // the reach and a segment (nm).
 constexpr double kWindowMargin_nm = 20;
+// One node's Coulomb law in evaluate(): its friction c_i and the inverse
+// squares of its tolerance (kResidual c_i + kResidualFloor_nN), stuck (c_i
+// + tol) and sliding (tol).
+struct NodeLaw {
+    double ci, stuck_inv2, slide_inv2;
+    explicit NodeLaw(double c) : ci(c)
+    {
+        const double tol = kResidual * c + kResidualFloor_nN;
+        stuck_inv2 = 1.0 / ((c + tol) * (c + tol));
+        slide_inv2 = 1.0 / (tol * tol);
+    }
+};
+
+// evaluate()'s worst node: see FlexibleWire::Eval's residual and imbalance_nN.
+struct Balance {
+    double worst = 0, slide2 = 0, stuck_excess = 0;
+};
+
+// One node's friction and balance in evaluate(): its Coulomb friction c_i
+// |dx|, regularised as c_i (sqrt(|dx|^2 + eps^2) - eps). A node is in
+// balance when stuck (within stuck_nm of its start) with an elastic and
+// contact force of at most c_i (the Coulomb law itself), or sliding with
+// that force and its (regularised) friction cancelling, both to its
+// tolerance. Returns its friction energy; adds its friction force to gi;
+// sets its friction stiffness w = c_i / s and direction dir = dx / s; keeps
+// the worst imbalance in b. Static here, so that evaluate's loop inlines it.
+inline double node_balance(const NodeLaw &law, const Eigen::Vector2d &dx, Eigen::Vector2d &gi, double &w,
+                           Eigen::Vector2d &dir, Balance &b)
+{
+    constexpr double eps = kSlipRegularisation_nm;
+    const double d2 = dx.squaredNorm();
+    if (d2 < stuck_nm * stuck_nm) {
+        const double f2 = gi.squaredNorm();
+        b.worst = std::max(b.worst, f2 * law.stuck_inv2);
+        if (f2 > law.ci * law.ci) b.stuck_excess = std::max(b.stuck_excess, std::sqrt(f2) - law.ci);
+    }
+    if (d2 == 0) {   // a node still at its start (most of a long chain's, on a first guess) needs no root
+        w = law.ci * (1.0 / eps);
+        dir.setZero();
+        return 0;
+    }
+    const double sr = std::sqrt(d2 + eps * eps), inv = 1.0 / sr;
+    w = law.ci * inv;
+    dir = dx * inv;
+    gi += w * dx;
+    if (d2 >= stuck_nm * stuck_nm) {
+        const double s2 = gi.squaredNorm();
+        b.worst = std::max(b.worst, s2 * law.slide_inv2);
+        b.slide2 = std::max(b.slide2, s2);
+    }
+    return law.ci * d2 / (sr + eps);   // c_i (sr - eps), without cancelling
+}
+
 }  // namespace
 
 using detail::closest_segment;
@@ -142,37 +195,6 @@ void FlexibleWire::place_nodes()
     update_box();
 }
 
-// One node's friction and balance in evaluate(): its Coulomb friction c_i
-// |dx_i|, regularised as c_i (sqrt(|dx_i|^2 + eps^2) - eps). A node is in
-// balance when stuck (within stuck_nm of its start) with an elastic and
-// contact force of at most c_i (the Coulomb law itself), or sliding with
-// that force and its (regularised) friction cancelling, both to its
-// tolerance kResidual c_i (+ floor). Returns its friction energy; adds its
-// friction force to gi; keeps the worst imbalance in b.
-double FlexibleWire::node_balance(int i, const Eigen::Vector2d &dx, double ci, Eigen::Vector2d &gi, Eval &ev, Balance &b) const
-{
-    const double eps = kSlipRegularisation_nm;
-    const double tol = kResidual * ci + kResidualFloor_nN, f2 = gi.squaredNorm();
-    const double d2 = dx.squaredNorm();
-    if (d2 < stuck_nm * stuck_nm) {
-        b.worst = std::max(b.worst, f2 / ((ci + tol) * (ci + tol)));
-        if (f2 > ci * ci) b.stuck_excess = std::max(b.stuck_excess, std::sqrt(f2) - ci);
-    }
-    // A node still at its start (most of a long chain's, on a first guess)
-    // needs no root.
-    const double sr = d2 == 0 ? eps : std::sqrt(d2 + eps * eps), inv = 1.0 / sr;
-    ev.node_w[i] = ci * inv;
-    ev.node_dir[i] = dx * inv;
-    if (d2 == 0) return 0;
-    gi += ev.node_w[i] * dx;
-    if (d2 >= stuck_nm * stuck_nm) {
-        const double s2 = gi.squaredNorm();
-        b.worst = std::max(b.worst, s2 / (tol * tol));
-        b.slide2 = std::max(b.slide2, s2);
-    }
-    return ci * d2 / (sr + eps);   // c_i (sr - eps), without cancelling
-}
-
 double FlexibleWire::evaluate(const Contact &c, Eval &ev)
 {
     ++evaluations;
@@ -193,7 +215,9 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev)
     const double e = contact_energy(c, x.data(), ev);
     const Eigen::Vector2d *d = dx_.data(), *e0 = e0_.data(), *b0 = b0_.data();
     Eigen::Vector2d *g = ev.g.data(), *seg_dir = ev.seg_dir.data(), *cg = ev.cg.data();
-    const double c_in = f * ds, c_end = 0.5 * f * ds;
+    const NodeLaw inner(f * ds), at_end(0.5 * f * ds);
+    double *node_w = ev.node_w.data();
+    Eigen::Vector2d *node_dir = ev.node_dir.data();
     double e_stretch = 0, e_bend = 0, e_friction = 0;
     Balance bal;
     Eigen::Vector2d fs_before = Eigen::Vector2d::Zero();   // spring force of segment i - 1 on node i
@@ -220,7 +244,7 @@ double FlexibleWire::evaluate(const Contact &c, Eval &ev)
         fs_before = fs;
         b_before = b_here;
         b_here = b_after;
-        e_friction += node_balance(i, d[i], (i == 0 || i == nn - 1) ? c_end : c_in, gi, ev, bal);
+        e_friction += node_balance((i == 0 || i == nn - 1) ? at_end : inner, d[i], gi, node_w[i], node_dir[i], bal);
         g[i] = gi;
     }
     ev.residual = bal.worst;

@@ -362,10 +362,6 @@ private:
     // friction work), less the elastic energy at its start, nN nm; fills ev
     // there (and places the contact window's nodes in x).
     double evaluate(const Contact &c, Eval &ev);
-    struct Balance {   // evaluate()'s worst node: see Eval's residual and imbalance_nN
-        double worst = 0, slide2 = 0, stuck_excess = 0;
-    };
-    double node_balance(int i, const Eigen::Vector2d &dx, double ci, Eigen::Vector2d &gi, Eval &ev, Balance &b) const;
     void begin_increments();   // the step starts where the wire is: start_, e0_, len0_, b0_; dx_ zero
     void place_nodes();        // x := start_ + dx_, and the box
     // d^T H d of the elastic and contact energy at ev's point.
