@@ -7,7 +7,8 @@
 # with uniform friction and with a trench under part of it, a flexible
 # chain of N = 32; us per sample, per sample in contact, the goal); for flexible
 # wires, the shape error against an N = 256 reference and the cost,
-# N = 4..128. A benchmark: it never fails on the numbers.
+# N = 4..1024, per sample and per sample per segment, against the goal that
+# the cost is linear in N. A benchmark: it never fails on the numbers.
 set -euo pipefail
 
 usage() {
@@ -23,7 +24,7 @@ usage: ./afm bench sim [particles|effects|imaging|wires]
              goal: with it at most 3x
   wires      pushed wires against issue 15's goals (rigid, rigid with a
              trench, flexible N = 32), then flexible wires' shape error and
-             cost against segments N
+             cost against segments N = 4..1024 (goal: linear in N)
   (none)     all the tables
   -h, --help this text
 

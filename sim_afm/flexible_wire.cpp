@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "wire_internal.hpp"
 
@@ -35,6 +37,59 @@ constexpr double kFollowFloor_nm = 1e-9;
 // The contact's window (FlexibleWire::contact_window) reaches this beyond
 // the reach and a segment (nm).
 constexpr double kWindowMargin_nm = 20;
+// One node's Coulomb law in evaluate(): its friction c_i and the inverse
+// squares of its tolerance (kResidual c_i + kResidualFloor_nN), stuck (c_i
+// + tol) and sliding (tol).
+struct NodeLaw {
+    double ci, stuck_inv2, slide_inv2;
+    explicit NodeLaw(double c) : ci(c)
+    {
+        const double tol = kResidual * c + kResidualFloor_nN;
+        stuck_inv2 = 1.0 / ((c + tol) * (c + tol));
+        slide_inv2 = 1.0 / (tol * tol);
+    }
+};
+
+// evaluate()'s worst node: see FlexibleWire::Eval's residual and imbalance_nN.
+struct Balance {
+    double worst = 0, slide2 = 0, stuck_excess = 0;
+};
+
+// One node's friction and balance in evaluate(): its Coulomb friction c_i
+// |dx|, regularised as c_i (sqrt(|dx|^2 + eps^2) - eps). A node is in
+// balance when stuck (within stuck_nm of its start) with an elastic and
+// contact force of at most c_i (the Coulomb law itself), or sliding with
+// that force and its (regularised) friction cancelling, both to its
+// tolerance. Returns its friction energy; adds its friction force to gi;
+// sets its friction stiffness w = c_i / s and direction dir = dx / s; keeps
+// the worst imbalance in b. Static here, so that evaluate's loop inlines it.
+inline double node_balance(const NodeLaw &law, const Eigen::Vector2d &dx, Eigen::Vector2d &gi, double &w,
+                           Eigen::Vector2d &dir, Balance &b)
+{
+    constexpr double eps = kSlipRegularisation_nm;
+    const double d2 = dx.squaredNorm();
+    if (d2 < stuck_nm * stuck_nm) {
+        const double f2 = gi.squaredNorm();
+        b.worst = std::max(b.worst, f2 * law.stuck_inv2);
+        if (f2 > law.ci * law.ci) b.stuck_excess = std::max(b.stuck_excess, std::sqrt(f2) - law.ci);
+    }
+    if (d2 == 0) {   // a node still at its start (most of a long chain's, on a first guess) needs no root
+        w = law.ci * (1.0 / eps);
+        dir.setZero();
+        return 0;
+    }
+    const double sr = std::sqrt(d2 + eps * eps), inv = 1.0 / sr;
+    w = law.ci * inv;
+    dir = dx * inv;
+    gi += w * dx;
+    if (d2 >= stuck_nm * stuck_nm) {
+        const double s2 = gi.squaredNorm();
+        b.worst = std::max(b.worst, s2 * law.slide_inv2);
+        b.slide2 = std::max(b.slide2, s2);
+    }
+    return law.ci * d2 / (sr + eps);   // c_i (sr - eps), without cancelling
+}
+
 }  // namespace
 
 using detail::closest_segment;
@@ -48,14 +103,18 @@ FlexibleWire::FlexibleWire(int id_, const Eigen::Vector2d &a, const Eigen::Vecto
     id = id_;
     d_nm = d;
     L_nm = (b - a).norm();
-    ds = L_nm / N;
+    ds = N >= 1 ? L_nm / N : 0.0;
+    if (!(ds > 0) || !std::isfinite(ds))   // EA / ds and EI / ds^3 would not be numbers
+        throw std::invalid_argument("flexible wire " + std::to_string(id_) + ": segments must have a length, got " +
+                                    std::to_string(N) + " segment(s) over " + std::to_string(L_nm) + " nm");
     for (int i = 0; i <= N; ++i) x.push_back(a + (b - a) * (static_cast<double>(i) / N));
     update_box();
     // 1 GPa = 1 nN/nm^2.
     EI = E_GPa * M_PI * std::pow(d, 4) / 64.0;
     ks = E_GPa * M_PI * d * d / 4.0 / ds;
     const std::size_t nn = x.size();
-    for (auto *v : {&start_, &base_, &dir_}) v->assign(nn, Eigen::Vector2d::Zero());
+    for (auto *v : {&start_, &dx_, &e0_, &b0_, &base_, &dir_}) v->assign(nn, Eigen::Vector2d::Zero());
+    len0_.assign(nn, 0.0);
     H_.resize(static_cast<int>(nn));
     for (Eval *ev : {&now_, &trial_}) {
         ev->g.assign(nn, Eigen::Vector2d::Zero());
@@ -118,83 +177,78 @@ double FlexibleWire::contact_energy(const Contact &c, const Eigen::Vector2d *xs,
     return e;
 }
 
-double FlexibleWire::evaluate(const Contact &c, Eval &ev, bool at_start) const
+void FlexibleWire::begin_increments()
 {
-    // Energy, nN nm; ev at x (see Eval). One pass over the nodes: node i's
-    // force gathers the springs of segments i - 1 and i, the bending of the
-    // triples centred on i - 1, i and i + 1 (b_j = x_{j-1} - 2 x_j + x_{j+1},
-    // zero where the triple does not exist), the tip's contact and its
-    // friction. Plain pointers: the arrays do not alias, and the compiler
-    // cannot know it through ev. at_start: x is start_ (every increment is
-    // zero), which spares the friction's roots.
+    // The step's start: its segments e0_i = x_{i+1} - x_i, their lengths and
+    // its bends b0_j = e0_j - e0_{j-1} (zero at the ends), taken once; the
+    // increments from there, zero.
+    const int nn = static_cast<int>(x.size());
+    start_ = x;
+    for (int i = 0; i + 1 < nn; ++i) e0_[i] = x[i + 1] - x[i], len0_[i] = e0_[i].norm();
+    for (int j = 1; j + 1 < nn; ++j) b0_[j] = e0_[j] - e0_[j - 1];
+    for (auto &d : dx_) d.setZero();
+}
+
+void FlexibleWire::place_nodes()
+{
+    for (std::size_t i = 0; i < x.size(); ++i) x[i] = start_[i] + dx_[i];
+    update_box();
+}
+
+double FlexibleWire::evaluate(const Contact &c, Eval &ev)
+{
+    ++evaluations;
+    // The step's energy from its start, nN nm; ev at start_ + dx_ (see
+    // Eval). One pass over the nodes: node i's force gathers the springs of
+    // segments i - 1 and i, the bending of the triples centred on i - 1, i
+    // and i + 1 (zero where the triple does not exist), the tip's contact
+    // and its friction (node_balance). In increments (begin_increments):
+    // segment i is e0_i + (dx_{i+1} - dx_i), bend j is b0_j + (dx_{j-1} -
+    // 2 dx_j + dx_{j+1}), and each term's energy is taken as its change, so
+    // the forces round as the increments and bends do, not as the
+    // coordinates (kb = EI / ds^3 times their rounding, 1e-12 nm on a 5 um
+    // wire, is 3.5e-6 nN at N = 1024, past the tolerance), and the line
+    // search compares the step's work, not the wire's whole energy.
     const int nn = static_cast<int>(x.size());
     const double kb = EI / (ds * ds * ds);
-    const double eps = kSlipRegularisation_nm;
-    const Eigen::Vector2d *xs = x.data(), *x0 = start_.data();
-    Eigen::Vector2d *g = ev.g.data(), *seg_dir = ev.seg_dir.data(), *node_dir = ev.node_dir.data();
+    for (int j = c.lo; j <= c.hi + 1 && j < nn; ++j) x[j] = start_[j] + dx_[j];   // the contact's nodes, placed
+    const double e = contact_energy(c, x.data(), ev);
+    const Eigen::Vector2d *d = dx_.data(), *e0 = e0_.data(), *b0 = b0_.data();
+    Eigen::Vector2d *g = ev.g.data(), *seg_dir = ev.seg_dir.data(), *cg = ev.cg.data();
+    const NodeLaw inner(f * ds), at_end(0.5 * f * ds);
     double *node_w = ev.node_w.data();
-    const double e = contact_energy(c, xs, ev);
-    Eigen::Vector2d *cg = ev.cg.data();
-    // Coulomb friction c_i |dx_i|, regularised as c_i (sqrt(|dx_i|^2 +
-    // eps^2) - eps). A node is in balance when stuck (within stuck_nm of its
-    // start) with an elastic and contact force of at most c_i (the Coulomb
-    // law itself), or sliding with that force and its (regularised)
-    // friction cancelling, both to its tolerance kResidual c_i (+ floor).
-    // ev.residual: the worst node's imbalance as a ratio of squares, below 1
-    // exactly when every node is in balance.
-    const double c_in = f * ds, c_end = 0.5 * f * ds;
-    const double tol_in = kResidual * c_in + kResidualFloor_nN, tol_end = kResidual * c_end + kResidualFloor_nN;
-    auto inv_sq = [](double v) { return 1.0 / (v * v); };
-    const double stuck_in = inv_sq(c_in + tol_in), stuck_end = inv_sq(c_end + tol_end);
-    const double slide_in = inv_sq(tol_in), slide_end = inv_sq(tol_end);
-    const double eps_root = std::sqrt(eps * eps), inv_eps_root = 1.0 / eps_root;
-    double e_stretch = 0, e_bend = 0, e_friction = 0, worst = 0, slide2 = 0, stuck_excess = 0;
-    auto stuck_past = [&](double f2, double ci) { if (f2 > ci * ci) stuck_excess = std::max(stuck_excess, std::sqrt(f2) - ci); };
+    Eigen::Vector2d *node_dir = ev.node_dir.data();
+    double e_stretch = 0, e_bend = 0, e_friction = 0;
+    Balance bal;
     Eigen::Vector2d fs_before = Eigen::Vector2d::Zero();   // spring force of segment i - 1 on node i
     Eigen::Vector2d b_before = Eigen::Vector2d::Zero();    // b_{i-1}
     Eigen::Vector2d b_here = Eigen::Vector2d::Zero();      // b_i
     for (int i = 0; i < nn; ++i) {
         Eigen::Vector2d fs = Eigen::Vector2d::Zero();
-        if (i + 1 < nn) {   // segment i: ks / 2 (|x_{i+1} - x_i| - ds)^2
-            const Eigen::Vector2d ed = xs[i + 1] - xs[i];
-            const double len = ed.norm(), dl = len - ds;
-            e_stretch += dl * dl;
+        if (i + 1 < nn) {   // segment i: ks / 2 (|e_i| - ds)^2
+            const Eigen::Vector2d de = d[i + 1] - d[i], ed = e0[i] + de;
+            const double len = ed.norm(), len0 = len0_[i];
+            const double grow = (2 * e0[i].dot(de) + de.squaredNorm()) / (len + len0);   // len - len0
+            e_stretch += grow * (len + len0 - 2 * ds);                                     // (len - ds)^2 - (len0 - ds)^2
             seg_dir[i] = ed * (1.0 / len);
-            fs = (ks * dl) * seg_dir[i];
+            fs = (ks * ((len0 - ds) + grow)) * seg_dir[i];
         }
-        const Eigen::Vector2d b_after = i + 2 < nn ? Eigen::Vector2d(xs[i] - 2 * xs[i + 1] + xs[i + 2]) : Eigen::Vector2d::Zero();
-        e_bend += b_after.squaredNorm();
+        Eigen::Vector2d b_after = Eigen::Vector2d::Zero();
+        if (i + 2 < nn) {
+            const Eigen::Vector2d db = d[i] - 2 * d[i + 1] + d[i + 2];
+            e_bend += db.dot(2 * b0[i + 1] + db);   // |b|^2 - |b0|^2
+            b_after = b0[i + 1] + db;
+        }
         Eigen::Vector2d gi = fs_before - fs + kb * (b_before - 2 * b_here + b_after);
         if (i >= c.lo && i <= c.hi + 1) gi += cg[i], cg[i].setZero();   // the contact's window: its forces, cg zero again
         fs_before = fs;
         b_before = b_here;
         b_here = b_after;
-        const bool end = i == 0 || i == nn - 1;
-        const double ci = end ? c_end : c_in;
-        if (at_start) {   // |dx| = 0: s = eps, no friction force, every node stuck
-            node_w[i] = ci / eps;
-            node_dir[i].setZero();
-            worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in));
-            stuck_past(gi.squaredNorm(), ci);
-            g[i] = gi;
-            continue;
-        }
-        const Eigen::Vector2d dx = xs[i] - x0[i];
-        const double d2 = dx.squaredNorm();
-        // A node still at its start (most of a long chain's, on a first
-        // guess) needs no root.
-        const double sr = d2 == 0 ? eps_root : std::sqrt(d2 + eps * eps), inv = d2 == 0 ? inv_eps_root : 1.0 / sr;
-        e_friction += ci * (sr - eps);
-        node_w[i] = ci * inv;
-        node_dir[i] = dx * inv;
-        const bool stuck = d2 < stuck_nm * stuck_nm;
-        if (stuck) worst = std::max(worst, gi.squaredNorm() * (end ? stuck_end : stuck_in)), stuck_past(gi.squaredNorm(), ci);
-        gi += node_w[i] * dx;
-        if (!stuck) worst = std::max(worst, gi.squaredNorm() * (end ? slide_end : slide_in)), slide2 = std::max(slide2, gi.squaredNorm());
+        e_friction += node_balance((i == 0 || i == nn - 1) ? at_end : inner, d[i], gi, node_w[i], node_dir[i], bal);
         g[i] = gi;
     }
-    ev.residual = worst;
-    ev.imbalance_nN = std::max(std::sqrt(slide2), stuck_excess);
+    ev.residual = bal.worst;
+    ev.imbalance_nN = std::max(std::sqrt(bal.slide2), bal.stuck_excess);
     return e + 0.5 * ks * e_stretch + 0.5 * kb * e_bend + e_friction;
 }
 
@@ -281,7 +335,7 @@ bool FlexibleWire::try_step(const Contact &c, double &phi, double alpha)
 {
     double slope = 0;
     for (std::size_t i = 0; i < x.size(); ++i) slope += now_.g[i].dot(dir_[i]);
-    for (std::size_t i = 0; i < x.size(); ++i) x[i] = base_[i] + alpha * dir_[i];
+    for (std::size_t i = 0; i < x.size(); ++i) dx_[i] = base_[i] + alpha * dir_[i];
     const double phi_t = evaluate(c, trial_);
     if (!(slope < 0) || !(phi_t <= phi + kArmijo * alpha * slope)) return false;
     phi = phi_t;
@@ -291,15 +345,17 @@ bool FlexibleWire::try_step(const Contact &c, double &phi, double alpha)
 
 void FlexibleWire::newton_step(const Contact &c, double &phi)
 {
+    ++newton_steps;
     assemble_hessian(c, now_);
     newton_direction();
     // Backtracking (Armijo) on the step's energy; when rounding hides the
     // decrease (at the solution's doorstep), the whole step.
-    base_ = x;
+    base_ = dx_;
     double alpha = 1;
     for (int ls = 0; ls < kMaxHalvings; ++ls, alpha *= 0.5)
         if (try_step(c, phi, alpha)) return;
-    for (std::size_t i = 0; i < x.size(); ++i) x[i] = base_[i] + dir_[i];
+    ++full_steps;
+    for (std::size_t i = 0; i < x.size(); ++i) dx_[i] = base_[i] + dir_[i];
     phi = evaluate(c, now_);
 }
 
@@ -311,8 +367,8 @@ void FlexibleWire::chord_step(const Contact &c, double &phi)
     if (!factored_) return;
     for (std::size_t i = 0; i < dir_.size(); ++i) dir_[i] = -now_.g[i];
     H_.solve(dir_);
-    base_ = x;
-    if (!try_step(c, phi, 1.0)) x = base_;
+    base_ = dx_;
+    if (!try_step(c, phi, 1.0)) dx_ = base_;
 }
 
 void FlexibleWire::warm_start(const Contact &c, double &phi)
@@ -330,13 +386,13 @@ void FlexibleWire::warm_start(const Contact &c, double &phi)
     const double curvature = elastic_curvature(c, now_, d);
     if (!(slope < 0) || !(curvature > 0)) return;
     const double a = -slope / curvature;
-    for (int i = 0; i < nn; ++i) x[i] = start_[i] + a * d[i];
+    for (int i = 0; i < nn; ++i) dx_[i] = a * d[i];
     const double phi_w = evaluate(c, trial_);
     if (phi_w < phi) {
         phi = phi_w;
         std::swap(now_, trial_);
     } else {
-        x = start_;
+        for (auto &di : dx_) di.setZero();
     }
 }
 
@@ -353,7 +409,7 @@ bool FlexibleWire::follow(const Contact &c, double t_seg, double &phi)
     const double wire_advance = -moved.dot(c.n0), apex_advance = -(c.q - last_q_).dot(c.n0);
     if (!(wire_advance > kFollowFloor_nm) || !(apex_advance > 0)) return false;
     const double a = apex_advance / wire_advance;
-    for (std::size_t i = 0; i < x.size(); ++i) x[i] = start_[i] + a * last_dx_[i];
+    for (std::size_t i = 0; i < x.size(); ++i) dx_[i] = a * last_dx_[i];
     phi = evaluate(c, now_);
     return true;
 }
@@ -379,10 +435,10 @@ void FlexibleWire::close_step()
     const std::size_t nn = x.size();
     last_dx_.resize(nn);
     for (std::size_t i = 0; i < nn; ++i) {
-        if ((x[i] - start_[i]).squaredNorm() < stuck_nm * stuck_nm) x[i] = start_[i];
-        last_dx_[i] = x[i] - start_[i];
+        if (dx_[i].squaredNorm() < stuck_nm * stuck_nm) dx_[i].setZero();
+        last_dx_[i] = dx_[i];
     }
-    update_box();
+    place_nodes();
 }
 
 void FlexibleWire::first_guess(const Contact &c, double t_seg, bool resume, double &phi)
@@ -393,7 +449,7 @@ void FlexibleWire::first_guess(const Contact &c, double t_seg, bool resume, doub
     }
     if (follow(c, t_seg, phi)) return;
     // A wire in balance where it is does not move: one evaluation decides.
-    phi = evaluate(c, now_, true);
+    phi = evaluate(c, now_);
     if (now_.residual >= 1 && last_dx_.size() == start_.size()) warm_start(c, phi);
 }
 
@@ -428,7 +484,7 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
     c.n0 = dist > 1e-12 ? Eigen::Vector2d(dv / dist) : Eigen::Vector2d(-ab.y(), ab.x()).normalized();
     const int nn = static_cast<int>(x.size());
     if (!resume) {
-        start_ = x;
+        begin_increments();
         open_ = stepping_;
     }
     double phi = 0;
@@ -452,8 +508,8 @@ bool FlexibleWire::push(const Eigen::Vector2d &q, double r_tip, double kc, doubl
         close_step();
     } else {   // the step goes on: its increment so far, unsnapped (the next push resumes from it)
         last_dx_.resize(nn);
-        for (int i = 0; i < nn; ++i) last_dx_[i] = x[i] - start_[i];
-        update_box();
+        for (int i = 0; i < nn; ++i) last_dx_[i] = dx_[i];
+        place_nodes();
     }
     return true;
 }

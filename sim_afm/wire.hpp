@@ -37,7 +37,14 @@
 //   H is block-pentadiagonal (2 x 2 blocks: a node couples to two
 //   neighbours each side); each Newton step factors it as L D L^T by
 //   blocks, O(N), shifted (Levenberg) when it is singular (no friction:
-//   the rigid motions cost nothing). The tip's contact is one point: the
+//   the rigid motions cost nothing). The unknowns are the step's
+//   increments from its start, and the energy is the step's change of it
+//   (each segment's and bend's from its start, taken once a step), so the
+//   forces round as the increments do, not as the coordinates: at N = 1024
+//   on a 5 um wire the bending stiffness EI / ds^3 times the coordinates'
+//   rounding is past the tolerance. Every pass of a step is O(N); the
+//   Newton steps a push takes (evaluations, newton_steps: the work) are
+//   what can grow with N. The tip's contact is one point: the
 //   closest point of the axis, shared by that segment's two nodes, so the
 //   load does not depend on the mesh.
 //
@@ -284,6 +291,9 @@ private:
 
 class FlexibleWire : public Wire {
 public:
+    // Ends a, b; N segments; at most `iterations` Newton steps a push.
+    // Throws std::invalid_argument (naming the wire) when the segments have
+    // no length (a = b, or N < 1).
     FlexibleWire(int id, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d_nm, double f_nN_per_nm,
                  double E_GPa, int segments, int iterations);
     bool push(const Eigen::Vector2d &q, double r_tip, double k_contact,
@@ -304,6 +314,9 @@ public:
     int worst_iterations = 0;         // the most Newton iterations one push took
     long unconverged = 0;             // steps left out of balance (a push at max_iterations that no later push of the step finished)
     long regularised = 0;             // Newton steps whose system was singular (solved with a Levenberg shift)
+    long evaluations = 0;             // energy evaluations, all pushes (the work: each is O(N))
+    long newton_steps = 0;            // Newton steps (each a factorisation), all pushes
+    long full_steps = 0;              // Newton steps whose line search found no decrease (the whole step taken)
 
 private:
     // The tip's contact during one push: apex q, reach r_tip + d/2, contact
@@ -330,8 +343,12 @@ private:
         std::vector<ContactFeature> feats;
     };
     std::vector<Eigen::Vector2d> last_dx_;   // the last push's increment (warm start)
-    // The step's work arrays, kept between pushes (no allocation per push).
-    std::vector<Eigen::Vector2d> start_, base_, dir_;
+    // The step's work arrays, kept between pushes (no allocation per push):
+    // its start, the increments from it (the unknowns: the nodes are start_
+    // + dx_), the start's segments, their lengths and its bends
+    // (begin_increments), a line search's base and the Newton direction.
+    std::vector<Eigen::Vector2d> start_, dx_, e0_, b0_, base_, dir_;
+    std::vector<double> len0_;
     Eval now_, trial_;                                // at x; at a trial point
     bool factored_ = false;                           // H_ holds a factorisation
     BlockPentadiagonal H_;                            // the Newton system (its last factorisation)
@@ -339,11 +356,14 @@ private:
     double closest(const Eigen::Vector2d &q, int &seg, double &t) const;
     double node_friction(int i) const;   // c_i = f ds, half at the ends, nN
     void contact_window(Contact &c) const;   // c.lo, c.hi about c.q and c.seg
-    // The step's energy at x (elastic + contact + regularised friction work
-    // from start_), nN nm; fills ev at x.
     // evaluate()'s tip contact: its energy and the forces on its segment's nodes.
     static double contact_energy(const Contact &c, const Eigen::Vector2d *xs, Eval &ev);
-    double evaluate(const Contact &c, Eval &ev, bool at_start = false) const;
+    // The step's energy at start_ + dx_ (elastic + contact + regularised
+    // friction work), less the elastic energy at its start, nN nm; fills ev
+    // there (and places the contact window's nodes in x).
+    double evaluate(const Contact &c, Eval &ev);
+    void begin_increments();   // the step starts where the wire is: start_, e0_, len0_, b0_; dx_ zero
+    void place_nodes();        // x := start_ + dx_, and the box
     // d^T H d of the elastic and contact energy at ev's point.
     double elastic_curvature(const Contact &c, const Eval &ev, const std::vector<Eigen::Vector2d> &d) const;
     void assemble_hessian(const Contact &c, const Eval &ev);   // into H_'s blocks
