@@ -234,14 +234,14 @@ def analyse(dirs, exp_dir, size):
                      f"planner finished with in the run's {RATES['duration_s']} s (simulated), the final placement over all")
     safefs.write_path(os.path.join(exp_dir, "ablation.json"),
                       json.dumps({case_name(s, p): v for (s, p), v in m.items()}, indent=1) + "\n")
-    safefs.write_path(os.path.join(exp_dir, "ablation.md"), table(m) + "\n")
+    safefs.write_path(os.path.join(exp_dir, "ablation_table.md"), table(m) + "\n")
     res.figures = [("The first push's error, pushes and time per site, and the final placement, per case",
                     plot(exp_dir, m))]
     return res
 
 
 def table(m):
-    """The ablation as one Markdown table, a case a line (ablation.md)."""
+    """The ablation as one Markdown table, a case a line (ablation_table.md)."""
     f = lambda v, unit="": "-" if v is None else show(v, unit)   # noqa: E731
     lines = ["| sources | compensation | first push's error, median (nm) | against the truth (SIM_TRUTH, nm) | "
              "pushes per site | time per site (s) | sites finished | final placement, RMS (nm) | "
