@@ -108,12 +108,11 @@ def trace(run_dir):
     try:
         with open(path, errors="replace") as f:
             for line in f:
-                m = _CHECK.match(line)
-                if m:
-                    checks.append((float(m[1]), int(m[2]), m[3] == "1", np.array([float(m[6]), float(m[7])])))
-                elif _SCAN.match(line):
-                    m = _SCAN.match(line)
-                    scans.append((float(m[1]), int(m[2])))
+                c, s = _CHECK.match(line), _SCAN.match(line)
+                if c:
+                    checks.append((float(c[1]), int(c[2]), c[3] == "1", np.array([float(c[6]), float(c[7])])))
+                elif s:
+                    scans.append((float(s[1]), int(s[2])))
     except OSError as e:
         raise common.PaperError(f"{path}: cannot read the planner's trace: {e.strerror}")
     return checks, scans
