@@ -7,7 +7,9 @@ The lab scene (its include, the calibration's firmware.scanner, kept) is
 run with its instrument's effects (piezo_hysteresis, piezo_creep,
 scan_artefacts, z_drift) none, each alone and all together, against the
 card's compensation off, each part on and both on (firmware.hyst_enable,
-firmware.creep_enable); the scene's other effects stay. Per run, from its
+firmware.creep_enable); the scene's other effects stay. The sources, their
+levels and the parts are analysis/ablation.py's, which ./afm paper's
+compensation and ablation experiments share. Per run, from its
 own log and run.json:
   push error   each particle's final place (SIM_TRUTH) against its place in
                the run with an ideal scanner and no compensation (the
@@ -28,47 +30,40 @@ import sys
 import numpy as np
 import yaml
 
-from analysis import paths, point
-from analysis.paper import common
+from analysis import ablation, knobs, paths, point
 
-INSTRUMENT = ("piezo_hysteresis", "piezo_creep", "scan_artefacts", "z_drift")
-# (name, the instrument's effects on, hyst_enable, creep_enable)
-CASES = [("ideal", (), False, False)] + \
-        [(f"{e} alone", (e,), False, False) for e in INSTRUMENT] + \
-        [("piezo_hysteresis alone, hyst on", ("piezo_hysteresis",), True, False),
-         ("piezo_creep alone, creep on", ("piezo_creep",), False, True),
-         ("all, compensation off", INSTRUMENT, False, False),
-         ("all, hyst on", INSTRUMENT, True, False),
-         ("all, creep on", INSTRUMENT, False, True),
-         ("all, both on", INSTRUMENT, True, True)]
+INSTRUMENT = ("hysteresis", "creep", "artefacts", "z_drift")   # ablation.SOURCES' names
+EFFECT = {"hysteresis": "piezo_hysteresis", "creep": "piezo_creep", "artefacts": "scan_artefacts", "z_drift": "z_drift"}
+# (name, the instrument's sources on, the card's compensation parts on)
+CASES = [("ideal", (), ())] + \
+        [(f"{EFFECT[e]} alone", (e,), ()) for e in INSTRUMENT] + \
+        [("piezo_hysteresis alone, hyst on", ("hysteresis",), ("hyst",)),
+         ("piezo_creep alone, creep on", ("creep",), ("creep",)),
+         ("all, compensation off", INSTRUMENT, ()),
+         ("all, hyst on", INSTRUMENT, ("hyst",)),
+         ("all, creep on", INSTRUMENT, ("creep",)),
+         ("all, both on", INSTRUMENT, ("hyst", "creep"))]
 
 
-def case_scene(scene, scene_dir, effects, hyst, creep):
+def case_scene(scene, scene_dir, sources, parts):
+    """The scene with its includes made absolute and the case's settings
+    (analysis/ablation.py) applied."""
     s = copy.deepcopy(scene)
     s["include"] = [os.path.join(scene_dir, f) for f in (s.get("include") or [])]
-    s["effects"] = [e for e in s.get("effects", []) if e not in INSTRUMENT] + list(effects)
-    s["firmware"] = {**(s.get("firmware") or {}), "hyst_enable": hyst, "creep_enable": creep}
-    return s
+    return knobs.apply(s, ablation.settings(s, sources, parts, among=INSTRUMENT), where="./afm bench scanner")
 
 
-def final_particles(run_dir):
-    """{id: (card x, y), ...}, {id: (true x, y)} at the last block both logged."""
-    _, fw, tr = common.model_states(run_dir)[-1]
-    pos = lambda o: {p.id: np.array([p.x_nm, p.y_nm]) for p in o.particles}   # noqa: E731
-    return pos(fw), pos(tr)
-
-
-def run_case(name, scene, scene_dir, out, effects, hyst, creep):
+def run_case(name, scene, scene_dir, out, sources, parts):
     slug = name.replace(" ", "_").replace(",", "")
     path = os.path.join(out, slug + ".yaml")
     with open(path, "w") as f:
         f.write(f"# ./afm bench scanner: {name}\n")
-        yaml.safe_dump(case_scene(scene, scene_dir, effects, hyst, creep), f, sort_keys=False)
+        yaml.safe_dump(case_scene(scene, scene_dir, sources, parts), f, sort_keys=False)
     run_dir = os.path.join(out, slug)
     code, err, rj, wall = point.run_scene(path, run_dir, 900)
     if code != 0 or not rj or rj.get("status") != "ok":
         return {"case": name, "error": str(point.failure_of(code, err, rj, run_dir))[:300]}
-    card, truth = final_particles(run_dir)
+    card, truth = ablation.particles_at(run_dir)
     v = rj.get("verdict", {})
     return {"case": name, "run": run_dir, "wall_s": wall, "pass": v.get("pass"),
             "failed": [f"{f['check']}: {f['detail']}" for f in v.get("failed", [])],
@@ -103,8 +98,8 @@ def main(argv=None):
     os.makedirs(a.out, exist_ok=True)
     cases = [c for c in CASES if not a.only or c[0] == "ideal" or c[0] in a.only]
     rows = []
-    for name, effects, hyst, creep in cases:
-        r = run_case(name, scene, os.path.dirname(os.path.abspath(a.scene)), a.out, effects, hyst, creep)
+    for name, sources, parts in cases:
+        r = run_case(name, scene, os.path.dirname(os.path.abspath(a.scene)), a.out, sources, parts)
         print(f"bench scanner: {name}: " + (r["error"][:120] if "error" in r else
                                             f"card error {r['card_error_nm']:.1f} nm, {'pass' if r['pass'] else 'fails'}"),
               flush=True)

@@ -11,11 +11,11 @@ import time
 from analysis import paths, point, safefs
 from analysis.paper import common, paper_report
 from analysis import helptext
-from analysis.paper import (exp_compensation, exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze,
+from analysis.paper import (exp_ablation, exp_compensation, exp_drift, exp_flex, exp_landmark, exp_lines, exp_pattern, exp_rod, exp_squeeze,
                             exp_tilted, exp_trench)
 
 EXPERIMENTS = [exp_tilted, exp_lines, exp_rod, exp_squeeze, exp_trench, exp_flex, exp_drift, exp_landmark, exp_pattern,
-               exp_compensation]
+               exp_compensation, exp_ablation]
 BY_NAME = {e.NAME: e for e in EXPERIMENTS}
 
 USAGE_EPILOG = "experiments: " + ", ".join(f"{e.NAME} ({e.FIGURES})" for e in EXPERIMENTS)
@@ -95,7 +95,8 @@ def _one_run(job):
     scene_path = os.path.join(exp_dir, "runs", run.name + ".yaml")
     scene = common.scene_for(run)
     safefs.write_path(scene_path, f"# {run.scene} with {run.settings} (./afm paper)\n" + yaml.safe_dump(scene, sort_keys=False))
-    code, err, rj, wall = point.run_scene(scene_path, run_dir, run.timeout_s)
+    code, err, rj, wall = point.run_scene(scene_path, run_dir, run.timeout_s,
+                                          env={**os.environ, **run.env} if run.env else None)
     ok = code == 0 and rj is not None and rj.get("status") == "ok"
     return run.name, run_dir, ok, (None if ok else point.failure_of(code, err, rj, run_dir)), wall
 

@@ -30,6 +30,7 @@ class Run:
     settings: dict = field(default_factory=dict)   # dotted key -> value (analysis.knobs)
     timeout_s: float = 900.0
     cost_s: float = 10.0         # about how long it takes (the longest start first)
+    env: dict = field(default_factory=dict)        # environment variables the run's processes get besides the caller's
 
 
 TOLERANCES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "tolerances.yaml")

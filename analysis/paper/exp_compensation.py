@@ -8,15 +8,18 @@ creep feed-forward, every scan de-warped by the card's model), against the
 same pushes on an ideal instrument. Per run: the push error, each
 particle's place after its push (SIM_TRUTH, before any later scan) against
 its place on the ideal instrument, the worst site; the card's model against
-the truth then; the display against the fresh scan (fidelity.json). Not
-here: the sample's drift (the lab scene has none: exp_drift) and forces
-between objects (sim_afm/object_forces is not in the world's step yet:
-physics.md 15)."""
+the truth then; the display against the fresh scan (fidelity.json). The
+sources, their levels and the compensation's parts are
+analysis/ablation.py's (exp_ablation's cross of them runs the planner).
+Not here: the sample's drift (the lab scene has none: exp_drift,
+exp_ablation) and forces between objects (ablation.MISSING_SOURCES: no
+scene key turns them on)."""
+import json
 import os
 
 import numpy as np
 
-from analysis import paths
+from analysis import ablation, paths
 from analysis.paper import common
 
 NAME = "compensation"
@@ -25,30 +28,25 @@ FIGURES = "issue 48"
 
 SCENE = "../lab/default.yaml"
 INCLUDE = os.path.join(paths.ROOT, "scenes", "lab", "calibration", "scanner.yml")
-INSTRUMENT = ("piezo_hysteresis", "piezo_creep", "scan_artefacts", "z_drift")
+INSTRUMENT = ("hysteresis", "creep", "artefacts", "z_drift")   # the lab scene's sources (ablation.SOURCES)
 PUSHES_END_S = 2.9   # the path's last push ends at 2.87 s; the local scans begin at 2.92 s
 
 
 def runs(size):
     # The same at both sizes: three runs of a 3.2 s scene.
-    base = {"include": [INCLUDE]}
-    off = {"firmware.hyst_enable": False, "firmware.creep_enable": False}
-    return [common.Run(name="ideal", scene=SCENE, settings={**base, **off, **{f"effects.{e}": False for e in INSTRUMENT}},
-                       cost_s=3),
-            common.Run(name="off", scene=SCENE, settings={**base, **off, "expect": ["fidelity"]}, cost_s=3),
-            common.Run(name="on", scene=SCENE, settings=base, cost_s=3)]
+    scene = common.load_scene(SCENE)
+    case = lambda sources, parts: {"include": [INCLUDE], **ablation.settings(scene, sources, parts, among=INSTRUMENT)}  # noqa: E731
+    return [common.Run(name="ideal", scene=SCENE, settings=case((), ()), cost_s=3),
+            common.Run(name="off", scene=SCENE, settings={**case(INSTRUMENT, ()), "expect": ["fidelity"]}, cost_s=3),
+            common.Run(name="on", scene=SCENE, settings=case(INSTRUMENT, ("hyst", "creep")), cost_s=3)]
 
 
 def after_pushes(run_dir):
     """({id: card (x, y)}, {id: true (x, y)}) at the last block before the local scans."""
-    states = common.model_states(run_dir)
-    _, fw, tr = [s for s in states if s[1].utime * 1e-6 <= PUSHES_END_S][-1]
-    pos = lambda o: {p.id: np.array([p.x_nm, p.y_nm]) for p in o.particles}   # noqa: E731
-    return pos(fw), pos(tr)
+    return ablation.particles_at(run_dir, PUSHES_END_S)
 
 
 def fidelity(run_dir):
-    import json
     with open(os.path.join(run_dir, "fidelity.json")) as f:
         return float(json.load(f)["max_position_error_nm"])
 
@@ -78,8 +76,9 @@ def analyse(dirs, exp_dir, size):
         common.Row("display against the fresh scan (de-warped), on", "nm", key="compensation.fidelity_on",
                    bench=shown["on"], runs=("on",), note="the run's own fidelity check (fidelity.json)"),
     ]
-    res.notes.append("the lab scene at issue 48's levels but for the drift (none in this scene) and the forces between "
-                     "objects (not in the simulator's step yet)")
+    res.notes.append("the lab scene at issue 48's levels but for the drift (none in this scene: the ablation experiment "
+                     "runs it) and the forces between objects, which no run has: "
+                     + ablation.MISSING_SOURCES["object_forces"])
     res.figures = [("Push error per site with the compensation off and on", plot(exp_dir, dirs, ideal))]
     return res
 
