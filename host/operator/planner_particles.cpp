@@ -100,14 +100,17 @@ bool Planner::locate(PlanItem &item, bool place, Vec2 *at)
     return scan_particle(item.id, P, place, at);
 }
 
-void Planner::check_disturbed(const std::vector<particle_t> &before, int pushed_id)
+void Planner::check_disturbed(const std::vector<particle_t> &before, Vec2 drift_before, int pushed_id)
 {
     // Another particle's model moved during a push (the firmware saw the
-    // tip or the pushed particle touch it): a scan shows where it is.
+    // tip or the pushed particle touch it): a scan shows where it is. The
+    // card's drift estimate moves every model (the Kalman filter's, block
+    // by block): that move is not a touch.
+    const Vec2 dd = drift() - drift_before;
     for (const particle_t &b : before) {
         if (b.id == pushed_id) continue;
         const particle_t *p = particle(b.id);
-        if (!p || std::hypot(p->x_nm - b.x_nm, p->y_nm - b.y_nm) < kModelMoved_nm) continue;
+        if (!p || norm(Vec2{p->x_nm - b.x_nm, p->y_nm - b.y_nm} - dd) < kModelMoved_nm) continue;
         ++rep_.disturbed;
         PlanItem probe;
         probe.id = b.id;
@@ -151,8 +154,9 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
         ++rep_.pushes;
         if (at_site && ++attempts > 1) ++rep_.repushes;
         const std::vector<particle_t> before = model_->particles;
+        const Vec2 drift_before = drift();
         push_leg(item.id, end + drift(), at_site);
-        check_disturbed(before, item.id);
+        check_disturbed(before, drift_before, item.id);
         // The check: a scan where the model has it; the model goes where it shows.
         const particle_t *q = particle(item.id);
         if (!q) {
