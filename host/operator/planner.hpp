@@ -270,6 +270,8 @@ private:
     void check_disturbed(const std::vector<particle_t> &before, Vec2 drift_before, int pushed_id);
     void clear_blockers(const std::vector<int> &assigned);
     void run_particles();
+    void replace_knocked_off();
+    void register_at_end();
     void run_wires();
     // A rod's pushes towards its target (run_wires), one at a time.
     struct RodPushes {

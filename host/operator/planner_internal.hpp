@@ -40,6 +40,7 @@ constexpr double kStrokeNear_nm = 180.0;      // the longest stroke near another
 // kStrayHigh_nm.
 constexpr double kStrokeStart_nm = 180.0, kStrokeMin_nm = 60.0, kStrokeMax_nm = 600.0;
 constexpr double kStrayLow_nm = 5.0, kStrayHigh_nm = 15.0;
+constexpr std::size_t kEndScans = 12;     // placed particles scanned at the end to register the drift anew (Kalman filter)
 constexpr int kMaxStrokes = 60;           // per particle
 constexpr double kModelMoved_nm = 0.5;    // a model that moved this much during another's push is checked by a scan
 constexpr int kStallBlocks = 40;          // the tip at its aim and the model still this long: the particle has gone

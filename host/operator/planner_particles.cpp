@@ -265,7 +265,6 @@ void Planner::run_particles()
 
     std::vector<Job> left;
     for (const PlanJob &j : order) left.push_back({j.site, j.particle});
-    const PlanSpec &ps = s_.op.plan;
     while (!left.empty()) {
         // The innermost job with a free push.
         std::size_t pick = left.size();
@@ -297,6 +296,33 @@ void Planner::run_particles()
     }
     // A placed particle knocked off its site by a later push (its model was
     // put right by a scan when it moved) is pushed back.
+    replace_knocked_off();
+    register_at_end();
+}
+
+void Planner::register_at_end()
+{
+    // The pattern is judged at the end where the sites are by the card's
+    // drift then: under the Kalman filter, the last drift it predicted
+    // since its last fix. Placed particles scanned once more (each a drift
+    // fix: the filter averages them) register it anew, spread over the
+    // pattern (every k-th placed particle).
+    if (s_.fw_cal.drift_filter != "kalman") return;
+    std::vector<std::size_t> placed;
+    for (std::size_t k = 0; k < rep_.items.size(); ++k)
+        if (rep_.items[k].kind == "particle" && rep_.items[k].placed) placed.push_back(k);
+    const std::size_t step = std::max<std::size_t>(1, placed.size() / kEndScans);
+    for (std::size_t k = 0; k < placed.size(); k += step) {
+        PlanItem probe = rep_.items[placed[k]];
+        Vec2 at;
+        locate(probe, false, &at);
+        rep_.items[placed[k]].scans = probe.scans;
+    }
+}
+
+void Planner::replace_knocked_off()
+{
+    const PlanSpec &ps = s_.op.plan;
     for (int pass = 0; pass < 2; ++pass)
         for (PlanItem &item : rep_.items) {
             if (item.kind != "particle" || !item.placed) continue;
