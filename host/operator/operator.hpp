@@ -60,6 +60,7 @@ constexpr int kFinishedRepeatMs = 200;
 constexpr int kStrokeNewsMs = 500;      // a stroke's progress on the heartbeat, at most this often (wall)
 constexpr double kPm_nm = 0.0015;       // the card holds positions in whole pm: a position it set is the asked one within this
 
+
 // operator.mode browser: one planner stroke the page asked for (PUSH), the
 // planner on a thread of its own in turns with the bus (PlannerTurns), as a
 // planning run's; ended (stopped and joined) with this.
@@ -370,6 +371,7 @@ struct Operator {
         f.scan_x_nm = turns.fix_at().x;
         f.scan_y_nm = turns.fix_at().y;
         f.kind = turns.fix_place() ? object_fix_t::KIND_PLACE : object_fix_t::KIND_DRIFT;
+        const objects_t before = view.whole();
         auto sent = std::chrono::steady_clock::now();
         afm::publish(lc, AFM_CH_HOST_OBJECT_FIX, f);
         const bool ok = pump_until([&] {
@@ -381,11 +383,7 @@ struct Operator {
             return false;
         });
         if (!ok) return false;
-        // The card's answer is its model: a fix it applied (drift or place)
-        // leaves that particle where the scan found it, to the pm.
-        bool applied = false;
-        for (const auto &p : view.whole().particles)
-            if (p.id == f.object_id) applied = std::fabs(p.x_nm - f.scan_x_nm) <= kPm_nm && std::fabs(p.y_nm - f.scan_y_nm) <= kPm_nm;
+        const bool applied = fix_applied(before, view.whole(), f, kPm_nm);   // the card's answer is its model
         turns.answer(view.whole(), block_end_utime(scene, force.seq) * 1e-6, nullptr, applied ? "" : "refused: beyond the firmware's limit");
         return true;
     }

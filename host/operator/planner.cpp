@@ -155,6 +155,12 @@ bool Planner::scan_at(int id, Vec2 around, Vec2 *found)
             *found = {x, y};
             return true;
         }
+        if (std::getenv("AFM_PLAN_TRACE")) {
+            double lo = 0, hi = 0;
+            cv::minMaxLoc(h, &lo, &hi);
+            std::fprintf(stderr, "plan: scan t %.3f particle %d around (%.1f, %.1f) size %.0f NOT FOUND (heights %.1f..%.1f nm)\n", instrument_->time_s(), id,
+                         around.x, around.y, size, lo, hi);
+        }
     }
     return false;
 }
@@ -163,9 +169,17 @@ bool Planner::send_fix(int id, Vec2 at, bool place)
 {
     std::string note;
     model_ = &instrument_->fix(id, at, place, &note);
-    if (note.empty()) ++rep_.fixes;
-    else ++rep_.fixes_refused;
-    return note.empty();
+    if (!note.empty()) {
+        ++rep_.fixes_refused;
+        return false;
+    }
+    ++rep_.fixes;
+    // A drift fix the Kalman filter took in part (its gain short of 1)
+    // leaves this particle's model short of where the scan shows it: the
+    // scan places it (the drift is the filter's; the particle is seen).
+    const particle_t *p = particle(id);
+    if (!place && p && norm(Vec2{p->x_nm, p->y_nm} - at) > kPlaceAfterDrift_nm) return send_fix(id, at, true);
+    return true;
 }
 
 bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
@@ -174,11 +188,15 @@ bool Planner::scan_particle(int id, Vec2 around, bool place, Vec2 *found)
     const particle_t *p = particle(id);
     const Vec2 off = *found - Vec2{p->x_nm, p->y_nm};
     if (place) return send_fix(id, *found, true);
-    // Drift, or was it disturbed? Within the scan's own scatter: neither.
+    // Drift, or was it disturbed? Within the scan's own scatter: neither
+    // under the step filter (which would take the scatter whole); the
+    // Kalman filter takes it as a measurement with the scan's variance (a
+    // small share), so its drift is fed by every pre-push scan, not only by
+    // those the scatter or the filter's lag push past the deadband.
     // Otherwise the nearest other particle is scanned too: found off by the
     // same it is drift (every model moves); if not, the particles were
     // disturbed, and each model alone is put right.
-    if (norm(off) < kDriftDeadband_nm) return true;
+    if (norm(off) < kDriftDeadband_nm) return s_.fw_cal.drift_filter == "kalman" ? send_fix(id, *found, false) : true;
     const particle_t *ref = nullptr;
     double best = 1e300;
     for (const auto &q : model_->particles)

@@ -66,7 +66,14 @@
 // scatter (4 nm) scans the nearest other particle too: off by the same, it
 // is drift (a drift fix: every model moves); if not, the particles were
 // disturbed (a push the models did not see), and each model alone is put
-// right (place fixes).
+// right (place fixes). Under the card's Kalman filter
+// (firmware.drift_filter: kalman) a pre-push scan within the scatter is a
+// drift fix too (the filter takes its share of it, so every pre-push scan
+// feeds it), and a drift fix the filter took in part is followed by a place
+// fix (the particle's model where the scan shows it). Another particle's
+// model counts as disturbed by a push when it moved by more than the card's
+// drift estimate moved meanwhile (the Kalman filter moves every model each
+// block).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -260,9 +267,11 @@ private:
     bool push_leg(int id, Vec2 end_A, bool slow_end);
     bool locate(PlanItem &item, bool place, Vec2 *at);
     void place_particle(PlanItem &item, Vec2 site);
-    void check_disturbed(const std::vector<particle_t> &before, int pushed_id);
+    void check_disturbed(const std::vector<particle_t> &before, Vec2 drift_before, int pushed_id);
     void clear_blockers(const std::vector<int> &assigned);
     void run_particles();
+    void replace_knocked_off();
+    void register_at_end();
     void run_wires();
     // A rod's pushes towards its target (run_wires), one at a time.
     struct RodPushes {

@@ -20,6 +20,7 @@ constexpr double kSlowest_nm_per_s = 200.0;   // ... to no slower than this
 constexpr double kBackOff_nm = 30.0;      // after a push the tip backs off this far before lifting
 constexpr double kLostAngle_deg = 60.0;   // the line of centres this far off the push: contact lost
 constexpr double kDriftDeadband_nm = 4.0; // a pre-push scan closer than this to the model is not drift (the scan's own scatter)
+constexpr double kPlaceAfterDrift_nm = 0.01;   // a drift fix that leaves the particle's model further than this from its scan is followed by a place fix
 constexpr int kLandBlocks = 3;            // blocks the tip takes to land or lift
 constexpr double kSearchMargin_nm = 40.0; // how far from where it should be a scan looks for a particle
 constexpr double kWideScan = 3.0;         // a particle not in its local scan: one this many times wider
@@ -39,6 +40,7 @@ constexpr double kStrokeNear_nm = 180.0;      // the longest stroke near another
 // kStrayHigh_nm.
 constexpr double kStrokeStart_nm = 180.0, kStrokeMin_nm = 60.0, kStrokeMax_nm = 600.0;
 constexpr double kStrayLow_nm = 5.0, kStrayHigh_nm = 15.0;
+constexpr std::size_t kEndScans = 12;     // placed particles scanned at the end to register the drift anew (Kalman filter)
 constexpr int kMaxStrokes = 60;           // per particle
 constexpr double kModelMoved_nm = 0.5;    // a model that moved this much during another's push is checked by a scan
 constexpr int kStallBlocks = 40;          // the tip at its aim and the model still this long: the particle has gone

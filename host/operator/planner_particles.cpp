@@ -100,14 +100,17 @@ bool Planner::locate(PlanItem &item, bool place, Vec2 *at)
     return scan_particle(item.id, P, place, at);
 }
 
-void Planner::check_disturbed(const std::vector<particle_t> &before, int pushed_id)
+void Planner::check_disturbed(const std::vector<particle_t> &before, Vec2 drift_before, int pushed_id)
 {
     // Another particle's model moved during a push (the firmware saw the
-    // tip or the pushed particle touch it): a scan shows where it is.
+    // tip or the pushed particle touch it): a scan shows where it is. The
+    // card's drift estimate moves every model (the Kalman filter's, block
+    // by block): that move is not a touch.
+    const Vec2 dd = drift() - drift_before;
     for (const particle_t &b : before) {
         if (b.id == pushed_id) continue;
         const particle_t *p = particle(b.id);
-        if (!p || std::hypot(p->x_nm - b.x_nm, p->y_nm - b.y_nm) < kModelMoved_nm) continue;
+        if (!p || norm(Vec2{p->x_nm - b.x_nm, p->y_nm - b.y_nm} - dd) < kModelMoved_nm) continue;
         ++rep_.disturbed;
         PlanItem probe;
         probe.id = b.id;
@@ -151,8 +154,9 @@ void Planner::place_particle(PlanItem &item, Vec2 site)
         ++rep_.pushes;
         if (at_site && ++attempts > 1) ++rep_.repushes;
         const std::vector<particle_t> before = model_->particles;
+        const Vec2 drift_before = drift();
         push_leg(item.id, end + drift(), at_site);
-        check_disturbed(before, item.id);
+        check_disturbed(before, drift_before, item.id);
         // The check: a scan where the model has it; the model goes where it shows.
         const particle_t *q = particle(item.id);
         if (!q) {
@@ -261,7 +265,6 @@ void Planner::run_particles()
 
     std::vector<Job> left;
     for (const PlanJob &j : order) left.push_back({j.site, j.particle});
-    const PlanSpec &ps = s_.op.plan;
     while (!left.empty()) {
         // The innermost job with a free push.
         std::size_t pick = left.size();
@@ -293,6 +296,33 @@ void Planner::run_particles()
     }
     // A placed particle knocked off its site by a later push (its model was
     // put right by a scan when it moved) is pushed back.
+    replace_knocked_off();
+    register_at_end();
+}
+
+void Planner::register_at_end()
+{
+    // The pattern is judged at the end where the sites are by the card's
+    // drift then: under the Kalman filter, the last drift it predicted
+    // since its last fix. Placed particles scanned once more (each a drift
+    // fix: the filter averages them) register it anew, spread over the
+    // pattern (every k-th placed particle).
+    if (s_.fw_cal.drift_filter != "kalman") return;
+    std::vector<std::size_t> placed;
+    for (std::size_t k = 0; k < rep_.items.size(); ++k)
+        if (rep_.items[k].kind == "particle" && rep_.items[k].placed) placed.push_back(k);
+    const std::size_t step = std::max<std::size_t>(1, placed.size() / kEndScans);
+    for (std::size_t k = 0; k < placed.size(); k += step) {
+        PlanItem probe = rep_.items[placed[k]];
+        Vec2 at;
+        locate(probe, false, &at);
+        rep_.items[placed[k]].scans = probe.scans;
+    }
+}
+
+void Planner::replace_knocked_off()
+{
+    const PlanSpec &ps = s_.op.plan;
     for (int pass = 0; pass < 2; ++pass)
         for (PlanItem &item : rep_.items) {
             if (item.kind != "particle" || !item.placed) continue;

@@ -4,9 +4,11 @@
 // served it. The bus side serves one request at a time: next() waits for
 // the planner's request, answer() gives it the model after it (and a scan)
 // and lets it go on; stop() makes a waiting or later call throw PlanStopped.
+// fix_applied: whether the card took a fix, from its model's answer.
 #pragma once
 
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -14,9 +16,30 @@
 
 #include <opencv2/core.hpp>
 
+#include "afm/object_fix_t.hpp"
 #include "planner.hpp"
 
 namespace afm {
+
+// Whether the card applied fix `f`, from its model before (`before`) and
+// after it (`after`): the card answers a fix with its model alone. A place
+// fix it applied, or a drift fix under the step filter, leaves that
+// particle where the scan found it, within pm_nm (the card holds positions
+// in whole pm); a drift fix under the Kalman filter moves it by the
+// filter's gain, short of the scan; a refused fix leaves it where it was.
+inline bool fix_applied(const objects_t &before, const objects_t &after, const object_fix_t &f, double pm_nm)
+{
+    const auto find = [&](const objects_t &m) -> const particle_t * {
+        for (const auto &p : m.particles)
+            if (p.id == f.object_id) return &p;
+        return nullptr;
+    };
+    const particle_t *was = find(before), *now = find(after);
+    if (!now) return false;
+    const bool at_scan = std::fabs(now->x_nm - f.scan_x_nm) <= pm_nm && std::fabs(now->y_nm - f.scan_y_nm) <= pm_nm;
+    const bool moved = was && (std::fabs(now->x_nm - was->x_nm) > pm_nm || std::fabs(now->y_nm - was->y_nm) > pm_nm);
+    return at_scan || (f.kind == object_fix_t::KIND_DRIFT && moved);
+}
 
 // The planner's side of the turns: it blocks in each call until the bus
 // side has served it; the bus side serves one request at a time.

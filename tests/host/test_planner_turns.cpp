@@ -107,6 +107,41 @@ void test_a_failed_planner_hands_its_exception_to_the_bus_side()
     TEST_ASSERT_TRUE(named);
 }
 
+static afm::objects_t one_particle(int id, double x, double y)
+{
+    afm::objects_t m{};
+    afm::particle_t p{};
+    p.id = id;
+    p.x_nm = x;
+    p.y_nm = y;
+    m.particles.push_back(p);
+    m.n_particles = 1;
+    return m;
+}
+
+// The card answers a fix with its model: a place fix (or the step filter's
+// drift fix) puts the particle on the scan; the Kalman filter's drift fix
+// moves it by its gain, short of the scan, and is applied all the same; a
+// refused fix leaves the model where it was.
+void test_a_fix_is_judged_applied_from_the_model_it_leaves()
+{
+    const double pm = 0.0015;
+    afm::object_fix_t f{};
+    f.object_id = 3;
+    f.scan_x_nm = 110;
+    f.scan_y_nm = 50;
+    f.kind = afm::object_fix_t::KIND_PLACE;
+    const afm::objects_t before = one_particle(3, 100, 50);
+    TEST_ASSERT_TRUE(afm::fix_applied(before, one_particle(3, 110, 50), f, pm));
+    TEST_ASSERT_FALSE(afm::fix_applied(before, before, f, pm));                       // refused
+    TEST_ASSERT_FALSE(afm::fix_applied(before, one_particle(3, 108.5, 50), f, pm));   // a place fix is taken whole
+    f.kind = afm::object_fix_t::KIND_DRIFT;
+    TEST_ASSERT_TRUE(afm::fix_applied(before, one_particle(3, 110, 50), f, pm));       // step: taken whole
+    TEST_ASSERT_TRUE(afm::fix_applied(before, one_particle(3, 108.5, 50), f, pm));     // Kalman: gain 0.85
+    TEST_ASSERT_FALSE(afm::fix_applied(before, before, f, pm));                       // refused
+    TEST_ASSERT_FALSE(afm::fix_applied(before, one_particle(4, 110, 50), f, pm));      // gone from the model
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -114,5 +149,6 @@ int main()
     RUN_TEST(test_no_request_reads_as_none_after_the_wait);
     RUN_TEST(test_stop_ends_a_waiting_planner_and_any_later_call);
     RUN_TEST(test_a_failed_planner_hands_its_exception_to_the_bus_side);
+    RUN_TEST(test_a_fix_is_judged_applied_from_the_model_it_leaves);
     return UNITY_END();
 }
