@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "scan_raster.hpp"
+
 namespace afm::sim {
 
 PlayHysteresis::PlayHysteresis(double width, double span_nm, double x0_nm) : x0_(x0_nm), y_(x0_nm)
@@ -68,6 +70,92 @@ double LogCreep::step(double y_nm)
     return y_nm + gamma_ * (sum - b_ * (y_nm - y0_));
 }
 
+std::vector<double> LogCreep::decay(double dt_s) const
+{
+    std::vector<double> keep;
+    for (double tau : tau_) keep.push_back(std::exp(-dt_s / tau));
+    return keep;
+}
+
+double LogCreep::output(const std::vector<double> &s, double y_nm) const
+{
+    double sum = 0;
+    for (std::size_t k = 0; k < s.size(); ++k) sum += c_[k] * (s[k] - y0_);
+    return y_nm + gamma_ * (sum - b_ * (y_nm - y0_));
+}
+
+namespace {
+
+// s held at input v over a step whose decay is keep (LogCreep::step's update).
+void hold(std::vector<double> &s, const std::vector<double> &keep, double v)
+{
+    for (std::size_t k = 0; k < s.size(); ++k) s[k] = v + keep[k] * (s[k] - v);
+}
+
+// The fast axis along line j (piezo.hpp): every line's inputs are the same
+// trace (trace[i]) and retrace; from the relaxers' present state, j lines'
+// affine maps in closed form, then the trace, each pixel's output.
+void creep_fast_axis(const LogCreep &c, const std::vector<double> &trace, const std::vector<double> &retrace, int j, double pixel_s,
+                     double *out)
+{
+    const std::vector<double> keep = c.decay(pixel_s), line_keep = c.decay(pixel_s * (trace.size() + retrace.size()));
+    std::vector<double> s = c.relaxers(), b(s.size(), 0.0);
+    for (double v : trace) hold(b, keep, v);   // one line from 0: B
+    for (double v : retrace) hold(b, keep, v);
+    for (std::size_t k = 0; k < s.size(); ++k) {
+        const double a = line_keep[k], aj = std::pow(a, j);
+        s[k] = aj * s[k] + (a < 1 ? b[k] * (1 - aj) / (1 - a) : b[k] * j);
+    }
+    for (std::size_t i = 0; i < trace.size(); ++i) {
+        hold(s, keep, trace[i]);
+        out[i] = c.output(s, trace[i]);
+    }
+}
+
+// The slow axis along line j: line i < j held at lines[i] for a line's
+// time, then this line's input held pixel by pixel.
+void creep_slow_axis(const LogCreep &c, const std::vector<double> &lines, int n, double pixel_s, double *out)
+{
+    const std::vector<double> keep = c.decay(pixel_s), line_keep = c.decay(2 * n * pixel_s);
+    std::vector<double> s = c.relaxers();
+    for (std::size_t i = 0; i + 1 < lines.size(); ++i) hold(s, line_keep, lines[i]);
+    for (int i = 0; i < n; ++i) {
+        hold(s, keep, lines.back());
+        out[i] = c.output(s, lines.back());
+    }
+}
+
+}  // namespace
+
+void PiezoXY::raster_line(const RasterLine &l, double *x_nm, double *y_nm) const
+{
+    // The slow axis's input at each line up to this one; the fast axis's
+    // along the trace and the retrace (through copies of the hysteresis).
+    const int j = l.dy_nm != 0 ? std::max(0, static_cast<int>(std::lround((l.y_nm - l.y_first_nm) / l.dy_nm))) : 0;
+    std::optional<PlayHysteresis> ey = hy, ex = hx;
+    std::vector<double> lines, trace(static_cast<std::size_t>(l.n)), retrace(static_cast<std::size_t>(l.n));
+    for (int i = 0; i < j; ++i) lines.push_back(ey ? ey->step(l.y_first_nm + i * l.dy_nm) : l.y_first_nm + i * l.dy_nm);
+    if (ey && j == 0) ey->step(l.y_first_nm);
+    lines.push_back(ey ? ey->step(l.y_nm) : l.y_nm);
+    if (ex) {
+        ex->step(l.x0_nm + (l.n - 1) * l.dx_nm);
+        ex->step(l.x0_nm);
+    }
+    for (int i = 0; i < l.n; ++i) trace[static_cast<std::size_t>(i)] = ex ? ex->step(l.x0_nm + i * l.dx_nm) : l.x0_nm + i * l.dx_nm;
+    if (!cx) {
+        std::copy(trace.begin(), trace.end(), x_nm);
+        std::fill(y_nm, y_nm + l.n, lines.back());
+        return;
+    }
+    for (int i = 0; i < l.n; ++i) {
+        const double x = l.x0_nm + (l.n - 1 - i) * l.dx_nm;
+        retrace[static_cast<std::size_t>(i)] = ex ? ex->step(x) : x;
+    }
+    const double pixel_s = scan_raster(l.dx_nm, l.n).pixel_s;
+    creep_fast_axis(*cx, trace, retrace, j, pixel_s, x_nm);
+    creep_slow_axis(*cy, lines, l.n, pixel_s, y_nm);
+}
+
 Eigen::Vector2d PiezoXY::step(const Eigen::Vector2d &drive_nm)
 {
     Eigen::Vector2d p = drive_nm;
@@ -88,8 +176,9 @@ std::unique_ptr<PiezoXY> make_piezo(const Scene &s, const Eigen::Vector2d &start
     }
     if (creep) {
         const double dt = 1.0 / s.sample_rate_hz, gamma = in.creep_pct_per_decade / 100.0;
-        p->cx.emplace(gamma, in.creep_t0_s, s.duration_s, dt, start_nm.x());
-        p->cy.emplace(gamma, in.creep_t0_s, s.duration_s, dt, start_nm.y());
+        const double span = s.duration_s + scan_seconds(s.field_nm / s.out.image_px, s.out.image_px, s.out.image_px);
+        p->cx.emplace(gamma, in.creep_t0_s, span, dt, start_nm.x());
+        p->cy.emplace(gamma, in.creep_t0_s, span, dt, start_nm.y());
     }
     return p;
 }
