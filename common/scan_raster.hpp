@@ -1,18 +1,21 @@
 // A scan's raster in time (physics.md 17.2), the one owner of its timing:
-// the simulator takes a scan's points where its scanner's creep has put the
-// tip at each point's time (sim_afm: PiezoXY::raster_line), and the card's
-// de-warp places them by the card's creep model on the same timeline
+// the simulator takes each scan line where its scanner's creep has put the
+// tip by the line's time (sim_afm: PiezoXY::raster_line), and the card's
+// de-warp places it by the card's creep model at the same time
 // (host/image/scan_dewarp.hpp).
 //
 // The raster starts when the scan is taken (t = 0: the simulator's time
 // then), with a step from where the tip is to the first line's first point.
-// Line j (0 at the first line) takes [j L, (j + 1) L): its trace, pixel i
-// held over [j L + i tau, j L + (i + 1) tau) and taken at the end of that
-// interval, then its retrace back over the same pixels in the same time;
-// the slow axis holds line j's y the whole line and steps to the next at
-// its end. tau = dx / v: a pixel's width at the scan speed v
-// (kScanSpeed_nm_per_s), L = 2 n tau for n pixels a line. A 5 um line at
-// 20 um/s takes 0.5 s (2 lines a second), a 256-line scan of it 128 s.
+// Line j (0 at the first line) takes [j L, (j + 1) L): its trace across the
+// line and its retrace back to the line's start, at the scan speed v
+// (kScanSpeed_nm_per_s), L = 2 n dx / v for n pixels dx apart; the slow
+// axis holds line j's y the whole line and steps to the next at its end.
+// As the creep sees it, a line is taken at once at its trace's middle,
+// j L + L / 4 (line_time_s), and its trace and retrace leave the fast axis
+// where the line started: the creep of a line's points is that of the
+// steps before the line (the tip's before the scan, the step to the scan's
+// start, the slow axis's lines), none of the trace's own ramp. A 5 um line
+// at 20 um/s takes 0.5 s (2 lines a second), a 256-line scan of it 128 s.
 #pragma once
 
 #include <cmath>
@@ -23,18 +26,16 @@ namespace afm {
 constexpr double kScanSpeed_nm_per_s = 20000.0;
 
 struct ScanRaster {
-    double pixel_s = 0;   // tau: a pixel's time
-    double line_s = 0;    // L: a line's trace and retrace
-    // Pixel i of line j is taken at this time after the scan's start, s.
-    double pixel_time_s(int i, int j) const { return j * line_s + (i + 1) * pixel_s; }
+    double line_s = 0;   // L: a line's trace and retrace
+    // Line j is taken (as the creep sees it) at this time after the scan's start, s.
+    double line_time_s(int j) const { return (j + 0.25) * line_s; }
 };
 
 // The raster of lines of n pixels dx_nm apart.
 inline ScanRaster scan_raster(double dx_nm, int n)
 {
     ScanRaster r;
-    r.pixel_s = std::fabs(dx_nm) / kScanSpeed_nm_per_s;
-    r.line_s = 2.0 * n * r.pixel_s;
+    r.line_s = 2.0 * n * std::fabs(dx_nm) / kScanSpeed_nm_per_s;
     return r;
 }
 

@@ -86,54 +86,32 @@ double LogCreep::output(const std::vector<double> &s, double y_nm) const
 
 namespace {
 
-// s held at input v over a step whose decay is keep (LogCreep::step's update).
-void hold(std::vector<double> &s, const std::vector<double> &keep, double v)
+// The creep of one axis at line j's time (common/scan_raster.hpp): from the
+// relaxers' present state, line i < j held at lines[i] for a line's time,
+// then this line's input held a quarter line; the creep then, at it.
+double creep_at_line(const LogCreep &c, const std::vector<double> &lines, double line_s)
 {
-    for (std::size_t k = 0; k < s.size(); ++k) s[k] = v + keep[k] * (s[k] - v);
-}
-
-// The fast axis along line j (piezo.hpp): every line's inputs are the same
-// trace (trace[i]) and retrace; from the relaxers' present state, j lines'
-// affine maps in closed form, then the trace, each pixel's output.
-void creep_fast_axis(const LogCreep &c, const std::vector<double> &trace, const std::vector<double> &retrace, int j, double pixel_s,
-                     double *out)
-{
-    const std::vector<double> keep = c.decay(pixel_s), line_keep = c.decay(pixel_s * (trace.size() + retrace.size()));
-    std::vector<double> s = c.relaxers(), b(s.size(), 0.0);
-    for (double v : trace) hold(b, keep, v);   // one line from 0: B
-    for (double v : retrace) hold(b, keep, v);
-    for (std::size_t k = 0; k < s.size(); ++k) {
-        const double a = line_keep[k], aj = std::pow(a, j);
-        s[k] = aj * s[k] + (a < 1 ? b[k] * (1 - aj) / (1 - a) : b[k] * j);
-    }
-    for (std::size_t i = 0; i < trace.size(); ++i) {
-        hold(s, keep, trace[i]);
-        out[i] = c.output(s, trace[i]);
-    }
-}
-
-// The slow axis along line j: line i < j held at lines[i] for a line's
-// time, then this line's input held pixel by pixel.
-void creep_slow_axis(const LogCreep &c, const std::vector<double> &lines, int n, double pixel_s, double *out)
-{
-    const std::vector<double> keep = c.decay(pixel_s), line_keep = c.decay(2 * n * pixel_s);
+    const std::vector<double> keep = c.decay(line_s), quarter = c.decay(0.25 * line_s);
     std::vector<double> s = c.relaxers();
-    for (std::size_t i = 0; i + 1 < lines.size(); ++i) hold(s, line_keep, lines[i]);
-    for (int i = 0; i < n; ++i) {
-        hold(s, keep, lines.back());
-        out[i] = c.output(s, lines.back());
-    }
+    auto hold = [&](const std::vector<double> &k, double v) {
+        for (std::size_t m = 0; m < s.size(); ++m) s[m] = v + k[m] * (s[m] - v);
+    };
+    for (std::size_t i = 0; i + 1 < lines.size(); ++i) hold(keep, lines[i]);
+    hold(quarter, lines.back());
+    return c.output(s, lines.back()) - lines.back();
 }
 
 }  // namespace
 
 void PiezoXY::raster_line(const RasterLine &l, double *x_nm, double *y_nm) const
 {
-    // The slow axis's input at each line up to this one; the fast axis's
-    // along the trace and the retrace (through copies of the hysteresis).
+    // The slow axis's input at each line up to this one, the fast axis's
+    // along the trace (through copies of the hysteresis: to the line's end
+    // and back, then along the line); the fast axis's creep input is the
+    // line's start, held (common/scan_raster.hpp).
     const int j = l.dy_nm != 0 ? std::max(0, static_cast<int>(std::lround((l.y_nm - l.y_first_nm) / l.dy_nm))) : 0;
     std::optional<PlayHysteresis> ey = hy, ex = hx;
-    std::vector<double> lines, trace(static_cast<std::size_t>(l.n)), retrace(static_cast<std::size_t>(l.n));
+    std::vector<double> lines;
     for (int i = 0; i < j; ++i) lines.push_back(ey ? ey->step(l.y_first_nm + i * l.dy_nm) : l.y_first_nm + i * l.dy_nm);
     if (ey && j == 0) ey->step(l.y_first_nm);
     lines.push_back(ey ? ey->step(l.y_nm) : l.y_nm);
@@ -141,19 +119,15 @@ void PiezoXY::raster_line(const RasterLine &l, double *x_nm, double *y_nm) const
         ex->step(l.x0_nm + (l.n - 1) * l.dx_nm);
         ex->step(l.x0_nm);
     }
-    for (int i = 0; i < l.n; ++i) trace[static_cast<std::size_t>(i)] = ex ? ex->step(l.x0_nm + i * l.dx_nm) : l.x0_nm + i * l.dx_nm;
-    if (!cx) {
-        std::copy(trace.begin(), trace.end(), x_nm);
-        std::fill(y_nm, y_nm + l.n, lines.back());
-        return;
+    for (int i = 0; i < l.n; ++i) x_nm[i] = ex ? ex->step(l.x0_nm + i * l.dx_nm) : l.x0_nm + i * l.dx_nm;
+    double ox = 0, oy = 0;
+    if (cx) {
+        const double line_s = scan_raster(l.dx_nm, l.n).line_s;
+        ox = creep_at_line(*cx, std::vector<double>(lines.size(), x_nm[0]), line_s);
+        oy = creep_at_line(*cy, lines, line_s);
     }
-    for (int i = 0; i < l.n; ++i) {
-        const double x = l.x0_nm + (l.n - 1 - i) * l.dx_nm;
-        retrace[static_cast<std::size_t>(i)] = ex ? ex->step(x) : x;
-    }
-    const double pixel_s = scan_raster(l.dx_nm, l.n).pixel_s;
-    creep_fast_axis(*cx, trace, retrace, j, pixel_s, x_nm);
-    creep_slow_axis(*cy, lines, l.n, pixel_s, y_nm);
+    for (int i = 0; i < l.n; ++i) x_nm[i] += ox;
+    std::fill(y_nm, y_nm + l.n, lines.back() + oy);
 }
 
 Eigen::Vector2d PiezoXY::step(const Eigen::Vector2d &drive_nm)

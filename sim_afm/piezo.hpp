@@ -39,13 +39,11 @@
 // A scan's raster (raster_line; its timing common/scan_raster.hpp) is taken
 // through a copy of the models, from their present state: the hysteresis
 // to the first line, to this one, to the line's end and back along the
-// retrace to its start, then along the line; the creep along the raster's
-// timeline, so that each point carries the creep of every step before it
-// (the tip's before the scan, the step to the scan's start, the lines
-// before: gamma log10(t / t0) of each). Each line's x input is the same
-// trace and retrace, so a line's effect on a relaxer is affine (s -> A s +
-// B, A = exp(-L / tau)) and line j's state is the scan's start's after j of
-// them in closed form; the slow axis's lines are stepped one by one.
+// retrace to its start, then along the line; the creep on the raster's
+// timeline, so that each line carries the creep of every step before it
+// at its time (the tip's before the scan, the step to the scan's start,
+// the slow axis's lines before: gamma log10(t / t0) of each), the fast
+// axis's input held at the line's start.
 #pragma once
 
 #include <Eigen/Core>

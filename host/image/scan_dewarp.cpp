@@ -150,12 +150,11 @@ RasterPositions ScanDewarp::raster(const ScanRegion &r, int64_t scan_utime) cons
     auto hy = [&](double v) { return hyst_ ? direct_nm(&y, v) : v; };
     hx(x_first + (r.nx - 1) * dx);   // the line's end, then the retrace
     hx(x_first);
-    std::vector<double> trace, retrace, lines;
+    std::vector<double> trace, lines;
     for (int i = 0; i < r.nx; ++i) trace.push_back(hx(x_first + i * dx));
-    for (int i = 0; i < r.nx; ++i) retrace.push_back(hx(x_first + (r.nx - 1 - i) * dx));
     for (int j = 0; j < r.ny; ++j) lines.push_back(hy(y_first + j * dy));   // monotone: each as from the first line
     if (creep_) {
-        raster_creep(r, scan_utime, trace, retrace, lines, &out);
+        raster_creep(r, scan_utime, trace, lines, &out);
         return out;
     }
     for (int j = 0; j < r.ny; ++j)
@@ -167,7 +166,7 @@ RasterPositions ScanDewarp::raster(const ScanRegion &r, int64_t scan_utime) cons
 }
 
 void ScanDewarp::raster_creep(const ScanRegion &r, int64_t scan_utime, const std::vector<double> &trace,
-                              const std::vector<double> &retrace, const std::vector<double> &lines, RasterPositions *out) const
+                              const std::vector<double> &lines, RasterPositions *out) const
 {
     fw_creep_t cx = creep_axis_[0], cy = creep_axis_[1];
     // to the scan's time, the last position held
@@ -176,24 +175,22 @@ void ScanDewarp::raster_creep(const ScanRegion &r, int64_t scan_utime, const std
         fw_creep_follow_pm(&cx, fwu_pm_from_nm(last_nm_[0]), nullptr);
         fw_creep_follow_pm(&cy, fwu_pm_from_nm(last_nm_[1]), nullptr);
     }
-    // Along the raster a period at a time: period n's input is the pixel
-    // or line commanded at its start; the creep period n's call gives
-    // (the states through period n - 1) places the pixels taken during
-    // period n - 1.
+    // Along the raster a period at a time (common/scan_raster.hpp): the
+    // fast axis held at the line's start, the slow at the line's; the
+    // creep period n's call gives (the states through period n - 1) is the
+    // creep at its start, n T, which places every line taken by then.
     const ScanRaster t = scan_raster(r.width_nm / r.nx, r.nx);
     const double T = period_us_ * 1e-6;
-    int i = 0, j = 0;   // the next pixel to place
+    int j = 0;   // the next line to place
     for (int64_t n = 0; j < r.ny; ++n) {
-        const double tn = n * T;
-        const int line = std::min(r.ny - 1, static_cast<int>(tn / t.line_s));
-        const int k = static_cast<int>((tn - line * t.line_s) / t.pixel_s);
-        const double px = k < r.nx ? trace[static_cast<std::size_t>(k)] : retrace[static_cast<std::size_t>(std::min(r.nx - 1, k - r.nx))];
-        const double ox = fwu_nm_from_pm(fw_creep_follow_pm(&cx, fwu_pm_from_nm(px), nullptr));
+        const int line = std::min(r.ny - 1, static_cast<int>(n * T / t.line_s));
+        const double ox = fwu_nm_from_pm(fw_creep_follow_pm(&cx, fwu_pm_from_nm(trace.front()), nullptr));
         const double oy = fwu_nm_from_pm(fw_creep_follow_pm(&cy, fwu_pm_from_nm(lines[static_cast<std::size_t>(line)]), nullptr));
-        for (; j < r.ny && t.pixel_time_s(i, j) < tn; i = (i + 1 == r.nx) ? 0 : i + 1, j += (i == 0)) {
-            out->x_nm[static_cast<std::size_t>(j) * r.nx + i] = trace[static_cast<std::size_t>(i)] + ox;
-            out->y_nm[static_cast<std::size_t>(j) * r.nx + i] = lines[static_cast<std::size_t>(j)] + oy;
-        }
+        for (; j < r.ny && t.line_time_s(j) <= n * T; ++j)
+            for (int i = 0; i < r.nx; ++i) {
+                out->x_nm[static_cast<std::size_t>(j) * r.nx + i] = trace[static_cast<std::size_t>(i)] + ox;
+                out->y_nm[static_cast<std::size_t>(j) * r.nx + i] = lines[static_cast<std::size_t>(j)] + oy;
+            }
     }
 }
 

@@ -28,9 +28,9 @@
 // the first line, to the line's end and back along the retrace to its
 // start, then along each line; the creep model advanced from the state's
 // block to the scan's (held), then stepped a period at a time along the
-// raster, its input at each period the trace's or the retrace's pixel or
-// the line then. Each pixel is placed at its hysteresis output plus the
-// creep of its period. A scan is aimed by the card's inverse model (aim:
+// raster, its input the line's start on the fast axis and the line on the
+// slow. Each pixel is placed at its hysteresis output plus its line's
+// creep at the line's time. A scan is aimed by the card's inverse model (aim:
 // fw_hyst_inverse_pm, the card's own compensation, its plays kept in step
 // with the direct model's by follow): the rectangle to command so that the
 // model puts the raster's first and last pixel of each axis on the
@@ -100,8 +100,8 @@ public:
     cv::Mat apply(const cv::Mat &scan, const ScanRegion &r, double *shift_nm = nullptr) const { return apply(scan, r, r, shift_nm); }
 
 private:
-    void raster_creep(const ScanRegion &r, int64_t scan_utime, const std::vector<double> &trace, const std::vector<double> &retrace,
-                      const std::vector<double> &lines, RasterPositions *out) const;
+    void raster_creep(const ScanRegion &r, int64_t scan_utime, const std::vector<double> &trace, const std::vector<double> &lines,
+                      RasterPositions *out) const;
 
     bool hyst_ = false, creep_ = false;
     fw_hyst_t axis_[2]{};     // the card's hysteresis models, x and y, in the state followed (the direct's and the inverse's plays)

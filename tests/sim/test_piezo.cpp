@@ -218,7 +218,7 @@ double worst_against_law(const World &w, double y_first, double D, double before
         const double y = y_first + j * dy;
         w.scan_line(x0, dx, n, y, y_first, p.data(), dy);
         for (int i = 0; i < n; ++i) {
-            const double t = before_s + raster.pixel_time_s(i, j), creep = -p[static_cast<std::size_t>(i)].height_nm / tan_slope - y;
+            const double t = before_s + raster.line_time_s(j), creep = -p[static_cast<std::size_t>(i)].height_nm / tan_slope - y;
             if (t < t0) continue;
             worst = std::max(worst, std::fabs(creep - gamma * D * std::log10(t / t0)));
             *creep_end = creep;
