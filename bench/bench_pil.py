@@ -104,12 +104,12 @@ def scanner_cost(scene, out):
     from analysis import scanner_study
     with open(scene) as f:
         text = yaml.safe_load(f)
-    effects = [e for e in text.get("effects") or [] if e in scanner_study.INSTRUMENT]
+    sources = [n for n in scanner_study.INSTRUMENT if scanner_study.EFFECT[n] in (text.get("effects") or [])]
     cost = {}
-    for label, on in (("off", False), ("on", True)):
+    for label, parts in (("off", ()), ("on", ("hyst", "creep"))):
         path = os.path.join(out, f"scanner_{label}.yaml")
         with open(path, "w") as f:
-            yaml.safe_dump(scanner_study.case_scene(text, os.path.dirname(scene), effects, on, on), f, sort_keys=False)
+            yaml.safe_dump(scanner_study.case_scene(text, os.path.dirname(scene), sources, parts), f, sort_keys=False)
         run_dir = os.path.join(out, f"scanner_{label}")
         p = subprocess.run([IN_NETNS, LAUNCH, "--scene", path, "--out", run_dir, "--quiet", "--firmware", "qemu", "--no-renderer"],
                            capture_output=True, text=True)
