@@ -31,9 +31,13 @@ card's direct Prandtl-Ishlinskii model (N plays, NNLS).
 Writes DIR/scanner_loop.png (each axis's branch, the fit, the residual),
 DIR/scanner_fit.json, and with --write FILE the include a scene takes
 (firmware.scanner: run, x, y; the card's hyst_enable is the scene's
-switch). The creep law is not measured here: the bench's scans are taken
-at once and show no creep (physics.md 17.2); a scene gives it as
-firmware.creep_gamma_pct_per_decade and firmware.creep_t0_s.
+switch). The creep law is not measured here (a scene gives it as
+firmware.creep_gamma_pct_per_decade and firmware.creep_t0_s: a lab's step
+test), and the grating is scanned without piezo_creep: a lab lets its
+scanner settle before it calibrates the hysteresis, while the bench's
+raster after the move to its first point creeps line by line (physics.md
+17.2: about 300 nm over the 200 s of a 320-line scan), which would bend
+the measured loop.
 Exit 0 with a fit, 2 when a step fails (one line naming it)."""
 import argparse
 import hashlib
@@ -50,8 +54,9 @@ from analysis.paper import common
 from analysis.resolved import SceneRefused, resolved_scene
 
 # The effects that shape a scan (those of objects and of the lever's
-# pushes have nothing to act on in the grating's scene).
-SCAN_EFFECTS = ("piezo_hysteresis", "piezo_creep", "scan_artefacts", "z_drift", "photodiode_noise", "tip_convolution",
+# pushes have nothing to act on in the grating's scene; piezo_creep is left
+# out: the scanner settled, above).
+SCAN_EFFECTS = ("piezo_hysteresis", "scan_artefacts", "z_drift", "photodiode_noise", "tip_convolution",
                 "roughness", "bending_offset", "adhesion")
 AMPLITUDE_NM = 10.0     # A: each axis's cosine, 20 nm peak to peak
 MAP_PITCH_NM = 10.0     # the grating map's pixels

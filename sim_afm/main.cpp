@@ -276,7 +276,7 @@ struct Sim {
             line.defl_v.resize(m->nx);
             line.lat_v.resize(m->nx);
             points.resize(m->nx);
-            world.scan_line(line.x0_nm, dx, m->nx, line.y_nm, m->y0_nm + 0.5 * dy, points.data());
+            world.scan_line(line.x0_nm, dx, m->nx, line.y_nm, m->y0_nm + 0.5 * dy, points.data(), dy);
             for (int i = 0; i < m->nx; ++i) {
                 const afm::sim::ScanPoint &p = points[static_cast<std::size_t>(i)];
                 line.height_nm[i] = p.height_nm;

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "scan_raster.hpp"
+
 namespace afm::sim {
 
 PlayHysteresis::PlayHysteresis(double width, double span_nm, double x0_nm) : x0_(x0_nm), y_(x0_nm)
@@ -68,6 +70,66 @@ double LogCreep::step(double y_nm)
     return y_nm + gamma_ * (sum - b_ * (y_nm - y0_));
 }
 
+std::vector<double> LogCreep::decay(double dt_s) const
+{
+    std::vector<double> keep;
+    for (double tau : tau_) keep.push_back(std::exp(-dt_s / tau));
+    return keep;
+}
+
+double LogCreep::output(const std::vector<double> &s, double y_nm) const
+{
+    double sum = 0;
+    for (std::size_t k = 0; k < s.size(); ++k) sum += c_[k] * (s[k] - y0_);
+    return y_nm + gamma_ * (sum - b_ * (y_nm - y0_));
+}
+
+namespace {
+
+// The creep of one axis at line j's time (common/scan_raster.hpp): from the
+// relaxers' present state, line i < j held at lines[i] for a line's time,
+// then this line's input held a quarter line; the creep then, at it.
+double creep_at_line(const LogCreep &c, const std::vector<double> &lines, double line_s)
+{
+    const std::vector<double> keep = c.decay(line_s), quarter = c.decay(0.25 * line_s);
+    std::vector<double> s = c.relaxers();
+    auto hold = [&](const std::vector<double> &k, double v) {
+        for (std::size_t m = 0; m < s.size(); ++m) s[m] = v + k[m] * (s[m] - v);
+    };
+    for (std::size_t i = 0; i + 1 < lines.size(); ++i) hold(keep, lines[i]);
+    hold(quarter, lines.back());
+    return c.output(s, lines.back()) - lines.back();
+}
+
+}  // namespace
+
+void PiezoXY::raster_line(const RasterLine &l, double *x_nm, double *y_nm) const
+{
+    // The slow axis's input at each line up to this one, the fast axis's
+    // along the trace (through copies of the hysteresis: to the line's end
+    // and back, then along the line); the fast axis's creep input is the
+    // line's start, held (common/scan_raster.hpp).
+    const int j = l.dy_nm != 0 ? std::max(0, static_cast<int>(std::lround((l.y_nm - l.y_first_nm) / l.dy_nm))) : 0;
+    std::optional<PlayHysteresis> ey = hy, ex = hx;
+    std::vector<double> lines;
+    for (int i = 0; i < j; ++i) lines.push_back(ey ? ey->step(l.y_first_nm + i * l.dy_nm) : l.y_first_nm + i * l.dy_nm);
+    if (ey && j == 0) ey->step(l.y_first_nm);
+    lines.push_back(ey ? ey->step(l.y_nm) : l.y_nm);
+    if (ex) {
+        ex->step(l.x0_nm + (l.n - 1) * l.dx_nm);
+        ex->step(l.x0_nm);
+    }
+    for (int i = 0; i < l.n; ++i) x_nm[i] = ex ? ex->step(l.x0_nm + i * l.dx_nm) : l.x0_nm + i * l.dx_nm;
+    double ox = 0, oy = 0;
+    if (cx) {
+        const double line_s = scan_raster(l.dx_nm, l.n).line_s;
+        ox = creep_at_line(*cx, std::vector<double>(lines.size(), x_nm[0]), line_s);
+        oy = creep_at_line(*cy, lines, line_s);
+    }
+    for (int i = 0; i < l.n; ++i) x_nm[i] += ox;
+    std::fill(y_nm, y_nm + l.n, lines.back() + oy);
+}
+
 Eigen::Vector2d PiezoXY::step(const Eigen::Vector2d &drive_nm)
 {
     Eigen::Vector2d p = drive_nm;
@@ -88,8 +150,9 @@ std::unique_ptr<PiezoXY> make_piezo(const Scene &s, const Eigen::Vector2d &start
     }
     if (creep) {
         const double dt = 1.0 / s.sample_rate_hz, gamma = in.creep_pct_per_decade / 100.0;
-        p->cx.emplace(gamma, in.creep_t0_s, s.duration_s, dt, start_nm.x());
-        p->cy.emplace(gamma, in.creep_t0_s, s.duration_s, dt, start_nm.y());
+        const double span = s.duration_s + scan_seconds(s.field_nm / s.out.image_px, s.out.image_px, s.out.image_px);
+        p->cx.emplace(gamma, in.creep_t0_s, span, dt, start_nm.x());
+        p->cy.emplace(gamma, in.creep_t0_s, span, dt, start_nm.y());
     }
     return p;
 }

@@ -35,6 +35,15 @@
 //
 // PiezoXY: the scanner's x and y, each through hysteresis then creep (either
 // may be absent), as the World builds it from the scene (make_piezo).
+//
+// A scan's raster (raster_line; its timing common/scan_raster.hpp) is taken
+// through a copy of the models, from their present state: the hysteresis
+// to the first line, to this one, to the line's end and back along the
+// retrace to its start, then along the line; the creep on the raster's
+// timeline, so that each line carries the creep of every step before it
+// at its time (the tip's before the scan, the step to the scan's start,
+// the slow axis's lines before: gamma log10(t / t0) of each), the fast
+// axis's input held at the line's start.
 #pragma once
 
 #include <Eigen/Core>
@@ -77,9 +86,25 @@ public:
     const std::vector<double> &weights() const { return c_; }
     double offset() const { return b_; }
 
+    // The relaxers' states (the raster's copies start from them), each one's
+    // decay exp(-dt / tau_k) over dt_s, and the output for input y_nm with
+    // the relaxers at s (step's formula, nothing stepped).
+    const std::vector<double> &relaxers() const { return s_; }
+    std::vector<double> decay(double dt_s) const;
+    double output(const std::vector<double> &s, double y_nm) const;
+
 private:
     std::vector<double> tau_, c_, keep_, s_;   // keep_: exp(-dt / tau) per relaxer
     double gamma_ = 0, b_ = 0, y0_ = 0, fit_error_ = 0;
+};
+
+// One line of a raster, commanded: x_i = x0 + i dx (i < n) at y; the
+// raster's first line at y_first, its lines dy apart (0: this line is the
+// raster's first in time).
+struct RasterLine {
+    double x0_nm = 0, dx_nm = 0;
+    int n = 0;
+    double y_nm = 0, y_first_nm = 0, dy_nm = 0;
 };
 
 class PiezoXY {
@@ -88,10 +113,15 @@ public:
     std::optional<LogCreep> cx, cy;
     // Where the piezo is after the next commanded position, nm (frame A).
     Eigen::Vector2d step(const Eigen::Vector2d &drive_nm);
+    // Where the scanner puts each point of the line, from the models'
+    // present state (header), into x_nm[0..n) and y_nm[0..n); nothing stepped.
+    void raster_line(const RasterLine &l, double *x_nm, double *y_nm) const;
 };
 
 // The scanner's model for the scene's piezo_hysteresis and piezo_creep
-// (afm.hysteresis, afm.creep), started at start_nm; null with neither.
+// (afm.hysteresis, afm.creep), started at start_nm; null with neither. The
+// creep's law is fitted over the run and a full scan after it (the
+// display's check scans the field at the end).
 std::unique_ptr<PiezoXY> make_piezo(const Scene &s, const Eigen::Vector2d &start_nm);
 
 }  // namespace afm::sim

@@ -46,8 +46,9 @@
 // piezo.hpp (piezo(): the truth), else at the drive. The analog block's
 // piezo xy is the drive: an open-loop scanner reports what it was told, so
 // the card sees the hysteresis and creep only through what it measures.
-// Scans (scan_line) take each line's points where the hysteresis puts them
-// (creep left out: a scan is taken at once) and, with scan_artefacts, show
+// Scans (scan_line) take each line's points where the hysteresis and the
+// creep put them (the creep on the raster's own timeline, while the rest of
+// the world waits: common/scan_raster.hpp) and, with scan_artefacts, show
 // its line offsets, servo lag and bow. z_drift shifts the deflection
 // signal's zero (set_deflection_zero_nm): the true load is the set point
 // less k_n times that shift.
@@ -257,13 +258,14 @@ public:
     // point, so S_n is the set point plus the moment of F_x (eq. 1c).
     ScanPoint scan_point(double x, double y) const;
     // A scan line in +x at the commanded x_i = x0 + i dx (i < n) and y, one
-    // line of a raster whose first line is at y_first, into out[0..n): each
-    // point's scan_point where the scanner puts it (the hysteresis, from its
-    // present state along the raster: to y_first, to y, to the line's end,
-    // back to its start, then along the line), then the scan artefacts
-    // (heights; the servo's tracking error in S_n). Without those effects,
-    // scan_point at each x_i.
-    void scan_line(double x0, double dx, int n, double y, double y_first, ScanPoint *out) const;
+    // line of a raster whose first line is at y_first and whose lines are
+    // dy apart (0: the line is the raster's first in time), into out[0..n):
+    // each point's scan_point where the scanner puts it (PiezoXY::raster_line:
+    // the hysteresis from its present state along the raster, the creep of
+    // every step before the point on the raster's timeline,
+    // common/scan_raster.hpp), then the scan artefacts (heights; the servo's
+    // tracking error in S_n). Without those effects, scan_point at each x_i.
+    void scan_line(double x0, double dx, int n, double y, double y_first, ScanPoint *out, double dy = 0) const;
 
     // Per effect, seconds of wall time. The per-sample stages (mechanics,
     // wire pushes, the per-sample effects) are timed in 1 sample of
@@ -469,6 +471,7 @@ private:
     Grid grid_;
     mutable std::vector<int> scratch_, scratch2_, scratch3_;
     mutable std::vector<double> scratch_line_;   // scan_line's heights and servo errors
+    mutable std::vector<double> raster_x_;       // scan_line's points where the scanner puts them: x, then y
 
     // Chosen once at construction (no per-sample flag tests).
     void (World::*mechanics_)();

@@ -7,7 +7,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <optional>
 
 #include "world_internal.hpp"
 
@@ -185,29 +184,21 @@ ScanPoint World::scan_point_on(const DilatedField *field, double x, double y) co
     return p;
 }
 
-void World::scan_line(double x0, double dx, int n, double y, double y_first, ScanPoint *out) const
+void World::scan_line(double x0, double dx, int n, double y, double y_first, ScanPoint *out, double dy) const
 {
-    // The hysteresis's state, copied, taken along the raster to this line
-    // and its retrace (a play's state after a monotone stretch depends on
-    // its end alone, so each stretch is one step).
-    std::optional<PlayHysteresis> hx, hy;
-    double yt = y;
-    if (piezo_model_ && piezo_model_->hx) {
-        hx = piezo_model_->hx;
-        hy = piezo_model_->hy;
-        hy->step(y_first);
-        yt = hy->step(y);
-        hx->step(x0 + (n - 1) * dx);
-        hx->step(x0);
-    }
+    // Where the scanner puts each point: its models' state, copied, taken
+    // along the raster to this line (PiezoXY::raster_line).
     const auto t0 = Clock::now();
+    if (piezo_model_) {
+        raster_x_.resize(2 * static_cast<std::size_t>(n));
+        piezo_model_->raster_line(RasterLine{x0, dx, n, y, y_first, dy}, raster_x_.data(), raster_x_.data() + n);
+    }
     // With tip_convolution, the lattice through the line's first point and
     // the raster's first line, at the line's pitch subdivided.
     const std::shared_ptr<const DilatedField> f = imaging_ == &World::height_convolved ? dilated(x0, y_first, lattice_pitch(dx)) : nullptr;
-    for (int i = 0; i < n; ++i) {
-        const double x = x0 + i * dx;
-        out[i] = scan_point_on(f.get(), hx ? hx->step(x) : x, yt);
-    }
+    for (int i = 0; i < n; ++i)
+        out[i] = piezo_model_ ? scan_point_on(f.get(), raster_x_[static_cast<std::size_t>(i)], raster_x_[static_cast<std::size_t>(n + i)])
+                              : scan_point_on(f.get(), x0 + i * dx, y);
     t_scan_ += seconds_since(t0);
     if (!artefacts_) return;
     scratch_line_.resize(2 * static_cast<std::size_t>(n));

@@ -165,6 +165,7 @@ void table_scans()
     const std::vector<std::pair<const char *, std::vector<std::string>>> cases = {
         {"plain", {}},
         {"+ piezo_hysteresis", {"piezo_hysteresis"}},
+        {"+ piezo_creep (its raster's timeline)", {"piezo_creep"}},
         {"+ scan_artefacts", {"scan_artefacts"}},
         {"+ both", {"piezo_hysteresis", "scan_artefacts"}},
     };
@@ -177,7 +178,7 @@ void table_scans()
             for (const auto &e : cases[k].second) s.effects.push_back(e);
             const World w(s);
             const auto t0 = std::chrono::steady_clock::now();
-            for (int j = 0; j < n; ++j) w.scan_line(-2500, 5000.0 / n, n, -2500 + j * 5000.0 / n, -2500, line.data());
+            for (int j = 0; j < n; ++j) w.scan_line(-2500, 5000.0 / n, n, -2500 + j * 5000.0 / n, -2500, line.data(), 5000.0 / n);
             const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / (n * n);
             best[k] = r == 0 ? t : std::min(best[k], t);
         }

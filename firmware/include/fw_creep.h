@@ -102,4 +102,15 @@ void fw_creep_reset(fw_creep_t *c);
  * (dev 2^16 - e) alpha / 2^31), |dev 2^16 - e| <= 2^47 (hi alpha < 2^62). */
 int32_t fw_creep_step_pm(fw_creep_t *c, int32_t r_pm, bool *sat);
 
+/* One period of the modelled scanner itself (the host's de-warp follows
+ * it: host/image/scan_dewarp.hpp): given the command u_pm over the period,
+ * the creep the model puts on the position, sum_k a_k e_k (pm: the scanner
+ * is at u_pm plus it), then the states move with u_pm, as
+ * fw_creep_step_pm moves them with its command (so fw_creep_step_pm(c, r)
+ * = r - that creep, and both leave the same states); the first call after
+ * reset takes u_pm as the rest position.
+ * Scaling and overflow: fw_creep_step_pm's; the creep saturated to int32
+ * (sat), the deviation clamped as there (sat). */
+int32_t fw_creep_follow_pm(fw_creep_t *c, int32_t u_pm, bool *sat);
+
 #endif /* FW_CREEP_H */

@@ -94,24 +94,23 @@ static void creep_flag(fw_creep_t *c, bool *sat)
     }
 }
 
-int32_t fw_creep_step_pm(fw_creep_t *c, int32_t r_pm, bool *sat)
+/* sum_k a_k e_k, pm with 16 fraction bits (fw_creep_step_pm's scaling). */
+static int64_t creep_sum_q16(const fw_creep_t *c)
 {
     int64_t corr = 0;
-    int64_t u;
-    int64_t dev;
-    bool clamped = false;
-    int32_t out;
     int32_t k;
-    if (!c->primed) {
-        c->first_pm = r_pm;
-        c->primed = true;
-    }
     for (k = 0; k < FW_CREEP_TERMS; k++) {
         corr += creep_mul_q31(c->e_q16[k], c->a_q31[k]);
     }
-    u = (int64_t)r_pm - fw_math_rshift_round_i64(corr, 16);
-    out = fw_math_sat_i32(u, &clamped);
-    dev = (int64_t)out - c->first_pm;
+    return corr;
+}
+
+/* One period with the command u held: the first since reset is the rest
+ * position; the states move towards u's deviation from it, clamped (sat). */
+static void creep_advance(fw_creep_t *c, int32_t u_pm, bool clamped, bool *sat)
+{
+    int64_t dev = (int64_t)u_pm - c->first_pm;
+    int32_t k;
     if (dev > FW_CREEP_DEV_MAX_PM || dev < -(int64_t)FW_CREEP_DEV_MAX_PM) {
         dev = (dev < 0) ? -(int64_t)FW_CREEP_DEV_MAX_PM : FW_CREEP_DEV_MAX_PM;
         clamped = true;
@@ -122,5 +121,32 @@ int32_t fw_creep_step_pm(fw_creep_t *c, int32_t r_pm, bool *sat)
     for (k = 0; k < FW_CREEP_TERMS; k++) {
         c->e_q16[k] += creep_mul_q31(dev * 65536 - c->e_q16[k], c->alpha_q31[k]);
     }
+}
+
+static void creep_prime(fw_creep_t *c, int32_t pm)
+{
+    if (!c->primed) {
+        c->first_pm = pm;
+        c->primed = true;
+    }
+}
+
+int32_t fw_creep_step_pm(fw_creep_t *c, int32_t r_pm, bool *sat)
+{
+    bool clamped = false;
+    int32_t out;
+    creep_prime(c, r_pm);
+    out = fw_math_sat_i32((int64_t)r_pm - fw_math_rshift_round_i64(creep_sum_q16(c), 16), &clamped);
+    creep_advance(c, out, clamped, sat);
     return out;
+}
+
+int32_t fw_creep_follow_pm(fw_creep_t *c, int32_t u_pm, bool *sat)
+{
+    bool clamped = false;
+    int32_t off;
+    creep_prime(c, u_pm);
+    off = fw_math_sat_i32(fw_math_rshift_round_i64(creep_sum_q16(c), 16), &clamped);
+    creep_advance(c, u_pm, clamped, sat);
+    return off;
 }

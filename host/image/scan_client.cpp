@@ -65,14 +65,14 @@ void ScanClient::finish()
     raw_ = h_.clone();
     note_.scan_utime = line_utime_;
     if (!dewarp_ || !dewarp_->active()) return;
-    h_ = dewarp_->apply(raw_, cmd_, r_, &note_.shift_nm);
+    h_ = dewarp_->apply(raw_, cmd_, r_, &note_.shift_nm, note_.scan_utime);
     note_.dewarped = true;
     note_.model_utime = dewarp_->state_utime();
 }
 
 cv::Mat ScanClient::placed(const cv::Mat &raw) const
 {
-    return dewarp_ && dewarp_->active() ? dewarp_->apply(raw, cmd_, r_) : raw.clone();
+    return dewarp_ && dewarp_->active() ? dewarp_->apply(raw, cmd_, r_, nullptr, note_.scan_utime) : raw.clone();
 }
 
 void ScanClient::retry(int retry_ms)

@@ -53,6 +53,19 @@ static void lab_hyst(fw_hyst_params_t *p, int32_t origin_pm)
     lab_hyst_range(p, origin_pm, R_PM);
 }
 
+/* The same with 16 plays, as ./afm calib scanner fits (the lab scene's):
+ * the weights past the first split evenly. */
+static void lab_hyst16(fw_hyst_params_t *p, int32_t origin_pm)
+{
+    int i;
+    lab_hyst(p, origin_pm);
+    p->n = FW_HYST_N_MAX;
+    for (i = 0; i < p->n; i++) {
+        p->r_pm[i] = (int32_t)((int64_t)R_PM * i / p->n);
+        p->w_q24[i] = (i == 0) ? (q24_t)lround(0.56 * TU_TWO_POW(24)) : (q24_t)lround(0.44 / 15 * TU_TWO_POW(24));
+    }
+}
+
 static void lab_creep(fw_creep_params_t *p)
 {
     p->gamma_ppm = 15000;
@@ -317,6 +330,13 @@ static void test_cost_on_the_board(void)
     cfg.creep_enable = true;
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
     block_cost(&card, "both on");
+    lab_hyst16(&cfg.hyst[0], 0);
+    lab_hyst16(&cfg.hyst[1], 0);
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
+    block_cost(&card, "both on (16 plays)");
+    cfg.creep_enable = false;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_card_init(&card, &cfg, &st, NULL));
+    block_cost(&card, "hysteresis on (16 plays)");
 }
 
 int main(void)

@@ -1,6 +1,7 @@
 /* test_creep.c - fw_creep: the feed-forward of a log-law creep, its
- * constants formed at init, a step's creep cancelled over 3 decades, and
- * saturation at long times. References in C's double precision. */
+ * constants formed at init, a step's creep cancelled over 3 decades,
+ * saturation at long times, and the model followed (the de-warp's) against
+ * the feed-forward and the law. References in C's double precision. */
 #include <math.h>
 #include <string.h>
 #include "unity.h"
@@ -185,6 +186,56 @@ static void test_the_first_command_is_the_rest_and_reset_forgets_it(void)
     TEST_ASSERT_EQUAL_INT32(-7, fw_creep_step_pm(&c, -7, NULL));
 }
 
+/* The model followed (fw_creep_follow_pm) and the feed-forward agree:
+ * the feed-forward's command for r is r less the creep the followed model
+ * gives for that command, and both leave the same states, over random
+ * commands and at the words' ends. */
+static void test_follow_is_the_model_the_feed_forward_inverts(void)
+{
+    const fw_creep_params_t p = { 15000, 100000, 1000 };
+    fw_creep_t f;
+    tu_rng_t rng;
+    int k, i;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_creep_init(&c, &p));
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_creep_init(&f, &p));
+    tu_rng_seed(&rng, 11);
+    for (k = 0; k < 20000; k++) {
+        const int32_t r = (k % 500 < 3) ? ((k % 2) ? INT32_MAX : INT32_MIN) : (int32_t)(tu_rng_u32(&rng) % 20000001u) - 10000000;
+        const int32_t u = fw_creep_step_pm(&c, r, NULL);
+        const int32_t off = fw_creep_follow_pm(&f, u, NULL);
+        if ((int64_t)r - off != u) {   /* only where the command saturated */
+            TEST_ASSERT_TRUE(u == INT32_MAX || u == INT32_MIN);
+        }
+        for (i = 0; i < FW_CREEP_TERMS; i++) {
+            TEST_ASSERT_TRUE(c.e_q16[i] == f.e_q16[i]);
+        }
+        TEST_ASSERT_EQUAL_INT32(c.first_pm, f.first_pm);
+    }
+}
+
+/* A step of D followed: the model's creep at t0 10^k after it is gamma D k
+ * within the terms' fit (0.021 gamma D) and the period's discretisation. */
+static void test_a_followed_step_creeps_by_the_log_law(void)
+{
+    const fw_creep_params_t p = { 15000, 100000, 6250 };   /* the coarsest period: 16 a t0 */
+    int32_t off = 0;
+    int32_t n, next = 16, k = 0;
+    TEST_ASSERT_EQUAL_INT(FW_OK, fw_creep_init(&c, &p));
+    TEST_ASSERT_EQUAL_INT32(0, fw_creep_follow_pm(&c, 0, NULL));   /* the rest */
+    for (n = 1; n <= 16001; n++) {
+        off = fw_creep_follow_pm(&c, STEP_PM, NULL);
+        if (n == next + 1) {   /* the step came at period 1 */
+            const double want = 0.015 * STEP_PM * k;
+            printf("creep followed: %.1f s after a %d nm step: %.2f nm (law %.2f nm)\n", next * 6.25e-3, STEP_PM / 1000,
+                   off / 1000.0, want / 1000.0);
+            TEST_ASSERT_DOUBLE_WITHIN(CANCEL_TOL_GAMMA * 0.015 * STEP_PM, want, (double)off);
+            next *= 10;
+            k++;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(4, k);
+}
+
 typedef struct {
     int line;
     int32_t gamma_ppm;
@@ -237,6 +288,11 @@ static void test_cost_on_the_board(void)
         acc += (uint32_t)fw_creep_step_pm(&c, k * 7919, NULL);
     }
     cost_print("fw_creep_step_pm", t - cost_ticks(), 1000u);
+    t = cost_ticks();
+    for (k = 0; k < 1000; k++) {
+        acc += (uint32_t)fw_creep_follow_pm(&c, k * 7919, NULL);
+    }
+    cost_print("fw_creep_follow_pm", t - cost_ticks(), 1000u);
     TEST_ASSERT_TRUE(acc != 1);
 }
 
@@ -248,6 +304,8 @@ int main(void)
     RUN_TEST(test_gamma_0_passes_the_command_unchanged);
     RUN_TEST(test_long_times_saturate_and_never_wrap);
     RUN_TEST(test_the_first_command_is_the_rest_and_reset_forgets_it);
+    RUN_TEST(test_follow_is_the_model_the_feed_forward_inverts);
+    RUN_TEST(test_a_followed_step_creeps_by_the_log_law);
     RUN_TEST(test_init_refuses_absurd_laws_naming_the_rule);
     RUN_TEST(test_cost_on_the_board);
     return UNITY_END();

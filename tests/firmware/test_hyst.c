@@ -342,6 +342,11 @@ static void test_cost_on_the_board(void)
     }
     cost_print("fw_hyst_inverse_pm, 16 plays", t - cost_ticks(), 1000u);
     t = cost_ticks();
+    for (k = 0; k < 1000; k++) {   /* the card's apex, each sample and axis (fw_card.c, card_scanner_apex) */
+        acc += (uint32_t)fw_hyst_direct_pm(&h, ORIGIN_PM + k * 7919, NULL);
+    }
+    cost_print("fw_hyst_direct_pm, 16 plays", t - cost_ticks(), 1000u);
+    t = cost_ticks();
     TEST_ASSERT_EQUAL_INT(FW_OK, fw_hyst_init(&h, &p));
     cost_print("fw_hyst_init, 16 plays", t - cost_ticks(), 1u);
     TEST_ASSERT_TRUE(acc != 1);   /* keeps the calls */

@@ -1,7 +1,8 @@
 // The scanner's piezo (sim_afm/piezo.hpp) against its laws: the
 // Prandtl-Ishlinskii loop's width at full range, the creep per decade of the
-// log law and the relaxers' fit, and the World's piezo following the drive
-// through them while the analog block reports the drive.
+// log law and the relaxers' fit, the World's piezo following the drive
+// through them while the analog block reports the drive, and a scan's
+// points carrying the creep of the steps before them.
 #include <unity.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 
 #include "../scene_text.hpp"
 #include "piezo.hpp"
+#include "scan_raster.hpp"
 #include "world.hpp"
 
 using afm::sim::LogCreep;
@@ -180,6 +182,82 @@ void test_world_piezo_follows_the_drive_through_the_models()
     TEST_ASSERT_TRUE(hyst.piezo().x() > 20.0);   // the descending branch lies above
 }
 
+// A tilted substrate's height tells each scan point's true y: h = -y tan(slope).
+const char *kTilted = R"(name: piezo-scan
+seed: 5
+duration_s: 2
+sample_rate_hz: 10000
+block_hz: 1000
+effects: [EFFECTS]
+sample:
+  substrate: tilted_glass
+  slope_deg: 10
+  field_nm: 5000
+afm:
+  creep: {gamma_pct_per_decade: 1.5, t0_s: 0.1}
+operator:
+  load_nN: 5
+  path_nm: [[0, 0]]
+)";
+
+// A scan's lines of n points across x0 .. x0 + W at y_first + j dy (dy
+// tiny: the raster's own steps creep by nothing measurable), each point's
+// true y from the substrate's height less its commanded y, against the
+// law's creep of a step D made `before_s` before the scan (its ramp's
+// middle) at the point's time on the raster (common/scan_raster.hpp);
+// the worst deviation over the points at t0 or later after the step.
+double worst_against_law(const World &w, double y_first, double D, double before_s, int lines, double *creep_end)
+{
+    constexpr int n = 64;
+    constexpr double x0 = -2500, W = 5000, dy = 1e-3, gamma = 0.015, t0 = 0.1;
+    const double tan_slope = std::tan(10 * M_PI / 180), dx = W / n;
+    const afm::ScanRaster raster = afm::scan_raster(dx, n);
+    std::vector<afm::sim::ScanPoint> p(n);
+    double worst = 0;
+    for (int j = 0; j < lines; ++j) {
+        const double y = y_first + j * dy;
+        w.scan_line(x0, dx, n, y, y_first, p.data(), dy);
+        for (int i = 0; i < n; ++i) {
+            const double t = before_s + raster.line_time_s(j), creep = -p[static_cast<std::size_t>(i)].height_nm / tan_slope - y;
+            if (t < t0) continue;
+            worst = std::max(worst, std::fabs(creep - gamma * D * std::log10(t / t0)));
+            *creep_end = creep;
+        }
+    }
+    return worst;
+}
+
+void test_a_scan_carries_the_creep_of_the_steps_before_it()
+{
+    // The creep's law in a scan: 2000 nm away from the tip's rest, the
+    // raster's first point is a step; 0.5 s after a move of 2000 nm the
+    // scan's start carries that move's creep. Each line, 0.5 s long, sees
+    // the step's creep grown by its time: y less its command is
+    // gamma D log10(t / t0) within the fit's error (and 0.005 gamma D for
+    // the move's ramp, taken at its middle).
+    constexpr double D = 2000, gamma = 0.015;
+    World at_rest(scene_from_text(with(kTilted, "EFFECTS", "piezo_creep")));
+    double end = 0;
+    const double e_rest = worst_against_law(at_rest, D, D, 0.0, 64, &end);
+    std::printf("piezo_creep in a scan: the step to the raster's start, 64 lines (32 s): y within %.2f nm of the law; "
+                "%.1f nm of creep at the last line (law %.1f)\n", e_rest, end, gamma * D * std::log10(32 / 0.1));
+    World moved(scene_from_text(with(kTilted, "EFFECTS", "piezo_creep")));
+    moved.command(Eigen::Vector2d(0, D), 5, true);
+    for (int i = 0; i < 5000; ++i) moved.step();   // 0.5 s; the drive gets there in 0.1 s
+    const double ramp_mid_s = 0.5 - 0.5 * D / 20000.0;
+    const double e_moved = worst_against_law(moved, D, D, ramp_mid_s, 16, &end);
+    std::printf("piezo_creep in a scan 0.5 s after a 2000 nm move: y within %.2f nm of the law; %.1f nm at its last line\n",
+                e_moved, end);
+    const double tol = (0.03 + 0.005) * gamma * D;   // the relaxers' fit error (below 0.03 decades) and the ramp
+    TEST_ASSERT_TRUE(e_rest < tol);
+    TEST_ASSERT_TRUE(e_moved < tol);
+    TEST_ASSERT_TRUE(end > 0.02 * D);   // the creep is there: 2.4 % of the move at the last line
+    // without the effect the scan's y is its command
+    World plain(scene_from_text(with(kTilted, "EFFECTS", "")));
+    const double e_plain = worst_against_law(plain, D, 0.0, 0.0, 4, &end);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 0.0, e_plain);
+}
+
 void test_world_without_the_effects_builds_no_piezo_model()
 {
     World w(scene_from_text(with(kScene, "EFFECTS", "bending_offset")));
@@ -198,6 +276,7 @@ int main()
     RUN_TEST(test_creep_per_decade_follows_the_log_law);
     RUN_TEST(test_creep_superposes_steps);
     RUN_TEST(test_world_piezo_follows_the_drive_through_the_models);
+    RUN_TEST(test_a_scan_carries_the_creep_of_the_steps_before_it);
     RUN_TEST(test_world_without_the_effects_builds_no_piezo_model);
     return UNITY_END();
 }
