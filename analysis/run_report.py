@@ -512,7 +512,7 @@ def _open(folder):
         return None, info
     from analysis import report_series
     try:
-        return report_series.read(f"/proc/self/fd/{fd}"), info
+        return report_series.read(f"/proc/self/fd/{fd}", info.get("sim_seconds")), info
     except Exception as e:   # a run cut short: what run.json says, and why there is no more
         info.setdefault("error", f"its log does not read: {e}")
         return None, info
