@@ -253,13 +253,14 @@ class Series:
     """The report's decoded state (module docstring): its Envelopes and
     Stats, bounded by the bins and the scene's objects."""
 
-    def __init__(self):
+    def __init__(self, bins=DIFF_BINS):
         self.block_rows = [0, 0]  # rows per channel (FW, TRUTH)
+        self.diff_rows = 0        # particle difference rows the log's reader handed on
         self.undecodable = self.refused = 0
         self.recorded = (0, 0)    # the first and last block's recording time, us since the epoch
-        self.diff = Envelope(BLOCK_COLUMNS, DIFF_BINS)
+        self.diff = Envelope(BLOCK_COLUMNS, bins)
         self.diff_stats = Stats(BLOCK_COLUMNS)
-        self.particle_diff = Envelope(PARTICLE_COLUMNS, DIFF_BINS)
+        self.particle_diff = Envelope(PARTICLE_COLUMNS, bins)
         self.particle_diff_stats = {}   # particle id -> Stats
         self.diff_index = {}            # particle id -> series index in particle_diff
         self._pairs = _BlockPairs()
@@ -284,6 +285,7 @@ class Series:
         self.diff_stats.add(d)
 
     def _add_diffs(self, rows, col):
+        self.diff_rows += len(rows)
         ids, inverse = np.unique(rows[:, col["id"]].astype(np.int64), return_inverse=True)
         index = np.array([self.diff_index.setdefault(p, len(self.diff_index)) for p in ids.tolist()], dtype=np.int64)
         self.particle_diff.add(index[inverse], rows[:, col["utime_us"]], rows[:, [col[c] for c in PARTICLE_COLUMNS]])
@@ -295,16 +297,17 @@ class Series:
                 r[[col["worst_x"], col["worst_y"]]])
 
 
-def read(path, duration_s=None, chunk_rows=CHUNK_ROWS):
+def read(path, duration_s=None, bins=DIFF_BINS, chunk_rows=CHUNK_ROWS):
     """The Series of the log at `path`, in one pass (module docstring);
-    duration_s: the run's simulated seconds, if known (fine_bin_us)."""
+    duration_s: the run's simulated seconds, if known (fine_bin_us); bins:
+    the Envelopes' bins."""
     lib = _lib()
     bcol, dcol, scol = ({c: i for i, c in enumerate(_columns(k))} for k in ("blocks", "diffs", "stats"))
     err = ctypes.create_string_buffer(512)
-    reader = lib.afm_log_series_open(os.fsencode(path), fine_bin_us(duration_s), err, len(err))
+    reader = lib.afm_log_series_open(os.fsencode(path), fine_bin_us(duration_s, bins), err, len(err))
     if not reader:
         raise FileNotFoundError(err.value.decode(errors="replace"))
-    out = Series()
+    out = Series(bins)
     brows, drows = np.empty((chunk_rows, len(bcol))), np.empty((chunk_rows, len(dcol)))
     try:
         while True:
