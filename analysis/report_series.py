@@ -111,20 +111,22 @@ class Envelope:
         self.any = True
         while t.max() >= self.bins * self.width:
             self._coarsen()
-        key = series.astype(np.int64) * self.bins + (t // self.width).astype(np.int64)
-        for c in range(len(self.columns)):
-            v = values[:, c]
-            order = np.lexsort((v, key))
-            ks = key[order]
-            starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-            ends = np.r_[starts[1:] - 1, len(ks) - 1]
-            keys = ks[starts]
-            s, b = keys // self.bins, keys % self.bins
-            for vals, times, at, better in ((self.lo, self.tlo, starts, np.less), (self.hi, self.thi, ends, np.greater)):
-                v_new, t_new = v[order[at]], t[order[at]]
-                take = better(v_new, vals[s, c, b])
-                vals[s[take], c, b[take]] = v_new[take]
-                times[s[take], c, b[take]] = t_new[take]
+        # each row's bin in the flat (series, column, bin) arrays, folded in
+        # by ufunc.at; a bin's extreme keeps the time of its row (among equal
+        # values: the least's first, the greatest's last, in the rows' order)
+        k = len(self.columns)
+        at = series.astype(np.int64) * k * self.bins + (t // self.width).astype(np.int64)
+        for c in range(k):
+            v, idx = values[:, c], at + c * self.bins
+            for vals, times, fold, better, first in ((self.lo, self.tlo, np.fmin, np.less, True),
+                                                    (self.hi, self.thi, np.fmax, np.greater, False)):
+                flat, tflat = vals.reshape(-1), times.reshape(-1)   # views: the arrays are C-contiguous
+                old = flat[idx]
+                fold.at(flat, idx, v)
+                hit = np.flatnonzero(better(v, old) & (v == flat[idx]))
+                if first:
+                    hit = hit[::-1]   # a repeated index takes the last value assigned
+                tflat[idx[hit]] = t[hit]
 
     def points(self, series, column):
         """(t in s, values): the line through each bin's extremes, in time order."""
