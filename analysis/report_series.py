@@ -1,15 +1,19 @@
 """What the per-run report plots, read from a run's bus.lcmlog in one
-streaming pass, in memory bounded whatever the run's length.
+streaming pass, in time and memory bounded whatever the run's length.
 
-    series = report_series.read("/proc/self/fd/N")   # or a path
-    t, v = series.blocks.points(series.FW, "force_nN_x")
-    series.particle_ids(), series.particle_span(i), series.particle_points(ch, i, "x_nm")
+    series = report_series.read("/proc/self/fd/N", duration_s)   # or a path
+    t, v = series.diff.points(0, "force_nN_x")
+    series.diff_stats.figures("force_nN_x")          # bias, RMS, worst, n
+    series.particle_diff_ids(), series.particle_diff_points(i, "x_nm")
 
 The log is read by bus/log_series_c.h (through ctypes): the one C++ pass
 that frames the events (LogReader), decodes FW_STATE and SIM_TRUTH with the
-generated types and makes their objects whole with ObjectsView; its rows
-(columns named by the library) come in chunks of CHUNK_ROWS and go into
-Envelopes here, never kept whole:
+generated types and makes their objects whole with ObjectsView. Each
+particle's card-minus-truth difference is made there, row by row, with its
+running figures, and only each fine time bin's extremes are handed on
+(fine_bin_us: with a drifting sample every particle moves every block, and
+those rows never reach Python). The rows come in chunks of CHUNK_ROWS and go
+into Envelopes here, never kept whole:
 
   Envelope   per series and column, at most `bins` time bins; in each bin
              the least and the greatest value with their times. A bin
@@ -24,18 +28,18 @@ Envelopes here, never kept whole:
              (a time each value held).
 
 Series:
-  blocks     channel FW (the card, FW_STATE) and TRUTH (SIM_TRUTH): the
-             first message of each block; columns force_nN_x/y/z, tip_nm_x/y.
-  particles  (channel, particle id): x_nm, y_nm of the whole sets placed.
+  block_rows FW_STATE's (FW) and SIM_TRUTH's (TRUTH) block rows read: the
+             first message of each block.
   diff       card minus truth per block, the two channels' rows paired by
              the block's seq (a row waits for its partner across chunks; one
              whose partner's channel has gone past it is dropped):
              force_nN_x/y/z, tip_nm_x/y; diff_stats its Stats.
   particle_diff  card minus truth per particle (series: particle_diff_ids),
-             x_nm, y_nm: at each particle row, that side's position less
-             the other side's last one (the rows come only where a position
-             changes, so the last one holds until the next); its Stats per
-             particle weighted by the time each difference held.
+             x_nm, y_nm: from each set that moves the particle on either
+             side, that side's position less the other side's last one,
+             holding until the next (log_series_c.h, "diffs"); its Stats per
+             particle (particle_diff_stats) over every difference, weighted
+             by the time each held.
 
 Raises LogError (the file and the byte offset) for a log that does not read
 whole, and FileNotFoundError when the library is not built."""
@@ -48,8 +52,6 @@ from analysis import paths
 
 FW, TRUTH = 0, 1
 CHUNK_ROWS = 16384
-BLOCK_BINS = 4096       # the force and apex figures: about 800 px of axes each
-PARTICLE_BINS = 1024    # the objects' figure: two axes of about 400 px
 DIFF_BINS = 1024        # card minus truth: a bin to a pixel column or so (a noisy line drawn no longer than it shows)
 BLOCK_COLUMNS = ["force_nN_x", "force_nN_y", "force_nN_z", "tip_nm_x", "tip_nm_y"]
 PARTICLE_COLUMNS = ["x_nm", "y_nm"]
@@ -109,20 +111,22 @@ class Envelope:
         self.any = True
         while t.max() >= self.bins * self.width:
             self._coarsen()
-        key = series.astype(np.int64) * self.bins + (t // self.width).astype(np.int64)
-        for c in range(len(self.columns)):
-            v = values[:, c]
-            order = np.lexsort((v, key))
-            ks = key[order]
-            starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-            ends = np.r_[starts[1:] - 1, len(ks) - 1]
-            keys = ks[starts]
-            s, b = keys // self.bins, keys % self.bins
-            for vals, times, at, better in ((self.lo, self.tlo, starts, np.less), (self.hi, self.thi, ends, np.greater)):
-                v_new, t_new = v[order[at]], t[order[at]]
-                take = better(v_new, vals[s, c, b])
-                vals[s[take], c, b[take]] = v_new[take]
-                times[s[take], c, b[take]] = t_new[take]
+        # each row's bin in the flat (series, column, bin) arrays, folded in
+        # by ufunc.at; a bin's extreme keeps the time of its row (among equal
+        # values: the least's first, the greatest's last, in the rows' order)
+        k = len(self.columns)
+        at = series.astype(np.int64) * k * self.bins + (t // self.width).astype(np.int64)
+        for c in range(k):
+            v, idx = values[:, c], at + c * self.bins
+            for vals, times, fold, better, first in ((self.lo, self.tlo, np.fmin, np.less, True),
+                                                    (self.hi, self.thi, np.fmax, np.greater, False)):
+                flat, tflat = vals.reshape(-1), times.reshape(-1)   # views: the arrays are C-contiguous
+                old = flat[idx]
+                fold.at(flat, idx, v)
+                hit = np.flatnonzero(better(v, old) & (v == flat[idx]))
+                if first:
+                    hit = hit[::-1]   # a repeated index takes the last value assigned
+                tflat[idx[hit]] = t[hit]
 
     def points(self, series, column):
         """(t in s, values): the line through each bin's extremes, in time order."""
@@ -167,6 +171,12 @@ class Stats:
         self.sq += w @ (values * values)
         self.worst = np.maximum(self.worst, np.abs(values).max(0))
 
+    def set_sums(self, n, w, sums, squares, worst):
+        """The figures as the log's reader kept them (log_series_c.h, "stats")."""
+        self.n, self.w = int(n), float(w)
+        self.sum, self.sq, self.worst = np.asarray(sums, float), np.asarray(squares, float), np.asarray(worst, float)
+        return self
+
     def figures(self, column):
         """{"bias", "rms", "worst", "n"} of a column (None for the first three without rows)."""
         c = self.columns.index(column)
@@ -199,42 +209,6 @@ class _BlockPairs:
         return tr[:, 1], fw[:, 2:] - tr[:, 2:]
 
 
-class _ParticlePairs:
-    """Card minus truth per particle, the other side's last position held (Series.particle_diff)."""
-
-    def __init__(self):
-        self.last = {}    # (channel, id) -> (x, y)
-        self.prev = {}    # id -> (time covered up to, dx, dy): the last difference, still holding
-
-    def pair(self, rows, col):
-        """Particle rows in log order -> (ids, t, d, weights of the previous differences)."""
-        out_id, out_t, out_d, done = [], [], [], []   # done: (id, d, weight) of differences that ended
-        ch, pid = rows[:, col["channel"]].astype(int), rows[:, col["id"]].astype(int)
-        t, xy = rows[:, col["utime_us"]], rows[:, [col["x_nm"], col["y_nm"]]]
-        for i in range(len(rows)):
-            c, p = ch[i], pid[i]
-            self.last[(c, p)] = (xy[i, 0], xy[i, 1])
-            other = self.last.get((1 - c, p))
-            if other is None:
-                continue
-            card, truth = (self.last[(FW, p)], self.last[(TRUTH, p)])
-            d = (card[0] - truth[0], card[1] - truth[1])
-            covered = t[i]
-            if p in self.prev:   # the previous difference held from the time covered so far to this row's
-                pt, px, py = self.prev[p]
-                done.append((p, px, py, max(0.0, t[i] - pt)))
-                covered = max(pt, t[i])
-            self.prev[p] = (covered, d[0], d[1])
-            out_id.append(p)
-            out_t.append(t[i])
-            out_d.append(d)
-        return out_id, out_t, out_d, done
-
-    def close(self, t_end):
-        """The differences still holding, each until t_end."""
-        return [(p, px, py, max(0.0, t_end - pt)) for p, (pt, px, py) in self.prev.items()]
-
-
 _LIB = None
 
 
@@ -247,13 +221,13 @@ def _lib():
         lib.afm_log_series_columns.restype = ctypes.c_char_p
         lib.afm_log_series_columns.argtypes = [ctypes.c_char_p]
         lib.afm_log_series_open.restype = ctypes.c_void_p
-        lib.afm_log_series_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_size_t]
+        lib.afm_log_series_open.argtypes = [ctypes.c_char_p, ctypes.c_double, ctypes.c_char_p, ctypes.c_size_t]
         lib.afm_log_series_free.argtypes = [ctypes.c_void_p]
         dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
         lib.afm_log_series_blocks.restype = ctypes.c_long
         lib.afm_log_series_blocks.argtypes = [ctypes.c_void_p, dbl, ctypes.c_long, ctypes.c_char_p, ctypes.c_size_t]
-        lib.afm_log_series_particles.restype = ctypes.c_long
-        lib.afm_log_series_particles.argtypes = [ctypes.c_void_p, dbl, ctypes.c_long]
+        for f in (lib.afm_log_series_diffs, lib.afm_log_series_stats):
+            f.restype, f.argtypes = ctypes.c_long, [ctypes.c_void_p, dbl, ctypes.c_long]
         for f in (lib.afm_log_series_undecodable, lib.afm_log_series_refused):
             f.restype, f.argtypes = ctypes.c_long, [ctypes.c_void_p]
         lib.afm_log_series_recorded.restype = ctypes.c_longlong
@@ -266,38 +240,35 @@ def _columns(kind):
     return _lib().afm_log_series_columns(kind.encode()).decode().split(",")
 
 
-class Series:
-    """The report's decoded state (module docstring): two Envelopes and the
-    particle ids met, in order; bounded by the bins and the scene's objects."""
+def fine_bin_us(duration_s, bins=DIFF_BINS):
+    """The log's reader's bins for a run of duration_s simulated seconds
+    (its run.json sim_seconds, the last block's time): the greatest power
+    of two (us) no greater than the run over `bins`, so that each of an
+    Envelope's final bins (the least power of two over it) spans whole
+    ones; 0 (every difference handed on) without a duration."""
+    if not duration_s or not np.isfinite(duration_s) or duration_s <= 0:
+        return 0.0
+    return float(2 ** max(0, int(np.floor(np.log2(max(1.0, duration_s * 1e6 / bins))))))
 
-    def __init__(self):
-        self.blocks = Envelope(BLOCK_COLUMNS, BLOCK_BINS)
-        self.particles = Envelope(PARTICLE_COLUMNS, PARTICLE_BINS)
-        self.ids = {}             # (channel, particle id) -> series index in self.particles
+
+class Series:
+    """The report's decoded state (module docstring): its Envelopes and
+    Stats, bounded by the bins and the scene's objects."""
+
+    def __init__(self, bins=DIFF_BINS):
         self.block_rows = [0, 0]  # rows per channel (FW, TRUTH)
+        self.diff_rows = 0        # particle difference rows the log's reader handed on
         self.undecodable = self.refused = 0
         self.recorded = (0, 0)    # the first and last block's recording time, us since the epoch
-        self.diff = Envelope(BLOCK_COLUMNS, DIFF_BINS)
+        self.diff = Envelope(BLOCK_COLUMNS, bins)
         self.diff_stats = Stats(BLOCK_COLUMNS)
-        self.particle_diff = Envelope(PARTICLE_COLUMNS, DIFF_BINS)
+        self.particle_diff = Envelope(PARTICLE_COLUMNS, bins)
         self.particle_diff_stats = {}   # particle id -> Stats
         self.diff_index = {}            # particle id -> series index in particle_diff
-        self._pairs, self._ppairs, self._t_end = _BlockPairs(), _ParticlePairs(), 0.0
+        self._pairs = _BlockPairs()
 
     def has(self, channel):
         return self.block_rows[channel] > 0
-
-    def particle_ids(self, channel):
-        return sorted(i for ch, i in self.ids if ch == channel)
-
-    def particle_span(self, channel, pid):
-        """How far a particle went: its x extent plus its y extent, nm."""
-        s = self.ids[(channel, pid)]
-        return sum(hi - lo for lo, hi in (self.particles.extent(s, c) for c in PARTICLE_COLUMNS))
-
-    def particle_points(self, channel, pid, column):
-        s = self.ids.get((channel, pid))
-        return (np.array([]), np.array([])) if s is None else self.particles.points(s, column)
 
     def particle_diff_ids(self):
         return sorted(self.diff_index)
@@ -311,59 +282,51 @@ class Series:
         for c in (FW, TRUTH):
             self.block_rows[c] += int(np.count_nonzero(ch == c))
         values = rows[:, [col[c] for c in BLOCK_COLUMNS]]
-        self.blocks.add(ch, rows[:, col["utime_us"]], values)
-        if len(rows):
-            self._t_end = max(self._t_end, float(rows[:, col["utime_us"]].max()))
         t, d = self._pairs.pair(ch, np.column_stack([ch, rows[:, col["seq"]], rows[:, col["utime_us"]], values]))
         self.diff.add(np.zeros(len(t), dtype=np.int64), t, d)
         self.diff_stats.add(d)
 
-    def _diff_stats(self, done):
-        if not done:
-            return
-        a = np.array(done, dtype=float)
-        for p in np.unique(a[:, 0]).astype(int).tolist():
-            mine = a[a[:, 0] == p]
-            self.particle_diff_stats.setdefault(p, Stats(PARTICLE_COLUMNS)).add(mine[:, 1:3], mine[:, 3])
+    def _add_diffs(self, rows, col):
+        self.diff_rows += len(rows)
+        ids, inverse = np.unique(rows[:, col["id"]].astype(np.int64), return_inverse=True)
+        index = np.array([self.diff_index.setdefault(p, len(self.diff_index)) for p in ids.tolist()], dtype=np.int64)
+        self.particle_diff.add(index[inverse], rows[:, col["utime_us"]], rows[:, [col[c] for c in PARTICLE_COLUMNS]])
 
-    def _finish(self):
-        self._diff_stats(self._ppairs.close(self._t_end))
-
-    def _add_particles(self, rows, col):
-        keys = zip(rows[:, col["channel"]].astype(int).tolist(), rows[:, col["id"]].astype(int).tolist())
-        index = np.array([self.ids.setdefault(k, len(self.ids)) for k in keys], dtype=np.int64)
-        self.particles.add(index, rows[:, col["utime_us"]], rows[:, [col[c] for c in PARTICLE_COLUMNS]])
-        ids, t, d, done = self._ppairs.pair(rows, col)
-        if ids:
-            index = np.array([self.diff_index.setdefault(p, len(self.diff_index)) for p in ids], dtype=np.int64)
-            self.particle_diff.add(index, np.array(t), np.array(d))
-        self._diff_stats(done)
+    def _set_stats(self, rows, col):
+        for r in rows:
+            self.particle_diff_stats[int(r[col["id"]])] = Stats(PARTICLE_COLUMNS).set_sums(
+                r[col["n"]], r[col["w"]], r[[col["sum_x"], col["sum_y"]]], r[[col["sq_x"], col["sq_y"]]],
+                r[[col["worst_x"], col["worst_y"]]])
 
 
-def read(path, chunk_rows=CHUNK_ROWS):
-    """The Series of the log at `path`, in one pass (module docstring)."""
+def read(path, duration_s=None, bins=DIFF_BINS, chunk_rows=CHUNK_ROWS):
+    """The Series of the log at `path`, in one pass (module docstring);
+    duration_s: the run's simulated seconds, if known (fine_bin_us); bins:
+    the Envelopes' bins."""
     lib = _lib()
-    bcols, pcols = _columns("blocks"), _columns("particles")
-    bcol, pcol = {c: i for i, c in enumerate(bcols)}, {c: i for i, c in enumerate(pcols)}
+    bcol, dcol, scol = ({c: i for i, c in enumerate(_columns(k))} for k in ("blocks", "diffs", "stats"))
     err = ctypes.create_string_buffer(512)
-    reader = lib.afm_log_series_open(os.fsencode(path), err, len(err))
+    reader = lib.afm_log_series_open(os.fsencode(path), fine_bin_us(duration_s, bins), err, len(err))
     if not reader:
         raise FileNotFoundError(err.value.decode(errors="replace"))
-    out = Series()
-    brows, prows = np.empty((chunk_rows, len(bcols))), np.empty((chunk_rows, len(pcols)))
+    out = Series(bins)
+    brows, drows = np.empty((chunk_rows, len(bcol))), np.empty((chunk_rows, len(dcol)))
     try:
         while True:
             n = lib.afm_log_series_blocks(reader, brows, chunk_rows, err, len(err))
             if n < 0:
                 raise LogError(err.value.decode(errors="replace"))
             out._add_blocks(brows[:n], bcol)
-            while (m := lib.afm_log_series_particles(reader, prows, chunk_rows)) > 0:
-                out._add_particles(prows[:m], pcol)
-            if n == 0:
+            drained = 0
+            while (m := lib.afm_log_series_diffs(reader, drows, chunk_rows)) > 0:
+                out._add_diffs(drows[:m], dcol)
+                drained += m
+            if n == 0 and drained == 0:
                 break
+        stats = np.empty((max(1, len(out.diff_index)), len(scol)))
+        out._set_stats(stats[:lib.afm_log_series_stats(reader, stats, len(stats))], scol)
         out.undecodable, out.refused = lib.afm_log_series_undecodable(reader), lib.afm_log_series_refused(reader)
         out.recorded = (lib.afm_log_series_recorded(reader, 0), lib.afm_log_series_recorded(reader, 1))
-        out._finish()
     finally:
         lib.afm_log_series_free(reader)
     return out

@@ -123,6 +123,30 @@ def _file_uri(data, mime):
     return f"data:{mime};base64," + base64.b64encode(data).decode()
 
 
+class _Inline:
+    """A file of the run inlined into the page as a data URI as the page is
+    written, read and encoded a chunk at a time (the video: its bytes, their
+    base64 and the page never all in memory at once)."""
+    CHUNK = 3 << 20   # a multiple of 3: the chunks' base64 joins into the whole file's
+
+    def __init__(self, fd, mime):
+        self.fd, self.mime = fd, mime
+
+    def write_to(self, f):
+        f.write(f"data:{self.mime};base64,".encode())
+        os.lseek(self.fd, 0, os.SEEK_SET)
+        while True:
+            data = os.read(self.fd, self.CHUNK)
+            while data and len(data) % 3 and (more := os.read(self.fd, 3 - len(data) % 3)):
+                data += more
+            if not data:
+                return
+            f.write(base64.b64encode(data))
+
+    def close(self):
+        os.close(self.fd)
+
+
 def _stats_text(st, unit):
     """An axis's bias and RMS in words."""
     if st["bias"] is None:
@@ -452,21 +476,23 @@ def _media(folder, info):
     width = video_width_px(frame_px, cap)
     cap_attr = f' data-label-cap-px="{int(cap)}"' if cap else ""
     for name, mime in (("video.mp4", "video/mp4"), ("video.webm", "video/webm"), ("video.avi", "video/x-msvideo")):
-        data = folder.read(name, VIDEO_MAX_BYTES)
-        if data:
-            parts.append(f'<h2>Video</h2><video id="run-video" muted playsinline preload="auto" width="{width}"{cap_attr} '
-                         f'src="{_file_uri(data, mime)}"></video>'
-                         '<div class="controls"><button id="run-video-play" type="button">Play</button>'
-                         f'<input id="run-video-seek" type="range" min="0" max="1000" value="0" style="width:{max(200, width - 260)}px">'
-                         '<span id="run-video-time">0.00 s</span></div>'
-                         f'<script>{VIDEO_JS}</script>'
-                         f'<p class="note">{html.escape(_video_note(info, name))}</p>')
+        fd = folder.open(name)
+        if fd is not None and 0 < os.fstat(fd).st_size <= VIDEO_MAX_BYTES:
+            parts += [f'<h2>Video</h2><video id="run-video" muted playsinline preload="auto" width="{width}"{cap_attr} src="',
+                      _Inline(fd, mime), '"></video>'
+                      '<div class="controls"><button id="run-video-play" type="button">Play</button>'
+                      f'<input id="run-video-seek" type="range" min="0" max="1000" value="0" style="width:{max(200, width - 260)}px">'
+                      '<span id="run-video-time">0.00 s</span></div>'
+                      f'<script>{VIDEO_JS}</script>'
+                      f'<p class="note">{html.escape(_video_note(info, name))}</p>']
             break
+        if fd is not None:
+            os.close(fd)
     sheet = folder.read("contact_sheet.png")
     if sheet is not None:
         n = min(int(info.get("frames") or 0), 10 ** 6) or None
         parts.append("<h2>Contact sheet</h2>" + _sheet_html(sheet, frame_px, cap, _sheet_tiles(folder, n)))
-    return "".join(parts)
+    return parts
 
 
 def _sheet_tiles(folder, frames):
@@ -512,7 +538,7 @@ def _open(folder):
         return None, info
     from analysis import report_series
     try:
-        return report_series.read(f"/proc/self/fd/{fd}"), info
+        return report_series.read(f"/proc/self/fd/{fd}", info.get("sim_seconds")), info
     except Exception as e:   # a run cut short: what run.json says, and why there is no more
         info.setdefault("error", f"its log does not read: {e}")
         return None, info
@@ -521,8 +547,9 @@ def _open(folder):
 
 
 def render(run_dir, folder=None, dest=None):
-    """The page's HTML text; dest (a folder descriptor and its path): where
-    its figures' files go (FIGURES), or None for none."""
+    """The page's pieces, in order: HTML text, and _Inline files (the video)
+    that write() streams into it; dest (a folder descriptor and its path):
+    where its figures' files go (FIGURES), or None for none."""
     folder = folder or Folder(run_dir)
     series, info = _open(folder)
     figs = _figures(series)
@@ -543,21 +570,34 @@ def render(run_dir, folder=None, dest=None):
     body.append("<h2>Costs</h2>" + _rows_table(_costs(info)))
     if folder.refused:
         body.append('<h2>Refused</h2><ul class="bad">' + "".join(f"<li>{html.escape(r)}</li>" for r in folder.refused) + "</ul>")
-    return ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>run report</title>"
-            f"<style>{CSS}</style></head><body>" + "\n".join(body) + "</body></html>")
+    pieces = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>run report</title>"
+              f"<style>{CSS}</style></head><body>"]
+    for k, part in enumerate(body):   # a part: text, or a list of pieces (_media's)
+        pieces += ([] if k == 0 else ["\n"]) + (part if isinstance(part, list) else [part])
+    return pieces + ["</body></html>"]
 
 
 def write(run_dir, out=None):
     """The page into `out` (default RUN_DIR/report.html), through
-    safefs.write_atomic, its figures beside it (FIGURES); the path, and
-    what was refused."""
+    safefs.atomic, a piece at a time (render), its figures beside it
+    (FIGURES); the path, and what was refused."""
     folder = Folder(run_dir)
     if out is None:
         out, dfd = os.path.join(run_dir, "report.html"), folder.fd
     else:
         dfd = safefs.open_dir(os.path.dirname(os.path.abspath(out)))
-    text = render(run_dir, folder, (dfd, os.path.dirname(out)))
-    safefs.write_atomic(dfd, os.path.basename(out), text, os.path.dirname(out))
+    pieces = render(run_dir, folder, (dfd, os.path.dirname(out)))
+    try:
+        with safefs.atomic(dfd, os.path.basename(out), os.path.dirname(out)) as f:
+            for piece in pieces:
+                if isinstance(piece, str):
+                    f.write(piece.encode())
+                else:
+                    piece.write_to(f)
+    finally:
+        for piece in pieces:
+            if not isinstance(piece, str):
+                piece.close()
     return out, folder.refused
 
 

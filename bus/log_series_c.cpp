@@ -1,15 +1,18 @@
 // The report's one pass over a log (log_series_c.h): LogReader frames the
 // events, the generated types decode them, ObjectsView makes the objects
-// whole; rows go out in chunks.
+// whole; each particle's card-minus-truth difference is made, weighed and
+// decimated here; rows go out in chunks.
 #include "log_series_c.h"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <deque>
-#include <unordered_map>
-#include <memory>
+#include <map>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -21,39 +24,69 @@
 
 namespace {
 
-constexpr int kBlockCols = 9;      // channel, seq, utime_us, force_nN_x/y/z, tip_nm_x/y/z
-constexpr int kParticleCols = 7;   // channel, seq, fix_id, utime_us, id, x_nm, y_nm
+constexpr int kBlockCols = 9;   // channel, seq, utime_us, force_nN_x/y/z, tip_nm_x/y/z
+constexpr int kDiffCols = 4;    // id, utime_us, dx_nm, dy_nm
+constexpr int kStatCols = 9;    // id, n, w, sum_x, sum_y, sq_x, sq_y, worst_x, worst_y
 constexpr int64_t kMaxSeqBits = int64_t(1) << 31;   // seqs past this are not deduplicated (a bit each below)
+constexpr std::size_t kNone = ~std::size_t(0);
 
-using ParticleRow = std::array<double, kParticleCols>;
+using DiffRow = std::array<double, kDiffCols>;
 
-// One particle on one channel: where it is, and the set (seq, fix_id) of
-// the last row that went out for it.
-struct Track {
-    double x = 0, y = 0;
-    afm::ObjectsKey sent{};
+// a when take, else b, without a branch (the bits selected by a mask).
+inline double pick(bool take, double a, double b)
+{
+    uint64_t ia, ib;
+    std::memcpy(&ia, &a, sizeof ia);
+    std::memcpy(&ib, &b, sizeof ib);
+    const uint64_t mask = uint64_t(0) - uint64_t(take);
+    const uint64_t out = (ia & mask) | (ib & ~mask);
+    double d;
+    std::memcpy(&d, &out, sizeof d);
+    return d;
+}
+
+// One particle: where each side (0 card, 1 truth) has it, the difference
+// holding since `covered`, its running figures, and the time bin being
+// decimated (its extremes: least dx, greatest dx, least dy, greatest dy).
+struct Pair {
+    int32_t id = 0;
+    double pos[2][2] = {{0, 0}, {0, 0}};
+    bool has[2] = {false, false};
+    bool holding = false;
+    double covered = 0, d[2] = {0, 0};
+    long n = 0;
+    double w = 0, sum[2] = {0, 0}, sq[2] = {0, 0}, worst[2] = {0, 0};
+    int64_t bin = -1;
+    DiffRow ext[4] = {};
 };
 
-// One channel's objects: the reader, its particles, and the last set placed.
+// One channel's objects: the reader, the last set's drift, and which Pair
+// each position of the whole set held last (the publisher keeps its order).
 struct Side {
     afm::ObjectsView view;
-    std::unordered_map<int32_t, Track> tracks;
-    afm::ObjectsKey last{};
-    double last_utime = 0;
+    std::vector<std::size_t> slot;
     double drift[2] = {0, 0};
     bool any = false;
 };
 
 struct Reader {
     afm::LogReader log;
+    double bin_us, per_bin;   // per_bin: 1 / bin_us (a power of two's inverse is exact)
     Side sides[2];
-    std::vector<bool> seen[2];                  // seq -> a block row went out
-    std::deque<ParticleRow> particles;          // rows made, not yet taken
+    std::vector<Pair> pairs;
+    std::unordered_map<int32_t, std::size_t> index;   // particle id -> pairs
+    std::vector<bool> seen[2];                        // seq -> a block row went out
+    std::deque<DiffRow> diffs;                        // rows made, not yet taken
+    double t_end = 0;                                 // the last message's utime
     long undecodable = 0, refused = 0;
     long long recorded[2] = {0, 0};   // the first and the last event's recording time
     bool ended = false;
 
-    explicit Reader(const std::string &path) : log(path) { log.only({AFM_CH_FW_STATE, AFM_CH_SIM_TRUTH}); }
+    Reader(const std::string &path, double bin) : log(path), bin_us(bin > 0 && std::isfinite(bin) ? bin : 0),
+          per_bin(bin_us > 0 ? 1 / bin_us : 0)
+    {
+        log.only({AFM_CH_FW_STATE, AFM_CH_SIM_TRUTH});
+    }
 
     bool first_of_block(int ch, int64_t seq)
     {
@@ -65,22 +98,89 @@ struct Reader {
         return true;
     }
 
-    void row(int ch, afm::ObjectsKey at, double utime, int32_t id, double x, double y)
+    // The Pair of particle `id`, at position k of side ch's whole set.
+    Pair &pair_at(int ch, std::size_t k, int32_t id)
     {
-        particles.push_back({double(ch), double(at.first), double(at.second), utime, double(id), x, y});
+        auto &slot = sides[ch].slot;
+        if (slot.size() <= k) slot.resize(k + 1, kNone);
+        if (slot[k] != kNone && pairs[slot[k]].id == id) return pairs[slot[k]];
+        auto [it, fresh] = index.try_emplace(id, pairs.size());
+        if (fresh) {
+            pairs.emplace_back();
+            pairs.back().id = id;
+        }
+        slot[k] = it->second;
+        return pairs[it->second];
     }
 
-    // A particle of the set just placed (key, utime): a row when it is new or
-    // moved, after the row that ends its still stretch (the set before).
-    void particle(int ch, afm::ObjectsKey key, double utime, const afm::particle_t &p)
+    // The difference holding until t ends: weighed into the figures.
+    static void close(Pair &q, double t)
     {
-        Side &sd = sides[ch];
-        auto [it, fresh] = sd.tracks.try_emplace(p.id);
-        Track &t = it->second;
-        if (!fresh && p.x_nm == t.x && p.y_nm == t.y) return;
-        if (!fresh && t.sent != sd.last) row(ch, sd.last, sd.last_utime, p.id, t.x, t.y);
-        row(ch, key, utime, p.id, p.x_nm, p.y_nm);
-        t = {p.x_nm, p.y_nm, key};
+        const double w = std::max(0.0, t - q.covered);
+        ++q.n;
+        q.w += w;
+        for (int a = 0; a < 2; ++a) {
+            q.sum[a] += w * q.d[a];
+            q.sq[a] += w * q.d[a] * q.d[a];
+            q.worst[a] = std::max(q.worst[a], std::fabs(q.d[a]));
+        }
+        q.covered = std::max(q.covered, t);
+    }
+
+    // The bin's extremes out, in time order, each row once.
+    void flush(Pair &q)
+    {
+        if (q.bin < 0) return;
+        DiffRow rows[4];
+        std::copy(std::begin(q.ext), std::end(q.ext), rows);
+        std::sort(std::begin(rows), std::end(rows));
+        for (int k = 0; k < 4; ++k)
+            if (k == 0 || rows[k] != rows[k - 1]) diffs.push_back(rows[k]);
+        q.bin = -1;
+    }
+
+    // A difference (id, t, x, y): handed on, or kept while it is one of its
+    // bin's extremes (selects, not branches: a noisy difference would
+    // mispredict most of them).
+    void keep(Pair &q, const DiffRow &r)
+    {
+        if (bin_us <= 0) {
+            diffs.push_back(r);
+            return;
+        }
+        const auto b = static_cast<int64_t>(std::max(0.0, r[1]) * per_bin);
+        if (b != q.bin) {
+            if (b < q.bin) {   // a row late into a bin already let out (the card's block after the truth's next)
+                diffs.push_back(r);
+                return;
+            }
+            flush(q);
+            q.bin = b;
+            std::fill(std::begin(q.ext), std::end(q.ext), r);
+            return;
+        }
+        for (int k = 0; k < 4; ++k) {
+            const int c = 2 + k / 2;
+            const bool take = k % 2 == 0 ? r[c] < q.ext[k][c] : r[c] > q.ext[k][c];
+            for (int j = 1; j < kDiffCols; ++j) q.ext[k][j] = pick(take, r[j], q.ext[k][j]);
+        }
+    }
+
+    // Side ch placed particle p (at position k of its whole set) at time t.
+    void particle(int ch, std::size_t k, double t, const afm::particle_t &p)
+    {
+        Pair &q = pair_at(ch, k, p.id);
+        if (q.has[ch] && q.pos[ch][0] == p.x_nm && q.pos[ch][1] == p.y_nm) return;
+        q.has[ch] = true;
+        q.pos[ch][0] = p.x_nm;
+        q.pos[ch][1] = p.y_nm;
+        if (!q.has[1 - ch]) return;
+        if (q.holding) close(q, t);
+        else q.covered = t;
+        q.holding = true;
+        q.d[0] = q.pos[0][0] - q.pos[1][0];
+        q.d[1] = q.pos[0][1] - q.pos[1][1];
+        keep(q, {double(q.id), t, q.d[0], q.d[1]});
     }
 
     // The set after message m was placed: every particle when m is complete
@@ -90,21 +190,19 @@ struct Reader {
     {
         Side &sd = sides[ch];
         const afm::objects_t &whole = sd.view.whole();
-        const afm::ObjectsKey key = afm::key_of(whole);
-        const double utime = double(whole.utime);
+        const double t = double(whole.utime);
+        t_end = std::max(t_end, t);
         const bool all = m.complete || !sd.any || whole.drift_nm[0] != sd.drift[0] || whole.drift_nm[1] != sd.drift[1];
         if (all) {
-            for (const auto &p : whole.particles) particle(ch, key, utime, p);
+            for (std::size_t k = 0; k < whole.particles.size(); ++k) particle(ch, k, t, whole.particles[k]);
         } else {
             for (const auto &listed : m.particles)
-                for (const auto &p : whole.particles)   // listed: few; its whole state
-                    if (p.id == listed.id) {
-                        particle(ch, key, utime, p);
+                for (std::size_t k = 0; k < whole.particles.size(); ++k)   // listed: few; its whole state
+                    if (whole.particles[k].id == listed.id) {
+                        particle(ch, k, t, whole.particles[k]);
                         break;
                     }
         }
-        sd.last = key;
-        sd.last_utime = utime;
         sd.any = true;
         sd.drift[0] = whole.drift_nm[0];
         sd.drift[1] = whole.drift_nm[1];
@@ -125,6 +223,7 @@ struct Reader {
             ++undecodable;
             return false;
         }
+        t_end = std::max(t_end, double(m.utime));
         objects(ch, m.objects);
         if (!first_of_block(ch, m.seq)) return false;
         const double row[kBlockCols] = {double(ch), double(m.seq), double(m.utime), m.force_nN[0], m.force_nN[1],
@@ -135,9 +234,10 @@ struct Reader {
 
     void finish()
     {
-        for (int ch = 0; ch < 2; ++ch)
-            for (auto &[id, t] : sides[ch].tracks)
-                if (t.sent != sides[ch].last) row(ch, sides[ch].last, sides[ch].last_utime, id, t.x, t.y);
+        for (auto &q : pairs) {
+            if (q.holding) close(q, t_end);
+            flush(q);
+        }
         ended = true;
     }
 };
@@ -155,14 +255,15 @@ const char *afm_log_series_columns(const char *kind)
 {
     if (!kind) return nullptr;
     if (!std::strcmp(kind, "blocks")) return "channel,seq,utime_us,force_nN_x,force_nN_y,force_nN_z,tip_nm_x,tip_nm_y,tip_nm_z";
-    if (!std::strcmp(kind, "particles")) return "channel,seq,fix_id,utime_us,id,x_nm,y_nm";
+    if (!std::strcmp(kind, "diffs")) return "id,utime_us,x_nm,y_nm";
+    if (!std::strcmp(kind, "stats")) return "id,n,w,sum_x,sum_y,sq_x,sq_y,worst_x,worst_y";
     return nullptr;
 }
 
-void *afm_log_series_open(const char *path, char *err, size_t err_len)
+void *afm_log_series_open(const char *path, double bin_us, char *err, size_t err_len)
 {
     try {
-        return new Reader(path ? path : "");
+        return new Reader(path ? path : "", bin_us);
     } catch (const std::exception &e) {
         say(err, err_len, e.what());
     } catch (...) {
@@ -180,7 +281,7 @@ long afm_log_series_blocks(void *reader, double *rows, long cap, char *err, size
     try {
         long n = 0;
         afm::LogEvent ev;
-        while (n < cap && !r->ended) {
+        while (n < cap && !r->ended && r->diffs.size() < AFM_LOG_SERIES_MAX_WAITING) {
             if (!r->log.read(&ev)) {
                 r->finish();
                 break;
@@ -201,14 +302,32 @@ long afm_log_series_blocks(void *reader, double *rows, long cap, char *err, size
     return -1;
 }
 
-long afm_log_series_particles(void *reader, double *rows, long cap)
+long afm_log_series_diffs(void *reader, double *rows, long cap)
 {
     auto *r = static_cast<Reader *>(reader);
     if (!r || !rows || cap <= 0) return 0;
     long n = 0;
-    for (; n < cap && !r->particles.empty(); ++n) {
-        std::memcpy(rows + n * kParticleCols, r->particles.front().data(), sizeof(ParticleRow));
-        r->particles.pop_front();
+    for (; n < cap && !r->diffs.empty(); ++n) {
+        std::memcpy(rows + n * kDiffCols, r->diffs.front().data(), sizeof(DiffRow));
+        r->diffs.pop_front();
+    }
+    return n;
+}
+
+long afm_log_series_stats(void *reader, double *rows, long cap)
+{
+    auto *r = static_cast<Reader *>(reader);
+    if (!r || !rows || cap <= 0) return 0;
+    std::map<int32_t, const Pair *> by_id;
+    for (const auto &q : r->pairs)
+        if (q.n > 0) by_id[q.id] = &q;
+    long n = 0;
+    for (const auto &[id, q] : by_id) {
+        if (n == cap) break;
+        const double row[kStatCols] = {double(id), double(q->n), q->w, q->sum[0], q->sum[1],
+                                       q->sq[0], q->sq[1], q->worst[0], q->worst[1]};
+        std::memcpy(rows + n * kStatCols, row, sizeof row);
+        ++n;
     }
     return n;
 }

@@ -1,9 +1,13 @@
 /* A run's log read once for the per-run report (analysis/report_series.py,
- * through ctypes): the card's and the truth's figures per block, and the
- * particles as each side holds them, decoded in C++ with the generated
- * types (from lcmtypes/) and made whole by ObjectsView (objects_view.hpp),
- * the one reader of objects messages. The reading goes in chunks, so the
- * caller holds at most a chunk at a time, whatever the log's length.
+ * through ctypes): the card's and the truth's figures per block, and each
+ * particle's card-minus-truth difference with its running figures, decoded
+ * in C++ with the generated types (from lcmtypes/) and made whole by
+ * ObjectsView (objects_view.hpp), the one reader of objects messages. The
+ * reading goes in chunks and the particles' differences are decimated
+ * here, so the caller holds at most a chunk at a time and the rows it is
+ * handed are bounded whatever the log's length (a drifting sample moves
+ * every particle every block: a row per particle per block, read here and
+ * not handed on).
  *
  * Rows are doubles (seq and times are integers well within 2^53), their
  * columns named by afm_log_series_columns:
@@ -11,12 +15,22 @@
  *              (seq) of each channel in log order (a fix's answer repeats
  *              its block's figures): channel (0 FW_STATE, 1 SIM_TRUTH),
  *              seq, utime_us, force_nN_x/y/z, tip_nm_x/y/z.
- *   particles  each particle of the whole set after each message placed
- *              (FW_STATE's and SIM_TRUTH's objects): channel, seq, fix_id,
- *              utime_us (the set's), id, x_nm, y_nm; only the rows where a
- *              particle's position changes, each with the row before it
- *              (and every particle's first and last row): a line through
- *              them is the line through every row, as are its extremes.
+ *   diffs      a particle's card-minus-truth difference: id, utime_us,
+ *              x_nm, y_nm (the difference's x and y). A difference starts at a set (FW_STATE's or
+ *              SIM_TRUTH's objects, at the set's utime) that places the
+ *              particle where that side did not have it, once both sides
+ *              have it: the card's last position less the truth's last
+ *              one; it holds until the particle's next difference (the
+ *              end: the last message's utime). With bin_us > 0 only each
+ *              time bin's extremes are handed on: per particle and bin
+ *              [k bin_us, (k+1) bin_us) the rows of least and greatest x
+ *              and y (at most 4, in time order); with bin_us a power of two
+ *              no greater than the caller's own bins, a line through the
+ *              bins' extremes is the line through every difference's.
+ *   stats      per particle with a difference, over every difference (not
+ *              only those handed on), each weighted by the time it held:
+ *              id, n (differences), w (us held), sum_x, sum_y (of w d),
+ *              sq_x, sq_y (of w d^2), worst_x, worst_y (largest |d|).
  *
  * Built as build/main/bus/libafm_log_series_c.so. No C++ exception leaves
  * these functions. */
@@ -29,27 +43,35 @@
 extern "C" {
 #endif
 
-/* The columns of a kind of row ("blocks" or "particles"), comma-separated;
- * NULL for another kind. */
+/* The columns of a kind of row ("blocks", "diffs" or "stats"),
+ * comma-separated; NULL for another kind. */
 const char *afm_log_series_columns(const char *kind);
 
 /* A reader of the log at `path` (opened here: a /proc/self/fd/N path of a
- * file the caller opened is read as that file); NULL, with the reason in
- * err (a one-line message naming the file), when it cannot be opened. */
-void *afm_log_series_open(const char *path, char *err, size_t err_len);
+ * file the caller opened is read as that file), the particles' differences
+ * decimated into bins of bin_us microseconds (0: every difference handed
+ * on); NULL, with the reason in err (a one-line message naming the file),
+ * when it cannot be opened. */
+void *afm_log_series_open(const char *path, double bin_us, char *err, size_t err_len);
 void afm_log_series_free(void *reader);
 
 /* Reads on until `cap` block rows are in `rows` (cap times the blocks'
- * columns) or the log ends: the rows written, 0 at the end, -1 when the log
- * does not read whole (truncated, corrupt: the reason in err, naming the
- * file and the byte offset). At the end the particles' held last rows are
- * let out. */
+ * columns), the differences waiting to be taken reach
+ * AFM_LOG_SERIES_MAX_WAITING, or the log ends: the rows written (0 at the
+ * end, or when differences wait), -1 when the log does not read whole
+ * (truncated, corrupt: the reason in err, naming the file and the byte
+ * offset). At the end the differences still holding are closed and every
+ * bin let out. */
 long afm_log_series_blocks(void *reader, double *rows, long cap, char *err, size_t err_len);
+#define AFM_LOG_SERIES_MAX_WAITING 65536
 
-/* The particle rows the blocks read so far made, at most `cap` into
- * `rows` (cap times the particles' columns): the rows written, 0 when none
- * is left. */
-long afm_log_series_particles(void *reader, double *rows, long cap);
+/* The diff rows made so far, at most `cap` into `rows` (cap times the
+ * diffs' columns): the rows written, 0 when none is left. */
+long afm_log_series_diffs(void *reader, double *rows, long cap);
+
+/* The stats rows, one per particle with a difference, in id order, at most
+ * `cap` into `rows`: the rows written. Whole once the log has ended. */
+long afm_log_series_stats(void *reader, double *rows, long cap);
 
 /* Messages on FW_STATE or SIM_TRUTH that did not decode as their type
  * (left out), and objects messages ObjectsView refused, so far. */

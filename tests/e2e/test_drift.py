@@ -5,9 +5,14 @@ difference (object_fix_t -> fw_drift), and the display replaces the region.
 Checked from the log: every fix acknowledged, the fixed object's model on
 the truth within 1 nm right after each fix, the firmware's drift within
 0.5 nm of the true drift for objects not yet pushed, and the final display
-within 5 nm of a fresh scan."""
+within 5 nm of a fresh scan. The report's reader (analysis/report_series.py)
+on this drifting log, where every particle moves every block: its fine bins
+keep every bin's extremes and figures of a reading row by row, and hand on
+rows bounded by the bins, not the blocks."""
 import math
 import unittest
+
+import numpy as np
 
 import e2e_support
 from analysis import afmlog
@@ -61,6 +66,27 @@ class DriftAndLocalScans(unittest.TestCase):
         fid = self.rj["fidelity"]
         print(f"fidelity: max {fid['max_position_error_nm']:.2f} nm")
         self.assertLess(fid["max_position_error_nm"], 5.0)
+
+    def test_the_reports_reader_keeps_the_extremes_in_rows_bounded_by_its_bins(self):
+        from analysis import report_series
+        path, bins = f"{self.out}/bus.lcmlog", 64   # 64 bins: fine bins of 16 blocks over these 2 s
+        every = report_series.read(path, None, bins)              # every difference handed on
+        fine = report_series.read(path, self.rj["sim_seconds"], bins)
+        ids = fine.particle_diff_ids()
+        self.assertEqual(ids, every.particle_diff_ids())
+        self.assertTrue(ids, "particles compared")
+        blocks = fine.block_rows[report_series.TRUTH]
+        print(f"{blocks} blocks, {len(ids)} particles: {every.diff_rows} difference rows handed on row by row, "
+              f"{fine.diff_rows} in fine bins of {report_series.fine_bin_us(self.rj['sim_seconds'], bins):g} us")
+        self.assertGreater(every.diff_rows, len(ids) * blocks, "the drift moves every particle every block, on both sides")
+        self.assertLessEqual(fine.diff_rows, len(ids) * 5 * 2 * bins, "at most 4 extremes and a late row per fine bin")
+        a, b = fine.particle_diff, every.particle_diff
+        self.assertEqual(a.width, b.width)
+        for i in ids:
+            s, r = fine.diff_index[i], every.diff_index[i]
+            self.assertTrue(np.array_equal(a.lo[s], b.lo[r]) and np.array_equal(a.hi[s], b.hi[r]), f"particle {i}: a bin's extremes")
+            for col in ("x_nm", "y_nm"):
+                self.assertEqual(fine.particle_diff_stats[i].figures(col), every.particle_diff_stats[i].figures(col))
 
 
 class CantileverChangeAndLandmark(unittest.TestCase):
