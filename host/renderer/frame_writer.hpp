@@ -92,6 +92,7 @@ private:
     using Frame = std::pair<int, cv::Mat>;
     void write_one(int k, const cv::Mat &frame);
     void open_video_once(int px);
+    static void yield_to_the_lockstep();
     void close_video(bool throwing);
 
     const std::string out_;
