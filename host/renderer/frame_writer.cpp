@@ -1,6 +1,7 @@
 #include "frame_writer.hpp"
 
-#include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -42,15 +43,16 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
 }
 
 // The writer's thread, and the encoder it starts (a child keeps its
-// parent's policy), at SCHED_IDLE: on the lockstep's CPU they take only the
+// parent's nice value), at nice 19: on the lockstep's CPU they take only the
 // time its processes leave, and a datagram that wakes one of them puts it
 // back on the CPU at once (docs/bus.md, "The lockstep's cost per block").
-// A policy refused is said on stderr, and the thread runs as it was.
+// Not SCHED_IDLE: under other runs' load (a sweep's points side by side)
+// its share, a fifth of nice 19's, let 64 queued frames take a minute to
+// write. A nice value refused is said on stderr, and the thread runs as it was.
 void FrameWriter::yield_to_the_lockstep()
 {
-    const sched_param none{};
-    if (sched_setscheduler(0, SCHED_IDLE, &none) != 0)
-        std::fprintf(stderr, "renderer: the frame writer stays at its priority: SCHED_IDLE refused: %s\n", std::strerror(errno));
+    if (setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19) != 0)
+        std::fprintf(stderr, "renderer: the frame writer stays at its priority: nice 19 refused: %s\n", std::strerror(errno));
 }
 
 // At the thread's start: H.264 through ffmpeg, or OpenCV's mp4v with the reason.

@@ -6,7 +6,7 @@
 // PNG, video and H.264 encoding): a frame's files cost CPU, the H.264
 // encoding more in ffmpeg. On the renderer's thread they kept the renderer
 // from taking the bus while they were encoded. The thread may run on any
-// CPU of the run, at SCHED_IDLE, and so does the encoder it starts: they
+// CPU of the run, at nice 19, and so does the encoder it starts: they
 // take the time the lockstep's processes leave on their CPU and the
 // observers leave on theirs, and never hold a process of the lockstep
 // off its CPU (normal priority, they took it for about 60 us a block of

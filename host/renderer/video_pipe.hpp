@@ -19,7 +19,7 @@
 //     machine to another) and less CPU a frame (a 512-px frame of the demo:
 //     4.0 ms on 3 threads, 3.3 ms on one, docs/bus.md).
 //   - ffmpeg inherits the CPUs and the scheduling policy of the thread that
-//     calls open() (the frame writer's: every CPU of the run, SCHED_IDLE)
+//     calls open() (the frame writer's: every CPU of the run, nice 19)
 //     and writes its errors to our stderr
 //     (the renderer's log). It runs in a process group of its own, so a
 //     signal to the renderer's group does not cut the file short: it ends
