@@ -28,7 +28,9 @@ int publish_raw(lcm::LCM &lc, const std::string &channel, const void *data, std:
     // one counter for the process: increasing on each of its sockets (a
     // receiver keeps a window per sender and channel: bus_key.hpp)
     static std::atomic<uint64_t> seq{0};
-    std::vector<unsigned char> msg(static_cast<const unsigned char *>(data), static_cast<const unsigned char *>(data) + size);
+    // the thread's own buffer, kept between messages: no allocation a message
+    thread_local std::vector<unsigned char> msg;
+    msg.assign(static_cast<const unsigned char *>(data), static_cast<const unsigned char *>(data) + size);
     key->sign(channel, ++seq, &msg);
     return lc.publish(channel, msg.data(), static_cast<unsigned>(msg.size()));
 }

@@ -76,7 +76,8 @@ int publish_raw(lcm::LCM &lc, const std::string &channel, const void *data, std:
 template <class M>
 int publish(lcm::LCM &lc, const std::string &channel, const M &m)
 {
-    std::vector<unsigned char> buf(static_cast<std::size_t>(m.getEncodedSize()));
+    thread_local std::vector<unsigned char> buf;   // kept between messages: no allocation a message
+    buf.resize(static_cast<std::size_t>(m.getEncodedSize()));
     m.encode(buf.data(), 0, static_cast<int>(buf.size()));
     return publish_raw(lc, channel, buf.data(), buf.size());
 }

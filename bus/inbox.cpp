@@ -137,10 +137,15 @@ struct Inbox::Batcher {
         const BusTap::Sink take = [&](const std::string &channel, const unsigned char *d, std::size_t n, int64_t) {
             batch.push_back({channel, std::vector<unsigned char>(d, d + n)});
         };
+        // While the bus is busy the thread wakes by its own clock and takes
+        // what came meanwhile: no datagram wakes it (a wake-up sent from the
+        // lockstep's CPU to this one costs the sender). A batch that finds
+        // nothing sends it back to waiting on the socket.
+        bool busy = false;
         while (!stop) {
-            if (!tap.wait(50)) continue;
+            if (!busy && !tap.wait(50)) continue;
             std::this_thread::sleep_for(std::chrono::microseconds(batch_us));
-            tap.drain(take);
+            busy = tap.drain(take) > 0;
             dropped = tap.dropped();
             abandoned = tap.abandoned();
             if (!batch.empty()) queue.push_all(batch);

@@ -34,8 +34,10 @@
 //   - batched (batch_us > 0; the renderer, an observer the simulator may
 //     run 2 frames ahead of): a thread of the inbox's own waits for the
 //     bus, sleeps batch_us, takes everything queued in one go (recvmmsg)
-//     into a queue in memory, and handle() takes from that queue. One
-//     wake-up per batch, not per datagram; and a main thread busy for
+//     into a queue in memory, and handle() takes from that queue; while
+//     batches keep finding messages it goes on by its own clock (sleep,
+//     take) without waiting on the socket, so that no datagram wakes it.
+//     One wake-up per batch, not per datagram; and a main thread busy for
 //     longer than the socket's buffer lasts (a frame's PNG, a fidelity
 //     check) loses nothing, as with liblcm's own receive thread.
 #pragma once

@@ -17,6 +17,9 @@ void LogTail::poll(int64_t published)
     if (!reader_) {
         if (!std::filesystem::exists(path_)) return;
         reader_ = std::make_unique<LogReader>(path_);
+        // the other channels' events are framed and passed over, their
+        // bytes never copied (most of a block's bytes: SIM_TRUTH, FW_STATE)
+        reader_->only({AFM_CH_AFM_ANALOG, AFM_CH_HAPTIC_POSE, AFM_CH_AFM_CMD, AFM_CH_AFM_SCAN_LINE});
     }
     LogEvent ev;
     while (reader_->next(&ev) == LogReader::Next::kEvent) {

@@ -1,7 +1,12 @@
 #include "frame_writer.hpp"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
 
@@ -31,7 +36,23 @@ FrameWriter::FrameWriter(std::string out_dir, bool png, const std::string &video
         }
     }
     // the encoder starts while the run does, not at the first frame
-    worker_.start(std::move(cpus), "renderer: the frame writer", [this] { open_video_once(px_); });
+    worker_.start(std::move(cpus), "renderer: the frame writer", [this] {
+        yield_to_the_lockstep();
+        open_video_once(px_);
+    });
+}
+
+// The writer's thread, and the encoder it starts (a child keeps its
+// parent's nice value), at nice 19: on the lockstep's CPU they take only the
+// time its processes leave, and a datagram that wakes one of them puts it
+// back on the CPU at once (docs/bus.md, "The lockstep's cost per block").
+// Not SCHED_IDLE: under other runs' load (a sweep's points side by side)
+// its share, a fifth of nice 19's, let 64 queued frames take a minute to
+// write. A nice value refused is said on stderr, and the thread runs as it was.
+void FrameWriter::yield_to_the_lockstep()
+{
+    if (setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19) != 0)
+        std::fprintf(stderr, "renderer: the frame writer stays at its priority: nice 19 refused: %s\n", std::strerror(errno));
 }
 
 // At the thread's start: H.264 through ffmpeg, or OpenCV's mp4v with the reason.

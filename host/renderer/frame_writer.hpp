@@ -5,10 +5,12 @@
 // Why (docs/bus.md "The latency model"; ./afm bench render times a frame's
 // PNG, video and H.264 encoding): a frame's files cost CPU, the H.264
 // encoding more in ffmpeg. On the renderer's thread they kept the renderer
-// from taking the bus while they were encoded; on a thread of its own that
-// may run on any CPU of the run, the kernel puts the encoding where there
-// is room (on the observers' CPU only, or at SCHED_IDLE, they were no
-// faster).
+// from taking the bus while they were encoded. The thread may run on any
+// CPU of the run, at nice 19, and so does the encoder it starts: they
+// take the time the lockstep's processes leave on their CPU and the
+// observers leave on theirs, and never hold a process of the lockstep
+// off its CPU (normal priority, they took it for about 60 us a block of
+// the demo: docs/bus.md, "The lockstep's cost per block").
 //
 // What stays as it was: the frames' pixels and their order; the renderer
 // announces a frame (RENDER_FRAME) when it is composed, before its files
@@ -92,6 +94,7 @@ private:
     using Frame = std::pair<int, cv::Mat>;
     void write_one(int k, const cv::Mat &frame);
     void open_video_once(int px);
+    static void yield_to_the_lockstep();
     void close_video(bool throwing);
 
     const std::string out_;

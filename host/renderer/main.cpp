@@ -2,6 +2,8 @@
 // what it draws and when). Reads the command line, takes the first scan,
 // serves the bus until the run is over, and writes the contact sheet and
 // renderer_report.json.
+#include <malloc.h>
+
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -69,8 +71,20 @@ static void serve(Renderer &r, afm::Inbox &inbox, afm::Lifecycle &life)
                [&] { return r.sim_done || g_stop; }, 50);
 }
 
+// A frame (768 kB at 512 px) comes from the heap and goes back to it, not
+// to a mapping of its own that the kernel zeroes page by page when it is
+// composed and unmaps when it is written (and then flushes from the other
+// CPUs this process ran on). The heap keeps at most the frames the writer
+// holds (FrameWriter::kMaxPending).
+static void frames_from_the_heap()
+{
+    mallopt(M_MMAP_THRESHOLD, 16 << 20);
+    mallopt(M_TRIM_THRESHOLD, 128 << 20);
+}
+
 int main(int argc, char **argv)
 {
+    frames_from_the_heap();
     return afm::run_process(kProcess, argc, argv, [](const Options &opt, afm::Lifecycle &life) {
         const afm::Scene scene = afm::load_scene(opt.scene_path);
         std::filesystem::create_directories(opt.out_dir + "/frames");

@@ -157,7 +157,7 @@ bool VideoPipe::open(const std::string &path, int width_px, int height_px, doubl
                                            "-s", std::to_string(width_px) + "x" + std::to_string(height_px),
                                            "-r", fps_text(fps), "-i", "pipe:0",
                                            "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-                                           "-c:v", kEncoder, "-preset", "veryfast", "-crf", "18", "-pix_fmt", "yuv420p",
+                                           "-c:v", kEncoder, "-threads", "1", "-preset", "veryfast", "-crf", "18", "-pix_fmt", "yuv420p",
                                            "-movflags", "+faststart", "-f", "mp4", path};
     pid_ = spawn(argv, p[0], -1, p[1]);
     const int spawn_errno = errno;

@@ -14,8 +14,13 @@
 //     its stdin, /proc/PID/syscall; at most 2 s), so that its start (0.1 s
 //     of CPU loading its libraries) is over before the renderer says it is
 //     ready and not in the loop's first blocks.
-//   - ffmpeg inherits the CPUs of the thread that calls open() (the frame
-//     writer's: every CPU of the run) and writes its errors to our stderr
+//   - libx264 on one thread (-threads 1): the same video on every machine
+//     (its default, threads by the CPU count, changes the bytes from one
+//     machine to another) and less CPU a frame (a 512-px frame of the demo:
+//     4.0 ms on 3 threads, 3.3 ms on one, docs/bus.md).
+//   - ffmpeg inherits the CPUs and the scheduling policy of the thread that
+//     calls open() (the frame writer's: every CPU of the run, nice 19)
+//     and writes its errors to our stderr
 //     (the renderer's log). It runs in a process group of its own, so a
 //     signal to the renderer's group does not cut the file short: it ends
 //     when its input ends (close(), or the renderer's death).

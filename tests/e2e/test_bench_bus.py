@@ -59,6 +59,7 @@ class BenchBus(unittest.TestCase):
         self.assertIn("The bus's MAC", p.stdout)
         with open(os.path.join(out, "bench_bus.json")) as f:
             r = json.load(f)
+        self.check_goal(r, p.stdout)
         self.assertGreater(r["floors"]["kernel"]["floor_us"], 0)
         self.assertGreater(r["floors"]["kernel liblcm"]["floor_us"], 0)
         self.assertEqual(r["floors"]["kernel"]["receive"], "tap")
@@ -69,6 +70,17 @@ class BenchBus(unittest.TestCase):
         for k, row in enumerate(r["lockstep"]):
             self.check_arrangement(r, k, row, out, blocks)
         self.check_record(os.path.join(out, "run-0-0"))
+
+    def check_goal(self, r, stdout):
+        # the goal's verdict, from the as-run row: its median and each run against 2 x its floor
+        g = r["goal"]
+        row = r["lockstep"][0]
+        self.assertEqual(g["arrangement"], row["arrangement"])
+        self.assertAlmostEqual(g["x_floor"], row["ratio_to_floor"], places=9)
+        self.assertEqual(g["met"], row["ratio_to_floor"] <= 2.0)
+        self.assertEqual(len(g["runs_x_floor"]), 1)
+        line = next(l for l in stdout.splitlines() if l.startswith("The goal: the lockstep as a run is made within 2.0 x its"))
+        self.assertTrue(line.endswith(": met" if g["met"] else ": NOT met"), line)
 
     def check_two_hosts(self, r):
         # two hosts (docs/hosts.md): a plain link and 0.2 ms each way, each against its own floor
