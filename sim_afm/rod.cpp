@@ -1,7 +1,5 @@
 // The rigid rod (wire.hpp: rod_push_twist, RigidWire): its friction power
-// minimised over the twist a push leaves it; pressed by the cone
-// (down_force), the press carried along it as a rigid body on an elastic
-// bed (pressed_resistance) and the least push that moves it solved with it.
+// minimised over the twist a push leaves it.
 
 #include "wire.hpp"
 
@@ -272,74 +270,6 @@ RodTwist rod_oblique_push(double L, double f, const Eigen::Vector3d &c, Eigen::V
     return out;
 }
 
-// The pressed rod (down_force, a rod no trench holds): a push H on the
-// cone's flank presses the rod down by H tan psi at the contact, u_p from
-// its middle. A rigid rod on an elastic bed (Winkler: the substrate's line
-// contact gives about in proportion to its local load) carries a point load
-// with a pressure linear along it, per unit of load
-// q(u) = (1 + 12 u_p u / L^2) / L (resultant 1, its moment about the middle
-// u_p); on the K friction points q_k = (1 + 12 u_p u_k / L^2) / K. Each
-// point's friction is w_k(H) = w0 + press H q_k (w0 = f L / K the rod's own,
-// press = mu tan psi), floored at 0 where the bed would pull the rod's far
-// end down (there the linear law ends: that end carries nothing). Eq. 29
-// spreads the press uniformly instead (q = 1 / L); the two agree for a push
-// at the middle.
-//
-// H moves the rod when H >= D(H), D the least friction power under w(H)
-// (rod_push_twist, its weights as a metric w_k I). D is concave and
-// increasing in H (a least of functions linear in H), so g(H) = H - D(H) is
-// convex with g(0) = -D(0) < 0: it has a root iff D's slope at infinity,
-// c = the least power under the press's weights alone, is below 1;
-// otherwise no push moves the rod (squeezed). The root by Newton's method
-// on g (D's slope, by the envelope theorem, is the press's power at the
-// optimal twist), from the last push's answer: convex g makes the steps
-// monotone after the first. To 1e-9 of H, at most 50 steps.
-struct Pressed {
-    RodTwist twist;
-    double H = 0;
-    bool squeezed = false;
-};
-
-Pressed pressed_resistance(const std::vector<double> &u, double L, double w0, double press, double up, const Eigen::Vector2d &p,
-                           const RodTwist &warm, double H_start)
-{
-    thread_local std::vector<Eigen::Matrix2d> G;
-    const std::size_t K = u.size();
-    G.resize(K);
-    auto q = [&](std::size_t k) { return (1.0 + 12.0 * up * u[k] / (L * L)) / static_cast<double>(K); };
-    // The twist and D at H (own = false: the press's weights alone, per
-    // unit of H), and D's slope in H.
-    auto at = [&](double H, bool own, const RodTwist &seed, double *slope) {
-        for (std::size_t k = 0; k < K; ++k) G[k] = std::max(0.0, (own ? w0 : 0.0) + press * H * q(k)) * Eigen::Matrix2d::Identity();
-        const RodTwist t = rod_push_twist(u, 1.0, up, p, seed, 1e-9, 200, &G);
-        double s = 0;
-        for (std::size_t k = 0; k < K; ++k)
-            if (G[k](0, 0) > 0) s += press * q(k) * Eigen::Vector2d(t.vt, t.vn + t.omega * u[k]).norm();
-        *slope = s;
-        return t;
-    };
-    Pressed out;
-    double c;
-    out.twist = at(1.0, false, warm, &c);
-    if (!(out.twist.force_nN < 1.0)) {
-        out.squeezed = true;
-        return out;
-    }
-    double H = std::max(H_start, 0.0), slope;
-    out.twist = at(H, true, warm, &slope);
-    for (int i = 0; i < 50; ++i) {
-        const double g = H - out.twist.force_nN;
-        if (std::fabs(g) <= 1e-9 * std::max(1.0, H)) break;
-        // Left of the root where D still climbs faster than H: a step to
-        // D(H) (the fixed point's, monotone from the left) instead.
-        H = 1.0 - slope > 1e-12 ? H - g / (1.0 - slope) : out.twist.force_nN;
-        if (H < 0) H = 0;
-        out.twist = at(H, true, out.twist, &slope);
-    }
-    out.H = out.twist.force_nN;
-    return out;
-}
-
 }  // namespace
 
 RodTwist rod_push_twist_uniform(double L, double f, double up, const Eigen::Vector2d &p, const RodTwist &warm,
@@ -372,10 +302,6 @@ RodTwist rod_push_twist_uniform(double L, double f, double up, const Eigen::Vect
         if (rod_power(L, f, xside).D < rod_power(L, f, xs).D) xs = xside;
     }
     return rod_oblique_push(L, f, c, xs, tol, max_iter);
-}
-
-namespace {
-void advance_rod(RigidWire &w, double travel);
 }
 
 RigidWire::RigidWire(int id_, const Eigen::Vector2d &a, const Eigen::Vector2d &b, double d, double f_, int K) : f(f_)
@@ -431,53 +357,36 @@ bool RigidWire::push(const Eigen::Vector2d &q, double r_tip, double k, double ri
             ++held_points;
         }
     }
+    // Uniform friction: exact (closed form, or Newton on the exact power for
+    // an end cap's oblique push); a trench under part of it: the K points.
     const Eigen::Vector2d p_rod(p.dot(t), p.dot(nr));
     const double u_p = u_from_a - 0.5 * L_nm;
-    // down_force: the push H presses the rod by H press_tan at the contact
-    // (pressed_resistance: a rigid rod on an elastic bed, the press's moment
-    // taken along it); a rod a trench holds is not pressed: the walls carry
-    // the cone's down force (the firmware's model, fw_wire.h "Trenches",
-    // does the same).
+    if (held)
+        last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60, &metric_);
+    else if (numeric)   // independent of eq. 20 (sample.wire.solver: numeric)
+        last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60);
+    else
+        last = rod_push_twist_uniform(L_nm, f, u_p, p_rod, last);
+    // down_force: the push H presses the rod by H tan psi, spread over it as
+    // its own load (eq. 29): D(H) = D0 (1 + mu H tan psi / (f L)), so H moves
+    // it when H a > D0 with a = 1 - (D0 / f L) mu tan psi; a <= 0: squeezed.
+    // A rod a trench holds is not pressed: the walls carry the cone's down
+    // force (the firmware's model, fw_wire.h "Trenches", does the same).
     const double press = held ? 0.0 : mu * press_tan;
-    double D;
-    squeezed = false;
-    if (press > 0 && f > 0) {   // from the last push's force (its least push, pressed or not)
-        const Pressed pr = pressed_resistance(u, L_nm, f * L_nm / static_cast<double>(u.size()), press, u_p, p_rod, last,
-                                              last.force_nN);
-        squeezed = pr.squeezed;
-        if (!squeezed) last = pr.twist;
-        D = squeezed ? std::numeric_limits<double>::infinity() : pr.H;
-    } else {
-        // Uniform friction: exact (closed form, or Newton on the exact power
-        // for an end cap's oblique push); a trench under part of it: the K points.
-        if (held)
-            last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60, &metric_);
-        else if (numeric)   // independent of eq. 20 (sample.wire.solver: numeric)
-            last = rod_push_twist(u, f * L_nm / static_cast<double>(u.size()), u_p, p_rod, last, 1e-7, 60);
-        else
-            last = rod_push_twist_uniform(L_nm, f, u_p, p_rod, last);
-        D = last.force_nN;
-    }
+    const double a = press > 0 && f > 0 ? 1.0 - last.force_nN / (f * L_nm) * press : 1.0;
+    squeezed = !(a > 0);
     // The tip lifts before the rod yields when the rod needs more than the
     // tip can push (squeezed: no push is enough) and the contact got there.
+    const double D = squeezed ? std::numeric_limits<double>::infinity() : last.force_nN / a;
     ridden = D > ride_nN && F > ride_nN;
     if (squeezed || ridden) return false;
     if (F <= D) return false;   // inside the limit surface: static
-    advance_rod(*this, (F - D) / k);
-    return true;
-}
-
-namespace {
-void advance_rod(RigidWire &w, double travel)
-{
-    // Advance the contact point along its push by travel, the contact force
-    // back on the limit surface: rigid motion about the instantaneous
-    // centre, integrated exactly for a constant twist over the step
-    // (rotation about the centre of rotation, or translation when omega
-    // vanishes).
-    const RodTwist &last = w.last;
-    const Eigen::Vector2d t(std::cos(w.psi), std::sin(w.psi)), nr(-std::sin(w.psi), std::cos(w.psi));
-    const Eigen::Vector2d &centre = w.centre;
+    // Advance the contact point along p until the contact force is back on the
+    // limit surface: (F - D) / k of travel.
+    const double travel = (F - D) / k;
+    // Rigid motion about the instantaneous centre, integrated exactly for a
+    // constant twist over the step (rotation about the centre of rotation,
+    // or translation when omega vanishes).
     const double dpsi = last.omega * travel;
     const Eigen::Vector2d v = travel * (last.vt * t + last.vn * nr);   // centre's displacement to first order
     Eigen::Vector2d c = centre + v;
@@ -487,8 +396,9 @@ void advance_rod(RigidWire &w, double travel)
         const Eigen::Vector2d perp(-v.y(), v.x());
         c = centre + (s * v + cm * perp) / dpsi;
     }
-    w.place(c, w.psi + dpsi);
+    place(c, psi + dpsi);
+    return true;
 }
-}  // namespace
+
 
 }  // namespace afm::sim

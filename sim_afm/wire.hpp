@@ -244,9 +244,8 @@ public:
     double axis_distance(const Eigen::Vector2d &q) const;
     TrenchTrap trap;              // empty unless lithography cuts trenches
     // down_force (physics.md 6-7, rigid rods): the push H presses the wire
-    // by H press_tan at the contact, carried along the rod with a linear
-    // pressure (rod.cpp, pressed_resistance); when no push outgrows the
-    // friction it adds, no push moves it: squeezed. Flexible
+    // by H tan psi, its friction rises by mu H tan psi; when k(l) mu tan psi
+    // >= 1 (eq. 29's denominator) no push moves it: squeezed. Flexible
     // wires ignore it (their friction is per node, the press at one), and
     // so does a rod a trench holds (the walls carry the press).
     double mu = 0;                // wire-substrate mu (0: no down force)

@@ -11,12 +11,9 @@ the mean of the card's normal force (FW_STATE F_z where its lateral force
 peaks: the contact) in the last ridden stroke and the first pushed one; half their difference
 is the ramp's step, the measurement's resolution. The card's own contact
 flag is reported beside it: where it comes earlier, the card's ride-over
-rule took a ride-over for a push. The measurement reads no SIM_TRUTH; the
-truth's own lift-off (SIM_TRUTH, the same ramp) is its truth column and eq.
-30's model-error row's: the simulator lifts the tip through the 3-D
-contact's normal when the push reaches the pressed rod's least push, the
-press carried at the contact (sim_afm World::ride_push_nN, rod.cpp
-pressed_resistance), never by eq. 30, which is the model under test.
+rule took a ride-over for a push. Nothing here reads SIM_TRUTH: the simulator lifts
+the tip by its own contact balance (sim_afm World::ride_push_nN), never by
+eq. 30, which is the model under test.
 
 - Fig. 16: dF against the cone's half angle gamma and the lever's twist
   theta, with F_a,os = 20 F_a,ts and mu_os = 0.2: the paper's stiff lever
@@ -163,15 +160,14 @@ def rows(res, dirs, size):
         d = dirs[name]
         df, half_step, n, card, card_load = measure(d)
         want, twist = model_df(gamma, q, ratio, rad_per_nN(d))
-        lift, lift_half, lift_n = truth_liftoff(d)
-        pts.append(dict(name=name, fig=fig, gamma=gamma, q=q, ratio=ratio, soft=soft, df=df, want=want, twist=twist, lift=lift))
+        pts.append(dict(name=name, fig=fig, gamma=gamma, q=q, ratio=ratio, soft=soft, df=df, want=want, twist=twist))
         lever = "soft lever" if soft else "paper's lever"
         res.rows.append(common.Row(
             f"fig. {fig}: dF, gamma {gamma} deg, l = {q:.2f} L, F_a,os = {ratio} F_a,ts, {lever} (theta {show(twist, 'deg')})",
-            "nN", key="squeeze.fig_df", bench=df, truth=lift, runs=(name,),
+            "nN", key="squeeze.fig_df", bench=df, truth=want, runs=(name,),
             note=f"the load ramp's first push at stroke {n + 1} of {CROSSINGS} (the card's lateral force stays up to the "
-                 f"stroke's end), +- {show(half_step, 'nN')} (half the ramp's step); truth column: the truth's lift-off in "
-                 f"the same ramp (SIM_TRUTH); eq. 30 {show(want, 'nN')}; dF / F_a,ts = {show(df / F_A_TS)}"))
+                 f"stroke's end), +- {show(half_step, 'nN')} (half the ramp's step); truth column: eq. 30 by the firmware's "
+                 f"solver, the model under test; dF / F_a,ts = {show(df / F_A_TS)}"))
         res.rows.append(common.Row(
             f"fig. {fig}, gamma {gamma} deg, {lever}: the card's push judgement, its first contact's load less dF", "nN",
             key="squeeze.fig_card_judgement", bench=None if card_load is None else card_load - df, scale=df, runs=(name,),
@@ -179,6 +175,7 @@ def rows(res, dirs, size):
                  f"stroke {n + 1}: the card's ride-over rule (fw_wire: H_ride = (F_z + F_a,ts) / tan(gamma + theta), its "
                  f"twist estimate) judged a push at {'none' if card_load is None else show(card_load, 'nN')} against the "
                  f"measured {show(df, 'nN')}; held to the figures' own tolerance (tolerances.yaml)"))
+        lift, lift_half, lift_n = truth_liftoff(d)
         res.rows.append(common.Row(
             f"fig. {fig}, gamma {gamma} deg, l = {q:.2f} L, {lever}: eq. 30's dF against the load at which the truth's "
             "tip lifts off", "nN", key="squeeze.model_liftoff", model=want, truth=lift, runs=(name,),

@@ -1,6 +1,6 @@
 """./afm bench rideover at its reduced size (issue 47, item 7): the card's
-ride-over judgement near the truth's lift-off on 6 lift-off scenes of the
-paper's rod (0.9 to 1.3 of eq. 30's dF, two cones, two push points). RIDE-OVER is flagged in every
+ride-over judgement near eq. 30's dF on 6 lift-off scenes of the paper's rod
+(0.9 to 1.1 dF, two cones, two push points). RIDE-OVER is flagged in every
 scene where the truth rides over, never in one where it pushes, and the
 rod's true movement during flagged blocks stays within 2 nm; the command
 prints the table and exits 0 exactly when both goals are met."""
