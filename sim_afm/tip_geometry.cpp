@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,6 +24,8 @@ constexpr double kShortSegment_nm = 1e-9;
 constexpr double kMaxRadiusPitches = 1024;
 constexpr int kMaxStarts = 16;
 constexpr int kRefineHalf = 4;   // the refining grids: 2 kRefineHalf + 1 points
+// resting_reach_nm's search ends here (nm): a tip that still overlaps there has none.
+constexpr double kMaxReach_nm = 1e9;
 
 std::string num(double v)
 {
@@ -199,6 +202,30 @@ TipContact TipGeometry::cylinder(const Eigen::Vector3d &a_nm, const Eigen::Vecto
     return contact_at(a_nm + segment_nearest(a_nm, d) * d, radius_nm);
 }
 
+double TipGeometry::resting_reach_nm(double radius_nm, const Eigen::Vector2d &dir, bool cylinder, double half_length_nm) const
+{
+    if (!(radius_nm >= 0) || !std::isfinite(radius_nm)) refuse("reach radius_nm " + num(radius_nm) + " is not finite and >= 0");
+    if (!(half_length_nm > 0) || !std::isfinite(half_length_nm)) refuse("reach half_length_nm " + num(half_length_nm) + " is not finite and > 0");
+    if (!dir.allFinite() || std::fabs(dir.norm() - 1) > 1e-9) refuse("reach direction (" + num(dir.x()) + ", " + num(dir.y()) + ") is not a unit vector");
+    if (radius_nm == 0) return 0.0;
+    const Eigen::Vector3d d3(dir.x(), dir.y(), 0), across(-dir.y(), dir.x(), 0);
+    auto gap = [&](double s) {
+        const Eigen::Vector3d c = apex_ + s * d3 + Eigen::Vector3d(0, 0, radius_nm);
+        return cylinder ? this->cylinder(c - half_length_nm * across, c + half_length_nm * across, radius_nm).gap_nm
+                        : contact_at(c, radius_nm).gap_nm;
+    };
+    double lo = 0, hi = std::max(radius_nm, r_) + 1.0;
+    while (gap(hi) < 0) {   // the gap grows without bound along the line, unless the tip is a plane (gamma 90 deg)
+        lo = hi, hi *= 2;
+        if (hi > kMaxReach_nm) refuse("no reach: the tip overlaps a resting object of radius_nm " + num(radius_nm) + " at any distance (half angle " + num(gamma_) + " rad)");
+    }
+    while (hi - lo > 1e-9 * std::max(1.0, hi)) {
+        const double mid = 0.5 * (lo + hi);
+        (gap(mid) < 0 ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
 TipContact TipGeometry::height_field(const HeightField &z, const HeightSearch &search) const
 {
     // Polar about the apex's xy: the least along each ray (the step of an
@@ -215,6 +242,40 @@ TipContact TipGeometry::height_field(const HeightField &z, const HeightSearch &s
     const SurfacePoint best = least_1d([&](double a) { return ray_least(*this, z, c, a, search); }, -M_PI, 2 * M_PI / rays, rays - 1,
                                        search.starts, search.tol_nm / rim, &phi);
     return contact_at(best.p, 0.0);
+}
+
+LiftOff lift_off_push(const Lever &lever, const LiftInput &in)
+{
+    LiftOff out;
+    const Eigen::Vector2d mC = lever.R.transpose() * in.motion;   // frame C per unit of push along the motion
+    auto at = [&](double H) {
+        const Eigen::Vector2d fC = -(H + in.friction_nN) * mC;       // the sample's force on the tip, frame C
+        TipPose pose;
+        pose.apex_nm = Eigen::Vector3d(in.apex_xy.x(), in.apex_xy.y(), 0.0);
+        pose.tilt_rad = lever.bend_slope(fC.x(), in.load_nN);
+        pose.twist_rad = lever.twist(fC.y());
+        pose.alpha_rad = lever.alpha;
+        return TipGeometry(in.radius_nm, in.half_angle_rad, pose).cylinder(in.a, in.b, in.cylinder_radius_nm);
+    };
+    const double lift = std::max(0.0, in.lift_nN);
+    double H = 0;
+    for (int i = 0; i < 32; ++i) {
+        const TipContact c = at(H);
+        out.normal = c.normal;
+        out.part = c.part;
+        out.iterations = i + 1;
+        const double nh = c.normal.head<2>().norm(), nz = c.normal.z();
+        if (!(nz > 0)) {
+            out.push_nN = std::numeric_limits<double>::infinity();
+            return out;
+        }
+        const double next = lift * nh / nz;
+        const bool done = std::fabs(next - H) <= 1e-9 * std::max(1.0, next);
+        H = next;
+        if (done) break;
+    }
+    out.push_nN = H;
+    return out;
 }
 
 }  // namespace afm::sim

@@ -1,8 +1,9 @@
 // Where the tip touches, in three dimensions (physics.md section 14): the
 // gap, the contact points and the contact normal between the tip and a
 // sphere (a particle), a finite cylinder (a rod, a wire's segment) or the
-// substrate's height field. A library of the simulator: World's step does
-// not call it yet.
+// substrate's height field. World's step takes a wire's contact normal from
+// it (cylinder, through lift_off_push) for the tip's lift-off and the
+// cone's press; the other queries are a library.
 //
 // The tip: a cone of half angle gamma whose spherical apex of radius R is
 // tangent to it (the imaging's tip_profile, in 3-D), unbounded above (the
@@ -12,6 +13,14 @@
 // pi/2: the plane tangent to the apex), R >= 0 (0: a sharp cone), both
 // finite; anything else is refused with std::invalid_argument naming the
 // value. The scene's probe holds gamma in (0, 80] deg.
+//
+// Where an object resting on the substrate is first touched
+// (TipGeometry::resting_reach_nm): the horizontal distance from the apex,
+// standing on the plane z = apex's z, to the centre of a ball of radius r
+// resting on that plane (or to the axis of a horizontal cylinder of radius
+// r lying square to the approach), at which their gap is 0: where the
+// cone's flank meets large objects first (the world's contacts still take
+// the apex's circle, R + r: world_contact.cpp, init_reach).
 //
 // Frames and units: nm, rad. Every point is in one Cartesian frame whose
 // xy plane is frame A's (or the sample's; the caller picks, the library
@@ -36,6 +45,7 @@
 
 #include <functional>
 
+#include "lever.hpp"
 #include "scene.hpp"
 
 namespace afm::sim {
@@ -109,6 +119,17 @@ public:
     // point returned is the flat stretch's end towards b. |b - a| below
     // 1e-9 nm: the sphere at a.
     TipContact cylinder(const Eigen::Vector3d &a_nm, const Eigen::Vector3d &b_nm, double radius_nm) const;
+    // The reach (header): along the horizontal unit direction dir (frame's
+    // xy), the least s >= 0 at which the ball of radius r centred at
+    // apex + (s dir, r) (cylinder false), or the cylinder of radius r whose
+    // axis runs through that point square to dir in the horizontal
+    // (cylinder true; its half length half_length_nm), no longer overlaps
+    // the tip: the gap's root, by bisection to 1e-9 nm (the gap is convex
+    // along the line and negative at s = 0 for r > 0). r = 0: 0. Throws
+    // std::invalid_argument for r or the half length not finite and >= 0
+    // (> 0 for the half length), dir not a unit vector, or no reach below
+    // 1e9 nm (gamma at 90 deg: the tip's plane overlaps any resting object).
+    double resting_reach_nm(double radius_nm, const Eigen::Vector2d &dir, bool cylinder, double half_length_nm = 1e6) const;
     // The substrate: the least signed distance of a surface point
     // (x, y, z(x, y)) to the tip, over the search disc about the apex's xy.
     // Found numerically, in polar coordinates about that point: along each
@@ -141,5 +162,39 @@ private:
     double r_, gamma_, sin_g_, cos_g_;
     Eigen::Vector3d apex_, axis_, e1_, centre_;   // e1_: the tip frame's x, the radial fallback on the axis
 };
+
+// The tip's vertical balance against a cylinder it pushes (physics.md 7,
+// "The tip's lift-off"): the contact's force on the tip lambda n (n the
+// contact normal from the 3-D geometry, object -> tip) lifts it by
+// lambda n_z and pushes it back by lambda |n_h|; the apex leaves the
+// substrate when lambda n_z exceeds lift_nN (the load plus the tip's
+// adhesion), so the most it pushes horizontally is
+// H = lift_nN |n_h| / n_z. The tip's pose follows the push: the lever's
+// tilt (Lever::bend_slope) and twist (Lever::twist) under the force of the
+// sample on the tip, -(H + friction_nN) along the motion (frame A) and the
+// load; H is the fixed point of that balance (iterated from the upright
+// tip's, to 1e-9 nN or 32 steps). The apex stands at (apex_xy, 0), the
+// cylinder's axis a-b at the height the caller gives it (its radius on a
+// flat); the normal at the apex's place (the caller's contact in the plane
+// puts it at the resting reach: gap 0 for an upright tip, and a small
+// overlap's nearest point otherwise). n_z <= 0 (the object presses the tip
+// down): no lift, infinity; |n_h| = 0 (the apex above the axis): 0.
+struct LiftOff {
+    double push_nN = 0;
+    Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // at the answer's pose
+    TipPart part = TipPart::apex;
+    int iterations = 0;
+};
+struct LiftInput {
+    double radius_nm = 0, half_angle_rad = 0;   // the tip's (ProbeSpec)
+    Eigen::Vector2d apex_xy = Eigen::Vector2d::Zero();
+    Eigen::Vector2d motion = Eigen::Vector2d::UnitX();   // unit, frame A: the push's direction
+    Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::UnitX();   // the cylinder's axis, nm
+    double cylinder_radius_nm = 0;
+    double load_nN = 0;      // F_z on the tip (its pose's bend)
+    double lift_nN = 0;      // load plus the tip's adhesion: what the push must lift
+    double friction_nN = 0;  // the tip's own sliding friction along the motion (its twist)
+};
+LiftOff lift_off_push(const Lever &lever, const LiftInput &in);
 
 }  // namespace afm::sim

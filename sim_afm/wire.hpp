@@ -249,7 +249,7 @@ public:
     // wires ignore it (their friction is per node, the press at one), and
     // so does a rod a trench holds (the walls carry the press).
     double mu = 0;                // wire-substrate mu (0: no down force)
-    double press_tan = 0;         // tan psi of this sample's push
+    double press_tan = 0;         // n_z / |n_h| of the tip's contact normal this sample (tan psi on the flank)
     bool squeezed = false;        // the last push could not move it
     bool ridden = false;          // the last push: the tip rode over it (push's ride_nN), and it stayed
     bool pulled = false;          // the apex's balance took this wire's contact in this sweep (World::apex_pull)

@@ -53,12 +53,10 @@ World::World(const Scene &s)
     }
     // Cells as large as the widest contact (particle-particle), so a contact
     // query visits at most 3 x 3 cells.
-    grid_ = Grid(2 * max_radius_ + s.probe.tip_radius_nm);
     landmarks_ = s.landmarks;
-    for (std::size_t i = 0; i < particles_.size(); ++i) grid_.insert(static_cast<int>(i), particles_[i].c);
-
     build_wires(s);
     wire_links_.resize(wires_.size());
+    init_reach();
     if (s.substrate == "tilted_glass") {
         tan_slope_ = std::tan(s.slope_deg * M_PI / 180.0);
         normal_ = Eigen::Vector3d(0.0, tan_slope_, 1.0).normalized();   // height -y tan: the normal leans to +y

@@ -70,6 +70,7 @@
 #include "piezo.hpp"
 #include "scan_artefacts.hpp"
 #include "scene.hpp"
+#include "tip_geometry.hpp"
 #include "wire.hpp"
 
 namespace afm::sim {
@@ -88,6 +89,7 @@ struct Particle {
     Eigen::Vector2d c;     // centre, sample frame, nm
     double r;              // radius, nm
     double threshold_nN;   // static friction capacity against a lateral push, F_th(0) (without the cone's down force)
+    double reach_nm = 0;   // apex to centre in the plane at contact (World::init_reach)
     bool in_contact = false;
     double push_nN = 0;    // the apex's contact force on it, nN (the solver's multiplier; kept as the next sample's start)
     double chain_nN = 0;   // the force it passes on to the particles it pushes, along its push, nN (particle_contacts)
@@ -233,7 +235,8 @@ public:
     int64_t piezo_clamped_samples() const { return clamped_samples_; }
     // Scan points whose position or z extension was clamped likewise.
     int64_t scan_points_clamped() const { return scan_clamped_; }
-    // Samples in which the tip rode over a wire it pushed (down_force; eq. 27-28).
+    // Samples in which the tip rode over a wire it pushed (down_force; the tip's
+    // vertical balance with the 3-D contact's normal, lift_off_push).
     long ridden_samples() const { return ridden_samples_; }
 
     // The flexible wires' solver over the run (FlexibleWire's counters,
@@ -301,16 +304,16 @@ private:
     // substrate cannot take (its excess, frame A); the apex's step in the
     // stiffness it meets (step_stiffness), stopped at the surface of a wire
     // contact it would enter (stop_at_wires); the contacts.
-    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest, double rt);
+    Eigen::Vector2d apex_pull(const Eigen::Vector2d &rest);
     Eigen::Vector2d apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const;
-    void slide_apex(const Eigen::Vector2d &excess, double rt);
+    void slide_apex(const Eigen::Vector2d &excess);
     double step_stiffness(const Eigen::Vector2d &m) const;
-    double stop_at_wires(const Eigen::Vector2d &m, double t, double rt);
-    void push_particles(double rt, bool chains);
+    double stop_at_wires(const Eigen::Vector2d &m, double t);
+    void push_particles(bool chains);
     void push_neighbours(std::size_t q);
     bool wires_settled() const;   // every wire's step in balance (Wire::settled)
     void record_solve(int sweeps, double force_nN, double gap_nm, bool converged);
-    void push_wires(const Eigen::Vector2d &as2, double rt);
+    void push_wires(const Eigen::Vector2d &as2);
     void relax_rigid();
     double height_true(double x, double y) const;
     double height_convolved(double x, double y) const;
@@ -348,7 +351,17 @@ private:
     bool trench_hold(const Eigen::Vector2d &q, double d_nm, Eigen::Vector2d &along, double &hold) const;
     void press_cone();                                        // down_force: each wire's tan psi and the pushed particle's factor for this sample
     void build_wires(const Scene &s);                         // the scene's wires, as its effects model them (constructor)
-    double ride_push_nN(const Wire &w) const;                 // the most the tip can push before it lifts (down_force)
+    double ride_push_nN(std::size_t i) const;                 // the most the tip can push wire i before it lifts (down_force)
+    // The contacts' reach (constructor): each particle's reach_nm, the
+    // distance in the plane from the apex to its centre at contact, and the
+    // tip radius wire_rt_[i] each wire's planar contact takes: the apex's
+    // circle, R + r (world_contact.cpp says why not yet the 3-D reach).
+    void init_reach();
+    std::vector<double> wire_rt_;
+    double max_reach_nm_ = 0;      // the largest particle reach, nm
+    // The 3-D contact of the tip at the apex's place with wire i's segment
+    // nearest it, as lift_off_push sees it (tip_geometry.hpp).
+    LiftInput wire_lift_input(std::size_t i, double H_friction_nN) const;
     void count_ridden();                                      // one of ridden_samples_ if a wire was ridden this sample
     // Horizontal force of the substrate on the tip, frame A, when it slides
     // along the horizontal direction m on a surface of unit normal n under the
@@ -407,9 +420,9 @@ private:
         double kt_nN_per_nm = 0;   // across n: the contact's stiffness as the apex slides along the wire held (its normal turns)
     };
     std::vector<WireLink> wire_links_;
-    void measure_wire_links(double rt);
-    void open_wire_contacts(double rt);    // at a sample's start: a contact apart loses its multiplier
-    void close_wire_contacts(double rt);   // each wire's multiplier: its contact force after the push
+    void measure_wire_links();
+    void open_wire_contacts();    // at a sample's start: a contact apart loses its multiplier
+    void close_wire_contacts();   // each wire's multiplier: its contact force after the push
     bool particle_chains_ = false; // particle_contacts: pushed particles push their neighbours
     double wire_gap_nm_ = 0;       // the worst wire contact's gap under load (penetration, or apart with force), nm
     double sweep_gap_nm_ = 0;      // the worst contact gap apex_pull saw (penetration, or a gap under load), nm

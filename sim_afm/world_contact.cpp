@@ -26,7 +26,6 @@ void World::relax()
         for (auto &w : wires_) w->in_contact = false, w->lambda_nN = 0;
         return;
     }
-    const double rt = scene_.probe.tip_radius_nm;
     const bool chains = particle_chains_;
     const Eigen::Vector2d apex0 = apex_;
     const double fz = contact_load();
@@ -35,30 +34,30 @@ void World::relax()
     // Candidates: particles that can touch the apex during this sample.
     // A contact's force from the last sample starts this one's (a steady
     // push converges at once) while the contact is still closed.
-    near(apex_ - drift_, rt + max_radius_ + 1.0, scratch_);
+    near(apex_ - drift_, max_reach_nm_ + 1.0, scratch_);
     for (int idx : scratch_) {
         Particle &p = particles_[idx];
         p.in_contact = false;
-        if ((apex_ - drift_ - p.c).norm() - rt - p.r > kSolverGapTol_nm) p.push_nN = 0;
+        if ((apex_ - drift_ - p.c).norm() - p.reach_nm > kSolverGapTol_nm) p.push_nN = 0;
     }
     for (auto &l : wire_links_) l.fresh = l.touched = false;   // a secant within a sample only
-    open_wire_contacts(rt);
+    open_wire_contacts();
     for (auto &w : wires_) w->begin_step();        // the sample's pushes share one step (Wire::begin_step)
     int sweeps = 0;
     double force = 0;
     bool converged = false;
     for (;; ++sweeps) {
-        const Eigen::Vector2d g = apex_pull(rest, rt);
+        const Eigen::Vector2d g = apex_pull(rest);
         const Eigen::Vector2d excess = apex_excess(g, fz, normal);
         force = excess.norm();
         const bool balanced = force <= kSolverForceTol_nN && sweep_gap_nm_ <= kSolverGapTol_nm && wires_settled();
         converged = balanced && wire_gap_nm_ <= kSolverGapTol_nm;
         if ((sweeps > 0 && converged) || sweeps == solver_.cap) break;
-        if (sweeps > 0 && balanced) close_wire_contacts(rt);   // in balance with a wire's contact open: its multiplier's step
-        slide_apex(excess, rt);
-        push_particles(rt, chains);
-        push_wires(apex_ - drift_, rt);
-        if (!wires_.empty()) measure_wire_links(rt);
+        if (sweeps > 0 && balanced) close_wire_contacts();   // in balance with a wire's contact open: its multiplier's step
+        slide_apex(excess);
+        push_particles(chains);
+        push_wires(apex_ - drift_);
+        if (!wires_.empty()) measure_wire_links();
     }
     for (auto &w : wires_) w->end_step();
     record_solve(sweeps, force, std::max(sweep_gap_nm_, wire_gap_nm_), converged);
@@ -93,7 +92,7 @@ void World::count_ridden()
         }
 }
 
-Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt)
+Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest)
 {
     // The force on the apex from the lever, from every particle's contact
     // force (push_nN, along the line of centres) and from every wire's
@@ -107,7 +106,7 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt)
     for (int idx : scratch_) {
         const Particle &p = particles_[idx];
         const Eigen::Vector2d d = as - p.c;
-        const double gap = d.norm() - rt - p.r;
+        const double gap = d.norm() - p.reach_nm;
         if (gap < 0 || p.push_nN > 0) {
             sweep_gap_nm_ = std::max(sweep_gap_nm_, p.push_nN > 0 ? std::fabs(gap) : -gap);
             g += p.push_nN * unit_or(d, -last_motion_);
@@ -122,6 +121,7 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt)
     for (std::size_t i = 0; i < wires_.size(); ++i) {
         Wire &w = *wires_[i];
         WireLink &l = wire_links_[i];
+        const double rt = wire_rt_[i];
         l.pressing = l.touched;   // the last step stopped at its surface (l.n its normal there)
         l.touched = false;
         w.pulled = false;
@@ -143,7 +143,7 @@ Eigen::Vector2d World::apex_pull(const Eigen::Vector2d &rest, double rt)
     return g;
 }
 
-void World::measure_wire_links(double rt)
+void World::measure_wire_links()
 {
     // After the wires' push at this sweep's apex: each contact's force and
     // the apex's place along its normal; with the last such point of the
@@ -154,6 +154,7 @@ void World::measure_wire_links(double rt)
     for (std::size_t i = 0; i < wires_.size(); ++i) {
         Wire &w = *wires_[i];
         WireLink &l = wire_links_[i];
+        const double rt = wire_rt_[i];
         double pen = 0, u;
         Eigen::Vector2d n;
         if (!w.near(as, rt + kLinkMargin_nm) || w.ridden) {
@@ -170,27 +171,32 @@ void World::measure_wire_links(double rt)
     }
 }
 
-void World::open_wire_contacts(double rt)
+void World::open_wire_contacts()
 {
     // A wire contact apart at the sample's start (the apex moved off it, or
     // rode over it) has no force: its multiplier starts again from 0.
     const Eigen::Vector2d as = apex_ - drift_;
-    for (auto &w : wires_) {
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire *w = wires_[i].get();
+        const double rt = wire_rt_[i];
         if (w->lambda_nN == 0) continue;
         if (w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_) || !(w->tip_push(as, rt, k_contact_).force.norm() > 0))
             w->lambda_nN = 0;
     }
 }
 
-void World::close_wire_contacts(double rt)
+void World::close_wire_contacts()
 {
     // The multipliers' step (Wire::lambda_nN): each contact's force after
     // the push becomes its multiplier, so the next push closes what the
     // penalty left open (a ride-over, or a wire apart, takes none).
     const Eigen::Vector2d as = apex_ - drift_;
     for (auto &l : wire_links_) l.fresh = false;   // the forces move: the secants start again
-    for (auto &w : wires_)
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire *w = wires_[i].get();
+        const double rt = wire_rt_[i];
         w->lambda_nN = w->ridden || !w->near(as, rt + w->lambda_nN / k_contact_) ? 0.0 : w->tip_push(as, rt, k_contact_).force.norm();
+    }
 }
 
 Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Eigen::Vector3d &normal) const
@@ -211,7 +217,7 @@ Eigen::Vector2d World::apex_excess(const Eigen::Vector2d &g, double fz, const Ei
     return (stn - capacity) / mhn * mh;
 }
 
-void World::slide_apex(const Eigen::Vector2d &excess, double rt)
+void World::slide_apex(const Eigen::Vector2d &excess)
 {
     // The apex slips along the excess (against the substrate's friction:
     // the slip direction is the friction's, whatever the lever's
@@ -221,7 +227,7 @@ void World::slide_apex(const Eigen::Vector2d &excess, double rt)
     const double e = excess.norm();
     if (!(e > 0)) return;
     const Eigen::Vector2d m = excess / e;
-    apex_ += stop_at_wires(m, e / step_stiffness(m), rt) * m;
+    apex_ += stop_at_wires(m, e / step_stiffness(m)) * m;
 }
 
 double World::step_stiffness(const Eigen::Vector2d &m) const
@@ -239,7 +245,7 @@ double World::step_stiffness(const Eigen::Vector2d &m) const
     return k;
 }
 
-double World::stop_at_wires(const Eigen::Vector2d &m, double t, double rt)
+double World::stop_at_wires(const Eigen::Vector2d &m, double t)
 {
     // A wire the apex does not press yet offers no stiffness: a step into
     // it would go as far as the lever alone takes it, deep into the
@@ -250,6 +256,7 @@ double World::stop_at_wires(const Eigen::Vector2d &m, double t, double rt)
     for (std::size_t i = 0; i < wires_.size(); ++i) {
         Wire &w = *wires_[i];
         WireLink &l = wire_links_[i];
+        const double rt = wire_rt_[i];
         if (l.pressing || w.ridden || !w.near(as, rt + w.lambda_nN / k_contact_ + t)) continue;
         double pen, u;
         Eigen::Vector2d n;
@@ -265,7 +272,7 @@ double World::stop_at_wires(const Eigen::Vector2d &m, double t, double rt)
     return t;
 }
 
-void World::push_particles(double rt, bool chains)
+void World::push_particles(bool chains)
 {
     // A projected Gauss-Seidel on the apex's contacts: each contact's force
     // lambda (push_nN) moves by the lever's stiffness along the line of
@@ -280,7 +287,7 @@ void World::push_particles(double rt, bool chains)
         Particle &p = particles_[i];
         const Eigen::Vector2d as = apex_ - drift_;
         const Eigen::Vector2d d = p.c - as;
-        const double reach = rt + p.r;
+        const double reach = p.reach_nm;
         const double gap = d.norm() - reach;
         if (gap < 0 || p.push_nN > 0) {
             const Eigen::Vector2d n = unit_or(d, last_motion_);
@@ -329,11 +336,13 @@ void World::push_neighbours(std::size_t q)
     p.chain_nN = passed;
 }
 
-void World::push_wires(const Eigen::Vector2d &as2, double rt)
+void World::push_wires(const Eigen::Vector2d &as2)
 {
     // A wire the apex left within the sample is pushed once more (its step
     // ends in balance without the tip); its multiplier stays the sample's.
-    for (auto &w : wires_) {
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire *w = wires_[i].get();
+        const double rt = wire_rt_[i];
         if (!w->near(as2, rt + w->lambda_nN / k_contact_) && !w->in_contact) {
             w->ridden = false;
             continue;
@@ -343,7 +352,7 @@ void World::push_wires(const Eigen::Vector2d &as2, double rt)
         // taken it (pulled); the sweep in which the apex first steps into
         // the wire, before that, overshoots by a penalty artefact, and is
         // no lift-off (a ride already under way stays one).
-        const double ride = w->pulled || w->ridden ? ride_push_nN(*w) : std::numeric_limits<double>::infinity();
+        const double ride = w->pulled || w->ridden ? ride_push_nN(i) : std::numeric_limits<double>::infinity();
         w->push(as2, rt, k_contact_, ride);
         clock_add(&t_wires_, t0);
     }
@@ -361,7 +370,6 @@ void World::relax_rigid()
         for (auto &w : wires_) w->in_contact = false;
         return;
     }
-    const double rt = scene_.probe.tip_radius_nm;
     last_motion_ = unit_or(apex_ - apex0, last_motion_);
     press_cone();
     Eigen::Vector2d f = Eigen::Vector2d::Zero();
@@ -373,25 +381,27 @@ void World::relax_rigid()
         jammed_ = !fr;
         if (fr) f = *fr;
     }
-    for (auto &w : wires_) {
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire *w = wires_[i].get();
+        const double rt = wire_rt_[i];
         if (!w->near(as, rt + w->lambda_nN / k_contact_)) { w->in_contact = false, w->lambda_nN = 0; continue; }
         const auto t0 = clock_start();
-        w->push(as, rt, k_contact_, ride_push_nN(*w));
+        w->push(as, rt, k_contact_, ride_push_nN(i));
         clock_add(&t_wires_, t0);
         if (!w->ridden) f += w->tip_push(as, rt, k_contact_).force;
     }
-    close_wire_contacts(rt);   // one step a sample: the next sample's push closes this one's penalty
+    close_wire_contacts();   // one step a sample: the next sample's push closes this one's penalty
     count_ridden();
     // A particle the apex overlaps slides at its threshold (pressed by the
     // cone: down_force) onto the apex's surface, the contact closed exactly;
     // one it only touches keeps the force of the last push (static, within
     // [0, threshold]); apart, none. Exact in one pass: one sweep.
-    near(as, rt + max_radius_ + 1.0, scratch_);
+    near(as, max_reach_nm_ + 1.0, scratch_);
     double gap_worst = 0;
     for (int idx : scratch_) {
         Particle &p = particles_[idx];
         const Eigen::Vector2d d = p.c - as;
-        const double reach = rt + p.r;
+        const double reach = p.reach_nm;
         const double gap = d.norm() - reach;
         const Eigen::Vector2d n = unit_or(d, last_motion_);
         if (gap < 0) {
@@ -409,49 +419,104 @@ void World::relax_rigid()
     lateral_force_ = f;
 }
 
+void World::init_reach()
+{
+    // The apex's circle meets the object's outline in the plane: the reach
+    // is R + r. The card models the same (fw_particles, fw_wire: r_tip + r),
+    // and its display is held to the truth within a few nm (the fidelity
+    // check, test_end_to_end's 5 nm); the 3-D reach
+    // (TipGeometry::resting_reach_nm: the cone's flank, 78.4 nm from a
+    // 100 nm object under the paper's tip) would put every pushed object
+    // 18.4 nm beyond the card's model. It waits for the card's model of
+    // the reach (physics.md 14, "What it changes").
+    const double rt = scene_.probe.tip_radius_nm;
+    max_reach_nm_ = 0;
+    for (auto &p : particles_) {
+        p.reach_nm = rt + p.r;
+        max_reach_nm_ = std::max(max_reach_nm_, p.reach_nm);
+    }
+    // Cells as large as the widest contact (particle-particle, or the
+    // apex's reach), so a contact query visits at most 3 x 3 cells.
+    grid_ = Grid(std::max(2 * max_radius_, max_reach_nm_) + 1.0);
+    for (std::size_t i = 0; i < particles_.size(); ++i) grid_.insert(static_cast<int>(i), particles_[i].c);
+    wire_rt_.assign(wires_.size(), rt);
+}
+
+LiftInput World::wire_lift_input(std::size_t i, double friction_nN) const
+{
+    // The wire's segment nearest the apex, at its axis height over the
+    // substrate plane; the apex on that plane (z = 0) where it stands.
+    const Wire &w = *wires_[i];
+    const Eigen::Vector2d as = apex_ - drift_;
+    const auto &x = w.nodes();
+    std::size_t best = 0;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k + 1 < x.size(); ++k) {
+        const Eigen::Vector2d e = x[k + 1] - x[k];
+        const double t = std::clamp((as - x[k]).dot(e) / std::max(e.squaredNorm(), 1e-300), 0.0, 1.0);
+        const double d = (x[k] + t * e - as).norm();
+        if (d < best_d) best_d = d, best = k;
+    }
+    const double z = wire_axis_height_nm(i);
+    LiftInput in;
+    in.radius_nm = scene_.probe.tip_radius_nm;
+    in.half_angle_rad = gamma_rad_;
+    in.apex_xy = as;
+    in.motion = last_motion_;
+    in.a = Eigen::Vector3d(x[best].x(), x[best].y(), z);
+    in.b = Eigen::Vector3d(x[best + 1].x(), x[best + 1].y(), z);
+    in.cylinder_radius_nm = 0.5 * w.d_nm;
+    in.load_nN = contact_load();
+    in.lift_nN = contact_load() + tip_adhesion_nN_;
+    in.friction_nN = friction_nN;
+    return in;
+}
+
 void World::press_cone()
 {
-    // down_force: the contact normal of the cone with a wire or a particle
-    // is psi = gamma + theta_t from the horizontal (physics.md 5 and 7),
-    // theta_t = F_y h / k_theta the lever's twist under the lateral force of
-    // the last sample.
+    // down_force: the cone presses a wire it pushes by H n_z / |n_h|, n the
+    // 3-D contact's normal (tip_geometry) at the lever's pose under the
+    // last sample's lateral force; a particle it pushes at psi = gamma +
+    // theta_t from the horizontal (physics.md 5), theta_t = F_y h / k_theta
+    // the lever's twist under that force.
     if (!down_force_) return;
     const Eigen::Vector2d fC = lever_.R.transpose() * lateral_force_;
     const double psi = gamma_rad_ + std::fabs(lever_.twist(fC.y()));
     const double t = psi < M_PI / 2 ? std::tan(psi) : std::numeric_limits<double>::infinity();
-    for (auto &w : wires_) w->press_tan = t;
+    const Eigen::Vector2d as = apex_ - drift_;
+    for (std::size_t i = 0; i < wires_.size(); ++i) {
+        Wire &w = *wires_[i];
+        if (!w.near(as, wire_rt_[i] + 1.0)) continue;   // the press matters in contact only
+        LiftInput in = wire_lift_input(i, 0.0);
+        TipPose pose;
+        pose.apex_nm = Eigen::Vector3d(in.apex_xy.x(), in.apex_xy.y(), 0.0);
+        pose.tilt_rad = lever_.bend_slope(fC.x(), in.load_nN);
+        pose.twist_rad = lever_.twist(fC.y());
+        pose.alpha_rad = lever_.alpha;
+        const Eigen::Vector3d n = TipGeometry(in.radius_nm, in.half_angle_rad, pose).cylinder(in.a, in.b, in.cylinder_radius_nm).normal;
+        const double nh = n.head<2>().norm();
+        w.press_tan = nh > 0 ? std::max(0.0, n.z()) / nh : std::numeric_limits<double>::infinity();
+    }
     const double den = 1.0 - particle_mu_ * t;
     cone_factor_ = den > 0 ? 1.0 / den : std::numeric_limits<double>::infinity();
 }
 
-double World::ride_push_nN(const Wire &w) const
+double World::ride_push_nN(std::size_t i) const
 {
-    // The tip's own vertical balance (eq. 27-28): a push H on the cone's
-    // flank, at psi = gamma + theta_t from the horizontal, lifts the tip by
-    // H tan psi against its load and its adhesion; past both the apex leaves
-    // the substrate and climbs over the wire instead of pressing it, while
-    // the wire slides as well as once it is squeezed. So the tip can push at
-    // most (load + F_a,ts) / tan psi. Whether the wire needs more is its own
-    // friction's answer (Wire::push), never eq. 29-30's closed form.
-    // The twist theta_t is the lever's under the push itself (plus the tip's
-    // own sliding friction, along the motion), not the last sample's force:
-    // a ride-over drops the push, and a twist that followed it would let the
-    // tip press again at once. H tan(gamma + |theta_t(H)|) = load + F_a,ts is
-    // solved by fixed-point iteration (theta_t grows with H, so it converges
-    // from below for the twists a lever can take).
-    // Without down_force the cone's flank is not modelled: no limit.
-    if (!down_force_ || !(w.press_tan > 0)) return std::numeric_limits<double>::infinity();
-    const double lift = std::max(0.0, contact_load() + tip_adhesion_nN_);
-    const double across = (lever_.R.transpose() * last_motion_).y();        // frame C's y per unit of push along the motion
+    // The tip's own vertical balance with the 3-D contact's normal
+    // (lift_off_push): a push H through the contact lifts the tip by
+    // H n_z / |n_h| against its load and its adhesion; past both the apex
+    // leaves the substrate and climbs over the wire instead of pressing it,
+    // while the wire slides as well as once it is squeezed. Whether the
+    // wire needs more is its own friction's answer (Wire::push), never eq.
+    // 29-30's closed form. The pose is the lever's under the push itself
+    // (plus the tip's own sliding friction, along the motion), not the
+    // last sample's force: a ride-over drops the push, and a twist that
+    // followed it would let the tip press again at once.
+    // Without down_force the tip's lift is not modelled: no limit.
+    if (!down_force_ || !(wires_[i]->press_tan > 0)) return std::numeric_limits<double>::infinity();
     const double friction = tip_mu_ * (contact_load() + tip_adhesion_nN_);
-    double H = lift / std::tan(gamma_rad_);
-    for (int i = 0; i < 12; ++i) {
-        const double psi = gamma_rad_ + std::fabs(lever_.twist((H + friction) * across));
-        const double next = psi < M_PI / 2 ? lift / std::tan(psi) : 0.0;
-        if (std::fabs(next - H) < 1e-9) break;
-        H = next;
-    }
-    return H;
+    return lift_off_push(lever_, wire_lift_input(i, friction)).push_nN;
 }
 
 std::optional<Eigen::Vector2d> World::sliding_friction(const Eigen::Vector2d &m, const Eigen::Vector3d &n, double fz) const

@@ -458,6 +458,166 @@ void test_rough_substrate_contact_has_its_surface_normal()
         }
 }
 
+// A rod lying on the substrate, square to x, its axis at height r a
+// distance s from the upright tip's axis (the apex on the substrate):
+// pressed into the flank, its depth and normal in closed form (the
+// flank's line in the plane through the axis: rho cos gamma - sigma sin
+// gamma = R, the rod's axis r from it, sigma = r - R above the apex's
+// centre), and the contact where the ball of its radius would be.
+void test_rod_on_the_flank_has_the_closed_form_depth_and_normal()
+{
+    const TipGeometry tip = upright();
+    const double r = 50;
+    for (const double s : {60.0, 70.0, 78.0, 90.0}) {
+        const TipContact c = tip.cylinder(Vector3d(s, -500, r), Vector3d(s, 500, r), r);
+        const double want = s * std::cos(kGamma) - (r - kR) * std::sin(kGamma) - kR - r;
+        TEST_ASSERT_TRUE(c.part == TipPart::flank);
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, want, c.gap_nm);
+        assert_unit(c.normal);
+        assert_vec(1e-9, Vector3d(-std::cos(kGamma), 0, std::sin(kGamma)), c.normal, "flank normal");
+    }
+    // Its resting reach (gap 0) is the ball's, in closed form on the flank:
+    // s = (r + R + (r - R) sin gamma) / cos gamma (78.41 nm), and on the
+    // apex for a ball smaller than it, s = 2 sqrt(R r).
+    const double flank = (r + kR + (r - kR) * std::sin(kGamma)) / std::cos(kGamma);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, flank, tip.resting_reach_nm(r, Vector2d::UnitX(), true));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, flank, tip.resting_reach_nm(r, Vector2d(0.6, -0.8), false));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, flank_contact_distance(2000), tip.resting_reach_nm(2000, Vector2d::UnitY(), false));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 2 * std::sqrt(kR * 1.0), tip.resting_reach_nm(1.0, Vector2d::UnitX(), false));
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6, 2 * std::sqrt(kR * 1.0), tip.resting_reach_nm(1.0, Vector2d::UnitX(), true));
+    TEST_ASSERT_EQUAL_DOUBLE(0.0, tip.resting_reach_nm(0.0, Vector2d::UnitX(), false));
+}
+
+// The hard cases: the tip exactly above the rod's axis (the normal
+// vertical, the gap the apex's height over the rod's top), a cone's half
+// angle a hair below 90 deg (the reach far out but finite), and refusals.
+void test_rod_under_the_apex_and_a_flat_cone_stay_well_conditioned()
+{
+    const double r = 50;
+    for (const double h : {0.0, -3.0, 7.5}) {
+        const TipContact c = upright(Vector3d(0, 0, 2 * r + h)).cylinder(Vector3d(0, -500, r), Vector3d(0, 500, r), r);
+        TEST_ASSERT_TRUE(c.part == TipPart::apex);
+        TEST_ASSERT_DOUBLE_WITHIN(1e-9, h, c.gap_nm);
+        assert_vec(1e-12, Vector3d::UnitZ(), c.normal, "above the axis");
+    }
+    const double g = M_PI / 2 - 1e-3;   // 89.94 deg: the flank's line s cos g - (r - R) sin g = R + r
+    const TipGeometry flat = upright(Vector3d::Zero(), kR, g);
+    const double want = (r + kR + (r - kR) * std::sin(g)) / std::cos(g);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-6 * want, want, flat.resting_reach_nm(r, Vector2d::UnitX(), true));
+    auto refused = [](auto f, const char *word) {
+        try {
+            f();
+        } catch (const std::invalid_argument &e) {
+            TEST_ASSERT_NOT_NULL_MESSAGE(std::strstr(e.what(), word), e.what());
+            return;
+        }
+        TEST_FAIL_MESSAGE(word);
+    };
+    refused([] { upright(Vector3d::Zero(), kR, M_PI / 2).resting_reach_nm(5, Vector2d::UnitX(), false); }, "no reach");
+    refused([] { upright().resting_reach_nm(-1, Vector2d::UnitX(), false); }, "reach radius_nm -1");
+    refused([] { upright().resting_reach_nm(1, Vector2d(1, 1), false); }, "not a unit vector");
+}
+
+namespace {
+// The paper's lever with its twist made soft (theta of some degrees under a
+// push of tens of nN: the lift-off's pose matters), scan angle 270 (C = A).
+afm::sim::Lever soft_lever(double lateral_nN_per_V)
+{
+    afm::ProbeSpec p;
+    p.lateral_nN_per_V = lateral_nN_per_V;
+    p.tip_radius_nm = kR;
+    p.tip_half_angle_deg = kGamma * 180 / M_PI;
+    return afm::sim::Lever(p);
+}
+
+// A rod of radius 50 along x_C at y = the resting reach ahead of the apex,
+// pushed along +y (across the lever: the twist, not the tilt, turns the
+// flank), lift the load plus the adhesion.
+afm::sim::LiftInput rod_ahead(double lift, double friction, double gamma = kGamma)
+{
+    const double r = 50;
+    afm::sim::LiftInput in;
+    in.radius_nm = kR;
+    in.half_angle_rad = gamma;
+    in.motion = Vector2d::UnitY();
+    const double y = upright(Vector3d::Zero(), kR, gamma).resting_reach_nm(r, Vector2d::UnitY(), true);
+    in.a = Vector3d(-650, y, r);
+    in.b = Vector3d(650, y, r);
+    in.cylinder_radius_nm = r;
+    in.load_nN = lift;
+    in.lift_nN = lift;
+    in.friction_nN = friction;
+    return in;
+}
+
+// The hand-derived balance: the push H on a flank at psi = gamma + theta
+// from the horizontal lifts the tip by H tan psi, theta the lever's twist
+// (F_y h / k_theta) under the push plus the tip's friction; H tan psi =
+// lift, solved by bisection (H tan psi grows with H).
+double hand_balance(const afm::sim::Lever &lever, double lift, double friction, double gamma = kGamma)
+{
+    double lo = 0, hi = lift / std::tan(gamma) + 1;
+    for (int i = 0; i < 200; ++i) {
+        const double H = 0.5 * (lo + hi);
+        const double psi = gamma + (H + friction) * lever.h / lever.ktheta;
+        (H * std::tan(psi) < lift ? lo : hi) = H;
+    }
+    return 0.5 * (lo + hi);
+}
+}  // namespace
+
+// The lift-off push of a rod on a flat from the 3-D contact (lift_off_push)
+// against the hand-derived balance, within 1 % (it agrees to about 1e-6:
+// the lever's tilt under the load turns the flank at second order only),
+// on the paper's lever and on a soft one (theta several degrees).
+void test_rod_lift_off_push_matches_the_hand_derived_balance()
+{
+    for (const double lateral : {37.9, 2.0}) {
+        const afm::sim::Lever lever = soft_lever(lateral);
+        for (const double lift : {1.0, 6.0, 40.0}) {
+            const afm::sim::LiftOff got = afm::sim::lift_off_push(lever, rod_ahead(lift, 0.5));
+            const double want = hand_balance(lever, lift, 0.5);
+            char msg[160];
+            std::snprintf(msg, sizeof msg, "lateral %g nN/V, lift %g nN: want %.6f, got %.6f (%d steps)", lateral, lift, want,
+                          got.push_nN, got.iterations);
+            TEST_ASSERT_TRUE(got.part == TipPart::flank);
+            TEST_ASSERT_TRUE_MESSAGE(std::fabs(got.push_nN - want) <= 0.01 * want, msg);
+            // On the soft lever the twist matters: the push falls short of the
+            // upright tip's lift / tan gamma by more than the tolerance.
+            if (lateral < 10 && lift >= 6) TEST_ASSERT_TRUE_MESSAGE(got.push_nN < 0.97 * lift / std::tan(kGamma), msg);
+        }
+    }
+}
+
+// The lift-off's hard cases: zero load (adhesion alone: its push; nothing
+// at all: 0), a cone near 90 deg (the push lift cot(psi), small but
+// finite), the apex above the rod's axis (the normal vertical: no push
+// holds the tip down, 0), and a cylindrical tip (its flank vertical, gamma 0): no lift.
+void test_rod_lift_off_hard_cases()
+{
+    const afm::sim::Lever lever = soft_lever(37.9);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-12, 0.0, afm::sim::lift_off_push(lever, rod_ahead(0.0, 0.0)).push_nN);
+    const double adh = afm::sim::lift_off_push(lever, rod_ahead(1.0, 0.0)).push_nN;
+    TEST_ASSERT_DOUBLE_WITHIN(0.01 * adh, hand_balance(lever, 1.0, 0.0), adh);
+    const double g = M_PI / 2 - 1e-3;
+    // (there cot psi is 1e-3: the lever's tilt under a load, some 1e-4 rad,
+    // would move it by tens of %, so the lift is the adhesion's, no load)
+    afm::sim::LiftInput steep = rod_ahead(5.0, 0.0, g);
+    steep.load_nN = 0;
+    const double flat = afm::sim::lift_off_push(lever, steep).push_nN;
+    TEST_ASSERT_TRUE(std::isfinite(flat));
+    TEST_ASSERT_DOUBLE_WITHIN(0.01 * flat, hand_balance(lever, 5.0, 0.0, g), flat);
+    afm::sim::LiftInput above = rod_ahead(5.0, 0.0);
+    above.a.y() = above.b.y() = 0;   // the rod's axis under the apex: the apex at its top
+    above.a.z() = above.b.z() = -50;
+    const afm::sim::LiftOff top = afm::sim::lift_off_push(lever, above);
+    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.0, top.push_nN);
+    // A cylindrical tip (gamma 0): its flank's normal is horizontal, no
+    // push lifts it (n_z 0 to rounding: infinite, or beyond any push).
+    const double never = afm::sim::lift_off_push(lever, rod_ahead(5.0, 0.0, 0.0)).push_nN;
+    TEST_ASSERT_TRUE(never > 1e9);
+}
+
 int main()
 {
     UNITY_BEGIN();
@@ -479,5 +639,9 @@ int main()
     RUN_TEST(test_planes_touch_the_apex_with_their_normal);
     RUN_TEST(test_trench_edge_is_touched_by_the_flank);
     RUN_TEST(test_rough_substrate_contact_has_its_surface_normal);
+    RUN_TEST(test_rod_on_the_flank_has_the_closed_form_depth_and_normal);
+    RUN_TEST(test_rod_under_the_apex_and_a_flat_cone_stay_well_conditioned);
+    RUN_TEST(test_rod_lift_off_push_matches_the_hand_derived_balance);
+    RUN_TEST(test_rod_lift_off_hard_cases);
     return UNITY_END();
 }
