@@ -14,16 +14,19 @@ parts the inverse hysteresis (firmware.hyst_enable), the creep feed-forward
 and parts no switch turns on are named in the notes (ablation.MISSING_*).
 
 Per run, the card's side from the run's own outputs: the first push's
-error at each site, the planner's own check after its first stroke onto
-the site, before any re-push (its local scan's finding against the site and
-the card's drift then, FW_STATE; the planner traces each check into
+error at each site, the planner's own check after the first stroke of its
+particle's job, before any re-push (its local scan's finding against where
+the stroke left the card's model: the stroke's stray, which for a stroke
+onto the site is the error against the site and the card's drift then,
+FW_STATE; a particle the planner never gets onto its site in the run's
+time still has its first push measured; the planner traces each check into
 logs/operator.log with AFM_PLAN_TRACE, as operator_report.json keeps only
 the last); the pushes (strokes) per site (operator_report.json) and the
 time per site (the planner's, from its particle's first local scan to its
 last check); the final placement against the fresh scan (fidelity.json's
 assembly check). Against the truth, labelled so: the same first push and
-final placement from SIM_TRUTH (the true particle against the site moved by
-the sample's drift). Per site: over the sites the planner finished with in
+final placement from SIM_TRUTH (the true particle, the sample's drift taken
+off and the card's put on, against the card's model). Per site: over the sites the planner finished with in
 the run's simulated time (RATES), the final placement over all.
 
 Full size: every source case (none, each alone, every source) against every
@@ -96,12 +99,13 @@ def _read_json(run_dir, name):
 
 
 _CHECK = re.compile(r"^plan: t (\S+) particle (\d+) stroke .* at_site (\d) model \((\S+), (\S+)\) at \((\S+), (\S+)\)")
+# a check's fields: t, particle, at_site, the card's model after the stroke, the scan's finding
 _SCAN = re.compile(r"^plan: scan t (\S+) particle (\d+) ")
 
 
 def trace(run_dir):
     """The planner's account of its strokes and scans (AFM_PLAN_TRACE's
-    lines in logs/operator.log): ([(t, id, at_site, found (x, y))] of each
+    lines in logs/operator.log): ([(t, id, at_site, found (x, y), model (x, y))] of each
     stroke's check, [(t, id)] of each local scan that found its particle)."""
     path = os.path.join(run_dir, "logs", "operator.log")
     checks, scans = [], []
@@ -110,7 +114,8 @@ def trace(run_dir):
             for line in f:
                 c, s = _CHECK.match(line), _SCAN.match(line)
                 if c:
-                    checks.append((float(c[1]), int(c[2]), c[3] == "1", np.array([float(c[6]), float(c[7])])))
+                    checks.append((float(c[1]), int(c[2]), c[3] == "1", np.array([float(c[6]), float(c[7])]),
+                                   np.array([float(c[4]), float(c[5])])))
                 elif s:
                     scans.append((float(s[1]), int(s[2])))
     except OSError as e:
@@ -136,27 +141,28 @@ def _nearest(times, t):
     return k if k == 0 or (k < len(times) and times[k] - t < t - times[k - 1]) else k - 1
 
 
-def _true_error(truth, t, pid, site):
-    """The true particle against its site and the sample's drift (nm), from
-    the complete SIM_TRUTH message nearest t (the tip lifted for a scan:
-    the particle stays)."""
+def _true_error(truth, t, pid, aim, card_drift):
+    """The true particle against the aim (nm), both in the card's frame: the
+    true position with the sample's drift taken off and the card's drift
+    put on, from the complete SIM_TRUTH message nearest t (the tip lifted
+    for a scan: the particle stays)."""
     _, o = truth[_nearest(np.array([u for u, _ in truth]), t)]
     at = [np.array([p.x_nm, p.y_nm]) for p in o.particles if p.id == pid]
-    return float(np.linalg.norm(at[0] - site - np.asarray(o.drift_nm))) if at else None
+    return float(np.linalg.norm(at[0] - np.asarray(o.drift_nm) + card_drift - aim)) if at else None
 
 
 def first_pushes(checks, log, sites):
-    """{particle id: (card's error, true error)} of each site's first push
-    onto it: the planner's check after its first stroke onto the site (the
-    scan's finding against the site and the card's drift then: the
-    planner's own error), and SIM_TRUTH's beside it."""
+    """{particle id: (card's error, true error)} of each site's first push:
+    the planner's check after the first stroke of its particle's job, the
+    scan's finding against where the stroke left the card's model (the
+    planner's own stray), and SIM_TRUTH's beside it."""
     (times, drift), truth = log
     out = {}
-    for t, pid, at_site, at in checks:
-        if not at_site or pid in out or pid not in sites:
+    for t, pid, _, at, model in checks:
+        if pid in out or pid not in sites:
             continue
-        card = float(np.linalg.norm(at - sites[pid] - drift[_nearest(times, t)]))
-        out[pid] = (card, _true_error(truth, t, pid, sites[pid]))
+        card_drift = drift[_nearest(times, t)]
+        out[pid] = (float(np.linalg.norm(at - model)), _true_error(truth, t, pid, model, card_drift))
     return out
 
 
@@ -229,7 +235,8 @@ def analyse(dirs, exp_dir, size):
                                note="issue 48's target: cut by 10x or more (the medians over sites, the card's side)"))
     res.notes += [f"not in any run, no switch: {k}: {why}" for k, why in ablation.MISSING_SOURCES.items()]
     res.notes += [f"not in any run, no switch: the compensation's {k}: {why}" for k, why in ablation.MISSING_PARTS.items()]
-    res.notes.append("first push: the planner's check after its first stroke onto the site; per site: over the sites the "
+    res.notes.append("first push: the planner's check after the first stroke of each particle's job, the scan's finding "
+                     "against where the stroke left the card's model; per site: over the sites the "
                      f"planner finished with in the run's {RATES['duration_s']} s (simulated), the final placement over all")
     safefs.write_path(os.path.join(exp_dir, "ablation.json"),
                       json.dumps({case_name(s, p): v for (s, p), v in m.items()}, indent=1) + "\n")
@@ -255,7 +262,7 @@ def table(m):
 def case_rows(s, p, v):
     """The four rows of one case."""
     case, run = f"{source_text(s)}, {part_text(p)}", (case_name(s, p),)
-    pushed = f"{v['first_pushed']} of the {v['sites_worked']} sites it finished with pushed onto"
+    pushed = f"{v['first_pushed']} of the {v['sites_worked']} sites' particles pushed"
     return [
         common.Row(f"{case}: first push's error, median over sites", "nm", key="ablation.first_push",
                    bench=v["first_card_nm"], truth=v["first_true_nm"], runs=run,

