@@ -39,11 +39,9 @@ void estimate_rods(const Scene &s, Vec2 *tip, PlanEstimate *e)
         const auto w = std::find_if(s.wires.begin(), s.wires.end(), [&](const WireSpec &x) { return x.id == t.id; });
         if (w == s.wires.end()) continue;
         const Vec2 A{w->x0_nm, w->y0_nm}, B{w->x1_nm, w->y1_nm};
-        const double L = norm(B - A), th = t.angle_deg * kPi / 180;
-        Vec2 ta{std::cos(th), std::sin(th)};
-        if (dot(ta, B - A) < 0) ta = -1.0 * ta;
-        const Vec2 T{t.x_nm, t.y_nm};
-        const double err = std::max(norm(T - (L / 2) * ta - A), norm(T + (L / 2) * ta - B));
+        const double L = norm(B - A);
+        const RodEnds ends = rod_target_ends(A, B, {t.x_nm, t.y_nm}, t.angle_deg);
+        const double err = std::max(norm(ends.a - A), norm(ends.b - B));   // push_rod_once's error
         ++e->rods;
         if (err > ps.wire_tolerance_nm) {
             const Vec2 end = A + (kEndAt * L) * unit(B - A);
@@ -52,7 +50,7 @@ void estimate_rods(const Scene &s, Vec2 *tip, PlanEstimate *e)
             ++e->strokes;
             *tip = end;
         }
-        e->scan_s += ps.scan_s * (L + 2 * ps.scan_size_nm) / ps.scan_size_nm;
+        e->scan_s += ps.scan_s * rod_check_side_nm(ps, L) / ps.scan_size_nm;   // check_rod_by_scan's wait
     }
 }
 

@@ -64,6 +64,21 @@ inline Vec2 unit(Vec2 a, Vec2 fallback = {1, 0})
 }
 inline Vec2 perp(Vec2 a) { return {-a.y, a.x}; }
 
+// A rod's target (centre T, axis at angle_deg) as its two ends, labelled
+// to need the smaller turn from the rod's own A -> B: {end for A, end for B}.
+struct RodEnds { Vec2 a, b; };
+inline RodEnds rod_target_ends(Vec2 A, Vec2 B, Vec2 T, double angle_deg)
+{
+    const double th = angle_deg * kPi / 180, L = norm(B - A);
+    Vec2 ta{std::cos(th), std::sin(th)};
+    if (dot(ta, B - A) < 0) ta = -1.0 * ta;
+    return {T - (L / 2) * ta, T + (L / 2) * ta};
+}
+
+// The side (nm) of the square scan that checks a rod of length_nm on its
+// target (check_rod_by_scan): the rod and a local scan's margin each side.
+inline double rod_check_side_nm(const PlanSpec &ps, double length_nm) { return length_nm + 2 * ps.scan_size_nm; }
+
 // Distance from q to the segment a-b (common/scene's, the one copy).
 inline double seg_dist(Vec2 q, Vec2 a, Vec2 b) { return point_segment_distance(q, a, b); }
 

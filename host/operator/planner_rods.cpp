@@ -119,12 +119,10 @@ Planner::RodPose Planner::rod_pose(const wire_t &w, const PlanItem &item, const 
     p.a = unit(p.B - p.A);
     p.n = perp(p.a);
     p.C = 0.5 * (p.A + p.B);
-    const double th = t.angle_deg * kPi / 180;
-    Vec2 ta{std::cos(th), std::sin(th)};
-    if (dot(ta, p.a) < 0) ta = -1.0 * ta;
     p.T = item.target_nm + drift();
-    p.As = p.T - (p.L / 2) * ta;
-    p.Bs = p.T + (p.L / 2) * ta;
+    const RodEnds ends = rod_target_ends(p.A, p.B, p.T, t.angle_deg);
+    p.As = ends.a;
+    p.Bs = ends.b;
     return p;
 }
 
@@ -238,7 +236,7 @@ void Planner::check_rod_by_scan(PlanItem &item, const WireTargetSpec &t)
     for (const auto &w : s_.wires)
         if (w.id == t.id) length = std::hypot(w.x1_nm - w.x0_nm, w.y1_nm - w.y0_nm), d = w.diameter_nm;
     const Vec2 T = item.target_nm + drift();
-    const double size = length + 2 * ps.scan_size_nm;
+    const double size = rod_check_side_nm(ps, length);
     const int px = static_cast<int>(std::lround(ps.scan_px * size / ps.scan_size_nm));
     const Field f{T.x - size / 2, T.y - size / 2, size, px};
     if (engaged_) travel(tip_, false, ps.travel_speed_nm_per_s);
